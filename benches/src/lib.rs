@@ -1,0 +1,1 @@
+//! Shared set-up for tetradrill's benchmarks and worst-case timing harness.

@@ -1,0 +1,100 @@
+//! Built-in meshes, made by the project's own code and written into caller slices, so every
+//! command and the firmware run with nothing beside the project.
+//!
+//! - [`cube12`]: the drilling paper's test object, the cube `[-0.5, 0.5]^3` split into 12 tets
+//!   by a centre vertex (seed 001, section 4).
+//! - [`block`]: an `n x n x n` block of cubes, each split into 6 tets around its main diagonal
+//!   (Kuhn/Freudenthal), which is conforming across cubes.
+
+use glam::Vec3;
+
+use crate::geom::det6;
+
+/// Nodes of [`cube12`].
+pub const CUBE12_NODES: usize = 9;
+/// Tets of [`cube12`].
+pub const CUBE12_TETS: usize = 12;
+
+/// The cube `[-0.5, 0.5]^3` split into 12 positively oriented tets by its centre (node 8).
+pub fn cube12() -> ([Vec3; CUBE12_NODES], [[u32; 4]; CUBE12_TETS]) {
+    let mut p = [Vec3::ZERO; CUBE12_NODES];
+    for (i, q) in p.iter_mut().take(8).enumerate() {
+        *q = Vec3::new(
+            if i & 1 != 0 { 0.5 } else { -0.5 },
+            if i & 2 != 0 { 0.5 } else { -0.5 },
+            if i & 4 != 0 { 0.5 } else { -0.5 },
+        );
+    }
+    // Each cube face as a quad (corner bits), split into two triangles, joined to the centre.
+    const QUADS: [[u32; 4]; 6] =
+        [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]];
+    let mut t = [[0u32; 4]; CUBE12_TETS];
+    for (k, q) in QUADS.iter().enumerate() {
+        t[2 * k] = orient(&p, [q[0], q[1], q[2], 8]);
+        t[2 * k + 1] = orient(&p, [q[0], q[2], q[3], 8]);
+    }
+    (p, t)
+}
+
+/// Node and tet counts of an `n`-block: `(n+1)^3` nodes, `6 n^3` tets.
+pub const fn block_counts(n: usize) -> (usize, usize) {
+    ((n + 1) * (n + 1) * (n + 1), 6 * n * n * n)
+}
+
+/// Writes an `n x n x n` block of cubes of edge `edge`, with its minimum corner at `origin`,
+/// into `positions` and `tets` (sizes from [`block_counts`]). Every tet is positively
+/// oriented. Returns the counts, or `None` when a slice is too short (nothing is written).
+///
+/// # Bounded work
+/// O(n^3).
+pub fn block(
+    n: usize,
+    edge: f32,
+    origin: Vec3,
+    positions: &mut [Vec3],
+    tets: &mut [[u32; 4]],
+) -> Option<(usize, usize)> {
+    let (nn, nt) = block_counts(n);
+    if positions.len() < nn || tets.len() < nt || n == 0 {
+        return None;
+    }
+    let m = n + 1;
+    let id = |i: usize, j: usize, k: usize| (i + m * (j + m * k)) as u32;
+    for k in 0..m {
+        for j in 0..m {
+            for i in 0..m {
+                positions[id(i, j, k) as usize] =
+                    origin + Vec3::new(i as f32, j as f32, k as f32) * edge;
+            }
+        }
+    }
+    // The six paths from corner (0,0,0) to (1,1,1) along the axes, one tet each.
+    const PATHS: [[usize; 3]; 6] =
+        [[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]];
+    let mut c = 0;
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                for path in PATHS {
+                    let mut at = [i, j, k];
+                    let mut tet = [id(i, j, k); 4];
+                    for (s, axis) in path.iter().enumerate() {
+                        at[*axis] += 1;
+                        tet[s + 1] = id(at[0], at[1], at[2]);
+                    }
+                    tets[c] = orient(positions, tet);
+                    c += 1;
+                }
+            }
+        }
+    }
+    Some((nn, nt))
+}
+
+fn orient(p: &[Vec3], mut t: [u32; 4]) -> [u32; 4] {
+    let q = t.map(|i| p[i as usize]);
+    if det6(q[0], q[1], q[2], q[3]) < 0.0 {
+        t.swap(2, 3);
+    }
+    t
+}

@@ -1,0 +1,1 @@
+//! `collide`: see the crate docs' layer map. (Filled in by its issue.)

@@ -1,0 +1,1 @@
+//! `hierarchy`: see the crate docs' layer map. (Filled in by its issue.)

@@ -1,0 +1,41 @@
+//! # tetradrill-core
+//!
+//! The `no_std`, allocation-free core of tetradrill: everything a 1 kHz haptic servo and a
+//! drilling simulation need, computed from plain values and storage the caller hands in.
+//!
+//! Layer map (each module is one concept; lower layers never use higher ones):
+//!
+//! | module        | what                                                                 |
+//! |---------------|----------------------------------------------------------------------|
+//! | [`ids`]       | `u32` newtype ids with one `NONE` value                               |
+//! | [`geom`]      | small exact-enough geometry kernels (volumes, barycentric coordinates)|
+//! | [`mesh`]      | compact tetrahedral mesh: templates, reverse indices, traversals     |
+//! | [`builtin`]   | the paper's 12-tet cube and generated blocks, written into caller slices |
+//! | [`hash`]      | Teschner's spatial hash, counting-sort layout, caller storage        |
+//! | [`collide`]   | vertices and sample points inside tets                               |
+//! | [`depth`]     | consistent penetration depth (hashed and traced intersections)       |
+//! | [`hierarchy`] | 1:8 subdivision trees with exact visible faces (Erase, Refine)       |
+//! | [`drill`]     | budgeted erosion by tool sample spheres                              |
+//! | [`force`]     | tool forces, damping, clamping, displayed (non-penetrating) pose     |
+//! | [`servo`]     | the per-tick servo step that ties the above together                 |
+//!
+//! Rules that hold everywhere: no heap, no `unsafe`, no panics on the servo path; every
+//! structure borrows caller slices whose lengths are its capacities; every public function
+//! documents its `# Bounded work` and what happens when a capacity is reached.
+#![no_std]
+#![forbid(unsafe_code)]
+
+pub mod builtin;
+pub mod collide;
+pub mod depth;
+pub mod drill;
+pub mod force;
+pub mod geom;
+pub mod hash;
+pub mod hierarchy;
+pub mod ids;
+pub mod mesh;
+pub mod servo;
+
+pub use glam::Vec3;
+pub use ids::{NodeId, TetId};

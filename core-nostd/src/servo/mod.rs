@@ -1,0 +1,1 @@
+//! `servo`: see the crate docs' layer map. (Filled in by its issue.)

@@ -1,0 +1,1 @@
+//! Mesh file readers. (Being written: see issue 2.)
