@@ -1,0 +1,2 @@
+//! Benchmarks: contact (being written).
+fn main() {}

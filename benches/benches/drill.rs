@@ -1,0 +1,2 @@
+//! Benchmarks: drill (being written).
+fn main() {}
