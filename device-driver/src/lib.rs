@@ -1,2 +1,28 @@
-//! tetradrill-device: the haptic device layer (see `../shared/DESIGN.md` section 3).
+//! tetradrill-device: the haptic device layer (see `../shared/DESIGN.md` section 3 and
+//! `docs/DEVICES.md`).
+//!
+//! Layer map:
+//! - [`device`]: the [`HapticDevice`] trait, [`DeviceSpec`], [`DeviceState`], [`ForceCommand`],
+//!   [`DeviceError`];
+//! - [`safety`]: [`ForceSafety`], the clamp / ramp / watchdog / NaN filter every backend uses;
+//! - [`sim`]: the simulated device (the default), a stylus on a spring-damper hand;
+//! - [`trace`]: trace CSV parsing, recording and interpolation;
+//! - [`falcon`]: Novint Falcon over USB (`rusb`) behind a [`falcon::Transport`];
+//! - [`omni`]: SensAble PHANTOM Omni (IEEE-1394) protocol behind an [`omni::FirewireTransport`];
+//! - [`touch`]: Geomagic / 3D Systems Touch through a run-time loaded [`touch::HdLibrary`];
+//! - [`discovery`]: what is attached, for `tetradrill devices`.
 #![forbid(unsafe_code)]
+#![deny(missing_docs)]
+
+pub mod device;
+pub mod safety;
+pub mod sim;
+pub mod trace;
+
+pub use device::{
+    CalibrationStyle, DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice,
+    Quat, Vec3, QUAT_IDENTITY,
+};
+pub use safety::{ForceSafety, SafetyConfig};
+pub use sim::{Path, PathPoint, Scripted, SimConfig, SimDevice, Still};
+pub use trace::{Trace, TraceError, TraceErrorKind, TraceSample, TRACE_HEADER};

@@ -1,0 +1,374 @@
+//! The simulated device (the default): a stylus on a spring-damper "hand".
+//!
+//! The hand follows a [`Path`] (a [`Trace`] or a scripted closure). The stylus is a point mass
+//! tied to the hand by a spring and a damper; the force written back by the servo pushes the
+//! stylus, so the loop reacts (a wall stops the stylus while the hand goes on).
+//!
+//! The clock is deterministic: each `read()` advances it by one servo period, fixed at
+//! construction. Integration is semi-implicit Euler in plain `f64` arithmetic, so identical
+//! inputs give bit-identical outputs on every run.
+
+use crate::device::{
+    v3, CalibrationStyle, DeviceError, DeviceSpec, DeviceState, ForceCommand, HapticDevice, Quat,
+    Vec3, QUAT_IDENTITY,
+};
+use crate::safety::{ForceSafety, SafetyConfig};
+use crate::trace::Trace;
+
+/// Where the hand is at a time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathPoint {
+    /// Hand position, m.
+    pub position: Vec3,
+    /// Hand (and stylus) rotation.
+    pub rotation: Quat,
+    /// Buttons pressed.
+    pub buttons: u32,
+}
+
+/// A trajectory for the hand.
+pub trait Path {
+    /// The hand at time `t` (seconds on the device clock).
+    fn at(&mut self, t: f64) -> PathPoint;
+}
+
+impl Path for Trace {
+    fn at(&mut self, t: f64) -> PathPoint {
+        match self.sample_at(t) {
+            Some(s) => PathPoint {
+                position: s.position,
+                rotation: s.rotation,
+                buttons: s.buttons,
+            },
+            None => PathPoint {
+                position: [0.0; 3],
+                rotation: QUAT_IDENTITY,
+                buttons: 0,
+            },
+        }
+    }
+}
+
+/// A scripted path: wraps a closure `t -> PathPoint`.
+#[derive(Clone, Copy, Debug)]
+pub struct Scripted<F>(pub F);
+
+impl<F: FnMut(f64) -> PathPoint> Path for Scripted<F> {
+    fn at(&mut self, t: f64) -> PathPoint {
+        (self.0)(t)
+    }
+}
+
+/// A hand that stays still at one point.
+#[derive(Clone, Copy, Debug)]
+pub struct Still(pub Vec3);
+
+impl Path for Still {
+    fn at(&mut self, _t: f64) -> PathPoint {
+        PathPoint {
+            position: self.0,
+            rotation: QUAT_IDENTITY,
+            buttons: 0,
+        }
+    }
+}
+
+/// Parameters of the simulated device.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimConfig {
+    /// Servo period, s (1 ms for 1 kHz).
+    pub period_s: f64,
+    /// Stylus mass, kg.
+    pub mass_kg: f64,
+    /// Hand-to-stylus spring, N/m.
+    pub hand_stiffness_n_per_m: f64,
+    /// Hand-to-stylus damper, N s/m.
+    pub hand_damping_n_s_per_m: f64,
+    /// Device limits (clamp, reported by `spec()`).
+    pub spec: DeviceSpec,
+    /// Safety settings.
+    pub safety: SafetyConfig,
+    /// Fault injection: report a disconnect from this tick on (`None` = never).
+    pub disconnect_at_tick: Option<u64>,
+}
+
+impl Default for SimConfig {
+    fn default() -> SimConfig {
+        SimConfig {
+            period_s: 1e-3,
+            mass_kg: 0.1,
+            hand_stiffness_n_per_m: 300.0,
+            hand_damping_n_s_per_m: 4.0,
+            spec: DeviceSpec::SIM,
+            safety: SafetyConfig::for_max_force(DeviceSpec::SIM.max_force_n),
+            disconnect_at_tick: None,
+        }
+    }
+}
+
+/// The simulated device. See the module docs.
+#[derive(Debug)]
+pub struct SimDevice<P> {
+    path: P,
+    config: SimConfig,
+    safety: ForceSafety,
+    tick: u64,
+    started: bool,
+    position: Vec3,
+    velocity: Vec3,
+    hand: PathPoint,
+    hand_prev: Vec3,
+}
+
+impl<P: Path> SimDevice<P> {
+    /// A device whose stylus starts at rest at the hand's position at t = 0.
+    pub fn new(mut path: P, config: SimConfig) -> SimDevice<P> {
+        let hand = path.at(0.0);
+        let mut config = config;
+        if !(config.period_s.is_finite() && config.period_s > 0.0) {
+            config.period_s = 1e-3;
+        }
+        SimDevice {
+            path,
+            safety: ForceSafety::new(config.safety),
+            config,
+            tick: 0,
+            started: false,
+            position: hand.position,
+            velocity: [0.0; 3],
+            hand,
+            hand_prev: hand.position,
+        }
+    }
+
+    /// Device time, s.
+    pub fn time(&self) -> f64 {
+        self.tick as f64 * self.config.period_s
+    }
+
+    /// The hand's current position (where the user "wants" to be).
+    pub fn hand_position(&self) -> Vec3 {
+        self.hand.position
+    }
+
+    /// The force the stylus currently receives from the device, N.
+    pub fn applied_force(&self) -> Vec3 {
+        self.safety.output().force
+    }
+
+    /// The safety filter (counters).
+    pub fn safety(&self) -> &ForceSafety {
+        &self.safety
+    }
+
+    fn step(&mut self) {
+        let dt = self.config.period_s;
+        self.tick += 1;
+        let t = self.time();
+        let hand = self.path.at(t);
+        let hand_pos = if v3::finite(hand.position) {
+            hand.position
+        } else {
+            self.hand.position
+        };
+        let hand_vel = v3::scale(v3::sub(hand_pos, self.hand_prev), 1.0 / dt);
+        self.hand_prev = hand_pos;
+        self.hand = PathPoint {
+            position: hand_pos,
+            ..hand
+        };
+        let spring = v3::scale(
+            v3::sub(hand_pos, self.position),
+            self.config.hand_stiffness_n_per_m,
+        );
+        let damper = v3::scale(
+            v3::sub(hand_vel, self.velocity),
+            self.config.hand_damping_n_s_per_m,
+        );
+        let device = self.safety.output().force;
+        let total = v3::add(v3::add(spring, damper), device);
+        let accel = v3::scale(total, 1.0 / self.config.mass_kg);
+        self.velocity = v3::add(self.velocity, v3::scale(accel, dt));
+        self.position = v3::add(self.position, v3::scale(self.velocity, dt));
+    }
+
+    fn disconnected(&self) -> bool {
+        matches!(self.config.disconnect_at_tick, Some(k) if self.tick >= k)
+    }
+}
+
+impl<P: Path> HapticDevice for SimDevice<P> {
+    fn spec(&self) -> DeviceSpec {
+        self.config.spec
+    }
+
+    fn read(&mut self) -> Result<DeviceState, DeviceError> {
+        if self.started {
+            self.step();
+        }
+        self.started = true;
+        if self.disconnected() {
+            self.safety.disable();
+            return Err(DeviceError::Disconnected);
+        }
+        self.safety.tick();
+        Ok(DeviceState {
+            timestamp_s: self.time(),
+            tick: self.tick,
+            position: self.position,
+            rotation: self.hand.rotation,
+            joint_angles: [0.0; 6],
+            buttons: self.hand.buttons,
+            docked: false,
+        })
+    }
+
+    fn write(&mut self, command: &ForceCommand) -> Result<(), DeviceError> {
+        if self.disconnected() {
+            self.safety.disable();
+            return Err(DeviceError::Disconnected);
+        }
+        self.safety.filter(command).map(|_| ())
+    }
+
+    fn calibrate(&mut self) -> Result<(), DeviceError> {
+        debug_assert_eq!(self.config.spec.calibration, CalibrationStyle::None);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(t: f64) -> PathPoint {
+        PathPoint {
+            position: [0.05 * t, 0.0, 0.0],
+            rotation: QUAT_IDENTITY,
+            buttons: 1,
+        }
+    }
+
+    fn no_ramp() -> SimConfig {
+        let mut c = SimConfig::default();
+        c.safety.ramp_ticks = 1;
+        c
+    }
+
+    /// A wall at x = 0.02 rendered by a penalty spring: the servo the sim exists to drive.
+    fn run(ticks: usize, config: SimConfig) -> Vec<DeviceState> {
+        let mut dev = SimDevice::new(Scripted(line), config);
+        let mut out = Vec::new();
+        for _ in 0..ticks {
+            let s = dev.read().unwrap();
+            let depth = s.position[0] - 0.02;
+            let f = if depth > 0.0 {
+                [-2000.0 * depth, 0.0, 0.0]
+            } else {
+                [0.0; 3]
+            };
+            dev.write(&ForceCommand::force(f)).unwrap();
+            out.push(s);
+        }
+        out
+    }
+
+    #[test]
+    fn deterministic_bit_for_bit() {
+        let a = run(3000, no_ramp());
+        let b = run(3000, no_ramp());
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!(x.timestamp_s.to_bits(), y.timestamp_s.to_bits());
+            assert_eq!(x.position.map(f64::to_bits), y.position.map(f64::to_bits));
+        }
+        // The clock is the tick count times the period, never wall time.
+        assert_eq!(a[1000].timestamp_s, 1000.0 * 1e-3);
+        assert_eq!(a[1000].tick, 1000);
+    }
+
+    #[test]
+    fn stylus_follows_hand_without_force() {
+        let mut dev = SimDevice::new(Scripted(line), SimConfig::default());
+        let mut last = DeviceState::ZERO;
+        for _ in 0..2000 {
+            last = dev.read().unwrap();
+            dev.write(&ForceCommand::ZERO).unwrap();
+        }
+        // Hand at 0.1 m after 2 s; a steadily moving hand leads the stylus by about
+        // c * v / k = 4 * 0.05 / 300 m.
+        assert!(
+            (last.position[0] - (0.1 - 4.0 * 0.05 / 300.0)).abs() < 1e-3,
+            "{:?}",
+            last.position
+        );
+        assert_eq!(last.buttons, 1);
+    }
+
+    #[test]
+    fn force_pushes_back_the_stylus() {
+        // The hand stops at x = 0.03 m, behind a wall at 0.02 m (2000 N/m). The stylus settles
+        // where the hand spring (300 N/m) balances the wall: 300 (0.03 - x) = 2000 (x - 0.02).
+        let stop = |t: f64| PathPoint {
+            position: [(0.05 * t).min(0.03), 0.0, 0.0],
+            rotation: QUAT_IDENTITY,
+            buttons: 0,
+        };
+        let mut dev = SimDevice::new(Scripted(stop), no_ramp());
+        let mut s = DeviceState::ZERO;
+        for _ in 0..4000 {
+            s = dev.read().unwrap();
+            let depth = s.position[0] - 0.02;
+            let f = if depth > 0.0 {
+                [-2000.0 * depth, 0.0, 0.0]
+            } else {
+                [0.0; 3]
+            };
+            dev.write(&ForceCommand::force(f)).unwrap();
+        }
+        let want = (300.0 * 0.03 + 2000.0 * 0.02) / 2300.0;
+        assert!(
+            (s.position[0] - want).abs() < 1e-5,
+            "stylus at {} want {want}",
+            s.position[0]
+        );
+        // Without the wall it reaches the hand.
+        let mut dev = SimDevice::new(Scripted(stop), no_ramp());
+        for _ in 0..4000 {
+            s = dev.read().unwrap();
+            dev.write(&ForceCommand::ZERO).unwrap();
+        }
+        assert!((s.position[0] - 0.03).abs() < 1e-5);
+    }
+
+    #[test]
+    fn disconnect_is_an_error_and_zeroes_force() {
+        let mut c = no_ramp();
+        c.disconnect_at_tick = Some(10);
+        let mut dev = SimDevice::new(Still([0.0; 3]), c);
+        for _ in 0..10 {
+            dev.read().unwrap();
+            dev.write(&ForceCommand::force([1.0, 0.0, 0.0])).unwrap();
+        }
+        assert_eq!(dev.read(), Err(DeviceError::Disconnected));
+        assert_eq!(
+            dev.write(&ForceCommand::force([1.0, 0.0, 0.0])),
+            Err(DeviceError::Disconnected)
+        );
+        assert_eq!(dev.applied_force(), [0.0; 3]);
+    }
+
+    #[test]
+    fn plays_back_a_trace() {
+        let text = "t,x,y,z,qw,qx,qy,qz,buttons\n0,0,0,0,1,0,0,0,0\n1,0,0.01,0,1,0,0,0,1\n";
+        let trace = Trace::parse(text, "p").unwrap();
+        let mut dev = SimDevice::new(trace, SimConfig::default());
+        let mut s = DeviceState::ZERO;
+        for _ in 0..=1500 {
+            s = dev.read().unwrap();
+            dev.write(&ForceCommand::ZERO).unwrap();
+        }
+        assert!((s.position[1] - 0.01).abs() < 1e-4);
+        assert_eq!(s.buttons, 1);
+    }
+}
