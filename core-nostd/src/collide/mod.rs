@@ -1,1 +1,56 @@
-//! `collide`: see the crate docs' layer map. (Filled in by its issue.)
+//! Collision detection with the spatial hash (seed 000 section 3; DESIGN 2.2): which points
+//! (the nodes of another mesh, tool sample points, or the mesh's own nodes) lie inside which
+//! tets.
+//!
+//! - [`points_in_tets`]: the tets of a [`Body`] are hashed once ([`hash_tets`]); each point
+//!   looks in its one cell. Used for a static object and points that move every tick.
+//! - [`tets_over_points`]: the points are hashed ([`crate::hash::SpatialHash::rebuild_points`],
+//!   again each step if they move) and every tet walks the cells of its bounding box
+//!   (Teschner's order). Used for the nodes of a static object against a moving tool's tets.
+//!
+//! Both report each point at most once, with the smallest tet id that contains it, sorted by
+//! node id, so the two directions and a brute-force oracle give the same sets. Candidates are
+//! checked to be in the queried cell (by the hash) and then by barycentric coordinates;
+//! degenerate tets are skipped and counted; a point that is a node of the tet itself is
+//! excluded by index when `own` is set (self-collision).
+
+mod body;
+mod points;
+mod teschner;
+#[cfg(test)]
+pub(crate) mod test_support;
+#[cfg(test)]
+mod tests;
+
+pub use body::Body;
+pub use points::{hash_tets, points_in_tets};
+pub use teschner::tets_over_points;
+
+use crate::ids::{NodeId, TetId};
+
+/// A point `node` inside tet `tet` of the other body.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug, Default)]
+pub struct Collision {
+    /// The point (node id in its own mesh, or sample-point index).
+    pub node: NodeId,
+    /// The tet that contains it (in the other body).
+    pub tet: TetId,
+}
+
+/// What one detection pass found.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct CollideReport {
+    /// Collisions written to the output.
+    pub count: usize,
+    /// `true` when the output filled up: what is written is valid but incomplete (for
+    /// [`points_in_tets`] the points with the smallest indices are kept).
+    pub saturated: bool,
+    /// Candidate tets skipped because they are degenerate (no barycentric coordinates).
+    pub degenerate: u32,
+    /// Point-tet candidates examined (a cost measure).
+    pub candidates: u32,
+}
+
+/// Barycentric tolerance: a point counts as inside when every coordinate is `>= -INSIDE_EPS`.
+/// Zero: points exactly on a face are inside; nothing further out.
+pub const INSIDE_EPS: f32 = 0.0;

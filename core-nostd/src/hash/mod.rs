@@ -1,1 +1,21 @@
-//! `hash`: see the crate docs' layer map. (Filled in by its issue.)
+//! Teschner's spatial hash (Teschner et al. 2003; seed 000 section 3; DESIGN 2.2).
+//!
+//! Space is cut into cubic cells of edge `g`; a point `x` lies in cell
+//! `(floor(x/g), floor(y/g), floor(z/g))` (a true floor, so `-0.5` is in cell `-1`). A cell
+//! maps to a bucket by `(i*73856093) xor (j*19349663) xor (k*83492791)` in wrapping `i32`
+//! arithmetic, cast to `u32`, modulo the bucket count (a prime, see [`prime_at_most`]).
+//!
+//! [`SpatialHash`] stores its entries densely by counting sort: one counting pass, one
+//! prefix-sum pass over the buckets, one filling pass. There are no per-cell lists. Every entry
+//! remembers its cell, so a query only returns items of the cell it asked for (different cells
+//! share buckets).
+//!
+//! Two uses: a static object's tets are hashed once (each tet into every cell its bounding box
+//! overlaps) and moving points are queried each tick; or points are hashed (again each step if
+//! they move) and tets walk the cells of their bounding boxes (Teschner's original order).
+
+mod cell;
+mod table;
+
+pub use cell::{average_edge_length, bucket_of, cell_of, prime_at_most, Aabb, Cell};
+pub use table::{HashEntry, HashError, HashStats, Rebuilt, SpatialHash};

@@ -1,0 +1,74 @@
+//! Tiny meshes over fixed arrays for the unit tests of collide, depth and force.
+
+use glam::Vec3;
+
+use crate::builtin;
+use crate::mesh::{BuildOptions, FaceKey, Mesh, MeshStorage, Node, Tet};
+
+/// Fixed storage for a mesh of at most `N` nodes and `T` tets.
+pub(crate) struct Store<const N: usize, const T: usize> {
+    pub positions: [Vec3; N],
+    pub tet_nodes: [[u32; 4]; T],
+    pub nodes: [Node; N],
+    pub normals: [Vec3; N],
+    pub tets: [Tet; T],
+    pub scratch: [[FaceKey; 4]; T],
+    pub n: usize,
+    pub t: usize,
+}
+
+impl<const N: usize, const T: usize> Store<N, T> {
+    pub fn empty() -> Self {
+        Self {
+            positions: [Vec3::ZERO; N],
+            tet_nodes: [[0; 4]; T],
+            nodes: [Node::default(); N],
+            normals: [Vec3::ZERO; N],
+            tets: [Tet::default(); T],
+            scratch: [[FaceKey::default(); 4]; T],
+            n: 0,
+            t: 0,
+        }
+    }
+
+    /// A block of `k^3` cubes of edge `edge` from `origin`.
+    pub fn block(k: usize, edge: f32, origin: Vec3) -> Self {
+        let mut s = Self::empty();
+        let (n, t) =
+            builtin::block(k, edge, origin, &mut s.positions, &mut s.tet_nodes).expect("fits");
+        s.n = n;
+        s.t = t;
+        s
+    }
+
+    /// The 12-tet cube, scaled and moved.
+    pub fn cube12(scale: f32, origin: Vec3) -> Self {
+        let mut s = Self::empty();
+        let (p, t) = builtin::cube12();
+        for (d, q) in s.positions.iter_mut().zip(p.iter()) {
+            *d = *q * scale + origin;
+        }
+        s.tet_nodes[..t.len()].copy_from_slice(&t);
+        s.n = p.len();
+        s.t = t.len();
+        s
+    }
+
+    pub fn mesh(&mut self) -> Mesh<'_> {
+        let flat = self.scratch.as_flattened_mut();
+        Mesh::build(
+            &mut self.positions[..self.n],
+            &self.tet_nodes[..self.t],
+            MeshStorage {
+                nodes: &mut self.nodes,
+                normals: &mut self.normals,
+                tets: &mut self.tets,
+            },
+            flat,
+            BuildOptions {
+                relabel_for_refinement: false,
+            },
+        )
+        .expect("test mesh builds")
+    }
+}

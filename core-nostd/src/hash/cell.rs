@@ -1,0 +1,186 @@
+//! Cells, the hash function, bounding boxes and the cell-size helper.
+
+use glam::Vec3;
+
+use crate::ids::TetId;
+use crate::mesh::Mesh;
+
+/// A grid cell `(i, j, k)`.
+pub type Cell = [i32; 3];
+
+/// The three hash primes of Teschner et al. 2003.
+const P1: i32 = 73_856_093;
+const P2: i32 = 19_349_663;
+const P3: i32 = 83_492_791;
+
+/// The cell that holds `p` for cells of edge `1 / inv_cell`: a true floor per axis.
+/// NaN maps to 0 and values beyond the `i32` range saturate (Rust's `as` cast).
+///
+/// # Bounded work
+/// Constant.
+#[inline]
+pub fn cell_of(p: Vec3, inv_cell: f32) -> Cell {
+    [
+        libm::floorf(p.x * inv_cell) as i32,
+        libm::floorf(p.y * inv_cell) as i32,
+        libm::floorf(p.z * inv_cell) as i32,
+    ]
+}
+
+/// The bucket of cell `c` in a table of `buckets` buckets (0 when `buckets` is 0).
+///
+/// # Bounded work
+/// Constant.
+#[inline]
+pub fn bucket_of(c: Cell, buckets: u32) -> u32 {
+    let h = c[0].wrapping_mul(P1) ^ c[1].wrapping_mul(P2) ^ c[2].wrapping_mul(P3);
+    (h as u32).checked_rem(buckets).unwrap_or(0)
+}
+
+/// The largest prime `<= n` (2 for `n < 3`): pick a table size from the storage at hand.
+///
+/// # Bounded work
+/// O(gap * sqrt(n)) by trial division; prime gaps below 2^32 are under 400. Call it at set-up.
+pub fn prime_at_most(n: u32) -> u32 {
+    let mut c = n.max(2);
+    while c > 2 {
+        if is_prime(c) {
+            return c;
+        }
+        c -= 1;
+    }
+    2
+}
+
+fn is_prime(n: u32) -> bool {
+    if n < 2 {
+        return false;
+    }
+    if n.is_multiple_of(2) {
+        return n == 2;
+    }
+    let mut d = 3u32;
+    while (d as u64) * (d as u64) <= n as u64 {
+        if n.is_multiple_of(d) {
+            return false;
+        }
+        d += 2;
+    }
+    true
+}
+
+/// An axis-aligned box.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct Aabb {
+    /// Smallest corner.
+    pub min: Vec3,
+    /// Largest corner.
+    pub max: Vec3,
+}
+
+impl Aabb {
+    /// The box around a point.
+    #[inline]
+    pub fn point(p: Vec3) -> Self {
+        Self { min: p, max: p }
+    }
+
+    /// The box around a set of points (`[p; 0]` gives an inverted box that overlaps nothing).
+    #[inline]
+    pub fn of<const N: usize>(p: [Vec3; N]) -> Self {
+        let mut b = Self {
+            min: Vec3::splat(f32::INFINITY),
+            max: Vec3::splat(f32::NEG_INFINITY),
+        };
+        for q in p {
+            b.min = b.min.min(q);
+            b.max = b.max.max(q);
+        }
+        b
+    }
+
+    /// The smallest box holding both.
+    #[inline]
+    pub fn union(self, o: Self) -> Self {
+        Self {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    /// `true` when the boxes share at least one point.
+    #[inline]
+    pub fn overlaps(&self, o: &Self) -> bool {
+        self.min.x <= o.max.x
+            && o.min.x <= self.max.x
+            && self.min.y <= o.max.y
+            && o.min.y <= self.max.y
+            && self.min.z <= o.max.z
+            && o.min.z <= self.max.z
+    }
+
+    /// The box grown by `r` on every side.
+    #[inline]
+    pub fn grown(self, r: f32) -> Self {
+        Self {
+            min: self.min - Vec3::splat(r),
+            max: self.max + Vec3::splat(r),
+        }
+    }
+}
+
+/// Average edge length over the six edges of every tet (an inner edge counts once per tet
+/// that uses it, which weights it like the volume around it): the cell size Teschner
+/// recommends. Returns 0 for an empty mesh.
+///
+/// # Bounded work
+/// O(T).
+pub fn average_edge_length(mesh: &Mesh<'_>) -> f32 {
+    let mut sum = 0.0f64;
+    for t in 0..mesh.tet_count() {
+        let p = mesh.tet_positions(TetId::from_idx(t));
+        for a in 0..4 {
+            for b in a + 1..4 {
+                sum += (p[a] - p[b]).length() as f64;
+            }
+        }
+    }
+    let n = 6 * mesh.tet_count();
+    if n == 0 {
+        0.0
+    } else {
+        (sum / n as f64) as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn floor_is_true_floor() {
+        assert_eq!(cell_of(Vec3::new(-0.5, 0.5, -1.0), 1.0), [-1, 0, -1]);
+        assert_eq!(cell_of(Vec3::new(-0.0, 2.0, -2.01), 1.0), [0, 2, -3]);
+        assert_eq!(cell_of(Vec3::splat(f32::NAN), 1.0), [0, 0, 0]);
+        assert_eq!(cell_of(Vec3::splat(f32::INFINITY), 1.0), [i32::MAX; 3]);
+    }
+
+    #[test]
+    fn bucket_matches_formula() {
+        let c = [-3, 7, 1_000_000];
+        let h = (-3i32).wrapping_mul(73_856_093)
+            ^ 7i32.wrapping_mul(19_349_663)
+            ^ 1_000_000i32.wrapping_mul(83_492_791);
+        assert_eq!(bucket_of(c, 101), (h as u32) % 101);
+        assert_eq!(bucket_of(c, 0), 0);
+    }
+
+    #[test]
+    fn primes() {
+        assert_eq!(prime_at_most(100), 97);
+        assert_eq!(prime_at_most(97), 97);
+        assert_eq!(prime_at_most(0), 2);
+        assert_eq!(prime_at_most(4), 3);
+        assert_eq!(prime_at_most(65_536), 65_521);
+    }
+}

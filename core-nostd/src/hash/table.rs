@@ -1,0 +1,416 @@
+//! [`SpatialHash`]: the dense counting-sort table over caller storage.
+
+use glam::Vec3;
+
+use super::cell::{bucket_of, cell_of, Aabb, Cell};
+
+/// One stored item in one cell.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct HashEntry {
+    /// The cell the item was put in (checked on every query).
+    pub cell: Cell,
+    /// The caller's item number (a tet id, a node id, `tet * 4 + face`, ...).
+    pub item: u32,
+}
+
+/// Why a [`SpatialHash`] cannot be made.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum HashError {
+    /// `starts` needs at least two entries (one bucket and its end).
+    NoBuckets,
+    /// The cell size is not a finite positive number.
+    BadCellSize,
+}
+
+impl core::fmt::Display for HashError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NoBuckets => f.write_str("spatial hash needs at least one bucket"),
+            Self::BadCellSize => f.write_str("spatial hash cell size must be finite and positive"),
+        }
+    }
+}
+
+/// Counters kept across builds and queries.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct HashStats {
+    /// Builds done.
+    pub builds: u32,
+    /// Builds that ran out of entry storage (items were left out).
+    pub saturations: u32,
+    /// Box queries cut short because the box covered more cells than allowed.
+    pub clipped_queries: u32,
+}
+
+/// What one build stored.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct Rebuilt {
+    /// Items stored (always the first `items` of the input, each in all its cells).
+    pub items: usize,
+    /// Entries used.
+    pub entries: usize,
+    /// `true` when the entry storage filled up and later items were left out.
+    pub saturated: bool,
+}
+
+/// A spatial hash over caller storage: `starts` (bucket count + 1 offsets, the bucket count
+/// should be prime) and `entries` (one per item and cell; its length is the capacity).
+#[derive(Debug)]
+pub struct SpatialHash<'a> {
+    starts: &'a mut [u32],
+    entries: &'a mut [HashEntry],
+    inv_cell: f32,
+    cell: f32,
+    used: usize,
+    bounds: Aabb,
+    stats: HashStats,
+}
+
+impl<'a> SpatialHash<'a> {
+    /// An empty hash with cells of edge `cell_size` and `starts.len() - 1` buckets.
+    ///
+    /// # Bounded work
+    /// O(buckets) to clear `starts`.
+    ///
+    /// # Errors
+    /// [`HashError`] for fewer than two `starts` or a bad cell size.
+    pub fn new(
+        starts: &'a mut [u32],
+        entries: &'a mut [HashEntry],
+        cell_size: f32,
+    ) -> Result<Self, HashError> {
+        if starts.len() < 2 || starts.len() > u32::MAX as usize {
+            return Err(HashError::NoBuckets);
+        }
+        if !(cell_size.is_finite() && cell_size > 0.0 && (1.0 / cell_size).is_finite()) {
+            return Err(HashError::BadCellSize);
+        }
+        starts.fill(0);
+        Ok(Self {
+            starts,
+            entries,
+            inv_cell: 1.0 / cell_size,
+            cell: cell_size,
+            used: 0,
+            bounds: Aabb::of::<0>([]),
+            stats: HashStats::default(),
+        })
+    }
+
+    /// Cell edge length.
+    #[inline]
+    pub fn cell_size(&self) -> f32 {
+        self.cell
+    }
+
+    /// Number of buckets.
+    #[inline]
+    pub fn buckets(&self) -> u32 {
+        (self.starts.len() - 1) as u32
+    }
+
+    /// Entry capacity.
+    #[inline]
+    pub fn capacity(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Entries stored by the last build.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.used
+    }
+
+    /// `true` when nothing is stored.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.used == 0
+    }
+
+    /// The box around everything stored by the last build.
+    #[inline]
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// Counters.
+    #[inline]
+    pub fn stats(&self) -> HashStats {
+        self.stats
+    }
+
+    /// The cell of a point in this hash's grid.
+    #[inline]
+    pub fn cell_of(&self, p: Vec3) -> Cell {
+        cell_of(p, self.inv_cell)
+    }
+
+    /// The inclusive cell range a box covers.
+    #[inline]
+    pub fn cell_range(&self, b: &Aabb) -> (Cell, Cell) {
+        (self.cell_of(b.min), self.cell_of(b.max))
+    }
+
+    /// Replaces the contents with items `0..count`, item `i` stored in every cell its box
+    /// `bounds(i)` overlaps (`None`: item left out, e.g. a degenerate one). Counting sort: one
+    /// counting pass, one prefix sum, one filling pass.
+    ///
+    /// # Bounded work
+    /// O(buckets + count + capacity): each pass stops once the entries would exceed the
+    /// capacity, so a huge box costs at most the capacity.
+    ///
+    /// When the entries would overflow the capacity, the table keeps the first items that fit
+    /// completely, reports `saturated` and counts it in [`HashStats::saturations`].
+    pub fn rebuild<F>(&mut self, count: usize, bounds: F) -> Rebuilt
+    where
+        F: Fn(usize) -> Option<Aabb>,
+    {
+        self.stats.builds = self.stats.builds.wrapping_add(1);
+        let nb = self.buckets();
+        let cap = self.entries.len();
+        self.starts.fill(0);
+        self.bounds = Aabb::of::<0>([]);
+
+        // Pass 1: count entries per bucket, stop at the first item that does not fit.
+        let mut total = 0usize;
+        let mut kept = count;
+        for i in 0..count {
+            let Some(b) = bounds(i) else { continue };
+            let (lo, hi) = self.cell_range(&b);
+            let n = cells_in(lo, hi);
+            if n > (cap - total) as u64 {
+                kept = i;
+                break;
+            }
+            total += n as usize;
+            self.bounds = self.bounds.union(b);
+            for_cells(lo, hi, |c| {
+                let k = bucket_of(c, nb) as usize;
+                if let Some(s) = self.starts.get_mut(k) {
+                    *s += 1;
+                }
+            });
+        }
+        // Prefix sum: starts[k] = end of bucket k; starts[nb] = total.
+        let mut run = 0u32;
+        for s in self.starts.iter_mut() {
+            run += *s;
+            *s = run;
+        }
+        // Pass 2: fill from the back of each bucket.
+        for i in 0..kept {
+            let Some(b) = bounds(i) else { continue };
+            let (lo, hi) = self.cell_range(&b);
+            let (starts, entries) = (&mut *self.starts, &mut *self.entries);
+            for_cells(lo, hi, |c| {
+                let k = bucket_of(c, nb) as usize;
+                if let Some(s) = starts.get_mut(k) {
+                    *s = s.saturating_sub(1);
+                    if let Some(e) = entries.get_mut(*s as usize) {
+                        *e = HashEntry {
+                            cell: c,
+                            item: i as u32,
+                        };
+                    }
+                }
+            });
+        }
+        self.used = total;
+        let saturated = kept < count;
+        if saturated {
+            self.stats.saturations = self.stats.saturations.wrapping_add(1);
+        }
+        Rebuilt {
+            items: kept,
+            entries: total,
+            saturated,
+        }
+    }
+
+    /// Hashes points: item `i` is `points[i]`, in one cell each.
+    ///
+    /// # Bounded work
+    /// O(buckets + points.len()); saturates like [`SpatialHash::rebuild`].
+    pub fn rebuild_points(&mut self, points: &[Vec3]) -> Rebuilt {
+        self.rebuild(points.len(), |i| points.get(i).map(|&p| Aabb::point(p)))
+    }
+
+    /// The items stored in cell `c` (other cells sharing its bucket are filtered out).
+    ///
+    /// # Bounded work
+    /// O(size of the bucket), at most the entry count.
+    #[inline]
+    pub fn items_in_cell(&self, c: Cell) -> impl Iterator<Item = u32> + '_ {
+        let k = bucket_of(c, self.buckets()) as usize;
+        let lo = self.starts.get(k).copied().unwrap_or(0) as usize;
+        let hi = self.starts.get(k + 1).copied().unwrap_or(0) as usize;
+        let slice = self.entries.get(lo..hi.min(self.used)).unwrap_or(&[]);
+        slice.iter().filter(move |e| e.cell == c).map(|e| e.item)
+    }
+
+    /// Calls `f(cell, item)` for every item stored in a cell the box `b` covers; an item
+    /// stored in several of those cells is reported once per cell. Boxes covering more than
+    /// `max_cells` cells are not visited at all (counted in [`HashStats::clipped_queries`],
+    /// returns `false`).
+    ///
+    /// # Bounded work
+    /// O(max_cells + entries met).
+    pub fn query_box<F: FnMut(Cell, u32)>(&mut self, b: &Aabb, max_cells: u32, f: F) -> bool {
+        let (lo, hi) = self.cell_range(b);
+        if cells_in(lo, hi) > max_cells as u64 {
+            self.stats.clipped_queries = self.stats.clipped_queries.wrapping_add(1);
+            return false;
+        }
+        self.visit_box(lo, hi, f);
+        true
+    }
+
+    /// Like [`SpatialHash::query_box`] without counting (for shared, read-only use);
+    /// returns `false` and visits nothing when the box covers more than `max_cells` cells.
+    ///
+    /// # Bounded work
+    /// O(max_cells + entries met).
+    pub fn query_box_ro<F: FnMut(Cell, u32)>(&self, b: &Aabb, max_cells: u32, f: F) -> bool {
+        let (lo, hi) = self.cell_range(b);
+        if cells_in(lo, hi) > max_cells as u64 {
+            return false;
+        }
+        self.visit_box(lo, hi, f);
+        true
+    }
+
+    fn visit_box<F: FnMut(Cell, u32)>(&self, lo: Cell, hi: Cell, mut f: F) {
+        for_cells(lo, hi, |c| {
+            for item in self.items_in_cell(c) {
+                f(c, item);
+            }
+        });
+    }
+}
+
+/// Number of cells in an inclusive range (0 for an inverted one).
+#[inline]
+pub(crate) fn cells_in(lo: Cell, hi: Cell) -> u64 {
+    let mut n = 1u64;
+    for a in 0..3 {
+        let d = hi[a] as i64 - lo[a] as i64 + 1;
+        if d <= 0 {
+            return 0;
+        }
+        n = n.saturating_mul(d as u64);
+    }
+    n
+}
+
+/// Visits every cell of an inclusive range, x fastest.
+#[inline]
+pub(crate) fn for_cells<F: FnMut(Cell)>(lo: Cell, hi: Cell, mut f: F) {
+    let mut k = lo[2] as i64;
+    while k <= hi[2] as i64 {
+        let mut j = lo[1] as i64;
+        while j <= hi[1] as i64 {
+            let mut i = lo[0] as i64;
+            while i <= hi[0] as i64 {
+                f([i as i32, j as i32, k as i32]);
+                i += 1;
+            }
+            j += 1;
+        }
+        k += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn points_round_trip_and_cell_check() {
+        let mut starts = [0u32; 4]; // 3 buckets: many cells share one
+        let mut entries = [HashEntry::default(); 16];
+        let mut h = SpatialHash::new(&mut starts, &mut entries, 1.0).unwrap();
+        let pts = [
+            Vec3::new(0.5, 0.5, 0.5),
+            Vec3::new(-0.5, 0.5, 0.5),
+            Vec3::new(0.9, 0.1, 0.2),
+            Vec3::new(5.5, -3.5, 2.5),
+        ];
+        let r = h.rebuild_points(&pts);
+        assert_eq!(
+            r,
+            Rebuilt {
+                items: 4,
+                entries: 4,
+                saturated: false
+            }
+        );
+        let mut got = [u32::MAX; 4];
+        let mut n = 0;
+        for it in h.items_in_cell([0, 0, 0]) {
+            got[n] = it;
+            n += 1;
+        }
+        got[..n].sort_unstable();
+        assert_eq!(&got[..n], &[0, 2]);
+        assert_eq!(h.items_in_cell([-1, 0, 0]).count(), 1);
+        assert_eq!(h.items_in_cell([5, -4, 2]).next(), Some(3));
+        assert_eq!(h.items_in_cell([7, 7, 7]).count(), 0);
+    }
+
+    #[test]
+    fn full_table_saturates_and_counts() {
+        let mut starts = [0u32; 6];
+        let mut entries = [HashEntry::default(); 3];
+        let mut h = SpatialHash::new(&mut starts, &mut entries, 1.0).unwrap();
+        // Item 0 covers 2 cells, item 1 covers 2 cells: only item 0 fits.
+        let boxes = [
+            Aabb {
+                min: Vec3::new(0.1, 0.1, 0.1),
+                max: Vec3::new(1.1, 0.2, 0.2),
+            },
+            Aabb {
+                min: Vec3::new(2.1, 0.1, 0.1),
+                max: Vec3::new(3.1, 0.2, 0.2),
+            },
+        ];
+        let r = h.rebuild(2, |i| boxes.get(i).copied());
+        assert_eq!(
+            r,
+            Rebuilt {
+                items: 1,
+                entries: 2,
+                saturated: true
+            }
+        );
+        assert_eq!(h.stats().saturations, 1);
+        assert_eq!(h.items_in_cell([1, 0, 0]).next(), Some(0));
+        assert_eq!(h.items_in_cell([2, 0, 0]).count(), 0);
+        // A huge box saturates at once, without walking its cells.
+        let huge = Aabb {
+            min: Vec3::splat(-1e30),
+            max: Vec3::splat(1e30),
+        };
+        let r = h.rebuild(1, |_| Some(huge));
+        assert!(r.saturated);
+        assert_eq!(r.items, 0);
+        let mut seen = 0;
+        assert!(!h.query_box(&huge, 1000, |_, _| seen += 1));
+        assert_eq!(h.stats().clipped_queries, 1);
+        assert_eq!(seen, 0);
+    }
+
+    #[test]
+    fn bad_parameters() {
+        let mut starts = [0u32; 1];
+        let mut entries = [HashEntry::default(); 3];
+        assert_eq!(
+            SpatialHash::new(&mut starts, &mut entries, 1.0).unwrap_err(),
+            HashError::NoBuckets
+        );
+        let mut starts = [0u32; 3];
+        assert_eq!(
+            SpatialHash::new(&mut starts, &mut entries, 0.0).unwrap_err(),
+            HashError::BadCellSize
+        );
+    }
+}
