@@ -18,6 +18,8 @@ pub struct Cli {
 pub enum Command {
     /// Summarise a mesh file: counts, boundary, orientation fixes, validity, quality.
     Info(crate::commands::info::InfoArgs),
+    /// Measure the servo thread's wake-up latency (cyclictest style) and tick compute times.
+    Timing(crate::commands::timing::TimingArgs),
 }
 
 /// Parses the arguments, runs the command, prints errors as one line; returns the exit status.
@@ -43,5 +45,22 @@ pub fn main() -> i32 {
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Info(args) => crate::commands::info::run(&args),
+        Command::Timing(args) => crate::commands::timing::run(&args),
     }
+}
+
+/// Parses a positive, finite number of seconds (a clap value parser).
+pub fn positive_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("`{s}` is not a positive number of seconds")),
+    }
+}
+
+/// Writes `value` as pretty JSON to `path` (exit 1 on an I/O error: the run itself is fine).
+pub fn write_json<T: serde::Serialize>(path: &std::path::Path, value: &T) -> Result<(), CliError> {
+    let text = serde_json::to_string_pretty(value)
+        .map_err(|e| CliError::failure(format!("cannot encode JSON: {e}")))?;
+    std::fs::write(path, text + "\n")
+        .map_err(|e| CliError::failure(format!("{}: cannot write: {e}", path.display())))
 }

@@ -8,9 +8,19 @@
 //! | [`error`]   | one-line errors with exit status 2 for bad input            |
 //! | [`meshio`]  | mesh file readers (TetGen, MEDIT, Gmsh, VTK)                |
 //! | [`owned`]   | host-owned storage for one core mesh                        |
+//! | [`platform`]| clock, absolute sleeps, SCHED_FIFO, mlockall, pinning (the one `unsafe` file) |
+//! | [`rt`]      | servo thread set-up and the absolute-deadline period        |
+//! | [`stats`]   | percentiles and histograms of timing samples                |
+//! | [`workload`]| the per-tick work of the built-in scenario                  |
+
+#![deny(unsafe_code)]
 
 pub mod cli;
 pub mod commands;
 pub mod error;
 pub mod meshio;
 pub mod owned;
+pub mod platform;
+pub mod rt;
+pub mod stats;
+pub mod workload;
