@@ -1,0 +1,293 @@
+//! Reading text mesh files: the file as one checked string, and a [`Cursor`] that hands out
+//! tokens or whole lines with their line numbers, so every error names `FILE:LINE`.
+
+use std::path::Path;
+use std::str::SplitWhitespace;
+
+use crate::error::CliError;
+
+/// Reads a whole file as text. Empty files, files with NUL bytes and files that are not UTF-8
+/// are refused (`binary {format} files are not supported`), naming the first bad line.
+pub(crate) fn read_text(path: &Path, format: &str) -> Result<String, CliError> {
+    let bytes =
+        std::fs::read(path).map_err(|e| CliError::at(path, None, format!("cannot read: {e}")))?;
+    if bytes.iter().all(|b| b.is_ascii_whitespace()) {
+        return Err(CliError::at(path, None, "empty file"));
+    }
+    let bad = match std::str::from_utf8(&bytes) {
+        Ok(s) => s.bytes().position(|b| b == 0),
+        Err(e) => Some(e.valid_up_to()),
+    };
+    if let Some(at) = bad {
+        let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
+        return Err(CliError::at(
+            path,
+            Some(line),
+            format!("binary data: binary {format} files are not supported (write ASCII)"),
+        ));
+    }
+    String::from_utf8(bytes).map_err(|_| CliError::at(path, None, "not UTF-8 text"))
+}
+
+/// Line number (1-based) of byte offset `at` in `text`.
+pub(crate) fn line_of(text: &str, at: usize) -> usize {
+    1 + text.as_bytes()[..at.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+}
+
+/// Tokens and lines of a text, with line numbers and optional comments to end of line.
+#[derive(Debug)]
+pub(crate) struct Cursor<'a> {
+    path: &'a Path,
+    text: &'a str,
+    /// Byte offset of the first line not yet loaded.
+    pos: usize,
+    /// Number of the line held in `cur` (0 before the first).
+    line_no: usize,
+    cur: SplitWhitespace<'a>,
+    comment: Option<char>,
+}
+
+impl<'a> Cursor<'a> {
+    /// A cursor over `text`, whose first line is line `first_line` of the file `path`.
+    pub(crate) fn new(
+        path: &'a Path,
+        text: &'a str,
+        first_line: usize,
+        comment: Option<char>,
+    ) -> Self {
+        Self {
+            path,
+            text,
+            pos: 0,
+            line_no: first_line.saturating_sub(1),
+            cur: "".split_whitespace(),
+            comment,
+        }
+    }
+
+    /// Number of the current line (the last one a token or line came from).
+    pub(crate) fn line_no(&self) -> usize {
+        self.line_no
+    }
+
+    /// Loads the next line into `cur`; `false` at the end of the text.
+    fn advance(&mut self) -> bool {
+        if self.pos >= self.text.len() {
+            self.cur = "".split_whitespace();
+            return false;
+        }
+        let rest = &self.text[self.pos..];
+        let (line, used) = match rest.find('\n') {
+            Some(i) => (&rest[..i], i + 1),
+            None => (rest, rest.len()),
+        };
+        self.pos += used;
+        self.line_no += 1;
+        let line = match self.comment.and_then(|c| line.find(c)) {
+            Some(i) => &line[..i],
+            None => line,
+        };
+        self.cur = line.split_whitespace();
+        true
+    }
+
+    /// The next token and its line, or `None` at the end.
+    pub(crate) fn token(&mut self) -> Option<(&'a str, usize)> {
+        loop {
+            if let Some(t) = self.cur.next() {
+                return Some((t, self.line_no));
+            }
+            if !self.advance() {
+                return None;
+            }
+        }
+    }
+
+    /// Drops what is left of the current line and returns the tokens of the next line that has
+    /// any, with its number; `None` at the end.
+    pub(crate) fn line(&mut self) -> Option<(usize, Vec<&'a str>)> {
+        loop {
+            if !self.advance() {
+                return None;
+            }
+            let toks: Vec<&'a str> = self.cur.clone().collect();
+            if !toks.is_empty() {
+                self.cur = "".split_whitespace();
+                return Some((self.line_no, toks));
+            }
+        }
+    }
+
+    /// Drops what is left of the current line and returns the next line as raw text (comments
+    /// not removed), or `None` at the end.
+    pub(crate) fn raw_line(&mut self) -> Option<&'a str> {
+        let start = self.pos;
+        if !self.advance() {
+            return None;
+        }
+        self.cur = "".split_whitespace();
+        Some(self.text[start..self.pos].trim_end_matches(['\n', '\r']))
+    }
+
+    /// Like [`Cursor::line`], but the end of the text is an error naming `what` was expected.
+    pub(crate) fn need_line(&mut self, what: &str) -> Result<(usize, Vec<&'a str>), CliError> {
+        match self.line() {
+            Some(l) => Ok(l),
+            None => Err(self.eof(what)),
+        }
+    }
+
+    /// The next token; the end of the text is an error naming `what` was expected.
+    pub(crate) fn need(&mut self, what: &str) -> Result<(&'a str, usize), CliError> {
+        match self.token() {
+            Some(t) => Ok(t),
+            None => Err(self.eof(what)),
+        }
+    }
+
+    /// Bytes not yet read (an upper bound for what the rest of the file can hold).
+    pub(crate) fn remaining_bytes(&self) -> usize {
+        self.text.len() - self.pos + self.cur.clone().map(|t| t.len() + 1).sum::<usize>()
+    }
+
+    /// Error at a line of this file.
+    pub(crate) fn err(&self, line: usize, reason: impl std::fmt::Display) -> CliError {
+        CliError::at(self.path, (line > 0).then_some(line), reason)
+    }
+
+    /// "Truncated" error at the last line.
+    pub(crate) fn eof(&self, what: &str) -> CliError {
+        self.err(
+            self.line_no.max(1),
+            format!("unexpected end of file (truncated?): expected {what}"),
+        )
+    }
+
+    /// Checks a declared record count against the bytes left before anything is allocated:
+    /// each record has at least `min_tokens` tokens of at least one byte plus a separator.
+    pub(crate) fn count(
+        &self,
+        declared: u64,
+        min_tokens: usize,
+        what: &str,
+        line: usize,
+    ) -> Result<usize, CliError> {
+        let per = 2 * min_tokens.max(1) as u64;
+        let room = self.remaining_bytes() as u64 + 1;
+        match declared.checked_mul(per) {
+            Some(need) if need <= room && declared < u32::MAX as u64 => Ok(declared as usize),
+            _ => Err(self.err(
+                line,
+                format!(
+                    "declares {declared} {what}, more than the rest of the file can hold \
+                     (at most {})",
+                    room / per
+                ),
+            )),
+        }
+    }
+
+    /// The next token as an unsigned integer.
+    pub(crate) fn uint(&mut self, what: &str) -> Result<(u64, usize), CliError> {
+        let (t, l) = self.need(what)?;
+        Ok((parse_uint(self, t, l, what)?, l))
+    }
+
+    /// The next token as a finite float.
+    pub(crate) fn float(&mut self, what: &str) -> Result<f64, CliError> {
+        let (t, l) = self.need(what)?;
+        parse_float(self, t, l, what)
+    }
+}
+
+/// Parses an unsigned integer token.
+pub(crate) fn parse_uint(
+    c: &Cursor<'_>,
+    t: &str,
+    line: usize,
+    what: &str,
+) -> Result<u64, CliError> {
+    t.parse::<u64>().map_err(|_| {
+        c.err(
+            line,
+            format!(
+                "expected {what} (a non-negative integer), found '{}'",
+                short(t)
+            ),
+        )
+    })
+}
+
+/// Parses a signed integer token (node indices, which may be 0 or negative in a bad file).
+pub(crate) fn parse_int(c: &Cursor<'_>, t: &str, line: usize, what: &str) -> Result<i64, CliError> {
+    t.parse::<i64>().map_err(|_| {
+        c.err(
+            line,
+            format!("expected {what} (an integer), found '{}'", short(t)),
+        )
+    })
+}
+
+/// Parses a float token and refuses NaN and infinities.
+pub(crate) fn parse_float(
+    c: &Cursor<'_>,
+    t: &str,
+    line: usize,
+    what: &str,
+) -> Result<f64, CliError> {
+    match t.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(c.err(line, format!("NaN or infinite {what} '{}'", short(t)))),
+        Err(_) => Err(c.err(
+            line,
+            format!("expected {what} (a number), found '{}'", short(t)),
+        )),
+    }
+}
+
+/// Three coordinates from three tokens.
+pub(crate) fn parse_xyz(c: &Cursor<'_>, t: &[&str], line: usize) -> Result<[f64; 3], CliError> {
+    Ok([
+        parse_float(c, t[0], line, "coordinate")?,
+        parse_float(c, t[1], line, "coordinate")?,
+        parse_float(c, t[2], line, "coordinate")?,
+    ])
+}
+
+/// A token cut to a printable length for messages.
+pub(crate) fn short(t: &str) -> String {
+    if t.chars().count() > 24 {
+        let s: String = t.chars().take(24).collect();
+        format!("{s}...")
+    } else {
+        t.to_string()
+    }
+}
+
+/// Converts node numbers of one tet from a file's numbering (first node `base`) to 0-based
+/// ids, refusing 0 in a 1-based file and anything past the last node.
+pub(crate) fn node_ids(
+    c: &Cursor<'_>,
+    raw: [i64; 4],
+    base: i64,
+    nodes: usize,
+    line: usize,
+) -> Result<[u32; 4], CliError> {
+    let mut out = [0u32; 4];
+    for (o, &v) in out.iter_mut().zip(raw.iter()) {
+        let last = base + nodes as i64 - 1;
+        if v < base || v > last {
+            let reason = if v == 0 && base == 1 {
+                format!("node index 0 in a 1-based file (nodes are numbered 1..{last})")
+            } else {
+                format!("node index {v} out of range (nodes are numbered {base}..{last})")
+            };
+            return Err(c.err(line, reason));
+        }
+        *o = (v - base) as u32;
+    }
+    Ok(out)
+}
