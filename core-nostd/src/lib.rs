@@ -18,6 +18,7 @@
 //! | [`drill`]     | budgeted erosion by tool sample spheres                              |
 //! | [`force`]     | tool forces, damping, clamping, displayed (non-penetrating) pose     |
 //! | [`servo`]     | the per-tick servo step that ties the above together                 |
+//! | [`script`]    | scripted tool paths shared bit for bit by the host and the firmware  |
 //!
 //! Rules that hold everywhere: no heap, no `unsafe`, no panics on the servo path; every
 //! structure borrows caller slices whose lengths are its capacities; every public function
@@ -35,6 +36,7 @@ pub mod hash;
 pub mod hierarchy;
 pub mod ids;
 pub mod mesh;
+pub mod script;
 pub mod servo;
 
 pub use glam::Vec3;

@@ -22,5 +22,6 @@ pub mod meshio;
 pub mod owned;
 pub mod platform;
 pub mod rt;
+pub mod scenario;
 pub mod stats;
 pub mod workload;

@@ -32,17 +32,18 @@ pub fn summarise_ns(samples: &[u64]) -> Summary {
     let mut s = samples.to_vec();
     s.sort_unstable();
     let us = |ns: u64| ns as f64 / 1000.0;
-    let rank = |p: f64| {
-        let r = (p / 100.0 * s.len() as f64).ceil() as usize;
+    // Nearest rank in exact integer arithmetic: `per_mille` of the samples at or below.
+    let rank = |per_mille: usize| {
+        let r = (per_mille * s.len()).div_ceil(1000);
         s[r.clamp(1, s.len()) - 1]
     };
     Summary {
         count: s.len(),
         min: us(s[0]),
         mean: s.iter().map(|&x| x as f64).sum::<f64>() / s.len() as f64 / 1000.0,
-        p50: us(rank(50.0)),
-        p99: us(rank(99.0)),
-        p999: us(rank(99.9)),
+        p50: us(rank(500)),
+        p99: us(rank(990)),
+        p999: us(rank(999)),
         max: us(s[s.len() - 1]),
     }
 }

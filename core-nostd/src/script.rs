@@ -1,0 +1,87 @@
+//! Scripted tool paths shared by the host and the firmware: a path is a list of key poses
+//! interpolated linearly in f32, so both sides compute the same positions bit for bit.
+
+use glam::Vec3;
+
+/// One key pose of a scripted path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Key {
+    /// Servo tick at which the tool is at `position`.
+    pub tick: u32,
+    /// Tool position (sphere centre or tool tip), mesh units.
+    pub position: Vec3,
+    /// Button mask from this key to the next (bit 0 = drill on).
+    pub buttons: u32,
+}
+
+/// A path through key poses.
+#[derive(Clone, Copy, Debug)]
+pub struct Script<'a> {
+    /// Keys in increasing tick order; the first key's tick should be 0.
+    pub keys: &'a [Key],
+}
+
+/// The drill-on bit of a button mask.
+pub const DRILL_ON: u32 = 1;
+
+/// The demo's path over the unit block `[-0.5, 0.5]^3` (top face `z = 0.5`): approach from
+/// above, plunge with the drill on, drag along x and back, retract. 1 kHz ticks, 6 s.
+pub const DEMO_KEYS: [Key; 7] = [
+    Key { tick: 0, position: Vec3::new(0.0, 0.0, 0.9), buttons: 0 },
+    Key { tick: 400, position: Vec3::new(0.0, 0.0, 0.62), buttons: DRILL_ON },
+    Key { tick: 1800, position: Vec3::new(0.0, 0.0, 0.25), buttons: DRILL_ON },
+    Key { tick: 3300, position: Vec3::new(0.3, 0.1, 0.25), buttons: DRILL_ON },
+    Key { tick: 4800, position: Vec3::new(-0.2, -0.2, 0.3), buttons: DRILL_ON },
+    Key { tick: 5400, position: Vec3::new(-0.2, -0.2, 0.9), buttons: 0 },
+    Key { tick: 6000, position: Vec3::new(-0.2, -0.2, 0.9), buttons: 0 },
+];
+
+impl Script<'_> {
+    /// Number of ticks the path lasts (the last key's tick + 1).
+    pub fn ticks(&self) -> u32 {
+        self.keys.last().map_or(0, |k| k.tick + 1)
+    }
+
+    /// Position and buttons at `tick` (held at the ends).
+    ///
+    /// # Bounded work
+    /// O(keys).
+    pub fn at(&self, tick: u32) -> (Vec3, u32) {
+        let Some(first) = self.keys.first() else {
+            return (Vec3::ZERO, 0);
+        };
+        if tick <= first.tick {
+            return (first.position, first.buttons);
+        }
+        for w in self.keys.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            if tick < b.tick {
+                let span = (b.tick - a.tick) as f32;
+                let u = (tick - a.tick) as f32 / span;
+                return (a.position + (b.position - a.position) * u, a.buttons);
+            }
+        }
+        let last = self.keys[self.keys.len() - 1];
+        (last.position, last.buttons)
+    }
+}
+
+/// The demo script.
+pub const DEMO: Script<'static> = Script { keys: &DEMO_KEYS };
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interpolates_and_holds_the_ends() {
+        assert_eq!(DEMO.at(0).0, Vec3::new(0.0, 0.0, 0.9));
+        assert_eq!(DEMO.at(100_000).0, Vec3::new(-0.2, -0.2, 0.9));
+        let (p, b) = DEMO.at(200);
+        assert!((p.z - 0.76).abs() < 1e-6);
+        assert_eq!(b, 0);
+        assert_eq!(DEMO.at(1000).1, DRILL_ON);
+        assert_eq!(DEMO.ticks(), 6001);
+        assert_eq!(Script { keys: &[] }.at(5), (Vec3::ZERO, 0));
+    }
+}
