@@ -1,0 +1,158 @@
+//! [`MockTransport`]: a scripted Falcon behind the [`Transport`] trait, for tests.
+//!
+//! It models the device side of the protocol: the loader handshake replies, the echo of each
+//! firmware chunk, and a report frame for every command frame in normal mode. Fault knobs
+//! inject a corrupted firmware echo, short (split) reads, garbage between frames and a
+//! disconnect. Every operation is logged for the test to check against the documented
+//! sequence.
+
+use std::collections::VecDeque;
+
+use super::frame::{decode_command, encode_report, FalconCommand, FalconReport, FRAME_LEN};
+use super::ftdi::{BAUD_LOADER, BAUD_NORMAL, SIO_SET_BAUD_RATE};
+use super::Transport;
+use crate::device::DeviceError;
+
+/// One logged host operation.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum MockOp {
+    /// A vendor control request.
+    Control {
+        /// bRequest.
+        request: u8,
+        /// wValue.
+        value: u16,
+    },
+    /// A bulk write.
+    Write(Vec<u8>),
+}
+
+/// The FT232's two modem-status bytes as a real chip sends them.
+pub const MODEM_STATUS: [u8; 2] = [0x31, 0x60];
+
+/// A scripted Falcon. See the module docs.
+#[derive(Debug, Default)]
+pub struct MockTransport {
+    /// Everything the host did, in order.
+    pub log: Vec<MockOp>,
+    /// Packets waiting to be read (data only; status bytes are added on read).
+    pub pending: VecDeque<Vec<u8>>,
+    /// The report answered to each command frame (normal mode).
+    pub report: FalconReport,
+    /// Corrupt the firmware echo at this byte (counted over the whole upload), once.
+    pub corrupt_echo_at: Option<usize>,
+    /// Split every report into two reads (short reads).
+    pub short_reads: bool,
+    /// Put this many garbage bytes before each report.
+    pub garbage_before_report: usize,
+    /// Every call fails with `Disconnected` after this many command frames.
+    pub disconnect_after_frames: Option<usize>,
+    /// Commands decoded from the frames the host sent in normal mode.
+    pub commands: Vec<FalconCommand>,
+    loader_ready: bool,
+    normal: bool,
+    echoed: usize,
+    gone: bool,
+}
+
+impl MockTransport {
+    /// A Falcon with no firmware loaded yet.
+    pub fn new() -> MockTransport {
+        MockTransport::default()
+    }
+
+    /// A Falcon whose firmware is already running (normal mode).
+    pub fn running() -> MockTransport {
+        MockTransport {
+            normal: true,
+            ..MockTransport::default()
+        }
+    }
+
+    /// Firmware bytes echoed so far.
+    pub fn echoed(&self) -> usize {
+        self.echoed
+    }
+
+    fn check(&self) -> Result<(), DeviceError> {
+        if self.gone {
+            Err(DeviceError::Disconnected)
+        } else {
+            Ok(())
+        }
+    }
+}
+
+impl Transport for MockTransport {
+    fn control_out(&mut self, request: u8, value: u16, _index: u16) -> Result<(), DeviceError> {
+        self.check()?;
+        self.log.push(MockOp::Control { request, value });
+        if request == SIO_SET_BAUD_RATE {
+            if value == BAUD_NORMAL {
+                self.normal = true;
+                self.loader_ready = false;
+            } else if value != BAUD_LOADER {
+                self.normal = false;
+            }
+        }
+        Ok(())
+    }
+
+    fn bulk_write(&mut self, data: &[u8], _timeout_ms: u32) -> Result<usize, DeviceError> {
+        self.check()?;
+        self.log.push(MockOp::Write(data.to_vec()));
+        if self.normal {
+            let Ok(frame) = <[u8; FRAME_LEN]>::try_from(data) else {
+                return Ok(data.len());
+            };
+            if let Ok(cmd) = decode_command(&frame) {
+                self.commands.push(cmd);
+                if matches!(self.disconnect_after_frames, Some(n) if self.commands.len() > n) {
+                    self.gone = true;
+                    return Err(DeviceError::Disconnected);
+                }
+                let mut bytes = vec![0x13; self.garbage_before_report];
+                bytes.extend_from_slice(&encode_report(&self.report));
+                if self.short_reads {
+                    let cut = bytes.len() / 2;
+                    self.pending.push_back(bytes[..cut].to_vec());
+                    self.pending.push_back(bytes[cut..].to_vec());
+                } else {
+                    self.pending.push_back(bytes);
+                }
+            }
+        } else if data == [0x0a, 0x43, 0x0d] {
+            self.pending.push_back(vec![0x0a, 0x44, 0x2c, 0x0d]);
+        } else if data == [0x41] && !self.loader_ready {
+            self.loader_ready = true;
+            self.pending.push_back(vec![0x13, 0x41]);
+        } else if self.loader_ready {
+            let mut echo = data.to_vec();
+            if let Some(at) = self.corrupt_echo_at {
+                if at >= self.echoed && at < self.echoed + echo.len() {
+                    if let Some(b) = echo.get_mut(at - self.echoed) {
+                        *b ^= 0xFF;
+                    }
+                    self.corrupt_echo_at = None;
+                }
+            }
+            self.echoed += echo.len();
+            // The FT232 returns at most 62 data bytes per packet.
+            for part in echo.chunks(62) {
+                self.pending.push_back(part.to_vec());
+            }
+        }
+        Ok(data.len())
+    }
+
+    fn bulk_read(&mut self, buf: &mut [u8], _timeout_ms: u32) -> Result<usize, DeviceError> {
+        self.check()?;
+        let data = self.pending.pop_front().unwrap_or_default();
+        let mut n = 0;
+        for (slot, b) in buf.iter_mut().zip(MODEM_STATUS.iter().chain(data.iter())) {
+            *slot = *b;
+            n += 1;
+        }
+        Ok(n)
+    }
+}

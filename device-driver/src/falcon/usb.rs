@@ -1,0 +1,82 @@
+//! The real Falcon transport over `rusb` (libusb).
+
+use core::fmt;
+use std::time::Duration;
+
+use super::ftdi::{EP_IN, EP_OUT, REQUEST_TYPE_OUT};
+use super::{Transport, PRODUCT_ID, VENDOR_ID};
+use crate::device::{DeviceError, DeviceKind};
+
+/// An open Falcon: interface 0 claimed, bulk endpoints 0x02 / 0x81.
+pub struct RusbTransport {
+    handle: rusb::DeviceHandle<rusb::GlobalContext>,
+}
+
+impl fmt::Debug for RusbTransport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("RusbTransport(0403:cb48)")
+    }
+}
+
+/// Maps libusb errors to device errors.
+pub fn map_usb_error(e: rusb::Error) -> DeviceError {
+    match e {
+        rusb::Error::NoDevice => DeviceError::Disconnected,
+        rusb::Error::Timeout => DeviceError::Timeout,
+        rusb::Error::NotFound => DeviceError::NotFound(DeviceKind::Falcon),
+        rusb::Error::Access => {
+            DeviceError::Transport("permission denied (udev rule for 0403:cb48?)")
+        }
+        rusb::Error::Busy => DeviceError::Transport("device busy (claimed by another program)"),
+        rusb::Error::Pipe => DeviceError::Transport("endpoint stalled"),
+        rusb::Error::Overflow => DeviceError::Transport("overflow"),
+        rusb::Error::Io => DeviceError::Transport("I/O error"),
+        _ => DeviceError::Transport("libusb error"),
+    }
+}
+
+impl RusbTransport {
+    /// Opens the first 0403:cb48 device; [`DeviceError::NotFound`] when there is none.
+    pub fn open() -> Result<RusbTransport, DeviceError> {
+        let handle = rusb::open_device_with_vid_pid(VENDOR_ID, PRODUCT_ID)
+            .ok_or(DeviceError::NotFound(DeviceKind::Falcon))?;
+        // Not supported on every platform; harmless when it fails.
+        let _ = handle.set_auto_detach_kernel_driver(true);
+        handle.claim_interface(0).map_err(map_usb_error)?;
+        Ok(RusbTransport { handle })
+    }
+}
+
+impl Transport for RusbTransport {
+    fn control_out(&mut self, request: u8, value: u16, index: u16) -> Result<(), DeviceError> {
+        self.handle
+            .write_control(
+                REQUEST_TYPE_OUT,
+                request,
+                value,
+                index,
+                &[],
+                Duration::from_millis(1000),
+            )
+            .map(|_| ())
+            .map_err(map_usb_error)
+    }
+
+    fn bulk_write(&mut self, data: &[u8], timeout_ms: u32) -> Result<usize, DeviceError> {
+        self.handle
+            .write_bulk(EP_OUT, data, Duration::from_millis(u64::from(timeout_ms)))
+            .map_err(map_usb_error)
+    }
+
+    fn bulk_read(&mut self, buf: &mut [u8], timeout_ms: u32) -> Result<usize, DeviceError> {
+        match self
+            .handle
+            .read_bulk(EP_IN, buf, Duration::from_millis(u64::from(timeout_ms)))
+        {
+            Ok(n) => Ok(n),
+            // An empty poll is not an error for the caller: it retries or reports NoFrame.
+            Err(rusb::Error::Timeout) => Ok(0),
+            Err(e) => Err(map_usb_error(e)),
+        }
+    }
+}
