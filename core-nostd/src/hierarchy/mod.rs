@@ -1,1 +1,40 @@
-//! `hierarchy`: see the crate docs' layer map. (Filled in by its issue.)
+//! 1:8 subdivision hierarchies with exact visible faces (seed 001 section 2; DESIGN 2.4).
+//!
+//! Every coarse tet is the root of a tree of Bey red refinements (diagonal `x02-x13`, which
+//! [`crate::mesh::Mesh::build`] makes the shortest one). Only the part from each root to its
+//! frontier is instantiated: roots live in one slot per coarse tet, children in blocks of 8
+//! contiguous nodes of a caller arena ([`HNode`], 8 bytes: 24-bit child block, 4 visible-face
+//! bits, erased, inverted, plus a `u32` v_list slot). Nodes are never freed (no coarsening):
+//! the arena is a bump allocator, and when it is full a refinement is refused and counted.
+//!
+//! - [`table`]: the tree table (const, one level) and digit walks for deeper levels.
+//! - [`visit`]: same-level adjacency through the digits and the NTree visit.
+//! - [`Hierarchy::erase`], [`Hierarchy::refine`]: seed 001 section 2.1, across coarse faces
+//!   through the mesh's reverse indices.
+//! - [`Hierarchy::for_each_visible`], [`Hierarchy::for_each_visible_in`]: the drilled surface.
+//! - connected pieces of the remaining material: [`Hierarchy::components`].
+//! - invariants: [`Hierarchy::validate`].
+//!
+//! Memory: 8 bytes per node in the arena plus 12 bytes per v_list entry (the v_list is sized
+//! for every possible leaf: `tets + 7/8 arena`), about 18.5 bytes per arena node in all, and
+//! 8 + 12 bytes per coarse tet.
+
+mod components;
+mod geometry;
+mod node;
+mod ops;
+mod store;
+mod surface;
+pub mod table;
+mod validate;
+pub mod visit;
+
+pub use geometry::{node_positions, node_volume};
+pub use node::{HNode, VEntry, MAX_BLOCKS, NODE_BYTES, NO_BLOCK, NO_SLOT};
+pub use ops::OpReport;
+pub use store::{Hierarchy, HierarchyError, HierarchyStats, HierarchyStorage};
+pub use surface::{Leaf, VisibleTri};
+pub use table::{Path, MAX_DEPTH};
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,194 @@
+//! Erase and Refine (seed 001 section 2.1), keeping the visible faces exact.
+
+use super::geometry::node_volume;
+use super::node::{HNode, NO_SLOT};
+use super::store::{Hierarchy, HierarchyError};
+use super::table::{Path, CHILD_INVERTED, FACE_SUB};
+use super::visit::{visit_across, Side};
+use crate::ids::TetId;
+use crate::mesh::Mesh;
+
+/// What one Erase or Refine did.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct OpReport {
+    /// Nodes touched by the NTree visits (the operation's work).
+    pub work: u32,
+    /// Nodes created (8 for a refinement).
+    pub created: u32,
+    /// Volume removed (an erasure).
+    pub removed: f64,
+}
+
+impl<'a> Hierarchy<'a> {
+    /// Splits leaf `(tet, index)` into its eight Bey children. A child face on an invisible
+    /// parent face is invisible; a child face on a visible parent face is visible iff the
+    /// NTree visit across it meets an erased leaf or the mesh boundary; faces between
+    /// siblings are invisible.
+    ///
+    /// # Bounded work
+    /// O(1) allocation plus 16 NTree visits (4 faces x 4 children), each O(depth) plus the
+    /// instantiated nodes across that face; each visit stops at the first erased leaf.
+    ///
+    /// # Errors
+    /// [`HierarchyError::NotFound`], `NotLeaf`, `Erased`, `TooDeep` leave everything as it
+    /// was; [`HierarchyError::Full`] when the arena has no free block: nothing is changed and
+    /// the refusal is counted in `saturations`.
+    pub fn refine(
+        &mut self,
+        mesh: &Mesh<'_>,
+        tet: TetId,
+        index: u32,
+    ) -> Result<OpReport, HierarchyError> {
+        let path = Path::of_index(index).ok_or(HierarchyError::NotFound)?;
+        let r = self.find_path(tet, &path).ok_or(HierarchyError::NotFound)?;
+        self.refine_at(mesh, tet, &path, r)
+    }
+
+    pub(crate) fn refine_at(
+        &mut self,
+        mesh: &Mesh<'_>,
+        tet: TetId,
+        path: &Path,
+        r: u32,
+    ) -> Result<OpReport, HierarchyError> {
+        let node = self.node(r).ok_or(HierarchyError::NotFound)?;
+        if !node.is_leaf() {
+            return Err(HierarchyError::NotLeaf);
+        }
+        if node.erased() {
+            return Err(HierarchyError::Erased);
+        }
+        if path.depth as usize >= Self::MAX_DEPTH {
+            return Err(HierarchyError::TooDeep);
+        }
+        let b = self.blocks_used;
+        let base = (b as usize) * 8;
+        if base + 8 > self.arena.len() {
+            self.stats.saturations += 1;
+            return Err(HierarchyError::Full);
+        }
+        self.blocks_used += 1;
+        let inv = node.inverted();
+        for c in 0..8u8 {
+            if let Some(n) = self.arena.get_mut(base + c as usize) {
+                *n = HNode::leaf(inv ^ CHILD_INVERTED[c as usize]);
+            }
+        }
+        let parent_bits = node.visible();
+        self.vlist_remove(r);
+        if let Some(n) = self.node_mut(r) {
+            n.set_visible(0);
+            n.set_block(b);
+        }
+        self.stats.visible_faces = self
+            .stats
+            .visible_faces
+            .saturating_sub(parent_bits.count_ones());
+        self.stats.refines += 1;
+        let mut rep = OpReport {
+            created: 8,
+            ..OpReport::default()
+        };
+        let first = self.block_ref(b);
+        let mut child_bits = [0u8; 8];
+        for f in 0..4u8 {
+            if parent_bits & (1 << f) == 0 {
+                continue;
+            }
+            for (c, g, _) in FACE_SUB[f as usize] {
+                let Some(cp) = path.child(c) else { continue };
+                let mut exposed = false;
+                let side = visit_across(self, mesh, tet, &cp, g, &mut rep.work, |_, met| {
+                    exposed = met.record.erased();
+                    !exposed
+                });
+                if side == Side::Boundary || exposed {
+                    child_bits[c as usize] |= 1 << g;
+                }
+            }
+        }
+        for (c, bits) in child_bits.iter().enumerate() {
+            if *bits == 0 {
+                continue;
+            }
+            let cr = first + c as u32;
+            if let Some(n) = self.node_mut(cr) {
+                n.set_visible(*bits);
+            }
+            self.stats.visible_faces += bits.count_ones();
+            self.vlist_insert(tet, path.index * 8 + 1 + c as u32, cr);
+        }
+        Ok(rep)
+    }
+
+    /// Erases leaf `(tet, index)`: every non-erased leaf met across its four faces gets that
+    /// face visible (and joins the v_list), then the node leaves the v_list, loses its visible
+    /// faces and is marked erased; its volume is added to the removed volume.
+    ///
+    /// # Bounded work
+    /// 4 NTree visits, each O(depth) plus the instantiated nodes across that face.
+    ///
+    /// # Errors
+    /// [`HierarchyError::NotFound`], `NotLeaf`, `Erased`: nothing changed. Never needs
+    /// storage: the v_list is sized for every leaf (see
+    /// [`super::HierarchyStorage::vlist_needed`]).
+    pub fn erase(
+        &mut self,
+        mesh: &Mesh<'_>,
+        tet: TetId,
+        index: u32,
+    ) -> Result<OpReport, HierarchyError> {
+        let path = Path::of_index(index).ok_or(HierarchyError::NotFound)?;
+        let r = self.find_path(tet, &path).ok_or(HierarchyError::NotFound)?;
+        self.erase_at(mesh, tet, &path, r)
+    }
+
+    pub(crate) fn erase_at(
+        &mut self,
+        mesh: &Mesh<'_>,
+        tet: TetId,
+        path: &Path,
+        r: u32,
+    ) -> Result<OpReport, HierarchyError> {
+        let node = self.node(r).ok_or(HierarchyError::NotFound)?;
+        if !node.is_leaf() {
+            return Err(HierarchyError::NotLeaf);
+        }
+        if node.erased() {
+            return Err(HierarchyError::Erased);
+        }
+        let mut rep = OpReport::default();
+        for f in 0..4u8 {
+            visit_across(self, mesh, tet, path, f, &mut rep.work, |h, met| {
+                let rec = met.record;
+                if rec.erased() {
+                    return true;
+                }
+                let bit = 1u8 << (met.face & 3);
+                if rec.visible() & bit == 0 {
+                    if let Some(n) = h.node_mut(met.node) {
+                        n.set_visible(rec.visible() | bit);
+                    }
+                    h.stats.visible_faces += 1;
+                }
+                if rec.slot() == NO_SLOT {
+                    h.vlist_insert(met.tet, met.index, met.node);
+                }
+                true
+            });
+        }
+        self.vlist_remove(r);
+        self.stats.visible_faces = self
+            .stats
+            .visible_faces
+            .saturating_sub(node.visible().count_ones());
+        if let Some(n) = self.node_mut(r) {
+            n.set_visible(0);
+            n.set_erased();
+        }
+        rep.removed = node_volume(mesh, tet, path.depth);
+        self.stats.removed_volume += rep.removed;
+        self.stats.erased += 1;
+        Ok(rep)
+    }
+}

@@ -1,0 +1,338 @@
+//! [`Hierarchy`]: the forest of subdivision trees over caller storage.
+
+use super::node::{HNode, VEntry, MAX_BLOCKS, NO_SLOT};
+use super::table::{Path, MAX_DEPTH};
+use crate::ids::TetId;
+use crate::mesh::Mesh;
+
+/// Storage for a [`Hierarchy`], handed in by the caller. Lengths are capacities.
+#[derive(Debug)]
+pub struct HierarchyStorage<'a> {
+    /// One root slot per coarse tet (the root node itself: an untouched tet costs 8 bytes and
+    /// nothing else).
+    pub roots: &'a mut [HNode],
+    /// The node arena; children are allocated in blocks of 8 contiguous nodes, so its usable
+    /// length is a multiple of 8 (at most `8 * (2^24 - 1)` nodes).
+    pub arena: &'a mut [HNode],
+    /// The v_list; needs [`HierarchyStorage::vlist_needed`] entries.
+    pub vlist: &'a mut [VEntry],
+}
+
+impl HierarchyStorage<'_> {
+    /// v_list entries needed for `tets` coarse tets and an arena of `arena` nodes: the most
+    /// non-erased leaves there can be (each block of 8 turns one leaf into eight).
+    pub const fn vlist_needed(tets: usize, arena: usize) -> usize {
+        tets + 7 * (arena / 8)
+    }
+}
+
+/// Why a hierarchy could not be created, or an operation was refused.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum HierarchyError {
+    /// A storage slice is too short: `what` names it.
+    StorageTooSmall {
+        /// "roots" or "vlist".
+        what: &'static str,
+        /// Entries needed.
+        needed: usize,
+    },
+    /// No such node in the tree (not instantiated, or the tet is out of range).
+    NotFound,
+    /// The node has children.
+    NotLeaf,
+    /// The node is erased.
+    Erased,
+    /// The node is at [`MAX_DEPTH`].
+    TooDeep,
+    /// The arena is full: the refinement was not done (counted in `saturations`).
+    Full,
+    /// [`Hierarchy::validate`] found a broken invariant (named).
+    Invalid(&'static str),
+}
+
+impl core::fmt::Display for HierarchyError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::StorageTooSmall { what, needed } => {
+                write!(
+                    f,
+                    "hierarchy {what} storage too small: {needed} entries needed"
+                )
+            }
+            Self::NotFound => write!(f, "no such hierarchy node"),
+            Self::NotLeaf => write!(f, "the node is not a leaf"),
+            Self::Erased => write!(f, "the node is erased"),
+            Self::TooDeep => write!(f, "the node is at the deepest level"),
+            Self::Full => write!(f, "the hierarchy arena is full"),
+            Self::Invalid(what) => write!(f, "hierarchy invariant broken: {what}"),
+        }
+    }
+}
+
+/// Counters kept by a [`Hierarchy`].
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct HierarchyStats {
+    /// Visible faces of non-erased leaves (the rendered triangles).
+    pub visible_faces: u32,
+    /// Erased leaves.
+    pub erased: u32,
+    /// Refinements done.
+    pub refines: u32,
+    /// Refinements refused because the arena was full.
+    pub saturations: u32,
+    /// Sum of the erased leaves' volumes (each `root volume / 8^depth`, Bey's children having
+    /// equal volumes), at the positions of the moment they were erased.
+    pub removed_volume: f64,
+}
+
+/// The forest of 1:8 subdivision trees, one per coarse tet, instantiated from each root to its
+/// frontier, with the visible faces kept exact by Erase and Refine (seed 001 section 2.1).
+///
+/// A node is named two ways: by `(tet, tree index)` (stable, geometric), and by a node
+/// reference `r` (`r < tets`: the root of tet `r`; otherwise arena node `r - tets`). Nodes are
+/// never freed (there is no coarsening), so references stay valid for the hierarchy's life.
+#[derive(Debug)]
+pub struct Hierarchy<'a> {
+    pub(super) roots: &'a mut [HNode],
+    pub(super) arena: &'a mut [HNode],
+    pub(super) vlist: &'a mut [VEntry],
+    pub(super) blocks_used: u32,
+    pub(super) vlen: u32,
+    pub(super) stats: HierarchyStats,
+}
+
+impl<'a> Hierarchy<'a> {
+    /// Creates the forest for `mesh`: every root a non-erased leaf whose visible faces are the
+    /// mesh's boundary faces, on the v_list when it has one.
+    ///
+    /// # Bounded work
+    /// O(T) for T tets.
+    ///
+    /// # Errors
+    /// [`HierarchyError::StorageTooSmall`] when `roots` has fewer than T entries or `vlist`
+    /// fewer than [`HierarchyStorage::vlist_needed`]; nothing is kept then.
+    pub fn new(mesh: &Mesh<'_>, storage: HierarchyStorage<'a>) -> Result<Self, HierarchyError> {
+        let t = mesh.tet_count();
+        let HierarchyStorage {
+            roots,
+            arena,
+            vlist,
+        } = storage;
+        if roots.len() < t || t >= u32::MAX as usize / 2 {
+            return Err(HierarchyError::StorageTooSmall {
+                what: "roots",
+                needed: t,
+            });
+        }
+        let blocks = (arena.len() / 8)
+            .min(MAX_BLOCKS)
+            .min((u32::MAX as usize / 2 - t) / 8);
+        let need = HierarchyStorage::vlist_needed(t, blocks * 8);
+        if vlist.len() < need {
+            return Err(HierarchyError::StorageTooSmall {
+                what: "vlist",
+                needed: need,
+            });
+        }
+        let (roots, _) = roots.split_at_mut(t);
+        let (arena, _) = arena.split_at_mut(blocks * 8);
+        let mut me = Self {
+            roots,
+            arena,
+            vlist,
+            blocks_used: 0,
+            vlen: 0,
+            stats: Default::default(),
+        };
+        me.reset(mesh);
+        Ok(me)
+    }
+
+    /// Forgets all drilling: every tree back to its root, boundary faces visible.
+    ///
+    /// # Bounded work
+    /// O(T).
+    pub fn reset(&mut self, mesh: &Mesh<'_>) {
+        self.blocks_used = 0;
+        self.vlen = 0;
+        self.stats = HierarchyStats::default();
+        for (i, root) in self.roots.iter_mut().enumerate() {
+            *root = HNode::LEAF;
+            let t = TetId::from_idx(i);
+            let mut bits = 0u8;
+            for f in 0..4u8 {
+                if i < mesh.tet_count() && mesh.is_boundary_face(t, f) {
+                    bits |= 1 << f;
+                }
+            }
+            root.set_visible(bits);
+            if bits != 0 {
+                if let Some(e) = self.vlist.get_mut(self.vlen as usize) {
+                    *e = VEntry {
+                        tet: t,
+                        index: 0,
+                        node: i as u32,
+                    };
+                    root.set_slot(self.vlen);
+                    self.vlen += 1;
+                    self.stats.visible_faces += bits.count_ones();
+                }
+            }
+        }
+    }
+
+    /// Number of coarse tets (trees).
+    #[inline]
+    pub fn tet_count(&self) -> usize {
+        self.roots.len()
+    }
+
+    /// Arena capacity in nodes.
+    #[inline]
+    pub fn capacity(&self) -> usize {
+        self.arena.len()
+    }
+
+    /// Arena nodes in use (8 per refinement).
+    #[inline]
+    pub fn arena_used(&self) -> usize {
+        self.blocks_used as usize * 8
+    }
+
+    /// Instantiated nodes: every root slot plus the arena nodes in use.
+    #[inline]
+    pub fn node_count(&self) -> usize {
+        self.roots.len() + self.arena_used()
+    }
+
+    /// Counters.
+    #[inline]
+    pub fn stats(&self) -> HierarchyStats {
+        self.stats
+    }
+
+    /// Number of visible faces (triangles to render).
+    #[inline]
+    pub fn visible_face_count(&self) -> u32 {
+        self.stats.visible_faces
+    }
+
+    /// Refinements refused because the arena was full.
+    #[inline]
+    pub fn saturations(&self) -> u32 {
+        self.stats.saturations
+    }
+
+    /// Sum of the erased leaves' volumes.
+    #[inline]
+    pub fn removed_volume(&self) -> f64 {
+        self.stats.removed_volume
+    }
+
+    /// The v_list: non-erased leaves with at least one visible face.
+    #[inline]
+    pub fn vlist(&self) -> &[VEntry] {
+        self.vlist.get(..self.vlen as usize).unwrap_or(&[])
+    }
+
+    /// The node behind a reference, or `None` when out of range.
+    #[inline]
+    pub fn node(&self, r: u32) -> Option<HNode> {
+        let t = self.roots.len();
+        let r = r as usize;
+        if r < t {
+            self.roots.get(r).copied()
+        } else {
+            self.arena.get(r - t).copied()
+        }
+    }
+
+    #[inline]
+    pub(super) fn node_mut(&mut self, r: u32) -> Option<&mut HNode> {
+        let t = self.roots.len();
+        let r = r as usize;
+        if r < t {
+            self.roots.get_mut(r)
+        } else {
+            self.arena.get_mut(r - t)
+        }
+    }
+
+    /// Reference of the first child of a node with child block `b`.
+    #[inline]
+    pub(super) fn block_ref(&self, b: u32) -> u32 {
+        self.roots.len() as u32 + b * 8
+    }
+
+    /// The reference of child `c` of node `r`, or `None` for a leaf.
+    #[inline]
+    pub fn child(&self, r: u32, c: u8) -> Option<u32> {
+        let b = self.node(r)?.block()?;
+        Some(self.block_ref(b) + (c & 7) as u32)
+    }
+
+    /// The reference of node `(tet, index)`, or `None` when it is not instantiated.
+    ///
+    /// # Bounded work
+    /// O(depth) <= [`MAX_DEPTH`] steps.
+    pub fn find(&self, tet: TetId, index: u32) -> Option<u32> {
+        let path = Path::of_index(index)?;
+        self.find_path(tet, &path)
+    }
+
+    pub(super) fn find_path(&self, tet: TetId, path: &Path) -> Option<u32> {
+        if tet.idx() >= self.roots.len() {
+            return None;
+        }
+        let mut r = tet.0;
+        for k in 1..=path.depth as usize {
+            r = self.child(r, path.digit(k))?;
+        }
+        Some(r)
+    }
+
+    /// Puts a leaf on the v_list (no-op when already there or out of room).
+    pub(super) fn vlist_insert(&mut self, tet: TetId, index: u32, r: u32) {
+        let slot = self.vlen;
+        let Some(n) = self.node(r) else { return };
+        if n.slot() != NO_SLOT {
+            return;
+        }
+        let Some(e) = self.vlist.get_mut(slot as usize) else {
+            return;
+        };
+        *e = VEntry {
+            tet,
+            index,
+            node: r,
+        };
+        self.vlen += 1;
+        if let Some(n) = self.node_mut(r) {
+            n.set_slot(slot);
+        }
+    }
+
+    /// Takes a node off the v_list by swap-remove (no-op when not there).
+    pub(super) fn vlist_remove(&mut self, r: u32) {
+        let Some(n) = self.node(r) else { return };
+        let slot = n.slot();
+        if slot == NO_SLOT || slot >= self.vlen {
+            return;
+        }
+        let last = self.vlen - 1;
+        let moved = self.vlist.get(last as usize).copied();
+        if let (Some(moved), Some(dst)) = (moved, self.vlist.get_mut(slot as usize)) {
+            *dst = moved;
+            if let Some(m) = self.node_mut(moved.node) {
+                m.set_slot(slot);
+            }
+        }
+        self.vlen = last;
+        if let Some(n) = self.node_mut(r) {
+            n.set_slot(NO_SLOT);
+        }
+    }
+
+    /// Depth limit of the trees.
+    pub const MAX_DEPTH: usize = MAX_DEPTH;
+}

@@ -1,0 +1,209 @@
+//! The drilled surface: visible faces as outward triangles, for rendering and for forces.
+
+use glam::Vec3;
+
+use super::geometry::node_positions;
+use super::node::HNode;
+use super::store::Hierarchy;
+use super::table::{Path, MAX_DEPTH};
+use crate::ids::TetId;
+use crate::mesh::template::FACE_VERTS;
+use crate::mesh::Mesh;
+
+/// One visible face of a non-erased leaf.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct VisibleTri {
+    /// The coarse tet whose tree holds the leaf.
+    pub tet: TetId,
+    /// The leaf's tree index.
+    pub index: u32,
+    /// The leaf's face (opposite its vertex `face`).
+    pub face: u8,
+    /// Corners, counter-clockwise seen from outside the material (right-hand normal outward).
+    pub corners: [Vec3; 3],
+}
+
+/// A leaf met by [`Hierarchy::for_each_leaf`].
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Leaf {
+    /// The coarse tet.
+    pub tet: TetId,
+    /// Tree index.
+    pub index: u32,
+    /// Node reference.
+    pub node: u32,
+    /// Node record.
+    pub record: HNode,
+}
+
+/// DFS stack size over a tree: 7 per level plus 8.
+const STACK: usize = 7 * MAX_DEPTH + 8;
+
+/// The outward triangles of the faces `bits` of a node with the given corners and orientation.
+fn emit<F: FnMut(VisibleTri)>(
+    tet: TetId,
+    index: u32,
+    p: [Vec3; 4],
+    bits: u8,
+    inverted: bool,
+    f: &mut F,
+) {
+    for face in 0..4u8 {
+        if bits & (1 << face) == 0 {
+            continue;
+        }
+        let [a, b, c] = FACE_VERTS[face as usize].map(|k| p[k as usize]);
+        // Listings are clockwise from outside a positively oriented node.
+        let corners = if inverted { [a, b, c] } else { [a, c, b] };
+        f(VisibleTri {
+            tet,
+            index,
+            face,
+            corners,
+        });
+    }
+}
+
+impl Hierarchy<'_> {
+    /// Calls `f` for every visible triangle (the v_list's visible faces).
+    ///
+    /// # Bounded work
+    /// O(V * depth) for V v_list entries (at most `tets + 7/8 arena`).
+    pub fn for_each_visible<F: FnMut(VisibleTri)>(&self, mesh: &Mesh<'_>, mut f: F) {
+        for e in self.vlist() {
+            let (Some(node), Some(path)) = (self.node(e.node), Path::of_index(e.index)) else {
+                continue;
+            };
+            let p = node_positions(mesh, e.tet, &path);
+            emit(e.tet, e.index, p, node.visible(), node.inverted(), &mut f);
+        }
+    }
+
+    /// Calls `f` for every visible triangle of the trees of `tets` whose node lies within
+    /// `near = (centre, radius)` (by the node's bounding sphere; `None`: all of them). The
+    /// forces near the tool use this: the drilled surface, not the original one.
+    ///
+    /// # Bounded work
+    /// O(nodes of those trees that meet the ball * depth).
+    pub fn for_each_visible_in<F: FnMut(VisibleTri)>(
+        &self,
+        mesh: &Mesh<'_>,
+        tets: &[TetId],
+        near: Option<(Vec3, f32)>,
+        mut f: F,
+    ) {
+        for &t in tets {
+            self.walk_tree(mesh, t, near, |leaf, p| {
+                if !leaf.record.erased() {
+                    emit(
+                        t,
+                        leaf.index,
+                        p,
+                        leaf.record.visible(),
+                        leaf.record.inverted(),
+                        &mut f,
+                    );
+                }
+            });
+        }
+    }
+
+    /// Calls `f` for every leaf (erased or not) of the tree of `tet`.
+    ///
+    /// # Bounded work
+    /// O(nodes of the tree).
+    pub fn for_each_leaf<F: FnMut(Leaf)>(&self, tet: TetId, mut f: F) {
+        if tet.idx() >= self.tet_count() {
+            return;
+        }
+        let mut stack = [(0u32, 0u32); STACK];
+        stack[0] = (tet.0, 0);
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let Some(&(r, index)) = stack.get(top) else {
+                break;
+            };
+            let Some(node) = self.node(r) else { continue };
+            if node.is_leaf() {
+                f(Leaf {
+                    tet,
+                    index,
+                    node: r,
+                    record: node,
+                });
+                continue;
+            }
+            for c in 0..8u8 {
+                if let (Some(ch), Some(slot)) = (self.child(r, c), stack.get_mut(top)) {
+                    *slot = (ch, index * 8 + 1 + c as u32);
+                    top += 1;
+                }
+            }
+        }
+    }
+
+    /// DFS over the leaves of one tree whose bounding spheres meet `near`, with positions.
+    pub(crate) fn walk_tree<F: FnMut(Leaf, [Vec3; 4])>(
+        &self,
+        mesh: &Mesh<'_>,
+        tet: TetId,
+        near: Option<(Vec3, f32)>,
+        mut f: F,
+    ) {
+        if tet.idx() >= self.tet_count() {
+            return;
+        }
+        let mut stack = [(0u32, 0u32); STACK];
+        stack[0] = (tet.0, 0);
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let Some(&(r, index)) = stack.get(top) else {
+                break;
+            };
+            let (Some(node), Some(path)) = (self.node(r), Path::of_index(index)) else {
+                continue;
+            };
+            let p = node_positions(mesh, tet, &path);
+            if let Some((centre, radius)) = near {
+                let mid = (p[0] + p[1] + p[2] + p[3]) * 0.25;
+                let mut reach = 0.0f32;
+                for q in p {
+                    reach = reach.max(q.distance_squared(mid));
+                }
+                let reach = libm::sqrtf(reach) + radius;
+                if mid.distance_squared(centre) > reach * reach {
+                    continue;
+                }
+            }
+            if node.is_leaf() {
+                f(
+                    Leaf {
+                        tet,
+                        index,
+                        node: r,
+                        record: node,
+                    },
+                    p,
+                );
+                continue;
+            }
+            for c in 0..8u8 {
+                if let (Some(ch), Some(slot)) = (self.child(r, c), stack.get_mut(top)) {
+                    *slot = (ch, index * 8 + 1 + c as u32);
+                    top += 1;
+                }
+            }
+        }
+    }
+
+    /// Volume of the remaining material: the mesh volume minus [`Hierarchy::removed_volume`]
+    /// (at current positions for the mesh, at erasure time for the removed part).
+    ///
+    /// # Bounded work
+    /// O(T).
+    pub fn current_volume(&self, mesh: &Mesh<'_>) -> f64 {
+        mesh.volume() - self.stats.removed_volume
+    }
+}

@@ -1,0 +1,96 @@
+//! `validate()`: the hierarchy invariants every operation keeps.
+
+use super::geometry::node_positions;
+use super::node::NO_SLOT;
+use super::store::{Hierarchy, HierarchyError};
+use super::table::Path;
+use crate::geom::det6_f64;
+use crate::ids::TetId;
+use crate::mesh::Mesh;
+
+impl Hierarchy<'_> {
+    /// Checks the invariants: every child block is referenced by exactly one node and lies in
+    /// the used part of the arena; only non-erased leaves carry visible faces; a leaf is on the
+    /// v_list iff it has a visible face, with the v_list's back-indices consistent; the
+    /// orientation bits match the geometry; the visible-face counter matches the bits.
+    ///
+    /// # Bounded work
+    /// O(nodes * depth).
+    ///
+    /// # Errors
+    /// [`HierarchyError::Invalid`] naming the first broken invariant.
+    pub fn validate(&self, mesh: &Mesh<'_>) -> Result<(), HierarchyError> {
+        let bad = HierarchyError::Invalid;
+        let mut blocks_seen = 0u32;
+        let mut visible = 0u32;
+        let mut listed = 0u32;
+        for t in 0..self.tet_count() {
+            let tet = TetId::from_idx(t);
+            let mut err = None;
+            let mut stack = [(0u32, 0u32); 7 * Self::MAX_DEPTH + 8];
+            stack[0] = (tet.0, 0);
+            let mut top = 1usize;
+            while top > 0 {
+                top -= 1;
+                let (r, index) = stack[top];
+                let node = self.node(r).ok_or(bad("node reference out of range"))?;
+                let path = Path::of_index(index).ok_or(bad("index too deep"))?;
+                if node.inverted() != path.inverted() {
+                    err = Some("orientation bit");
+                }
+                let p = node_positions(mesh, tet, &path);
+                let det = det6_f64(p[0], p[1], p[2], p[3]);
+                if (det < 0.0) != node.inverted() {
+                    err = Some("orientation bit disagrees with geometry");
+                }
+                match node.block() {
+                    None => {
+                        visible += node.visible().count_ones();
+                        if node.erased() && node.visible() != 0 {
+                            err = Some("erased leaf with visible faces");
+                        }
+                        if (node.visible() != 0) != (node.slot() != NO_SLOT) {
+                            err = Some("v_list membership disagrees with visible faces");
+                        }
+                        if node.slot() != NO_SLOT {
+                            listed += 1;
+                            match self.vlist().get(node.slot() as usize) {
+                                Some(e) if e.node == r && e.tet == tet && e.index == index => {}
+                                _ => err = Some("v_list back-index"),
+                            }
+                        }
+                    }
+                    Some(b) => {
+                        if b >= self.blocks_used {
+                            return Err(bad("child block beyond the used arena"));
+                        }
+                        blocks_seen += 1;
+                        if node.erased() || node.visible() != 0 || node.slot() != NO_SLOT {
+                            err = Some("inner node erased, visible or listed");
+                        }
+                        if path.depth as usize >= Self::MAX_DEPTH || top + 8 > stack.len() {
+                            return Err(bad("tree deeper than MAX_DEPTH"));
+                        }
+                        for c in 0..8u8 {
+                            stack[top] = (self.block_ref(b) + c as u32, index * 8 + 1 + c as u32);
+                            top += 1;
+                        }
+                    }
+                }
+                if let Some(e) = err {
+                    return Err(bad(e));
+                }
+            }
+        }
+        if blocks_seen != self.blocks_used {
+            return Err(bad("child blocks not referenced exactly once"));
+        }
+        if listed != self.vlen {
+            return Err(bad("v_list length"));
+        }
+        if visible != self.stats.visible_faces {
+            return Err(bad("visible face counter"));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,258 @@
+//! Same-level adjacency through the index digits, and the seed's NTree visit (never built).
+//!
+//! [`neighbour`] walks up from a node while its face lies on its parent's face (recording the
+//! sub-triangle position at each level), takes the sibling step from [`CHILD_ADJ`] at the first
+//! level where the face is interior — or crosses the coarse face into the neighbouring tet's
+//! tree through the mesh's reverse index (its ring offset gives the listing permutation) —
+//! and walks back down on the other side, mapping each recorded position through the listing
+//! permutation. [`visit_across`] then follows that path in the instantiated hierarchy: it meets
+//! either one coarser leaf on the path, or the subtree of the neighbour restricted to the nodes
+//! with a face on the shared face.
+
+use super::node::HNode;
+use super::table::{invert, then, Across, Path, Perm, CHILD_ADJ, FACE_SUB, MAX_DEPTH};
+use crate::ids::TetId;
+use crate::mesh::{FaceUse, Mesh};
+
+/// The same-level neighbour of a node across one face.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Neighbour {
+    /// Its coarse tet.
+    pub tet: TetId,
+    /// Its path (same depth as the query).
+    pub path: Path,
+    /// Its face that is the shared face.
+    pub face: u8,
+    /// Listing permutation: position `k` of the query face's listing is position `pi[k]` of
+    /// the neighbour face's listing.
+    pub pi: Perm,
+    /// Depth of the first level where the neighbour's ancestors differ from the query's
+    /// (0 when across a coarse face).
+    pub split: u8,
+    /// `faces[m]` for `split <= m <= depth`: the face of the neighbour's ancestor at depth `m`
+    /// that contains the shared face.
+    pub faces: [u8; MAX_DEPTH + 1],
+}
+
+/// The same-level neighbour of node `path` of coarse tet `tet` across face `face`, or `None`
+/// when that face lies on the mesh boundary (or `tet` is out of range).
+///
+/// # Bounded work
+/// O(depth) <= 2 * [`MAX_DEPTH`] table steps, one mesh look-up.
+pub fn neighbour(mesh: &Mesh<'_>, tet: TetId, path: &Path, face: u8) -> Option<Neighbour> {
+    let d = path.depth as usize;
+    let mut pos = [0u8; MAX_DEPTH + 1];
+    let mut sig = [[0u8, 1, 2]; MAX_DEPTH + 1];
+    let mut k = d;
+    let mut phi = face & 3;
+    let mut out = Neighbour {
+        tet,
+        path: *path,
+        face: 0,
+        pi: [0, 1, 2],
+        split: 0,
+        faces: [0; 11],
+    };
+    loop {
+        if k == 0 {
+            if tet.idx() >= mesh.tet_count() {
+                return None;
+            }
+            let nb = mesh.face_match(FaceUse { tet, local: phi })?;
+            let off = mesh.tet(tet).reverse[phi as usize].offset();
+            out.tet = nb.tet;
+            out.path = Path::ROOT;
+            out.face = nb.local;
+            out.pi = [(3 + off) % 3, (2 + off) % 3, (1 + off) % 3];
+            break;
+        }
+        let c = path.digit(k);
+        match CHILD_ADJ[c as usize][phi as usize] {
+            Across::Sibling(c2, f2, p) => {
+                let mut q = *path;
+                q.depth = (k - 1) as u8;
+                q.index = path.prefix_index(k - 1);
+                out.path = q.child(c2)?;
+                out.face = f2;
+                out.pi = p;
+                break;
+            }
+            Across::Outside {
+                face: pf,
+                pos: s,
+                sigma,
+            } => {
+                pos[k] = s;
+                sig[k] = sigma;
+                phi = pf;
+                k -= 1;
+            }
+        }
+    }
+    out.split = k as u8;
+    out.faces[k] = out.face;
+    for m in k + 1..=d {
+        let s = pos[m];
+        let s2 = if s < 3 { out.pi[s as usize] % 3 } else { 3 };
+        let (c2, g2, sig2) = FACE_SUB[(out.face & 3) as usize][s2 as usize];
+        out.pi = then(then(sig[m], out.pi), invert(sig2));
+        out.path = out.path.child(c2)?;
+        out.face = g2;
+        out.faces[m] = g2;
+    }
+    Some(out)
+}
+
+/// A leaf met by [`visit_across`].
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Met {
+    /// Its coarse tet.
+    pub tet: TetId,
+    /// Its tree index.
+    pub index: u32,
+    /// Its node reference.
+    pub node: u32,
+    /// Its face that lies on (contains, or is contained in) the shared face.
+    pub face: u8,
+    /// Its depth.
+    pub depth: u8,
+    /// Its node record at the time it was met.
+    pub record: HNode,
+}
+
+/// What [`visit_across`] found on the other side.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Side {
+    /// The face is on the mesh boundary: nothing across it.
+    Boundary,
+    /// Every leaf across was reported.
+    Done,
+    /// The callback stopped the visit.
+    Stopped,
+}
+
+/// Read access to the trees, for visits that may also mutate between callbacks.
+pub(crate) trait TreeRead {
+    fn tree_node(&self, r: u32) -> Option<HNode>;
+    fn tree_child(&self, r: u32, c: u8) -> Option<u32>;
+}
+
+impl TreeRead for super::Hierarchy<'_> {
+    #[inline]
+    fn tree_node(&self, r: u32) -> Option<HNode> {
+        self.node(r)
+    }
+    #[inline]
+    fn tree_child(&self, r: u32, c: u8) -> Option<u32> {
+        self.child(r, c)
+    }
+}
+
+impl TreeRead for &super::Hierarchy<'_> {
+    #[inline]
+    fn tree_node(&self, r: u32) -> Option<HNode> {
+        self.node(r)
+    }
+    #[inline]
+    fn tree_child(&self, r: u32, c: u8) -> Option<u32> {
+        self.child(r, c)
+    }
+}
+
+/// Stack depth of the restricted subtree visit: 3 per level plus one.
+const STACK: usize = 3 * MAX_DEPTH + 2;
+
+/// Visits NTree(adj(t, face), j): calls `f` for every leaf across face `face` of node `path`
+/// of tet `tet` (one coarser leaf, or every leaf of the neighbour's subtree with a face on
+/// the shared face), until `f` returns `false`. `work` is increased by the nodes touched.
+///
+/// # Bounded work
+/// O(depth) to reach the neighbour, plus the instantiated nodes of its subtree that touch the
+/// shared face: at most `(4^(L+1) - 1) / 3` for `L` levels below it.
+pub(crate) fn visit_across<C: TreeRead, F: FnMut(&mut C, Met) -> bool>(
+    ctx: &mut C,
+    mesh: &Mesh<'_>,
+    tet: TetId,
+    path: &Path,
+    face: u8,
+    work: &mut u32,
+    mut f: F,
+) -> Side {
+    let Some(nb) = neighbour(mesh, tet, path, face) else {
+        return Side::Boundary;
+    };
+    // Descend the neighbour's path; stop at the first leaf.
+    let mut r = nb.tet.0;
+    let mut index = 0u32;
+    let d = nb.path.depth as usize;
+    for m in 0..=d {
+        *work = work.saturating_add(1);
+        let Some(node) = ctx.tree_node(r) else {
+            return Side::Done;
+        };
+        if node.is_leaf() {
+            let met = Met {
+                tet: nb.tet,
+                index,
+                node: r,
+                face: nb.faces[m.max(nb.split as usize)],
+                depth: m as u8,
+                record: node,
+            };
+            return if f(ctx, met) {
+                Side::Done
+            } else {
+                Side::Stopped
+            };
+        }
+        if m == d {
+            break;
+        }
+        let c = nb.path.digit(m + 1);
+        let Some(next) = ctx.tree_child(r, c) else {
+            return Side::Done;
+        };
+        r = next;
+        index = index * 8 + 1 + c as u32;
+    }
+    // The neighbour has children: visit its subtree restricted to the shared face.
+    let mut stack = [(0u32, 0u32, 0u8, 0u8); STACK];
+    let mut top = 0usize;
+    for (c, g, _) in FACE_SUB[(nb.face & 3) as usize] {
+        if let (Some(ch), Some(slot)) = (ctx.tree_child(r, c), stack.get_mut(top)) {
+            *slot = (ch, index * 8 + 1 + c as u32, g, d as u8 + 1);
+            top += 1;
+        }
+    }
+    while top > 0 {
+        top -= 1;
+        let Some(&(r, index, g, depth)) = stack.get(top) else {
+            break;
+        };
+        *work = work.saturating_add(1);
+        let Some(node) = ctx.tree_node(r) else {
+            continue;
+        };
+        if node.is_leaf() {
+            let met = Met {
+                tet: nb.tet,
+                index,
+                node: r,
+                face: g,
+                depth,
+                record: node,
+            };
+            if !f(ctx, met) {
+                return Side::Stopped;
+            }
+            continue;
+        }
+        for (c, g2, _) in FACE_SUB[(g & 3) as usize] {
+            if let (Some(ch), Some(slot)) = (ctx.tree_child(r, c), stack.get_mut(top)) {
+                *slot = (ch, index * 8 + 1 + c as u32, g2, depth + 1);
+                top += 1;
+            }
+        }
+    }
+    Side::Done
+}
