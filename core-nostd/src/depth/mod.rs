@@ -1,1 +1,70 @@
-//! `depth`: see the crate docs' layer map. (Filled in by its issue.)
+//! Consistent penetration depth (Heidelberger et al. 2004; seed 000 section 4; DESIGN 2.3).
+//!
+//! Input: collisions `(node of body A, tet of body B)`. An edge of A that joins a colliding
+//! and a non-colliding node is a *border edge*; its colliding end is a *border point* `p`.
+//! Each border edge is followed from `p` to where it leaves B's surface, `x_i`, with the
+//! surface normal `n_i` interpolated from B's vertex normals at `x_i`:
+//!
+//! `w_i = 1/|x_i - p|^2`, `d(p) = sum w_i (x_i - p).n_i / sum w_i`,
+//! `r(p) = normalize(sum w_i n_i)`.
+//!
+//! The remaining colliding nodes get their depth breadth-first, layer by layer, from the
+//! neighbours of lower layers: `mu_j = 1/|p_j - p|^2`,
+//! `d(p) = sum mu_j ((p_j - p).r_j + d_j) / sum mu_j`, `r(p) = normalize(sum mu_j r_j)`.
+//! A node's value depends only on lower layers, so it does not depend on the queue order.
+//!
+//! Two ways to find `x_i`, selected by [`Method`]:
+//! - [`Method::Traced`] (seed 000): walk the line from `p` through the tet that holds `p`, face
+//!   by face through neighbours, until it leaves through a boundary face. Work proportional to
+//!   the tets crossed.
+//! - [`Method::Hashed`] (Heidelberger 2004): B's boundary faces are hashed
+//!   ([`hash_boundary_faces`]); the cells of the border edge's box give candidate faces; the
+//!   outward crossing nearest to `p` along the edge wins (ties: smaller `(tet, face)`).
+//!
+//! Both use one face test ([`surface`]): the line's orientation against each face edge,
+//! computed once per edge in a canonical node order, so a line crosses exactly one of the two
+//! faces beside an edge in both methods, and the hit point and normal are computed by the same
+//! function from the same face. They therefore return bit-identical depths.
+//!
+//! A colliding region whose nodes have no border edge (or whose border edges found no surface)
+//! gets no depth: its nodes are counted in [`DepthReport::unreached`] and left out of the
+//! output.
+
+mod graph;
+mod hashed;
+mod propagate;
+pub mod surface;
+mod traced;
+
+pub use graph::{graph_sizes, GraphError, NodeGraph};
+pub use hashed::hash_boundary_faces;
+pub use propagate::{penetration_depth, DepthReport, DepthScratch, NodeSlot, Penetration};
+pub use surface::SurfaceHit;
+pub use traced::trace_to_surface;
+
+use glam::Affine3A;
+
+use crate::hash::SpatialHash;
+
+/// How border edges find B's surface.
+#[derive(Clone, Copy, Debug)]
+pub enum Method<'h> {
+    /// Walk through B's tets from the tet holding the border point (seed 000).
+    Traced {
+        /// Tets a walk may cross before the edge is given up (counted as missed).
+        max_steps: u32,
+    },
+    /// Look up B's boundary faces in a hash (Heidelberger 2004).
+    Hashed {
+        /// B's boundary faces, item `tet * 4 + face` ([`hash_boundary_faces`]).
+        faces: &'h SpatialHash<'h>,
+        /// Maps world positions into the frame the faces were hashed in (identity for a
+        /// static B; the inverse pose for a moving tool hashed at rest).
+        world_to_hash: Affine3A,
+        /// Cells one edge's box may cover before the edge is given up (counted as missed).
+        max_cells: u32,
+    },
+}
+
+#[cfg(test)]
+mod tests;

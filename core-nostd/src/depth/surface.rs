@@ -1,0 +1,118 @@
+//! The one face test both depth methods use: does the line `p -> q` leave a body through a
+//! given boundary face, where, and with which interpolated normal.
+//!
+//! For a face listed `(a, b, c)` clockwise from outside, the edge values
+//! `e_ab = det6(p, q, a, b)` (and so on) are the line's orientation against each edge; they sum
+//! to `(q - p) . N` with `N = (b - a) x (c - a)` the inward normal, so the line leaves through
+//! the face exactly when all three are `<= 0` (and not all zero). Each value is computed in a
+//! canonical order (smaller node id first, sign flipped), so the two faces beside an edge see
+//! the exact same number: a line cannot slip between them, and the traced walk and the hashed
+//! search agree on every crossing. The crossing's barycentric coordinates on the face are the
+//! edge values opposite each corner, normalised.
+
+use glam::Vec3;
+
+use crate::collide::Body;
+use crate::geom;
+use crate::ids::{NodeId, TetId};
+use crate::mesh::template::FACE_VERTS;
+use crate::mesh::FaceUse;
+
+/// Where a border edge leaves the other body's surface.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct SurfaceHit {
+    /// The boundary face crossed.
+    pub face: FaceUse,
+    /// The crossing point `x_i`.
+    pub point: Vec3,
+    /// Unit surface normal at `x_i`, interpolated from the face's vertex normals (the face
+    /// normal when they cancel).
+    pub normal: Vec3,
+    /// Position along the edge: `x_i = p + s (q - p)` (up to rounding).
+    pub s: f32,
+}
+
+/// Canonical orientation of the line `p -> q` against the edge `u -> v`.
+#[inline]
+fn edge_value(pu: Vec3, pv: Vec3, u: NodeId, v: NodeId, p: Vec3, q: Vec3) -> f32 {
+    if u < v {
+        geom::det6(p, q, pu, pv)
+    } else {
+        -geom::det6(p, q, pv, pu)
+    }
+}
+
+/// The edge values of face `f` of `t` as listed `(a, b, c)`: `[e_ab, e_bc, e_ca]`, or `None`
+/// when the line does not leave `t` through that face (or an id is out of range).
+///
+/// # Bounded work
+/// Constant: three 3x3 determinants.
+#[inline]
+pub fn exit_values(body: &Body<'_, '_>, t: TetId, f: u8, p: Vec3, q: Vec3) -> Option<[f32; 3]> {
+    let nodes = body.tet_nodes(t)?;
+    let lv = FACE_VERTS.get(f as usize)?;
+    let ids = lv.map(|k| nodes[k as usize]);
+    let pa = body.pos(ids[0])?;
+    let pb = body.pos(ids[1])?;
+    let pc = body.pos(ids[2])?;
+    let e = [
+        edge_value(pa, pb, ids[0], ids[1], p, q),
+        edge_value(pb, pc, ids[1], ids[2], p, q),
+        edge_value(pc, pa, ids[2], ids[0], p, q),
+    ];
+    let leaves = e[0] <= 0.0 && e[1] <= 0.0 && e[2] <= 0.0 && (e[0] + e[1] + e[2]) < 0.0;
+    leaves.then_some(e)
+}
+
+/// The hit on boundary face `f` of `t` for edge values from [`exit_values`].
+///
+/// # Bounded work
+/// Constant.
+#[inline]
+pub fn hit_on_face(
+    body: &Body<'_, '_>,
+    t: TetId,
+    f: u8,
+    e: [f32; 3],
+    p: Vec3,
+    q: Vec3,
+) -> Option<SurfaceHit> {
+    let nodes = body.tet_nodes(t)?;
+    let lv = FACE_VERTS.get(f as usize)?;
+    let ids = lv.map(|k| nodes[k as usize]);
+    let pos = [body.pos(ids[0])?, body.pos(ids[1])?, body.pos(ids[2])?];
+    let sum = e[0] + e[1] + e[2];
+    if !(sum < 0.0) {
+        return None;
+    }
+    // Weight of a is e_bc, of b is e_ca, of c is e_ab.
+    let w = [e[1] / sum, e[2] / sum, e[0] / sum];
+    let point = pos[0] * w[0] + pos[1] * w[1] + pos[2] * w[2];
+    let nrm = body.normal(ids[0]) * w[0] + body.normal(ids[1]) * w[1] + body.normal(ids[2]) * w[2];
+    let mut normal = nrm.normalize_or_zero();
+    if normal == Vec3::ZERO {
+        normal = -geom::tri_normal(pos[0], pos[1], pos[2]);
+    }
+    let d = q - p;
+    let dd = d.length_squared();
+    let s = if dd > 0.0 {
+        (point - p).dot(d) / dd
+    } else {
+        0.0
+    };
+    Some(SurfaceHit {
+        face: FaceUse { tet: t, local: f },
+        point,
+        normal,
+        s,
+    })
+}
+
+/// Slack on the edge parameter: crossings with `s` in `[-S_SLACK, 1 + S_SLACK]` count.
+pub const S_SLACK: f32 = 1e-4;
+
+/// `true` when a hit lies on the border edge (within [`S_SLACK`]).
+#[inline]
+pub fn on_edge(h: &SurfaceHit) -> bool {
+    h.s >= -S_SLACK && h.s <= 1.0 + S_SLACK
+}

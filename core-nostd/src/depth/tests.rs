@@ -1,0 +1,157 @@
+use glam::{Affine3A, Vec3};
+
+use super::*;
+use crate::collide::test_support::Store;
+use crate::collide::{hash_tets, points_in_tets, Body, Collision};
+use crate::hash::{HashEntry, SpatialHash};
+use crate::ids::NodeId;
+
+const TOP: f32 = 0.5;
+
+struct Fixture {
+    a: Store<125, 384>,
+    b: Store<125, 384>,
+}
+
+/// B: 4x4x4 block [-0.5, 0.5]^3. A: 4x4x4 block of edge 0.05 with its top level above B.
+fn fixture(z0: f32) -> Fixture {
+    Fixture {
+        a: Store::block(4, 0.05, Vec3::new(-0.1, -0.08, z0)),
+        b: Store::block(4, 0.25, Vec3::splat(-0.5)),
+    }
+}
+
+fn run(
+    f: &mut Fixture,
+    hashed: bool,
+    queue_cap: usize,
+    out: &mut [Penetration],
+) -> (DepthReport, [Collision; 125], usize) {
+    let a = f.a.mesh();
+    let b = f.b.mesh();
+    let bb = Body::fixed(&b);
+    let mut ts = [0u32; 64];
+    let mut te = [HashEntry::default(); 8192];
+    let mut th = SpatialHash::new(&mut ts, &mut te, 0.25).unwrap();
+    hash_tets(&mut th, &bb);
+    let mut cols = [Collision::default(); 125];
+    let cr = points_in_tets(&th, &bb, a.positions(), false, &mut cols);
+    let mut go = [0u32; 126];
+    let mut ga = [NodeId::NONE; 1208];
+    let g = NodeGraph::build(&a, &mut go, &mut ga).unwrap();
+    let mut slots = [NodeSlot::default(); 125];
+    let mut queue = [NodeId::NONE; 125];
+    let q = &mut queue[..queue_cap];
+    let mut sc = DepthScratch::new(&mut slots, q);
+    let mut fs = [0u32; 64];
+    let mut fe = [HashEntry::default(); 4096];
+    let mut fh = SpatialHash::new(&mut fs, &mut fe, 0.25).unwrap();
+    assert!(!hash_boundary_faces(&mut fh, &bb).saturated);
+    let m = if hashed {
+        Method::Hashed {
+            faces: &fh,
+            world_to_hash: Affine3A::IDENTITY,
+            max_cells: 64,
+        }
+    } else {
+        Method::Traced { max_steps: 64 }
+    };
+    let r = penetration_depth(a.positions(), &g, &bb, &cols[..cr.count], &m, &mut sc, out);
+    (r, cols, cr.count)
+}
+
+#[test]
+fn flat_face_depths_and_layers() {
+    let mut f = fixture(TOP - 0.17);
+    let mut out = [Penetration::default(); 125];
+    let (r, _, n) = run(&mut f, false, 125, &mut out);
+    assert_eq!(n, 100, "four of five levels inside");
+    assert_eq!(r.written, 100);
+    assert_eq!(
+        (r.unreached, r.missed_edges, r.out_full, r.queue_full),
+        (0, 0, false, false)
+    );
+    let a = f.a.mesh();
+    let mut max_layer = 0;
+    for p in &out[..r.written] {
+        let z = a.positions()[p.node.idx()].z;
+        assert!((p.depth - (TOP - z)).abs() < 1e-5, "{p:?} z {z}");
+        assert!((p.dir - Vec3::Z).length() < 1e-5);
+        let level = ((z - (TOP - 0.17)) / 0.05 + 0.5) as u32;
+        assert_eq!(p.layer, 3 - level, "layer counts edges to the border");
+        max_layer = max_layer.max(p.layer);
+    }
+    assert_eq!(max_layer, 3);
+}
+
+#[test]
+fn traced_and_hashed_are_bit_identical() {
+    for z0 in [TOP - 0.17, TOP - 0.12, TOP - 0.031] {
+        let mut f = fixture(z0);
+        let mut o1 = [Penetration::default(); 125];
+        let mut o2 = [Penetration::default(); 125];
+        let (r1, _, _) = run(&mut f, false, 125, &mut o1);
+        let (r2, _, _) = run(&mut f, true, 125, &mut o2);
+        assert!(r1.written > 0);
+        assert_eq!(r1.written, r2.written);
+        assert_eq!(r1.hits, r2.hits);
+        for (x, y) in o1[..r1.written].iter().zip(&o2[..r2.written]) {
+            assert_eq!(x.node, y.node);
+            assert_eq!(x.depth.to_bits(), y.depth.to_bits());
+            assert_eq!(
+                x.dir.to_array().map(f32::to_bits),
+                y.dir.to_array().map(f32::to_bits)
+            );
+        }
+    }
+}
+
+#[test]
+fn region_without_border_is_reported_not_invented() {
+    let mut f = Fixture {
+        a: Store::block(4, 0.05, Vec3::new(-0.1, -0.08, -0.1)),
+        b: Store::block(4, 0.25, Vec3::splat(-0.5)),
+    };
+    let mut out = [Penetration::default(); 125];
+    let (r, _, n) = run(&mut f, false, 125, &mut out);
+    assert_eq!(n, 125);
+    assert_eq!((r.written, r.unreached, r.border_points), (0, 125, 0));
+}
+
+#[test]
+fn tiny_queue_and_output_saturate() {
+    let mut f = fixture(TOP - 0.17);
+    let mut out = [Penetration::default(); 10];
+    let (r, _, n) = run(&mut f, false, 30, &mut out);
+    assert_eq!(n, 100);
+    assert!(r.queue_full && r.out_full);
+    assert_eq!(r.written, 10);
+    assert_eq!(r.unreached, 70, "30 got a depth, 70 did not fit the queue");
+    let mut none: [Penetration; 0] = [];
+    let (r, _, _) = run(&mut f, true, 0, &mut none);
+    assert!(r.queue_full);
+    assert_eq!((r.written, r.unreached), (0, 100));
+}
+
+#[test]
+fn traced_walk_gives_up_after_max_steps() {
+    let mut b = Store::<125, 384>::block(4, 0.25, Vec3::splat(-0.5));
+    let b = b.mesh();
+    let bb = Body::fixed(&b);
+    let p = Vec3::new(0.01, 0.02, -0.3);
+    let q = Vec3::new(0.03, 0.01, 0.9);
+    let t = (0..b.tet_count())
+        .map(crate::ids::TetId::from_idx)
+        .find(|&t| {
+            crate::geom::barycentric(p, bb.tet_positions(t).unwrap())
+                .is_some_and(|x| crate::geom::inside(x, 0.0))
+        })
+        .unwrap();
+    let mut steps = 0;
+    let h = trace_to_surface(&bb, t, p, q, 64, &mut steps).unwrap();
+    assert!((h.point.z - 0.5).abs() < 1e-6 && (h.normal - Vec3::Z).length() < 1e-6);
+    assert!(steps > 2);
+    let mut s2 = 0;
+    assert!(trace_to_surface(&bb, t, p, q, 2, &mut s2).is_none());
+    assert_eq!(s2, 2);
+}
