@@ -24,4 +24,5 @@ pub mod platform;
 pub mod rt;
 pub mod scenario;
 pub mod stats;
+pub mod traces;
 pub mod workload;
