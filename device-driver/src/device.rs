@@ -265,6 +265,8 @@ pub enum DeviceError {
     },
     /// The firmware file could not be read or is empty.
     FirmwareFile,
+    /// Inkwell calibration asked for while the stylus is not docked.
+    NotDocked,
     /// Position could not be computed from the joint readings (out of the mechanism's range).
     Kinematics,
     /// The vendor's HD library is not installed / could not be loaded.
@@ -310,6 +312,7 @@ impl fmt::Display for DeviceError {
                 write!(f, "firmware echo mismatch in the chunk at byte {offset}")
             }
             DeviceError::FirmwareFile => f.write_str("firmware file missing, unreadable or empty"),
+            DeviceError::NotDocked => f.write_str("put the stylus in its inkwell to calibrate"),
             DeviceError::Kinematics => f.write_str("joint readings outside the mechanism's range"),
             DeviceError::LibraryNotFound => f.write_str(
                 "vendor HD library (libHD.so, OpenHaptics / Touch device drivers) not found",

@@ -27,3 +27,4 @@ pub use safety::{ForceSafety, SafetyConfig};
 pub use sim::{Path, PathPoint, Scripted, SimConfig, SimDevice, Still};
 pub use trace::{Trace, TraceError, TraceErrorKind, TraceSample, TRACE_HEADER};
 pub mod falcon;
+pub mod omni;

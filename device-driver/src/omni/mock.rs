@@ -1,0 +1,117 @@
+//! [`MockFirewire`]: a scripted Omni node for tests (registers, input stream, faults).
+
+use std::collections::VecDeque;
+
+use super::packet::{decode_output, encode_input, OmniInput, OmniOutput, INPUT_LEN, OUTPUT_LEN};
+use super::{FirewireTransport, REG_SERIAL, REG_STATUS_A, REG_VENDOR};
+use crate::device::DeviceError;
+
+/// A register access the host made.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RegOp {
+    /// Quadlet read.
+    ReadQuadlet(u64),
+    /// Byte read.
+    Read(u64),
+    /// Byte write.
+    Write(u64, u8),
+}
+
+/// A scripted Omni. Registers are a small map; reads of unknown registers return 0.
+#[derive(Debug)]
+pub struct MockFirewire {
+    /// Vendor quadlet the ROM returns.
+    pub vendor: u32,
+    /// Serial quadlet.
+    pub serial: u32,
+    /// Byte registers.
+    pub registers: Vec<(u64, u8)>,
+    /// Register accesses in order.
+    pub log: Vec<RegOp>,
+    /// Input packets to deliver, then `current` repeated.
+    pub inputs: VecDeque<OmniInput>,
+    /// Input delivered when the queue is empty.
+    pub current: OmniInput,
+    /// Deliver a truncated packet before every `n`-th packet.
+    pub short_every: Option<usize>,
+    /// Output packets the host sent, decoded.
+    pub sent: Vec<OmniOutput>,
+    /// Fail with `Disconnected` after this many received packets.
+    pub disconnect_after: Option<usize>,
+    received: usize,
+}
+
+impl MockFirewire {
+    /// An Omni that answers the start-up sequence as published.
+    pub fn omni() -> MockFirewire {
+        MockFirewire {
+            vendor: 0x000b_9901,
+            serial: 0x0001_e240,
+            registers: vec![(REG_STATUS_A, 0xC0)],
+            log: Vec::new(),
+            inputs: VecDeque::new(),
+            current: OmniInput::default(),
+            short_every: None,
+            sent: Vec::new(),
+            disconnect_after: None,
+            received: 0,
+        }
+    }
+
+    fn gone(&self) -> bool {
+        matches!(self.disconnect_after, Some(n) if self.received >= n)
+    }
+
+    fn reg(&self, address: u64) -> u8 {
+        self.registers
+            .iter()
+            .rev()
+            .find(|(a, _)| *a == address)
+            .map(|(_, v)| *v)
+            .unwrap_or(0)
+    }
+}
+
+impl FirewireTransport for MockFirewire {
+    fn read_quadlet(&mut self, address: u64) -> Result<u32, DeviceError> {
+        self.log.push(RegOp::ReadQuadlet(address));
+        Ok(match address {
+            REG_VENDOR => self.vendor,
+            REG_SERIAL => self.serial,
+            _ => 0,
+        })
+    }
+
+    fn read_byte(&mut self, address: u64) -> Result<u8, DeviceError> {
+        self.log.push(RegOp::Read(address));
+        Ok(self.reg(address))
+    }
+
+    fn write_byte(&mut self, address: u64, value: u8) -> Result<(), DeviceError> {
+        self.log.push(RegOp::Write(address, value));
+        self.registers.push((address, value));
+        Ok(())
+    }
+
+    fn receive(&mut self, packet: &mut [u8; INPUT_LEN]) -> Result<usize, DeviceError> {
+        if self.gone() {
+            return Err(DeviceError::Disconnected);
+        }
+        self.received += 1;
+        let input = self.inputs.pop_front().unwrap_or(self.current);
+        *packet = encode_input(&input);
+        if matches!(self.short_every, Some(n) if n > 0 && self.received % n == 0) {
+            self.inputs.push_front(input);
+            return Ok(20);
+        }
+        Ok(INPUT_LEN)
+    }
+
+    fn transmit(&mut self, packet: &[u8; OUTPUT_LEN]) -> Result<(), DeviceError> {
+        if self.gone() {
+            return Err(DeviceError::Disconnected);
+        }
+        self.sent.push(decode_output(packet));
+        Ok(())
+    }
+}
