@@ -37,7 +37,9 @@ pub fn tet_volume(p: [Vec3; 4]) -> f32 {
 #[inline]
 pub fn barycentric(x: Vec3, p: [Vec3; 4]) -> Option<[f32; 4]> {
     let d = det6(p[0], p[1], p[2], p[3]);
-    if !(libm::fabsf(d) > f32::MIN_POSITIVE) {
+    // Written so that a NaN determinant also counts as degenerate.
+    let big_enough = libm::fabsf(d) > f32::MIN_POSITIVE;
+    if !big_enough {
         return None;
     }
     let b1 = det6(p[0], x, p[2], p[3]) / d;

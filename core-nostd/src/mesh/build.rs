@@ -225,7 +225,8 @@ impl<'a> Mesh<'a> {
                     longest = longest.max((p[a] - p[b]).length() as f64);
                 }
             }
-            if !(det.abs() > ZERO_VOLUME_REL * longest * longest * longest) {
+            let big_enough = det.abs() > ZERO_VOLUME_REL * longest * longest * longest;
+            if !big_enough {
                 return Err(BuildError::ZeroVolume { tet: ti });
             }
             if det < 0.0 {

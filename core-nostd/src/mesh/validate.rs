@@ -68,7 +68,8 @@ impl Mesh<'_> {
                 }
             }
             let p = self.tet_positions(t);
-            if !(det6_f64(p[0], p[1], p[2], p[3]) > 0.0) {
+            let positive = det6_f64(p[0], p[1], p[2], p[3]) > 0.0;
+            if !positive {
                 return Err(ValidationError::NotPositive(t));
             }
             for f in 0..4u8 {
