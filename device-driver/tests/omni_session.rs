@@ -97,8 +97,8 @@ fn encoders_give_position_with_wraparound_and_force_maps_through_jt() {
     );
     assert!((s.joint_angles[2] - 30f64.to_radians()).abs() < 1e-12);
     let p = kinematics::forward(t);
-    for i in 0..3 {
-        assert!((s.position[i] - p[i]).abs() < 1e-12);
+    for (a, b) in s.position.iter().zip(p) {
+        assert!((a - b).abs() < 1e-12);
     }
     // Motor values: 0x07FF + 4096 * (J^T F), with J^T F computed here from the documented
     // formulas (dy/dt2 = l1 cos t2, dy/dt3 = l2 sin t3, dy/dt1 = 0).

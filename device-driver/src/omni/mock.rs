@@ -100,7 +100,7 @@ impl FirewireTransport for MockFirewire {
         self.received += 1;
         let input = self.inputs.pop_front().unwrap_or(self.current);
         *packet = encode_input(&input);
-        if matches!(self.short_every, Some(n) if n > 0 && self.received % n == 0) {
+        if matches!(self.short_every, Some(n) if n > 0 && self.received.is_multiple_of(n)) {
             self.inputs.push_front(input);
             return Ok(20);
         }

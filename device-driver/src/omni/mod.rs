@@ -321,8 +321,9 @@ impl<T: FirewireTransport> HapticDevice for OmniDevice<T> {
         }
         let k = core::f64::consts::TAU / packet::COUNTS_PER_REV;
         let s = self.config.encoder_sign;
-        for j in 0..3 {
-            self.offsets[j] = self.config.dock_angles[j] - s[j] * self.counts[j] as f64 * k;
+        let dock = self.config.dock_angles;
+        for (j, offset) in self.offsets.iter_mut().enumerate() {
+            *offset = dock[j] - s[j] * self.counts[j] as f64 * k;
         }
         self.joints = self.joint_angles();
         Ok(())
