@@ -267,7 +267,7 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
     if let Some(name) = stack.last() {
         return Err(CliError::at(
             path,
-            Some(line_of(&text, text.len())),
+            Some(line_of(&text, text.trim_end().len())),
             format!("truncated file: <{}> is not closed", short(name)),
         ));
     }
