@@ -1,1 +1,19 @@
-//! `drill`: see the crate docs' layer map. (Filled in by its issue.)
+//! Budgeted erosion by tool sample spheres (seed 001 section 3.2; DESIGN 2.5).
+//!
+//! [`Drill::step`] takes the candidate coarse tets near the tool (from the spatial hash) and
+//! the active sample spheres, refines the hierarchy nodes that cross a sphere until
+//! `max_depth` or `min_area`, and erases the frontier nodes inside it (a leaf entirely inside,
+//! or a leaf at the refinement limit whose centroid is inside). A work budget bounds each tick;
+//! the rest waits in a pending deque in caller storage and is done in the next ticks, against
+//! the sphere it was queued for, so the removed shape converges to the swept volume.
+
+mod candidates;
+mod sphere;
+mod step;
+
+pub use candidates::candidates_brute_force;
+pub use sphere::{classify, closest_on_triangle, Class, Sphere};
+pub use step::{Drill, DrillParams, DrillReport, Pending};
+
+#[cfg(test)]
+mod tests;
