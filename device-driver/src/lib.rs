@@ -26,5 +26,9 @@ pub use device::{
 pub use safety::{ForceSafety, SafetyConfig};
 pub use sim::{Path, PathPoint, Scripted, SimConfig, SimDevice, Still};
 pub use trace::{Trace, TraceError, TraceErrorKind, TraceSample, TRACE_HEADER};
+pub mod discovery;
 pub mod falcon;
 pub mod omni;
+pub mod touch;
+
+pub use discovery::{discover, open, open_sim, FoundDevice, OpenOptions};

@@ -1,6 +1,8 @@
 //! The real Falcon transport over `rusb` (libusb).
 
 use core::fmt;
+
+use rusb::UsbContext;
 use std::time::Duration;
 
 use super::ftdi::{EP_IN, EP_OUT, REQUEST_TYPE_OUT};
@@ -9,7 +11,7 @@ use crate::device::{DeviceError, DeviceKind};
 
 /// An open Falcon: interface 0 claimed, bulk endpoints 0x02 / 0x81.
 pub struct RusbTransport {
-    handle: rusb::DeviceHandle<rusb::GlobalContext>,
+    handle: rusb::DeviceHandle<rusb::Context>,
 }
 
 impl fmt::Debug for RusbTransport {
@@ -38,7 +40,12 @@ pub fn map_usb_error(e: rusb::Error) -> DeviceError {
 impl RusbTransport {
     /// Opens the first 0403:cb48 device; [`DeviceError::NotFound`] when there is none.
     pub fn open() -> Result<RusbTransport, DeviceError> {
-        let handle = rusb::open_device_with_vid_pid(VENDOR_ID, PRODUCT_ID)
+        // An explicit context: libusb's global one panics in rusb when libusb cannot start
+        // (no USB subsystem, containers); a failed init here is just "not found".
+        let context =
+            rusb::Context::new().map_err(|_| DeviceError::NotFound(DeviceKind::Falcon))?;
+        let handle = context
+            .open_device_with_vid_pid(VENDOR_ID, PRODUCT_ID)
             .ok_or(DeviceError::NotFound(DeviceKind::Falcon))?;
         // Not supported on every platform; harmless when it fails.
         let _ = handle.set_auto_detach_kernel_driver(true);
