@@ -16,7 +16,7 @@
 
 mod body;
 mod points;
-mod teschner;
+pub mod teschner;
 #[cfg(test)]
 pub(crate) mod test_support;
 #[cfg(test)]
@@ -24,7 +24,7 @@ mod tests;
 
 pub use body::Body;
 pub use points::{hash_tets, points_in_tets};
-pub use teschner::tets_over_points;
+pub use teschner::{tets_over_points, MAX_CELLS_PER_TET};
 
 use crate::ids::{NodeId, TetId};
 
@@ -49,6 +49,9 @@ pub struct CollideReport {
     pub degenerate: u32,
     /// Point-tet candidates examined (a cost measure).
     pub candidates: u32,
+    /// Tets skipped because their box covered too many cells
+    /// ([`teschner::MAX_CELLS_PER_TET`]).
+    pub clipped: u32,
 }
 
 /// Barycentric tolerance: a point counts as inside when every coordinate is `>= -INSIDE_EPS`.

@@ -16,11 +16,11 @@ pub const MAX_CELLS_PER_TET: u32 = 4096;
 ///
 /// # Bounded work
 /// O(T * (cells per tet box + points met)) with the cells per box capped at
-/// [`MAX_CELLS_PER_TET`] (larger boxes are skipped and counted by the hash), plus one sort of
+/// [`MAX_CELLS_PER_TET`] (larger boxes are skipped and counted in `clipped`), plus one sort of
 /// at most `out.len()` entries. When `out` fills, further hits are dropped and `saturated`
 /// is set; the written pairs stay valid.
 pub fn tets_over_points(
-    points_hash: &mut SpatialHash<'_>,
+    points_hash: &SpatialHash<'_>,
     points: &[Vec3],
     body: &Body<'_, '_>,
     own: bool,
@@ -40,7 +40,7 @@ pub fn tets_over_points(
         }
         let mut degenerate = false;
         let out_ref = &mut *out;
-        points_hash.query_box(&b, MAX_CELLS_PER_TET, |_, item| {
+        let visited = points_hash.query_box_ro(&b, MAX_CELLS_PER_TET, |_, item| {
             let node = NodeId(item);
             if own && ids.contains(&node) {
                 return;
@@ -62,6 +62,9 @@ pub fn tets_over_points(
                 Some(_) => {}
             }
         });
+        if !visited {
+            r.clipped = r.clipped.wrapping_add(1);
+        }
         if degenerate {
             r.degenerate = r.degenerate.wrapping_add(1);
         }

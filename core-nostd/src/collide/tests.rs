@@ -57,7 +57,7 @@ fn both_directions_match_brute_force() {
     let mut h = SpatialHash::new(&mut starts, &mut entries, 0.3).unwrap();
     h.rebuild_points(ob.positions);
     let mut out = [Collision::default(); 32];
-    let r = tets_over_points(&mut h, ob.positions, &tb, false, &mut out);
+    let r = tets_over_points(&h, ob.positions, &tb, false, &mut out);
     let want = brute(&tb, ob.positions, false);
     let n_want = want.iter().filter(|x| x.is_some()).count();
     assert!(n_want > 0);
@@ -116,7 +116,7 @@ fn tiny_output_saturates_without_panic() {
     let mut ph = SpatialHash::new(&mut ph_s, &mut ph_e, 0.5).unwrap();
     assert!(ph.rebuild_points(&pts).saturated);
     let mut out = [Collision::default(); 1];
-    let r = tets_over_points(&mut ph, &pts, &ob, false, &mut out);
+    let r = tets_over_points(&ph, &pts, &ob, false, &mut out);
     assert!(r.saturated);
     assert_eq!(r.count, 1);
 }

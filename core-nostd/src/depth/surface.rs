@@ -82,7 +82,7 @@ pub fn hit_on_face(
     let ids = lv.map(|k| nodes[k as usize]);
     let pos = [body.pos(ids[0])?, body.pos(ids[1])?, body.pos(ids[2])?];
     let sum = e[0] + e[1] + e[2];
-    if !(sum < 0.0) {
+    if sum.is_nan() || sum >= 0.0 {
         return None;
     }
     // Weight of a is e_bc, of b is e_ca, of c is e_ab.

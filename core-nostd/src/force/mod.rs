@@ -1,1 +1,36 @@
-//! `force`: see the crate docs' layer map. (Filled in by its issue.)
+//! Haptic forces (seed 001 section 3; seed 000 sections 4-6; DESIGN 2.5).
+//!
+//! | file          | what                                                                  |
+//! |---------------|-----------------------------------------------------------------------|
+//! | [`triangles`] | sphere / active sample point: radius minus distance to the surface    |
+//! | [`segment`]   | passive point: the segment between two positions against the faces    |
+//! | [`pen`]       | tet-mesh tool: collisions both ways, consistent depth, summed force   |
+//! | [`entry`]     | the thin-pen remedy: an entry plane remembered while in contact        |
+//! | [`response`]  | damping, clamping, the displayed (non-penetrating) tool offset        |
+//! | [`frames`]    | camera `C = M . T`, allocentric pen `P_a = P_e . C`, forces mapped back |
+//! | [`digest`]    | FNV-1a 64 over the force series' bit patterns                          |
+//!
+//! Triangles handed to the force functions are `[Vec3; 3]` listed counter-clockwise seen
+//! from outside (right-hand normal pointing out of the object); [`boundary_triangle`] turns a
+//! mesh boundary face (listed clockwise) into one.
+
+pub mod digest;
+pub mod entry;
+pub mod frames;
+pub mod pen;
+pub mod response;
+pub mod segment;
+pub mod triangles;
+
+pub use digest::{force_digest, ForceDigest};
+pub use entry::EntryPlane;
+pub use pen::{pen_contact, DepthMethod, PenBuffers, PenContact, PenOptions, PenScene, PenState};
+pub use response::{clamp_force, damping_force, display_offset, ForceParams, ToolState};
+pub use segment::{segment_first_hit, SegmentHit};
+pub use triangles::{
+    boundary_triangle, closest_point_on_triangle, mesh_sphere_contact, sphere_contact,
+    SphereContact,
+};
+
+#[cfg(test)]
+mod tests;

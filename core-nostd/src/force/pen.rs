@@ -1,0 +1,261 @@
+//! The tet-mesh tool (the pen): one call per servo tick from the pen's pose to its force.
+//!
+//! Per tick: move the pen's nodes to the pose; pen nodes inside the object (object tets hashed
+//! once); object nodes inside the pen (object nodes hashed once, the pen's tets walk their
+//! boxes); the consistent depth of both sets; force = stiffness x (sum of the pen nodes'
+//! depth x direction - sum of the object nodes' depth x direction), optionally through the
+//! entry-plane remedy; damping; clamping; the displayed offset.
+
+use glam::{Affine3A, Quat, Vec3};
+
+use super::entry::EntryPlane;
+use super::response::{clamp_force, damping_force, display_offset, ForceParams, ToolState};
+use crate::collide::{points_in_tets, tets_over_points, Body, CollideReport, Collision};
+use crate::depth::{penetration_depth, DepthReport, DepthScratch, Method, NodeGraph, Penetration};
+use crate::hash::{Aabb, SpatialHash};
+use crate::mesh::Mesh;
+
+/// What stays fixed during a session: the pen at rest (tip at its origin), the static object,
+/// their graphs and hashes (all built once at start-up).
+#[derive(Clone, Copy, Debug)]
+pub struct PenScene<'s, 'm, 'a> {
+    /// The pen mesh at rest, in its own frame.
+    pub pen: &'m Mesh<'a>,
+    /// The pen's node graph.
+    pub pen_graph: NodeGraph<'s>,
+    /// The pen's boundary faces hashed at rest (only for [`DepthMethod::Hashed`]).
+    pub pen_faces: Option<&'s SpatialHash<'s>>,
+    /// The object where it stands.
+    pub object: Body<'m, 'a>,
+    /// The object's node graph.
+    pub object_graph: NodeGraph<'s>,
+    /// The object's tets hashed ([`crate::collide::hash_tets`]).
+    pub object_tets: &'s SpatialHash<'s>,
+    /// The object's nodes hashed ([`SpatialHash::rebuild_points`]).
+    pub object_nodes: &'s SpatialHash<'s>,
+    /// The object's boundary faces hashed (only for [`DepthMethod::Hashed`]).
+    pub object_faces: Option<&'s SpatialHash<'s>>,
+}
+
+/// Per-tick storage; the lengths are the capacities.
+#[derive(Debug)]
+pub struct PenBuffers<'b> {
+    /// The pen's nodes at the current pose (one per pen node).
+    pub world: &'b mut [Vec3],
+    /// Pen nodes inside object tets.
+    pub pen_hits: &'b mut [Collision],
+    /// Object nodes inside pen tets.
+    pub object_hits: &'b mut [Collision],
+    /// Depths of the pen nodes.
+    pub pen_pens: &'b mut [Penetration],
+    /// Depths of the object nodes.
+    pub object_pens: &'b mut [Penetration],
+    /// Depth scratch over the pen's nodes.
+    pub pen_depth: DepthScratch<'b>,
+    /// Depth scratch over the object's nodes.
+    pub object_depth: DepthScratch<'b>,
+}
+
+/// Which surface search the depth uses.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub enum DepthMethod {
+    /// Walk through tets (seed 000).
+    #[default]
+    Traced,
+    /// Hashed boundary faces (Heidelberger 2004); falls back to traced when the scene has no
+    /// face hashes (reported in [`PenContact::hashed_unavailable`]).
+    Hashed,
+}
+
+/// Options of the pen tool.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct PenOptions {
+    /// Force parameters.
+    pub params: ForceParams,
+    /// Surface search.
+    pub method: DepthMethod,
+    /// Longest traced walk, in tets.
+    pub max_steps: u32,
+    /// Most cells a hashed edge query may cover.
+    pub max_cells: u32,
+    /// Use the entry-plane remedy for the pen's nodes ([`EntryPlane`]).
+    pub entry_remedy: bool,
+}
+
+impl Default for PenOptions {
+    fn default() -> Self {
+        Self {
+            params: ForceParams::default(),
+            method: DepthMethod::Traced,
+            max_steps: 256,
+            max_cells: 512,
+            entry_remedy: false,
+        }
+    }
+}
+
+/// State carried from tick to tick.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct PenState {
+    /// For damping.
+    pub tool: ToolState,
+    /// For the remedy.
+    pub entry: EntryPlane,
+}
+
+/// One tick's result.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct PenContact {
+    /// The contact force before damping and clamping.
+    pub raw: Vec3,
+    /// The force to render (damped, clamped).
+    pub force: Vec3,
+    /// Where to draw the pen relative to its pose so it does not visibly penetrate.
+    pub display_offset: Vec3,
+    /// Pen nodes in the object.
+    pub pen_collisions: CollideReport,
+    /// Object nodes in the pen.
+    pub object_collisions: CollideReport,
+    /// Depth of the pen nodes.
+    pub pen_depth: DepthReport,
+    /// Depth of the object nodes.
+    pub object_depth: DepthReport,
+    /// Penetrations written (pen nodes, object nodes).
+    pub penetrations: (usize, usize),
+    /// `true` when the world buffer is shorter than the pen (nodes beyond it ignored).
+    pub world_short: bool,
+    /// `true` when [`DepthMethod::Hashed`] was asked for without face hashes.
+    pub hashed_unavailable: bool,
+    /// `true` when the force was clamped.
+    pub clamped: bool,
+}
+
+impl PenContact {
+    /// `true` when any buffer filled this tick (the result is valid but incomplete).
+    pub fn saturated(&self) -> bool {
+        self.world_short
+            || self.pen_collisions.saturated
+            || self.object_collisions.saturated
+            || self.pen_depth.queue_full
+            || self.pen_depth.out_full
+            || self.object_depth.queue_full
+            || self.object_depth.out_full
+    }
+}
+
+/// One servo tick of the pen tool at `position` (its tip) and `rotation`.
+///
+/// # Bounded work
+/// O(N_pen) to place the pen; collision: O(N_pen * b) + O(T_pen * cells * b) for b the
+/// largest bucket; depth: see [`penetration_depth`], bounded by the collision buffers, the
+/// depth queues and `max_steps` / `max_cells`. Every buffer saturates as documented on the
+/// functions it is handed to; [`PenContact::saturated`] tells.
+pub fn pen_contact(
+    scene: &PenScene<'_, '_, '_>,
+    bufs: &mut PenBuffers<'_>,
+    position: Vec3,
+    rotation: Quat,
+    opts: &PenOptions,
+    state: &mut PenState,
+) -> PenContact {
+    let mut out = PenContact::default();
+    let pose = Affine3A::from_rotation_translation(rotation, position);
+    let rest = scene.pen.positions();
+    let n = rest.len().min(bufs.world.len());
+    out.world_short = n < rest.len();
+    let mut bounds = Aabb::of::<0>([]);
+    for (w, &r) in bufs.world.iter_mut().zip(rest.iter()) {
+        *w = pose.transform_point3(r);
+        bounds = bounds.union(Aabb::point(*w));
+    }
+    let world = bufs.world.get(..n).unwrap_or(&[]);
+    let pen_body = Body::moved(scene.pen, world, rotation);
+    let k = opts.params.stiffness;
+
+    let mut raw = Vec3::ZERO;
+    let mut pen_count = 0;
+    let mut obj_count = 0;
+    if bounds.overlaps(&scene.object_tets.bounds()) {
+        out.pen_collisions = points_in_tets(
+            scene.object_tets,
+            &scene.object,
+            world,
+            false,
+            bufs.pen_hits,
+        );
+        out.object_collisions = tets_over_points(
+            scene.object_nodes,
+            scene.object.positions,
+            &pen_body,
+            false,
+            bufs.object_hits,
+        );
+        let (m_obj, m_pen) = match (opts.method, scene.object_faces, scene.pen_faces) {
+            (DepthMethod::Hashed, Some(of), Some(pf)) => (
+                Method::Hashed {
+                    faces: of,
+                    world_to_hash: Affine3A::IDENTITY,
+                    max_cells: opts.max_cells,
+                },
+                Method::Hashed {
+                    faces: pf,
+                    world_to_hash: pose.inverse(),
+                    max_cells: opts.max_cells,
+                },
+            ),
+            (method, _, _) => {
+                out.hashed_unavailable = method == DepthMethod::Hashed;
+                let t = Method::Traced {
+                    max_steps: opts.max_steps,
+                };
+                (t, t)
+            }
+        };
+        let pen_hits = bufs.pen_hits.get(..out.pen_collisions.count).unwrap_or(&[]);
+        out.pen_depth = penetration_depth(
+            world,
+            &scene.pen_graph,
+            &scene.object,
+            pen_hits,
+            &m_obj,
+            &mut bufs.pen_depth,
+            bufs.pen_pens,
+        );
+        let obj_hits = bufs
+            .object_hits
+            .get(..out.object_collisions.count)
+            .unwrap_or(&[]);
+        out.object_depth = penetration_depth(
+            scene.object.positions,
+            &scene.object_graph,
+            &pen_body,
+            obj_hits,
+            &m_pen,
+            &mut bufs.object_depth,
+            bufs.object_pens,
+        );
+        pen_count = out.pen_depth.written;
+        obj_count = out.object_depth.written;
+    }
+    let pen_pens = bufs.pen_pens.get(..pen_count).unwrap_or(&[]);
+    let obj_pens = bufs.object_pens.get(..obj_count).unwrap_or(&[]);
+    out.penetrations = (pen_count, obj_count);
+
+    if opts.entry_remedy {
+        raw += state.entry.force(world, pen_pens, k);
+    } else {
+        for p in pen_pens {
+            raw += p.dir * (k * p.depth);
+        }
+    }
+    for p in obj_pens {
+        raw -= p.dir * (k * p.depth);
+    }
+    out.raw = raw;
+    let in_contact = pen_count + obj_count > 0;
+    let total = raw + damping_force(&mut state.tool, position, in_contact, &opts.params);
+    out.force = clamp_force(total, opts.params.max_force);
+    out.clamped = out.force != total;
+    out.display_offset = display_offset(out.force, pen_pens, obj_pens);
+    out
+}

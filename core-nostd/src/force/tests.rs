@@ -1,0 +1,268 @@
+use glam::{Affine3A, Mat4, Quat, Vec3};
+
+use super::frames::{allocentric, camera, force_to_device};
+use super::*;
+use crate::collide::test_support::Store;
+use crate::collide::{hash_tets, Body, Collision};
+use crate::depth::{hash_boundary_faces, DepthScratch, NodeGraph, NodeSlot, Penetration};
+use crate::hash::{HashEntry, SpatialHash};
+use crate::ids::NodeId;
+
+#[test]
+fn sphere_pressed_into_flat_face() {
+    let mut b = Store::<125, 384>::block(4, 0.25, Vec3::splat(-0.5));
+    let b = b.mesh();
+    let bb = Body::fixed(&b);
+    let mut fs = [0u32; 64];
+    let mut fe = [HashEntry::default(); 4096];
+    let mut fh = SpatialHash::new(&mut fs, &mut fe, 0.25).unwrap();
+    hash_boundary_faces(&mut fh, &bb);
+    let (r, k) = (0.1f32, 500.0f32);
+    for d in [0.0f32, 0.01, 0.05, 0.09, 0.15] {
+        let c = Vec3::new(0.07, -0.13, 0.5 + r - d);
+        let s = mesh_sphere_contact(&fh, &bb, c, r, 64);
+        assert!((s.depth - d).abs() < 1e-6, "d {d}: {s:?}");
+        assert!((s.normal - Vec3::Z).length() < 1e-6);
+        let f = s.normal * (k * s.depth);
+        assert!((f - Vec3::Z * k * d).length() < 1e-3);
+    }
+    // Far away: no triangles near, no contact.
+    let s = mesh_sphere_contact(&fh, &bb, Vec3::splat(5.0), 0.1, 64);
+    assert!(!s.touching() && s.triangles == 0);
+    // The iterator form agrees with the hashed convenience.
+    let tris = (0..b.tet_count() * 4).filter_map(|i| {
+        let t = crate::ids::TetId::from_idx(i / 4);
+        let f = (i % 4) as u8;
+        bb.neighbour(t, f)
+            .is_none()
+            .then(|| boundary_triangle(&bb, t, f))
+            .flatten()
+    });
+    let c = Vec3::new(0.2, 0.1, 0.55);
+    let a = sphere_contact(c, 0.1, tris);
+    let h = mesh_sphere_contact(&fh, &bb, c, 0.1, 64);
+    assert!((a.depth - h.depth).abs() < 1e-7 && a.normal == h.normal);
+}
+
+#[test]
+fn sphere_centre_inside_counts_the_full_distance() {
+    let tri = [
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
+    let s = sphere_contact(Vec3::new(0.0, 0.0, -0.3), 0.1, [tri]);
+    assert!((s.depth - 0.4).abs() < 1e-6 && s.normal == Vec3::Z);
+    let none = sphere_contact(Vec3::ZERO, 0.1, core::iter::empty());
+    assert!(!none.touching());
+    // Closest point on a degenerate triangle does not divide by zero.
+    let deg = [Vec3::ZERO; 3];
+    assert_eq!(closest_point_on_triangle(Vec3::ONE, deg), Vec3::ZERO);
+}
+
+#[test]
+fn passive_segment_enters_first_face() {
+    let t0 = [
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
+    let t1 = t0.map(|p| p - Vec3::Z * 0.5);
+    let h = segment_first_hit(
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(0.0, 0.0, -0.2),
+        [t1, t0],
+    )
+    .unwrap();
+    assert_eq!(h.index, 1);
+    assert!((h.depth - 0.2).abs() < 1e-6 && h.normal == Vec3::Z);
+    // Moving out is no entry.
+    assert!(segment_first_hit(Vec3::new(0.0, 0.0, -0.2), Vec3::Z, [t0]).is_none());
+}
+
+#[test]
+fn clamp_damping_digest_frames() {
+    assert_eq!(
+        clamp_force(Vec3::new(3.0, 4.0, 0.0), 1.0),
+        Vec3::new(0.6, 0.8, 0.0)
+    );
+    assert_eq!(clamp_force(Vec3::splat(f32::NAN), 1.0), Vec3::ZERO);
+    assert_eq!(clamp_force(Vec3::X, 0.0), Vec3::ZERO);
+    let p = ForceParams {
+        stiffness: 1.0,
+        damping: 2.0,
+        max_force: 10.0,
+        dt: 0.5,
+    };
+    let mut st = ToolState::default();
+    assert_eq!(damping_force(&mut st, Vec3::ZERO, true, &p), Vec3::ZERO);
+    assert_eq!(damping_force(&mut st, Vec3::X, true, &p), Vec3::X * -4.0);
+    assert_eq!(damping_force(&mut st, Vec3::X * 2.0, false, &p), Vec3::ZERO);
+
+    assert_eq!(force_digest(&[]), 0xcbf2_9ce4_8422_2325);
+    let a = force_digest(&[Vec3::ZERO, Vec3::X]);
+    assert_ne!(
+        a,
+        force_digest(&[Vec3::new(-0.0, 0.0, 0.0), Vec3::X]),
+        "bit patterns count"
+    );
+    assert_ne!(a, force_digest(&[Vec3::X, Vec3::ZERO]), "order counts");
+    let mut d = ForceDigest::new();
+    d.push(Vec3::ZERO);
+    d.push(Vec3::X);
+    assert_eq!(d.value(), a);
+
+    let m = Mat4::from_rotation_translation(Quat::from_rotation_y(0.4), Vec3::new(1.0, 2.0, 3.0));
+    let t = Mat4::from_quat(Quat::from_rotation_x(-0.3));
+    let c = camera(m, t);
+    let pe = Mat4::from_translation(Vec3::new(0.1, 0.0, 0.0));
+    let pa = allocentric(c, pe);
+    assert!((pa.w_axis.truncate() - c.transform_point3(Vec3::new(0.1, 0.0, 0.0))).length() < 1e-6);
+    let f_scene = c.transform_vector3(Vec3::Y);
+    assert!((force_to_device(c, f_scene) - Vec3::Y).length() < 1e-6);
+    assert_eq!(force_to_device(Mat4::ZERO, Vec3::X), Vec3::ZERO);
+}
+
+struct PenWorld {
+    pen: Store<27, 48>,
+    obj: Store<125, 384>,
+}
+
+fn pen_tick(
+    w: &mut PenWorld,
+    pos: Vec3,
+    opts: &PenOptions,
+    caps: usize,
+    state: &mut PenState,
+) -> PenContact {
+    let pen = w.pen.mesh();
+    let obj = w.obj.mesh();
+    let ob = Body::fixed(&obj);
+    let (mut pgo, mut pga) = ([0u32; 28], [NodeId::NONE; 256]);
+    let pg = NodeGraph::build(&pen, &mut pgo, &mut pga).unwrap();
+    let (mut ogo, mut oga) = ([0u32; 126], [NodeId::NONE; 1208]);
+    let og = NodeGraph::build(&obj, &mut ogo, &mut oga).unwrap();
+    let (mut ts, mut te) = ([0u32; 64], [HashEntry::default(); 8192]);
+    let mut th = SpatialHash::new(&mut ts, &mut te, 0.25).unwrap();
+    hash_tets(&mut th, &ob);
+    let (mut ns, mut ne) = ([0u32; 64], [HashEntry::default(); 125]);
+    let mut nh = SpatialHash::new(&mut ns, &mut ne, 0.25).unwrap();
+    nh.rebuild_points(obj.positions());
+    let (mut fs, mut fe) = ([0u32; 64], [HashEntry::default(); 4096]);
+    let mut fh = SpatialHash::new(&mut fs, &mut fe, 0.25).unwrap();
+    hash_boundary_faces(&mut fh, &ob);
+    let (mut ps, mut pe) = ([0u32; 32], [HashEntry::default(); 2048]);
+    let mut ph = SpatialHash::new(&mut ps, &mut pe, 0.1).unwrap();
+    hash_boundary_faces(&mut ph, &Body::fixed(&pen));
+    let scene = PenScene {
+        pen: &pen,
+        pen_graph: pg,
+        pen_faces: Some(&ph),
+        object: ob,
+        object_graph: og,
+        object_tets: &th,
+        object_nodes: &nh,
+        object_faces: Some(&fh),
+    };
+    let mut world = [Vec3::ZERO; 27];
+    let (mut h1, mut h2) = ([Collision::default(); 27], [Collision::default(); 125]);
+    let (mut p1, mut p2) = ([Penetration::default(); 27], [Penetration::default(); 125]);
+    let (mut s1, mut q1) = ([NodeSlot::default(); 27], [NodeId::NONE; 27]);
+    let (mut s2, mut q2) = ([NodeSlot::default(); 125], [NodeId::NONE; 125]);
+    let mut bufs = PenBuffers {
+        world: &mut world,
+        pen_hits: &mut h1[..caps.min(27)],
+        object_hits: &mut h2[..caps.min(125)],
+        pen_pens: &mut p1[..caps.min(27)],
+        object_pens: &mut p2[..caps.min(125)],
+        pen_depth: DepthScratch::new(&mut s1, &mut q1[..caps.min(27)]),
+        object_depth: DepthScratch::new(&mut s2, &mut q2[..caps.min(125)]),
+    };
+    pen_contact(&scene, &mut bufs, pos, Quat::IDENTITY, opts, state)
+}
+
+fn pen_world() -> PenWorld {
+    PenWorld {
+        pen: Store::block(2, 0.05, Vec3::new(-0.05, -0.05, 0.0)),
+        obj: Store::block(4, 0.25, Vec3::splat(-0.5)),
+    }
+}
+
+#[test]
+fn pen_block_pressed_into_top_face() {
+    let mut w = pen_world();
+    let mut opts = PenOptions {
+        params: ForceParams {
+            stiffness: 100.0,
+            damping: 0.0,
+            max_force: 1e6,
+            dt: 1e-3,
+        },
+        ..PenOptions::default()
+    };
+    let d = 0.03;
+    let c = pen_tick(
+        &mut w,
+        Vec3::new(0.11, 0.12, 0.5 - d),
+        &opts,
+        1000,
+        &mut PenState::default(),
+    );
+    // 9 bottom nodes at depth d (the middle level at 0.025 is outside).
+    assert_eq!(c.penetrations, (9, 0));
+    assert!(
+        (c.raw - Vec3::Z * 100.0 * 9.0 * d).length() < 1e-3,
+        "{:?}",
+        c.raw
+    );
+    assert!((c.display_offset - Vec3::Z * d).length() < 1e-5);
+    opts.method = DepthMethod::Hashed;
+    let h = pen_tick(
+        &mut w,
+        Vec3::new(0.11, 0.12, 0.5 - d),
+        &opts,
+        1000,
+        &mut PenState::default(),
+    );
+    assert_eq!(
+        h.raw.to_array().map(f32::to_bits),
+        c.raw.to_array().map(f32::to_bits)
+    );
+    // Fully outside: zero force.
+    let o = pen_tick(
+        &mut w,
+        Vec3::new(0.0, 0.0, 0.6),
+        &opts,
+        1000,
+        &mut PenState::default(),
+    );
+    assert_eq!((o.force, o.penetrations), (Vec3::ZERO, (0, 0)));
+    // Clamping.
+    opts.params.max_force = 1.0;
+    let m = pen_tick(
+        &mut w,
+        Vec3::new(0.11, 0.12, 0.5 - d),
+        &opts,
+        1000,
+        &mut PenState::default(),
+    );
+    assert!(m.clamped && (m.force.length() - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn pen_tiny_capacities_saturate_without_panic() {
+    let mut w = pen_world();
+    let opts = PenOptions::default();
+    for caps in [0, 1, 3] {
+        let c = pen_tick(
+            &mut w,
+            Vec3::new(0.01, 0.02, 0.4),
+            &opts,
+            caps,
+            &mut PenState::default(),
+        );
+        assert!(c.saturated(), "caps {caps}");
+        assert!(c.force.is_finite());
+    }
+    let _ = Affine3A::IDENTITY;
+}
