@@ -258,16 +258,14 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     if !to_stdout {
         print!("{}", s.to_text());
     }
-    if let Some(out) = &args.json {
-        let text = serde_json::to_string_pretty(&s.to_json())
-            .map_err(|e| CliError::failure(format!("cannot encode JSON: {e}")))?;
-        if to_stdout {
+    match &args.json {
+        Some(_) if to_stdout => {
+            let text = serde_json::to_string_pretty(&s.to_json())
+                .map_err(|e| CliError::failure(format!("cannot encode JSON: {e}")))?;
             println!("{text}");
-        } else {
-            std::fs::write(out, text + "\n").map_err(|e| {
-                CliError::failure(format!("{}: cannot write JSON: {e}", out.display()))
-            })?;
         }
+        Some(out) => crate::cli::write_json(out, &s.to_json())?,
+        None => {}
     }
     Ok(())
 }

@@ -226,13 +226,13 @@ fn nodes_v41(c: &mut Cursor<'_>, st: &mut State) -> Result<(), CliError> {
             let (l, t) = c.need_line(&format!("node tag {} of {m}", k + 1))?;
             tags.push((parse_uint(c, t[0], l, "a node tag")?, l));
         }
-        for k in 0..m {
+        for (k, &(tag, tag_line)) in tags.iter().enumerate() {
             let (l, t) = c.need_line(&format!("coordinates of node {} of {m}", k + 1))?;
             if t.len() < 3 {
                 return Err(c.err(l, "expected 'x y z'"));
             }
             let xyz = parse_xyz(c, &t[..3], l)?;
-            add_node(c, st, tags[k].0, xyz, tags[k].1)?;
+            add_node(c, st, tag, xyz, tag_line)?;
         }
     }
     if total != n {
