@@ -751,3 +751,82 @@ fn relabelling_and_reflection_keep_the_mesh_valid() {
         );
     }
 }
+
+/// Small fuzzing: random edits of real files (a cut, a byte changed, a line dropped or
+/// repeated, a number blown up) are either read or refused with status 2 and one line; no
+/// edit may panic.
+#[test]
+fn mutated_files_never_panic() {
+    let dir = scratch("fuzz");
+    let mut rng = StdRng::seed_from_u64(0xf022);
+    let sources = [
+        "cube12/cube12.mesh",
+        "cube12/cube12.msh",
+        "cube12/cube12.vtk",
+        "cube12/cube12.vtu",
+        "cube12/cube12.ele",
+        "formats/sofa_msh4_cube.msh",
+        "formats/sfepy_msh_tetra.msh",
+    ];
+    let alphabet = b"0123456789 -.\n#$<>/\"=eE+xnaif\t\xc3\xa9";
+    let (mut ok, mut refused) = (0, 0);
+    for src in sources {
+        let path = mesh(src);
+        let bytes = std::fs::read(&path).unwrap();
+        let ext = path.extension().unwrap().to_str().unwrap();
+        let node = std::fs::read(mesh("cube12/cube12.node")).unwrap();
+        for round in 0..150 {
+            let mut b = bytes.clone();
+            for _ in 0..rng.gen_range(1..4) {
+                if b.is_empty() {
+                    break;
+                }
+                let at = rng.gen_range(0..b.len());
+                match rng.gen_range(0..5) {
+                    0 => b.truncate(at),
+                    1 => b[at] = alphabet[rng.gen_range(0..alphabet.len())],
+                    2 => {
+                        let end = b[at..]
+                            .iter()
+                            .position(|&c| c == b'\n')
+                            .map_or(b.len(), |e| at + e + 1);
+                        b.drain(at..end);
+                    }
+                    3 => {
+                        let end = b[at..]
+                            .iter()
+                            .position(|&c| c == b'\n')
+                            .map_or(b.len(), |e| at + e + 1);
+                        let line = b[at..end].to_vec();
+                        b.splice(at..at, line);
+                    }
+                    _ => b
+                        .splice(at..at, b"99999999999".iter().copied())
+                        .for_each(drop),
+                }
+            }
+            let f = dir.join(format!("m{round}.{ext}"));
+            std::fs::write(&f, &b).unwrap();
+            if ext == "ele" {
+                std::fs::write(dir.join(format!("m{round}.node")), &node).unwrap();
+            }
+            match meshio::load(&f, 1.0) {
+                Ok(mut m) => {
+                    ok += 1;
+                    m.mesh.view().validate().unwrap();
+                }
+                Err(e) => {
+                    refused += 1;
+                    assert_eq!(e.code, EXIT_BAD_INPUT, "{}: {}", f.display(), e.message);
+                    assert!(!e.message.contains('\n'), "{}", e.message);
+                    assert!(
+                        e.message.starts_with(dir.to_str().unwrap()),
+                        "{}",
+                        e.message
+                    );
+                }
+            }
+        }
+    }
+    assert!(ok > 0 && refused > 0, "ok {ok}, refused {refused}");
+}

@@ -103,15 +103,17 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
             }
             raw_tets = Some((t, lines));
         } else if let Some(&(_, per)) = SKIPPED.iter().find(|(s, _)| s.eq_ignore_ascii_case(kw)) {
+            let kw = short(kw);
             let (n, l) = c.uint(&format!("the number of {kw}"))?;
-            let n = c.count(n, per, kw, l)?;
+            let n = c.count(n, per, &kw, l)?;
             for _ in 0..n * per {
                 c.need(&format!("{kw} data"))?;
             }
         } else if kw.chars().next().is_some_and(|ch| ch.is_ascii_alphabetic()) {
             // An unknown section: a count, then one record per line.
+            let kw = short(kw);
             let (n, l) = c.uint(&format!("the number of {kw}"))?;
-            let n = c.count(n, 1, kw, l)?;
+            let n = c.count(n, 1, &kw, l)?;
             for _ in 0..n {
                 c.need_line(&format!("{kw} data"))?;
             }

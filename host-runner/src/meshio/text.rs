@@ -155,7 +155,11 @@ impl<'a> Cursor<'a> {
 
     /// Error at a line of this file.
     pub(crate) fn err(&self, line: usize, reason: impl std::fmt::Display) -> CliError {
-        CliError::at(self.path, (line > 0).then_some(line), reason)
+        CliError::at(
+            self.path,
+            (line > 0).then_some(line),
+            one_line(&reason.to_string()),
+        )
     }
 
     /// "Truncated" error at the last line.
@@ -257,14 +261,41 @@ pub(crate) fn parse_xyz(c: &Cursor<'_>, t: &[&str], line: usize) -> Result<[f64;
     ])
 }
 
-/// A token cut to a printable length for messages.
-pub(crate) fn short(t: &str) -> String {
-    if t.chars().count() > 24 {
-        let s: String = t.chars().take(24).collect();
-        format!("{s}...")
+/// A reason with its control characters escaped, so an error stays one line whatever the
+/// file held.
+pub(crate) fn one_line(reason: &str) -> String {
+    if reason.chars().any(char::is_control) {
+        reason
+            .chars()
+            .flat_map(|c| {
+                if c.is_control() {
+                    c.escape_default().collect()
+                } else {
+                    vec![c]
+                }
+            })
+            .collect()
     } else {
-        t.to_string()
+        reason.to_string()
     }
+}
+
+/// A token for a message: control characters escaped (so the message stays one line) and cut
+/// to a printable length.
+pub(crate) fn short(t: &str) -> String {
+    let mut out = String::new();
+    for (k, ch) in t.chars().enumerate() {
+        if k == 24 {
+            out.push_str("...");
+            break;
+        }
+        if ch.is_control() {
+            out.extend(ch.escape_default());
+        } else {
+            out.push(ch);
+        }
+    }
+    out
 }
 
 /// Converts node numbers of one tet from a file's numbering (first node `base`) to 0-based

@@ -8,7 +8,9 @@
 
 use std::path::Path;
 
-use super::text::{line_of, parse_float, parse_int, parse_uint, read_text, short, Cursor};
+use super::text::{
+    line_of, one_line, parse_float, parse_int, parse_uint, read_text, short, Cursor,
+};
 use super::RawMesh;
 use crate::error::CliError;
 
@@ -49,7 +51,10 @@ fn scan(text: &str) -> Result<Vec<Tag<'_>>, (usize, String)> {
         let skip_to = |pat: &str| {
             rest.find(pat).map(|e| s + e + pat.len()).ok_or((
                 s,
-                format!("unclosed '{}'", short(&rest[..rest.len().min(9)])),
+                format!(
+                    "unclosed '{}'",
+                    short(&rest.chars().take(9).collect::<String>())
+                ),
             ))
         };
         if rest.starts_with("<!--") {
@@ -157,7 +162,9 @@ struct Piece {
 /// node indices out of range, tet cells without 4 points.
 pub fn read(path: &Path) -> Result<RawMesh, CliError> {
     let text = read_text(path, "VTU")?;
-    let at = |off: usize, reason: String| CliError::at(path, Some(line_of(&text, off)), reason);
+    let at = |off: usize, reason: String| {
+        CliError::at(path, Some(line_of(&text, off)), one_line(&reason))
+    };
     let tags = scan(&text).map_err(|(off, r)| at(off, format!("malformed XML: {r}")))?;
     let mut stack: Vec<&str> = Vec::new();
     let mut pieces: Vec<Piece> = Vec::new();
@@ -215,7 +222,7 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
                         if let Some(role) = role {
                             let format = tag.attr("format").unwrap_or("ascii");
                             if format != "ascii" {
-                                return Err(at(tag.start, format!("{format} VTU data arrays are not supported: binary VTU is not read (write format=\"ascii\")")));
+                                return Err(at(tag.start, format!("{} VTU data arrays are not supported: binary VTU is not read (write format=\"ascii\")", short(format))));
                             }
                             if role == "points" {
                                 let comps = tag.attr("NumberOfComponents").unwrap_or("1");
