@@ -23,7 +23,7 @@ pub struct InfoArgs {
     #[arg(long, value_name = "OUT", num_args = 0..=1, default_missing_value = "-")]
     pub json: Option<PathBuf>,
     /// Multiply every coordinate by this factor (file units to metres).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub scale: f64,
 }
 

@@ -50,6 +50,12 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
                 format!("expected a $Section, found '{}'", short(t[0])),
             ));
         };
+        if version.is_none() && section != "MeshFormat" {
+            return Err(c.err(
+                line,
+                "not a Gmsh 2.2 or 4.1 file: $MeshFormat must come first (Gmsh 1 files are not read)",
+            ));
+        }
         match section {
             "MeshFormat" => {
                 let (l, f) = c.need_line("the mesh format line")?;

@@ -197,7 +197,7 @@ pub fn load(path: &Path, scale: f64) -> Result<LoadedMesh, CliError> {
                 return Err(CliError::at(
                     path,
                     None,
-                    format!("node {i}: coordinates too large for 32-bit floats after scaling by {scale}"),
+                    format!("node {i}: coordinates too large for 32-bit floats after scaling by {scale:e}"),
                 ));
             }
             kept.push(q);
