@@ -18,6 +18,8 @@ pub struct Cli {
 pub enum Command {
     /// Summarise a mesh file: counts, boundary, orientation fixes, validity, quality.
     Info(crate::commands::info::InfoArgs),
+    /// Deterministic offline run of a trace, tick by tick, with a summary JSON.
+    Replay(crate::commands::replay::ReplayArgs),
     /// Measure the servo thread's wake-up latency (cyclictest style) and tick compute times.
     Timing(crate::commands::timing::TimingArgs),
 }
@@ -45,6 +47,7 @@ pub fn main() -> i32 {
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Info(args) => crate::commands::info::run(&args),
+        Command::Replay(args) => crate::commands::replay::run(&args),
         Command::Timing(args) => crate::commands::timing::run(&args),
     }
 }

@@ -1,1 +1,391 @@
-//! `servo`: see the crate docs' layer map. (Filled in by its issue.)
+//! The servo step for a spherical burr on a drilled mesh, in two halves that a host runs in
+//! two tasks and a replay or a firmware runs one after the other, tick by tick:
+//!
+//! - [`World::simulate`]: the coarse tets near the tool through the static spatial hash, the
+//!   budgeted drill step when the drill is on, and the contact with the *drilled* surface
+//!   (the hierarchy's visible faces, not the original boundary) as one contact plane;
+//! - [`servo_force`]: the force from the last contact plane at the tool's current position:
+//!   stiffness x depth along the plane normal, damping, clamping. When the simulation runs
+//!   slower than the servo, this is the extrapolation of seed 001 section 3.3: the plane is a
+//!   first-order model of the surface near the tool, so the force stays continuous at 1 kHz.
+//!
+//! A replay calls both with the same pose every tick, so its forces equal the exact contact
+//! with the drilled surface at that pose.
+
+use glam::Vec3;
+
+use crate::drill::{Drill, DrillParams, DrillReport, Pending, Sphere};
+use crate::force::{clamp_force, damping_force, sphere_contact, ForceParams, ToolState};
+use crate::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, HashError, SpatialHash};
+use crate::hierarchy::{Hierarchy, HierarchyError, HierarchyStorage};
+use crate::ids::TetId;
+use crate::mesh::Mesh;
+
+/// Storage for a [`World`], handed in by the caller; [`WorldSizes`] says how much.
+#[derive(Debug)]
+pub struct WorldStorage<'a> {
+    /// Bucket offsets of the static tet hash (`buckets + 1`, the bucket count prime).
+    pub hash_starts: &'a mut [u32],
+    /// Entries of the static tet hash (one per tet and overlapped cell).
+    pub hash_entries: &'a mut [HashEntry],
+    /// The hierarchy's roots, arena and v_list.
+    pub hierarchy: HierarchyStorage<'a>,
+    /// The drill's pending-work deque.
+    pub pending: &'a mut [Pending],
+    /// Candidate coarse tets near the tool, refilled each simulation step.
+    pub candidates: &'a mut [TetId],
+}
+
+/// Storage sizes for a [`World`] over a mesh of `tets` tets.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct WorldSizes {
+    /// `hash_starts` length.
+    pub hash_starts: usize,
+    /// `hash_entries` length.
+    pub hash_entries: usize,
+    /// Hierarchy root slots.
+    pub roots: usize,
+    /// Hierarchy arena nodes.
+    pub arena: usize,
+    /// v_list entries.
+    pub vlist: usize,
+    /// Pending drill work items.
+    pub pending: usize,
+    /// Candidate tets near the tool.
+    pub candidates: usize,
+}
+
+impl WorldSizes {
+    /// Sizes for `tets` coarse tets and an arena of `arena` hierarchy nodes. The hash gets about
+    /// two buckets per tet and eight entries per tet (a tet's box covers one to eight cells of
+    /// an average edge length; slivers more, and a full table is counted, not fatal).
+    pub const fn new(tets: usize, arena: usize) -> Self {
+        let arena = arena / 8 * 8;
+        Self {
+            hash_starts: 2 * tets + 2,
+            hash_entries: 8 * tets,
+            roots: tets,
+            arena,
+            vlist: HierarchyStorage::vlist_needed(tets, arena),
+            pending: 1 << 16,
+            candidates: 1024,
+        }
+    }
+}
+
+/// Why a [`World`] could not be made.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum WorldError {
+    /// The spatial hash refused its storage or cell size.
+    Hash(HashError),
+    /// The hierarchy refused its storage.
+    Hierarchy(HierarchyError),
+}
+
+impl core::fmt::Display for WorldError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Hash(e) => write!(f, "{e}"),
+            Self::Hierarchy(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+/// The contact of the tool with the drilled surface, as the last simulation step saw it: the
+/// closest surface point and the outward normal there (a plane the servo extrapolates with).
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct ContactState {
+    /// `true` when a visible triangle was within reach of the tool.
+    pub valid: bool,
+    /// Closest point on the drilled surface.
+    pub point: Vec3,
+    /// Unit normal pointing out of the material at `point`.
+    pub normal: Vec3,
+    /// Depth at the simulated position (`radius - signed distance`; > 0 in contact).
+    pub depth: f32,
+    /// Tool centre the contact was computed for.
+    pub centre: Vec3,
+    /// Visible triangles examined.
+    pub triangles: u32,
+}
+
+/// What one [`World::simulate`] did.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct SimReport {
+    /// Coarse tets near the tool.
+    pub candidates: u32,
+    /// The drill step (all zero when the drill was off).
+    pub drill: DrillReport,
+    /// Visible triangles examined for the contact.
+    pub triangles: u32,
+    /// The candidate list filled up (tets were left out of this step; counted).
+    pub candidates_saturated: bool,
+}
+
+/// Saturation counters of a [`World`], by kind.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct Saturations {
+    /// Static hash builds that ran out of entries.
+    pub hash: u32,
+    /// Simulation steps whose candidate list filled up.
+    pub candidates: u32,
+    /// Refinements refused because the hierarchy arena was full.
+    pub arena: u32,
+    /// Drill work items dropped because the pending deque was full.
+    pub pending: u32,
+}
+
+impl Saturations {
+    /// All kinds added up.
+    pub fn total(&self) -> u32 {
+        self.hash + self.candidates + self.arena + self.pending
+    }
+}
+
+/// The object being touched and drilled: its mesh, the static hash of its tets, its
+/// subdivision hierarchy and the drill, all over caller storage.
+#[derive(Debug)]
+pub struct World<'a> {
+    mesh: Mesh<'a>,
+    hash: SpatialHash<'a>,
+    hier: Hierarchy<'a>,
+    drill: Drill<'a>,
+    candidates: &'a mut [TetId],
+    ncand: usize,
+    max_cells: u32,
+    contact: ContactState,
+    sat: Saturations,
+}
+
+impl<'a> World<'a> {
+    /// Hashes the mesh's tets once (cell size = average edge length) and creates an untouched
+    /// hierarchy.
+    ///
+    /// # Bounded work
+    /// O(T + buckets + hash entries) for T tets.
+    ///
+    /// # Errors
+    /// [`WorldError`] when the hash or the hierarchy refuses its storage. A hash too small for
+    /// every tet is not an error: the first tets that fit are kept and `saturations().hash`
+    /// says so.
+    pub fn new(mesh: Mesh<'a>, storage: WorldStorage<'a>) -> Result<Self, WorldError> {
+        let WorldStorage { hash_starts, hash_entries, hierarchy, pending, candidates } = storage;
+        let buckets = prime_at_most((hash_starts.len().saturating_sub(1)).min(u32::MAX as usize) as u32);
+        let starts_len = (buckets as usize + 1).min(hash_starts.len());
+        let (hash_starts, _) = hash_starts.split_at_mut(starts_len);
+        let cell = average_edge_length(&mesh);
+        let mut hash = SpatialHash::new(hash_starts, hash_entries, cell).map_err(WorldError::Hash)?;
+        let built = hash.rebuild(mesh.tet_count(), |t| {
+            Some(Aabb::of(mesh.tet_positions(TetId::from_idx(t))))
+        });
+        let hier = Hierarchy::new(&mesh, hierarchy).map_err(WorldError::Hierarchy)?;
+        let sat = Saturations { hash: built.saturated as u32, ..Saturations::default() };
+        Ok(Self {
+            mesh,
+            hash,
+            hier,
+            drill: Drill::new(pending),
+            candidates,
+            ncand: 0,
+            max_cells: 4096,
+            contact: ContactState::default(),
+            sat,
+        })
+    }
+
+    /// The mesh.
+    pub fn mesh(&self) -> &Mesh<'a> {
+        &self.mesh
+    }
+
+    /// The hierarchy.
+    pub fn hierarchy(&self) -> &Hierarchy<'a> {
+        &self.hier
+    }
+
+    /// The static tet hash.
+    pub fn hash(&self) -> &SpatialHash<'a> {
+        &self.hash
+    }
+
+    /// The contact the last [`World::simulate`] found.
+    pub fn contact(&self) -> &ContactState {
+        &self.contact
+    }
+
+    /// The coarse tets the last [`World::simulate`] found near the tool.
+    pub fn candidates(&self) -> &[TetId] {
+        &self.candidates[..self.ncand]
+    }
+
+    /// Drill work items carried to the next tick.
+    pub fn pending(&self) -> usize {
+        self.drill.pending()
+    }
+
+    /// Saturations so far, by kind.
+    pub fn saturations(&self) -> Saturations {
+        Saturations {
+            arena: self.hier.saturations(),
+            pending: self.drill.saturations(),
+            ..self.sat
+        }
+    }
+
+    /// One simulation step for a spherical burr of `radius` at `centre`: candidates near the
+    /// tool (the box `radius + reach` around it), the budgeted drill step when `drill_on`,
+    /// then the contact with the drilled surface within `radius + reach`. `reach` is how far
+    /// the servo may extrapolate before the next step (half the radius is a good default).
+    ///
+    /// # Bounded work
+    /// O(max cells + candidates) for the query, the drill step's budget (see
+    /// [`Drill::step`]), and O(visible nodes of the candidate trees within reach x depth) for
+    /// the contact.
+    ///
+    /// # Capacity
+    /// A full candidate list keeps the tets found first and counts `saturations().candidates`;
+    /// the drill and the hierarchy saturate as they document. The state stays valid.
+    pub fn simulate(
+        &mut self,
+        centre: Vec3,
+        radius: f32,
+        reach: f32,
+        drill_on: bool,
+        params: &DrillParams,
+    ) -> SimReport {
+        let mut rep = SimReport::default();
+        if !(centre.is_finite() && radius.is_finite() && radius > 0.0) {
+            self.contact = ContactState::default();
+            return rep;
+        }
+        let reach = if reach.is_finite() && reach > 0.0 { reach } else { 0.0 };
+        let zone = Aabb::point(centre).grown(radius + reach);
+        let tight = Aabb::point(centre).grown(radius);
+        let (cands, mesh) = (&mut *self.candidates, &self.mesh);
+        let mut n = 0usize;
+        let mut full = false;
+        self.hash.query_box_ro(&zone, self.max_cells, |_, item| {
+            let t = TetId(item);
+            if full
+                || t.idx() >= mesh.tet_count()
+                || !Aabb::of(mesh.tet_positions(t)).overlaps(&zone)
+            {
+                return;
+            }
+            if n == cands.len() {
+                // A tet is met once per cell it overlaps: compact before giving up.
+                n = sort_dedup(&mut cands[..n]);
+                if n == cands.len() {
+                    full = true;
+                    return;
+                }
+            }
+            cands[n] = t;
+            n += 1;
+        });
+        let k = sort_dedup(&mut cands[..n]);
+        // The tets that meet the burr itself first: the drill works on those only.
+        let list = &mut cands[..k];
+        let mut m = 0;
+        for i in 0..list.len() {
+            if Aabb::of(mesh.tet_positions(list[i])).overlaps(&tight) {
+                list.swap(i, m);
+                m += 1;
+            }
+        }
+        list[..m].sort_unstable();
+        list[m..].sort_unstable();
+        self.ncand = k;
+        if full {
+            self.sat.candidates += 1;
+            rep.candidates_saturated = true;
+        }
+        rep.candidates = k as u32;
+        if drill_on {
+            let sphere = [Sphere { center: centre, radius }];
+            rep.drill = self.drill.step(&mut self.hier, &self.mesh, &self.candidates[..m], &sphere, params);
+        }
+        self.contact = self.contact_with_surface(centre, radius, radius + reach);
+        rep.triangles = self.contact.triangles;
+        rep
+    }
+
+    /// The closest visible triangle of the candidate trees within `reach` of `centre`, turned
+    /// into a contact plane by [`sphere_contact`]. Ties go to the smallest (tet, index, face),
+    /// so the result never depends on visiting order.
+    fn contact_with_surface(&self, centre: Vec3, radius: f32, reach: f32) -> ContactState {
+        let mut best: Option<(f32, (u32, u32, u8), [Vec3; 3])> = None;
+        let mut seen = 0u32;
+        let cands = &self.candidates[..self.ncand];
+        self.hier.for_each_visible_in(&self.mesh, cands, Some((centre, reach)), |vt| {
+            seen = seen.wrapping_add(1);
+            let x = crate::force::closest_point_on_triangle(centre, vt.corners);
+            let d2 = (centre - x).length_squared();
+            if !(d2 <= reach * reach) {
+                return;
+            }
+            let key = (vt.tet.0, vt.index, vt.face);
+            let better = match &best {
+                None => true,
+                Some((bd, bk, _)) => d2 < *bd || (d2 == *bd && key < *bk),
+            };
+            if better {
+                best = Some((d2, key, vt.corners));
+            }
+        });
+        match best {
+            None => ContactState { centre, triangles: seen, ..ContactState::default() },
+            Some((_, _, tri)) => {
+                let c = sphere_contact(centre, radius, [tri]);
+                ContactState {
+                    valid: c.normal != Vec3::ZERO,
+                    point: c.point,
+                    normal: c.normal,
+                    depth: c.depth,
+                    centre,
+                    triangles: seen,
+                }
+            }
+        }
+    }
+}
+
+/// Sorts `list` and moves its distinct entries to the front; returns how many there are.
+fn sort_dedup(list: &mut [TetId]) -> usize {
+    list.sort_unstable();
+    let mut k = 0;
+    for i in 0..list.len() {
+        if k == 0 || list[i] != list[k - 1] {
+            list[k] = list[i];
+            k += 1;
+        }
+    }
+    k
+}
+
+/// The force on a spherical burr of `radius` at `centre` from the contact plane `contact`:
+/// `stiffness * depth * normal` with `depth = radius - (centre - point) . normal`, plus
+/// damping while in contact, clamped to `params.max_force`. `tool` carries the previous
+/// position for the damping velocity.
+///
+/// # Bounded work
+/// Constant. Never allocates, locks or panics; non-finite input gives zero force.
+pub fn servo_force(
+    contact: &ContactState,
+    centre: Vec3,
+    radius: f32,
+    tool: &mut ToolState,
+    params: &ForceParams,
+) -> Vec3 {
+    let depth = if contact.valid {
+        radius - (centre - contact.point).dot(contact.normal)
+    } else {
+        0.0
+    };
+    let touching = depth > 0.0;
+    let damping = damping_force(tool, centre, touching, params);
+    if !touching {
+        return Vec3::ZERO;
+    }
+    clamp_force(contact.normal * (params.stiffness * depth) + damping, params.max_force)
+}

@@ -1,4 +1,5 @@
 //! One file per command.
 
 pub mod info;
+pub mod replay;
 pub mod timing;

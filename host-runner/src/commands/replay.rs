@@ -1,0 +1,244 @@
+//! `tetradrill replay`: a deterministic offline run, tick by tick with no sleeping, through the
+//! same core code path as the real-time servo; a summary JSON for scripts.
+
+use std::path::PathBuf;
+
+use serde::Serialize;
+use tetradrill_core::force::{ForceDigest, ToolState};
+use tetradrill_core::Vec3;
+
+use crate::engine::{self, EngineStorage, TickParams};
+use crate::error::CliError;
+use crate::platform::now_ns;
+use crate::scenario::{Scenario, ScenarioFlags};
+use crate::stats::{summarise_ns, Summary};
+use crate::traces::PoseSource;
+
+/// Arguments of `replay`.
+#[derive(Debug, clap::Args)]
+pub struct ReplayArgs {
+    /// Scenario settings (mesh, trace, tool, stiffness, drilling limits).
+    #[command(flatten)]
+    pub scenario: ScenarioFlags,
+    /// Write the summary as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write the drilled surface (the visible faces) as a Wavefront OBJ.
+    #[arg(long)]
+    pub surface: Option<PathBuf>,
+    /// Replay at most this many ticks (default: the whole trace).
+    #[arg(long)]
+    pub ticks: Option<u64>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The summary of a replay (DESIGN section 4's fields and more).
+#[derive(Debug, Serialize)]
+pub struct ReplayReport {
+    /// The scenario as run.
+    pub scenario: Scenario,
+    /// The mesh.
+    pub mesh: MeshCounts,
+    /// Ticks replayed.
+    pub ticks: u64,
+    /// Volume of the mesh before drilling.
+    pub initial_volume: f64,
+    /// Sum of the erased leaves' volumes.
+    pub removed_volume: f64,
+    /// Hierarchy nodes instantiated (root slots included).
+    pub hierarchy_nodes: usize,
+    /// Visible faces of the drilled surface.
+    pub visible_faces: u32,
+    /// Connected pieces of remaining material.
+    pub components: u32,
+    /// Forces.
+    pub force: ForceSummary,
+    /// FNV-1a hash of the bits of every tick's force, as hex: identical whenever the force
+    /// series is bit-identical.
+    pub force_digest: String,
+    /// Per-tick compute times (simulation step + servo force).
+    pub timing_us: TickTiming,
+    /// Capacity saturations by kind.
+    pub saturations: SaturationCounts,
+}
+
+/// Mesh counts of a report.
+#[derive(Debug, Serialize)]
+pub struct MeshCounts {
+    /// Nodes.
+    pub nodes: usize,
+    /// Tets.
+    pub tets: usize,
+    /// Boundary faces.
+    pub boundary_faces: u32,
+}
+
+/// Force figures of a report.
+#[derive(Debug, Serialize)]
+pub struct ForceSummary {
+    /// Largest force magnitude, newtons.
+    pub max_n: f32,
+    /// Force at the last tick, newtons.
+    #[serde(rename = "final")]
+    pub last: [f32; 3],
+    /// Ticks with a non-zero force.
+    pub contact_ticks: u64,
+}
+
+/// Tick timing of a report, microseconds.
+#[derive(Debug, Serialize)]
+pub struct TickTiming {
+    /// Mean.
+    pub tick_mean: f64,
+    /// 99th percentile.
+    pub tick_p99: f64,
+    /// 99.9th percentile.
+    pub tick_p999: f64,
+    /// Largest.
+    pub tick_max: f64,
+}
+
+/// Saturations by kind, and their total.
+#[derive(Debug, Serialize)]
+pub struct SaturationCounts {
+    /// All kinds.
+    pub total: u32,
+    /// Static hash builds out of entries.
+    pub hash: u32,
+    /// Steps whose candidate list filled.
+    pub candidates: u32,
+    /// Refinements refused, arena full.
+    pub arena: u32,
+    /// Drill work dropped, pending deque full.
+    pub pending: u32,
+}
+
+/// Runs `replay`.
+pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
+    let sc = Scenario::from_flags(&args.scenario)?;
+    let params = TickParams::of(&sc)?;
+    let poses = PoseSource::load(&sc.trace, 1.0)?;
+    let loaded = engine::load_mesh(&sc)?;
+    let ticks = args.ticks.map_or(poses.ticks(), |t| t.min(poses.ticks()));
+    let mut store = EngineStorage::allocate(loaded.mesh, &sc);
+    let mut world = store.world()?;
+    let initial_volume = world.mesh().volume();
+
+    let mut tool = ToolState::default();
+    let mut digest = ForceDigest::new();
+    let mut times = vec![0u64; ticks as usize];
+    let (mut max_n, mut last, mut contact_ticks) = (0.0f32, Vec3::ZERO, 0u64);
+    let progress = !args.quiet && ticks >= 20_000;
+    for i in 0..ticks {
+        let pose = poses.at(i);
+        let t0 = now_ns();
+        let (f, _) = engine::tick(&mut world, &mut tool, &params, &pose);
+        times[i as usize] = now_ns() - t0;
+        digest.push(f);
+        max_n = max_n.max(f.length());
+        if f != Vec3::ZERO {
+            contact_ticks += 1;
+        }
+        last = f;
+        if progress && i % 5000 == 0 {
+            eprint!("\rreplay: {:>3}% ({i}/{ticks} ticks)", i * 100 / ticks.max(1));
+        }
+    }
+    if progress {
+        eprintln!("\rreplay: 100% ({ticks}/{ticks} ticks)");
+    }
+    let t: Summary = summarise_ns(&times);
+    let h = world.hierarchy();
+    let mut scratch = vec![0u32; h.components_scratch_needed()];
+    let components = h
+        .components(world.mesh(), &mut scratch)
+        .map_err(|e| CliError::failure(format!("cannot count components: {e}")))?;
+    let sat = world.saturations();
+    let rep = ReplayReport {
+        mesh: MeshCounts {
+            nodes: world.mesh().node_count(),
+            tets: world.mesh().tet_count(),
+            boundary_faces: world.mesh().stats().boundary_faces,
+        },
+        ticks,
+        initial_volume,
+        removed_volume: h.removed_volume(),
+        hierarchy_nodes: h.node_count(),
+        visible_faces: h.visible_face_count(),
+        components,
+        force: ForceSummary { max_n, last: last.to_array(), contact_ticks },
+        force_digest: format!("{:016x}", digest.value()),
+        timing_us: TickTiming {
+            tick_mean: t.mean,
+            tick_p99: t.p99,
+            tick_p999: t.p999,
+            tick_max: t.max,
+        },
+        saturations: SaturationCounts {
+            total: sat.total(),
+            hash: sat.hash,
+            candidates: sat.candidates,
+            arena: sat.arena,
+            pending: sat.pending,
+        },
+        scenario: sc,
+    };
+    if let Some(path) = &args.surface {
+        write_surface_obj(&world, path)?;
+    }
+    print_summary(&rep);
+    if let Some(path) = &args.json {
+        crate::cli::write_json(path, &rep)?;
+    }
+    Ok(())
+}
+
+fn print_summary(r: &ReplayReport) {
+    println!(
+        "replayed {} ticks on {} ({} nodes, {} tets)",
+        r.ticks, r.scenario.mesh, r.mesh.nodes, r.mesh.tets
+    );
+    println!(
+        "removed volume {:.6} of {:.6} ({:.2}%), {} hierarchy nodes, {} visible faces, {} component(s)",
+        r.removed_volume,
+        r.initial_volume,
+        100.0 * r.removed_volume / r.initial_volume.max(f64::MIN_POSITIVE),
+        r.hierarchy_nodes,
+        r.visible_faces,
+        r.components
+    );
+    println!(
+        "force max {:.3} N, final [{:.3}, {:.3}, {:.3}] N, digest {}",
+        r.force.max_n, r.force.last[0], r.force.last[1], r.force.last[2], r.force_digest
+    );
+    println!(
+        "tick us: mean {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1};  saturations {}",
+        r.timing_us.tick_mean,
+        r.timing_us.tick_p99,
+        r.timing_us.tick_p999,
+        r.timing_us.tick_max,
+        r.saturations.total
+    );
+}
+
+/// Writes the visible faces as an OBJ (one vertex triple per face: the drilled surface is a
+/// set of triangles of different levels that need not share corners).
+pub fn write_surface_obj(
+    world: &tetradrill_core::servo::World<'_>,
+    path: &std::path::Path,
+) -> Result<(), CliError> {
+    use std::fmt::Write as _;
+    let mut out = String::from("# tetradrill drilled surface: visible faces\n");
+    let mut n = 0usize;
+    world.hierarchy().for_each_visible(world.mesh(), |t| {
+        for c in t.corners {
+            let _ = writeln!(out, "v {} {} {}", c.x, c.y, c.z);
+        }
+        let _ = writeln!(out, "f {} {} {}", n + 1, n + 2, n + 3);
+        n += 3;
+    });
+    std::fs::write(path, out)
+        .map_err(|e| CliError::failure(format!("{}: cannot write: {e}", path.display())))
+}

@@ -1,0 +1,127 @@
+//! The host's side of the core's [`World`]: storage allocated once for a scenario, and the
+//! per-tick step that replays, real-time runs and `timing` share.
+
+use tetradrill_core::drill::{DrillParams, Pending};
+use tetradrill_core::force::{ForceParams, ToolState};
+use tetradrill_core::hash::HashEntry;
+use tetradrill_core::hierarchy::{HNode, HierarchyStorage, VEntry};
+use tetradrill_core::servo::{servo_force, SimReport, World, WorldSizes, WorldStorage};
+use tetradrill_core::{TetId, Vec3};
+
+use crate::error::CliError;
+use crate::meshio;
+use crate::owned::OwnedMesh;
+use crate::scenario::{Scenario, ToolKind};
+use crate::traces::{Pose, PERIOD_S};
+
+/// Storage for one [`World`], allocated once before the run.
+#[derive(Debug)]
+pub struct EngineStorage {
+    mesh: OwnedMesh,
+    hash_starts: Vec<u32>,
+    hash_entries: Vec<HashEntry>,
+    roots: Vec<HNode>,
+    arena: Vec<HNode>,
+    vlist: Vec<VEntry>,
+    pending: Vec<Pending>,
+    candidates: Vec<TetId>,
+}
+
+impl EngineStorage {
+    /// Allocates everything the scenario's world needs for `mesh`.
+    pub fn allocate(mesh: OwnedMesh, sc: &Scenario) -> Self {
+        let s = WorldSizes::new(mesh.tets().len(), sc.hierarchy_capacity);
+        Self {
+            mesh,
+            hash_starts: vec![0; s.hash_starts],
+            hash_entries: vec![HashEntry::default(); s.hash_entries],
+            roots: vec![HNode::default(); s.roots],
+            arena: vec![HNode::default(); s.arena],
+            vlist: vec![VEntry::default(); s.vlist],
+            pending: vec![Pending::default(); s.pending],
+            candidates: vec![TetId::NONE; s.candidates],
+        }
+    }
+
+    /// The world over this storage (hashes the mesh once).
+    pub fn world(&mut self) -> Result<World<'_>, CliError> {
+        World::new(
+            self.mesh.view(),
+            WorldStorage {
+                hash_starts: &mut self.hash_starts,
+                hash_entries: &mut self.hash_entries,
+                hierarchy: HierarchyStorage {
+                    roots: &mut self.roots,
+                    arena: &mut self.arena,
+                    vlist: &mut self.vlist,
+                },
+                pending: &mut self.pending,
+                candidates: &mut self.candidates,
+            },
+        )
+        .map_err(|e| CliError::failure(format!("cannot set up the simulation: {e}")))
+    }
+}
+
+/// The scenario's mesh, loaded and built.
+pub fn load_mesh(sc: &Scenario) -> Result<meshio::LoadedMesh, CliError> {
+    let loaded = meshio::load(std::path::Path::new(&sc.mesh), sc.scale)?;
+    for w in &loaded.warnings {
+        eprintln!("tetradrill: warning: {w}");
+    }
+    Ok(loaded)
+}
+
+/// The per-tick parameters derived from a scenario.
+#[derive(Debug, Clone, Copy)]
+pub struct TickParams {
+    /// Burr radius, mesh units.
+    pub radius: f32,
+    /// How far beyond the burr the simulation looks for the surface (the servo's
+    /// extrapolation range).
+    pub reach: f32,
+    /// Drill step parameters.
+    pub drill: DrillParams,
+    /// Force parameters.
+    pub force: ForceParams,
+}
+
+impl TickParams {
+    /// From a scenario with a spherical tool.
+    pub fn of(sc: &Scenario) -> Result<Self, CliError> {
+        let radius = match sc.tool_kind().map_err(CliError::input)? {
+            ToolKind::Sphere(r) => r as f32,
+            ToolKind::Mesh(p) => {
+                return Err(CliError::input(format!(
+                    "tool mesh:{}: the drilling pipeline takes a spherical burr (sphere:R); \
+                     tet-mesh tools are for contact-only runs",
+                    p.display()
+                )))
+            }
+        };
+        Ok(Self {
+            radius,
+            reach: 0.5 * radius,
+            drill: DrillParams {
+                max_depth: sc.max_depth,
+                min_area: sc.min_area as f32,
+                budget: sc.budget_per_tick,
+            },
+            force: ForceParams {
+                stiffness: sc.stiffness as f32,
+                damping: sc.damping as f32,
+                max_force: sc.max_force as f32,
+                dt: PERIOD_S as f32,
+            },
+        })
+    }
+}
+
+/// One whole tick in one thread: the simulation step at `pose`, then the servo force at the
+/// same pose. Replays, `timing` and the firmware run exactly this.
+pub fn tick(world: &mut World<'_>, tool: &mut ToolState, p: &TickParams, pose: &Pose) -> (Vec3, SimReport) {
+    let drill_on = pose.buttons & tetradrill_core::script::DRILL_ON != 0;
+    let rep = world.simulate(pose.position, p.radius, p.reach, drill_on, &p.drill);
+    let f = servo_force(world.contact(), pose.position, p.radius, tool, &p.force);
+    (f, rep)
+}
