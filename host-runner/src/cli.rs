@@ -16,12 +16,18 @@ pub struct Cli {
 /// Every command.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// The main job with nothing attached: a built-in block drilled by the simulated device.
+    Demo(crate::commands::demo::DemoArgs),
+    /// The real-time pipeline with a device (sim, falcon, omni, touch).
+    Run(crate::commands::run::RunArgs),
     /// Summarise a mesh file: counts, boundary, orientation fixes, validity, quality.
     Info(crate::commands::info::InfoArgs),
     /// Deterministic offline run of a trace, tick by tick, with a summary JSON.
     Replay(crate::commands::replay::ReplayArgs),
     /// Measure the servo thread's wake-up latency (cyclictest style) and tick compute times.
     Timing(crate::commands::timing::TimingArgs),
+    /// List the haptic devices found.
+    Devices(crate::commands::devices::DevicesArgs),
 }
 
 /// Parses the arguments, runs the command, prints errors as one line; returns the exit status.
@@ -46,6 +52,9 @@ pub fn main() -> i32 {
 /// Runs one parsed command.
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
+        Command::Demo(args) => crate::commands::demo::run(&args),
+        Command::Run(args) => crate::commands::run::run(&args),
+        Command::Devices(args) => crate::commands::devices::run(&args),
         Command::Info(args) => crate::commands::info::run(&args),
         Command::Replay(args) => crate::commands::replay::run(&args),
         Command::Timing(args) => crate::commands::timing::run(&args),

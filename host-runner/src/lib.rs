@@ -25,5 +25,6 @@ pub mod platform;
 pub mod rt;
 pub mod scenario;
 pub mod stats;
+pub mod tasks;
 pub mod traces;
 pub mod workload;

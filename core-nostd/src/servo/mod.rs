@@ -253,14 +253,37 @@ impl<'a> World<'a> {
         drill_on: bool,
         params: &DrillParams,
     ) -> SimReport {
+        let sphere = [Sphere { center: centre, radius }];
+        let spheres: &[Sphere] = if drill_on { &sphere } else { &[] };
+        self.simulate_spheres(centre, radius, reach, spheres, params)
+    }
+
+    /// [`World::simulate`] eroding with several burr positions at once (the path swept since
+    /// the last step, when the simulation runs slower than the servo); the contact is computed
+    /// at `centre`.
+    ///
+    /// # Bounded work
+    /// As [`World::simulate`], with the query box covering every sphere.
+    pub fn simulate_spheres(
+        &mut self,
+        centre: Vec3,
+        radius: f32,
+        reach: f32,
+        spheres: &[Sphere],
+        params: &DrillParams,
+    ) -> SimReport {
         let mut rep = SimReport::default();
         if !(centre.is_finite() && radius.is_finite() && radius > 0.0) {
             self.contact = ContactState::default();
             return rep;
         }
         let reach = if reach.is_finite() && reach > 0.0 { reach } else { 0.0 };
-        let zone = Aabb::point(centre).grown(radius + reach);
-        let tight = Aabb::point(centre).grown(radius);
+        let spheres = &spheres[..spheres.iter().take_while(|s| s.center.is_finite()).count()];
+        let mut tight = Aabb::of::<0>([]);
+        for s in spheres {
+            tight = tight.union(Aabb::point(s.center).grown(s.radius));
+        }
+        let zone = tight.union(Aabb::point(centre).grown(radius + reach));
         let (cands, mesh) = (&mut *self.candidates, &self.mesh);
         let mut n = 0usize;
         let mut full = false;
@@ -301,9 +324,8 @@ impl<'a> World<'a> {
             rep.candidates_saturated = true;
         }
         rep.candidates = k as u32;
-        if drill_on {
-            let sphere = [Sphere { center: centre, radius }];
-            rep.drill = self.drill.step(&mut self.hier, &self.mesh, &self.candidates[..m], &sphere, params);
+        if !spheres.is_empty() {
+            rep.drill = self.drill.step(&mut self.hier, &self.mesh, &self.candidates[..m], spheres, params);
         }
         self.contact = self.contact_with_surface(centre, radius, radius + reach);
         rep.triangles = self.contact.triangles;

@@ -1,5 +1,9 @@
 //! One file per command.
 
+pub mod demo;
+pub mod devices;
 pub mod info;
+pub mod pipeline;
 pub mod replay;
+pub mod run;
 pub mod timing;

@@ -1,0 +1,25 @@
+//! `tetradrill devices`: the haptic devices found on this machine.
+
+use crate::error::CliError;
+
+/// Arguments of `devices`.
+#[derive(Debug, clap::Args)]
+pub struct DevicesArgs {}
+
+/// Runs `devices`.
+pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
+    let found = tetradrill_device::discover();
+    println!("sim      always available (the simulated device)");
+    if found.is_empty() {
+        println!(
+            "(no hardware found: looked for a Falcon on USB 0403:cb48, a Touch on USB \
+             0301:2988 or 2988:0302, an Omni among /dev/fw* nodes of vendor 0x000b99)"
+        );
+    }
+    for d in &found {
+        let kind = format!("{:?}", d.kind).to_lowercase();
+        let how = if d.openable { "" } else { "  (found, but this build cannot open it)" };
+        println!("{kind:<8} {}{how}", d.location);
+    }
+    Ok(())
+}

@@ -1,0 +1,291 @@
+//! The real-time pipeline shared by `run` and `demo`: the tasks of [`crate::tasks`] on their
+//! threads, a live status line, and the summary at the end.
+
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+use serde::Serialize;
+use tetradrill_core::servo::ContactState;
+use tetradrill_core::Vec3;
+use tetradrill_device::{DeviceError, DeviceKind, HapticDevice};
+
+use crate::engine::{self, EngineStorage, TickParams};
+use crate::error::CliError;
+use crate::rt::RtConfig;
+use crate::scenario::Scenario;
+use crate::stats::{histogram_us, summarise_ns, Summary};
+use crate::tasks::{self, Shared, SimStatus, Workspace};
+
+/// Opens the device on the servo thread (a device handle need not be `Send`).
+pub type DeviceFactory =
+    Box<dyn FnOnce() -> Result<Box<dyn HapticDevice>, DeviceError> + Send>;
+
+/// Everything a pipeline run needs besides the scenario.
+pub struct PipelineSetup {
+    /// Which device (for messages).
+    pub kind: DeviceKind,
+    /// Opens the device.
+    pub open: DeviceFactory,
+    /// Servo ticks to run.
+    pub ticks: u64,
+    /// Device-to-mesh map.
+    pub workspace: Workspace,
+    /// Real-time settings of the servo thread.
+    pub rt: RtConfig,
+    /// Print the live status line.
+    pub status_line: bool,
+}
+
+impl std::fmt::Debug for PipelineSetup {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PipelineSetup")
+            .field("kind", &self.kind)
+            .field("ticks", &self.ticks)
+            .field("workspace", &self.workspace)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The summary of a real-time run (`--json`).
+#[derive(Debug, Serialize)]
+pub struct RunReport {
+    /// Device used.
+    pub device: String,
+    /// Servo ticks done.
+    pub ticks: u64,
+    /// Deadlines missed by more than a period.
+    pub overruns: u64,
+    /// Wall time of the run, seconds.
+    pub duration_s: f64,
+    /// Volume of the mesh before drilling.
+    pub initial_volume: f64,
+    /// Removed volume (sum of erased leaves).
+    pub removed_volume: f64,
+    /// Hierarchy nodes at the end.
+    pub hierarchy_nodes: usize,
+    /// Visible faces at the end.
+    pub visible_faces: u32,
+    /// Simulation steps done.
+    pub simulation_steps: u64,
+    /// Simulation rate, steps per second.
+    pub simulation_hz: f64,
+    /// Longest simulation step, microseconds.
+    pub simulation_step_max_us: f64,
+    /// Tool samples the simulation could not take (ring full).
+    pub dropped_samples: u64,
+    /// Saturations, all kinds.
+    pub saturations: u32,
+    /// Largest force, newtons.
+    pub force_max_n: f32,
+    /// Digest of the servo's force series (hex).
+    pub force_digest: String,
+    /// Servo tick compute times, microseconds.
+    pub timing_us: RunTiming,
+    /// Servo wake-up latency, microseconds.
+    pub wake_us: Summary,
+    /// Wake-up latency histogram, 1 us buckets, the last is the overflow bucket.
+    pub wake_histogram_us: Vec<u64>,
+    /// Real-time settings achieved.
+    pub realtime: crate::commands::timing::RealtimeReport,
+}
+
+/// Servo tick timing.
+#[derive(Debug, Serialize)]
+pub struct RunTiming {
+    /// Mean.
+    pub tick_mean: f64,
+    /// 99th percentile.
+    pub tick_p99: f64,
+    /// 99.9th percentile.
+    pub tick_p999: f64,
+    /// Largest.
+    pub tick_max: f64,
+}
+
+/// Runs the pipeline on `sc` with `setup`; returns the report (the device error that ended the
+/// run, if any, as an error: exit 2 when the device was not found, 1 when it failed mid-run).
+pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Result<RunReport, CliError> {
+    let params = TickParams::of(sc)?;
+    let loaded = engine::load_mesh(sc)?;
+    let mut store = EngineStorage::allocate(loaded.mesh, sc);
+    let mut world = store.world()?;
+    let initial_volume = world.mesh().volume();
+    let (mut contact_in, mut contact_out) =
+        triple_buffer::TripleBuffer::new(&ContactState::default()).split();
+    let (mut status_in, mut status_out) =
+        triple_buffer::TripleBuffer::new(&SimStatus::default()).split();
+    let shared = Shared::new();
+    let PipelineSetup { kind, open, ticks, workspace, rt, status_line } = setup;
+    let started = std::time::Instant::now();
+
+    let (servo, sim_status) = std::thread::scope(|scope| -> Result<_, CliError> {
+        let sh = &shared;
+        let sim = std::thread::Builder::new()
+            .name("simulation".into())
+            .spawn_scoped(scope, move || {
+                tasks::simulation_task(
+                    &mut world,
+                    params,
+                    &sh.ring,
+                    &mut contact_in,
+                    &mut status_in,
+                    &sh.stop,
+                )
+            })
+            .map_err(|e| CliError::failure(format!("cannot start the simulation task: {e}")))?;
+        let servo = std::thread::Builder::new()
+            .name("servo".into())
+            .spawn_scoped(scope, move || -> Result<tasks::ServoResult, DeviceError> {
+                let mut device = match open() {
+                    Ok(d) => d,
+                    Err(e) => {
+                        sh.stop.store(true, Ordering::Relaxed);
+                        return Err(e);
+                    }
+                };
+                Ok(tasks::servo_task(
+                    device.as_mut(),
+                    rt,
+                    ticks,
+                    workspace,
+                    params,
+                    &mut contact_out,
+                    &sh.ring,
+                    &sh.counters,
+                    &sh.stop,
+                ))
+            })
+            .map_err(|e| CliError::failure(format!("cannot start the servo task: {e}")))?;
+        // The status task: the main thread.
+        let mut last_ticks = 0u64;
+        let mut last_steps = 0u64;
+        let mut printed = false;
+        while !servo.is_finished() {
+            std::thread::sleep(Duration::from_millis(250));
+            if !status_line {
+                continue;
+            }
+            let st = *status_out.read();
+            let c = &sh.counters;
+            let t = c.ticks.load(Ordering::Relaxed);
+            let f = f32::from_bits(c.force_bits.load(Ordering::Relaxed) as u32);
+            // On a terminal the line updates in place; in a log, one line a second.
+            let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+            if !tty && (sh.counters.ticks.load(Ordering::Relaxed) / 250) % 4 != 0 {
+                continue;
+            }
+            eprint!(
+                "{} t {:5.1} s | servo {:4} Hz, overruns {} | sim {:4} Hz | removed {:.5} ({:.2}%) | force {:5.2} N   {}",
+                if tty { "\r" } else { "" },
+                t as f64 / 1000.0,
+                (t - last_ticks) * 4,
+                c.overruns.load(Ordering::Relaxed),
+                (st.steps - last_steps) * 4,
+                st.removed_volume,
+                100.0 * st.removed_volume / initial_volume.max(f64::MIN_POSITIVE),
+                f,
+                if tty { "" } else { "\n" }
+            );
+            printed = tty;
+            last_ticks = t;
+            last_steps = st.steps;
+        }
+        if printed {
+            eprintln!();
+        }
+        let servo = servo
+            .join()
+            .map_err(|_| CliError::failure("the servo task panicked"))?;
+        sh.stop.store(true, Ordering::Relaxed);
+        sim.join().map_err(|_| CliError::failure("the simulation task panicked"))?;
+        Ok((servo, *status_out.read()))
+    })?;
+    let elapsed = started.elapsed().as_secs_f64();
+    let servo = servo.map_err(|e| device_error(kind, e))?;
+    for w in &servo.rt.warnings {
+        eprintln!("tetradrill: warning: {w}");
+    }
+    let t = summarise_ns(&servo.tick_ns);
+    let rep = RunReport {
+        device: format!("{kind:?}").to_lowercase(),
+        ticks: servo.ticks,
+        overruns: servo.overruns,
+        duration_s: elapsed,
+        initial_volume,
+        removed_volume: sim_status.removed_volume,
+        hierarchy_nodes: sim_status.hierarchy_nodes,
+        visible_faces: sim_status.visible_faces,
+        simulation_steps: sim_status.steps,
+        simulation_hz: sim_status.steps as f64 / elapsed.max(1e-9),
+        simulation_step_max_us: sim_status.max_step_ns as f64 / 1000.0,
+        dropped_samples: shared.counters.dropped_samples.load(Ordering::Relaxed),
+        saturations: sim_status.saturations,
+        force_max_n: servo.max_force,
+        force_digest: format!("{:016x}", servo.digest.value()),
+        timing_us: RunTiming { tick_mean: t.mean, tick_p99: t.p99, tick_p999: t.p999, tick_max: t.max },
+        wake_us: summarise_ns(&servo.wake_ns),
+        wake_histogram_us: histogram_us(&servo.wake_ns, 200),
+        realtime: crate::commands::timing::RealtimeReport {
+            fifo: servo.rt.fifo,
+            pinned: servo.rt.pinned,
+            memory_locked: servo.rt.memory_locked,
+        },
+    };
+    print_summary(&rep);
+    if let Some(path) = json {
+        crate::cli::write_json(path, &rep)?;
+    }
+    if let Some(e) = servo.error {
+        return Err(CliError::failure(format!(
+            "the {} device failed after {} ticks: {e}; force was set to zero",
+            rep.device, rep.ticks
+        )));
+    }
+    Ok(rep)
+}
+
+/// A device that could not be opened is bad input (exit 2, one line naming the device).
+fn device_error(kind: DeviceKind, e: DeviceError) -> CliError {
+    let name = format!("{kind:?}").to_lowercase();
+    match e {
+        DeviceError::NotFound(_)
+        | DeviceError::LibraryNotFound
+        | DeviceError::Unsupported(_)
+        | DeviceError::FirmwareFile => CliError::input(format!("--device {name}: {e}")),
+        _ => CliError::failure(format!("--device {name}: {e}")),
+    }
+}
+
+fn print_summary(r: &RunReport) {
+    println!(
+        "{} ticks in {:.2} s on the {} device, {} overruns",
+        r.ticks, r.duration_s, r.device, r.overruns
+    );
+    println!(
+        "servo tick us: mean {:.1}  p99 {:.1}  max {:.1};  wake-up us: p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
+        r.timing_us.tick_mean,
+        r.timing_us.tick_p99,
+        r.timing_us.tick_max,
+        r.wake_us.p50,
+        r.wake_us.p99,
+        r.wake_us.p999,
+        r.wake_us.max
+    );
+    println!(
+        "simulation: {} steps ({:.0} Hz), longest {:.0} us;  removed volume {:.6} of {:.6} ({:.2}%)",
+        r.simulation_steps,
+        r.simulation_hz,
+        r.simulation_step_max_us,
+        r.removed_volume,
+        r.initial_volume,
+        100.0 * r.removed_volume / r.initial_volume.max(f64::MIN_POSITIVE)
+    );
+    println!(
+        "hierarchy nodes {}, visible faces {}, saturations {}, dropped samples {}, force max {:.2} N",
+        r.hierarchy_nodes, r.visible_faces, r.saturations, r.dropped_samples, r.force_max_n
+    );
+}
+
+/// The identity device-to-mesh map (the simulated device moves in mesh units).
+pub const MESH_UNITS: Workspace = Workspace { scale: 1.0, offset: Vec3::ZERO };

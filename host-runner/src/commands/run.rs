@@ -1,0 +1,141 @@
+//! `tetradrill run`: the real-time pipeline with a device (the simulated one by default).
+
+use std::path::PathBuf;
+
+use tetradrill_core::script::DEMO;
+use tetradrill_device::{
+    discovery::OpenOptions, DeviceKind, DeviceSpec, PathPoint, Scripted, SimDevice, QUAT_IDENTITY,
+};
+
+use super::pipeline::{self, DeviceFactory, PipelineSetup, MESH_UNITS};
+use crate::error::CliError;
+use crate::rt::RtConfig;
+use crate::scenario::{Scenario, ScenarioFlags};
+use crate::tasks::Workspace;
+use crate::traces::PoseSource;
+
+/// Arguments of `run`.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// The haptic device: sim, falcon, omni or touch.
+    #[arg(long, default_value = "sim", value_parser = parse_device)]
+    pub device: DeviceKind,
+    /// Scenario settings (mesh, trace for the simulated device, tool, stiffness, drilling).
+    #[command(flatten)]
+    pub scenario: ScenarioFlags,
+    /// Seconds to run (default: the trace's length with the simulated device, else 10 s).
+    #[arg(long, value_parser = crate::cli::positive_seconds)]
+    pub duration: Option<f64>,
+    /// No viewer.
+    #[arg(long)]
+    pub headless: bool,
+    /// Write the summary as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// The Falcon's firmware file (yours; never bundled). Without it the firmware is assumed
+    /// to be running already.
+    #[arg(long)]
+    pub falcon_firmware: Option<PathBuf>,
+    /// Do not ask for SCHED_FIFO, core pinning or memory locking.
+    #[arg(long)]
+    pub no_rt: bool,
+    /// No live status line.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+fn parse_device(s: &str) -> Result<DeviceKind, String> {
+    DeviceKind::parse(s).ok_or_else(|| format!("`{s}` is not a device (sim, falcon, omni, touch)"))
+}
+
+/// Runs `run`.
+pub fn run(args: &RunArgs) -> Result<(), CliError> {
+    let sc = Scenario::from_flags(&args.scenario)?;
+    let options = OpenOptions { falcon_firmware: args.falcon_firmware.clone(), ..OpenOptions::default() };
+    let (open, default_ticks, workspace) = device_factory(args.device, &sc, options)?;
+    let ticks = args.duration.map_or(default_ticks, |d| (d * 1000.0).round() as u64).max(1);
+    let rt = if args.no_rt {
+        RtConfig { fifo_priority: None, core: None, lock_memory: false }
+    } else {
+        RtConfig::default()
+    };
+    viewer_note(args.headless);
+    let setup = PipelineSetup {
+        kind: args.device,
+        open,
+        ticks,
+        workspace,
+        rt,
+        status_line: !args.quiet,
+    };
+    pipeline::run(&sc, setup, args.json.as_ref()).map(|_| ())
+}
+
+/// Says once that the viewer is not part of this build when a display exists.
+pub fn viewer_note(headless: bool) {
+    let display = std::env::var_os("DISPLAY").is_some() || std::env::var_os("WAYLAND_DISPLAY").is_some();
+    if display && !headless {
+        eprintln!("tetradrill: note: this build has no viewer yet; running headless");
+    }
+}
+
+/// The device factory, the default number of ticks, and the device-to-mesh map for `kind`.
+pub fn device_factory(
+    kind: DeviceKind,
+    sc: &Scenario,
+    options: OpenOptions,
+) -> Result<(DeviceFactory, u64, Workspace), CliError> {
+    match kind {
+        DeviceKind::Sim => {
+            let source = PoseSource::load(&sc.trace, 1.0)?;
+            let ticks = source.ticks();
+            let sim = options.sim;
+            let open: DeviceFactory = match source {
+                PoseSource::Script(script) => Box::new(move || {
+                    let path = Scripted(move |t: f64| {
+                        let (p, buttons) = script.at((t * 1000.0).round().max(0.0) as u32);
+                        PathPoint {
+                            position: [p.x as f64, p.y as f64, p.z as f64],
+                            rotation: QUAT_IDENTITY,
+                            buttons,
+                        }
+                    });
+                    Ok(Box::new(SimDevice::new(path, sim)) as Box<_>)
+                }),
+                PoseSource::Trace { trace, .. } => {
+                    Box::new(move || Ok(Box::new(SimDevice::new(trace, sim)) as Box<_>))
+                }
+            };
+            Ok((open, ticks, MESH_UNITS))
+        }
+        real => {
+            let spec = match real {
+                DeviceKind::Falcon => DeviceSpec::FALCON,
+                DeviceKind::Omni => DeviceSpec::OMNI,
+                _ => DeviceSpec::TOUCH,
+            };
+            // Map the device's workspace onto the mesh: its radius onto the mesh's half
+            // diagonal, its origin onto the mesh's centre.
+            let loaded = crate::meshio::load(std::path::Path::new(&sc.mesh), sc.scale)?;
+            let p = loaded.mesh.positions();
+            let (mut lo, mut hi) = (p[0], p[0]);
+            for q in p {
+                lo = lo.min(*q);
+                hi = hi.max(*q);
+            }
+            let half = 0.5 * (hi - lo).length();
+            let workspace = Workspace {
+                scale: (half as f64 / spec.workspace_radius_m.max(1e-6)) as f32,
+                offset: 0.5 * (lo + hi),
+            };
+            let open: DeviceFactory =
+                Box::new(move || tetradrill_device::discovery::open(real, &options));
+            Ok((open, 10_000, workspace))
+        }
+    }
+}
+
+/// The demo script's length in ticks.
+pub fn demo_ticks() -> u64 {
+    DEMO.ticks() as u64
+}
