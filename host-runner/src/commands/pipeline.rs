@@ -161,6 +161,7 @@ pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Resul
         let mut last_ticks = 0u64;
         let mut last_steps = 0u64;
         let mut printed = false;
+        let mut last_at = std::time::Instant::now();
         while !servo.is_finished() {
             std::thread::sleep(Duration::from_millis(250));
             if !status_line {
@@ -179,9 +180,9 @@ pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Resul
                 "{} t {:5.1} s | servo {:4} Hz, overruns {} | sim {:4} Hz | removed {:.5} ({:.2}%) | force {:5.2} N   {}",
                 if tty { "\r" } else { "" },
                 t as f64 / 1000.0,
-                (t - last_ticks) * 4,
+                ((t - last_ticks) as f64 / last_at.elapsed().as_secs_f64()).round(),
                 c.overruns.load(Ordering::Relaxed),
-                (st.steps - last_steps) * 4,
+                ((st.steps - last_steps) as f64 / last_at.elapsed().as_secs_f64()).round(),
                 st.removed_volume,
                 100.0 * st.removed_volume / initial_volume.max(f64::MIN_POSITIVE),
                 f,
@@ -190,6 +191,7 @@ pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Resul
             printed = tty;
             last_ticks = t;
             last_steps = st.steps;
+            last_at = std::time::Instant::now();
         }
         if printed {
             eprintln!();
