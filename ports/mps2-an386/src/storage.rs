@@ -1,0 +1,124 @@
+//! Every slice the core borrows, in statics, sized by the core's own `WorldSizes` so the
+//! firmware's world has exactly the capacities of the host's (`EngineStorage::allocate`).
+//!
+//! Each array is a `static_cell::ConstStaticCell`: const-initialised, handed out once as
+//! `&'static mut` with no `unsafe` here. Arrays whose const initial value is all zero bytes
+//! land in `.bss` (no flash); the ones whose initial value the host sets to something else
+//! are refilled with the core's `Default` at start-up, so both sides start from the same
+//! bits. Only the hierarchy nodes (`HNode`, no all-zero constant in the core) sit in `.data`.
+
+use static_cell::ConstStaticCell;
+
+use tetradrill_core::builtin::block_counts;
+use tetradrill_core::drill::{Pending, Sphere};
+use tetradrill_core::hash::HashEntry;
+use tetradrill_core::hierarchy::{HNode, HierarchyStorage, VEntry};
+use tetradrill_core::mesh::{MeshStorage, Node, Reverse, Tet};
+use tetradrill_core::servo::{WorldSizes, WorldStorage};
+use tetradrill_core::{NodeId, TetId, Vec3};
+
+use crate::{ARENA, BLOCK_N};
+
+/// Nodes of the block.
+pub const NODES: usize = block_counts(BLOCK_N).0;
+/// Tets of the block.
+pub const TETS: usize = block_counts(BLOCK_N).1;
+/// The world's storage sizes, as the host computes them.
+pub const SIZES: WorldSizes = WorldSizes::new(TETS, ARENA);
+
+// All-zero placeholders (so the statics go to .bss); see `Storage::take`.
+const ZERO_NODE: Node = Node {
+    tet: TetId(0),
+    local: 0,
+    boundary: false,
+};
+const ZERO_TET: Tet = Tet {
+    nodes: [NodeId(0); 4],
+    neighbours: [TetId(0); 4],
+    reverse: [Reverse(0); 4],
+};
+const ZERO_ENTRY: HashEntry = HashEntry {
+    cell: [0; 3],
+    item: 0,
+};
+const ZERO_VENTRY: VEntry = VEntry {
+    tet: TetId(0),
+    index: 0,
+    node: 0,
+};
+const ZERO_PENDING: Pending = Pending {
+    tet: TetId(0),
+    index: 0,
+    node: 0,
+    sphere: Sphere {
+        center: Vec3::ZERO,
+        radius: 0.0,
+    },
+};
+
+static POSITIONS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
+static NORMALS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
+static NODE_RECS: ConstStaticCell<[Node; NODES]> = ConstStaticCell::new([ZERO_NODE; NODES]);
+static TET_RECS: ConstStaticCell<[Tet; TETS]> = ConstStaticCell::new([ZERO_TET; TETS]);
+static HASH_STARTS: ConstStaticCell<[u32; SIZES.hash_starts]> =
+    ConstStaticCell::new([0; SIZES.hash_starts]);
+static HASH_ENTRIES: ConstStaticCell<[HashEntry; SIZES.hash_entries]> =
+    ConstStaticCell::new([ZERO_ENTRY; SIZES.hash_entries]);
+static ROOTS: ConstStaticCell<[HNode; SIZES.roots]> =
+    ConstStaticCell::new([HNode::LEAF; SIZES.roots]);
+static ARENA_NODES: ConstStaticCell<[HNode; SIZES.arena]> =
+    ConstStaticCell::new([HNode::LEAF; SIZES.arena]);
+static VLIST: ConstStaticCell<[VEntry; SIZES.vlist]> =
+    ConstStaticCell::new([ZERO_VENTRY; SIZES.vlist]);
+static PENDING: ConstStaticCell<[Pending; SIZES.pending]> =
+    ConstStaticCell::new([ZERO_PENDING; SIZES.pending]);
+static CANDIDATES: ConstStaticCell<[TetId; SIZES.candidates]> =
+    ConstStaticCell::new([TetId(0); SIZES.candidates]);
+
+/// The storage, taken once.
+pub struct Storage {
+    /// Node positions of the block.
+    pub positions: &'static mut [Vec3],
+    /// The mesh's records.
+    pub mesh: MeshStorage<'static>,
+    /// The world's hash, hierarchy, drill and candidate storage.
+    pub world: WorldStorage<'static>,
+}
+
+impl Storage {
+    /// Takes every static, filled with the values the host's storage starts with. Panics
+    /// (exit status 1 through the panic handler) if called twice.
+    pub fn take() -> Self {
+        let nodes = NODE_RECS.take();
+        nodes.fill(Node::default());
+        let tets = TET_RECS.take();
+        tets.fill(Tet::default());
+        let vlist = VLIST.take();
+        vlist.fill(VEntry::default());
+        let candidates = CANDIDATES.take();
+        candidates.fill(TetId::NONE);
+        let entries = HASH_ENTRIES.take();
+        entries.fill(HashEntry::default());
+        let pending = PENDING.take();
+        pending.fill(Pending::default());
+        Self {
+            positions: POSITIONS.take(),
+            mesh: MeshStorage {
+                nodes,
+                normals: NORMALS.take(),
+                tets,
+            },
+            world: WorldStorage {
+                hash_starts: HASH_STARTS.take(),
+                hash_entries: entries,
+                hierarchy: HierarchyStorage {
+                    roots: ROOTS.take(),
+                    arena: ARENA_NODES.take(),
+                    vlist,
+                },
+                pending,
+                candidates,
+            },
+        }
+    }
+}
