@@ -1,2 +1,277 @@
-//! Benchmarks: drill (being written).
-fn main() {}
+//! Drilling ticks on the cow (18k tets) and the teddy (80k tets): a burr plunges into the
+//! surface, runs along it, then is held still until the pending work is done. Prints the
+//! worst tick, p99, median, nodes per second of erosion, the hold time to convergence and the
+//! memory per node; then criterion times one steady drilling tick.
+//!
+//! Run: `cargo bench -p tetradrill-benches --bench drill` (set `TETRADRILL_MESHES` when the
+//! shared meshes are not at `../shared/meshes`).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use criterion::{criterion_group, Criterion};
+use glam::Vec3;
+use tetradrill::owned::OwnedMesh;
+use tetradrill_core::drill::{candidates_brute_force, Drill, DrillParams, Pending, Sphere};
+use tetradrill_core::hierarchy::{HNode, Hierarchy, HierarchyStorage, VEntry, NODE_BYTES};
+use tetradrill_core::mesh::{BuildOptions, Mesh};
+use tetradrill_core::TetId;
+
+const ARENA: usize = 8 << 20;
+const QUEUE: usize = 1 << 16;
+
+fn meshes_dir() -> PathBuf {
+    std::env::var("TETRADRILL_MESHES")
+        .map(PathBuf::from)
+        .unwrap_or_else(|_| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes"))
+}
+
+/// A minimal TetGen reader (the bench's own).
+fn tetgen(rel: &str) -> OwnedMesh {
+    let node = meshes_dir().join(rel);
+    let ele = node.with_extension("ele");
+    let rows = |p: &std::path::Path| -> Vec<Vec<f64>> {
+        std::fs::read_to_string(p)
+            .unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+            .lines()
+            .map(|l| l.split('#').next().unwrap_or(""))
+            .filter(|l| !l.trim().is_empty())
+            .map(|l| {
+                l.split_whitespace()
+                    .map(|w| w.parse::<f64>().unwrap())
+                    .collect()
+            })
+            .collect()
+    };
+    let (nr, er) = (rows(&node), rows(&ele));
+    let n = nr[0][0] as usize;
+    let base = nr[1][0] as u32;
+    let p: Vec<Vec3> = nr[1..=n]
+        .iter()
+        .map(|r| Vec3::new(r[1] as f32, r[2] as f32, r[3] as f32))
+        .collect();
+    let m = er[0][0] as usize;
+    let t: Vec<[u32; 4]> = er[1..=m]
+        .iter()
+        .map(|r| core::array::from_fn(|k| r[k + 1] as u32 - base))
+        .collect();
+    OwnedMesh::build(p, &t, BuildOptions::default()).unwrap()
+}
+
+/// The burr's path: plunge along the inward normal of a boundary node, run along the surface,
+/// hold. Radius from the mesh size.
+fn trace(mesh: &Mesh<'_>) -> (Vec<Vec3>, f32, usize) {
+    let p = mesh.positions();
+    let lo = p.iter().fold(Vec3::splat(f32::MAX), |a, &b| a.min(b));
+    let hi = p.iter().fold(Vec3::splat(f32::MIN), |a, &b| a.max(b));
+    let r = 0.02 * (hi - lo).length();
+    // The boundary node with the largest z (a top surface).
+    let (i, _) = p
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| mesh.nodes()[*i].boundary)
+        .max_by(|a, b| a.1.z.total_cmp(&b.1.z))
+        .unwrap();
+    let n = mesh.normal(tetradrill_core::NodeId::from_idx(i));
+    let start = p[i] + n * r;
+    let bottom = p[i] - n * r;
+    let side = n.any_orthonormal_vector();
+    let mut out = Vec::new();
+    for k in 0..=200 {
+        out.push(start.lerp(bottom, k as f32 / 200.0));
+    }
+    for k in 1..=800 {
+        out.push(bottom + side * (3.0 * r * k as f32 / 800.0));
+    }
+    let moving = out.len();
+    (out, r, moving)
+}
+
+struct Run {
+    ticks_us: Vec<f64>,
+    created: u64,
+    erased: u64,
+    hold_ticks: usize,
+    nodes: usize,
+    removed: f64,
+    visible: u32,
+    saturations: u32,
+}
+
+fn run(mesh: &Mesh<'_>, params: &DrillParams) -> Run {
+    let t = mesh.tet_count();
+    let mut roots = vec![HNode::LEAF; t];
+    let mut arena = vec![HNode::LEAF; ARENA];
+    let mut vlist = vec![VEntry::default(); HierarchyStorage::vlist_needed(t, ARENA)];
+    let mut h = Hierarchy::new(
+        mesh,
+        HierarchyStorage {
+            roots: &mut roots,
+            arena: &mut arena,
+            vlist: &mut vlist,
+        },
+    )
+    .unwrap();
+    let mut queue = vec![Pending::default(); QUEUE];
+    let mut drill = Drill::new(&mut queue);
+    let (path, r, moving) = trace(mesh);
+    let mut cand = vec![TetId::NONE; t];
+    let mut out = Run {
+        ticks_us: Vec::new(),
+        created: 0,
+        erased: 0,
+        hold_ticks: 0,
+        nodes: 0,
+        removed: 0.0,
+        visible: 0,
+        saturations: 0,
+    };
+    let mut k = 0;
+    loop {
+        let c = path[k.min(path.len() - 1)];
+        let s = [Sphere {
+            center: c,
+            radius: r,
+        }];
+        let n = candidates_brute_force(mesh, &s, &mut cand);
+        let t0 = Instant::now();
+        let rep = drill.step(&mut h, mesh, &cand[..n], &s, params);
+        out.ticks_us.push(t0.elapsed().as_secs_f64() * 1e6);
+        out.created += rep.created as u64;
+        out.erased += rep.erased as u64;
+        k += 1;
+        if k >= moving && rep.pending == 0 {
+            break;
+        }
+        if k > moving + 20_000 {
+            break;
+        }
+    }
+    out.hold_ticks = k - moving;
+    out.nodes = h.node_count();
+    out.removed = h.removed_volume();
+    out.visible = h.visible_face_count();
+    out.saturations = h.saturations() + drill.saturations();
+    out
+}
+
+fn report(name: &str, mesh: &Mesh<'_>, params: &DrillParams) {
+    // The machine is shared: a tick preempted by another process shows up as a multiple of the
+    // 4 ms scheduler quantum. The runs are deterministic, so the same trace is run three times
+    // and each tick keeps its fastest time; the raw worst tick is printed as well.
+    let r = run(mesh, params);
+    let raw_worst = r.ticks_us.iter().copied().fold(0.0, f64::max);
+    let mut best = r.ticks_us.clone();
+    for _ in 0..2 {
+        let again = run(mesh, params);
+        assert_eq!(again.ticks_us.len(), best.len(), "runs must be identical");
+        for (b, t) in best.iter_mut().zip(again.ticks_us) {
+            *b = b.min(t);
+        }
+    }
+    let mut s = best.clone();
+    s.sort_by(f64::total_cmp);
+    let pct = |q: f64| s[((s.len() - 1) as f64 * q) as usize];
+    let total_s: f64 = best.iter().sum::<f64>() * 1e-6;
+    println!(
+        "drill {name}: tets {} budget {} max_depth {} min_area {:.2e}: ticks {} worst {:.1} us (raw {:.0} us) p99 {:.1} us \
+         median {:.1} us; created {} erased {} ({:.0} nodes/s of erosion); hold to converge \
+         {} ticks; nodes {} visible faces {} removed volume {:.6} saturations {}",
+        mesh.tet_count(),
+        params.budget,
+        params.max_depth,
+        params.min_area,
+        s.len(),
+        s[s.len() - 1],
+        raw_worst,
+        pct(0.99),
+        pct(0.5),
+        r.created,
+        r.erased,
+        (r.created + r.erased) as f64 / total_s.max(1e-12),
+        r.hold_ticks,
+        r.nodes,
+        r.visible,
+        r.removed,
+        r.saturations,
+    );
+}
+
+fn bench(c: &mut Criterion) {
+    println!(
+        "memory: {NODE_BYTES} bytes per hierarchy node, {} bytes per v_list entry \
+         ({:.1} bytes per arena node with the v_list sized for every leaf), {} bytes per \
+         pending item",
+        std::mem::size_of::<VEntry>(),
+        NODE_BYTES as f64 + 12.0 * 7.0 / 8.0,
+        std::mem::size_of::<Pending>()
+    );
+    for (name, rel) in [
+        ("cow", "models/spot_tetgen_q1.414.node"),
+        ("teddy", "models/teddy_cgalbear_tetgen_q1.414.node"),
+    ] {
+        let mut om = tetgen(rel);
+        let mesh = om.view();
+        // Leaves down to about r/8..r/16: refine while the smallest face is at least that of
+        // an equilateral triangle of edge r/8.
+        let (_, r_tool, _) = trace(&mesh);
+        let min_area = 0.433 * (r_tool / 8.0) * (r_tool / 8.0);
+        for budget in [2_000u32, 4_000, u32::MAX] {
+            report(
+                name,
+                &mesh,
+                &DrillParams {
+                    max_depth: 6,
+                    min_area,
+                    budget,
+                },
+            );
+        }
+        // Criterion: one tick of a sphere moving through fresh material each iteration.
+        let t = mesh.tet_count();
+        let mut roots = vec![HNode::LEAF; t];
+        let mut arena = vec![HNode::LEAF; ARENA];
+        let mut vlist = vec![VEntry::default(); HierarchyStorage::vlist_needed(t, ARENA)];
+        let mut h = Hierarchy::new(
+            &mesh,
+            HierarchyStorage {
+                roots: &mut roots,
+                arena: &mut arena,
+                vlist: &mut vlist,
+            },
+        )
+        .unwrap();
+        let mut queue = vec![Pending::default(); QUEUE];
+        let mut drill = Drill::new(&mut queue);
+        let (path, _, _) = trace(&mesh);
+        let params = DrillParams {
+            max_depth: 6,
+            min_area,
+            budget: 4_000,
+        };
+        let mut cand = vec![TetId::NONE; t];
+        let mut k = 0usize;
+        c.bench_function(&format!("drill_tick_{name}_budget4000"), |b| {
+            b.iter(|| {
+                let s = [Sphere {
+                    center: path[k % path.len()],
+                    radius: r_tool,
+                }];
+                k += 1;
+                let n = candidates_brute_force(&mesh, &s, &mut cand);
+                drill.step(&mut h, &mesh, &cand[..n], &s, &params)
+            })
+        });
+    }
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(10);
+    targets = bench
+}
+
+fn main() {
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
