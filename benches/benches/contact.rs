@@ -1,2 +1,394 @@
-//! Benchmarks: contact (being written).
-fn main() {}
+//! Contact benchmarks (issue 3): per-tick contact + depth + force of the pen against the cow
+//! and the teddy, traced vs hashed depth, the sphere burr, and our spatial hash against
+//! parry3d's BVH with its tetrahedron point queries on the same queries.
+//!
+//! Run: `cargo bench -p tetradrill-benches --bench contact` (set `TETRADRILL_MESHES` if the
+//! shared meshes are not at `../shared/meshes`). Besides criterion's means, a worst-case pass
+//! prints, per scenario, the mean, the 99th percentile and the maximum of single ticks.
+
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use glam::{Quat, Vec3};
+use parry3d::bounding_volume::Aabb as PAabb;
+use parry3d::math::Vector as PVec;
+use parry3d::partitioning::{Bvh, BvhBuildStrategy};
+use parry3d::query::PointQuery;
+use parry3d::shape::Tetrahedron;
+use tetradrill::owned::OwnedMesh;
+use tetradrill_core::collide::{hash_tets, points_in_tets, Body, Collision};
+use tetradrill_core::depth::{
+    graph_sizes, hash_boundary_faces, DepthScratch, NodeGraph, NodeSlot, Penetration,
+};
+use tetradrill_core::force::{
+    mesh_sphere_contact, pen_contact, DepthMethod, PenBuffers, PenOptions, PenScene, PenState,
+};
+use tetradrill_core::hash::{average_edge_length, prime_at_most, HashEntry, SpatialHash};
+use tetradrill_core::ids::{NodeId, TetId};
+use tetradrill_core::mesh::Mesh;
+
+fn meshes_dir() -> PathBuf {
+    match std::env::var("TETRADRILL_MESHES") {
+        Ok(d) => PathBuf::from(d),
+        Err(_) => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes"),
+    }
+}
+
+fn load(rel: &str, scale: f64) -> OwnedMesh {
+    tetradrill::meshio::load(&meshes_dir().join(rel), scale)
+        .expect("mesh loads")
+        .mesh
+}
+
+struct HashStore {
+    starts: Vec<u32>,
+    entries: Vec<HashEntry>,
+}
+
+impl HashStore {
+    fn new(items: usize, per: usize) -> Self {
+        // Buckets about twice the entries, so a cell rarely shares its bucket.
+        let b = prime_at_most((2 * items * per).clamp(3, u32::MAX as usize) as u32) as usize;
+        Self {
+            starts: vec![0; b + 1],
+            entries: vec![HashEntry::default(); items * per],
+        }
+    }
+    fn hash(&mut self, cell: f32) -> SpatialHash<'_> {
+        SpatialHash::new(&mut self.starts, &mut self.entries, cell).unwrap()
+    }
+}
+
+/// A tiny deterministic generator (the benches have no `rand`).
+struct Lcg(u64);
+
+impl Lcg {
+    fn next(&mut self) -> f32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((self.0 >> 40) as f32) / ((1u64 << 24) as f32)
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.next()
+    }
+}
+
+/// Touching poses: the tip pushed up to `depth` into the surface along the normal, the pen's
+/// axis (+z at rest) within about 40 degrees of the outward normal, any twist.
+fn touch_poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3, Quat)> {
+    let mut r = Lcg(seed);
+    let boundary: Vec<usize> = (0..obj.node_count())
+        .filter(|&i| obj.nodes()[i].boundary)
+        .collect();
+    (0..n)
+        .map(|_| {
+            let b = boundary[(r.next() * boundary.len() as f32) as usize % boundary.len()];
+            let nrm = obj.normals()[b];
+            let tip = obj.positions()[b] - nrm * r.range(0.0, depth);
+            let tilt = Vec3::new(r.range(-0.6, 0.6), r.range(-0.6, 0.6), r.range(-0.6, 0.6));
+            let axis = (nrm + tilt).normalize();
+            let q =
+                Quat::from_rotation_arc(Vec3::Z, axis) * Quat::from_rotation_z(r.range(0.0, 6.28));
+            (tip, q)
+        })
+        .collect()
+}
+
+/// Adversarial poses: the tip near the surface, pushed in by up to `depth`, any orientation,
+/// so the pen often runs deep through the object.
+fn poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3, Quat)> {
+    let mut r = Lcg(seed);
+    let boundary: Vec<usize> = (0..obj.node_count())
+        .filter(|&i| obj.nodes()[i].boundary)
+        .collect();
+    (0..n)
+        .map(|_| {
+            let b = boundary[(r.next() * boundary.len() as f32) as usize % boundary.len()];
+            let tip = obj.positions()[b] - obj.normals()[b] * r.range(0.0, depth);
+            let q = Quat::from_xyzw(
+                r.range(-1.0, 1.0),
+                r.range(-1.0, 1.0),
+                r.range(-1.0, 1.0),
+                r.range(-1.0, 1.0),
+            )
+            .normalize();
+            (tip, q)
+        })
+        .collect()
+}
+
+/// Single-call timings: (mean, p99, max) in microseconds.
+fn worst<F: FnMut(usize)>(n: usize, reps: usize, mut f: F) -> (f64, f64, f64) {
+    let mut t = Vec::with_capacity(n * reps);
+    for _ in 0..reps {
+        for i in 0..n {
+            let s = Instant::now();
+            f(i);
+            t.push(s.elapsed().as_secs_f64() * 1e6);
+        }
+    }
+    t.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    let mean = t.iter().sum::<f64>() / t.len() as f64;
+    let p99 = t[(t.len() * 99 / 100).min(t.len() - 1)];
+    (mean, p99, *t.last().unwrap())
+}
+
+fn report(name: &str, (mean, p99, max): (f64, f64, f64)) {
+    println!("WORST {name:<34} mean {mean:8.2} us  p99 {p99:8.2} us  max {max:8.2} us");
+}
+
+fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
+    let mut pen_m = load("models/pen_tool_gmsh.mesh", 10.0);
+    let mut obj_m = load(obj_rel, 1.0);
+    let pen = pen_m.view();
+    let obj = obj_m.view();
+    let ob = Body::fixed(&obj);
+    let (po, pa) = graph_sizes(&pen);
+    let (mut pgo, mut pga) = (vec![0u32; po], vec![NodeId::NONE; pa]);
+    let pg = NodeGraph::build(&pen, &mut pgo, &mut pga).unwrap();
+    let (oo, oa) = graph_sizes(&obj);
+    let (mut ogo, mut oga) = (vec![0u32; oo], vec![NodeId::NONE; oa]);
+    let og = NodeGraph::build(&obj, &mut ogo, &mut oga).unwrap();
+    let cell = average_edge_length(&obj);
+    let mut ts = HashStore::new(obj.tet_count(), 16);
+    let mut th = ts.hash(cell);
+    assert!(!hash_tets(&mut th, &ob).saturated);
+    let mut ns = HashStore::new(obj.node_count(), 1);
+    let mut nh = ns.hash(cell);
+    nh.rebuild_points(obj.positions());
+    let mut fs = HashStore::new(obj.tet_count(), 8);
+    let mut fh = fs.hash(cell);
+    assert!(!hash_boundary_faces(&mut fh, &ob).saturated);
+    let mut ps = HashStore::new(pen.tet_count(), 16);
+    let mut ph = ps.hash(average_edge_length(&pen));
+    assert!(!hash_boundary_faces(&mut ph, &Body::fixed(&pen)).saturated);
+    let scene = PenScene {
+        pen: &pen,
+        pen_graph: pg,
+        pen_faces: Some(&ph),
+        object: ob,
+        object_graph: og,
+        object_tets: &th,
+        object_nodes: &nh,
+        object_faces: Some(&fh),
+    };
+    let (np, no) = (pen.node_count(), obj.node_count());
+    let mut world = vec![Vec3::ZERO; np];
+    let (mut h1, mut h2) = (
+        vec![Collision::default(); np],
+        vec![Collision::default(); no],
+    );
+    let (mut p1, mut p2) = (
+        vec![Penetration::default(); np],
+        vec![Penetration::default(); no],
+    );
+    let (mut s1, mut q1) = (vec![NodeSlot::default(); np], vec![NodeId::NONE; np]);
+    let (mut s2, mut q2) = (vec![NodeSlot::default(); no], vec![NodeId::NONE; no]);
+    let mut bufs = PenBuffers {
+        world: &mut world,
+        pen_hits: &mut h1,
+        object_hits: &mut h2,
+        pen_pens: &mut p1,
+        object_pens: &mut p2,
+        pen_depth: DepthScratch::new(&mut s1, &mut q1),
+        object_depth: DepthScratch::new(&mut s2, &mut q2),
+    };
+    let ps_list = touch_poses(&obj, 200, 0.05, 7);
+    let deep_list = poses(&obj, 200, 0.25, 7);
+    let traced = PenOptions::default();
+    let hashed = PenOptions {
+        method: DepthMethod::Hashed,
+        ..PenOptions::default()
+    };
+    let mut contacts = 0usize;
+    for &(p, q) in &ps_list {
+        let r = pen_contact(&scene, &mut bufs, p, q, &traced, &mut PenState::default());
+        assert!(!r.saturated());
+        contacts += r.pen_collisions.count + r.object_collisions.count;
+    }
+    println!(
+        "{label}: {} tets, {} poses, {:.1} colliding nodes per pose on average",
+        obj.tet_count(),
+        ps_list.len(),
+        contacts as f64 / ps_list.len() as f64
+    );
+
+    let mut deep_contacts = 0usize;
+    for &(p, q) in &deep_list {
+        let r = pen_contact(&scene, &mut bufs, p, q, &traced, &mut PenState::default());
+        deep_contacts += r.pen_collisions.count + r.object_collisions.count;
+    }
+    println!(
+        "{label}: adversarial poses: {:.1} colliding nodes per pose on average",
+        deep_contacts as f64 / deep_list.len() as f64
+    );
+    for (name, opts) in [("traced", &traced), ("hashed", &hashed)] {
+        let mut st = PenState::default();
+        report(
+            &format!("pen_tick_impaled/{label}/{name}"),
+            worst(deep_list.len(), 5, |i| {
+                let (p, q) = deep_list[i];
+                black_box(pen_contact(&scene, &mut bufs, p, q, opts, &mut st));
+            }),
+        );
+    }
+
+    // Worst case over the poses (single ticks).
+    for (name, opts) in [("traced", &traced), ("hashed", &hashed)] {
+        let mut st = PenState::default();
+        report(
+            &format!("pen_tick/{label}/{name}"),
+            worst(ps_list.len(), 20, |i| {
+                let (p, q) = ps_list[i];
+                black_box(pen_contact(&scene, &mut bufs, p, q, opts, &mut st));
+            }),
+        );
+    }
+
+    let mut g = c.benchmark_group(format!("pen_tick/{label}"));
+    for (name, opts) in [("traced", &traced), ("hashed", &hashed)] {
+        let mut i = 0usize;
+        let mut st = PenState::default();
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let (p, q) = ps_list[i % ps_list.len()];
+                i += 1;
+                black_box(pen_contact(&scene, &mut bufs, p, q, opts, &mut st))
+            })
+        });
+    }
+    g.finish();
+
+    // Collision queries only: our hash vs parry3d's BVH over the same tet boxes, the same
+    // points (the pen's nodes at each pose), smallest containing tet per point.
+    let tet_pts: Vec<[Vec3; 4]> = (0..obj.tet_count())
+        .map(|t| obj.tet_positions(TetId::from_idx(t)))
+        .collect();
+    let pv = |v: Vec3| PVec::new(v.x, v.y, v.z);
+    let leaves: Vec<PAabb> = tet_pts
+        .iter()
+        .map(|p| {
+            let lo = p.iter().fold(p[0], |a, &b| a.min(b));
+            let hi = p.iter().fold(p[0], |a, &b| a.max(b));
+            PAabb::new(pv(lo), pv(hi))
+        })
+        .collect();
+    let tets: Vec<Tetrahedron> = tet_pts
+        .iter()
+        .map(|p| Tetrahedron::new(pv(p[0]), pv(p[1]), pv(p[2]), pv(p[3])))
+        .collect();
+    let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
+    let pose_pts: Vec<Vec<Vec3>> = ps_list
+        .iter()
+        .take(50)
+        .map(|&(p, q)| pen.positions().iter().map(|&x| q * x + p).collect())
+        .collect();
+    let mut out = vec![Collision::default(); np];
+    let parry_query = |pts: &[Vec3]| -> usize {
+        let mut n = 0;
+        for &x in pts {
+            let px = pv(x);
+            let mut best = u32::MAX;
+            for leaf in bvh.intersect_aabb(&PAabb::new(px, px)) {
+                if leaf < best && tets[leaf as usize].contains_local_point(px) {
+                    best = leaf;
+                }
+            }
+            if best != u32::MAX {
+                n += 1;
+            }
+        }
+        n
+    };
+    // Same answers (up to points exactly on faces, where the two predicates may differ).
+    let (mut ours, mut theirs) = (0usize, 0usize);
+    for pts in &pose_pts {
+        ours += points_in_tets(&th, &ob, pts, false, &mut out).count;
+        theirs += parry_query(pts);
+    }
+    println!("{label}: query contacts ours {ours}, parry3d {theirs}");
+    report(
+        &format!("query/{label}/spatial_hash"),
+        worst(pose_pts.len(), 20, |i| {
+            black_box(points_in_tets(&th, &ob, &pose_pts[i], false, &mut out));
+        }),
+    );
+    report(
+        &format!("query/{label}/parry3d_bvh"),
+        worst(pose_pts.len(), 20, |i| {
+            black_box(parry_query(&pose_pts[i]));
+        }),
+    );
+    let mut g = c.benchmark_group(format!("query/{label}"));
+    let mut i = 0usize;
+    g.bench_function("spatial_hash", |b| {
+        b.iter(|| {
+            i += 1;
+            black_box(points_in_tets(
+                &th,
+                &ob,
+                &pose_pts[i % pose_pts.len()],
+                false,
+                &mut out,
+            ))
+        })
+    });
+    let mut i = 0usize;
+    g.bench_function("parry3d_bvh", |b| {
+        b.iter(|| {
+            i += 1;
+            black_box(parry_query(&pose_pts[i % pose_pts.len()]))
+        })
+    });
+    g.finish();
+
+    // Sphere burr: radius 0.03 (about half an edge), centre within the radius of the surface.
+    let mut r = Lcg(11);
+    let boundary: Vec<usize> = (0..obj.node_count())
+        .filter(|&i| obj.nodes()[i].boundary)
+        .collect();
+    let spheres: Vec<Vec3> = (0..200)
+        .map(|_| {
+            let b = boundary[(r.next() * boundary.len() as f32) as usize % boundary.len()];
+            obj.positions()[b] + obj.normals()[b] * r.range(-0.03, 0.03)
+        })
+        .collect();
+    report(
+        &format!("sphere_burr/{label}"),
+        worst(spheres.len(), 20, |i| {
+            black_box(mesh_sphere_contact(&fh, &ob, spheres[i], 0.03, 512));
+        }),
+    );
+    let mut i = 0usize;
+    c.bench_function(&format!("sphere_burr/{label}"), |b| {
+        b.iter(|| {
+            i += 1;
+            black_box(mesh_sphere_contact(
+                &fh,
+                &ob,
+                spheres[i % spheres.len()],
+                0.03,
+                512,
+            ))
+        })
+    });
+}
+
+fn contact(c: &mut Criterion) {
+    pen_benches(c, "cow", "models/spot_tetgen_q1.414.node");
+    pen_benches(c, "teddy", "models/teddy_cgalbear_tetgen_q1.414.node");
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default()
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(1))
+        .sample_size(20);
+    targets = contact
+}
+criterion_main!(benches);
