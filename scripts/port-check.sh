@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# The Cortex-M4 port check (docs/PORTING.md): builds the mps2-an386 firmware, runs it under
+# QEMU, runs the host's `replay --scenario builtin:firmware` over the same ticks, and compares
+# the force digests. Prints both digests and the firmware's instruction counts per tick.
+#
+#   scripts/port-check.sh [--ticks N]
+#
+# Exit status: 0 when the digests match; 1 when they differ, the firmware fails (panic, fault,
+# non-zero semihosting exit, timeout) or a build fails. Honours CARGO_TARGET_DIR for the host
+# build (default: the workspace's target/); the firmware builds in ports/mps2-an386/target.
+# PORT_CHECK_TIMEOUT (seconds, default 900) bounds the QEMU run.
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+port="$root/ports/mps2-an386"
+ticks=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --ticks) ticks="${2:?--ticks needs a number}"; shift 2 ;;
+    --ticks=*) ticks="${1#--ticks=}"; shift ;;
+    -h|--help) sed -n '2,12p' "$0"; exit 0 ;;
+    *) echo "port-check: unknown argument '$1' (expected --ticks N)" >&2; exit 2 ;;
+  esac
+done
+if [ -n "$ticks" ] && ! [[ "$ticks" =~ ^[0-9]+$ ]]; then
+  echo "port-check: --ticks takes a whole number, not '$ticks'" >&2; exit 2
+fi
+command -v qemu-system-arm >/dev/null || { echo "port-check: qemu-system-arm not found (apt-get install qemu-system-arm)" >&2; exit 1; }
+
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+
+echo "== firmware: build (thumbv7em-none-eabihf, release)"
+# Its own target dir, whatever CARGO_TARGET_DIR says (that one is for the host build).
+(cd "$port" && TETRADRILL_TICKS="$ticks" cargo build --release --quiet --target-dir "$port/target")
+elf="$port/target/thumbv7em-none-eabihf/release/tetradrill-mps2-an386"
+if command -v llvm-size >/dev/null; then llvm-size "$elf"; fi
+
+echo "== firmware: run under QEMU (mps2-an386, cortex-m4, -icount shift=10)"
+set +e
+timeout "${PORT_CHECK_TIMEOUT:-900}" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 \
+  -icount shift=10 -semihosting-config enable=on,target=native -nographic -kernel "$elf" \
+  </dev/null >"$work/fw.txt" 2>&1
+fw_rc=$?
+set -e
+cat "$work/fw.txt"
+if [ "$fw_rc" != 0 ]; then
+  echo "port-check: FAIL: the firmware exited with status $fw_rc (124 = timeout)" >&2
+  exit 1
+fi
+fw_digest="$(sed -n 's/^force_digest=\([0-9a-f]\{16\}\)\r\{0,1\}$/\1/p' "$work/fw.txt")"
+fw_ticks="$(sed -n 's/^ticks=\([0-9]*\)\r\{0,1\}$/\1/p' "$work/fw.txt")"
+[ -n "$fw_digest" ] && [ -n "$fw_ticks" ] || { echo "port-check: FAIL: no force_digest/ticks line from the firmware" >&2; exit 1; }
+
+echo "== host: build and replay builtin:firmware over $fw_ticks ticks"
+(cd "$root" && cargo build --release --quiet -p tetradrill)
+host_bin="${CARGO_TARGET_DIR:-$root/target}/release/tetradrill"
+"$host_bin" replay --scenario builtin:firmware --ticks "$fw_ticks" --quiet --json "$work/host.json"
+host_digest="$(grep -o '"force_digest": *"[0-9a-f]*"' "$work/host.json" | grep -o '[0-9a-f]\{16\}')"
+host_ticks="$(grep -o '"ticks": *[0-9]*' "$work/host.json" | head -n1 | grep -o '[0-9]*$')"
+
+echo "== result"
+echo "firmware: force_digest=$fw_digest ticks=$fw_ticks"
+echo "host:     force_digest=$host_digest ticks=$host_ticks"
+grep -E '^(instructions_per_tick_|simulate_instructions_|servo_force_instructions_)' "$work/fw.txt" | tr -d '\r'
+if [ "$fw_digest" != "$host_digest" ] || [ "$fw_ticks" != "$host_ticks" ]; then
+  echo "port-check: FAIL: the firmware and the host disagree" >&2
+  exit 1
+fi
+echo "port-check: OK: bit-identical forces on x86-64 and Cortex-M4F"
