@@ -2,10 +2,10 @@
 
 use glam::Vec3;
 
-use super::geometry::node_positions;
+use super::geometry::{node_positions, RootFrame};
 use super::node::HNode;
 use super::store::Hierarchy;
-use super::table::{Path, MAX_DEPTH};
+use super::table::{child_bary, Path, MAX_DEPTH, ROOT_BARY};
 use crate::ids::TetId;
 use crate::mesh::template::FACE_VERTS;
 use crate::mesh::Mesh;
@@ -143,7 +143,9 @@ impl Hierarchy<'_> {
         }
     }
 
-    /// DFS over the leaves of one tree whose bounding spheres meet `near`, with positions.
+    /// DFS over the leaves of one tree whose bounding spheres meet `near`, with positions. The
+    /// integer barycentric coordinates are carried down the stack, so each node costs O(1)
+    /// (not O(depth)) and gets the same bits as [`node_positions`].
     pub(crate) fn walk_tree<F: FnMut(Leaf, [Vec3; 4])>(
         &self,
         mesh: &Mesh<'_>,
@@ -151,21 +153,22 @@ impl Hierarchy<'_> {
         near: Option<(Vec3, f32)>,
         mut f: F,
     ) {
+        let Some(frame) = RootFrame::of(mesh, tet) else {
+            return;
+        };
         if tet.idx() >= self.tet_count() {
             return;
         }
-        let mut stack = [(0u32, 0u32); STACK];
-        stack[0] = (tet.0, 0);
+        let mut stack = [(0u32, 0u32, 0u8, ROOT_BARY); STACK];
+        stack[0] = (tet.0, 0, 0, ROOT_BARY);
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
-            let Some(&(r, index)) = stack.get(top) else {
+            let Some(&(r, index, depth, bary)) = stack.get(top) else {
                 break;
             };
-            let (Some(node), Some(path)) = (self.node(r), Path::of_index(index)) else {
-                continue;
-            };
-            let p = node_positions(mesh, tet, &path);
+            let Some(node) = self.node(r) else { continue };
+            let p = frame.positions(&bary, depth);
             if let Some((centre, radius)) = near {
                 let mid = (p[0] + p[1] + p[2] + p[3]) * 0.25;
                 let mut reach = 0.0f32;
@@ -189,9 +192,17 @@ impl Hierarchy<'_> {
                 );
                 continue;
             }
+            if depth as usize >= MAX_DEPTH {
+                continue;
+            }
             for c in 0..8u8 {
                 if let (Some(ch), Some(slot)) = (self.child(r, c), stack.get_mut(top)) {
-                    *slot = (ch, index * 8 + 1 + c as u32);
+                    *slot = (
+                        ch,
+                        index * 8 + 1 + c as u32,
+                        depth + 1,
+                        child_bary(&bary, c),
+                    );
                     top += 1;
                 }
             }

@@ -175,6 +175,26 @@ pub const fn then(a: Perm, b: Perm) -> Perm {
     ]
 }
 
+/// The root's integer barycentric coordinates (its own corners).
+pub const ROOT_BARY: [[u32; 4]; 4] = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]];
+
+/// Integer barycentric coordinates of child `c` from its parent's (one level down: each row
+/// of the result sums to twice the parent's row sum).
+///
+/// # Bounded work
+/// Constant: 16 additions.
+#[inline]
+pub fn child_bary(parent: &[[u32; 4]; 4], c: u8) -> [[u32; 4]; 4] {
+    let cv = CHILD_VERTS[(c & 7) as usize];
+    let mut n = [[0u32; 4]; 4];
+    for (row, &(a, e)) in n.iter_mut().zip(cv.iter()) {
+        for j in 0..4 {
+            row[j] = parent[(a & 3) as usize][j] + parent[(e & 3) as usize][j];
+        }
+    }
+    n
+}
+
 /// A node's place in its tree: the coarse tet's index digits from the root down.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Path {
@@ -256,16 +276,9 @@ impl Path {
     /// # Bounded work
     /// O(depth).
     pub fn bary(&self) -> [[u32; 4]; 4] {
-        let mut b = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]];
+        let mut b = ROOT_BARY;
         for &c in self.digits.iter().take(self.depth as usize) {
-            let cv = CHILD_VERTS[(c & 7) as usize];
-            let mut n = [[0u32; 4]; 4];
-            for (k, &(a, e)) in cv.iter().enumerate() {
-                for j in 0..4 {
-                    n[k][j] = b[(a & 3) as usize][j] + b[(e & 3) as usize][j];
-                }
-            }
-            b = n;
+            b = child_bary(&b, c);
         }
         b
     }

@@ -155,7 +155,22 @@ pub struct World<'a> {
     max_cells: u32,
     contact: ContactState,
     sat: Saturations,
+    last_queued: Option<Vec3>,
+    since_queued: u32,
 }
+
+/// A burr position goes to the drill once it is this fraction of the radius away from the last
+/// one queued: spheres a quarter radius apart cover the swept capsule to within
+/// `r - sqrt(r^2 - (r/8)^2)`, under 1% of the radius, at a fraction of the work of one sphere
+/// per tick.
+pub const DRILL_SPACING: f32 = 0.25;
+
+/// A burr that holds still (moves less than [`DRILL_SPACING`]) is queued again after this
+/// many steps at a new position, so the last position of a slow motion is eroded too.
+pub const DRILL_HOLD_STEPS: u32 = 16;
+
+/// Most burr positions one simulation step takes.
+pub const MAX_STEP_SPHERES: usize = 16;
 
 impl<'a> World<'a> {
     /// Hashes the mesh's tets once (cell size = average edge length) and creates an untouched
@@ -169,17 +184,28 @@ impl<'a> World<'a> {
     /// every tet is not an error: the first tets that fit are kept and `saturations().hash`
     /// says so.
     pub fn new(mesh: Mesh<'a>, storage: WorldStorage<'a>) -> Result<Self, WorldError> {
-        let WorldStorage { hash_starts, hash_entries, hierarchy, pending, candidates } = storage;
-        let buckets = prime_at_most((hash_starts.len().saturating_sub(1)).min(u32::MAX as usize) as u32);
+        let WorldStorage {
+            hash_starts,
+            hash_entries,
+            hierarchy,
+            pending,
+            candidates,
+        } = storage;
+        let buckets =
+            prime_at_most((hash_starts.len().saturating_sub(1)).min(u32::MAX as usize) as u32);
         let starts_len = (buckets as usize + 1).min(hash_starts.len());
         let (hash_starts, _) = hash_starts.split_at_mut(starts_len);
         let cell = average_edge_length(&mesh);
-        let mut hash = SpatialHash::new(hash_starts, hash_entries, cell).map_err(WorldError::Hash)?;
+        let mut hash =
+            SpatialHash::new(hash_starts, hash_entries, cell).map_err(WorldError::Hash)?;
         let built = hash.rebuild(mesh.tet_count(), |t| {
             Some(Aabb::of(mesh.tet_positions(TetId::from_idx(t))))
         });
         let hier = Hierarchy::new(&mesh, hierarchy).map_err(WorldError::Hierarchy)?;
-        let sat = Saturations { hash: built.saturated as u32, ..Saturations::default() };
+        let sat = Saturations {
+            hash: built.saturated as u32,
+            ..Saturations::default()
+        };
         Ok(Self {
             mesh,
             hash,
@@ -190,6 +216,8 @@ impl<'a> World<'a> {
             max_cells: 4096,
             contact: ContactState::default(),
             sat,
+            last_queued: None,
+            since_queued: 0,
         })
     }
 
@@ -253,7 +281,10 @@ impl<'a> World<'a> {
         drill_on: bool,
         params: &DrillParams,
     ) -> SimReport {
-        let sphere = [Sphere { center: centre, radius }];
+        let sphere = [Sphere {
+            center: centre,
+            radius,
+        }];
         let spheres: &[Sphere] = if drill_on { &sphere } else { &[] };
         self.simulate_spheres(centre, radius, reach, spheres, params)
     }
@@ -277,8 +308,39 @@ impl<'a> World<'a> {
             self.contact = ContactState::default();
             return rep;
         }
-        let reach = if reach.is_finite() && reach > 0.0 { reach } else { 0.0 };
-        let spheres = &spheres[..spheres.iter().take_while(|s| s.center.is_finite()).count()];
+        let reach = if reach.is_finite() && reach > 0.0 {
+            reach
+        } else {
+            0.0
+        };
+        // Only positions far enough from the last one queued (or held long enough) become new
+        // drill work; the rest is covered by the spheres already queued.
+        let mut kept = [Sphere::default(); MAX_STEP_SPHERES];
+        let mut nk = 0usize;
+        self.since_queued = self.since_queued.saturating_add(1);
+        for s in spheres
+            .iter()
+            .filter(|s| s.center.is_finite() && s.radius > 0.0)
+        {
+            let far = match self.last_queued {
+                None => true,
+                Some(q) => {
+                    let d = q.distance(s.center);
+                    d >= DRILL_SPACING * s.radius
+                        || (d > 0.0 && self.since_queued >= DRILL_HOLD_STEPS)
+                }
+            };
+            if far {
+                if nk == MAX_STEP_SPHERES {
+                    nk -= 1; // keep the newest in the last slot
+                }
+                kept[nk] = *s;
+                nk += 1;
+                self.last_queued = Some(s.center);
+                self.since_queued = 0;
+            }
+        }
+        let spheres = &kept[..nk];
         let mut tight = Aabb::of::<0>([]);
         for s in spheres {
             tight = tight.union(Aabb::point(s.center).grown(s.radius));
@@ -324,8 +386,14 @@ impl<'a> World<'a> {
             rep.candidates_saturated = true;
         }
         rep.candidates = k as u32;
-        if !spheres.is_empty() {
-            rep.drill = self.drill.step(&mut self.hier, &self.mesh, &self.candidates[..m], spheres, params);
+        if !spheres.is_empty() || self.drill.pending() > 0 {
+            rep.drill = self.drill.step(
+                &mut self.hier,
+                &self.mesh,
+                &self.candidates[..m],
+                spheres,
+                params,
+            );
         }
         self.contact = self.contact_with_surface(centre, radius, radius + reach);
         rep.triangles = self.contact.triangles;
@@ -339,24 +407,29 @@ impl<'a> World<'a> {
         let mut best: Option<(f32, (u32, u32, u8), [Vec3; 3])> = None;
         let mut seen = 0u32;
         let cands = &self.candidates[..self.ncand];
-        self.hier.for_each_visible_in(&self.mesh, cands, Some((centre, reach)), |vt| {
-            seen = seen.wrapping_add(1);
-            let x = crate::force::closest_point_on_triangle(centre, vt.corners);
-            let d2 = (centre - x).length_squared();
-            if !(d2 <= reach * reach) {
-                return;
-            }
-            let key = (vt.tet.0, vt.index, vt.face);
-            let better = match &best {
-                None => true,
-                Some((bd, bk, _)) => d2 < *bd || (d2 == *bd && key < *bk),
-            };
-            if better {
-                best = Some((d2, key, vt.corners));
-            }
-        });
+        self.hier
+            .for_each_visible_in(&self.mesh, cands, Some((centre, reach)), |vt| {
+                seen = seen.wrapping_add(1);
+                let x = crate::force::closest_point_on_triangle(centre, vt.corners);
+                let d2 = (centre - x).length_squared();
+                if !(d2 <= reach * reach) {
+                    return;
+                }
+                let key = (vt.tet.0, vt.index, vt.face);
+                let better = match &best {
+                    None => true,
+                    Some((bd, bk, _)) => d2 < *bd || (d2 == *bd && key < *bk),
+                };
+                if better {
+                    best = Some((d2, key, vt.corners));
+                }
+            });
         match best {
-            None => ContactState { centre, triangles: seen, ..ContactState::default() },
+            None => ContactState {
+                centre,
+                triangles: seen,
+                ..ContactState::default()
+            },
             Some((_, _, tri)) => {
                 let c = sphere_contact(centre, radius, [tri]);
                 ContactState {
@@ -409,5 +482,8 @@ pub fn servo_force(
     if !touching {
         return Vec3::ZERO;
     }
-    clamp_force(contact.normal * (params.stiffness * depth) + damping, params.max_force)
+    clamp_force(
+        contact.normal * (params.stiffness * depth) + damping,
+        params.max_force,
+    )
 }
