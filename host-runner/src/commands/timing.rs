@@ -9,9 +9,10 @@ use std::sync::Arc;
 use serde::Serialize;
 
 use crate::error::CliError;
+use crate::platform;
 use crate::rt::{Periodic, RtConfig};
 use crate::stats::{histogram_us, summarise_ns, Summary};
-use crate::{platform, workload};
+use crate::workload::{with_work, Work};
 
 /// Arguments of `timing`.
 #[derive(Debug, clap::Args)]
@@ -31,9 +32,9 @@ pub struct TimingArgs {
     /// Do not ask for SCHED_FIFO, pinning or memory locking.
     #[arg(long)]
     pub no_rt: bool,
-    /// Only measure wake-ups: run no servo work in the ticks.
-    #[arg(long)]
-    pub idle: bool,
+    /// The work each tick runs after waking up.
+    #[arg(long, value_enum, default_value_t = Work::Servo)]
+    pub work: Work,
 }
 
 /// The JSON of `timing`.
@@ -69,38 +70,51 @@ pub struct RealtimeReport {
 /// Runs `timing`.
 pub fn run(args: &TimingArgs) -> Result<(), CliError> {
     let ticks = (args.duration * 1e6 / args.period_us as f64).ceil() as usize;
-    let work = if args.idle { None } else { Some(workload::Workload::demo()?) };
-    let name = work.as_ref().map_or("none (wake-ups only)".to_string(), |w| w.describe());
-    eprintln!("tetradrill: timing {ticks} ticks at {} us; tick work: {name}", args.period_us);
+    let name = args.work.describe().to_string();
+    eprintln!(
+        "tetradrill: timing {ticks} ticks at {} us; tick work: {name}",
+        args.period_us
+    );
     let cfg = if args.no_rt {
-        RtConfig { fifo_priority: None, core: None, lock_memory: false }
+        RtConfig {
+            fifo_priority: None,
+            core: None,
+            lock_memory: false,
+        }
     } else {
         RtConfig::default()
     };
     let (period_ns, spin_ns) = (args.period_us * 1000, args.spin_us * 1000);
     let progress = Arc::new(AtomicUsize::new(0));
     let seen = Arc::clone(&progress);
+    let work = args.work;
     let handle = std::thread::Builder::new()
         .name("servo".into())
         .spawn(move || {
-            let status = cfg.apply();
-            let mut work = work;
-            let m = measure(ticks, period_ns, spin_ns, work.as_mut(), &seen);
-            (status, m)
+            with_work(work, |step| {
+                let status = cfg.apply();
+                let m = measure(ticks, period_ns, spin_ns, step, &seen);
+                (status, m)
+            })
         })
         .map_err(|e| CliError::failure(format!("cannot start the servo thread: {e}")))?;
     let mut last = 0;
     while !handle.is_finished() {
         std::thread::sleep(std::time::Duration::from_millis(250));
         let done = progress.load(Ordering::Relaxed);
-        if done / 1000 != last / 1000 {
-            eprint!("\r  {:.0}/{:.0} s", done as f64 * args.period_us as f64 / 1e6, args.duration);
+        if done * args.period_us as usize / 1_000_000 != last * args.period_us as usize / 1_000_000
+        {
+            eprintln!(
+                "  {:.0}/{:.0} s",
+                done as f64 * args.period_us as f64 / 1e6,
+                args.duration
+            );
         }
         last = done;
     }
-    eprintln!();
-    let (status, (wake, tick, overruns)) =
-        handle.join().map_err(|_| CliError::failure("the servo thread panicked"))?;
+    let (status, (wake, tick, overruns)) = handle
+        .join()
+        .map_err(|_| CliError::failure("the servo thread panicked"))??;
     for w in &status.warnings {
         eprintln!("tetradrill: warning: {w}");
     }
@@ -120,11 +134,16 @@ fn print_summary(r: &TimingReport) {
         "wake-up latency us: min {:.1}  p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
         w.min, w.p50, w.p99, w.p999, w.max
     );
-    println!("tick compute us:    mean {:.1}  p99 {:.1}  max {:.1}", t.mean, t.p99, t.max);
+    println!(
+        "tick compute us:    mean {:.1}  p99 {:.1}  max {:.1}",
+        t.mean, t.p99, t.max
+    );
     println!(
         "real-time: SCHED_FIFO {}  pinned {}  memory locked {}",
         r.realtime.fifo,
-        r.realtime.pinned.map_or("no".to_string(), |c| format!("core {c}")),
+        r.realtime
+            .pinned
+            .map_or("no".to_string(), |c| format!("core {c}")),
         r.realtime.memory_locked
     );
 }
@@ -136,7 +155,7 @@ pub fn measure(
     ticks: usize,
     period_ns: u64,
     spin_ns: u64,
-    mut step: Option<&mut workload::Workload>,
+    step: &mut dyn FnMut(u64),
     progress: &AtomicUsize,
 ) -> (Vec<u64>, Vec<u64>, u64) {
     let mut wake = vec![0u64; ticks];
@@ -146,9 +165,7 @@ pub fn measure(
         let w = timer.wait();
         wake[i] = w.latency_ns;
         let t0 = platform::now_ns();
-        if let Some(s) = step.as_deref_mut() {
-            s.tick();
-        }
+        step(i as u64);
         tick[i] = platform::now_ns() - t0;
         progress.store(i + 1, Ordering::Relaxed);
     }
