@@ -12,6 +12,7 @@
 //! | [`rt`]      | servo thread set-up and the absolute-deadline period        |
 //! | [`stats`]   | percentiles and histograms of timing samples                |
 //! | [`workload`]| the per-tick work of the built-in scenario                  |
+//! | [`viewer`]  | the live 3D view and headless screenshots (feature `viewer`) |
 
 #![deny(unsafe_code)]
 
@@ -27,4 +28,5 @@ pub mod scenario;
 pub mod stats;
 pub mod tasks;
 pub mod traces;
+pub mod viewer;
 pub mod workload;

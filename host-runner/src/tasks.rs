@@ -6,6 +6,7 @@
 //! | servo      | SCHED_FIFO 80, last core | 1 ms, absolute      | device, `ContactState` (triple buffer) | force to device, `ToolSample` ring |
 //! | simulation | normal                   | as fast as it can   | `ToolSample` ring              | `ContactState`, `SimStatus` (triple buffers) |
 //! | status     | normal                   | 250 ms              | `SimStatus`, servo counters (atomics) | the status line          |
+//! | viewer     | normal, the main thread  | about 60 Hz         | `Snapshot` queue, servo counters | `Controls` (triple buffer) |
 //!
 //! Hand-offs are lock-free and allocation-free after start-up: the servo pushes every tick's
 //! tool sample into a bounded SPSC ring (crossbeam `ArrayQueue`; a full ring drops the sample
@@ -15,7 +16,7 @@
 //! servo, the servo keeps computing the force from the last contact plane at the tool's current
 //! position: the extrapolation of seed 001 section 3.3.
 
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::Arc;
 
 use crossbeam::queue::ArrayQueue;
@@ -45,7 +46,7 @@ pub struct TaskDecl {
 }
 
 /// Every task of a real-time run.
-pub const TASKS: [TaskDecl; 3] = [
+pub const TASKS: [TaskDecl; 4] = [
     TaskDecl {
         name: "servo",
         priority: "SCHED_FIFO 80, pinned to the last core, memory locked",
@@ -57,8 +58,8 @@ pub const TASKS: [TaskDecl; 3] = [
         name: "simulation",
         priority: "normal",
         period: "as fast as it can, at most once per servo tick",
-        reads: "ToolSample (SPSC ring)",
-        writes: "ContactState, SimStatus (triple buffers)",
+        reads: "ToolSample (SPSC ring); Controls (triple buffer)",
+        writes: "ContactState, SimStatus (triple buffers); Snapshot queue (refuses when full)",
     },
     TaskDecl {
         name: "status",
@@ -66,6 +67,13 @@ pub const TASKS: [TaskDecl; 3] = [
         period: "250 ms",
         reads: "SimStatus (triple buffer); servo counters (atomics)",
         writes: "the status line on stderr",
+    },
+    TaskDecl {
+        name: "viewer",
+        priority: "normal (the main thread; status moves to its own thread)",
+        period: "about 60 Hz",
+        reads: "Snapshot queue (drained, never waited on); servo counters (atomics)",
+        writes: "Controls (triple buffer)",
     },
 ];
 
@@ -119,6 +127,87 @@ pub struct ServoCounters {
     pub dropped_samples: AtomicU64,
     /// Last force magnitude, f32 bits.
     pub force_bits: AtomicU64,
+    /// Last force vector, f32 bits of x, y, z (for the viewer's arrow).
+    pub force_xyz: [AtomicU32; 3],
+    /// Wake-up latency histogram (see [`wake_bucket`]).
+    pub wake_hist: [AtomicU64; WAKE_BUCKETS],
+    /// Largest wake-up latency of the run, ns.
+    pub wake_max_ns: AtomicU64,
+    /// Largest wake-up latency of the last complete second, ns.
+    pub wake_recent_max_ns: AtomicU64,
+    /// Burr radius the servo uses, f32 bits; 0 = the scenario's (set from the viewer's
+    /// controls by the simulation task).
+    pub radius_bits: AtomicU32,
+    /// Stiffness the servo uses, f32 bits; 0 = the scenario's.
+    pub stiffness_bits: AtomicU32,
+}
+
+/// Buckets of the wake-up latency histogram the servo keeps in atomics.
+pub const WAKE_BUCKETS: usize = 32;
+
+/// The histogram bucket of a wake-up latency: 4 us wide up to 96 us, then 96-128, 128-192,
+/// 192-256, 256-512, 512-1000, 1000-2000, 2000-5000 us and the rest.
+pub fn wake_bucket(ns: u64) -> usize {
+    let us = ns / 1000;
+    match us {
+        0..=95 => (us / 4) as usize,
+        96..=127 => 24,
+        128..=191 => 25,
+        192..=255 => 26,
+        256..=511 => 27,
+        512..=999 => 28,
+        1000..=1999 => 29,
+        2000..=4999 => 30,
+        _ => 31,
+    }
+}
+
+/// The upper edge of bucket `b`, microseconds (the last bucket's is unbounded: infinity).
+pub fn wake_bucket_upper_us(b: usize) -> f64 {
+    const EDGES: [f64; 8] = [128.0, 192.0, 256.0, 512.0, 1000.0, 2000.0, 5000.0, f64::INFINITY];
+    if b < 24 {
+        4.0 * (b + 1) as f64
+    } else {
+        EDGES[(b - 24).min(7)]
+    }
+}
+
+impl ServoCounters {
+    /// Counts one wake-up latency (atomics only: no allocation, no lock).
+    pub fn record_wake(&self, ns: u64, tick: u64, window_max: &mut u64) {
+        self.wake_hist[wake_bucket(ns)].fetch_add(1, Ordering::Relaxed);
+        self.wake_max_ns.fetch_max(ns, Ordering::Relaxed);
+        *window_max = (*window_max).max(ns);
+        if tick % 1000 == 999 {
+            self.wake_recent_max_ns.store(*window_max, Ordering::Relaxed);
+            *window_max = 0;
+        }
+    }
+
+    /// The wake-up latency percentile `q` (0..1) from the histogram, as the upper edge of its
+    /// bucket in microseconds (`None` before the first tick).
+    pub fn wake_percentile_us(&self, q: f64) -> Option<f64> {
+        let counts: Vec<u64> = self.wake_hist.iter().map(|c| c.load(Ordering::Relaxed)).collect();
+        let total: u64 = counts.iter().sum();
+        if total == 0 {
+            return None;
+        }
+        let want = (q * total as f64).ceil().max(1.0) as u64;
+        let mut seen = 0;
+        for (b, c) in counts.iter().enumerate() {
+            seen += c;
+            if seen >= want {
+                return Some(wake_bucket_upper_us(b));
+            }
+        }
+        Some(f64::INFINITY)
+    }
+
+    /// The last force vector.
+    pub fn force(&self) -> Vec3 {
+        let f = |i: usize| f32::from_bits(self.force_xyz[i].load(Ordering::Relaxed));
+        Vec3::new(f(0), f(1), f(2))
+    }
 }
 
 /// Where the device's positions land in the mesh: `mesh = device * scale + offset`.
@@ -181,11 +270,22 @@ pub fn servo_task(
     let mut timer = Periodic::new(SERVO_PERIOD_NS, 0);
     let mut error = None;
     let mut done = 0u64;
+    let mut live = params;
+    let mut window_max = 0u64;
     while done < ticks && !stop.load(Ordering::Relaxed) {
         let w = timer.wait();
         let t0 = now_ns();
-        let out = servo_tick(device, &workspace, &params, contact.read(), ring, &mut state, done);
+        // The viewer's controls (0: the scenario's value).
+        let r = counters.radius_bits.load(Ordering::Relaxed);
+        live.radius = if r == 0 { params.radius } else { f32::from_bits(r) };
+        let k = counters.stiffness_bits.load(Ordering::Relaxed);
+        live.force.stiffness = if k == 0 { params.force.stiffness } else { f32::from_bits(k) };
+        let out = servo_tick(device, &workspace, &live, contact.read(), ring, &mut state, done);
         let i = done as usize;
+        counters.record_wake(w.latency_ns, done, &mut window_max);
+        for (a, v) in counters.force_xyz.iter().zip(state.last_force.to_array()) {
+            a.store(v.to_bits(), Ordering::Relaxed);
+        }
         wake_ns[i] = w.latency_ns;
         tick_ns[i] = now_ns() - t0;
         done += 1;
@@ -264,9 +364,21 @@ pub fn servo_tick(
     device.write(&cmd)
 }
 
+/// How the simulation task ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SimEnd {
+    /// `stop` was set.
+    Stopped,
+    /// The viewer asked for a reset: rebuild the world and call the task again.
+    Reset,
+}
+
 /// The simulation task: drains the tool ring, erodes along the swept path (burr positions at
 /// most a quarter radius apart, up to [`MAX_SPHERES`] per step), updates the contact plane at
-/// the newest position and publishes it, until `stop`.
+/// the newest position and publishes it, until `stop`. With a `viewer`, it applies the
+/// viewer's controls (radius and stiffness also go to the servo through `counters`) and
+/// publishes snapshots of the changed surface without ever waiting.
+#[allow(clippy::too_many_arguments)]
 pub fn simulation_task(
     world: &mut World<'_>,
     params: TickParams,
@@ -274,16 +386,35 @@ pub fn simulation_task(
     contact: &mut triple_buffer::Input<ContactState>,
     status: &mut triple_buffer::Input<SimStatus>,
     stop: &AtomicBool,
-) {
+    counters: &ServoCounters,
+    mut viewer: Option<&mut crate::viewer::publish::SimViewer<'_>>,
+) -> SimEnd {
+    let mut params = params;
     let mut st = SimStatus::default();
     let mut spheres = [Sphere::default(); MAX_SPHERES];
-    let spacing = 0.25 * params.radius;
+    let mut paused = false;
+    let mut reset_seen: Option<u32> = None;
+    let mut last_tool: Option<ToolSample> = None;
     loop {
+        if let Some(c) = viewer.as_deref_mut().and_then(|v| v.new_controls()) {
+            if reset_seen.is_some_and(|r| r != c.reset) {
+                return SimEnd::Reset;
+            }
+            reset_seen = Some(c.reset);
+            params.radius = c.radius;
+            params.reach = 0.5 * c.radius;
+            params.force.stiffness = c.stiffness;
+            params.drill.max_depth = c.max_depth;
+            paused = c.paused;
+            counters.radius_bits.store(c.radius.to_bits(), Ordering::Relaxed);
+            counters.stiffness_bits.store(c.stiffness.to_bits(), Ordering::Relaxed);
+        }
+        let spacing = 0.25 * params.radius;
         let stopping = stop.load(Ordering::Relaxed);
         let mut ns = 0usize;
         let mut latest: Option<ToolSample> = None;
         while let Some(s) = ring.pop() {
-            let on = s.buttons & tetradrill_core::script::DRILL_ON != 0;
+            let on = s.buttons & tetradrill_core::script::DRILL_ON != 0 && !paused;
             if on {
                 let far = ns == 0 || spheres[ns - 1].center.distance(s.position) >= spacing;
                 if far && ns < MAX_SPHERES {
@@ -295,22 +426,32 @@ pub fn simulation_task(
             }
             latest = Some(s);
         }
-        let Some(tool) = latest else {
+        // When stopping with nothing new, one more step at the last position (no erosion)
+        // lets the viewer's last snapshot out.
+        let last = if stopping && viewer.is_some() { last_tool.take() } else { None };
+        let Some(tool) = latest.or(last) else {
             if stopping {
                 break;
             }
             std::thread::sleep(std::time::Duration::from_micros(200));
             continue;
         };
+        last_tool = Some(tool);
         let t0 = now_ns();
-        let on = tool.buttons & tetradrill_core::script::DRILL_ON != 0;
+        let on = tool.buttons & tetradrill_core::script::DRILL_ON != 0 && !paused;
         if on && ns > 0 && spheres[ns - 1].center != tool.position {
             if ns < MAX_SPHERES {
                 ns += 1;
             }
             spheres[ns - 1] = Sphere { center: tool.position, radius: params.radius };
         }
-        world.simulate_spheres(tool.position, params.radius, params.reach, &spheres[..ns], &params.drill);
+        let rep = world.simulate_spheres(
+            tool.position,
+            params.radius,
+            params.reach,
+            &spheres[..ns],
+            &params.drill,
+        );
         contact.write(*world.contact());
         let dt = now_ns() - t0;
         st.steps += 1;
@@ -321,10 +462,30 @@ pub fn simulation_task(
         st.visible_faces = world.hierarchy().visible_face_count();
         st.saturations = world.saturations().total();
         status.write(st);
+        if let Some(v) = viewer.as_deref_mut() {
+            v.note_step(world, rep.drill.created + rep.drill.erased > 0);
+            let tv = crate::viewer::publish::tool_view(
+                world,
+                tool.position,
+                params.radius,
+                counters.force(),
+                on,
+            );
+            if stopping {
+                // The last picture must get through: the servo has stopped, waiting is fine.
+                let until = now_ns() + 2_000_000_000;
+                while !v.publish_now(world, tv, &st, now_ns()) && now_ns() < until {
+                    std::thread::sleep(std::time::Duration::from_millis(2));
+                }
+            } else {
+                v.publish(world, tv, &st, now_ns());
+            }
+        }
         if stopping {
             break;
         }
     }
+    SimEnd::Stopped
 }
 
 /// Shared pieces of one pipeline run.
@@ -336,6 +497,8 @@ pub struct Shared {
     pub counters: ServoCounters,
     /// Set to end every task.
     pub stop: AtomicBool,
+    /// Simulation to viewer (drained only when a viewer or a screenshot is asked for).
+    pub snapshots: crate::viewer::handoff::SnapshotQueue,
 }
 
 impl Shared {
@@ -345,6 +508,7 @@ impl Shared {
             ring: ArrayQueue::new(TOOL_RING),
             counters: ServoCounters::default(),
             stop: AtomicBool::new(false),
+            snapshots: crate::viewer::handoff::SnapshotQueue::default(),
         })
     }
 }

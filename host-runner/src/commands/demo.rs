@@ -11,6 +11,7 @@ use super::run::{device_factory, viewer_note};
 use crate::error::CliError;
 use crate::rt::RtConfig;
 use crate::scenario::Scenario;
+use crate::viewer::ViewOptions;
 
 /// Arguments of `demo`.
 #[derive(Debug, clap::Args)]
@@ -27,11 +28,15 @@ pub struct DemoArgs {
     /// Do not ask for SCHED_FIFO, core pinning or memory locking.
     #[arg(long)]
     pub no_rt: bool,
+    /// Write a PNG of the view at the end of the run (no display needed).
+    #[arg(long)]
+    pub screenshot: Option<PathBuf>,
 }
 
 /// Runs `demo`.
 pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     let sc = Scenario::default();
+    let view = ViewOptions::of(args.headless, args.screenshot.clone())?;
     eprintln!(
         "tetradrill demo: {} drilled by a {} burr on the simulated device ({} s scripted path)",
         sc.mesh,
@@ -46,6 +51,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     } else {
         RtConfig::default()
     };
-    let setup = PipelineSetup { kind: DeviceKind::Sim, open, ticks, workspace, rt, status_line: true };
+    let setup =
+        PipelineSetup { kind: DeviceKind::Sim, open, ticks, workspace, rt, status_line: true, view };
     pipeline::run(&sc, setup, args.json.as_ref()).map(|_| ())
 }

@@ -35,6 +35,8 @@ pub struct PipelineSetup {
     pub rt: RtConfig,
     /// Print the live status line.
     pub status_line: bool,
+    /// Live window and/or screenshot.
+    pub view: crate::viewer::ViewOptions,
 }
 
 impl std::fmt::Debug for PipelineSetup {
@@ -109,29 +111,64 @@ pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Resul
     let params = TickParams::of(sc)?;
     let loaded = engine::load_mesh(sc)?;
     let mut store = EngineStorage::allocate(loaded.mesh, sc);
-    let mut world = store.world()?;
-    let initial_volume = world.mesh().volume();
+    let (initial_volume, tets) = {
+        let world = store.world()?;
+        (world.mesh().volume(), world.mesh().tet_count())
+    };
     let (mut contact_in, mut contact_out) =
         triple_buffer::TripleBuffer::new(&ContactState::default()).split();
     let (mut status_in, mut status_out) =
         triple_buffer::TripleBuffer::new(&SimStatus::default()).split();
     let shared = Shared::new();
-    let PipelineSetup { kind, open, ticks, workspace, rt, status_line } = setup;
+    let PipelineSetup { kind, open, ticks, workspace, rt, status_line, view } = setup;
     let started = std::time::Instant::now();
+    let initial_controls = crate::viewer::handoff::Controls {
+        radius: params.radius,
+        stiffness: params.force.stiffness,
+        max_depth: params.drill.max_depth,
+        paused: false,
+        reset: 0,
+    };
+    let (controls_in, controls_out) = crate::viewer::handoff::controls(initial_controls);
+    let mut scene = crate::viewer::scene::Scene::new();
 
     let (servo, sim_status) = std::thread::scope(|scope| -> Result<_, CliError> {
         let sh = &shared;
+        let any_view = view.any();
         let sim = std::thread::Builder::new()
             .name("simulation".into())
-            .spawn_scoped(scope, move || {
-                tasks::simulation_task(
-                    &mut world,
-                    params,
-                    &sh.ring,
-                    &mut contact_in,
-                    &mut status_in,
-                    &sh.stop,
-                )
+            .spawn_scoped(scope, move || -> Result<(), CliError> {
+                let mut link = any_view.then(|| {
+                    let mut l = crate::viewer::publish::SimViewer::new(
+                        &sh.snapshots,
+                        Some(controls_out),
+                        tets,
+                    );
+                    l.set_initial_volume(initial_volume);
+                    l
+                });
+                loop {
+                    // The world is rebuilt, untouched, when the viewer asks for a reset.
+                    let mut world = store.world()?;
+                    let end = tasks::simulation_task(
+                        &mut world,
+                        params,
+                        &sh.ring,
+                        &mut contact_in,
+                        &mut status_in,
+                        &sh.stop,
+                        &sh.counters,
+                        link.as_mut(),
+                    );
+                    match end {
+                        tasks::SimEnd::Stopped => return Ok(()),
+                        tasks::SimEnd::Reset => {
+                            if let Some(l) = link.as_mut() {
+                                l.restart();
+                            }
+                        }
+                    }
+                }
             })
             .map_err(|e| CliError::failure(format!("cannot start the simulation task: {e}")))?;
         let servo = std::thread::Builder::new()
@@ -157,50 +194,53 @@ pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Resul
                 ))
             })
             .map_err(|e| CliError::failure(format!("cannot start the servo task: {e}")))?;
-        // The status task: the main thread.
-        let mut last_ticks = 0u64;
-        let mut last_steps = 0u64;
-        let mut printed = false;
-        let mut last_at = std::time::Instant::now();
-        while !servo.is_finished() {
-            std::thread::sleep(Duration::from_millis(250));
-            if !status_line {
-                continue;
+        let drain = |scene: &mut crate::viewer::scene::Scene| {
+            while let Some(snap) = sh.snapshots.take() {
+                scene.apply(snap);
             }
-            let st = *status_out.read();
-            let c = &sh.counters;
-            let t = c.ticks.load(Ordering::Relaxed);
-            let f = f32::from_bits(c.force_bits.load(Ordering::Relaxed) as u32);
-            // On a terminal the line updates in place; in a log, one line a second.
-            let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
-            if !tty && (sh.counters.ticks.load(Ordering::Relaxed) / 250) % 4 != 0 {
-                continue;
-            }
-            eprint!(
-                "{} t {:5.1} s | servo {:4} Hz, overruns {} | sim {:4} Hz | removed {:.5} ({:.2}%) | force {:5.2} N   {}",
-                if tty { "\r" } else { "" },
-                t as f64 / 1000.0,
-                ((t - last_ticks) as f64 / last_at.elapsed().as_secs_f64()).round(),
-                c.overruns.load(Ordering::Relaxed),
-                ((st.steps - last_steps) as f64 / last_at.elapsed().as_secs_f64()).round(),
-                st.removed_volume,
-                100.0 * st.removed_volume / initial_volume.max(f64::MIN_POSITIVE),
-                f,
-                if tty { "" } else { "\n" }
-            );
-            printed = tty;
-            last_ticks = t;
-            last_steps = st.steps;
-            last_at = std::time::Instant::now();
-        }
-        if printed {
-            eprintln!();
+        };
+        if view.window {
+            // The viewer on the main thread, the status task on its own.
+            let status = std::thread::Builder::new()
+                .name("status".into())
+                .spawn_scoped(scope, move || {
+                    status_loop(sh, &mut status_out, status_line, initial_volume, || {});
+                    status_out
+                })
+                .map_err(|e| CliError::failure(format!("cannot start the status task: {e}")))?;
+            let link = crate::viewer::LiveLink {
+                shared: sh,
+                controls: controls_in,
+                initial: initial_controls,
+            };
+            scene = crate::viewer::run_window(link)?;
+            // A closed window ends the run.
+            sh.stop.store(true, Ordering::Relaxed);
+            status_out =
+                status.join().map_err(|_| CliError::failure("the status task panicked"))?;
+        } else {
+            drop(controls_in);
+            // The status task: the main thread.
+            status_loop(sh, &mut status_out, status_line, initial_volume, || {
+                if any_view {
+                    drain(&mut scene)
+                }
+            });
         }
         let servo = servo
             .join()
             .map_err(|_| CliError::failure("the servo task panicked"))?;
         sh.stop.store(true, Ordering::Relaxed);
-        sim.join().map_err(|_| CliError::failure("the simulation task panicked"))?;
+        while !sim.is_finished() {
+            if any_view && !view.window {
+                drain(&mut scene);
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        sim.join().map_err(|_| CliError::failure("the simulation task panicked"))??;
+        if any_view && !view.window {
+            drain(&mut scene);
+        }
         Ok((servo, *status_out.read()))
     })?;
     let elapsed = started.elapsed().as_secs_f64();
@@ -235,6 +275,9 @@ pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Resul
         },
     };
     print_summary(&rep);
+    if let Some(path) = &view.screenshot {
+        crate::viewer::screenshot(&mut scene, path)?;
+    }
     if let Some(path) = json {
         crate::cli::write_json(path, &rep)?;
     }
@@ -245,6 +288,58 @@ pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Resul
         )));
     }
     Ok(rep)
+}
+
+/// The status task: until `stop`, the status line every 250 ms (one line a second in logs),
+/// and `each` every 25 ms (the screenshot's snapshot drain).
+fn status_loop(
+    sh: &Shared,
+    status_out: &mut triple_buffer::Output<SimStatus>,
+    status_line: bool,
+    initial_volume: f64,
+    mut each: impl FnMut(),
+) {
+    let mut last_ticks = 0u64;
+    let mut last_steps = 0u64;
+    let mut printed = false;
+    let mut last_at = std::time::Instant::now();
+    let mut slice = 0u32;
+    while !sh.stop.load(Ordering::Relaxed) {
+        std::thread::sleep(Duration::from_millis(25));
+        each();
+        slice += 1;
+        if !slice.is_multiple_of(10) || !status_line {
+            continue;
+        }
+        let st = *status_out.read();
+        let c = &sh.counters;
+        let t = c.ticks.load(Ordering::Relaxed);
+        let f = f32::from_bits(c.force_bits.load(Ordering::Relaxed) as u32);
+        // On a terminal the line updates in place; in a log, one line a second.
+        let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+        if !tty && !(sh.counters.ticks.load(Ordering::Relaxed) / 250).is_multiple_of(4) {
+            continue;
+        }
+        eprint!(
+            "{} t {:5.1} s | servo {:4} Hz, overruns {} | sim {:4} Hz | removed {:.5} ({:.2}%) | force {:5.2} N   {}",
+            if tty { "\r" } else { "" },
+            t as f64 / 1000.0,
+            ((t - last_ticks) as f64 / last_at.elapsed().as_secs_f64()).round(),
+            c.overruns.load(Ordering::Relaxed),
+            ((st.steps - last_steps) as f64 / last_at.elapsed().as_secs_f64()).round(),
+            st.removed_volume,
+            100.0 * st.removed_volume / initial_volume.max(f64::MIN_POSITIVE),
+            f,
+            if tty { "" } else { "\n" }
+        );
+        printed = tty;
+        last_ticks = t;
+        last_steps = st.steps;
+        last_at = std::time::Instant::now();
+    }
+    if printed {
+        eprintln!();
+    }
 }
 
 /// A device that could not be opened is bad input (exit 2, one line naming the device).

@@ -32,6 +32,10 @@ pub struct ReplayArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Write a PNG of the drilled surface, the tool and the force at the end (no display
+    /// needed).
+    #[arg(long)]
+    pub screenshot: Option<PathBuf>,
 }
 
 /// The summary of a replay (DESIGN section 4's fields and more).
@@ -118,6 +122,7 @@ pub struct SaturationCounts {
 /// Runs `replay`.
 pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let sc = Scenario::from_flags(&args.scenario)?;
+    let view = crate::viewer::ViewOptions::of(true, args.screenshot.clone())?;
     let params = TickParams::of(&sc)?;
     let poses = PoseSource::load(&sc.trace, 1.0)?;
     let loaded = engine::load_mesh(&sc)?;
@@ -130,6 +135,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let mut digest = ForceDigest::new();
     let mut times = vec![0u64; ticks as usize];
     let (mut max_n, mut last, mut contact_ticks) = (0.0f32, Vec3::ZERO, 0u64);
+    let mut last_pose = None;
     let progress = !args.quiet && ticks >= 20_000;
     for i in 0..ticks {
         let pose = poses.at(i);
@@ -142,6 +148,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
             contact_ticks += 1;
         }
         last = f;
+        last_pose = Some(pose);
         if progress && i % 5000 == 0 {
             eprint!("\rreplay: {:>3}% ({i}/{ticks} ticks)", i * 100 / ticks.max(1));
         }
@@ -191,6 +198,22 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     print_summary(&rep);
     if let Some(path) = &args.json {
         crate::cli::write_json(path, &rep)?;
+    }
+    if let Some(path) = &view.screenshot {
+        let tool = last_pose.map(|p| {
+            let on = p.buttons & tetradrill_core::script::DRILL_ON != 0;
+            crate::viewer::publish::tool_view(&world, p.position, params.radius, last, on)
+        });
+        let status = crate::tasks::SimStatus {
+            steps: rep.ticks,
+            removed_volume: rep.removed_volume,
+            hierarchy_nodes: rep.hierarchy_nodes,
+            visible_faces: rep.visible_faces,
+            saturations: rep.saturations.total,
+            ..Default::default()
+        };
+        let mut scene = crate::viewer::publish::scene_of(&world, tool, status);
+        crate::viewer::screenshot(&mut scene, path)?;
     }
     Ok(())
 }

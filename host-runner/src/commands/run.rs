@@ -42,6 +42,9 @@ pub struct RunArgs {
     /// No live status line.
     #[arg(long)]
     pub quiet: bool,
+    /// Write a PNG of the view at the end of the run (no display needed).
+    #[arg(long)]
+    pub screenshot: Option<PathBuf>,
 }
 
 fn parse_device(s: &str) -> Result<DeviceKind, String> {
@@ -51,6 +54,7 @@ fn parse_device(s: &str) -> Result<DeviceKind, String> {
 /// Runs `run`.
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let sc = Scenario::from_flags(&args.scenario)?;
+    let view = crate::viewer::ViewOptions::of(args.headless, args.screenshot.clone())?;
     let options = OpenOptions { falcon_firmware: args.falcon_firmware.clone(), ..OpenOptions::default() };
     let (open, default_ticks, workspace) = device_factory(args.device, &sc, options)?;
     let ticks = args.duration.map_or(default_ticks, |d| (d * 1000.0).round() as u64).max(1);
@@ -67,14 +71,17 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         workspace,
         rt,
         status_line: !args.quiet,
+        view,
     };
     pipeline::run(&sc, setup, args.json.as_ref()).map(|_| ())
 }
 
 /// Says once that the viewer is not part of this build when a display exists.
 pub fn viewer_note(headless: bool) {
-    let display = std::env::var_os("DISPLAY").is_some() || std::env::var_os("WAYLAND_DISPLAY").is_some();
-    if display && !headless {
+    if cfg!(feature = "viewer") {
+        return;
+    }
+    if crate::viewer::has_display() && !headless {
         eprintln!("tetradrill: note: this build has no viewer yet; running headless");
     }
 }

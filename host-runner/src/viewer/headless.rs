@@ -1,0 +1,122 @@
+//! Pictures without a display: the renderer on an EGL surfaceless context (see
+//! [`super::gl::Offscreen`]), read back and written as PNG. `--screenshot` and the tests use
+//! this.
+
+use std::path::Path;
+
+use super::camera::Camera;
+use super::gl::{DrawOptions, Offscreen, Renderer};
+use super::scene::Scene;
+use crate::error::CliError;
+
+/// Size of `--screenshot` pictures.
+pub const SCREENSHOT_SIZE: (u32, u32) = (800, 600);
+
+/// An RGBA picture, top row first.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Picture {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `4 * width * height` bytes.
+    pub rgba: Vec<u8>,
+}
+
+impl Picture {
+    /// The pixel at column `x`, row `y` (from the top).
+    pub fn at(&self, x: u32, y: u32) -> [u8; 4] {
+        let i = 4 * (y * self.width + x) as usize;
+        [
+            self.rgba[i],
+            self.rgba[i + 1],
+            self.rgba[i + 2],
+            self.rgba[i + 3],
+        ]
+    }
+
+    /// Writes the picture as an 8-bit RGB PNG.
+    ///
+    /// # Errors
+    /// An I/O or encoding error, as one line naming the file.
+    pub fn write_png(&self, path: &Path) -> Result<(), CliError> {
+        let fail = |e: &dyn std::fmt::Display| {
+            CliError::failure(format!(
+                "{}: cannot write the screenshot: {e}",
+                path.display()
+            ))
+        };
+        let file = std::fs::File::create(path).map_err(|e| fail(&e))?;
+        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), self.width, self.height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_compression(png::Compression::High);
+        let mut w = enc.write_header().map_err(|e| fail(&e))?;
+        let rgb: Vec<u8> = self
+            .rgba
+            .chunks_exact(4)
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .collect();
+        w.write_image_data(&rgb).map_err(|e| fail(&e))?;
+        w.finish().map_err(|e| fail(&e))
+    }
+}
+
+/// Renders `scene` from `camera` into a `width` x `height` picture without a display.
+///
+/// # Errors
+/// No EGL/OpenGL context could be made (the message says what to install).
+pub fn render(
+    scene: &mut Scene,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    tool: bool,
+) -> Result<Picture, String> {
+    let off = Offscreen::new(width, height)?;
+    let mut r = Renderer::new(off.gl())?;
+    off.bind();
+    r.sync(off.gl(), scene);
+    r.draw(
+        off.gl(),
+        scene,
+        camera,
+        width,
+        height,
+        DrawOptions { tool, clear: true },
+    );
+    let rgba = off.read_rgba();
+    r.destroy(off.gl());
+    Ok(Picture {
+        width,
+        height,
+        rgba,
+    })
+}
+
+/// The default camera for `scene`: the fixed view direction, framing what it shows.
+pub fn default_camera(scene: &Scene) -> Camera {
+    match scene.bounds {
+        Some((lo, hi)) => Camera::framing(lo, hi),
+        None => Camera::default(),
+    }
+}
+
+/// Renders `scene` from the default camera at [`SCREENSHOT_SIZE`] and writes it to `path`
+/// (`--screenshot`).
+///
+/// # Errors
+/// No GL context (exit 1, saying what to install) or an I/O error.
+pub fn screenshot(scene: &mut Scene, path: &Path) -> Result<(), CliError> {
+    let camera = default_camera(scene);
+    let (w, h) = SCREENSHOT_SIZE;
+    let pic = render(scene, &camera, w, h, true).map_err(|e| {
+        CliError::failure(format!(
+            "{}: cannot render the screenshot: {e}",
+            path.display()
+        ))
+    })?;
+    pic.write_png(path)?;
+    eprintln!("tetradrill: screenshot written to {}", path.display());
+    Ok(())
+}

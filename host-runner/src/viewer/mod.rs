@@ -1,0 +1,116 @@
+//! The viewer task (DESIGN section 4): a live 3D view of the drilled surface, the tool and the
+//! force, about 60 Hz, fed by snapshots the simulation publishes; and headless screenshots.
+//!
+//! | file          | what                                                          | feature  |
+//! |---------------|---------------------------------------------------------------|----------|
+//! | [`handoff`]   | snapshots (queue that refuses when full), controls (triple buffer) | always |
+//! | [`publish`]   | the simulation's side: changed tets, patches, the tool's shown pose | always |
+//! | [`scene`]     | the viewer's copy of the surface in chunks, runs of changed chunks | always |
+//! | [`camera`]    | orbit camera, matrices                                        | always   |
+//! | `gl`          | the OpenGL renderer and the EGL offscreen context (all `unsafe`) | `viewer` |
+//! | `headless`    | screenshots without a display, PNG                             | `viewer` |
+//! | `app`         | the eframe window: the view in a paint callback, overlay, controls | `viewer` |
+//!
+//! Nothing here runs on the servo thread. The simulation publishes without waiting (a full
+//! queue keeps its changes for the next snapshot); the viewer drains without waiting.
+
+pub mod camera;
+pub mod handoff;
+pub mod publish;
+pub mod scene;
+
+#[cfg(feature = "viewer")]
+pub mod app;
+#[cfg(feature = "viewer")]
+pub mod gl;
+#[cfg(feature = "viewer")]
+pub mod headless;
+
+use std::path::PathBuf;
+
+/// What a command asks of the viewer.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ViewOptions {
+    /// Open the live window (a display exists and `--headless` was not given).
+    pub window: bool,
+    /// Write a PNG of the view at the end of the run.
+    pub screenshot: Option<PathBuf>,
+}
+
+impl ViewOptions {
+    /// The options of a command: the window when the build has the viewer, a display exists
+    /// and `headless` is false; the screenshot as asked.
+    ///
+    /// # Errors
+    /// `--screenshot` in a build without the viewer (exit 2).
+    pub fn of(headless: bool, screenshot: Option<PathBuf>) -> Result<Self, crate::error::CliError> {
+        if screenshot.is_some() && !cfg!(feature = "viewer") {
+            return Err(crate::error::CliError::input(
+                "--screenshot: this build has no viewer (build with the `viewer` feature)",
+            ));
+        }
+        Ok(Self {
+            window: cfg!(feature = "viewer") && !headless && has_display(),
+            screenshot,
+        })
+    }
+
+    /// Whether any viewer work is needed.
+    pub fn any(&self) -> bool {
+        self.window || self.screenshot.is_some()
+    }
+}
+
+/// A display server is reachable (X11 or Wayland).
+pub fn has_display() -> bool {
+    std::env::var_os("DISPLAY").is_some_and(|d| !d.is_empty())
+        || std::env::var_os("WAYLAND_DISPLAY").is_some_and(|d| !d.is_empty())
+}
+
+/// What the live window shares with a real-time run.
+#[derive(Debug)]
+pub struct LiveLink<'a> {
+    /// The run's shared state: snapshot queue, servo counters, stop flag.
+    pub shared: &'a crate::tasks::Shared,
+    /// The viewer's end of the control hand-off.
+    pub controls: handoff::ControlsIn,
+    /// The controls as the run started (the scenario's values).
+    pub initial: handoff::Controls,
+}
+
+/// Runs the live window on this thread until it is closed; returns the last scene.
+///
+/// # Errors
+/// The window could not be opened (exit 1), or the build has no viewer (exit 2).
+pub fn run_window(link: LiveLink<'_>) -> Result<scene::Scene, crate::error::CliError> {
+    #[cfg(feature = "viewer")]
+    {
+        app::run(link)
+    }
+    #[cfg(not(feature = "viewer"))]
+    {
+        let _ = link;
+        Err(crate::error::CliError::input("this build has no viewer"))
+    }
+}
+
+/// Writes a PNG of `scene` from the default camera (`--screenshot`).
+///
+/// # Errors
+/// No GL context or an I/O error (exit 1); a build without the viewer (exit 2).
+pub fn screenshot(
+    scene: &mut scene::Scene,
+    path: &std::path::Path,
+) -> Result<(), crate::error::CliError> {
+    #[cfg(feature = "viewer")]
+    {
+        headless::screenshot(scene, path)
+    }
+    #[cfg(not(feature = "viewer"))]
+    {
+        let _ = (scene, path);
+        Err(crate::error::CliError::input(
+            "--screenshot: this build has no viewer (build with the `viewer` feature)",
+        ))
+    }
+}

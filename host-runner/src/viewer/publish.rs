@@ -1,0 +1,299 @@
+//! The simulation's side of the viewer: which coarse tets changed, and the snapshots that carry
+//! their visible triangles.
+//!
+//! A drill step changes the trees of the tets it works on and, through Erase and Refine, the
+//! visibility of their face neighbours' nodes. Work left pending in the drill's deque is done in
+//! later steps, on the tets that were candidates when it was queued. So after every step that
+//! created or erased nodes, the changed set is: this step's candidates, every candidate since
+//! the deque was last empty (the backlog), and their face neighbours. Snapshots go out at most
+//! every [`SNAPSHOT_PERIOD_NS`] and only when the queue has room; until then the changed tets
+//! accumulate (at most every tet once), so nothing is lost when the viewer is slow.
+//!
+//! Cost: the simulation allocates the patches of a snapshot (one `Vec` per changed tet), at
+//! most 60 times a second, never more than the visible triangles of the changed tets; the
+//! bookkeeping is two `Vec`s sized once by the tet count.
+
+use tetradrill_core::servo::World;
+use tetradrill_core::{TetId, Vec3};
+
+use super::handoff::SNAPSHOT_PERIOD_NS;
+use super::handoff::{Controls, ControlsOut, Patch, Snapshot, SnapshotQueue, SurfTri, ToolView};
+use super::scene::Scene;
+use crate::tasks::SimStatus;
+
+/// The simulation task's link to a viewer.
+#[derive(Debug)]
+pub struct SimViewer<'q> {
+    queue: &'q SnapshotQueue,
+    controls: Option<ControlsOut>,
+    last_controls: Option<Controls>,
+    dirty: Vec<bool>,
+    list: Vec<u32>,
+    in_backlog: Vec<bool>,
+    backlog: Vec<u32>,
+    full: bool,
+    seq: u64,
+    last_ns: u64,
+    initial_volume: f64,
+}
+
+impl<'q> SimViewer<'q> {
+    /// A link publishing into `queue` for a mesh of `tets` tets; `controls`, when given, is
+    /// read once per step. The first snapshot is a full one.
+    pub fn new(queue: &'q SnapshotQueue, controls: Option<ControlsOut>, tets: usize) -> Self {
+        Self {
+            queue,
+            controls,
+            last_controls: None,
+            dirty: vec![false; tets],
+            list: Vec::with_capacity(tets.min(4096)),
+            in_backlog: vec![false; tets],
+            backlog: Vec::with_capacity(tets.min(4096)),
+            full: true,
+            seq: 0,
+            last_ns: 0,
+            initial_volume: 0.0,
+        }
+    }
+
+    /// Sets the mesh's initial volume shown by the viewer.
+    pub fn set_initial_volume(&mut self, v: f64) {
+        self.initial_volume = v;
+    }
+
+    /// The controls, when they changed since the last call.
+    pub fn new_controls(&mut self) -> Option<Controls> {
+        let c = *self.controls.as_mut()?.read();
+        if self.last_controls == Some(c) {
+            return None;
+        }
+        self.last_controls = Some(c);
+        Some(c)
+    }
+
+    /// Starts over (after the world was rebuilt): the next snapshot is a full one.
+    pub fn restart(&mut self) {
+        for &t in &self.list {
+            self.dirty[t as usize] = false;
+        }
+        self.list.clear();
+        self.clear_backlog();
+        self.full = true;
+    }
+
+    /// Notes what the last step of `world` may have changed (`changed`: it created or erased
+    /// nodes).
+    ///
+    /// # Bounded work
+    /// O(5 x (candidates + backlog)); the backlog holds each tet at most once.
+    pub fn note_step(&mut self, world: &World<'_>, changed: bool) {
+        for &t in world.candidates() {
+            if let Some(b) = self.in_backlog.get_mut(t.idx()) {
+                if !*b {
+                    *b = true;
+                    self.backlog.push(t.0);
+                }
+            }
+        }
+        if changed && !self.full {
+            let mesh = world.mesh();
+            for i in 0..self.backlog.len() {
+                let t = TetId(self.backlog[i]);
+                self.mark(t);
+                for f in 0..4u8 {
+                    let n = mesh.neighbour(t, f);
+                    if n != TetId::NONE {
+                        self.mark(n);
+                    }
+                }
+            }
+        }
+        if world.pending() == 0 {
+            self.clear_backlog();
+        }
+    }
+
+    fn mark(&mut self, t: TetId) {
+        if let Some(d) = self.dirty.get_mut(t.idx()) {
+            if !*d {
+                *d = true;
+                self.list.push(t.0);
+            }
+        }
+    }
+
+    fn clear_backlog(&mut self) {
+        for &t in &self.backlog {
+            self.in_backlog[t as usize] = false;
+        }
+        self.backlog.clear();
+    }
+
+    /// Publishes a snapshot when one is due (`now_ns` at least a period after the last) and
+    /// the queue has room; otherwise keeps the changes for later. Returns `true` when one went
+    /// out.
+    pub fn publish(
+        &mut self,
+        world: &World<'_>,
+        tool: ToolView,
+        status: &SimStatus,
+        now_ns: u64,
+    ) -> bool {
+        if self.seq > 0 && now_ns.saturating_sub(self.last_ns) < SNAPSHOT_PERIOD_NS {
+            return false;
+        }
+        self.publish_now(world, tool, status, now_ns)
+    }
+
+    /// Publishes a snapshot now if the queue has room.
+    pub fn publish_now(
+        &mut self,
+        world: &World<'_>,
+        tool: ToolView,
+        status: &SimStatus,
+        now_ns: u64,
+    ) -> bool {
+        if self.queue.full_requested() {
+            self.restart();
+        }
+        if self.queue.refuses() {
+            return false;
+        }
+        let full = self.full;
+        let patches = if full {
+            full_patches(world)
+        } else {
+            self.changed_patches(world)
+        };
+        let s = Snapshot {
+            seq: self.seq + 1,
+            full,
+            patches,
+            tool,
+            status: *status,
+            initial_volume: self.initial_volume,
+        };
+        match self.queue.try_publish(s) {
+            Ok(()) => {
+                self.seq += 1;
+                self.last_ns = now_ns;
+                self.full = false;
+                for &t in &self.list {
+                    self.dirty[t as usize] = false;
+                }
+                self.list.clear();
+                true
+            }
+            Err(_) => false,
+        }
+    }
+
+    fn changed_patches(&self, world: &World<'_>) -> Vec<Patch> {
+        let mut out = Vec::with_capacity(self.list.len());
+        for &t in &self.list {
+            let mut tris = Vec::new();
+            let tet = TetId(t);
+            world
+                .hierarchy()
+                .for_each_visible_in(world.mesh(), &[tet], None, |vt| {
+                    tris.push(surf_tri(world, tet, vt.corners));
+                });
+            out.push(Patch { tet: t, tris });
+        }
+        out
+    }
+}
+
+/// Every visible triangle of `world`, one patch per coarse tet that has any.
+///
+/// # Bounded work
+/// O(visible triangles x log) (a sort by tet).
+pub fn full_patches(world: &World<'_>) -> Vec<Patch> {
+    let mut all: Vec<(u32, SurfTri)> = Vec::new();
+    world.hierarchy().for_each_visible(world.mesh(), |vt| {
+        all.push((vt.tet.0, surf_tri(world, vt.tet, vt.corners)));
+    });
+    all.sort_by_key(|(t, _)| *t);
+    let mut out: Vec<Patch> = Vec::new();
+    for (t, tri) in all {
+        match out.last_mut() {
+            Some(p) if p.tet == t => p.tris.push(tri),
+            _ => out.push(Patch {
+                tet: t,
+                tris: vec![tri],
+            }),
+        }
+    }
+    out
+}
+
+/// A visible triangle of `tet`, marked drilled unless it lies in one of the tet's boundary
+/// faces (a refined leaf's face on the original surface is not drilled; a root's face inside
+/// the mesh, bared when its neighbour was erased, is).
+pub fn surf_tri(world: &World<'_>, tet: TetId, corners: [Vec3; 3]) -> SurfTri {
+    let mesh = world.mesh();
+    let mut original = false;
+    for f in 0..4u8 {
+        if !mesh.is_boundary_face(tet, f) {
+            continue;
+        }
+        let p = mesh.face_positions(tet, f);
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        let scale = (p[1] - p[0]).length().max((p[2] - p[0]).length());
+        let len = n.length();
+        if len <= 0.0 {
+            continue;
+        }
+        let n = n / len;
+        let tol = 1e-4 * scale;
+        if corners.iter().all(|c| n.dot(*c - p[0]).abs() <= tol) {
+            original = true;
+            break;
+        }
+    }
+    SurfTri {
+        corners: corners.map(|c| c.to_array()),
+        drilled: !original,
+    }
+}
+
+/// The tool as the viewer shows it, from the contact plane of the last step: the burr moved
+/// back along the plane's normal by its depth.
+pub fn tool_view(
+    world: &World<'_>,
+    position: Vec3,
+    radius: f32,
+    force: Vec3,
+    drilling: bool,
+) -> ToolView {
+    let c = world.contact();
+    let shown = if c.valid && c.depth > 0.0 && c.depth.is_finite() {
+        position + c.normal * c.depth
+    } else {
+        position
+    };
+    ToolView {
+        position,
+        shown,
+        radius,
+        force,
+        drilling,
+    }
+}
+
+/// The scene of `world` as it is now: every visible triangle, the tool and the status.
+pub fn scene_of(world: &World<'_>, tool: Option<ToolView>, status: SimStatus) -> Scene {
+    let mut scene = Scene::new();
+    scene.apply(Snapshot {
+        seq: 1,
+        full: true,
+        patches: full_patches(world),
+        tool: tool.unwrap_or_default(),
+        status,
+        initial_volume: world.mesh().volume(),
+    });
+    if tool.is_none() {
+        scene.tool = None;
+    }
+    scene
+}
