@@ -22,6 +22,9 @@ use super::scene::Scene;
 use super::LiveLink;
 use crate::error::CliError;
 
+/// Set to `1`, the window closes by itself when the run ends (scripted runs under Xvfb).
+pub const CLOSE_AT_END: &str = "TETRADRILL_VIEWER_CLOSE";
+
 /// Samples the live plots keep (about 5 s at 60 Hz).
 const PLOT_SAMPLES: usize = 300;
 
@@ -30,6 +33,9 @@ struct GlSide {
     renderer: Option<Renderer>,
     error: Option<String>,
     frame_ms: f64,
+    draws: u64,
+    draw_ms_sum: f64,
+    draw_ms_max: f64,
 }
 
 struct ViewerApp<'a> {
@@ -47,6 +53,7 @@ struct ViewerApp<'a> {
     servo_hz: f64,
     sim_hz: f64,
     fps: f64,
+    close_at_end: bool,
 }
 
 /// Runs the window until it is closed; returns the last scene.
@@ -59,14 +66,18 @@ pub fn run(link: LiveLink<'_>) -> Result<Scene, CliError> {
         renderer: None,
         error: None,
         frame_ms: 0.0,
+        draws: 0,
+        draw_ms_sum: 0.0,
+        draw_ms_max: 0.0,
     }));
+    let opened = Instant::now();
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_title("tetradrill")
             .with_inner_size([1200.0, 780.0]),
         renderer: eframe::Renderer::Glow,
         depth_buffer: 24,
-        multisampling: 4,
+        multisampling: 0,
         ..Default::default()
     };
     let app_side = Arc::clone(&side);
@@ -97,12 +108,23 @@ pub fn run(link: LiveLink<'_>) -> Result<Scene, CliError> {
                 servo_hz: 0.0,
                 sim_hz: 0.0,
                 fps: 0.0,
+                close_at_end: std::env::var_os(CLOSE_AT_END).is_some_and(|v| v == "1"),
             }))
         }),
     )
     .map_err(|e| CliError::failure(format!("cannot open the viewer window: {e}")))?;
-    let scene = std::mem::take(&mut lock(&side).scene);
-    Ok(scene)
+    let mut s = lock(&side);
+    let secs = opened.elapsed().as_secs_f64();
+    eprintln!(
+        "tetradrill: viewer: {} frames in {:.1} s ({:.1} Hz), 3D view draw mean {:.2} ms, max {:.2} ms, {} triangles",
+        s.draws,
+        secs,
+        s.draws as f64 / secs.max(1e-9),
+        s.draw_ms_sum / (s.draws.max(1)) as f64,
+        s.draw_ms_max,
+        s.scene.triangle_count()
+    );
+    Ok(std::mem::take(&mut s.scene))
 }
 
 fn lock(m: &Mutex<GlSide>) -> std::sync::MutexGuard<'_, GlSide> {
@@ -138,6 +160,9 @@ impl eframe::App for ViewerApp<'_> {
         egui::CentralPanel::default().show(ui, |ui| self.view(ui));
         ui.ctx()
             .request_repaint_after(std::time::Duration::from_millis(16));
+        if self.close_at_end && sh.stop.load(Ordering::Relaxed) {
+            ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+        }
     }
 }
 
@@ -211,13 +236,16 @@ impl ViewerApp<'_> {
                     format!("{:.0} Hz, draw {:.1} ms", self.fps, frame_ms),
                 );
                 row("overruns", c.overruns.load(Ordering::Relaxed).to_string());
-                let p99 = c
-                    .wake_percentile_us(0.99)
-                    .map_or("-".into(), |v| format!("<= {v:.0} us"));
+                let p99 = match c.wake_percentile_us(0.99) {
+                    None => "-".to_string(),
+                    Some(v) if v.is_finite() => format!("<= {v:.0} us"),
+                    Some(_) => "> 5000 us".to_string(),
+                };
                 row("wake-up p99", p99);
                 let max = c.wake_max_ns.load(Ordering::Relaxed) as f64 / 1000.0;
                 let recent = c.wake_recent_max_ns.load(Ordering::Relaxed) as f64 / 1000.0;
-                row("wake-up max", format!("{max:.0} us (last s {recent:.0})"));
+                row("wake-up max", format!("{max:.0} us"));
+                row("  last second", format!("{recent:.0} us"));
                 let f = f32::from_bits(c.force_bits.load(Ordering::Relaxed) as u32);
                 row("force", format!("{f:.2} N"));
                 let pct = 100.0 * st.removed_volume / iv.max(f64::MIN_POSITIVE);
@@ -329,7 +357,11 @@ impl ViewerApp<'_> {
                     },
                 );
             }
-            s.frame_ms = t0.elapsed().as_secs_f64() * 1000.0;
+            let ms = t0.elapsed().as_secs_f64() * 1000.0;
+            s.frame_ms = ms;
+            s.draws += 1;
+            s.draw_ms_sum += ms;
+            s.draw_ms_max = s.draw_ms_max.max(ms);
         });
         ui.painter().add(egui::PaintCallback {
             rect,
