@@ -39,5 +39,5 @@ pub mod mesh;
 pub mod script;
 pub mod servo;
 
-pub use glam::Vec3;
+pub use glam::{Quat, Vec3};
 pub use ids::{NodeId, TetId};

@@ -22,6 +22,7 @@ pub mod engine;
 pub mod error;
 pub mod meshio;
 pub mod owned;
+pub mod pen;
 pub mod platform;
 pub mod rt;
 pub mod scenario;

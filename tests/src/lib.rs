@@ -1,6 +1,8 @@
 //! Shared helpers for tetradrill's cross-crate tests: where the real meshes are, small oracles.
 
 use std::path::PathBuf;
+use std::process::Command;
+use std::sync::OnceLock;
 
 /// The folder of real meshes, from `TETRADRILL_MESHES`, or `../shared/meshes` next to the
 /// workspace when it exists. Tests that need real meshes fail loudly when neither is there:
@@ -36,4 +38,60 @@ pub fn mesh(rel: &str) -> PathBuf {
     let p = meshes_dir().join(rel);
     assert!(p.exists(), "missing shared mesh {}", p.display());
     p
+}
+
+/// A fresh, empty scratch folder for one test: `<tmp>/tetradrill-<prefix>-<pid>-<name>`.
+pub fn scratch_dir(prefix: &str, name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("tetradrill-{prefix}-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("create a scratch folder");
+    d
+}
+
+/// The `tetradrill` binary of the build profile the tests run under, built once with cargo
+/// (a no-op when it is fresh), for tests of exit statuses and real-time runs.
+pub fn tetradrill_bin() -> PathBuf {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| {
+        let exe = std::env::current_exe().expect("test binary path");
+        let mut dir = exe.parent().expect("test binary folder").to_path_buf();
+        if dir.ends_with("deps") {
+            dir.pop();
+        }
+        let profile = dir
+            .file_name()
+            .and_then(|n| n.to_str())
+            .unwrap_or("debug")
+            .to_string();
+        let target_dir = dir.parent().expect("target folder").to_path_buf();
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        cmd.current_dir(workspace_root())
+            .args([
+                "build",
+                "--quiet",
+                "-p",
+                "tetradrill",
+                "--bin",
+                "tetradrill",
+            ])
+            .env("CARGO_TARGET_DIR", &target_dir);
+        match profile.as_str() {
+            "debug" => {}
+            "release" => {
+                cmd.arg("--release");
+            }
+            p => {
+                cmd.args(["--profile", p]);
+            }
+        }
+        let status = cmd
+            .status()
+            .expect("run cargo to build the tetradrill binary");
+        assert!(status.success(), "building the tetradrill binary failed");
+        let bin = dir.join(format!("tetradrill{}", std::env::consts::EXE_SUFFIX));
+        assert!(bin.is_file(), "no binary at {}", bin.display());
+        bin
+    })
+    .clone()
 }

@@ -3,17 +3,13 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::OnceLock;
 
 use tetradrill::cli::{self, Cli};
 use tetradrill::commands::info::{dihedral_angles, InfoArgs};
-use tetradrill_tests::{mesh, workspace_root};
+use tetradrill_tests::{mesh, scratch_dir, tetradrill_bin};
 
 fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("tetradrill-info-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    scratch_dir("info", name)
 }
 
 /// Runs `info` in process, writing JSON to a file; returns the parsed JSON.
@@ -174,51 +170,8 @@ fn dihedral_angles_of_known_tets() {
     }
 }
 
-/// The `tetradrill` binary of this build profile, built once (a no-op when it is fresh).
-fn binary() -> PathBuf {
-    static BIN: OnceLock<PathBuf> = OnceLock::new();
-    BIN.get_or_init(|| {
-        let exe = std::env::current_exe().unwrap();
-        let mut dir = exe.parent().unwrap().to_path_buf();
-        if dir.ends_with("deps") {
-            dir.pop();
-        }
-        let profile = dir.file_name().unwrap().to_str().unwrap().to_string();
-        let target_dir = dir.parent().unwrap().to_path_buf();
-        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let mut cmd = Command::new(cargo);
-        cmd.current_dir(workspace_root())
-            .args([
-                "build",
-                "--quiet",
-                "-p",
-                "tetradrill",
-                "--bin",
-                "tetradrill",
-            ])
-            .env("CARGO_TARGET_DIR", &target_dir);
-        match profile.as_str() {
-            "debug" => {}
-            "release" => {
-                cmd.arg("--release");
-            }
-            p => {
-                cmd.args(["--profile", p]);
-            }
-        }
-        let status = cmd
-            .status()
-            .expect("run cargo to build the tetradrill binary");
-        assert!(status.success(), "building the tetradrill binary failed");
-        let bin = dir.join(format!("tetradrill{}", std::env::consts::EXE_SUFFIX));
-        assert!(bin.is_file(), "no binary at {}", bin.display());
-        bin
-    })
-    .clone()
-}
-
 fn run_bin(args: &[&str]) -> Output {
-    Command::new(binary()).args(args).output().unwrap()
+    Command::new(tetradrill_bin()).args(args).output().unwrap()
 }
 
 #[test]

@@ -4,13 +4,18 @@
 use std::path::PathBuf;
 
 use serde::Serialize;
-use tetradrill_core::force::{ForceDigest, ToolState};
+use tetradrill_core::force::{
+    pen_contact, DepthMethod as PenMethod, ForceDigest, ForceParams, PenOptions, PenState,
+    ToolState,
+};
+use tetradrill_core::Quat;
 use tetradrill_core::Vec3;
 
 use crate::engine::{self, EngineStorage, TickParams};
 use crate::error::CliError;
+use crate::pen::PenRig;
 use crate::platform::now_ns;
-use crate::scenario::{Scenario, ScenarioFlags};
+use crate::scenario::{DepthMethod, Scenario, ScenarioFlags, ToolKind};
 use crate::stats::{summarise_ns, Summary};
 use crate::traces::PoseSource;
 
@@ -66,6 +71,30 @@ pub struct ReplayReport {
     pub timing_us: TickTiming,
     /// Capacity saturations by kind.
     pub saturations: SaturationCounts,
+    /// Contact of a tet-mesh tool (`--tool mesh:FILE` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pen: Option<PenSummary>,
+}
+
+/// Contact figures of a tet-mesh tool replay.
+#[derive(Debug, Default, Serialize)]
+pub struct PenSummary {
+    /// Tool nodes and tets.
+    pub tool_nodes: usize,
+    /// Tool tets.
+    pub tool_tets: usize,
+    /// Depth method used.
+    pub depth_method: String,
+    /// Most tool nodes inside the object in one tick.
+    pub pen_collisions_max: usize,
+    /// Most object nodes inside the tool in one tick.
+    pub object_collisions_max: usize,
+    /// Colliding nodes that got no depth (a region without a border edge), summed over ticks.
+    pub unreached: u64,
+    /// Ticks whose force was clamped.
+    pub clamped_ticks: u64,
+    /// Ticks in which a buffer saturated.
+    pub saturated_ticks: u64,
 }
 
 /// Mesh counts of a report.
@@ -105,7 +134,7 @@ pub struct TickTiming {
 }
 
 /// Saturations by kind, and their total.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Default, Serialize)]
 pub struct SaturationCounts {
     /// All kinds.
     pub total: u32,
@@ -122,6 +151,9 @@ pub struct SaturationCounts {
 /// Runs `replay`.
 pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let sc = Scenario::from_flags(&args.scenario)?;
+    if let ToolKind::Mesh(pen) = sc.tool_kind().map_err(CliError::input)? {
+        return replay_pen(args, sc, &pen);
+    }
     let view = crate::viewer::ViewOptions::of(true, args.screenshot.clone())?;
     let params = TickParams::of(&sc)?;
     let poses = PoseSource::load(&sc.trace, 1.0)?;
@@ -150,7 +182,10 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         last = f;
         last_pose = Some(pose);
         if progress && i % 5000 == 0 {
-            eprint!("\rreplay: {:>3}% ({i}/{ticks} ticks)", i * 100 / ticks.max(1));
+            eprint!(
+                "\rreplay: {:>3}% ({i}/{ticks} ticks)",
+                i * 100 / ticks.max(1)
+            );
         }
     }
     if progress {
@@ -175,7 +210,11 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         hierarchy_nodes: h.node_count(),
         visible_faces: h.visible_face_count(),
         components,
-        force: ForceSummary { max_n, last: last.to_array(), contact_ticks },
+        force: ForceSummary {
+            max_n,
+            last: last.to_array(),
+            contact_ticks,
+        },
         force_digest: format!("{:016x}", digest.value()),
         timing_us: TickTiming {
             tick_mean: t.mean,
@@ -191,6 +230,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
             pending: sat.pending,
         },
         scenario: sc,
+        pen: None,
     };
     if let Some(path) = &args.surface {
         write_surface_obj(&world, path)?;
@@ -214,6 +254,147 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         };
         let mut scene = crate::viewer::publish::scene_of(&world, tool, status);
         crate::viewer::screenshot(&mut scene, path)?;
+    }
+    Ok(())
+}
+
+/// `replay --tool mesh:FILE`: the tet-mesh tool (the pen) against the object, contact only
+/// (consistent penetration depth, seed 000): the tool sits at the trace's pose each tick (tip
+/// at the position, identity rotation = axis along +z).
+fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Result<(), CliError> {
+    if args.surface.is_some() || args.screenshot.is_some() {
+        return Err(CliError::input(
+            "--surface and --screenshot show the drilled surface: they need a sphere:R tool",
+        ));
+    }
+    let poses = PoseSource::load(&sc.trace, 1.0)?;
+    let obj = engine::load_mesh(&sc)?.mesh;
+    let pen = crate::meshio::load(pen_path, sc.tool_scale)?;
+    for w in &pen.warnings {
+        eprintln!("tetradrill: warning: {w}");
+    }
+    let ticks = args.ticks.map_or(poses.ticks(), |t| t.min(poses.ticks()));
+    // The object is not drilled here: its components come from an untouched hierarchy.
+    let small = Scenario {
+        hierarchy_capacity: 8,
+        ..sc.clone()
+    };
+    let mut store = EngineStorage::allocate(obj.clone(), &small);
+    let world = store.world()?;
+    let h = world.hierarchy();
+    let mut scratch = vec![0u32; h.components_scratch_needed()];
+    let components = h
+        .components(world.mesh(), &mut scratch)
+        .map_err(|e| CliError::failure(format!("cannot count components: {e}")))?;
+    let (initial_volume, counts, visible_faces) = (
+        world.mesh().volume(),
+        MeshCounts {
+            nodes: world.mesh().node_count(),
+            tets: world.mesh().tet_count(),
+            boundary_faces: world.mesh().stats().boundary_faces,
+        },
+        h.visible_face_count(),
+    );
+    let opts = PenOptions {
+        params: ForceParams {
+            stiffness: sc.stiffness as f32,
+            damping: sc.damping as f32,
+            max_force: sc.max_force as f32,
+            dt: crate::traces::PERIOD_S as f32,
+        },
+        method: match sc.depth_method {
+            DepthMethod::Traced => PenMethod::Traced,
+            DepthMethod::Hashed => PenMethod::Hashed,
+        },
+        ..PenOptions::default()
+    };
+    let mut pen_info = PenSummary {
+        tool_nodes: pen.mesh.positions().len(),
+        tool_tets: pen.mesh.tets().len(),
+        depth_method: format!("{:?}", sc.depth_method).to_lowercase(),
+        ..PenSummary::default()
+    };
+    let mut rig = PenRig { pen: pen.mesh, obj };
+    let mut times = vec![0u64; ticks as usize];
+    let mut digest = ForceDigest::new();
+    let (mut max_n, mut last, mut contact_ticks) = (0.0f32, Vec3::ZERO, 0u64);
+    let progress = !args.quiet && ticks >= 20_000;
+    rig.with(|scene, bufs| {
+        let mut state = PenState::default();
+        for i in 0..ticks {
+            let pose = poses.at(i);
+            let [w, x, y, z] = pose.rotation;
+            let rot = Quat::from_xyzw(x, y, z, w).normalize();
+            let t0 = now_ns();
+            let c = pen_contact(scene, bufs, pose.position, rot, &opts, &mut state);
+            times[i as usize] = now_ns() - t0;
+            digest.push(c.force);
+            max_n = max_n.max(c.force.length());
+            contact_ticks += (c.force != Vec3::ZERO) as u64;
+            last = c.force;
+            pen_info.pen_collisions_max = pen_info.pen_collisions_max.max(c.pen_collisions.count);
+            pen_info.object_collisions_max = pen_info
+                .object_collisions_max
+                .max(c.object_collisions.count);
+            pen_info.unreached += (c.pen_depth.unreached + c.object_depth.unreached) as u64;
+            pen_info.clamped_ticks += c.clamped as u64;
+            pen_info.saturated_ticks += c.saturated() as u64;
+            if progress && i % 5000 == 0 {
+                eprint!(
+                    "\rreplay: {:>3}% ({i}/{ticks} ticks)",
+                    i * 100 / ticks.max(1)
+                );
+            }
+        }
+    })
+    .map_err(|e| CliError::failure(format!("cannot set up the tool contact: {e}")))?;
+    if progress {
+        eprintln!("\rreplay: 100% ({ticks}/{ticks} ticks)");
+    }
+    let t = summarise_ns(&times);
+    let rep = ReplayReport {
+        mesh: counts,
+        ticks,
+        initial_volume,
+        removed_volume: 0.0,
+        hierarchy_nodes: h.node_count(),
+        visible_faces,
+        components,
+        force: ForceSummary {
+            max_n,
+            last: last.to_array(),
+            contact_ticks,
+        },
+        force_digest: format!("{:016x}", digest.value()),
+        timing_us: TickTiming {
+            tick_mean: t.mean,
+            tick_p99: t.p99,
+            tick_p999: t.p999,
+            tick_max: t.max,
+        },
+        saturations: SaturationCounts {
+            total: pen_info.saturated_ticks as u32,
+            ..SaturationCounts::default()
+        },
+        scenario: sc,
+        pen: Some(pen_info),
+    };
+    print_summary(&rep);
+    if let Some(p) = &rep.pen {
+        println!(
+            "tool {} nodes / {} tets, depth {}: most tool nodes inside {}, object nodes inside {}, \
+             unreached {}, clamped ticks {}",
+            p.tool_nodes,
+            p.tool_tets,
+            p.depth_method,
+            p.pen_collisions_max,
+            p.object_collisions_max,
+            p.unreached,
+            p.clamped_ticks
+        );
+    }
+    if let Some(path) = &args.json {
+        crate::cli::write_json(path, &rep)?;
     }
     Ok(())
 }
