@@ -4,7 +4,8 @@
 //! [`crate::mesh::Mesh::build`] makes the shortest one). Only the part from each root to its
 //! frontier is instantiated: roots live in one slot per coarse tet, children in blocks of 8
 //! contiguous nodes of a caller arena ([`HNode`], 8 bytes: 24-bit child block, 4 visible-face
-//! bits, erased, inverted, plus a `u32` v_list slot). Nodes are never freed (no coarsening):
+//! bits, erased, inverted, surface below, plus a `u32` v_list slot; all zero for a fresh
+//! leaf). Nodes are never freed (no coarsening):
 //! the arena is a bump allocator, and when it is full a refinement is refused and counted.
 //!
 //! - [`table`]: the tree table (const, one level) and digit walks for deeper levels.
@@ -12,6 +13,8 @@
 //! - [`Hierarchy::erase`], [`Hierarchy::refine`]: seed 001 section 2.1, across coarse faces
 //!   through the mesh's reverse indices.
 //! - [`Hierarchy::for_each_visible`], [`Hierarchy::for_each_visible_in`]: the drilled surface.
+//! - [`Hierarchy::nearest_visible`]: the closest visible triangle to a point (branch and
+//!   bound over the nodes whose *surface* bit says a v_list leaf lies below), for the contact.
 //! - connected pieces of the remaining material: [`Hierarchy::components`].
 //! - invariants: [`Hierarchy::validate`].
 //!
@@ -21,6 +24,7 @@
 
 mod components;
 mod geometry;
+mod nearest;
 mod node;
 mod ops;
 mod store;
@@ -30,6 +34,7 @@ mod validate;
 pub mod visit;
 
 pub use geometry::{node_positions, node_volume};
+pub use nearest::{FaceRef, Nearest};
 pub use node::{HNode, VEntry, MAX_BLOCKS, NODE_BYTES, NO_BLOCK, NO_SLOT};
 pub use ops::OpReport;
 pub use store::{Hierarchy, HierarchyError, HierarchyStats, HierarchyStorage};

@@ -2,24 +2,30 @@
 
 use crate::ids::TetId;
 
-/// "No child block" in the 24-bit child field.
+/// "No child block": what [`HNode::block`] never returns (the largest 24-bit value).
 pub const NO_BLOCK: u32 = 0x00FF_FFFF;
 /// "Not on the v_list".
 pub const NO_SLOT: u32 = u32::MAX;
-/// Largest number of child blocks an arena can hold (24-bit block index, one value reserved).
+/// Largest number of child blocks an arena can hold (24-bit field storing `block + 1`, zero
+/// for a leaf).
 pub const MAX_BLOCKS: usize = NO_BLOCK as usize;
 
+const BLOCK_MASK: u32 = 0x00FF_FFFF;
 const VIS_SHIFT: u32 = 24;
 const ERASED: u32 = 1 << 28;
 const INVERTED: u32 = 1 << 29;
+const SURFACE: u32 = 1 << 30;
 
-/// One node of a subdivision tree: 8 bytes.
+/// One node of a subdivision tree: 8 bytes, all zero for a fresh leaf ([`HNode::LEAF`]), so
+/// statics of nodes can start in `.bss`.
 ///
-/// `word`: bits 0-23 the index of its block of 8 children in the arena ([`NO_BLOCK`] for a
+/// `word`: bits 0-23 the index of its block of 8 children in the arena plus one (0 for a
 /// leaf), bits 24-27 the visible-face bits (bit `24 + i` for face `i`), bit 28 erased, bit 29
-/// inverted (vertex order opposite to the root's, from T6/T8 steps). `slot`: its index in the
-/// v_list of non-erased leaves with a visible face, or [`NO_SLOT`].
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+/// inverted (vertex order opposite to the root's, from T6/T8 steps), bit 30 *surface*: the
+/// subtree holds a v_list leaf (for a leaf: it is on the v_list), kept exact by Erase and
+/// Refine so walks over the drilled surface skip erased and interior material. `slot`: its
+/// index in the v_list of non-erased leaves with a visible face plus one, 0 when not there.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 #[repr(C)]
 pub struct HNode {
     word: u32,
@@ -30,48 +36,41 @@ pub struct HNode {
 pub const NODE_BYTES: usize = core::mem::size_of::<HNode>();
 const _: () = assert!(NODE_BYTES == 8, "a hierarchy node must stay within 8 bytes");
 
-impl Default for HNode {
-    fn default() -> Self {
-        Self::LEAF
-    }
-}
-
 impl HNode {
-    /// A fresh leaf: no children, nothing visible, not erased, not on the v_list.
-    pub const LEAF: Self = Self {
-        word: NO_BLOCK,
-        slot: NO_SLOT,
-    };
+    /// A fresh leaf: no children, nothing visible, not erased, not on the v_list. All zero
+    /// bytes (it is also `HNode::default()`).
+    pub const LEAF: Self = Self { word: 0, slot: 0 };
 
     /// A fresh leaf with the given orientation bit.
     #[inline]
     pub const fn leaf(inverted: bool) -> Self {
         Self {
-            word: NO_BLOCK | if inverted { INVERTED } else { 0 },
-            slot: NO_SLOT,
+            word: if inverted { INVERTED } else { 0 },
+            slot: 0,
         }
     }
 
     /// Child block index, or `None` for a leaf.
     #[inline]
     pub const fn block(self) -> Option<u32> {
-        let b = self.word & NO_BLOCK;
-        if b == NO_BLOCK {
+        let b = self.word & BLOCK_MASK;
+        if b == 0 {
             None
         } else {
-            Some(b)
+            Some(b - 1)
         }
     }
 
     /// `true` when the node has no children.
     #[inline]
     pub const fn is_leaf(self) -> bool {
-        self.word & NO_BLOCK == NO_BLOCK
+        self.word & BLOCK_MASK == 0
     }
 
+    /// Sets the child block (`b < MAX_BLOCKS`; larger values are masked).
     #[inline]
     pub(crate) fn set_block(&mut self, b: u32) {
-        self.word = (self.word & !NO_BLOCK) | (b & NO_BLOCK);
+        self.word = (self.word & !BLOCK_MASK) | (b.wrapping_add(1) & BLOCK_MASK);
     }
 
     /// The four visible-face bits (bit `i` for face `i`).
@@ -102,15 +101,31 @@ impl HNode {
         self.word & INVERTED != 0
     }
 
+    /// `true` when the node's subtree holds a leaf of the v_list (a non-erased leaf with a
+    /// visible face); for a leaf, `true` iff it is on the v_list.
+    #[inline]
+    pub const fn surface(self) -> bool {
+        self.word & SURFACE != 0
+    }
+
+    #[inline]
+    pub(crate) fn set_surface(&mut self, on: bool) {
+        if on {
+            self.word |= SURFACE;
+        } else {
+            self.word &= !SURFACE;
+        }
+    }
+
     /// The node's v_list slot, or [`NO_SLOT`].
     #[inline]
     pub const fn slot(self) -> u32 {
-        self.slot
+        self.slot.wrapping_sub(1)
     }
 
     #[inline]
     pub(crate) fn set_slot(&mut self, s: u32) {
-        self.slot = s;
+        self.slot = s.wrapping_add(1);
     }
 }
 

@@ -174,6 +174,7 @@ impl<'a> Hierarchy<'a> {
                         node: i as u32,
                     };
                     root.set_slot(self.vlen);
+                    root.set_surface(true);
                     self.vlen += 1;
                     self.stats.visible_faces += bits.count_ones();
                 }
@@ -291,7 +292,11 @@ impl<'a> Hierarchy<'a> {
         Some(r)
     }
 
-    /// Puts a leaf on the v_list (no-op when already there or out of room).
+    /// Puts a leaf on the v_list (no-op when already there or out of room) and marks it and
+    /// its ancestors as holding surface.
+    ///
+    /// # Bounded work
+    /// O(depth).
     pub(super) fn vlist_insert(&mut self, tet: TetId, index: u32, r: u32) {
         let slot = self.vlen;
         let Some(n) = self.node(r) else { return };
@@ -309,16 +314,39 @@ impl<'a> Hierarchy<'a> {
         self.vlen += 1;
         if let Some(n) = self.node_mut(r) {
             n.set_slot(slot);
+            n.set_surface(true);
+        }
+        // The ancestors, root first.
+        let Some(path) = Path::of_index(index) else {
+            return;
+        };
+        if tet.idx() >= self.roots.len() {
+            return;
+        }
+        let mut a = tet.0;
+        for k in 0..path.depth as usize {
+            if let Some(n) = self.node_mut(a) {
+                n.set_surface(true);
+            }
+            match self.child(a, path.digit(k + 1)) {
+                Some(c) => a = c,
+                None => return,
+            }
         }
     }
 
-    /// Takes a node off the v_list by swap-remove (no-op when not there).
+    /// Takes a node off the v_list by swap-remove (no-op when not there) and clears the
+    /// surface bit of the ancestors left with no v_list leaf below them.
+    ///
+    /// # Bounded work
+    /// O(8 * depth).
     pub(super) fn vlist_remove(&mut self, r: u32) {
         let Some(n) = self.node(r) else { return };
         let slot = n.slot();
         if slot == NO_SLOT || slot >= self.vlen {
             return;
         }
+        let gone = self.vlist.get(slot as usize).copied();
         let last = self.vlen - 1;
         let moved = self.vlist.get(last as usize).copied();
         if let (Some(moved), Some(dst)) = (moved, self.vlist.get_mut(slot as usize)) {
@@ -330,6 +358,44 @@ impl<'a> Hierarchy<'a> {
         self.vlen = last;
         if let Some(n) = self.node_mut(r) {
             n.set_slot(NO_SLOT);
+            n.set_surface(false);
+        }
+        if let Some(e) = gone.filter(|e| e.node == r) {
+            self.clear_surface_above(e.tet, e.index);
+        }
+    }
+
+    /// Clears the surface bit of the ancestors of `(tet, index)`, deepest first, while none of
+    /// their children holds surface.
+    fn clear_surface_above(&mut self, tet: TetId, index: u32) {
+        let Some(path) = Path::of_index(index) else {
+            return;
+        };
+        if tet.idx() >= self.roots.len() {
+            return;
+        }
+        let mut refs = [0u32; MAX_DEPTH + 1];
+        let mut a = tet.0;
+        refs[0] = a;
+        let depth = (path.depth as usize).min(MAX_DEPTH);
+        for (k, slot) in refs.iter_mut().enumerate().take(depth + 1).skip(1) {
+            match self.child(a, path.digit(k)) {
+                Some(c) => a = c,
+                None => return,
+            }
+            *slot = a;
+        }
+        for &p in refs[..depth].iter().rev() {
+            let Some(b) = self.node(p).and_then(HNode::block) else {
+                return;
+            };
+            let first = self.block_ref(b);
+            if (0..8).any(|c| self.node(first + c).is_some_and(HNode::surface)) {
+                return;
+            }
+            if let Some(n) = self.node_mut(p) {
+                n.set_surface(false);
+            }
         }
     }
 

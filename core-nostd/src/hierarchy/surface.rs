@@ -39,6 +39,30 @@ pub struct Leaf {
 /// DFS stack size over a tree: 7 per level plus 8.
 const STACK: usize = 7 * MAX_DEPTH + 8;
 
+/// The outward triangle of face `face` of a node with corners `p` and the given orientation.
+#[inline]
+pub(super) fn face_corners(p: [Vec3; 4], face: u8, inverted: bool) -> [Vec3; 3] {
+    let [a, b, c] = FACE_VERTS[(face & 3) as usize].map(|k| p[k as usize]);
+    // Listings are clockwise from outside a positively oriented node.
+    if inverted {
+        [a, b, c]
+    } else {
+        [a, c, b]
+    }
+}
+
+/// The bounding sphere of a node with corners `p` that the walks test: the centroid and the
+/// largest distance from it to a corner.
+#[inline]
+pub(super) fn bounding_sphere(p: [Vec3; 4]) -> (Vec3, f32) {
+    let mid = (p[0] + p[1] + p[2] + p[3]) * 0.25;
+    let mut r2 = 0.0f32;
+    for q in p {
+        r2 = r2.max(q.distance_squared(mid));
+    }
+    (mid, libm::sqrtf(r2))
+}
+
 /// The outward triangles of the faces `bits` of a node with the given corners and orientation.
 fn emit<F: FnMut(VisibleTri)>(
     tet: TetId,
@@ -52,14 +76,11 @@ fn emit<F: FnMut(VisibleTri)>(
         if bits & (1 << face) == 0 {
             continue;
         }
-        let [a, b, c] = FACE_VERTS[face as usize].map(|k| p[k as usize]);
-        // Listings are clockwise from outside a positively oriented node.
-        let corners = if inverted { [a, b, c] } else { [a, c, b] };
         f(VisibleTri {
             tet,
             index,
             face,
-            corners,
+            corners: face_corners(p, face, inverted),
         });
     }
 }
@@ -80,11 +101,14 @@ impl Hierarchy<'_> {
     }
 
     /// Calls `f` for every visible triangle of the trees of `tets` whose node lies within
-    /// `near = (centre, radius)` (by the node's bounding sphere; `None`: all of them). The
-    /// forces near the tool use this: the drilled surface, not the original one.
+    /// `near = (centre, radius)` (by the node's bounding sphere; `None`: all of them). Subtrees
+    /// without a v_list leaf (their surface bit clear: erased or interior material) are
+    /// skipped. [`Hierarchy::nearest_visible`] finds the closest of these triangles without
+    /// yielding them all.
     ///
     /// # Bounded work
-    /// O(nodes of those trees that meet the ball * depth).
+    /// O(nodes of those trees that hold surface and meet the ball); each node is constant
+    /// work.
     pub fn for_each_visible_in<F: FnMut(VisibleTri)>(
         &self,
         mesh: &Mesh<'_>,
@@ -143,7 +167,8 @@ impl Hierarchy<'_> {
         }
     }
 
-    /// DFS over the leaves of one tree whose bounding spheres meet `near`, with positions. The
+    /// DFS over the leaves of one tree that hold surface (see [`HNode::surface`]) and whose
+    /// bounding spheres meet `near`, with positions. The
     /// integer barycentric coordinates are carried down the stack, so each node costs O(1)
     /// (not O(depth)) and gets the same bits as [`node_positions`].
     pub(crate) fn walk_tree<F: FnMut(Leaf, [Vec3; 4])>(
@@ -168,14 +193,13 @@ impl Hierarchy<'_> {
                 break;
             };
             let Some(node) = self.node(r) else { continue };
+            if !node.surface() {
+                continue;
+            }
             let p = frame.positions(&bary, depth);
             if let Some((centre, radius)) = near {
-                let mid = (p[0] + p[1] + p[2] + p[3]) * 0.25;
-                let mut reach = 0.0f32;
-                for q in p {
-                    reach = reach.max(q.distance_squared(mid));
-                }
-                let reach = libm::sqrtf(reach) + radius;
+                let (mid, rad) = bounding_sphere(p);
+                let reach = rad + radius;
                 if mid.distance_squared(centre) > reach * reach {
                     continue;
                 }

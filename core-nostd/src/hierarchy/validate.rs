@@ -11,8 +11,9 @@ use crate::mesh::Mesh;
 impl Hierarchy<'_> {
     /// Checks the invariants: every child block is referenced by exactly one node and lies in
     /// the used part of the arena; only non-erased leaves carry visible faces; a leaf is on the
-    /// v_list iff it has a visible face, with the v_list's back-indices consistent; the
-    /// orientation bits match the geometry; the visible-face counter matches the bits.
+    /// v_list iff it has a visible face, with the v_list's back-indices consistent; a node's
+    /// surface bit is set iff its subtree holds a v_list leaf; the orientation bits match the
+    /// geometry; the visible-face counter matches the bits.
     ///
     /// # Bounded work
     /// O(nodes * depth).
@@ -52,6 +53,9 @@ impl Hierarchy<'_> {
                         if (node.visible() != 0) != (node.slot() != NO_SLOT) {
                             err = Some("v_list membership disagrees with visible faces");
                         }
+                        if node.surface() != (node.slot() != NO_SLOT) {
+                            err = Some("surface bit of a leaf disagrees with the v_list");
+                        }
                         if node.slot() != NO_SLOT {
                             listed += 1;
                             match self.vlist().get(node.slot() as usize) {
@@ -71,9 +75,15 @@ impl Hierarchy<'_> {
                         if path.depth as usize >= Self::MAX_DEPTH || top + 8 > stack.len() {
                             return Err(bad("tree deeper than MAX_DEPTH"));
                         }
+                        let mut below = false;
                         for c in 0..8u8 {
-                            stack[top] = (self.block_ref(b) + c as u32, index * 8 + 1 + c as u32);
+                            let cr = self.block_ref(b) + c as u32;
+                            below |= self.node(cr).is_some_and(|n| n.surface());
+                            stack[top] = (cr, index * 8 + 1 + c as u32);
                             top += 1;
+                        }
+                        if below != node.surface() {
+                            err = Some("surface bit of an inner node disagrees with its children");
                         }
                     }
                 }

@@ -17,7 +17,7 @@ use glam::Vec3;
 use crate::drill::{Drill, DrillParams, DrillReport, Pending, Sphere};
 use crate::force::{clamp_force, damping_force, sphere_contact, ForceParams, ToolState};
 use crate::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, HashError, SpatialHash};
-use crate::hierarchy::{Hierarchy, HierarchyError, HierarchyStorage};
+use crate::hierarchy::{FaceRef, Hierarchy, HierarchyError, HierarchyStorage};
 use crate::ids::TetId;
 use crate::mesh::Mesh;
 
@@ -118,6 +118,11 @@ pub struct SimReport {
     pub drill: DrillReport,
     /// Visible triangles examined for the contact.
     pub triangles: u32,
+    /// Hierarchy nodes tested by the contact search.
+    pub contact_nodes: u32,
+    /// The contact search hit [`World::contact_max_nodes`]: the previous contact plane was
+    /// kept (counted in `saturations().contact`).
+    pub contact_saturated: bool,
     /// The candidate list filled up (tets were left out of this step; counted).
     pub candidates_saturated: bool,
 }
@@ -133,12 +138,15 @@ pub struct Saturations {
     pub arena: u32,
     /// Drill work items dropped because the pending deque was full.
     pub pending: u32,
+    /// Simulation steps whose contact search hit its node bound (the previous contact plane
+    /// was kept).
+    pub contact: u32,
 }
 
 impl Saturations {
     /// All kinds added up.
     pub fn total(&self) -> u32 {
-        self.hash + self.candidates + self.arena + self.pending
+        self.hash + self.candidates + self.arena + self.pending + self.contact
     }
 }
 
@@ -154,10 +162,16 @@ pub struct World<'a> {
     ncand: usize,
     max_cells: u32,
     contact: ContactState,
+    contact_face: Option<FaceRef>,
+    contact_max_nodes: u32,
     sat: Saturations,
     last_queued: Option<Vec3>,
     since_queued: u32,
 }
+
+/// Default bound on the hierarchy nodes the contact search of one simulation step tests
+/// (see [`World::set_contact_max_nodes`]).
+pub const CONTACT_MAX_NODES: u32 = 4096;
 
 /// A burr position goes to the drill once it is this fraction of the radius away from the last
 /// one queued: spheres a quarter radius apart cover the swept capsule to within
@@ -215,6 +229,8 @@ impl<'a> World<'a> {
             ncand: 0,
             max_cells: 4096,
             contact: ContactState::default(),
+            contact_face: None,
+            contact_max_nodes: CONTACT_MAX_NODES,
             sat,
             last_queued: None,
             since_queued: 0,
@@ -239,6 +255,18 @@ impl<'a> World<'a> {
     /// The contact the last [`World::simulate`] found.
     pub fn contact(&self) -> &ContactState {
         &self.contact
+    }
+
+    /// The bound on the hierarchy nodes one contact search tests ([`CONTACT_MAX_NODES`] by
+    /// default).
+    pub fn contact_max_nodes(&self) -> u32 {
+        self.contact_max_nodes
+    }
+
+    /// Sets the bound on the hierarchy nodes one contact search tests. A search that reaches
+    /// it keeps the previous contact plane and counts `saturations().contact`.
+    pub fn set_contact_max_nodes(&mut self, n: u32) {
+        self.contact_max_nodes = n;
     }
 
     /// The coarse tets the last [`World::simulate`] found near the tool.
@@ -267,12 +295,14 @@ impl<'a> World<'a> {
     ///
     /// # Bounded work
     /// O(max cells + candidates) for the query, the drill step's budget (see
-    /// [`Drill::step`]), and O(visible nodes of the candidate trees within reach x depth) for
-    /// the contact.
+    /// [`Drill::step`]), and for the contact at most [`World::contact_max_nodes`] node tests
+    /// of [`Hierarchy::nearest_visible`] (typically a few hundred), plus O(candidates + depth).
     ///
     /// # Capacity
     /// A full candidate list keeps the tets found first and counts `saturations().candidates`;
-    /// the drill and the hierarchy saturate as they document. The state stays valid.
+    /// the drill and the hierarchy saturate as they document; a contact search that reaches
+    /// its node bound keeps the previous contact plane and counts `saturations().contact`.
+    /// The state stays valid.
     pub fn simulate(
         &mut self,
         centre: Vec3,
@@ -306,6 +336,7 @@ impl<'a> World<'a> {
         let mut rep = SimReport::default();
         if !(centre.is_finite() && radius.is_finite() && radius > 0.0) {
             self.contact = ContactState::default();
+            self.contact_face = None;
             return rep;
         }
         let reach = if reach.is_finite() && reach > 0.0 {
@@ -395,53 +426,57 @@ impl<'a> World<'a> {
                 params,
             );
         }
-        self.contact = self.contact_with_surface(centre, radius, radius + reach);
-        rep.triangles = self.contact.triangles;
+        self.update_contact(centre, radius, radius + reach, &mut rep);
         rep
     }
 
     /// The closest visible triangle of the candidate trees within `reach` of `centre`, turned
-    /// into a contact plane by [`sphere_contact`]. Ties go to the smallest (tet, index, face),
-    /// so the result never depends on visiting order.
-    fn contact_with_surface(&self, centre: Vec3, radius: f32, reach: f32) -> ContactState {
-        let mut best: Option<(f32, (u32, u32, u8), [Vec3; 3])> = None;
-        let mut seen = 0u32;
+    /// into a contact plane by [`sphere_contact`], through [`Hierarchy::nearest_visible`]
+    /// hinted with the last step's triangle. Ties go to the smallest (tet, index, face), so
+    /// the result never depends on visiting order, and it is the triangle the exhaustive
+    /// search over [`Hierarchy::for_each_visible_in`] finds. When the search reaches
+    /// `contact_max_nodes` the previous contact plane is kept (and counted).
+    fn update_contact(&mut self, centre: Vec3, radius: f32, reach: f32, rep: &mut SimReport) {
         let cands = &self.candidates[..self.ncand];
-        self.hier
-            .for_each_visible_in(&self.mesh, cands, Some((centre, reach)), |vt| {
-                seen = seen.wrapping_add(1);
-                let x = crate::force::closest_point_on_triangle(centre, vt.corners);
-                let d2 = (centre - x).length_squared();
-                if !(d2 <= reach * reach) {
-                    return;
-                }
-                let key = (vt.tet.0, vt.index, vt.face);
-                let better = match &best {
-                    None => true,
-                    Some((bd, bk, _)) => d2 < *bd || (d2 == *bd && key < *bk),
-                };
-                if better {
-                    best = Some((d2, key, vt.corners));
-                }
-            });
-        match best {
+        let near = self.hier.nearest_visible(
+            &self.mesh,
+            cands,
+            centre,
+            reach,
+            self.contact_face,
+            self.contact_max_nodes,
+        );
+        rep.triangles = near.triangles;
+        rep.contact_nodes = near.nodes;
+        if !near.complete {
+            rep.contact_saturated = true;
+            self.sat.contact += 1;
+            self.contact.triangles = near.triangles;
+            return;
+        }
+        self.contact_face = near.tri.map(|vt| FaceRef {
+            tet: vt.tet,
+            index: vt.index,
+            face: vt.face,
+        });
+        self.contact = match near.tri {
             None => ContactState {
                 centre,
-                triangles: seen,
+                triangles: near.triangles,
                 ..ContactState::default()
             },
-            Some((_, _, tri)) => {
-                let c = sphere_contact(centre, radius, [tri]);
+            Some(vt) => {
+                let c = sphere_contact(centre, radius, [vt.corners]);
                 ContactState {
                     valid: c.normal != Vec3::ZERO,
                     point: c.point,
                     normal: c.normal,
                     depth: c.depth,
                     centre,
-                    triangles: seen,
+                    triangles: near.triangles,
                 }
             }
-        }
+        };
     }
 }
 

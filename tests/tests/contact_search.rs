@@ -1,0 +1,309 @@
+//! The contact search of `World::simulate` (`Hierarchy::nearest_visible`: branch and bound over
+//! the nodes holding surface) against the exhaustive search over every visible triangle near
+//! the tool, after random drilling on the block and on the cow: the same triangle, hence the
+//! same contact plane bit for bit, at every pose; hints never change the answer; the node
+//! bound keeps the previous plane and counts it.
+
+use glam::Vec3;
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use tetradrill::owned::OwnedMesh;
+use tetradrill_core::builtin::{block, block_counts};
+use tetradrill_core::drill::{DrillParams, Pending};
+use tetradrill_core::force::{closest_point_on_triangle, sphere_contact};
+use tetradrill_core::hash::HashEntry;
+use tetradrill_core::hierarchy::{FaceRef, HNode, Hierarchy, HierarchyStorage, VEntry};
+use tetradrill_core::mesh::{BuildOptions, Mesh};
+use tetradrill_core::servo::{World, WorldSizes, WorldStorage};
+use tetradrill_core::TetId;
+
+/// Storage for one world.
+struct Store {
+    hash_starts: Vec<u32>,
+    hash_entries: Vec<HashEntry>,
+    roots: Vec<HNode>,
+    arena: Vec<HNode>,
+    vlist: Vec<VEntry>,
+    pending: Vec<Pending>,
+    candidates: Vec<TetId>,
+}
+
+impl Store {
+    fn new(tets: usize, arena: usize) -> Self {
+        let s = WorldSizes::new(tets, arena);
+        Self {
+            hash_starts: vec![0; s.hash_starts],
+            hash_entries: vec![HashEntry::default(); s.hash_entries],
+            roots: vec![HNode::default(); s.roots],
+            arena: vec![HNode::default(); s.arena],
+            vlist: vec![VEntry::default(); s.vlist],
+            pending: vec![Pending::default(); s.pending],
+            candidates: vec![TetId::NONE; s.candidates],
+        }
+    }
+
+    fn world<'a>(&'a mut self, mesh: Mesh<'a>) -> World<'a> {
+        World::new(
+            mesh,
+            WorldStorage {
+                hash_starts: &mut self.hash_starts,
+                hash_entries: &mut self.hash_entries,
+                hierarchy: HierarchyStorage {
+                    roots: &mut self.roots,
+                    arena: &mut self.arena,
+                    vlist: &mut self.vlist,
+                },
+                pending: &mut self.pending,
+                candidates: &mut self.candidates,
+            },
+        )
+        .unwrap()
+    }
+}
+
+fn block_mesh(n: usize) -> OwnedMesh {
+    let (nn, nt) = block_counts(n);
+    let mut p = vec![Vec3::ZERO; nn];
+    let mut t = vec![[0u32; 4]; nt];
+    block(n, 1.0 / n as f32, Vec3::splat(-0.5), &mut p, &mut t).unwrap();
+    OwnedMesh::build(p, &t, BuildOptions::default()).unwrap()
+}
+
+/// A minimal TetGen `.node`/`.ele` reader (the test's own).
+fn tetgen(rel: &str) -> OwnedMesh {
+    let node = tetradrill_tests::mesh(rel);
+    let ele = node.with_extension("ele");
+    let nums = |path: &std::path::Path| -> Vec<Vec<f64>> {
+        std::fs::read_to_string(path)
+            .unwrap()
+            .lines()
+            .map(|l| l.split('#').next().unwrap_or(""))
+            .filter(|l| !l.trim().is_empty())
+            .map(|l| {
+                l.split_whitespace()
+                    .map(|w| w.parse::<f64>().unwrap())
+                    .collect()
+            })
+            .collect()
+    };
+    let (nr, er) = (nums(&node), nums(&ele));
+    let n = nr[0][0] as usize;
+    let base = nr[1][0] as u32;
+    let p: Vec<Vec3> = nr[1..=n]
+        .iter()
+        .map(|r| Vec3::new(r[1] as f32, r[2] as f32, r[3] as f32))
+        .collect();
+    let m = er[0][0] as usize;
+    let t: Vec<[u32; 4]> = er[1..=m]
+        .iter()
+        .map(|r| std::array::from_fn(|k| r[k + 1] as u32 - base))
+        .collect();
+    OwnedMesh::build(p, &t, BuildOptions::default()).unwrap()
+}
+
+/// The exhaustive search: every visible triangle `for_each_visible_in` yields near the tool,
+/// the closest within reach, ties to the smallest (tet, index, face).
+fn exhaustive(
+    h: &Hierarchy<'_>,
+    mesh: &Mesh<'_>,
+    cands: &[TetId],
+    c: Vec3,
+    reach: f32,
+) -> Option<(f32, FaceRef, [Vec3; 3])> {
+    let mut best: Option<(f32, FaceRef, [Vec3; 3])> = None;
+    h.for_each_visible_in(mesh, cands, Some((c, reach)), |vt| {
+        let d2 = (c - closest_point_on_triangle(c, vt.corners)).length_squared();
+        if !(d2 <= reach * reach) {
+            return;
+        }
+        let key = FaceRef {
+            tet: vt.tet,
+            index: vt.index,
+            face: vt.face,
+        };
+        if best.map_or(true, |(bd, bk, _)| d2 < bd || (d2 == bd && key < bk)) {
+            best = Some((d2, key, vt.corners));
+        }
+    });
+    best
+}
+
+/// An oracle sharing no walk with the hierarchy's: the v_list's triangles of the candidate
+/// trees, closest within reach. Returns the squared distance.
+fn from_vlist(h: &Hierarchy<'_>, mesh: &Mesh<'_>, cands: &[TetId], c: Vec3, reach: f32) -> f32 {
+    let mut best = f32::INFINITY;
+    h.for_each_visible(mesh, |vt| {
+        if cands.binary_search(&vt.tet).is_err() {
+            return;
+        }
+        let d2 = (c - closest_point_on_triangle(c, vt.corners)).length_squared();
+        if d2 <= reach * reach && d2 < best {
+            best = d2;
+        }
+    });
+    best
+}
+
+/// Checks the world's contact after a `simulate` at `c` against the exhaustive search.
+fn check_contact(world: &World<'_>, c: Vec3, radius: f32, reach: f32, rng: &mut StdRng) {
+    let (h, mesh) = (world.hierarchy(), world.mesh());
+    let mut cands = world.candidates().to_vec();
+    cands.sort_unstable();
+    let want = exhaustive(h, mesh, &cands, c, radius + reach);
+    let got = world.contact();
+    match want {
+        None => assert!(!got.valid, "contact found where there is none at {c}"),
+        Some((d2, _, tri)) => {
+            let sc = sphere_contact(c, radius, [tri]);
+            assert_eq!(got.valid, sc.normal != Vec3::ZERO, "at {c}");
+            assert_eq!(got.point.to_array(), sc.point.to_array(), "point at {c}");
+            assert_eq!(got.normal.to_array(), sc.normal.to_array(), "normal at {c}");
+            assert_eq!(got.depth.to_bits(), sc.depth.to_bits(), "depth at {c}");
+            assert_eq!(
+                from_vlist(h, mesh, &cands, c, radius + reach),
+                d2,
+                "v_list at {c}"
+            );
+        }
+    }
+    // Hints (any visible face, or a stale one) never change the answer.
+    let plain = h.nearest_visible(mesh, &cands, c, radius + reach, None, u32::MAX);
+    assert!(plain.complete);
+    assert_eq!(plain.d2, want.map_or(f32::INFINITY, |w| w.0));
+    let key =
+        |t: Option<tetradrill_core::hierarchy::VisibleTri>| t.map(|v| (v.tet, v.index, v.face));
+    assert_eq!(key(plain.tri), want.map(|w| (w.1.tet, w.1.index, w.1.face)));
+    let vl = h.vlist();
+    if !vl.is_empty() {
+        let e = vl[rng.gen_range(0..vl.len())];
+        let hint = FaceRef {
+            tet: e.tet,
+            index: e.index,
+            face: rng.gen_range(0..4),
+        };
+        let hinted = h.nearest_visible(mesh, &cands, c, radius + reach, Some(hint), u32::MAX);
+        assert_eq!(key(hinted.tri), key(plain.tri), "hint {hint:?} at {c}");
+        assert_eq!(hinted.d2.to_bits(), plain.d2.to_bits());
+    }
+}
+
+/// Drills random strokes starting at `starts` (burr entering along `-inward`), checking the
+/// contact at every step, then probes random poses around the drilled region.
+fn drill_and_probe(mesh: Mesh<'_>, starts: &[(Vec3, Vec3)], radius: f32, depth: u8, seed: u64) {
+    let mut st = Store::new(mesh.tet_count(), 1 << 19);
+    let mut world = st.world(mesh);
+    let params = DrillParams {
+        max_depth: depth,
+        min_area: 0.0,
+        budget: 20_000,
+    };
+    let reach = 0.5 * radius;
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut max_nodes = 0u32;
+    let mut visited = Vec::new();
+    for &(s, inward) in starts {
+        let side = inward.any_orthonormal_vector();
+        let mut c = s - inward * radius;
+        let mut dir = (inward + side * rng.gen_range(-1.0..1.0f32)).normalize();
+        for step in 0..60 {
+            let on = step < 45;
+            let rep = world.simulate(c, radius, reach, on, &params);
+            check_contact(&world, c, radius, reach, &mut rng);
+            max_nodes = max_nodes.max(rep.contact_nodes);
+            visited.push(c);
+            c += dir * (radius * rng.gen_range(0.05..0.4f32));
+            if rng.gen_bool(0.2) {
+                let turn = Vec3::new(
+                    rng.gen_range(-1.0..1.0),
+                    rng.gen_range(-1.0..1.0),
+                    rng.gen_range(-1.0..1.0),
+                );
+                dir = (dir + turn * 0.7).normalize_or(dir);
+            }
+        }
+    }
+    while world.pending() > 0 {
+        world.simulate(visited[0], radius, reach, false, &params);
+    }
+    world.hierarchy().validate(world.mesh()).unwrap();
+    for _ in 0..400 {
+        let base = visited[rng.gen_range(0..visited.len())];
+        let off = Vec3::new(
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+        ) * (2.0 * radius);
+        let c = base + off;
+        let rep = world.simulate(c, radius, reach, false, &params);
+        check_contact(&world, c, radius, reach, &mut rng);
+        max_nodes = max_nodes.max(rep.contact_nodes);
+    }
+    assert_eq!(world.saturations().contact, 0, "the node bound was reached");
+    eprintln!("most nodes tested by one contact search: {max_nodes}");
+}
+
+#[test]
+fn contact_is_the_exhaustive_closest_triangle_on_the_block() {
+    let mut om = block_mesh(6);
+    let mesh = om.view();
+    let starts: Vec<(Vec3, Vec3)> = vec![
+        (Vec3::new(0.0, 0.0, 0.5), Vec3::NEG_Z),
+        (Vec3::new(0.2, -0.1, 0.5), Vec3::NEG_Z),
+        (Vec3::new(0.5, 0.1, 0.0), Vec3::NEG_X),
+        (Vec3::new(-0.3, -0.5, -0.2), Vec3::Y),
+    ];
+    drill_and_probe(mesh, &starts, 0.08, 4, 11);
+}
+
+#[test]
+fn contact_is_the_exhaustive_closest_triangle_on_the_cow() {
+    let mut om = tetgen("models/spot_tetgen_q1.414.node");
+    let mesh = om.view();
+    let p = mesh.positions();
+    let lo = p.iter().fold(Vec3::splat(f32::MAX), |a, &b| a.min(b));
+    let hi = p.iter().fold(Vec3::splat(f32::MIN), |a, &b| a.max(b));
+    let radius = 0.03 * (hi - lo).length();
+    let mut rng = StdRng::seed_from_u64(5);
+    let boundary: Vec<usize> = (0..mesh.node_count())
+        .filter(|&i| mesh.nodes()[i].boundary)
+        .collect();
+    let starts: Vec<(Vec3, Vec3)> = (0..4)
+        .map(|_| {
+            let i = boundary[rng.gen_range(0..boundary.len())];
+            let n = mesh.normal(tetradrill_core::NodeId::from_idx(i));
+            (p[i], -n)
+        })
+        .collect();
+    drill_and_probe(mesh, &starts, radius, 3, 12);
+}
+
+#[test]
+fn the_node_bound_keeps_the_previous_plane_and_counts() {
+    let mut om = block_mesh(4);
+    let mesh = om.view();
+    let mut st = Store::new(mesh.tet_count(), 1 << 16);
+    let mut world = st.world(mesh);
+    let params = DrillParams {
+        max_depth: 3,
+        min_area: 0.0,
+        budget: 100_000,
+    };
+    let (r, reach) = (0.1, 0.05);
+    for k in 0..20 {
+        let c = Vec3::new(0.0, 0.0, 0.55 - 0.01 * k as f32);
+        world.simulate(c, r, reach, true, &params);
+    }
+    let before = *world.contact();
+    assert!(before.valid);
+    world.set_contact_max_nodes(3);
+    let rep = world.simulate(Vec3::new(0.02, 0.0, 0.4), r, reach, false, &params);
+    assert!(rep.contact_saturated);
+    assert!(rep.contact_nodes <= 3);
+    assert_eq!(world.saturations().contact, 1);
+    assert_eq!(world.contact().point, before.point);
+    assert_eq!(world.contact().normal, before.normal);
+    world.set_contact_max_nodes(tetradrill_core::servo::CONTACT_MAX_NODES);
+    let rep = world.simulate(Vec3::new(0.02, 0.0, 0.4), r, reach, false, &params);
+    assert!(!rep.contact_saturated);
+    assert_eq!(world.saturations().contact, 1);
+}
