@@ -9,6 +9,7 @@ use std::collections::{HashMap, HashSet, VecDeque};
 use std::path::Path;
 
 use glam::{Quat, Vec3};
+use tetradrill::pen::PenRig;
 
 /// A minimal f64 vector for the reference computations (the workspace's glam is f32 only).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -115,15 +116,11 @@ impl AsD for Vec3 {
 }
 use rand::{Rng, SeedableRng};
 use tetradrill::owned::OwnedMesh;
-use tetradrill_core::collide::{hash_tets, Body, Collision};
-use tetradrill_core::depth::{
-    graph_sizes, hash_boundary_faces, DepthScratch, NodeGraph, NodeSlot, Penetration,
-};
+use tetradrill_core::collide::{Body, Collision};
+use tetradrill_core::depth::{graph_sizes, NodeGraph, Penetration};
 use tetradrill_core::force::{
-    force_digest, pen_contact, DepthMethod, ForceParams, PenBuffers, PenContact, PenOptions,
-    PenScene, PenState,
+    force_digest, pen_contact, DepthMethod, ForceParams, PenContact, PenOptions, PenState,
 };
-use tetradrill_core::hash::{average_edge_length, prime_at_most, HashEntry, SpatialHash};
 use tetradrill_core::ids::{NodeId, TetId};
 use tetradrill_core::mesh::Mesh;
 
@@ -142,95 +139,12 @@ fn load(rel: &str, scale: f64) -> OwnedMesh {
         .mesh
 }
 
-/// Hash storage sized for `items` items of about `per` cells each.
-struct HashStore {
-    starts: Vec<u32>,
-    entries: Vec<HashEntry>,
-}
-
-impl HashStore {
-    fn new(items: usize, per: usize) -> Self {
-        let b = prime_at_most((2 * items).max(3) as u32) as usize;
-        Self {
-            starts: vec![0; b + 1],
-            entries: vec![HashEntry::default(); items * per],
-        }
-    }
-    fn hash(&mut self, cell: f32) -> SpatialHash<'_> {
-        SpatialHash::new(&mut self.starts, &mut self.entries, cell).unwrap()
-    }
-}
-
-/// Everything the pen tool needs, owned.
-struct Rig {
-    pen: OwnedMesh,
-    obj: OwnedMesh,
-}
-
-impl Rig {
-    fn new(pen_scale: f64, obj: &str, obj_scale: f64) -> Self {
-        Self {
-            pen: load(PEN, pen_scale),
-            obj: load(obj, obj_scale),
-        }
-    }
-
-    /// Builds the scene and buffers once and hands them to `f`.
-    fn with<R>(&mut self, f: impl FnOnce(&PenScene<'_, '_, '_>, &mut PenBuffers<'_>) -> R) -> R {
-        let pen = self.pen.view();
-        let obj = self.obj.view();
-        let ob = Body::fixed(&obj);
-        let (po, pa) = graph_sizes(&pen);
-        let (mut pgo, mut pga) = (vec![0u32; po], vec![NodeId::NONE; pa]);
-        let pg = NodeGraph::build(&pen, &mut pgo, &mut pga).unwrap();
-        let (oo, oa) = graph_sizes(&obj);
-        let (mut ogo, mut oga) = (vec![0u32; oo], vec![NodeId::NONE; oa]);
-        let og = NodeGraph::build(&obj, &mut ogo, &mut oga).unwrap();
-        let cell = average_edge_length(&obj);
-        let mut ts = HashStore::new(obj.tet_count(), 16);
-        let mut th = ts.hash(cell);
-        assert!(!hash_tets(&mut th, &ob).saturated);
-        let mut ns = HashStore::new(obj.node_count(), 1);
-        let mut nh = ns.hash(cell);
-        assert!(!nh.rebuild_points(obj.positions()).saturated);
-        let mut fs = HashStore::new(obj.tet_count(), 8);
-        let mut fh = fs.hash(cell);
-        assert!(!hash_boundary_faces(&mut fh, &ob).saturated);
-        let mut ps = HashStore::new(pen.tet_count(), 16);
-        let mut ph = ps.hash(average_edge_length(&pen));
-        assert!(!hash_boundary_faces(&mut ph, &Body::fixed(&pen)).saturated);
-        let scene = PenScene {
-            pen: &pen,
-            pen_graph: pg,
-            pen_faces: Some(&ph),
-            object: ob,
-            object_graph: og,
-            object_tets: &th,
-            object_nodes: &nh,
-            object_faces: Some(&fh),
-        };
-        let (np, no) = (pen.node_count(), obj.node_count());
-        let mut world = vec![Vec3::ZERO; np];
-        let (mut h1, mut h2) = (
-            vec![Collision::default(); np],
-            vec![Collision::default(); no],
-        );
-        let (mut p1, mut p2) = (
-            vec![Penetration::default(); np],
-            vec![Penetration::default(); no],
-        );
-        let (mut s1, mut q1) = (vec![NodeSlot::default(); np], vec![NodeId::NONE; np]);
-        let (mut s2, mut q2) = (vec![NodeSlot::default(); no], vec![NodeId::NONE; no]);
-        let mut bufs = PenBuffers {
-            world: &mut world,
-            pen_hits: &mut h1,
-            object_hits: &mut h2,
-            pen_pens: &mut p1,
-            object_pens: &mut p2,
-            pen_depth: DepthScratch::new(&mut s1, &mut q1),
-            object_depth: DepthScratch::new(&mut s2, &mut q2),
-        };
-        f(&scene, &mut bufs)
+/// The pen at `pen_scale` next to the object `obj` at `obj_scale` (the host's [`PenRig`]
+/// builds the scene and buffers).
+fn rig(pen_scale: f64, obj: &str, obj_scale: f64) -> PenRig {
+    PenRig {
+        pen: load(PEN, pen_scale),
+        obj: load(obj, obj_scale),
     }
 }
 
@@ -312,7 +226,7 @@ fn inside_f64(x: Vec3, p: [Vec3; 4], tol: f64) -> bool {
 }
 
 fn check_hash_vs_brute(obj_rel: &str, n_poses: usize, seed: u64) {
-    let mut rig = Rig::new(10.0, obj_rel, 1.0);
+    let mut rig = rig(10.0, obj_rel, 1.0);
     let obj_view = rig.obj.view();
     let ps = poses(&obj_view, n_poses, 0.3, seed);
     drop(obj_view);
@@ -345,7 +259,8 @@ fn check_hash_vs_brute(obj_rel: &str, n_poses: usize, seed: u64) {
             assert_eq!(got, want, "object nodes in pen differ at pose {pos:?}");
             total_obj += got.len();
         }
-    });
+    })
+    .expect("pen scene");
     println!(
         "{obj_rel}: {n_poses} poses, {total_pen} pen-node and {total_obj} object-node contacts"
     );
@@ -494,7 +409,7 @@ fn reference_depth(
 
 #[test]
 fn depth_matches_f64_reference_on_cow() {
-    let mut rig = Rig::new(10.0, COW, 1.0);
+    let mut rig = rig(10.0, COW, 1.0);
     let obj_view = rig.obj.view();
     let ps = poses(&obj_view, 12, 0.25, 3);
     drop(obj_view);
@@ -548,7 +463,8 @@ fn depth_matches_f64_reference_on_cow() {
                 compared += 1;
             }
         }
-    });
+    })
+    .expect("pen scene");
     println!(
         "depth vs f64: {compared} nodes, worst |d| error {worst_d:.3e}, worst dir {worst_r:.3e}"
     );
@@ -556,7 +472,7 @@ fn depth_matches_f64_reference_on_cow() {
 }
 
 fn traced_equals_hashed(obj_rel: &str, n: usize, seed: u64) {
-    let mut rig = Rig::new(10.0, obj_rel, 1.0);
+    let mut rig = rig(10.0, obj_rel, 1.0);
     let obj_view = rig.obj.view();
     let ps = poses(&obj_view, n, 0.3, seed);
     drop(obj_view);
@@ -593,7 +509,8 @@ fn traced_equals_hashed(obj_rel: &str, n: usize, seed: u64) {
             forces_t.push(t.force);
             forces_h.push(h.force);
         }
-    });
+    })
+    .expect("pen scene");
     assert_eq!(force_digest(&forces_t), force_digest(&forces_h));
     println!("{obj_rel}: traced = hashed on {n} poses, {nodes} node depths");
     assert!(nodes > n);
@@ -611,7 +528,7 @@ fn traced_and_hashed_identical_teddy() {
 
 #[test]
 fn pen_outside_gives_zero_force() {
-    let mut rig = Rig::new(10.0, COW, 1.0);
+    let mut rig = rig(10.0, COW, 1.0);
     rig.with(|scene, bufs| {
         for (pos, rot) in [
             (Vec3::new(0.0, 0.0, 3.0), Quat::IDENTITY),
@@ -628,7 +545,8 @@ fn pen_outside_gives_zero_force() {
             assert_eq!(c.force, Vec3::ZERO);
             assert_eq!(c.penetrations, (0, 0));
         }
-    });
+    })
+    .expect("pen scene");
 }
 
 /// Seed 000 section 6: the thin pen lying across the top of a block (tip and top outside)
@@ -636,7 +554,7 @@ fn pen_outside_gives_zero_force() {
 /// along the pen once the whole cross-section is inside; with the entry plane it stays along
 /// the face normal and grows smoothly.
 fn sideways_push(remedy: bool) -> Vec<(f32, Vec3)> {
-    let mut rig = Rig::new(10.0, "builtin:block:8", 1.0);
+    let mut rig = rig(10.0, "builtin:block:8", 1.0);
     let opts = PenOptions {
         params: ForceParams {
             stiffness: 1.0,
@@ -658,7 +576,8 @@ fn sideways_push(remedy: bool) -> Vec<(f32, Vec3)> {
             let c: PenContact = pen_contact(scene, bufs, pos, rot, &opts, &mut st);
             out.push((push, c.raw));
         }
-    });
+    })
+    .expect("pen scene");
     out
 }
 
