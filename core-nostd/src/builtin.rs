@@ -26,8 +26,14 @@ pub fn cube12() -> ([Vec3; CUBE12_NODES], [[u32; 4]; CUBE12_TETS]) {
         );
     }
     // Each cube face as a quad (corner bits), split into two triangles, joined to the centre.
-    const QUADS: [[u32; 4]; 6] =
-        [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]];
+    const QUADS: [[u32; 4]; 6] = [
+        [0, 1, 3, 2],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 3, 7, 5],
+    ];
     let mut t = [[0u32; 4]; CUBE12_TETS];
     for (k, q) in QUADS.iter().enumerate() {
         t[2 * k] = orient(&p, [q[0], q[1], q[2], 8]);
@@ -69,8 +75,14 @@ pub fn block(
         }
     }
     // The six paths from corner (0,0,0) to (1,1,1) along the axes, one tet each.
-    const PATHS: [[usize; 3]; 6] =
-        [[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]];
+    const PATHS: [[usize; 3]; 6] = [
+        [0, 1, 2],
+        [0, 2, 1],
+        [1, 0, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [2, 1, 0],
+    ];
     let mut c = 0;
     for k in 0..n {
         for j in 0..n {

@@ -27,13 +27,41 @@ pub const DRILL_ON: u32 = 1;
 /// The demo's path over the unit block `[-0.5, 0.5]^3` (top face `z = 0.5`): approach from
 /// above, plunge with the drill on, drag along x and back, retract. 1 kHz ticks, 6 s.
 pub const DEMO_KEYS: [Key; 7] = [
-    Key { tick: 0, position: Vec3::new(0.0, 0.0, 0.9), buttons: 0 },
-    Key { tick: 400, position: Vec3::new(0.0, 0.0, 0.62), buttons: DRILL_ON },
-    Key { tick: 1800, position: Vec3::new(0.0, 0.0, 0.25), buttons: DRILL_ON },
-    Key { tick: 3300, position: Vec3::new(0.3, 0.1, 0.25), buttons: DRILL_ON },
-    Key { tick: 4800, position: Vec3::new(-0.2, -0.2, 0.3), buttons: DRILL_ON },
-    Key { tick: 5400, position: Vec3::new(-0.2, -0.2, 0.9), buttons: 0 },
-    Key { tick: 6000, position: Vec3::new(-0.2, -0.2, 0.9), buttons: 0 },
+    Key {
+        tick: 0,
+        position: Vec3::new(0.0, 0.0, 0.9),
+        buttons: 0,
+    },
+    Key {
+        tick: 400,
+        position: Vec3::new(0.0, 0.0, 0.62),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 1800,
+        position: Vec3::new(0.0, 0.0, 0.25),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 3300,
+        position: Vec3::new(0.3, 0.1, 0.25),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 4800,
+        position: Vec3::new(-0.2, -0.2, 0.3),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 5400,
+        position: Vec3::new(-0.2, -0.2, 0.9),
+        buttons: 0,
+    },
+    Key {
+        tick: 6000,
+        position: Vec3::new(-0.2, -0.2, 0.9),
+        buttons: 0,
+    },
 ];
 
 impl Script<'_> {

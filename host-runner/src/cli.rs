@@ -35,7 +35,11 @@ pub fn main() -> i32 {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
-            let code = if e.use_stderr() { crate::error::EXIT_BAD_INPUT } else { 0 };
+            let code = if e.use_stderr() {
+                crate::error::EXIT_BAD_INPUT
+            } else {
+                0
+            };
             let _ = e.print();
             return code;
         }

@@ -119,7 +119,12 @@ impl TickParams {
 
 /// One whole tick in one thread: the simulation step at `pose`, then the servo force at the
 /// same pose. Replays, `timing` and the firmware run exactly this.
-pub fn tick(world: &mut World<'_>, tool: &mut ToolState, p: &TickParams, pose: &Pose) -> (Vec3, SimReport) {
+pub fn tick(
+    world: &mut World<'_>,
+    tool: &mut ToolState,
+    p: &TickParams,
+    pose: &Pose,
+) -> (Vec3, SimReport) {
     let drill_on = pose.buttons & tetradrill_core::script::DRILL_ON != 0;
     let rep = world.simulate(pose.position, p.radius, p.reach, drill_on, &p.drill);
     let f = servo_force(world.contact(), pose.position, p.radius, tool, &p.force);

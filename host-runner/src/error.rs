@@ -21,7 +21,10 @@ pub struct CliError {
 impl CliError {
     /// Bad input (exit 2).
     pub fn input(message: impl Into<String>) -> Self {
-        Self { code: EXIT_BAD_INPUT, message: message.into() }
+        Self {
+            code: EXIT_BAD_INPUT,
+            message: message.into(),
+        }
     }
 
     /// Bad input in a file, at a line when known: `FILE:LINE: reason`.
@@ -34,7 +37,10 @@ impl CliError {
 
     /// A failure of the run (exit 1).
     pub fn failure(message: impl Into<String>) -> Self {
-        Self { code: EXIT_FAILURE, message: message.into() }
+        Self {
+            code: EXIT_FAILURE,
+            message: message.into(),
+        }
     }
 }
 

@@ -35,7 +35,11 @@ impl OwnedMesh {
         let mesh = Mesh::build(
             &mut me.positions,
             tet_nodes,
-            MeshStorage { nodes: &mut me.nodes, normals: &mut me.normals, tets: &mut me.tets },
+            MeshStorage {
+                nodes: &mut me.nodes,
+                normals: &mut me.normals,
+                tets: &mut me.tets,
+            },
             &mut scratch,
             options,
         )?;
@@ -48,7 +52,11 @@ impl OwnedMesh {
         let t = self.tets.len();
         Mesh::from_parts(
             &mut self.positions,
-            MeshStorage { nodes: &mut self.nodes, normals: &mut self.normals, tets: &mut self.tets },
+            MeshStorage {
+                nodes: &mut self.nodes,
+                normals: &mut self.normals,
+                tets: &mut self.tets,
+            },
             t,
             self.stats,
         )

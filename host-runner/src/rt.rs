@@ -22,7 +22,11 @@ pub struct RtConfig {
 impl Default for RtConfig {
     fn default() -> Self {
         // The last core: the one least likely to carry the other tasks.
-        Self { fifo_priority: Some(80), core: Some(platform::cores() - 1), lock_memory: true }
+        Self {
+            fifo_priority: Some(80),
+            core: Some(platform::cores() - 1),
+            lock_memory: true,
+        }
     }
 }
 
@@ -47,7 +51,9 @@ impl RtConfig {
         if let Some(core) = self.core {
             match platform::pin_to_core(core) {
                 Ok(()) => st.pinned = Some(core),
-                Err(e) => st.warnings.push(format!("servo not pinned to core {core}: {e}")),
+                Err(e) => st
+                    .warnings
+                    .push(format!("servo not pinned to core {core}: {e}")),
             }
         }
         if let Some(p) = self.fifo_priority {
@@ -133,6 +139,10 @@ impl Periodic {
         }
         let woke = platform::now_ns();
         self.next_ns = deadline + self.period_ns;
-        Wake { deadline_ns: deadline, latency_ns: woke.saturating_sub(deadline), missed }
+        Wake {
+            deadline_ns: deadline,
+            latency_ns: woke.saturating_sub(deadline),
+            missed,
+        }
     }
 }

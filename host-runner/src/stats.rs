@@ -67,7 +67,10 @@ mod tests {
     fn nearest_rank_percentiles() {
         let v: Vec<u64> = (1..=1000).map(|i| i * 1000).collect();
         let s = summarise_ns(&v);
-        assert_eq!((s.min, s.p50, s.p99, s.p999, s.max), (1.0, 500.0, 990.0, 999.0, 1000.0));
+        assert_eq!(
+            (s.min, s.p50, s.p99, s.p999, s.max),
+            (1.0, 500.0, 990.0, 999.0, 1000.0)
+        );
         assert!((s.mean - 500.5).abs() < 1e-9);
         assert_eq!(summarise_ns(&[]).count, 0);
     }

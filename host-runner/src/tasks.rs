@@ -164,7 +164,16 @@ pub fn wake_bucket(ns: u64) -> usize {
 
 /// The upper edge of bucket `b`, microseconds (the last bucket's is unbounded: infinity).
 pub fn wake_bucket_upper_us(b: usize) -> f64 {
-    const EDGES: [f64; 8] = [128.0, 192.0, 256.0, 512.0, 1000.0, 2000.0, 5000.0, f64::INFINITY];
+    const EDGES: [f64; 8] = [
+        128.0,
+        192.0,
+        256.0,
+        512.0,
+        1000.0,
+        2000.0,
+        5000.0,
+        f64::INFINITY,
+    ];
     if b < 24 {
         4.0 * (b + 1) as f64
     } else {
@@ -179,7 +188,8 @@ impl ServoCounters {
         self.wake_max_ns.fetch_max(ns, Ordering::Relaxed);
         *window_max = (*window_max).max(ns);
         if tick % 1000 == 999 {
-            self.wake_recent_max_ns.store(*window_max, Ordering::Relaxed);
+            self.wake_recent_max_ns
+                .store(*window_max, Ordering::Relaxed);
             *window_max = 0;
         }
     }
@@ -187,7 +197,11 @@ impl ServoCounters {
     /// The wake-up latency percentile `q` (0..1) from the histogram, as the upper edge of its
     /// bucket in microseconds (`None` before the first tick).
     pub fn wake_percentile_us(&self, q: f64) -> Option<f64> {
-        let counts: Vec<u64> = self.wake_hist.iter().map(|c| c.load(Ordering::Relaxed)).collect();
+        let counts: Vec<u64> = self
+            .wake_hist
+            .iter()
+            .map(|c| c.load(Ordering::Relaxed))
+            .collect();
         let total: u64 = counts.iter().sum();
         if total == 0 {
             return None;
@@ -277,10 +291,26 @@ pub fn servo_task(
         let t0 = now_ns();
         // The viewer's controls (0: the scenario's value).
         let r = counters.radius_bits.load(Ordering::Relaxed);
-        live.radius = if r == 0 { params.radius } else { f32::from_bits(r) };
+        live.radius = if r == 0 {
+            params.radius
+        } else {
+            f32::from_bits(r)
+        };
         let k = counters.stiffness_bits.load(Ordering::Relaxed);
-        live.force.stiffness = if k == 0 { params.force.stiffness } else { f32::from_bits(k) };
-        let out = servo_tick(device, &workspace, &live, contact.read(), ring, &mut state, done);
+        live.force.stiffness = if k == 0 {
+            params.force.stiffness
+        } else {
+            f32::from_bits(k)
+        };
+        let out = servo_tick(
+            device,
+            &workspace,
+            &live,
+            contact.read(),
+            ring,
+            &mut state,
+            done,
+        );
         let i = done as usize;
         counters.record_wake(w.latency_ns, done, &mut window_max);
         for (a, v) in counters.force_xyz.iter().zip(state.last_force.to_array()) {
@@ -291,8 +321,13 @@ pub fn servo_task(
         done += 1;
         counters.ticks.store(done, Ordering::Relaxed);
         counters.overruns.store(timer.overruns, Ordering::Relaxed);
-        counters.dropped_samples.store(state.dropped, Ordering::Relaxed);
-        counters.force_bits.store(state.last_force.length().to_bits() as u64, Ordering::Relaxed);
+        counters
+            .dropped_samples
+            .store(state.dropped, Ordering::Relaxed);
+        counters.force_bits.store(
+            state.last_force.length().to_bits() as u64,
+            Ordering::Relaxed,
+        );
         if let Err(e) = out {
             error = Some(e);
             break;
@@ -352,10 +387,23 @@ pub fn servo_tick(
         }
     };
     let position = workspace.to_mesh(s.position);
-    if ring.push(ToolSample { tick, position, buttons: s.buttons }).is_err() {
+    if ring
+        .push(ToolSample {
+            tick,
+            position,
+            buttons: s.buttons,
+        })
+        .is_err()
+    {
         st.dropped += 1;
     }
-    let f = servo_force(contact, position, params.radius, &mut st.tool, &params.force);
+    let f = servo_force(
+        contact,
+        position,
+        params.radius,
+        &mut st.tool,
+        &params.force,
+    );
     st.digest.push(f);
     st.max_force = st.max_force.max(f.length());
     st.last_force = f;
@@ -406,8 +454,12 @@ pub fn simulation_task(
             params.force.stiffness = c.stiffness;
             params.drill.max_depth = c.max_depth;
             paused = c.paused;
-            counters.radius_bits.store(c.radius.to_bits(), Ordering::Relaxed);
-            counters.stiffness_bits.store(c.stiffness.to_bits(), Ordering::Relaxed);
+            counters
+                .radius_bits
+                .store(c.radius.to_bits(), Ordering::Relaxed);
+            counters
+                .stiffness_bits
+                .store(c.stiffness.to_bits(), Ordering::Relaxed);
         }
         let spacing = 0.25 * params.radius;
         let stopping = stop.load(Ordering::Relaxed);
@@ -418,7 +470,10 @@ pub fn simulation_task(
             if on {
                 let far = ns == 0 || spheres[ns - 1].center.distance(s.position) >= spacing;
                 if far && ns < MAX_SPHERES {
-                    spheres[ns] = Sphere { center: s.position, radius: params.radius };
+                    spheres[ns] = Sphere {
+                        center: s.position,
+                        radius: params.radius,
+                    };
                     ns += 1;
                 } else if far {
                     spheres[MAX_SPHERES - 1].center = s.position;
@@ -428,7 +483,11 @@ pub fn simulation_task(
         }
         // When stopping with nothing new, one more step at the last position (no erosion)
         // lets the viewer's last snapshot out.
-        let last = if stopping && viewer.is_some() { last_tool.take() } else { None };
+        let last = if stopping && viewer.is_some() {
+            last_tool.take()
+        } else {
+            None
+        };
         let Some(tool) = latest.or(last) else {
             if stopping {
                 break;
@@ -443,7 +502,10 @@ pub fn simulation_task(
             if ns < MAX_SPHERES {
                 ns += 1;
             }
-            spheres[ns - 1] = Sphere { center: tool.position, radius: params.radius };
+            spheres[ns - 1] = Sphere {
+                center: tool.position,
+                radius: params.radius,
+            };
         }
         let rep = world.simulate_spheres(
             tool.position,

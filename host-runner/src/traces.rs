@@ -53,8 +53,8 @@ impl PoseSource {
             .map_err(|e| CliError::at(path, None, format!("cannot read trace: {e}")))?;
         let text = String::from_utf8(bytes)
             .map_err(|_| CliError::at(path, None, "not a text file (binary trace?)"))?;
-        let trace = Trace::parse(&text, spec)
-            .map_err(|e| CliError::at(path, Some(e.line), e.kind))?;
+        let trace =
+            Trace::parse(&text, spec).map_err(|e| CliError::at(path, Some(e.line), e.kind))?;
         Ok(Self::Trace { trace, scale })
     }
 
@@ -74,7 +74,11 @@ impl PoseSource {
         match self {
             Self::Script(s) => {
                 let (position, buttons) = s.at(i.min(u32::MAX as u64) as u32);
-                Pose { position, rotation: [1.0, 0.0, 0.0, 0.0], buttons }
+                Pose {
+                    position,
+                    rotation: [1.0, 0.0, 0.0, 0.0],
+                    buttons,
+                }
             }
             Self::Trace { trace, scale } => {
                 let t0 = trace.time_span().map_or(0.0, |(a, _)| a);

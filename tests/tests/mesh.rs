@@ -13,13 +13,22 @@ use tetradrill_core::mesh::{BuildError, BuildOptions, Mesh, TET_BYTES};
 use tetradrill_core::{NodeId, TetId, Vec3};
 
 /// A positively oriented reference tet.
-const REF: [[f64; 3]; 4] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+const REF: [[f64; 3]; 4] = [
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+];
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
@@ -40,7 +49,10 @@ fn face_listings_are_clockwise_from_outside() {
         // the opposite vertex.
         let n = cross(sub(b, a), sub(c, a));
         assert!(dot(n, sub(REF[f], a)) > 0.0, "face {f}");
-        assert!(!FACE_VERTS[f].contains(&(f as u8)), "face {f} is opposite vertex {f}");
+        assert!(
+            !FACE_VERTS[f].contains(&(f as u8)),
+            "face {f} is opposite vertex {f}"
+        );
     }
 }
 
@@ -68,14 +80,22 @@ fn reverse_tables_match_brute_force() {
     }
     for v in 0..4u8 {
         assert_eq!(EDGE_OF_VERTS[v as usize][v as usize], NO_EDGE);
-        let faces: Vec<u8> = (0..4u8).filter(|f| FACE_VERTS[*f as usize].contains(&v)).collect();
+        let faces: Vec<u8> = (0..4u8)
+            .filter(|f| FACE_VERTS[*f as usize].contains(&v))
+            .collect();
         assert_eq!(faces, VERTEX_FACES[v as usize].to_vec());
-        let edges: Vec<u8> = (0..6u8).filter(|e| EDGE_VERTS[*e as usize].contains(&v)).collect();
+        let edges: Vec<u8> = (0..6u8)
+            .filter(|e| EDGE_VERTS[*e as usize].contains(&v))
+            .collect();
         assert_eq!(edges, VERTEX_EDGES[v as usize].to_vec());
     }
     for f in 0..4 {
         let edges: Vec<u8> = (0..6u8)
-            .filter(|e| EDGE_VERTS[*e as usize].iter().all(|x| FACE_VERTS[f].contains(x)))
+            .filter(|e| {
+                EDGE_VERTS[*e as usize]
+                    .iter()
+                    .all(|x| FACE_VERTS[f].contains(x))
+            })
             .collect();
         assert_eq!(edges, FACE_EDGES[f].to_vec(), "face {f}");
     }
@@ -116,7 +136,11 @@ fn check_vertex_match(mesh: &Mesh<'_>) {
                     assert!(got.is_none());
                     continue;
                 }
-                let want = mesh.tet(nb).nodes.iter().position(|&n| n == tet.nodes[v as usize]);
+                let want = mesh
+                    .tet(nb)
+                    .nodes
+                    .iter()
+                    .position(|&n| n == tet.nodes[v as usize]);
                 let got = got.expect("neighbour across an inner face");
                 assert_eq!(got.tet, nb);
                 assert_eq!(Some(got.local as usize), want, "tet {ti} v {v} f {f}");
@@ -153,7 +177,9 @@ fn check_traversals(mesh: &Mesh<'_>) {
     let mut fout = vec![Default::default(); 1024];
     let mut eout = vec![Default::default(); 1024];
     for (&n, want) in &tets_of {
-        let k = mesh.tets_around_vertex(n, &mut scratch).expect("scratch large enough");
+        let k = mesh
+            .tets_around_vertex(n, &mut scratch)
+            .expect("scratch large enough");
         let got: BTreeSet<TetId> = scratch[..k].iter().copied().collect();
         assert_eq!(got.len(), k, "no duplicates around node {}", n.0);
         assert_eq!(&got, want, "tets around node {}", n.0);
@@ -164,10 +190,16 @@ fn check_traversals(mesh: &Mesh<'_>) {
         }
         assert_eq!(k, want.len());
 
-        let k = mesh.faces_around_vertex(n, &mut scratch, &mut fout).expect("scratch");
+        let k = mesh
+            .faces_around_vertex(n, &mut scratch, &mut fout)
+            .expect("scratch");
         let mut got_faces = BTreeSet::new();
         for fu in &fout[..k] {
-            let mut f: Vec<u32> = mesh.face_nodes(fu.tet, fu.local).iter().map(|x| x.0).collect();
+            let mut f: Vec<u32> = mesh
+                .face_nodes(fu.tet, fu.local)
+                .iter()
+                .map(|x| x.0)
+                .collect();
             assert!(f.contains(&n.0));
             f.sort();
             assert!(got_faces.insert([f[0], f[1], f[2]]), "face reported twice");
@@ -176,12 +208,17 @@ fn check_traversals(mesh: &Mesh<'_>) {
             faces.iter().filter(|f| f.contains(&n.0)).copied().collect();
         assert_eq!(got_faces, want_faces, "faces around node {}", n.0);
 
-        let k = mesh.edges_at_vertex(n, &mut scratch, &mut eout).expect("scratch");
+        let k = mesh
+            .edges_at_vertex(n, &mut scratch, &mut eout)
+            .expect("scratch");
         let mut got_edges = BTreeSet::new();
         for eu in &eout[..k] {
             let [a, b] = mesh.edge_nodes(*eu);
             assert!(a == n || b == n);
-            assert!(got_edges.insert([a.0.min(b.0), a.0.max(b.0)]), "edge reported twice");
+            assert!(
+                got_edges.insert([a.0.min(b.0), a.0.max(b.0)]),
+                "edge reported twice"
+            );
         }
         let want_edges: BTreeSet<[u32; 2]> =
             edges.iter().filter(|e| e.contains(&n.0)).copied().collect();
@@ -287,7 +324,11 @@ fn relabelling_and_reflection_keep_the_mesh_valid() {
         let mut m = OwnedMesh::build(p, &t, BuildOptions::default()).expect("builds");
         let mesh = m.view();
         assert_eq!(mesh.stats().boundary_faces, base_faces);
-        assert_eq!(mesh.stats().orientation_fixes, expected_fixes, "round {round}");
+        assert_eq!(
+            mesh.stats().orientation_fixes,
+            expected_fixes,
+            "round {round}"
+        );
         check_mesh(&mesh);
     }
 }
@@ -300,14 +341,19 @@ fn refinement_relabel_picks_the_shortest_diagonal() {
     for q in &mut p {
         *q = Vec3::new(rng.gen(), rng.gen(), rng.gen());
     }
-    let t: Vec<[u32; 4]> = (0..75).map(|i| [4 * i, 4 * i + 1, 4 * i + 2, 4 * i + 3]).collect();
+    let t: Vec<[u32; 4]> = (0..75)
+        .map(|i| [4 * i, 4 * i + 1, 4 * i + 2, 4 * i + 3])
+        .collect();
     let mut m = OwnedMesh::build(p, &t, BuildOptions::default()).expect("random tets build");
     let mesh = m.view();
     for ti in 0..mesh.tet_count() {
         let x = mesh.tet_positions(TetId::from_idx(ti));
         let d = |a: usize, b: usize, c: usize, e: usize| ((x[a] + x[b]) - (x[c] + x[e])).length();
         let chosen = d(0, 2, 1, 3);
-        assert!(chosen <= d(0, 1, 2, 3) + 1e-6 && chosen <= d(0, 3, 1, 2) + 1e-6, "tet {ti}");
+        assert!(
+            chosen <= d(0, 1, 2, 3) + 1e-6 && chosen <= d(0, 3, 1, 2) + 1e-6,
+            "tet {ti}"
+        );
     }
     mesh.validate().expect("valid");
 }
@@ -352,7 +398,11 @@ fn bad_tet_lists_are_refused() {
         Vec3::new(0.3, 0.3, 2.0),
     ];
     assert!(matches!(
-        OwnedMesh::build(fan, &[[0, 1, 2, 3], [0, 2, 1, 4], [0, 1, 2, 5]], BuildOptions::default()),
+        OwnedMesh::build(
+            fan,
+            &[[0, 1, 2, 3], [0, 2, 1, 4], [0, 1, 2, 5]],
+            BuildOptions::default()
+        ),
         Err(BuildError::NonManifoldFace { .. })
     ));
     let mut q = p.clone();

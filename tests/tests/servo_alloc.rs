@@ -71,9 +71,13 @@ fn servo_tick_allocates_nothing_after_warm_up() {
         centre: Vec3::new(0.0, 0.0, 0.6),
         triangles: 1,
     };
-    let (mut input, mut output) = triple_buffer::TripleBuffer::new(&ContactState::default()).split();
+    let (mut input, mut output) =
+        triple_buffer::TripleBuffer::new(&ContactState::default()).split();
     input.write(plane);
-    let ws = Workspace { scale: 1.0, offset: Vec3::ZERO };
+    let ws = Workspace {
+        scale: 1.0,
+        offset: Vec3::ZERO,
+    };
     let mut st = ServoState::default();
     let mut run = |from: u64, to: u64, st: &mut ServoState| {
         for tick in from..to {
@@ -93,7 +97,10 @@ fn servo_tick_allocates_nothing_after_warm_up() {
     run(100, 1100, &mut st);
     ARMED.with(|a| a.set(false));
     let calls = CALLS.with(|c| c.get());
-    assert!(st.max_force > 0.0, "the stylus reached the surface: the contact path ran");
+    assert!(
+        st.max_force > 0.0,
+        "the stylus reached the surface: the contact path ran"
+    );
     assert_eq!(calls, 0, "the servo tick allocated or freed {calls} times");
 
     // The counter itself works: an allocation on this thread while armed is seen.

@@ -28,7 +28,9 @@ pub struct BuildOptions {
 
 impl Default for BuildOptions {
     fn default() -> Self {
-        Self { relabel_for_refinement: true }
+        Self {
+            relabel_for_refinement: true,
+        }
     }
 }
 
@@ -111,7 +113,10 @@ impl core::fmt::Display for BuildError {
                 write!(f, "a face of tet {tet} is shared by more than two tets")
             }
             Self::InconsistentFace { tet } => {
-                write!(f, "tet {tet} overlaps a neighbour (they share a face from the same side)")
+                write!(
+                    f,
+                    "tet {tet} overlaps a neighbour (they share a face from the same side)"
+                )
             }
         }
     }
@@ -185,7 +190,11 @@ impl<'a> Mesh<'a> {
         if n >= u32::MAX as usize || t >= (u32::MAX / 4) as usize {
             return Err(BuildError::TooLarge);
         }
-        let MeshStorage { nodes, normals, tets } = storage;
+        let MeshStorage {
+            nodes,
+            normals,
+            tets,
+        } = storage;
         check_len("nodes", nodes.len(), n)?;
         check_len("normals", normals.len(), n)?;
         check_len("tets", tets.len(), t)?;
@@ -250,7 +259,10 @@ impl<'a> Mesh<'a> {
                 let fv = FACE_VERTS[f].map(|k| tet.nodes[k as usize].0);
                 let mut verts = fv;
                 verts.sort_unstable();
-                scratch[ti * 4 + f] = FaceKey { verts, owner: (ti * 4 + f) as u32 };
+                scratch[ti * 4 + f] = FaceKey {
+                    verts,
+                    owner: (ti * 4 + f) as u32,
+                };
             }
         }
         scratch.sort_unstable();
@@ -263,7 +275,11 @@ impl<'a> Mesh<'a> {
             match j - i {
                 1 => stats.boundary_faces += 1,
                 2 => link(tets, scratch[i].owner, scratch[i + 1].owner)?,
-                _ => return Err(BuildError::NonManifoldFace { tet: scratch[i].owner / 4 }),
+                _ => {
+                    return Err(BuildError::NonManifoldFace {
+                        tet: scratch[i].owner / 4,
+                    })
+                }
             }
             i = j;
         }
@@ -282,7 +298,13 @@ impl<'a> Mesh<'a> {
         }
         stats.unreferenced_nodes = nodes.iter().filter(|n| n.tet.is_none()).count() as u32;
 
-        let mut mesh = Mesh { positions, normals, nodes, tets, stats };
+        let mut mesh = Mesh {
+            positions,
+            normals,
+            nodes,
+            tets,
+            stats,
+        };
         mesh.update_boundary();
         Ok(mesh)
     }

@@ -49,14 +49,24 @@ impl<'a> Mesh<'a> {
         stats: BuildStats,
     ) -> Self {
         let n = positions.len();
-        let MeshStorage { nodes, normals, tets } = storage;
+        let MeshStorage {
+            nodes,
+            normals,
+            tets,
+        } = storage;
         let n = n.min(nodes.len()).min(normals.len());
         let t = tet_count.min(tets.len());
         let (positions, _) = positions.split_at_mut(n);
         let (nodes, _) = nodes.split_at_mut(n);
         let (normals, _) = normals.split_at_mut(n);
         let (tets, _) = tets.split_at_mut(t);
-        Self { positions, normals, nodes, tets, stats }
+        Self {
+            positions,
+            normals,
+            nodes,
+            tets,
+            stats,
+        }
     }
 
     /// Number of nodes.
@@ -157,7 +167,10 @@ impl<'a> Mesh<'a> {
     pub fn face_match(&self, face: FaceUse) -> Option<FaceUse> {
         let tet = &self.tets[face.tet.idx()];
         let nb = tet.neighbours[face.local as usize];
-        nb.is_some().then(|| FaceUse { tet: nb, local: tet.reverse[face.local as usize].face() })
+        nb.is_some().then(|| FaceUse {
+            tet: nb,
+            local: tet.reverse[face.local as usize].face(),
+        })
     }
 
     /// The three node ids of face `f` of `t`, clockwise seen from outside `t`.

@@ -45,7 +45,11 @@ pub struct Tet {
 impl Tet {
     /// A tet with the given nodes and no neighbours yet.
     pub const fn new(nodes: [NodeId; 4]) -> Self {
-        Self { nodes, neighbours: [TetId::NONE; 4], reverse: [Reverse(0); 4] }
+        Self {
+            nodes,
+            neighbours: [TetId::NONE; 4],
+            reverse: [Reverse(0); 4],
+        }
     }
 }
 
@@ -76,7 +80,11 @@ pub struct Node {
 
 impl Default for Node {
     fn default() -> Self {
-        Self { tet: TetId::NONE, local: 0, boundary: false }
+        Self {
+            tet: TetId::NONE,
+            local: 0,
+            boundary: false,
+        }
     }
 }
 

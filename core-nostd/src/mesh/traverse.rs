@@ -51,7 +51,11 @@ impl Mesh<'_> {
     /// Local index of node `n` in tet `t`, if `t` uses it. O(1): four comparisons.
     #[inline]
     pub fn local_of(&self, t: TetId, n: NodeId) -> Option<u8> {
-        self.tet(t).nodes.iter().position(|&m| m == n).map(|i| i as u8)
+        self.tet(t)
+            .nodes
+            .iter()
+            .position(|&m| m == n)
+            .map(|i| i as u8)
     }
 
     fn walk<E: WalkEntry>(&self, n: NodeId, out: &mut [E]) -> Result<usize, Full> {
@@ -62,7 +66,10 @@ impl Mesh<'_> {
         let Some(first) = out.first_mut() else {
             return Err(Full);
         };
-        *first = E::of(VertexUse { tet: node.tet, local: node.local });
+        *first = E::of(VertexUse {
+            tet: node.tet,
+            local: node.local,
+        });
         let mut count = 1;
         let mut head = 0;
         while head < count {
@@ -127,7 +134,9 @@ impl Mesh<'_> {
         let k = self.walk(n, scratch)?;
         let mut count = 0;
         for &t in &scratch[..k] {
-            let Some(local) = self.local_of(t, n) else { continue };
+            let Some(local) = self.local_of(t, n) else {
+                continue;
+            };
             for f in VERTEX_FACES[local as usize] {
                 let nb = self.neighbour(t, f);
                 if nb.is_some() && nb < t {
@@ -160,10 +169,15 @@ impl Mesh<'_> {
         let k = self.walk(n, scratch)?;
         let mut count = 0;
         for &t in &scratch[..k] {
-            let Some(local) = self.local_of(t, n) else { continue };
+            let Some(local) = self.local_of(t, n) else {
+                continue;
+            };
             for e in VERTEX_EDGES[local as usize] {
                 let other = self.edge_other(t, e, local);
-                if out[..count].iter().any(|&u| self.edge_nodes(u).contains(&other)) {
+                if out[..count]
+                    .iter()
+                    .any(|&u| self.edge_nodes(u).contains(&other))
+                {
                     continue;
                 }
                 if count == out.len() {
@@ -201,7 +215,8 @@ impl Mesh<'_> {
         for start_face in EDGE_FACES[e.local as usize] {
             let (mut t, mut la, mut lb, mut f) = (e.tet, a, b, start_face);
             for _ in 0..self.tet_count() {
-                let (Some(ua), Some(ub)) = (self.vertex_match(t, la, f), self.vertex_match(t, lb, f))
+                let (Some(ua), Some(ub)) =
+                    (self.vertex_match(t, la, f), self.vertex_match(t, lb, f))
                 else {
                     break; // boundary: walk the other way round
                 };
@@ -225,7 +240,10 @@ impl Mesh<'_> {
     /// # Bounded work
     /// O(T * 6 * v) for T tets and v the largest edge valence.
     pub fn edges(&self) -> EdgeIter<'_, '_> {
-        EdgeIter { mesh: self, next: 0 }
+        EdgeIter {
+            mesh: self,
+            next: 0,
+        }
     }
 }
 
@@ -241,7 +259,10 @@ impl Iterator for EdgeIter<'_, '_> {
 
     fn next(&mut self) -> Option<EdgeUse> {
         while self.next < self.mesh.tet_count() * 6 {
-            let e = EdgeUse { tet: TetId::from_idx(self.next / 6), local: (self.next % 6) as u8 };
+            let e = EdgeUse {
+                tet: TetId::from_idx(self.next / 6),
+                local: (self.next % 6) as u8,
+            };
             self.next += 1;
             if self.mesh.edge_min_tet(e) == e.tet {
                 return Some(e);

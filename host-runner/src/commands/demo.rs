@@ -43,15 +43,30 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         sc.tool,
         super::run::demo_ticks() as f64 / 1000.0
     );
-    let (open, default_ticks, workspace) = device_factory(DeviceKind::Sim, &sc, OpenOptions::default())?;
-    let ticks = args.duration.map_or(default_ticks, |d| (d * 1000.0).round() as u64).max(1);
+    let (open, default_ticks, workspace) =
+        device_factory(DeviceKind::Sim, &sc, OpenOptions::default())?;
+    let ticks = args
+        .duration
+        .map_or(default_ticks, |d| (d * 1000.0).round() as u64)
+        .max(1);
     viewer_note(args.headless);
     let rt = if args.no_rt {
-        RtConfig { fifo_priority: None, core: None, lock_memory: false }
+        RtConfig {
+            fifo_priority: None,
+            core: None,
+            lock_memory: false,
+        }
     } else {
         RtConfig::default()
     };
-    let setup =
-        PipelineSetup { kind: DeviceKind::Sim, open, ticks, workspace, rt, status_line: true, view };
+    let setup = PipelineSetup {
+        kind: DeviceKind::Sim,
+        open,
+        ticks,
+        workspace,
+        rt,
+        status_line: true,
+        view,
+    };
     pipeline::run(&sc, setup, args.json.as_ref()).map(|_| ())
 }

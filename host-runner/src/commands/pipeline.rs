@@ -18,8 +18,7 @@ use crate::stats::{histogram_us, summarise_ns, Summary};
 use crate::tasks::{self, Shared, SimStatus, Workspace};
 
 /// Opens the device on the servo thread (a device handle need not be `Send`).
-pub type DeviceFactory =
-    Box<dyn FnOnce() -> Result<Box<dyn HapticDevice>, DeviceError> + Send>;
+pub type DeviceFactory = Box<dyn FnOnce() -> Result<Box<dyn HapticDevice>, DeviceError> + Send>;
 
 /// Everything a pipeline run needs besides the scenario.
 pub struct PipelineSetup {
@@ -107,7 +106,11 @@ pub struct RunTiming {
 
 /// Runs the pipeline on `sc` with `setup`; returns the report (the device error that ended the
 /// run, if any, as an error: exit 2 when the device was not found, 1 when it failed mid-run).
-pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Result<RunReport, CliError> {
+pub fn run(
+    sc: &Scenario,
+    setup: PipelineSetup,
+    json: Option<&PathBuf>,
+) -> Result<RunReport, CliError> {
     let params = TickParams::of(sc)?;
     let loaded = engine::load_mesh(sc)?;
     let mut store = EngineStorage::allocate(loaded.mesh, sc);
@@ -120,7 +123,15 @@ pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Resul
     let (mut status_in, mut status_out) =
         triple_buffer::TripleBuffer::new(&SimStatus::default()).split();
     let shared = Shared::new();
-    let PipelineSetup { kind, open, ticks, workspace, rt, status_line, view } = setup;
+    let PipelineSetup {
+        kind,
+        open,
+        ticks,
+        workspace,
+        rt,
+        status_line,
+        view,
+    } = setup;
     let started = std::time::Instant::now();
     let initial_controls = crate::viewer::handoff::Controls {
         radius: params.radius,
@@ -216,8 +227,9 @@ pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Resul
             scene = crate::viewer::run_window(link)?;
             // A closed window ends the run.
             sh.stop.store(true, Ordering::Relaxed);
-            status_out =
-                status.join().map_err(|_| CliError::failure("the status task panicked"))?;
+            status_out = status
+                .join()
+                .map_err(|_| CliError::failure("the status task panicked"))?;
         } else {
             drop(controls_in);
             // The status task: the main thread.
@@ -237,7 +249,8 @@ pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Resul
             }
             std::thread::sleep(Duration::from_millis(2));
         }
-        sim.join().map_err(|_| CliError::failure("the simulation task panicked"))??;
+        sim.join()
+            .map_err(|_| CliError::failure("the simulation task panicked"))??;
         if any_view && !view.window {
             drain(&mut scene);
         }
@@ -265,7 +278,12 @@ pub fn run(sc: &Scenario, setup: PipelineSetup, json: Option<&PathBuf>) -> Resul
         saturations: sim_status.saturations,
         force_max_n: servo.max_force,
         force_digest: format!("{:016x}", servo.digest.value()),
-        timing_us: RunTiming { tick_mean: t.mean, tick_p99: t.p99, tick_p999: t.p999, tick_max: t.max },
+        timing_us: RunTiming {
+            tick_mean: t.mean,
+            tick_p99: t.p99,
+            tick_p999: t.p999,
+            tick_max: t.max,
+        },
         wake_us: summarise_ns(&servo.wake_ns),
         wake_histogram_us: histogram_us(&servo.wake_ns, 200),
         realtime: crate::commands::timing::RealtimeReport {
@@ -385,4 +403,7 @@ fn print_summary(r: &RunReport) {
 }
 
 /// The identity device-to-mesh map (the simulated device moves in mesh units).
-pub const MESH_UNITS: Workspace = Workspace { scale: 1.0, offset: Vec3::ZERO };
+pub const MESH_UNITS: Workspace = Workspace {
+    scale: 1.0,
+    offset: Vec3::ZERO,
+};
