@@ -6,9 +6,10 @@
 //! |-------------|-------------------------------------------------------------|
 //! | [`cli`]     | the command line: `demo`, `run`, `replay`, `info`, `timing` |
 //! | [`error`]   | one-line errors with exit status 2 for bad input            |
+//! | [`hdapi`]   | the Touch through the vendor HD library, loaded at run time (`unsafe`, FFI) |
 //! | [`meshio`]  | mesh file readers (TetGen, MEDIT, Gmsh, VTK)                |
 //! | [`owned`]   | host-owned storage for one core mesh                        |
-//! | [`platform`]| clock, absolute sleeps, SCHED_FIFO, mlockall, pinning (the one `unsafe` file) |
+//! | [`platform`]| clock, absolute sleeps, SCHED_FIFO, mlockall, pinning (`unsafe`, libc)       |
 //! | [`rt`]      | servo thread set-up and the absolute-deadline period        |
 //! | [`stats`]   | percentiles and histograms of timing samples                |
 //! | [`workload`]| the per-tick work of the built-in scenario                  |
@@ -20,6 +21,7 @@ pub mod cli;
 pub mod commands;
 pub mod engine;
 pub mod error;
+pub mod hdapi;
 pub mod meshio;
 pub mod owned;
 pub mod pen;

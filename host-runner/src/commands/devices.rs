@@ -16,9 +16,16 @@ pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
              0301:2988 or 2988:0302, an Omni among /dev/fw* nodes of vendor 0x000b99)"
         );
     }
+    // The Touch opens through the vendor HD library, which discovery cannot see.
+    let hd = crate::hdapi::probe();
+    match &hd {
+        Ok(path) => println!("(HD library for the Touch: found, {path})"),
+        Err(e) => println!("(HD library for the Touch: {e})"),
+    }
     for d in &found {
         let kind = format!("{:?}", d.kind).to_lowercase();
-        let how = if d.openable { "" } else { "  (found, but this build cannot open it)" };
+        let hd_ok = d.kind == tetradrill_device::DeviceKind::Touch && hd.is_ok();
+        let how = if d.openable || hd_ok { "" } else { "  (found, but this build cannot open it)" };
         println!("{kind:<8} {}{how}", d.location);
     }
     Ok(())

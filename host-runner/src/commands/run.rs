@@ -135,11 +135,27 @@ pub fn device_factory(
                 scale: (half as f64 / spec.workspace_radius_m.max(1e-6)) as f32,
                 offset: 0.5 * (lo + hi),
             };
-            let open: DeviceFactory =
-                Box::new(move || tetradrill_device::discovery::open(real, &options));
+            let open: DeviceFactory = if real == DeviceKind::Touch {
+                touch_factory()?
+            } else {
+                Box::new(move || tetradrill_device::discovery::open(real, &options))
+            };
             Ok((open, 10_000, workspace))
         }
     }
+}
+
+/// The Touch through the vendor HD library: loaded and `hdInitDevice` run here, so a missing
+/// library or device is one line and exit status 2; the opened library moves into the servo
+/// thread, where the device is built (and made current there).
+fn touch_factory() -> Result<DeviceFactory, CliError> {
+    let bad = |e: crate::hdapi::HdLoadError| CliError::input(format!("--device touch: {e}"));
+    let mut api = crate::hdapi::HdApi::load().map_err(bad)?;
+    api.open_device(None).map_err(bad)?;
+    Ok(Box::new(move || {
+        let dev = tetradrill_device::touch::TouchDevice::new(api, None)?;
+        Ok(Box::new(dev) as Box<dyn tetradrill_device::HapticDevice>)
+    }))
 }
 
 /// The demo script's length in ticks.
