@@ -25,8 +25,10 @@
 //!   scheduler (`hdStartScheduler`) after `hdInitDevice` but calls `hdBeginFrame` /
 //!   `hdEndFrame` from tetradrill's own 1 kHz servo thread, not from an HD scheduler
 //!   callback. Whether the vendor library accepts that is unknown.
-//! - The inkwell switch polarity (0 = stylus docked) is taken from public code that reads it,
-//!   not from a measurement.
+//! - The inkwell switch polarity (0 = stylus docked) is taken from public code that reads it
+//!   (H3DAPI's `PhantomHapticsDevice.cpp`: `in_inkwell = !inkwell_switch`), not measured.
+//! - That force output needs the scheduler running is from OpenHaptics' programmer's guide,
+//!   chapter 5 (read in a public translation), not measured.
 //! - Which calibration style a Touch reports, and the error codes a missing device produces.
 #![allow(unsafe_code)]
 
@@ -42,8 +44,9 @@ use tetradrill_device::DeviceError;
 //
 // Values checked against `hdDefines.h` as published in public repositories (OpenHaptics 3.0
 // and 3.3 headers, e.g. github.com/hhmai/PhantomAPI `include/HD/hdDefines.h`), and cross-checked
-// against an independent MIT-licensed HDAPI wrapper (Kirurobo's "ManagedPhantom" `HdAPI.cs`,
-// whose enums carry the same numbers). Function signatures checked against `hd.h` as quoted
+// against an independent MIT-licensed HDAPI wrapper (Kirurobo's "ManagedPhantom" `HdAPI.cs`, as
+// found in github.com/AssiaBoukezzi/LRAhaptic, whose enums carry the same numbers). One public
+// stub header with different error numbers was seen and disagrees with both; it was ignored. Function signatures checked against `hd.h` as quoted
 // in public code (`HDAPI HHD HDAPIENTRY hdInitDevice(HDstring pConfigName)`, ...). On Linux
 // `HDAPIENTRY` is empty: the plain C calling convention. Nothing was copied; only the numbers.
 // ---------------------------------------------------------------------------------------------
