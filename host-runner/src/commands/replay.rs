@@ -133,6 +133,17 @@ pub struct TickTiming {
     pub tick_max: f64,
 }
 
+impl From<Summary> for TickTiming {
+    fn from(t: Summary) -> Self {
+        Self {
+            tick_mean: t.mean,
+            tick_p99: t.p99,
+            tick_p999: t.p999,
+            tick_max: t.max,
+        }
+    }
+}
+
 /// Saturations by kind, and their total.
 #[derive(Debug, Default, Serialize)]
 pub struct SaturationCounts {
@@ -216,12 +227,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
             contact_ticks,
         },
         force_digest: format!("{:016x}", digest.value()),
-        timing_us: TickTiming {
-            tick_mean: t.mean,
-            tick_p99: t.p99,
-            tick_p999: t.p999,
-            tick_max: t.max,
-        },
+        timing_us: TickTiming::from(t),
         saturations: SaturationCounts {
             total: sat.total(),
             hash: sat.hash,
@@ -366,12 +372,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
             contact_ticks,
         },
         force_digest: format!("{:016x}", digest.value()),
-        timing_us: TickTiming {
-            tick_mean: t.mean,
-            tick_p99: t.p99,
-            tick_p999: t.p999,
-            tick_max: t.max,
-        },
+        timing_us: TickTiming::from(t),
         saturations: SaturationCounts {
             total: pen_info.saturated_ticks as u32,
             ..SaturationCounts::default()
