@@ -22,6 +22,7 @@
 use glam::Vec3;
 
 use super::geometry::{node_positions, RootFrame};
+use super::node::HNode;
 use super::store::Hierarchy;
 use super::surface::{bounding_sphere, face_corners, VisibleTri};
 use super::table::{child_bary, Path, MAX_DEPTH, ROOT_BARY};
@@ -118,23 +119,48 @@ impl Search {
         d2 <= lim * lim
     }
 
-    fn offer(&mut self, vt: VisibleTri) {
-        self.triangles = self.triangles.wrapping_add(1);
-        let x = closest_point_on_triangle(self.centre, vt.corners);
-        let d2 = (self.centre - x).length_squared();
-        if d2.is_nan() || d2 > self.reach2 {
-            return;
-        }
-        let key = FaceRef {
-            tet: vt.tet,
-            index: vt.index,
-            face: vt.face,
-        };
-        let better = match &self.best {
-            None => true,
-            Some((bd, bk, _)) => d2 < *bd || (d2 == *bd && key < *bk),
-        };
-        if better {
+    /// Tests the visible faces of leaf `(t, index)` with corners `p`. A face that would become
+    /// the best is taken only when the leaf passes the reach test of the exhaustive walk
+    /// (checked once, lazily: it almost always passes, and most faces never need it).
+    fn offer_leaf(&mut self, t: TetId, index: u32, node: HNode, p: [Vec3; 4]) {
+        let mut in_reach: Option<bool> = None;
+        for face in 0..4u8 {
+            if node.visible() & (1 << face) == 0 {
+                continue;
+            }
+            self.triangles = self.triangles.wrapping_add(1);
+            let corners = face_corners(p, face, node.inverted());
+            let x = closest_point_on_triangle(self.centre, corners);
+            let d2 = (self.centre - x).length_squared();
+            if d2.is_nan() || d2 > self.reach2 {
+                continue;
+            }
+            let key = FaceRef {
+                tet: t,
+                index,
+                face,
+            };
+            let better = match &self.best {
+                None => true,
+                Some((bd, bk, _)) => d2 < *bd || (d2 == *bd && key < *bk),
+            };
+            if !better {
+                continue;
+            }
+            let ok = *in_reach.get_or_insert_with(|| {
+                let (mid, rad) = bounding_sphere(p);
+                let lim = rad + self.reach;
+                mid.distance_squared(self.centre) <= lim * lim
+            });
+            if !ok {
+                return;
+            }
+            let vt = VisibleTri {
+                tet: t,
+                index,
+                face,
+                corners,
+            };
             self.best = Some((d2, key, vt));
             let d = libm::sqrtf(d2);
             if d < self.bound {
@@ -282,18 +308,8 @@ impl Hierarchy<'_> {
                 }
                 let Some(node) = self.node(e.r) else { continue };
                 let Some(b) = node.block() else {
-                    let p = frame.positions(&e.bary, e.depth);
-                    let inv = node.inverted();
-                    for face in 0..4u8 {
-                        if node.visible() & (1 << face) != 0 {
-                            s.offer(VisibleTri {
-                                tet: t,
-                                index: e.index,
-                                face,
-                                corners: face_corners(p, face, inv),
-                            });
-                        }
-                    }
+                    // A root that is a leaf (its reach test is done).
+                    s.offer_leaf(t, e.index, node, frame.positions(&e.bary, e.depth));
                     continue;
                 };
                 if e.depth as usize >= MAX_DEPTH {
@@ -304,11 +320,24 @@ impl Hierarchy<'_> {
                 let mut kids = [EMPTY; 8];
                 let mut n = 0usize;
                 for c in 0..8u8 {
+                    let cr = first + c as u32;
+                    let Some(child) = self.node(cr).filter(|n| n.surface()) else {
+                        continue;
+                    };
                     let bary = child_bary(&e.bary, c);
                     let index = e.index * 8 + 1 + c as u32;
-                    if let Some(k) =
-                        self.consider(&mut s, &frame, first + c as u32, index, e.depth + 1, bary)
-                    {
+                    if child.is_leaf() {
+                        // Leaves are tested at once: their triangles are as cheap as a
+                        // bounding sphere, and no stack round trip.
+                        if s.nodes >= s.max_nodes {
+                            s.stopped = true;
+                            break;
+                        }
+                        s.nodes += 1;
+                        s.offer_leaf(t, index, child, frame.positions(&bary, e.depth + 1));
+                        continue;
+                    }
+                    if let Some(k) = self.consider(&mut s, &frame, cr, index, e.depth + 1, bary) {
                         if let Some(slot) = kids.get_mut(n) {
                             *slot = k;
                             n += 1;

@@ -55,10 +55,17 @@ pub struct WorldSizes {
     pub candidates: usize,
 }
 
+/// Default capacity of the drill's pending deque: the demo path (`builtin:demo`, burr 0.1 on
+/// `builtin:block:8`, max depth 5, budget 4000) peaks at about 22,400 items (docs/DRILLING.md),
+/// so 32,768 (28 bytes each, 896 KB) keeps it free of saturations. A board with little RAM
+/// sizes it with [`WorldSizes::with_pending`] (the firmware's scenario peaks under 2,000).
+pub const DEFAULT_PENDING: usize = 1 << 15;
+
 impl WorldSizes {
     /// Sizes for `tets` coarse tets and an arena of `arena` hierarchy nodes. The hash gets about
     /// two buckets per tet and eight entries per tet (a tet's box covers one to eight cells of
-    /// an average edge length; slivers more, and a full table is counted, not fatal).
+    /// an average edge length; slivers more, and a full table is counted, not fatal); the
+    /// pending deque gets [`DEFAULT_PENDING`] entries.
     pub const fn new(tets: usize, arena: usize) -> Self {
         let arena = arena / 8 * 8;
         Self {
@@ -67,9 +74,15 @@ impl WorldSizes {
             roots: tets,
             arena,
             vlist: HierarchyStorage::vlist_needed(tets, arena),
-            pending: 1 << 16,
+            pending: DEFAULT_PENDING,
             candidates: 1024,
         }
+    }
+
+    /// The same sizes with a pending deque of `pending` entries. A deque that never fills
+    /// gives the same results whatever its capacity.
+    pub const fn with_pending(self, pending: usize) -> Self {
+        Self { pending, ..self }
     }
 }
 
@@ -377,29 +390,33 @@ impl<'a> World<'a> {
             tight = tight.union(Aabb::point(s.center).grown(s.radius));
         }
         let zone = tight.union(Aabb::point(centre).grown(radius + reach));
-        let (cands, mesh) = (&mut *self.candidates, &self.mesh);
+        let (cands, mesh, hash) = (&mut *self.candidates, &self.mesh, &self.hash);
         let mut n = 0usize;
         let mut full = false;
-        self.hash.query_box_ro(&zone, self.max_cells, |_, item| {
+        let zone_lo = hash.cell_range(&zone).0;
+        hash.query_box_ro(&zone, self.max_cells, |cell, item| {
             let t = TetId(item);
-            if full
-                || t.idx() >= mesh.tet_count()
-                || !Aabb::of(mesh.tet_positions(t)).overlaps(&zone)
-            {
+            if full || t.idx() >= mesh.tet_count() {
+                return;
+            }
+            let b = Aabb::of(mesh.tet_positions(t));
+            if !b.overlaps(&zone) {
+                return;
+            }
+            // A tet is stored in every cell its box covers (all of them or none): take it only
+            // in the first cell of the query that holds it, so each tet comes once.
+            let t_lo = hash.cell_range(&b).0;
+            if (0..3).any(|a| cell[a] != t_lo[a].max(zone_lo[a])) {
                 return;
             }
             if n == cands.len() {
-                // A tet is met once per cell it overlaps: compact before giving up.
-                n = sort_dedup(&mut cands[..n]);
-                if n == cands.len() {
-                    full = true;
-                    return;
-                }
+                full = true;
+                return;
             }
             cands[n] = t;
             n += 1;
         });
-        let k = sort_dedup(&mut cands[..n]);
+        let k = n;
         // The tets that meet the burr itself first: the drill works on those only.
         let list = &mut cands[..k];
         let mut m = 0;
@@ -478,19 +495,6 @@ impl<'a> World<'a> {
             }
         };
     }
-}
-
-/// Sorts `list` and moves its distinct entries to the front; returns how many there are.
-fn sort_dedup(list: &mut [TetId]) -> usize {
-    list.sort_unstable();
-    let mut k = 0;
-    for i in 0..list.len() {
-        if k == 0 || list[i] != list[k - 1] {
-            list[k] = list[i];
-            k += 1;
-        }
-    }
-    k
 }
 
 /// The force on a spherical burr of `radius` at `centre` from the contact plane `contact`:

@@ -180,9 +180,10 @@ fn main() -> ! {
     hprintln!("contact_query_instructions_max={}", contact.max);
     hprintln!("contact_query_instructions_mean={}", contact.mean());
     hprintln!(
-        "worst_tick: candidates {} triangles {} drill work {} created {} erased {} pending {}",
+        "worst_tick: candidates {} triangles {} contact nodes {} drill work {} created {} erased {} pending {}",
         worst.candidates,
         worst.triangles,
+        worst.contact_nodes,
         worst.drill.work,
         worst.drill.created,
         worst.drill.erased,
@@ -190,12 +191,13 @@ fn main() -> ! {
     );
     hprintln!("instructions_total={}", total);
     hprintln!(
-        "saturations={} (hash {}, candidates {}, arena {}, pending {})",
+        "saturations={} (hash {}, candidates {}, arena {}, pending {}, contact {})",
         sat.total(),
         sat.hash,
         sat.candidates,
         sat.arena,
-        sat.pending
+        sat.pending,
+        sat.contact
     );
     hprintln!("hierarchy_nodes={}", world.hierarchy().node_count());
     debug::exit(debug::EXIT_SUCCESS);
@@ -205,20 +207,21 @@ fn main() -> ! {
 }
 
 /// The squared distance to the nearest visible triangle within `reach` of `centre`, over the
-/// world's current candidates: the work of the contact half of `World::simulate`.
+/// world's current candidates: the contact search of `World::simulate`, redone without its
+/// hint (so a little more work than inside the tick).
 #[inline(never)]
 fn nearest_visible(world: &World<'_>, centre: Vec3, reach: f32) -> f32 {
-    let mut best = f32::INFINITY;
-    world.hierarchy().for_each_visible_in(
-        world.mesh(),
-        world.candidates(),
-        Some((centre, reach)),
-        |vt| {
-            let x = closest_point_on_triangle(centre, vt.corners);
-            best = best.min((centre - x).length_squared());
-        },
-    );
-    best
+    world
+        .hierarchy()
+        .nearest_visible(
+            world.mesh(),
+            world.candidates(),
+            centre,
+            reach,
+            None,
+            world.contact_max_nodes(),
+        )
+        .d2
 }
 
 /// Instructions for a few primitives the core leans on (a diagnostic for docs/PORTING.md):

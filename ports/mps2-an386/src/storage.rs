@@ -1,11 +1,13 @@
 //! Every slice the core borrows, in statics, sized by the core's own `WorldSizes` so the
-//! firmware's world has exactly the capacities of the host's (`EngineStorage::allocate`).
+//! firmware's world has the capacities of the host's (`EngineStorage::allocate`), except the
+//! drill's pending deque: [`PENDING`] entries instead of the host's 32,768. The scenario's
+//! deque peaks under 2,000 items and never fills, so the results are the same bits.
 //!
 //! Each array is a `static_cell::ConstStaticCell`: const-initialised, handed out once as
 //! `&'static mut` with no `unsafe` here. Arrays whose const initial value is all zero bytes
 //! land in `.bss` (no flash); the ones whose initial value the host sets to something else
 //! are refilled with the core's `Default` at start-up, so both sides start from the same
-//! bits. Only the hierarchy nodes (`HNode`, no all-zero constant in the core) sit in `.data`.
+//! bits. The hierarchy nodes start as `HNode::LEAF`, which is all zero bytes: `.bss` too.
 
 use static_cell::ConstStaticCell;
 
@@ -23,8 +25,10 @@ use crate::{ARENA, BLOCK_N};
 pub const NODES: usize = block_counts(BLOCK_N).0;
 /// Tets of the block.
 pub const TETS: usize = block_counts(BLOCK_N).1;
-/// The world's storage sizes, as the host computes them.
-pub const SIZES: WorldSizes = WorldSizes::new(TETS, ARENA);
+/// Entries of the drill's pending deque (28 bytes each): twice the scenario's peak.
+pub const PENDING: usize = 4096;
+/// The world's storage sizes, as the host computes them, with a [`PENDING`]-entry deque.
+pub const SIZES: WorldSizes = WorldSizes::new(TETS, ARENA).with_pending(PENDING);
 
 // All-zero placeholders (so the statics go to .bss); see `Storage::take`.
 const ZERO_NODE: Node = Node {
