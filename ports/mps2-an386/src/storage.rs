@@ -1,6 +1,6 @@
 //! Every slice the core borrows, in statics, sized by the core's own `WorldSizes` so the
 //! firmware's world has the capacities of the host's (`EngineStorage::allocate`), except the
-//! drill's pending deque: [`PENDING`] entries instead of the host's 32,768. The scenario's
+//! drill's pending deque: [`PENDING_ITEMS`] entries instead of the host's 32,768. The scenario's
 //! deque peaks under 2,000 items and never fills, so the results are the same bits.
 //!
 //! Each array is a `static_cell::ConstStaticCell`: const-initialised, handed out once as
@@ -26,9 +26,9 @@ pub const NODES: usize = block_counts(BLOCK_N).0;
 /// Tets of the block.
 pub const TETS: usize = block_counts(BLOCK_N).1;
 /// Entries of the drill's pending deque (28 bytes each): twice the scenario's peak.
-pub const PENDING: usize = 4096;
-/// The world's storage sizes, as the host computes them, with a [`PENDING`]-entry deque.
-pub const SIZES: WorldSizes = WorldSizes::new(TETS, ARENA).with_pending(PENDING);
+pub const PENDING_ITEMS: usize = 4096;
+/// The world's storage sizes, as the host computes them, with a [`PENDING_ITEMS`]-entry deque.
+pub const SIZES: WorldSizes = WorldSizes::new(TETS, ARENA).with_pending(PENDING_ITEMS);
 
 // All-zero placeholders (so the statics go to .bss); see `Storage::take`.
 const ZERO_NODE: Node = Node {
