@@ -103,10 +103,10 @@ impl std::ops::Div<f64> for DVec3 {
 }
 
 trait AsD {
-    fn as_dvec3(self) -> DVec3;
+    fn to_dvec3(self) -> DVec3;
 }
 impl AsD for Vec3 {
-    fn as_dvec3(self) -> DVec3 {
+    fn to_dvec3(self) -> DVec3 {
         DVec3 {
             x: self.x as f64,
             y: self.y as f64,
@@ -211,8 +211,8 @@ fn brute(body: &Body<'_, '_>, points: &[Vec3], within: Option<(Vec3, Vec3)>) -> 
 /// f64 barycentric containment with a tolerance (independent of the f32 kernel).
 fn inside_f64(x: Vec3, p: [Vec3; 4], tol: f64) -> bool {
     let d = |a: Vec3, b: Vec3, c: Vec3, e: Vec3| {
-        let a = a.as_dvec3();
-        let (u, v, w) = (b.as_dvec3() - a, c.as_dvec3() - a, e.as_dvec3() - a);
+        let a = a.to_dvec3();
+        let (u, v, w) = (b.to_dvec3() - a, c.to_dvec3() - a, e.to_dvec3() - a);
         u.cross(v).dot(w)
     };
     let v = d(p[0], p[1], p[2], p[3]);
@@ -227,9 +227,10 @@ fn inside_f64(x: Vec3, p: [Vec3; 4], tol: f64) -> bool {
 
 fn check_hash_vs_brute(obj_rel: &str, n_poses: usize, seed: u64) {
     let mut rig = rig(10.0, obj_rel, 1.0);
-    let obj_view = rig.obj.view();
-    let ps = poses(&obj_view, n_poses, 0.3, seed);
-    drop(obj_view);
+    let ps = {
+        let obj_view = rig.obj.view();
+        poses(&obj_view, n_poses, 0.3, seed)
+    };
     let (mut total_pen, mut total_obj) = (0usize, 0usize);
     rig.with(|scene, bufs| {
         for &(pos, rot) in &ps {
@@ -317,17 +318,17 @@ fn reference_depth(
         .filter(|v| v.0 == 1)
         .map(|v| (v.1, v.2))
         .collect();
-    let pos = |n: u32| obj.positions()[n as usize].as_dvec3();
-    let nrm = |n: u32| obj.normals()[n as usize].as_dvec3();
+    let pos = |n: u32| obj.positions()[n as usize].to_dvec3();
+    let nrm = |n: u32| obj.normals()[n as usize].to_dvec3();
     let mut known: HashMap<usize, (f64, DVec3, u32)> = HashMap::new();
     for &i in colliding {
-        let p = world[i].as_dvec3();
+        let p = world[i].to_dvec3();
         let (mut sw, mut sd, mut sn) = (0.0, 0.0, DVec3::ZERO);
         for &j in &adj[i] {
             if colliding.contains(&j) {
                 continue;
             }
-            let q = world[j].as_dvec3();
+            let q = world[j].to_dvec3();
             let d = q - p;
             let mut best: Option<(f64, DVec3, DVec3)> = None;
             for (f, opposite) in &faces {
@@ -385,12 +386,12 @@ fn reference_depth(
             }
         }
         if !known.contains_key(&u) {
-            let p = world[u].as_dvec3();
+            let p = world[u].to_dvec3();
             let (mut sm, mut sd, mut sr) = (0.0, 0.0, DVec3::ZERO);
             for &j in &adj[u] {
                 if let Some(&(dj, rj, lj)) = known.get(&j) {
                     if lj < lu {
-                        let v = world[j].as_dvec3() - p;
+                        let v = world[j].to_dvec3() - p;
                         let mu = 1.0 / v.length_squared();
                         sm += mu;
                         sd += mu * (v.dot(rj) + dj);
@@ -410,9 +411,10 @@ fn reference_depth(
 #[test]
 fn depth_matches_f64_reference_on_cow() {
     let mut rig = rig(10.0, COW, 1.0);
-    let obj_view = rig.obj.view();
-    let ps = poses(&obj_view, 12, 0.25, 3);
-    drop(obj_view);
+    let ps = {
+        let obj_view = rig.obj.view();
+        poses(&obj_view, 12, 0.25, 3)
+    };
     let (mut compared, mut worst_d, mut worst_r) = (0usize, 0.0f64, 0.0f64);
     rig.with(|scene, bufs| {
         for &(pos, rot) in &ps {
@@ -450,7 +452,7 @@ fn depth_matches_f64_reference_on_cow() {
             for g in got {
                 let (d, r) = reference[&g.node.idx()];
                 let ed = (g.depth as f64 - d).abs();
-                let er = (g.dir.as_dvec3() - r).length();
+                let er = (g.dir.to_dvec3() - r).length();
                 assert!(
                     ed < 1e-4,
                     "node {:?}: depth {} vs f64 {d}: {g:?}",
@@ -473,9 +475,10 @@ fn depth_matches_f64_reference_on_cow() {
 
 fn traced_equals_hashed(obj_rel: &str, n: usize, seed: u64) {
     let mut rig = rig(10.0, obj_rel, 1.0);
-    let obj_view = rig.obj.view();
-    let ps = poses(&obj_view, n, 0.3, seed);
-    drop(obj_view);
+    let ps = {
+        let obj_view = rig.obj.view();
+        poses(&obj_view, n, 0.3, seed)
+    };
     let traced = PenOptions::default();
     let hashed = PenOptions {
         method: DepthMethod::Hashed,
