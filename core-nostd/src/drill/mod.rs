@@ -12,7 +12,7 @@ mod sphere;
 mod step;
 
 pub use candidates::candidates_brute_force;
-pub use sphere::{classify, closest_on_triangle, Class, Sphere};
+pub use sphere::{classify, Class, Sphere};
 pub use step::{Drill, DrillParams, DrillReport, Pending};
 
 #[cfg(test)]

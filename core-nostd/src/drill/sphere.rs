@@ -2,6 +2,8 @@
 
 use glam::Vec3;
 
+use crate::geom::closest_point_on_triangle;
+
 /// An active sample sphere of the tool (a spherical burr is one sphere at its centre).
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct Sphere {
@@ -20,62 +22,6 @@ pub enum Class {
     Crossing,
     /// All four corners, hence the whole tet, are inside.
     Inside,
-}
-
-/// Closest point to `x` on triangle `(a, b, c)` (Voronoi regions of the vertices, edges and
-/// face, after Ericson's *Real-Time Collision Detection* 5.1.5; degenerate triangles fall back
-/// to an edge or a vertex without dividing by zero).
-///
-/// # Bounded work
-/// Constant.
-pub fn closest_on_triangle(x: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    let ab = b - a;
-    let ac = c - a;
-    let ap = x - a;
-    let d1 = ab.dot(ap);
-    let d2 = ac.dot(ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = x - b;
-    let d3 = ab.dot(bp);
-    let d4 = ac.dot(bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let den = d1 - d3;
-        return if den > 0.0 { a + ab * (d1 / den) } else { a };
-    }
-    let cp = x - c;
-    let d5 = ab.dot(cp);
-    let d6 = ac.dot(cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let den = d2 - d6;
-        return if den > 0.0 { a + ac * (d2 / den) } else { a };
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let den = (d4 - d3) + (d5 - d6);
-        return if den > 0.0 {
-            b + (c - b) * ((d4 - d3) / den)
-        } else {
-            b
-        };
-    }
-    let sum = va + vb + vc;
-    if sum > 0.0 {
-        let v = vb / sum;
-        let w = vc / sum;
-        a + ab * v + ac * w
-    } else {
-        a
-    }
 }
 
 /// Classifies tet `p` against sphere `s`: inside when all corners are within the radius,
@@ -103,7 +49,7 @@ pub fn classify(p: [Vec3; 4], s: &Sphere) -> Class {
         }
     }
     for [i, j, k] in crate::mesh::template::FACE_VERTS {
-        let q = closest_on_triangle(s.center, p[i as usize], p[j as usize], p[k as usize]);
+        let q = closest_point_on_triangle(s.center, [p[i as usize], p[j as usize], p[k as usize]]);
         if q.distance_squared(s.center) <= r2 {
             return Class::Crossing;
         }

@@ -27,7 +27,10 @@ fn classify_cases() {
         Class::Outside
     );
     assert_eq!(classify(p, &s(Vec3::splat(1.0), 0.5)), Class::Outside);
-    let q = closest_on_triangle(Vec3::new(2.0, -1.0, 0.0), Vec3::ZERO, Vec3::X, Vec3::Y);
+    let q = crate::geom::closest_point_on_triangle(
+        Vec3::new(2.0, -1.0, 0.0),
+        [Vec3::ZERO, Vec3::X, Vec3::Y],
+    );
     assert!(q.distance(Vec3::X) < 1e-6);
 }
 
