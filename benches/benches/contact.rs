@@ -91,8 +91,8 @@ fn touch_poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3, Qu
             let tip = obj.positions()[b] - nrm * r.range(0.0, depth);
             let tilt = Vec3::new(r.range(-0.6, 0.6), r.range(-0.6, 0.6), r.range(-0.6, 0.6));
             let axis = (nrm + tilt).normalize();
-            let q =
-                Quat::from_rotation_arc(Vec3::Z, axis) * Quat::from_rotation_z(r.range(0.0, 6.28));
+            let q = Quat::from_rotation_arc(Vec3::Z, axis)
+                * Quat::from_rotation_z(r.range(0.0, std::f32::consts::TAU));
             (tip, q)
         })
         .collect()

@@ -164,7 +164,9 @@ impl Scenario {
         let text = std::fs::read_to_string(path)
             .map_err(|e| CliError::at(path, None, format!("cannot read scenario: {e}")))?;
         let sc: Scenario = toml::from_str(&text).map_err(|e| {
-            let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+            let line = e
+                .span()
+                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
             CliError::at(path, line, e.message().replace('\n', " "))
         })?;
         sc.check().map_err(|m| CliError::at(path, None, m))?;
@@ -181,7 +183,13 @@ impl Scenario {
             ($($field:ident),*) => { $( if let Some(v) = &f.$field { s.$field = v.clone(); } )* };
         }
         take!(mesh, scale, trace, tool, tool_scale, stiffness, damping, max_force);
-        take!(depth_method, max_depth, min_area, hierarchy_capacity, budget_per_tick);
+        take!(
+            depth_method,
+            max_depth,
+            min_area,
+            hierarchy_capacity,
+            budget_per_tick
+        );
         s.check().map_err(CliError::input)?;
         Ok(s)
     }
@@ -200,10 +208,16 @@ impl Scenario {
         pos("stiffness", self.stiffness)?;
         pos("max_force", self.max_force)?;
         if !(self.damping.is_finite() && self.damping >= 0.0) {
-            return Err(format!("damping must be non-negative, got {}", self.damping));
+            return Err(format!(
+                "damping must be non-negative, got {}",
+                self.damping
+            ));
         }
         if !(self.min_area.is_finite() && self.min_area >= 0.0) {
-            return Err(format!("min_area must be non-negative, got {}", self.min_area));
+            return Err(format!(
+                "min_area must be non-negative, got {}",
+                self.min_area
+            ));
         }
         if !(1..=9).contains(&self.max_depth) {
             return Err(format!("max_depth must be 1..=9, got {}", self.max_depth));
@@ -220,7 +234,10 @@ impl Scenario {
         if let Some(r) = self.tool.strip_prefix("sphere:") {
             match r.parse::<f64>() {
                 Ok(r) if r.is_finite() && r > 0.0 => Ok(ToolKind::Sphere(r)),
-                _ => Err(format!("tool `{}`: the radius must be a positive number", self.tool)),
+                _ => Err(format!(
+                    "tool `{}`: the radius must be a positive number",
+                    self.tool
+                )),
             }
         } else if let Some(file) = self.tool.strip_prefix("mesh:") {
             if file.is_empty() {
@@ -229,7 +246,10 @@ impl Scenario {
                 Ok(ToolKind::Mesh(PathBuf::from(file)))
             }
         } else {
-            Err(format!("tool `{}`: expected sphere:R or mesh:FILE", self.tool))
+            Err(format!(
+                "tool `{}`: expected sphere:R or mesh:FILE",
+                self.tool
+            ))
         }
     }
 }

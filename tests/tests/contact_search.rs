@@ -113,7 +113,8 @@ fn exhaustive(
     let mut best: Option<(f32, FaceRef, [Vec3; 3])> = None;
     h.for_each_visible_in(mesh, cands, Some((c, reach)), |vt| {
         let d2 = (c - closest_point_on_triangle(c, vt.corners)).length_squared();
-        if !(d2 <= reach * reach) {
+        let within = d2 <= reach * reach; // false for NaN too
+        if !within {
             return;
         }
         let key = FaceRef {
@@ -121,7 +122,7 @@ fn exhaustive(
             index: vt.index,
             face: vt.face,
         };
-        if best.map_or(true, |(bd, bk, _)| d2 < bd || (d2 == bd && key < bk)) {
+        if best.is_none_or(|(bd, bk, _)| d2 < bd || (d2 == bd && key < bk)) {
             best = Some((d2, key, vt.corners));
         }
     });

@@ -25,7 +25,11 @@ pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
     for d in &found {
         let kind = format!("{:?}", d.kind).to_lowercase();
         let hd_ok = d.kind == tetradrill_device::DeviceKind::Touch && hd.is_ok();
-        let how = if d.openable || hd_ok { "" } else { "  (found, but this build cannot open it)" };
+        let how = if d.openable || hd_ok {
+            ""
+        } else {
+            "  (found, but this build cannot open it)"
+        };
         println!("{kind:<8} {}{how}", d.location);
     }
     Ok(())

@@ -55,11 +55,21 @@ fn parse_device(s: &str) -> Result<DeviceKind, String> {
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let sc = Scenario::from_flags(&args.scenario)?;
     let view = crate::viewer::ViewOptions::of(args.headless, args.screenshot.clone())?;
-    let options = OpenOptions { falcon_firmware: args.falcon_firmware.clone(), ..OpenOptions::default() };
+    let options = OpenOptions {
+        falcon_firmware: args.falcon_firmware.clone(),
+        ..OpenOptions::default()
+    };
     let (open, default_ticks, workspace) = device_factory(args.device, &sc, options)?;
-    let ticks = args.duration.map_or(default_ticks, |d| (d * 1000.0).round() as u64).max(1);
+    let ticks = args
+        .duration
+        .map_or(default_ticks, |d| (d * 1000.0).round() as u64)
+        .max(1);
     let rt = if args.no_rt {
-        RtConfig { fifo_priority: None, core: None, lock_memory: false }
+        RtConfig {
+            fifo_priority: None,
+            core: None,
+            lock_memory: false,
+        }
     } else {
         RtConfig::default()
     };
