@@ -207,7 +207,9 @@ fn real_time_run_keeps_1khz_and_removes_what_the_replay_removes() {
     let trace = demo_trace(&dir);
     let (rj, oj) = (dir.join("run.json"), dir.join("replay.json"));
     let t = trace.to_str().unwrap();
-    let out = run(&[
+    // The same scenario for both runs: erosion that keeps up with the tool.
+    let keep_up = ["--max-depth", "3", "--budget-per-tick", "20000"];
+    let mut args = vec![
         "run",
         "--device",
         "sim",
@@ -215,22 +217,19 @@ fn real_time_run_keeps_1khz_and_removes_what_the_replay_removes() {
         t,
         "--headless",
         "--quiet",
-        "--json",
-        rj.to_str().unwrap(),
-    ]);
+    ];
+    args.extend(keep_up);
+    args.extend(["--json", rj.to_str().unwrap()]);
+    let out = run(&args);
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let out = run(&[
-        "replay",
-        "--trace",
-        t,
-        "--quiet",
-        "--json",
-        oj.to_str().unwrap(),
-    ]);
+    let mut args = vec!["replay", "--trace", t, "--quiet"];
+    args.extend(keep_up);
+    args.extend(["--json", oj.to_str().unwrap()]);
+    let out = run(&args);
     assert!(
         out.status.success(),
         "{}",
