@@ -98,7 +98,8 @@ impl Default for SimConfig {
             period_s: 1e-3,
             mass_kg: 0.1,
             hand_stiffness_n_per_m: 300.0,
-            hand_damping_n_s_per_m: 4.0,
+            // Critical damping, 2 sqrt(k m) ~ 10.95: a hand holds a stylus without ringing.
+            hand_damping_n_s_per_m: 11.0,
             spec: DeviceSpec::SIM,
             safety: SafetyConfig::for_max_force(DeviceSpec::SIM.max_force_n),
             disconnect_at_tick: None,
