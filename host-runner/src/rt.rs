@@ -19,6 +19,23 @@ pub struct RtConfig {
     pub lock_memory: bool,
 }
 
+/// Holds `/dev/cpu_dma_latency` at 0 for the rest of the process, as cyclictest does: the
+/// power-management QoS request keeps idle cores out of deep sleep states, whose exit latency
+/// would otherwise add to every wake-up. The request lasts while the file stays open.
+fn hold_zero_dma_latency() -> std::io::Result<()> {
+    use std::io::Write as _;
+    static HELD: std::sync::OnceLock<std::fs::File> = std::sync::OnceLock::new();
+    if HELD.get().is_some() {
+        return Ok(());
+    }
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/cpu_dma_latency")?;
+    f.write_all(&0i32.to_ne_bytes())?;
+    let _ = HELD.set(f);
+    Ok(())
+}
+
 impl Default for RtConfig {
     fn default() -> Self {
         // The last core: the one least likely to carry the other tasks.
@@ -39,6 +56,8 @@ pub struct RtStatus {
     pub pinned: Option<usize>,
     /// Memory locked.
     pub memory_locked: bool,
+    /// `/dev/cpu_dma_latency` held at 0 (idle cores kept out of deep sleep).
+    pub low_latency_idle: bool,
     /// One line per thing that was asked for and not permitted.
     pub warnings: Vec<String>,
 }
@@ -62,6 +81,15 @@ impl RtConfig {
                 Err(e) => st.warnings.push(format!(
                     "servo runs without SCHED_FIFO ({e}); wake-ups may be late under load \
                      (run as root or grant CAP_SYS_NICE / an rtprio limit)"
+                )),
+            }
+        }
+        if self.fifo_priority.is_some() {
+            match hold_zero_dma_latency() {
+                Ok(()) => st.low_latency_idle = true,
+                Err(e) => st.warnings.push(format!(
+                    "idle cores may sleep deeply (/dev/cpu_dma_latency: {e}); wake-ups can be \
+                     tens of microseconds later"
                 )),
             }
         }
