@@ -3,10 +3,10 @@
 //!
 //! | task       | priority                 | period              | reads                          | writes                          |
 //! |------------|--------------------------|---------------------|--------------------------------|---------------------------------|
-//! | servo      | SCHED_FIFO 80, last core | 1 ms, absolute      | device, `ContactState` (triple buffer) | force to device, `ToolSample` ring |
+//! | servo      | SCHED_FIFO 80, last core | 1 ms, absolute      | device, `ContactState`, camera `C` (triple buffers) | force to device, `ToolSample` ring |
 //! | simulation | normal                   | as fast as it can   | `ToolSample` ring              | `ContactState`, `SimStatus` (triple buffers) |
 //! | status     | normal                   | 250 ms              | `SimStatus`, servo counters (atomics) | the status line          |
-//! | viewer     | normal, the main thread  | about 60 Hz         | `Snapshot` queue, servo counters | `Controls` (triple buffer) |
+//! | viewer     | normal, the main thread  | about 60 Hz         | `Snapshot` queue, servo counters | `Controls`, camera `C` (triple buffers) |
 //!
 //! Hand-offs are lock-free and allocation-free after start-up: the servo pushes every tick's
 //! tool sample into a bounded SPSC ring (crossbeam `ArrayQueue`; a full ring drops the sample
@@ -15,6 +15,11 @@
 //! servo and the status task read without ever waiting. When the simulation is slower than the
 //! servo, the servo keeps computing the force from the last contact plane at the tool's current
 //! position: the extrapolation of seed 001 section 3.3.
+//!
+//! With the live window, the viewer also publishes its camera rotation through a triple buffer
+//! the servo reads each tick ([`DeviceFrame`]): the device's positions turn with the view
+//! (egocentric pen coordinates, seed 000 section 5) and forces turn back before they reach the
+//! device. Without a window the frame is the identity and nothing changes.
 
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -51,7 +56,7 @@ pub const TASKS: [TaskDecl; 4] = [
         name: "servo",
         priority: "SCHED_FIFO 80, pinned to the last core, memory locked",
         period: "1 ms on absolute deadlines",
-        reads: "device sample; ContactState (triple buffer)",
+        reads: "device sample; ContactState, camera C (triple buffers)",
         writes: "force command to the device; ToolSample (SPSC ring); servo counters (atomics)",
     },
     TaskDecl {
@@ -73,7 +78,7 @@ pub const TASKS: [TaskDecl; 4] = [
         priority: "normal (the main thread; status moves to its own thread)",
         period: "about 60 Hz",
         reads: "Snapshot queue (drained, never waited on); servo counters (atomics)",
-        writes: "Controls (triple buffer)",
+        writes: "Controls, camera C (triple buffers)",
     },
 ];
 
@@ -224,6 +229,149 @@ impl ServoCounters {
     }
 }
 
+/// The identity, column-major: the camera `C` when no viewer turns the device frame.
+pub const IDENTITY: [f32; 16] = [
+    1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+];
+
+/// How far a published camera may be from a rotation (`|C^T C - I|` per entry, and the
+/// translation and the last row) before the servo refuses it.
+pub const ROTATION_TOLERANCE: f32 = 1e-3;
+
+/// A column-major 4x4 matrix as the glam matrix core's `force::frames` functions take (this
+/// crate does not name glam; the layout is the one OpenGL and [`crate::viewer::camera`] use).
+pub(crate) fn frame_mat<M: Default + AsMut<[f32; 16]>>(cols: &[f32; 16]) -> M {
+    let mut m = M::default();
+    m.as_mut().copy_from_slice(cols);
+    m
+}
+
+/// The egocentric frame of the device (seed 000 section 5; DESIGN 2.5): the device reports the
+/// pen in egocentric coordinates, the scene pose is `P_a = C * P_e` (core's
+/// [`allocentric`](tetradrill_core::force::frames::allocentric)), and a scene force goes back
+/// through `C`'s inverse ([`force_to_device`](tetradrill_core::force::frames::force_to_device)).
+///
+/// `C` is a pure rotation (the viewer's orbit relative to its start view; pan and zoom do not
+/// enter it): the device frame is the scene frame as the start view shows it, so without a
+/// viewer `C` is the identity and the map is exactly [`Workspace::to_mesh`]. `C` turns the
+/// device's displacement about `pivot`, the workspace centre (the mesh's centre, which the
+/// camera orbits), so the tool stays at the same place on screen while the view turns, and
+/// never swings away from the mesh as a turn about the mesh origin would.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeviceFrame {
+    camera: [f32; 16],
+    identity: bool,
+    /// The point `C` turns about, mesh units.
+    pub pivot: Vec3,
+}
+
+impl Default for DeviceFrame {
+    fn default() -> Self {
+        Self::new(Vec3::ZERO)
+    }
+}
+
+impl DeviceFrame {
+    /// The identity frame turning about `pivot`.
+    pub fn new(pivot: Vec3) -> Self {
+        Self {
+            camera: IDENTITY,
+            identity: true,
+            pivot,
+        }
+    }
+
+    /// The camera `C` in use, column-major.
+    pub fn camera(&self) -> [f32; 16] {
+        self.camera
+    }
+
+    /// `C` is the identity: positions and forces pass unchanged.
+    pub fn is_identity(&self) -> bool {
+        self.identity
+    }
+
+    /// Takes `c` as the camera when it is a finite proper rotation (columns orthonormal within
+    /// [`ROTATION_TOLERANCE`], determinant +1, no translation); otherwise keeps the camera it
+    /// had and returns `false`. A rotation keeps `C`'s inverse equal to its transpose, so the
+    /// frame neither adds nor takes power: `F_device . v_device == F_scene . v_scene`.
+    ///
+    /// # Bounded work
+    /// Constant (about 60 flops).
+    pub fn set_camera(&mut self, c: &[f32; 16]) -> bool {
+        if !is_rotation(c) {
+            return false;
+        }
+        self.camera = *c;
+        self.identity = *c == IDENTITY;
+        true
+    }
+
+    /// A device position (metres, device frame) to the scene: `pivot + C (to_mesh(p) - pivot)`.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn to_scene(&self, workspace: &Workspace, p: [f64; 3]) -> Vec3 {
+        let m = workspace.to_mesh(p);
+        if self.identity {
+            return m;
+        }
+        let t = m - self.pivot;
+        let mut pen = IDENTITY;
+        pen[12] = t.x;
+        pen[13] = t.y;
+        pen[14] = t.z;
+        let a =
+            tetradrill_core::force::frames::allocentric(frame_mat(&self.camera), frame_mat(&pen));
+        let a: &[f32; 16] = a.as_ref();
+        let q = self.pivot + Vec3::new(a[12], a[13], a[14]);
+        if q.is_finite() {
+            q
+        } else {
+            m
+        }
+    }
+
+    /// A scene force (newtons) to the device frame: `C^-1 F` (zero for a singular `C`, which
+    /// [`set_camera`](Self::set_camera) never takes).
+    ///
+    /// # Bounded work
+    /// Constant (one 4x4 inverse).
+    pub fn force_to_device(&self, f: Vec3) -> Vec3 {
+        if self.identity {
+            return f;
+        }
+        tetradrill_core::force::frames::force_to_device(frame_mat(&self.camera), f)
+    }
+}
+
+/// `c` (column-major) is a finite proper rotation without translation.
+fn is_rotation(c: &[f32; 16]) -> bool {
+    if !c.iter().all(|v| v.is_finite()) {
+        return false;
+    }
+    let tol = ROTATION_TOLERANCE;
+    // No translation, last row (0, 0, 0, 1).
+    if [c[3], c[7], c[11], c[12], c[13], c[14]]
+        .iter()
+        .any(|v| v.abs() > tol)
+        || (c[15] - 1.0).abs() > tol
+    {
+        return false;
+    }
+    let col = |j: usize| Vec3::new(c[4 * j], c[4 * j + 1], c[4 * j + 2]);
+    let (x, y, z) = (col(0), col(1), col(2));
+    let gram = [
+        (x.dot(x), 1.0),
+        (y.dot(y), 1.0),
+        (z.dot(z), 1.0),
+        (x.dot(y), 0.0),
+        (x.dot(z), 0.0),
+        (y.dot(z), 0.0),
+    ];
+    gram.iter().all(|(g, want)| (g - want).abs() <= tol) && x.cross(y).dot(z) > 0.0
+}
+
 /// Where the device's positions land in the mesh: `mesh = device * scale + offset`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Workspace {
@@ -261,9 +409,23 @@ pub struct ServoResult {
     pub error: Option<DeviceError>,
 }
 
+/// The servo's end of the camera hand-off: the latest camera `C` the viewer published
+/// (column-major), read without waiting.
+pub type CameraOut = triple_buffer::Output<[f32; 16]>;
+/// The viewer's end of the camera hand-off.
+pub type CameraIn = triple_buffer::Input<[f32; 16]>;
+
+/// A camera hand-off starting at the identity (a triple buffer: the last write wins, neither
+/// side ever waits).
+pub fn camera_handoff() -> (CameraIn, CameraOut) {
+    triple_buffer::TripleBuffer::new(&IDENTITY).split()
+}
+
 /// The servo task: `ticks` ticks at 1 kHz, or until `stop`. Everything it needs is allocated
 /// before its loop; the loop neither allocates nor locks (the allocation-counting test runs
-/// [`servo_tick`], the loop's body).
+/// [`servo_tick`], the loop's body). `frame` is the device frame it starts with; with a
+/// `camera` hand-off, each tick takes the latest camera the viewer published (a triple-buffer
+/// read: a few atomic operations, never a wait).
 #[allow(clippy::too_many_arguments)]
 pub fn servo_task(
     device: &mut dyn HapticDevice,
@@ -275,12 +437,17 @@ pub fn servo_task(
     ring: &ArrayQueue<ToolSample>,
     counters: &ServoCounters,
     stop: &AtomicBool,
+    frame: DeviceFrame,
+    mut camera: Option<&mut CameraOut>,
 ) -> ServoResult {
     let rt = rt.apply();
     let n = ticks as usize;
     let mut wake_ns = vec![0u64; n];
     let mut tick_ns = vec![0u64; n];
-    let mut state = ServoState::default();
+    let mut state = ServoState {
+        frame,
+        ..ServoState::default()
+    };
     let mut timer = Periodic::new(SERVO_PERIOD_NS, 0);
     let mut error = None;
     let mut done = 0u64;
@@ -302,6 +469,12 @@ pub fn servo_task(
         } else {
             f32::from_bits(k)
         };
+        // The viewer's camera (a matrix that is not a rotation is refused: the old one stays).
+        if let Some(c) = camera.as_deref_mut() {
+            if c.update() {
+                state.frame.set_camera(c.output_buffer());
+            }
+        }
         let out = servo_tick(
             device,
             &workspace,
@@ -363,10 +536,13 @@ pub struct ServoState {
     pub last_force: Vec3,
     /// Tool samples dropped (ring full).
     pub dropped: u64,
+    /// The egocentric frame positions and forces go through (the identity by default).
+    pub frame: DeviceFrame,
 }
 
-/// One servo tick: read the device, hand the sample to the simulation, compute the force from
-/// the latest contact plane, write it. Allocation-free and lock-free.
+/// One servo tick: read the device, map its position into the scene through `st.frame`, hand
+/// the sample to the simulation, compute the force from the latest contact plane, write it
+/// back through the frame. Allocation-free and lock-free.
 ///
 /// # Errors
 /// A device error (disconnect, NaN refused, ...) is returned after the force was zeroed.
@@ -386,7 +562,7 @@ pub fn servo_tick(
             return Err(e);
         }
     };
-    let position = workspace.to_mesh(s.position);
+    let position = st.frame.to_scene(workspace, s.position);
     if ring
         .push(ToolSample {
             tick,
@@ -407,8 +583,10 @@ pub fn servo_tick(
     st.digest.push(f);
     st.max_force = st.max_force.max(f.length());
     st.last_force = f;
-    // Mesh-space force to the device frame: the workspace map is a uniform scale and a shift.
-    let cmd = ForceCommand::force([f.x as f64, f.y as f64, f.z as f64]);
+    // Scene force to the device frame: back through the camera (the workspace map is a uniform
+    // scale and a shift, which leave directions alone).
+    let d = st.frame.force_to_device(f);
+    let cmd = ForceCommand::force([d.x as f64, d.y as f64, d.z as f64]);
     device.write(&cmd)
 }
 
@@ -572,5 +750,82 @@ impl Shared {
             stop: AtomicBool::new(false),
             snapshots: crate::viewer::handoff::SnapshotQueue::default(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rot_z(a: f32) -> [f32; 16] {
+        let (s, c) = a.sin_cos();
+        let mut m = IDENTITY;
+        m[0] = c;
+        m[1] = s;
+        m[4] = -s;
+        m[5] = c;
+        m
+    }
+
+    #[test]
+    fn the_default_frame_is_exactly_the_workspace_map() {
+        let ws = Workspace {
+            scale: 2.5,
+            offset: Vec3::new(1.0, -2.0, 0.25),
+        };
+        let f = DeviceFrame::new(Vec3::new(7.0, 8.0, 9.0));
+        assert!(f.is_identity());
+        for p in [[0.0, 0.0, 0.0], [-0.0, 0.1, -0.3], [1e-3, -7.0, 2.0]] {
+            let a = f.to_scene(&ws, p);
+            let b = ws.to_mesh(p);
+            assert_eq!(
+                a.to_array().map(f32::to_bits),
+                b.to_array().map(f32::to_bits)
+            );
+        }
+        let force = Vec3::new(-0.0, 1.5, -2.0);
+        assert_eq!(f.force_to_device(force), force);
+    }
+
+    #[test]
+    fn only_finite_proper_rotations_are_taken() {
+        let mut f = DeviceFrame::default();
+        let turn = rot_z(0.5);
+        assert!(f.set_camera(&turn));
+        let mut zoom = turn;
+        for v in &mut zoom[..11] {
+            *v *= 1.5;
+        }
+        let mut shifted = turn;
+        shifted[12] = 0.5;
+        let mut mirror = turn;
+        mirror[10] = -1.0;
+        let mut nan = turn;
+        nan[5] = f32::NAN;
+        for bad in [zoom, shifted, mirror, nan, [0.0; 16]] {
+            assert!(!f.set_camera(&bad), "{bad:?}");
+            assert_eq!(f.camera(), turn, "the old camera stays");
+        }
+        assert!(f.set_camera(&IDENTITY));
+        assert!(f.is_identity());
+    }
+
+    #[test]
+    fn the_frame_turns_about_its_pivot() {
+        let pivot = Vec3::new(10.0, -4.0, 3.0);
+        let mut f = DeviceFrame::new(pivot);
+        assert!(f.set_camera(&rot_z(std::f32::consts::FRAC_PI_2)));
+        let ws = Workspace {
+            scale: 1.0,
+            offset: Vec3::ZERO,
+        };
+        // The pivot stays; a point 1 along +x from it goes 1 along +y from it.
+        let p = f.to_scene(&ws, [10.0, -4.0, 3.0]);
+        assert!((p - pivot).length() < 1e-5, "{p}");
+        let q = f.to_scene(&ws, [11.0, -4.0, 3.0]);
+        assert!((q - (pivot + Vec3::Y)).length() < 1e-5, "{q}");
+        // A force along +y in the scene is a force along +x at the device.
+        let d = f.force_to_device(Vec3::Y);
+        assert!((d - Vec3::X).length() < 1e-6, "{d}");
     }
 }

@@ -1,19 +1,31 @@
 //! The viewer: headless renders (EGL surfaceless on Mesa) checked against oracles that share no
 //! code with the renderer, partial buffer updates against a full upload, and the snapshot
-//! hand-off that refuses instead of blocking and loses nothing when it does.
+//! hand-off that refuses instead of blocking and loses nothing when it does; the egocentric
+//! device frame the camera drives (screen directions, power, the turn's centre, the hand-off the
+//! servo reads it through), and the controls reaching the simulation and the servo.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use rand::{Rng, SeedableRng};
 use tetradrill::engine::{self, EngineStorage, TickParams};
+use tetradrill::rt::RtConfig;
 use tetradrill::scenario::Scenario;
-use tetradrill::tasks::SimStatus;
+use tetradrill::tasks::{
+    camera_handoff, servo_task, simulation_task, DeviceFrame, Shared, SimEnd, SimStatus,
+    ToolSample, Workspace, IDENTITY,
+};
 use tetradrill::traces::PoseSource;
-use tetradrill::viewer::camera::Camera;
+use tetradrill::viewer::camera::{project, Camera};
 use tetradrill::viewer::gl::{DrawOptions, Offscreen, Renderer, PALETTE};
-use tetradrill::viewer::handoff::{SnapshotQueue, ToolView};
+use tetradrill::viewer::handoff::{controls, Controls, SnapshotQueue, ToolView};
 use tetradrill::viewer::headless::{render, Picture};
 use tetradrill::viewer::publish::{full_patches, scene_of, SimViewer};
 use tetradrill::viewer::scene::{Scene, VERTEX_FLOATS};
 use tetradrill_core::force::ToolState;
+use tetradrill_core::script::DRILL_ON;
+use tetradrill_core::servo::ContactState;
 use tetradrill_core::Vec3;
+use tetradrill_device::{DeviceError, DeviceSpec, DeviceState, ForceCommand, HapticDevice};
 
 const W: u32 = 240;
 const H: u32 = 180;
@@ -393,4 +405,507 @@ fn partial_buffer_updates_draw_what_a_full_upload_draws() {
         differing, 0,
         "pixels differing between partial and whole uploads"
     );
+}
+
+// The egocentric device frame: the viewer's camera `C` drives the device-to-scene map.
+
+const MESH_UNITS: Workspace = Workspace {
+    scale: 1.0,
+    offset: Vec3::ZERO,
+};
+
+fn add(p: [f64; 3], d: [f64; 3]) -> [f64; 3] {
+    [p[0] + d[0], p[1] + d[1], p[2] + d[2]]
+}
+
+fn f64s(v: Vec3) -> [f64; 3] {
+    [v.x as f64, v.y as f64, v.z as f64]
+}
+
+/// Normalised device coordinates of `p` through the camera's own matrices.
+fn ndc(cam: &Camera, p: Vec3) -> Vec3 {
+    project(&cam.view_projection(W as f32 / H as f32), p).expect("in front of the camera")
+}
+
+/// The pixel of `p` by the f64 pinhole model written in this file (x right, y down).
+fn pinhole(cam: &Camera, p: Vec3) -> (f64, f64) {
+    pixel_of(f64s(cam.eye()), f64s(cam.target), cam.fov_y as f64, f64s(p))
+}
+
+#[test]
+fn after_a_quarter_turn_about_the_view_up_axis_the_stylus_still_moves_the_tool_as_on_screen() {
+    let pivot = Vec3::new(2.0, -1.0, 0.5);
+    // The start view is level and looks along +y: device +x shows as screen-right, +z as
+    // screen-up, +y as away from the viewer.
+    let home = Camera {
+        target: pivot,
+        distance: 3.0,
+        yaw: -std::f32::consts::FRAC_PI_2,
+        pitch: 0.0,
+        fov_y: 0.7,
+    };
+    // Turned a quarter about the view-up axis (z: the view is level); now the screen's right
+    // is the scene's +y.
+    let turned = Camera { yaw: 0.0, ..home };
+    let p0 = [2.1, -0.9, 0.45];
+    let step = 0.05;
+    for cam in [home, turned] {
+        let mut frame = DeviceFrame::new(pivot);
+        assert!(frame.set_camera(&cam.egocentric(&home)));
+        let s0 = frame.to_scene(&MESH_UNITS, p0);
+        let sx = frame.to_scene(&MESH_UNITS, add(p0, [step, 0.0, 0.0]));
+        let sy = frame.to_scene(&MESH_UNITS, add(p0, [0.0, step, 0.0]));
+        let sz = frame.to_scene(&MESH_UNITS, add(p0, [0.0, 0.0, step]));
+        // The camera's own view and projection.
+        let (a, x, y, z) = (ndc(&cam, s0), ndc(&cam, sx), ndc(&cam, sy), ndc(&cam, sz));
+        assert!(
+            x.x > a.x + 1e-3 && (x.y - a.y).abs() < 1e-4,
+            "+x: {a} -> {x}"
+        );
+        assert!(
+            z.y > a.y + 1e-3 && (z.x - a.x).abs() < 1e-4,
+            "+z: {a} -> {z}"
+        );
+        assert!(y.z > a.z, "+y goes away from the viewer: {a} -> {y}");
+        // The pinhole model of this file agrees (pixel rows grow downwards).
+        let (pa, px, pz) = (pinhole(&cam, s0), pinhole(&cam, sx), pinhole(&cam, sz));
+        assert!(
+            px.0 > pa.0 + 0.5 && (px.1 - pa.1).abs() < 0.01,
+            "{pa:?} -> {px:?}"
+        );
+        assert!(
+            pz.1 < pa.1 - 0.5 && (pz.0 - pa.0).abs() < 0.01,
+            "{pa:?} -> {pz:?}"
+        );
+    }
+    // The turned view's right is the scene's +y: that is where device +x goes.
+    let mut frame = DeviceFrame::new(pivot);
+    assert!(frame.set_camera(&turned.egocentric(&home)));
+    let d =
+        frame.to_scene(&MESH_UNITS, add(p0, [step, 0.0, 0.0])) - frame.to_scene(&MESH_UNITS, p0);
+    assert!(
+        (d - Vec3::new(0.0, step as f32, 0.0)).length() < 1e-5,
+        "{d}"
+    );
+    // Without the frame the same stylus motion runs along the view's line of sight.
+    let still = DeviceFrame::new(pivot);
+    let a = ndc(&turned, still.to_scene(&MESH_UNITS, p0));
+    let b = ndc(
+        &turned,
+        still.to_scene(&MESH_UNITS, add(p0, [step, 0.0, 0.0])),
+    );
+    assert!(
+        (b.x - a.x).abs() < 0.2 * (x_shift(&turned, &frame, p0, step)),
+        "{a} -> {b}"
+    );
+}
+
+/// How far device +`step` along x moves the tool on screen (NDC x) through `frame`.
+fn x_shift(cam: &Camera, frame: &DeviceFrame, p0: [f64; 3], step: f64) -> f32 {
+    let a = ndc(cam, frame.to_scene(&MESH_UNITS, p0));
+    let b = ndc(cam, frame.to_scene(&MESH_UNITS, add(p0, [step, 0.0, 0.0])));
+    b.x - a.x
+}
+
+#[test]
+fn every_orbit_shows_a_stylus_motion_as_the_start_view_does_and_turns_about_the_workspace_centre() {
+    let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+    let pivot = Vec3::new(3.0, -2.0, 5.0);
+    let home = Camera {
+        target: pivot,
+        ..Camera::default()
+    };
+    // The rotation part of a view matrix applied to a direction: eye coordinates.
+    let eye_dir = |cam: &Camera, v: Vec3| {
+        let m = cam.view();
+        Vec3::new(
+            m[0] * v.x + m[4] * v.y + m[8] * v.z,
+            m[1] * v.x + m[5] * v.y + m[9] * v.z,
+            m[2] * v.x + m[6] * v.y + m[10] * v.z,
+        )
+    };
+    let mut swung = 0;
+    for _ in 0..200 {
+        let mut cam = home;
+        cam.orbit(rng.gen_range(-3.0..3.0), rng.gen_range(-1.5..1.5));
+        let mut frame = DeviceFrame::new(pivot);
+        assert!(frame.set_camera(&cam.egocentric(&home)));
+        let p: [f64; 3] = std::array::from_fn(|i| f64s(pivot)[i] + rng.gen_range(-0.5..0.5));
+        let d: [f64; 3] = std::array::from_fn(|_| rng.gen_range(-0.1..0.1));
+        let moved = frame.to_scene(&MESH_UNITS, add(p, d)) - frame.to_scene(&MESH_UNITS, p);
+        let want = eye_dir(&home, Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32));
+        let got = eye_dir(&cam, moved);
+        assert!((got - want).length() < 1e-5, "{got} vs {want}");
+        // About the workspace centre: the tool stays at its pixel while the view orbits it.
+        let tool = frame.to_scene(&MESH_UNITS, p);
+        let at_home = pinhole(&home, Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32));
+        let now = pinhole(&cam, tool);
+        assert!(
+            (now.0 - at_home.0).abs() < 0.05 && (now.1 - at_home.1).abs() < 0.05,
+            "{at_home:?} -> {now:?}"
+        );
+        assert!(((tool - pivot).length() - (f64s_len(p, pivot))).abs() < 1e-4);
+        // A turn about the mesh origin instead would swing the tool away from the mesh.
+        let c = glam::Mat4::from_cols_array(&frame.camera());
+        let about_origin = c.transform_point3(Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32));
+        swung += ((about_origin - tool).length() > 1.0) as u32;
+    }
+    assert!(
+        swung > 100,
+        "only {swung} of 200 turns moved the origin-pivot tool"
+    );
+}
+
+fn f64s_len(p: [f64; 3], q: Vec3) -> f32 {
+    let q = f64s(q);
+    ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt() as f32
+}
+
+#[test]
+fn the_frame_conserves_power_for_random_rotations() {
+    let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+    let unit = |rng: &mut rand::rngs::StdRng| loop {
+        let v = Vec3::new(
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+        );
+        if v.length() > 0.1 && v.length() < 1.0 {
+            return v.normalize();
+        }
+    };
+    for _ in 0..1000 {
+        let q = glam::Quat::from_axis_angle(unit(&mut rng), rng.gen_range(-3.1..3.1));
+        let mut frame = DeviceFrame::new(Vec3::new(0.5, -0.25, 2.0));
+        assert!(frame.set_camera(&glam::Mat4::from_quat(q).to_cols_array()));
+        let p: [f64; 3] = std::array::from_fn(|_| rng.gen_range(-1.0..1.0));
+        let v_dev = 0.1 * unit(&mut rng);
+        let v_scene =
+            frame.to_scene(&MESH_UNITS, add(p, f64s(v_dev))) - frame.to_scene(&MESH_UNITS, p);
+        // The scene motion is the quaternion's turn of the device motion.
+        assert!(
+            (v_scene - q * v_dev).length() < 1e-5,
+            "{v_scene} vs {}",
+            q * v_dev
+        );
+        let f_scene = 3.0 * unit(&mut rng);
+        let f_dev = frame.force_to_device(f_scene);
+        assert!((f_dev - q.inverse() * f_scene).length() < 1e-4);
+        let (pd, ps) = (
+            f64s(f_dev)
+                .iter()
+                .zip(f64s(v_dev))
+                .map(|(a, b)| a * b)
+                .sum::<f64>(),
+            f64s(f_scene)
+                .iter()
+                .zip(f64s(v_scene))
+                .map(|(a, b)| a * b)
+                .sum::<f64>(),
+        );
+        // f32 positions round the motion by about 1e-7 per unit of position: 1e-5 relative.
+        let scale = (f_scene.length() * v_dev.length()) as f64;
+        assert!(
+            (pd - ps).abs() < 1e-4 * scale,
+            "device power {pd}, scene power {ps}"
+        );
+    }
+}
+
+#[test]
+fn the_camera_handoff_never_waits() {
+    const N: u32 = 1_000_000;
+    let (mut input, mut output) = camera_handoff();
+    let done = AtomicBool::new(false);
+    let (reads, distinct) = std::thread::scope(|s| {
+        s.spawn(|| {
+            for k in 1..=N {
+                input.write([k as f32; 16]);
+            }
+            done.store(true, Ordering::Release);
+        });
+        let (mut reads, mut distinct, mut last) = (0u64, 0u64, 0f32);
+        loop {
+            let finished = done.load(Ordering::Acquire);
+            let c = *output.read();
+            // The initial identity (number 0), or a whole write, never older than one seen
+            // before.
+            let k = if c == IDENTITY { 0.0 } else { c[0] };
+            assert!(k == 0.0 || c.iter().all(|v| *v == k), "torn: {c:?}");
+            assert!(k >= last, "{k} after {last}");
+            distinct += (k != last) as u64;
+            last = k;
+            reads += 1;
+            if finished {
+                break;
+            }
+        }
+        (reads, distinct)
+    });
+    // The read after the writer finished saw its last write.
+    assert_eq!(*output.read(), [N as f32; 16], "the last write wins");
+    assert!(
+        reads > 0 && distinct > 0,
+        "{reads} reads, {distinct} values"
+    );
+    // Neither side needs the other: a writer with no reader and a reader with no writer both
+    // finish their million calls.
+    let (mut input, mut output) = camera_handoff();
+    for k in 1..=N {
+        input.write([k as f32; 16]);
+    }
+    for _ in 0..N {
+        assert_eq!(*output.read(), [N as f32; 16]);
+    }
+}
+
+/// A device held still at one position that records the forces written to it.
+struct HeldDevice {
+    position: [f64; 3],
+    forces: Vec<[f64; 3]>,
+}
+
+impl HapticDevice for HeldDevice {
+    fn spec(&self) -> DeviceSpec {
+        DeviceSpec::SIM
+    }
+    fn read(&mut self) -> Result<DeviceState, DeviceError> {
+        Ok(DeviceState {
+            position: self.position,
+            buttons: 0,
+            ..DeviceState::ZERO
+        })
+    }
+    fn write(&mut self, command: &ForceCommand) -> Result<(), DeviceError> {
+        if command.enable {
+            self.forces.push(command.force);
+        }
+        Ok(())
+    }
+    fn calibrate(&mut self) -> Result<(), DeviceError> {
+        Ok(())
+    }
+}
+
+#[test]
+fn the_servo_takes_the_published_camera_and_the_stiffness_control_each_tick() {
+    let params = TickParams::of(&Scenario::default()).expect("params");
+    let plane = ContactState {
+        valid: true,
+        point: Vec3::new(0.0, 0.0, 0.5),
+        normal: Vec3::Z,
+        depth: 0.0,
+        centre: Vec3::ZERO,
+        triangles: 1,
+    };
+    // The burr sits a little into the top face, well under the force clamp.
+    let depth = 0.2 * params.force.max_force / params.force.stiffness;
+    assert!(depth < params.radius);
+    let scene = Vec3::new(0.1, -0.2, 0.5 + params.radius - depth);
+    let pivot = Vec3::new(0.0, 0.0, 0.25);
+    // A camera turned about the scene's x axis: the device holds the burr where that turn
+    // takes it to `scene`.
+    let q = glam::Quat::from_rotation_x(1.1);
+    let device_at = pivot + q.inverse() * (scene - pivot);
+    let run = |camera: Option<[f32; 16]>, stiffness: Option<f32>| {
+        let shared = Shared::new();
+        if let Some(k) = stiffness {
+            shared
+                .counters
+                .stiffness_bits
+                .store(k.to_bits(), Ordering::Relaxed);
+        }
+        let (mut contact_in, mut contact_out) =
+            triple_buffer::TripleBuffer::new(&ContactState::default()).split();
+        contact_in.write(plane);
+        let (mut cam_in, mut cam_out) = camera_handoff();
+        if let Some(c) = camera {
+            cam_in.write(c);
+        }
+        let mut dev = HeldDevice {
+            position: f64s(device_at),
+            forces: Vec::new(),
+        };
+        let res = servo_task(
+            &mut dev,
+            RtConfig {
+                fifo_priority: None,
+                core: None,
+                lock_memory: false,
+            },
+            20,
+            MESH_UNITS,
+            params,
+            &mut contact_out,
+            &shared.ring,
+            &shared.counters,
+            &shared.stop,
+            DeviceFrame::new(pivot),
+            Some(&mut cam_out),
+        );
+        assert_eq!(res.ticks, 20);
+        let mut last = None;
+        while let Some(s) = shared.ring.pop() {
+            last = Some(s.position);
+        }
+        let f = dev.forces.last().copied().expect("forces written");
+        (
+            last.expect("samples"),
+            Vec3::new(f[0] as f32, f[1] as f32, f[2] as f32),
+            shared.counters.force(),
+        )
+    };
+    let turn = glam::Mat4::from_quat(q).to_cols_array();
+    let (at, f_dev, f_scene) = run(Some(turn), None);
+    assert!(
+        (at - scene).length() < 1e-5,
+        "the burr at {at}, not {scene}"
+    );
+    let want = Vec3::Z * params.force.stiffness * depth;
+    assert!(
+        (f_scene - want).length() < 1e-3 * want.length(),
+        "{f_scene} vs {want}"
+    );
+    assert!((f_dev - q.inverse() * f_scene).length() < 1e-4, "{f_dev}");
+    // Double the stiffness through the control's atomic: the force doubles.
+    let (_, f_dev2, _) = run(Some(turn), Some(2.0 * params.force.stiffness));
+    assert!(
+        (f_dev2 - 2.0 * f_dev).length() < 1e-3 * f_dev.length(),
+        "{f_dev2} vs {f_dev}"
+    );
+    // With no camera published, the device is in the scene frame: the same hand position
+    // is elsewhere in the scene.
+    let (at, _, _) = run(None, None);
+    assert!((at - device_at).length() < 1e-6);
+}
+
+#[test]
+fn the_controls_reach_the_simulation() {
+    let (mut store, sc) = storage("builtin:block:8");
+    let params = TickParams::of(&sc).expect("params");
+    let initial = Controls {
+        radius: params.radius,
+        stiffness: params.force.stiffness,
+        max_depth: params.drill.max_depth,
+        paused: false,
+        reset: 0,
+    };
+    // One simulation step over a short plunge into the top face, with `c` set.
+    let mut step = |c: Controls| {
+        let mut world = store.world().expect("world");
+        let shared = Shared::new();
+        for i in 0..40 {
+            let z = 0.5 + params.radius - 0.01 * i as f32;
+            shared
+                .ring
+                .push(ToolSample {
+                    tick: i,
+                    position: Vec3::new(0.0, 0.0, z),
+                    buttons: DRILL_ON,
+                })
+                .expect("room");
+        }
+        let (mut cin, cout) = controls(initial);
+        cin.write(c);
+        let mut link = SimViewer::new(&shared.snapshots, Some(cout), world.mesh().tet_count());
+        let (mut contact_in, _contact_out) =
+            triple_buffer::TripleBuffer::new(&ContactState::default()).split();
+        let (mut status_in, _status_out) =
+            triple_buffer::TripleBuffer::new(&SimStatus::default()).split();
+        shared.stop.store(true, Ordering::Relaxed);
+        let end = simulation_task(
+            &mut world,
+            params,
+            &shared.ring,
+            &mut contact_in,
+            &mut status_in,
+            &shared.stop,
+            &shared.counters,
+            Some(&mut link),
+        );
+        assert_eq!(end, SimEnd::Stopped);
+        let bits = |a: &std::sync::atomic::AtomicU32| f32::from_bits(a.load(Ordering::Relaxed));
+        (
+            world.hierarchy().removed_volume(),
+            bits(&shared.counters.radius_bits),
+            bits(&shared.counters.stiffness_bits),
+        )
+    };
+    let (base, r, k) = step(initial);
+    assert!(base > 0.0);
+    assert_eq!((r, k), (initial.radius, initial.stiffness));
+    let (paused, _, _) = step(Controls {
+        paused: true,
+        ..initial
+    });
+    assert_eq!(paused, 0.0, "pause removes nothing");
+    let (wide, r, k) = step(Controls {
+        radius: 2.0 * initial.radius,
+        stiffness: 0.5 * initial.stiffness,
+        ..initial
+    });
+    assert!(wide > 2.0 * base, "a burr twice as wide: {wide} vs {base}");
+    assert_eq!((r, k), (2.0 * initial.radius, 0.5 * initial.stiffness));
+    let (shallow, _, _) = step(Controls {
+        max_depth: 0,
+        ..initial
+    });
+    assert!(
+        shallow != base,
+        "max depth 0 drills whole coarse tets: {shallow} vs {base}"
+    );
+}
+
+#[test]
+fn reset_ends_the_simulation_task_for_a_rebuild() {
+    let (mut store, sc) = storage("builtin:block:8");
+    let params = TickParams::of(&sc).expect("params");
+    let initial = Controls {
+        radius: params.radius,
+        stiffness: params.force.stiffness,
+        max_depth: params.drill.max_depth,
+        paused: false,
+        reset: 0,
+    };
+    let mut world = store.world().expect("world");
+    let shared = Shared::new();
+    let (mut cin, cout) = controls(initial);
+    let mut link = SimViewer::new(&shared.snapshots, Some(cout), world.mesh().tet_count());
+    let (mut contact_in, _contact_out) =
+        triple_buffer::TripleBuffer::new(&ContactState::default()).split();
+    let (mut status_in, _status_out) =
+        triple_buffer::TripleBuffer::new(&SimStatus::default()).split();
+    let end = std::thread::scope(|s| {
+        let task = s.spawn(|| {
+            simulation_task(
+                &mut world,
+                params,
+                &shared.ring,
+                &mut contact_in,
+                &mut status_in,
+                &shared.stop,
+                &shared.counters,
+                Some(&mut link),
+            )
+        });
+        // Once the task took the first controls (it stores the radius for the servo), press
+        // reset.
+        while shared.counters.radius_bits.load(Ordering::Relaxed) == 0 {
+            std::thread::yield_now();
+        }
+        cin.write(Controls {
+            reset: 1,
+            ..initial
+        });
+        // No answer in 10 s: stop it, and the assertion below fails.
+        for _ in 0..10_000 {
+            if task.is_finished() {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        shared.stop.store(true, Ordering::Relaxed);
+        task.join().expect("simulation task")
+    });
+    assert_eq!(end, SimEnd::Reset);
 }

@@ -114,9 +114,13 @@ pub fn run(
     let params = TickParams::of(sc)?;
     let loaded = engine::load_mesh(sc)?;
     let mut store = EngineStorage::allocate(loaded.mesh, sc);
-    let (initial_volume, tets) = {
+    let (initial_volume, tets, centre) = {
         let world = store.world()?;
-        (world.mesh().volume(), world.mesh().tet_count())
+        (
+            world.mesh().volume(),
+            world.mesh().tet_count(),
+            mesh_centre(world.mesh().positions()),
+        )
     };
     let (mut contact_in, mut contact_out) =
         triple_buffer::TripleBuffer::new(&ContactState::default()).split();
@@ -141,6 +145,10 @@ pub fn run(
         reset: 0,
     };
     let (controls_in, controls_out) = crate::viewer::handoff::controls(initial_controls);
+    // The camera C: from the live window to the servo (egocentric device frame). Without a
+    // window the servo keeps the identity frame.
+    let (camera_in, mut camera_out) = tasks::camera_handoff();
+    let frame = tasks::DeviceFrame::new(centre);
     let mut scene = crate::viewer::scene::Scene::new();
 
     let (servo, sim_status) = std::thread::scope(|scope| -> Result<_, CliError> {
@@ -202,6 +210,8 @@ pub fn run(
                     &sh.ring,
                     &sh.counters,
                     &sh.stop,
+                    frame,
+                    view.window.then_some(&mut camera_out),
                 ))
             })
             .map_err(|e| CliError::failure(format!("cannot start the servo task: {e}")))?;
@@ -223,6 +233,7 @@ pub fn run(
                 shared: sh,
                 controls: controls_in,
                 initial: initial_controls,
+                camera: Some(camera_in),
             };
             scene = crate::viewer::run_window(link)?;
             // A closed window ends the run.
@@ -232,6 +243,7 @@ pub fn run(
                 .map_err(|_| CliError::failure("the status task panicked"))?;
         } else {
             drop(controls_in);
+            drop(camera_in);
             // The status task: the main thread.
             status_loop(sh, &mut status_out, status_line, initial_volume, || {
                 if any_view {
@@ -400,6 +412,18 @@ fn print_summary(r: &RunReport) {
         "hierarchy nodes {}, visible faces {}, saturations {}, dropped samples {}, force max {:.2} N",
         r.hierarchy_nodes, r.visible_faces, r.saturations, r.dropped_samples, r.force_max_n
     );
+}
+
+/// The centre of the box around `positions` (the origin when there are none): the point the
+/// viewer's camera orbits and the device frame turns about.
+pub fn mesh_centre(positions: &[Vec3]) -> Vec3 {
+    let Some(first) = positions.first() else {
+        return Vec3::ZERO;
+    };
+    let (lo, hi) = positions
+        .iter()
+        .fold((*first, *first), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    0.5 * (lo + hi)
 }
 
 /// The identity device-to-mesh map (the simulated device moves in mesh units).

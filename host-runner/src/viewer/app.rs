@@ -42,6 +42,10 @@ struct ViewerApp<'a> {
     link: LiveLink<'a>,
     side: Arc<Mutex<GlSide>>,
     camera: Camera,
+    /// The start view's orientation: the device frame is the scene frame as it shows it.
+    home: Camera,
+    /// The camera `C` last handed to the servo.
+    published: [f32; 16],
     fitted: bool,
     controls: Controls,
     force_plot: VecDeque<f32>,
@@ -97,6 +101,8 @@ pub fn run(link: LiveLink<'_>) -> Result<Scene, CliError> {
                 link,
                 side: app_side,
                 camera: Camera::default(),
+                home: Camera::default(),
+                published: crate::tasks::IDENTITY,
                 fitted: false,
                 controls: initial,
                 force_plot: VecDeque::with_capacity(PLOT_SAMPLES),
@@ -253,6 +259,15 @@ impl ViewerApp<'_> {
                 row("hierarchy nodes", st.hierarchy_nodes.to_string());
                 row("visible faces", format!("{tris} ({drilled} drilled)"));
                 row("snapshots refused", sh.snapshots.refused().to_string());
+                let turn = turn_degrees(&self.published);
+                row(
+                    "device frame",
+                    if turn == 0.0 {
+                        "start view".to_string()
+                    } else {
+                        format!("turned {turn:.0} deg")
+                    },
+                );
             });
         ui.separator();
         ui.label("force, N (last 5 s)");
@@ -302,12 +317,36 @@ impl ViewerApp<'_> {
             if ui.button("fit view").clicked() {
                 self.fitted = false;
             }
+            if ui
+                .button("start view")
+                .on_hover_text(
+                    "Turn back to the start view: the device frame is the scene's again.",
+                )
+                .clicked()
+            {
+                self.camera.yaw = self.home.yaw;
+                self.camera.pitch = self.home.pitch;
+            }
         });
         if *c != before {
             self.link.controls.write(*c);
         }
         ui.separator();
         ui.small("drag: orbit   right/middle drag: pan   wheel: zoom");
+        ui.small("the stylus moves the tool as it moves on screen: the device frame turns with the orbit");
+    }
+
+    /// Hands the egocentric camera `C` of the current orbit to the servo when it changed
+    /// (a triple-buffer write: the servo takes it on its next tick, nobody waits).
+    fn publish_camera(&mut self) {
+        let Some(out) = self.link.camera.as_mut() else {
+            return;
+        };
+        let c = self.camera.egocentric(&self.home);
+        if c != self.published {
+            out.write(c);
+            self.published = c;
+        }
     }
 
     fn view(&mut self, ui: &mut egui::Ui) {
@@ -329,6 +368,7 @@ impl ViewerApp<'_> {
                 self.camera.zoom((-scroll * 0.002).exp());
             }
         }
+        self.publish_camera();
         let side = Arc::clone(&self.side);
         let camera = self.camera;
         let cb = egui_glow::CallbackFn::new(move |info, painter| {
@@ -368,6 +408,12 @@ impl ViewerApp<'_> {
             callback: Arc::new(cb),
         });
     }
+}
+
+/// The angle of the rotation `c` (column-major), degrees.
+fn turn_degrees(c: &[f32; 16]) -> f32 {
+    let trace = c[0] + c[5] + c[10];
+    (0.5 * (trace - 1.0)).clamp(-1.0, 1.0).acos().to_degrees()
 }
 
 fn push(q: &mut VecDeque<f32>, v: f32) {

@@ -3,6 +3,8 @@
 
 use tetradrill_core::Vec3;
 
+use crate::tasks::frame_mat;
+
 /// A camera orbiting `target` at `distance`, `yaw` radians around z (0 = looking along -x
 /// from +x) and `pitch` radians above the xy plane.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -119,6 +121,39 @@ impl Camera {
         m
     }
 
+    /// The view's rotation from eye to scene coordinates, column-major, no translation: its
+    /// columns are the screen's right, the screen's up, and the direction towards the viewer
+    /// (the inverse, and transpose, of the view matrix's rotation).
+    pub fn eye_to_scene(&self) -> [f32; 16] {
+        let (r, u, f) = self.basis();
+        [
+            r.x, r.y, r.z, 0.0, u.x, u.y, u.z, 0.0, -f.x, -f.y, -f.z, 0.0, 0.0, 0.0, 0.0, 1.0,
+        ]
+    }
+
+    /// The egocentric camera `C` of this view relative to `home` (seed 000 section 5, with
+    /// core's [`frames::camera`](tetradrill_core::force::frames::camera)): the rotation taking a
+    /// device displacement, in the scene frame as `home` shows it, to the scene displacement
+    /// that this view shows the same way on screen. `C = E * H^T` with `E` this view's
+    /// eye-to-scene rotation and `H^T` the home view's scene-to-eye rotation; exactly the
+    /// identity when the orientation is `home`'s. Only the orbit (yaw, pitch) enters it: pan
+    /// and zoom do not (see docs/VIEWER.md).
+    pub fn egocentric(&self, home: &Camera) -> [f32; 16] {
+        if self.yaw == home.yaw && self.pitch == home.pitch {
+            return crate::tasks::IDENTITY;
+        }
+        let e = self.eye_to_scene();
+        let h = home.eye_to_scene();
+        let mut ht = [0.0f32; 16];
+        for c in 0..4 {
+            for r in 0..4 {
+                ht[c * 4 + r] = h[r * 4 + c];
+            }
+        }
+        let m = tetradrill_core::force::frames::camera(frame_mat(&e), frame_mat(&ht));
+        *m.as_ref()
+    }
+
     /// Projection times view.
     pub fn view_projection(&self, aspect: f32) -> [f32; 16] {
         mul(&self.projection(aspect), &self.view())
@@ -167,6 +202,33 @@ mod tests {
             );
             let q = project(&m, p).expect("in front");
             assert!(q.x.abs() < 1.0 && q.y.abs() < 1.0, "{p} -> {q}");
+        }
+    }
+
+    #[test]
+    fn the_egocentric_camera_is_the_identity_at_home_and_a_rotation_elsewhere() {
+        let home = Camera::default();
+        let mut c = home;
+        c.pan(0.3, -0.2);
+        c.zoom(0.5);
+        // Pan and zoom do not enter C.
+        assert_eq!(c.egocentric(&home), crate::tasks::IDENTITY);
+        c.orbit(0.7, -0.4);
+        let m = c.egocentric(&home);
+        assert_ne!(m, crate::tasks::IDENTITY);
+        let mut frame = crate::tasks::DeviceFrame::default();
+        assert!(frame.set_camera(&m), "{m:?} is a rotation");
+        // The eye-to-scene rotation undoes the view's rotation.
+        let v = c.view();
+        let e = c.eye_to_scene();
+        let mut vr = v;
+        vr[12] = 0.0;
+        vr[13] = 0.0;
+        vr[14] = 0.0;
+        let i = mul(&vr, &e);
+        for (k, x) in i.iter().enumerate() {
+            let want = if k % 5 == 0 { 1.0 } else { 0.0 };
+            assert!((x - want).abs() < 1e-6, "{k}: {x}");
         }
     }
 }

@@ -110,7 +110,14 @@ pub fn default_camera(scene: &Scene) -> Camera {
 pub fn screenshot(scene: &mut Scene, path: &Path) -> Result<(), CliError> {
     let camera = default_camera(scene);
     let (w, h) = SCREENSHOT_SIZE;
-    let pic = render(scene, &camera, w, h, true).map_err(|e| {
+    // On a thread of its own: after the live window closed, its GL context can stay current on
+    // this thread, and Mesa then refuses the new context (EGL_BAD_ACCESS).
+    let pic = std::thread::scope(|s| {
+        s.spawn(|| render(scene, &camera, w, h, true))
+            .join()
+            .unwrap_or_else(|_| Err("the render thread panicked".to_string()))
+    })
+    .map_err(|e| {
         CliError::failure(format!(
             "{}: cannot render the screenshot: {e}",
             path.display()

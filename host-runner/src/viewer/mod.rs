@@ -6,7 +6,7 @@
 //! | [`handoff`]   | snapshots (queue that refuses when full), controls (triple buffer) | always |
 //! | [`publish`]   | the simulation's side: changed tets, patches, the tool's shown pose | always |
 //! | [`scene`]     | the viewer's copy of the surface in chunks, runs of changed chunks | always |
-//! | [`camera`]    | orbit camera, matrices                                        | always   |
+//! | [`camera`]    | orbit camera, matrices, the egocentric camera `C` it publishes | always  |
 //! | `gl`          | the OpenGL renderer and the EGL offscreen context (all `unsafe`) | `viewer` |
 //! | `headless`    | screenshots without a display, PNG                             | `viewer` |
 //! | `app`         | the eframe window: the view in a paint callback, overlay, controls | `viewer` |
@@ -76,6 +76,9 @@ pub struct LiveLink<'a> {
     pub controls: handoff::ControlsIn,
     /// The controls as the run started (the scenario's values).
     pub initial: handoff::Controls,
+    /// The viewer's end of the camera hand-off: the egocentric camera `C` the servo maps the
+    /// device through (`None`: the device frame stays the scene frame).
+    pub camera: Option<crate::tasks::CameraIn>,
 }
 
 /// Runs the live window on this thread until it is closed; returns the last scene.

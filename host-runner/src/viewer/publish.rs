@@ -71,8 +71,11 @@ impl<'q> SimViewer<'q> {
         Some(c)
     }
 
-    /// Starts over (after the world was rebuilt): the next snapshot is a full one.
+    /// Starts over (after the world was rebuilt): the next snapshot is a full one, and the next
+    /// [`new_controls`](Self::new_controls) hands the controls over again (the rebuilt
+    /// simulation starts from the scenario's values and must take the viewer's).
     pub fn restart(&mut self) {
+        self.last_controls = None;
         for &t in &self.list {
             self.dirty[t as usize] = false;
         }
@@ -296,4 +299,38 @@ pub fn scene_of(world: &World<'_>, tool: Option<ToolView>, status: SimStatus) ->
         scene.tool = None;
     }
     scene
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::viewer::handoff::controls;
+
+    #[test]
+    fn after_a_restart_the_controls_are_handed_over_again() {
+        let q = SnapshotQueue::with_capacity(2);
+        let initial = Controls {
+            radius: 0.1,
+            stiffness: 100.0,
+            max_depth: 3,
+            paused: false,
+            reset: 0,
+        };
+        let (mut input, output) = controls(initial);
+        let mut v = SimViewer::new(&q, Some(output), 4);
+        assert_eq!(v.new_controls(), Some(initial));
+        assert_eq!(v.new_controls(), None);
+        let changed = Controls {
+            radius: 0.2,
+            paused: true,
+            reset: 1,
+            ..initial
+        };
+        input.write(changed);
+        assert_eq!(v.new_controls(), Some(changed));
+        assert_eq!(v.new_controls(), None);
+        // The world was rebuilt from the scenario: it must take the viewer's values again.
+        v.restart();
+        assert_eq!(v.new_controls(), Some(changed));
+    }
 }
