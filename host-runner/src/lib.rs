@@ -21,6 +21,7 @@ pub mod cli;
 pub mod commands;
 pub mod engine;
 pub mod error;
+pub mod firewire;
 pub mod hdapi;
 pub mod meshio;
 pub mod owned;

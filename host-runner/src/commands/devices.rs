@@ -8,9 +8,15 @@ pub struct DevicesArgs {}
 
 /// Runs `devices`.
 pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
-    let found = tetradrill_device::discover();
+    // The Omni is found (and opened) by its configuration ROM through firewire-cdev
+    // (crate::firewire), not by the device crate's sysfs scan.
+    let found: Vec<_> = tetradrill_device::discover()
+        .into_iter()
+        .filter(|d| d.kind != tetradrill_device::DeviceKind::Omni)
+        .collect();
+    let omnis = crate::firewire::discover_omnis();
     println!("sim      always available (the simulated device)");
-    if found.is_empty() {
+    if found.is_empty() && omnis.is_empty() {
         println!(
             "(no hardware found: looked for a Falcon on USB 0403:cb48, a Touch on USB \
              0301:2988 or 2988:0302, an Omni among /dev/fw* nodes of vendor 0x000b99)"
@@ -31,6 +37,9 @@ pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
             "  (found, but this build cannot open it)"
         };
         println!("{kind:<8} {}{how}", d.location);
+    }
+    for o in &omnis {
+        println!("omni     {}", o.describe());
     }
     Ok(())
 }

@@ -147,6 +147,8 @@ pub fn device_factory(
             };
             let open: DeviceFactory = if real == DeviceKind::Touch {
                 touch_factory()?
+            } else if real == DeviceKind::Omni {
+                crate::firewire::omni_factory()?
             } else {
                 Box::new(move || tetradrill_device::discovery::open(real, &options))
             };
