@@ -279,7 +279,7 @@ fn contact_is_the_exhaustive_closest_triangle_on_the_cow() {
 }
 
 #[test]
-fn the_node_bound_keeps_the_previous_plane_and_counts() {
+fn the_node_bound_gives_a_true_face_never_too_deep_and_counts() {
     let mut om = block_mesh(4);
     let mesh = om.view();
     let mut st = Store::new(mesh.tet_count(), 1 << 16);
@@ -290,21 +290,83 @@ fn the_node_bound_keeps_the_previous_plane_and_counts() {
         budget: 100_000,
     };
     let (r, reach) = (0.1, 0.05);
+    // No hint and a bound of zero nodes: nothing found, the previous (empty) contact stays.
+    world.set_contact_max_nodes(0);
+    let rep = world.simulate(Vec3::new(0.0, 0.0, 0.55), r, reach, false, &params);
+    assert!(rep.contact_saturated && !world.contact().valid);
+    assert_eq!(world.saturations().contact, 1);
+    world.set_contact_max_nodes(tetradrill_core::servo::CONTACT_MAX_NODES);
     for k in 0..20 {
         let c = Vec3::new(0.0, 0.0, 0.55 - 0.01 * k as f32);
         world.simulate(c, r, reach, true, &params);
     }
-    let before = *world.contact();
-    assert!(before.valid);
-    world.set_contact_max_nodes(3);
-    let rep = world.simulate(Vec3::new(0.02, 0.0, 0.4), r, reach, false, &params);
-    assert!(rep.contact_saturated);
-    assert!(rep.contact_nodes <= 3);
-    assert_eq!(world.saturations().contact, 1);
-    assert_eq!(world.contact().point, before.point);
-    assert_eq!(world.contact().normal, before.normal);
+    assert!(world.contact().valid);
+    let mut saturated = 0;
+    for (k, c) in [
+        Vec3::new(0.02, 0.0, 0.4),
+        Vec3::new(0.03, 0.01, 0.38),
+        Vec3::new(-0.02, 0.02, 0.36),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        world.set_contact_max_nodes(3);
+        let rep = world.simulate(c, r, reach, false, &params);
+        assert!(rep.contact_nodes <= 3, "{}", rep.contact_nodes);
+        saturated += rep.contact_saturated as u32;
+        let got = *world.contact();
+        assert!(got.valid, "the last step's triangle answers at step {k}");
+        assert_eq!(
+            got.centre, c,
+            "the answer is for this step's position, not a stale plane"
+        );
+        // Oracle 1 (the v_list's triangles, no walk): the exact closest distance.
+        let cands: Vec<TetId> = {
+            let mut v = world.candidates().to_vec();
+            v.sort();
+            v
+        };
+        let (h, m) = (world.hierarchy(), world.mesh());
+        let exact = from_vlist(h, m, &cands, c, r + reach).sqrt();
+        // The answer's point lies on a visible triangle (brute force over all of them) ...
+        let mut on_visible = false;
+        h.for_each_visible(m, |vt| {
+            let q = closest_point_on_triangle(got.point, vt.corners);
+            on_visible |= q.distance(got.point) < 1e-5;
+        });
+        assert!(
+            on_visible,
+            "the contact point must lie on the drilled surface"
+        );
+        // ... and it is no closer than the exact closest one: the depth is never too deep.
+        let d = got.point.distance(c);
+        assert!(
+            d >= exact - 1e-5,
+            "step {k}: {d} closer than the exact {exact}"
+        );
+        let exact_depth = r - exact;
+        assert!(
+            got.depth <= exact_depth + 1e-5,
+            "{} vs {exact_depth}",
+            got.depth
+        );
+    }
+    assert!(saturated > 0, "a bound of 3 nodes must stop some searches");
+    assert_eq!(world.saturations().contact, 1 + saturated);
+    // Without the bound the search completes and matches the exhaustive walk.
     world.set_contact_max_nodes(tetradrill_core::servo::CONTACT_MAX_NODES);
-    let rep = world.simulate(Vec3::new(0.02, 0.0, 0.4), r, reach, false, &params);
+    let c = Vec3::new(0.02, 0.0, 0.4);
+    let rep = world.simulate(c, r, reach, false, &params);
     assert!(!rep.contact_saturated);
-    assert_eq!(world.saturations().contact, 1);
+    assert_eq!(world.saturations().contact, 1 + saturated);
+    let best = exhaustive(
+        world.hierarchy(),
+        world.mesh(),
+        world.candidates(),
+        c,
+        r + reach,
+    )
+    .unwrap();
+    let x = closest_point_on_triangle(c, best.2);
+    assert_eq!(world.contact().point, x);
 }

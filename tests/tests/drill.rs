@@ -595,3 +595,120 @@ fn a_piece_cut_off_is_counted() {
     let check: HashSet<usize> = (0..mesh.tet_count()).collect();
     check_visible(&mesh, &h, &check);
 }
+
+/// Drills `spheres` queued together in one step (as the runner does when the simulation lags
+/// the servo), then empty steps until the work is done; returns the removed volume and the
+/// nodes created.
+fn drill_together(
+    mesh: &Mesh<'_>,
+    h: &mut Hierarchy<'_>,
+    spheres: &[Sphere],
+    max_depth: u8,
+    budget: u32,
+) -> (f64, u64) {
+    let mut queue = vec![Pending::default(); 1 << 16];
+    let mut drill = Drill::new(&mut queue);
+    let params = DrillParams {
+        max_depth,
+        min_area: 0.0,
+        budget,
+    };
+    let mut cand = vec![TetId::NONE; mesh.tet_count()];
+    let n = candidates_brute_force(mesh, spheres, &mut cand);
+    let mut created = 0u64;
+    let mut r = drill.step(h, mesh, &cand[..n], spheres, &params);
+    created += r.created as u64;
+    let mut ticks = 0;
+    while r.pending > 0 {
+        r = drill.step(h, mesh, &cand[..n], &[], &params);
+        created += r.created as u64;
+        ticks += 1;
+        assert!(ticks < 100_000, "the work must finish");
+    }
+    assert_eq!(h.saturations(), 0);
+    assert_eq!(drill.saturations(), 0);
+    (h.removed_volume(), created)
+}
+
+/// Spheres queued together erode their union and refine only its boundary: no refined node
+/// lies inside any one sphere (each is erased whole, whichever sphere's work reaches it
+/// first); the visible faces match the brute force; the removed volume matches a Monte Carlo
+/// estimate of the union; and the shared work costs fewer nodes than the same spheres drilled
+/// one after the other.
+#[test]
+fn spheres_queued_together_refine_only_the_union_boundary() {
+    let mut om = block_mesh(4, 0.25); // the unit cube
+    let mesh = om.view();
+    let r = 0.15f32;
+    let spheres: Vec<Sphere> = (0..6)
+        .map(|k| Sphere {
+            center: Vec3::new(0.3 + 0.25 * r * k as f32, 0.47, 0.52),
+            radius: r,
+        })
+        .collect();
+    let mut st = Store::new(mesh.tet_count(), 4 << 20);
+    let mut h = st.hierarchy(&mesh);
+    let (removed, created) = drill_together(&mesh, &mut h, &spheres, 4, 300);
+
+    // 1. No inner node entirely inside one sphere (f64 corners, a margin for f32 rounding).
+    let mut inner: HashSet<(usize, u32)> = HashSet::new();
+    for l in leaves(&mesh, &h, 0..mesh.tet_count()) {
+        let mut i = l.index;
+        while i > 0 {
+            i = (i - 1) / 8;
+            inner.insert((l.tet.idx(), i));
+        }
+    }
+    assert!(
+        inner.len() > 100,
+        "the spheres must refine: {}",
+        inner.len()
+    );
+    for &(t, i) in &inner {
+        let (p, _) = corners(&mesh, TetId::from_idx(t), i);
+        for s in &spheres {
+            let c = [s.center.x as f64, s.center.y as f64, s.center.z as f64];
+            let far = p
+                .iter()
+                .map(|q| dot(sub(*q, c), sub(*q, c)).sqrt())
+                .fold(0.0, f64::max);
+            assert!(
+                far > s.radius as f64 - 1e-5,
+                "node {i} of tet {t} was refined although it lies inside a sphere"
+            );
+        }
+    }
+
+    // 2. Visible faces against the brute force.
+    let all: HashSet<usize> = (0..mesh.tet_count()).collect();
+    check_visible(&mesh, &h, &all);
+
+    // 3. Removed volume against a Monte Carlo estimate of the union (all inside the cube).
+    let mut rng = StdRng::seed_from_u64(11);
+    let samples = 400_000;
+    let hits = (0..samples)
+        .filter(|_| {
+            let x = Vec3::new(rng.gen(), rng.gen(), rng.gen());
+            spheres.iter().any(|s| x.distance(s.center) <= s.radius)
+        })
+        .count();
+    let union = hits as f64 / samples as f64;
+    let rel = (removed - union).abs() / union;
+    eprintln!("union of 6 spheres: removed {removed:.6}, Monte Carlo {union:.6} ({rel:.4})");
+    assert!(rel < 0.05, "removed {removed} vs union {union}");
+
+    // 4. Drilled one after the other (each sphere's work done before the next is queued),
+    //    every sphere refines its own shell: more nodes for the same union.
+    let mut st2 = Store::new(mesh.tet_count(), 4 << 20);
+    let mut h2 = st2.hierarchy(&mesh);
+    let mut created_apart = 0;
+    for s in &spheres {
+        created_apart += drill_together(&mesh, &mut h2, std::slice::from_ref(s), 4, 300).1;
+    }
+    eprintln!("nodes created: together {created}, one after the other {created_apart}");
+    assert!(
+        created * 4 < created_apart * 3,
+        "together {created} vs apart {created_apart}"
+    );
+    assert!((h2.removed_volume() - union).abs() / union < 0.05);
+}

@@ -25,10 +25,11 @@ pub enum Class {
 }
 
 /// Classifies tet `p` against sphere `s`: inside when all corners are within the radius,
-/// outside when the closest point of the tet is farther than the radius, crossing otherwise.
+/// outside when the closest point of the tet is farther than the radius (at once when its
+/// bounding box is), crossing otherwise.
 ///
 /// # Bounded work
-/// Constant: 4 distances, at most 4 closest-point-on-triangle queries.
+/// Constant: 4 distances, a box distance, at most 4 closest-point-on-triangle queries.
 pub fn classify(p: [Vec3; 4], s: &Sphere) -> Class {
     let r2 = s.radius * s.radius;
     let inside = p
@@ -40,6 +41,16 @@ pub fn classify(p: [Vec3; 4], s: &Sphere) -> Class {
     }
     if inside > 0 {
         return Class::Crossing;
+    }
+    // No corner inside. Quick reject: the tet's bounding box farther than the radius (its
+    // squared distance from the centre, axis by axis) means no point of the tet is inside.
+    let (lo, hi) = (
+        p[0].min(p[1]).min(p[2]).min(p[3]),
+        p[0].max(p[1]).max(p[2]).max(p[3]),
+    );
+    let gap = (lo - s.center).max(s.center - hi).max(Vec3::ZERO);
+    if gap.length_squared() > r2 {
+        return Class::Outside;
     }
     // No corner inside: the tet meets the ball iff the centre is inside the tet or a face
     // comes within the radius.

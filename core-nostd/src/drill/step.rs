@@ -1,9 +1,14 @@
 //! The budgeted drill step: refine the nodes that cross a sample sphere, erase the frontier
 //! nodes inside it, carry what does not fit to the next tick.
 
+use glam::Vec3;
+
 use super::sphere::{classify, Class, Sphere};
 use crate::geom::tri_area;
-use crate::hierarchy::{node_positions, Hierarchy, HierarchyError, Path};
+use crate::hierarchy::table::CHILD_VERTS;
+use crate::hierarchy::{
+    unpack, Hierarchy, HierarchyError, Path, RootFrame, MAX_DEPTH, ROOT_PACKED,
+};
 use crate::ids::TetId;
 use crate::mesh::template::FACE_VERTS;
 use crate::mesh::Mesh;
@@ -30,7 +35,9 @@ impl Default for DrillParams {
     }
 }
 
-/// One unit of pending work: a node of a tree, against the sphere it was queued for. 28 bytes.
+/// One unit of pending work: a node of a tree, against the sphere it was queued for, with the
+/// node's integer barycentric coordinates in its root (so processing it costs no walk from the
+/// root). 60 bytes.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct Pending {
     /// The coarse tet.
@@ -42,6 +49,39 @@ pub struct Pending {
     /// The sphere, as it was when the work was queued (so the removed shape converges to the
     /// swept volume even when the work finishes ticks later).
     pub sphere: Sphere,
+    /// The node's corners as integer barycentric coordinates of its root's, scaled by
+    /// `2^depth`: one `u64` per corner holding four 16-bit weights (each at most
+    /// `2^MAX_DEPTH` = 1024, so a child's row is one `u64` addition of two parent rows).
+    bary: [u64; 4],
+}
+
+impl Pending {
+    /// An empty item (for initialising static storage).
+    pub const EMPTY: Self = Self {
+        tet: TetId(0),
+        index: 0,
+        node: 0,
+        sphere: Sphere {
+            center: Vec3::ZERO,
+            radius: 0.0,
+        },
+        bary: [0; 4],
+    };
+
+    /// The root of `tet`'s tree against `sphere`.
+    fn root(tet: TetId, sphere: Sphere) -> Self {
+        Self {
+            tet,
+            index: 0,
+            node: tet.0,
+            sphere,
+            bary: ROOT_PACKED,
+        }
+    }
+
+    fn bary(&self) -> [[u32; 4]; 4] {
+        self.bary.map(unpack)
+    }
 }
 
 /// What one [`Drill::step`] did.
@@ -64,6 +104,11 @@ pub struct DrillReport {
 /// Spheres remembered to skip re-queueing an unchanged sphere whose work is already queued.
 const MEMO: usize = 8;
 
+/// The most recently queued spheres the drill remembers as the swept volume (see
+/// [`Drill::step`]): a burr queued every quarter radius is covered on each side by the next
+/// four positions, so eight spheres hold the whole neighbourhood of one.
+pub const SWEPT: usize = 8;
+
 /// The drill: a pending-work deque in caller storage and counters.
 #[derive(Debug)]
 pub struct Drill<'a> {
@@ -71,6 +116,12 @@ pub struct Drill<'a> {
     head: usize,
     len: usize,
     memo: [Option<Sphere>; MEMO],
+    /// The last [`SWEPT`] spheres queued (a ring; `swept_len` of them valid).
+    swept: [Sphere; SWEPT],
+    swept_next: usize,
+    swept_len: usize,
+    /// The root frame of the last tet processed (items come tree by tree).
+    frame: Option<(TetId, RootFrame)>,
     retry: bool,
     saturations: u32,
 }
@@ -86,6 +137,10 @@ impl<'a> Drill<'a> {
             head: 0,
             len: 0,
             memo: [None; MEMO],
+            swept: [Sphere::default(); SWEPT],
+            swept_next: 0,
+            swept_len: 0,
+            frame: None,
             retry: false,
             saturations: 0,
         }
@@ -112,6 +167,45 @@ impl<'a> Drill<'a> {
         self.head = 0;
         self.len = 0;
         self.memo = [None; MEMO];
+        self.swept_len = 0;
+        self.swept_next = 0;
+    }
+
+    /// Remembers `s` as part of the swept volume (the oldest of [`SWEPT`] is forgotten).
+    fn remember(&mut self, s: Sphere) {
+        if let Some(slot) = self.swept.get_mut(self.swept_next) {
+            *slot = s;
+        }
+        self.swept_next = (self.swept_next + 1) % SWEPT;
+        self.swept_len = (self.swept_len + 1).min(SWEPT);
+    }
+
+    /// The root frame of `tet`, cached across consecutive items of one tree.
+    fn frame(&mut self, mesh: &Mesh<'_>, tet: TetId) -> Option<RootFrame> {
+        match self.frame {
+            Some((t, f)) if t == tet => Some(f),
+            _ => {
+                let f = RootFrame::of(mesh, tet)?;
+                self.frame = Some((tet, f));
+                Some(f)
+            }
+        }
+    }
+
+    /// `true` when all four corners `p` lie inside one of the remembered spheres.
+    fn inside_swept(&self, p: &[Vec3; 4]) -> bool {
+        self.swept.iter().take(self.swept_len).any(|s| {
+            let r2 = s.radius * s.radius;
+            p.iter().all(|q| q.distance_squared(s.center) <= r2)
+        })
+    }
+
+    /// `true` when `x` lies inside one of the remembered spheres.
+    fn point_in_swept(&self, x: Vec3) -> bool {
+        self.swept
+            .iter()
+            .take(self.swept_len)
+            .any(|s| x.distance_squared(s.center) <= s.radius * s.radius)
     }
 
     fn push_back(&mut self, p: Pending) -> bool {
@@ -171,11 +265,14 @@ impl<'a> Drill<'a> {
     /// subtree is finished depth first) until the budget is spent:
     /// - a node outside the sphere, or erased, is dropped;
     /// - an inner node passes its eight children on;
-    /// - a leaf entirely inside the sphere (all four corners) is erased at once;
+    /// - a leaf entirely inside the sphere (all four corners), or inside one of the last
+    ///   [`SWEPT`] spheres queued (the swept path, which erases it anyway when its own work
+    ///   arrives), is erased at once: only the boundary of the swept volume is refined, not
+    ///   the shell of every sphere along it;
     /// - a leaf crossing the sphere is refined when it is above `max_depth` and its smallest
     ///   face is at least `min_area`, and its children are queued;
     /// - a crossing leaf that cannot be refined is erased iff its centroid is inside the
-    ///   sphere. This is the erosion criterion: the misclassified volume lies within one leaf
+    ///   sphere or one of the remembered swept spheres. This is the erosion criterion: the misclassified volume lies within one leaf
     ///   of the sphere's surface and is unbiased to first order, so the removed volume
     ///   converges to the swept volume as the leaves shrink.
     ///
@@ -211,18 +308,15 @@ impl<'a> Drill<'a> {
             if k < MEMO && self.memo[k] == Some(*s) {
                 continue;
             }
+            if self.swept_len == 0 || self.swept[(self.swept_next + SWEPT - 1) % SWEPT] != *s {
+                self.remember(*s);
+            }
             let mut all = true;
             for &t in candidates {
                 if t.idx() >= h.tet_count() {
                     continue;
                 }
-                let item = Pending {
-                    tet: t,
-                    index: 0,
-                    node: t.0,
-                    sphere: *s,
-                };
-                if !self.push_back(item) {
+                if !self.push_back(Pending::root(t, *s)) {
                     all = false;
                 }
             }
@@ -261,10 +355,13 @@ impl<'a> Drill<'a> {
         if node.erased() {
             return;
         }
-        let Some(path) = Path::of_index(item.index) else {
+        let Some(depth) = depth_of(item.index) else {
             return;
         };
-        let p = node_positions(mesh, item.tet, &path);
+        let Some(frame) = self.frame(mesh, item.tet) else {
+            return;
+        };
+        let p = frame.positions(&item.bary(), depth);
         let class = classify(p, &item.sphere);
         if class == Class::Outside {
             return;
@@ -273,7 +370,12 @@ impl<'a> Drill<'a> {
             self.queue_children(h, item, rep);
             return;
         }
-        if class == Class::Inside {
+        // Inside this sphere, or inside another sphere of the swept path (which erases it
+        // anyway when its own work arrives): erased at once, never refined.
+        let Some(path) = Path::of_index(item.index) else {
+            return;
+        };
+        if class == Class::Inside || self.inside_swept(&p) {
             self.erase(h, mesh, item, &path, rep);
             return;
         }
@@ -298,7 +400,7 @@ impl<'a> Drill<'a> {
         }
         let centroid = (p[0] + p[1] + p[2] + p[3]) * 0.25;
         let r = item.sphere.radius;
-        if centroid.distance_squared(item.sphere.center) <= r * r {
+        if centroid.distance_squared(item.sphere.center) <= r * r || self.point_in_swept(centroid) {
             self.erase(h, mesh, item, &path, rep);
         }
     }
@@ -322,6 +424,7 @@ impl<'a> Drill<'a> {
             self.saturate(rep);
             return;
         }
+        let b = item.bary;
         for c in (0..8u8).rev() {
             let Some(child) = h.child(item.node, c) else {
                 return;
@@ -330,9 +433,30 @@ impl<'a> Drill<'a> {
                 tet: item.tet,
                 index: item.index * 8 + 1 + c as u32,
                 node: child,
+                bary: CHILD_VERTS[c as usize]
+                    .map(|(i, j)| b[(i & 3) as usize].wrapping_add(b[(j & 3) as usize])),
                 ..item
             };
             self.push_front(next);
         }
+    }
+}
+
+/// The depth of tree index `index` (root 0, children of `i` at `8i+1..=8i+8`), `None` beyond
+/// [`MAX_DEPTH`].
+///
+/// # Bounded work
+/// At most [`MAX_DEPTH`] divisions.
+fn depth_of(index: u32) -> Option<u8> {
+    let mut i = index;
+    let mut d = 0u8;
+    while i > 0 {
+        i = (i - 1) / 8;
+        d += 1;
+    }
+    if d as usize > MAX_DEPTH {
+        None
+    } else {
+        Some(d)
     }
 }

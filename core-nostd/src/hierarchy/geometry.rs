@@ -27,8 +27,10 @@ pub fn node_positions(mesh: &Mesh<'_>, tet: TetId, path: &Path) -> [Vec3; 4] {
 /// as [`node_positions`].
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RootFrame {
-    corners: [Vec3; 4],
-    order: [usize; 4],
+    /// The corners in canonical order: `sorted[k]` is corner `order[k]`.
+    sorted: [Vec3; 4],
+    /// `order[k]`: the root-local corner (0..4) that comes `k`-th in canonical order.
+    order: [u8; 4],
 }
 
 impl RootFrame {
@@ -40,33 +42,97 @@ impl RootFrame {
         let ids = mesh.tet(tet).nodes;
         let corners = mesh.tet_positions(tet);
         // Canonical order of the four corners by global node id (a 4-element insertion sort).
-        let mut order = [0usize, 1, 2, 3];
+        let mut order = [0u8, 1, 2, 3];
         for i in 1..4 {
             let mut j = i;
-            while j > 0 && ids[order[j - 1]].0 > ids[order[j]].0 {
+            while j > 0 && ids[order[j - 1] as usize].0 > ids[order[j] as usize].0 {
                 order.swap(j - 1, j);
                 j -= 1;
             }
         }
-        Some(Self { corners, order })
+        let sorted = order.map(|k| corners[(k & 3) as usize]);
+        Some(Self { sorted, order })
+    }
+
+    /// The point with integer barycentric coordinates `w` (scaled by `2^depth`): the sum, in
+    /// canonical corner order, of corner times weight, then scaled. A point shared by several
+    /// nodes (of any depth or tree) has the same reduced coordinates, so it gets the same bits.
+    ///
+    /// # Bounded work
+    /// Constant: 4 vector multiply-adds and a scaling.
+    #[inline]
+    pub(crate) fn point(&self, w: &[u32; 4], depth: u8) -> Vec3 {
+        let scale = 1.0 / (1u32 << depth.min(31)) as f32;
+        let [o0, o1, o2, o3] = self.order.map(|k| (k & 3) as usize);
+        let [c0, c1, c2, c3] = self.sorted;
+        let mut p = Vec3::ZERO;
+        p += c0 * w[o0] as f32;
+        p += c1 * w[o1] as f32;
+        p += c2 * w[o2] as f32;
+        p += c3 * w[o3] as f32;
+        p * scale
     }
 
     /// The four vertex positions of the node with integer barycentric coordinates `bary`
-    /// (scaled by `2^depth`).
+    /// (scaled by `2^depth`), each as [`RootFrame::point`].
     ///
     /// # Bounded work
-    /// Constant.
+    /// Constant: 16 vector multiply-adds and 4 scalings.
     #[inline]
     pub(crate) fn positions(&self, bary: &[[u32; 4]; 4], depth: u8) -> [Vec3; 4] {
-        let scale = 1.0 / (1u32 << depth.min(31)) as f32;
-        bary.map(|w| {
-            let mut p = Vec3::ZERO;
-            for &k in &self.order {
-                p += self.corners[k] * w[k] as f32;
-            }
-            p * scale
-        })
+        bary.map(|w| self.point(&w, depth))
     }
+}
+
+/// The ten points of one red refinement, indexed by [`PAIR`]: the parent's four vertices
+/// (`i`) then the six edge midpoints (`4..10`).
+pub(crate) const PAIRS: [(u8, u8); 10] = [
+    (0, 0),
+    (1, 1),
+    (2, 2),
+    (3, 3),
+    (0, 1),
+    (0, 2),
+    (0, 3),
+    (1, 2),
+    (1, 3),
+    (2, 3),
+];
+
+/// `PAIR[a][b]`: the index in [`PAIRS`] of the point `(a, b)` (vertex when `a == b`).
+pub(crate) const PAIR: [[usize; 4]; 4] = [[0, 4, 5, 6], [4, 1, 7, 8], [5, 7, 2, 9], [6, 8, 9, 3]];
+
+/// A point's four integer barycentric weights packed into one `u64`, weight `k` in bits
+/// `16k..16k+16`. Weights are at most `2^MAX_DEPTH` = 1024 (and the sum of two at most 2048),
+/// so a child's point is one `u64` addition of two parent points, lane by lane.
+pub(crate) type Packed = u64;
+
+/// Unpacks four weights.
+#[inline]
+pub(crate) fn unpack(p: Packed) -> [u32; 4] {
+    [0, 16, 32, 48].map(|sh| ((p >> sh) & 0xffff) as u32)
+}
+
+/// The root's corners, packed.
+pub(crate) const ROOT_PACKED: [Packed; 4] = [1, 1 << 16, 1 << 32, 1 << 48];
+
+/// The packed integer barycentric coordinates (one level down, scaled by `2^(depth+1)`) and
+/// the positions of the ten points of the red refinement of the node with packed coordinates
+/// `bary` at `depth`: a child's corners are four of them (`PAIR` of
+/// [`super::table::CHILD_VERTS`]), so eight children cost ten point evaluations instead of
+/// thirty-two, with the same bits as [`RootFrame::positions`] of each child.
+///
+/// # Bounded work
+/// Constant: ten [`RootFrame::point`] evaluations.
+#[inline]
+pub(crate) fn refinement_points(
+    frame: &RootFrame,
+    bary: &[Packed; 4],
+    depth: u8,
+) -> ([Packed; 10], [Vec3; 10]) {
+    let rows = PAIRS.map(|(a, b)| bary[(a & 3) as usize].wrapping_add(bary[(b & 3) as usize]));
+    let pts = rows.map(|w| frame.point(&unpack(w), depth + 1));
+    (rows, pts)
 }
 
 /// Volume of node `path` of tet `tet`: the root's volume over `8^depth` (Bey's eight children

@@ -34,6 +34,7 @@ mod validate;
 pub mod visit;
 
 pub use geometry::{node_positions, node_volume};
+pub(crate) use geometry::{unpack, RootFrame, ROOT_PACKED};
 pub use nearest::{FaceRef, Nearest};
 pub use node::{HNode, VEntry, MAX_BLOCKS, NODE_BYTES, NO_BLOCK, NO_SLOT};
 pub use ops::OpReport;

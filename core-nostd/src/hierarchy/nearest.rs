@@ -21,11 +21,13 @@
 
 use glam::Vec3;
 
-use super::geometry::{node_positions, RootFrame};
+use super::geometry::{
+    node_positions, refinement_points, unpack, Packed, RootFrame, PAIR, ROOT_PACKED,
+};
 use super::node::HNode;
 use super::store::Hierarchy;
 use super::surface::{bounding_sphere, face_corners, VisibleTri};
-use super::table::{child_bary, Path, MAX_DEPTH, ROOT_BARY};
+use super::table::{Path, CHILD_VERTS, MAX_DEPTH};
 use crate::force::closest_point_on_triangle;
 use crate::ids::TetId;
 use crate::mesh::Mesh;
@@ -52,8 +54,9 @@ pub struct Nearest {
     pub nodes: u32,
     /// Visible triangles tested.
     pub triangles: u32,
-    /// `false` when `max_nodes` stopped the walk: `tri` is then the closest triangle of the
-    /// part walked, not necessarily the closest one.
+    /// `false` when `max_nodes` stopped the walk: `tri` is then the closer of the hint and the
+    /// closest triangle of the part walked: a visible triangle no closer than the closest one
+    /// (an anytime answer: the depth it gives is never too deep).
     pub complete: bool,
 }
 
@@ -78,7 +81,8 @@ struct Entry {
     r: u32,
     index: u32,
     depth: u8,
-    bary: [[u32; 4]; 4],
+    /// The node's corners as packed integer barycentric coordinates.
+    bary: [Packed; 4],
     /// Squared distance from the centre to the bounding sphere's centre.
     d2: f32,
     /// Bounding sphere radius.
@@ -89,7 +93,7 @@ const EMPTY: Entry = Entry {
     r: 0,
     index: 0,
     depth: 0,
-    bary: ROOT_BARY,
+    bary: ROOT_PACKED,
     d2: 0.0,
     rad: 0.0,
 };
@@ -233,10 +237,10 @@ impl Hierarchy<'_> {
             return Nearest::default();
         }
         let reach2 = reach * reach;
-        let hinted = hint
+        let hint_tri = hint
             .and_then(|k| self.visible_face_distance2(mesh, k, centre))
-            .map(|(d2, _)| d2)
-            .filter(|d2| *d2 <= reach2);
+            .filter(|(d2, _)| *d2 <= reach2);
+        let hinted = hint_tri.map(|(d2, _)| d2);
         let mut s = self.nearest_walk(mesh, tets, centre, reach, hinted, max_nodes);
         if let Some(h) = hinted {
             // Pruning at the hint's distance is exact iff the walk met a triangle at most as
@@ -249,6 +253,19 @@ impl Hierarchy<'_> {
                 s = again;
                 s.nodes = nodes;
                 s.triangles = triangles;
+            }
+        }
+        if s.stopped {
+            // Anytime answer: the hint's triangle unless the walk met one at least as close.
+            if let Some((h, vt)) = hint_tri {
+                if s.best.is_none_or(|(d2, _, _)| d2 > h) {
+                    let key = FaceRef {
+                        tet: vt.tet,
+                        index: vt.index,
+                        face: vt.face,
+                    };
+                    s.best = Some((h, key, vt));
+                }
             }
         }
         Nearest {
@@ -287,13 +304,15 @@ impl Hierarchy<'_> {
             if s.stopped {
                 break;
             }
+            // A tree with no surface (interior or erased material) costs one node look-up.
+            if t.idx() >= self.tet_count() || !self.node(t.0).is_some_and(|n| n.surface()) {
+                continue;
+            }
             let Some(frame) = RootFrame::of(mesh, t) else {
                 continue;
             };
-            if t.idx() >= self.tet_count() {
-                continue;
-            }
-            let Some(root) = self.consider(&mut s, &frame, t.0, 0, 0, ROOT_BARY) else {
+            let p = ROOT_PACKED.map(|w| frame.point(&unpack(w), 0));
+            let Some(root) = self.consider(&mut s, t.0, 0, 0, ROOT_PACKED, p) else {
                 continue;
             };
             stack[0] = root;
@@ -309,54 +328,59 @@ impl Hierarchy<'_> {
                 let Some(node) = self.node(e.r) else { continue };
                 let Some(b) = node.block() else {
                     // A root that is a leaf (its reach test is done).
-                    s.offer_leaf(t, e.index, node, frame.positions(&e.bary, e.depth));
+                    let p = e.bary.map(|w| frame.point(&unpack(w), e.depth));
+                    s.offer_leaf(t, e.index, node, p);
                     continue;
                 };
                 if e.depth as usize >= MAX_DEPTH {
                     continue;
                 }
-                // The children kept, pushed farthest first so the nearest is walked first.
+                // The children kept go straight onto the stack, then that segment is sorted
+                // farthest first so the nearest is walked first.
                 let first = self.block_ref(b);
-                let mut kids = [EMPTY; 8];
-                let mut n = 0usize;
+                let base = top;
+                // The ten points of this refinement, evaluated once for all eight children.
+                let (rows, pts) = refinement_points(&frame, &e.bary, e.depth);
                 for c in 0..8u8 {
                     let cr = first + c as u32;
                     let Some(child) = self.node(cr).filter(|n| n.surface()) else {
                         continue;
                     };
-                    let bary = child_bary(&e.bary, c);
+                    let cv = CHILD_VERTS[(c & 7) as usize];
+                    let at = |(a, b): (u8, u8)| PAIR[(a & 3) as usize][(b & 3) as usize];
+                    let bary = cv.map(|v| rows[at(v)]);
+                    let p = cv.map(|v| pts[at(v)]);
                     let index = e.index * 8 + 1 + c as u32;
                     if child.is_leaf() {
-                        // Leaves are tested at once: their triangles are as cheap as a
-                        // bounding sphere, and no stack round trip.
+                        // Leaves are tested at once (no stack round trip), after the same
+                        // bound test as an inner node: a leaf that cannot hold a better
+                        // triangle costs no triangle tests.
                         if s.nodes >= s.max_nodes {
                             s.stopped = true;
                             break;
                         }
                         s.nodes += 1;
-                        s.offer_leaf(t, index, child, frame.positions(&bary, e.depth + 1));
+                        let (mid, rad) = bounding_sphere(p);
+                        if s.may_hold_better(mid.distance_squared(s.centre), rad) {
+                            s.offer_leaf(t, index, child, p);
+                        }
                         continue;
                     }
-                    if let Some(k) = self.consider(&mut s, &frame, cr, index, e.depth + 1, bary) {
-                        if let Some(slot) = kids.get_mut(n) {
+                    if let Some(k) = self.consider(&mut s, cr, index, e.depth + 1, bary, p) {
+                        if let Some(slot) = stack.get_mut(top) {
                             *slot = k;
-                            n += 1;
+                            top += 1;
                         }
                     }
                 }
-                let kids = &mut kids[..n];
                 // Insertion sort by decreasing distance (at most 8).
-                for i in 1..kids.len() {
-                    let mut j = i;
-                    while j > 0 && kids[j - 1].d2 < kids[j].d2 {
-                        kids.swap(j - 1, j);
-                        j -= 1;
-                    }
-                }
-                for k in kids.iter() {
-                    if let Some(slot) = stack.get_mut(top) {
-                        *slot = *k;
-                        top += 1;
+                if let Some(kids) = stack.get_mut(base..top) {
+                    for i in 1..kids.len() {
+                        let mut j = i;
+                        while j > 0 && kids[j - 1].d2 < kids[j].d2 {
+                            kids.swap(j - 1, j);
+                            j -= 1;
+                        }
                     }
                 }
             }
@@ -371,11 +395,11 @@ impl Hierarchy<'_> {
     fn consider(
         &self,
         s: &mut Search,
-        frame: &RootFrame,
         r: u32,
         index: u32,
         depth: u8,
-        bary: [[u32; 4]; 4],
+        bary: [Packed; 4],
+        p: [Vec3; 4],
     ) -> Option<Entry> {
         if !self.node(r)?.surface() {
             return None;
@@ -385,7 +409,6 @@ impl Hierarchy<'_> {
             return None;
         }
         s.nodes += 1;
-        let p = frame.positions(&bary, depth);
         let (mid, rad) = bounding_sphere(p);
         let d2 = mid.distance_squared(s.centre);
         let lim = rad + s.reach;

@@ -57,7 +57,7 @@ pub struct WorldSizes {
 
 /// Default capacity of the drill's pending deque: the demo path (`builtin:demo`, burr 0.1 on
 /// `builtin:block:8`, max depth 5, budget 4000) peaks at about 22,400 items (docs/DRILLING.md),
-/// so 32,768 (28 bytes each, 896 KB) keeps it free of saturations. A board with little RAM
+/// so 32,768 (60 bytes each, 1.9 MB) keeps it free of saturations. A board with little RAM
 /// sizes it with [`WorldSizes::with_pending`] (the firmware's scenario peaks under 2,000).
 pub const DEFAULT_PENDING: usize = 1 << 15;
 
@@ -133,8 +133,9 @@ pub struct SimReport {
     pub triangles: u32,
     /// Hierarchy nodes tested by the contact search.
     pub contact_nodes: u32,
-    /// The contact search hit [`World::contact_max_nodes`]: the previous contact plane was
-    /// kept (counted in `saturations().contact`).
+    /// The contact search hit [`World::contact_max_nodes`]: the contact is the closest
+    /// triangle met or the last step's (never deeper than the exact one), or the previous
+    /// plane when there is neither (counted in `saturations().contact`).
     pub contact_saturated: bool,
     /// The candidate list filled up (tets were left out of this step; counted).
     pub candidates_saturated: bool,
@@ -151,8 +152,8 @@ pub struct Saturations {
     pub arena: u32,
     /// Drill work items dropped because the pending deque was full.
     pub pending: u32,
-    /// Simulation steps whose contact search hit its node bound (the previous contact plane
-    /// was kept).
+    /// Simulation steps whose contact search hit its node bound (the contact then comes from
+    /// the closest triangle met or the last step's, see [`SimReport::contact_saturated`]).
     pub contact: u32,
 }
 
@@ -277,7 +278,9 @@ impl<'a> World<'a> {
     }
 
     /// Sets the bound on the hierarchy nodes one contact search tests. A search that reaches
-    /// it keeps the previous contact plane and counts `saturations().contact`.
+    /// it takes the closest triangle it met or the last step's triangle (whichever is closer:
+    /// a true visible face, so the depth is never overestimated), or keeps the previous plane
+    /// when it has neither, and counts `saturations().contact`.
     pub fn set_contact_max_nodes(&mut self, n: u32) {
         self.contact_max_nodes = n;
     }
@@ -314,7 +317,8 @@ impl<'a> World<'a> {
     /// # Capacity
     /// A full candidate list keeps the tets found first and counts `saturations().candidates`;
     /// the drill and the hierarchy saturate as they document; a contact search that reaches
-    /// its node bound keeps the previous contact plane and counts `saturations().contact`.
+    /// its node bound answers with the closest triangle it met or the last step's (see
+    /// [`World::set_contact_max_nodes`]) and counts `saturations().contact`.
     /// The state stays valid.
     pub fn simulate(
         &mut self,
@@ -452,7 +456,8 @@ impl<'a> World<'a> {
     /// hinted with the last step's triangle. Ties go to the smallest (tet, index, face), so
     /// the result never depends on visiting order, and it is the triangle the exhaustive
     /// search over [`Hierarchy::for_each_visible_in`] finds. When the search reaches
-    /// `contact_max_nodes` the previous contact plane is kept (and counted).
+    /// `contact_max_nodes` the answer is the closer of the hint and the triangles met (or the
+    /// previous plane when there is neither), and it is counted.
     fn update_contact(&mut self, centre: Vec3, radius: f32, reach: f32, rep: &mut SimReport) {
         let cands = &self.candidates[..self.ncand];
         let near = self.hier.nearest_visible(
@@ -468,8 +473,13 @@ impl<'a> World<'a> {
         if !near.complete {
             rep.contact_saturated = true;
             self.sat.contact += 1;
-            self.contact.triangles = near.triangles;
-            return;
+            if near.tri.is_none() {
+                // Nothing found within the bound and no hint: keep the previous plane.
+                self.contact.triangles = near.triangles;
+                return;
+            }
+            // Otherwise the closest triangle met (or the hint): a true visible face, no
+            // deeper than the exact answer; the next step starts from it.
         }
         self.contact_face = near.tri.map(|vt| FaceRef {
             tet: vt.tet,

@@ -4,8 +4,8 @@
 //! configuration ROM, a few register writes to start isochronous streaming, 44-byte input
 //! packets and 16-byte output packets ([`packet`]), 15000 encoder counts per joint revolution,
 //! and the arm kinematics of [`kinematics`]. Everything goes through [`FirewireTransport`];
-//! this crate forbids `unsafe`, so the Linux firewire-cdev transport (ioctls) is not here:
-//! [`mock::MockFirewire`] drives the tests.
+//! this crate forbids `unsafe`, so the Linux firewire-cdev transport (ioctls) lives in the host
+//! runner (`tetradrill::firewire::CdevFirewire`); [`mock::MockFirewire`] drives the tests.
 
 pub mod kinematics;
 pub mod mock;
@@ -21,9 +21,11 @@ pub const REG_VENDOR: u64 = 0x1006_000c;
 pub const REG_SERIAL: u64 = 0x1006_0010;
 /// SensAble's OUI as it reads from [`REG_VENDOR`] (low byte masked).
 pub const SENSABLE_OUI: u32 = 0x000b_9900;
-/// Register: isochronous channel the Omni transmits on (host receives).
+/// Register: the isochronous channel the host transmits on (the Omni listens there for
+/// motor packets); [`OmniConfig::transmit_channel`] is written here.
 pub const REG_XMIT_CHANNEL: u64 = 0x1000;
-/// Register: isochronous channel the Omni receives on (host transmits).
+/// Register: the isochronous channel the host receives on (the Omni sends its input packets
+/// there); [`OmniConfig::receive_channel`] is written here.
 pub const REG_RECV_CHANNEL: u64 = 0x1001;
 /// Status register that reads 0xC0 when ready.
 pub const REG_STATUS_A: u64 = 0x1083;

@@ -61,6 +61,8 @@ mod scenario {
     pub const MIN_AREA: f32 = 0.0_f64 as f32;
     /// Drill work units per tick.
     pub const BUDGET: u32 = 600;
+    /// Hierarchy nodes one contact search may test (`contact_search_nodes`).
+    pub const CONTACT_NODES: u32 = 4096;
 }
 
 #[entry]
@@ -101,6 +103,7 @@ fn main() -> ! {
     }
     let mesh = build_mesh(st.positions, &tet_nodes, st.mesh);
     let mut world = World::new(mesh, st.world).unwrap_or_else(|_| fail("world storage refused"));
+    world.set_contact_max_nodes(scenario::CONTACT_NODES);
 
     let drill = DrillParams {
         max_depth: scenario::MAX_DEPTH,

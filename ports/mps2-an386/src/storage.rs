@@ -25,7 +25,7 @@ use crate::{ARENA, BLOCK_N};
 pub const NODES: usize = block_counts(BLOCK_N).0;
 /// Tets of the block.
 pub const TETS: usize = block_counts(BLOCK_N).1;
-/// Entries of the drill's pending deque (28 bytes each): twice the scenario's peak.
+/// Entries of the drill's pending deque (60 bytes each): twice the scenario's peak.
 pub const PENDING_ITEMS: usize = 4096;
 /// The world's storage sizes, as the host computes them, with a [`PENDING_ITEMS`]-entry deque.
 pub const SIZES: WorldSizes = WorldSizes::new(TETS, ARENA).with_pending(PENDING_ITEMS);
@@ -50,15 +50,7 @@ const ZERO_VENTRY: VEntry = VEntry {
     index: 0,
     node: 0,
 };
-const ZERO_PENDING: Pending = Pending {
-    tet: TetId(0),
-    index: 0,
-    node: 0,
-    sphere: Sphere {
-        center: Vec3::ZERO,
-        radius: 0.0,
-    },
-};
+const ZERO_PENDING: Pending = Pending::EMPTY;
 
 static POSITIONS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
 static NORMALS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
