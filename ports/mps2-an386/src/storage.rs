@@ -12,7 +12,7 @@
 use static_cell::ConstStaticCell;
 
 use tetradrill_core::builtin::block_counts;
-use tetradrill_core::drill::{Pending, Sphere};
+use tetradrill_core::drill::Pending;
 use tetradrill_core::hash::HashEntry;
 use tetradrill_core::hierarchy::{HNode, HierarchyStorage, VEntry};
 use tetradrill_core::mesh::{MeshStorage, Node, Reverse, Tet};
