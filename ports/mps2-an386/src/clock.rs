@@ -29,7 +29,7 @@ pub fn wrapped() {
 
 /// Instructions in `counts` SysTick counts.
 pub fn instructions(counts: u64) -> u64 {
-    counts * NS_PER_COUNT >> ICOUNT_SHIFT
+    (counts * NS_PER_COUNT) >> ICOUNT_SHIFT
 }
 
 /// The running SysTick.
