@@ -25,12 +25,58 @@ pub struct EngineStorage {
     vlist: Vec<VEntry>,
     pending: Vec<Pending>,
     candidates: Vec<TetId>,
+    contact_search_nodes: u32,
+}
+
+/// The storage sizes of a scenario's world over a mesh of `tets` tets: the core's defaults
+/// ([`WorldSizes::new`]) with the scenario's capacities. A v_list smaller than the arena needs
+/// shrinks the arena to what it can list (every block of 8 adds 7 leaves).
+///
+/// # Errors
+/// A v_list shorter than the mesh's tet count (one entry per coarse tet is the least the
+/// hierarchy needs), naming the key and the flag.
+pub fn world_sizes(tets: usize, sc: &Scenario) -> Result<WorldSizes, String> {
+    let mut s = WorldSizes::new(tets, sc.hierarchy_capacity).with_pending(sc.pending_capacity);
+    s.candidates = sc.candidate_capacity;
+    if let Some(h) = sc.hash_capacity {
+        s.hash_entries = h;
+    }
+    if let Some(v) = sc.vlist_capacity {
+        if v < tets {
+            return Err(format!(
+                "vlist_capacity (--vlist-capacity) {v} is below the mesh's {tets} coarse tets \
+                 (the v_list needs one entry per tet)"
+            ));
+        }
+        s.vlist = v;
+        s.arena = s.arena.min((v - tets) / 7 * 8);
+    }
+    Ok(s)
 }
 
 impl EngineStorage {
-    /// Allocates everything the scenario's world needs for `mesh`.
+    /// Allocates everything the scenario's world needs for `mesh`. Capacities the mesh cannot
+    /// take (a v_list shorter than its tet count) are raised to the least it needs; use
+    /// [`EngineStorage::try_allocate`] to refuse them instead.
     pub fn allocate(mesh: OwnedMesh, sc: &Scenario) -> Self {
-        let s = WorldSizes::new(mesh.tets().len(), sc.hierarchy_capacity);
+        let tets = mesh.tets().len();
+        let raised = Scenario {
+            vlist_capacity: sc.vlist_capacity.map(|v| v.max(tets)),
+            ..sc.clone()
+        };
+        let s = world_sizes(tets, &raised)
+            .unwrap_or_else(|_| WorldSizes::new(tets, sc.hierarchy_capacity));
+        Self::with_sizes(mesh, s, sc.contact_search_nodes)
+    }
+
+    /// [`EngineStorage::allocate`] refusing, with exit status 2, a capacity the mesh cannot
+    /// take.
+    pub fn try_allocate(mesh: OwnedMesh, sc: &Scenario) -> Result<Self, CliError> {
+        let s = world_sizes(mesh.tets().len(), sc).map_err(CliError::input)?;
+        Ok(Self::with_sizes(mesh, s, sc.contact_search_nodes))
+    }
+
+    fn with_sizes(mesh: OwnedMesh, s: WorldSizes, contact_search_nodes: u32) -> Self {
         Self {
             mesh,
             hash_starts: vec![0; s.hash_starts],
@@ -40,6 +86,7 @@ impl EngineStorage {
             vlist: vec![VEntry::default(); s.vlist],
             pending: vec![Pending::default(); s.pending],
             candidates: vec![TetId::NONE; s.candidates],
+            contact_search_nodes,
         }
     }
 
@@ -59,8 +106,25 @@ impl EngineStorage {
                 candidates: &mut self.candidates,
             },
         )
+        .map(|mut w| {
+            w.set_contact_max_nodes(self.contact_search_nodes);
+            w
+        })
         .map_err(|e| CliError::failure(format!("cannot set up the simulation: {e}")))
     }
+}
+
+/// Checks a world's invariants: the mesh ([`tetradrill_core::mesh::Mesh::validate`]) and the
+/// hierarchy over it ([`tetradrill_core::hierarchy::Hierarchy::validate`]).
+///
+/// # Errors
+/// The first broken invariant, as one line.
+pub fn validate(world: &World<'_>) -> Result<(), String> {
+    world.mesh().validate().map_err(|e| format!("mesh: {e}"))?;
+    world
+        .hierarchy()
+        .validate(world.mesh())
+        .map_err(|e| format!("hierarchy: {e}"))
 }
 
 /// The scenario's mesh, loaded and built.

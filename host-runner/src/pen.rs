@@ -65,6 +65,26 @@ pub struct PenRig {
     pub obj: OwnedMesh,
 }
 
+/// Capacities of a pen rig; `None` sizes a buffer from the meshes so it never fills.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct PenSizes {
+    /// Entries of the object's static tet hash (`None`: 16 per tet, and a full hash is an
+    /// error, the mesh being degenerate; `Some`: a full hash keeps the tets that fit and is
+    /// counted in [`PenSetup::hash_saturations`]).
+    pub hash: Option<usize>,
+    /// Collisions (and penetrations) each body holds per tick (`None`: its node count).
+    pub contacts: Option<usize>,
+    /// Entries of each depth propagation queue (`None`: the body's node count).
+    pub queue: Option<usize>,
+}
+
+/// What setting up a pen rig counted.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct PenSetup {
+    /// Static hashes that ran out of entries (only with [`PenSizes::hash`] set).
+    pub hash_saturations: u32,
+}
+
 impl PenRig {
     /// Builds the scene (node graphs, the object's tets, nodes and boundary faces hashed once,
     /// the pen's boundary faces hashed at rest) and the buffers, and hands them to `f`.
@@ -72,6 +92,16 @@ impl PenRig {
         &mut self,
         f: impl FnOnce(&PenScene<'_, '_, '_>, &mut PenBuffers<'_>) -> R,
     ) -> Result<R, RigError> {
+        self.with_sizes(PenSizes::default(), f).map(|(r, _)| r)
+    }
+
+    /// [`PenRig::with`] with the capacities of `sizes`.
+    pub fn with_sizes<R>(
+        &mut self,
+        sizes: PenSizes,
+        f: impl FnOnce(&PenScene<'_, '_, '_>, &mut PenBuffers<'_>) -> R,
+    ) -> Result<(R, PenSetup), RigError> {
+        let mut setup = PenSetup::default();
         let pen = self.pen.view();
         let obj = self.obj.view();
         let ob = Body::fixed(&obj);
@@ -83,9 +113,16 @@ impl PenRig {
         let og = NodeGraph::build(&obj, &mut ogo, &mut oga).map_err(RigError::Graph)?;
         let cell = average_edge_length(&obj);
         let mut ts = HashStore::new(obj.tet_count(), 16);
+        if let Some(n) = sizes.hash {
+            ts.entries.truncate(n);
+            ts.entries.resize(n, HashEntry::default());
+        }
         let mut th = ts.hash(cell).ok_or(RigError::Hash)?;
         if hash_tets(&mut th, &ob).saturated {
-            return Err(RigError::Saturated("object tet"));
+            if sizes.hash.is_none() {
+                return Err(RigError::Saturated("object tet"));
+            }
+            setup.hash_saturations += 1;
         }
         let mut ns = HashStore::new(obj.node_count(), 1);
         let mut nh = ns.hash(cell).ok_or(RigError::Hash)?;
@@ -113,17 +150,19 @@ impl PenRig {
             object_faces: Some(&fh),
         };
         let (np, no) = (pen.node_count(), obj.node_count());
+        let (cp, co) = (sizes.contacts.unwrap_or(np), sizes.contacts.unwrap_or(no));
+        let (qp, qo) = (sizes.queue.unwrap_or(np), sizes.queue.unwrap_or(no));
         let mut world = vec![Vec3::ZERO; np];
         let (mut h1, mut h2) = (
-            vec![Collision::default(); np],
-            vec![Collision::default(); no],
+            vec![Collision::default(); cp],
+            vec![Collision::default(); co],
         );
         let (mut p1, mut p2) = (
-            vec![Penetration::default(); np],
-            vec![Penetration::default(); no],
+            vec![Penetration::default(); cp],
+            vec![Penetration::default(); co],
         );
-        let (mut s1, mut q1) = (vec![NodeSlot::default(); np], vec![NodeId::NONE; np]);
-        let (mut s2, mut q2) = (vec![NodeSlot::default(); no], vec![NodeId::NONE; no]);
+        let (mut s1, mut q1) = (vec![NodeSlot::default(); np], vec![NodeId::NONE; qp]);
+        let (mut s2, mut q2) = (vec![NodeSlot::default(); no], vec![NodeId::NONE; qo]);
         let mut bufs = PenBuffers {
             world: &mut world,
             pen_hits: &mut h1,
@@ -133,6 +172,6 @@ impl PenRig {
             pen_depth: DepthScratch::new(&mut s1, &mut q1),
             object_depth: DepthScratch::new(&mut s2, &mut q2),
         };
-        Ok(f(&scene, &mut bufs))
+        Ok((f(&scene, &mut bufs), setup))
     }
 }

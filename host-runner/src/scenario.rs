@@ -26,7 +26,8 @@ pub struct Scenario {
     pub mesh: String,
     /// Factor applied to the mesh's coordinates.
     pub scale: f64,
-    /// Trace CSV file, or `builtin:demo`; positions in mesh units after `scale`.
+    /// Trace CSV file, `builtin:demo`, or `wander:SEED` (a seeded random wander over the
+    /// mesh's surface, drill on); positions in mesh units after `scale`.
     pub trace: String,
     /// `sphere:R` (a spherical burr of radius R) or `mesh:FILE` (a tet-mesh tool, tip at the
     /// origin, axis +z).
@@ -49,6 +50,135 @@ pub struct Scenario {
     pub hierarchy_capacity: usize,
     /// Work units of erosion per servo tick; the rest is carried to later ticks.
     pub budget_per_tick: u32,
+    /// Entries of the static spatial hash of the mesh's tets (absent: 8 per tet).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hash_capacity: Option<usize>,
+    /// Coarse tets one simulation step may take near the tool.
+    pub candidate_capacity: usize,
+    /// v_list entries (absent: what the arena needs). Fewer than the arena needs shrink the
+    /// arena to fit (refinements refused when it is full are counted as `arena`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vlist_capacity: Option<usize>,
+    /// Drill work items the pending deque holds.
+    pub pending_capacity: usize,
+    /// Hierarchy nodes one contact search may test (the search then keeps the last plane).
+    pub contact_search_nodes: u32,
+    /// Collisions each body of a tet-mesh tool contact may hold per tick, pen nodes in the
+    /// object and object nodes in the pen (absent: each body's node count).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contact_capacity: Option<usize>,
+    /// Entries of each depth propagation queue of a tet-mesh tool contact (absent: each
+    /// body's node count).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub queue_capacity: Option<usize>,
+}
+
+/// Largest storage one buffer may take. A larger capacity is refused as absurd: a mistyped
+/// value would otherwise abort the allocation or push the machine into swap.
+pub const MAX_BUFFER_BYTES: usize = 1 << 30;
+
+/// One capacity of a scenario: its key (the TOML key, and the flag with `-` for `_`), the
+/// bytes of one entry (0: a bound on work, not storage) and the smallest value that works.
+#[derive(Debug, Clone, Copy)]
+pub struct Capacity {
+    /// TOML key.
+    pub key: &'static str,
+    /// Bytes per entry.
+    pub entry_bytes: usize,
+    /// Smallest value accepted.
+    pub min: usize,
+}
+
+impl Capacity {
+    /// The command-line flag.
+    pub fn flag(&self) -> String {
+        format!("--{}", self.key.replace('_', "-"))
+    }
+
+    /// Largest value accepted: [`MAX_BUFFER_BYTES`] of entries, and ids fit in `u32`.
+    pub fn max(&self) -> usize {
+        let by_bytes = MAX_BUFFER_BYTES
+            .checked_div(self.entry_bytes)
+            .unwrap_or(usize::MAX);
+        by_bytes.min(u32::MAX as usize)
+    }
+
+    /// `Ok` when `v` is within `min..=max`, else one line naming the key and the flag.
+    pub fn check(&self, v: usize) -> Result<(), String> {
+        if (self.min..=self.max()).contains(&v) {
+            return Ok(());
+        }
+        let unit = if self.entry_bytes == 0 {
+            String::new()
+        } else {
+            format!(" ({} MiB at most)", MAX_BUFFER_BYTES >> 20)
+        };
+        Err(format!(
+            "{} ({}) must be {}..={}{unit}, got {v}",
+            self.key,
+            self.flag(),
+            self.min,
+            self.max()
+        ))
+    }
+}
+
+/// Every capacity a scenario sets, in one place (docs/SAFETY.md lists what each does when full).
+pub const CAPACITIES: [Capacity; 8] = {
+    use std::mem::size_of;
+    use tetradrill_core::collide::Collision;
+    use tetradrill_core::depth::Penetration;
+    use tetradrill_core::drill::Pending;
+    use tetradrill_core::hash::HashEntry;
+    use tetradrill_core::hierarchy::{HNode, VEntry};
+    [
+        // One block of eight children at least: a smaller arena holds no block at all.
+        Capacity {
+            key: "hierarchy_capacity",
+            entry_bytes: size_of::<HNode>(),
+            min: 8,
+        },
+        Capacity {
+            key: "hash_capacity",
+            entry_bytes: size_of::<HashEntry>(),
+            min: 1,
+        },
+        Capacity {
+            key: "candidate_capacity",
+            entry_bytes: size_of::<tetradrill_core::TetId>(),
+            min: 1,
+        },
+        Capacity {
+            key: "vlist_capacity",
+            entry_bytes: size_of::<VEntry>(),
+            min: 1,
+        },
+        Capacity {
+            key: "pending_capacity",
+            entry_bytes: size_of::<Pending>(),
+            min: 1,
+        },
+        Capacity {
+            key: "contact_search_nodes",
+            entry_bytes: 0,
+            min: 1,
+        },
+        Capacity {
+            key: "contact_capacity",
+            entry_bytes: size_of::<Collision>() + size_of::<Penetration>(),
+            min: 1,
+        },
+        Capacity {
+            key: "queue_capacity",
+            entry_bytes: size_of::<tetradrill_core::NodeId>(),
+            min: 1,
+        },
+    ]
+};
+
+/// The capacity named `key` (one of [`CAPACITIES`]).
+pub fn capacity(key: &str) -> Option<Capacity> {
+    CAPACITIES.iter().copied().find(|c| c.key == key)
 }
 
 impl Default for Scenario {
@@ -67,6 +197,13 @@ impl Default for Scenario {
             min_area: 0.0,
             hierarchy_capacity: 1 << 20,
             budget_per_tick: 4000,
+            hash_capacity: None,
+            candidate_capacity: tetradrill_core::servo::WorldSizes::new(0, 0).candidates,
+            vlist_capacity: None,
+            pending_capacity: tetradrill_core::servo::DEFAULT_PENDING,
+            contact_search_nodes: tetradrill_core::servo::CONTACT_MAX_NODES,
+            contact_capacity: None,
+            queue_capacity: None,
         }
     }
 }
@@ -82,41 +219,62 @@ pub struct ScenarioFlags {
     #[arg(long)]
     pub mesh: Option<String>,
     /// Scale the mesh's coordinates.
-    #[arg(long, value_parser = positive)]
+    #[arg(long, allow_negative_numbers = true, value_parser = positive)]
     pub scale: Option<f64>,
-    /// Trace CSV (`t,x,y,z,qw,qx,qy,qz,buttons`) or `builtin:demo`.
+    /// Trace CSV (`t,x,y,z,qw,qx,qy,qz,buttons`), `builtin:demo` or `wander:SEED`.
     #[arg(long)]
     pub trace: Option<String>,
     /// `sphere:R` or `mesh:FILE`.
     #[arg(long)]
     pub tool: Option<String>,
     /// Scale a mesh tool's coordinates.
-    #[arg(long, value_parser = positive)]
+    #[arg(long, allow_negative_numbers = true, value_parser = positive)]
     pub tool_scale: Option<f64>,
     /// Stiffness, newtons per mesh unit of depth.
-    #[arg(long, value_parser = positive)]
+    #[arg(long, allow_negative_numbers = true, value_parser = positive)]
     pub stiffness: Option<f64>,
     /// Damping, newton-seconds per mesh unit.
-    #[arg(long, value_parser = non_negative)]
+    #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
     pub damping: Option<f64>,
     /// Force clamp, newtons.
-    #[arg(long, value_parser = positive)]
+    #[arg(long, allow_negative_numbers = true, value_parser = positive)]
     pub max_force: Option<f64>,
     /// Depth method for a mesh tool.
     #[arg(long, value_enum)]
     pub depth_method: Option<DepthMethod>,
     /// Deepest subdivision level (1..=9).
-    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=9))]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u8).range(1..=9))]
     pub max_depth: Option<u8>,
     /// Smallest face area refined (mesh units squared).
-    #[arg(long, value_parser = non_negative)]
+    #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
     pub min_area: Option<f64>,
-    /// Hierarchy nodes available.
-    #[arg(long, value_parser = clap::value_parser!(usize))]
+    /// Hierarchy nodes available (at least 8: one block of children).
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
     pub hierarchy_capacity: Option<usize>,
     /// Work units of erosion per tick.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     pub budget_per_tick: Option<u32>,
+    /// Entries of the static tet hash (default: 8 per tet).
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
+    pub hash_capacity: Option<usize>,
+    /// Coarse tets one simulation step takes near the tool.
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
+    pub candidate_capacity: Option<usize>,
+    /// v_list entries (default: what the arena needs; fewer shrink the arena to fit).
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
+    pub vlist_capacity: Option<usize>,
+    /// Drill work items carried from tick to tick.
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
+    pub pending_capacity: Option<usize>,
+    /// Hierarchy nodes one contact search may test.
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
+    pub contact_search_nodes: Option<u32>,
+    /// Collisions per body per tick of a mesh tool (default: the body's node count).
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
+    pub contact_capacity: Option<usize>,
+    /// Depth propagation queue entries per body of a mesh tool (default: its node count).
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
+    pub queue_capacity: Option<usize>,
 }
 
 fn positive(s: &str) -> Result<f64, String> {
@@ -169,7 +327,8 @@ impl Scenario {
                 .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
             CliError::at(path, line, e.message().replace('\n', " "))
         })?;
-        sc.check().map_err(|m| CliError::at(path, None, m))?;
+        sc.problem()
+            .map_err(|(key, m)| CliError::at(path, key_line(&text, key), m))?;
         Ok(sc)
     }
 
@@ -190,17 +349,32 @@ impl Scenario {
             hierarchy_capacity,
             budget_per_tick
         );
+        take!(candidate_capacity, pending_capacity, contact_search_nodes);
+        macro_rules! take_some {
+            ($($field:ident),*) => { $( if let Some(v) = f.$field { s.$field = Some(v); } )* };
+        }
+        take_some!(
+            hash_capacity,
+            vlist_capacity,
+            contact_capacity,
+            queue_capacity
+        );
         s.check().map_err(CliError::input)?;
         Ok(s)
     }
 
     /// Values no flag parser can refuse on its own (a scenario file sets them directly).
     pub fn check(&self) -> Result<(), String> {
-        let pos = |name: &str, v: f64| {
+        self.problem().map_err(|(_, m)| m)
+    }
+
+    /// The first bad value: its key and one line saying why.
+    pub fn problem(&self) -> Result<(), (&'static str, String)> {
+        let pos = |name: &'static str, v: f64| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(format!("{name} must be a positive number, got {v}"))
+                Err((name, format!("{name} must be a positive number, got {v}")))
             }
         };
         pos("scale", self.scale)?;
@@ -208,25 +382,51 @@ impl Scenario {
         pos("stiffness", self.stiffness)?;
         pos("max_force", self.max_force)?;
         if !(self.damping.is_finite() && self.damping >= 0.0) {
-            return Err(format!(
-                "damping must be non-negative, got {}",
-                self.damping
+            return Err((
+                "damping",
+                format!("damping must be non-negative, got {}", self.damping),
             ));
         }
         if !(self.min_area.is_finite() && self.min_area >= 0.0) {
-            return Err(format!(
-                "min_area must be non-negative, got {}",
-                self.min_area
+            return Err((
+                "min_area",
+                format!("min_area must be non-negative, got {}", self.min_area),
             ));
         }
         if !(1..=9).contains(&self.max_depth) {
-            return Err(format!("max_depth must be 1..=9, got {}", self.max_depth));
+            return Err((
+                "max_depth",
+                format!("max_depth must be 1..=9, got {}", self.max_depth),
+            ));
         }
         if self.budget_per_tick == 0 {
-            return Err("budget_per_tick must be at least 1".into());
+            return Err((
+                "budget_per_tick",
+                "budget_per_tick must be at least 1".into(),
+            ));
         }
-        self.tool_kind()?;
+        for c in CAPACITIES {
+            if let Some(v) = self.capacity_value(c.key) {
+                c.check(v).map_err(|m| (c.key, m))?;
+            }
+        }
+        self.tool_kind().map_err(|m| ("tool", m))?;
         Ok(())
+    }
+
+    /// The value of the capacity `key` when the scenario sets one.
+    pub fn capacity_value(&self, key: &str) -> Option<usize> {
+        match key {
+            "hierarchy_capacity" => Some(self.hierarchy_capacity),
+            "hash_capacity" => self.hash_capacity,
+            "candidate_capacity" => Some(self.candidate_capacity),
+            "vlist_capacity" => self.vlist_capacity,
+            "pending_capacity" => Some(self.pending_capacity),
+            "contact_search_nodes" => Some(self.contact_search_nodes as usize),
+            "contact_capacity" => self.contact_capacity,
+            "queue_capacity" => self.queue_capacity,
+            _ => None,
+        }
     }
 
     /// The tool as parsed from `tool`.
@@ -252,6 +452,17 @@ impl Scenario {
             ))
         }
     }
+}
+
+/// The 1-based line of a TOML text where `key` is set (`key = ...` at the start of a line).
+fn key_line(text: &str, key: &str) -> Option<usize> {
+    text.lines()
+        .position(|l| {
+            l.trim_start()
+                .strip_prefix(key)
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        })
+        .map(|i| i + 1)
 }
 
 /// The tool of a scenario.
@@ -292,5 +503,31 @@ mod tests {
         let e = Scenario::load(p.to_str().expect("utf8")).expect_err("negative radius");
         assert!(e.message.contains("radius"), "{}", e.message);
         assert!(Scenario::load("builtin:nope").is_err());
+        std::fs::write(
+            &p,
+            "mesh = \"builtin:cube12\"\n# zero\n  hash_capacity =0\n",
+        )
+        .expect("write");
+        let e = Scenario::load(p.to_str().expect("utf8")).expect_err("zero capacity");
+        assert!(e.message.contains("bad.toml:3:"), "{}", e.message);
+        assert!(e.message.contains("--hash-capacity"), "{}", e.message);
+    }
+
+    #[test]
+    fn capacities_refuse_zero_and_more_than_a_gibibyte() {
+        for c in CAPACITIES {
+            assert!(c.check(0).is_err(), "{}", c.key);
+            assert!(c.check(c.min).is_ok(), "{}", c.key);
+            assert!(c.check(c.max()).is_ok(), "{}", c.key);
+            assert!(c.check(c.max() + 1).is_err(), "{}", c.key);
+            assert!(c.max() * c.entry_bytes <= MAX_BUFFER_BYTES);
+            let s = Scenario::default();
+            assert!(
+                s.capacity_value(c.key).is_none_or(|v| c.check(v).is_ok()),
+                "the default {} is accepted",
+                c.key
+            );
+        }
+        assert!(capacity("hierarchy_capacity").is_some_and(|c| c.check(7).is_err()));
     }
 }

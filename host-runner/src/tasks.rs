@@ -407,6 +407,8 @@ pub struct ServoResult {
     pub max_force: f32,
     /// The device error that ended the run, if one did.
     pub error: Option<DeviceError>,
+    /// Device samples with a NaN or infinite position (force zero on those ticks).
+    pub nonfinite_samples: u64,
 }
 
 /// The servo's end of the camera hand-off: the latest camera `C` the viewer published
@@ -444,6 +446,14 @@ pub fn servo_task(
     let n = ticks as usize;
     let mut wake_ns = vec![0u64; n];
     let mut tick_ns = vec![0u64; n];
+    // Zeroed allocations are mapped lazily: touch every page now, so the loop takes no page
+    // faults and the resident memory stays flat (without `mlockall`, 16 bytes a tick would
+    // otherwise become resident during the run).
+    for v in [&mut wake_ns, &mut tick_ns] {
+        for x in v.iter_mut().step_by(512) {
+            *x = std::hint::black_box(0);
+        }
+    }
     let mut state = ServoState {
         frame,
         ..ServoState::default()
@@ -520,6 +530,7 @@ pub fn servo_task(
         digest: state.digest,
         max_force: state.max_force,
         error,
+        nonfinite_samples: state.nonfinite_samples,
     }
 }
 
@@ -538,6 +549,8 @@ pub struct ServoState {
     pub dropped: u64,
     /// The egocentric frame positions and forces go through (the identity by default).
     pub frame: DeviceFrame,
+    /// Device samples whose position was NaN or infinite (their force is zero).
+    pub nonfinite_samples: u64,
 }
 
 /// One servo tick: read the device, map its position into the scene through `st.frame`, hand
@@ -563,6 +576,8 @@ pub fn servo_tick(
         }
     };
     let position = st.frame.to_scene(workspace, s.position);
+    // A non-finite position gets zero force from `servo_force`; it is counted for the report.
+    st.nonfinite_samples += u64::from(!position.is_finite());
     if ring
         .push(ToolSample {
             tick,

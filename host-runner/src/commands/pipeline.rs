@@ -10,6 +10,7 @@ use tetradrill_core::servo::ContactState;
 use tetradrill_core::Vec3;
 use tetradrill_device::{DeviceError, DeviceKind, HapticDevice};
 
+use crate::commands::replay::SaturationCounts;
 use crate::engine::{self, EngineStorage, TickParams};
 use crate::error::CliError;
 use crate::rt::RtConfig;
@@ -75,8 +76,12 @@ pub struct RunReport {
     pub simulation_step_max_us: f64,
     /// Tool samples the simulation could not take (ring full).
     pub dropped_samples: u64,
-    /// Saturations, all kinds.
-    pub saturations: u32,
+    /// Device samples with a NaN or infinite position (the force was zero on those ticks).
+    pub nonfinite_samples: u64,
+    /// Saturations by kind, and their total.
+    pub saturations: SaturationCounts,
+    /// The final state passed the core's `validate()` (mesh and hierarchy).
+    pub valid: bool,
     /// Largest force, newtons.
     pub force_max_n: f32,
     /// Digest of the servo's force series (hex).
@@ -113,7 +118,7 @@ pub fn run(
 ) -> Result<RunReport, CliError> {
     let params = TickParams::of(sc)?;
     let loaded = engine::load_mesh(sc)?;
-    let mut store = EngineStorage::allocate(loaded.mesh, sc);
+    let mut store = EngineStorage::try_allocate(loaded.mesh, sc)?;
     let (initial_volume, tets, centre) = {
         let world = store.world()?;
         (
@@ -151,12 +156,12 @@ pub fn run(
     let frame = tasks::DeviceFrame::new(centre);
     let mut scene = crate::viewer::scene::Scene::new();
 
-    let (servo, sim_status) = std::thread::scope(|scope| -> Result<_, CliError> {
+    let (servo, sim_status, ending) = std::thread::scope(|scope| -> Result<_, CliError> {
         let sh = &shared;
         let any_view = view.any();
         let sim = std::thread::Builder::new()
             .name("simulation".into())
-            .spawn_scoped(scope, move || -> Result<(), CliError> {
+            .spawn_scoped(scope, move || -> Result<SimEnding, CliError> {
                 let mut link = any_view.then(|| {
                     let mut l = crate::viewer::publish::SimViewer::new(
                         &sh.snapshots,
@@ -180,7 +185,11 @@ pub fn run(
                         link.as_mut(),
                     );
                     match end {
-                        tasks::SimEnd::Stopped => return Ok(()),
+                        tasks::SimEnd::Stopped => {
+                            // The final state: saturations by kind, and the core's validate().
+                            let sat = SaturationCounts::from(world.saturations());
+                            return Ok((sat, engine::validate(&world)));
+                        }
                         tasks::SimEnd::Reset => {
                             if let Some(l) = link.as_mut() {
                                 l.restart();
@@ -261,13 +270,15 @@ pub fn run(
             }
             std::thread::sleep(Duration::from_millis(2));
         }
-        sim.join()
+        let ending = sim
+            .join()
             .map_err(|_| CliError::failure("the simulation task panicked"))??;
         if any_view && !view.window {
             drain(&mut scene);
         }
-        Ok((servo, *status_out.read()))
+        Ok((servo, *status_out.read(), ending))
     })?;
+    let (saturations, valid) = ending;
     let elapsed = started.elapsed().as_secs_f64();
     let servo = servo.map_err(|e| device_error(kind, e))?;
     for w in &servo.rt.warnings {
@@ -287,7 +298,9 @@ pub fn run(
         simulation_hz: sim_status.steps as f64 / elapsed.max(1e-9),
         simulation_step_max_us: sim_status.max_step_ns as f64 / 1000.0,
         dropped_samples: shared.counters.dropped_samples.load(Ordering::Relaxed),
-        saturations: sim_status.saturations,
+        nonfinite_samples: servo.nonfinite_samples,
+        saturations,
+        valid: valid.is_ok(),
         force_max_n: servo.max_force,
         force_digest: format!("{:016x}", servo.digest.value()),
         timing_us: RunTiming {
@@ -305,6 +318,13 @@ pub fn run(
         },
     };
     print_summary(&rep);
+    if rep.nonfinite_samples > 0 {
+        eprintln!(
+            "tetradrill: warning: the {} device sent {} non-finite positions; the force was zero \
+             on those ticks",
+            rep.device, rep.nonfinite_samples
+        );
+    }
     if let Some(path) = &view.screenshot {
         crate::viewer::screenshot(&mut scene, path)?;
     }
@@ -317,8 +337,12 @@ pub fn run(
             rep.device, rep.ticks
         )));
     }
+    valid.map_err(|e| CliError::failure(format!("the final state is invalid: {e}")))?;
     Ok(rep)
 }
+
+/// What the simulation task leaves: saturations by kind and the final state's validity.
+type SimEnding = (SaturationCounts, Result<(), String>);
 
 /// The status task: until `stop`, the status line every 250 ms (one line a second in logs),
 /// and `each` every 25 ms (the screenshot's snapshot drain).

@@ -8,12 +8,13 @@ use tetradrill_core::force::{
     pen_contact, DepthMethod as PenMethod, ForceDigest, ForceParams, PenOptions, PenState,
     ToolState,
 };
+use tetradrill_core::servo::Saturations;
 use tetradrill_core::Quat;
 use tetradrill_core::Vec3;
 
 use crate::engine::{self, EngineStorage, TickParams};
 use crate::error::CliError;
-use crate::pen::PenRig;
+use crate::pen::{PenRig, PenSizes};
 use crate::platform::now_ns;
 use crate::scenario::{DepthMethod, Scenario, ScenarioFlags, ToolKind};
 use crate::stats::{summarise_ns, Summary};
@@ -31,8 +32,8 @@ pub struct ReplayArgs {
     /// Write the drilled surface (the visible faces) as a Wavefront OBJ.
     #[arg(long)]
     pub surface: Option<PathBuf>,
-    /// Replay at most this many ticks (default: the whole trace).
-    #[arg(long)]
+    /// Replay at most this many ticks (default: the whole trace; 60 s of a wander).
+    #[arg(long, allow_negative_numbers = true)]
     pub ticks: Option<u64>,
     /// No progress bar.
     #[arg(long)]
@@ -71,6 +72,8 @@ pub struct ReplayReport {
     pub timing_us: TickTiming,
     /// Capacity saturations by kind.
     pub saturations: SaturationCounts,
+    /// The final state passed the core's `validate()` (mesh and hierarchy).
+    pub valid: bool,
     /// Contact of a tet-mesh tool (`--tool mesh:FILE` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pen: Option<PenSummary>,
@@ -145,18 +148,81 @@ impl From<Summary> for TickTiming {
 }
 
 /// Saturations by kind, and their total.
-#[derive(Debug, Default, Serialize)]
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct SaturationCounts {
     /// All kinds.
     pub total: u32,
-    /// Static hash builds out of entries.
+    /// Static hash builds out of entries (`--hash-capacity`).
     pub hash: u32,
-    /// Steps whose candidate list filled.
+    /// Steps whose candidate list filled (`--candidate-capacity`).
     pub candidates: u32,
-    /// Refinements refused, arena full.
+    /// Refinements refused, arena full (`--hierarchy-capacity`, `--vlist-capacity`).
     pub arena: u32,
-    /// Drill work dropped, pending deque full.
+    /// Drill work dropped, pending deque full (`--pending-capacity`).
     pub pending: u32,
+    /// Contact searches that reached their node bound and kept the last contact plane
+    /// (`--contact-search-nodes`).
+    pub contact_search: u32,
+    /// Mesh-tool ticks whose collision list filled (`--contact-capacity`).
+    pub contacts: u32,
+    /// Mesh-tool ticks whose depth propagation queue filled (`--queue-capacity`).
+    pub queue: u32,
+}
+
+impl SaturationCounts {
+    /// With `total` set to the sum of the kinds.
+    pub fn totalled(self) -> Self {
+        Self {
+            total: self.hash
+                + self.candidates
+                + self.arena
+                + self.pending
+                + self.contact_search
+                + self.contacts
+                + self.queue,
+            ..self
+        }
+    }
+}
+
+impl std::fmt::Display for SaturationCounts {
+    /// The total, then the kinds that are not zero: `12 (arena 9, pending 3)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.total)?;
+        let kinds = [
+            ("hash", self.hash),
+            ("candidates", self.candidates),
+            ("arena", self.arena),
+            ("pending", self.pending),
+            ("contact search", self.contact_search),
+            ("contacts", self.contacts),
+            ("queue", self.queue),
+        ];
+        let mut first = true;
+        for (name, n) in kinds.iter().filter(|(_, n)| *n > 0) {
+            f.write_str(if first { " (" } else { ", " })?;
+            write!(f, "{name} {n}")?;
+            first = false;
+        }
+        if !first {
+            f.write_str(")")?;
+        }
+        Ok(())
+    }
+}
+
+impl From<Saturations> for SaturationCounts {
+    fn from(s: Saturations) -> Self {
+        Self {
+            hash: s.hash,
+            candidates: s.candidates,
+            arena: s.arena,
+            pending: s.pending,
+            contact_search: s.contact,
+            ..Self::default()
+        }
+        .totalled()
+    }
 }
 
 /// Runs `replay`.
@@ -167,10 +233,10 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     }
     let view = crate::viewer::ViewOptions::of(true, args.screenshot.clone())?;
     let params = TickParams::of(&sc)?;
-    let poses = PoseSource::load(&sc.trace, 1.0)?;
+    let poses = PoseSource::for_scenario(&sc)?;
     let loaded = engine::load_mesh(&sc)?;
-    let ticks = args.ticks.map_or(poses.ticks(), |t| t.min(poses.ticks()));
-    let mut store = EngineStorage::allocate(loaded.mesh, &sc);
+    let ticks = replay_ticks(args, &poses);
+    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc)?;
     let mut world = store.world()?;
     let initial_volume = world.mesh().volume();
 
@@ -208,7 +274,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let components = h
         .components(world.mesh(), &mut scratch)
         .map_err(|e| CliError::failure(format!("cannot count components: {e}")))?;
-    let sat = world.saturations();
+    let valid = engine::validate(&world);
     let rep = ReplayReport {
         mesh: MeshCounts {
             nodes: world.mesh().node_count(),
@@ -228,13 +294,8 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         },
         force_digest: format!("{:016x}", digest.value()),
         timing_us: TickTiming::from(t),
-        saturations: SaturationCounts {
-            total: sat.total(),
-            hash: sat.hash,
-            candidates: sat.candidates,
-            arena: sat.arena,
-            pending: sat.pending,
-        },
+        saturations: SaturationCounts::from(world.saturations()),
+        valid: valid.is_ok(),
         scenario: sc,
         pen: None,
     };
@@ -261,7 +322,17 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         let mut scene = crate::viewer::publish::scene_of(&world, tool, status);
         crate::viewer::screenshot(&mut scene, path)?;
     }
-    Ok(())
+    valid.map_err(|e| CliError::failure(format!("the final state is invalid: {e}")))
+}
+
+/// Ticks to replay: `--ticks` when given, capped at the source's length.
+fn replay_ticks(args: &ReplayArgs, poses: &PoseSource) -> u64 {
+    match (args.ticks, poses) {
+        // A wander has no end: `--ticks` sets its length.
+        (Some(t), PoseSource::Wander { .. }) => t,
+        (Some(t), _) => t.min(poses.ticks()),
+        (None, _) => poses.ticks(),
+    }
 }
 
 /// `replay --tool mesh:FILE`: the tet-mesh tool (the pen) against the object, contact only
@@ -273,13 +344,13 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
             "--surface and --screenshot show the drilled surface: they need a sphere:R tool",
         ));
     }
-    let poses = PoseSource::load(&sc.trace, 1.0)?;
+    let poses = PoseSource::for_scenario(&sc)?;
     let obj = engine::load_mesh(&sc)?.mesh;
     let pen = crate::meshio::load(pen_path, sc.tool_scale)?;
     for w in &pen.warnings {
         eprintln!("tetradrill: warning: {w}");
     }
-    let ticks = args.ticks.map_or(poses.ticks(), |t| t.min(poses.ticks()));
+    let ticks = replay_ticks(args, &poses);
     // The object is not drilled here: its components come from an untouched hierarchy.
     let small = Scenario {
         hierarchy_capacity: 8,
@@ -287,6 +358,8 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
     };
     let mut store = EngineStorage::allocate(obj.clone(), &small);
     let world = store.world()?;
+    // The object is only read: its state is checked once, at the end as at the start.
+    let valid = engine::validate(&world);
     let h = world.hierarchy();
     let mut scratch = vec![0u32; h.components_scratch_needed()];
     let components = h
@@ -324,36 +397,50 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
     let mut times = vec![0u64; ticks as usize];
     let mut digest = ForceDigest::new();
     let (mut max_n, mut last, mut contact_ticks) = (0.0f32, Vec3::ZERO, 0u64);
+    let mut sat = SaturationCounts::default();
     let progress = !args.quiet && ticks >= 20_000;
-    rig.with(|scene, bufs| {
-        let mut state = PenState::default();
-        for i in 0..ticks {
-            let pose = poses.at(i);
-            let [w, x, y, z] = pose.rotation;
-            let rot = Quat::from_xyzw(x, y, z, w).normalize();
-            let t0 = now_ns();
-            let c = pen_contact(scene, bufs, pose.position, rot, &opts, &mut state);
-            times[i as usize] = now_ns() - t0;
-            digest.push(c.force);
-            max_n = max_n.max(c.force.length());
-            contact_ticks += (c.force != Vec3::ZERO) as u64;
-            last = c.force;
-            pen_info.pen_collisions_max = pen_info.pen_collisions_max.max(c.pen_collisions.count);
-            pen_info.object_collisions_max = pen_info
-                .object_collisions_max
-                .max(c.object_collisions.count);
-            pen_info.unreached += (c.pen_depth.unreached + c.object_depth.unreached) as u64;
-            pen_info.clamped_ticks += c.clamped as u64;
-            pen_info.saturated_ticks += c.saturated() as u64;
-            if progress && i % 5000 == 0 {
-                eprint!(
-                    "\rreplay: {:>3}% ({i}/{ticks} ticks)",
-                    i * 100 / ticks.max(1)
-                );
+    let sizes = PenSizes {
+        hash: sc.hash_capacity,
+        contacts: sc.contact_capacity,
+        queue: sc.queue_capacity,
+    };
+    let ((), setup) = rig
+        .with_sizes(sizes, |scene, bufs| {
+            let mut state = PenState::default();
+            for i in 0..ticks {
+                let pose = poses.at(i);
+                let [w, x, y, z] = pose.rotation;
+                let rot = Quat::from_xyzw(x, y, z, w).normalize();
+                let t0 = now_ns();
+                let c = pen_contact(scene, bufs, pose.position, rot, &opts, &mut state);
+                times[i as usize] = now_ns() - t0;
+                digest.push(c.force);
+                max_n = max_n.max(c.force.length());
+                contact_ticks += (c.force != Vec3::ZERO) as u64;
+                last = c.force;
+                pen_info.pen_collisions_max =
+                    pen_info.pen_collisions_max.max(c.pen_collisions.count);
+                pen_info.object_collisions_max = pen_info
+                    .object_collisions_max
+                    .max(c.object_collisions.count);
+                pen_info.unreached += (c.pen_depth.unreached + c.object_depth.unreached) as u64;
+                pen_info.clamped_ticks += c.clamped as u64;
+                pen_info.saturated_ticks += c.saturated() as u64;
+                let (p, o) = (&c.pen_depth, &c.object_depth);
+                sat.contacts += (c.pen_collisions.saturated
+                    || c.object_collisions.saturated
+                    || p.out_full
+                    || o.out_full) as u32;
+                sat.queue += (p.queue_full || o.queue_full) as u32;
+                if progress && i % 5000 == 0 {
+                    eprint!(
+                        "\rreplay: {:>3}% ({i}/{ticks} ticks)",
+                        i * 100 / ticks.max(1)
+                    );
+                }
             }
-        }
-    })
-    .map_err(|e| CliError::failure(format!("cannot set up the tool contact: {e}")))?;
+        })
+        .map_err(|e| CliError::failure(format!("cannot set up the tool contact: {e}")))?;
     if progress {
         eprintln!("\rreplay: 100% ({ticks}/{ticks} ticks)");
     }
@@ -374,9 +461,11 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
         force_digest: format!("{:016x}", digest.value()),
         timing_us: TickTiming::from(t),
         saturations: SaturationCounts {
-            total: pen_info.saturated_ticks as u32,
-            ..SaturationCounts::default()
-        },
+            hash: setup.hash_saturations,
+            ..sat
+        }
+        .totalled(),
+        valid: valid.is_ok(),
         scenario: sc,
         pen: Some(pen_info),
     };
@@ -397,7 +486,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
     if let Some(path) = &args.json {
         crate::cli::write_json(path, &rep)?;
     }
-    Ok(())
+    valid.map_err(|e| CliError::failure(format!("the object's state is invalid: {e}")))
 }
 
 fn print_summary(r: &ReplayReport) {
@@ -424,7 +513,7 @@ fn print_summary(r: &ReplayReport) {
         r.timing_us.tick_p99,
         r.timing_us.tick_p999,
         r.timing_us.tick_max,
-        r.saturations.total
+        r.saturations
     );
 }
 

@@ -24,7 +24,7 @@ pub struct RunArgs {
     #[command(flatten)]
     pub scenario: ScenarioFlags,
     /// Seconds to run (default: the trace's length with the simulated device, else 10 s).
-    #[arg(long, value_parser = crate::cli::positive_seconds)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cli::positive_seconds)]
     pub duration: Option<f64>,
     /// No viewer.
     #[arg(long)]
@@ -104,10 +104,14 @@ pub fn device_factory(
 ) -> Result<(DeviceFactory, u64, Workspace), CliError> {
     match kind {
         DeviceKind::Sim => {
-            let source = PoseSource::load(&sc.trace, 1.0)?;
+            let source = PoseSource::for_scenario(sc)?;
             let ticks = source.ticks();
             let sim = options.sim;
             let open: DeviceFactory = match source {
+                wander @ PoseSource::Wander { .. } => Box::new(move || {
+                    let path = Scripted(move |t: f64| wander.path_point(t));
+                    Ok(Box::new(SimDevice::new(path, sim)) as Box<_>)
+                }),
                 PoseSource::Script(script) => Box::new(move || {
                     let path = Scripted(move |t: f64| {
                         let (p, buttons) = script.at((t * 1000.0).round().max(0.0) as u32);

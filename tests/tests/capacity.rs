@@ -1,0 +1,636 @@
+//! Every capacity of the core made small, from the command line, from a scenario file and
+//! in-process: the replay completes (exit 0), the saturation is counted under its kind, the
+//! state passes the core's `validate()` after every tick, forces stay finite and within the
+//! clamp, and they stay as continuous as the unsaturated run's.
+//!
+//! Continuity, and why these bounds. The sphere burr's force is `clamp(k d n + damping)` from
+//! one contact plane (point `p`, normal `n`) with `d = r - (c - p).n`. While the plane is the
+//! same from one tick to the next, the clamp being 1-Lipschitz gives
+//! `|F_i - F_{i-1}| <= k |c_i - c_{i-1}| + b (|v_i| + |v_{i-1}|)` for damping `b` and tool
+//! velocity `v` (it also covers entering and leaving contact: the force then starts or ends
+//! below `k |dc| + b |v|`). A saturated contact search keeps the plane, so this bound must hold
+//! on its ticks. When the plane changes (the drill erased material under the burr, another
+//! triangle became the closest) the force may jump: the unsaturated run already does, so the
+//! saturated runs may not jump *more often* than it (10% slack, erosion patterns differ) — a
+//! full buffer only removes work (fewer refinements, candidates or pending items) and must
+//! not make the surface under the burr change more often. Forces never exceed the clamp.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use tetradrill::engine::{self, EngineStorage, TickParams};
+use tetradrill::pen::{PenRig, PenSizes};
+use tetradrill::scenario::Scenario;
+use tetradrill::traces::PoseSource;
+use tetradrill_core::force::{pen_contact, ForceParams, PenOptions, PenState, ToolState};
+use tetradrill_core::servo::Saturations;
+use tetradrill_core::{Quat, Vec3};
+use tetradrill_tests::{mesh, scratch_dir, tetradrill_bin};
+
+/// Ticks of the demo path replayed: the approach, the plunge with the drill on and the first
+/// half of the drag along x.
+const TICKS: u64 = 3500;
+
+/// Block of 4 x 4 x 4 cubes (384 tets), depth 4: small enough to validate every tick.
+fn base() -> Scenario {
+    Scenario {
+        mesh: "builtin:block:4".into(),
+        max_depth: 4,
+        ..Scenario::default()
+    }
+}
+
+/// One small capacity of the sphere-burr world: its name, the scenario, and the saturation
+/// kind that must count.
+type Case = (&'static str, Scenario, fn(&Saturations) -> u32);
+
+fn world_cases() -> Vec<Case> {
+    vec![
+        (
+            "hierarchy_capacity",
+            Scenario {
+                hierarchy_capacity: 64,
+                ..base()
+            },
+            |s| s.arena,
+        ),
+        (
+            "hash_capacity",
+            Scenario {
+                hash_capacity: Some(1500),
+                ..base()
+            },
+            |s| s.hash,
+        ),
+        (
+            "candidate_capacity",
+            Scenario {
+                candidate_capacity: 4,
+                ..base()
+            },
+            |s| s.candidates,
+        ),
+        (
+            // 384 roots and one block of 8: the arena shrinks to the one block the v_list can
+            // list, and what does not fit is counted as refused refinements.
+            "vlist_capacity",
+            Scenario {
+                vlist_capacity: Some(384 + 7),
+                ..base()
+            },
+            |s| s.arena,
+        ),
+        (
+            "pending_capacity",
+            Scenario {
+                pending_capacity: 16,
+                ..base()
+            },
+            |s| s.pending,
+        ),
+        (
+            "contact_search_nodes",
+            Scenario {
+                contact_search_nodes: 16,
+                ..base()
+            },
+            |s| s.contact,
+        ),
+    ]
+}
+
+/// One tick of a run: the force, the tool centre, the contact plane the force came from.
+#[derive(Debug, Clone, Copy)]
+struct Tick {
+    force: Vec3,
+    centre: Vec3,
+    plane: Option<(Vec3, Vec3)>,
+}
+
+/// Replays `sc` in-process for [`TICKS`] ticks, checking the mesh and the hierarchy with the
+/// core's `validate()` after every tick when `validate_each`.
+fn replay(sc: &Scenario, validate_each: bool) -> (Vec<Tick>, Saturations) {
+    let params = TickParams::of(sc).expect("scenario");
+    let poses = PoseSource::for_scenario(sc).expect("poses");
+    let loaded = engine::load_mesh(sc).expect("mesh");
+    let mut store = EngineStorage::try_allocate(loaded.mesh, sc).expect("storage");
+    let mut world = store.world().expect("world");
+    let mut tool = ToolState::default();
+    let mut out = Vec::with_capacity(TICKS as usize);
+    for i in 0..TICKS {
+        let pose = poses.at(i);
+        let (f, _) = engine::tick(&mut world, &mut tool, &params, &pose);
+        if validate_each {
+            if let Err(e) = world.mesh().validate() {
+                panic!("tick {i}: mesh invalid: {e}");
+            }
+            if let Err(e) = world.hierarchy().validate(world.mesh()) {
+                panic!("tick {i}: hierarchy invalid: {e}");
+            }
+        }
+        let c = world.contact();
+        out.push(Tick {
+            force: f,
+            centre: pose.position,
+            plane: c.valid.then_some((c.point, c.normal)),
+        });
+    }
+    (out, world.saturations())
+}
+
+/// `|F_i - F_{i-1}|` allowed while the contact plane stays (see the module docs), with 1 mN
+/// for rounding.
+fn smooth_bound(ticks: &[Tick], i: usize, k: f32, b: f32, dt: f32) -> f32 {
+    let d = |j: usize| {
+        if j == 0 {
+            0.0
+        } else {
+            ticks[j].centre.distance(ticks[j - 1].centre)
+        }
+    };
+    k * d(i) + b * (d(i) + d(i - 1)) / dt + 1e-3
+}
+
+/// Ticks whose force changed by more than [`smooth_bound`], split by whether the plane was
+/// the same as the tick before: `(same plane, plane changed)`.
+fn jumps(ticks: &[Tick], sc: &Scenario) -> (Vec<usize>, usize) {
+    let (k, b, dt) = (sc.stiffness as f32, sc.damping as f32, 1e-3);
+    let (mut same, mut changed) = (Vec::new(), 0);
+    for i in 1..ticks.len() {
+        if ticks[i].force.distance(ticks[i - 1].force) <= smooth_bound(ticks, i, k, b, dt) {
+            continue;
+        }
+        if ticks[i].plane == ticks[i - 1].plane {
+            same.push(i);
+        } else {
+            changed += 1;
+        }
+    }
+    (same, changed)
+}
+
+/// The reference run (no saturation): its ticks and its count of force jumps where the plane
+/// changed.
+fn reference() -> (Vec<Tick>, usize) {
+    let sc = base();
+    let (ticks, sat) = replay(&sc, false);
+    assert_eq!(sat, Saturations::default(), "the reference run saturates");
+    assert!(
+        ticks.iter().any(|t| t.force != Vec3::ZERO),
+        "the reference run touches"
+    );
+    let (same, changed) = jumps(&ticks, &sc);
+    assert!(
+        same.is_empty(),
+        "reference: jumps on an unchanged plane at {same:?}"
+    );
+    (ticks, changed)
+}
+
+/// The world case `name`, replayed (with `validate()` after every tick when `validate_each`):
+/// the kind is counted, forces are finite and within the clamp, and they never jump while the
+/// contact plane stays. Returns the count of jumps where the plane changed.
+fn saturated_run(name: &str, validate_each: bool) -> usize {
+    let (_, sc, kind) = world_cases()
+        .into_iter()
+        .find(|c| c.0 == name)
+        .expect("a case");
+    let (ticks, sat) = replay(&sc, validate_each);
+    assert!(kind(&sat) > 0, "{name}: not counted: {sat:?}");
+    for (i, t) in ticks.iter().enumerate() {
+        assert!(
+            t.force.is_finite() && t.force.length() <= sc.max_force as f32 * (1.0 + 1e-6),
+            "{name}: tick {i}: force {:?}",
+            t.force
+        );
+    }
+    assert!(
+        ticks.iter().any(|t| t.force != Vec3::ZERO),
+        "{name}: no contact"
+    );
+    let (same, changed) = jumps(&ticks, &sc);
+    assert!(
+        same.is_empty(),
+        "{name}: force jumps on an unchanged contact plane at ticks {same:?}"
+    );
+    changed
+}
+
+/// No more plane-change jumps than the reference, with 10% slack (see the module docs). The
+/// runs are not validated tick by tick here: the test above does that.
+fn no_more_jumps(names: &[&str]) {
+    let (_, changed0) = reference();
+    for name in names {
+        let changed = saturated_run(name, false);
+        assert!(
+            changed * 10 <= changed0 * 11,
+            "{name}: {changed} force jumps where the unsaturated run has {changed0}"
+        );
+    }
+}
+
+#[test]
+fn every_small_world_capacity_saturates_validly_with_clamped_forces() {
+    for (name, ..) in world_cases() {
+        saturated_run(name, true);
+    }
+}
+
+#[test]
+fn hash_candidate_and_search_saturations_add_no_force_jumps() {
+    no_more_jumps(&[
+        "hash_capacity",
+        "candidate_capacity",
+        "contact_search_nodes",
+    ]);
+}
+
+/// Fails today (3500 ticks of the demo path on block:4, depth 4): force changes over 8 N in
+/// one tick, 120 in the reference run, 461 with the arena full (the same with the v_list
+/// limiting it), 372 with the pending deque full; full reversals (16 N) only when saturated.
+/// A full arena erases whole coarse leaves by the centroid rule and a full deque drops
+/// erosion work, so islands of material come and go under the burr and the single contact
+/// plane flips between their faces. Core work (servo contact / drill), see docs/SAFETY.md.
+#[test]
+#[ignore = "known: arena and pending saturation make the burr force jump (docs/SAFETY.md)"]
+fn arena_and_pending_saturations_add_no_force_jumps() {
+    no_more_jumps(&["hierarchy_capacity", "vlist_capacity", "pending_capacity"]);
+}
+
+/// Fails today: the unsaturated demo replay (`builtin:demo` on `builtin:block:8`, depth 5)
+/// reverses the burr force from one tick to the next 44 times (about 8 N out of the material
+/// to 8 N into it and back, while eroding: the contact plane of one tick comes from a face of
+/// a not-yet-erased leaf inside the burr). Core work, see docs/SAFETY.md.
+#[test]
+#[ignore = "known: the drilling burr's force reverses for single ticks (docs/SAFETY.md)"]
+fn unsaturated_drilling_never_reverses_the_force() {
+    let sc = Scenario::default();
+    let params = TickParams::of(&sc).expect("scenario");
+    let poses = PoseSource::for_scenario(&sc).expect("poses");
+    let loaded = engine::load_mesh(&sc).expect("mesh");
+    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let mut world = store.world().expect("world");
+    let mut tool = ToolState::default();
+    let mut last = Vec3::ZERO;
+    let mut reversals = Vec::new();
+    for i in 0..poses.ticks() {
+        let (f, _) = engine::tick(&mut world, &mut tool, &params, &poses.at(i));
+        // Opposite directions, both over 1 N.
+        if f.dot(last) < 0.0 && f.length() > 1.0 && last.length() > 1.0 {
+            reversals.push(i);
+        }
+        last = f;
+    }
+    assert!(
+        reversals.is_empty(),
+        "force reversed at ticks {reversals:?}"
+    );
+}
+
+/// The pen mesh (metres) x10 against the unit block, tip pushed straight down through the top
+/// face (z = 0.5) to z = 0.3 over 2000 ticks, then held.
+fn pen_rig() -> PenRig {
+    let load = |p: &Path, s: f64| tetradrill::meshio::load(p, s).expect("mesh").mesh;
+    PenRig {
+        pen: load(&mesh("models/pen_tool_gmsh.mesh"), 10.0),
+        obj: load(Path::new("builtin:block:8"), 1.0),
+    }
+}
+
+fn pen_tip(i: u64) -> Vec3 {
+    Vec3::new(0.013, -0.007, 0.7 - 0.4 * (i.min(2000) as f32 / 2000.0))
+}
+
+const PEN_TICKS: u64 = 2500;
+
+/// What a pen run saw: forces, ticks with a full collision list, ticks with a full queue.
+fn pen_run(sizes: PenSizes) -> (Vec<Vec3>, u32, u32) {
+    let mut rig = pen_rig();
+    let opts = PenOptions {
+        params: ForceParams {
+            stiffness: 200.0,
+            damping: 0.5,
+            max_force: 8.0,
+            dt: 1e-3,
+        },
+        ..PenOptions::default()
+    };
+    let (r, _) = rig
+        .with_sizes(sizes, |scene, bufs| {
+            let mut state = PenState::default();
+            let (mut forces, mut full, mut queue) = (Vec::new(), 0, 0);
+            for i in 0..PEN_TICKS {
+                let c = pen_contact(scene, bufs, pen_tip(i), Quat::IDENTITY, &opts, &mut state);
+                let (p, o) = (&c.pen_depth, &c.object_depth);
+                full += (c.pen_collisions.saturated
+                    || c.object_collisions.saturated
+                    || p.out_full
+                    || o.out_full) as u32;
+                queue += (p.queue_full || o.queue_full) as u32;
+                // What was written is well formed: finite depths, unit (or zero) directions,
+                // at most what the buffers hold.
+                assert!(c.penetrations.0 <= bufs.pen_pens.len());
+                assert!(c.penetrations.1 <= bufs.object_pens.len());
+                let pens = bufs.pen_pens[..c.penetrations.0]
+                    .iter()
+                    .chain(&bufs.object_pens[..c.penetrations.1]);
+                for q in pens {
+                    let l = q.dir.length();
+                    assert!(q.depth.is_finite() && (l == 0.0 || (l - 1.0).abs() < 1e-4));
+                }
+                forces.push(c.force);
+            }
+            (forces, full, queue)
+        })
+        .expect("pen rig");
+    r
+}
+
+/// The largest per-tick force change of a pen run.
+fn largest_change(f: &[Vec3]) -> f32 {
+    (1..f.len())
+        .map(|i| f[i].distance(f[i - 1]))
+        .fold(0.0, f32::max)
+}
+
+/// The pen with `sizes`: the buffer is counted full, forces stay finite and clamped; returns
+/// the largest per-tick force change.
+fn pen_saturated(name: &str, sizes: PenSizes, contacts: bool) -> f32 {
+    let (f, full, queue) = pen_run(sizes);
+    let counted = if contacts { full } else { queue };
+    assert!(counted > 0, "{name}: not counted");
+    assert!(
+        f.iter()
+            .all(|f| f.is_finite() && f.length() <= 8.0 * (1.0 + 1e-6)),
+        "{name}: force out of bounds"
+    );
+    assert!(f.iter().any(|f| f.length() > 0.1), "{name}: no force");
+    largest_change(&f)
+}
+
+fn contacts(n: usize) -> PenSizes {
+    PenSizes {
+        contacts: Some(n),
+        ..PenSizes::default()
+    }
+}
+
+fn queue(n: usize) -> PenSizes {
+    PenSizes {
+        queue: Some(n),
+        ..PenSizes::default()
+    }
+}
+
+/// The unsaturated pen run: never saturates, touches, and its largest per-tick change (the
+/// tip moves 0.2 mm a tick) is small: 0.12 N today.
+fn pen_reference() -> f32 {
+    let (f, full, queue) = pen_run(PenSizes::default());
+    assert_eq!((full, queue), (0, 0), "the reference pen run saturates");
+    assert!(f.iter().any(|f| f.length() > 0.1), "the pen touches");
+    largest_change(&f)
+}
+
+/// A pen run is as smooth as the reference when its largest per-tick change stays under
+/// 1 N (an eighth of the clamp) and under 4 times the reference's.
+fn smooth_like(name: &str, j: f32, j0: f32) {
+    assert!(
+        j <= 1.0 && j <= 4.0 * j0.max(0.05),
+        "{name}: force changes by {j:.2} N in one tick; the unsaturated run by {j0:.2} N"
+    );
+}
+
+#[test]
+fn pen_buffers_saturate_with_finite_clamped_forces() {
+    for (name, sizes, c) in [
+        ("contacts 4", contacts(4), true),
+        ("contacts 32", contacts(32), true),
+        ("queue 2", queue(2), false),
+        ("queue 16", queue(16), false),
+    ] {
+        pen_saturated(name, sizes, c);
+    }
+    // The object is never changed by a pen: its mesh stays valid.
+    let mut rig = pen_rig();
+    rig.obj.view().validate().expect("object mesh valid");
+}
+
+#[test]
+fn a_pen_contact_list_short_of_a_few_nodes_keeps_forces_smooth() {
+    let j0 = pen_reference();
+    let j = pen_saturated("contacts 32", contacts(32), true);
+    smooth_like("contacts 32", j, j0);
+}
+
+/// Fails today: a contact list of 4 keeps the 4 pen nodes with the smallest ids, so the set
+/// changes abruptly as the pen goes in (7.6 N in one tick); a queue of 2 or 16 leaves the
+/// nodes past it without a depth (5.3 N and 1.95 N in one tick). Core work (depth and
+/// collision buffers), see docs/SAFETY.md.
+#[test]
+#[ignore = "known: tiny pen buffers make the pen force jump (docs/SAFETY.md)"]
+fn tiny_pen_buffers_keep_forces_smooth() {
+    let j0 = pen_reference();
+    for (name, sizes, c) in [
+        ("contacts 4", contacts(4), true),
+        ("queue 2", queue(2), false),
+        ("queue 16", queue(16), false),
+    ] {
+        let j = pen_saturated(name, sizes, c);
+        smooth_like(name, j, j0);
+    }
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).expect("read JSON")).expect("parse JSON")
+}
+
+/// Runs the binary; asserts exit 0; returns the JSON summary.
+fn replay_json(dir: &Path, name: &str, args: &[&str]) -> serde_json::Value {
+    let out_path = dir.join(format!("{name}.json"));
+    let mut all = vec!["replay", "--quiet", "--json", out_path.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let out = Command::new(tetradrill_bin())
+        .args(&all)
+        .output()
+        .expect("run tetradrill");
+    assert!(
+        out.status.success(),
+        "{all:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    json(&out_path)
+}
+
+fn check_summary(name: &str, j: &serde_json::Value, kind: &str) {
+    let n = j["saturations"][kind].as_u64().expect("a count");
+    assert!(
+        n > 0,
+        "{name}: saturations.{kind} is 0: {}",
+        j["saturations"]
+    );
+    assert_eq!(
+        j["saturations"]["total"].as_u64(),
+        Some(
+            [
+                "hash",
+                "candidates",
+                "arena",
+                "pending",
+                "contact_search",
+                "contacts",
+                "queue"
+            ]
+            .iter()
+            .map(|k| j["saturations"][k].as_u64().expect("kind"))
+            .sum()
+        ),
+        "{name}: total is the sum of the kinds"
+    );
+    assert_eq!(j["valid"], true, "{name}");
+    let f = j["force"]["max_n"].as_f64().expect("max force");
+    assert!(f.is_finite() && f <= 8.0 + 1e-6, "{name}: {f}");
+}
+
+#[test]
+fn each_capacity_flag_and_scenario_key_saturates_and_exits_0() {
+    let dir = scratch_dir("capacity", "flags");
+    let common = [
+        "--mesh",
+        "builtin:block:4",
+        "--max-depth",
+        "4",
+        "--ticks",
+        "3500",
+    ];
+    let cases = [
+        ("--hierarchy-capacity", "64", "arena"),
+        ("--hash-capacity", "1500", "hash"),
+        ("--candidate-capacity", "4", "candidates"),
+        ("--vlist-capacity", "391", "arena"),
+        ("--pending-capacity", "16", "pending"),
+        ("--contact-search-nodes", "16", "contact_search"),
+    ];
+    for (flag, value, kind) in cases {
+        let mut args = common.to_vec();
+        args.extend([flag, value]);
+        let j = replay_json(&dir, &flag[2..], &args);
+        check_summary(flag, &j, kind);
+        // The same capacity from a scenario file.
+        let key = flag[2..].replace('-', "_");
+        let toml = dir.join(format!("{key}.toml"));
+        std::fs::write(
+            &toml,
+            format!("mesh = \"builtin:block:4\"\nmax_depth = 4\n{key} = {value}\n"),
+        )
+        .expect("write scenario");
+        let j = replay_json(
+            &dir,
+            &key,
+            &["--scenario", toml.to_str().unwrap(), "--ticks", "3500"],
+        );
+        check_summary(&key, &j, kind);
+    }
+    // The pen's buffers, on a trace pushing the pen into the block.
+    let trace = plunge_trace(&dir);
+    let pen = mesh("models/pen_tool_gmsh.mesh");
+    let tool = format!("mesh:{}", pen.display());
+    for (flag, value, kind) in [
+        ("--contact-capacity", "4", "contacts"),
+        ("--queue-capacity", "2", "queue"),
+        ("--hash-capacity", "2000", "hash"),
+    ] {
+        let j = replay_json(
+            &dir,
+            &format!("pen{}", &flag[1..]),
+            &[
+                "--mesh",
+                "builtin:block:8",
+                "--tool",
+                &tool,
+                "--tool-scale",
+                "10",
+                "--trace",
+                trace.to_str().unwrap(),
+                flag,
+                value,
+            ],
+        );
+        check_summary(flag, &j, kind);
+    }
+}
+
+/// [`pen_tip`] as a trace file.
+fn plunge_trace(dir: &Path) -> PathBuf {
+    let mut text = String::from("t,x,y,z,qw,qx,qy,qz,buttons\n");
+    for i in (0..PEN_TICKS).step_by(10) {
+        let p = pen_tip(i);
+        text.push_str(&format!(
+            "{:.3},{},{},{},1,0,0,0,0\n",
+            i as f64 / 1000.0,
+            p.x,
+            p.y,
+            p.z
+        ));
+    }
+    let p = dir.join("plunge.csv");
+    std::fs::write(&p, text).expect("write trace");
+    p
+}
+
+/// Asserts exit status 2 and a first stderr line holding every needle.
+fn refused(args: &[&str], needles: &[&str]) {
+    let out = Command::new(tetradrill_bin())
+        .args(args)
+        .output()
+        .expect("run tetradrill");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    let first = err.lines().next().unwrap_or("");
+    for n in needles {
+        assert!(first.contains(n), "{args:?}: {first:?} lacks {n:?}");
+    }
+}
+
+#[test]
+fn zero_and_absurd_capacities_exit_2_naming_the_flag_or_the_line() {
+    for flag in [
+        "--hierarchy-capacity",
+        "--hash-capacity",
+        "--candidate-capacity",
+        "--vlist-capacity",
+        "--pending-capacity",
+        "--contact-search-nodes",
+        "--contact-capacity",
+        "--queue-capacity",
+    ] {
+        refused(&["replay", flag, "0"], &[flag]);
+        refused(&["replay", flag, "-3"], &[flag]);
+        refused(&["replay", flag, "lots"], &[flag]);
+        if flag != "--contact-search-nodes" {
+            // More than 1 GiB for one buffer.
+            refused(&["replay", flag, "99999999999"], &[flag, "1024 MiB"]);
+        }
+    }
+    refused(
+        &["replay", "--hierarchy-capacity", "7"],
+        &["--hierarchy-capacity"],
+    );
+    // Below what the mesh needs: one v_list entry per coarse tet (block:8 has 3072).
+    refused(
+        &["replay", "--vlist-capacity", "100"],
+        &["--vlist-capacity", "3072"],
+    );
+    let dir = scratch_dir("capacity", "scenarios");
+    let p = dir.join("zero.toml");
+    std::fs::write(&p, "mesh = \"builtin:cube12\"\n\npending_capacity = 0\n").expect("write");
+    refused(
+        &["replay", "--scenario", p.to_str().unwrap()],
+        &["zero.toml:3:", "pending_capacity"],
+    );
+    let p = dir.join("huge.toml");
+    std::fs::write(&p, "queue_capacity = 4000000000\n").expect("write");
+    refused(
+        &["replay", "--scenario", p.to_str().unwrap()],
+        &["huge.toml:1:", "queue_capacity"],
+    );
+}
