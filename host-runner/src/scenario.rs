@@ -296,11 +296,16 @@ pub fn builtin(name: &str) -> Option<Scenario> {
     match name {
         "demo" => Some(Scenario::default()),
         // Small enough for the Cortex-M4 firmware's static storage; same path as the demo.
+        // The firmware's numbers (ports/mps2-an386/src/main.rs and storage.rs): a budget and a
+        // contact-search bound sized for a tick of a few hundred thousand instructions on a
+        // Cortex-M4 (docs/PORTING.md), a pending deque that never fills on this path.
         "firmware" => Some(Scenario {
             mesh: "builtin:block:4".into(),
             max_depth: 4,
             hierarchy_capacity: 20_000,
-            budget_per_tick: 600,
+            budget_per_tick: 150,
+            contact_search_nodes: 128,
+            pending_capacity: 16_384,
             ..Scenario::default()
         }),
         _ => None,

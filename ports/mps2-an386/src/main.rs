@@ -60,9 +60,9 @@ mod scenario {
     /// Smallest face area refined.
     pub const MIN_AREA: f32 = 0.0_f64 as f32;
     /// Drill work units per tick.
-    pub const BUDGET: u32 = 600;
+    pub const BUDGET: u32 = 150;
     /// Hierarchy nodes one contact search may test (`contact_search_nodes`).
-    pub const CONTACT_NODES: u32 = 4096;
+    pub const CONTACT_NODES: u32 = 128;
 }
 
 #[entry]

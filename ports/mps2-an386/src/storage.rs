@@ -1,7 +1,8 @@
 //! Every slice the core borrows, in statics, sized by the core's own `WorldSizes` so the
 //! firmware's world has the capacities of the host's (`EngineStorage::allocate`), except the
-//! drill's pending deque: [`PENDING_ITEMS`] entries instead of the host's 32,768. The scenario's
-//! deque peaks under 2,000 items and never fills, so the results are the same bits.
+//! drill's pending deque: [`PENDING_ITEMS`] entries instead of the host's 32,768, as the host's
+//! `builtin:firmware` sets too (`pending_capacity`). At the scenario's budget of 150 units the
+//! deque peaks at 9,358 items and never fills; the results are the same bits either way.
 //!
 //! Each array is a `static_cell::ConstStaticCell`: const-initialised, handed out once as
 //! `&'static mut` with no `unsafe` here. Arrays whose const initial value is all zero bytes
@@ -25,8 +26,9 @@ use crate::{ARENA, BLOCK_N};
 pub const NODES: usize = block_counts(BLOCK_N).0;
 /// Tets of the block.
 pub const TETS: usize = block_counts(BLOCK_N).1;
-/// Entries of the drill's pending deque (60 bytes each): twice the scenario's peak.
-pub const PENDING_ITEMS: usize = 4096;
+/// Entries of the drill's pending deque (60 bytes each, 983 KB): above the scenario's peak
+/// of 9,358.
+pub const PENDING_ITEMS: usize = 16_384;
 /// The world's storage sizes, as the host computes them, with a [`PENDING_ITEMS`]-entry deque.
 pub const SIZES: WorldSizes = WorldSizes::new(TETS, ARENA).with_pending(PENDING_ITEMS);
 
