@@ -258,9 +258,9 @@ fn arena_and_pending_saturations_add_no_force_jumps() {
 }
 
 /// Fails today: the unsaturated demo replay (`builtin:demo` on `builtin:block:8`, depth 5)
-/// reverses the burr force from one tick to the next 44 times (about 8 N out of the material
-/// to 8 N into it and back, while eroding: the contact plane of one tick comes from a face of
-/// a not-yet-erased leaf inside the burr). Core work, see docs/SAFETY.md.
+/// reverses the burr force 11 times (was 44 before the cutting burr skipped the far sides of
+/// slivers it is eroding): the burr in its own cavity, equally close to two opposite walls,
+/// takes one wall's plane one tick and the other's the next. Core work, see docs/SAFETY.md.
 #[test]
 #[ignore = "known: the drilling burr's force reverses for single ticks (docs/SAFETY.md)"]
 fn unsaturated_drilling_never_reverses_the_force() {

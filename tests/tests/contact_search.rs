@@ -110,8 +110,34 @@ fn exhaustive(
     c: Vec3,
     reach: f32,
 ) -> Option<(f32, FaceRef, [Vec3; 3])> {
+    exhaustive_uncut(h, mesh, cands, c, reach, None)
+}
+
+/// The rule of a cutting burr of radius `cut`, written out here: a triangle is skipped when
+/// its three corners are within `cut` of `c`, or when `c` is behind its outward plane at its
+/// closest point.
+fn skipped(corners: [Vec3; 3], c: Vec3, cut: Option<f32>) -> bool {
+    let Some(r) = cut else { return false };
+    let all_in = corners.iter().all(|q| (*q - c).length() <= r);
+    let x = closest_point_on_triangle(c, corners);
+    let n = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
+    all_in || (c - x).dot(n) < 0.0
+}
+
+/// [`exhaustive`] for a burr cutting with radius `cut`.
+fn exhaustive_uncut(
+    h: &Hierarchy<'_>,
+    mesh: &Mesh<'_>,
+    cands: &[TetId],
+    c: Vec3,
+    reach: f32,
+    cut: Option<f32>,
+) -> Option<(f32, FaceRef, [Vec3; 3])> {
     let mut best: Option<(f32, FaceRef, [Vec3; 3])> = None;
     h.for_each_visible_in(mesh, cands, Some((c, reach)), |vt| {
+        if skipped(vt.corners, c, cut) {
+            return;
+        }
         let d2 = (c - closest_point_on_triangle(c, vt.corners)).length_squared();
         let within = d2 <= reach * reach; // false for NaN too
         if !within {
@@ -132,9 +158,21 @@ fn exhaustive(
 /// An oracle sharing no walk with the hierarchy's: the v_list's triangles of the candidate
 /// trees, closest within reach. Returns the squared distance.
 fn from_vlist(h: &Hierarchy<'_>, mesh: &Mesh<'_>, cands: &[TetId], c: Vec3, reach: f32) -> f32 {
+    from_vlist_uncut(h, mesh, cands, c, reach, None)
+}
+
+/// [`from_vlist`] for a burr cutting with radius `cut`.
+fn from_vlist_uncut(
+    h: &Hierarchy<'_>,
+    mesh: &Mesh<'_>,
+    cands: &[TetId],
+    c: Vec3,
+    reach: f32,
+    cut: Option<f32>,
+) -> f32 {
     let mut best = f32::INFINITY;
     h.for_each_visible(mesh, |vt| {
-        if cands.binary_search(&vt.tet).is_err() {
+        if cands.binary_search(&vt.tet).is_err() || skipped(vt.corners, c, cut) {
             return;
         }
         let d2 = (c - closest_point_on_triangle(c, vt.corners)).length_squared();
@@ -146,12 +184,30 @@ fn from_vlist(h: &Hierarchy<'_>, mesh: &Mesh<'_>, cands: &[TetId], c: Vec3, reac
 }
 
 /// Checks the world's contact after a `simulate` at `c` against the exhaustive search.
-fn check_contact(world: &World<'_>, c: Vec3, radius: f32, reach: f32, rng: &mut StdRng) {
+/// `cutting`: the step ran with the drill on (the burr's cutting rule applies).
+fn check_contact(
+    world: &World<'_>,
+    c: Vec3,
+    radius: f32,
+    reach: f32,
+    cutting: bool,
+    rng: &mut StdRng,
+) {
     let (h, mesh) = (world.hierarchy(), world.mesh());
     let mut cands = world.candidates().to_vec();
     cands.sort_unstable();
-    let want = exhaustive(h, mesh, &cands, c, radius + reach);
+    let cut = cutting.then_some(radius);
+    let want = exhaustive_uncut(h, mesh, &cands, c, radius + reach, cut);
     let got = world.contact();
+    if cutting && got.valid {
+        // A cutting burr is never pushed through material: it is not behind its contact
+        // face, so the depth stays within the radius.
+        assert!(
+            got.depth <= radius * (1.0 + 1e-5),
+            "depth {} at {c}",
+            got.depth
+        );
+    }
     match want {
         None => assert!(!got.valid, "contact found where there is none at {c}"),
         Some((d2, _, tri)) => {
@@ -161,14 +217,14 @@ fn check_contact(world: &World<'_>, c: Vec3, radius: f32, reach: f32, rng: &mut 
             assert_eq!(got.normal.to_array(), sc.normal.to_array(), "normal at {c}");
             assert_eq!(got.depth.to_bits(), sc.depth.to_bits(), "depth at {c}");
             assert_eq!(
-                from_vlist(h, mesh, &cands, c, radius + reach),
+                from_vlist_uncut(h, mesh, &cands, c, radius + reach, cut),
                 d2,
                 "v_list at {c}"
             );
         }
     }
     // Hints (any visible face, or a stale one) never change the answer.
-    let plain = h.nearest_visible(mesh, &cands, c, radius + reach, None, u32::MAX);
+    let plain = h.nearest_uncut(mesh, &cands, c, radius + reach, cut, None, u32::MAX);
     assert!(plain.complete);
     assert_eq!(plain.d2, want.map_or(f32::INFINITY, |w| w.0));
     let key =
@@ -182,7 +238,7 @@ fn check_contact(world: &World<'_>, c: Vec3, radius: f32, reach: f32, rng: &mut 
             index: e.index,
             face: rng.gen_range(0..4),
         };
-        let hinted = h.nearest_visible(mesh, &cands, c, radius + reach, Some(hint), u32::MAX);
+        let hinted = h.nearest_uncut(mesh, &cands, c, radius + reach, cut, Some(hint), u32::MAX);
         assert_eq!(key(hinted.tri), key(plain.tri), "hint {hint:?} at {c}");
         assert_eq!(hinted.d2.to_bits(), plain.d2.to_bits());
     }
@@ -209,7 +265,7 @@ fn drill_and_probe(mesh: Mesh<'_>, starts: &[(Vec3, Vec3)], radius: f32, depth: 
         for step in 0..60 {
             let on = step < 45;
             let rep = world.simulate(c, radius, reach, on, &params);
-            check_contact(&world, c, radius, reach, &mut rng);
+            check_contact(&world, c, radius, reach, on, &mut rng);
             max_nodes = max_nodes.max(rep.contact_nodes);
             visited.push(c);
             c += dir * (radius * rng.gen_range(0.05..0.4f32));
@@ -236,7 +292,7 @@ fn drill_and_probe(mesh: Mesh<'_>, starts: &[(Vec3, Vec3)], radius: f32, depth: 
         ) * (2.0 * radius);
         let c = base + off;
         let rep = world.simulate(c, radius, reach, false, &params);
-        check_contact(&world, c, radius, reach, &mut rng);
+        check_contact(&world, c, radius, reach, false, &mut rng);
         max_nodes = max_nodes.max(rep.contact_nodes);
     }
     assert_eq!(world.saturations().contact, 0, "the node bound was reached");

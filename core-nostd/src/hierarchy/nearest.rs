@@ -103,6 +103,9 @@ struct Search {
     centre: Vec3,
     reach: f32,
     reach2: f32,
+    /// Squared radius of the cutting sphere (negative when none): a triangle with all three
+    /// corners within it is material being cut, not surface to push against.
+    cut2: f32,
     /// Rounding slack added to the pruning distance.
     slack: f32,
     /// Pruning distance: the best distance so far (or the hint's, or the reach).
@@ -134,7 +137,13 @@ impl Search {
             }
             self.triangles = self.triangles.wrapping_add(1);
             let corners = face_corners(p, face, node.inverted());
+            if is_cut(&corners, self.centre, self.cut2) {
+                continue;
+            }
             let x = closest_point_on_triangle(self.centre, corners);
+            if self.cut2 >= 0.0 && is_behind(&corners, self.centre, x) {
+                continue;
+            }
             let d2 = (self.centre - x).length_squared();
             if d2.is_nan() || d2 > self.reach2 {
                 continue;
@@ -233,22 +242,59 @@ impl Hierarchy<'_> {
         hint: Option<FaceRef>,
         max_nodes: u32,
     ) -> Nearest {
+        self.nearest_uncut(mesh, tets, centre, reach, None, hint, max_nodes)
+    }
+
+    /// [`Hierarchy::nearest_visible`] for a burr that is cutting (`cut` = its radius): a
+    /// triangle is skipped when all three corners lie within `cut` of `centre` (it bounds
+    /// material the drill is removing under the burr) or when `centre` lies behind it (on
+    /// the material side of its plane at its closest point: the far side of a sliver of
+    /// not-yet-eroded material, which would push the burr through the sliver, the wrong way;
+    /// the sliver's near side still pushes it back). `None` is
+    /// [`Hierarchy::nearest_visible`]. Same answer as the exhaustive search with the same
+    /// rule, bit for bit, when `complete`.
+    ///
+    /// # Bounded work
+    /// As [`Hierarchy::nearest_visible`], plus 3 distances per triangle tested.
+    #[allow(clippy::too_many_arguments)]
+    pub fn nearest_uncut(
+        &self,
+        mesh: &Mesh<'_>,
+        tets: &[TetId],
+        centre: Vec3,
+        reach: f32,
+        cut: Option<f32>,
+        hint: Option<FaceRef>,
+        max_nodes: u32,
+    ) -> Nearest {
         if !(centre.is_finite() && reach.is_finite() && reach >= 0.0) {
             return Nearest::default();
         }
         let reach2 = reach * reach;
+        let cut2 = cut
+            .filter(|r| r.is_finite() && *r >= 0.0)
+            .map_or(-1.0, |r| r * r);
         let hint_tri = hint
             .and_then(|k| self.visible_face_distance2(mesh, k, centre))
-            .filter(|(d2, _)| *d2 <= reach2);
+            .filter(|(d2, vt)| {
+                *d2 <= reach2
+                    && !(cut2 >= 0.0
+                        && (is_cut(&vt.corners, centre, cut2)
+                            || is_behind(
+                                &vt.corners,
+                                centre,
+                                closest_point_on_triangle(centre, vt.corners),
+                            )))
+            });
         let hinted = hint_tri.map(|(d2, _)| d2);
-        let mut s = self.nearest_walk(mesh, tets, centre, reach, hinted, max_nodes);
+        let mut s = self.nearest_walk(mesh, tets, centre, reach, cut2, hinted, max_nodes);
         if let Some(h) = hinted {
             // Pruning at the hint's distance is exact iff the walk met a triangle at most as
             // far (then the true closest one is no farther than that triangle).
             let ok = s.best.is_some_and(|(d2, _, _)| d2 <= h);
             if !ok && !s.stopped {
                 let left = max_nodes.saturating_sub(s.nodes);
-                let again = self.nearest_walk(mesh, tets, centre, reach, None, left);
+                let again = self.nearest_walk(mesh, tets, centre, reach, cut2, None, left);
                 let (nodes, triangles) = (s.nodes + again.nodes, s.triangles + again.triangles);
                 s = again;
                 s.nodes = nodes;
@@ -277,12 +323,14 @@ impl Hierarchy<'_> {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn nearest_walk(
         &self,
         mesh: &Mesh<'_>,
         tets: &[TetId],
         centre: Vec3,
         reach: f32,
+        cut2: f32,
         hint_d2: Option<f32>,
         max_nodes: u32,
     ) -> Search {
@@ -291,6 +339,7 @@ impl Hierarchy<'_> {
             centre,
             reach,
             reach2: reach * reach,
+            cut2,
             slack: scale * 1.0e-5 + 1.0e-30,
             bound: hint_d2.map_or(reach, libm::sqrtf).min(reach),
             best: None,
@@ -424,4 +473,20 @@ impl Hierarchy<'_> {
             rad,
         })
     }
+}
+
+/// `true` when `centre` lies behind the outward (counter-clockwise) triangle `corners`, seen
+/// from its closest point `x`: the rule [`super::super::force::sphere_contact`] uses for
+/// "inside".
+#[inline]
+fn is_behind(corners: &[Vec3; 3], centre: Vec3, x: Vec3) -> bool {
+    let n = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
+    (centre - x).dot(n) < 0.0
+}
+
+/// `true` when all three corners lie within the cutting sphere (`cut2` its squared radius,
+/// negative for none).
+#[inline]
+fn is_cut(corners: &[Vec3; 3], centre: Vec3, cut2: f32) -> bool {
+    cut2 >= 0.0 && corners.iter().all(|q| q.distance_squared(centre) <= cut2)
 }

@@ -361,6 +361,8 @@ impl<'a> World<'a> {
         } else {
             0.0
         };
+        // The burr cuts while the drill is on, whether or not this step queues new work.
+        let cutting = !spheres.is_empty();
         // Only positions far enough from the last one queued (or held long enough) become new
         // drill work; the rest is covered by the spheres already queued.
         let mut kept = [Sphere::default(); MAX_STEP_SPHERES];
@@ -447,24 +449,35 @@ impl<'a> World<'a> {
                 params,
             );
         }
-        self.update_contact(centre, radius, radius + reach, &mut rep);
+        self.update_contact(centre, radius, radius + reach, cutting, &mut rep);
         rep
     }
 
     /// The closest visible triangle of the candidate trees within `reach` of `centre`, turned
-    /// into a contact plane by [`sphere_contact`], through [`Hierarchy::nearest_visible`]
-    /// hinted with the last step's triangle. Ties go to the smallest (tet, index, face), so
+    /// into a contact plane by [`sphere_contact`], through [`Hierarchy::nearest_uncut`]
+    /// hinted with the last step's triangle; while the burr is `cutting` (drill on this
+    /// step), triangles entirely inside it are material being removed and are skipped, so
+    /// the burr is never pushed through a sliver it is eroding. Ties go to the smallest
+    /// (tet, index, face), so
     /// the result never depends on visiting order, and it is the triangle the exhaustive
     /// search over [`Hierarchy::for_each_visible_in`] finds. When the search reaches
     /// `contact_max_nodes` the answer is the closer of the hint and the triangles met (or the
     /// previous plane when there is neither), and it is counted.
-    fn update_contact(&mut self, centre: Vec3, radius: f32, reach: f32, rep: &mut SimReport) {
+    fn update_contact(
+        &mut self,
+        centre: Vec3,
+        radius: f32,
+        reach: f32,
+        cutting: bool,
+        rep: &mut SimReport,
+    ) {
         let cands = &self.candidates[..self.ncand];
-        let near = self.hier.nearest_visible(
+        let near = self.hier.nearest_uncut(
             &self.mesh,
             cands,
             centre,
             reach,
+            cutting.then_some(radius),
             self.contact_face,
             self.contact_max_nodes,
         );
