@@ -672,6 +672,8 @@ fn impossible_values_exit_2_naming_the_flag_or_the_file_and_line() {
         refused(&["replay", flag, value], &[flag]);
     }
     refused(&["run", "--duration", "-1"], &["--duration"]);
+    refused(&["demo", "--headless", "--duration", "-1"], &["--duration"]);
+    refused(&["timing", "--duration", "-2"], &["--duration"]);
     for tool in ["sphere:0", "sphere:nan", "sphere:-0.1", "sphere:inf"] {
         refused(&["replay", "--tool", tool], &["radius"]);
     }

@@ -20,7 +20,7 @@ pub struct DemoArgs {
     #[arg(long)]
     pub headless: bool,
     /// Seconds to run (default: the scripted path, 6 s).
-    #[arg(long, value_parser = crate::cli::positive_seconds)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::cli::positive_seconds)]
     pub duration: Option<f64>,
     /// Write the summary as JSON.
     #[arg(long)]

@@ -18,7 +18,12 @@ use crate::workload::{with_work, Work};
 #[derive(Debug, clap::Args)]
 pub struct TimingArgs {
     /// Seconds to measure.
-    #[arg(long, default_value_t = 10.0, value_parser = crate::cli::positive_seconds)]
+    #[arg(
+        long,
+        default_value_t = 10.0,
+        allow_negative_numbers = true,
+        value_parser = crate::cli::positive_seconds
+    )]
     pub duration: f64,
     /// Write the results as JSON.
     #[arg(long)]
