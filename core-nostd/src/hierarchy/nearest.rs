@@ -126,6 +126,17 @@ impl Search {
         d2 <= lim * lim
     }
 
+    /// `true` when a bounding sphere lies inside the cutting sphere with room to spare: every
+    /// triangle below has all three corners inside it, so the cutting rule skips them all.
+    #[inline]
+    fn all_cut(&self, d2: f32, rad: f32) -> bool {
+        if self.cut2 < 0.0 {
+            return false;
+        }
+        let lim = libm::sqrtf(self.cut2) - rad - self.slack;
+        lim > 0.0 && d2 < lim * lim
+    }
+
     /// Tests the visible faces of leaf `(t, index)` with corners `p`. A face that would become
     /// the best is taken only when the leaf passes the reach test of the exhaustive walk
     /// (checked once, lazily: it almost always passes, and most faces never need it).
@@ -410,7 +421,8 @@ impl Hierarchy<'_> {
                         }
                         s.nodes += 1;
                         let (mid, rad) = bounding_sphere(p);
-                        if s.may_hold_better(mid.distance_squared(s.centre), rad) {
+                        let d2 = mid.distance_squared(s.centre);
+                        if s.may_hold_better(d2, rad) && !s.all_cut(d2, rad) {
                             s.offer_leaf(t, index, child, p);
                         }
                         continue;
@@ -461,7 +473,7 @@ impl Hierarchy<'_> {
         let (mid, rad) = bounding_sphere(p);
         let d2 = mid.distance_squared(s.centre);
         let lim = rad + s.reach;
-        if d2 > lim * lim || !s.may_hold_better(d2, rad) {
+        if d2 > lim * lim || !s.may_hold_better(d2, rad) || s.all_cut(d2, rad) {
             return None;
         }
         Some(Entry {
