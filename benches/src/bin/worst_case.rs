@@ -14,7 +14,7 @@
 //!   the teddy's surface at max depth 5 with the smallest budget the scenario accepts (1), the
 //!   default (4000: the target row) and the largest (`u32::MAX`, no budget).
 //!
-//! Run (release, the full 100,000 ticks each; about 20 minutes on the 2-core VM):
+//! Run (release, the full 100,000 ticks each; 7 minutes on the quiet 2-core VM, more under load):
 //! `TETRADRILL_MESHES=/work/shared/meshes cargo run --release -p tetradrill-benches --bin worst_case`
 //! Flags: `--ticks N` (default 100000), `--only NAME`, `--pen-scale S` (default 10).
 
