@@ -245,16 +245,23 @@ fn hash_candidate_and_search_saturations_add_no_force_jumps() {
     ]);
 }
 
-/// Fails today (3500 ticks of the demo path on block:4, depth 4): force changes over 8 N in
-/// one tick, 120 in the reference run, 461 with the arena full (the same with the v_list
-/// limiting it), 372 with the pending deque full; full reversals (16 N) only when saturated.
-/// A full arena erases whole coarse leaves by the centroid rule and a full deque drops
-/// erosion work, so islands of material come and go under the burr and the single contact
-/// plane flips between their faces. Core work (servo contact / drill), see docs/SAFETY.md.
+/// A full arena (or a v_list that limits it) refuses refinements; the crossing leaf then stays
+/// whole (it used to be erased by its centroid, moving the surface past the burr in one tick:
+/// 461 force changes over 8 N against 120 unsaturated, with full 16 N reversals).
 #[test]
-#[ignore = "known: arena and pending saturation make the burr force jump (docs/SAFETY.md)"]
-fn arena_and_pending_saturations_add_no_force_jumps() {
-    no_more_jumps(&["hierarchy_capacity", "vlist_capacity", "pending_capacity"]);
+fn arena_saturation_adds_no_force_jumps() {
+    no_more_jumps(&["hierarchy_capacity", "vlist_capacity"]);
+}
+
+/// Fails today (3500 ticks of the demo path on block:4, depth 4): with the pending deque full
+/// the drill drops erosion work and retries it once the backlog is done, so islands of
+/// material come and go under the burr and the single contact plane flips between their
+/// faces: 440 force changes over 8 N against 389 unsaturated (the test allows 10 % more).
+/// Core work (drill), see docs/SAFETY.md.
+#[test]
+#[ignore = "known: pending-deque saturation makes the burr force jump (docs/SAFETY.md)"]
+fn pending_saturation_adds_no_force_jumps() {
+    no_more_jumps(&["pending_capacity"]);
 }
 
 /// Fails today: the unsaturated demo replay (`builtin:demo` on `builtin:block:8`, depth 5)

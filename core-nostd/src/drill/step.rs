@@ -271,10 +271,12 @@ impl<'a> Drill<'a> {
     ///   the shell of every sphere along it;
     /// - a leaf crossing the sphere is refined when it is above `max_depth` and its smallest
     ///   face is at least `min_area`, and its children are queued;
-    /// - a crossing leaf that cannot be refined is erased iff its centroid is inside the
-    ///   sphere or one of the remembered swept spheres. This is the erosion criterion: the misclassified volume lies within one leaf
-    ///   of the sphere's surface and is unbiased to first order, so the removed volume
-    ///   converges to the swept volume as the leaves shrink.
+    /// - a crossing leaf at `max_depth` or below `min_area` is erased iff its centroid is
+    ///   inside the sphere or one of the remembered swept spheres. This is the erosion
+    ///   criterion: the misclassified volume lies within one leaf of the sphere's surface and
+    ///   is unbiased to first order, so the removed volume converges to the swept volume as
+    ///   the leaves shrink;
+    /// - a crossing leaf whose refinement the full arena refuses stays whole.
     ///
     /// `candidates` are the coarse tets near the tool (from the spatial hash, or
     /// [`super::candidates_brute_force`]).
@@ -286,7 +288,8 @@ impl<'a> Drill<'a> {
     /// instantiated nodes across one face.
     ///
     /// # Capacity
-    /// Arena full: the leaf is not refined (it is erased or kept by the centroid rule); the
+    /// Arena full: the leaf is not refined and stays whole (erasing a coarse leaf by its
+    /// centroid would move the surface past the burr in one tick, a force jump); the
     /// hierarchy counts it. Pending deque full: the new item or the children are dropped and
     /// counted; the hierarchy stays valid, only the erosion is coarser there.
     pub fn step(
@@ -392,8 +395,11 @@ impl<'a> Drill<'a> {
                     return;
                 }
                 Err(HierarchyError::Full) => {
-                    // Counted by the hierarchy; fall back to the centroid rule (retrying
-                    // would not help: nodes are never freed).
+                    // Counted by the hierarchy. The leaf stays: erasing a coarse leaf by its
+                    // centroid would move the surface past the burr in one tick (a force
+                    // jump); kept, it still bounds the material and the burr feels it.
+                    // Retrying would not help: nodes are never freed.
+                    return;
                 }
                 Err(_) => return,
             }
