@@ -61,7 +61,8 @@ pub struct Scenario {
     pub vlist_capacity: Option<usize>,
     /// Drill work items the pending deque holds.
     pub pending_capacity: usize,
-    /// Hierarchy nodes one contact search may test (the search then keeps the last plane).
+    /// Hierarchy nodes one contact search may test (then the closest face met, or the last
+    /// step's, answers).
     pub contact_search_nodes: u32,
     /// Collisions each body of a tet-mesh tool contact may hold per tick, pen nodes in the
     /// object and object nodes in the pen (absent: each body's node count).
