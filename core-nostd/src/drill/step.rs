@@ -5,10 +5,7 @@ use glam::Vec3;
 
 use super::sphere::{classify, Class, Sphere};
 use crate::geom::tri_area;
-use crate::hierarchy::table::CHILD_VERTS;
-use crate::hierarchy::{
-    unpack, Hierarchy, HierarchyError, Path, RootFrame, MAX_DEPTH, ROOT_PACKED,
-};
+use crate::hierarchy::{child_packed, Hierarchy, HierarchyError, Path, RootFrame, ROOT_PACKED};
 use crate::ids::TetId;
 use crate::mesh::template::FACE_VERTS;
 use crate::mesh::Mesh;
@@ -77,10 +74,6 @@ impl Pending {
             sphere,
             bary: ROOT_PACKED,
         }
-    }
-
-    fn bary(&self) -> [[u32; 4]; 4] {
-        self.bary.map(unpack)
     }
 }
 
@@ -358,13 +351,13 @@ impl<'a> Drill<'a> {
         if node.erased() {
             return;
         }
-        let Some(depth) = depth_of(item.index) else {
+        let Some(depth) = Path::depth_of(item.index) else {
             return;
         };
         let Some(frame) = self.frame(mesh, item.tet) else {
             return;
         };
-        let p = frame.positions(&item.bary(), depth);
+        let p = frame.positions_packed(&item.bary, depth);
         let class = classify(p, &item.sphere);
         if class == Class::Outside {
             return;
@@ -430,7 +423,6 @@ impl<'a> Drill<'a> {
             self.saturate(rep);
             return;
         }
-        let b = item.bary;
         for c in (0..8u8).rev() {
             let Some(child) = h.child(item.node, c) else {
                 return;
@@ -439,30 +431,10 @@ impl<'a> Drill<'a> {
                 tet: item.tet,
                 index: item.index * 8 + 1 + c as u32,
                 node: child,
-                bary: CHILD_VERTS[c as usize]
-                    .map(|(i, j)| b[(i & 3) as usize].wrapping_add(b[(j & 3) as usize])),
+                bary: child_packed(&item.bary, c),
                 ..item
             };
             self.push_front(next);
         }
-    }
-}
-
-/// The depth of tree index `index` (root 0, children of `i` at `8i+1..=8i+8`), `None` beyond
-/// [`MAX_DEPTH`].
-///
-/// # Bounded work
-/// At most [`MAX_DEPTH`] divisions.
-fn depth_of(index: u32) -> Option<u8> {
-    let mut i = index;
-    let mut d = 0u8;
-    while i > 0 {
-        i = (i - 1) / 8;
-        d += 1;
-    }
-    if d as usize > MAX_DEPTH {
-        None
-    } else {
-        Some(d)
     }
 }

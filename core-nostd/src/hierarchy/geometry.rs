@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use super::table::Path;
+use super::table::{Path, CHILD_VERTS};
 use crate::ids::TetId;
 use crate::mesh::Mesh;
 
@@ -82,6 +82,15 @@ impl RootFrame {
     pub(crate) fn positions(&self, bary: &[[u32; 4]; 4], depth: u8) -> [Vec3; 4] {
         bary.map(|w| self.point(&w, depth))
     }
+
+    /// [`RootFrame::positions`] of packed coordinates ([`Packed`]).
+    ///
+    /// # Bounded work
+    /// Constant.
+    #[inline]
+    pub(crate) fn positions_packed(&self, bary: &[Packed; 4], depth: u8) -> [Vec3; 4] {
+        bary.map(|w| self.point(&unpack(w), depth))
+    }
 }
 
 /// The ten points of one red refinement, indexed by [`PAIR`]: the parent's four vertices
@@ -116,6 +125,24 @@ pub(crate) fn unpack(p: Packed) -> [u32; 4] {
 /// The root's corners, packed.
 pub(crate) const ROOT_PACKED: [Packed; 4] = [1, 1 << 16, 1 << 32, 1 << 48];
 
+/// The packed point `(a, b)` of the refinement of a node with packed corners `bary`: the
+/// midpoint of corners `a` and `b` one level down (corner `a` itself when `a == b`), i.e. the
+/// sum of the two rows.
+#[inline]
+fn pair_row(bary: &[Packed; 4], (a, b): (u8, u8)) -> Packed {
+    bary[(a & 3) as usize].wrapping_add(bary[(b & 3) as usize])
+}
+
+/// The packed corners of child `c` (Bey's order) of a node with packed corners `bary`: the
+/// packed form of [`super::table::child_bary`].
+///
+/// # Bounded work
+/// Constant: four additions.
+#[inline]
+pub(crate) fn child_packed(bary: &[Packed; 4], c: u8) -> [Packed; 4] {
+    CHILD_VERTS[(c & 7) as usize].map(|v| pair_row(bary, v))
+}
+
 /// The packed integer barycentric coordinates (one level down, scaled by `2^(depth+1)`) and
 /// the positions of the ten points of the red refinement of the node with packed coordinates
 /// `bary` at `depth`: a child's corners are four of them (`PAIR` of
@@ -130,7 +157,7 @@ pub(crate) fn refinement_points(
     bary: &[Packed; 4],
     depth: u8,
 ) -> ([Packed; 10], [Vec3; 10]) {
-    let rows = PAIRS.map(|(a, b)| bary[(a & 3) as usize].wrapping_add(bary[(b & 3) as usize]));
+    let rows = PAIRS.map(|v| pair_row(bary, v));
     let pts = rows.map(|w| frame.point(&unpack(w), depth + 1));
     (rows, pts)
 }

@@ -33,8 +33,8 @@ pub mod table;
 mod validate;
 pub mod visit;
 
+pub(crate) use geometry::{child_packed, RootFrame, ROOT_PACKED};
 pub use geometry::{node_positions, node_volume};
-pub(crate) use geometry::{unpack, RootFrame, ROOT_PACKED};
 pub use nearest::{FaceRef, Nearest};
 pub use node::{HNode, VEntry, MAX_BLOCKS, NODE_BYTES, NO_BLOCK, NO_SLOT};
 pub use ops::OpReport;

@@ -21,9 +21,7 @@
 
 use glam::Vec3;
 
-use super::geometry::{
-    node_positions, refinement_points, unpack, Packed, RootFrame, PAIR, ROOT_PACKED,
-};
+use super::geometry::{node_positions, refinement_points, Packed, RootFrame, PAIR, ROOT_PACKED};
 use super::node::HNode;
 use super::store::Hierarchy;
 use super::surface::{bounding_sphere, face_corners, VisibleTri};
@@ -148,11 +146,8 @@ impl Search {
             }
             self.triangles = self.triangles.wrapping_add(1);
             let corners = face_corners(p, face, node.inverted());
-            if is_cut(&corners, self.centre, self.cut2) {
-                continue;
-            }
             let x = closest_point_on_triangle(self.centre, corners);
-            if self.cut2 >= 0.0 && is_behind(&corners, self.centre, x) {
+            if cut_skips(&corners, self.centre, x, self.cut2) {
                 continue;
             }
             let d2 = (self.centre - x).length_squared();
@@ -288,14 +283,8 @@ impl Hierarchy<'_> {
         let hint_tri = hint
             .and_then(|k| self.visible_face_distance2(mesh, k, centre))
             .filter(|(d2, vt)| {
-                *d2 <= reach2
-                    && !(cut2 >= 0.0
-                        && (is_cut(&vt.corners, centre, cut2)
-                            || is_behind(
-                                &vt.corners,
-                                centre,
-                                closest_point_on_triangle(centre, vt.corners),
-                            )))
+                let x = closest_point_on_triangle(centre, vt.corners);
+                *d2 <= reach2 && !cut_skips(&vt.corners, centre, x, cut2)
             });
         let hinted = hint_tri.map(|(d2, _)| d2);
         let mut s = self.nearest_walk(mesh, tets, centre, reach, cut2, hinted, max_nodes);
@@ -371,7 +360,7 @@ impl Hierarchy<'_> {
             let Some(frame) = RootFrame::of(mesh, t) else {
                 continue;
             };
-            let p = ROOT_PACKED.map(|w| frame.point(&unpack(w), 0));
+            let p = frame.positions_packed(&ROOT_PACKED, 0);
             let Some(root) = self.consider(&mut s, t.0, 0, 0, ROOT_PACKED, p) else {
                 continue;
             };
@@ -388,7 +377,7 @@ impl Hierarchy<'_> {
                 let Some(node) = self.node(e.r) else { continue };
                 let Some(b) = node.block() else {
                     // A root that is a leaf (its reach test is done).
-                    let p = e.bary.map(|w| frame.point(&unpack(w), e.depth));
+                    let p = frame.positions_packed(&e.bary, e.depth);
                     s.offer_leaf(t, e.index, node, p);
                     continue;
                 };
@@ -487,18 +476,17 @@ impl Hierarchy<'_> {
     }
 }
 
-/// `true` when `centre` lies behind the outward (counter-clockwise) triangle `corners`, seen
-/// from its closest point `x`: the rule [`super::super::force::sphere_contact`] uses for
-/// "inside".
+/// The cutting rule of [`Hierarchy::nearest_uncut`] for the outward (counter-clockwise)
+/// triangle `corners` whose closest point to `centre` is `x` (`cut2`: the burr's squared
+/// radius, negative when it is not cutting): `true` when all three corners lie within the
+/// burr, or when `centre` lies behind the triangle seen from `x` (the "inside" test of
+/// [`crate::force::sphere_contact`]).
 #[inline]
-fn is_behind(corners: &[Vec3; 3], centre: Vec3, x: Vec3) -> bool {
+fn cut_skips(corners: &[Vec3; 3], centre: Vec3, x: Vec3, cut2: f32) -> bool {
+    if cut2 < 0.0 {
+        return false;
+    }
+    let inside = corners.iter().all(|q| q.distance_squared(centre) <= cut2);
     let n = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
-    (centre - x).dot(n) < 0.0
-}
-
-/// `true` when all three corners lie within the cutting sphere (`cut2` its squared radius,
-/// negative for none).
-#[inline]
-fn is_cut(corners: &[Vec3; 3], centre: Vec3, cut2: f32) -> bool {
-    cut2 >= 0.0 && corners.iter().all(|q| q.distance_squared(centre) <= cut2)
+    inside || (centre - x).dot(n) < 0.0
 }

@@ -239,6 +239,22 @@ impl Path {
         })
     }
 
+    /// The depth of tree index `index` without building its path, `None` beyond
+    /// [`MAX_DEPTH`].
+    ///
+    /// # Bounded work
+    /// O(depth) <= [`MAX_DEPTH`] + 1 divisions.
+    #[inline]
+    pub fn depth_of(index: u32) -> Option<u8> {
+        let mut i = index;
+        let mut d = 0usize;
+        while i > 0 {
+            i = (i - 1) / 8;
+            d += 1;
+        }
+        (d <= MAX_DEPTH).then_some(d as u8)
+    }
+
     /// The path of child `c` (0..8), or `None` at [`MAX_DEPTH`].
     #[inline]
     pub fn child(&self, c: u8) -> Option<Self> {
