@@ -176,6 +176,7 @@ impl TickParams {
                 damping: sc.damping as f32,
                 max_force: sc.max_force as f32,
                 dt: PERIOD_S as f32,
+                switch_time: (sc.switch_ms / 1000.0) as f32,
             },
         })
     }

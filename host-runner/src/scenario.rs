@@ -40,6 +40,9 @@ pub struct Scenario {
     pub damping: f64,
     /// Force clamp, newtons.
     pub max_force: f64,
+    /// Milliseconds over which the burr's force moves from one contact plane to the next
+    /// (`servo_force`); 0 switches at once.
+    pub switch_ms: f64,
     /// Depth method for a mesh tool.
     pub depth_method: DepthMethod,
     /// Deepest subdivision level of a drilled tet.
@@ -193,6 +196,7 @@ impl Default for Scenario {
             stiffness: 200.0,
             damping: 0.5,
             max_force: 8.0,
+            switch_ms: 16.0,
             depth_method: DepthMethod::Traced,
             max_depth: 5,
             min_area: 0.0,
@@ -240,6 +244,10 @@ pub struct ScenarioFlags {
     /// Force clamp, newtons.
     #[arg(long, allow_negative_numbers = true, value_parser = positive)]
     pub max_force: Option<f64>,
+    /// Milliseconds over which the burr's force moves from one contact plane to the next (0:
+    /// at once).
+    #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
+    pub switch_ms: Option<f64>,
     /// Depth method for a mesh tool.
     #[arg(long, value_enum)]
     pub depth_method: Option<DepthMethod>,
@@ -348,6 +356,7 @@ impl Scenario {
             ($($field:ident),*) => { $( if let Some(v) = &f.$field { s.$field = v.clone(); } )* };
         }
         take!(mesh, scale, trace, tool, tool_scale, stiffness, damping, max_force);
+        take!(switch_ms);
         take!(
             depth_method,
             max_depth,
@@ -391,6 +400,12 @@ impl Scenario {
             return Err((
                 "damping",
                 format!("damping must be non-negative, got {}", self.damping),
+            ));
+        }
+        if !(self.switch_ms.is_finite() && self.switch_ms >= 0.0) {
+            return Err((
+                "switch_ms",
+                format!("switch_ms must be non-negative, got {}", self.switch_ms),
             ));
         }
         if !(self.min_area.is_finite() && self.min_area >= 0.0) {

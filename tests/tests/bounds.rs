@@ -571,6 +571,7 @@ fn pen_contact_saturates_every_buffer_within_capacity() {
             damping: 0.5,
             max_force: 8.0,
             dt: 1e-3,
+            ..ForceParams::default()
         },
         max_steps: 64,
         ..PenOptions::default()
@@ -1057,8 +1058,9 @@ fn nearest_visible_tests_at_most_max_nodes() {
 }
 
 /// `servo_force` reports no work counter: its work is constant (no loop), so the bound to
-/// check is on its output: never above the clamp, zero without a valid plane or with
-/// non-finite input, whatever the depth.
+/// check is on its output: never above the clamp, zero with non-finite input, zero without a
+/// valid plane (at once for a tool that never had one, within the switch time for one whose
+/// plane was lost), whatever the depth.
 #[test]
 fn servo_force_output_is_clamped_and_finite() {
     let params = ForceParams {
@@ -1066,6 +1068,7 @@ fn servo_force_output_is_clamped_and_finite() {
         damping: 10.0,
         max_force: 3.3,
         dt: 1e-3,
+        ..ForceParams::default()
     };
     let plane = ContactState {
         valid: true,
@@ -1089,9 +1092,22 @@ fn servo_force_output_is_clamped_and_finite() {
     }
     let invalid = ContactState::default();
     assert_eq!(
-        servo_force(&invalid, Vec3::ZERO, 0.1, &mut tool, &params),
+        servo_force(
+            &invalid,
+            Vec3::ZERO,
+            0.1,
+            &mut ToolState::default(),
+            &params
+        ),
         Vec3::ZERO
     );
+    // The plane lost with the tool 0.1 deep: the clamped 3.3 N fades out within 16 ms.
+    let ticks = (params.switch_time / params.dt).ceil() as usize;
+    let fading: Vec<Vec3> = (0..ticks)
+        .map(|_| servo_force(&invalid, Vec3::ZERO, 0.1, &mut tool, &params))
+        .collect();
+    assert!(fading[0].length() > 0.0 && fading[0].length() <= 3.3);
+    assert_eq!(fading[ticks - 1], Vec3::ZERO, "{fading:?}");
     for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
         let f = servo_force(&plane, Vec3::new(0.0, 0.0, bad), 0.1, &mut tool, &params);
         assert!(f.is_finite() && f.length() <= 3.3 * (1.0 + 1e-6));

@@ -564,6 +564,7 @@ fn sideways_push(remedy: bool) -> Vec<(f32, Vec3)> {
             damping: 0.0,
             max_force: 1e9,
             dt: 1e-3,
+            ..ForceParams::default()
         },
         entry_remedy: remedy,
         ..PenOptions::default()

@@ -402,6 +402,7 @@ fn pen_scenario(meshes: &Path, pen_scale: f64, ticks: u64) -> Result<(), ExitCod
             damping: 0.5,
             max_force: 8.0,
             dt: 1e-3,
+            ..ForceParams::default()
         },
         ..PenOptions::default()
     };

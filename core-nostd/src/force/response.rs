@@ -16,6 +16,9 @@ pub struct ForceParams {
     pub max_force: f32,
     /// Servo period in seconds (for velocities from consecutive positions).
     pub dt: f32,
+    /// Seconds over which the sphere burr's force moves from one contact plane to the next
+    /// (see [`crate::servo::servo_force`]); zero switches at once. Not used by the pen.
+    pub switch_time: f32,
 }
 
 impl Default for ForceParams {
@@ -26,15 +29,26 @@ impl Default for ForceParams {
             damping: 1.0,
             max_force: 3.3,
             dt: 1e-3,
+            switch_time: DEFAULT_SWITCH_TIME,
         }
     }
 }
+
+/// Default [`ForceParams::switch_time`]: 16 ms, so a full reversal of a clamped force is
+/// spread over 16 servo ticks at 1 kHz (an eighth of the clamp per tick), well under the
+/// time a hand notices (tens of milliseconds) and well over one tick.
+pub const DEFAULT_SWITCH_TIME: f32 = 0.016;
 
 /// The tool's state carried from tick to tick.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct ToolState {
     /// Reference position at the previous tick (none before the first).
     pub previous: Option<Vec3>,
+    /// The contact plane (point, unit normal) the last force came from, if any.
+    pub plane: Option<(Vec3, Vec3)>,
+    /// What the force still owes the last plane switch: added to the spring force and
+    /// shrunk to zero at a bounded rate (see [`crate::servo::servo_force`]).
+    pub residual: Vec3,
 }
 
 /// Damping force `-b v` with `v` from two consecutive positions; zero without a previous

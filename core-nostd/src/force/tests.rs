@@ -93,6 +93,7 @@ fn clamp_damping_digest_frames() {
         damping: 2.0,
         max_force: 10.0,
         dt: 0.5,
+        ..ForceParams::default()
     };
     let mut st = ToolState::default();
     assert_eq!(damping_force(&mut st, Vec3::ZERO, true, &p), Vec3::ZERO);
@@ -197,6 +198,7 @@ fn pen_block_pressed_into_top_face() {
             damping: 0.0,
             max_force: 1e6,
             dt: 1e-3,
+            ..ForceParams::default()
         },
         ..PenOptions::default()
     };

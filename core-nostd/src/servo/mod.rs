@@ -520,13 +520,30 @@ impl<'a> World<'a> {
     }
 }
 
-/// The force on a spherical burr of `radius` at `centre` from the contact plane `contact`:
-/// `stiffness * depth * normal` with `depth = radius - (centre - point) . normal`, plus
-/// damping while in contact, clamped to `params.max_force`. `tool` carries the previous
-/// position for the damping velocity.
+/// The force on a spherical burr of `radius` at `centre` from the contact plane `contact`,
+/// with `tool` carrying what the force needs from the last tick.
+///
+/// The spring of a plane `(point, normal)` is `s = clamp(stiffness * depth * normal)` with
+/// `depth = radius - (centre - point) . normal` (zero when not positive): first order in
+/// the position, so a plane kept from an older simulation step extrapolates the surface
+/// (seed 001 section 3.3). The force is `clamp(E + damping)`, damping only while the plane's
+/// depth is positive, with the elastic part `E = clamp(s + residual)`.
+///
+/// Plane switches. When the contact plane changes (another face became the closest, the
+/// drill removed the one under the burr), `s` jumps; a burr buried in half-eroded material,
+/// nearly equidistant from walls that face each other, would see the force reverse from one
+/// tick to the next. So the residual takes up the difference at the switch,
+/// `residual = E_old - s_new` with `E_old` the old plane's elastic force at `centre`, and
+/// shrinks towards zero by `2 max_force dt / switch_time` every tick, that one included: a
+/// switch is rendered as a ramp of at most `switch_time`. A plane that appears already
+/// penetrated (no plane before) ramps in from zero the same way. Per tick the force changes by at most
+/// `stiffness |dc| + damping (|v| + |v_prev|) + 2 max_force dt / switch_time`, plane change
+/// or not (`|dc|` the tool's motion, `v` its velocities). A `switch_time` of zero (or not
+/// finite) switches at once.
 ///
 /// # Bounded work
-/// Constant. Never allocates, locks or panics; non-finite input gives zero force.
+/// Constant. Never allocates, locks or panics; non-finite input gives zero force (and
+/// forgets the plane and the residual).
 pub fn servo_force(
     contact: &ContactState,
     centre: Vec3,
@@ -534,18 +551,190 @@ pub fn servo_force(
     tool: &mut ToolState,
     params: &ForceParams,
 ) -> Vec3 {
-    let depth = if contact.valid {
-        radius - (centre - contact.point).dot(contact.normal)
-    } else {
-        0.0
+    let plane = contact.valid.then_some((contact.point, contact.normal));
+    let spring = |plane: Option<(Vec3, Vec3)>| match plane {
+        Some((p, n)) => {
+            let depth = radius - (centre - p).dot(n);
+            if depth > 0.0 {
+                clamp_force(n * (params.stiffness * depth), params.max_force)
+            } else {
+                Vec3::ZERO
+            }
+        }
+        None => Vec3::ZERO,
     };
-    let touching = depth > 0.0;
-    let damping = damping_force(tool, centre, touching, params);
-    if !touching {
+    let s = spring(plane);
+    let damping = damping_force(tool, centre, s != Vec3::ZERO, params);
+    if !(centre.is_finite() && radius.is_finite()) {
+        tool.plane = None;
+        tool.residual = Vec3::ZERO;
         return Vec3::ZERO;
     }
+    let step = 2.0 * params.max_force * params.dt / params.switch_time;
+    let mut residual = tool.residual;
+    if tool.plane != plane {
+        residual = clamp_force(spring(tool.plane) + residual, params.max_force) - s;
+        tool.plane = plane;
+    }
+    let residual = shrink(residual, step);
+    tool.residual = residual;
     clamp_force(
-        contact.normal * (params.stiffness * depth) + damping,
+        clamp_force(s + residual, params.max_force) + damping,
         params.max_force,
     )
+}
+
+/// `v` shortened by `step` (zero when no longer than `step`, or when `v` or `step` is NaN or
+/// infinite).
+fn shrink(v: Vec3, step: f32) -> Vec3 {
+    let l = v.length();
+    if l.is_finite() && step.is_finite() && step >= 0.0 && l > step {
+        v * ((l - step) / l)
+    } else {
+        Vec3::ZERO
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params(switch_time: f32) -> ForceParams {
+        ForceParams {
+            stiffness: 200.0,
+            damping: 0.0,
+            max_force: 8.0,
+            dt: 1e-3,
+            switch_time,
+        }
+    }
+
+    fn plane(point: Vec3, normal: Vec3) -> ContactState {
+        ContactState {
+            valid: true,
+            point,
+            normal,
+            ..ContactState::default()
+        }
+    }
+
+    /// A burr of radius 0.1 at the origin between two walls facing each other (planes x =
+    /// -0.08 facing +x and x = 0.07 facing -x): springs of 200 * 0.02 = 4 N along +x and
+    /// 200 * 0.03 = 6 N along -x.
+    fn walls() -> (ContactState, ContactState) {
+        (
+            plane(Vec3::new(-0.08, 0.0, 0.0), Vec3::X),
+            plane(Vec3::new(0.07, 0.0, 0.0), -Vec3::X),
+        )
+    }
+
+    /// A tool that has been on `c` at the origin long enough for any ramp to be over.
+    fn settled(c: &ContactState, p: &ForceParams) -> ToolState {
+        let mut tool = ToolState::default();
+        for _ in 0..20 {
+            servo_force(c, Vec3::ZERO, 0.1, &mut tool, p);
+        }
+        tool
+    }
+
+    /// The spring of one plane, felt at once when the tool moves into it; a plane that shows
+    /// up already penetrated (first tick, a jump of the tool) ramps in from zero.
+    #[test]
+    fn one_plane_gives_the_spring() {
+        let (a, _) = walls();
+        let p = params(0.016);
+        let mut tool = ToolState::default();
+        let out = Vec3::new(0.5, 0.0, 0.0);
+        assert_eq!(servo_force(&a, out, 0.1, &mut tool, &p), Vec3::ZERO);
+        let f = servo_force(&a, Vec3::ZERO, 0.1, &mut tool, &p);
+        assert!((f - Vec3::new(4.0, 0.0, 0.0)).length() < 1e-5, "{f:?}");
+        assert_eq!(tool.residual, Vec3::ZERO);
+        let mut fresh = ToolState::default();
+        for t in 0..6 {
+            let f = servo_force(&a, Vec3::ZERO, 0.1, &mut fresh, &p);
+            let expected = (t as f32 + 1.0).min(4.0);
+            assert!((f.x - expected).abs() < 1e-4, "tick {t}: {f:?}");
+        }
+    }
+
+    /// Switching from one wall to the other ramps the force linearly (f64 oracle) from the
+    /// old wall's 4 N to the new wall's -6 N, 2 * 8 N * 1 ms / 16 ms = 1 N per tick, the
+    /// switch tick included: 10 ticks.
+    #[test]
+    fn a_plane_switch_is_a_ramp_of_bounded_slope() {
+        let (a, b) = walls();
+        let p = params(0.016);
+        let mut tool = settled(&a, &p);
+        let mut last = servo_force(&a, Vec3::ZERO, 0.1, &mut tool, &p);
+        for t in 0..14 {
+            let f = servo_force(&b, Vec3::ZERO, 0.1, &mut tool, &p);
+            let expected = (3.0 - t as f64).max(-6.0);
+            assert!(
+                (f64::from(f.x) - expected).abs() < 1e-4 && f.y == 0.0 && f.z == 0.0,
+                "tick {t}: {f:?}, expected {expected}"
+            );
+            assert!(f.distance(last) <= 1.0 + 1e-4);
+            last = f;
+        }
+        // Without the ramp the force reverses at once.
+        let p0 = params(0.0);
+        let mut tool = settled(&a, &p0);
+        let f = servo_force(&b, Vec3::ZERO, 0.1, &mut tool, &p0);
+        assert!((f - Vec3::new(-6.0, 0.0, 0.0)).length() < 1e-5, "{f:?}");
+    }
+
+    /// Walls swapping every tick (the burr equidistant from both): the force never jumps by
+    /// more than the ramp's slope and stays between the two springs.
+    #[test]
+    fn flickering_planes_never_reverse_the_force() {
+        let (a, b) = walls();
+        let p = params(0.016);
+        let mut tool = settled(&a, &p);
+        let mut last = servo_force(&a, Vec3::ZERO, 0.1, &mut tool, &p);
+        for t in 0..200 {
+            let c = if (t / 3) % 2 == 0 { &b } else { &a };
+            let f = servo_force(c, Vec3::ZERO, 0.1, &mut tool, &p);
+            assert!(
+                f.distance(last) <= 1.0 + 1e-4,
+                "tick {t}: {last:?} -> {f:?}"
+            );
+            assert!(f.x >= -6.0 - 1e-4 && f.x <= 4.0 + 1e-4, "tick {t}: {f:?}");
+            last = f;
+        }
+    }
+
+    /// Moving while a switch is under way: the spring of the new plane follows the motion at
+    /// once, the ramp only carries the jump.
+    #[test]
+    fn motion_is_felt_at_once_during_a_ramp() {
+        let (a, b) = walls();
+        let p = params(0.016);
+        let mut tool = settled(&a, &p);
+        let f0 = servo_force(&b, Vec3::ZERO, 0.1, &mut tool, &p);
+        // 1 mm towards the new wall: its spring grows by 0.2 N, the residual shrinks by 1 N.
+        let f1 = servo_force(&b, Vec3::new(0.001, 0.0, 0.0), 0.1, &mut tool, &p);
+        assert!(
+            (f64::from(f1.x - f0.x) - (-0.2 - 1.0)).abs() < 1e-4,
+            "{f0:?} {f1:?}"
+        );
+    }
+
+    /// Contact lost (erosion took the material): the force fades out over at most the switch
+    /// time; non-finite input gives zero and forgets the residual.
+    #[test]
+    fn lost_contact_fades_and_nan_forgets() {
+        let (a, _) = walls();
+        let p = params(0.016);
+        let mut tool = settled(&a, &p);
+        let none = ContactState::default();
+        for t in 0..6 {
+            let x = servo_force(&none, Vec3::ZERO, 0.1, &mut tool, &p).x;
+            let expected = (3.0 - t as f32).max(0.0);
+            assert!((x - expected).abs() < 1e-4, "tick {t}: {x}");
+        }
+        servo_force(&a, Vec3::ZERO, 0.1, &mut tool, &p);
+        let nan = servo_force(&none, Vec3::splat(f32::NAN), 0.1, &mut tool, &p);
+        assert_eq!(nan, Vec3::ZERO);
+        assert_eq!((tool.residual, tool.plane), (Vec3::ZERO, None));
+    }
 }

@@ -380,6 +380,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
             damping: sc.damping as f32,
             max_force: sc.max_force as f32,
             dt: crate::traces::PERIOD_S as f32,
+            ..ForceParams::default()
         },
         method: match sc.depth_method {
             DepthMethod::Traced => PenMethod::Traced,

@@ -115,6 +115,7 @@ fn main() -> ! {
         damping: scenario::DAMPING,
         max_force: scenario::MAX_FORCE,
         dt: scenario::DT,
+        ..ForceParams::default()
     };
     let ticks = TICKS
         .and_then(|s| s.parse::<u32>().ok())
