@@ -341,6 +341,12 @@ pub trait HapticDevice {
     fn write(&mut self, command: &ForceCommand) -> Result<(), DeviceError>;
     /// Starts or performs calibration (see [`DeviceSpec::calibration`]).
     fn calibrate(&mut self) -> Result<(), DeviceError>;
+    /// A second way to this device's motors that another thread can use while the servo
+    /// thread is stalled ([`MotorCutoff`](crate::cutoff::MotorCutoff)); `None` (the default)
+    /// when the device can be reached only through the servo's own calls.
+    fn cutoff(&self) -> Option<std::sync::Arc<dyn crate::cutoff::MotorCutoff>> {
+        None
+    }
 }
 
 impl<D: HapticDevice + ?Sized> HapticDevice for Box<D> {
@@ -355,6 +361,9 @@ impl<D: HapticDevice + ?Sized> HapticDevice for Box<D> {
     }
     fn calibrate(&mut self) -> Result<(), DeviceError> {
         (**self).calibrate()
+    }
+    fn cutoff(&self) -> Option<std::sync::Arc<dyn crate::cutoff::MotorCutoff>> {
+        (**self).cutoff()
     }
 }
 

@@ -5,6 +5,8 @@
 //! - [`device`]: the [`HapticDevice`] trait, [`DeviceSpec`], [`DeviceState`], [`ForceCommand`],
 //!   [`DeviceError`];
 //! - [`safety`]: [`ForceSafety`], the clamp / ramp / watchdog / NaN filter every backend uses;
+//! - [`cutoff`]: [`MotorCutoff`], the second way to the motors a supervisor thread uses to
+//!   zero the force while the servo thread is stalled;
 //! - [`sim`]: the simulated device (the default), a stylus on a spring-damper hand;
 //! - [`trace`]: trace CSV parsing, recording and interpolation;
 //! - [`falcon`]: Novint Falcon over USB (`rusb`) behind a [`falcon::Transport`];
@@ -14,11 +16,13 @@
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod cutoff;
 pub mod device;
 pub mod safety;
 pub mod sim;
 pub mod trace;
 
+pub use cutoff::{Cut, MotorCutoff};
 pub use device::{
     CalibrationStyle, DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice,
     Quat, Vec3, QUAT_IDENTITY,

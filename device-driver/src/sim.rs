@@ -7,7 +7,14 @@
 //! The clock is deterministic: each `read()` advances it by one servo period, fixed at
 //! construction. Integration is semi-implicit Euler in plain `f64` arithmetic, so identical
 //! inputs give bit-identical outputs on every run.
+//!
+//! Its "motors" are [`SimMotors`], shared atomics: what the stylus receives. They are also its
+//! [`MotorCutoff`]: another thread zeroes them directly, and the write path honours the latch.
 
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+
+use crate::cutoff::{Cut, Latch, MotorCutoff};
 use crate::device::{
     v3, CalibrationStyle, DeviceError, DeviceSpec, DeviceState, ForceCommand, HapticDevice, Quat,
     Vec3, QUAT_IDENTITY,
@@ -107,12 +114,60 @@ impl Default for SimConfig {
     }
 }
 
+/// The simulated device's motors: the force the stylus receives, in atomics shared with any
+/// thread. Also the device's [`MotorCutoff`]: [`cut`](MotorCutoff::cut) zeroes them at once
+/// (the direct zero) and sets the latch that the device's write path honours.
+#[derive(Debug, Default)]
+pub struct SimMotors {
+    latch: Latch,
+    enabled: AtomicBool,
+    force: [AtomicU64; 3],
+}
+
+impl SimMotors {
+    fn store(&self, out: &ForceCommand) {
+        for (slot, v) in self.force.iter().zip(out.force) {
+            slot.store(v.to_bits(), Ordering::Relaxed);
+        }
+        self.enabled.store(out.enable, Ordering::SeqCst);
+    }
+
+    /// What the motors render now: the force with the motors on, or [`ForceCommand::OFF`].
+    pub fn output(&self) -> ForceCommand {
+        if !self.enabled.load(Ordering::SeqCst) {
+            return ForceCommand::OFF;
+        }
+        ForceCommand::force(
+            self.force
+                .each_ref()
+                .map(|f| f64::from_bits(f.load(Ordering::Relaxed))),
+        )
+    }
+}
+
+impl MotorCutoff for SimMotors {
+    fn cut(&self) -> Result<Cut, DeviceError> {
+        self.latch.set();
+        self.enabled.store(false, Ordering::SeqCst);
+        Ok(Cut::Done)
+    }
+
+    fn is_cut(&self) -> bool {
+        self.latch.is_set()
+    }
+
+    fn rearm(&self) {
+        self.latch.clear();
+    }
+}
+
 /// The simulated device. See the module docs.
 #[derive(Debug)]
 pub struct SimDevice<P> {
     path: P,
     config: SimConfig,
     safety: ForceSafety,
+    motors: Arc<SimMotors>,
     tick: u64,
     started: bool,
     position: Vec3,
@@ -132,6 +187,7 @@ impl<P: Path> SimDevice<P> {
         SimDevice {
             path,
             safety: ForceSafety::new(config.safety),
+            motors: Arc::default(),
             config,
             tick: 0,
             started: false,
@@ -154,7 +210,26 @@ impl<P: Path> SimDevice<P> {
 
     /// The force the stylus currently receives from the device, N.
     pub fn applied_force(&self) -> Vec3 {
-        self.safety.output().force
+        self.motors.output().force
+    }
+
+    /// The motors, shared: what the stylus receives, readable from any thread.
+    pub fn motors(&self) -> Arc<SimMotors> {
+        Arc::clone(&self.motors)
+    }
+
+    /// Puts the filter's output on the motors; while the latch is set, zero with the motors
+    /// off (and the filter disabled, so the next enabled write ramps). The latch is looked at
+    /// again after the store: a cut that came in between is not overwritten.
+    fn publish(&mut self) {
+        if self.motors.latch.is_set() {
+            self.safety.disable();
+        }
+        self.motors.store(&self.safety.output());
+        if self.motors.latch.is_set() {
+            self.safety.disable();
+            self.motors.store(&ForceCommand::OFF);
+        }
     }
 
     /// The safety filter (counters).
@@ -186,7 +261,7 @@ impl<P: Path> SimDevice<P> {
             v3::sub(hand_vel, self.velocity),
             self.config.hand_damping_n_s_per_m,
         );
-        let device = self.safety.output().force;
+        let device = self.motors.output().force;
         let total = v3::add(v3::add(spring, damper), device);
         let accel = v3::scale(total, 1.0 / self.config.mass_kg);
         self.velocity = v3::add(self.velocity, v3::scale(accel, dt));
@@ -210,9 +285,11 @@ impl<P: Path> HapticDevice for SimDevice<P> {
         self.started = true;
         if self.disconnected() {
             self.safety.disable();
+            self.publish();
             return Err(DeviceError::Disconnected);
         }
         self.safety.tick();
+        self.publish();
         Ok(DeviceState {
             timestamp_s: self.time(),
             tick: self.tick,
@@ -227,14 +304,26 @@ impl<P: Path> HapticDevice for SimDevice<P> {
     fn write(&mut self, command: &ForceCommand) -> Result<(), DeviceError> {
         if self.disconnected() {
             self.safety.disable();
+            self.publish();
             return Err(DeviceError::Disconnected);
         }
-        self.safety.filter(command).map(|_| ())
+        let command = if self.motors.latch.is_set() {
+            &ForceCommand::OFF
+        } else {
+            command
+        };
+        let r = self.safety.filter(command).map(|_| ());
+        self.publish();
+        r
     }
 
     fn calibrate(&mut self) -> Result<(), DeviceError> {
         debug_assert_eq!(self.config.spec.calibration, CalibrationStyle::None);
         Ok(())
+    }
+
+    fn cutoff(&self) -> Option<Arc<dyn MotorCutoff>> {
+        Some(self.motors() as Arc<dyn MotorCutoff>)
     }
 }
 
@@ -340,6 +429,45 @@ mod tests {
             dev.write(&ForceCommand::ZERO).unwrap();
         }
         assert!((s.position[0] - 0.03).abs() < 1e-5);
+    }
+
+    #[test]
+    fn a_cut_zeroes_the_motors_at_once_and_holds_them_until_rearmed() {
+        let mut c = SimConfig::default();
+        c.safety.ramp_ticks = 10;
+        let mut dev = SimDevice::new(Still([0.0; 3]), c);
+        for _ in 0..20 {
+            dev.read().unwrap();
+            dev.write(&ForceCommand::force([2.0, 0.0, 0.0])).unwrap();
+        }
+        assert_eq!(dev.applied_force(), [2.0, 0.0, 0.0]);
+        // Another thread cuts through the shared motors: zero at once, without the device.
+        let cut = dev.cutoff().expect("the simulated device has a cutoff");
+        let seen = std::thread::scope(|s| {
+            s.spawn(|| {
+                cut.cut().unwrap();
+                dev.motors().output()
+            })
+            .join()
+            .unwrap()
+        });
+        assert_eq!(seen, ForceCommand::OFF);
+        assert_eq!(dev.applied_force(), [0.0; 3]);
+        // While the latch is set, the servo's writes render zero with the motors off.
+        for _ in 0..5 {
+            dev.read().unwrap();
+            dev.write(&ForceCommand::force([2.0, 0.0, 0.0])).unwrap();
+            assert_eq!(dev.motors().output(), ForceCommand::OFF);
+        }
+        // Rearmed: the next enabled write ramps from zero (1/10 of the force), not a jump.
+        cut.rearm();
+        dev.read().unwrap();
+        dev.write(&ForceCommand::force([2.0, 0.0, 0.0])).unwrap();
+        assert!(
+            (dev.applied_force()[0] - 0.2).abs() < 1e-12,
+            "{:?}",
+            dev.applied_force()
+        );
     }
 
     #[test]

@@ -1,12 +1,16 @@
 //! A whole Falcon session against the mock transport: a failed firmware upload, a good one,
-//! running with short reads and garbage, the safety rules, and a disconnect.
+//! running with short reads and garbage, the safety rules, a disconnect, and the cutoff (a
+//! zero frame from another thread, the latch, a cut racing with the servo's frame).
 
+use std::sync::{Arc, OnceLock};
+
+use tetradrill_device::cutoff::OutPath;
 use tetradrill_device::falcon::frame::{FalconReport, LED_GREEN};
 use tetradrill_device::falcon::ftdi::*;
 use tetradrill_device::falcon::kinematics;
 use tetradrill_device::falcon::mock::{MockOp, MockTransport};
-use tetradrill_device::falcon::{FalconConfig, FalconDevice};
-use tetradrill_device::{DeviceError, ForceCommand, HapticDevice};
+use tetradrill_device::falcon::{FalconConfig, FalconDevice, Transport};
+use tetradrill_device::{Cut, DeviceError, ForceCommand, HapticDevice, MotorCutoff};
 
 fn firmware() -> Vec<u8> {
     // Not a real firmware: 300 deterministic bytes, so the upload takes 3 chunks.
@@ -200,4 +204,125 @@ fn disconnect_mid_session_is_an_error_not_a_panic() {
         "{errors:?}"
     );
     assert_eq!(dev.safety().output(), ForceCommand::OFF);
+}
+
+/// A transport that lets a cut happen while the servo's frame is on its way out: inside the
+/// bulk write of command frame `at` (counted from 0), it calls the device's cutoff, as a
+/// supervisor thread would between the servo's look at the latch and its frame.
+#[derive(Debug)]
+struct CutDuringWrite {
+    mock: MockTransport,
+    at: usize,
+    frames: usize,
+    cutoff: Arc<OnceLock<Arc<dyn MotorCutoff>>>,
+}
+
+impl Transport for CutDuringWrite {
+    fn control_out(&mut self, request: u8, value: u16, index: u16) -> Result<(), DeviceError> {
+        self.mock.control_out(request, value, index)
+    }
+    fn bulk_write(&mut self, data: &[u8], timeout_ms: u32) -> Result<usize, DeviceError> {
+        let n = self.mock.bulk_write(data, timeout_ms)?;
+        if self.frames == self.at {
+            let c = self.cutoff.get().expect("cutoff set");
+            assert_eq!(c.cut(), Ok(Cut::Done));
+        }
+        self.frames += 1;
+        Ok(n)
+    }
+    fn bulk_read(&mut self, buf: &mut [u8], timeout_ms: u32) -> Result<usize, DeviceError> {
+        self.mock.bulk_read(buf, timeout_ms)
+    }
+    fn out_path(&self) -> Option<Arc<dyn OutPath>> {
+        self.mock.out_path()
+    }
+}
+
+#[test]
+fn a_cut_from_another_thread_puts_zero_on_the_wire_and_holds_it_until_rearmed() {
+    let mut mock = MockTransport::running();
+    mock.report = FalconReport {
+        encoders: counts_for([0.0, 0.0, 0.11]),
+        buttons: 0,
+        homed: 7,
+    };
+    let second_path = Arc::clone(&mock.out_log);
+    let mut c = FalconConfig::default();
+    c.safety.ramp_ticks = 10;
+    let mut dev = FalconDevice::new(mock, c);
+    let push = [0.0, 0.0, 3.0];
+    for _ in 0..20 {
+        dev.read().unwrap();
+        dev.write(&ForceCommand::force(push)).unwrap();
+    }
+    let full = dev.transport().commands.last().unwrap().motors;
+    assert_ne!(full, [0; 3]);
+    // The supervisor's thread cuts: one zero-motor frame on the second path, with the LED and
+    // homing bits the servo's frames carry (homed: green, homing off).
+    let cutoff = dev.cutoff().expect("the mock has a second path");
+    std::thread::scope(|s| {
+        s.spawn(|| assert_eq!(cutoff.cut(), Ok(Cut::Done)));
+    });
+    let sent = second_path.lock().unwrap().clone();
+    assert_eq!(sent.len(), 1);
+    assert_eq!(sent[0].motors, [0; 3]);
+    assert_eq!(sent[0].leds, LED_GREEN);
+    assert!(!sent[0].homing);
+    // While the latch is set the servo's own frames carry zero too.
+    let before = dev.transport().commands.len();
+    for _ in 0..5 {
+        dev.read().unwrap();
+        dev.write(&ForceCommand::force(push)).unwrap();
+    }
+    let latched = &dev.transport().commands[before..];
+    assert!(!latched.is_empty());
+    assert!(latched.iter().all(|c| c.motors == [0; 3]), "{latched:?}");
+    // Rearmed by the servo: the force ramps up again from a tenth, not a jump.
+    cutoff.rearm();
+    dev.read().unwrap();
+    dev.write(&ForceCommand::force(push)).unwrap();
+    let resumed = dev.transport().commands.last().unwrap().motors;
+    let mag = |m: [i16; 3]| m.iter().map(|v| i32::from(*v).abs()).max().unwrap_or(0);
+    assert!(
+        mag(resumed) > 0 && mag(resumed) * 5 < mag(full),
+        "{resumed:?} vs {full:?}"
+    );
+}
+
+#[test]
+fn a_cut_that_lands_during_the_servos_frame_is_followed_by_a_zero_frame() {
+    let mut mock = MockTransport::running();
+    mock.report = FalconReport {
+        encoders: counts_for([0.0, 0.0, 0.11]),
+        buttons: 0,
+        homed: 7,
+    };
+    let cell: Arc<OnceLock<Arc<dyn MotorCutoff>>> = Arc::default();
+    let t = CutDuringWrite {
+        mock,
+        at: 10,
+        frames: 0,
+        cutoff: Arc::clone(&cell),
+    };
+    let mut dev = FalconDevice::new(t, config());
+    cell.set(dev.cutoff().expect("a second path"))
+        .expect("set once");
+    // The first read sends a frame to start the exchange (frame 0); then each tick's write
+    // sends one: frame 10 is the 10th tick's force frame.
+    for _ in 0..10 {
+        dev.read().unwrap();
+        dev.write(&ForceCommand::force([0.0, 0.0, 3.0])).unwrap();
+    }
+    let cmds = &dev.transport().mock.commands;
+    assert_eq!(
+        cmds.len(),
+        12,
+        "the force frame, then a zero frame after it"
+    );
+    assert_ne!(cmds[10].motors, [0; 3], "the frame the cut raced with");
+    assert_eq!(
+        cmds[11].motors, [0; 3],
+        "the last frame on the wire is a zero"
+    );
+    assert!(!dev.safety().is_enabled());
 }

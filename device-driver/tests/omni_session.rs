@@ -4,7 +4,7 @@ use tetradrill_device::omni::kinematics;
 use tetradrill_device::omni::mock::{MockFirewire, RegOp};
 use tetradrill_device::omni::packet::{OmniInput, MOTOR_ZERO};
 use tetradrill_device::omni::*;
-use tetradrill_device::{DeviceError, ForceCommand, HapticDevice};
+use tetradrill_device::{Cut, DeviceError, ForceCommand, HapticDevice};
 
 fn config() -> OmniConfig {
     let mut c = OmniConfig::default();
@@ -172,4 +172,39 @@ fn docked_calibration_sets_dock_pose() {
     for (a, b) in s.joint_angles[..3].iter().zip([0.0, 0.1, -0.2]) {
         assert!((a - b).abs() < 1e-12);
     }
+}
+
+#[test]
+fn a_cut_from_another_thread_sends_motors_off_and_holds_until_rearmed() {
+    let m = MockFirewire::omni();
+    let second_path = std::sync::Arc::clone(&m.out_log);
+    let mut dev = OmniDevice::start(m, config()).unwrap();
+    for _ in 0..5 {
+        dev.read().unwrap();
+        dev.write(&ForceCommand::force([0.0, 1.0, 0.0])).unwrap();
+    }
+    assert!(dev.transport().sent.last().unwrap().motors_on);
+    let cutoff = dev.cutoff().expect("the mock has a second path");
+    std::thread::scope(|s| {
+        s.spawn(|| assert_eq!(cutoff.cut(), Ok(Cut::Done)));
+    });
+    let sent = second_path.lock().unwrap().clone();
+    assert_eq!(sent.len(), 1);
+    assert!(!sent[0].motors_on);
+    assert_eq!(sent[0].motors, [MOTOR_ZERO; 3]);
+    // Latched: the servo's packets are motors off too.
+    let before = dev.transport().sent.len();
+    for _ in 0..3 {
+        dev.read().unwrap();
+        dev.write(&ForceCommand::force([0.0, 1.0, 0.0])).unwrap();
+    }
+    let latched = &dev.transport().sent[before..];
+    assert!(!latched.is_empty());
+    assert!(latched
+        .iter()
+        .all(|p| !p.motors_on && p.motors == [MOTOR_ZERO; 3]));
+    cutoff.rearm();
+    dev.read().unwrap();
+    dev.write(&ForceCommand::force([0.0, 1.0, 0.0])).unwrap();
+    assert!(dev.transport().sent.last().unwrap().motors_on);
 }

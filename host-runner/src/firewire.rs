@@ -18,6 +18,10 @@
 //! The kernel allows one isochronous context per open file, so a transport opens its node
 //! three times: control (requests, channel allocation), receive, transmit.
 //!
+//! The transmit stream is shared, behind a mutex, with [`CdevOut`]: the second path a
+//! supervisor thread uses to queue motors-off packets while the servo thread is stalled
+//! ([`tetradrill_device::MotorCutoff`]). The servo only `try_lock`s it and never waits on it.
+//!
 //! Every wait is a `ppoll` with a deadline: a dead bus or an unplugged node becomes
 //! [`DeviceError::Timeout`] or [`DeviceError::Disconnected`], never a hang or a panic. After
 //! [`CdevFirewire::open`] nothing allocates: the event buffers, rings and control arrays are
@@ -37,13 +41,15 @@ use std::os::fd::AsRawFd;
 use std::os::unix::fs::OpenOptionsExt;
 use std::path::{Path, PathBuf};
 use std::ptr::NonNull;
+use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 
+use tetradrill_device::cutoff::{OutPath, PACKET_LEN};
 use tetradrill_device::discovery::{is_sensable_vendor, SENSABLE_VENDOR};
 use tetradrill_device::omni::packet::{
     encode_output, OmniOutput, INPUT_LEN, MOTOR_ZERO, OUTPUT_LEN,
 };
 use tetradrill_device::omni::{FirewireTransport, OmniConfig, OmniDevice};
-use tetradrill_device::{DeviceError, DeviceKind, HapticDevice};
+use tetradrill_device::{Cut, DeviceError, DeviceKind, HapticDevice};
 
 use crate::commands::pipeline::DeviceFactory;
 use crate::error::CliError;
@@ -1156,6 +1162,9 @@ pub struct CdevStats {
     pub tx_packets: u64,
     /// Outputs that found nothing left in flight (the bus had run out of output packets).
     pub tx_starved: u64,
+    /// Outputs not queued because a cut held the transmit stream ([`CdevOut`] queuing
+    /// motors-off packets; the device's latch turns its own outputs to motors off meanwhile).
+    pub tx_yielded: u64,
 }
 
 #[derive(Debug)]
@@ -1321,7 +1330,7 @@ pub struct CdevFirewire {
     generation: u32,
     next_closure: u64,
     rx: RxStream,
-    tx: TxStream,
+    tx: Arc<Mutex<TxStream>>,
     stats: CdevStats,
     warning: Option<String>,
 }
@@ -1413,7 +1422,7 @@ impl CdevFirewire {
                 last_ns: None,
                 short: [0; INPUT_LEN],
             },
-            tx: TxStream {
+            tx: Arc::new(Mutex::new(TxStream {
                 ev: tx_ev,
                 handle: tx_handle,
                 buf: tx_buf,
@@ -1421,7 +1430,7 @@ impl CdevFirewire {
                 head: 0,
                 queued: 0,
                 completed: 0,
-            },
+            })),
             stats: CdevStats::default(),
             warning: None,
         };
@@ -1663,59 +1672,118 @@ impl FirewireTransport for CdevFirewire {
 
     /// Queues the packet as many times as needed to keep `tx_depth` packets ahead of the bus
     /// (at least once); waits up to `stall_limit_ms` when the ring is full, then `Timeout`.
+    ///
+    /// The stream is only `try_lock`ed: when a cut holds it ([`CdevOut`]), this packet is not
+    /// queued (counted in `tx_yielded`) and the call returns at once.
     fn transmit(&mut self, packet: &[u8; OUTPUT_LEN]) -> Result<(), DeviceError> {
-        self.tx.collect()?;
+        let mut tx = match self.tx.try_lock() {
+            Ok(tx) => tx,
+            Err(TryLockError::Poisoned(p)) => p.into_inner(),
+            Err(TryLockError::WouldBlock) => {
+                self.stats.tx_yielded += 1;
+                return Ok(());
+            }
+        };
+        tx.collect()?;
         let depth = self.config.tx_depth.clamp(1, TX_SLOTS / 2);
-        if self.tx.started && self.tx.inflight() == 0 {
+        if tx.started && tx.inflight() == 0 {
             self.stats.tx_starved += 1;
         }
-        let copies = tx_batch(self.tx.inflight(), depth, self.tx.started);
-        if self.tx.inflight() + copies > TX_SLOTS {
+        let copies = tx_batch(tx.inflight(), depth, tx.started);
+        if tx.inflight() + copies > TX_SLOTS {
             let deadline = now_ns() + u64::from(self.config.stall_limit_ms) * 1_000_000;
-            while self.tx.inflight() + copies > TX_SLOTS {
+            while tx.inflight() + copies > TX_SLOTS {
                 let left = deadline.saturating_sub(now_ns());
                 if left == 0 {
                     return Err(DeviceError::Timeout);
                 }
-                if self.tx.ev.wait(left)? {
-                    self.tx.collect()?;
+                if tx.ev.wait(left)? {
+                    tx.collect()?;
                 }
             }
         }
-        self.tx.push(packet, copies)?;
+        tx.push(packet, copies)?;
         self.stats.tx_packets += copies as u64;
-        if !self.tx.started {
-            start_iso(&self.tx.ev.file, self.tx.handle, 0)?;
-            self.tx.started = true;
+        if !tx.started {
+            start_iso(&tx.ev.file, tx.handle, 0)?;
+            tx.started = true;
         }
         Ok(())
+    }
+
+    fn out_path(&self) -> Option<Arc<dyn OutPath>> {
+        Some(Arc::new(CdevOut {
+            tx: Arc::clone(&self.tx),
+            depth: self.config.tx_depth.clamp(1, TX_SLOTS / 2),
+        }))
+    }
+}
+
+/// The Omni's second path to its transmit stream, for a supervisor thread: queues a packet
+/// (motors off) behind what is already in flight, without waiting for anything.
+///
+/// It only `try_lock`s the stream: while the servo thread is inside
+/// [`FirewireTransport::transmit`] (at most `stall_limit_ms` when the ring is full) the answer
+/// is [`Cut::Busy`], and the supervisor tries again. The packets already queued (up to
+/// `tx_depth`, 2 ms of bus cycles) still go out before the motors-off ones: they cannot be
+/// taken back from the controller.
+#[derive(Debug)]
+pub struct CdevOut {
+    tx: Arc<Mutex<TxStream>>,
+    depth: usize,
+}
+
+impl OutPath for CdevOut {
+    fn send(&self, packet: &[u8; PACKET_LEN]) -> Result<Cut, DeviceError> {
+        let mut tx = match self.tx.try_lock() {
+            Ok(tx) => tx,
+            Err(TryLockError::Poisoned(p)) => p.into_inner(),
+            Err(TryLockError::WouldBlock) => return Ok(Cut::Busy),
+        };
+        if !tx.started {
+            // Nothing was ever transmitted: the motors were never on.
+            return Ok(Cut::Done);
+        }
+        tx.collect()?;
+        let free = TX_SLOTS - tx.inflight().min(TX_SLOTS);
+        if free == 0 {
+            // The bus has stopped taking packets: nothing queued now would go out sooner.
+            return Ok(Cut::Busy);
+        }
+        tx.push(packet, self.depth.min(free))?;
+        Ok(Cut::Done)
     }
 }
 
 impl Drop for CdevFirewire {
     fn drop(&mut self) {
-        if self.tx.started {
+        // A cut in progress holds the stream for one non-blocking queue call at most.
+        let mut tx: MutexGuard<'_, TxStream> = match self.tx.lock() {
+            Ok(tx) => tx,
+            Err(p) => p.into_inner(),
+        };
+        if tx.started {
             // The last packets the Omni receives carry zero torque with the motors off.
             let idle = encode_output(&OmniOutput {
                 motors: [MOTOR_ZERO; 3],
                 motors_on: false,
                 dock_flash: false,
             });
-            let _ = self.tx.collect();
+            let _ = tx.collect();
             let copies = self.config.tx_depth.clamp(1, TX_SLOTS / 2);
-            if self.tx.push(&idle, copies).is_ok() {
+            if tx.push(&idle, copies).is_ok() {
                 let deadline = now_ns() + 20_000_000;
-                while self.tx.inflight() > 0 {
+                while tx.inflight() > 0 {
                     let left = deadline.saturating_sub(now_ns());
-                    if left == 0 || !matches!(self.tx.ev.wait(left), Ok(true)) {
+                    if left == 0 || !matches!(tx.ev.wait(left), Ok(true)) {
                         break;
                     }
-                    if self.tx.collect().is_err() {
+                    if tx.collect().is_err() {
                         break;
                     }
                 }
             }
-            let _ = stop_iso(&self.tx.ev.file, self.tx.handle);
+            let _ = stop_iso(&tx.ev.file, tx.handle);
         }
         if self.rx.started {
             let _ = stop_iso(&self.rx.ev.file, self.rx.handle);

@@ -14,6 +14,7 @@
 //! | [`stats`]   | percentiles and histograms of timing samples                |
 //! | [`workload`]| the per-tick work of the built-in scenario                  |
 //! | [`viewer`]  | the live 3D view and headless screenshots (feature `viewer`) |
+//! | [`watchdog`]| the servo's supervisor (stalls) and its panic guard          |
 
 #![deny(unsafe_code)]
 
@@ -33,4 +34,5 @@ pub mod stats;
 pub mod tasks;
 pub mod traces;
 pub mod viewer;
+pub mod watchdog;
 pub mod workload;

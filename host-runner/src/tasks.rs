@@ -6,6 +6,7 @@
 //! | servo      | SCHED_FIFO 80, last core | 1 ms, absolute      | device, `ContactState`, camera `C` (triple buffers) | force to device, `ToolSample` ring |
 //! | simulation | normal                   | as fast as it can   | `ToolSample` ring              | `ContactState`, `SimStatus` (triple buffers) |
 //! | status     | normal                   | 250 ms              | `SimStatus`, servo counters (atomics) | the status line          |
+//! | watchdog   | SCHED_FIFO 81, not the servo's core | 1 ms     | the servo's beat (atomic)      | the device's cutoff (force off) |
 //! | viewer     | normal, the main thread  | about 60 Hz         | `Snapshot` queue, servo counters | `Controls`, camera `C` (triple buffers) |
 //!
 //! Hand-offs are lock-free and allocation-free after start-up: the servo pushes every tick's
@@ -20,6 +21,10 @@
 //! the servo reads each tick ([`DeviceFrame`]): the device's positions turn with the view
 //! (egocentric pen coordinates, seed 000 section 5) and forces turn back before they reach the
 //! device. Without a window the frame is the identity and nothing changes.
+//!
+//! The watchdog task ([`crate::watchdog`]) supervises the servo: the servo bumps an atomic beat
+//! each tick; when it stops for [`crate::watchdog::SERVO_WATCHDOG_NS`], the watchdog zeroes the
+//! force through the device's cutoff, without the servo thread.
 
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -29,7 +34,7 @@ use tetradrill_core::drill::Sphere;
 use tetradrill_core::force::{ForceDigest, ToolState};
 use tetradrill_core::servo::{servo_force, ContactState, World};
 use tetradrill_core::Vec3;
-use tetradrill_device::{DeviceError, ForceCommand, HapticDevice};
+use tetradrill_device::{DeviceError, ForceCommand, HapticDevice, MotorCutoff};
 
 use crate::engine::TickParams;
 use crate::platform::now_ns;
@@ -51,7 +56,7 @@ pub struct TaskDecl {
 }
 
 /// Every task of a real-time run.
-pub const TASKS: [TaskDecl; 4] = [
+pub const TASKS: [TaskDecl; 5] = [
     TaskDecl {
         name: "servo",
         priority: "SCHED_FIFO 80, pinned to the last core, memory locked",
@@ -79,6 +84,13 @@ pub const TASKS: [TaskDecl; 4] = [
         period: "about 60 Hz",
         reads: "Snapshot queue (drained, never waited on); servo counters (atomics)",
         writes: "Controls, camera C (triple buffers)",
+    },
+    TaskDecl {
+        name: "watchdog",
+        priority: "SCHED_FIFO one above the servo when permitted, on another core; else normal",
+        period: "1 ms",
+        reads: "the servo's beat (atomic)",
+        writes: "the device's cutoff (force off, latch) when the servo misses 10 ms of ticks",
     },
 ];
 
@@ -145,6 +157,8 @@ pub struct ServoCounters {
     pub radius_bits: AtomicU32,
     /// Stiffness the servo uses, f32 bits; 0 = the scenario's.
     pub stiffness_bits: AtomicU32,
+    /// The servo's beat and the watchdog's trips ([`crate::watchdog`]).
+    pub watch: crate::watchdog::ServoWatch,
 }
 
 /// Buckets of the wake-up latency histogram the servo keeps in atomics.
@@ -428,6 +442,11 @@ pub fn camera_handoff() -> (CameraIn, CameraOut) {
 /// [`servo_tick`], the loop's body). `frame` is the device frame it starts with; with a
 /// `camera` hand-off, each tick takes the latest camera the viewer published (a triple-buffer
 /// read: a few atomic operations, never a wait).
+///
+/// Each tick feeds the watchdog (`counters.watch`, an atomic store) from the first tick to the
+/// last. When the watchdog caught a stall (or the device's cutoff latch is set), the next tick
+/// first writes [`ForceCommand::OFF`] through the device and re-arms the cutoff, so the force
+/// ramps up again from zero; the stall's length is counted.
 #[allow(clippy::too_many_arguments)]
 pub fn servo_task(
     device: &mut dyn HapticDevice,
@@ -458,14 +477,22 @@ pub fn servo_task(
         frame,
         ..ServoState::default()
     };
+    let watch = &counters.watch;
+    let cutoff = device.cutoff();
     let mut timer = Periodic::new(SERVO_PERIOD_NS, 0);
     let mut error = None;
     let mut done = 0u64;
     let mut live = params;
     let mut window_max = 0u64;
+    // The end of the last tick, and the time between the last two ends: a stall is the longer
+    // of that gap (stalled inside a tick) and the time since (stalled between ticks).
+    let mut last_end = now_ns();
+    let mut last_gap = 0u64;
     while done < ticks && !stop.load(Ordering::Relaxed) {
         let w = timer.wait();
         let t0 = now_ns();
+        let stalled = last_gap.max(t0.saturating_sub(last_end));
+        recover_from_stall(device, cutoff.as_deref(), watch, stalled);
         // The viewer's controls (0: the scenario's value).
         let r = counters.radius_bits.load(Ordering::Relaxed);
         live.radius = if r == 0 {
@@ -500,8 +527,12 @@ pub fn servo_task(
             a.store(v.to_bits(), Ordering::Relaxed);
         }
         wake_ns[i] = w.latency_ns;
-        tick_ns[i] = now_ns() - t0;
+        let end = now_ns();
+        tick_ns[i] = end - t0;
+        last_gap = end.saturating_sub(last_end);
+        last_end = end;
         done += 1;
+        watch.beat(done);
         counters.ticks.store(done, Ordering::Relaxed);
         counters.overruns.store(timer.overruns, Ordering::Relaxed);
         counters
@@ -517,6 +548,7 @@ pub fn servo_task(
         }
     }
     // Leave the device safe: force off, whatever happened.
+    watch.disarm();
     let _ = device.write(&ForceCommand::OFF);
     stop.store(true, Ordering::Relaxed);
     wake_ns.truncate(done as usize);
@@ -532,6 +564,30 @@ pub fn servo_task(
         error,
         nonfinite_samples: state.nonfinite_samples,
     }
+}
+
+/// The top of a servo tick: when the watchdog caught a stall (or the device's cutoff latch is
+/// set), writes [`ForceCommand::OFF`] through the device, re-arms the cutoff (the device's
+/// filter then ramps the force up again from zero) and counts the stall, `stalled_ns` long.
+/// Returns whether it did. Atomics and at most one device write: no lock, no allocation.
+pub fn recover_from_stall(
+    device: &mut dyn HapticDevice,
+    cutoff: Option<&dyn MotorCutoff>,
+    watch: &crate::watchdog::ServoWatch,
+    stalled_ns: u64,
+) -> bool {
+    let tripped = watch.tripped();
+    if !(tripped || cutoff.is_some_and(|c| c.is_cut())) {
+        return false;
+    }
+    let _ = device.write(&ForceCommand::OFF);
+    if let Some(c) = cutoff {
+        c.rearm();
+    }
+    if tripped {
+        watch.resumed(stalled_ns);
+    }
+    true
 }
 
 /// What the servo carries from tick to tick.

@@ -3,12 +3,15 @@
 //! `MockTransport`, Omni `MockFirewire`, Touch `MockHdLibrary`) and a fault-injecting wrapper
 //! written here: a disconnect mid-run, stale and repeated frames, truncated frames, NaN
 //! positions, a firmware upload failing halfway, a servo that misses writes, a servo that
-//! stalls. Each case checks what docs/SAFETY.md says the runner does: the force goes to zero
-//! within the watchdog time, the error comes back once and names the fault, the runner ends or
-//! recovers, nothing panics.
+//! stalls (briefly, and past the watchdog: the watchdog thread zeroes the force through each
+//! backend's second path while the servo is still stalled), a servo that panics. Each case
+//! checks what docs/SAFETY.md says the runner does: the force goes to zero within the watchdog
+//! time, the error comes back once and names the fault, the runner ends or recovers, nothing
+//! aborts.
 
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use crossbeam::queue::ArrayQueue;
 use tetradrill::commands::pipeline::{self, PipelineSetup, MESH_UNITS};
@@ -18,6 +21,7 @@ use tetradrill::scenario::Scenario;
 use tetradrill::tasks::{servo_tick, ServoState, ToolSample};
 use tetradrill::traces::Pose;
 use tetradrill::viewer::ViewOptions;
+use tetradrill::watchdog::{self, ServoWatch, SERVO_WATCHDOG_NS};
 use tetradrill_core::force::ToolState;
 use tetradrill_core::servo::ContactState;
 use tetradrill_core::Vec3;
@@ -29,8 +33,8 @@ use tetradrill_device::omni::packet::{OmniInput, MOTOR_ZERO};
 use tetradrill_device::omni::{OmniConfig, OmniDevice};
 use tetradrill_device::touch::{MockHdLibrary, TouchDevice};
 use tetradrill_device::{
-    DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice, SimConfig,
-    SimDevice, Still,
+    Cut, DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice, MotorCutoff,
+    SimConfig, SimDevice, Still,
 };
 
 /// Faults a [`FaultDevice`] injects, by read number (the n-th call to `read`, from 0). A
@@ -47,6 +51,36 @@ struct Faults {
     drop_writes: Option<(u64, u64)>,
     /// This read sleeps first (a servo that stalls for several periods).
     stall: Option<(u64, Duration)>,
+    /// This read blocks until the device's motors are zeroed once more (seen through
+    /// [`FaultDevice::zeroes`], from this thread: nothing but another thread can zero them
+    /// now), or 30 s pass: a servo stalled past the watchdog.
+    stall_until_zero: Option<u64>,
+    /// This read panics (a bug in the servo's path).
+    panic_at: Option<u64>,
+}
+
+/// What a `stall_until_zero` stall saw, in order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum StallEvent {
+    /// The read stalled; how often the motors had been zeroed by then.
+    Began { zeroes: u64 },
+    /// The motors were zeroed once more while the read was still stalled.
+    ZeroWhileStalled,
+    /// The read went on.
+    Ended,
+}
+
+/// What the motors rendered after a write: (the read it followed, force).
+type Rendered = (u64, [f64; 3]);
+
+/// A look at the device's motors from any thread.
+#[derive(Clone)]
+struct Probe<T>(Arc<dyn Fn() -> T + Send + Sync>);
+
+impl<T> std::fmt::Debug for Probe<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Probe")
+    }
 }
 
 fn within(r: Option<(u64, u64)>, n: u64) -> bool {
@@ -63,6 +97,15 @@ struct FaultDevice<D> {
     /// Every command the servo wrote (forwarded or not), in order; shared, so a test can
     /// read it after the device moved into the servo thread.
     log: Arc<Mutex<Vec<ForceCommand>>>,
+    /// How often the inner device's motors were zeroed so far (for a state probe: 1 while
+    /// they render zero, else 0).
+    zeroes: Option<Probe<u64>>,
+    /// What the inner device's motors render, logged after each write with the read it
+    /// followed.
+    motors: Option<Probe<[f64; 3]>>,
+    rendered: Arc<Mutex<Vec<Rendered>>>,
+    /// The events of a `stall_until_zero` stall.
+    events: Arc<Mutex<Vec<StallEvent>>>,
 }
 
 impl<D: HapticDevice> FaultDevice<D> {
@@ -73,7 +116,15 @@ impl<D: HapticDevice> FaultDevice<D> {
             reads: 0,
             held: None,
             log: Arc::default(),
+            zeroes: None,
+            motors: None,
+            rendered: Arc::default(),
+            events: Arc::default(),
         }
+    }
+
+    fn event(&self, e: StallEvent) {
+        self.events.lock().expect("events").push(e);
     }
 
     /// The commands written so far.
@@ -102,6 +153,23 @@ impl<D: HapticDevice> HapticDevice for FaultDevice<D> {
                 std::thread::sleep(d);
             }
         }
+        if self.faults.panic_at == Some(n) {
+            panic!("injected servo panic at read {n}");
+        }
+        if self.faults.stall_until_zero == Some(n) {
+            let zeroes = || self.zeroes.as_ref().map_or(0, |p| (p.0)());
+            let start = zeroes();
+            self.event(StallEvent::Began { zeroes: start });
+            let until = Instant::now() + Duration::from_secs(30);
+            while Instant::now() < until {
+                if zeroes() > start {
+                    self.event(StallEvent::ZeroWhileStalled);
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            self.event(StallEvent::Ended);
+        }
         // The device itself goes on (its clock and its watchdog advance).
         let mut s = self.inner.read()?;
         if within(self.faults.repeat, n) {
@@ -124,11 +192,23 @@ impl<D: HapticDevice> HapticDevice for FaultDevice<D> {
         if within(self.faults.drop_writes, self.reads.saturating_sub(1)) {
             return Ok(());
         }
-        self.inner.write(command)
+        let r = self.inner.write(command);
+        if let Some(p) = &self.motors {
+            let read = self.reads.saturating_sub(1);
+            self.rendered
+                .lock()
+                .expect("rendered")
+                .push((read, (p.0)()));
+        }
+        r
     }
 
     fn calibrate(&mut self) -> Result<(), DeviceError> {
         self.inner.calibrate()
+    }
+
+    fn cutoff(&self) -> Option<Arc<dyn MotorCutoff>> {
+        self.inner.cutoff()
     }
 }
 
@@ -729,4 +809,308 @@ fn impossible_values_exit_2_naming_the_flag_or_the_file_and_line() {
         ],
         &["nan.csv:3:"],
     );
+}
+
+/// The simulated device (default ramp, 500 ticks) with its hand held still at `at`, the motors
+/// probed through its shared motors.
+fn sim_probed(at: [f64; 3], faults: Faults) -> FaultDevice<SimDevice<Still>> {
+    let mut dev = FaultDevice::new(SimDevice::new(Still(at), SimConfig::default()), faults);
+    let m = dev.inner.motors();
+    dev.zeroes = Some(Probe(Arc::new(move || {
+        u64::from(m.output() == ForceCommand::OFF)
+    })));
+    let m = dev.inner.motors();
+    dev.motors = Some(Probe(Arc::new(move || m.output().force)));
+    dev
+}
+
+#[test]
+fn a_servo_stalled_past_the_watchdog_has_its_force_zeroed_while_stalled_then_ramps_back() {
+    // The hand held 0.05 under the block's top face: the burr pushes out, 8 N once ramped.
+    // Read 700 blocks until the device's motors render zero: only the watchdog thread can
+    // zero them while the servo thread is stuck there.
+    let dev = sim_probed(
+        [0.0, 0.0, 0.45],
+        Faults {
+            stall_until_zero: Some(700),
+            ..Faults::default()
+        },
+    );
+    let (events, rendered) = (Arc::clone(&dev.events), Arc::clone(&dev.rendered));
+    let open: pipeline::DeviceFactory = Box::new(move || Ok(Box::new(dev) as Box<_>));
+    let rep = pipeline_with(open, DeviceKind::Sim, 1000).expect("the run recovers");
+    // The order of events: the stall began with force on the motors, the motors went to zero
+    // while the servo was still stalled, then the servo went on.
+    assert_eq!(
+        *events.lock().expect("events"),
+        vec![
+            StallEvent::Began { zeroes: 0 },
+            StallEvent::ZeroWhileStalled,
+            StallEvent::Ended
+        ]
+    );
+    // The run recovered: every tick done, the stall counted (a loaded machine may add more);
+    // the stall lasted at least the watchdog time (the zero came only after it).
+    assert_eq!(rep.ticks, 1000);
+    assert!(rep.servo_stalls >= 1);
+    assert!(rep.servo_stall_max_ms * 1e6 >= SERVO_WATCHDOG_NS as f64);
+    // What the motors rendered after each write: force before the stall, zero after the
+    // stalled tick's write (the latch), then a ramp from zero (1/500 a tick): no jump back.
+    let r = rendered.lock().expect("rendered");
+    let mag = |f: [f64; 3]| (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+    let before = r
+        .iter()
+        .filter(|(read, _)| *read < 700)
+        .map(|(_, f)| mag(*f))
+        .fold(0.0, f64::max);
+    assert!(before > 1.0, "in contact before the stall: {before} N");
+    assert!(r
+        .iter()
+        .filter(|(read, _)| *read == 700)
+        .all(|(_, f)| mag(*f) == 0.0));
+    let first_after = r
+        .iter()
+        .find(|(read, f)| *read > 700 && mag(*f) > 0.0)
+        .map(|(_, f)| mag(*f))
+        .expect("force again after the stall");
+    assert!(
+        first_after * 50.0 < before,
+        "ramped, not jumped: {first_after} N after, {before} N before"
+    );
+}
+
+#[test]
+fn the_watchdog_zeroes_the_falcon_and_the_omni_through_their_second_paths() {
+    // The Falcon: its mock records what comes through the second path (the shared USB
+    // handle on hardware). The read blocks until a new frame has come that way; every frame
+    // that came that way is a zero.
+    let mut mock = MockTransport::running();
+    mock.report = falcon_report();
+    let second = Arc::clone(&mock.out_log);
+    let mut dev = FaultDevice::new(
+        falcon(mock),
+        Faults {
+            stall_until_zero: Some(300),
+            ..Faults::default()
+        },
+    );
+    let seen = Arc::clone(&second);
+    dev.zeroes = Some(Probe(Arc::new(move || {
+        seen.lock().expect("log").len() as u64
+    })));
+    let events = Arc::clone(&dev.events);
+    let open: pipeline::DeviceFactory = Box::new(move || Ok(Box::new(dev) as Box<_>));
+    let rep = pipeline_with(open, DeviceKind::Falcon, 600).expect("the run recovers");
+    assert_eq!(rep.ticks, 600);
+    assert!(rep.servo_stalls >= 1);
+    assert_stalled_then_zeroed(&events.lock().expect("events"));
+    let frames = second.lock().expect("log");
+    assert!(!frames.is_empty());
+    assert!(frames.iter().all(|c| c.motors == [0; 3]), "{frames:?}");
+
+    // The Omni: motors-off packets through the second path (the shared transmit stream of
+    // the firewire-cdev transport on hardware).
+    let mut c = OmniConfig::default();
+    c.safety.ramp_ticks = 1;
+    let mock = MockFirewire::omni();
+    let second = Arc::clone(&mock.out_log);
+    let mut dev = FaultDevice::new(
+        OmniDevice::start(mock, c).expect("start-up"),
+        Faults {
+            stall_until_zero: Some(300),
+            ..Faults::default()
+        },
+    );
+    let seen = Arc::clone(&second);
+    dev.zeroes = Some(Probe(Arc::new(move || {
+        seen.lock().expect("log").len() as u64
+    })));
+    let events = Arc::clone(&dev.events);
+    let open: pipeline::DeviceFactory = Box::new(move || Ok(Box::new(dev) as Box<_>));
+    let rep = pipeline_with(open, DeviceKind::Omni, 600).expect("the run recovers");
+    assert_eq!(rep.ticks, 600);
+    assert!(rep.servo_stalls >= 1);
+    assert_stalled_then_zeroed(&events.lock().expect("events"));
+    let packets = second.lock().expect("log");
+    assert!(packets
+        .iter()
+        .all(|o| !o.motors_on && o.motors == [MOTOR_ZERO; 3]));
+}
+
+/// The stall's events: it began, the second path carried a new zero while it lasted, it
+/// ended. (A loaded machine may have made the watchdog trip before, so the count the stall
+/// began with is not asserted.)
+fn assert_stalled_then_zeroed(events: &[StallEvent]) {
+    assert!(
+        matches!(
+            events,
+            [
+                StallEvent::Began { .. },
+                StallEvent::ZeroWhileStalled,
+                StallEvent::Ended
+            ]
+        ),
+        "{events:?}"
+    );
+}
+
+/// A cutoff whose path answers `Busy` until told otherwise, counting its calls.
+#[derive(Debug, Default)]
+struct BusyCutoff {
+    latch: AtomicBool,
+    busy: AtomicBool,
+    calls: AtomicU64,
+}
+
+impl MotorCutoff for BusyCutoff {
+    fn cut(&self) -> Result<Cut, DeviceError> {
+        self.latch.store(true, Ordering::SeqCst);
+        self.calls.fetch_add(1, Ordering::SeqCst);
+        Ok(if self.busy.load(Ordering::SeqCst) {
+            Cut::Busy
+        } else {
+            Cut::Done
+        })
+    }
+    fn is_cut(&self) -> bool {
+        self.latch.load(Ordering::SeqCst)
+    }
+    fn rearm(&self) {
+        self.latch.store(false, Ordering::SeqCst);
+    }
+}
+
+/// A stand-in servo: beats `n` times, stops beating until the watchdog trips, then (after
+/// `then` ran) comes back like the servo task does and beats until `stop`.
+fn fake_servo(watch: &ServoWatch, stop: &AtomicBool, then: impl FnOnce()) {
+    for k in 1..=20 {
+        watch.beat(k);
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let until = Instant::now() + Duration::from_secs(30);
+    while !watch.tripped() && Instant::now() < until {
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    assert!(watch.tripped(), "the watchdog tripped");
+    then();
+    watch.resumed(0);
+    for k in 21..=40 {
+        watch.beat(k);
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    watch.disarm();
+    stop.store(true, Ordering::Relaxed);
+}
+
+#[test]
+fn the_watchdog_reports_once_what_it_could_do() {
+    let supervise = |cutoff: Option<Arc<dyn MotorCutoff>>, then: &(dyn Fn() + Sync)| {
+        let watch = ServoWatch::default();
+        watch.attach(cutoff);
+        let stop = AtomicBool::new(false);
+        let mut lines = Vec::new();
+        std::thread::scope(|s| {
+            s.spawn(|| fake_servo(&watch, &stop, then));
+            watchdog::supervisor_task(&watch, "touch", SERVO_WATCHDOG_NS, &stop, |l| lines.push(l));
+        });
+        assert_eq!(watch.stalls(), 1);
+        lines
+    };
+    // No second path (the Touch): said so, once.
+    let lines = supervise(None, &|| {});
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    assert!(lines[0].starts_with("the servo stalled for "), "{lines:?}");
+    assert!(lines[0].contains("after 20 ticks"), "{lines:?}");
+    assert!(
+        lines[0].contains("the touch device can be reached only through the servo thread"),
+        "{lines:?}"
+    );
+    // A path that works: force set to zero, once.
+    let c = Arc::new(BusyCutoff::default());
+    let lines = supervise(Some(c.clone()), &|| {});
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    assert!(lines[0].contains("force was set to zero"), "{lines:?}");
+    assert!(c.is_cut(), "the latch stays set until the servo re-arms it");
+    // A path that stays busy: tried again at every look until the servo came back; the latch
+    // was set from the first try, and the line says what happened.
+    let c = Arc::new(BusyCutoff::default());
+    c.busy.store(true, Ordering::SeqCst);
+    let probe = Arc::clone(&c);
+    let lines = supervise(Some(c.clone()), &move || {
+        // The servo comes back only once the watchdog has tried at least twice.
+        let until = Instant::now() + Duration::from_secs(30);
+        while probe.calls.load(Ordering::SeqCst) < 2 && Instant::now() < until {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    });
+    assert!(c.calls.load(Ordering::SeqCst) >= 2);
+    assert!(c.is_cut());
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    assert!(lines[0].contains("stayed busy"), "{lines:?}");
+}
+
+/// The scenario of the panic test: the simulated device pushed into the block, the servo
+/// panicking in its read 600. Returns the run's error and the device's motors.
+fn panicking_servo() -> (
+    tetradrill::error::CliError,
+    Arc<tetradrill_device::sim::SimMotors>,
+) {
+    let dev = sim_probed(
+        [0.0, 0.0, 0.45],
+        Faults {
+            panic_at: Some(600),
+            ..Faults::default()
+        },
+    );
+    let motors = dev.inner.motors();
+    let open: pipeline::DeviceFactory = Box::new(move || Ok(Box::new(dev) as Box<_>));
+    let e = pipeline_with(open, DeviceKind::Sim, 2000).expect_err("the servo panicked");
+    (e, motors)
+}
+
+#[test]
+fn a_panicking_servo_zeroes_the_force_and_ends_with_one_line() {
+    // In a child process (below): only print the line the runner prints.
+    if std::env::var_os("TETRADRILL_PANIC_CHILD").is_some() {
+        let (e, _) = panicking_servo();
+        eprintln!("tetradrill: {e}");
+        return;
+    }
+    let (e, motors) = panicking_servo();
+    assert_eq!(e.code, 1);
+    assert_eq!(e.message.lines().count(), 1, "{}", e.message);
+    for needle in [
+        "the servo panicked after 600 ticks (a bug)",
+        "injected servo panic at read 600",
+        "faults.rs:",
+        "force was set to zero",
+    ] {
+        assert!(e.message.contains(needle), "{needle:?} in {}", e.message);
+    }
+    // The motors render nothing now (the force was on before: the burr was pushed in).
+    assert_eq!(motors.output(), ForceCommand::OFF);
+    // The same run in a child process: stderr holds that one line and no panic report (the
+    // watchdog may add its warning on a loaded machine; nothing else).
+    let out = std::process::Command::new(std::env::current_exe().expect("test binary"))
+        .args([
+            "--exact",
+            "a_panicking_servo_zeroes_the_force_and_ends_with_one_line",
+            "--nocapture",
+            "--test-threads=1",
+        ])
+        .env("TETRADRILL_PANIC_CHILD", "1")
+        .output()
+        .expect("run the child");
+    assert!(out.status.success(), "the child did not abort: {out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = err
+        .lines()
+        .filter(|l| !l.starts_with("tetradrill: warning: the servo stalled"))
+        .collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    assert!(
+        lines[0].starts_with("tetradrill: the servo panicked after 600 ticks"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked at"), "{err}");
 }

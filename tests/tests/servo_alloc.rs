@@ -1,7 +1,8 @@
 //! The servo loop's body neither allocates nor frees after warm-up: a counting global
 //! allocator, armed only on this test's thread, sees zero calls over a thousand ticks of
 //! [`tetradrill::tasks::servo_tick`] with the simulated device, the SPSC ring and the contact
-//! triple buffer, in contact with a surface and out of it.
+//! triple buffer, in contact with a surface and out of it; nor does the way back from a stall
+//! the watchdog caught ([`tetradrill::tasks::recover_from_stall`]).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -9,10 +10,13 @@ use std::cell::Cell;
 use crossbeam::queue::ArrayQueue;
 use tetradrill::engine::TickParams;
 use tetradrill::scenario::Scenario;
-use tetradrill::tasks::{servo_tick, ServoState, Workspace};
+use tetradrill::tasks::{recover_from_stall, servo_tick, ServoState, Workspace};
+use tetradrill::watchdog::ServoWatch;
 use tetradrill_core::servo::ContactState;
 use tetradrill_core::Vec3;
-use tetradrill_device::{PathPoint, Scripted, SimConfig, SimDevice, QUAT_IDENTITY};
+use tetradrill_device::{
+    ForceCommand, HapticDevice, PathPoint, Scripted, SimConfig, SimDevice, Still, QUAT_IDENTITY,
+};
 
 struct Counting;
 
@@ -109,4 +113,56 @@ fn servo_tick_allocates_nothing_after_warm_up() {
     ARMED.with(|a| a.set(false));
     drop(v);
     assert!(CALLS.with(|c| c.get()) >= 1);
+}
+
+#[test]
+fn coming_back_from_a_stall_allocates_nothing() {
+    let params = TickParams::of(&Scenario::default()).expect("default scenario");
+    let mut device = SimDevice::new(Still([0.0, 0.0, 0.55]), SimConfig::default());
+    let cutoff = device.cutoff().expect("the simulated device has a cutoff");
+    let watch = ServoWatch::default();
+    let ring = ArrayQueue::new(64);
+    let plane = ContactState {
+        valid: true,
+        point: Vec3::new(0.0, 0.0, 0.5),
+        normal: Vec3::Z,
+        depth: 0.0,
+        centre: Vec3::new(0.0, 0.0, 0.6),
+        triangles: 1,
+    };
+    let ws = Workspace {
+        scale: 1.0,
+        offset: Vec3::ZERO,
+    };
+    let mut st = ServoState::default();
+    let tick = |t: u64, st: &mut ServoState, device: &mut SimDevice<Still>| {
+        recover_from_stall(device, Some(&*cutoff), &watch, 0);
+        servo_tick(device, &ws, &params, &plane, &ring, st, t).expect("tick");
+        watch.beat(t + 1);
+        while ring.pop().is_some() {}
+    };
+    ARMED.with(|a| a.set(false));
+    for t in 0..600 {
+        tick(t, &mut st, &mut device);
+    }
+    assert!(device.applied_force()[2] > 0.0, "in contact before the cut");
+    // The watchdog's cut (another thread's job; the atomics are the same from here), then the
+    // servo's ticks: the way back and the ramp, counted.
+    cutoff.cut().expect("cut");
+    CALLS.with(|c| c.set(0));
+    ARMED.with(|a| a.set(true));
+    let came_back = recover_from_stall(&mut device, Some(&*cutoff), &watch, 0);
+    for t in 600..700 {
+        tick(t, &mut st, &mut device);
+    }
+    ARMED.with(|a| a.set(false));
+    let calls = CALLS.with(|c| c.get());
+    assert!(came_back, "the latch was seen");
+    assert!(!cutoff.is_cut(), "re-armed");
+    let f = device.applied_force()[2];
+    assert!(
+        f > 0.0 && device.motors().output() != ForceCommand::OFF,
+        "force again: {f}"
+    );
+    assert_eq!(calls, 0, "coming back allocated or freed {calls} times");
 }

@@ -4,13 +4,17 @@
 //! firmware chunk, and a report frame for every command frame in normal mode. Fault knobs
 //! inject a corrupted firmware echo, short (split) reads, garbage between frames and a
 //! disconnect. Every operation is logged for the test to check against the documented
-//! sequence.
+//! sequence. Its second path ([`Transport::out_path`]) records the frames another thread sends
+//! in [`MockTransport::out_log`], shared, so a test reads it while the device runs elsewhere
+//! (the mock does not answer those frames).
 
 use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
 
 use super::frame::{decode_command, encode_report, FalconCommand, FalconReport, FRAME_LEN};
 use super::ftdi::{BAUD_LOADER, BAUD_NORMAL, SIO_SET_BAUD_RATE};
 use super::Transport;
+use crate::cutoff::{Cut, OutPath, PACKET_LEN};
 use crate::device::DeviceError;
 
 /// One logged host operation.
@@ -49,6 +53,8 @@ pub struct MockTransport {
     pub disconnect_after_frames: Option<usize>,
     /// Commands decoded from the frames the host sent in normal mode.
     pub commands: Vec<FalconCommand>,
+    /// Commands decoded from the frames sent through the second path, from any thread.
+    pub out_log: Arc<Mutex<Vec<FalconCommand>>>,
     loader_ready: bool,
     normal: bool,
     echoed: usize,
@@ -80,6 +86,21 @@ impl MockTransport {
         } else {
             Ok(())
         }
+    }
+}
+
+/// The mock's second path: decodes each frame into the shared log.
+#[derive(Debug)]
+struct MockOut(Arc<Mutex<Vec<FalconCommand>>>);
+
+impl OutPath for MockOut {
+    fn send(&self, packet: &[u8; PACKET_LEN]) -> Result<Cut, DeviceError> {
+        let cmd = decode_command(packet).map_err(|_| DeviceError::Transport("bad frame"))?;
+        self.0
+            .lock()
+            .map_err(|_| DeviceError::Transport("mock log poisoned"))?
+            .push(cmd);
+        Ok(Cut::Done)
     }
 }
 
@@ -154,5 +175,9 @@ impl Transport for MockTransport {
             n += 1;
         }
         Ok(n)
+    }
+
+    fn out_path(&self) -> Option<Arc<dyn OutPath>> {
+        Some(Arc::new(MockOut(Arc::clone(&self.out_log))))
     }
 }

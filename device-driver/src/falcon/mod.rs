@@ -5,7 +5,10 @@
 //! from the user (Novint's `novint.bin` or libnifalcon's test firmware); none is bundled.
 //!
 //! Everything goes through [`Transport`], so the whole session is testable with
-//! [`mock::MockTransport`]; [`usb::RusbTransport`] is the real one.
+//! [`mock::MockTransport`]; [`usb::RusbTransport`] is the real one. A transport may offer a
+//! second path to the OUT endpoint ([`Transport::out_path`]: the USB handle is shared, libusb's
+//! synchronous transfers are thread-safe); the device then has a
+//! [`MotorCutoff`](crate::cutoff::MotorCutoff) that sends a zero-motor frame through it.
 
 pub mod frame;
 pub mod ftdi;
@@ -13,6 +16,9 @@ pub mod kinematics;
 pub mod mock;
 pub mod usb;
 
+use std::sync::Arc;
+
+use crate::cutoff::{MotorCutoff, OutPath, PacketCutoff};
 use crate::device::{
     DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice, Vec3,
     QUAT_IDENTITY,
@@ -37,6 +43,11 @@ pub trait Transport {
     /// Reads one packet from bulk endpoint 0x81 (at most 64 bytes, starting with the FT232's
     /// two modem-status bytes); returns bytes read.
     fn bulk_read(&mut self, buf: &mut [u8], timeout_ms: u32) -> Result<usize, DeviceError>;
+    /// A second way to bulk endpoint 0x02 that another thread may use while this transport is
+    /// in a call on the servo thread (`None`, the default: there is none).
+    fn out_path(&self) -> Option<Arc<dyn OutPath>> {
+        None
+    }
 }
 
 /// Falcon settings.
@@ -88,6 +99,17 @@ pub struct FalconDevice<T> {
     position: Vec3,
     sent_since_read: bool,
     connected: bool,
+    cut: Option<Arc<PacketCutoff>>,
+    cut_look: (u8, bool),
+}
+
+/// The frame a cut sends: zero motors with these LED and homing bits.
+fn zero_frame(leds: u8, homing: bool) -> [u8; frame::FRAME_LEN] {
+    encode_command(&FalconCommand {
+        motors: [0; 3],
+        leds,
+        homing,
+    })
 }
 
 impl FalconDevice<usb::RusbTransport> {
@@ -101,7 +123,12 @@ impl<T: Transport> FalconDevice<T> {
     /// Wraps a transport. Call [`load_firmware`](Self::load_firmware) before the first read
     /// unless the firmware is already running.
     pub fn new(transport: T, config: FalconConfig) -> FalconDevice<T> {
+        let cut = transport
+            .out_path()
+            .map(|out| Arc::new(PacketCutoff::new(out, &zero_frame(frame::LED_RED, true))));
         FalconDevice {
+            cut,
+            cut_look: (frame::LED_RED, true),
             transport,
             safety: ForceSafety::new(config.safety),
             config,
@@ -286,12 +313,40 @@ impl<T: Transport> FalconDevice<T> {
         })
     }
 
+    fn latched(&self) -> bool {
+        self.cut.as_ref().is_some_and(|c| c.is_cut())
+    }
+
+    /// Sends `out`, or zero with the motors off while the cutoff's latch is set. The latch is
+    /// looked at again after the frame went out: when a cut came in between, a zero frame
+    /// follows, so the last frame the Falcon gets is a zero.
     fn send(&mut self, out: &ForceCommand) -> Result<(), DeviceError> {
+        let out = if self.latched() {
+            self.safety.disable();
+            ForceCommand::OFF
+        } else {
+            *out
+        };
+        self.send_frame(&out)?;
+        if out.enable && self.latched() {
+            self.safety.disable();
+            self.send_frame(&ForceCommand::OFF)?;
+        }
+        Ok(())
+    }
+
+    fn send_frame(&mut self, out: &ForceCommand) -> Result<(), DeviceError> {
         let cmd = FalconCommand {
             motors: self.motor_commands(out),
             leds: self.leds,
             homing: self.homing,
         };
+        if let Some(c) = &self.cut {
+            if self.cut_look != (cmd.leds, cmd.homing) {
+                self.cut_look = (cmd.leds, cmd.homing);
+                c.set_zero_packet(&zero_frame(cmd.leds, cmd.homing));
+            }
+        }
         let bytes = encode_command(&cmd);
         match self.transport.bulk_write(&bytes, self.config.timeout_ms) {
             Ok(16) => {
@@ -371,6 +426,11 @@ impl<T: Transport> HapticDevice for FalconDevice<T> {
         if !self.connected {
             return Err(DeviceError::Disconnected);
         }
+        let command = if self.latched() {
+            &ForceCommand::OFF
+        } else {
+            command
+        };
         match self.safety.filter(command) {
             Ok(out) => self.send(&out),
             Err(e) => {
@@ -387,6 +447,10 @@ impl<T: Transport> HapticDevice for FalconDevice<T> {
         self.homing = true;
         self.leds = frame::LED_RED;
         Ok(())
+    }
+
+    fn cutoff(&self) -> Option<Arc<dyn MotorCutoff>> {
+        self.cut.clone().map(|c| c as Arc<dyn MotorCutoff>)
     }
 }
 

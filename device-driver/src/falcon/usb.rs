@@ -3,15 +3,47 @@
 use core::fmt;
 
 use rusb::UsbContext;
+use std::sync::Arc;
 use std::time::Duration;
 
 use super::ftdi::{EP_IN, EP_OUT, REQUEST_TYPE_OUT};
 use super::{Transport, PRODUCT_ID, VENDOR_ID};
+use crate::cutoff::{Cut, OutPath, PACKET_LEN};
 use crate::device::{DeviceError, DeviceKind};
 
-/// An open Falcon: interface 0 claimed, bulk endpoints 0x02 / 0x81.
+/// Timeout of a frame sent through the [`RusbOut`] second path, ms.
+pub const OUT_PATH_TIMEOUT_MS: u64 = 10;
+
+/// An open Falcon: interface 0 claimed, bulk endpoints 0x02 / 0x81. The handle is shared with
+/// its [`RusbOut`] second path.
 pub struct RusbTransport {
-    handle: rusb::DeviceHandle<rusb::Context>,
+    handle: Arc<rusb::DeviceHandle<rusb::Context>>,
+}
+
+/// The Falcon's second path to bulk endpoint 0x02: the same libusb handle, used from another
+/// thread (libusb's synchronous transfers are thread-safe; transfers on one endpoint go out in
+/// the order they were submitted). Never takes a lock the servo holds.
+pub struct RusbOut {
+    handle: Arc<rusb::DeviceHandle<rusb::Context>>,
+}
+
+impl fmt::Debug for RusbOut {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("RusbOut(0403:cb48, bulk 0x02)")
+    }
+}
+
+impl OutPath for RusbOut {
+    fn send(&self, packet: &[u8; PACKET_LEN]) -> Result<Cut, DeviceError> {
+        match self
+            .handle
+            .write_bulk(EP_OUT, packet, Duration::from_millis(OUT_PATH_TIMEOUT_MS))
+        {
+            Ok(n) if n == packet.len() => Ok(Cut::Done),
+            Ok(_) => Err(DeviceError::Timeout),
+            Err(e) => Err(map_usb_error(e)),
+        }
+    }
 }
 
 impl fmt::Debug for RusbTransport {
@@ -50,7 +82,9 @@ impl RusbTransport {
         // Not supported on every platform; harmless when it fails.
         let _ = handle.set_auto_detach_kernel_driver(true);
         handle.claim_interface(0).map_err(map_usb_error)?;
-        Ok(RusbTransport { handle })
+        Ok(RusbTransport {
+            handle: Arc::new(handle),
+        })
     }
 }
 
@@ -85,5 +119,11 @@ impl Transport for RusbTransport {
             Err(rusb::Error::Timeout) => Ok(0),
             Err(e) => Err(map_usb_error(e)),
         }
+    }
+
+    fn out_path(&self) -> Option<Arc<dyn OutPath>> {
+        Some(Arc::new(RusbOut {
+            handle: Arc::clone(&self.handle),
+        }))
     }
 }

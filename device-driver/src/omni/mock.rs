@@ -1,9 +1,13 @@
-//! [`MockFirewire`]: a scripted Omni node for tests (registers, input stream, faults).
+//! [`MockFirewire`]: a scripted Omni node for tests (registers, input stream, faults). Its
+//! second path ([`FirewireTransport::out_path`]) records the packets another thread sends in
+//! [`MockFirewire::out_log`], shared, so a test reads it while the device runs elsewhere.
 
 use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
 
 use super::packet::{decode_output, encode_input, OmniInput, OmniOutput, INPUT_LEN, OUTPUT_LEN};
 use super::{FirewireTransport, REG_SERIAL, REG_STATUS_A, REG_VENDOR};
+use crate::cutoff::{Cut, OutPath, PACKET_LEN};
 use crate::device::DeviceError;
 
 /// A register access the host made.
@@ -38,7 +42,23 @@ pub struct MockFirewire {
     pub sent: Vec<OmniOutput>,
     /// Fail with `Disconnected` after this many received packets.
     pub disconnect_after: Option<usize>,
+    /// Output packets sent through the second path, from any thread, decoded.
+    pub out_log: Arc<Mutex<Vec<OmniOutput>>>,
     received: usize,
+}
+
+/// The mock's second path: decodes each packet into the shared log.
+#[derive(Debug)]
+struct MockOut(Arc<Mutex<Vec<OmniOutput>>>);
+
+impl OutPath for MockOut {
+    fn send(&self, packet: &[u8; PACKET_LEN]) -> Result<Cut, DeviceError> {
+        self.0
+            .lock()
+            .map_err(|_| DeviceError::Transport("mock log poisoned"))?
+            .push(decode_output(packet));
+        Ok(Cut::Done)
+    }
 }
 
 impl MockFirewire {
@@ -54,6 +74,7 @@ impl MockFirewire {
             short_every: None,
             sent: Vec::new(),
             disconnect_after: None,
+            out_log: Arc::default(),
             received: 0,
         }
     }
@@ -113,5 +134,9 @@ impl FirewireTransport for MockFirewire {
         }
         self.sent.push(decode_output(packet));
         Ok(())
+    }
+
+    fn out_path(&self) -> Option<Arc<dyn OutPath>> {
+        Some(Arc::new(MockOut(Arc::clone(&self.out_log))))
     }
 }

@@ -6,11 +6,17 @@
 //! and the arm kinematics of [`kinematics`]. Everything goes through [`FirewireTransport`];
 //! this crate forbids `unsafe`, so the Linux firewire-cdev transport (ioctls) lives in the host
 //! runner (`tetradrill::firewire::CdevFirewire`); [`mock::MockFirewire`] drives the tests.
+//! A transport may offer a second path for output packets ([`FirewireTransport::out_path`]);
+//! the device then has a [`MotorCutoff`](crate::cutoff::MotorCutoff) that sends a motors-off
+//! packet through it.
 
 pub mod kinematics;
 pub mod mock;
 pub mod packet;
 
+use std::sync::Arc;
+
+use crate::cutoff::{MotorCutoff, OutPath, PacketCutoff};
 use crate::device::{DeviceError, DeviceSpec, DeviceState, ForceCommand, HapticDevice, Quat, Vec3};
 use crate::safety::{ForceSafety, SafetyConfig};
 use packet::{OmniInput, OmniOutput, INPUT_LEN, OUTPUT_LEN};
@@ -49,6 +55,20 @@ pub trait FirewireTransport {
     fn receive(&mut self, packet: &mut [u8; INPUT_LEN]) -> Result<usize, DeviceError>;
     /// Transmits one isochronous output packet.
     fn transmit(&mut self, packet: &[u8; OUTPUT_LEN]) -> Result<(), DeviceError>;
+    /// A second way to transmit output packets that another thread may use while this
+    /// transport is in a call on the servo thread (`None`, the default: there is none).
+    fn out_path(&self) -> Option<Arc<dyn OutPath>> {
+        None
+    }
+}
+
+/// The output packet of a cut: zero torque, motors off.
+pub fn motors_off_packet() -> [u8; OUTPUT_LEN] {
+    packet::encode_output(&OmniOutput {
+        motors: [packet::MOTOR_ZERO; 3],
+        motors_on: false,
+        dock_flash: false,
+    })
 }
 
 /// Omni settings. Scales marked "unverified" have not been measured on hardware.
@@ -103,6 +123,7 @@ pub struct OmniDevice<T> {
     input: OmniInput,
     sent_since_read: bool,
     connected: bool,
+    cut: Option<Arc<PacketCutoff>>,
 }
 
 fn check(t: &mut impl FirewireTransport, address: u64, expected: u8) -> Result<(), DeviceError> {
@@ -144,7 +165,11 @@ impl<T: FirewireTransport> OmniDevice<T> {
         if control & CONTROL_ENABLE_ISO == 0 {
             transport.write_byte(REG_CONTROL, control | CONTROL_ENABLE_ISO)?;
         }
+        let cut = transport
+            .out_path()
+            .map(|out| Arc::new(PacketCutoff::new(out, &motors_off_packet())));
         Ok(OmniDevice {
+            cut,
             transport,
             safety: ForceSafety::new(config.safety),
             config,
@@ -184,7 +209,28 @@ impl<T: FirewireTransport> OmniDevice<T> {
         e
     }
 
+    fn latched(&self) -> bool {
+        self.cut.as_ref().is_some_and(|c| c.is_cut())
+    }
+
+    /// Sends `out`, or motors off while the cutoff's latch is set. The latch is looked at again
+    /// after the packet was queued: when a cut came in between, a motors-off packet follows.
     fn send(&mut self, out: &ForceCommand) -> Result<(), DeviceError> {
+        let out = if self.latched() {
+            self.safety.disable();
+            ForceCommand::OFF
+        } else {
+            *out
+        };
+        self.send_packet(&out)?;
+        if out.enable && self.latched() {
+            self.safety.disable();
+            self.send_packet(&ForceCommand::OFF)?;
+        }
+        Ok(())
+    }
+
+    fn send_packet(&mut self, out: &ForceCommand) -> Result<(), DeviceError> {
         let tau = kinematics::joint_torques(self.joints, out.force);
         let d = self.config.dac_per_newton_metre;
         let motors = if out.enable {
@@ -307,6 +353,11 @@ impl<T: FirewireTransport> HapticDevice for OmniDevice<T> {
         if !self.connected {
             return Err(DeviceError::Disconnected);
         }
+        let command = if self.latched() {
+            &ForceCommand::OFF
+        } else {
+            command
+        };
         match self.safety.filter(command) {
             Ok(out) => self.send(&out),
             Err(e) => {
@@ -329,5 +380,9 @@ impl<T: FirewireTransport> HapticDevice for OmniDevice<T> {
         }
         self.joints = self.joint_angles();
         Ok(())
+    }
+
+    fn cutoff(&self) -> Option<Arc<dyn MotorCutoff>> {
+        self.cut.clone().map(|c| c as Arc<dyn MotorCutoff>)
     }
 }

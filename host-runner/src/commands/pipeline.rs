@@ -1,5 +1,10 @@
 //! The real-time pipeline shared by `run` and `demo`: the tasks of [`crate::tasks`] on their
 //! threads, a live status line, and the summary at the end.
+//!
+//! The servo runs under a panic guard and a watchdog ([`crate::watchdog`]): a servo that
+//! stalls past the watchdog time has its force zeroed by the watchdog thread (one warning line,
+//! the run goes on: exit status 0, `servo_stalls` in the JSON); a servo that panics has its
+//! force zeroed and ends the run with one line and exit status 1.
 
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -17,6 +22,7 @@ use crate::rt::RtConfig;
 use crate::scenario::Scenario;
 use crate::stats::{histogram_us, summarise_ns, Summary};
 use crate::tasks::{self, Shared, SimStatus, Workspace};
+use crate::watchdog;
 
 /// Opens the device on the servo thread (a device handle need not be `Send`).
 pub type DeviceFactory = Box<dyn FnOnce() -> Result<Box<dyn HapticDevice>, DeviceError> + Send>;
@@ -78,6 +84,11 @@ pub struct RunReport {
     pub dropped_samples: u64,
     /// Device samples with a NaN or infinite position (the force was zero on those ticks).
     pub nonfinite_samples: u64,
+    /// Stalls the watchdog caught (the servo went more than 10 ms without a tick; the force
+    /// was set to zero and ramped up again when it ran again).
+    pub servo_stalls: u64,
+    /// The longest of them (the longest time the servo went without ending a tick), milliseconds.
+    pub servo_stall_max_ms: f64,
     /// Saturations by kind, and their total.
     pub saturations: SaturationCounts,
     /// The final state passed the core's `validate()` (mesh and hierarchy).
@@ -201,29 +212,70 @@ pub fn run(
             .map_err(|e| CliError::failure(format!("cannot start the simulation task: {e}")))?;
         let servo = std::thread::Builder::new()
             .name("servo".into())
-            .spawn_scoped(scope, move || -> Result<tasks::ServoResult, DeviceError> {
-                let mut device = match open() {
-                    Ok(d) => d,
-                    Err(e) => {
-                        sh.stop.store(true, Ordering::Relaxed);
-                        return Err(e);
-                    }
-                };
-                Ok(tasks::servo_task(
-                    device.as_mut(),
-                    rt,
-                    ticks,
-                    workspace,
-                    params,
-                    &mut contact_out,
-                    &sh.ring,
-                    &sh.counters,
-                    &sh.stop,
-                    frame,
-                    view.window.then_some(&mut camera_out),
-                ))
-            })
+            .spawn_scoped(
+                scope,
+                move || -> Result<tasks::ServoResult, ServoFailure> {
+                    let watch = &sh.counters.watch;
+                    let opened = watchdog::quiet_unwind(open);
+                    let mut device = match opened {
+                        Ok(Ok(d)) => d,
+                        Ok(Err(e)) => {
+                            sh.stop.store(true, Ordering::Relaxed);
+                            return Err(ServoFailure::Device(e));
+                        }
+                        Err(panic) => {
+                            sh.stop.store(true, Ordering::Relaxed);
+                            return Err(ServoFailure::Panicked {
+                                ticks: 0,
+                                panic,
+                                force: "the motors were never turned on".into(),
+                            });
+                        }
+                    };
+                    let cutoff = device.cutoff();
+                    watch.attach(cutoff.clone());
+                    let run = watchdog::quiet_unwind(|| {
+                        tasks::servo_task(
+                            device.as_mut(),
+                            rt,
+                            ticks,
+                            workspace,
+                            params,
+                            &mut contact_out,
+                            &sh.ring,
+                            &sh.counters,
+                            &sh.stop,
+                            frame,
+                            view.window.then_some(&mut camera_out),
+                        )
+                    });
+                    run.map_err(|panic| {
+                        let force = watchdog::after_panic(watch, device, cutoff, &sh.stop);
+                        ServoFailure::Panicked {
+                            ticks: sh.counters.ticks.load(Ordering::Relaxed),
+                            panic,
+                            force,
+                        }
+                    })
+                },
+            )
             .map_err(|e| CliError::failure(format!("cannot start the servo task: {e}")))?;
+        let supervisor = std::thread::Builder::new()
+            .name("watchdog".into())
+            .spawn_scoped(scope, move || {
+                watchdog::supervisor_rt(&rt);
+                watchdog::supervisor_task(
+                    &sh.counters.watch,
+                    kind.name(),
+                    watchdog::SERVO_WATCHDOG_NS,
+                    &sh.stop,
+                    |line| eprintln!("tetradrill: warning: {line}"),
+                );
+            })
+            .map_err(|e| {
+                sh.stop.store(true, Ordering::Relaxed);
+                CliError::failure(format!("cannot start the watchdog task: {e}"))
+            })?;
         let drain = |scene: &mut crate::viewer::scene::Scene| {
             while let Some(snap) = sh.snapshots.take() {
                 scene.apply(snap);
@@ -264,6 +316,9 @@ pub fn run(
             .join()
             .map_err(|_| CliError::failure("the servo task panicked"))?;
         sh.stop.store(true, Ordering::Relaxed);
+        supervisor
+            .join()
+            .map_err(|_| CliError::failure("the watchdog task panicked"))?;
         while !sim.is_finished() {
             if any_view && !view.window {
                 drain(&mut scene);
@@ -280,7 +335,16 @@ pub fn run(
     })?;
     let (saturations, valid) = ending;
     let elapsed = started.elapsed().as_secs_f64();
-    let servo = servo.map_err(|e| device_error(kind, e))?;
+    let servo = servo.map_err(|e| match e {
+        ServoFailure::Device(e) => device_error(kind, e),
+        ServoFailure::Panicked {
+            ticks,
+            panic,
+            force,
+        } => CliError::failure(format!(
+            "the servo panicked after {ticks} ticks (a bug): {panic}; {force}"
+        )),
+    })?;
     for w in &servo.rt.warnings {
         eprintln!("tetradrill: warning: {w}");
     }
@@ -299,6 +363,8 @@ pub fn run(
         simulation_step_max_us: sim_status.max_step_ns as f64 / 1000.0,
         dropped_samples: shared.counters.dropped_samples.load(Ordering::Relaxed),
         nonfinite_samples: servo.nonfinite_samples,
+        servo_stalls: shared.counters.watch.stalls(),
+        servo_stall_max_ms: shared.counters.watch.stall_max_ns() as f64 / 1e6,
         saturations,
         valid: valid.is_ok(),
         force_max_n: servo.max_force,
@@ -343,6 +409,22 @@ pub fn run(
 
 /// What the simulation task leaves: saturations by kind and the final state's validity.
 type SimEnding = (SaturationCounts, Result<(), String>);
+
+/// Why the servo thread ended without its result.
+#[derive(Debug)]
+enum ServoFailure {
+    /// The device could not be opened.
+    Device(DeviceError),
+    /// The servo (or the device under it) panicked: a bug.
+    Panicked {
+        /// Ticks done before.
+        ticks: u64,
+        /// The panic's one line.
+        panic: String,
+        /// What happened to the force (`force was set to zero`, or why not).
+        force: String,
+    },
+}
 
 /// The status task: until `stop`, the status line every 250 ms (one line a second in logs),
 /// and `each` every 25 ms (the screenshot's snapshot drain).
@@ -436,6 +518,12 @@ fn print_summary(r: &RunReport) {
         "hierarchy nodes {}, visible faces {}, saturations {}, dropped samples {}, force max {:.2} N",
         r.hierarchy_nodes, r.visible_faces, r.saturations, r.dropped_samples, r.force_max_n
     );
+    if r.servo_stalls > 0 {
+        println!(
+            "servo stalls {} (longest {:.1} ms): the watchdog set the force to zero each time",
+            r.servo_stalls, r.servo_stall_max_ms
+        );
+    }
 }
 
 /// The centre of the box around `positions` (the origin when there are none): the point the
