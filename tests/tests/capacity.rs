@@ -202,9 +202,9 @@ fn every_small_world_capacity_saturates_validly_with_continuous_forces() {
 /// The unsaturated reference run keeps the bound too; without the switch ramp it breaks it
 /// (its contact plane changes under the burr), and so do the runs whose saturation changes
 /// the surface or the plane more often: the bound is not one every run keeps anyway.
-/// Without the ramp, today (force changes over 2 N in one tick; largest): reference 213
-/// (5.4 N), pending 16 items 429 (16.0 N, 210 reversals), hash 1500 entries 96 (4.6 N),
-/// candidates 4: 26, contact search 16 nodes: 3, arena 64 nodes: 2 (a full arena leaves
+/// Without the ramp, today (force changes over 2 N in one tick; largest): reference 209
+/// (5.4 N), pending 16 items 429 (16.0 N, 210 reversals), hash 1500 entries 92 (4.6 N),
+/// candidates 4: 24, contact search 16 nodes: 3, arena 64 nodes: 2 (a full arena leaves
 /// crossing leaves whole). With it, the largest change of every run is about 1 N.
 #[test]
 fn without_the_switch_ramp_plane_changes_make_the_force_jump() {

@@ -18,4 +18,4 @@ mod cell;
 mod table;
 
 pub use cell::{average_edge_length, bucket_of, cell_of, prime_at_most, Aabb, Cell};
-pub use table::{HashEntry, HashError, HashStats, Rebuilt, SpatialHash};
+pub use table::{HashEntry, HashError, HashStats, Rebuilt, SpatialHash, ITEM_BITS, MAX_ITEMS};

@@ -9,8 +9,36 @@ use super::cell::{bucket_of, cell_of, Aabb, Cell};
 pub struct HashEntry {
     /// The cell the item was put in (checked on every query).
     pub cell: Cell,
-    /// The caller's item number (a tet id, a node id, `tet * 4 + face`, ...).
-    pub item: u32,
+    /// The item number in the low [`ITEM_BITS`] bits; bit `ITEM_BITS + a` is set when `cell`
+    /// is the lowest cell of the item's box along axis `a` (what lets
+    /// [`SpatialHash::query_box_once`] report an item once without looking at its box).
+    packed: u32,
+}
+
+/// Bits of an item number: items `0..2^29` (a tet id, a node id, `tet * 4 + face`, ...).
+pub const ITEM_BITS: u32 = 29;
+
+/// Largest number of items one table holds.
+pub const MAX_ITEMS: usize = 1 << ITEM_BITS;
+
+impl HashEntry {
+    /// An unused entry (for initialising static storage).
+    pub const EMPTY: Self = Self {
+        cell: [0; 3],
+        packed: 0,
+    };
+
+    /// The caller's item number.
+    #[inline]
+    pub fn item(&self) -> u32 {
+        self.packed & (MAX_ITEMS as u32 - 1)
+    }
+
+    /// `true` when this entry's cell is the lowest cell of the item's box along axis `a`.
+    #[inline]
+    fn lowest_along(&self, a: usize) -> bool {
+        self.packed & (1 << (ITEM_BITS as usize + a)) != 0
+    }
 }
 
 /// Why a [`SpatialHash`] cannot be made.
@@ -153,7 +181,8 @@ impl<'a> SpatialHash<'a> {
 
     /// Replaces the contents with items `0..count`, item `i` stored in every cell its box
     /// `bounds(i)` overlaps (`None`: item left out, e.g. a degenerate one). Counting sort: one
-    /// counting pass, one prefix sum, one filling pass.
+    /// counting pass, one prefix sum, one filling pass. At most [`MAX_ITEMS`] items: the rest
+    /// are left out as if the storage were full.
     ///
     /// # Bounded work
     /// O(buckets + count + capacity): each pass stops once the entries would exceed the
@@ -171,10 +200,11 @@ impl<'a> SpatialHash<'a> {
         self.starts.fill(0);
         self.bounds = Aabb::of::<0>([]);
 
-        // Pass 1: count entries per bucket, stop at the first item that does not fit.
+        // Pass 1: count entries per bucket, stop at the first item that does not fit (or
+        // whose number does not fit in ITEM_BITS).
         let mut total = 0usize;
-        let mut kept = count;
-        for i in 0..count {
+        let mut kept = count.min(MAX_ITEMS);
+        for i in 0..kept {
             let Some(b) = bounds(i) else { continue };
             let (lo, hi) = self.cell_range(&b);
             let n = cells_in(lo, hi);
@@ -207,10 +237,11 @@ impl<'a> SpatialHash<'a> {
                 if let Some(s) = starts.get_mut(k) {
                     *s = s.saturating_sub(1);
                     if let Some(e) = entries.get_mut(*s as usize) {
-                        *e = HashEntry {
-                            cell: c,
-                            item: i as u32,
-                        };
+                        let mut packed = i as u32;
+                        for a in 0..3 {
+                            packed |= u32::from(c[a] == lo[a]) << (ITEM_BITS as usize + a);
+                        }
+                        *e = HashEntry { cell: c, packed };
                     }
                 }
             });
@@ -245,7 +276,7 @@ impl<'a> SpatialHash<'a> {
         let lo = self.starts.get(k).copied().unwrap_or(0) as usize;
         let hi = self.starts.get(k + 1).copied().unwrap_or(0) as usize;
         let slice = self.entries.get(lo..hi.min(self.used)).unwrap_or(&[]);
-        slice.iter().filter(move |e| e.cell == c).map(|e| e.item)
+        slice.iter().filter(move |e| e.cell == c).map(|e| e.item())
     }
 
     /// Calls `f(cell, item)` for every item stored in a cell the box `b` covers; an item
@@ -276,6 +307,33 @@ impl<'a> SpatialHash<'a> {
             return false;
         }
         self.visit_box(lo, hi, f);
+        true
+    }
+
+    /// Calls `f(item)` once for every item stored in a cell the box `b` covers (in the first
+    /// of those cells that holds it, x fastest): the entry of cell `c` is an item's first in
+    /// the query when, along each axis, `c` is the query's lowest cell or the item's lowest
+    /// one, which the entry records, so no item box is recomputed. Returns `false` and visits
+    /// nothing when the box covers more than `max_cells` cells.
+    ///
+    /// # Bounded work
+    /// O(max_cells + entries met), three flag tests per entry.
+    pub fn query_box_once<F: FnMut(u32)>(&self, b: &Aabb, max_cells: u32, mut f: F) -> bool {
+        let (lo, hi) = self.cell_range(b);
+        if cells_in(lo, hi) > max_cells as u64 {
+            return false;
+        }
+        let nb = self.buckets();
+        for_cells(lo, hi, |c| {
+            let k = bucket_of(c, nb) as usize;
+            let start = self.starts.get(k).copied().unwrap_or(0) as usize;
+            let end = self.starts.get(k + 1).copied().unwrap_or(0) as usize;
+            for e in self.entries.get(start..end.min(self.used)).unwrap_or(&[]) {
+                if e.cell == c && (0..3).all(|a| c[a] == lo[a] || e.lowest_along(a)) {
+                    f(e.item());
+                }
+            }
+        });
         true
     }
 
@@ -323,6 +381,64 @@ pub(crate) fn for_cells<F: FnMut(Cell)>(lo: Cell, hi: Cell, mut f: F) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Random boxes hashed with few buckets (many cells share one), queried by random boxes:
+    /// `query_box_once` reports exactly the items whose box's cells meet the query's cells
+    /// (brute force over integer cell ranges computed here with `floor`), each once, and in
+    /// the first query cell (x fastest) that holds it, as `query_box_ro` visits them.
+    #[test]
+    fn query_box_once_reports_each_item_once() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let boxes: [Aabb; 60] = core::array::from_fn(|_| {
+            let c = Vec3::new(rnd(), rnd(), rnd()) * 8.0 - 4.0;
+            let h = Vec3::new(rnd(), rnd(), rnd()) * 1.5;
+            Aabb::of([c - h, c + h])
+        });
+        let mut starts = [0u32; 8]; // 7 buckets
+        let mut entries = [HashEntry::EMPTY; 4096];
+        let mut h = SpatialHash::new(&mut starts, &mut entries, 0.7).unwrap();
+        assert!(!h.rebuild(boxes.len(), |i| boxes.get(i).copied()).saturated);
+        let cells = |b: &Aabb| {
+            let f = |x: f32| libm::floorf(x * (1.0 / 0.7)) as i32;
+            (
+                [f(b.min.x), f(b.min.y), f(b.min.z)],
+                [f(b.max.x), f(b.max.y), f(b.max.z)],
+            )
+        };
+        for _ in 0..200 {
+            let c = Vec3::new(rnd(), rnd(), rnd()) * 8.0 - 4.0;
+            let q = Aabb::of([c, c + Vec3::new(rnd(), rnd(), rnd()) * 3.0]);
+            let (qlo, qhi) = cells(&q);
+            let mut got = [0u32; 60];
+            let mut order = [0u32; 60];
+            let mut n = 0;
+            assert!(h.query_box_once(&q, 10_000, |item| {
+                got[item as usize] += 1;
+                order[n] = item;
+                n += 1;
+            }));
+            let mut first = [0u32; 60];
+            let mut m = 0;
+            h.query_box_ro(&q, 10_000, |_, item| {
+                if first[..m].iter().all(|&x| x != item) {
+                    first[m] = item;
+                    m += 1;
+                }
+            });
+            assert_eq!(&order[..n], &first[..m], "order of first sightings");
+            for (i, b) in boxes.iter().enumerate() {
+                let (lo, hi) = cells(b);
+                let meets = (0..3).all(|a| lo[a] <= qhi[a] && qlo[a] <= hi[a]);
+                assert_eq!(got[i], u32::from(meets), "item {i}");
+            }
+        }
+    }
 
     #[test]
     fn points_round_trip_and_cell_check() {

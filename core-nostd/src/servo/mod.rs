@@ -399,20 +399,14 @@ impl<'a> World<'a> {
         let (cands, mesh, hash) = (&mut *self.candidates, &self.mesh, &self.hash);
         let mut n = 0usize;
         let mut full = false;
-        let zone_lo = hash.cell_range(&zone).0;
-        hash.query_box_ro(&zone, self.max_cells, |cell, item| {
+        // Each tet once (in the first cell of the query that holds it), and only when its box
+        // meets the zone.
+        hash.query_box_once(&zone, self.max_cells, |item| {
             let t = TetId(item);
             if full || t.idx() >= mesh.tet_count() {
                 return;
             }
-            let b = Aabb::of(mesh.tet_positions(t));
-            if !b.overlaps(&zone) {
-                return;
-            }
-            // A tet is stored in every cell its box covers (all of them or none): take it only
-            // in the first cell of the query that holds it, so each tet comes once.
-            let t_lo = hash.cell_range(&b).0;
-            if (0..3).any(|a| cell[a] != t_lo[a].max(zone_lo[a])) {
+            if !Aabb::of(mesh.tet_positions(t)).overlaps(&zone) {
                 return;
             }
             if n == cands.len() {

@@ -43,10 +43,7 @@ const ZERO_TET: Tet = Tet {
     neighbours: [TetId(0); 4],
     reverse: [Reverse(0); 4],
 };
-const ZERO_ENTRY: HashEntry = HashEntry {
-    cell: [0; 3],
-    item: 0,
-};
+const ZERO_ENTRY: HashEntry = HashEntry::EMPTY;
 const ZERO_VENTRY: VEntry = VEntry {
     tet: TetId(0),
     index: 0,
