@@ -37,7 +37,8 @@ pub fn hash_boundary_faces(hash: &mut SpatialHash<'_>, body: &Body<'_, '_>) -> R
 /// edge's box covers more than `max_cells` cells.
 ///
 /// # Bounded work
-/// O(max_cells + candidate faces met), each candidate one constant-time face test.
+/// O(max_cells + entries met), each candidate face one constant-time face test, once per
+/// face ([`SpatialHash::query_box_once`]).
 pub fn hashed_hit(
     faces: &SpatialHash<'_>,
     world_to_hash: &Affine3A,
@@ -53,7 +54,7 @@ pub fn hashed_hit(
     let margin = faces.cell_size() * 1e-3;
     let b = Aabb::of([hp, hq]).grown(margin);
     let mut best: Option<(SurfaceHit, u32)> = None;
-    faces.query_box_ro(&b, max_cells, |_, item| {
+    faces.query_box_once(&b, max_cells, |item| {
         *candidates = candidates.wrapping_add(1);
         let t = TetId(item / 4);
         let f = (item % 4) as u8;

@@ -97,10 +97,11 @@ pub fn boundary_triangle(body: &Body<'_, '_>, t: TetId, f: u8) -> Option<[Vec3; 
 /// [`sphere_contact`] against the boundary faces of `body` found in `faces` (items
 /// `tet * 4 + face`, [`crate::depth::hash_boundary_faces`]) in the cells the sphere's box
 /// covers. Returns a contact with `triangles == 0` when no face is near (or the box covers
-/// more than `max_cells` cells).
+/// more than `max_cells` cells). Each face is tested once however many cells it shares with
+/// the box ([`SpatialHash::query_box_once`]).
 ///
 /// # Bounded work
-/// O(max_cells + faces met).
+/// O(max_cells + entries met), one closest-point test per face.
 pub fn mesh_sphere_contact(
     faces: &SpatialHash<'_>,
     body: &Body<'_, '_>,
@@ -112,7 +113,7 @@ pub fn mesh_sphere_contact(
     let mut best_d2 = f32::INFINITY;
     let mut best = SphereContact::default();
     let mut best_item = u32::MAX;
-    faces.query_box_ro(&b, max_cells, |_, item| {
+    faces.query_box_once(&b, max_cells, |item| {
         let Some(t) = boundary_triangle(body, TetId(item / 4), (item % 4) as u8) else {
             return;
         };
