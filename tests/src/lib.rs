@@ -95,3 +95,18 @@ pub fn tetradrill_bin() -> PathBuf {
     })
     .clone()
 }
+
+/// Runs the binary with `args` and asserts what bad input must give: exit status 2 and a
+/// first stderr line holding every one of `needles` (the flag, the file and line, the reason).
+pub fn refused(args: &[&str], needles: &[&str]) {
+    let out = std::process::Command::new(tetradrill_bin())
+        .args(args)
+        .output()
+        .expect("run tetradrill");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    let first = err.lines().next().unwrap_or("");
+    for n in needles {
+        assert!(first.contains(n), "{args:?}: {first:?} lacks {n:?}");
+    }
+}

@@ -25,7 +25,7 @@ use tetradrill::traces::PoseSource;
 use tetradrill_core::force::{pen_contact, ForceParams, PenOptions, PenState, ToolState};
 use tetradrill_core::servo::Saturations;
 use tetradrill_core::{Quat, Vec3};
-use tetradrill_tests::{mesh, scratch_dir, tetradrill_bin};
+use tetradrill_tests::{mesh, refused, scratch_dir, tetradrill_bin};
 
 /// Ticks of the demo path replayed: the approach, the plunge with the drill on and the first
 /// half of the drag along x.
@@ -556,20 +556,6 @@ fn plunge_trace(dir: &Path) -> PathBuf {
     let p = dir.join("plunge.csv");
     std::fs::write(&p, text).expect("write trace");
     p
-}
-
-/// Asserts exit status 2 and a first stderr line holding every needle.
-fn refused(args: &[&str], needles: &[&str]) {
-    let out = Command::new(tetradrill_bin())
-        .args(args)
-        .output()
-        .expect("run tetradrill");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
-    let first = err.lines().next().unwrap_or("");
-    for n in needles {
-        assert!(first.contains(n), "{args:?}: {first:?} lacks {n:?}");
-    }
 }
 
 #[test]

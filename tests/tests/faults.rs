@@ -36,6 +36,7 @@ use tetradrill_device::{
     Cut, DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice, MotorCutoff,
     SimConfig, SimDevice, Still,
 };
+use tetradrill_tests::refused;
 
 /// Faults a [`FaultDevice`] injects, by read number (the n-th call to `read`, from 0). A
 /// range `(a, b)` covers reads `a..b`.
@@ -718,20 +719,6 @@ fn the_pipeline_reports_a_device_fault_once_on_one_line() {
     assert_eq!(e.message.lines().count(), 1, "{}", e.message);
     for needle in ["--device falcon", "firmware echo mismatch", "256"] {
         assert!(e.message.contains(needle), "{}", e.message);
-    }
-}
-
-/// Runs the binary and asserts exit status 2 with a first stderr line holding every needle.
-fn refused(args: &[&str], needles: &[&str]) {
-    let out = std::process::Command::new(tetradrill_tests::tetradrill_bin())
-        .args(args)
-        .output()
-        .expect("run tetradrill");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
-    let first = err.lines().next().unwrap_or("");
-    for n in needles {
-        assert!(first.contains(n), "{args:?}: {first:?} lacks {n:?}");
     }
 }
 
