@@ -31,9 +31,9 @@ const QUEUED: u8 = 2;
 const KNOWN: u8 = 3;
 
 /// Scratch for [`penetration_depth`]: one slot per node of body A (its length bounds the node
-/// ids handled) and a queue for the propagation. The queue is the fast first part of the
-/// breadth-first order; what does not fit is chained through the slots (one link per slot), so
-/// a short queue changes neither the depths nor their order, and is only counted
+/// ids handled) and a queue for the propagation. The queue holds the first nodes of the
+/// breadth-first order; the rest are chained through their slots (one link per slot), so a
+/// short queue changes neither the depths nor their order, and is only counted
 /// ([`DepthReport::queue_full`]).
 #[derive(Debug)]
 pub struct DepthScratch<'a> {
