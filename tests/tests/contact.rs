@@ -280,12 +280,15 @@ fn hash_matches_brute_force_teddy() {
 }
 
 /// Independent f64 consistent depth of the pen nodes in the object (brute force over the
-/// object's boundary faces, own adjacency, own breadth-first layers).
+/// object's boundary faces, own adjacency, own breadth-first layers). With `partial` (a full
+/// collision list) an edge to a node outside `colliding` takes the first place its line
+/// leaves the object, past the edge's end too.
 fn reference_depth(
     pen: &Mesh<'_>,
     world: &[Vec3],
     obj: &Mesh<'_>,
     colliding: &HashSet<usize>,
+    partial: bool,
 ) -> HashMap<usize, (f64, DVec3)> {
     let mut adj: Vec<Vec<usize>> = vec![Vec::new(); pen.node_count()];
     for t in pen.tets() {
@@ -345,7 +348,7 @@ fn reference_depth(
                     continue; // not leaving
                 }
                 let s = n.dot(a - p) / den;
-                if !(-1e-4..=1.0 + 1e-4).contains(&s) {
+                if s < -1e-4 || (!partial && s > 1.0 + 1e-4) {
                     continue;
                 }
                 let x = p + d * s;
@@ -430,7 +433,8 @@ fn depth_matches_f64_reference_on_cow() {
                 .iter()
                 .map(|h| h.node.idx())
                 .collect();
-            let reference = reference_depth(scene.pen, bufs.world, scene.object.mesh, &colliding);
+            let reference =
+                reference_depth(scene.pen, bufs.world, scene.object.mesh, &colliding, false);
             let got = &bufs.pen_pens[..c.penetrations.0];
             assert_eq!(
                 got.len(),
@@ -471,6 +475,66 @@ fn depth_matches_f64_reference_on_cow() {
         "depth vs f64: {compared} nodes, worst |d| error {worst_d:.3e}, worst dir {worst_r:.3e}"
     );
     assert!(compared > 50);
+}
+
+/// A collision list of 24 and a propagation queue of 3 (the pen deep in the cow, hundreds of
+/// nodes inside): the listed nodes' depths match the f64 reference that follows each edge to
+/// an unlisted node to where its line leaves the cow, past the node if it is inside too, and
+/// propagates in its own unbounded queue.
+#[test]
+fn partial_list_depth_matches_f64_reference_on_cow() {
+    let mut rig = rig(10.0, COW, 1.0);
+    let ps = {
+        let obj_view = rig.obj.view();
+        poses(&obj_view, 12, 0.25, 5)
+    };
+    let sizes = tetradrill::pen::PenSizes {
+        contacts: Some(24),
+        queue: Some(3),
+        ..Default::default()
+    };
+    let (mut compared, mut partial, mut beyond, mut worst_d) = (0usize, 0usize, 0u32, 0.0f64);
+    rig.with_sizes(sizes, |scene, bufs| {
+        for &(pos, rot) in &ps {
+            let c = pen_contact(
+                scene,
+                bufs,
+                pos,
+                rot,
+                &PenOptions::default(),
+                &mut PenState::default(),
+            );
+            let listed: HashSet<usize> = bufs.pen_hits[..c.pen_collisions.count]
+                .iter()
+                .map(|h| h.node.idx())
+                .collect();
+            let sat = c.pen_collisions.saturated;
+            partial += sat as usize;
+            beyond += c.pen_depth.beyond;
+            let reference = reference_depth(scene.pen, bufs.world, scene.object.mesh, &listed, sat);
+            let got = &bufs.pen_pens[..c.penetrations.0];
+            assert_eq!(
+                got.len(),
+                reference.len(),
+                "same nodes get a depth at {pos:?}"
+            );
+            for g in got {
+                let (d, r) = reference[&g.node.idx()];
+                let ed = (g.depth as f64 - d).abs();
+                let er = (g.dir.to_dvec3() - r).length();
+                assert!(ed < 1e-4, "node {:?}: depth {} vs f64 {d}", g.node, g.depth);
+                assert!(er < 1e-3, "node {:?}: dir {:?} vs f64 {r:?}", g.node, g.dir);
+                worst_d = worst_d.max(ed);
+                compared += 1;
+            }
+        }
+    })
+    .expect("pen scene");
+    println!(
+        "partial lists: {partial} of 12 poses, {compared} nodes, {beyond} edges followed past \
+         their end, worst |d| {worst_d:.3e}"
+    );
+    assert!(partial >= 6 && compared > 100 && beyond > 50);
 }
 
 fn traced_equals_hashed(obj_rel: &str, n: usize, seed: u64) {

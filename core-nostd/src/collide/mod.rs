@@ -9,7 +9,10 @@
 //!   (Teschner's order). Used for the nodes of a static object against a moving tool's tets.
 //!
 //! Both report each point at most once, with the smallest tet id that contains it, sorted by
-//! node id, so the two directions and a brute-force oracle give the same sets. Candidates are
+//! node id, so the two directions and a brute-force oracle give the same sets. Their
+//! `_coherent` forms take the previous call's result, still in the output, and keep those
+//! points first when the output cannot hold every hit (temporal coherence): with a full
+//! output a point leaves the list only when it leaves the tets. Candidates are
 //! checked to be in the queried cell (by the hash) and then by barycentric coordinates;
 //! degenerate tets are skipped and counted; a point that is a node of the tet itself is
 //! excluded by index when `own` is set (self-collision).
@@ -23,8 +26,8 @@ pub(crate) mod test_support;
 mod tests;
 
 pub use body::Body;
-pub use points::{hash_tets, points_in_tets};
-pub use teschner::{tets_over_points, MAX_CELLS_PER_TET};
+pub use points::{hash_tets, points_in_tets, points_in_tets_coherent};
+pub use teschner::{tets_over_points, tets_over_points_coherent, MAX_CELLS_PER_TET};
 
 use crate::ids::{NodeId, TetId};
 
@@ -43,7 +46,8 @@ pub struct CollideReport {
     /// Collisions written to the output.
     pub count: usize,
     /// `true` when the output filled up: what is written is valid but incomplete (for
-    /// [`points_in_tets`] the points with the smallest indices are kept).
+    /// [`points_in_tets`] the points with the smallest indices are kept; the `_coherent`
+    /// forms keep the previous call's points first).
     pub saturated: bool,
     /// Candidate tets skipped because they are degenerate (no barycentric coordinates).
     pub degenerate: u32,

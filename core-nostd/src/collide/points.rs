@@ -24,7 +24,9 @@ pub fn hash_tets(hash: &mut SpatialHash<'_>, body: &Body<'_, '_>) -> Rebuilt {
 ///
 /// # Bounded work
 /// O(P * b) for P points and b the largest bucket; no more than `out.len()` writes.
-/// When `out` is full, the remaining points are not examined and `saturated` is set.
+/// When `out` is full, the remaining points are not examined and `saturated` is set: the
+/// points with the smallest indices are kept ([`points_in_tets_coherent`] keeps the previous
+/// call's instead).
 pub fn points_in_tets(
     tets: &SpatialHash<'_>,
     body: &Body<'_, '_>,
@@ -32,43 +34,117 @@ pub fn points_in_tets(
     own: bool,
     out: &mut [Collision],
 ) -> CollideReport {
+    points_in_tets_coherent(tets, body, points, own, out, 0)
+}
+
+/// [`points_in_tets`] that keeps last call's collisions first when `out` cannot hold every
+/// colliding point (temporal coherence).
+///
+/// `out[..kept]` must be the previous call's result, left as it was written (its `count`);
+/// entries that are not in increasing node order or name a point beyond `points` are
+/// ignored, so any contents give a valid result. First the points listed there are tested
+/// again and those still inside a tet keep their entries; then the other points are
+/// examined in index order and fill the entries left. The result is the same set and order
+/// as [`points_in_tets`] whenever every colliding point fits: only which points a full
+/// output keeps differs, the previous ones first and then the smallest new indices. Listed
+/// points leave only when they leave the tets, so a caller summing a quantity that is zero
+/// at the tets' surface over the list sees it change continuously while the output is full.
+///
+/// # Bounded work
+/// O(P * b) as [`points_in_tets`] (each point is tested once), plus one sort of at most
+/// `out.len()` entries when the previous entries and new ones are merged. When `out` is full
+/// the remaining points are not examined and `saturated` is set.
+pub fn points_in_tets_coherent(
+    tets: &SpatialHash<'_>,
+    body: &Body<'_, '_>,
+    points: &[Vec3],
+    own: bool,
+    out: &mut [Collision],
+    kept: usize,
+) -> CollideReport {
     let mut r = CollideReport::default();
-    let bounds = tets.bounds();
-    for (i, &p) in points.iter().enumerate() {
-        if !bounds.overlaps(&Aabb::point(p)) {
+    // The previous entries still inside, compacted in place (in node order).
+    let mut m = 0usize;
+    let mut last: Option<NodeId> = None;
+    for i in 0..kept.min(out.len()) {
+        let node = out[i].node;
+        if last.is_some_and(|l| node <= l) {
             continue;
         }
-        let node = NodeId::from_idx(i);
-        let mut best = TetId::NONE;
-        for item in tets.items_in_cell(tets.cell_of(p)) {
-            let t = TetId(item);
-            if t >= best {
-                continue;
-            }
-            let Some(ids) = body.tet_nodes(t) else {
-                continue;
-            };
-            if own && ids.contains(&node) {
-                continue;
-            }
-            let Some(corners) = body.tet_positions(t) else {
-                continue;
-            };
-            r.candidates = r.candidates.wrapping_add(1);
-            match geom::barycentric(p, corners) {
-                None => r.degenerate = r.degenerate.wrapping_add(1),
-                Some(b) if geom::inside(b, INSIDE_EPS) => best = t,
-                Some(_) => {}
-            }
+        let Some(&p) = points.get(node.idx()) else {
+            continue;
+        };
+        last = Some(node);
+        let tet = smallest_tet(tets, body, p, node, own, &mut r);
+        if tet.is_some() {
+            out[m] = Collision { node, tet };
+            m += 1;
         }
-        if best.is_some() {
-            let Some(slot) = out.get_mut(r.count) else {
+    }
+    // Every other point, in index order, into what is left.
+    let mut n = m;
+    let mut j = 0usize;
+    for (i, &p) in points.iter().enumerate() {
+        let node = NodeId::from_idx(i);
+        while j < m && out[j].node < node {
+            j += 1;
+        }
+        if j < m && out[j].node == node {
+            continue; // tested above
+        }
+        let tet = smallest_tet(tets, body, p, node, own, &mut r);
+        if tet.is_some() {
+            let Some(slot) = out.get_mut(n) else {
                 r.saturated = true;
                 break;
             };
-            *slot = Collision { node, tet: best };
-            r.count += 1;
+            *slot = Collision { node, tet };
+            n += 1;
         }
     }
+    if m > 0 && n > m {
+        if let Some(all) = out.get_mut(..n) {
+            all.sort_unstable();
+        }
+    }
+    r.count = n;
     r
+}
+
+/// The smallest-id tet of `body` in `tets` holding `p` (`NONE` when none), counting the
+/// candidates and degenerate tets met in `r`.
+fn smallest_tet(
+    tets: &SpatialHash<'_>,
+    body: &Body<'_, '_>,
+    p: Vec3,
+    node: NodeId,
+    own: bool,
+    r: &mut CollideReport,
+) -> TetId {
+    let mut best = TetId::NONE;
+    if !tets.bounds().overlaps(&Aabb::point(p)) {
+        return best;
+    }
+    for item in tets.items_in_cell(tets.cell_of(p)) {
+        let t = TetId(item);
+        if t >= best {
+            continue;
+        }
+        let Some(ids) = body.tet_nodes(t) else {
+            continue;
+        };
+        if own && ids.contains(&node) {
+            continue;
+        }
+        let Some(corners) = body.tet_positions(t) else {
+            continue;
+        };
+        r.candidates = r.candidates.wrapping_add(1);
+        match geom::barycentric(p, corners) {
+            None => r.degenerate = r.degenerate.wrapping_add(1),
+            Some(b) if geom::inside(b, INSIDE_EPS) => best = t,
+            Some(_) => {}
+        }
+    }
+    best
 }

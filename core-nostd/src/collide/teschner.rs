@@ -18,7 +18,8 @@ pub const MAX_CELLS_PER_TET: u32 = 4096;
 /// O(T * (cells per tet box + points met)) with the cells per box capped at
 /// [`MAX_CELLS_PER_TET`] (larger boxes are skipped and counted in `clipped`), plus one sort of
 /// at most `out.len()` entries. When `out` fills, further hits are dropped and `saturated`
-/// is set; the written pairs stay valid.
+/// is set; the written pairs stay valid (the hits of the first tets walked are kept;
+/// [`tets_over_points_coherent`] keeps the previous call's points first).
 pub fn tets_over_points(
     points_hash: &SpatialHash<'_>,
     points: &[Vec3],
@@ -26,9 +27,73 @@ pub fn tets_over_points(
     own: bool,
     out: &mut [Collision],
 ) -> CollideReport {
+    walk(points_hash, points, body, own, out, 0).0
+}
+
+/// [`tets_over_points`] that keeps last call's points first when `out` cannot hold every hit
+/// (temporal coherence).
+///
+/// `out[..kept]` must be the previous call's result, left as it was written (its `count`);
+/// entries out of increasing node order or naming a point beyond `points` are ignored, so any
+/// contents give a valid result. Those points keep their entries while they are inside a tet
+/// (with the smallest such tet); the other hits fill what is left in the order the tets are
+/// walked. The result is the same set and order as [`tets_over_points`] whenever that one
+/// does not fill `out`: when keeping the entries of points that have left costs room that a
+/// new point needed, the walk is done again without them. Listed points leave only when they
+/// leave the tets, so a caller summing a quantity that is zero at the tets' surface over the
+/// list sees it change continuously while the output is full.
+///
+/// # Bounded work
+/// At most two walks as in [`tets_over_points`], a binary search over at most `kept` entries
+/// per hit, and one sort of at most `out.len()` entries. When `out` is full further new points
+/// are dropped and `saturated` is set.
+pub fn tets_over_points_coherent(
+    points_hash: &SpatialHash<'_>,
+    points: &[Vec3],
+    body: &Body<'_, '_>,
+    own: bool,
+    out: &mut [Collision],
+    kept: usize,
+) -> CollideReport {
+    // The previous entries, compacted in place to increasing node order within range.
+    let mut k = 0usize;
+    for i in 0..kept.min(out.len()) {
+        let node = out[i].node;
+        if node.idx() >= points.len() || (k > 0 && node <= out[k - 1].node) {
+            continue;
+        }
+        out[k] = out[i];
+        k += 1;
+    }
+    let (r, hits) = walk(points_hash, points, body, own, out, k);
+    if k == 0 || !r.saturated || hits > out.len() {
+        return r;
+    }
+    // Every hit would have fitted without the entries kept for points that have left.
+    let (mut again, _) = walk(points_hash, points, body, own, out, 0);
+    again.candidates = again.candidates.wrapping_add(r.candidates);
+    again
+}
+
+/// The walk: `out[..k]` are points kept from the previous call (increasing node order), the
+/// other hits are appended after them. Returns the report and the number of hits (a point in
+/// several tets counts once per tet).
+fn walk(
+    points_hash: &SpatialHash<'_>,
+    points: &[Vec3],
+    body: &Body<'_, '_>,
+    own: bool,
+    out: &mut [Collision],
+    k: usize,
+) -> (CollideReport, usize) {
     let mut r = CollideReport::default();
+    let k = k.min(out.len());
+    for c in &mut out[..k] {
+        c.tet = TetId::NONE; // not found yet
+    }
     let bounds = points_hash.bounds();
-    let mut n = 0usize;
+    let mut n = k;
+    let mut hits = 0usize;
     for ti in 0..body.tet_count() {
         let t = TetId::from_idx(ti);
         let (Some(ids), Some(corners)) = (body.tet_nodes(t), body.tet_positions(t)) else {
@@ -52,6 +117,16 @@ pub fn tets_over_points(
             match geom::barycentric(p, corners) {
                 None => degenerate = true,
                 Some(bc) if geom::inside(bc, INSIDE_EPS) => {
+                    hits += 1;
+                    if k > 0 {
+                        if let Ok(j) = out_ref[..k].binary_search_by_key(&node, |c| c.node) {
+                            // Tets come in increasing order: the first is the smallest.
+                            if out_ref[j].tet.is_none() {
+                                out_ref[j].tet = t;
+                            }
+                            return;
+                        }
+                    }
                     if let Some(slot) = out_ref.get_mut(n) {
                         *slot = Collision { node, tet: t };
                         n += 1;
@@ -69,7 +144,16 @@ pub fn tets_over_points(
             r.degenerate = r.degenerate.wrapping_add(1);
         }
     }
-    let found = out.get_mut(..n).unwrap_or(&mut []);
+    // Drop kept points that were not met again, then the new hits after them.
+    let mut m = 0usize;
+    for i in 0..k {
+        if out[i].tet.is_some() {
+            out[m] = out[i];
+            m += 1;
+        }
+    }
+    out.copy_within(k..n, m);
+    let found = out.get_mut(..m + n - k).unwrap_or(&mut []);
     found.sort_unstable();
     // Keep the first (smallest tet) pair of each node.
     let mut w = 0usize;
@@ -80,5 +164,5 @@ pub fn tets_over_points(
         }
     }
     r.count = w;
-    r
+    (r, hits)
 }

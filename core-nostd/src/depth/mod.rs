@@ -12,6 +12,14 @@
 //! neighbours of lower layers: `mu_j = 1/|p_j - p|^2`,
 //! `d(p) = sum mu_j ((p_j - p).r_j + d_j) / sum mu_j`, `r(p) = normalize(sum mu_j r_j)`.
 //! A node's value depends only on lower layers, so it does not depend on the queue order.
+//! The caller's queue holds the first nodes of the breadth-first order; the rest are chained
+//! through their scratch slots, so a short queue changes no depth (it is only counted).
+//!
+//! A collision list that filled up ([`Listed::Partial`]) may leave out nodes inside B. An edge
+//! from a listed node to such a node ends inside B; its line is then followed on to where it
+//! leaves B, so the listed node keeps the depth its edges give it while its neighbours enter
+//! B unlisted (at the moment a neighbour crosses the surface both rules give the same
+//! crossing: the depth stays continuous).
 //!
 //! Two ways to find `x_i`, selected by [`Method`]:
 //! - [`Method::Traced`] (seed 000): walk the line from `p` through the tet that holds `p`, face
@@ -38,7 +46,10 @@ mod traced;
 
 pub use graph::{graph_sizes, GraphError, NodeGraph};
 pub use hashed::hash_boundary_faces;
-pub use propagate::{penetration_depth, DepthReport, DepthScratch, NodeSlot, Penetration};
+pub use propagate::{
+    penetration_depth, penetration_depth_of, DepthReport, DepthScratch, Listed, NodeSlot,
+    Penetration,
+};
 pub use surface::SurfaceHit;
 pub use traced::trace_to_surface;
 

@@ -3,7 +3,8 @@
 use glam::Vec3;
 
 use super::hashed::hashed_hit;
-use super::traced::trace_to_surface;
+use super::surface::{on_edge, SurfaceHit, S_SLACK};
+use super::traced::trace_exit;
 use super::{Method, NodeGraph};
 use crate::collide::{Body, Collision};
 use crate::ids::{NodeId, TetId};
@@ -21,6 +22,8 @@ pub struct NodeSlot {
     tet: TetId,
     depth: f32,
     dir: Vec3,
+    /// The next node of the propagation's overflow chain (see [`Fifo`]).
+    next: NodeId,
 }
 
 const COLLIDING: u8 = 1;
@@ -28,7 +31,10 @@ const QUEUED: u8 = 2;
 const KNOWN: u8 = 3;
 
 /// Scratch for [`penetration_depth`]: one slot per node of body A (its length bounds the node
-/// ids handled) and a queue for the propagation (its length bounds the nodes that get a depth).
+/// ids handled) and a queue for the propagation. The queue holds the first nodes of the
+/// breadth-first order; the rest are chained through their slots (one link per slot), so a
+/// short queue changes neither the depths nor their order, and is only counted
+/// ([`DepthReport::queue_full`]).
 #[derive(Debug)]
 pub struct DepthScratch<'a> {
     slots: &'a mut [NodeSlot],
@@ -92,31 +98,70 @@ pub struct DepthReport {
     pub hits: u32,
     /// Border edges with no crossing found (walk too long or lost, box too large, no face).
     pub missed_edges: u32,
+    /// Of the `hits`, the edges to a node missing from a partial list ([`Listed::Partial`])
+    /// whose line left B only past that node, followed on to where it leaves B.
+    pub beyond: u32,
     /// Colliding nodes left without a depth: no border edge connects them to a depth source
-    /// (a region fully inside), or the queue was full. Never given an invented depth.
+    /// (a region fully inside). Never given an invented depth.
     pub unreached: u32,
     /// Collisions naming a node beyond the scratch slots (ignored).
     pub out_of_range: u32,
-    /// `true` when the propagation queue filled up.
+    /// `true` when the propagation queue filled up: the rest of the breadth-first order went
+    /// through the chain in the slots (the same depths, in the same order).
     pub queue_full: bool,
     /// `true` when the output filled up (later penetrations not written).
     pub out_full: bool,
-    /// Tets crossed by traced walks, or candidate faces tested by the hashed search.
+    /// Tets crossed by traced walks, or candidate faces tested by the hashed search (plus the
+    /// tets of its walks past unlisted nodes, [`Listed::Partial`]).
     pub work: u32,
+}
+
+/// The collisions handed to [`penetration_depth_of`]: all of A's nodes inside B, or only some.
+#[derive(Clone, Copy, Debug)]
+pub enum Listed<'c> {
+    /// Every node of A inside B is listed (the collision buffer did not fill).
+    All(&'c [Collision]),
+    /// The collision buffer was full, so nodes of A inside B may be missing from `list`.
+    ///
+    /// An edge from a listed node `p` to an unlisted node `q` is a border edge as always.
+    /// When its line leaves B only past `q` (so `q` is inside B as well), the line is followed
+    /// on from `p` to where it leaves B, and that crossing counts like any other. Without this
+    /// a listed node would lose the border edges that give it its depth as its neighbours
+    /// enter B unlisted; with it, its depth changes continuously (at the moment `q` crosses
+    /// B's surface the crossing is `q` itself, on either rule).
+    Partial {
+        /// The collisions that fitted.
+        list: &'c [Collision],
+        /// Most tets a walk past an unlisted node may cross ([`Method::Hashed`]; with
+        /// [`Method::Traced`] its own walk, bounded by its own `max_steps`, serves, so the two
+        /// agree when the bounds are the same).
+        max_steps: u32,
+    },
+}
+
+impl<'c> Listed<'c> {
+    /// The collisions.
+    pub fn list(&self) -> &'c [Collision] {
+        match *self {
+            Self::All(l) | Self::Partial { list: l, .. } => l,
+        }
+    }
 }
 
 /// Computes the consistent penetration depth of A's colliding nodes in B.
 ///
 /// `a_positions` and `graph` are body A (the penetrating nodes and their edges), `b` is the
-/// penetrated body, `collisions` the `(node of A, tet of B)` pairs (one per node). Writes one
+/// penetrated body, `collisions` the `(node of A, tet of B)` pairs (one per node; all of A's
+/// nodes inside B: see [`penetration_depth_of`] for a list that may be incomplete). Writes one
 /// [`Penetration`] per colliding node that received a depth, in the order of `collisions`.
 ///
 /// # Bounded work
 /// O(C * v * f) for C collisions, v the largest node valence and f the cost of one surface
 /// search ([`Method::Traced`]: `max_steps` tets; [`Method::Hashed`]: `max_cells` cells plus
-/// the faces met), plus O(C * v) for the propagation. At most `scratch.queue.len()` nodes get
-/// a depth; when the queue is full the rest are counted as `unreached` and `queue_full` is set.
-/// At most `out.len()` penetrations are written (`out_full`).
+/// the faces met), plus O(C * v) for the propagation. Every node of A reached from a depth
+/// source gets its depth whatever the queue's length: the breadth-first order goes on in a
+/// chain through the slots when the queue is full (`queue_full` tells). At most `out.len()`
+/// penetrations are written (`out_full`).
 pub fn penetration_depth(
     a_positions: &[Vec3],
     graph: &NodeGraph<'_>,
@@ -126,6 +171,37 @@ pub fn penetration_depth(
     scratch: &mut DepthScratch<'_>,
     out: &mut [Penetration],
 ) -> DepthReport {
+    penetration_depth_of(
+        a_positions,
+        graph,
+        b,
+        Listed::All(collisions),
+        method,
+        scratch,
+        out,
+    )
+}
+
+/// [`penetration_depth`] for a collision list that may be incomplete ([`Listed::Partial`]:
+/// edges to unlisted nodes inside B are followed past them to B's surface).
+///
+/// # Bounded work
+/// As [`penetration_depth`], with f also covering one walk of at most `max_steps` tets per
+/// border edge for [`Listed::Partial`] with [`Method::Hashed`].
+pub fn penetration_depth_of(
+    a_positions: &[Vec3],
+    graph: &NodeGraph<'_>,
+    b: &Body<'_, '_>,
+    listed: Listed<'_>,
+    method: &Method<'_>,
+    scratch: &mut DepthScratch<'_>,
+    out: &mut [Penetration],
+) -> DepthReport {
+    let collisions = listed.list();
+    let past = match listed {
+        Listed::All(_) => None,
+        Listed::Partial { max_steps, .. } => Some(max_steps),
+    };
     let mut r = DepthReport::default();
     scratch.next_stamp();
     let stamp = scratch.stamp;
@@ -147,7 +223,7 @@ pub fn penetration_depth(
     }
 
     // Border points: weighted surface crossings of their border edges.
-    let mut queued = 0usize;
+    let mut fifo = Fifo::new();
     for c in collisions {
         let Some(&p) = a_positions.get(c.node.idx()) else {
             continue;
@@ -166,17 +242,7 @@ pub fn penetration_depth(
             };
             border = true;
             r.border_edges += 1;
-            let hit = match method {
-                Method::Traced { max_steps } => {
-                    trace_to_surface(b, c.tet, p, q, *max_steps, &mut r.work)
-                }
-                Method::Hashed {
-                    faces,
-                    world_to_hash,
-                    max_cells,
-                } => hashed_hit(faces, world_to_hash, b, p, q, *max_cells, &mut r.work),
-            };
-            let Some(h) = hit else {
+            let Some(h) = crossing(b, c.tet, p, q, method, past, &mut r) else {
                 r.missed_edges += 1;
                 continue;
             };
@@ -194,23 +260,15 @@ pub fn penetration_depth(
             let Some(slot) = scratch.slots.get_mut(c.node.idx()) else {
                 continue;
             };
-            if queued >= scratch.queue.len() {
-                r.queue_full = true;
-                continue;
-            }
             slot.state = KNOWN;
             slot.depth = sd / sw;
             slot.dir = sn.normalize_or_zero();
-            scratch.queue[queued] = c.node;
-            queued += 1;
+            fifo.push(scratch.queue, scratch.slots, c.node, &mut r);
         }
     }
 
     // Breadth-first propagation, layer by layer.
-    let mut head = 0usize;
-    while head < queued {
-        let u = scratch.queue[head];
-        head += 1;
+    while let Some(u) = fifo.pop(scratch.queue, scratch.slots) {
         let Some(&pu) = a_positions.get(u.idx()) else {
             continue;
         };
@@ -251,14 +309,9 @@ pub fn penetration_depth(
             if sv.stamp != stamp || sv.state != COLLIDING {
                 continue;
             }
-            if queued >= scratch.queue.len() {
-                r.queue_full = true;
-                break;
-            }
             sv.state = QUEUED;
             sv.layer = layer;
-            scratch.queue[queued] = v;
-            queued += 1;
+            fifo.push(scratch.queue, scratch.slots, v, &mut r);
         }
     }
 
@@ -285,4 +338,112 @@ pub fn penetration_depth(
         r.written += 1;
     }
     r
+}
+
+/// Where the border edge `p -> q` (p in tet `tet` of B) leaves B: on the edge, or with
+/// `past = Some(max_steps)` (a partial list) also past `q`.
+fn crossing(
+    b: &Body<'_, '_>,
+    tet: TetId,
+    p: Vec3,
+    q: Vec3,
+    method: &Method<'_>,
+    past: Option<u32>,
+    r: &mut DepthReport,
+) -> Option<SurfaceHit> {
+    let beyond = |h: SurfaceHit, r: &mut DepthReport| {
+        (h.s > 1.0 + S_SLACK).then(|| {
+            r.beyond += 1;
+            h
+        })
+    };
+    match method {
+        Method::Traced { max_steps } => {
+            // The walk stops at the first boundary face, on the edge or past its end.
+            let h = trace_exit(b, tet, p, q, *max_steps, &mut r.work)?;
+            if on_edge(&h) {
+                Some(h)
+            } else if past.is_some() {
+                beyond(h, r)
+            } else {
+                None
+            }
+        }
+        Method::Hashed {
+            faces,
+            world_to_hash,
+            max_cells,
+        } => {
+            let on = hashed_hit(faces, world_to_hash, b, p, q, *max_cells, &mut r.work);
+            if on.is_some() {
+                return on;
+            }
+            let h = trace_exit(b, tet, p, q, past?, &mut r.work)?;
+            beyond(h, r)
+        }
+    }
+}
+
+/// The breadth-first order: the caller's queue holds its first `queue.len()` nodes, the rest
+/// are chained through their slots (`NodeSlot::next`) in the order they came. Popping reads the
+/// queue and then the chain, so the order is that of an unbounded queue.
+#[derive(Clone, Copy, Debug)]
+struct Fifo {
+    pushed: usize,
+    popped: usize,
+    /// Last node chained (valid while `cursor` is some).
+    tail: NodeId,
+    /// Next chained node to pop (`NONE`: no chained node waits).
+    cursor: NodeId,
+}
+
+impl Fifo {
+    fn new() -> Self {
+        Self {
+            pushed: 0,
+            popped: 0,
+            tail: NodeId::NONE,
+            cursor: NodeId::NONE,
+        }
+    }
+
+    /// Appends `v` (a node with a slot).
+    fn push(
+        &mut self,
+        queue: &mut [NodeId],
+        slots: &mut [NodeSlot],
+        v: NodeId,
+        r: &mut DepthReport,
+    ) {
+        if let Some(e) = queue.get_mut(self.pushed) {
+            *e = v;
+        } else {
+            r.queue_full = true;
+            let Some(s) = slots.get_mut(v.idx()) else {
+                return; // cannot happen: only nodes with a slot are pushed
+            };
+            s.next = NodeId::NONE;
+            if self.cursor.is_none() {
+                self.cursor = v;
+            } else if let Some(t) = slots.get_mut(self.tail.idx()) {
+                t.next = v;
+            }
+            self.tail = v;
+        }
+        self.pushed += 1;
+    }
+
+    /// The oldest node not popped yet.
+    fn pop(&mut self, queue: &[NodeId], slots: &[NodeSlot]) -> Option<NodeId> {
+        if self.popped >= self.pushed {
+            return None;
+        }
+        self.popped += 1;
+        if let Some(&v) = queue.get(self.popped - 1) {
+            return Some(v);
+        }
+        let v = self.cursor;
+        self.cursor = slots.get(v.idx())?.next;
+        Some(v)
+    }
 }

@@ -126,11 +126,128 @@ fn tiny_queue_and_output_saturate() {
     assert_eq!(n, 100);
     assert!(r.queue_full && r.out_full);
     assert_eq!(r.written, 10);
-    assert_eq!(r.unreached, 70, "30 got a depth, 70 did not fit the queue");
+    assert_eq!(
+        r.unreached, 0,
+        "the queue's overflow is chained, nothing is dropped"
+    );
     let mut none: [Penetration; 0] = [];
     let (r, _, _) = run(&mut f, true, 0, &mut none);
-    assert!(r.queue_full);
-    assert_eq!((r.written, r.unreached), (0, 100));
+    assert!(r.queue_full && r.out_full);
+    assert_eq!((r.written, r.unreached), (0, 0));
+}
+
+/// Any queue length, down to none, gives every node its depth: the analytic depth below the
+/// flat top face (`TOP - z` along +z, layer = levels to the border) and, bit for bit, the
+/// unbounded queue's result, for both surface searches.
+#[test]
+fn a_short_queue_changes_no_depth() {
+    for z0 in [TOP - 0.17, TOP - 0.12] {
+        for hashed in [false, true] {
+            let mut f = fixture(z0);
+            let mut full = [Penetration::default(); 125];
+            let (r0, _, n) = run(&mut f, hashed, 125, &mut full);
+            assert!(!r0.queue_full && r0.written == n && r0.unreached == 0);
+            for cap in [0, 1, 2, 7, 30, n - 1] {
+                let mut out = [Penetration::default(); 125];
+                let (r, _, _) = run(&mut f, hashed, cap, &mut out);
+                assert!(r.queue_full, "queue {cap}");
+                assert_eq!((r.written, r.unreached), (n, 0), "queue {cap}");
+                let a = f.a.mesh();
+                for (x, y) in out[..n].iter().zip(&full[..n]) {
+                    let z = a.positions()[x.node.idx()].z;
+                    assert!((x.depth - (TOP - z)).abs() < 1e-5, "queue {cap}: {x:?}");
+                    assert!((x.dir - Vec3::Z).length() < 1e-5, "queue {cap}: {x:?}");
+                    let level = ((z - z0) / 0.05 + 0.5) as u32;
+                    let border = ((TOP - z0) / 0.05) as u32; // the highest level inside
+                    assert_eq!(x.layer, border - level, "queue {cap}: {x:?}");
+                    assert_eq!((x.node, x.tet, x.layer), (y.node, y.tet, y.layer));
+                    assert_eq!(x.depth.to_bits(), y.depth.to_bits(), "queue {cap}");
+                    assert_eq!(
+                        x.dir.to_array().map(f32::to_bits),
+                        y.dir.to_array().map(f32::to_bits)
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// A partial list: A's lowest two levels listed, the two above them inside B but unlisted
+/// (a full collision buffer), the top level outside. The upward edges of the listed level
+/// end inside B; followed on, their lines leave through B's flat top (vertex normals +z
+/// there), so the listed nodes get the analytic depth `TOP - z` along +z: the upper listed
+/// level directly (layer 0), the lower one by propagation (layer 1). The same list taken as
+/// complete finds no crossing on any edge and gives no depth.
+#[test]
+fn a_partial_list_follows_edges_past_unlisted_nodes() {
+    let z0 = TOP - 0.17;
+    let mut f = fixture(z0);
+    let mut out = [Penetration::default(); 125];
+    // The collisions of the two lowest levels (z < z0 + 0.075).
+    let (_, cols, n) = run(&mut f, false, 125, &mut out);
+    assert_eq!(n, 100);
+    let a = f.a.mesh();
+    let mut list = [Collision::default(); 125];
+    let mut m = 0;
+    for c in &cols[..n] {
+        if a.positions()[c.node.idx()].z < z0 + 0.075 {
+            list[m] = *c;
+            m += 1;
+        }
+    }
+    assert_eq!(m, 50);
+    let b = f.b.mesh();
+    let bb = Body::fixed(&b);
+    let mut go = [0u32; 126];
+    let mut ga = [NodeId::NONE; 1208];
+    let g = NodeGraph::build(&a, &mut go, &mut ga).unwrap();
+    let mut fs = [0u32; 64];
+    let mut fe = [HashEntry::default(); 4096];
+    let mut fh = SpatialHash::new(&mut fs, &mut fe, 0.25).unwrap();
+    assert!(!hash_boundary_faces(&mut fh, &bb).saturated);
+    let traced = Method::Traced { max_steps: 64 };
+    let hashed = Method::Hashed {
+        faces: &fh,
+        world_to_hash: Affine3A::IDENTITY,
+        max_cells: 64,
+    };
+    let mut results = [[Penetration::default(); 125]; 2];
+    for (k, m_) in [traced, hashed].iter().enumerate() {
+        for queue_cap in [125, 3] {
+            let mut slots = [NodeSlot::default(); 125];
+            let mut queue = [NodeId::NONE; 125];
+            let mut sc = DepthScratch::new(&mut slots, &mut queue[..queue_cap]);
+            let listed = Listed::Partial {
+                list: &list[..m],
+                max_steps: 64,
+            };
+            let out = &mut results[k];
+            let r = penetration_depth_of(a.positions(), &g, &bb, listed, m_, &mut sc, out);
+            assert_eq!(
+                (r.written, r.unreached, r.missed_edges),
+                (50, 0, 0),
+                "{r:?}"
+            );
+            assert!(r.beyond > 0 && r.beyond == r.hits, "{r:?}");
+            for p in &out[..r.written] {
+                let z = a.positions()[p.node.idx()].z;
+                assert!((p.depth - (TOP - z)).abs() < 1e-5, "{p:?} z {z}");
+                assert!((p.dir - Vec3::Z).length() < 1e-5, "{p:?}");
+                let level = ((z - z0) / 0.05 + 0.5) as u32;
+                assert_eq!(p.layer, 1 - level, "{p:?}");
+            }
+            // Taken as complete: the upward edges end inside B, so nothing has a depth.
+            let mut sc = DepthScratch::new(&mut slots, &mut queue[..queue_cap]);
+            let mut none = [Penetration::default(); 125];
+            let listed = Listed::All(&list[..m]);
+            let r = penetration_depth_of(a.positions(), &g, &bb, listed, m_, &mut sc, &mut none);
+            assert_eq!((r.written, r.unreached, r.hits, r.beyond), (0, 50, 0, 0));
+        }
+    }
+    for (x, y) in results[0][..50].iter().zip(&results[1][..50]) {
+        assert_eq!(x.node, y.node);
+        assert_eq!(x.depth.to_bits(), y.depth.to_bits(), "traced = hashed");
+    }
 }
 
 #[test]

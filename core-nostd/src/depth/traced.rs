@@ -21,6 +21,22 @@ pub fn trace_to_surface(
     max_steps: u32,
     steps: &mut u32,
 ) -> Option<SurfaceHit> {
+    trace_exit(body, start, p, q, max_steps, steps).filter(on_edge)
+}
+
+/// Where the line from `p` towards `q` first leaves `body` through a boundary face, walking
+/// from `start` (which holds `p`), wherever that is along the line (`s` may exceed 1).
+///
+/// # Bounded work
+/// As [`trace_to_surface`].
+pub(crate) fn trace_exit(
+    body: &Body<'_, '_>,
+    start: TetId,
+    p: Vec3,
+    q: Vec3,
+    max_steps: u32,
+    steps: &mut u32,
+) -> Option<SurfaceHit> {
     let mut t = start;
     let mut entry = 4u8;
     for _ in 0..max_steps {
@@ -38,7 +54,7 @@ pub fn trace_to_surface(
         let (f, e) = exit?;
         let nb = body.neighbour(t, f);
         if nb.is_none() {
-            return hit_on_face(body, t, f, e, p, q).filter(on_edge);
+            return hit_on_face(body, t, f, e, p, q);
         }
         entry = body
             .mesh

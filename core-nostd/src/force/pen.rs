@@ -10,8 +10,12 @@ use glam::{Affine3A, Quat, Vec3};
 
 use super::entry::EntryPlane;
 use super::response::{clamp_force, damping_force, display_offset, ForceParams, ToolState};
-use crate::collide::{points_in_tets, tets_over_points, Body, CollideReport, Collision};
-use crate::depth::{penetration_depth, DepthReport, DepthScratch, Method, NodeGraph, Penetration};
+use crate::collide::{
+    points_in_tets_coherent, tets_over_points_coherent, Body, CollideReport, Collision,
+};
+use crate::depth::{
+    penetration_depth_of, DepthReport, DepthScratch, Listed, Method, NodeGraph, Penetration,
+};
 use crate::hash::{Aabb, SpatialHash};
 use crate::mesh::Mesh;
 
@@ -94,13 +98,20 @@ impl Default for PenOptions {
     }
 }
 
-/// State carried from tick to tick.
+/// State carried from tick to tick (with the same [`PenBuffers`]: the collision lists stay in
+/// them from one tick to the next).
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct PenState {
     /// For damping.
     pub tool: ToolState,
     /// For the remedy.
     pub entry: EntryPlane,
+    /// Entries of [`PenBuffers::pen_hits`] written last tick: a full list keeps those nodes
+    /// first ([`points_in_tets_coherent`]).
+    pub pen_listed: usize,
+    /// Entries of [`PenBuffers::object_hits`] written last tick
+    /// ([`tets_over_points_coherent`]).
+    pub object_listed: usize,
 }
 
 /// One tick's result.
@@ -145,11 +156,18 @@ impl PenContact {
 
 /// One servo tick of the pen tool at `position` (its tip) and `rotation`.
 ///
+/// When a collision list is full, it keeps last tick's nodes that still collide first
+/// ([`PenState::pen_listed`], [`points_in_tets_coherent`], [`tets_over_points_coherent`]) and
+/// its depths follow edges to unlisted nodes on to the surface ([`Listed::Partial`], at most
+/// `max_steps` tets): a node enters or leaves the list only as it enters or leaves the other
+/// body, where its depth is near zero, so the force stays continuous.
+///
 /// # Bounded work
 /// O(N_pen) to place the pen; collision: O(N_pen * b) + O(T_pen * cells * b) for b the
-/// largest bucket; depth: see [`penetration_depth`], bounded by the collision buffers, the
-/// depth queues and `max_steps` / `max_cells`. Every buffer saturates as documented on the
-/// functions it is handed to; [`PenContact::saturated`] tells.
+/// largest bucket (at most twice the latter, [`tets_over_points_coherent`]); depth: see
+/// [`penetration_depth_of`], bounded by the collision buffers and `max_steps` / `max_cells`.
+/// Every buffer saturates as documented on the functions it is handed to;
+/// [`PenContact::saturated`] tells.
 pub fn pen_contact(
     scene: &PenScene<'_, '_, '_>,
     bufs: &mut PenBuffers<'_>,
@@ -176,19 +194,21 @@ pub fn pen_contact(
     let mut pen_count = 0;
     let mut obj_count = 0;
     if bounds.overlaps(&scene.object_tets.bounds()) {
-        out.pen_collisions = points_in_tets(
+        out.pen_collisions = points_in_tets_coherent(
             scene.object_tets,
             &scene.object,
             world,
             false,
             bufs.pen_hits,
+            state.pen_listed,
         );
-        out.object_collisions = tets_over_points(
+        out.object_collisions = tets_over_points_coherent(
             scene.object_nodes,
             scene.object.positions,
             &pen_body,
             false,
             bufs.object_hits,
+            state.object_listed,
         );
         let (m_obj, m_pen) = match (opts.method, scene.object_faces, scene.pen_faces) {
             (DepthMethod::Hashed, Some(of), Some(pf)) => (
@@ -211,12 +231,19 @@ pub fn pen_contact(
                 (t, t)
             }
         };
+        let listed = |list, r: &CollideReport| match r.saturated {
+            false => Listed::All(list),
+            true => Listed::Partial {
+                list,
+                max_steps: opts.max_steps,
+            },
+        };
         let pen_hits = bufs.pen_hits.get(..out.pen_collisions.count).unwrap_or(&[]);
-        out.pen_depth = penetration_depth(
+        out.pen_depth = penetration_depth_of(
             world,
             &scene.pen_graph,
             &scene.object,
-            pen_hits,
+            listed(pen_hits, &out.pen_collisions),
             &m_obj,
             &mut bufs.pen_depth,
             bufs.pen_pens,
@@ -225,11 +252,11 @@ pub fn pen_contact(
             .object_hits
             .get(..out.object_collisions.count)
             .unwrap_or(&[]);
-        out.object_depth = penetration_depth(
+        out.object_depth = penetration_depth_of(
             scene.object.positions,
             &scene.object_graph,
             &pen_body,
-            obj_hits,
+            listed(obj_hits, &out.object_collisions),
             &m_pen,
             &mut bufs.object_depth,
             bufs.object_pens,
@@ -237,6 +264,8 @@ pub fn pen_contact(
         pen_count = out.pen_depth.written;
         obj_count = out.object_depth.written;
     }
+    state.pen_listed = out.pen_collisions.count;
+    state.object_listed = out.object_collisions.count;
     let pen_pens = bufs.pen_pens.get(..pen_count).unwrap_or(&[]);
     let obj_pens = bufs.object_pens.get(..obj_count).unwrap_or(&[]);
     out.penetrations = (pen_count, obj_count);
