@@ -27,6 +27,7 @@ mod geometry;
 mod nearest;
 mod node;
 mod ops;
+mod reclaim;
 mod store;
 mod surface;
 pub mod table;
