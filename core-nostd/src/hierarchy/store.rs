@@ -12,7 +12,8 @@ pub struct HierarchyStorage<'a> {
     /// nothing else).
     pub roots: &'a mut [HNode],
     /// The node arena; children are allocated in blocks of 8 contiguous nodes, so its usable
-    /// length is a multiple of 8 (at most `8 * (2^24 - 1)` nodes).
+    /// length is a multiple of 8 (at most `8 * (2^24 - 1)` nodes). Once every block has been
+    /// handed out, blocks of wholly erased subtrees are reused (see [`Hierarchy`]).
     pub arena: &'a mut [HNode],
     /// The v_list; needs [`HierarchyStorage::vlist_needed`] entries.
     pub vlist: &'a mut [VEntry],
@@ -74,7 +75,8 @@ impl core::fmt::Display for HierarchyError {
 pub struct HierarchyStats {
     /// Visible faces of non-erased leaves (the rendered triangles).
     pub visible_faces: u32,
-    /// Erased leaves.
+    /// Leaves erased by Erase (a parent that becomes an erased leaf when its block is taken
+    /// back is not counted again).
     pub erased: u32,
     /// Refinements done.
     pub refines: u32,
@@ -116,8 +118,9 @@ pub struct HierarchyStats {
 /// count is unchanged (and below `u32::MAX`, where it saturates) no block has been taken back
 /// and the reference is valid; otherwise it looks the node up again with [`Hierarchy::find`]
 /// (the drill's pending items do). `(tet, tree index)` names stay valid: the nodes of a
-/// collapsed subtree simply answer `None`, and nothing compares or orders nodes by reference,
-/// so arena slot numbers never reach a result.
+/// collapsed subtree simply answer `None`. No result depends on reference values, so reused
+/// arena slots change nothing: ties are broken by `(tet, index, face)`, walks go in child
+/// digit order, and the union-find of [`Hierarchy::components`] only counts its classes.
 #[derive(Debug)]
 pub struct Hierarchy<'a> {
     pub(super) roots: &'a mut [HNode],
