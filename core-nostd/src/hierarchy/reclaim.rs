@@ -62,12 +62,17 @@ impl Hierarchy<'_> {
     fn push_reclaimable(&mut self, b: u32, tet: TetId, parent_index: u32) {
         let base = b as usize * 8;
         let next = self.reclaim_head;
-        if let Some(n) = self.arena.get_mut(base..base + 8) {
-            n[LINK_NEXT].set_spare(next);
-            n[LINK_TET].set_spare(tet.0);
-            n[LINK_PARENT].set_spare(parent_index);
-            self.reclaim_head = b + 1;
+        let words = [
+            (LINK_NEXT, next),
+            (LINK_TET, tet.0),
+            (LINK_PARENT, parent_index),
+        ];
+        for (k, w) in words {
+            if let Some(n) = self.arena.get_mut(base + k) {
+                n.set_spare(w);
+            }
         }
+        self.reclaim_head = b + 1;
     }
 
     /// The bookkeeping after leaf `r` = `(tet, path)` was erased: when that completes its
@@ -93,19 +98,17 @@ impl Hierarchy<'_> {
         if self.block_all(b, HNode::erased_leaf) {
             self.push_reclaimable(b, tet, path.prefix_index(d - 1));
         }
-        // refs[k] has just had its block of children completed.
-        let mut k = d - 1;
-        loop {
-            let a = refs[k];
+        // The ancestors from the parent up, while each has just had its block of children
+        // completed (a root has no block above it).
+        for &a in refs.iter().take(d).rev() {
             self.hollow_blocks += 1;
             if let Some(n) = self.node_mut(a) {
                 n.set_hollow();
             }
-            let Some(up) = self.block_of(a) else { break };
-            if k == 0 || !self.block_all(up, HNode::all_erased) {
-                break;
+            match self.block_of(a) {
+                Some(up) if self.block_all(up, HNode::all_erased) => {}
+                _ => break,
             }
-            k -= 1;
         }
     }
 
@@ -128,10 +131,10 @@ impl Hierarchy<'_> {
     fn reclaim(&mut self) -> Option<u32> {
         let b = self.reclaim_head.checked_sub(1)?;
         let base = b as usize * 8;
-        let block = self.arena.get(base..base + 8)?;
-        let next = block[LINK_NEXT].spare();
-        let tet = TetId(block[LINK_TET].spare());
-        let path = Path::of_index(block[LINK_PARENT].spare())?;
+        let word = |k: usize| self.arena.get(base + k).map(|n| n.spare());
+        let next = word(LINK_NEXT)?;
+        let tet = TetId(word(LINK_TET)?);
+        let path = Path::of_index(word(LINK_PARENT)?)?;
         let d = path.depth as usize;
         let p = *self.path_refs(tet, &path)?.get(d)?;
         // The list names the block's parent (validate() checks it); anything else would be a
