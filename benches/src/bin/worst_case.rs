@@ -270,6 +270,8 @@ struct DrillMax {
     pending: u32,
     contact_saturated: u64,
     arena_full_at: Option<usize>,
+    fresh_used_up_at: Option<usize>,
+    live_max: usize,
     created: u64,
     erased: u64,
 }
@@ -319,6 +321,11 @@ fn drill_scenario(name: &str, mesh_path: &Path, budget: u32, ticks: u64) -> Resu
         if mx.arena_full_at.is_none() && world.saturations().arena > 0 {
             mx.arena_full_at = Some(i);
         }
+        let h = world.hierarchy();
+        if mx.fresh_used_up_at.is_none() && h.arena_used() == h.capacity() {
+            mx.fresh_used_up_at = Some(i);
+        }
+        mx.live_max = mx.live_max.max(h.arena_live());
     }
     let s = world.saturations();
     let h = world.hierarchy();
@@ -329,7 +336,7 @@ fn drill_scenario(name: &str, mesh_path: &Path, budget: u32, ticks: u64) -> Resu
     };
     let notes = format!(
         "budget {budget_note}; max drill work {}, max contact nodes {} (bound {}), max candidates {}, max pending {}; \
-         contact-bound ticks {}; created {}, erased {}; arena {}/{} nodes, first refusal at tick {}; saturations: arena {}, pending {}, contact {}, candidates {}, hash {}",
+         contact-bound ticks {}; created {}, erased {}; arena {}/{} nodes (fresh blocks used up at tick {}, then {} taken back; at most {} holding material), first refusal at tick {}; saturations: arena {}, pending {}, contact {}, candidates {}, hash {}",
         mx.work,
         mx.contact_nodes,
         world.contact_max_nodes(),
@@ -340,6 +347,10 @@ fn drill_scenario(name: &str, mesh_path: &Path, budget: u32, ticks: u64) -> Resu
         mx.erased,
         h.arena_used(),
         h.capacity(),
+        mx.fresh_used_up_at
+            .map_or_else(|| "never".to_string(), |t| t.to_string()),
+        h.reclaimed(),
+        mx.live_max,
         mx.arena_full_at
             .map_or_else(|| "never".to_string(), |t| t.to_string()),
         s.arena,

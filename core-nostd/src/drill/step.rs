@@ -34,14 +34,15 @@ impl Default for DrillParams {
 
 /// One unit of pending work: a node of a tree, against the sphere it was queued for, with the
 /// node's integer barycentric coordinates in its root (so processing it costs no walk from the
-/// root). 60 bytes.
+/// root). 64 bytes (pinned at compile time).
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct Pending {
     /// The coarse tet.
     pub tet: TetId,
     /// Tree index.
     pub index: u32,
-    /// Node reference.
+    /// Node reference (looked up again by `(tet, index)` when the hierarchy has taken back
+    /// blocks since the item was queued: see [`Hierarchy::reclaimed`]).
     pub node: u32,
     /// The sphere, as it was when the work was queued (so the removed shape converges to the
     /// swept volume even when the work finishes ticks later).
@@ -50,7 +51,20 @@ pub struct Pending {
     /// `2^depth`: one `u64` per corner holding four 16-bit weights (each at most
     /// `2^MAX_DEPTH` = 1024, so a child's row is one `u64` addition of two parent rows).
     bary: [u64; 4],
+    /// [`epoch_of`] the hierarchy when the item was queued: while [`Hierarchy::reclaimed`]
+    /// still equals it, no block has been taken back since and `node` is still the node it
+    /// was; otherwise the node is looked up again by `(tet, index)`. Fills what was padding.
+    epoch: u32,
 }
+
+/// The epoch an item queued now records: [`Hierarchy::reclaimed`], but never `u32::MAX`,
+/// where that count saturates, so once it has saturated no item is trusted without a look-up.
+#[inline]
+fn epoch_of(h: &Hierarchy<'_>) -> u32 {
+    h.reclaimed().min(u32::MAX - 1)
+}
+
+const _: () = assert!(core::mem::size_of::<Pending>() == 64);
 
 impl Pending {
     /// An empty item (for initialising static storage).
@@ -63,16 +77,18 @@ impl Pending {
             radius: 0.0,
         },
         bary: [0; 4],
+        epoch: 0,
     };
 
-    /// The root of `tet`'s tree against `sphere`.
-    fn root(tet: TetId, sphere: Sphere) -> Self {
+    /// The root of `tet`'s tree against `sphere`, queued at `epoch` (see [`epoch_of`]).
+    fn root(tet: TetId, sphere: Sphere, epoch: u32) -> Self {
         Self {
             tet,
             index: 0,
             node: tet.0,
             sphere,
             bary: ROOT_PACKED,
+            epoch,
         }
     }
 }
@@ -281,9 +297,12 @@ impl<'a> Drill<'a> {
     /// instantiated nodes across one face.
     ///
     /// # Capacity
-    /// Arena full: the leaf is not refined and stays whole (erasing a coarse leaf by its
-    /// centroid would move the surface past the burr in one tick, a force jump); the
-    /// hierarchy counts it. Pending deque full: the new item or the children are dropped and
+    /// Arena full (no fresh block, and no wholly erased subtree to take one back from): the
+    /// leaf is not refined and stays whole (erasing a coarse leaf by its centroid would move
+    /// the surface past the burr in one tick, a force jump); the hierarchy counts it. Once
+    /// the arena takes blocks back, an item queued before a block was taken back is looked
+    /// up again by its tree index before it is used (O(depth) more for that item; stale
+    /// items are dropped). Pending deque full: the new item or the children are dropped and
     /// counted; the hierarchy stays valid, only the erosion is coarser there.
     pub fn step(
         &mut self,
@@ -312,7 +331,7 @@ impl<'a> Drill<'a> {
                 if t.idx() >= h.tet_count() {
                     continue;
                 }
-                if !self.push_back(Pending::root(t, *s)) {
+                if !self.push_back(Pending::root(t, *s, epoch_of(h))) {
                     all = false;
                 }
             }
@@ -345,6 +364,15 @@ impl<'a> Drill<'a> {
         min_area: f32,
         rep: &mut DrillReport,
     ) {
+        // A reference stays valid until the arena takes back the block holding it (only
+        // blocks of erased leaves are taken back, once the fresh ones are used up). When a
+        // block has been taken back since the item was queued, the reference may name a node
+        // of a reused block: the item is looked up again by its tree index (a collapsed
+        // subtree's nodes answer `None`; they were all erased, so the item had nothing left
+        // to do).
+        if item.epoch != h.reclaimed() && h.find(item.tet, item.index) != Some(item.node) {
+            return;
+        }
         let Some(node) = h.node(item.node) else {
             return;
         };
@@ -391,7 +419,8 @@ impl<'a> Drill<'a> {
                     // Counted by the hierarchy. The leaf stays: erasing a coarse leaf by its
                     // centroid would move the surface past the burr in one tick (a force
                     // jump); kept, it still bounds the material and the burr feels it.
-                    // Retrying would not help: nodes are never freed.
+                    // Not retried here: the arena only gets blocks back when more material
+                    // is erased; a later sphere's work reaches the leaf again.
                     return;
                 }
                 Err(_) => return,
@@ -423,15 +452,18 @@ impl<'a> Drill<'a> {
             self.saturate(rep);
             return;
         }
+        // The 8 children are contiguous: child `c` is `first + c`.
+        let Some(first) = h.child(item.node, 0) else {
+            return;
+        };
+        let epoch = epoch_of(h);
         for c in (0..8u8).rev() {
-            let Some(child) = h.child(item.node, c) else {
-                return;
-            };
             let next = Pending {
                 tet: item.tet,
                 index: item.index * 8 + 1 + c as u32,
-                node: child,
+                node: first + c as u32,
                 bary: child_packed(&item.bary, c),
+                epoch,
                 ..item
             };
             self.push_front(next);

@@ -122,3 +122,89 @@ fn tiny_capacities_saturate_and_carry_over() {
     assert!(h.saturations() > 0);
     assert!((total.removed_volume - (h.removed_volume() - removed0)).abs() < 1e-12);
 }
+
+/// A pending item queued before the arena took its node's block back must not act on the
+/// block's new nodes: it is looked up again by its tree index (the collapsed subtree answers
+/// `None`) and dropped.
+#[test]
+fn pending_items_of_a_block_taken_back_are_dropped() {
+    let (mut pos, t) = cube12();
+    let mut nodes = [Node::default(); CUBE12_NODES];
+    let mut normals = [Vec3::ZERO; CUBE12_NODES];
+    let mut tets = [Tet::default(); CUBE12_TETS];
+    let mut scratch = [FaceKey::default(); 4 * CUBE12_TETS];
+    let mesh = Mesh::build(
+        &mut pos,
+        &t,
+        MeshStorage {
+            nodes: &mut nodes,
+            normals: &mut normals,
+            tets: &mut tets,
+        },
+        &mut scratch,
+        BuildOptions::default(),
+    )
+    .unwrap();
+    // One block: the second refinement must take it back.
+    let mut roots = [HNode::LEAF; CUBE12_TETS];
+    let mut arena = [HNode::LEAF; 8];
+    let mut vlist = [VEntry::default(); CUBE12_TETS + 7];
+    let mut h = Hierarchy::new(
+        &mesh,
+        HierarchyStorage {
+            roots: &mut roots,
+            arena: &mut arena,
+            vlist: &mut vlist,
+        },
+    )
+    .unwrap();
+    // A sphere just around tet 0's child T5 (tree index 5): the root crosses it, T5 lies
+    // inside.
+    let t0 = TetId(0);
+    let c5 =
+        crate::hierarchy::node_positions(&mesh, t0, &crate::hierarchy::Path::of_index(5).unwrap());
+    let centre = (c5[0] + c5[1] + c5[2] + c5[3]) * 0.25;
+    let radius = 1.01 * c5.iter().map(|q| q.distance(centre)).fold(0.0, f32::max);
+    assert!(mesh
+        .tet_positions(t0)
+        .iter()
+        .any(|q| q.distance(centre) > radius));
+    let spheres = [Sphere {
+        center: centre,
+        radius,
+    }];
+    let mut queue = [Pending::default(); 64];
+    let mut drill = Drill::new(&mut queue);
+    // Budget 1: the root is refined (block 0) and its 8 children wait in the deque.
+    let params = DrillParams {
+        max_depth: 3,
+        min_area: 0.0,
+        budget: 1,
+    };
+    let r = drill.step(&mut h, &mesh, &[t0], &spheres, &params);
+    assert_eq!((r.created, r.pending), (8, 8));
+    // Meanwhile tet 0's children are all erased and tet 5 is refined: the arena has no fresh
+    // block left, so it takes block 0 back (tet 0's root becomes an erased leaf) and gives it
+    // to tet 5's children.
+    for c in 1..=8 {
+        h.erase(&mesh, t0, c).unwrap();
+    }
+    h.refine(&mesh, TetId(5), 0).unwrap();
+    assert_eq!(h.reclaimed(), 1);
+    h.validate(&mesh).unwrap();
+    let faces = h.visible_face_count();
+    // The 8 waiting items name nodes of block 0, now tet 5's children, one of them with
+    // T5's corners, inside the sphere: they must all be dropped.
+    let params = DrillParams {
+        budget: 1000,
+        ..params
+    };
+    let r = drill.step(&mut h, &mesh, &[t0], &spheres, &params);
+    assert_eq!((r.erased, r.created, r.pending), (0, 0, 0));
+    h.validate(&mesh).unwrap();
+    assert_eq!(h.visible_face_count(), faces);
+    for c in 1..=8 {
+        let n = h.node(h.find(TetId(5), c).unwrap()).unwrap();
+        assert!(n.is_leaf() && !n.erased());
+    }
+}

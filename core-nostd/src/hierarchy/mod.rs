@@ -4,9 +4,12 @@
 //! [`crate::mesh::Mesh::build`] makes the shortest one). Only the part from each root to its
 //! frontier is instantiated: roots live in one slot per coarse tet, children in blocks of 8
 //! contiguous nodes of a caller arena ([`HNode`], 8 bytes: 24-bit child block, 4 visible-face
-//! bits, erased, inverted, surface below, plus a `u32` v_list slot; all zero for a fresh
-//! leaf). Nodes are never freed (no coarsening):
-//! the arena is a bump allocator, and when it is full a refinement is refused and counted.
+//! bits, erased, inverted, surface below, hollow, plus a `u32` v_list slot; all zero for a
+//! fresh leaf). The arena hands out fresh blocks first; once they are used up, a refinement
+//! takes back a block of 8 erased leaves (their parent becomes an erased leaf: nothing visible
+//! changes) from a list threaded through those leaves' spare slot words, and only when there
+//! is none either is it refused and counted (see [`Hierarchy`] and `reclaim`). Material is
+//! never coarsened: only wholly erased subtrees give their nodes back.
 //!
 //! - [`table`]: the tree table (const, one level) and digit walks for deeper levels.
 //! - [`visit`]: same-level adjacency through the digits and the NTree visit.
@@ -16,6 +19,8 @@
 //! - [`Hierarchy::nearest_visible`]: the closest visible triangle to a point (branch and
 //!   bound over the nodes whose *surface* bit says a v_list leaf lies below), for the contact.
 //! - connected pieces of the remaining material: [`Hierarchy::components`].
+//! - giving back the blocks of wholly erased subtrees: `reclaim` ([`Hierarchy::arena_live`],
+//!   [`Hierarchy::arena_reclaimable`], [`Hierarchy::reclaimed`]).
 //! - invariants: [`Hierarchy::validate`].
 //!
 //! Memory: 8 bytes per node in the arena plus 12 bytes per v_list entry (the v_list is sized
@@ -27,6 +32,7 @@ mod geometry;
 mod nearest;
 mod node;
 mod ops;
+mod reclaim;
 mod store;
 mod surface;
 pub mod table;

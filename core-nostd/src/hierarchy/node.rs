@@ -15,6 +15,7 @@ const VIS_SHIFT: u32 = 24;
 const ERASED: u32 = 1 << 28;
 const INVERTED: u32 = 1 << 29;
 const SURFACE: u32 = 1 << 30;
+const HOLLOW: u32 = 1 << 31;
 
 /// One node of a subdivision tree: 8 bytes, all zero for a fresh leaf ([`HNode::LEAF`]), so
 /// statics of nodes can start in `.bss`.
@@ -23,8 +24,12 @@ const SURFACE: u32 = 1 << 30;
 /// leaf), bits 24-27 the visible-face bits (bit `24 + i` for face `i`), bit 28 erased, bit 29
 /// inverted (vertex order opposite to the root's, from T6/T8 steps), bit 30 *surface*: the
 /// subtree holds a v_list leaf (for a leaf: it is on the v_list), kept exact by Erase and
-/// Refine so walks over the drilled surface skip erased and interior material. `slot`: its
-/// index in the v_list of non-erased leaves with a visible face plus one, 0 when not there.
+/// Refine so walks over the drilled surface skip erased and interior material, bit 31
+/// *hollow*: an inner node every leaf below which is erased (its subtree can be given back,
+/// see [`super::Hierarchy::arena_reclaimable`]). `slot`: its index in the v_list of
+/// non-erased leaves with a visible face plus one, 0 when not there; an erased leaf is never
+/// on the v_list, so its `slot` word is spare: the arena's list of reclaimable blocks is
+/// threaded through the spare words of the blocks' own erased leaves.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 #[repr(C)]
 pub struct HNode {
@@ -95,6 +100,52 @@ impl HNode {
         self.word |= ERASED;
     }
 
+    /// `true` when every leaf of the node's subtree is erased: an erased leaf, or a *hollow*
+    /// inner node.
+    #[inline]
+    pub const fn all_erased(self) -> bool {
+        self.word & (ERASED | HOLLOW) != 0
+    }
+
+    /// `true` for an erased leaf (erased, no children).
+    #[inline]
+    pub const fn erased_leaf(self) -> bool {
+        self.word & (ERASED | BLOCK_MASK) == ERASED
+    }
+
+    /// Marks an inner node hollow (every leaf below erased).
+    #[inline]
+    pub(crate) fn set_hollow(&mut self) {
+        self.word |= HOLLOW;
+    }
+
+    /// `true` when the raw hollow bit is set (an inner node whose leaves are all erased).
+    #[inline]
+    pub(crate) const fn hollow(self) -> bool {
+        self.word & HOLLOW != 0
+    }
+
+    /// Turns a hollow inner node into an erased leaf (its children block is given back):
+    /// no children, no visible faces, not on the v_list, no surface below; the orientation bit
+    /// stays.
+    #[inline]
+    pub(crate) fn collapse(&mut self) {
+        self.word = (self.word & INVERTED) | ERASED;
+        self.slot = 0;
+    }
+
+    /// The spare word of an erased leaf (its unused v_list slot), raw.
+    #[inline]
+    pub(crate) const fn spare(self) -> u32 {
+        self.slot
+    }
+
+    /// Writes the spare word of an erased leaf (callers only do so on erased leaves).
+    #[inline]
+    pub(crate) fn set_spare(&mut self, w: u32) {
+        self.slot = w;
+    }
+
     /// `true` when the vertex order is inverted relative to the root (T6/T8 steps).
     #[inline]
     pub const fn inverted(self) -> bool {
@@ -117,10 +168,15 @@ impl HNode {
         }
     }
 
-    /// The node's v_list slot, or [`NO_SLOT`].
+    /// The node's v_list slot, or [`NO_SLOT`] (always for an erased node, whose slot word
+    /// is spare).
     #[inline]
     pub const fn slot(self) -> u32 {
-        self.slot.wrapping_sub(1)
+        if self.word & ERASED != 0 {
+            NO_SLOT
+        } else {
+            self.slot.wrapping_sub(1)
+        }
     }
 
     #[inline]

@@ -25,14 +25,21 @@ impl<'a> Hierarchy<'a> {
     /// NTree visit across it meets an erased leaf or the mesh boundary; faces between
     /// siblings are invisible.
     ///
+    /// The block of 8 children is the arena's next fresh block, or once those are used up a
+    /// block taken back from a wholly erased subtree (whose root becomes an erased leaf:
+    /// every visible face, v_list entry, component and volume stays as it was; see
+    /// [`Hierarchy`]).
+    ///
     /// # Bounded work
-    /// O(1) allocation plus 16 NTree visits (4 faces x 4 children), each O(depth) plus the
-    /// instantiated nodes across that face; each visit stops at the first erased leaf.
+    /// O(1) allocation (O(depth) + 8 node reads when the block is taken back) plus 16 NTree
+    /// visits (4 faces x 4 children), each O(depth) plus the instantiated nodes across that
+    /// face; each visit stops at the first erased leaf.
     ///
     /// # Errors
     /// [`HierarchyError::NotFound`], `NotLeaf`, `Erased`, `TooDeep` leave everything as it
-    /// was; [`HierarchyError::Full`] when the arena has no free block: nothing is changed and
-    /// the refusal is counted in `saturations`.
+    /// was; [`HierarchyError::Full`] when the arena has no fresh block and no wholly erased
+    /// subtree to take one back from: nothing is changed and the refusal is counted in
+    /// `saturations`.
     pub fn refine(
         &mut self,
         mesh: &Mesh<'_>,
@@ -61,13 +68,11 @@ impl<'a> Hierarchy<'a> {
         if path.depth as usize >= Self::MAX_DEPTH {
             return Err(HierarchyError::TooDeep);
         }
-        let b = self.blocks_used;
-        let base = (b as usize) * 8;
-        if base + 8 > self.arena.len() {
+        let Some(b) = self.take_block() else {
             self.stats.saturations += 1;
             return Err(HierarchyError::Full);
-        }
-        self.blocks_used += 1;
+        };
+        let base = (b as usize) * 8;
         let inv = node.inverted();
         for c in 0..8u8 {
             if let Some(n) = self.arena.get_mut(base + c as usize) {
@@ -125,8 +130,16 @@ impl<'a> Hierarchy<'a> {
     /// face visible (and joins the v_list), then the node leaves the v_list, loses its visible
     /// faces and is marked erased; its volume is added to the removed volume.
     ///
+    /// When the leaf completes a wholly erased block (its 7 siblings are erased leaves or
+    /// hollow), its parent is marked hollow, and so on up while blocks are completed; a block
+    /// of 8 erased leaves joins the arena's reclaimable list. Nothing is freed here: the
+    /// hierarchy's shape, and so every later visit, is unchanged until a refinement finds
+    /// the fresh arena used up.
+    ///
     /// # Bounded work
-    /// 4 NTree visits, each O(depth) plus the instantiated nodes across that face.
+    /// 4 NTree visits, each O(depth) plus the instantiated nodes across that face, plus 8
+    /// node reads; when a block is completed, O(depth) plus 8 node reads per level climbed
+    /// (at most [`Hierarchy::MAX_DEPTH`] levels).
     ///
     /// # Errors
     /// [`HierarchyError::NotFound`], `NotLeaf`, `Erased`: nothing changed. Never needs
@@ -186,6 +199,7 @@ impl<'a> Hierarchy<'a> {
             n.set_visible(0);
             n.set_erased();
         }
+        self.note_erased(tet, path, r);
         rep.removed = node_volume(mesh, tet, path.depth);
         self.stats.removed_volume += rep.removed;
         self.stats.erased += 1;

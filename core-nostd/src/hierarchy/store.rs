@@ -12,7 +12,8 @@ pub struct HierarchyStorage<'a> {
     /// nothing else).
     pub roots: &'a mut [HNode],
     /// The node arena; children are allocated in blocks of 8 contiguous nodes, so its usable
-    /// length is a multiple of 8 (at most `8 * (2^24 - 1)` nodes).
+    /// length is a multiple of 8 (at most `8 * (2^24 - 1)` nodes). Once every block has been
+    /// handed out, blocks of wholly erased subtrees are reused (see [`Hierarchy`]).
     pub arena: &'a mut [HNode],
     /// The v_list; needs [`HierarchyStorage::vlist_needed`] entries.
     pub vlist: &'a mut [VEntry],
@@ -74,12 +75,16 @@ impl core::fmt::Display for HierarchyError {
 pub struct HierarchyStats {
     /// Visible faces of non-erased leaves (the rendered triangles).
     pub visible_faces: u32,
-    /// Erased leaves.
+    /// Leaves erased by Erase (a parent that becomes an erased leaf when its block is taken
+    /// back is not counted again).
     pub erased: u32,
     /// Refinements done.
     pub refines: u32,
-    /// Refinements refused because the arena was full.
+    /// Refinements refused because the arena was full (no fresh block and none to take back).
     pub saturations: u32,
+    /// Blocks taken back from wholly erased subtrees and reused (0 while the arena has fresh
+    /// blocks: until then every node reference stays valid).
+    pub reclaimed: u32,
     /// Sum of the erased leaves' volumes (each `root volume / 8^depth`, Bey's children having
     /// equal volumes), at the positions of the moment they were erased.
     pub removed_volume: f64,
@@ -89,17 +94,54 @@ pub struct HierarchyStats {
 /// frontier, with the visible faces kept exact by Erase and Refine (seed 001 section 2.1).
 ///
 /// A node is named two ways: by `(tet, tree index)` (stable, geometric), and by a node
-/// reference `r` (`r < tets`: the root of tet `r`; otherwise arena node `r - tets`). Nodes are
-/// never freed (there is no coarsening), so references stay valid for the hierarchy's life.
+/// reference `r` (`r < tets`: the root of tet `r`; otherwise arena node `r - tets`).
+///
+/// # Arena: fresh blocks first, then blocks of wholly erased subtrees
+/// Children come in blocks of 8 arena nodes. A refinement takes the next fresh block while
+/// there is one (a bump allocator). Once every block has been handed out, it takes back a
+/// block whose 8 nodes are all erased leaves: their parent becomes an erased leaf itself
+/// (nothing visible changes: every leaf below it was erased) and the block is reused. Such
+/// blocks wait on a list threaded through their own erased leaves' spare words, so taking
+/// one is O(depth); a parent that becomes an erased leaf may complete its own block, which
+/// then joins the list (the cascade is one level per block taken, at most
+/// [`MAX_DEPTH`] levels for a subtree). Only when no fresh and no reclaimable block is left
+/// is a refinement refused (and counted).
+///
+/// Blocks are taken back only when the fresh ones are used up, never earlier: collapsing a
+/// subtree changes what the NTree visits walk through (fewer erased nodes), hence the work
+/// units the drill's budget counts, so a run that never fills the arena gives the same
+/// results, bit for bit, as if nothing were ever given back.
+///
+/// References of nodes in a wholly erased subtree stop being valid once its block is taken
+/// back (the block then holds other nodes); root references never change. A holder of
+/// references across operations notes [`Hierarchy::reclaimed`] when it takes one: while the
+/// count is unchanged (and below `u32::MAX`, where it saturates) no block has been taken back
+/// and the reference is valid; otherwise it looks the node up again with [`Hierarchy::find`]
+/// (the drill's pending items do). `(tet, tree index)` names stay valid: the nodes of a
+/// collapsed subtree simply answer `None`. No result depends on reference values, so reused
+/// arena slots change nothing: ties are broken by `(tet, index, face)`, walks go in child
+/// digit order, and the union-find of [`Hierarchy::components`] only counts its classes.
 #[derive(Debug)]
 pub struct Hierarchy<'a> {
     pub(super) roots: &'a mut [HNode],
     pub(super) arena: &'a mut [HNode],
     pub(super) vlist: &'a mut [VEntry],
+    /// Blocks handed out by the bump allocator (fresh ones: `blocks_used..`).
     pub(super) blocks_used: u32,
     pub(super) vlen: u32,
+    /// Head of the list of reclaimable blocks (all 8 nodes erased leaves), as block + 1; 0
+    /// when empty.
+    pub(super) reclaim_head: u32,
+    /// Blocks whose 8 nodes are all wholly erased (erased leaves or hollow inner nodes).
+    pub(super) hollow_blocks: u32,
     pub(super) stats: HierarchyStats,
 }
+
+/// Where the list of reclaimable blocks keeps its data in a block's erased leaves (their
+/// spare words): the next block + 1, the tree's coarse tet, the parent's tree index.
+pub(super) const LINK_NEXT: usize = 0;
+pub(super) const LINK_TET: usize = 1;
+pub(super) const LINK_PARENT: usize = 2;
 
 impl<'a> Hierarchy<'a> {
     /// Creates the forest for `mesh`: every root a non-erased leaf whose visible faces are the
@@ -142,6 +184,8 @@ impl<'a> Hierarchy<'a> {
             vlist,
             blocks_used: 0,
             vlen: 0,
+            reclaim_head: 0,
+            hollow_blocks: 0,
             stats: Default::default(),
         };
         me.reset(mesh);
@@ -155,6 +199,8 @@ impl<'a> Hierarchy<'a> {
     pub fn reset(&mut self, mesh: &Mesh<'_>) {
         self.blocks_used = 0;
         self.vlen = 0;
+        self.reclaim_head = 0;
+        self.hollow_blocks = 0;
         self.stats = HierarchyStats::default();
         for (i, root) in self.roots.iter_mut().enumerate() {
             *root = HNode::LEAF;
@@ -194,13 +240,31 @@ impl<'a> Hierarchy<'a> {
         self.arena.len()
     }
 
-    /// Arena nodes in use (8 per refinement).
+    /// Arena nodes handed out so far (8 per fresh block; reused blocks are not counted
+    /// again): the high-water mark, which stays at the capacity once the fresh blocks are
+    /// used up. [`Hierarchy::arena_live`] is what the material needs.
     #[inline]
     pub fn arena_used(&self) -> usize {
         self.blocks_used as usize * 8
     }
 
-    /// Instantiated nodes: every root slot plus the arena nodes in use.
+    /// Arena nodes in wholly erased subtrees (blocks whose 8 nodes are erased leaves or
+    /// hollow inner nodes): refinements take them back once the fresh blocks are used up.
+    #[inline]
+    pub fn arena_reclaimable(&self) -> usize {
+        self.hollow_blocks as usize * 8
+    }
+
+    /// Arena nodes holding material: [`Hierarchy::arena_used`] minus
+    /// [`Hierarchy::arena_reclaimable`]. A refinement is refused only when this reaches the
+    /// capacity.
+    #[inline]
+    pub fn arena_live(&self) -> usize {
+        self.arena_used().saturating_sub(self.arena_reclaimable())
+    }
+
+    /// Node references in use: every root slot plus the arena nodes handed out (references
+    /// are below this; see [`Hierarchy::components_scratch_needed`]).
     #[inline]
     pub fn node_count(&self) -> usize {
         self.roots.len() + self.arena_used()
@@ -222,6 +286,13 @@ impl<'a> Hierarchy<'a> {
     #[inline]
     pub fn saturations(&self) -> u32 {
         self.stats.saturations
+    }
+
+    /// Blocks taken back from wholly erased subtrees so far ([`HierarchyStats::reclaimed`]):
+    /// while it is 0, every node reference ever handed out is still valid.
+    #[inline]
+    pub fn reclaimed(&self) -> u32 {
+        self.stats.reclaimed
     }
 
     /// Sum of the erased leaves' volumes.
@@ -277,8 +348,23 @@ impl<'a> Hierarchy<'a> {
     /// # Bounded work
     /// O(depth) <= [`MAX_DEPTH`] steps.
     pub fn find(&self, tet: TetId, index: u32) -> Option<u32> {
-        let path = Path::of_index(index)?;
-        self.find_path(tet, &path)
+        // The digits, deepest first, then the walk from the root.
+        let mut digits = [0u8; MAX_DEPTH];
+        let mut depth = 0usize;
+        let mut i = index;
+        while i > 0 {
+            *digits.get_mut(depth)? = ((i - 1) & 7) as u8;
+            i = (i - 1) >> 3;
+            depth += 1;
+        }
+        if tet.idx() >= self.roots.len() {
+            return None;
+        }
+        let mut r = tet.0;
+        for &c in digits.iter().take(depth).rev() {
+            r = self.child(r, c)?;
+        }
+        Some(r)
     }
 
     pub(super) fn find_path(&self, tet: TetId, path: &Path) -> Option<u32> {

@@ -374,3 +374,151 @@ fn storage_checks() {
         Err(HierarchyError::StorageTooSmall { what: "roots", .. })
     ));
 }
+
+/// Everything observable of a hierarchy that must not depend on whether wholly erased
+/// subtrees were given back: the visible triangles (by name and corner bits), the v_list as a
+/// set, the counters, the removed volume and the number of pieces.
+fn observed(h: &Hierarchy<'_>, mesh: &Mesh<'_>) -> ([u64; 6], u32, u64, u32) {
+    // Order-independent sums of hashes of each visible triangle and v_list entry.
+    let mix = |mut x: u64| {
+        x ^= x >> 33;
+        x = x.wrapping_mul(0xff51_afd7_ed55_8ccd);
+        x ^= x >> 33;
+        x = x.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
+        x ^ (x >> 33)
+    };
+    let mut tri = [0u64; 6];
+    h.for_each_visible(mesh, |t| {
+        let key = ((t.tet.0 as u64) << 40) ^ ((t.index as u64) << 4) ^ t.face as u64;
+        tri[0] = tri[0].wrapping_add(mix(key));
+        for (k, c) in t.corners.iter().enumerate() {
+            let bits = (c.x.to_bits() as u64)
+                ^ ((c.y.to_bits() as u64) << 21)
+                ^ (c.z.to_bits() as u64) << 42;
+            tri[1 + k] = tri[1 + k].wrapping_add(mix(bits ^ key));
+        }
+        tri[4] += 1;
+    });
+    for e in h.vlist() {
+        tri[5] = tri[5].wrapping_add(mix(((e.tet.0 as u64) << 32) ^ e.index as u64));
+    }
+    let mut scratch = [0u32; CUBE12_TETS + 64];
+    let pieces = h.components(mesh, &mut scratch).unwrap();
+    (
+        tri,
+        h.visible_face_count(),
+        h.removed_volume().to_bits(),
+        pieces,
+    )
+}
+
+#[test]
+fn wholly_erased_blocks_are_taken_back_when_the_arena_is_full() {
+    let (mut c, t) = cube();
+    let mesh = build(&mut c, &t);
+    // `h`: two blocks; `twin`: room for everything, never takes a block back.
+    let mut roots = [HNode::LEAF; CUBE12_TETS];
+    let mut arena = [HNode::LEAF; 16];
+    let mut vlist = [VEntry::default(); CUBE12_TETS + 14];
+    let mut h = Hierarchy::new(
+        &mesh,
+        HierarchyStorage {
+            roots: &mut roots,
+            arena: &mut arena,
+            vlist: &mut vlist,
+        },
+    )
+    .unwrap();
+    let mut roots2 = [HNode::LEAF; CUBE12_TETS];
+    let mut arena2 = [HNode::LEAF; 64];
+    let mut vlist2 = [VEntry::default(); CUBE12_TETS + 56];
+    let mut twin = Hierarchy::new(
+        &mesh,
+        HierarchyStorage {
+            roots: &mut roots2,
+            arena: &mut arena2,
+            vlist: &mut vlist2,
+        },
+    )
+    .unwrap();
+    let t0 = TetId(0);
+    let both = |op: &dyn Fn(&mut Hierarchy<'_>) -> Result<OpReport, HierarchyError>,
+                h: &mut Hierarchy<'_>,
+                twin: &mut Hierarchy<'_>| {
+        let a = op(h).map(|_| ());
+        let b = op(twin).map(|_| ());
+        assert_eq!(a, b);
+        h.validate(&mesh).unwrap();
+        twin.validate(&mesh).unwrap();
+        assert_eq!(observed(h, &mesh), observed(twin, &mesh));
+    };
+    both(&|x| x.refine(&mesh, t0, 0), &mut h, &mut twin);
+    both(&|x| x.refine(&mesh, t0, 1), &mut h, &mut twin);
+    assert_eq!(
+        (h.arena_used(), h.arena_live(), h.arena_reclaimable()),
+        (16, 16, 0)
+    );
+    // Full, and nothing to take back: refused and counted.
+    assert_eq!(h.refine(&mesh, t0, 2), Err(HierarchyError::Full));
+    assert_eq!(h.saturations(), 1);
+    h.validate(&mesh).unwrap();
+    // Erase the eight children of node 1 (tree indices 9..=16): their block is wholly
+    // erased, node 1 is hollow; nothing is freed yet (references stay valid).
+    for i in 9..=16 {
+        both(&|x| x.erase(&mesh, t0, i), &mut h, &mut twin);
+    }
+    assert_eq!(
+        (h.arena_used(), h.arena_live(), h.arena_reclaimable()),
+        (16, 8, 8)
+    );
+    assert_eq!(h.reclaimed(), 0);
+    assert!(h.find(t0, 9).is_some());
+    // Refining node 2 takes that block back: node 1 becomes an erased leaf.
+    both(&|x| x.refine(&mesh, t0, 2), &mut h, &mut twin);
+    assert_eq!(h.reclaimed(), 1);
+    assert_eq!(
+        (h.arena_used(), h.arena_live(), h.arena_reclaimable()),
+        (16, 16, 0)
+    );
+    let n1 = h.node(h.find(t0, 1).unwrap()).unwrap();
+    assert!(n1.is_leaf() && n1.erased());
+    assert_eq!(h.find(t0, 9), None);
+    assert_eq!(h.erase(&mesh, t0, 9), Err(HierarchyError::NotFound));
+    assert_eq!(h.erase(&mesh, t0, 1), Err(HierarchyError::Erased));
+    assert_eq!(h.refine(&mesh, t0, 1), Err(HierarchyError::Erased));
+    // Erase the rest of tet 0: node 2's children (17..=24), then nodes 3..=8. Both blocks
+    // are wholly erased, the root is hollow, and nothing of the arena holds material.
+    for i in (17..=24).chain(3..=8) {
+        both(&|x| x.erase(&mesh, t0, i), &mut h, &mut twin);
+    }
+    assert_eq!(
+        (h.arena_used(), h.arena_live(), h.arena_reclaimable()),
+        (16, 0, 16)
+    );
+    // Two more refinements elsewhere take the two blocks back, deepest first; then tet 0's
+    // root is an erased leaf and the arena is full of the new material.
+    both(&|x| x.refine(&mesh, TetId(5), 0), &mut h, &mut twin);
+    assert_eq!(h.find(t0, 17), None);
+    assert!(h.find(t0, 3).is_some());
+    both(&|x| x.refine(&mesh, TetId(6), 0), &mut h, &mut twin);
+    assert_eq!(h.reclaimed(), 3);
+    assert_eq!(h.find(t0, 1), None);
+    let root = h.node(t0.0).unwrap();
+    assert!(root.is_leaf() && root.erased());
+    assert_eq!(
+        (h.arena_used(), h.arena_live(), h.arena_reclaimable()),
+        (16, 16, 0)
+    );
+    assert_eq!(h.refine(&mesh, TetId(7), 0), Err(HierarchyError::Full));
+    assert_eq!(h.saturations(), 2);
+    // Erasing into a collapsed region and across it still gives the twin's faces.
+    both(&|x| x.erase(&mesh, TetId(5), 3), &mut h, &mut twin);
+    for c in 1..=8 {
+        both(&|x| x.erase(&mesh, TetId(6), c), &mut h, &mut twin);
+    }
+    assert_eq!(h.arena_reclaimable(), 8);
+    // A reset forgets the list too.
+    h.reset(&mesh);
+    h.validate(&mesh).unwrap();
+    assert_eq!((h.arena_used(), h.arena_live(), h.reclaimed()), (0, 0, 0));
+}
