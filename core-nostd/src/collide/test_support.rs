@@ -54,7 +54,19 @@ impl<const N: usize, const T: usize> Store<N, T> {
         s
     }
 
+    /// The mesh as collide, depth and force tests use it (tets kept as given).
     pub fn mesh(&mut self) -> Mesh<'_> {
+        self.mesh_with(BuildOptions {
+            relabel_for_refinement: false,
+        })
+    }
+
+    /// The mesh as the drill and the hierarchy need it (each tet relabelled for refinement).
+    pub fn refinable_mesh(&mut self) -> Mesh<'_> {
+        self.mesh_with(BuildOptions::default())
+    }
+
+    fn mesh_with(&mut self, options: BuildOptions) -> Mesh<'_> {
         let flat = self.scratch.as_flattened_mut();
         Mesh::build(
             &mut self.positions[..self.n],
@@ -65,9 +77,7 @@ impl<const N: usize, const T: usize> Store<N, T> {
                 tets: &mut self.tets,
             },
             flat,
-            BuildOptions {
-                relabel_for_refinement: false,
-            },
+            options,
         )
         .expect("test mesh builds")
     }

@@ -4,10 +4,10 @@
 use glam::Vec3;
 
 use super::*;
-use crate::builtin::{cube12, CUBE12_NODES, CUBE12_TETS};
+use crate::builtin::{CUBE12_NODES, CUBE12_TETS};
+use crate::collide::test_support::Store;
 use crate::hierarchy::{HNode, Hierarchy, HierarchyStorage, VEntry};
 use crate::ids::TetId;
-use crate::mesh::{BuildOptions, FaceKey, Mesh, MeshStorage, Node, Tet};
 
 #[test]
 fn classify_cases() {
@@ -36,23 +36,8 @@ fn classify_cases() {
 
 #[test]
 fn tiny_capacities_saturate_and_carry_over() {
-    let (mut pos, t) = cube12();
-    let mut nodes = [Node::default(); CUBE12_NODES];
-    let mut normals = [Vec3::ZERO; CUBE12_NODES];
-    let mut tets = [Tet::default(); CUBE12_TETS];
-    let mut scratch = [FaceKey::default(); 4 * CUBE12_TETS];
-    let mesh = Mesh::build(
-        &mut pos,
-        &t,
-        MeshStorage {
-            nodes: &mut nodes,
-            normals: &mut normals,
-            tets: &mut tets,
-        },
-        &mut scratch,
-        BuildOptions::default(),
-    )
-    .unwrap();
+    let mut store = Store::<CUBE12_NODES, CUBE12_TETS>::cube12(1.0, Vec3::ZERO);
+    let mesh = store.refinable_mesh();
     let mut roots = [HNode::LEAF; CUBE12_TETS];
     let mut arena = [HNode::LEAF; 64];
     let mut vlist = [VEntry::default(); CUBE12_TETS + 56];
@@ -128,23 +113,8 @@ fn tiny_capacities_saturate_and_carry_over() {
 /// `None`) and dropped.
 #[test]
 fn pending_items_of_a_block_taken_back_are_dropped() {
-    let (mut pos, t) = cube12();
-    let mut nodes = [Node::default(); CUBE12_NODES];
-    let mut normals = [Vec3::ZERO; CUBE12_NODES];
-    let mut tets = [Tet::default(); CUBE12_TETS];
-    let mut scratch = [FaceKey::default(); 4 * CUBE12_TETS];
-    let mesh = Mesh::build(
-        &mut pos,
-        &t,
-        MeshStorage {
-            nodes: &mut nodes,
-            normals: &mut normals,
-            tets: &mut tets,
-        },
-        &mut scratch,
-        BuildOptions::default(),
-    )
-    .unwrap();
+    let mut store = Store::<CUBE12_NODES, CUBE12_TETS>::cube12(1.0, Vec3::ZERO);
+    let mesh = store.refinable_mesh();
     // One block: the second refinement must take it back.
     let mut roots = [HNode::LEAF; CUBE12_TETS];
     let mut arena = [HNode::LEAF; 8];
