@@ -121,10 +121,6 @@ impl Stats {
 
     /// The mean, rounded to the nearest instruction.
     pub fn mean(&self) -> u64 {
-        if self.n == 0 {
-            0
-        } else {
-            (self.sum + self.n / 2) / self.n
-        }
+        (self.sum + self.n / 2).checked_div(self.n).unwrap_or(0)
     }
 }
