@@ -162,6 +162,24 @@ pub(crate) fn refinement_points(
     (rows, pts)
 }
 
+/// Child `c`'s packed coordinates and corners, picked from the ten rows and points of its
+/// parent's refinement ([`refinement_points`]): the child's own packed corners and
+/// [`RootFrame::positions_packed`] of them, bit for bit (a shared point has the same reduced
+/// coordinates whichever node names it).
+///
+/// # Bounded work
+/// Constant: eight look-ups.
+#[inline]
+pub(crate) fn child_of_refinement(
+    rows: &[Packed; 10],
+    pts: &[Vec3; 10],
+    c: u8,
+) -> ([Packed; 4], [Vec3; 4]) {
+    let at = |(a, b): (u8, u8)| PAIR[(a & 3) as usize][(b & 3) as usize];
+    let cv = CHILD_VERTS[(c & 7) as usize];
+    (cv.map(|v| rows[at(v)]), cv.map(|v| pts[at(v)]))
+}
+
 /// Volume of node `path` of tet `tet`: the root's volume over `8^depth` (Bey's eight children
 /// have equal volumes).
 ///

@@ -21,11 +21,13 @@
 
 use glam::Vec3;
 
-use super::geometry::{node_positions, refinement_points, Packed, RootFrame, PAIR, ROOT_PACKED};
+use super::geometry::{
+    child_of_refinement, node_positions, refinement_points, Packed, RootFrame, ROOT_PACKED,
+};
 use super::node::HNode;
 use super::store::Hierarchy;
 use super::surface::{bounding_sphere, face_corners, VisibleTri};
-use super::table::{Path, CHILD_VERTS, MAX_DEPTH};
+use super::table::{Path, MAX_DEPTH};
 use crate::force::closest_point_on_triangle;
 use crate::ids::TetId;
 use crate::mesh::Mesh;
@@ -395,10 +397,7 @@ impl Hierarchy<'_> {
                     let Some(child) = self.node(cr).filter(|n| n.surface()) else {
                         continue;
                     };
-                    let cv = CHILD_VERTS[(c & 7) as usize];
-                    let at = |(a, b): (u8, u8)| PAIR[(a & 3) as usize][(b & 3) as usize];
-                    let bary = cv.map(|v| rows[at(v)]);
-                    let p = cv.map(|v| pts[at(v)]);
+                    let (bary, p) = child_of_refinement(&rows, &pts, c);
                     let index = e.index * 8 + 1 + c as u32;
                     if child.is_leaf() {
                         // Leaves are tested at once (no stack round trip), after the same

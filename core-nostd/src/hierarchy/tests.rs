@@ -522,3 +522,38 @@ fn wholly_erased_blocks_are_taken_back_when_the_arena_is_full() {
     h.validate(&mesh).unwrap();
     assert_eq!((h.arena_used(), h.arena_live(), h.reclaimed()), (0, 0, 0));
 }
+
+/// The ten points of a refinement, shared by the eight children (the drill's queue and the
+/// contact walk use them), are each child's own packed corners and positions bit for bit:
+/// every child of every node down to depth 5 along random paths of every cube tet, against
+/// `child_packed` (the children's rows one by one) and `positions_packed` of those rows.
+#[test]
+fn shared_refinement_points_are_each_childs_own_bits() {
+    use super::geometry::{child_of_refinement, child_packed, refinement_points, RootFrame};
+    let (mut c, t) = cube();
+    let mesh = build(&mut c, &t);
+    let mut seed = 7u32;
+    for tet in 0..CUBE12_TETS {
+        let frame = RootFrame::of(&mesh, TetId::from_idx(tet)).unwrap();
+        for _ in 0..20 {
+            let mut bary = super::geometry::ROOT_PACKED;
+            for depth in 0..5u8 {
+                let (rows, pts) = refinement_points(&frame, &bary, depth);
+                for ch in 0..8u8 {
+                    let own = child_packed(&bary, ch);
+                    let (b, p) = child_of_refinement(&rows, &pts, ch);
+                    assert_eq!(b, own);
+                    let q = frame.positions_packed(&own, depth + 1);
+                    for k in 0..4 {
+                        assert_eq!(
+                            p[k].to_array().map(f32::to_bits),
+                            q[k].to_array().map(f32::to_bits)
+                        );
+                    }
+                }
+                seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                bary = child_packed(&bary, (seed >> 29) as u8);
+            }
+        }
+    }
+}
