@@ -5,8 +5,7 @@ use glam::Vec3;
 
 use super::*;
 use crate::builtin::{CUBE12_NODES, CUBE12_TETS};
-use crate::collide::test_support::Store;
-use crate::hierarchy::{HNode, Hierarchy, HierarchyStorage, VEntry};
+use crate::collide::test_support::{cube_hierarchy, Store};
 use crate::ids::TetId;
 
 #[test]
@@ -38,18 +37,7 @@ fn classify_cases() {
 fn tiny_capacities_saturate_and_carry_over() {
     let mut store = Store::<CUBE12_NODES, CUBE12_TETS>::cube12(1.0, Vec3::ZERO);
     let mesh = store.refinable_mesh();
-    let mut roots = [HNode::LEAF; CUBE12_TETS];
-    let mut arena = [HNode::LEAF; 64];
-    let mut vlist = [VEntry::default(); CUBE12_TETS + 56];
-    let mut h = Hierarchy::new(
-        &mesh,
-        HierarchyStorage {
-            roots: &mut roots,
-            arena: &mut arena,
-            vlist: &mut vlist,
-        },
-    )
-    .unwrap();
+    cube_hierarchy!(h, &mesh, 64);
     // A deque that holds the candidates plus one depth-first path (8 + 7 per level) drains:
     // the work is carried over and finished in later ticks.
     let mut queue = [Pending::default(); CUBE12_TETS + 8 + 7 * 3];
@@ -116,18 +104,7 @@ fn pending_items_of_a_block_taken_back_are_dropped() {
     let mut store = Store::<CUBE12_NODES, CUBE12_TETS>::cube12(1.0, Vec3::ZERO);
     let mesh = store.refinable_mesh();
     // One block: the second refinement must take it back.
-    let mut roots = [HNode::LEAF; CUBE12_TETS];
-    let mut arena = [HNode::LEAF; 8];
-    let mut vlist = [VEntry::default(); CUBE12_TETS + 7];
-    let mut h = Hierarchy::new(
-        &mesh,
-        HierarchyStorage {
-            roots: &mut roots,
-            arena: &mut arena,
-            vlist: &mut vlist,
-        },
-    )
-    .unwrap();
+    cube_hierarchy!(h, &mesh, 8);
     // A sphere just around tet 0's child T5 (tree index 5): the root crosses it, T5 lies
     // inside.
     let t0 = TetId(0);

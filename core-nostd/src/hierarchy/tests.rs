@@ -9,6 +9,7 @@ use super::table::{invert, then, Across, Path, CHILD_ADJ, CHILD_INVERTED, CHILD_
 use super::visit::neighbour;
 use super::*;
 use crate::builtin::{cube12, CUBE12_NODES, CUBE12_TETS};
+use crate::collide::test_support::cube_hierarchy;
 use crate::ids::TetId;
 use crate::mesh::template::FACE_VERTS;
 use crate::mesh::{BuildOptions, FaceKey, Mesh, MeshStorage, Node, Tet};
@@ -298,18 +299,7 @@ fn node_positions_are_exact_midpoints() {
 fn tiny_arena_saturates_and_stays_valid() {
     let (mut c, t) = cube();
     let mesh = build(&mut c, &t);
-    let mut roots = [HNode::LEAF; CUBE12_TETS];
-    let mut arena = [HNode::LEAF; 16];
-    let mut vlist = [VEntry::default(); CUBE12_TETS + 14];
-    let mut h = Hierarchy::new(
-        &mesh,
-        HierarchyStorage {
-            roots: &mut roots,
-            arena: &mut arena,
-            vlist: &mut vlist,
-        },
-    )
-    .unwrap();
+    cube_hierarchy!(h, &mesh, 16);
     assert_eq!(h.visible_face_count(), 12);
     h.validate(&mesh).unwrap();
     h.refine(&mesh, TetId(0), 0).unwrap();
@@ -417,30 +407,8 @@ fn wholly_erased_blocks_are_taken_back_when_the_arena_is_full() {
     let (mut c, t) = cube();
     let mesh = build(&mut c, &t);
     // `h`: two blocks; `twin`: room for everything, never takes a block back.
-    let mut roots = [HNode::LEAF; CUBE12_TETS];
-    let mut arena = [HNode::LEAF; 16];
-    let mut vlist = [VEntry::default(); CUBE12_TETS + 14];
-    let mut h = Hierarchy::new(
-        &mesh,
-        HierarchyStorage {
-            roots: &mut roots,
-            arena: &mut arena,
-            vlist: &mut vlist,
-        },
-    )
-    .unwrap();
-    let mut roots2 = [HNode::LEAF; CUBE12_TETS];
-    let mut arena2 = [HNode::LEAF; 64];
-    let mut vlist2 = [VEntry::default(); CUBE12_TETS + 56];
-    let mut twin = Hierarchy::new(
-        &mesh,
-        HierarchyStorage {
-            roots: &mut roots2,
-            arena: &mut arena2,
-            vlist: &mut vlist2,
-        },
-    )
-    .unwrap();
+    cube_hierarchy!(h, &mesh, 16);
+    cube_hierarchy!(twin, &mesh, 64);
     let t0 = TetId(0);
     let both = |op: &dyn Fn(&mut Hierarchy<'_>) -> Result<OpReport, HierarchyError>,
                 h: &mut Hierarchy<'_>,
