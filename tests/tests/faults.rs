@@ -866,16 +866,16 @@ fn a_servo_stalled_past_the_watchdog_has_its_force_zeroed_while_stalled_then_ram
     );
 }
 
-#[test]
-fn the_watchdog_zeroes_the_falcon_and_the_omni_through_their_second_paths() {
-    // The Falcon: its mock records what comes through the second path (the shared USB
-    // handle on hardware). The read blocks until a new frame has come that way; every frame
-    // that came that way is a zero.
-    let mut mock = MockTransport::running();
-    mock.report = falcon_report();
-    let second = Arc::clone(&mock.out_log);
+/// Runs `dev` through the pipeline for 600 ticks with its servo stalled at read 300 until
+/// the watchdog's zero has come through the second path, whose log is `second`; asserts the
+/// run recovers, the stall is counted, the events are in order; returns what came that way.
+fn stalled_through_second_path<D, T>(dev: D, second: Arc<Mutex<Vec<T>>>, kind: DeviceKind) -> Vec<T>
+where
+    D: HapticDevice + Send + 'static,
+    T: Clone + Send + 'static,
+{
     let mut dev = FaultDevice::new(
-        falcon(mock),
+        dev,
         Faults {
             stall_until_zero: Some(300),
             ..Faults::default()
@@ -887,11 +887,23 @@ fn the_watchdog_zeroes_the_falcon_and_the_omni_through_their_second_paths() {
     })));
     let events = Arc::clone(&dev.events);
     let open: pipeline::DeviceFactory = Box::new(move || Ok(Box::new(dev) as Box<_>));
-    let rep = pipeline_with(open, DeviceKind::Falcon, 600).expect("the run recovers");
+    let rep = pipeline_with(open, kind, 600).expect("the run recovers");
     assert_eq!(rep.ticks, 600);
     assert!(rep.servo_stalls >= 1);
     assert_stalled_then_zeroed(&events.lock().expect("events"));
-    let frames = second.lock().expect("log");
+    let log = second.lock().expect("log").clone();
+    log
+}
+
+#[test]
+fn the_watchdog_zeroes_the_falcon_and_the_omni_through_their_second_paths() {
+    // The Falcon: its mock records what comes through the second path (the shared USB
+    // handle on hardware). The read blocks until a new frame has come that way; every frame
+    // that came that way is a zero.
+    let mut mock = MockTransport::running();
+    mock.report = falcon_report();
+    let second = Arc::clone(&mock.out_log);
+    let frames = stalled_through_second_path(falcon(mock), second, DeviceKind::Falcon);
     assert!(!frames.is_empty());
     assert!(frames.iter().all(|c| c.motors == [0; 3]), "{frames:?}");
 
@@ -901,24 +913,8 @@ fn the_watchdog_zeroes_the_falcon_and_the_omni_through_their_second_paths() {
     c.safety.ramp_ticks = 1;
     let mock = MockFirewire::omni();
     let second = Arc::clone(&mock.out_log);
-    let mut dev = FaultDevice::new(
-        OmniDevice::start(mock, c).expect("start-up"),
-        Faults {
-            stall_until_zero: Some(300),
-            ..Faults::default()
-        },
-    );
-    let seen = Arc::clone(&second);
-    dev.zeroes = Some(Probe(Arc::new(move || {
-        seen.lock().expect("log").len() as u64
-    })));
-    let events = Arc::clone(&dev.events);
-    let open: pipeline::DeviceFactory = Box::new(move || Ok(Box::new(dev) as Box<_>));
-    let rep = pipeline_with(open, DeviceKind::Omni, 600).expect("the run recovers");
-    assert_eq!(rep.ticks, 600);
-    assert!(rep.servo_stalls >= 1);
-    assert_stalled_then_zeroed(&events.lock().expect("events"));
-    let packets = second.lock().expect("log");
+    let dev = OmniDevice::start(mock, c).expect("start-up");
+    let packets = stalled_through_second_path(dev, second, DeviceKind::Omni);
     assert!(packets
         .iter()
         .all(|o| !o.motors_on && o.motors == [MOTOR_ZERO; 3]));
