@@ -324,6 +324,8 @@ impl<'a> SpatialHash<'a> {
             return false;
         }
         let nb = self.buckets();
+        // The bucket scan of `items_in_cell`, written out: through that iterator the
+        // replay's candidate queries cost 0.7 % more instructions (callgrind, 2,500 ticks).
         for_cells(lo, hi, |c| {
             let k = bucket_of(c, nb) as usize;
             let start = self.starts.get(k).copied().unwrap_or(0) as usize;
