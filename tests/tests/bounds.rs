@@ -20,7 +20,7 @@ use tetradrill_core::depth::{
     graph_sizes, hash_boundary_faces, penetration_depth, DepthScratch, Method, NodeGraph, NodeSlot,
     Penetration,
 };
-use tetradrill_core::drill::{Drill, DrillParams, Pending, Sphere};
+use tetradrill_core::drill::{Drill, DrillParams, Pending, Sphere, WorkCost};
 use tetradrill_core::force::{
     mesh_sphere_contact, pen_contact, sphere_contact, ForceParams, PenOptions, PenState, ToolState,
 };
@@ -780,12 +780,15 @@ fn erase_next_to_a_fully_refined_tree_stays_within_four_face_visits() {
 // Drill step
 // ------------------------------------------------------------------------------------------
 
-/// What one operation of the drill may cost beyond the budget, from the units
-/// [`DrillParams::budget`] documents: 1 for taking the item, 8 per node created (a refinement
-/// creates 8), and its 16 NTree visits, each at most `MAX_DEPTH + 1` nodes down to the
-/// neighbour plus the `(4^(L+1) - 1) / 3` nodes of a face subtree `L = max_depth` levels deep.
+/// What one operation of the drill may cost beyond the budget, in the units of
+/// [`WorkCost`]: taking the item, a refinement's 8 nodes created and its 16 NTree visits (each
+/// at most `MAX_DEPTH + 1` nodes down to the neighbour plus the `(4^(L+1) - 1) / 3` nodes of a
+/// face subtree `L = max_depth` levels deep), then the new children classified.
 fn drill_op_cost(max_depth: u8) -> u32 {
-    1 + 8 * 8 + 16 * (MAX_DEPTH as u32 + 1 + face_subtree(max_depth as u32))
+    WorkCost::TAKEN
+        + WorkCost::CREATED * 8
+        + WorkCost::VISIT * 16 * (MAX_DEPTH as u32 + 1 + face_subtree(max_depth as u32))
+        + WorkCost::EXPANDED
 }
 
 /// The drill's budget: a burr sweeping through a 4-block at depth 5, with budgets from 1 to
@@ -831,6 +834,15 @@ fn drill_work_stays_within_budget_plus_one_operation() {
             let r = drill.step(&mut h, &mesh, &near, &[s], &params);
             let ctx = format!("budget {budget}, deque {queue_len}, tick {i}: {r:?}");
             assert!(r.work <= budget + op, "{ctx}");
+            // The work is exactly what was done, each kind at its weight.
+            assert_eq!(
+                r.work,
+                WorkCost::TAKEN * r.taken
+                    + WorkCost::EXPANDED * r.expanded
+                    + WorkCost::VISIT * r.visits
+                    + WorkCost::CREATED * r.created,
+                "{ctx}"
+            );
             assert!(r.pending as usize <= queue_len, "{ctx}");
             assert_eq!(r.pending as usize, drill.pending(), "{ctx}");
             assert!(h.arena_used() <= h.capacity(), "{ctx}");

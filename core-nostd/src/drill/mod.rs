@@ -13,7 +13,7 @@ mod step;
 
 pub use candidates::candidates_brute_force;
 pub use sphere::{classify, Class, Sphere};
-pub use step::{Drill, DrillParams, DrillReport, Pending, SWEPT};
+pub use step::{Drill, DrillParams, DrillReport, Pending, WorkCost, SWEPT};
 
 #[cfg(test)]
 mod tests;

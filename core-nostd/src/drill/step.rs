@@ -5,7 +5,10 @@ use glam::Vec3;
 
 use super::sphere::{classify, Class, Sphere};
 use crate::geom::tri_area;
-use crate::hierarchy::{child_packed, Hierarchy, HierarchyError, Path, RootFrame, ROOT_PACKED};
+use crate::hierarchy::{
+    child_of_refinement, child_of_ten, refinement_points, Hierarchy, HierarchyError, Path,
+    RootFrame, MAX_DEPTH,
+};
 use crate::ids::TetId;
 use crate::mesh::template::FACE_VERTS;
 use crate::mesh::Mesh;
@@ -17,8 +20,8 @@ pub struct DrillParams {
     pub max_depth: u8,
     /// A node whose smallest face area is below this is not refined further.
     pub min_area: f32,
-    /// Work units per tick: one per node visited by the step or by an NTree visit, eight per
-    /// node created. The step stops starting operations once it is spent.
+    /// Work units per tick, each about 100 Cortex-M4 instructions ([`WorkCost`]). The step
+    /// stops starting operations once it is spent.
     pub budget: u32,
 }
 
@@ -27,9 +30,38 @@ impl Default for DrillParams {
         Self {
             max_depth: 6,
             min_area: 0.0,
-            budget: 4000,
+            budget: 10_000,
         }
     }
+}
+
+/// What the drill charges its budget, in work units of about 100 Cortex-M4 instructions, so
+/// the budget bounds the step's time however the work is made up (before 2026-11-22 every
+/// item taken cost 1 unit and every NTree node visited 1 too, though an item costs several
+/// times a visit: a budget then bought very different times).
+///
+/// Where the weights come from (docs/TIMING.md): per-call costs measured with callgrind on
+/// x86-64 (an item taken ~530 instructions with its class and leaf tests, a node expanded
+/// ~1,400-2,200, an erasure ~2,800 of which its NTree visits are most, a refinement ~6,000)
+/// and a least-squares fit of the firmware scenario's per-tick instruction counts on the
+/// Cortex-M4 (QEMU `-icount`, `scripts/fit-work-weights.py`: an item ~875-1,580, an expansion
+/// ~1,450-2,000, a visit ~130-170, a created node ~1,200-1,350). The fit is noisy (the
+/// contact search it cannot separate leaves residuals of ~40k instructions a tick, and two
+/// runs at different budgets give the ranges above), so the weights are set within those
+/// ranges; a unit is about 60 instructions on x86-64.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct WorkCost;
+
+impl WorkCost {
+    /// An item taken from the deque (its corners, its class, the leaf tests).
+    pub const TAKEN: u32 = 9;
+    /// A node's eight children classified from the ten points of its refinement, the
+    /// survivors queued.
+    pub const EXPANDED: u32 = 20;
+    /// A node touched by an NTree visit of a refinement or erasure.
+    pub const VISIT: u32 = 2;
+    /// A node created by a refinement (eight a refinement, besides its visits).
+    pub const CREATED: u32 = 13;
 }
 
 /// One unit of pending work: a node of a tree, against the sphere it was queued for, with the
@@ -87,7 +119,8 @@ impl Pending {
             index: 0,
             node: tet.0,
             sphere,
-            bary: ROOT_PACKED,
+            // The root's rows depend on its frame's corner order: filled in when taken.
+            bary: [0; 4],
             epoch,
         }
     }
@@ -104,10 +137,25 @@ pub struct DrillReport {
     pub removed_volume: f64,
     /// Work units used (may exceed the budget by the cost of the last operation).
     pub work: u32,
+    /// Work items taken from the deque.
+    pub taken: u32,
+    /// Nodes whose eight children were classified (and the survivors queued).
+    pub expanded: u32,
+    /// Nodes touched by the NTree visits of the refinements and erasures.
+    pub visits: u32,
     /// Work items left for the next tick.
     pub pending: u32,
     /// Capacity saturations this step (arena full, pending queue full).
     pub saturations: u32,
+}
+
+/// A node whose children were queued, with the ten points of its red refinement: its
+/// children's corners.
+#[derive(Clone, Copy, Debug)]
+struct Parent {
+    tet: TetId,
+    index: u32,
+    pts: [Vec3; 10],
 }
 
 /// Spheres remembered to skip re-queueing an unchanged sphere whose work is already queued.
@@ -131,6 +179,9 @@ pub struct Drill<'a> {
     swept_len: usize,
     /// The root frame of the last tet processed (items come tree by tree).
     frame: Option<(TetId, RootFrame)>,
+    /// Per depth, the last node whose children were queued and the ten points of its
+    /// refinement (see [`Drill::corners`]).
+    parents: [Option<Parent>; MAX_DEPTH],
     retry: bool,
     saturations: u32,
 }
@@ -150,6 +201,7 @@ impl<'a> Drill<'a> {
             swept_next: 0,
             swept_len: 0,
             frame: None,
+            parents: [None; MAX_DEPTH],
             retry: false,
             saturations: 0,
         }
@@ -178,6 +230,8 @@ impl<'a> Drill<'a> {
         self.memo = [None; MEMO];
         self.swept_len = 0;
         self.swept_next = 0;
+        self.frame = None;
+        self.parents = [None; MAX_DEPTH];
     }
 
     /// Remembers `s` as part of the swept volume (the oldest of [`SWEPT`] is forgotten).
@@ -199,6 +253,28 @@ impl<'a> Drill<'a> {
                 Some(f)
             }
         }
+    }
+
+    /// The corners of `item` at `depth`. Children are queued at the front, so a node's eight
+    /// children are taken before any other node of its depth has its children queued: the
+    /// parent's refinement points, kept per depth, are still there and a child's corners are
+    /// four of them (the same bits as [`RootFrame::positions_packed`] of its own
+    /// coordinates). Otherwise (a root, an item carried from an earlier tick whose parent
+    /// entry was overwritten) they are evaluated from the item's coordinates.
+    ///
+    /// # Bounded work
+    /// Constant: four look-ups, or four point evaluations.
+    fn corners(&self, frame: &RootFrame, item: &Pending, depth: u8) -> [Vec3; 4] {
+        if depth > 0 {
+            let parent = (item.index - 1) / 8;
+            if let Some(Some(q)) = self.parents.get(depth as usize - 1) {
+                if q.tet == item.tet && q.index == parent {
+                    let c = ((item.index - 1) % 8) as u8;
+                    return child_of_ten(&q.pts, c);
+                }
+            }
+        }
+        frame.positions_packed(&item.bary, depth)
     }
 
     /// `true` when all four corners `p` lie inside one of the remembered spheres.
@@ -272,8 +348,10 @@ impl<'a> Drill<'a> {
     /// empty). Then work
     /// items are taken oldest first (each node's children go to the front, so one sphere's
     /// subtree is finished depth first) until the budget is spent:
-    /// - a node outside the sphere, or erased, is dropped;
-    /// - an inner node passes its eight children on;
+    /// - a node outside the sphere, or with every leaf erased, is dropped;
+    /// - an inner node's eight children are classified from the ten points of its refinement
+    ///   and those that meet the sphere and still hold material are queued (the others would
+    ///   only be dropped);
     /// - a leaf entirely inside the sphere (all four corners), or inside one of the last
     ///   [`SWEPT`] spheres queued (the swept path, which erases it anyway when its own work
     ///   arrives), is erased at once: only the boundary of the swept volume is refined, not
@@ -292,9 +370,10 @@ impl<'a> Drill<'a> {
     ///
     /// # Bounded work
     /// The new work is O(candidates * spheres) pushes. After that no operation starts once
-    /// `budget` units are spent; the last one may overrun it by its own cost: a refinement
-    /// is 8 units plus 16 NTree visits, an erasure 4 NTree visits, each O(depth) plus the
-    /// instantiated nodes across one face.
+    /// `budget` units are spent ([`WorkCost`]: each item taken, each node expanded, each
+    /// NTree node visited and each node created is charged what it costs); the last one may
+    /// overrun it by its own cost: a refinement is 8 nodes created plus 16 NTree visits, an
+    /// erasure 4 NTree visits, each O(depth) plus the instantiated nodes across one face.
     ///
     /// # Capacity
     /// Arena full (no fresh block, and no wholly erased subtree to take one back from): the
@@ -346,7 +425,8 @@ impl<'a> Drill<'a> {
         let max_depth = params.max_depth.min(crate::hierarchy::MAX_DEPTH as u8);
         while rep.work < params.budget {
             let Some(item) = self.pop_front() else { break };
-            rep.work += 1;
+            rep.work = rep.work.saturating_add(WorkCost::TAKEN);
+            rep.taken += 1;
             self.process(h, mesh, item, max_depth, params.min_area, &mut rep);
         }
         rep.pending = self.len as u32;
@@ -376,7 +456,7 @@ impl<'a> Drill<'a> {
         let Some(node) = h.node(item.node) else {
             return;
         };
-        if node.erased() {
+        if node.all_erased() {
             return;
         }
         let Some(depth) = Path::depth_of(item.index) else {
@@ -385,13 +465,20 @@ impl<'a> Drill<'a> {
         let Some(frame) = self.frame(mesh, item.tet) else {
             return;
         };
-        let p = frame.positions_packed(&item.bary, depth);
+        let item = match item.index {
+            0 => Pending {
+                bary: frame.root_packed(),
+                ..item
+            },
+            _ => item,
+        };
+        let p = self.corners(&frame, &item, depth);
         let class = classify(p, &item.sphere);
         if class == Class::Outside {
             return;
         }
         if !node.is_leaf() {
-            self.queue_children(h, item, rep);
+            self.queue_children(h, &frame, item, depth, rep);
             return;
         }
         // Inside this sphere, or inside another sphere of the swept path (which erases it
@@ -403,16 +490,25 @@ impl<'a> Drill<'a> {
             self.erase(h, mesh, item, &path, rep);
             return;
         }
-        let min_face = FACE_VERTS
-            .iter()
-            .map(|f| tri_area(p[f[0] as usize], p[f[1] as usize], p[f[2] as usize]))
-            .fold(f32::INFINITY, f32::min);
-        if path.depth < max_depth && min_face >= min_area {
+        // Areas are never negative (and `f32::min` skips NaN), so a `min_area` of zero or
+        // less passes without computing them; at `max_depth` they are not needed at all.
+        let big_enough = || {
+            min_area <= 0.0
+                || FACE_VERTS
+                    .iter()
+                    .map(|f| tri_area(p[f[0] as usize], p[f[1] as usize], p[f[2] as usize]))
+                    .fold(f32::INFINITY, f32::min)
+                    >= min_area
+        };
+        if path.depth < max_depth && big_enough() {
             match h.refine_at(mesh, item.tet, &path, item.node) {
                 Ok(r) => {
-                    rep.work = rep.work.saturating_add(r.work + 8 * r.created);
+                    rep.work = rep
+                        .work
+                        .saturating_add(WorkCost::VISIT * r.work + WorkCost::CREATED * r.created);
+                    rep.visits = rep.visits.saturating_add(r.work);
                     rep.created += r.created;
-                    self.queue_children(h, item, rep);
+                    self.queue_children(h, &frame, item, depth, rep);
                     return;
                 }
                 Err(HierarchyError::Full) => {
@@ -442,12 +538,20 @@ impl<'a> Drill<'a> {
         rep: &mut DrillReport,
     ) {
         if let Ok(r) = h.erase_at(mesh, item.tet, path, item.node) {
-            rep.work = rep.work.saturating_add(r.work);
+            rep.work = rep.work.saturating_add(WorkCost::VISIT * r.work);
+            rep.visits = rep.visits.saturating_add(r.work);
             rep.erased += 1;
         }
     }
 
-    fn queue_children(&mut self, h: &Hierarchy<'_>, item: Pending, rep: &mut DrillReport) {
+    fn queue_children(
+        &mut self,
+        h: &Hierarchy<'_>,
+        frame: &RootFrame,
+        item: Pending,
+        depth: u8,
+        rep: &mut DrillReport,
+    ) {
         if self.queue.len() - self.len < 8 {
             self.saturate(rep);
             return;
@@ -456,13 +560,29 @@ impl<'a> Drill<'a> {
         let Some(first) = h.child(item.node, 0) else {
             return;
         };
+        rep.expanded += 1;
+        rep.work = rep.work.saturating_add(WorkCost::EXPANDED);
         let epoch = epoch_of(h);
+        let (rows, pts) = refinement_points(frame, &item.bary, depth);
+        if let Some(slot) = self.parents.get_mut(depth as usize) {
+            *slot = Some(Parent {
+                tet: item.tet,
+                index: item.index,
+                pts,
+            });
+        }
         for c in (0..8u8).rev() {
+            // A child wholly outside the sphere, or with nothing left to erase, would be
+            // dropped when taken: it is not queued.
+            let gone = h.node(first + c as u32).is_none_or(|n| n.all_erased());
+            if gone || classify(child_of_ten(&pts, c), &item.sphere) == Class::Outside {
+                continue;
+            }
             let next = Pending {
                 tet: item.tet,
                 index: item.index * 8 + 1 + c as u32,
                 node: first + c as u32,
-                bary: child_packed(&item.bary, c),
+                bary: child_of_refinement(&rows, &pts, c).0,
                 epoch,
                 ..item
             };

@@ -62,7 +62,7 @@ impl RootFrame {
     /// Constant: 4 vector multiply-adds and a scaling.
     #[inline]
     pub(crate) fn point(&self, w: &[u32; 4], depth: u8) -> Vec3 {
-        let scale = 1.0 / (1u32 << depth.min(31)) as f32;
+        let scale = scale_of(depth);
         let [o0, o1, o2, o3] = self.order.map(|k| (k & 3) as usize);
         let [c0, c1, c2, c3] = self.sorted;
         let mut p = Vec3::ZERO;
@@ -83,14 +83,59 @@ impl RootFrame {
         bary.map(|w| self.point(&w, depth))
     }
 
-    /// [`RootFrame::positions`] of packed coordinates ([`Packed`]).
+    /// The root's corners as packed coordinates, lanes in canonical order ([`Packed`]):
+    /// root-local corner `k` has weight 1 in the lane of its canonical rank.
     ///
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub(crate) fn positions_packed(&self, bary: &[Packed; 4], depth: u8) -> [Vec3; 4] {
-        bary.map(|w| self.point(&unpack(w), depth))
+    pub(crate) fn root_packed(&self) -> [Packed; 4] {
+        let mut rows = [0; 4];
+        for (lane, &k) in self.order.iter().enumerate() {
+            rows[(k & 3) as usize] = 1 << (16 * lane);
+        }
+        rows
     }
+
+    /// The point with packed coordinates `w` (lanes in canonical order) scaled by `scale`
+    /// (`2^-depth`): [`RootFrame::point`] of the same weights, bit for bit (the same products,
+    /// summed in the same order), without unpacking through the corner order.
+    ///
+    /// # Bounded work
+    /// Constant: 4 vector multiply-adds and a scaling.
+    #[inline(always)]
+    pub(crate) fn packed_point(&self, w: Packed, scale: f32) -> Vec3 {
+        let l = [0u32, 16, 32, 48].map(|sh| ((w >> sh) & 0xffff) as u32);
+        let lane = |k: usize| l[k] as f32;
+        let [c0, c1, c2, c3] = self.sorted;
+        let mut p = Vec3::ZERO;
+        p += c0 * lane(0);
+        p += c1 * lane(1);
+        p += c2 * lane(2);
+        p += c3 * lane(3);
+        p * scale
+    }
+
+    /// [`RootFrame::positions`] of packed coordinates ([`Packed`]).
+    ///
+    /// # Bounded work
+    /// Constant: four [`RootFrame::packed_point`].
+    #[inline(always)]
+    pub(crate) fn positions_packed(&self, bary: &[Packed; 4], depth: u8) -> [Vec3; 4] {
+        let scale = scale_of(depth);
+        [
+            self.packed_point(bary[0], scale),
+            self.packed_point(bary[1], scale),
+            self.packed_point(bary[2], scale),
+            self.packed_point(bary[3], scale),
+        ]
+    }
+}
+
+/// `2^-depth` (exact), the scaling of [`RootFrame::point`].
+#[inline]
+fn scale_of(depth: u8) -> f32 {
+    1.0 / (1u32 << depth.min(31)) as f32
 }
 
 /// The ten points of one red refinement, indexed by [`PAIR`]: the parent's four vertices
@@ -111,19 +156,13 @@ pub(crate) const PAIRS: [(u8, u8); 10] = [
 /// `PAIR[a][b]`: the index in [`PAIRS`] of the point `(a, b)` (vertex when `a == b`).
 pub(crate) const PAIR: [[usize; 4]; 4] = [[0, 4, 5, 6], [4, 1, 7, 8], [5, 7, 2, 9], [6, 8, 9, 3]];
 
-/// A point's four integer barycentric weights packed into one `u64`, weight `k` in bits
-/// `16k..16k+16`. Weights are at most `2^MAX_DEPTH` = 1024 (and the sum of two at most 2048),
-/// so a child's point is one `u64` addition of two parent points, lane by lane.
+/// A point's four integer barycentric weights packed into one `u64`, the weight of the
+/// root's `j`-th corner in canonical order ([`RootFrame`]) in bits `16j..16j+16`, so a point
+/// is evaluated without looking up the corner order ([`RootFrame::packed_point`]). Weights
+/// are at most `2^MAX_DEPTH` = 1024 (and the sum of two at most 2048), so a child's point is
+/// one `u64` addition of two parent points, lane by lane (in any lane order). A tree's root
+/// rows are [`RootFrame::root_packed`].
 pub(crate) type Packed = u64;
-
-/// Unpacks four weights.
-#[inline]
-pub(crate) fn unpack(p: Packed) -> [u32; 4] {
-    [0, 16, 32, 48].map(|sh| ((p >> sh) & 0xffff) as u32)
-}
-
-/// The root's corners, packed.
-pub(crate) const ROOT_PACKED: [Packed; 4] = [1, 1 << 16, 1 << 32, 1 << 48];
 
 /// The packed point `(a, b)` of the refinement of a node with packed corners `bary`: the
 /// midpoint of corners `a` and `b` one level down (corner `a` itself when `a == b`), i.e. the
@@ -138,7 +177,7 @@ fn pair_row(bary: &[Packed; 4], (a, b): (u8, u8)) -> Packed {
 ///
 /// # Bounded work
 /// Constant: four additions.
-#[inline]
+#[cfg(test)]
 pub(crate) fn child_packed(bary: &[Packed; 4], c: u8) -> [Packed; 4] {
     CHILD_VERTS[(c & 7) as usize].map(|v| pair_row(bary, v))
 }
@@ -151,14 +190,15 @@ pub(crate) fn child_packed(bary: &[Packed; 4], c: u8) -> [Packed; 4] {
 ///
 /// # Bounded work
 /// Constant: ten [`RootFrame::point`] evaluations.
-#[inline]
+#[inline(always)]
 pub(crate) fn refinement_points(
     frame: &RootFrame,
     bary: &[Packed; 4],
     depth: u8,
 ) -> ([Packed; 10], [Vec3; 10]) {
     let rows = PAIRS.map(|v| pair_row(bary, v));
-    let pts = rows.map(|w| frame.point(&unpack(w), depth + 1));
+    let scale = scale_of(depth + 1);
+    let pts = rows.map(|w| frame.packed_point(w, scale));
     (rows, pts)
 }
 
@@ -175,9 +215,17 @@ pub(crate) fn child_of_refinement(
     pts: &[Vec3; 10],
     c: u8,
 ) -> ([Packed; 4], [Vec3; 4]) {
-    let at = |(a, b): (u8, u8)| PAIR[(a & 3) as usize][(b & 3) as usize];
-    let cv = CHILD_VERTS[(c & 7) as usize];
-    (cv.map(|v| rows[at(v)]), cv.map(|v| pts[at(v)]))
+    (child_of_ten(rows, c), child_of_ten(pts, c))
+}
+
+/// Child `c`'s four entries (its corners in its own order) among ten per-point values of its
+/// parent's refinement, indexed as [`PAIRS`].
+///
+/// # Bounded work
+/// Constant: four look-ups.
+#[inline]
+pub(crate) fn child_of_ten<T: Copy>(ten: &[T; 10], c: u8) -> [T; 4] {
+    CHILD_VERTS[(c & 7) as usize].map(|(a, b)| ten[PAIR[(a & 3) as usize][(b & 3) as usize]])
 }
 
 /// Volume of node `path` of tet `tet`: the root's volume over `8^depth` (Bey's eight children

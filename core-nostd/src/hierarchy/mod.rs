@@ -39,7 +39,7 @@ pub mod table;
 mod validate;
 pub mod visit;
 
-pub(crate) use geometry::{child_packed, RootFrame, ROOT_PACKED};
+pub(crate) use geometry::{child_of_refinement, child_of_ten, refinement_points, RootFrame};
 pub use geometry::{node_positions, node_volume};
 pub use nearest::{FaceRef, Nearest};
 pub use node::{HNode, VEntry, MAX_BLOCKS, NODE_BYTES, NO_BLOCK, NO_SLOT};

@@ -21,9 +21,7 @@
 
 use glam::Vec3;
 
-use super::geometry::{
-    child_of_refinement, node_positions, refinement_points, Packed, RootFrame, ROOT_PACKED,
-};
+use super::geometry::{child_of_refinement, node_positions, refinement_points, Packed, RootFrame};
 use super::node::HNode;
 use super::store::Hierarchy;
 use super::surface::{bounding_sphere, face_corners, VisibleTri};
@@ -93,7 +91,7 @@ const EMPTY: Entry = Entry {
     r: 0,
     index: 0,
     depth: 0,
-    bary: ROOT_PACKED,
+    bary: [0; 4],
     d2: 0.0,
     rad: 0.0,
 };
@@ -362,8 +360,9 @@ impl Hierarchy<'_> {
             let Some(frame) = RootFrame::of(mesh, t) else {
                 continue;
             };
-            let p = frame.positions_packed(&ROOT_PACKED, 0);
-            let Some(root) = self.consider(&mut s, t.0, 0, 0, ROOT_PACKED, p) else {
+            let rows = frame.root_packed();
+            let p = frame.positions_packed(&rows, 0);
+            let Some(root) = self.consider(&mut s, t.0, 0, 0, rows, p) else {
                 continue;
             };
             stack[0] = root;

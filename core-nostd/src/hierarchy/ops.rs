@@ -4,7 +4,7 @@ use super::geometry::node_volume;
 use super::node::{HNode, NO_SLOT};
 use super::store::{Hierarchy, HierarchyError};
 use super::table::{Path, CHILD_INVERTED, FACE_SUB};
-use super::visit::{visit_across, Side};
+use super::visit::{visit_across, visit_across_from, Side};
 use crate::ids::TetId;
 use crate::mesh::Mesh;
 
@@ -172,7 +172,7 @@ impl<'a> Hierarchy<'a> {
         }
         let mut rep = OpReport::default();
         for f in 0..4u8 {
-            visit_across(self, mesh, tet, path, f, &mut rep.work, |h, met| {
+            visit_across_from(self, mesh, tet, (path, r), f, &mut rep.work, |h, met| {
                 let rec = met.record;
                 if rec.erased() {
                     return true;

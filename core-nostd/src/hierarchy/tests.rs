@@ -494,7 +494,8 @@ fn wholly_erased_blocks_are_taken_back_when_the_arena_is_full() {
 /// The ten points of a refinement, shared by the eight children (the drill's queue and the
 /// contact walk use them), are each child's own packed corners and positions bit for bit:
 /// every child of every node down to depth 5 along random paths of every cube tet, against
-/// `child_packed` (the children's rows one by one) and `positions_packed` of those rows.
+/// `child_packed` (the children's rows one by one), `positions_packed` of those rows and
+/// `node_positions` of the child's path (unpacked weights in the corners' canonical order).
 #[test]
 fn shared_refinement_points_are_each_childs_own_bits() {
     use super::geometry::{child_of_refinement, child_packed, refinement_points, RootFrame};
@@ -504,24 +505,126 @@ fn shared_refinement_points_are_each_childs_own_bits() {
     for tet in 0..CUBE12_TETS {
         let frame = RootFrame::of(&mesh, TetId::from_idx(tet)).unwrap();
         for _ in 0..20 {
-            let mut bary = super::geometry::ROOT_PACKED;
+            let mut bary = frame.root_packed();
+            let mut path = Path::ROOT;
             for depth in 0..5u8 {
                 let (rows, pts) = refinement_points(&frame, &bary, depth);
                 for ch in 0..8u8 {
                     let own = child_packed(&bary, ch);
                     let (b, p) = child_of_refinement(&rows, &pts, ch);
                     assert_eq!(b, own);
+                    // The packed lanes against the path's own coordinates, unpacked through
+                    // the corner order (`node_positions`).
                     let q = frame.positions_packed(&own, depth + 1);
+                    let child = path.child(ch).unwrap();
+                    let r = node_positions(&mesh, TetId::from_idx(tet), &child);
                     for k in 0..4 {
-                        assert_eq!(
-                            p[k].to_array().map(f32::to_bits),
-                            q[k].to_array().map(f32::to_bits)
-                        );
+                        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                        assert_eq!(bits(p[k]), bits(q[k]));
+                        assert_eq!(bits(p[k]), bits(r[k]));
                     }
                 }
                 seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-                bary = child_packed(&bary, (seed >> 29) as u8);
+                let ch = (seed >> 29) as u8;
+                bary = child_packed(&bary, ch);
+                path = path.child(ch).unwrap();
             }
         }
     }
+}
+
+/// `visit_across_from` (sibling faces start at the block's entry) meets the same leaves, in
+/// the same order, with the same records and work, as `visit_across` (through the tree table
+/// and a descent from the root), for every node and face of a randomly refined and eroded
+/// cube.
+#[test]
+fn visits_from_a_known_node_match_the_table_walk() {
+    use super::visit::{visit_across, visit_across_from, Met, Side};
+    let (mut c, t) = cube();
+    let mesh = build(&mut c, &t);
+    cube_hierarchy!(h, &mesh, 8192);
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let mut next = |n: u32| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 33) as u32 % n
+    };
+    // Refine random leaves down to depth 4, then erase about a third of the leaves.
+    for _ in 0..300 {
+        let tet = TetId(next(CUBE12_TETS as u32));
+        let mut index = 0u32;
+        while let Some(r) = h.find(tet, index) {
+            let n = h.node(r).unwrap();
+            if n.is_leaf() {
+                if Path::depth_of(index).unwrap() < 4 && !n.erased() {
+                    let _ = h.refine(&mesh, tet, index);
+                }
+                break;
+            }
+            index = index * 8 + 1 + next(8);
+        }
+    }
+    // Every node of every tree (depth first, explicit stack).
+    let mut nodes = [(TetId(0), 0u32, 0u32); CUBE12_TETS + 8192];
+    let mut count = 0usize;
+    for ti in 0..CUBE12_TETS as u32 {
+        let mut stack = [0u32; 64];
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let index = stack[top];
+            let Some(r) = h.find(TetId(ti), index) else {
+                continue;
+            };
+            if !h.node(r).unwrap().is_leaf() {
+                for c in 1..=8 {
+                    stack[top] = index * 8 + c;
+                    top += 1;
+                }
+            }
+            nodes[count] = (TetId(ti), index, r);
+            count += 1;
+        }
+    }
+    let nodes = &nodes[..count];
+    for &(tet, index, r) in nodes {
+        if h.node(r).unwrap().is_leaf() && next(3) == 0 {
+            let _ = h.erase(&mesh, tet, index);
+        }
+    }
+    h.validate(&mesh).unwrap();
+    let mut siblings = 0;
+    for &(tet, index, r) in nodes {
+        let path = Path::of_index(index).unwrap();
+        for f in 0..4u8 {
+            // The leaves met, in order (at most 4^4 across one face down to depth 4).
+            let mut a = [None::<Met>; 300];
+            let mut b = [None::<Met>; 300];
+            let (mut na, mut nb, mut wa, mut wb) = (0usize, 0usize, 0u32, 0u32);
+            let sa = visit_across(&mut &h, &mesh, tet, &path, f, &mut wa, |_, m| {
+                a[na] = Some(m);
+                na += 1;
+                true
+            });
+            let sb = visit_across_from(&mut &h, &mesh, tet, (&path, r), f, &mut wb, |_, m| {
+                b[nb] = Some(m);
+                nb += 1;
+                true
+            });
+            assert_eq!(
+                (sa, na, a),
+                (sb, nb, b),
+                "tet {} index {index} face {f}",
+                tet.0
+            );
+            assert!(wb <= wa);
+            if wb < wa {
+                siblings += 1;
+                assert_ne!(sa, Side::Boundary);
+            }
+        }
+    }
+    // The shortcut was taken (a sibling face at depth >= 1 skips the descent).
+    assert!(siblings > 100, "{siblings}");
 }

@@ -181,11 +181,11 @@ pub(crate) fn visit_across<C: TreeRead, F: FnMut(&mut C, Met) -> bool>(
     let Some(nb) = neighbour(mesh, tet, path, face) else {
         return Side::Boundary;
     };
-    // Descend the neighbour's path; stop at the first leaf.
+    // Descend the neighbour's path; stop at the first leaf above its depth.
     let mut r = nb.tet.0;
     let mut index = 0u32;
     let d = nb.path.depth as usize;
-    for m in 0..=d {
+    for m in 0..d {
         *work = work.saturating_add(1);
         let Some(node) = ctx.tree_node(r) else {
             return Side::Done;
@@ -205,9 +205,6 @@ pub(crate) fn visit_across<C: TreeRead, F: FnMut(&mut C, Met) -> bool>(
                 Side::Stopped
             };
         }
-        if m == d {
-            break;
-        }
         let c = nb.path.digit(m + 1);
         let Some(next) = ctx.tree_child(r, c) else {
             return Side::Done;
@@ -215,15 +212,58 @@ pub(crate) fn visit_across<C: TreeRead, F: FnMut(&mut C, Met) -> bool>(
         r = next;
         index = index * 8 + 1 + c as u32;
     }
-    // The neighbour has children: visit its subtree restricted to the shared face.
-    let mut stack = [(0u32, 0u32, 0u8, 0u8); STACK];
-    let mut top = 0usize;
-    for (c, g, _) in FACE_SUB[(nb.face & 3) as usize] {
-        if let (Some(ch), Some(slot)) = (ctx.tree_child(r, c), stack.get_mut(top)) {
-            *slot = (ch, index * 8 + 1 + c as u32, g, d as u8 + 1);
-            top += 1;
+    visit_face_subtree(ctx, nb.tet, (r, index, nb.face, d as u8), work, &mut f)
+}
+
+/// [`visit_across`] from node `path` whose reference `node` is known: when face `face` is shared
+/// with a sibling (half the faces of a child), the sibling is the same block's entry and the
+/// visit starts there, with no walk through the tree table and no descent from the root;
+/// otherwise it is [`visit_across`]. Same leaves, same order, same callbacks.
+///
+/// # Bounded work
+/// As [`visit_across`]; for a sibling face, only the sibling's subtree restricted to the
+/// shared face.
+pub(crate) fn visit_across_from<C: TreeRead, F: FnMut(&mut C, Met) -> bool>(
+    ctx: &mut C,
+    mesh: &Mesh<'_>,
+    tet: TetId,
+    (path, node): (&Path, u32),
+    face: u8,
+    work: &mut u32,
+    mut f: F,
+) -> Side {
+    let d = path.depth as usize;
+    if d > 0 {
+        let c = path.digit(d);
+        if let Across::Sibling(c2, f2, _) = CHILD_ADJ[c as usize][(face & 3) as usize] {
+            // The block's entries are contiguous: child `k` is `first + k`.
+            let Some(sib) = node.checked_sub(c as u32).map(|first| first + c2 as u32) else {
+                return Side::Done;
+            };
+            let index = path.index.wrapping_sub(c as u32).wrapping_add(c2 as u32);
+            return visit_face_subtree(ctx, tet, (sib, index, f2, d as u8), work, &mut f);
         }
     }
+    visit_across(ctx, mesh, tet, path, face, work, f)
+}
+
+/// Calls `f` for every leaf of the subtree of `start = (node, index, face, depth)` in tree
+/// `tet` that has a face on face `face` of that node (the node itself when it is a leaf),
+/// until `f` returns `false`. `work` is increased by the nodes touched.
+///
+/// # Bounded work
+/// The instantiated nodes of the subtree that touch the face: at most `(4^(L+1) - 1) / 3` for
+/// `L` levels below it (the stack holds 3 per level plus one).
+fn visit_face_subtree<C: TreeRead, F: FnMut(&mut C, Met) -> bool>(
+    ctx: &mut C,
+    tet: TetId,
+    start: (u32, u32, u8, u8),
+    work: &mut u32,
+    f: &mut F,
+) -> Side {
+    let mut stack = [(0u32, 0u32, 0u8, 0u8); STACK];
+    stack[0] = start;
+    let mut top = 1usize;
     while top > 0 {
         top -= 1;
         let Some(&(r, index, g, depth)) = stack.get(top) else {
@@ -235,7 +275,7 @@ pub(crate) fn visit_across<C: TreeRead, F: FnMut(&mut C, Met) -> bool>(
         };
         if node.is_leaf() {
             let met = Met {
-                tet: nb.tet,
+                tet,
                 index,
                 node: r,
                 face: g,

@@ -56,8 +56,9 @@ pub struct WorldSizes {
 }
 
 /// Default capacity of the drill's pending deque: the demo path (`builtin:demo`, burr 0.1 on
-/// `builtin:block:8`, max depth 5, budget 4000) peaks at about 22,400 items (docs/DRILLING.md),
-/// so 32,768 (64 bytes each, 2.0 MB) keeps it free of saturations. A board with little RAM
+/// `builtin:block:8`, max depth 5) peaked at about 22,400 items with the budget of the time
+/// (docs/DRILLING.md), and runs free of saturations at today's default and at every budget
+/// from 4,000 to 32,000 units, so 32,768 (64 bytes each, 2.0 MB). A board with little RAM
 /// sizes it with [`WorldSizes::with_pending`] (the firmware's scenario peaks under 2,000).
 pub const DEFAULT_PENDING: usize = 1 << 15;
 
