@@ -33,7 +33,7 @@ cargo build --release --quiet -p tetradrill-benches --bin worst_case
 bin=$target/release/worst_case
 [ -x "$bin" ] || { echo "worst-case.sh: no harness binary at $bin" >&2; exit 2; }
 
-scenarios="burr-cow pen-teddy drill-teddy-b1 drill-teddy-b4000 drill-teddy-bmax"
+scenarios="burr-cow pen-teddy drill-teddy-b1 drill-teddy-bdefault drill-teddy-bmax"
 if [ -n "${WORST_ONLY:-}" ]; then scenarios=$WORST_ONLY; fi
 
 echo "== host time per tick, $ticks ticks each ($(nproc) cores, load: $(cut -d' ' -f1-3 /proc/loadavg)) =="

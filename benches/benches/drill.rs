@@ -216,7 +216,7 @@ fn bench(c: &mut Criterion) {
         // an equilateral triangle of edge r/8.
         let (_, r_tool, _) = trace(&mesh);
         let min_area = 0.433 * (r_tool / 8.0) * (r_tool / 8.0);
-        for budget in [2_000u32, 4_000, u32::MAX] {
+        for budget in [10_000u32, 24_000, u32::MAX] {
             report(
                 name,
                 &mesh,
@@ -247,11 +247,11 @@ fn bench(c: &mut Criterion) {
         let params = DrillParams {
             max_depth: 6,
             min_area,
-            budget: 4_000,
+            budget: DrillParams::default().budget,
         };
         let mut cand = vec![TetId::NONE; t];
         let mut k = 0usize;
-        c.bench_function(&format!("drill_tick_{name}_budget4000"), |b| {
+        c.bench_function(&format!("drill_tick_{name}_default_budget"), |b| {
             b.iter(|| {
                 let s = [Sphere {
                     center: path[k % path.len()],

@@ -51,7 +51,8 @@ pub struct Scenario {
     pub min_area: f64,
     /// Hierarchy nodes available for drilling.
     pub hierarchy_capacity: usize,
-    /// Work units of erosion per servo tick; the rest is carried to later ticks.
+    /// Work units of erosion per servo tick (about 100 Cortex-M4 instructions each:
+    /// `tetradrill_core::drill::WorkCost`); the rest is carried to later ticks.
     pub budget_per_tick: u32,
     /// Entries of the static spatial hash of the mesh's tets (absent: 8 per tet).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -201,7 +202,7 @@ impl Default for Scenario {
             max_depth: 5,
             min_area: 0.0,
             hierarchy_capacity: 1 << 20,
-            budget_per_tick: 4000,
+            budget_per_tick: 10_000,
             hash_capacity: None,
             candidate_capacity: tetradrill_core::servo::WorldSizes::new(0, 0).candidates,
             vlist_capacity: None,
@@ -260,7 +261,7 @@ pub struct ScenarioFlags {
     /// Hierarchy nodes available (at least 8: one block of children).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
     pub hierarchy_capacity: Option<usize>,
-    /// Work units of erosion per tick.
+    /// Work units of erosion per tick (about 100 Cortex-M4 instructions each).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     pub budget_per_tick: Option<u32>,
     /// Entries of the static tet hash (default: 8 per tet).
@@ -312,7 +313,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             mesh: "builtin:block:4".into(),
             max_depth: 4,
             hierarchy_capacity: 20_000,
-            budget_per_tick: 150,
+            budget_per_tick: 300,
             contact_search_nodes: 128,
             pending_capacity: 16_384,
             ..Scenario::default()

@@ -6,13 +6,13 @@
 //!
 //! Scenarios (`--only NAME` runs one):
 //! - `burr-cow`: the burr (sphere r 0.03) dragged along the surface of the sliver-rich
-//!   `spot_tetgen_coarse`, half buried, drill on (max depth 5, budget 4000), through the same
+//!   `spot_tetgen_coarse`, half buried, drill on (max depth 5, the default budget), through the same
 //!   per-tick step as `replay` (`engine::tick`: `World::simulate` + `servo_force`);
 //! - `pen-teddy`: the pen (x10) buried in the teddy at the pose that puts the most of its
 //!   nodes inside (searched once before timing), tip circling 5 mm, `pen_contact` per tick;
-//! - `drill-teddy-b1`, `drill-teddy-b4000`, `drill-teddy-bmax`: the burr r 0.03 dragged along
+//! - `drill-teddy-b1`, `drill-teddy-bdefault`, `drill-teddy-bmax`: the burr r 0.03 dragged along
 //!   the teddy's surface at max depth 5 with the smallest budget the scenario accepts (1), the
-//!   default (4000: the target row) and the largest (`u32::MAX`, no budget).
+//!   default (the target row) and the largest (`u32::MAX`, no budget).
 //!
 //! Run (release, the full 100,000 ticks each; 7 minutes on the quiet 2-core VM, more under load):
 //! `TETRADRILL_MESHES=/work/shared/meshes cargo run --release -p tetradrill-benches --bin worst_case`
@@ -41,7 +41,7 @@ const SCENARIOS: [&str; 5] = [
     "burr-cow",
     "pen-teddy",
     "drill-teddy-b1",
-    "drill-teddy-b4000",
+    "drill-teddy-bdefault",
     "drill-teddy-bmax",
 ];
 
@@ -477,7 +477,12 @@ fn run() -> Result<(), ExitCode> {
     println!("| scenario | ticks | mean | p99 | p99.9 | max | counters |");
     println!("|---|---|---|---|---|---|---|");
     if want("burr-cow") {
-        drill_scenario("burr-cow", &a.meshes.join(COW_COARSE), 4000, a.ticks)?;
+        drill_scenario(
+            "burr-cow",
+            &a.meshes.join(COW_COARSE),
+            Scenario::default().budget_per_tick,
+            a.ticks,
+        )?;
     }
     if want("pen-teddy") {
         pen_scenario(&a.meshes, a.pen_scale, a.ticks)?;
@@ -485,7 +490,7 @@ fn run() -> Result<(), ExitCode> {
     let teddy = a.meshes.join(TEDDY);
     for (name, budget) in [
         ("drill-teddy-b1", 1u32),
-        ("drill-teddy-b4000", 4000),
+        ("drill-teddy-bdefault", Scenario::default().budget_per_tick),
         ("drill-teddy-bmax", u32::MAX),
     ] {
         if want(name) {

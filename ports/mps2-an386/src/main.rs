@@ -39,6 +39,11 @@ pub const ARENA: usize = 20_000;
 /// Scripted ticks to run: the whole demo path (6001), or fewer when set at build time with
 /// `TETRADRILL_TICKS=N` (the host then runs `replay --ticks N`).
 const TICKS: Option<&str> = option_env!("TETRADRILL_TICKS");
+/// Set at build time (`TETRADRILL_TICK_LOG=1`) to print one line per tick: instructions
+/// (whole tick, simulate, the contact query redone) and the drill's counts (items taken, nodes
+/// expanded, NTree nodes visited, nodes created, leaves erased), for fitting the drill's work
+/// weights (`scripts/fit-work-weights.py`).
+const TICK_LOG: bool = option_env!("TETRADRILL_TICK_LOG").is_some();
 
 /// The scenario's numbers exactly as the host derives them (`TickParams::of`): the host parses
 /// f64 and converts to f32, so the firmware writes the same f64 literals and converts.
@@ -60,7 +65,7 @@ mod scenario {
     /// Smallest face area refined.
     pub const MIN_AREA: f32 = 0.0_f64 as f32;
     /// Drill work units per tick.
-    pub const BUDGET: u32 = 150;
+    pub const BUDGET: u32 = 300;
     /// Hierarchy nodes one contact search may test (`contact_search_nodes`).
     pub const CONTACT_NODES: u32 = 128;
 }
@@ -167,6 +172,21 @@ fn main() -> ! {
         nearest_visible(&world, position, scenario::RADIUS + scenario::REACH);
         let c1 = clock.now();
         contact.add(i, clock::instructions(c1 - c0).saturating_sub(oh));
+        if TICK_LOG {
+            let d = &rep.drill;
+            hprintln!(
+                "tick {} {} {} {} {} {} {} {} {}",
+                i,
+                clock::instructions(t2 - t0).saturating_sub(2 * oh),
+                clock::instructions(t1 - t0).saturating_sub(oh),
+                clock::instructions(c1 - c0).saturating_sub(oh),
+                d.taken,
+                d.expanded,
+                d.visits,
+                d.created,
+                d.erased
+            );
+        }
     }
     let total = clock::instructions(clock.now() - run_start);
 
