@@ -783,12 +783,15 @@ fn erase_next_to_a_fully_refined_tree_stays_within_four_face_visits() {
 /// What one operation of the drill may cost beyond the budget, in the units of
 /// [`WorkCost`]: taking the item, a refinement's 8 nodes created and its 16 NTree visits (each
 /// at most `MAX_DEPTH + 1` nodes down to the neighbour plus the `(4^(L+1) - 1) / 3` nodes of a
-/// face subtree `L = max_depth` levels deep), then the new children classified.
+/// face subtree `L = max_depth` levels deep), then the new children classified (each
+/// classification at most one exact test).
 fn drill_op_cost(max_depth: u8) -> u32 {
     WorkCost::TAKEN
+        + WorkCost::EXACT_TEST
         + WorkCost::CREATED * 8
         + WorkCost::VISIT * 16 * (MAX_DEPTH as u32 + 1 + face_subtree(max_depth as u32))
         + WorkCost::EXPANDED
+        + WorkCost::EXACT_TEST * 8
 }
 
 /// The drill's budget: a burr sweeping through a 4-block at depth 5, with budgets from 1 to
@@ -840,7 +843,8 @@ fn drill_work_stays_within_budget_plus_one_operation() {
                 WorkCost::TAKEN * r.taken
                     + WorkCost::EXPANDED * r.expanded
                     + WorkCost::VISIT * r.visits
-                    + WorkCost::CREATED * r.created,
+                    + WorkCost::CREATED * r.created
+                    + WorkCost::EXACT_TEST * r.exact_tests,
                 "{ctx}"
             );
             assert!(r.pending as usize <= queue_len, "{ctx}");

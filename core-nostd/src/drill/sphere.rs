@@ -31,16 +31,23 @@ pub enum Class {
 /// # Bounded work
 /// Constant: 4 distances, a box distance, at most 4 closest-point-on-triangle queries.
 pub fn classify(p: [Vec3; 4], s: &Sphere) -> Class {
+    classify_costed(p, s).0
+}
+
+/// [`classify`], and whether it needed the exact test (no corner inside, the bounding box
+/// within the radius: a barycentric test and up to four closest-point queries, several times
+/// the cost of the corner and box tests), so a budget can charge it.
+pub(crate) fn classify_costed(p: [Vec3; 4], s: &Sphere) -> (Class, bool) {
     let r2 = s.radius * s.radius;
     let inside = p
         .iter()
         .filter(|q| q.distance_squared(s.center) <= r2)
         .count();
     if inside == 4 {
-        return Class::Inside;
+        return (Class::Inside, false);
     }
     if inside > 0 {
-        return Class::Crossing;
+        return (Class::Crossing, false);
     }
     // No corner inside. Quick reject: the tet's bounding box farther than the radius (its
     // squared distance from the centre, axis by axis) means no point of the tet is inside.
@@ -50,20 +57,20 @@ pub fn classify(p: [Vec3; 4], s: &Sphere) -> Class {
     );
     let gap = (lo - s.center).max(s.center - hi).max(Vec3::ZERO);
     if gap.length_squared() > r2 {
-        return Class::Outside;
+        return (Class::Outside, false);
     }
     // No corner inside: the tet meets the ball iff the centre is inside the tet or a face
     // comes within the radius.
     if let Some(b) = crate::geom::barycentric(s.center, p) {
         if crate::geom::inside(b, 0.0) {
-            return Class::Crossing;
+            return (Class::Crossing, true);
         }
     }
     for [i, j, k] in crate::mesh::template::FACE_VERTS {
         let q = closest_point_on_triangle(s.center, [p[i as usize], p[j as usize], p[k as usize]]);
         if q.distance_squared(s.center) <= r2 {
-            return Class::Crossing;
+            return (Class::Crossing, true);
         }
     }
-    Class::Outside
+    (Class::Outside, true)
 }
