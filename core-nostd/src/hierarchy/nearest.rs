@@ -104,6 +104,8 @@ struct Search {
     /// Squared radius of the cutting sphere (negative when none): a triangle with all three
     /// corners within it is material being cut, not surface to push against.
     cut2: f32,
+    /// Its radius (`sqrtf(cut2)`, once per search; meaningless when `cut2` is negative).
+    cut_r: f32,
     /// Rounding slack added to the pruning distance.
     slack: f32,
     /// Pruning distance: the best distance so far (or the hint's, or the reach).
@@ -131,7 +133,7 @@ impl Search {
         if self.cut2 < 0.0 {
             return false;
         }
-        let lim = libm::sqrtf(self.cut2) - rad - self.slack;
+        let lim = self.cut_r - rad - self.slack;
         lim > 0.0 && d2 < lim * lim
     }
 
@@ -340,6 +342,7 @@ impl Hierarchy<'_> {
             reach,
             reach2: reach * reach,
             cut2,
+            cut_r: if cut2 < 0.0 { 0.0 } else { libm::sqrtf(cut2) },
             slack: scale * 1.0e-5 + 1.0e-30,
             bound: hint_d2.map_or(reach, libm::sqrtf).min(reach),
             best: None,
