@@ -644,3 +644,48 @@ fn occupancy_is_conservative_and_culls() {
     assert_eq!(err(&mut w, 0.0), OccupancyError::BadCellSize);
     assert_eq!(err(&mut w, f32::NAN), OccupancyError::BadCellSize);
 }
+
+/// `inside_tet` answers as `geom::inside(geom::barycentric(..))` on random tets and points,
+/// near-flat and flat tets, points on corners and faces, NaN and infinite points, for
+/// tolerances 0 and 0.1.
+#[test]
+fn inside_tet_answers_as_barycentric() {
+    let mut rng = Rng(0x0bad_5eed_1234_5678);
+    let mut seen = [0u32; 3]; // degenerate, inside, outside
+    for i in 0..20_000 {
+        let mut p: [Vec3; 4] = core::array::from_fn(|_| {
+            Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            )
+        });
+        match i % 5 {
+            0 => p[3] = (p[0] + p[1] + p[2]) / 3.0,  // flat
+            1 => p[3] = p[2] + (p[2] - p[1]) * 1e-4, // nearly flat
+            _ => {}
+        }
+        let w = [rng.next(), rng.next(), rng.next(), rng.next()];
+        let s = w.iter().sum::<f32>();
+        let mut x = match i % 7 {
+            0 => p[i % 4],                   // a corner
+            1 => (p[0] + p[1] + p[2]) / 3.0, // a face
+            2 => Vec3::splat(f32::NAN),
+            3 => Vec3::new(f32::INFINITY, 0.0, 0.0),
+            _ => (p[0] * w[0] + p[1] * w[1] + p[2] * w[2] + p[3] * w[3]) / s * 1.3,
+        };
+        if i % 11 == 0 {
+            x += Vec3::splat(1e-7);
+        }
+        for eps in [0.0, 0.1] {
+            let want = crate::geom::barycentric(x, p).map(|b| crate::geom::inside(b, eps));
+            assert_eq!(inside_tet(x, p, eps), want, "{x:?} in {p:?}, eps {eps}");
+            seen[match want {
+                None => 0,
+                Some(true) => 1,
+                Some(false) => 2,
+            }] += 1;
+        }
+    }
+    assert!(seen.iter().all(|&n| n > 500), "cases met: {seen:?}");
+}
