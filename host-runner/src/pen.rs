@@ -4,7 +4,7 @@
 
 use tetradrill_core::collide::{
     hash_tets, Body, Collision, Occupancy, OccupancyError, OccupancyStorage, RigidError, RigidTets,
-    RigidTetsStorage,
+    RigidTetsStorage, MAX_NEAR_CLUSTERS,
 };
 use tetradrill_core::depth::{
     graph_sizes, hash_boundary_faces, DepthScratch, GraphError, NodeGraph, NodeSlot, Penetration,
@@ -249,16 +249,19 @@ pub struct PenRest {
     hash: HashStore,
     tet_boxes: Vec<Aabb>,
     clusters: Vec<Aabb>,
+    node_clusters: Vec<u32>,
 }
 
 impl PenRest {
-    /// Storage for `pen`: 32 hash entries and 16 buckets per tet, up to 4096 clusters.
+    /// Storage for `pen`: 32 hash entries and 16 buckets per tet, up to
+    /// [`MAX_NEAR_CLUSTERS`] clusters, a cluster index per node.
     pub fn new(pen: &tetradrill_core::mesh::Mesh<'_>) -> Self {
         let empty = Aabb::of::<0>([]);
         Self {
             hash: HashStore::new(8 * pen.tet_count(), 4),
             tet_boxes: vec![empty; pen.tet_count()],
-            clusters: vec![empty; 4096],
+            clusters: vec![empty; MAX_NEAR_CLUSTERS],
+            node_clusters: vec![0; pen.node_count()],
         }
     }
 
@@ -277,6 +280,7 @@ impl PenRest {
                 hash,
                 tet_boxes: &mut self.tet_boxes,
                 clusters: &mut self.clusters,
+                node_clusters: &mut self.node_clusters,
             },
             CLUSTER_EDGE * object_cell,
             REST_MARGIN * edge,

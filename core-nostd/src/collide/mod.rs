@@ -30,7 +30,10 @@ mod tests;
 pub use body::Body;
 pub use occupancy::{Occupancy, OccupancyError, OccupancyStorage};
 pub use points::{hash_tets, points_in_tets, points_in_tets_coherent, points_in_tets_occupied};
-pub use rigid::{rigid_tets_over_points_coherent, RigidError, RigidTets, RigidTetsStorage};
+pub use rigid::{
+    rigid_tets_over_points_coherent, NearClusters, RigidError, RigidTets, RigidTetsStorage,
+    MAX_NEAR_CLUSTERS,
+};
 pub use teschner::{tets_over_points, tets_over_points_coherent, MAX_CELLS_PER_TET};
 
 use crate::ids::{NodeId, TetId};

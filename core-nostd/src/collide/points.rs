@@ -61,7 +61,7 @@ pub fn points_in_tets_coherent(
     out: &mut [Collision],
     kept: usize,
 ) -> CollideReport {
-    coherent(tets, body, points, own, out, kept, None)
+    coherent(tets, body, points, own, out, kept, None, |_| true)
 }
 
 /// [`points_in_tets_coherent`] that looks a point up only when `cells` says a tet box of
@@ -71,10 +71,15 @@ pub fn points_in_tets_coherent(
 /// bit: a point outside every occupied cell, or outside a tet's grown box, is not inside it.
 /// Cheaper when most points are away from the body (a tool mostly outside the object).
 ///
+/// Point `i` is examined only when `may_hit(i)` holds: it must hold for every point that may
+/// be inside a tet (`|_| true`, or e.g. [`super::RigidTets::node_near`] for the nodes of a
+/// rigid tool whose clusters [`super::RigidTets::near`] found near `cells`).
+///
 /// # Bounded work
-/// As [`points_in_tets_coherent`], plus one bit test per point examined and one box test per
-/// candidate.
-pub fn points_in_tets_occupied(
+/// As [`points_in_tets_coherent`], plus one `may_hit` call and one bit test per point
+/// examined and one box test per candidate.
+#[allow(clippy::too_many_arguments)]
+pub fn points_in_tets_occupied<F: Fn(usize) -> bool>(
     tets: &SpatialHash<'_>,
     cells: &Occupancy<'_>,
     body: &Body<'_, '_>,
@@ -82,12 +87,14 @@ pub fn points_in_tets_occupied(
     own: bool,
     out: &mut [Collision],
     kept: usize,
+    may_hit: F,
 ) -> CollideReport {
-    coherent(tets, body, points, own, out, kept, Some(cells))
+    coherent(tets, body, points, own, out, kept, Some(cells), may_hit)
 }
 
-/// [`points_in_tets_coherent`], culled by `cells` when given.
-fn coherent(
+/// [`points_in_tets_coherent`], culled by `cells` when given and by `filter`.
+#[allow(clippy::too_many_arguments)]
+fn coherent<F: Fn(usize) -> bool>(
     tets: &SpatialHash<'_>,
     body: &Body<'_, '_>,
     points: &[Vec3],
@@ -95,8 +102,9 @@ fn coherent(
     out: &mut [Collision],
     kept: usize,
     cells: Option<&Occupancy<'_>>,
+    filter: F,
 ) -> CollideReport {
-    let may_hit = |p: Vec3| cells.is_none_or(|c| c.may_hold(p));
+    let may_hit = |i: usize, p: Vec3| filter(i) && cells.is_none_or(|c| c.may_hold(p));
     let mut r = CollideReport::default();
     // The previous entries still inside, compacted in place (in node order).
     let mut m = 0usize;
@@ -110,7 +118,7 @@ fn coherent(
             continue;
         };
         last = Some(node);
-        if !may_hit(p) {
+        if !may_hit(node.idx(), p) {
             continue;
         }
         let tet = smallest_tet(tets, body, cells, p, node, own, &mut r);
@@ -130,7 +138,7 @@ fn coherent(
         if j < m && out[j].node == node {
             continue; // tested above
         }
-        if !may_hit(p) {
+        if !may_hit(i, p) {
             continue;
         }
         let tet = smallest_tet(tets, body, cells, p, node, own, &mut r);

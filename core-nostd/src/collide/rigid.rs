@@ -51,6 +51,8 @@ pub struct RigidTetsStorage<'s> {
     pub tet_boxes: &'s mut [Aabb],
     /// One box per cluster cell: its length caps the number of clusters.
     pub clusters: &'s mut [Aabb],
+    /// One cluster index per node (nodes beyond its length are never culled); may be empty.
+    pub node_clusters: &'s mut [u32],
 }
 
 /// A rigid body's tets at rest: hashed in its frame (each tet's box grown by a margin), the
@@ -61,6 +63,7 @@ pub struct RigidTets<'s> {
     hash: SpatialHash<'s>,
     tet_boxes: &'s [Aabb],
     clusters: &'s [Aabb],
+    node_clusters: &'s [u32],
     bounds: Aabb,
     inv: Vec3,
     dims: [i32; 3],
@@ -96,6 +99,7 @@ impl<'s> RigidTets<'s> {
             mut hash,
             tet_boxes,
             clusters,
+            node_clusters,
         } = storage;
         let nt = body.tet_count();
         if tet_boxes.len() < nt || clusters.is_empty() {
@@ -155,6 +159,7 @@ impl<'s> RigidTets<'s> {
             hash,
             tet_boxes: &[],
             clusters: &[],
+            node_clusters: &[],
             bounds,
             inv,
             dims,
@@ -204,8 +209,22 @@ impl<'s> RigidTets<'s> {
                 rt.radius = rt.radius.max(b.min.abs().max(b.max.abs()).max_element());
             }
         }
+        // Each node's cluster, when the cluster's box holds it (else it is never culled).
+        for (n, slot) in node_clusters.iter_mut().enumerate() {
+            *slot = NO_CLUSTER;
+            let Some(q) = body.pos(NodeId::from_idx(n)) else {
+                continue;
+            };
+            if let Some(ci) = rt.cluster_of(q) {
+                let b = clusters.get(ci).copied().unwrap_or(Aabb::of::<0>([]));
+                if q.cmpge(b.min).all() && q.cmple(b.max).all() && ci < NO_CLUSTER as usize {
+                    *slot = ci as u32;
+                }
+            }
+        }
         rt.tet_boxes = tet_boxes;
         rt.clusters = clusters;
+        rt.node_clusters = node_clusters;
         Ok(rt)
     }
 
@@ -282,6 +301,106 @@ impl<'s> RigidTets<'s> {
     }
 }
 
+/// Marks a node that no cluster culls.
+const NO_CLUSTER: u32 = u32::MAX;
+
+/// Clusters a [`NearClusters`] tells apart; clusters beyond count as near.
+pub const MAX_NEAR_CLUSTERS: usize = 4096;
+
+/// Which clusters of a [`RigidTets`] are near another body this tick
+/// ([`RigidTets::near`]): one bit per cluster, on the stack (512 bytes).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct NearClusters {
+    bits: [u64; MAX_NEAR_CLUSTERS / 64],
+}
+
+impl NearClusters {
+    /// Every cluster near (culls nothing).
+    pub const ALL: Self = Self {
+        bits: [u64::MAX; MAX_NEAR_CLUSTERS / 64],
+    };
+
+    /// `true` when cluster `c` is near (or beyond [`MAX_NEAR_CLUSTERS`]).
+    #[inline]
+    pub fn is_near(&self, c: usize) -> bool {
+        self.bits
+            .get(c / 64)
+            .is_none_or(|w| w & (1 << (c % 64)) != 0)
+    }
+}
+
+impl RigidTets<'_> {
+    /// `true` when the pose is near enough to the origin for the rest data's margin to cover
+    /// rounding: `64 x f32::EPSILON x (|translation| + rest radius) <= margin`.
+    #[inline]
+    fn pose_in_margin(&self, pose: &Affine3A) -> bool {
+        let t = Vec3::from(pose.translation);
+        let slack = 64.0 * f32::EPSILON * (t.abs().max_element() + self.radius);
+        slack <= self.margin
+    }
+
+    /// The box cluster `ci` covers at `pose` (its moved rest box, grown by the margin), or
+    /// `None` for an empty cluster.
+    #[inline]
+    fn moved_box(&self, ci: usize, pose: &Affine3A) -> Option<Aabb> {
+        let b = self.clusters.get(ci)?;
+        if b.min.x > b.max.x {
+            return None; // empty cell (inverted box)
+        }
+        let m = &pose.matrix3;
+        let centre = pose.transform_point3((b.min + b.max) * 0.5);
+        let h = (b.max - b.min) * 0.5;
+        let half = Vec3::from(m.x_axis.abs()) * h.x
+            + Vec3::from(m.y_axis.abs()) * h.y
+            + Vec3::from(m.z_axis.abs()) * h.z
+            + Vec3::splat(self.margin);
+        Some(Aabb {
+            min: centre - half,
+            max: centre + half,
+        })
+    }
+
+    /// The clusters whose box at `pose` meets a cell `cells` marks. A node of the body moved
+    /// by `pose` whose cluster is not near is in no marked cell, so in no tet of the body
+    /// `cells` was built over ([`RigidTets::node_near`]); neither is a point of a tet of this
+    /// body in such a cluster. Every cluster counts as near when the pose is too far from the
+    /// origin for the margin (see [`rigid_tets_over_points_coherent`]).
+    ///
+    /// # Bounded work
+    /// Per cluster one box transform and [`Occupancy::may_meet`]; at most
+    /// [`MAX_NEAR_CLUSTERS`] clusters are tested (the others count as near).
+    pub fn near(&self, pose: Affine3A, cells: &Occupancy<'_>) -> NearClusters {
+        if !self.pose_in_margin(&pose) {
+            return NearClusters::ALL;
+        }
+        let mut n = NearClusters::ALL;
+        for ci in 0..self.clusters().min(MAX_NEAR_CLUSTERS) {
+            let near = self
+                .moved_box(ci, &pose)
+                .is_some_and(|b| cells.may_meet(&b));
+            if !near {
+                if let Some(w) = n.bits.get_mut(ci / 64) {
+                    *w &= !(1 << (ci % 64));
+                }
+            }
+        }
+        n
+    }
+
+    /// `false` when `near` rules node `n` of the body out: its cluster is not near. Nodes
+    /// without a cluster (beyond the storage, or outside every tet box) are never ruled out.
+    ///
+    /// # Bounded work
+    /// Constant.
+    #[inline]
+    pub fn node_near(&self, n: usize, near: &NearClusters) -> bool {
+        match self.node_clusters.get(n) {
+            Some(&c) if c != NO_CLUSTER => near.is_near(c as usize),
+            _ => true,
+        }
+    }
+}
+
 /// The points (hashed in `points_hash`, item = index into `points`) inside the tets of
 /// `body`, a rigid body moved by `pose` from the rest frame `rigid` was built in
 /// (`body.positions` = `pose` applied to the rest positions). Same contract and result as
@@ -291,8 +410,9 @@ impl<'s> RigidTets<'s> {
 /// remaining room goes to the new points with the smallest indices (the walk's order is not
 /// kept), and `saturated` is set.
 ///
-/// `cells`, when given, must hold every point (e.g. built over the tets of the body whose
-/// nodes the points are): clusters whose moved box meets no set cell are skipped.
+/// Only the clusters `near` names are searched: it must hold every cluster whose moved box
+/// may hold one of the points ([`RigidTets::near`] over an [`Occupancy`] of the body whose
+/// nodes the points are, or [`NearClusters::ALL`]).
 ///
 /// Falls back to [`tets_over_points_coherent`] (same result) when the pose is so far from the
 /// origin that rounding could exceed `rigid`'s margin (`64 x f32::EPSILON x (|translation|
@@ -300,8 +420,8 @@ impl<'s> RigidTets<'s> {
 /// [`MAX_CELLS_PER_TET`] cells of `points_hash`.
 ///
 /// # Bounded work
-/// O(kept x b) for the previous points, then per cluster cell one box transform, the
-/// occupancy test (at most the cells of `cells` its box covers) and a query of at most
+/// O(kept x b) for the previous points, then per near cluster one box transform and a query
+/// of at most
 /// [`MAX_CELLS_PER_TET`] cells of `points_hash`; per point met one transform and, for the
 /// points in the cluster's own cell, at most `b` candidate tets, for `b` the fullest cell of
 /// the rest hash; a binary search over `kept` entries and, once `out` is full, a heap step
@@ -313,17 +433,14 @@ pub fn rigid_tets_over_points_coherent(
     rigid: &RigidTets<'_>,
     body: &Body<'_, '_>,
     pose: Affine3A,
-    cells: Option<&Occupancy<'_>>,
+    near: &NearClusters,
     out: &mut [Collision],
     kept: usize,
 ) -> CollideReport {
-    let t = Vec3::from(pose.translation);
-    let slack = 64.0 * f32::EPSILON * (t.abs().max_element() + rigid.radius);
     let g = points_hash.cell_size();
     let per_axis = libm::floorf(2.0 * (rigid.reach + 2.0 * rigid.margin) / g) as u64 + 2;
     let fits = per_axis.saturating_mul(per_axis).saturating_mul(per_axis);
-    let within_margin = slack <= rigid.margin;
-    if !within_margin || fits > MAX_CELLS_PER_TET as u64 {
+    if !rigid.pose_in_margin(&pose) || fits > MAX_CELLS_PER_TET as u64 {
         return tets_over_points_coherent(points_hash, points, body, false, out, kept);
     }
     let inv = pose.inverse();
@@ -353,29 +470,14 @@ pub fn rigid_tets_over_points_coherent(
     let mut n = 0usize; // entries of new_part in use
     let mut heap = false; // new_part is a max-heap by node (it is full)
     let bounds = points_hash.bounds();
-    let [cx, cy, cz] = [
-        pose.matrix3.x_axis,
-        pose.matrix3.y_axis,
-        pose.matrix3.z_axis,
-    ];
     for ci in 0..rigid.clusters() {
-        let Some(b) = rigid.clusters.get(ci) else {
-            break;
-        };
-        if b.min.x > b.max.x {
-            continue; // empty cell (inverted box)
+        if !near.is_near(ci) {
+            continue;
         }
-        let centre = pose.transform_point3((b.min + b.max) * 0.5);
-        let h = (b.max - b.min) * 0.5;
-        let half = Vec3::from(cx.abs()) * h.x
-            + Vec3::from(cy.abs()) * h.y
-            + Vec3::from(cz.abs()) * h.z
-            + Vec3::splat(rigid.margin);
-        let wb = Aabb {
-            min: centre - half,
-            max: centre + half,
+        let Some(wb) = rigid.moved_box(ci, &pose) else {
+            continue;
         };
-        if !wb.overlaps(&bounds) || cells.is_some_and(|o| !o.may_meet(&wb)) {
+        if !wb.overlaps(&bounds) {
             continue;
         }
         let visited = points_hash.query_box_ro(&wb, MAX_CELLS_PER_TET, |_, item| {

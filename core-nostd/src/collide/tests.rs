@@ -392,13 +392,14 @@ macro_rules! rigid_scene {
         let $obj = obj_store.mesh();
         let (mut rs, mut re) = ([0u32; 128], [HashEntry::default(); 4096]);
         let empty = crate::hash::Aabb::of::<0>([]);
-        let (mut rb, mut rc) = ([empty; 48], [empty; 64]);
+        let (mut rb, mut rc, mut nc) = ([empty; 48], [empty; 64], [0u32; 27]);
         let $rest = RigidTets::build(
             &Body::fixed(&$tool),
             RigidTetsStorage {
                 hash: SpatialHash::new(&mut rs, &mut re, 0.1).unwrap(),
                 tet_boxes: &mut rb,
                 clusters: &mut rc,
+                node_clusters: &mut nc,
             },
             0.08,
             1e-4,
@@ -438,7 +439,10 @@ fn rigid_tool_matches_brute_force() {
         assert!(rest.clusters() > 8 && rest.occupied_clusters() > 8);
         let centre = origin + Vec3::splat(0.5);
         let mut rng = Rng(0x1234_5678_9abc_def1);
-        let (mut hits, mut full_in) = (0usize, 0usize);
+        let (mut hits, mut full_in, mut tool_hits, mut culled) = (0usize, 0usize, 0usize, 0usize);
+        let (mut th_s, mut th_e) = ([0u32; 64], [HashEntry::default(); 4096]);
+        let mut th = SpatialHash::new(&mut th_s, &mut th_e, 0.25).unwrap();
+        assert!(!hash_tets(&mut th, &Body::fixed(&obj)).saturated);
         for i in 0..400 {
             let (pos, rot) = if i % 10 == 0 {
                 // Grid-aligned: tool corners on object nodes.
@@ -464,13 +468,17 @@ fn rigid_tool_matches_brute_force() {
                 // Room for every (point, tet) pair: the fallback walk lists pairs before it
                 // keeps each point's smallest tet.
                 let mut out = [Collision::default(); 1024];
+                let near = match use_cells {
+                    true => rest.near(pose, &cells),
+                    false => NearClusters::ALL,
+                };
                 let r = rigid_tets_over_points_coherent(
                     &nh,
                     obj.positions(),
                     &rest,
                     &tb,
                     pose,
-                    use_cells.then_some(&cells),
+                    &near,
                     &mut out,
                     0,
                 );
@@ -481,6 +489,23 @@ fn rigid_tool_matches_brute_force() {
                     "pose {i} far {far} cells {use_cells}"
                 );
             }
+            // The other direction: tool nodes in object tets, culled by the tool's clusters
+            // that are near the object (`node_near`) and by the object's occupancy.
+            let ob = Body::fixed(&obj);
+            let mut want_tool = [Collision::default(); 27];
+            let n_tool = brute_list(&ob, &moved, &mut want_tool);
+            let near = rest.near(pose, &cells);
+            let mut out = [Collision::default(); 27];
+            let r = points_in_tets_occupied(&th, &cells, &ob, &moved, false, &mut out, 0, |k| {
+                rest.node_near(k, &near)
+            });
+            assert_eq!(
+                &out[..r.count],
+                &want_tool[..n_tool],
+                "tool nodes, pose {i} far {far}"
+            );
+            culled += (0..27).filter(|&k| !rest.node_near(k, &near)).count();
+            tool_hits += n_tool;
             hits += n_want;
             full_in += (n_want >= 4) as usize;
         }
@@ -488,6 +513,13 @@ fn rigid_tool_matches_brute_force() {
             hits > 400 && full_in > 10,
             "poses must touch: {hits} hits, {full_in} deep"
         );
+        assert!(tool_hits > 400, "tool nodes inside: {tool_hits}");
+        if !far {
+            assert!(
+                culled > 400,
+                "tool nodes culled by their clusters: {culled}"
+            );
+        }
     }
 }
 
@@ -517,7 +549,7 @@ fn rigid_tool_coherent_capacity() {
                 &rest,
                 &tb,
                 pose,
-                Some(&cells),
+                &rest.near(pose, &cells),
                 &mut out[..cap],
                 kept,
             );
@@ -614,7 +646,7 @@ fn occupancy_is_conservative_and_culls() {
             inside += n;
             culled += pts.iter().filter(|&&p| !cells.may_hold(p)).count();
             let mut out = [Collision::default(); 64];
-            let r = points_in_tets_occupied(&th, &cells, &ob, &pts, false, &mut out, 0);
+            let r = points_in_tets_occupied(&th, &cells, &ob, &pts, false, &mut out, 0, |_| true);
             assert!(!r.saturated);
             assert_eq!(&out[..r.count], &want[..n], "words {words} round {round}");
         }

@@ -205,6 +205,9 @@ pub fn pen_contact(
     let mut pen_count = 0;
     let mut obj_count = 0;
     if bounds.overlaps(&scene.object_tets.bounds()) {
+        // The pen's clusters whose moved boxes meet cells the object occupies: the others'
+        // nodes are in no object tet, and no object node is in their tets.
+        let near = scene.pen_rest.near(pose, scene.object_cells);
         out.pen_collisions = points_in_tets_occupied(
             scene.object_tets,
             scene.object_cells,
@@ -213,6 +216,7 @@ pub fn pen_contact(
             false,
             bufs.pen_hits,
             state.pen_listed,
+            |i| scene.pen_rest.node_near(i, &near),
         );
         out.object_collisions = rigid_tets_over_points_coherent(
             scene.object_nodes,
@@ -220,7 +224,7 @@ pub fn pen_contact(
             scene.pen_rest,
             &pen_body,
             pose,
-            Some(scene.object_cells),
+            &near,
             bufs.object_hits,
             state.object_listed,
         );
