@@ -32,6 +32,16 @@ impl HashStore {
         }
     }
 
+    /// Storage for `items` items of about `per` cells each and `buckets` buckets per item
+    /// (rounded down to a prime).
+    pub fn with_buckets(items: usize, per: usize, buckets: usize) -> Self {
+        let b = prime_at_most((buckets * items).clamp(3, u32::MAX as usize) as u32) as usize;
+        Self {
+            starts: vec![0; b + 1],
+            entries: vec![HashEntry::default(); items * per],
+        }
+    }
+
     /// An empty hash with cells of edge `cell` over this storage.
     pub fn hash(&mut self, cell: f32) -> Option<SpatialHash<'_>> {
         SpatialHash::new(&mut self.starts, &mut self.entries, cell).ok()
@@ -121,7 +131,9 @@ impl PenRig {
         let (mut ogo, mut oga) = (vec![0u32; oo], vec![NodeId::NONE; oa]);
         let og = NodeGraph::build(&obj, &mut ogo, &mut oga).map_err(RigError::Graph)?;
         let cell = average_edge_length(&obj);
-        let mut ts = HashStore::new(obj.tet_count(), 16);
+        // About two buckets per stored entry (a tet's box covers about eight cells): each
+        // pen-node lookup then scans little more than its own cell's tets.
+        let mut ts = HashStore::with_buckets(obj.tet_count(), 16, 16);
         if let Some(n) = sizes.hash {
             ts.entries.truncate(n);
             ts.entries.resize(n, HashEntry::default());
@@ -258,7 +270,7 @@ impl PenRest {
     pub fn new(pen: &tetradrill_core::mesh::Mesh<'_>) -> Self {
         let empty = Aabb::of::<0>([]);
         Self {
-            hash: HashStore::new(8 * pen.tet_count(), 4),
+            hash: HashStore::with_buckets(pen.tet_count(), 32, 16),
             tet_boxes: vec![empty; pen.tet_count()],
             clusters: vec![empty; MAX_NEAR_CLUSTERS],
             node_clusters: vec![0; pen.node_count()],
