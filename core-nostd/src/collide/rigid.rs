@@ -330,13 +330,18 @@ impl NearClusters {
 }
 
 impl RigidTets<'_> {
-    /// `true` when the pose is near enough to the origin for the rest data's margin to cover
-    /// rounding: `64 x f32::EPSILON x (|translation| + rest radius) <= margin`.
+    /// `true` when the pose is a rotation (columns of length 1 within 1e-4: a quaternion far
+    /// from unit length scales the body) near enough to the origin for the rest data's margin
+    /// to cover rounding: `64 x f32::EPSILON x (|translation| + rest radius) <= margin`. NaN
+    /// fails.
     #[inline]
     fn pose_in_margin(&self, pose: &Affine3A) -> bool {
+        let m = &pose.matrix3;
+        let unit = |c: glam::Vec3A| (c.length_squared() - 1.0).abs() <= 2e-4;
+        let rotation = unit(m.x_axis) && unit(m.y_axis) && unit(m.z_axis);
         let t = Vec3::from(pose.translation);
         let slack = 64.0 * f32::EPSILON * (t.abs().max_element() + self.radius);
-        slack <= self.margin
+        rotation && slack <= self.margin
     }
 
     /// The box cluster `ci` covers at `pose` (its moved rest box, grown by the margin), or
@@ -414,9 +419,10 @@ impl RigidTets<'_> {
 /// may hold one of the points ([`RigidTets::near`] over an [`Occupancy`] of the body whose
 /// nodes the points are, or [`NearClusters::ALL`]).
 ///
-/// Falls back to [`tets_over_points_coherent`] (same result) when the pose is so far from the
-/// origin that rounding could exceed `rigid`'s margin (`64 x f32::EPSILON x (|translation|
-/// + rest radius) > margin`), or when a cluster's moved box could cover more than
+/// Falls back to [`tets_over_points_coherent`] (same result) when the pose is not a rotation
+/// (a quaternion far from unit length), or so far from the origin that rounding could exceed
+/// `rigid`'s margin (`64 x f32::EPSILON x (|translation| + rest radius) > margin`), or when a
+/// cluster's moved box could cover more than
 /// [`MAX_CELLS_PER_TET`] cells of `points_hash`.
 ///
 /// # Bounded work

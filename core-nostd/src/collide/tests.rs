@@ -426,7 +426,8 @@ macro_rules! rigid_scene {
 /// `rigid_tets_over_points_coherent` against brute force over all moved tool tets: identical
 /// lists at random poses (tilted, partly in, impaled through the object), at axis-aligned
 /// poses whose object nodes sit exactly on the tool's corners and faces, and at poses so far
-/// from the origin that it falls back to the plain walk.
+/// from the origin, or scaled by a quaternion off unit length, that it falls back to the plain
+/// walk; and the tool nodes in the object tets, culled by the clusters near the object.
 #[test]
 fn rigid_tool_matches_brute_force() {
     for far in [false, true] {
@@ -444,7 +445,11 @@ fn rigid_tool_matches_brute_force() {
         let mut th = SpatialHash::new(&mut th_s, &mut th_e, 0.25).unwrap();
         assert!(!hash_tets(&mut th, &Body::fixed(&obj)).saturated);
         for i in 0..400 {
-            let (pos, rot) = if i % 10 == 0 {
+            let (pos, rot) = if i % 17 == 5 {
+                // Not a unit quaternion: a scaled tool, handled by the fallback walk.
+                let p = centre + Vec3::new(rng.range(-0.5, 0.5), rng.range(-0.5, 0.5), 0.0);
+                (p, rng.rotation() * 1.1)
+            } else if i % 10 == 0 {
                 // Grid-aligned: tool corners on object nodes.
                 let k = |r: &mut Rng| (r.range(-2.0, 2.0) as i32) as f32 * 0.25;
                 let p = centre + Vec3::new(k(&mut rng), k(&mut rng), k(&mut rng));
