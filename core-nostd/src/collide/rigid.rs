@@ -6,7 +6,10 @@
 //! rest-frame grid); per tick [`rigid_tets_over_points_coherent`] queries the points' hash
 //! only over each cluster's moved box, moves each point met into the body's frame, lets only
 //! the cluster whose cell holds it go on (so no point is handled twice), and looks it up in
-//! the rest hash. Rest-frame data only culls, with a margin; the test that decides is the
+//! the rest hash. [`RigidTets::near`] tells, once a tick, which clusters' moved boxes meet
+//! cells another body occupies: the search skips the others, and so can a lookup of the
+//! body's own nodes in the other body ([`RigidTets::node_near`]). Rest-frame data only
+//! culls, with a margin; the test that decides is the
 //! same barycentric test on the moved corners as everywhere else, so the contacts are the
 //! ones [`tets_over_points`](super::tets_over_points) and a brute force find.
 
@@ -85,7 +88,8 @@ impl<'s> RigidTets<'s> {
     ///
     /// # Bounded work
     /// O(T) for the boxes, the hash's rebuild (O(buckets + T + capacity)), O(T x clusters each
-    /// box meets) for the cluster boxes. Call it at set-up.
+    /// box meets) for the cluster boxes, O(`node_clusters.len()`) for the nodes' clusters.
+    /// Call it at set-up.
     ///
     /// # Errors
     /// [`RigidError`]: short storage, a full rest hash, a bad size, or no finite tet.
