@@ -166,14 +166,20 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
     let mut ps = HashStore::new(pen.tet_count(), 16);
     let mut ph = ps.hash(average_edge_length(&pen));
     assert!(!hash_boundary_faces(&mut ph, &Body::fixed(&pen)).saturated);
+    let mut rest = tetradrill::pen::PenRest::new(&pen);
+    let pen_rest = rest.build(&pen, cell).unwrap();
+    let mut cell_store = tetradrill::pen::ObjectCells::new(&obj, cell);
+    let cells = cell_store.build(&ob, cell).unwrap();
     let scene = PenScene {
         pen: &pen,
         pen_graph: pg,
+        pen_rest: &pen_rest,
         pen_faces: Some(&ph),
         object: ob,
         object_graph: og,
         object_tets: &th,
         object_nodes: &nh,
+        object_cells: &cells,
         object_faces: Some(&fh),
     };
     let (np, no) = (pen.node_count(), obj.node_count());

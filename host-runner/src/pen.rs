@@ -2,12 +2,15 @@
 //! [`pen_contact`](tetradrill_core::force::pen_contact) needs, allocated once, and the scene
 //! built over it. Used by `replay --tool mesh:FILE`, the contact tests and the benches.
 
-use tetradrill_core::collide::{hash_tets, Body, Collision};
+use tetradrill_core::collide::{
+    hash_tets, Body, Collision, Occupancy, OccupancyError, OccupancyStorage, RigidError, RigidTets,
+    RigidTetsStorage, MAX_NEAR_CLUSTERS,
+};
 use tetradrill_core::depth::{
     graph_sizes, hash_boundary_faces, DepthScratch, GraphError, NodeGraph, NodeSlot, Penetration,
 };
 use tetradrill_core::force::{PenBuffers, PenScene};
-use tetradrill_core::hash::{average_edge_length, prime_at_most, HashEntry, SpatialHash};
+use tetradrill_core::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, SpatialHash};
 use tetradrill_core::{NodeId, Vec3};
 
 use crate::owned::OwnedMesh;
@@ -29,6 +32,16 @@ impl HashStore {
         }
     }
 
+    /// Storage for `items` items of about `per` cells each and `buckets` buckets per item
+    /// (rounded down to a prime).
+    pub fn with_buckets(items: usize, per: usize, buckets: usize) -> Self {
+        let b = prime_at_most((buckets * items).clamp(3, u32::MAX as usize) as u32) as usize;
+        Self {
+            starts: vec![0; b + 1],
+            entries: vec![HashEntry::default(); items * per],
+        }
+    }
+
     /// An empty hash with cells of edge `cell` over this storage.
     pub fn hash(&mut self, cell: f32) -> Option<SpatialHash<'_>> {
         SpatialHash::new(&mut self.starts, &mut self.entries, cell).ok()
@@ -44,6 +57,10 @@ pub enum RigError {
     Hash,
     /// A static hash ran out of entries (the counts say which).
     Saturated(&'static str),
+    /// The pen's rest-frame tets could not be prepared.
+    Rigid(RigidError),
+    /// The object's occupancy grid could not be built.
+    Occupancy(OccupancyError),
 }
 
 impl std::fmt::Display for RigError {
@@ -52,6 +69,8 @@ impl std::fmt::Display for RigError {
             Self::Graph(e) => write!(f, "node graph: {e:?}"),
             Self::Hash => f.write_str("spatial hash: no usable cell size"),
             Self::Saturated(what) => write!(f, "the {what} hash ran out of entries"),
+            Self::Rigid(e) => write!(f, "pen at rest: {e}"),
+            Self::Occupancy(e) => write!(f, "object occupancy: {e}"),
         }
     }
 }
@@ -112,7 +131,9 @@ impl PenRig {
         let (mut ogo, mut oga) = (vec![0u32; oo], vec![NodeId::NONE; oa]);
         let og = NodeGraph::build(&obj, &mut ogo, &mut oga).map_err(RigError::Graph)?;
         let cell = average_edge_length(&obj);
-        let mut ts = HashStore::new(obj.tet_count(), 16);
+        // About two buckets per stored entry (a tet's box covers about eight cells): each
+        // pen-node lookup then scans little more than its own cell's tets.
+        let mut ts = HashStore::with_buckets(obj.tet_count(), 16, 16);
         if let Some(n) = sizes.hash {
             ts.entries.truncate(n);
             ts.entries.resize(n, HashEntry::default());
@@ -139,14 +160,20 @@ impl PenRig {
         if hash_boundary_faces(&mut ph, &Body::fixed(&pen)).saturated {
             return Err(RigError::Saturated("pen face"));
         }
+        let mut rest = PenRest::new(&pen);
+        let pen_rest = rest.build(&pen, cell)?;
+        let mut cell_store = ObjectCells::new(&obj, cell);
+        let cells = cell_store.build(&ob, cell)?;
         let scene = PenScene {
             pen: &pen,
             pen_graph: pg,
+            pen_rest: &pen_rest,
             pen_faces: Some(&ph),
             object: ob,
             object_graph: og,
             object_tets: &th,
             object_nodes: &nh,
+            object_cells: &cells,
             object_faces: Some(&fh),
         };
         let (np, no) = (pen.node_count(), obj.node_count());
@@ -173,5 +200,103 @@ impl PenRig {
             object_depth: DepthScratch::new(&mut s2, &mut q2),
         };
         Ok((f(&scene, &mut bufs), setup))
+    }
+}
+
+/// Margin of the object's occupancy grid, in cells (rounding of the barycentric test).
+pub const OCCUPANCY_MARGIN: f32 = 1e-3;
+
+/// Margin of the pen's rest-frame boxes, in pen edges (rounding of the moved positions and
+/// of the barycentric test).
+pub const REST_MARGIN: f32 = 1e-2;
+
+/// Edge of the pen's rest-frame clusters, in cells of the object's node hash.
+pub const CLUSTER_EDGE: f32 = 2.5;
+
+/// Storage words of an occupancy grid with cells of `cell` over `mesh` (with a cell to spare
+/// per axis for the margin and rounding).
+pub fn occupancy_words(mesh: &tetradrill_core::mesh::Mesh<'_>, cell: f32) -> usize {
+    let b = mesh
+        .positions()
+        .iter()
+        .fold(Aabb::of::<0>([]), |b, &p| b.union(Aabb::point(p)));
+    let e = (b.max - b.min) / cell;
+    let cells: f64 = [e.x, e.y, e.z]
+        .iter()
+        .map(|v| (v.max(0.0) as f64).floor() + 3.0)
+        .product();
+    (cells / 32.0).ceil().min(1e9) as usize + 1
+}
+
+/// Storage of the object's [`Occupancy`]: the grid's words and a box per tet.
+#[derive(Debug, Clone)]
+pub struct ObjectCells {
+    words: Vec<u32>,
+    boxes: Vec<Aabb>,
+}
+
+impl ObjectCells {
+    /// Storage for `obj` with cells of `cell` ([`occupancy_words`]).
+    pub fn new(obj: &tetradrill_core::mesh::Mesh<'_>, cell: f32) -> Self {
+        Self {
+            words: vec![0; occupancy_words(obj, cell)],
+            boxes: vec![Aabb::of::<0>([]); obj.tet_count()],
+        }
+    }
+
+    /// The occupancy of `obj` with cells of `cell`, tet boxes grown by [`OCCUPANCY_MARGIN`]
+    /// cells.
+    pub fn build(&mut self, obj: &Body<'_, '_>, cell: f32) -> Result<Occupancy<'_>, RigError> {
+        let storage = OccupancyStorage {
+            words: &mut self.words,
+            boxes: &mut self.boxes,
+        };
+        Occupancy::build(obj, cell, OCCUPANCY_MARGIN * cell, storage).map_err(RigError::Occupancy)
+    }
+}
+
+/// Storage of the pen's tets prepared at rest ([`RigidTets`]).
+#[derive(Debug, Clone)]
+pub struct PenRest {
+    hash: HashStore,
+    tet_boxes: Vec<Aabb>,
+    clusters: Vec<Aabb>,
+    node_clusters: Vec<u32>,
+}
+
+impl PenRest {
+    /// Storage for `pen`: 32 hash entries and 16 buckets per tet, up to
+    /// [`MAX_NEAR_CLUSTERS`] clusters, a cluster index per node.
+    pub fn new(pen: &tetradrill_core::mesh::Mesh<'_>) -> Self {
+        let empty = Aabb::of::<0>([]);
+        Self {
+            hash: HashStore::with_buckets(pen.tet_count(), 32, 16),
+            tet_boxes: vec![empty; pen.tet_count()],
+            clusters: vec![empty; MAX_NEAR_CLUSTERS],
+            node_clusters: vec![0; pen.node_count()],
+        }
+    }
+
+    /// Hashes and clusters `pen` at rest: the rest hash's cells are the pen's average edge,
+    /// the clusters [`CLUSTER_EDGE`] cells of `object_cell` (the object's node hash cell).
+    pub fn build(
+        &mut self,
+        pen: &tetradrill_core::mesh::Mesh<'_>,
+        object_cell: f32,
+    ) -> Result<RigidTets<'_>, RigError> {
+        let edge = average_edge_length(pen);
+        let hash = self.hash.hash(edge).ok_or(RigError::Hash)?;
+        RigidTets::build(
+            &Body::fixed(pen),
+            RigidTetsStorage {
+                hash,
+                tet_boxes: &mut self.tet_boxes,
+                clusters: &mut self.clusters,
+                node_clusters: &mut self.node_clusters,
+            },
+            CLUSTER_EDGE * object_cell,
+            REST_MARGIN * edge,
+        )
+        .map_err(RigError::Rigid)
     }
 }

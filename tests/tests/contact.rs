@@ -279,6 +279,98 @@ fn hash_matches_brute_force_teddy() {
     check_hash_vs_brute(TEDDY, 12, 2);
 }
 
+/// Both collision lists with room for only a few nodes, along a path that drives the pen
+/// (tilted, turning) into the cow, each tick's lists left for the next: every list is
+/// sorted, names each node with the smallest tet that brute force finds for it, holds last
+/// tick's nodes that are still inside, then the smallest new node ids up to its capacity,
+/// and is the whole brute-force set whenever that fits. Oracle: brute force over every tet
+/// in world coordinates and its own selection.
+#[test]
+fn full_lists_keep_previous_nodes_then_smallest_ids_cow() {
+    let mut rig = rig(10.0, COW, 1.0);
+    let cap = 6;
+    let sizes = tetradrill::pen::PenSizes {
+        contacts: Some(cap),
+        ..Default::default()
+    };
+    let (start, normal) = {
+        let obj = rig.obj.view();
+        let b = (0..obj.node_count())
+            .find(|&i| obj.nodes()[i].boundary && obj.normals()[i].z > 0.8)
+            .expect("an upward boundary node");
+        (obj.positions()[b], obj.normals()[b])
+    };
+    let (mut full, mut fitted) = ([0u32; 2], [0u32; 2]);
+    rig.with_sizes(sizes, |scene, bufs| {
+        let mut state = PenState::default();
+        let (mut prev_pen, mut prev_obj) = (HashSet::new(), HashSet::new());
+        for i in 0..60 {
+            let tilt = Quat::from_rotation_x(0.5 + 0.008 * i as f32);
+            let rot = Quat::from_rotation_arc(Vec3::Z, normal)
+                * Quat::from_rotation_z(0.1 * i as f32)
+                * tilt;
+            let pos = start - normal * (0.006 * i as f32);
+            let c = pen_contact(scene, bufs, pos, rot, &PenOptions::default(), &mut state);
+            let world = &bufs.world[..];
+            let pen_body = Body::moved(scene.pen, world, rot);
+            // Object nodes near the pen only (the pen's box, grown well beyond rounding).
+            let lo = world.iter().fold(world[0], |a, &b| a.min(b)) - Vec3::splat(1e-3);
+            let hi = world.iter().fold(world[0], |a, &b| a.max(b)) + Vec3::splat(1e-3);
+            let sides = [
+                (
+                    bufs.pen_hits[..c.pen_collisions.count].to_vec(),
+                    brute(&scene.object, world, None),
+                    c.pen_collisions.saturated,
+                    &mut prev_pen,
+                ),
+                (
+                    bufs.object_hits[..c.object_collisions.count].to_vec(),
+                    brute(&pen_body, scene.object.positions, Some((lo, hi))),
+                    c.object_collisions.saturated,
+                    &mut prev_obj,
+                ),
+            ];
+            for (side, (got, all, saturated, prev)) in sides.into_iter().enumerate() {
+                let ctx = (i, side);
+                assert!(
+                    got.windows(2).all(|w| w[0].node < w[1].node),
+                    "{ctx:?}: sorted"
+                );
+                for g in &got {
+                    assert!(all.contains(g), "{ctx:?}: {g:?} not brute force's");
+                }
+                let mut want: Vec<NodeId> = all
+                    .iter()
+                    .map(|c| c.node)
+                    .filter(|n| prev.contains(n))
+                    .collect();
+                for c in &all {
+                    if want.len() < cap && !prev.contains(&c.node) {
+                        want.push(c.node);
+                    }
+                }
+                want.sort();
+                let nodes: Vec<NodeId> = got.iter().map(|c| c.node).collect();
+                assert_eq!(nodes, want, "{ctx:?}");
+                assert_eq!(saturated, all.len() > cap, "{ctx:?}");
+                full[side] += saturated as u32;
+                fitted[side] += (!saturated && !all.is_empty()) as u32;
+                *prev = nodes.into_iter().collect();
+            }
+        }
+    })
+    .expect("pen scene");
+    println!("full lists (pen, object): {full:?}; complete non-empty lists: {fitted:?}");
+    assert!(
+        full[0] > 10 && full[1] > 10,
+        "both lists must fill: {full:?}"
+    );
+    assert!(
+        fitted[0] > 0 && fitted[1] > 0,
+        "and fit sometimes: {fitted:?}"
+    );
+}
+
 /// Independent f64 consistent depth of the pen nodes in the object (brute force over the
 /// object's boundary faces, own adjacency, own breadth-first layers). With `partial` (a full
 /// collision list) an edge to a node outside `colliding` takes the first place its line

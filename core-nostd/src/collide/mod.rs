@@ -18,7 +18,9 @@
 //! excluded by index when `own` is set (self-collision).
 
 mod body;
+mod occupancy;
 mod points;
+mod rigid;
 pub mod teschner;
 #[cfg(test)]
 pub(crate) mod test_support;
@@ -26,7 +28,12 @@ pub(crate) mod test_support;
 mod tests;
 
 pub use body::Body;
-pub use points::{hash_tets, points_in_tets, points_in_tets_coherent};
+pub use occupancy::{Occupancy, OccupancyError, OccupancyStorage};
+pub use points::{hash_tets, points_in_tets, points_in_tets_coherent, points_in_tets_occupied};
+pub use rigid::{
+    rigid_tets_over_points_coherent, NearClusters, RigidError, RigidTets, RigidTetsStorage,
+    MAX_NEAR_CLUSTERS,
+};
 pub use teschner::{tets_over_points, tets_over_points_coherent, MAX_CELLS_PER_TET};
 
 use crate::ids::{NodeId, TetId};
@@ -61,3 +68,36 @@ pub struct CollideReport {
 /// Barycentric tolerance: a point counts as inside when every coordinate is `>= -INSIDE_EPS`.
 /// Zero: points exactly on a face are inside; nothing further out.
 pub const INSIDE_EPS: f32 = 0.0;
+
+/// `geom::inside(geom::barycentric(x, p)?, eps)` with the same arithmetic, stopping at the
+/// first coordinate below `-eps`: `None` for a degenerate tet, else whether `x` is inside.
+/// The coordinates are the same bits as [`crate::geom::barycentric`]'s, so the answer is too.
+///
+/// # Bounded work
+/// Constant: at most four 3x3 determinants.
+#[inline]
+pub(crate) fn inside_tet(x: glam::Vec3, p: [glam::Vec3; 4], eps: f32) -> Option<bool> {
+    use crate::geom::det6;
+    let d = det6(p[0], p[1], p[2], p[3]);
+    let big_enough = libm::fabsf(d) > f32::MIN_POSITIVE;
+    if !big_enough {
+        return None;
+    }
+    // `b >= -eps` is false for NaN, which counts as outside, as in `geom::inside`.
+    let b1 = det6(p[0], x, p[2], p[3]) / d;
+    let ok = b1 >= -eps;
+    if !ok {
+        return Some(false);
+    }
+    let b2 = det6(p[0], p[1], x, p[3]) / d;
+    let ok = b2 >= -eps;
+    if !ok {
+        return Some(false);
+    }
+    let b3 = det6(p[0], p[1], p[2], x) / d;
+    let ok = b3 >= -eps;
+    if !ok {
+        return Some(false);
+    }
+    Some(1.0 - b1 - b2 - b3 >= -eps)
+}

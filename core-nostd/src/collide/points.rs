@@ -2,8 +2,7 @@
 
 use glam::Vec3;
 
-use super::{Body, CollideReport, Collision, INSIDE_EPS};
-use crate::geom;
+use super::{inside_tet, Body, CollideReport, Collision, Occupancy, INSIDE_EPS};
 use crate::hash::{Aabb, Rebuilt, SpatialHash};
 use crate::ids::{NodeId, TetId};
 
@@ -62,6 +61,50 @@ pub fn points_in_tets_coherent(
     out: &mut [Collision],
     kept: usize,
 ) -> CollideReport {
+    coherent(tets, body, points, own, out, kept, None, |_| true)
+}
+
+/// [`points_in_tets_coherent`] that looks a point up only when `cells` says a tet box of
+/// `body` may hold it ([`Occupancy::may_hold`]), and tests a candidate tet's barycentric
+/// coordinates only when its grown box holds the point ([`Occupancy::tet_may_hold`]);
+/// `cells` must be built over `body`'s tets ([`Occupancy::build`]). Same result, bit for
+/// bit: a point outside every occupied cell, or outside a tet's grown box, is not inside it.
+/// Cheaper when most points are away from the body (a tool mostly outside the object).
+///
+/// Point `i` is examined only when `may_hit(i)` holds: it must hold for every point that may
+/// be inside a tet (`|_| true`, or e.g. [`super::RigidTets::node_near`] for the nodes of a
+/// rigid tool whose clusters [`super::RigidTets::near`] found near `cells`).
+///
+/// # Bounded work
+/// As [`points_in_tets_coherent`], plus one `may_hit` call and one bit test per point
+/// examined and one box test per candidate.
+#[allow(clippy::too_many_arguments)]
+pub fn points_in_tets_occupied<F: Fn(usize) -> bool>(
+    tets: &SpatialHash<'_>,
+    cells: &Occupancy<'_>,
+    body: &Body<'_, '_>,
+    points: &[Vec3],
+    own: bool,
+    out: &mut [Collision],
+    kept: usize,
+    may_hit: F,
+) -> CollideReport {
+    coherent(tets, body, points, own, out, kept, Some(cells), may_hit)
+}
+
+/// [`points_in_tets_coherent`], culled by `cells` when given and by `filter`.
+#[allow(clippy::too_many_arguments)]
+fn coherent<F: Fn(usize) -> bool>(
+    tets: &SpatialHash<'_>,
+    body: &Body<'_, '_>,
+    points: &[Vec3],
+    own: bool,
+    out: &mut [Collision],
+    kept: usize,
+    cells: Option<&Occupancy<'_>>,
+    filter: F,
+) -> CollideReport {
+    let may_hit = |i: usize, p: Vec3| filter(i) && cells.is_none_or(|c| c.may_hold(p));
     let mut r = CollideReport::default();
     // The previous entries still inside, compacted in place (in node order).
     let mut m = 0usize;
@@ -75,7 +118,10 @@ pub fn points_in_tets_coherent(
             continue;
         };
         last = Some(node);
-        let tet = smallest_tet(tets, body, p, node, own, &mut r);
+        if !may_hit(node.idx(), p) {
+            continue;
+        }
+        let tet = smallest_tet(tets, body, cells, p, node, own, &mut r);
         if tet.is_some() {
             out[m] = Collision { node, tet };
             m += 1;
@@ -92,7 +138,10 @@ pub fn points_in_tets_coherent(
         if j < m && out[j].node == node {
             continue; // tested above
         }
-        let tet = smallest_tet(tets, body, p, node, own, &mut r);
+        if !may_hit(i, p) {
+            continue;
+        }
+        let tet = smallest_tet(tets, body, cells, p, node, own, &mut r);
         if tet.is_some() {
             let Some(slot) = out.get_mut(n) else {
                 r.saturated = true;
@@ -112,22 +161,23 @@ pub fn points_in_tets_coherent(
 }
 
 /// The smallest-id tet of `body` in `tets` holding `p` (`NONE` when none), counting the
-/// candidates and degenerate tets met in `r`.
+/// candidates and degenerate tets met in `r`: the cell's tets in increasing id order, the
+/// first that holds `p` ends the search.
 fn smallest_tet(
     tets: &SpatialHash<'_>,
     body: &Body<'_, '_>,
+    cells: Option<&Occupancy<'_>>,
     p: Vec3,
     node: NodeId,
     own: bool,
     r: &mut CollideReport,
 ) -> TetId {
-    let mut best = TetId::NONE;
     if !tets.bounds().overlaps(&Aabb::point(p)) {
-        return best;
+        return TetId::NONE;
     }
-    for item in tets.items_in_cell(tets.cell_of(p)) {
+    for item in tets.items_in_cell_ascending(tets.cell_of(p)) {
         let t = TetId(item);
-        if t >= best {
+        if cells.is_some_and(|c| !c.tet_may_hold(t, p)) {
             continue;
         }
         let Some(ids) = body.tet_nodes(t) else {
@@ -140,11 +190,11 @@ fn smallest_tet(
             continue;
         };
         r.candidates = r.candidates.wrapping_add(1);
-        match geom::barycentric(p, corners) {
+        match inside_tet(p, corners, INSIDE_EPS) {
             None => r.degenerate = r.degenerate.wrapping_add(1),
-            Some(b) if geom::inside(b, INSIDE_EPS) => best = t,
-            Some(_) => {}
+            Some(true) => return t,
+            Some(false) => {}
         }
     }
-    best
+    TetId::NONE
 }

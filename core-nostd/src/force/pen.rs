@@ -1,8 +1,9 @@
 //! The tet-mesh tool (the pen): one call per servo tick from the pen's pose to its force.
 //!
 //! Per tick: move the pen's nodes to the pose; pen nodes inside the object (object tets hashed
-//! once); object nodes inside the pen (object nodes hashed once, the pen's tets walk their
-//! boxes); the consistent depth of both sets; force = stiffness x (sum of the pen nodes'
+//! once, only pen nodes in cells the object occupies looked up); object nodes inside the pen
+//! (object nodes hashed once, queried over the moved boxes of the pen's rest-frame clusters
+//! and looked up in the pen's tets hashed at rest); the consistent depth of both sets; force = stiffness x (sum of the pen nodes'
 //! depth x direction - sum of the object nodes' depth x direction), optionally through the
 //! entry-plane remedy; damping; clamping; the displayed offset.
 
@@ -11,7 +12,8 @@ use glam::{Affine3A, Quat, Vec3};
 use super::entry::EntryPlane;
 use super::response::{clamp_force, damping_force, display_offset, ForceParams, ToolState};
 use crate::collide::{
-    points_in_tets_coherent, tets_over_points_coherent, Body, CollideReport, Collision,
+    points_in_tets_occupied, rigid_tets_over_points_coherent, Body, CollideReport, Collision,
+    Occupancy, RigidTets,
 };
 use crate::depth::{
     penetration_depth_of, DepthReport, DepthScratch, Listed, Method, NodeGraph, Penetration,
@@ -27,6 +29,9 @@ pub struct PenScene<'s, 'm, 'a> {
     pub pen: &'m Mesh<'a>,
     /// The pen's node graph.
     pub pen_graph: NodeGraph<'s>,
+    /// The pen's tets hashed and clustered at rest ([`RigidTets::build`] over the pen at
+    /// rest): object nodes are looked up in it.
+    pub pen_rest: &'s RigidTets<'s>,
     /// The pen's boundary faces hashed at rest (only for [`DepthMethod::Hashed`]).
     pub pen_faces: Option<&'s SpatialHash<'s>>,
     /// The object where it stands.
@@ -37,6 +42,9 @@ pub struct PenScene<'s, 'm, 'a> {
     pub object_tets: &'s SpatialHash<'s>,
     /// The object's nodes hashed ([`SpatialHash::rebuild_points`]).
     pub object_nodes: &'s SpatialHash<'s>,
+    /// Where the object's tets are ([`Occupancy::build`] over the object): pen nodes and pen
+    /// clusters away from it are not looked up.
+    pub object_cells: &'s Occupancy<'s>,
     /// The object's boundary faces hashed (only for [`DepthMethod::Hashed`]).
     pub object_faces: Option<&'s SpatialHash<'s>>,
 }
@@ -107,10 +115,10 @@ pub struct PenState {
     /// For the remedy.
     pub entry: EntryPlane,
     /// Entries of [`PenBuffers::pen_hits`] written last tick: a full list keeps those nodes
-    /// first ([`points_in_tets_coherent`]).
+    /// first ([`points_in_tets_occupied`]).
     pub pen_listed: usize,
     /// Entries of [`PenBuffers::object_hits`] written last tick
-    /// ([`tets_over_points_coherent`]).
+    /// ([`rigid_tets_over_points_coherent`]).
     pub object_listed: usize,
 }
 
@@ -157,14 +165,17 @@ impl PenContact {
 /// One servo tick of the pen tool at `position` (its tip) and `rotation`.
 ///
 /// When a collision list is full, it keeps last tick's nodes that still collide first
-/// ([`PenState::pen_listed`], [`points_in_tets_coherent`], [`tets_over_points_coherent`]) and
+/// ([`PenState::pen_listed`], [`points_in_tets_occupied`], [`rigid_tets_over_points_coherent`]) and
 /// its depths follow edges to unlisted nodes on to the surface ([`Listed::Partial`], at most
 /// `max_steps` tets): a node enters or leaves the list only as it enters or leaves the other
 /// body, where its depth is near zero, so the force stays continuous.
 ///
 /// # Bounded work
-/// O(N_pen) to place the pen; collision: O(N_pen * b) + O(T_pen * cells * b) for b the
-/// largest bucket (at most twice the latter, [`tets_over_points_coherent`]); depth: see
+/// O(N_pen) to place the pen; collision: O(N_pen * b) for b the largest bucket of the
+/// object's tet hash ([`points_in_tets_occupied`]) and, per pen cluster, one query of at most
+/// [`crate::collide::MAX_CELLS_PER_TET`] cells of the object's node hash with a rest-hash
+/// lookup per node met ([`rigid_tets_over_points_coherent`]; for poses far from the origin the
+/// walk over every pen tet, O(T_pen * cells * b), twice at most); depth: see
 /// [`penetration_depth_of`], bounded by the collision buffers and `max_steps` / `max_cells`.
 /// Every buffer saturates as documented on the functions it is handed to;
 /// [`PenContact::saturated`] tells.
@@ -194,19 +205,26 @@ pub fn pen_contact(
     let mut pen_count = 0;
     let mut obj_count = 0;
     if bounds.overlaps(&scene.object_tets.bounds()) {
-        out.pen_collisions = points_in_tets_coherent(
+        // The pen's clusters whose moved boxes meet cells the object occupies: the others'
+        // nodes are in no object tet, and no object node is in their tets.
+        let near = scene.pen_rest.near(pose, scene.object_cells);
+        out.pen_collisions = points_in_tets_occupied(
             scene.object_tets,
+            scene.object_cells,
             &scene.object,
             world,
             false,
             bufs.pen_hits,
             state.pen_listed,
+            |i| scene.pen_rest.node_near(i, &near),
         );
-        out.object_collisions = tets_over_points_coherent(
+        out.object_collisions = rigid_tets_over_points_coherent(
             scene.object_nodes,
             scene.object.positions,
+            scene.pen_rest,
             &pen_body,
-            false,
+            pose,
+            &near,
             bufs.object_hits,
             state.object_listed,
         );

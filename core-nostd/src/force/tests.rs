@@ -3,9 +3,11 @@ use glam::{Affine3A, Mat4, Quat, Vec3};
 use super::frames::{allocentric, camera, force_to_device};
 use super::*;
 use crate::collide::test_support::Store;
-use crate::collide::{hash_tets, Body, Collision};
+use crate::collide::{
+    hash_tets, Body, Collision, Occupancy, OccupancyStorage, RigidTets, RigidTetsStorage,
+};
 use crate::depth::{hash_boundary_faces, DepthScratch, NodeGraph, NodeSlot, Penetration};
-use crate::hash::{HashEntry, SpatialHash};
+use crate::hash::{Aabb, HashEntry, SpatialHash};
 use crate::ids::NodeId;
 
 #[test]
@@ -155,14 +157,42 @@ fn pen_tick(
     let (mut ps, mut pe) = ([0u32; 32], [HashEntry::default(); 2048]);
     let mut ph = SpatialHash::new(&mut ps, &mut pe, 0.1).unwrap();
     hash_boundary_faces(&mut ph, &Body::fixed(&pen));
+    let (mut rs, mut re) = ([0u32; 64], [HashEntry::default(); 2048]);
+    let (mut rb, mut rc) = ([Aabb::of::<0>([]); 48], [Aabb::of::<0>([]); 64]);
+    let mut nc = [0u32; 27];
+    let rest = RigidTets::build(
+        &Body::fixed(&pen),
+        RigidTetsStorage {
+            hash: SpatialHash::new(&mut rs, &mut re, 0.05).unwrap(),
+            tet_boxes: &mut rb,
+            clusters: &mut rc,
+            node_clusters: &mut nc,
+        },
+        0.04,
+        1e-4,
+    )
+    .unwrap();
+    let (mut ow, mut ob_boxes) = ([0u32; 64], [Aabb::of::<0>([]); 384]);
+    let cells = Occupancy::build(
+        &ob,
+        0.25,
+        1e-4,
+        OccupancyStorage {
+            words: &mut ow,
+            boxes: &mut ob_boxes,
+        },
+    )
+    .unwrap();
     let scene = PenScene {
         pen: &pen,
         pen_graph: pg,
+        pen_rest: &rest,
         pen_faces: Some(&ph),
         object: ob,
         object_graph: og,
         object_tets: &th,
         object_nodes: &nh,
+        object_cells: &cells,
         object_faces: Some(&fh),
     };
     let mut world = [Vec3::ZERO; 27];

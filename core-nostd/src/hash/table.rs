@@ -279,6 +279,26 @@ impl<'a> SpatialHash<'a> {
         slice.iter().filter(move |e| e.cell == c).map(|e| e.item())
     }
 
+    /// The items stored in cell `c` in increasing item order, as [`SpatialHash::items_in_cell`]
+    /// (the filling pass writes each bucket from its back in item order, so this reads the
+    /// bucket backwards). Lets a search for the smallest item that passes a test stop at the
+    /// first one.
+    ///
+    /// # Bounded work
+    /// O(size of the bucket), at most the entry count.
+    #[inline]
+    pub fn items_in_cell_ascending(&self, c: Cell) -> impl Iterator<Item = u32> + '_ {
+        let k = bucket_of(c, self.buckets()) as usize;
+        let lo = self.starts.get(k).copied().unwrap_or(0) as usize;
+        let hi = self.starts.get(k + 1).copied().unwrap_or(0) as usize;
+        let slice = self.entries.get(lo..hi.min(self.used)).unwrap_or(&[]);
+        slice
+            .iter()
+            .rev()
+            .filter(move |e| e.cell == c)
+            .map(|e| e.item())
+    }
+
     /// Calls `f(cell, item)` for every item stored in a cell the box `b` covers; an item
     /// stored in several of those cells is reported once per cell. Boxes covering more than
     /// `max_cells` cells are not visited at all (counted in [`HashStats::clipped_queries`],
@@ -440,6 +460,56 @@ mod tests {
                 assert_eq!(got[i], u32::from(meets), "item {i}");
             }
         }
+    }
+
+    /// Random boxes in few buckets: `items_in_cell_ascending` gives, for every cell, the items
+    /// whose box covers that cell (brute force with `floor`) in increasing order.
+    #[test]
+    fn items_in_cell_ascending_is_sorted_and_complete() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let boxes: [Aabb; 80] = core::array::from_fn(|_| {
+            let c = Vec3::new(rnd(), rnd(), rnd()) * 4.0 - 2.0;
+            let h = Vec3::new(rnd(), rnd(), rnd()) * 0.8;
+            Aabb::of([c - h, c + h])
+        });
+        let mut starts = [0u32; 6]; // 5 buckets
+        let mut entries = [HashEntry::EMPTY; 4096];
+        let mut h = SpatialHash::new(&mut starts, &mut entries, 0.5).unwrap();
+        assert!(!h.rebuild(boxes.len(), |i| boxes.get(i).copied()).saturated);
+        let f = |x: f32| libm::floorf(x * 2.0) as i32;
+        let mut nonempty = 0;
+        for i in -6..6 {
+            for j in -6..6 {
+                for k in -6..6 {
+                    let mut want = [0u32; 80];
+                    let mut n = 0;
+                    for (b, bx) in boxes.iter().enumerate() {
+                        let lo = [f(bx.min.x), f(bx.min.y), f(bx.min.z)];
+                        let hi = [f(bx.max.x), f(bx.max.y), f(bx.max.z)];
+                        let c = [i, j, k];
+                        if (0..3).all(|a| lo[a] <= c[a] && c[a] <= hi[a]) {
+                            want[n] = b as u32;
+                            n += 1;
+                        }
+                    }
+                    let mut got = [0u32; 80];
+                    let mut m = 0;
+                    for item in h.items_in_cell_ascending([i, j, k]) {
+                        got[m] = item;
+                        m += 1;
+                    }
+                    assert_eq!(&got[..m], &want[..n], "cell {i} {j} {k}");
+                    nonempty += (n > 1) as u32;
+                }
+            }
+        }
+        assert!(nonempty > 100, "cells holding several items: {nonempty}");
     }
 
     #[test]
