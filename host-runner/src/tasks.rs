@@ -670,8 +670,8 @@ pub enum SimEnd {
     Reset,
 }
 
-/// The simulation task: drains the tool ring, erodes along the swept path (burr positions at
-/// most a quarter radius apart, up to [`MAX_SPHERES`] per step), updates the contact plane at
+/// The simulation task: drains the tool ring, erodes along the swept path (burr positions
+/// [`tetradrill_core::servo::DRILL_SPACING`] radii apart, up to [`MAX_SPHERES`] per step), updates the contact plane at
 /// the newest position and publishes it, until `stop`. With a `viewer`, it applies the
 /// viewer's controls (radius and stiffness also go to the servo through `counters`) and
 /// publishes snapshots of the changed surface without ever waiting.
@@ -710,7 +710,7 @@ pub fn simulation_task(
                 .stiffness_bits
                 .store(c.stiffness.to_bits(), Ordering::Relaxed);
         }
-        let spacing = 0.25 * params.radius;
+        let spacing = tetradrill_core::servo::DRILL_SPACING * params.radius;
         let stopping = stop.load(Ordering::Relaxed);
         let mut ns = 0usize;
         let mut latest: Option<ToolSample> = None;

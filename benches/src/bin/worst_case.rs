@@ -48,7 +48,8 @@ const SCENARIOS: [&str; 5] = [
 /// Burr radius of the drilling scenarios (mesh units), as in the target.
 const RADIUS: f32 = 0.03;
 /// Drag speed along the surface, mesh units per tick (0.25 units/s at 1 kHz: a new drill
-/// sphere every 30 ticks, `DRILL_SPACING` being a quarter radius).
+/// sphere every 15 ticks, `DRILL_SPACING` being an eighth of the radius; every 30 ticks
+/// before 2026-11-22, at a quarter).
 const SPEED: f32 = 2.5e-4;
 
 struct Args {

@@ -168,9 +168,10 @@ struct Parent {
 const MEMO: usize = 8;
 
 /// The most recently queued spheres the drill remembers as the swept volume (see
-/// [`Drill::step`]): a burr queued every quarter radius is covered on each side by the next
-/// four positions, so eight spheres hold the whole neighbourhood of one.
-pub const SWEPT: usize = 8;
+/// [`Drill::step`]): a burr queued every eighth of the radius
+/// ([`crate::servo::DRILL_SPACING`]) is covered on each side by the next eight positions, so
+/// sixteen spheres hold the whole neighbourhood of one.
+pub const SWEPT: usize = 16;
 
 /// The drill: a pending-work deque in caller storage and counters.
 #[derive(Debug)]
