@@ -128,6 +128,9 @@ pub struct ContactState {
 pub struct SimReport {
     /// Coarse tets near the tool.
     pub candidates: u32,
+    /// Burr positions this step gave the drill as new work ([`DRILL_SPACING`],
+    /// [`DRILL_HOLD_STEPS`]).
+    pub queued: u32,
     /// The drill step (all zero when the drill was off).
     pub drill: DrillReport,
     /// Visible triangles examined for the contact.
@@ -418,6 +421,7 @@ impl<'a> World<'a> {
             }
         }
         let spheres = &kept[..nk];
+        rep.queued = nk as u32;
         let mut tight = Aabb::of::<0>([]);
         for s in spheres {
             tight = tight.union(Aabb::point(s.center).grown(s.radius));
