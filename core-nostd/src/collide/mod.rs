@@ -38,6 +38,39 @@ pub use teschner::{tets_over_points, tets_over_points_coherent, MAX_CELLS_PER_TE
 
 use crate::ids::{NodeId, TetId};
 
+/// The `_coherent` searches' first pass: the previous call's entries `out[..kept]` whose
+/// point `locate` still finds in a tet (`NONE`: not found, or not to be looked up), compacted
+/// in place with their new tets. Entries out of increasing node order or naming a point
+/// beyond `points` are dropped, so any contents give a valid result. Returns how many stay.
+///
+/// # Bounded work
+/// At most `kept` calls of `locate`.
+fn keep_previous<F: FnMut(NodeId, glam::Vec3) -> TetId>(
+    out: &mut [Collision],
+    kept: usize,
+    points: &[glam::Vec3],
+    mut locate: F,
+) -> usize {
+    let mut m = 0usize;
+    let mut last: Option<NodeId> = None;
+    for i in 0..kept.min(out.len()) {
+        let node = out[i].node;
+        if last.is_some_and(|l| node <= l) {
+            continue;
+        }
+        let Some(&p) = points.get(node.idx()) else {
+            continue;
+        };
+        last = Some(node);
+        let tet = locate(node, p);
+        if tet.is_some() {
+            out[m] = Collision { node, tet };
+            m += 1;
+        }
+    }
+    m
+}
+
 /// A point `node` inside tet `tet` of the other body.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug, Default)]
 pub struct Collision {

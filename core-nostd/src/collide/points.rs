@@ -107,26 +107,13 @@ fn coherent<F: Fn(usize) -> bool>(
     let may_hit = |i: usize, p: Vec3| filter(i) && cells.is_none_or(|c| c.may_hold(p));
     let mut r = CollideReport::default();
     // The previous entries still inside, compacted in place (in node order).
-    let mut m = 0usize;
-    let mut last: Option<NodeId> = None;
-    for i in 0..kept.min(out.len()) {
-        let node = out[i].node;
-        if last.is_some_and(|l| node <= l) {
-            continue;
+    let m = super::keep_previous(out, kept, points, |node, p| {
+        if may_hit(node.idx(), p) {
+            smallest_tet(tets, body, cells, p, node, own, &mut r)
+        } else {
+            TetId::NONE
         }
-        let Some(&p) = points.get(node.idx()) else {
-            continue;
-        };
-        last = Some(node);
-        if !may_hit(node.idx(), p) {
-            continue;
-        }
-        let tet = smallest_tet(tets, body, cells, p, node, own, &mut r);
-        if tet.is_some() {
-            out[m] = Collision { node, tet };
-            m += 1;
-        }
-    }
+    });
     // Every other point, in index order, into what is left.
     let mut n = m;
     let mut j = 0usize;

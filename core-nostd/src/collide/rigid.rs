@@ -457,23 +457,9 @@ pub fn rigid_tets_over_points_coherent(
     let mut r = CollideReport::default();
 
     // The previous points still inside, compacted in place (in node order).
-    let mut m = 0usize;
-    let mut last: Option<NodeId> = None;
-    for i in 0..kept.min(out.len()) {
-        let node = out[i].node;
-        if last.is_some_and(|l| node <= l) {
-            continue;
-        }
-        let Some(&p) = points.get(node.idx()) else {
-            continue;
-        };
-        last = Some(node);
-        let tet = rigid.locate(inv.transform_point3(p), p, body, &mut r);
-        if tet.is_some() {
-            out[m] = Collision { node, tet };
-            m += 1;
-        }
-    }
+    let m = super::keep_previous(out, kept, points, |_, p| {
+        rigid.locate(inv.transform_point3(p), p, body, &mut r)
+    });
 
     // New points, cluster by cluster.
     let (kept_part, new_part) = out.split_at_mut(m);
