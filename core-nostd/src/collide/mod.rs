@@ -134,3 +134,18 @@ pub(crate) fn inside_tet(x: glam::Vec3, p: [glam::Vec3; 4], eps: f32) -> Option<
     }
     Some(1.0 - b1 - b2 - b3 >= -eps)
 }
+
+/// A candidate tet with corners `corners` tested for point `p`: counted in `r.candidates`,
+/// degenerate ones in `r.degenerate` (they hold nothing); `true` when it holds `p`
+/// ([`inside_tet`] with [`INSIDE_EPS`]).
+#[inline]
+fn candidate_holds(p: glam::Vec3, corners: [glam::Vec3; 4], r: &mut CollideReport) -> bool {
+    r.candidates = r.candidates.wrapping_add(1);
+    match inside_tet(p, corners, INSIDE_EPS) {
+        None => {
+            r.degenerate = r.degenerate.wrapping_add(1);
+            false
+        }
+        Some(inside) => inside,
+    }
+}

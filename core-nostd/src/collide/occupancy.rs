@@ -197,7 +197,7 @@ impl<'a> Occupancy<'a> {
     #[inline]
     pub fn tet_may_hold(&self, t: TetId, p: Vec3) -> bool {
         match self.boxes.get(t.idx()) {
-            Some(b) => p.cmpge(b.min).all() && p.cmple(b.max).all(),
+            Some(b) => b.contains(p),
             None => true,
         }
     }

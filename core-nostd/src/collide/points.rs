@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use super::{inside_tet, Body, CollideReport, Collision, Occupancy, INSIDE_EPS};
+use super::{candidate_holds, Body, CollideReport, Collision, Occupancy};
 use crate::hash::{Aabb, Rebuilt, SpatialHash};
 use crate::ids::{NodeId, TetId};
 
@@ -159,7 +159,7 @@ fn smallest_tet(
     own: bool,
     r: &mut CollideReport,
 ) -> TetId {
-    if !tets.bounds().overlaps(&Aabb::point(p)) {
+    if !tets.bounds().contains(p) {
         return TetId::NONE;
     }
     for item in tets.items_in_cell_ascending(tets.cell_of(p)) {
@@ -173,14 +173,11 @@ fn smallest_tet(
         if own && ids.contains(&node) {
             continue;
         }
-        let Some(corners) = body.tet_positions(t) else {
-            continue;
-        };
-        r.candidates = r.candidates.wrapping_add(1);
-        match inside_tet(p, corners, INSIDE_EPS) {
-            None => r.degenerate = r.degenerate.wrapping_add(1),
-            Some(true) => return t,
-            Some(false) => {}
+        if body
+            .tet_positions(t)
+            .is_some_and(|corners| candidate_holds(p, corners, r))
+        {
+            return t;
         }
     }
     TetId::NONE

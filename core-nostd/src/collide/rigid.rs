@@ -16,7 +16,7 @@
 use glam::{Affine3A, Vec3};
 
 use super::teschner::{tets_over_points_coherent, MAX_CELLS_PER_TET};
-use super::{inside_tet, Body, CollideReport, Collision, Occupancy, INSIDE_EPS};
+use super::{candidate_holds, Body, CollideReport, Collision, Occupancy};
 use crate::hash::{Aabb, SpatialHash};
 use crate::ids::{NodeId, TetId};
 
@@ -221,7 +221,7 @@ impl<'s> RigidTets<'s> {
             };
             if let Some(ci) = rt.cluster_of(q) {
                 let b = clusters.get(ci).copied().unwrap_or(Aabb::of::<0>([]));
-                if q.cmpge(b.min).all() && q.cmple(b.max).all() && ci < NO_CLUSTER as usize {
+                if b.contains(q) && ci < NO_CLUSTER as usize {
                     *slot = ci as u32;
                 }
             }
@@ -272,33 +272,31 @@ impl<'s> RigidTets<'s> {
     /// no tet holds it).
     #[inline]
     fn cluster_of(&self, q: Vec3) -> Option<usize> {
-        let b = &self.bounds;
-        let inside = q.cmpge(b.min).all() && q.cmple(b.max).all();
-        inside.then(|| self.index(self.grid_cell(q)))
+        self.bounds
+            .contains(q)
+            .then(|| self.index(self.grid_cell(q)))
     }
 
     /// The smallest tet holding world point `p` (rest-frame `q`): rest hash cell, grown box,
     /// then the barycentric test on the moved corners of `body`.
     fn locate(&self, q: Vec3, p: Vec3, body: &Body<'_, '_>, r: &mut CollideReport) -> TetId {
-        if !self.hash.bounds().overlaps(&Aabb::point(q)) {
+        if !self.hash.bounds().contains(q) {
             return TetId::NONE;
         }
         for item in self.hash.items_in_cell_ascending(self.hash.cell_of(q)) {
-            let Some(b) = self.tet_boxes.get(item as usize) else {
-                continue;
-            };
-            if !(q.cmpge(b.min).all() && q.cmple(b.max).all()) {
+            if !self
+                .tet_boxes
+                .get(item as usize)
+                .is_some_and(|b| b.contains(q))
+            {
                 continue;
             }
             let t = TetId(item);
-            let Some(corners) = body.tet_positions(t) else {
-                continue;
-            };
-            r.candidates = r.candidates.wrapping_add(1);
-            match inside_tet(p, corners, INSIDE_EPS) {
-                None => r.degenerate = r.degenerate.wrapping_add(1),
-                Some(true) => return t,
-                Some(false) => {}
+            if body
+                .tet_positions(t)
+                .is_some_and(|corners| candidate_holds(p, corners, r))
+            {
+                return t;
             }
         }
         TetId::NONE

@@ -136,6 +136,12 @@ impl Aabb {
             && o.min.z <= self.max.z
     }
 
+    /// `true` when `p` lies in the box (faces included; never for a NaN coordinate).
+    #[inline]
+    pub fn contains(&self, p: Vec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+
     /// The box grown by `r` on every side.
     #[inline]
     pub fn grown(self, r: f32) -> Self {
