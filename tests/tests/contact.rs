@@ -119,7 +119,8 @@ use tetradrill::owned::OwnedMesh;
 use tetradrill_core::collide::{Body, Collision};
 use tetradrill_core::depth::{graph_sizes, NodeGraph, Penetration};
 use tetradrill_core::force::{
-    force_digest, pen_contact, DepthMethod, ForceParams, PenContact, PenOptions, PenState,
+    force_digest, pen_contact, DepthMethod, ForceParams, PenBuffers, PenContact, PenOptions,
+    PenScene, PenState,
 };
 use tetradrill_core::ids::{NodeId, TetId};
 use tetradrill_core::mesh::Mesh;
@@ -168,6 +169,32 @@ fn poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3, Quat)> {
             .normalize();
             (tip, q)
         })
+        .collect()
+}
+
+/// One pen tick at `pos`, `rot` from a fresh state with the default options (no damping
+/// history, no entry plane, no list kept from a previous tick).
+fn first_tick(
+    scene: &PenScene<'_, '_, '_>,
+    bufs: &mut PenBuffers<'_>,
+    pos: Vec3,
+    rot: Quat,
+) -> PenContact {
+    pen_contact(
+        scene,
+        bufs,
+        pos,
+        rot,
+        &PenOptions::default(),
+        &mut PenState::default(),
+    )
+}
+
+/// The pen nodes a tick listed as inside the object.
+fn listed(bufs: &PenBuffers<'_>, c: &PenContact) -> HashSet<usize> {
+    bufs.pen_hits[..c.pen_collisions.count]
+        .iter()
+        .map(|h| h.node.idx())
         .collect()
 }
 
@@ -234,14 +261,7 @@ fn check_hash_vs_brute(obj_rel: &str, n_poses: usize, seed: u64) {
     let (mut total_pen, mut total_obj) = (0usize, 0usize);
     rig.with(|scene, bufs| {
         for &(pos, rot) in &ps {
-            let c = pen_contact(
-                scene,
-                bufs,
-                pos,
-                rot,
-                &PenOptions::default(),
-                &mut PenState::default(),
-            );
+            let c = first_tick(scene, bufs, pos, rot);
             assert!(!c.saturated());
             let world = &bufs.world[..];
             let got: Vec<Collision> = bufs.pen_hits[..c.pen_collisions.count].to_vec();
@@ -513,18 +533,8 @@ fn depth_matches_f64_reference_on_cow() {
     let (mut compared, mut worst_d, mut worst_r) = (0usize, 0.0f64, 0.0f64);
     rig.with(|scene, bufs| {
         for &(pos, rot) in &ps {
-            let c = pen_contact(
-                scene,
-                bufs,
-                pos,
-                rot,
-                &PenOptions::default(),
-                &mut PenState::default(),
-            );
-            let colliding: HashSet<usize> = bufs.pen_hits[..c.pen_collisions.count]
-                .iter()
-                .map(|h| h.node.idx())
-                .collect();
+            let c = first_tick(scene, bufs, pos, rot);
+            let colliding = listed(bufs, &c);
             let reference =
                 reference_depth(scene.pen, bufs.world, scene.object.mesh, &colliding, false);
             let got = &bufs.pen_pens[..c.penetrations.0];
@@ -588,18 +598,8 @@ fn partial_list_depth_matches_f64_reference_on_cow() {
     let (mut compared, mut partial, mut beyond, mut worst_d) = (0usize, 0usize, 0u32, 0.0f64);
     rig.with_sizes(sizes, |scene, bufs| {
         for &(pos, rot) in &ps {
-            let c = pen_contact(
-                scene,
-                bufs,
-                pos,
-                rot,
-                &PenOptions::default(),
-                &mut PenState::default(),
-            );
-            let listed: HashSet<usize> = bufs.pen_hits[..c.pen_collisions.count]
-                .iter()
-                .map(|h| h.node.idx())
-                .collect();
+            let c = first_tick(scene, bufs, pos, rot);
+            let listed = listed(bufs, &c);
             let sat = c.pen_collisions.saturated;
             partial += sat as usize;
             beyond += c.pen_depth.beyond;
@@ -693,14 +693,7 @@ fn pen_outside_gives_zero_force() {
             (Vec3::new(0.0, 0.0, 3.0), Quat::IDENTITY),
             (Vec3::new(2.5, 0.3, 0.0), Quat::from_rotation_y(1.0)),
         ] {
-            let c = pen_contact(
-                scene,
-                bufs,
-                pos,
-                rot,
-                &PenOptions::default(),
-                &mut PenState::default(),
-            );
+            let c = first_tick(scene, bufs, pos, rot);
             assert_eq!(c.force, Vec3::ZERO);
             assert_eq!(c.penetrations, (0, 0));
         }
