@@ -288,6 +288,20 @@ fn tetgen(rel: &str) -> OwnedMesh {
     OwnedMesh::build(p, &t, BuildOptions::default()).unwrap()
 }
 
+/// The tets of `pool` and their face neighbours: where an operation on a pool tree can change
+/// the visible faces.
+fn with_neighbours(mesh: &Mesh<'_>, pool: &[usize]) -> HashSet<usize> {
+    let mut check: HashSet<usize> = pool.iter().copied().collect();
+    for &t in pool {
+        for f in 0..4 {
+            let n = mesh.neighbour(TetId::from_idx(t), f);
+            if n.is_some() {
+                check.insert(n.idx());
+            }
+        }
+    }
+    check
+}
 /// Random Erase/Refine on the leaves of the trees in `pool`, checking `validate` after every
 /// operation and the brute force every `every` operations.
 fn random_ops(
@@ -301,15 +315,7 @@ fn random_ops(
 ) {
     let mut rng = StdRng::seed_from_u64(seed);
     let vol0 = mesh.volume();
-    let mut check: HashSet<usize> = pool.iter().copied().collect();
-    for &t in pool {
-        for f in 0..4 {
-            let n = mesh.neighbour(TetId::from_idx(t), f);
-            if n.is_some() {
-                check.insert(n.idx());
-            }
-        }
-    }
+    let check = with_neighbours(mesh, pool);
     let mut checked = 0;
     for op in 0..ops {
         let live: Vec<LeafG> = leaves(mesh, h, pool.iter().copied())
@@ -790,15 +796,7 @@ fn random_ops_reclaiming(
     seed: u64,
 ) -> (u32, u32) {
     let mut rng = StdRng::seed_from_u64(seed);
-    let mut check: HashSet<usize> = pool.iter().copied().collect();
-    for &t in pool {
-        for f in 0..4 {
-            let n = mesh.neighbour(TetId::from_idx(t), f);
-            if n.is_some() {
-                check.insert(n.idx());
-            }
-        }
-    }
+    let check = with_neighbours(mesh, pool);
     let mut refused = 0;
     let mut checked = 0;
     let same = |h: &Hierarchy<'_>, twin: &Hierarchy<'_>| {
