@@ -155,6 +155,16 @@ pub struct DrillReport {
     pub saturations: u32,
 }
 
+/// [`super::classify`], charging the exact test when it runs ([`WorkCost::EXACT_TEST`]).
+fn classify_charged(p: [Vec3; 4], s: &Sphere, rep: &mut DrillReport) -> Class {
+    let (class, exact) = classify_costed(p, s);
+    if exact {
+        rep.exact_tests += 1;
+        rep.work = rep.work.saturating_add(WorkCost::EXACT_TEST);
+    }
+    class
+}
+
 /// A node whose children were queued, with the ten points of its red refinement: its
 /// children's corners.
 #[derive(Clone, Copy, Debug)]
@@ -298,16 +308,6 @@ impl<'a> Drill<'a> {
             .iter()
             .take(self.swept_len)
             .any(|s| x.distance_squared(s.center) <= s.radius * s.radius)
-    }
-
-    /// [`super::classify`], charging the exact test when it runs ([`WorkCost::EXACT_TEST`]).
-    fn classify(&self, p: [Vec3; 4], s: &Sphere, rep: &mut DrillReport) -> Class {
-        let (class, exact) = classify_costed(p, s);
-        if exact {
-            rep.exact_tests += 1;
-            rep.work = rep.work.saturating_add(WorkCost::EXACT_TEST);
-        }
-        class
     }
 
     fn push_back(&mut self, p: Pending) -> bool {
@@ -490,7 +490,7 @@ impl<'a> Drill<'a> {
             _ => item,
         };
         let p = self.corners(&frame, &item, depth);
-        let class = self.classify(p, &item.sphere, rep);
+        let class = classify_charged(p, &item.sphere, rep);
         if class == Class::Outside {
             return;
         }
@@ -592,7 +592,8 @@ impl<'a> Drill<'a> {
             // A child wholly outside the sphere, or with nothing left to erase, would be
             // dropped when taken: it is not queued.
             let gone = h.node(first + c as u32).is_none_or(|n| n.all_erased());
-            if gone || self.classify(child_of_ten(&pts, c), &item.sphere, rep) == Class::Outside {
+            if gone || classify_charged(child_of_ten(&pts, c), &item.sphere, rep) == Class::Outside
+            {
                 continue;
             }
             let next = Pending {
