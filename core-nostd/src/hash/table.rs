@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use super::cell::{bucket_of, cell_of, Aabb, Cell};
+use super::cell::{bucket_of, cell_of, same_cell, Aabb, Cell};
 
 /// One stored item in one cell.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
@@ -32,12 +32,6 @@ impl HashEntry {
     #[inline]
     pub fn item(&self) -> u32 {
         self.packed & (MAX_ITEMS as u32 - 1)
-    }
-
-    /// `true` when this entry's cell is the lowest cell of the item's box along axis `a`.
-    #[inline]
-    fn lowest_along(&self, a: usize) -> bool {
-        self.packed & (1 << (ITEM_BITS as usize + a)) != 0
     }
 }
 
@@ -276,7 +270,10 @@ impl<'a> SpatialHash<'a> {
         let lo = self.starts.get(k).copied().unwrap_or(0) as usize;
         let hi = self.starts.get(k + 1).copied().unwrap_or(0) as usize;
         let slice = self.entries.get(lo..hi.min(self.used)).unwrap_or(&[]);
-        slice.iter().filter(move |e| e.cell == c).map(|e| e.item())
+        slice
+            .iter()
+            .filter(move |e| same_cell(&e.cell, &c))
+            .map(|e| e.item())
     }
 
     /// The items stored in cell `c` in increasing item order, as [`SpatialHash::items_in_cell`]
@@ -295,7 +292,7 @@ impl<'a> SpatialHash<'a> {
         slice
             .iter()
             .rev()
-            .filter(move |e| e.cell == c)
+            .filter(move |e| same_cell(&e.cell, &c))
             .map(|e| e.item())
     }
 
@@ -350,8 +347,13 @@ impl<'a> SpatialHash<'a> {
             let k = bucket_of(c, nb) as usize;
             let start = self.starts.get(k).copied().unwrap_or(0) as usize;
             let end = self.starts.get(k + 1).copied().unwrap_or(0) as usize;
+            // The "lowest cell" bits an entry of this cell needs: along every axis where the
+            // cell is not the query's lowest. One mask test per entry, then the cell.
+            let need = (0..3)
+                .filter(|&a| c[a] != lo[a])
+                .fold(0u32, |m, a| m | 1 << (ITEM_BITS as usize + a));
             for e in self.entries.get(start..end.min(self.used)).unwrap_or(&[]) {
-                if e.cell == c && (0..3).all(|a| c[a] == lo[a] || e.lowest_along(a)) {
+                if e.packed & need == need && same_cell(&e.cell, &c) {
                     f(e.item());
                 }
             }

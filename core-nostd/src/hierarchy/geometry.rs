@@ -196,10 +196,30 @@ pub(crate) fn refinement_points(
     bary: &[Packed; 4],
     depth: u8,
 ) -> ([Packed; 10], [Vec3; 10]) {
-    let rows = PAIRS.map(|v| pair_row(bary, v));
-    let scale = scale_of(depth + 1);
-    let pts = rows.map(|w| frame.packed_point(w, scale));
+    let mut rows = [0; 10];
+    let mut pts = [Vec3::ZERO; 10];
+    refinement_points_into(frame, bary, depth, &mut rows, &mut pts);
     (rows, pts)
+}
+
+/// [`refinement_points`] written into the caller's arrays (a walk that keeps them across
+/// iterations copies no 120-byte array per refinement).
+///
+/// # Bounded work
+/// Constant: ten [`RootFrame::point`] evaluations.
+#[inline(always)]
+pub(crate) fn refinement_points_into(
+    frame: &RootFrame,
+    bary: &[Packed; 4],
+    depth: u8,
+    rows: &mut [Packed; 10],
+    pts: &mut [Vec3; 10],
+) {
+    let scale = scale_of(depth + 1);
+    for ((row, pt), pair) in rows.iter_mut().zip(pts.iter_mut()).zip(PAIRS) {
+        *row = pair_row(bary, pair);
+        *pt = frame.packed_point(*row, scale);
+    }
 }
 
 /// Child `c`'s packed coordinates and corners, picked from the ten rows and points of its
@@ -218,14 +238,35 @@ pub(crate) fn child_of_refinement(
     (child_of_ten(rows, c), child_of_ten(pts, c))
 }
 
+/// `CHILD_TEN[c][k]`: the index in [`PAIRS`] of child `c`'s vertex `k`, i.e. `PAIR` of
+/// [`super::table::CHILD_VERTS`]`[c][k]`, folded at compile time.
+const CHILD_TEN: [[u8; 4]; 8] = {
+    let mut t = [[0u8; 4]; 8];
+    let mut c = 0;
+    while c < 8 {
+        let mut k = 0;
+        while k < 4 {
+            let (a, b) = CHILD_VERTS[c][k];
+            t[c][k] = PAIR[a as usize][b as usize] as u8;
+            k += 1;
+        }
+        c += 1;
+    }
+    t
+};
+
 /// Child `c`'s four entries (its corners in its own order) among ten per-point values of its
-/// parent's refinement, indexed as [`PAIRS`].
+/// parent's refinement, indexed as [`PAIRS`]. One table row and four loads: through
+/// `CHILD_VERTS` and `PAIR` with `array::map` it was a fifth of the contact search's
+/// instructions (callgrind, firmware scenario).
 ///
 /// # Bounded work
 /// Constant: four look-ups.
-#[inline]
+#[inline(always)]
 pub(crate) fn child_of_ten<T: Copy>(ten: &[T; 10], c: u8) -> [T; 4] {
-    CHILD_VERTS[(c & 7) as usize].map(|(a, b)| ten[PAIR[(a & 3) as usize][(b & 3) as usize]])
+    let [i, j, k, l] = CHILD_TEN[(c & 7) as usize];
+    let at = |x: u8| ten[(x as usize).min(9)];
+    [at(i), at(j), at(k), at(l)]
 }
 
 /// Volume of node `path` of tet `tet`: the root's volume over `8^depth` (Bey's eight children

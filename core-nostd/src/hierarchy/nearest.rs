@@ -21,7 +21,7 @@
 
 use glam::Vec3;
 
-use super::geometry::{child_of_refinement, node_positions, refinement_points, Packed, RootFrame};
+use super::geometry::{child_of_ten, node_positions, refinement_points_into, Packed, RootFrame};
 use super::node::HNode;
 use super::store::Hierarchy;
 use super::surface::{bounding_sphere, face_corners, VisibleTri};
@@ -86,15 +86,6 @@ struct Entry {
     /// Bounding sphere radius.
     rad: f32,
 }
-
-const EMPTY: Entry = Entry {
-    r: 0,
-    index: 0,
-    depth: 0,
-    bary: [0; 4],
-    d2: 0.0,
-    rad: 0.0,
-};
 
 /// The state of one search.
 struct Search {
@@ -351,7 +342,12 @@ impl Hierarchy<'_> {
             max_nodes,
             stopped: false,
         };
-        let mut stack = [EMPTY; STACK];
+        // Not initialised up front (heapless keeps it uninitialised): zeroing 78 entries
+        // cost a few thousand instructions a walk on a Cortex-M4.
+        let mut stack: heapless::Vec<Entry, STACK> = heapless::Vec::new();
+        // The ten points of the refinement being expanded (and their packed rows).
+        let mut ten_rows = [0; 10];
+        let mut ten = [Vec3::ZERO; 10];
         for &t in tets {
             if s.stopped {
                 break;
@@ -365,14 +361,13 @@ impl Hierarchy<'_> {
             };
             let rows = frame.root_packed();
             let p = frame.positions_packed(&rows, 0);
-            let Some(root) = self.consider(&mut s, t.0, 0, 0, rows, p) else {
+            let Some(root) = self.consider_root(&mut s, t.0, rows, p) else {
                 continue;
             };
-            stack[0] = root;
-            let mut top = 1usize;
-            while top > 0 && !s.stopped {
-                top -= 1;
-                let Some(e) = stack.get(top).copied() else {
+            stack.clear();
+            let _ = stack.push(root);
+            while !s.stopped {
+                let Some(e) = stack.pop() else {
                     break;
                 };
                 if !s.may_hold_better(e.d2, e.rad) {
@@ -391,15 +386,16 @@ impl Hierarchy<'_> {
                 // The children kept go straight onto the stack, then that segment is sorted
                 // farthest first so the nearest is walked first.
                 let first = self.block_ref(b);
-                let base = top;
+                let base = stack.len();
                 // The ten points of this refinement, evaluated once for all eight children.
-                let (rows, pts) = refinement_points(&frame, &e.bary, e.depth);
+                refinement_points_into(&frame, &e.bary, e.depth, &mut ten_rows, &mut ten);
                 for c in 0..8u8 {
                     let cr = first + c as u32;
                     let Some(child) = self.node(cr).filter(|n| n.surface()) else {
                         continue;
                     };
-                    let (bary, p) = child_of_refinement(&rows, &pts, c);
+                    // Corners first; the packed rows only for an inner node that is kept.
+                    let p = child_of_ten(&ten, c);
                     let index = e.index * 8 + 1 + c as u32;
                     if child.is_leaf() {
                         // Leaves are tested at once (no stack round trip), after the same
@@ -417,15 +413,14 @@ impl Hierarchy<'_> {
                         }
                         continue;
                     }
-                    if let Some(k) = self.consider(&mut s, cr, index, e.depth + 1, bary, p) {
-                        if let Some(slot) = stack.get_mut(top) {
-                            *slot = k;
-                            top += 1;
-                        }
+                    if let Some(k) = self.consider(&mut s, cr, index, e.depth + 1, &ten_rows, c, p)
+                    {
+                        // Never full: at most 7 entries per level wait, plus 8.
+                        let _ = stack.push(k);
                     }
                 }
                 // Insertion sort by decreasing distance (at most 8).
-                if let Some(kids) = stack.get_mut(base..top) {
+                if let Some(kids) = stack.get_mut(base..) {
                     for i in 1..kids.len() {
                         let mut j = i;
                         while j > 0 && kids[j - 1].d2 < kids[j].d2 {
@@ -439,9 +434,12 @@ impl Hierarchy<'_> {
         s
     }
 
-    /// The stack entry of node `r` when it holds surface, passes the reach test of
-    /// [`Hierarchy::for_each_visible_in`] and may hold a triangle within the bound; counts one
-    /// node of work (or stops the search when `max_nodes` are spent).
+    /// The stack entry of child `c` (node `r`, tree index `index`, corners `p`) of a
+    /// refinement whose ten packed rows are `rows`, when it holds surface, passes the reach
+    /// test of [`Hierarchy::for_each_visible_in`] and may hold a triangle within the bound;
+    /// counts one node of work (or stops the search when `max_nodes` are spent). The child's
+    /// own packed rows are picked from `rows` only when it is kept.
+    #[allow(clippy::too_many_arguments)]
     #[inline]
     fn consider(
         &self,
@@ -449,9 +447,45 @@ impl Hierarchy<'_> {
         r: u32,
         index: u32,
         depth: u8,
-        bary: [Packed; 4],
+        rows: &[Packed; 10],
+        c: u8,
         p: [Vec3; 4],
     ) -> Option<Entry> {
+        let (d2, rad) = self.test_node(s, r, p)?;
+        Some(Entry {
+            r,
+            index,
+            depth,
+            bary: child_of_ten(rows, c),
+            d2,
+            rad,
+        })
+    }
+
+    /// [`Hierarchy::consider`] for the root of a tree (packed rows `rows`, corners `p`).
+    #[inline]
+    fn consider_root(
+        &self,
+        s: &mut Search,
+        r: u32,
+        rows: [Packed; 4],
+        p: [Vec3; 4],
+    ) -> Option<Entry> {
+        let (d2, rad) = self.test_node(s, r, p)?;
+        Some(Entry {
+            r,
+            index: 0,
+            depth: 0,
+            bary: rows,
+            d2,
+            rad,
+        })
+    }
+
+    /// The tests of [`Hierarchy::consider`]: the squared distance to the bounding sphere's
+    /// centre and its radius when node `r` (corners `p`) is kept.
+    #[inline]
+    fn test_node(&self, s: &mut Search, r: u32, p: [Vec3; 4]) -> Option<(f32, f32)> {
         if !self.node(r)?.surface() {
             return None;
         }
@@ -466,14 +500,7 @@ impl Hierarchy<'_> {
         if d2 > lim * lim || !s.may_hold_better(d2, rad) || s.all_cut(d2, rad) {
             return None;
         }
-        Some(Entry {
-            r,
-            index,
-            depth,
-            bary,
-            d2,
-            rad,
-        })
+        Some((d2, rad))
     }
 }
 

@@ -58,7 +58,12 @@ pub(super) fn bounding_sphere(p: [Vec3; 4]) -> (Vec3, f32) {
     let mid = (p[0] + p[1] + p[2] + p[3]) * 0.25;
     let mut r2 = 0.0f32;
     for q in p {
-        r2 = r2.max(q.distance_squared(mid));
+        // `r2.max(d)` with the same bits (a NaN `d` is skipped either way), but a compare:
+        // on a Cortex-M4 `f32::max` is a call to `fmaxf`.
+        let d = q.distance_squared(mid);
+        if d > r2 {
+            r2 = d;
+        }
     }
     (mid, libm::sqrtf(r2))
 }

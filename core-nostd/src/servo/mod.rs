@@ -428,37 +428,45 @@ impl<'a> World<'a> {
         }
         let zone = tight.union(Aabb::point(centre).grown(radius + reach));
         let (cands, mesh, hash) = (&mut *self.candidates, &self.mesh, &self.hash);
-        let mut n = 0usize;
-        let mut full = false;
         // Each tet once (in the first cell of the query that holds it), and only when its box
-        // meets the zone.
+        // meets the zone. The tets that meet the burr itself (`tight`: the drill works on
+        // those only) fill the list from the front, the others from the back; both keep the
+        // tets found first when the list is full.
+        let cap = cands.len();
+        let (mut m, mut back) = (0usize, 0usize);
+        let mut full = false;
         hash.query_box_once(&zone, self.max_cells, |item| {
             let t = TetId(item);
             if full || t.idx() >= mesh.tet_count() {
                 return;
             }
-            if !Aabb::of(mesh.tet_positions(t)).overlaps(&zone) {
+            let p = mesh.tet_positions(t);
+            if !zone.overlaps_points(&p) {
                 return;
             }
-            if n == cands.len() {
+            if m + back == cap {
                 full = true;
                 return;
             }
-            cands[n] = t;
-            n += 1;
-        });
-        let k = n;
-        // The tets that meet the burr itself first: the drill works on those only.
-        let list = &mut cands[..k];
-        let mut m = 0;
-        for i in 0..list.len() {
-            if Aabb::of(mesh.tet_positions(list[i])).overlaps(&tight) {
-                list.swap(i, m);
+            let slot = if tight.overlaps_points(&p) {
                 m += 1;
+                m - 1
+            } else {
+                back += 1;
+                cap - back
+            };
+            if let Some(c) = cands.get_mut(slot) {
+                *c = t;
             }
+        });
+        // The others next to the burr's, then each part in tet order.
+        cands.copy_within(cap - back..cap, m);
+        let k = m + back;
+        if let Some(list) = cands.get_mut(..k) {
+            let (near, rest) = list.split_at_mut(m);
+            near.sort_unstable();
+            rest.sort_unstable();
         }
-        list[..m].sort_unstable();
-        list[m..].sort_unstable();
         self.ncand = k;
         if full {
             self.sat.candidates += 1;

@@ -44,6 +44,10 @@ const TICKS: Option<&str> = option_env!("TETRADRILL_TICKS");
 /// expanded, NTree nodes visited, nodes created, leaves erased), for fitting the drill's work
 /// weights (`scripts/fit-work-weights.py`).
 const TICK_LOG: bool = option_env!("TETRADRILL_TICK_LOG").is_some();
+/// Set at build time (`TETRADRILL_PROFILE_FROM=N`) to call [`profile_mark`] before tick N:
+/// `scripts/m4-profile.sh` counts QEMU's executed blocks from that call on, so the profile
+/// covers the ticks from N (where the worst ticks are) and not the start-up.
+const PROFILE_FROM: Option<&str> = option_env!("TETRADRILL_PROFILE_FROM");
 
 /// The scenario's numbers exactly as the host derives them (`TickParams::of`): the host parses
 /// f64 and converts to f32, so the firmware writes the same f64 literals and converts.
@@ -132,10 +136,15 @@ fn main() -> ! {
     let mut sim = clock::Stats::default();
     let mut servo = clock::Stats::default();
     let mut contact = clock::Stats::default();
+    let mut query = clock::Stats::default();
     let mut worst = SimReport::default();
     let mut contact_ticks = 0u32;
     let run_start = clock.now();
+    let profile_from = PROFILE_FROM.and_then(|s| s.parse::<u32>().ok());
     for i in 0..ticks {
+        if profile_from == Some(i) {
+            profile_mark();
+        }
         let (position, buttons) = DEMO.at(i);
         let drill_on = buttons & DRILL_ON != 0;
         let t0 = clock.now();
@@ -166,16 +175,24 @@ fn main() -> ! {
         if whole.max_at == i {
             worst = rep;
         }
-        // Diagnostic, outside the tick: the contact query of `simulate` done again over the
-        // same candidates, to split the simulation's cost into contact and drill.
-        let c0 = clock.now();
-        nearest_visible(&world, position, scenario::RADIUS + scenario::REACH);
-        let c1 = clock.now();
-        contact.add(i, clock::instructions(c1 - c0).saturating_sub(oh));
+        // Diagnostics, outside the tick (and left out of a profile): the contact search and
+        // the candidate query of `simulate` done again, to split the simulation's cost into
+        // query, contact and drill.
+        let (mut c0, mut c1, mut q0, mut q1, mut nq) = (0, 0, 0, 0, 0);
+        if profile_from.is_none() {
+            c0 = clock.now();
+            nearest_visible(&world, position, scenario::RADIUS + scenario::REACH);
+            c1 = clock.now();
+            contact.add(i, clock::instructions(c1 - c0).saturating_sub(oh));
+            q0 = clock.now();
+            nq = candidate_query(&world, position, scenario::RADIUS + scenario::REACH);
+            q1 = clock.now();
+            query.add(i, clock::instructions(q1 - q0).saturating_sub(oh));
+        }
         if TICK_LOG {
             let d = &rep.drill;
             hprintln!(
-                "tick {} {} {} {} {} {} {} {} {}",
+                "tick {} {} {} {} {} {} {} {} {} {} {} {} {}",
                 i,
                 clock::instructions(t2 - t0).saturating_sub(2 * oh),
                 clock::instructions(t1 - t0).saturating_sub(oh),
@@ -184,7 +201,11 @@ fn main() -> ! {
                 d.expanded,
                 d.visits,
                 d.created,
-                d.erased
+                d.erased,
+                clock::instructions(q1 - q0).saturating_sub(oh),
+                nq,
+                rep.contact_nodes,
+                rep.candidates
             );
         }
     }
@@ -203,6 +224,8 @@ fn main() -> ! {
     hprintln!("servo_force_instructions_mean={}", servo.mean());
     hprintln!("contact_query_instructions_max={}", contact.max);
     hprintln!("contact_query_instructions_mean={}", contact.mean());
+    hprintln!("candidate_query_instructions_max={}", query.max);
+    hprintln!("candidate_query_instructions_mean={}", query.mean());
     hprintln!(
         "worst_tick: candidates {} triangles {} contact nodes {} drill work {} created {} erased {} pending {}",
         worst.candidates,
@@ -246,6 +269,30 @@ fn nearest_visible(world: &World<'_>, centre: Vec3, reach: f32) -> f32 {
             world.contact_max_nodes(),
         )
         .d2
+}
+
+/// Marks where a profile starts (see [`PROFILE_FROM`]): QEMU's execution log names this
+/// function when it runs.
+#[inline(never)]
+fn profile_mark() {
+    core::hint::black_box(0u32);
+}
+
+/// The candidate query of `World::simulate` redone alone (a diagnostic): the coarse tets
+/// whose box meets the box `reach` around `centre`, through the static hash, each once. The
+/// tick's own query also covers the burr positions it queues, so this is a little less.
+#[inline(never)]
+fn candidate_query(world: &World<'_>, centre: Vec3, reach: f32) -> u32 {
+    let zone = tetradrill_core::hash::Aabb::point(centre).grown(reach);
+    let mesh = world.mesh();
+    let mut n = 0u32;
+    world.hash().query_box_once(&zone, 4096, |item| {
+        let t = tetradrill_core::TetId(item);
+        if t.idx() < mesh.tet_count() && zone.overlaps_points(&mesh.tet_positions(t)) {
+            n += 1;
+        }
+    });
+    n
 }
 
 /// Instructions for a few primitives the core leans on (a diagnostic for docs/PORTING.md):
