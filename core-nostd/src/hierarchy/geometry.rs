@@ -255,6 +255,45 @@ const CHILD_TEN: [[u8; 4]; 8] = {
     t
 };
 
+/// `CHILD_POINTS[c]`: bit `i` set when child `c` has point `i` of [`PAIRS`] as a corner.
+pub(crate) const CHILD_POINTS: [u16; 8] = {
+    let mut m = [0u16; 8];
+    let mut c = 0;
+    while c < 8 {
+        let mut k = 0;
+        while k < 4 {
+            m[c] |= 1 << CHILD_TEN[c][k];
+            k += 1;
+        }
+        c += 1;
+    }
+    m
+};
+
+/// [`refinement_points_into`] for the points whose bit is set in `mask` only (the corners of
+/// the children a walk will look at, [`CHILD_POINTS`]); the other entries are left as they
+/// were. Each point evaluated has the bits [`refinement_points`] gives it.
+///
+/// # Bounded work
+/// Constant: at most ten [`RootFrame::point`] evaluations, one per bit of `mask`.
+#[inline(always)]
+pub(crate) fn refinement_points_masked(
+    frame: &RootFrame,
+    bary: &[Packed; 4],
+    depth: u8,
+    mask: u16,
+    rows: &mut [Packed; 10],
+    pts: &mut [Vec3; 10],
+) {
+    let scale = scale_of(depth + 1);
+    for (i, ((row, pt), pair)) in rows.iter_mut().zip(pts.iter_mut()).zip(PAIRS).enumerate() {
+        if mask & (1 << i) != 0 {
+            *row = pair_row(bary, pair);
+            *pt = frame.packed_point(*row, scale);
+        }
+    }
+}
+
 /// Child `c`'s four entries (its corners in its own order) among ten per-point values of its
 /// parent's refinement, indexed as [`PAIRS`]. One table row and four loads: through
 /// `CHILD_VERTS` and `PAIR` with `array::map` it was a fifth of the contact search's

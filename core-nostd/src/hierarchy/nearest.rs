@@ -21,7 +21,9 @@
 
 use glam::Vec3;
 
-use super::geometry::{child_of_ten, node_positions, refinement_points_into, Packed, RootFrame};
+use super::geometry::{
+    child_of_ten, node_positions, refinement_points_masked, Packed, RootFrame, CHILD_POINTS,
+};
 use super::node::HNode;
 use super::store::Hierarchy;
 use super::surface::{bounding_sphere, face_corners, VisibleTri};
@@ -387,11 +389,23 @@ impl Hierarchy<'_> {
                 // farthest first so the nearest is walked first.
                 let first = self.block_ref(b);
                 let base = stack.len();
-                // The ten points of this refinement, evaluated once for all eight children.
-                refinement_points_into(&frame, &e.bary, e.depth, &mut ten_rows, &mut ten);
+                // The children holding surface, and of the ten points of this refinement only
+                // their corners (a third of the children hold surface on a drilled groove).
+                let mut kids = 0u8;
+                let mut need = 0u16;
                 for c in 0..8u8 {
+                    if self.node(first + c as u32).is_some_and(|n| n.surface()) {
+                        kids |= 1 << c;
+                        need |= CHILD_POINTS[c as usize];
+                    }
+                }
+                refinement_points_masked(&frame, &e.bary, e.depth, need, &mut ten_rows, &mut ten);
+                for c in 0..8u8 {
+                    if kids & (1 << c) == 0 {
+                        continue;
+                    }
                     let cr = first + c as u32;
-                    let Some(child) = self.node(cr).filter(|n| n.surface()) else {
+                    let Some(child) = self.node(cr) else {
                         continue;
                     };
                     // Corners first; the packed rows only for an inner node that is kept.

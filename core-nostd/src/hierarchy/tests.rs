@@ -498,7 +498,10 @@ fn wholly_erased_blocks_are_taken_back_when_the_arena_is_full() {
 /// `node_positions` of the child's path (unpacked weights in the corners' canonical order).
 #[test]
 fn shared_refinement_points_are_each_childs_own_bits() {
-    use super::geometry::{child_of_refinement, child_packed, refinement_points, RootFrame};
+    use super::geometry::{
+        child_of_refinement, child_packed, refinement_points, refinement_points_masked, RootFrame,
+        CHILD_POINTS,
+    };
     let (mut c, t) = cube();
     let mesh = build(&mut c, &t);
     let mut seed = 7u32;
@@ -509,6 +512,23 @@ fn shared_refinement_points_are_each_childs_own_bits() {
             let mut path = Path::ROOT;
             for depth in 0..5u8 {
                 let (rows, pts) = refinement_points(&frame, &bary, depth);
+                // Only the corners of some children (the contact walk's masked form): those
+                // children's entries are the full evaluation's, bit for bit.
+                let kids = (seed >> 8) as u8 | 1;
+                let need = (0..8)
+                    .filter(|c| kids & (1 << c) != 0)
+                    .fold(0u16, |m, c| m | CHILD_POINTS[c]);
+                let (mut mrows, mut mpts) = ([u64::MAX; 10], [Vec3::NAN; 10]);
+                refinement_points_masked(&frame, &bary, depth, need, &mut mrows, &mut mpts);
+                for ch in (0..8u8).filter(|c| kids & (1 << c) != 0) {
+                    let (b, p) = child_of_refinement(&mrows, &mpts, ch);
+                    let (fb, fp) = child_of_refinement(&rows, &pts, ch);
+                    assert_eq!(b, fb);
+                    assert_eq!(
+                        p.map(|v| v.to_array().map(f32::to_bits)),
+                        fp.map(|v| v.to_array().map(f32::to_bits))
+                    );
+                }
                 for ch in 0..8u8 {
                     let own = child_packed(&bary, ch);
                     let (b, p) = child_of_refinement(&rows, &pts, ch);
