@@ -3,7 +3,7 @@
 
 use tetradrill_core::drill::{DrillParams, Pending};
 use tetradrill_core::force::{ForceParams, ToolState};
-use tetradrill_core::hash::HashEntry;
+use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{HNode, HierarchyStorage, VEntry};
 use tetradrill_core::servo::{servo_force, SimReport, World, WorldSizes, WorldStorage};
 use tetradrill_core::{TetId, Vec3};
@@ -20,6 +20,7 @@ pub struct EngineStorage {
     mesh: OwnedMesh,
     hash_starts: Vec<u32>,
     hash_entries: Vec<HashEntry>,
+    tet_boxes: Vec<Aabb>,
     roots: Vec<HNode>,
     arena: Vec<HNode>,
     vlist: Vec<VEntry>,
@@ -81,6 +82,7 @@ impl EngineStorage {
             mesh,
             hash_starts: vec![0; s.hash_starts],
             hash_entries: vec![HashEntry::default(); s.hash_entries],
+            tet_boxes: vec![Aabb::point(Vec3::ZERO); s.tet_boxes],
             roots: vec![HNode::default(); s.roots],
             arena: vec![HNode::default(); s.arena],
             vlist: vec![VEntry::default(); s.vlist],
@@ -97,6 +99,7 @@ impl EngineStorage {
             WorldStorage {
                 hash_starts: &mut self.hash_starts,
                 hash_entries: &mut self.hash_entries,
+                tet_boxes: &mut self.tet_boxes,
                 hierarchy: HierarchyStorage {
                     roots: &mut self.roots,
                     arena: &mut self.arena,

@@ -883,6 +883,7 @@ fn drill_work_stays_within_budget_plus_one_operation() {
 struct WorldStore {
     hash_starts: Vec<u32>,
     hash_entries: Vec<HashEntry>,
+    tet_boxes: Vec<Aabb>,
     hier: HierStore,
     pending: Vec<Pending>,
     candidates: Vec<TetId>,
@@ -895,6 +896,7 @@ impl WorldStore {
         Self {
             hash_starts: vec![0; s.hash_starts],
             hash_entries: vec![HashEntry::default(); s.hash_entries],
+            tet_boxes: vec![Aabb::point(Vec3::ZERO); s.tet_boxes],
             hier,
             pending: vec![Pending::default(); s.pending],
             candidates: vec![TetId::NONE; s.candidates],
@@ -907,6 +909,7 @@ impl WorldStore {
             WorldStorage {
                 hash_starts: &mut self.hash_starts,
                 hash_entries: &mut self.hash_entries,
+                tet_boxes: &mut self.tet_boxes,
                 hierarchy: self.hier.storage(),
                 pending: &mut self.pending,
                 candidates: &mut self.candidates,

@@ -11,7 +11,7 @@ use tetradrill::owned::OwnedMesh;
 use tetradrill_core::builtin::{block, block_counts};
 use tetradrill_core::drill::{DrillParams, Pending};
 use tetradrill_core::force::{closest_point_on_triangle, sphere_contact};
-use tetradrill_core::hash::HashEntry;
+use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{FaceRef, HNode, Hierarchy, HierarchyStorage, VEntry};
 use tetradrill_core::mesh::{BuildOptions, Mesh};
 use tetradrill_core::servo::{World, WorldSizes, WorldStorage};
@@ -21,6 +21,7 @@ use tetradrill_core::TetId;
 struct Store {
     hash_starts: Vec<u32>,
     hash_entries: Vec<HashEntry>,
+    tet_boxes: Vec<Aabb>,
     roots: Vec<HNode>,
     arena: Vec<HNode>,
     vlist: Vec<VEntry>,
@@ -34,6 +35,7 @@ impl Store {
         Self {
             hash_starts: vec![0; s.hash_starts],
             hash_entries: vec![HashEntry::default(); s.hash_entries],
+            tet_boxes: vec![Aabb::point(Vec3::ZERO); s.tet_boxes],
             roots: vec![HNode::default(); s.roots],
             arena: vec![HNode::default(); s.arena],
             vlist: vec![VEntry::default(); s.vlist],
@@ -48,6 +50,7 @@ impl Store {
             WorldStorage {
                 hash_starts: &mut self.hash_starts,
                 hash_entries: &mut self.hash_entries,
+                tet_boxes: &mut self.tet_boxes,
                 hierarchy: HierarchyStorage {
                     roots: &mut self.roots,
                     arena: &mut self.arena,
@@ -425,4 +428,65 @@ fn the_node_bound_gives_a_true_face_never_too_deep_and_counts() {
     .unwrap();
     let x = closest_point_on_triangle(c, best.2);
     assert_eq!(world.contact().point, x);
+}
+
+/// The candidate list of `World::simulate` is the tets whose box meets the box
+/// `radius + reach` around the tool, in tet order, against a brute force over every tet's
+/// corners (steps with the drill off, where no burr position adds to the zone); and a world
+/// whose tet boxes are stored gives every step the same candidates, contact and report as a
+/// twin given no box storage (each box then made from the corners), drilling on and off.
+#[test]
+fn candidates_are_the_tets_whose_box_meets_the_zone_with_or_without_stored_boxes() {
+    let mut om = block_mesh(5);
+    let mut twin_mesh = block_mesh(5);
+    let mesh = om.view();
+    let mut st = Store::new(mesh.tet_count(), 1 << 16);
+    let mut bare = Store::new(mesh.tet_count(), 1 << 16);
+    bare.tet_boxes.clear();
+    let positions: Vec<[Vec3; 4]> = (0..mesh.tet_count())
+        .map(|t| mesh.tet_positions(TetId::from_idx(t)))
+        .collect();
+    let mut world = st.world(mesh);
+    let mut twin = bare.world(twin_mesh.view());
+    let params = DrillParams {
+        max_depth: 3,
+        min_area: 0.0,
+        budget: 3_000,
+    };
+    let (radius, reach) = (0.09f32, 0.045f32);
+    let mut rng = StdRng::seed_from_u64(21);
+    let mut c = Vec3::new(0.0, 0.0, 0.6);
+    let (mut checked, mut nonempty) = (0, 0);
+    for step in 0..400 {
+        let on = step % 50 < 30;
+        let a = world.simulate(c, radius, reach, on, &params);
+        let b = twin.simulate(c, radius, reach, on, &params);
+        assert_eq!(world.candidates(), twin.candidates(), "step {step}");
+        assert_eq!(world.contact(), twin.contact(), "step {step}");
+        assert_eq!(a, b, "step {step}");
+        if !on {
+            let zone = Aabb::point(c).grown(radius + reach);
+            let want: Vec<TetId> = (0..positions.len())
+                .filter(|&t| {
+                    let p = &positions[t];
+                    (0..3).all(|ax| {
+                        let lo = p.iter().map(|q| q[ax]).fold(f32::INFINITY, f32::min);
+                        let hi = p.iter().map(|q| q[ax]).fold(f32::NEG_INFINITY, f32::max);
+                        lo <= zone.max[ax] && hi >= zone.min[ax]
+                    })
+                })
+                .map(TetId::from_idx)
+                .collect();
+            assert_eq!(world.candidates(), &want[..], "step {step} at {c}");
+            checked += 1;
+            nonempty += usize::from(!want.is_empty());
+        }
+        c += Vec3::new(
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..0.6),
+        ) * 0.02;
+        c = c.clamp(Vec3::splat(-0.7), Vec3::splat(0.7));
+    }
+    assert!(checked > 100 && nonempty > 50, "{checked} {nonempty}");
 }

@@ -28,6 +28,9 @@ pub struct WorldStorage<'a> {
     pub hash_starts: &'a mut [u32],
     /// Entries of the static tet hash (one per tet and overlapped cell).
     pub hash_entries: &'a mut [HashEntry],
+    /// Each tet's bounding box, filled once by [`World::new`] (one per tet; a tet beyond the
+    /// slice has its box made from its corners each time it is needed, the same box).
+    pub tet_boxes: &'a mut [Aabb],
     /// The hierarchy's roots, arena and v_list.
     pub hierarchy: HierarchyStorage<'a>,
     /// The drill's pending-work deque.
@@ -43,6 +46,8 @@ pub struct WorldSizes {
     pub hash_starts: usize,
     /// `hash_entries` length.
     pub hash_entries: usize,
+    /// `tet_boxes` length (24 bytes each).
+    pub tet_boxes: usize,
     /// Hierarchy root slots.
     pub roots: usize,
     /// Hierarchy arena nodes.
@@ -72,6 +77,7 @@ impl WorldSizes {
         Self {
             hash_starts: 2 * tets + 2,
             hash_entries: 8 * tets,
+            tet_boxes: tets,
             roots: tets,
             arena,
             vlist: HierarchyStorage::vlist_needed(tets, arena),
@@ -174,6 +180,7 @@ impl Saturations {
 pub struct World<'a> {
     mesh: Mesh<'a>,
     hash: SpatialHash<'a>,
+    boxes: &'a mut [Aabb],
     hier: Hierarchy<'a>,
     drill: Drill<'a>,
     candidates: &'a mut [TetId],
@@ -219,8 +226,8 @@ pub const DRILL_SETTLE: f32 = DRILL_SPACING / 16.0;
 pub const MAX_STEP_SPHERES: usize = 16;
 
 impl<'a> World<'a> {
-    /// Hashes the mesh's tets once (cell size = average edge length) and creates an untouched
-    /// hierarchy.
+    /// Hashes the mesh's tets once (cell size = average edge length), stores each tet's box
+    /// and creates an untouched hierarchy.
     ///
     /// # Bounded work
     /// O(T + buckets + hash entries) for T tets.
@@ -233,6 +240,7 @@ impl<'a> World<'a> {
         let WorldStorage {
             hash_starts,
             hash_entries,
+            tet_boxes,
             hierarchy,
             pending,
             candidates,
@@ -247,6 +255,9 @@ impl<'a> World<'a> {
         let built = hash.rebuild(mesh.tet_count(), |t| {
             Some(Aabb::of(mesh.tet_positions(TetId::from_idx(t))))
         });
+        for (t, b) in tet_boxes.iter_mut().enumerate().take(mesh.tet_count()) {
+            *b = Aabb::of(mesh.tet_positions(TetId::from_idx(t)));
+        }
         let hier = Hierarchy::new(&mesh, hierarchy).map_err(WorldError::Hierarchy)?;
         let sat = Saturations {
             hash: built.saturated as u32,
@@ -255,6 +266,7 @@ impl<'a> World<'a> {
         Ok(Self {
             mesh,
             hash,
+            boxes: tet_boxes,
             hier,
             drill: Drill::new(pending),
             candidates,
@@ -427,7 +439,8 @@ impl<'a> World<'a> {
             tight = tight.union(Aabb::point(s.center).grown(s.radius));
         }
         let zone = tight.union(Aabb::point(centre).grown(radius + reach));
-        let (cands, mesh, hash) = (&mut *self.candidates, &self.mesh, &self.hash);
+        let (cands, mesh, hash, boxes) =
+            (&mut *self.candidates, &self.mesh, &self.hash, &self.boxes);
         // Each tet once (in the first cell of the query that holds it), and only when its box
         // meets the zone. The tets that meet the burr itself (`tight`: the drill works on
         // those only) fill the list from the front, the others from the back; both keep the
@@ -440,15 +453,23 @@ impl<'a> World<'a> {
             if full || t.idx() >= mesh.tet_count() {
                 return;
             }
-            let p = mesh.tet_positions(t);
-            if !zone.overlaps_points(&p) {
+            // The stored box, or the same box from the corners (the mesh's positions are
+            // finite, so both tests agree).
+            let (in_zone, near) = match boxes.get(t.idx()) {
+                Some(b) => (b.overlaps(&zone), b.overlaps(&tight)),
+                None => {
+                    let p = mesh.tet_positions(t);
+                    (zone.overlaps_points(&p), tight.overlaps_points(&p))
+                }
+            };
+            if !in_zone {
                 return;
             }
             if m + back == cap {
                 full = true;
                 return;
             }
-            let slot = if tight.overlaps_points(&p) {
+            let slot = if near {
                 m += 1;
                 m - 1
             } else {

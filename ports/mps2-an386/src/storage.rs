@@ -14,7 +14,7 @@ use static_cell::ConstStaticCell;
 
 use tetradrill_core::builtin::block_counts;
 use tetradrill_core::drill::Pending;
-use tetradrill_core::hash::HashEntry;
+use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{HNode, HierarchyStorage, VEntry};
 use tetradrill_core::mesh::{MeshStorage, Node, Reverse, Tet};
 use tetradrill_core::servo::{WorldSizes, WorldStorage};
@@ -44,6 +44,10 @@ const ZERO_TET: Tet = Tet {
     reverse: [Reverse(0); 4],
 };
 const ZERO_ENTRY: HashEntry = HashEntry::EMPTY;
+const ZERO_BOX: Aabb = Aabb {
+    min: Vec3::ZERO,
+    max: Vec3::ZERO,
+};
 const ZERO_VENTRY: VEntry = VEntry {
     tet: TetId(0),
     index: 0,
@@ -59,6 +63,8 @@ static HASH_STARTS: ConstStaticCell<[u32; SIZES.hash_starts]> =
     ConstStaticCell::new([0; SIZES.hash_starts]);
 static HASH_ENTRIES: ConstStaticCell<[HashEntry; SIZES.hash_entries]> =
     ConstStaticCell::new([ZERO_ENTRY; SIZES.hash_entries]);
+static TET_BOXES: ConstStaticCell<[Aabb; SIZES.tet_boxes]> =
+    ConstStaticCell::new([ZERO_BOX; SIZES.tet_boxes]);
 static ROOTS: ConstStaticCell<[HNode; SIZES.roots]> =
     ConstStaticCell::new([HNode::LEAF; SIZES.roots]);
 static ARENA_NODES: ConstStaticCell<[HNode; SIZES.arena]> =
@@ -106,6 +112,7 @@ impl Storage {
             world: WorldStorage {
                 hash_starts: HASH_STARTS.take(),
                 hash_entries: entries,
+                tet_boxes: TET_BOXES.take(),
                 hierarchy: HierarchyStorage {
                     roots: ROOTS.take(),
                     arena: ARENA_NODES.take(),
