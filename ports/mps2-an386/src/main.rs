@@ -70,8 +70,19 @@ mod scenario {
     pub const MIN_AREA: f32 = 0.0_f64 as f32;
     /// Drill work units per tick.
     pub const BUDGET: u32 = 300;
+    /// Drill work units per tick for this build: [`BUDGET`], or `TETRADRILL_BUDGET=N` at build
+    /// time for a settings sweep (the host then runs `replay --scenario builtin:firmware
+    /// --budget-per-tick N`).
+    pub fn budget() -> u32 {
+        super::build_number(option_env!("TETRADRILL_BUDGET")).unwrap_or(BUDGET)
+    }
     /// Hierarchy nodes one contact search may test (`contact_search_nodes`).
     pub const CONTACT_NODES: u32 = 128;
+    /// [`CONTACT_NODES`], or `TETRADRILL_CONTACT_NODES=N` at build time (host:
+    /// `--contact-search-nodes N`).
+    pub fn contact_nodes() -> u32 {
+        super::build_number(option_env!("TETRADRILL_CONTACT_NODES")).unwrap_or(CONTACT_NODES)
+    }
 }
 
 #[entry]
@@ -94,6 +105,12 @@ fn main() -> ! {
         costs[2]
     );
 
+    hprintln!(
+        "settings: budget {} contact_nodes {}",
+        scenario::budget(),
+        scenario::contact_nodes()
+    );
+
     let st = Storage::take();
 
     // The unit block, exactly as the host's `builtin:block:N` makes it.
@@ -112,12 +129,12 @@ fn main() -> ! {
     }
     let mesh = build_mesh(st.positions, &tet_nodes, st.mesh);
     let mut world = World::new(mesh, st.world).unwrap_or_else(|_| fail("world storage refused"));
-    world.set_contact_max_nodes(scenario::CONTACT_NODES);
+    world.set_contact_max_nodes(scenario::contact_nodes());
 
     let drill = DrillParams {
         max_depth: scenario::MAX_DEPTH,
         min_area: scenario::MIN_AREA,
-        budget: scenario::BUDGET,
+        budget: scenario::budget(),
     };
     let force = ForceParams {
         stiffness: scenario::STIFFNESS,
@@ -269,6 +286,11 @@ fn nearest_visible(world: &World<'_>, centre: Vec3, reach: f32) -> f32 {
             world.contact_max_nodes(),
         )
         .d2
+}
+
+/// A whole number given at build time (an empty or unset variable is `None`).
+fn build_number(v: Option<&str>) -> Option<u32> {
+    v.and_then(|s| s.parse().ok())
 }
 
 /// Marks where a profile starts (see [`PROFILE_FROM`]): QEMU's execution log names this
