@@ -233,6 +233,12 @@ fn check_contact(
     let key =
         |t: Option<tetradrill_core::hierarchy::VisibleTri>| t.map(|v| (v.tet, v.index, v.face));
     assert_eq!(key(plain.tri), want.map(|w| (w.1.tet, w.1.index, w.1.face)));
+    // Any starting tree gives the same answer when the search completes.
+    let start = rng.gen_range(0..=cands.len());
+    let from = h.nearest_uncut_from(mesh, &cands, start, c, radius + reach, cut, None, u32::MAX);
+    assert!(from.complete);
+    assert_eq!(key(from.tri), key(plain.tri), "start {start} at {c}");
+    assert_eq!(from.d2.to_bits(), plain.d2.to_bits());
     let vl = h.vlist();
     if !vl.is_empty() {
         let e = vl[rng.gen_range(0..vl.len())];
@@ -489,4 +495,90 @@ fn candidates_are_the_tets_whose_box_meets_the_zone_with_or_without_stored_boxes
         c = c.clamp(Vec3::splat(-0.7), Vec3::splat(0.7));
     }
     assert!(checked > 100 && nonempty > 50, "{checked} {nonempty}");
+}
+
+/// Bounded searches at a held pose, each hinted with the last answer: started after the tree
+/// where the last one stopped (`Nearest::resume`, as `World::simulate` does), the answer never
+/// moves farther away, is never closer than the exhaustive one, and ends at least as close as
+/// the same chain always started at the first tree, strictly closer at some poses. (It need
+/// not reach the exhaustive answer: a tree whose depth-first prefix within the bound misses
+/// the closest face is never finished.)
+#[test]
+fn bounded_searches_resumed_where_the_last_stopped_get_closer() {
+    let mut om = block_mesh(4);
+    let mesh = om.view();
+    let mut st = Store::new(mesh.tet_count(), 1 << 16);
+    let mut world = st.world(mesh);
+    let params = DrillParams {
+        max_depth: 3,
+        min_area: 0.0,
+        budget: 100_000,
+    };
+    let (r, reach) = (0.1, 0.05);
+    // A cavity: the burr plunged from the top face, then dragged sideways.
+    for k in 0..40 {
+        let c = if k < 20 {
+            Vec3::new(0.0, 0.0, 0.55 - 0.01 * k as f32)
+        } else {
+            Vec3::new(0.01 * (k - 20) as f32, 0.0, 0.36)
+        };
+        world.simulate(c, r, reach, true, &params);
+    }
+    let (mut better, mut stopped, mut poses) = (0, 0, 0);
+    for c in [
+        Vec3::new(0.02, 0.0, 0.4),
+        Vec3::new(0.1, 0.03, 0.33),
+        Vec3::new(-0.03, 0.02, 0.42),
+        Vec3::new(0.15, -0.02, 0.37),
+        Vec3::new(0.05, -0.05, 0.3),
+        Vec3::new(0.12, 0.06, 0.38),
+    ] {
+        world.simulate(c, r, reach, false, &params);
+        let (h, m) = (world.hierarchy(), world.mesh());
+        let cands = world.candidates();
+        let Some((exact, _, _)) = exhaustive(h, m, cands, c, r + reach) else {
+            continue;
+        };
+        poses += 1;
+        // One chain of 40 searches bounded at 32 nodes; `resume` picks the next start.
+        let chain = |resume: bool| {
+            let (mut start, mut hint, mut last, mut n_stopped) = (0usize, None, f32::INFINITY, 0);
+            for step in 0..40 {
+                let near = h.nearest_uncut_from(m, cands, start, c, r + reach, None, hint, 32);
+                n_stopped += u32::from(!near.complete);
+                if let Some(vt) = near.tri {
+                    hint = Some(FaceRef {
+                        tet: vt.tet,
+                        index: vt.index,
+                        face: vt.face,
+                    });
+                    assert!(near.d2 <= last, "{c}: step {step} moved away");
+                    assert!(near.d2 >= exact, "{c}: closer than the exhaustive answer");
+                    last = near.d2;
+                }
+                if resume {
+                    start = near.resume as usize;
+                }
+            }
+            (last, n_stopped)
+        };
+        let (resumed, n) = chain(true);
+        let (first, _) = chain(false);
+        stopped += n;
+        assert!(
+            resumed <= first,
+            "{c}: resumed {resumed} farther than {first}"
+        );
+        better += u32::from(resumed < first);
+    }
+    assert!(poses >= 4, "{poses} poses with surface in reach");
+    assert!(
+        stopped > 100,
+        "the bound must stop searches here ({stopped})"
+    );
+    eprintln!("resumed chains closer at {better} of {poses} poses, {stopped} searches stopped");
+    assert!(
+        better * 2 >= poses,
+        "resuming got closer at {better} of {poses} poses only"
+    );
 }

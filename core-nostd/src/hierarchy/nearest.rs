@@ -54,6 +54,11 @@ pub struct Nearest {
     pub nodes: u32,
     /// Visible triangles tested.
     pub triangles: u32,
+    /// Where a walk stopped by `max_nodes` would go on: the index in `tets` of the tree after
+    /// the one it was in (0 when `complete`; it may equal `tets.len()`, which
+    /// [`Hierarchy::nearest_uncut_from`] reads as 0). A later search over a similar list that
+    /// starts there looks at other trees than this one did.
+    pub resume: u32,
     /// `false` when `max_nodes` stopped the walk: `tri` is then the closer of the hint and the
     /// closest triangle of the part walked: a visible triangle no closer than the closest one
     /// (an anytime answer: the depth it gives is never too deep).
@@ -67,6 +72,7 @@ impl Default for Nearest {
             d2: f32::INFINITY,
             nodes: 0,
             triangles: 0,
+            resume: 0,
             complete: true,
         }
     }
@@ -108,6 +114,8 @@ struct Search {
     triangles: u32,
     max_nodes: u32,
     stopped: bool,
+    /// The index in the walk's list of the tree being walked when it stopped.
+    stopped_in: usize,
 }
 
 impl Search {
@@ -268,6 +276,35 @@ impl Hierarchy<'_> {
         hint: Option<FaceRef>,
         max_nodes: u32,
     ) -> Nearest {
+        self.nearest_uncut_from(mesh, tets, 0, centre, reach, cut, hint, max_nodes)
+    }
+
+    /// [`Hierarchy::nearest_uncut`] walking the trees of `tets` from index `start` on (then
+    /// from the first up to `start`; a `start` past the end is 0): the same answer when
+    /// `complete` (ties never depend on the order); when the node bound stops it, another part
+    /// was walked. A caller that starts each search after the tree where the last one stopped
+    /// ([`Nearest::resume`]) and hints it with the last answer walks, over a few steps, every
+    /// tree near a tool that moves little, instead of the first trees of the list every step,
+    /// and the hint carries the closest triangle found on to the next step. On the firmware
+    /// scenario (contact bound 128 nodes, 3,739 of 4,236 contact searches stopped) the depth
+    /// shortfall against the exhaustive search fell from 0.0064 to 0.0005 mesh units on
+    /// average and from 0.049 to 0.0095 at p99 (docs/PORTING.md).
+    ///
+    /// # Bounded work
+    /// As [`Hierarchy::nearest_uncut`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn nearest_uncut_from(
+        &self,
+        mesh: &Mesh<'_>,
+        tets: &[TetId],
+        start: usize,
+        centre: Vec3,
+        reach: f32,
+        cut: Option<f32>,
+        hint: Option<FaceRef>,
+        max_nodes: u32,
+    ) -> Nearest {
+        let start = if start < tets.len() { start } else { 0 };
         if !(centre.is_finite() && reach.is_finite() && reach >= 0.0) {
             return Nearest::default();
         }
@@ -282,14 +319,14 @@ impl Hierarchy<'_> {
                 *d2 <= reach2 && !cut_skips(&vt.corners, centre, x, cut2)
             });
         let hinted = hint_tri.map(|(d2, _)| d2);
-        let mut s = self.nearest_walk(mesh, tets, centre, reach, cut2, hinted, max_nodes);
+        let mut s = self.nearest_walk(mesh, tets, start, centre, reach, cut2, hinted, max_nodes);
         if let Some(h) = hinted {
             // Pruning at the hint's distance is exact iff the walk met a triangle at most as
             // far (then the true closest one is no farther than that triangle).
             let ok = s.best.is_some_and(|(d2, _, _)| d2 <= h);
             if !ok && !s.stopped {
                 let left = max_nodes.saturating_sub(s.nodes);
-                let again = self.nearest_walk(mesh, tets, centre, reach, cut2, None, left);
+                let again = self.nearest_walk(mesh, tets, start, centre, reach, cut2, None, left);
                 let (nodes, triangles) = (s.nodes + again.nodes, s.triangles + again.triangles);
                 s = again;
                 s.nodes = nodes;
@@ -314,6 +351,11 @@ impl Hierarchy<'_> {
             d2: s.best.map_or(f32::INFINITY, |(d2, _, _)| d2),
             nodes: s.nodes,
             triangles: s.triangles,
+            resume: if s.stopped {
+                (s.stopped_in + 1) as u32
+            } else {
+                0
+            },
             complete: !s.stopped,
         }
     }
@@ -323,6 +365,7 @@ impl Hierarchy<'_> {
         &self,
         mesh: &Mesh<'_>,
         tets: &[TetId],
+        start: usize,
         centre: Vec3,
         reach: f32,
         cut2: f32,
@@ -343,6 +386,7 @@ impl Hierarchy<'_> {
             triangles: 0,
             max_nodes,
             stopped: false,
+            stopped_in: 0,
         };
         // Not initialised up front (heapless keeps it uninitialised): zeroing 78 entries
         // cost a few thousand instructions a walk on a Cortex-M4.
@@ -350,10 +394,12 @@ impl Hierarchy<'_> {
         // The ten points of the refinement being expanded (and their packed rows).
         let mut ten_rows = [0; 10];
         let mut ten = [Vec3::ZERO; 10];
-        for &t in tets {
+        let n = tets.len();
+        for (k, &t) in tets.iter().cycle().skip(start).take(n).enumerate() {
             if s.stopped {
                 break;
             }
+            s.stopped_in = (start + k) % n.max(1);
             // A tree with no surface (interior or erased material) costs one node look-up.
             if t.idx() >= self.tet_count() || !self.node(t.0).is_some_and(|n| n.surface()) {
                 continue;

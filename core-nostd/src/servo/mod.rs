@@ -189,6 +189,9 @@ pub struct World<'a> {
     contact: ContactState,
     contact_face: Option<FaceRef>,
     contact_max_nodes: u32,
+    /// Where the next contact search starts in the candidate list: after the tree where the
+    /// last one that hit its node bound stopped (see [`Hierarchy::nearest_uncut_from`]).
+    contact_resume: u32,
     sat: Saturations,
     last_queued: Option<Vec3>,
     since_queued: u32,
@@ -275,6 +278,7 @@ impl<'a> World<'a> {
             contact: ContactState::default(),
             contact_face: None,
             contact_max_nodes: CONTACT_MAX_NODES,
+            contact_resume: 0,
             sat,
             last_queued: None,
             since_queued: 0,
@@ -516,7 +520,10 @@ impl<'a> World<'a> {
     /// the result never depends on visiting order, and it is the triangle the exhaustive
     /// search over [`Hierarchy::for_each_visible_in`] finds. When the search reaches
     /// `contact_max_nodes` the answer is the closer of the hint and the triangles met (or the
-    /// previous plane when there is neither), and it is counted.
+    /// previous plane when there is neither), and it is counted; the next search starts after
+    /// the tree where this one stopped ([`Hierarchy::nearest_uncut_from`]), so searches that
+    /// keep hitting the bound walk all the trees near the tool in turn and the hint carries
+    /// the closest triangle found.
     fn update_contact(
         &mut self,
         centre: Vec3,
@@ -526,9 +533,10 @@ impl<'a> World<'a> {
         rep: &mut SimReport,
     ) {
         let cands = &self.candidates[..self.ncand];
-        let near = self.hier.nearest_uncut(
+        let near = self.hier.nearest_uncut_from(
             &self.mesh,
             cands,
+            self.contact_resume as usize,
             centre,
             reach,
             cutting.then_some(radius),
@@ -537,6 +545,7 @@ impl<'a> World<'a> {
         );
         rep.triangles = near.triangles;
         rep.contact_nodes = near.nodes;
+        self.contact_resume = near.resume;
         if !near.complete {
             rep.contact_saturated = true;
             self.sat.contact += 1;
