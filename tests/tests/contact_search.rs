@@ -343,8 +343,9 @@ fn contact_is_the_exhaustive_closest_triangle_on_the_cow() {
     drill_and_probe(mesh, &starts, radius, 3, 12);
 }
 
-#[test]
-fn the_node_bound_gives_a_true_face_never_too_deep_and_counts() {
+/// Runs `f` on a fresh world over the 4 x 4 x 4 block (drill depth 3, a budget that never
+/// runs out) with a burr of radius 0.1 and reach 0.05: `f(world, params, r, reach)`.
+fn on_block4(f: impl FnOnce(&mut World<'_>, &DrillParams, f32, f32)) {
     let mut om = block_mesh(4);
     let mesh = om.view();
     let mut st = Store::new(mesh.tet_count(), 1 << 16);
@@ -354,86 +355,92 @@ fn the_node_bound_gives_a_true_face_never_too_deep_and_counts() {
         min_area: 0.0,
         budget: 100_000,
     };
-    let (r, reach) = (0.1, 0.05);
-    // No hint and a bound of zero nodes: nothing found, the previous (empty) contact stays.
-    world.set_contact_max_nodes(0);
-    let rep = world.simulate(Vec3::new(0.0, 0.0, 0.55), r, reach, false, &params);
-    assert!(rep.contact_saturated && !world.contact().valid);
-    assert_eq!(world.saturations().contact, 1);
-    world.set_contact_max_nodes(tetradrill_core::servo::CONTACT_MAX_NODES);
-    for k in 0..20 {
-        let c = Vec3::new(0.0, 0.0, 0.55 - 0.01 * k as f32);
-        world.simulate(c, r, reach, true, &params);
-    }
-    assert!(world.contact().valid);
-    let mut saturated = 0;
-    for (k, c) in [
-        Vec3::new(0.02, 0.0, 0.4),
-        Vec3::new(0.03, 0.01, 0.38),
-        Vec3::new(-0.02, 0.02, 0.36),
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        world.set_contact_max_nodes(3);
-        let rep = world.simulate(c, r, reach, false, &params);
-        assert!(rep.contact_nodes <= 3, "{}", rep.contact_nodes);
-        saturated += rep.contact_saturated as u32;
-        let got = *world.contact();
-        assert!(got.valid, "the last step's triangle answers at step {k}");
-        assert_eq!(
-            got.centre, c,
-            "the answer is for this step's position, not a stale plane"
-        );
-        // Oracle 1 (the v_list's triangles, no walk): the exact closest distance.
-        let cands: Vec<TetId> = {
-            let mut v = world.candidates().to_vec();
-            v.sort();
-            v
-        };
-        let (h, m) = (world.hierarchy(), world.mesh());
-        let exact = from_vlist(h, m, &cands, c, r + reach).sqrt();
-        // The answer's point lies on a visible triangle (brute force over all of them) ...
-        let mut on_visible = false;
-        h.for_each_visible(m, |vt| {
-            let q = closest_point_on_triangle(got.point, vt.corners);
-            on_visible |= q.distance(got.point) < 1e-5;
-        });
-        assert!(
-            on_visible,
-            "the contact point must lie on the drilled surface"
-        );
-        // ... and it is no closer than the exact closest one: the depth is never too deep.
-        let d = got.point.distance(c);
-        assert!(
-            d >= exact - 1e-5,
-            "step {k}: {d} closer than the exact {exact}"
-        );
-        let exact_depth = r - exact;
-        assert!(
-            got.depth <= exact_depth + 1e-5,
-            "{} vs {exact_depth}",
-            got.depth
-        );
-    }
-    assert!(saturated > 0, "a bound of 3 nodes must stop some searches");
-    assert_eq!(world.saturations().contact, 1 + saturated);
-    // Without the bound the search completes and matches the exhaustive walk.
-    world.set_contact_max_nodes(tetradrill_core::servo::CONTACT_MAX_NODES);
-    let c = Vec3::new(0.02, 0.0, 0.4);
-    let rep = world.simulate(c, r, reach, false, &params);
-    assert!(!rep.contact_saturated);
-    assert_eq!(world.saturations().contact, 1 + saturated);
-    let best = exhaustive(
-        world.hierarchy(),
-        world.mesh(),
-        world.candidates(),
-        c,
-        r + reach,
-    )
-    .unwrap();
-    let x = closest_point_on_triangle(c, best.2);
-    assert_eq!(world.contact().point, x);
+    f(&mut world, &params, 0.1, 0.05);
+}
+
+#[test]
+fn the_node_bound_gives_a_true_face_never_too_deep_and_counts() {
+    on_block4(|world, params, r, reach| {
+        // No hint and a bound of zero nodes: nothing found, the previous (empty) contact stays.
+        world.set_contact_max_nodes(0);
+        let rep = world.simulate(Vec3::new(0.0, 0.0, 0.55), r, reach, false, params);
+        assert!(rep.contact_saturated && !world.contact().valid);
+        assert_eq!(world.saturations().contact, 1);
+        world.set_contact_max_nodes(tetradrill_core::servo::CONTACT_MAX_NODES);
+        for k in 0..20 {
+            let c = Vec3::new(0.0, 0.0, 0.55 - 0.01 * k as f32);
+            world.simulate(c, r, reach, true, params);
+        }
+        assert!(world.contact().valid);
+        let mut saturated = 0;
+        for (k, c) in [
+            Vec3::new(0.02, 0.0, 0.4),
+            Vec3::new(0.03, 0.01, 0.38),
+            Vec3::new(-0.02, 0.02, 0.36),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            world.set_contact_max_nodes(3);
+            let rep = world.simulate(c, r, reach, false, params);
+            assert!(rep.contact_nodes <= 3, "{}", rep.contact_nodes);
+            saturated += rep.contact_saturated as u32;
+            let got = *world.contact();
+            assert!(got.valid, "the last step's triangle answers at step {k}");
+            assert_eq!(
+                got.centre, c,
+                "the answer is for this step's position, not a stale plane"
+            );
+            // Oracle 1 (the v_list's triangles, no walk): the exact closest distance.
+            let cands: Vec<TetId> = {
+                let mut v = world.candidates().to_vec();
+                v.sort();
+                v
+            };
+            let (h, m) = (world.hierarchy(), world.mesh());
+            let exact = from_vlist(h, m, &cands, c, r + reach).sqrt();
+            // The answer's point lies on a visible triangle (brute force over all of them) ...
+            let mut on_visible = false;
+            h.for_each_visible(m, |vt| {
+                let q = closest_point_on_triangle(got.point, vt.corners);
+                on_visible |= q.distance(got.point) < 1e-5;
+            });
+            assert!(
+                on_visible,
+                "the contact point must lie on the drilled surface"
+            );
+            // ... and it is no closer than the exact closest one: the depth is never too deep.
+            let d = got.point.distance(c);
+            assert!(
+                d >= exact - 1e-5,
+                "step {k}: {d} closer than the exact {exact}"
+            );
+            let exact_depth = r - exact;
+            assert!(
+                got.depth <= exact_depth + 1e-5,
+                "{} vs {exact_depth}",
+                got.depth
+            );
+        }
+        assert!(saturated > 0, "a bound of 3 nodes must stop some searches");
+        assert_eq!(world.saturations().contact, 1 + saturated);
+        // Without the bound the search completes and matches the exhaustive walk.
+        world.set_contact_max_nodes(tetradrill_core::servo::CONTACT_MAX_NODES);
+        let c = Vec3::new(0.02, 0.0, 0.4);
+        let rep = world.simulate(c, r, reach, false, params);
+        assert!(!rep.contact_saturated);
+        assert_eq!(world.saturations().contact, 1 + saturated);
+        let best = exhaustive(
+            world.hierarchy(),
+            world.mesh(),
+            world.candidates(),
+            c,
+            r + reach,
+        )
+        .unwrap();
+        let x = closest_point_on_triangle(c, best.2);
+        assert_eq!(world.contact().point, x);
+    });
 }
 
 /// The candidate list of `World::simulate` is the tets whose box meets the box
@@ -505,80 +512,73 @@ fn candidates_are_the_tets_whose_box_meets_the_zone_with_or_without_stored_boxes
 /// the closest face is never finished.)
 #[test]
 fn bounded_searches_resumed_where_the_last_stopped_get_closer() {
-    let mut om = block_mesh(4);
-    let mesh = om.view();
-    let mut st = Store::new(mesh.tet_count(), 1 << 16);
-    let mut world = st.world(mesh);
-    let params = DrillParams {
-        max_depth: 3,
-        min_area: 0.0,
-        budget: 100_000,
-    };
-    let (r, reach) = (0.1, 0.05);
-    // A cavity: the burr plunged from the top face, then dragged sideways.
-    for k in 0..40 {
-        let c = if k < 20 {
-            Vec3::new(0.0, 0.0, 0.55 - 0.01 * k as f32)
-        } else {
-            Vec3::new(0.01 * (k - 20) as f32, 0.0, 0.36)
-        };
-        world.simulate(c, r, reach, true, &params);
-    }
-    let (mut better, mut stopped, mut poses) = (0, 0, 0);
-    for c in [
-        Vec3::new(0.02, 0.0, 0.4),
-        Vec3::new(0.1, 0.03, 0.33),
-        Vec3::new(-0.03, 0.02, 0.42),
-        Vec3::new(0.15, -0.02, 0.37),
-        Vec3::new(0.05, -0.05, 0.3),
-        Vec3::new(0.12, 0.06, 0.38),
-    ] {
-        world.simulate(c, r, reach, false, &params);
-        let (h, m) = (world.hierarchy(), world.mesh());
-        let cands = world.candidates();
-        let Some((exact, _, _)) = exhaustive(h, m, cands, c, r + reach) else {
-            continue;
-        };
-        poses += 1;
-        // One chain of 40 searches bounded at 32 nodes; `resume` picks the next start.
-        let chain = |resume: bool| {
-            let (mut start, mut hint, mut last, mut n_stopped) = (0usize, None, f32::INFINITY, 0);
-            for step in 0..40 {
-                let near = h.nearest_uncut_from(m, cands, start, c, r + reach, None, hint, 32);
-                n_stopped += u32::from(!near.complete);
-                if let Some(vt) = near.tri {
-                    hint = Some(FaceRef {
-                        tet: vt.tet,
-                        index: vt.index,
-                        face: vt.face,
-                    });
-                    assert!(near.d2 <= last, "{c}: step {step} moved away");
-                    assert!(near.d2 >= exact, "{c}: closer than the exhaustive answer");
-                    last = near.d2;
+    on_block4(|world, params, r, reach| {
+        // A cavity: the burr plunged from the top face, then dragged sideways.
+        for k in 0..40 {
+            let c = if k < 20 {
+                Vec3::new(0.0, 0.0, 0.55 - 0.01 * k as f32)
+            } else {
+                Vec3::new(0.01 * (k - 20) as f32, 0.0, 0.36)
+            };
+            world.simulate(c, r, reach, true, params);
+        }
+        let (mut better, mut stopped, mut poses) = (0, 0, 0);
+        for c in [
+            Vec3::new(0.02, 0.0, 0.4),
+            Vec3::new(0.1, 0.03, 0.33),
+            Vec3::new(-0.03, 0.02, 0.42),
+            Vec3::new(0.15, -0.02, 0.37),
+            Vec3::new(0.05, -0.05, 0.3),
+            Vec3::new(0.12, 0.06, 0.38),
+        ] {
+            world.simulate(c, r, reach, false, params);
+            let (h, m) = (world.hierarchy(), world.mesh());
+            let cands = world.candidates();
+            let Some((exact, _, _)) = exhaustive(h, m, cands, c, r + reach) else {
+                continue;
+            };
+            poses += 1;
+            // One chain of 40 searches bounded at 32 nodes; `resume` picks the next start.
+            let chain = |resume: bool| {
+                let (mut start, mut hint, mut last, mut n_stopped) =
+                    (0usize, None, f32::INFINITY, 0);
+                for step in 0..40 {
+                    let near = h.nearest_uncut_from(m, cands, start, c, r + reach, None, hint, 32);
+                    n_stopped += u32::from(!near.complete);
+                    if let Some(vt) = near.tri {
+                        hint = Some(FaceRef {
+                            tet: vt.tet,
+                            index: vt.index,
+                            face: vt.face,
+                        });
+                        assert!(near.d2 <= last, "{c}: step {step} moved away");
+                        assert!(near.d2 >= exact, "{c}: closer than the exhaustive answer");
+                        last = near.d2;
+                    }
+                    if resume {
+                        start = near.resume as usize;
+                    }
                 }
-                if resume {
-                    start = near.resume as usize;
-                }
-            }
-            (last, n_stopped)
-        };
-        let (resumed, n) = chain(true);
-        let (first, _) = chain(false);
-        stopped += n;
+                (last, n_stopped)
+            };
+            let (resumed, n) = chain(true);
+            let (first, _) = chain(false);
+            stopped += n;
+            assert!(
+                resumed <= first,
+                "{c}: resumed {resumed} farther than {first}"
+            );
+            better += u32::from(resumed < first);
+        }
+        assert!(poses >= 4, "{poses} poses with surface in reach");
         assert!(
-            resumed <= first,
-            "{c}: resumed {resumed} farther than {first}"
+            stopped > 100,
+            "the bound must stop searches here ({stopped})"
         );
-        better += u32::from(resumed < first);
-    }
-    assert!(poses >= 4, "{poses} poses with surface in reach");
-    assert!(
-        stopped > 100,
-        "the bound must stop searches here ({stopped})"
-    );
-    eprintln!("resumed chains closer at {better} of {poses} poses, {stopped} searches stopped");
-    assert!(
-        better * 2 >= poses,
-        "resuming got closer at {better} of {poses} poses only"
-    );
+        eprintln!("resumed chains closer at {better} of {poses} poses, {stopped} searches stopped");
+        assert!(
+            better * 2 >= poses,
+            "resuming got closer at {better} of {poses} poses only"
+        );
+    });
 }
