@@ -255,12 +255,13 @@ impl<'a> World<'a> {
         let cell = average_edge_length(&mesh);
         let mut hash =
             SpatialHash::new(hash_starts, hash_entries, cell).map_err(WorldError::Hash)?;
-        let built = hash.rebuild(mesh.tet_count(), |t| {
-            Some(Aabb::of(mesh.tet_positions(TetId::from_idx(t))))
-        });
+        let box_of = |t: usize| Aabb::of(mesh.tet_positions(TetId::from_idx(t)));
         for (t, b) in tet_boxes.iter_mut().enumerate().take(mesh.tet_count()) {
-            *b = Aabb::of(mesh.tet_positions(TetId::from_idx(t)));
+            *b = box_of(t);
         }
+        let built = hash.rebuild(mesh.tet_count(), |t| {
+            Some(tet_boxes.get(t).copied().unwrap_or_else(|| box_of(t)))
+        });
         let hier = Hierarchy::new(&mesh, hierarchy).map_err(WorldError::Hierarchy)?;
         let sat = Saturations {
             hash: built.saturated as u32,
@@ -484,8 +485,15 @@ impl<'a> World<'a> {
                 *c = t;
             }
         });
-        // The others next to the burr's, then each part in tet order.
-        cands.copy_within(cap - back..cap, m);
+        // The others next to the burr's (moved down from the back: `m + back <= cap`), then
+        // each part in tet order.
+        for i in 0..back {
+            if let Some(&t) = cands.get(cap - back + i) {
+                if let Some(slot) = cands.get_mut(m + i) {
+                    *slot = t;
+                }
+            }
+        }
         let k = m + back;
         if let Some(list) = cands.get_mut(..k) {
             let (near, rest) = list.split_at_mut(m);
