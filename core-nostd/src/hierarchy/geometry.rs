@@ -198,28 +198,8 @@ pub(crate) fn refinement_points(
 ) -> ([Packed; 10], [Vec3; 10]) {
     let mut rows = [0; 10];
     let mut pts = [Vec3::ZERO; 10];
-    refinement_points_into(frame, bary, depth, &mut rows, &mut pts);
+    refinement_points_masked(frame, bary, depth, ALL_POINTS, &mut rows, &mut pts);
     (rows, pts)
-}
-
-/// [`refinement_points`] written into the caller's arrays (a walk that keeps them across
-/// iterations copies no 120-byte array per refinement).
-///
-/// # Bounded work
-/// Constant: ten [`RootFrame::point`] evaluations.
-#[inline(always)]
-pub(crate) fn refinement_points_into(
-    frame: &RootFrame,
-    bary: &[Packed; 4],
-    depth: u8,
-    rows: &mut [Packed; 10],
-    pts: &mut [Vec3; 10],
-) {
-    let scale = scale_of(depth + 1);
-    for ((row, pt), pair) in rows.iter_mut().zip(pts.iter_mut()).zip(PAIRS) {
-        *row = pair_row(bary, pair);
-        *pt = frame.packed_point(*row, scale);
-    }
 }
 
 /// Child `c`'s packed coordinates and corners, picked from the ten rows and points of its
@@ -255,6 +235,9 @@ const CHILD_TEN: [[u8; 4]; 8] = {
     t
 };
 
+/// Every one of the ten points of a refinement, as a mask of [`refinement_points_masked`].
+pub(crate) const ALL_POINTS: u16 = (1 << 10) - 1;
+
 /// `CHILD_POINTS[c]`: bit `i` set when child `c` has point `i` of [`PAIRS`] as a corner.
 pub(crate) const CHILD_POINTS: [u16; 8] = {
     let mut m = [0u16; 8];
@@ -270,9 +253,10 @@ pub(crate) const CHILD_POINTS: [u16; 8] = {
     m
 };
 
-/// [`refinement_points_into`] for the points whose bit is set in `mask` only (the corners of
-/// the children a walk will look at, [`CHILD_POINTS`]); the other entries are left as they
-/// were. Each point evaluated has the bits [`refinement_points`] gives it.
+/// The ten points of [`refinement_points`] whose bit is set in `mask` (the corners of the
+/// children a walk will look at, [`CHILD_POINTS`]; [`ALL_POINTS`] for every one), written into
+/// the caller's arrays (a walk keeps them across iterations and copies no 120-byte array per
+/// refinement); the other entries are left as they were.
 ///
 /// # Bounded work
 /// Constant: at most ten [`RootFrame::point`] evaluations, one per bit of `mask`.
