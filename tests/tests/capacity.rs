@@ -202,10 +202,11 @@ fn every_small_world_capacity_saturates_validly_with_continuous_forces() {
 /// The unsaturated reference run keeps the bound too; without the switch ramp it breaks it
 /// (its contact plane changes under the burr), and so do the runs whose saturation changes
 /// the surface or the plane more often: the bound is not one every run keeps anyway.
-/// Without the ramp, today (force changes over 2 N in one tick; largest): reference 209
-/// (5.4 N), pending 16 items 429 (16.0 N, 210 reversals), hash 1500 entries 92 (4.6 N),
-/// candidates 4: 24, contact search 16 nodes: 3, arena 64 nodes: 2 (a full arena leaves
-/// crossing leaves whole). With it, the largest change of every run is about 1 N.
+/// Without the ramp, 2026-11-24 (ticks over the bound of [`jumps`]): reference 308, hash 1500
+/// entries 174. The pending deque of 16 items made 429 before the candidates were left in the
+/// hash query's order (the drill then dropped the work of other tets, and islands of
+/// material came and went under the burr); now 7, so it is no longer one of the runs here.
+/// With the ramp, the largest change of every run is about 1 N.
 #[test]
 fn without_the_switch_ramp_plane_changes_make_the_force_jump() {
     let sc = base();
@@ -220,7 +221,7 @@ fn without_the_switch_ramp_plane_changes_make_the_force_jump() {
     };
     let mut runs = vec![("reference", instant(base()))];
     for (name, sc, _) in world_cases() {
-        if matches!(name, "pending_capacity" | "hash_capacity") {
+        if name == "hash_capacity" {
             runs.push((name, instant(sc)));
         }
     }

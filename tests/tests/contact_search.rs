@@ -444,10 +444,12 @@ fn the_node_bound_gives_a_true_face_never_too_deep_and_counts() {
 }
 
 /// The candidate list of `World::simulate` is the tets whose box meets the box
-/// `radius + reach` around the tool, in tet order, against a brute force over every tet's
+/// `radius + reach` around the tool, each once, against a brute force over every tet's
 /// corners (steps with the drill off, where no burr position adds to the zone); and a world
-/// whose tet boxes are stored gives every step the same candidates, contact and report as a
-/// twin given no box storage (each box then made from the corners), drilling on and off.
+/// whose tet boxes are stored gives every step the same candidates in the same order, the
+/// same contact and report as a twin given no box storage (each box then made from the
+/// corners) and a hash table of another size (the order depends on the mesh and the zone,
+/// not on the bucket count), drilling on and off.
 #[test]
 fn candidates_are_the_tets_whose_box_meets_the_zone_with_or_without_stored_boxes() {
     let mut om = block_mesh(5);
@@ -456,6 +458,7 @@ fn candidates_are_the_tets_whose_box_meets_the_zone_with_or_without_stored_boxes
     let mut st = Store::new(mesh.tet_count(), 1 << 16);
     let mut bare = Store::new(mesh.tet_count(), 1 << 16);
     bare.tet_boxes.clear();
+    bare.hash_starts.truncate(bare.hash_starts.len() / 3);
     let positions: Vec<[Vec3; 4]> = (0..mesh.tet_count())
         .map(|t| mesh.tet_positions(TetId::from_idx(t)))
         .collect();
@@ -490,7 +493,9 @@ fn candidates_are_the_tets_whose_box_meets_the_zone_with_or_without_stored_boxes
                 })
                 .map(TetId::from_idx)
                 .collect();
-            assert_eq!(world.candidates(), &want[..], "step {step} at {c}");
+            let mut got = world.candidates().to_vec();
+            got.sort_unstable();
+            assert_eq!(got, want, "step {step} at {c}");
             checked += 1;
             nonempty += usize::from(!want.is_empty());
         }
