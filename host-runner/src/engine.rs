@@ -4,7 +4,7 @@
 use tetradrill_core::drill::{DrillParams, Pending};
 use tetradrill_core::force::{ForceParams, ToolState};
 use tetradrill_core::hash::{Aabb, HashEntry};
-use tetradrill_core::hierarchy::{HNode, HierarchyStorage, VEntry};
+use tetradrill_core::hierarchy::{HNode, HierarchyStorage, SphereSlot, VEntry};
 use tetradrill_core::servo::{servo_force, SimReport, World, WorldSizes, WorldStorage};
 use tetradrill_core::{TetId, Vec3};
 
@@ -26,6 +26,7 @@ pub struct EngineStorage {
     vlist: Vec<VEntry>,
     pending: Vec<Pending>,
     candidates: Vec<TetId>,
+    sphere_memo: Vec<SphereSlot>,
     contact_search_nodes: u32,
 }
 
@@ -88,6 +89,7 @@ impl EngineStorage {
             vlist: vec![VEntry::default(); s.vlist],
             pending: vec![Pending::default(); s.pending],
             candidates: vec![TetId::NONE; s.candidates],
+            sphere_memo: vec![SphereSlot::EMPTY; s.sphere_memo],
             contact_search_nodes,
         }
     }
@@ -107,6 +109,7 @@ impl EngineStorage {
                 },
                 pending: &mut self.pending,
                 candidates: &mut self.candidates,
+                sphere_memo: &mut self.sphere_memo,
             },
         )
         .map(|mut w| {

@@ -26,7 +26,7 @@ use tetradrill_core::force::{
 };
 use tetradrill_core::hash::{Aabb, HashEntry, SpatialHash};
 use tetradrill_core::hierarchy::{
-    HNode, Hierarchy, HierarchyError, HierarchyStorage, VEntry, MAX_DEPTH,
+    HNode, Hierarchy, HierarchyError, HierarchyStorage, SphereSlot, VEntry, MAX_DEPTH,
 };
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::servo::{servo_force, ContactState, World, WorldSizes, WorldStorage};
@@ -887,6 +887,7 @@ struct WorldStore {
     hier: HierStore,
     pending: Vec<Pending>,
     candidates: Vec<TetId>,
+    sphere_memo: Vec<SphereSlot>,
 }
 
 impl WorldStore {
@@ -900,6 +901,7 @@ impl WorldStore {
             hier,
             pending: vec![Pending::default(); s.pending],
             candidates: vec![TetId::NONE; s.candidates],
+            sphere_memo: vec![SphereSlot::EMPTY; s.sphere_memo],
         }
     }
 
@@ -913,6 +915,7 @@ impl WorldStore {
                 hierarchy: self.hier.storage(),
                 pending: &mut self.pending,
                 candidates: &mut self.candidates,
+                sphere_memo: &mut self.sphere_memo,
             },
         )
         .expect("world")

@@ -12,7 +12,9 @@ use tetradrill_core::builtin::{block, block_counts};
 use tetradrill_core::drill::{DrillParams, Pending};
 use tetradrill_core::force::{closest_point_on_triangle, sphere_contact};
 use tetradrill_core::hash::{Aabb, HashEntry};
-use tetradrill_core::hierarchy::{FaceRef, HNode, Hierarchy, HierarchyStorage, VEntry};
+use tetradrill_core::hierarchy::{
+    FaceRef, HNode, Hierarchy, HierarchyStorage, NearestQuery, SphereMemo, SphereSlot, VEntry,
+};
 use tetradrill_core::mesh::{BuildOptions, Mesh};
 use tetradrill_core::servo::{World, WorldSizes, WorldStorage};
 use tetradrill_core::TetId;
@@ -27,6 +29,7 @@ struct Store {
     vlist: Vec<VEntry>,
     pending: Vec<Pending>,
     candidates: Vec<TetId>,
+    sphere_memo: Vec<SphereSlot>,
 }
 
 impl Store {
@@ -41,6 +44,7 @@ impl Store {
             vlist: vec![VEntry::default(); s.vlist],
             pending: vec![Pending::default(); s.pending],
             candidates: vec![TetId::NONE; s.candidates],
+            sphere_memo: vec![SphereSlot::EMPTY; s.sphere_memo],
         }
     }
 
@@ -58,6 +62,7 @@ impl Store {
                 },
                 pending: &mut self.pending,
                 candidates: &mut self.candidates,
+                sphere_memo: &mut self.sphere_memo,
             },
         )
         .unwrap()
@@ -250,6 +255,34 @@ fn check_contact(
         let hinted = h.nearest_uncut(mesh, &cands, c, radius + reach, cut, Some(hint), u32::MAX);
         assert_eq!(key(hinted.tri), key(plain.tri), "hint {hint:?} at {c}");
         assert_eq!(hinted.d2.to_bits(), plain.d2.to_bits());
+    }
+    // A sphere memo changes nothing: not the answer, the counts or the resume place, bounded
+    // or not, whether tiny (keys evict each other) or not; filled by a first search, read by
+    // a second (deterministic seeds: the big one is read whenever a node is tested).
+    for size in [5, 1 << 12] {
+        let mut slots = vec![SphereSlot::EMPTY; size];
+        let mut memo = SphereMemo::new(&mut slots);
+        for max_nodes in [u32::MAX, rng.gen_range(1..64)] {
+            let q = NearestQuery {
+                tets: &cands,
+                start,
+                centre: c,
+                reach: radius + reach,
+                cut,
+                hint: None,
+                max_nodes,
+            };
+            let bare =
+                h.nearest_uncut_from(mesh, &cands, start, c, radius + reach, cut, None, max_nodes);
+            for pass in 0..2 {
+                let got = h.nearest(mesh, &q, &mut memo);
+                assert_eq!(got, bare, "memo {size}, pass {pass} at {c}");
+            }
+        }
+        assert!(
+            size < 1 << 12 || memo.hits() > 0 || plain.nodes == 0,
+            "the memo was never read at {c}"
+        );
     }
 }
 
@@ -448,8 +481,8 @@ fn the_node_bound_gives_a_true_face_never_too_deep_and_counts() {
 /// corners (steps with the drill off, where no burr position adds to the zone); and a world
 /// whose tet boxes are stored gives every step the same candidates in the same order, the
 /// same contact and report as a twin given no box storage (each box then made from the
-/// corners) and a hash table of another size (the order depends on the mesh and the zone,
-/// not on the bucket count), drilling on and off.
+/// corners), a hash table of another size (the order depends on the mesh and the zone, not
+/// on the bucket count) and a sphere memo of 5 slots instead of 4,096, drilling on and off.
 #[test]
 fn candidates_are_the_tets_whose_box_meets_the_zone_with_or_without_stored_boxes() {
     let mut om = block_mesh(5);
@@ -459,6 +492,7 @@ fn candidates_are_the_tets_whose_box_meets_the_zone_with_or_without_stored_boxes
     let mut bare = Store::new(mesh.tet_count(), 1 << 16);
     bare.tet_boxes.clear();
     bare.hash_starts.truncate(bare.hash_starts.len() / 3);
+    bare.sphere_memo.truncate(5);
     let positions: Vec<[Vec3; 4]> = (0..mesh.tet_count())
         .map(|t| mesh.tet_positions(TetId::from_idx(t)))
         .collect();

@@ -177,9 +177,11 @@ fn pair_row(bary: &[Packed; 4], (a, b): (u8, u8)) -> Packed {
 ///
 /// # Bounded work
 /// Constant: four additions.
-#[cfg(test)]
+#[inline]
 pub(crate) fn child_packed(bary: &[Packed; 4], c: u8) -> [Packed; 4] {
-    CHILD_VERTS[(c & 7) as usize].map(|v| pair_row(bary, v))
+    let [i, j, k, l] = CHILD_TEN[(c & 7) as usize];
+    let row = |x: u8| pair_row(bary, PAIRS[(x as usize).min(9)]);
+    [row(i), row(j), row(k), row(l)]
 }
 
 /// The packed integer barycentric coordinates (one level down, scaled by `2^(depth+1)`) and

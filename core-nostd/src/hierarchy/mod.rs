@@ -17,7 +17,8 @@
 //!   through the mesh's reverse indices.
 //! - [`Hierarchy::for_each_visible`], [`Hierarchy::for_each_visible_in`]: the drilled surface.
 //! - [`Hierarchy::nearest_visible`]: the closest visible triangle to a point (branch and
-//!   bound over the nodes whose *surface* bit says a v_list leaf lies below), for the contact.
+//!   bound over the nodes whose *surface* bit says a v_list leaf lies below), for the contact;
+//!   [`SphereMemo`] remembers the nodes' bounding spheres across searches.
 //! - connected pieces of the remaining material: [`Hierarchy::components`].
 //! - giving back the blocks of wholly erased subtrees: `reclaim` ([`Hierarchy::arena_live`],
 //!   [`Hierarchy::arena_reclaimable`], [`Hierarchy::reclaimed`]).
@@ -29,6 +30,7 @@
 
 mod components;
 mod geometry;
+mod memo;
 mod nearest;
 mod node;
 mod ops;
@@ -41,7 +43,8 @@ pub mod visit;
 
 pub(crate) use geometry::{child_of_refinement, child_of_ten, refinement_points, RootFrame};
 pub use geometry::{node_positions, node_volume};
-pub use nearest::{FaceRef, Nearest};
+pub use memo::{SphereMemo, SphereSlot};
+pub use nearest::{FaceRef, Nearest, NearestQuery};
 pub use node::{HNode, VEntry, MAX_BLOCKS, NODE_BYTES, NO_BLOCK, NO_SLOT};
 pub use ops::OpReport;
 pub use store::{Hierarchy, HierarchyError, HierarchyStats, HierarchyStorage};

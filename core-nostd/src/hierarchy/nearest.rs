@@ -29,8 +29,10 @@
 use glam::Vec3;
 
 use super::geometry::{
-    child_of_ten, node_positions, refinement_points_masked, Packed, RootFrame, CHILD_POINTS,
+    child_of_ten, child_packed, node_positions, refinement_points_masked, Packed, RootFrame,
+    CHILD_POINTS,
 };
+use super::memo::SphereMemo;
 use super::node::HNode;
 use super::store::Hierarchy;
 use super::surface::{bounding_sphere, face_corners, VisibleTri};
@@ -83,6 +85,37 @@ impl Default for Nearest {
             complete: true,
         }
     }
+}
+
+/// One contact search's question, for [`Hierarchy::nearest`] (the arguments of
+/// [`Hierarchy::nearest_uncut_from`]).
+#[derive(Clone, Copy, Debug)]
+pub struct NearestQuery<'q> {
+    /// The coarse tets whose trees are searched.
+    pub tets: &'q [TetId],
+    /// The index in `tets` of the first tree walked (the others follow in turn; past the end
+    /// reads as 0).
+    pub start: usize,
+    /// The point whose closest visible triangle is sought.
+    pub centre: Vec3,
+    /// Triangles farther than this are not considered.
+    pub reach: f32,
+    /// The radius of a burr that is cutting (see [`Hierarchy::nearest_uncut`]), or `None`.
+    pub cut: Option<f32>,
+    /// A face likely to be close (the last answer), to prune from the start.
+    pub hint: Option<FaceRef>,
+    /// The most bounding-sphere tests the search makes.
+    pub max_nodes: u32,
+}
+
+/// What one walk over the trees needs of the query, prepared once.
+struct Walk<'q> {
+    tets: &'q [TetId],
+    start: usize,
+    centre: Vec3,
+    reach: f32,
+    /// Squared cutting radius, negative when not cutting.
+    cut2: f32,
 }
 
 /// DFS stack size over one tree: 7 per level plus 8.
@@ -148,7 +181,7 @@ impl Search {
     /// Tests the visible faces of leaf `(t, index)` with corners `p`. A face that would become
     /// the best is taken only when the leaf passes the reach test of the exhaustive walk
     /// (checked once, lazily: it almost always passes, and most faces never need it).
-    fn offer_leaf(&mut self, t: TetId, index: u32, node: HNode, p: [Vec3; 4]) {
+    fn offer_leaf(&mut self, t: TetId, index: u32, node: HNode, p: [Vec3; 4], sphere: (Vec3, f32)) {
         let mut in_reach: Option<bool> = None;
         for face in 0..4u8 {
             if node.visible() & (1 << face) == 0 {
@@ -177,7 +210,7 @@ impl Search {
                 continue;
             }
             let ok = *in_reach.get_or_insert_with(|| {
-                let (mid, rad) = bounding_sphere(p);
+                let (mid, rad) = sphere;
                 let lim = rad + self.reach;
                 mid.distance_squared(self.centre) <= lim * lim
             });
@@ -311,6 +344,43 @@ impl Hierarchy<'_> {
         hint: Option<FaceRef>,
         max_nodes: u32,
     ) -> Nearest {
+        let q = NearestQuery {
+            tets,
+            start,
+            centre,
+            reach,
+            cut,
+            hint,
+            max_nodes,
+        };
+        self.nearest(mesh, &q, &mut SphereMemo::new(&mut []))
+    }
+
+    /// [`Hierarchy::nearest_uncut_from`] of the query `q`, taking the nodes' bounding spheres
+    /// from `memo` when it holds them and leaving there those it evaluates. The answer, the
+    /// node and triangle counts and the resume place are those of the search without a memo,
+    /// bit for bit (a sphere is a function of its node's tet and tree index; see
+    /// [`SphereMemo`]); only the work per node shrinks: a node whose sphere is remembered
+    /// costs no corner evaluation unless it is a leaf whose faces are tested.
+    ///
+    /// # Bounded work
+    /// As [`Hierarchy::nearest_uncut`], plus one memo look-up per node tested and one store
+    /// per sphere evaluated.
+    pub fn nearest(
+        &self,
+        mesh: &Mesh<'_>,
+        q: &NearestQuery<'_>,
+        memo: &mut SphereMemo<'_>,
+    ) -> Nearest {
+        let NearestQuery {
+            tets,
+            start,
+            centre,
+            reach,
+            cut,
+            hint,
+            max_nodes,
+        } = *q;
         let start = if start < tets.len() { start } else { 0 };
         if !(centre.is_finite() && reach.is_finite() && reach >= 0.0) {
             return Nearest::default();
@@ -326,14 +396,21 @@ impl Hierarchy<'_> {
                 *d2 <= reach2 && !cut_skips(&vt.corners, centre, x, cut2)
             });
         let hinted = hint_tri.map(|(d2, _)| d2);
-        let mut s = self.nearest_walk(mesh, tets, start, centre, reach, cut2, hinted, max_nodes);
+        let walk = Walk {
+            tets,
+            start,
+            centre,
+            reach,
+            cut2,
+        };
+        let mut s = self.nearest_walk(mesh, &walk, hinted, max_nodes, memo);
         if let Some(h) = hinted {
             // Pruning at the hint's distance is exact iff the walk met a triangle at most as
             // far (then the true closest one is no farther than that triangle).
             let ok = s.best.is_some_and(|(d2, _, _)| d2 <= h);
             if !ok && !s.stopped {
                 let left = max_nodes.saturating_sub(s.nodes);
-                let again = self.nearest_walk(mesh, tets, start, centre, reach, cut2, None, left);
+                let again = self.nearest_walk(mesh, &walk, None, left, memo);
                 let (nodes, triangles) = (s.nodes + again.nodes, s.triangles + again.triangles);
                 s = again;
                 s.nodes = nodes;
@@ -367,25 +444,45 @@ impl Hierarchy<'_> {
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// The bounding sphere of node `index` of `t` (corners `p()` when it must be evaluated),
+    /// from the memo or evaluated and left there.
+    #[inline]
+    fn sphere_of(
+        memo: &mut SphereMemo<'_>,
+        t: TetId,
+        index: u32,
+        p: impl FnOnce() -> [Vec3; 4],
+    ) -> (Vec3, f32) {
+        match memo.get(t, index) {
+            Some(sp) => sp,
+            None => {
+                let sp = bounding_sphere(p());
+                memo.put(t, index, sp);
+                sp
+            }
+        }
+    }
+
     fn nearest_walk(
         &self,
         mesh: &Mesh<'_>,
-        tets: &[TetId],
-        start: usize,
-        centre: Vec3,
-        reach: f32,
-        cut2: f32,
+        w: &Walk<'_>,
         hint_d2: Option<f32>,
         max_nodes: u32,
+        memo: &mut SphereMemo<'_>,
     ) -> Search {
+        let (tets, start, centre, reach) = (w.tets, w.start, w.centre, w.reach);
         let scale = centre.abs().max_element() + reach;
         let mut s = Search {
             centre,
             reach,
             reach2: reach * reach,
-            cut2,
-            cut_r: if cut2 < 0.0 { 0.0 } else { libm::sqrtf(cut2) },
+            cut2: w.cut2,
+            cut_r: if w.cut2 < 0.0 {
+                0.0
+            } else {
+                libm::sqrtf(w.cut2)
+            },
             slack: scale * 1.0e-5 + 1.0e-30,
             bound: hint_d2.map_or(reach, libm::sqrtf).min(reach),
             best: None,
@@ -398,9 +495,11 @@ impl Hierarchy<'_> {
         // Not initialised up front (heapless keeps it uninitialised): zeroing 78 entries
         // cost a few thousand instructions a walk on a Cortex-M4.
         let mut stack: heapless::Vec<Entry, STACK> = heapless::Vec::new();
-        // The ten points of the refinement being expanded (and their packed rows).
+        // The ten points of the refinement being expanded (only those some child needs) and
+        // the spheres of its children (from the memo or evaluated).
         let mut ten_rows = [0; 10];
         let mut ten = [Vec3::ZERO; 10];
+        let mut spheres = [(Vec3::ZERO, 0.0f32); 8];
         let n = tets.len();
         for (k, &t) in tets.iter().cycle().skip(start).take(n).enumerate() {
             if s.stopped {
@@ -415,12 +514,19 @@ impl Hierarchy<'_> {
                 continue;
             };
             let rows = frame.root_packed();
-            let p = frame.positions_packed(&rows, 0);
-            let Some(root) = self.consider_root(&mut s, t.0, rows, p) else {
+            let sp = Self::sphere_of(memo, t, 0, || frame.positions_packed(&rows, 0));
+            let Some((d2, rad)) = Self::test_node(&mut s, sp) else {
                 continue;
             };
             stack.clear();
-            let _ = stack.push(root);
+            let _ = stack.push(Entry {
+                r: t.0,
+                index: 0,
+                depth: 0,
+                bary: rows,
+                d2,
+                rad,
+            });
             while !s.stopped {
                 let Some(e) = stack.pop() else {
                     break;
@@ -432,7 +538,8 @@ impl Hierarchy<'_> {
                 let Some(b) = node.block() else {
                     // A root that is a leaf (its reach test is done).
                     let p = frame.positions_packed(&e.bary, e.depth);
-                    s.offer_leaf(t, e.index, node, p);
+                    let sp = Self::sphere_of(memo, t, e.index, || p);
+                    s.offer_leaf(t, e.index, node, p, sp);
                     continue;
                 };
                 if e.depth as usize >= MAX_DEPTH {
@@ -442,17 +549,39 @@ impl Hierarchy<'_> {
                 // farthest first so the nearest is walked first.
                 let first = self.block_ref(b);
                 let base = stack.len();
-                // The children holding surface, and of the ten points of this refinement only
-                // their corners (a third of the children hold surface on a drilled groove).
+                // The children holding surface, their spheres from the memo, and of the ten
+                // points of this refinement only the corners of the children whose sphere
+                // is not remembered (a third of the children hold surface on a drilled
+                // groove); a leaf whose faces are tested gets its corners later.
                 let mut kids = 0u8;
+                let mut remembered = 0u8;
                 let mut need = 0u16;
                 for c in 0..8u8 {
                     if self.node(first + c as u32).is_some_and(|n| n.surface()) {
                         kids |= 1 << c;
-                        need |= CHILD_POINTS[c as usize];
+                        let index = e.index * 8 + 1 + c as u32;
+                        match memo.get(t, index) {
+                            Some(sp) => {
+                                remembered |= 1 << c;
+                                if let Some(slot) = spheres.get_mut(c as usize) {
+                                    *slot = sp;
+                                }
+                            }
+                            None => need |= CHILD_POINTS[c as usize],
+                        }
                     }
                 }
-                refinement_points_masked(&frame, &e.bary, e.depth, need, &mut ten_rows, &mut ten);
+                if need != 0 {
+                    refinement_points_masked(
+                        &frame,
+                        &e.bary,
+                        e.depth,
+                        need,
+                        &mut ten_rows,
+                        &mut ten,
+                    );
+                }
+                let mut have = need;
                 for c in 0..8u8 {
                     if kids & (1 << c) == 0 {
                         continue;
@@ -461,9 +590,15 @@ impl Hierarchy<'_> {
                     let Some(child) = self.node(cr) else {
                         continue;
                     };
-                    // Corners first; the packed rows only for an inner node that is kept.
-                    let p = child_of_ten(&ten, c);
                     let index = e.index * 8 + 1 + c as u32;
+                    let sp = match spheres.get(c as usize) {
+                        Some(&sp) if remembered & (1 << c) != 0 => sp,
+                        _ => {
+                            let sp = bounding_sphere(child_of_ten(&ten, c));
+                            memo.put(t, index, sp);
+                            sp
+                        }
+                    };
                     if child.is_leaf() {
                         // Leaves are tested at once (no stack round trip), after the same
                         // bound test as an inner node: a leaf that cannot hold a better
@@ -473,17 +608,34 @@ impl Hierarchy<'_> {
                             break;
                         }
                         s.nodes += 1;
-                        let (mid, rad) = bounding_sphere(p);
-                        let d2 = mid.distance_squared(s.centre);
-                        if s.may_hold_better(d2, rad) && !s.all_cut(d2, rad) {
-                            s.offer_leaf(t, index, child, p);
+                        let d2 = sp.0.distance_squared(s.centre);
+                        if s.may_hold_better(d2, sp.1) && !s.all_cut(d2, sp.1) {
+                            let more = CHILD_POINTS[c as usize] & !have;
+                            if more != 0 {
+                                refinement_points_masked(
+                                    &frame,
+                                    &e.bary,
+                                    e.depth,
+                                    more,
+                                    &mut ten_rows,
+                                    &mut ten,
+                                );
+                                have |= more;
+                            }
+                            s.offer_leaf(t, index, child, child_of_ten(&ten, c), sp);
                         }
                         continue;
                     }
-                    if let Some(k) = self.consider(&mut s, cr, index, e.depth + 1, &ten_rows, c, p)
-                    {
+                    if let Some((d2, rad)) = Self::test_node(&mut s, sp) {
                         // Never full: at most 7 entries per level wait, plus 8.
-                        let _ = stack.push(k);
+                        let _ = stack.push(Entry {
+                            r: cr,
+                            index,
+                            depth: e.depth + 1,
+                            bary: child_packed(&e.bary, c),
+                            d2,
+                            rad,
+                        });
                     }
                 }
                 // Insertion sort by decreasing distance (at most 8).
@@ -501,67 +653,17 @@ impl Hierarchy<'_> {
         s
     }
 
-    /// The stack entry of child `c` (node `r`, tree index `index`, corners `p`) of a
-    /// refinement whose ten packed rows are `rows`, when it holds surface, passes the reach
-    /// test of [`Hierarchy::for_each_visible_in`] and may hold a triangle within the bound;
-    /// counts one node of work (or stops the search when `max_nodes` are spent). The child's
-    /// own packed rows are picked from `rows` only when it is kept.
-    #[allow(clippy::too_many_arguments)]
+    /// The tests a node holding surface with bounding sphere `(mid, rad)` passes to be kept:
+    /// the reach test of [`Hierarchy::for_each_visible_in`], the bound and the cutting rule;
+    /// counts one node of work (or stops the search when `max_nodes` are spent). Returns the
+    /// squared distance to the sphere's centre and its radius when the node is kept.
     #[inline]
-    fn consider(
-        &self,
-        s: &mut Search,
-        r: u32,
-        index: u32,
-        depth: u8,
-        rows: &[Packed; 10],
-        c: u8,
-        p: [Vec3; 4],
-    ) -> Option<Entry> {
-        let (d2, rad) = self.test_node(s, r, p)?;
-        Some(Entry {
-            r,
-            index,
-            depth,
-            bary: child_of_ten(rows, c),
-            d2,
-            rad,
-        })
-    }
-
-    /// [`Hierarchy::consider`] for the root of a tree (packed rows `rows`, corners `p`).
-    #[inline]
-    fn consider_root(
-        &self,
-        s: &mut Search,
-        r: u32,
-        rows: [Packed; 4],
-        p: [Vec3; 4],
-    ) -> Option<Entry> {
-        let (d2, rad) = self.test_node(s, r, p)?;
-        Some(Entry {
-            r,
-            index: 0,
-            depth: 0,
-            bary: rows,
-            d2,
-            rad,
-        })
-    }
-
-    /// The tests of [`Hierarchy::consider`]: the squared distance to the bounding sphere's
-    /// centre and its radius when node `r` (corners `p`) is kept.
-    #[inline]
-    fn test_node(&self, s: &mut Search, r: u32, p: [Vec3; 4]) -> Option<(f32, f32)> {
-        if !self.node(r)?.surface() {
-            return None;
-        }
+    fn test_node(s: &mut Search, (mid, rad): (Vec3, f32)) -> Option<(f32, f32)> {
         if s.nodes >= s.max_nodes {
             s.stopped = true;
             return None;
         }
         s.nodes += 1;
-        let (mid, rad) = bounding_sphere(p);
         let d2 = mid.distance_squared(s.centre);
         let lim = rad + s.reach;
         if d2 > lim * lim || !s.may_hold_better(d2, rad) || s.all_cut(d2, rad) {

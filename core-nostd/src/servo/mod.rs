@@ -17,7 +17,9 @@ use glam::Vec3;
 use crate::drill::{Drill, DrillParams, DrillReport, Pending, Sphere};
 use crate::force::{clamp_force, damping_force, sphere_contact, ForceParams, ToolState};
 use crate::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, HashError, SpatialHash};
-use crate::hierarchy::{FaceRef, Hierarchy, HierarchyError, HierarchyStorage};
+use crate::hierarchy::{
+    FaceRef, Hierarchy, HierarchyError, HierarchyStorage, NearestQuery, SphereMemo, SphereSlot,
+};
 use crate::ids::TetId;
 use crate::mesh::Mesh;
 
@@ -37,6 +39,9 @@ pub struct WorldStorage<'a> {
     pub pending: &'a mut [Pending],
     /// Candidate coarse tets near the tool, refilled each simulation step.
     pub candidates: &'a mut [TetId],
+    /// The contact search's memo of node bounding spheres ([`SphereMemo`], 24 bytes a slot;
+    /// empty: none). It saves work, never changes a result.
+    pub sphere_memo: &'a mut [SphereSlot],
 }
 
 /// Storage sizes for a [`World`] over a mesh of `tets` tets.
@@ -58,6 +63,8 @@ pub struct WorldSizes {
     pub pending: usize,
     /// Candidate tets near the tool.
     pub candidates: usize,
+    /// `sphere_memo` slots.
+    pub sphere_memo: usize,
 }
 
 /// Default capacity of the drill's pending deque: the demo path (`builtin:demo`, burr 0.1 on
@@ -66,6 +73,9 @@ pub struct WorldSizes {
 /// from 4,000 to 32,000 units, so 32,768 (64 bytes each, 2.0 MB). A board with little RAM
 /// sizes it with [`WorldSizes::with_pending`] (the firmware's scenario peaks under 2,000).
 pub const DEFAULT_PENDING: usize = 1 << 15;
+
+/// Default size of the contact search's [`SphereMemo`]: 4,096 slots (96 KB).
+pub const DEFAULT_SPHERE_MEMO: usize = 1 << 12;
 
 impl WorldSizes {
     /// Sizes for `tets` coarse tets and an arena of `arena` hierarchy nodes. The hash gets about
@@ -83,6 +93,7 @@ impl WorldSizes {
             vlist: HierarchyStorage::vlist_needed(tets, arena),
             pending: DEFAULT_PENDING,
             candidates: 1024,
+            sphere_memo: DEFAULT_SPHERE_MEMO,
         }
     }
 
@@ -90,6 +101,15 @@ impl WorldSizes {
     /// gives the same results whatever its capacity.
     pub const fn with_pending(self, pending: usize) -> Self {
         Self { pending, ..self }
+    }
+
+    /// The same sizes with a sphere memo of `slots` slots (any size, zero included, gives the
+    /// same results).
+    pub const fn with_sphere_memo(self, slots: usize) -> Self {
+        Self {
+            sphere_memo: slots,
+            ..self
+        }
     }
 }
 
@@ -185,6 +205,7 @@ pub struct World<'a> {
     drill: Drill<'a>,
     candidates: &'a mut [TetId],
     ncand: usize,
+    memo: SphereMemo<'a>,
     max_cells: u32,
     contact: ContactState,
     contact_face: Option<FaceRef>,
@@ -234,7 +255,7 @@ impl<'a> World<'a> {
     /// and creates an untouched hierarchy.
     ///
     /// # Bounded work
-    /// O(T + buckets + hash entries) for T tets.
+    /// O(T + buckets + hash entries + memo slots) for T tets.
     ///
     /// # Errors
     /// [`WorldError`] when the hash or the hierarchy refuses its storage. A hash too small for
@@ -248,6 +269,7 @@ impl<'a> World<'a> {
             hierarchy,
             pending,
             candidates,
+            sphere_memo,
         } = storage;
         let buckets =
             prime_at_most((hash_starts.len().saturating_sub(1)).min(u32::MAX as usize) as u32);
@@ -276,6 +298,7 @@ impl<'a> World<'a> {
             drill: Drill::new(pending),
             candidates,
             ncand: 0,
+            memo: SphereMemo::new(sphere_memo),
             max_cells: 4096,
             contact: ContactState::default(),
             contact_face: None,
@@ -302,6 +325,11 @@ impl<'a> World<'a> {
     /// The static tet hash.
     pub fn hash(&self) -> &SpatialHash<'a> {
         &self.hash
+    }
+
+    /// The contact search's sphere memo (its size and hit counts).
+    pub fn sphere_memo(&self) -> &SphereMemo<'a> {
+        &self.memo
     }
 
     /// The contact the last [`World::simulate`] found.
@@ -550,16 +578,16 @@ impl<'a> World<'a> {
             .contact_resume
             .and_then(|t| cands.iter().position(|&c| c == t))
             .unwrap_or(0);
-        let near = self.hier.nearest_uncut_from(
-            &self.mesh,
-            cands,
+        let q = NearestQuery {
+            tets: cands,
             start,
             centre,
             reach,
-            cutting.then_some(radius),
-            self.contact_face,
-            self.contact_max_nodes,
-        );
+            cut: cutting.then_some(radius),
+            hint: self.contact_face,
+            max_nodes: self.contact_max_nodes,
+        };
+        let near = self.hier.nearest(&self.mesh, &q, &mut self.memo);
         rep.triangles = near.triangles;
         rep.contact_nodes = near.nodes;
         self.contact_resume = if near.complete {

@@ -42,7 +42,9 @@ const TICKS: Option<&str> = option_env!("TETRADRILL_TICKS");
 /// Set at build time (`TETRADRILL_TICK_LOG=1`) to print one line per tick: instructions
 /// (whole tick, simulate, the contact query redone) and the drill's counts (items taken, nodes
 /// expanded, NTree nodes visited, nodes created, leaves erased), for fitting the drill's work
-/// weights (`scripts/fit-work-weights.py`).
+/// weights (`scripts/fit-work-weights.py`); then the candidate query redone (instructions,
+/// tets), the contact search's nodes, the step's candidates, and the sphere memo's hits and
+/// misses in the step.
 const TICK_LOG: bool = option_env!("TETRADRILL_TICK_LOG").is_some();
 /// Set at build time (`TETRADRILL_PROFILE_FROM=N`) to call [`profile_mark`] before tick N:
 /// `scripts/m4-profile.sh` counts QEMU's executed blocks from that call on, so the profile
@@ -164,6 +166,7 @@ fn main() -> ! {
         }
         let (position, buttons) = DEMO.at(i);
         let drill_on = buttons & DRILL_ON != 0;
+        let memo0 = (world.sphere_memo().hits(), world.sphere_memo().misses());
         let t0 = clock.now();
         let rep = world.simulate(
             position,
@@ -209,7 +212,7 @@ fn main() -> ! {
         if TICK_LOG {
             let d = &rep.drill;
             hprintln!(
-                "tick {} {} {} {} {} {} {} {} {} {} {} {} {}",
+                "tick {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
                 i,
                 clock::instructions(t2 - t0).saturating_sub(2 * oh),
                 clock::instructions(t1 - t0).saturating_sub(oh),
@@ -222,7 +225,9 @@ fn main() -> ! {
                 clock::instructions(q1 - q0).saturating_sub(oh),
                 nq,
                 rep.contact_nodes,
-                rep.candidates
+                rep.candidates,
+                world.sphere_memo().hits() - memo0.0,
+                world.sphere_memo().misses() - memo0.1
             );
         }
     }

@@ -8,14 +8,15 @@
 //! `&'static mut` with no `unsafe` here. Arrays whose const initial value is all zero bytes
 //! land in `.bss` (no flash); the ones whose initial value the host sets to something else
 //! are refilled with the core's `Default` at start-up, so both sides start from the same
-//! bits. The hierarchy nodes start as `HNode::LEAF`, which is all zero bytes: `.bss` too.
+//! bits. The hierarchy nodes start as `HNode::LEAF` and the sphere memo as `SphereSlot::EMPTY`,
+//! both all zero bytes: `.bss` too.
 
 use static_cell::ConstStaticCell;
 
 use tetradrill_core::builtin::block_counts;
 use tetradrill_core::drill::Pending;
 use tetradrill_core::hash::{Aabb, HashEntry};
-use tetradrill_core::hierarchy::{HNode, HierarchyStorage, VEntry};
+use tetradrill_core::hierarchy::{HNode, HierarchyStorage, SphereSlot, VEntry};
 use tetradrill_core::mesh::{MeshStorage, Node, Reverse, Tet};
 use tetradrill_core::servo::{WorldSizes, WorldStorage};
 use tetradrill_core::{NodeId, TetId, Vec3};
@@ -75,6 +76,8 @@ static PENDING: ConstStaticCell<[Pending; SIZES.pending]> =
     ConstStaticCell::new([ZERO_PENDING; SIZES.pending]);
 static CANDIDATES: ConstStaticCell<[TetId; SIZES.candidates]> =
     ConstStaticCell::new([TetId(0); SIZES.candidates]);
+static SPHERE_MEMO: ConstStaticCell<[SphereSlot; SIZES.sphere_memo]> =
+    ConstStaticCell::new([SphereSlot::EMPTY; SIZES.sphere_memo]);
 
 /// The storage, taken once.
 pub struct Storage {
@@ -120,6 +123,7 @@ impl Storage {
                 },
                 pending,
                 candidates,
+                sphere_memo: SPHERE_MEMO.take(),
             },
         }
     }
