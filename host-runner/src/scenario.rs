@@ -314,7 +314,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             max_depth: 4,
             hierarchy_capacity: 20_000,
             budget_per_tick: 300,
-            contact_search_nodes: 80,
+            contact_search_nodes: 64,
             pending_capacity: 16_384,
             ..Scenario::default()
         }),

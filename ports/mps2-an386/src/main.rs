@@ -79,7 +79,7 @@ mod scenario {
         super::build_number(option_env!("TETRADRILL_BUDGET")).unwrap_or(BUDGET)
     }
     /// Hierarchy nodes one contact search may test (`contact_search_nodes`).
-    pub const CONTACT_NODES: u32 = 80;
+    pub const CONTACT_NODES: u32 = 64;
     /// [`CONTACT_NODES`], or `TETRADRILL_CONTACT_NODES=N` at build time (host:
     /// `--contact-search-nodes N`).
     pub fn contact_nodes() -> u32 {
