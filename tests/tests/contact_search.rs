@@ -13,7 +13,8 @@ use tetradrill_core::drill::{DrillParams, Pending};
 use tetradrill_core::force::{closest_point_on_triangle, sphere_contact};
 use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{
-    FaceRef, HNode, Hierarchy, HierarchyStorage, NearestQuery, SphereMemo, SphereSlot, VEntry,
+    FaceRef, HNode, Hierarchy, HierarchyStorage, NearestCursor, NearestQuery, SphereMemo,
+    SphereSlot, VEntry,
 };
 use tetradrill_core::mesh::{BuildOptions, Mesh};
 use tetradrill_core::servo::{World, WorldSizes, WorldStorage};
@@ -619,5 +620,94 @@ fn bounded_searches_resumed_where_the_last_stopped_get_closer() {
             better * 2 >= poses,
             "resuming got closer at {better} of {poses} poses only"
         );
+    });
+}
+
+/// Bounded searches at a held pose that go on from a cursor (`Hierarchy::nearest_continued`,
+/// as `World::simulate` does), each hinted with the last answer: no search tests more nodes
+/// than its bound (an expansion is never split), the answer never moves away and is never
+/// closer than the exhaustive one, and once a round over the trees has ended (the cursor
+/// cleared) the answer is the exhaustive triangle, bit for bit: every tree was walked to the
+/// end, pruned at distances no nearer than the closest face. A search that went on from a
+/// place and ends its round goes on with a fresh one (`complete` when that ends too).
+#[test]
+fn continued_searches_finish_every_tree_and_reach_the_exhaustive_answer() {
+    on_block4(|world, params, r, reach| {
+        for k in 0..40 {
+            let c = if k < 20 {
+                Vec3::new(0.0, 0.0, 0.55 - 0.01 * k as f32)
+            } else {
+                Vec3::new(0.01 * (k - 20) as f32, 0.0, 0.36)
+            };
+            world.simulate(c, r, reach, true, params);
+        }
+        let (mut poses, mut rounds, mut went_on) = (0, 0, 0);
+        for c in [
+            Vec3::new(0.02, 0.0, 0.4),
+            Vec3::new(0.1, 0.03, 0.33),
+            Vec3::new(-0.03, 0.02, 0.42),
+            Vec3::new(0.15, -0.02, 0.37),
+            Vec3::new(0.05, -0.05, 0.3),
+            Vec3::new(0.12, 0.06, 0.38),
+        ] {
+            world.simulate(c, r, reach, false, params);
+            let (h, m) = (world.hierarchy(), world.mesh());
+            let mut cands = world.candidates().to_vec();
+            cands.sort_unstable();
+            let Some((exact, key, _)) = exhaustive(h, m, &cands, c, r + reach) else {
+                continue;
+            };
+            poses += 1;
+            let mut slots = vec![SphereSlot::EMPTY; 64];
+            let mut memo = SphereMemo::new(&mut slots);
+            let mut cursor = NearestCursor::new();
+            let (mut hint, mut last, mut ended) = (None, f32::INFINITY, false);
+            for step in 0..400 {
+                let max_nodes = 12;
+                let q = NearestQuery {
+                    tets: &cands,
+                    start: 0,
+                    centre: c,
+                    reach: r + reach,
+                    cut: None,
+                    hint,
+                    max_nodes,
+                };
+                let had_place = cursor.tet().is_some();
+                let rounds_before = cursor.rounds();
+                let near = h.nearest_continued(m, &q, &mut memo, &mut cursor);
+                assert!(
+                    near.nodes <= max_nodes,
+                    "{c}: step {step}: {} nodes",
+                    near.nodes
+                );
+                went_on += u32::from(had_place);
+                if let Some(vt) = near.tri {
+                    hint = Some(FaceRef {
+                        tet: vt.tet,
+                        index: vt.index,
+                        face: vt.face,
+                    });
+                    assert!(near.d2 <= last, "{c}: step {step} moved away");
+                    assert!(near.d2 >= exact, "{c}: closer than the exhaustive answer");
+                    last = near.d2;
+                }
+                if ended {
+                    assert_eq!(near.d2.to_bits(), exact.to_bits(), "{c}: step {step}");
+                    assert_eq!(hint, Some(key), "{c}: step {step}");
+                }
+                if cursor.rounds() > rounds_before {
+                    ended = true;
+                }
+            }
+            assert!(ended, "{c}: no round ended in 400 searches of 12 nodes");
+            rounds += cursor.rounds();
+        }
+        assert!(poses >= 4, "{poses} poses with surface in reach");
+        assert!(
+            went_on > 100,
+            "the bound must stop searches here ({went_on})"
+        );
+        eprintln!("{rounds} rounds at {poses} poses, {went_on} searches went on");
     });
 }

@@ -20,11 +20,15 @@
 //! exhaustive search gives, bit for bit, whenever the search completes.
 //!
 //! A search bounded by a node count answers with the closest triangle it met (or the hint)
-//! and says where it would go on ([`Nearest::resume`]); [`Hierarchy::nearest_uncut_from`]
-//! starts the next one there, so bounded searches at a slowly moving tool walk the trees near
-//! it in turn instead of the same first ones. On a Cortex-M4 a node test costs about 560
-//! instructions (docs/PORTING.md): a quarter evaluating refinement points (only those of the
-//! children holding surface), the rest node look-ups, bounding spheres and triangle tests.
+//! and says where it would go on ([`Nearest::resume`]: [`Hierarchy::nearest_uncut_from`]
+//! starts the next one in the next tree). [`Hierarchy::nearest_continued`] keeps more: the
+//! nodes still waiting in the tree where it stopped ([`NearestCursor`]), so successive bounded
+//! searches at a slowly moving tool walk every tree near it to the end, in rounds, without
+//! paying the descent from a root again. [`SphereMemo`] remembers the nodes' bounding spheres
+//! across searches (same results, less work). On a Cortex-M4 a node test costs 500 to 800
+//! instructions in a drilled cavity (docs/PORTING.md): node look-ups, bounding spheres (from
+//! the memo, mostly), refinement points for the leaves whose faces are tested, and the
+//! triangle tests.
 
 use glam::Vec3;
 
@@ -109,9 +113,12 @@ pub struct NearestQuery<'q> {
 }
 
 /// What one walk over the trees needs of the query, prepared once.
+#[derive(Clone, Copy)]
 struct Walk<'q> {
     tets: &'q [TetId],
     start: usize,
+    /// How many trees, from `start` on (cyclically).
+    count: usize,
     centre: Vec3,
     reach: f32,
     /// Squared cutting radius, negative when not cutting.
@@ -122,17 +129,67 @@ struct Walk<'q> {
 const STACK: usize = 7 * MAX_DEPTH + 8;
 
 /// One node waiting on the stack.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Entry {
     r: u32,
     index: u32,
     depth: u8,
     /// The node's corners as packed integer barycentric coordinates.
     bary: [Packed; 4],
+    /// Bounding sphere centre (a search that goes on from a [`NearestCursor`] measures it
+    /// again from its own centre).
+    mid: Vec3,
     /// Squared distance from the centre to the bounding sphere's centre.
     d2: f32,
     /// Bounding sphere radius.
     rad: f32,
+}
+
+/// Where a bounded search stopped, kept for the next one to go on from
+/// ([`Hierarchy::nearest_continued`]): the tree it was in and the nodes of that tree still
+/// waiting (none: that tree from its root). About 4.7 KB.
+#[derive(Clone, Debug, Default)]
+pub struct NearestCursor {
+    tet: Option<TetId>,
+    /// The tree the round began with: the round ends before it comes round to it again.
+    first: Option<TetId>,
+    /// [`Hierarchy::reclaimed`] when it was saved: the node references on the stack are
+    /// valid while it is unchanged.
+    reclaimed: u32,
+    /// Rounds ended so far.
+    rounds: u32,
+    stack: heapless::Vec<Entry, STACK>,
+}
+
+impl NearestCursor {
+    /// A cursor that goes on from nowhere (the next search starts afresh).
+    pub const fn new() -> Self {
+        Self {
+            tet: None,
+            first: None,
+            reclaimed: 0,
+            rounds: 0,
+            stack: heapless::Vec::new(),
+        }
+    }
+
+    /// Rounds over the trees that ended so far (saturating): each one walked every tree of
+    /// the list to the end.
+    pub fn rounds(&self) -> u32 {
+        self.rounds
+    }
+
+    /// The tree the next search goes on with, if any.
+    pub fn tet(&self) -> Option<TetId> {
+        self.tet
+    }
+
+    /// Forgets the place (the next search starts afresh).
+    pub fn clear(&mut self) {
+        self.tet = None;
+        self.first = None;
+        self.stack.clear();
+    }
 }
 
 /// The state of one search.
@@ -372,6 +429,48 @@ impl Hierarchy<'_> {
         q: &NearestQuery<'_>,
         memo: &mut SphereMemo<'_>,
     ) -> Nearest {
+        self.nearest_inner(mesh, q, memo, None)
+    }
+
+    /// [`Hierarchy::nearest`] that goes on where the last bounded search stopped: when
+    /// `cursor` holds a place in a tree of `q.tets` (and no block was taken back since,
+    /// [`Hierarchy::reclaimed`]), the walk starts in that tree with the nodes that were still
+    /// waiting there, measured again from this centre, then takes the other trees in turn;
+    /// otherwise it starts afresh at `q.start`. A search stopped by `max_nodes` leaves its
+    /// place in `cursor`; one that ends its rounds clears it. So successive bounded searches at a slowly
+    /// moving tool walk every tree near it to the end, one after another, paying the descent
+    /// from a root once, where [`Hierarchy::nearest_uncut_from`] restarts at a root every
+    /// time and never finishes a tree its bound cuts short.
+    ///
+    /// A round over the trees begins at `q.start` and ends when the walk comes round to the
+    /// tree it began with (or, when that tree left the list, at the list's end). A search
+    /// whose round ends within the bound begins a fresh one with the nodes left; `complete`
+    /// is `true` when that fresh round ends too: its answer is then the exhaustive one, bit
+    /// for bit (the triangles met in the old round are true faces measured from this
+    /// centre, never closer than the closest). Otherwise the answer is the closest triangle
+    /// met or the hint, like any stopped search. An expansion is never split: a node's
+    /// children are tested only when all of them fit in what is left of `max_nodes`.
+    ///
+    /// # Bounded work
+    /// As [`Hierarchy::nearest`], plus O(stack) to measure the waiting nodes again (at most
+    /// 7 per level plus 8) and O(`tets`) to find the cursor's tree.
+    pub fn nearest_continued(
+        &self,
+        mesh: &Mesh<'_>,
+        q: &NearestQuery<'_>,
+        memo: &mut SphereMemo<'_>,
+        cursor: &mut NearestCursor,
+    ) -> Nearest {
+        self.nearest_inner(mesh, q, memo, Some(cursor))
+    }
+
+    fn nearest_inner(
+        &self,
+        mesh: &Mesh<'_>,
+        q: &NearestQuery<'_>,
+        memo: &mut SphereMemo<'_>,
+        mut cursor: Option<&mut NearestCursor>,
+    ) -> Nearest {
         let NearestQuery {
             tets,
             start,
@@ -381,9 +480,34 @@ impl Hierarchy<'_> {
             hint,
             max_nodes,
         } = *q;
-        let start = if start < tets.len() { start } else { 0 };
+        let n = tets.len();
+        let start = if start < n { start } else { 0 };
         if !(centre.is_finite() && reach.is_finite() && reach >= 0.0) {
+            if let Some(c) = cursor {
+                c.clear();
+            }
             return Nearest::default();
+        }
+        // Go on from the cursor's place when it is still good: from its tree up to the tree
+        // its round started with (or the end of the list when that one is gone).
+        let mut local: heapless::Vec<Entry, STACK> = heapless::Vec::new();
+        let mut going_on: Option<(usize, usize)> = None;
+        if let Some(c) = cursor.as_deref_mut() {
+            let at = c
+                .tet
+                .filter(|_| c.reclaimed == self.reclaimed())
+                .and_then(|t| tets.iter().position(|&x| x == t));
+            match at {
+                Some(i) => {
+                    let count = match c.first.and_then(|f| tets.iter().position(|&x| x == f)) {
+                        Some(f) if f != i => (f + n - i) % n,
+                        Some(_) => n,
+                        None => n - i,
+                    };
+                    going_on = Some((i, count));
+                }
+                None => c.clear(),
+            }
         }
         let reach2 = reach * reach;
         let cut2 = cut
@@ -396,25 +520,68 @@ impl Hierarchy<'_> {
                 *d2 <= reach2 && !cut_skips(&vt.corners, centre, x, cut2)
             });
         let hinted = hint_tri.map(|(d2, _)| d2);
-        let walk = Walk {
+        let fresh = Walk {
             tets,
             start,
+            count: n,
             centre,
             reach,
             cut2,
         };
-        let mut s = self.nearest_walk(mesh, &walk, hinted, max_nodes, memo);
+        let stack = match cursor.as_deref_mut() {
+            Some(c) => &mut c.stack,
+            None => &mut local,
+        };
+        let mut ended = 0u32;
+        let mut s = match going_on {
+            Some((i, count)) => {
+                let on = Walk {
+                    start: i,
+                    count,
+                    ..fresh
+                };
+                let s = self.nearest_walk(mesh, &on, hinted, max_nodes, memo, stack, true);
+                if s.stopped {
+                    s
+                } else {
+                    // The round ended within the bound: a fresh one with what is left (exact
+                    // when it ends too); the triangles met so far stay in the running.
+                    let left = max_nodes.saturating_sub(s.nodes);
+                    let mut again =
+                        self.nearest_walk(mesh, &fresh, hinted, left, memo, stack, false);
+                    again.nodes += s.nodes;
+                    again.triangles += s.triangles;
+                    again.best = closer(again.best, s.best);
+                    going_on = None;
+                    ended += 1;
+                    again
+                }
+            }
+            None => self.nearest_walk(mesh, &fresh, hinted, max_nodes, memo, stack, false),
+        };
         if let Some(h) = hinted {
             // Pruning at the hint's distance is exact iff the walk met a triangle at most as
             // far (then the true closest one is no farther than that triangle).
             let ok = s.best.is_some_and(|(d2, _, _)| d2 <= h);
-            if !ok && !s.stopped {
+            if !ok && !s.stopped && going_on.is_none() {
                 let left = max_nodes.saturating_sub(s.nodes);
-                let again = self.nearest_walk(mesh, &walk, None, left, memo);
+                let again = self.nearest_walk(mesh, &fresh, None, left, memo, stack, false);
                 let (nodes, triangles) = (s.nodes + again.nodes, s.triangles + again.triangles);
                 s = again;
                 s.nodes = nodes;
                 s.triangles = triangles;
+            }
+        }
+        if let Some(c) = cursor {
+            c.rounds = c.rounds.saturating_add(ended + u32::from(!s.stopped));
+            if s.stopped {
+                if going_on.is_none() {
+                    c.first = tets.get(start).copied();
+                }
+                c.tet = tets.get(s.stopped_in).copied();
+                c.reclaimed = self.reclaimed();
+            } else {
+                c.clear();
             }
         }
         if s.stopped {
@@ -463,6 +630,11 @@ impl Hierarchy<'_> {
         }
     }
 
+    /// The walk over the trees of `w` from `w.start`, depth first in each, on `stack`: when
+    /// `goes_on`, the first tree goes on with the nodes waiting on `stack` (none: from its
+    /// root). A walk stopped by `max_nodes` leaves the waiting nodes of the tree it stopped in
+    /// (`stopped_in`) on `stack`.
+    #[allow(clippy::too_many_arguments)]
     fn nearest_walk(
         &self,
         mesh: &Mesh<'_>,
@@ -470,6 +642,8 @@ impl Hierarchy<'_> {
         hint_d2: Option<f32>,
         max_nodes: u32,
         memo: &mut SphereMemo<'_>,
+        stack: &mut heapless::Vec<Entry, STACK>,
+        goes_on: bool,
     ) -> Search {
         let (tets, start, centre, reach) = (w.tets, w.start, w.centre, w.reach);
         let scale = centre.abs().max_element() + reach;
@@ -492,16 +666,19 @@ impl Hierarchy<'_> {
             stopped: false,
             stopped_in: 0,
         };
-        // Not initialised up front (heapless keeps it uninitialised): zeroing 78 entries
-        // cost a few thousand instructions a walk on a Cortex-M4.
-        let mut stack: heapless::Vec<Entry, STACK> = heapless::Vec::new();
         // The ten points of the refinement being expanded (only those some child needs) and
         // the spheres of its children (from the memo or evaluated).
         let mut ten_rows = [0; 10];
         let mut ten = [Vec3::ZERO; 10];
         let mut spheres = [(Vec3::ZERO, 0.0f32); 8];
         let n = tets.len();
-        for (k, &t) in tets.iter().cycle().skip(start).take(n).enumerate() {
+        for (k, &t) in tets
+            .iter()
+            .cycle()
+            .skip(start)
+            .take(w.count.min(n))
+            .enumerate()
+        {
             if s.stopped {
                 break;
             }
@@ -513,20 +690,28 @@ impl Hierarchy<'_> {
             let Some(frame) = RootFrame::of(mesh, t) else {
                 continue;
             };
-            let rows = frame.root_packed();
-            let sp = Self::sphere_of(memo, t, 0, || frame.positions_packed(&rows, 0));
-            let Some((d2, rad)) = Self::test_node(&mut s, sp) else {
-                continue;
-            };
-            stack.clear();
-            let _ = stack.push(Entry {
-                r: t.0,
-                index: 0,
-                depth: 0,
-                bary: rows,
-                d2,
-                rad,
-            });
+            if k == 0 && goes_on && !stack.is_empty() {
+                // The nodes still waiting in this tree, measured from this centre.
+                for e in stack.iter_mut() {
+                    e.d2 = e.mid.distance_squared(centre);
+                }
+            } else {
+                stack.clear();
+                let rows = frame.root_packed();
+                let sp = Self::sphere_of(memo, t, 0, || frame.positions_packed(&rows, 0));
+                let Some((d2, rad)) = Self::test_node(&mut s, sp) else {
+                    continue;
+                };
+                let _ = stack.push(Entry {
+                    r: t.0,
+                    index: 0,
+                    depth: 0,
+                    bary: rows,
+                    mid: sp.0,
+                    d2,
+                    rad,
+                });
+            }
             while !s.stopped {
                 let Some(e) = stack.pop() else {
                     break;
@@ -534,7 +719,10 @@ impl Hierarchy<'_> {
                 if !s.may_hold_better(e.d2, e.rad) {
                     continue;
                 }
-                let Some(node) = self.node(e.r) else { continue };
+                // (A node waiting since an earlier search may have lost its surface since.)
+                let Some(node) = self.node(e.r).filter(|n| n.surface()) else {
+                    continue;
+                };
                 let Some(b) = node.block() else {
                     // A root that is a leaf (its reach test is done).
                     let p = frame.positions_packed(&e.bary, e.depth);
@@ -548,17 +736,32 @@ impl Hierarchy<'_> {
                 // The children kept go straight onto the stack, then that segment is sorted
                 // farthest first so the nearest is walked first.
                 let first = self.block_ref(b);
-                let base = stack.len();
+                let Some(block) = self.block_nodes(b) else {
+                    continue;
+                };
+                let mut order = [(0.0f32, 0u8); 8];
+                let mut kept = 0usize;
                 // The children holding surface, their spheres from the memo, and of the ten
                 // points of this refinement only the corners of the children whose sphere
                 // is not remembered (a third of the children hold surface on a drilled
                 // groove); a leaf whose faces are tested gets its corners later.
                 let mut kids = 0u8;
+                for (c, k) in block.iter().enumerate() {
+                    if k.surface() {
+                        kids |= 1 << c;
+                    }
+                }
+                // An expansion is never split: when its children do not all fit in the
+                // bound, the node waits (on the stack, for a search that goes on).
+                if s.nodes.saturating_add(kids.count_ones()) > s.max_nodes {
+                    let _ = stack.push(e);
+                    s.stopped = true;
+                    break;
+                }
                 let mut remembered = 0u8;
                 let mut need = 0u16;
                 for c in 0..8u8 {
-                    if self.node(first + c as u32).is_some_and(|n| n.surface()) {
-                        kids |= 1 << c;
+                    if kids & (1 << c) != 0 {
                         let index = e.index * 8 + 1 + c as u32;
                         match memo.get(t, index) {
                             Some(sp) => {
@@ -586,8 +789,7 @@ impl Hierarchy<'_> {
                     if kids & (1 << c) == 0 {
                         continue;
                     }
-                    let cr = first + c as u32;
-                    let Some(child) = self.node(cr) else {
+                    let Some(&child) = block.get(c as usize) else {
                         continue;
                     };
                     let index = e.index * 8 + 1 + c as u32;
@@ -626,27 +828,36 @@ impl Hierarchy<'_> {
                         }
                         continue;
                     }
-                    if let Some((d2, rad)) = Self::test_node(&mut s, sp) {
-                        // Never full: at most 7 entries per level wait, plus 8.
-                        let _ = stack.push(Entry {
-                            r: cr,
-                            index,
-                            depth: e.depth + 1,
-                            bary: child_packed(&e.bary, c),
-                            d2,
-                            rad,
-                        });
+                    if let Some((d2, _)) = Self::test_node(&mut s, sp) {
+                        // Kept: into `order` by decreasing distance (ties in child order),
+                        // its sphere in `spheres`.
+                        if let Some(slot) = spheres.get_mut(c as usize) {
+                            *slot = sp;
+                        }
+                        let mut at = kept;
+                        while at > 0 && order.get(at - 1).is_some_and(|o| o.0 < d2) {
+                            at -= 1;
+                        }
+                        if let Some(o) = order.get_mut(at..=kept) {
+                            o.rotate_right(1);
+                            o[0] = (d2, c);
+                        }
+                        kept += 1;
                     }
                 }
-                // Insertion sort by decreasing distance (at most 8).
-                if let Some(kids) = stack.get_mut(base..) {
-                    for i in 1..kids.len() {
-                        let mut j = i;
-                        while j > 0 && kids[j - 1].d2 < kids[j].d2 {
-                            kids.swap(j - 1, j);
-                            j -= 1;
-                        }
-                    }
+                // The kept children onto the stack farthest first, so the nearest is walked
+                // first (never full: at most 7 entries per level wait, plus 8).
+                for &(d2, c) in order.iter().take(kept) {
+                    let (mid, rad) = spheres.get(c as usize).copied().unwrap_or_default();
+                    let _ = stack.push(Entry {
+                        r: first + c as u32,
+                        index: e.index * 8 + 1 + c as u32,
+                        depth: e.depth + 1,
+                        bary: child_packed(&e.bary, c),
+                        mid,
+                        d2,
+                        rad,
+                    });
                 }
             }
         }
@@ -670,6 +881,22 @@ impl Hierarchy<'_> {
             return None;
         }
         Some((d2, rad))
+    }
+}
+
+/// The closer of two candidate answers (ties: the smaller face), as a walk compares them.
+fn closer(
+    a: Option<(f32, FaceRef, VisibleTri)>,
+    b: Option<(f32, FaceRef, VisibleTri)>,
+) -> Option<(f32, FaceRef, VisibleTri)> {
+    match (a, b) {
+        (Some(x), Some(y)) => Some(if y.0 < x.0 || (y.0 == x.0 && y.1 < x.1) {
+            y
+        } else {
+            x
+        }),
+        (x, None) => x,
+        (None, y) => y,
     }
 }
 

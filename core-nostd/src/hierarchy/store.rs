@@ -336,6 +336,13 @@ impl<'a> Hierarchy<'a> {
         self.roots.len() as u32 + b * 8
     }
 
+    /// The eight nodes of child block `b` (`None` past the arena's end).
+    #[inline]
+    pub(super) fn block_nodes(&self, b: u32) -> Option<&[HNode; 8]> {
+        let i = b as usize * 8;
+        self.arena.get(i..i + 8)?.try_into().ok()
+    }
+
     /// The reference of child `c` of node `r`, or `None` for a leaf.
     #[inline]
     pub fn child(&self, r: u32, c: u8) -> Option<u32> {

@@ -18,7 +18,8 @@ use crate::drill::{Drill, DrillParams, DrillReport, Pending, Sphere};
 use crate::force::{clamp_force, damping_force, sphere_contact, ForceParams, ToolState};
 use crate::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, HashError, SpatialHash};
 use crate::hierarchy::{
-    FaceRef, Hierarchy, HierarchyError, HierarchyStorage, NearestQuery, SphereMemo, SphereSlot,
+    FaceRef, Hierarchy, HierarchyError, HierarchyStorage, NearestCursor, NearestQuery, SphereMemo,
+    SphereSlot,
 };
 use crate::ids::TetId;
 use crate::mesh::Mesh;
@@ -210,10 +211,9 @@ pub struct World<'a> {
     contact: ContactState,
     contact_face: Option<FaceRef>,
     contact_max_nodes: u32,
-    /// The tree the next contact search starts with: the one after the tree where the last
-    /// search that hit its node bound stopped (see [`Hierarchy::nearest_uncut_from`]), found
-    /// again in the next step's candidate list (`None`: from the first).
-    contact_resume: Option<TetId>,
+    /// Where the last contact search that hit its node bound stopped: the next one goes on
+    /// from there ([`Hierarchy::nearest_continued`]).
+    cursor: NearestCursor,
     sat: Saturations,
     last_queued: Option<Vec3>,
     since_queued: u32,
@@ -303,7 +303,7 @@ impl<'a> World<'a> {
             contact: ContactState::default(),
             contact_face: None,
             contact_max_nodes: CONTACT_MAX_NODES,
-            contact_resume: None,
+            cursor: NearestCursor::new(),
             sat,
             last_queued: None,
             since_queued: 0,
@@ -560,10 +560,10 @@ impl<'a> World<'a> {
     /// the result never depends on visiting order, and it is the triangle the exhaustive
     /// search over [`Hierarchy::for_each_visible_in`] finds. When the search reaches
     /// `contact_max_nodes` the answer is the closer of the hint and the triangles met (or the
-    /// previous plane when there is neither), and it is counted; the next search starts after
-    /// the tree where this one stopped ([`Hierarchy::nearest_uncut_from`]), so searches that
-    /// keep hitting the bound walk all the trees near the tool in turn and the hint carries
-    /// the closest triangle found.
+    /// previous plane when there is neither), and it is counted; the next search goes on
+    /// where this one stopped ([`Hierarchy::nearest_continued`]), so searches that keep
+    /// hitting the bound walk every tree near the tool to the end in turn, and the hint
+    /// carries the closest triangle found.
     fn update_contact(
         &mut self,
         centre: Vec3,
@@ -573,28 +573,20 @@ impl<'a> World<'a> {
         rep: &mut SimReport,
     ) {
         let cands = &self.candidates[..self.ncand];
-        // The list's order moves as the zone crosses hash cells: the place is kept by tet.
-        let start = self
-            .contact_resume
-            .and_then(|t| cands.iter().position(|&c| c == t))
-            .unwrap_or(0);
         let q = NearestQuery {
             tets: cands,
-            start,
+            start: 0,
             centre,
             reach,
             cut: cutting.then_some(radius),
             hint: self.contact_face,
             max_nodes: self.contact_max_nodes,
         };
-        let near = self.hier.nearest(&self.mesh, &q, &mut self.memo);
+        let near = self
+            .hier
+            .nearest_continued(&self.mesh, &q, &mut self.memo, &mut self.cursor);
         rep.triangles = near.triangles;
         rep.contact_nodes = near.nodes;
-        self.contact_resume = if near.complete {
-            None
-        } else {
-            cands.get(near.resume as usize).copied()
-        };
         if !near.complete {
             rep.contact_saturated = true;
             self.sat.contact += 1;
