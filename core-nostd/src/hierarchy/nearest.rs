@@ -147,7 +147,7 @@ struct Entry {
 
 /// Where a bounded search stopped, kept for the next one to go on from
 /// ([`Hierarchy::nearest_continued`]): the tree it was in and the nodes of that tree still
-/// waiting (none: that tree from its root). About 4.7 KB.
+/// waiting (none: that tree from its root). 5,024 bytes on x86-64.
 #[derive(Clone, Debug, Default)]
 pub struct NearestCursor {
     tet: Option<TetId>,
