@@ -544,6 +544,27 @@ fn candidates_are_the_tets_whose_box_meets_the_zone_with_or_without_stored_boxes
     assert!(checked > 100 && nonempty > 50, "{checked} {nonempty}");
 }
 
+/// Drills a cavity into `world` (the burr plunged from the top face, then dragged sideways)
+/// and returns six poses in and around it, for the held-pose tests.
+fn drill_cavity(world: &mut World<'_>, params: &DrillParams, r: f32, reach: f32) -> [Vec3; 6] {
+    for k in 0..40 {
+        let c = if k < 20 {
+            Vec3::new(0.0, 0.0, 0.55 - 0.01 * k as f32)
+        } else {
+            Vec3::new(0.01 * (k - 20) as f32, 0.0, 0.36)
+        };
+        world.simulate(c, r, reach, true, params);
+    }
+    [
+        Vec3::new(0.02, 0.0, 0.4),
+        Vec3::new(0.1, 0.03, 0.33),
+        Vec3::new(-0.03, 0.02, 0.42),
+        Vec3::new(0.15, -0.02, 0.37),
+        Vec3::new(0.05, -0.05, 0.3),
+        Vec3::new(0.12, 0.06, 0.38),
+    ]
+}
+
 /// Bounded searches at a held pose, each hinted with the last answer: started after the tree
 /// where the last one stopped (`Nearest::resume`, as `World::simulate` does), the answer never
 /// moves farther away, is never closer than the exhaustive one, and ends at least as close as
@@ -553,24 +574,8 @@ fn candidates_are_the_tets_whose_box_meets_the_zone_with_or_without_stored_boxes
 #[test]
 fn bounded_searches_resumed_where_the_last_stopped_get_closer() {
     on_block4(|world, params, r, reach| {
-        // A cavity: the burr plunged from the top face, then dragged sideways.
-        for k in 0..40 {
-            let c = if k < 20 {
-                Vec3::new(0.0, 0.0, 0.55 - 0.01 * k as f32)
-            } else {
-                Vec3::new(0.01 * (k - 20) as f32, 0.0, 0.36)
-            };
-            world.simulate(c, r, reach, true, params);
-        }
         let (mut better, mut stopped, mut poses) = (0, 0, 0);
-        for c in [
-            Vec3::new(0.02, 0.0, 0.4),
-            Vec3::new(0.1, 0.03, 0.33),
-            Vec3::new(-0.03, 0.02, 0.42),
-            Vec3::new(0.15, -0.02, 0.37),
-            Vec3::new(0.05, -0.05, 0.3),
-            Vec3::new(0.12, 0.06, 0.38),
-        ] {
+        for c in drill_cavity(world, params, r, reach) {
             world.simulate(c, r, reach, false, params);
             let (h, m) = (world.hierarchy(), world.mesh());
             let cands = world.candidates();
@@ -633,23 +638,8 @@ fn bounded_searches_resumed_where_the_last_stopped_get_closer() {
 #[test]
 fn continued_searches_finish_every_tree_and_reach_the_exhaustive_answer() {
     on_block4(|world, params, r, reach| {
-        for k in 0..40 {
-            let c = if k < 20 {
-                Vec3::new(0.0, 0.0, 0.55 - 0.01 * k as f32)
-            } else {
-                Vec3::new(0.01 * (k - 20) as f32, 0.0, 0.36)
-            };
-            world.simulate(c, r, reach, true, params);
-        }
         let (mut poses, mut rounds, mut went_on) = (0, 0, 0);
-        for c in [
-            Vec3::new(0.02, 0.0, 0.4),
-            Vec3::new(0.1, 0.03, 0.33),
-            Vec3::new(-0.03, 0.02, 0.42),
-            Vec3::new(0.15, -0.02, 0.37),
-            Vec3::new(0.05, -0.05, 0.3),
-            Vec3::new(0.12, 0.06, 0.38),
-        ] {
+        for c in drill_cavity(world, params, r, reach) {
             world.simulate(c, r, reach, false, params);
             let (h, m) = (world.hierarchy(), world.mesh());
             let mut cands = world.candidates().to_vec();
