@@ -13,7 +13,7 @@ use tetradrill_core::drill::{DrillParams, Pending};
 use tetradrill_core::force::{closest_point_on_triangle, sphere_contact};
 use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{
-    FaceRef, HNode, Hierarchy, HierarchyStorage, NearestCursor, NearestQuery, SphereMemo,
+    FaceRef, HNode, Hierarchy, HierarchyStorage, Nearest, NearestCursor, NearestQuery, SphereMemo,
     SphereSlot, VEntry,
 };
 use tetradrill_core::mesh::{BuildOptions, Mesh};
@@ -565,6 +565,28 @@ fn drill_cavity(world: &mut World<'_>, params: &DrillParams, r: f32, reach: f32)
     ]
 }
 
+/// One step of a chain of searches at a held pose `c`: its answer becomes the next hint, and
+/// it never moves away from the last one nor comes closer than the `exact` squared distance.
+fn follow(
+    near: &Nearest,
+    hint: &mut Option<FaceRef>,
+    last: &mut f32,
+    exact: f32,
+    c: Vec3,
+    step: usize,
+) {
+    if let Some(vt) = near.tri {
+        *hint = Some(FaceRef {
+            tet: vt.tet,
+            index: vt.index,
+            face: vt.face,
+        });
+        assert!(near.d2 <= *last, "{c}: step {step} moved away");
+        assert!(near.d2 >= exact, "{c}: closer than the exhaustive answer");
+        *last = near.d2;
+    }
+}
+
 /// Bounded searches at a held pose, each hinted with the last answer: started after the tree
 /// where the last one stopped (`Nearest::resume`, as `World::simulate` does), the answer never
 /// moves farther away, is never closer than the exhaustive one, and ends at least as close as
@@ -590,16 +612,7 @@ fn bounded_searches_resumed_where_the_last_stopped_get_closer() {
                 for step in 0..40 {
                     let near = h.nearest_uncut_from(m, cands, start, c, r + reach, None, hint, 32);
                     n_stopped += u32::from(!near.complete);
-                    if let Some(vt) = near.tri {
-                        hint = Some(FaceRef {
-                            tet: vt.tet,
-                            index: vt.index,
-                            face: vt.face,
-                        });
-                        assert!(near.d2 <= last, "{c}: step {step} moved away");
-                        assert!(near.d2 >= exact, "{c}: closer than the exhaustive answer");
-                        last = near.d2;
-                    }
+                    follow(&near, &mut hint, &mut last, exact, c, step);
                     if resume {
                         start = near.resume as usize;
                     }
@@ -672,16 +685,7 @@ fn continued_searches_finish_every_tree_and_reach_the_exhaustive_answer() {
                     near.nodes
                 );
                 went_on += u32::from(had_place);
-                if let Some(vt) = near.tri {
-                    hint = Some(FaceRef {
-                        tet: vt.tet,
-                        index: vt.index,
-                        face: vt.face,
-                    });
-                    assert!(near.d2 <= last, "{c}: step {step} moved away");
-                    assert!(near.d2 >= exact, "{c}: closer than the exhaustive answer");
-                    last = near.d2;
-                }
+                follow(&near, &mut hint, &mut last, exact, c, step);
                 if ended {
                     assert_eq!(near.d2.to_bits(), exact.to_bits(), "{c}: step {step}");
                     assert_eq!(hint, Some(key), "{c}: step {step}");
