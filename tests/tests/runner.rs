@@ -50,6 +50,18 @@ fn bad_flags_exit_2_naming_the_flag() {
     refused(&["replay", "--max-depth", "0"], &["max-depth"]);
     refused(&["replay", "--budget-per-tick", "0"], &["budget-per-tick"]);
     refused(&["replay", "--frobnicate"], &["frobnicate"]);
+    refused(&["replay", "--repeat", "0"], &["--repeat"]);
+    refused(&["replay", "--repeat", "101"], &["--repeat"]);
+    refused(
+        &[
+            "replay",
+            "--repeat",
+            "2",
+            "--tool",
+            "mesh:/nonexistent.mesh",
+        ],
+        &["--repeat", "sphere"],
+    );
     refused(&["run", "--device", "joystick"], &["joystick"]);
     refused(&["run", "--duration", "nan"], &["duration"]);
     refused(&["timing", "--duration", "0"], &["duration"]);
@@ -135,13 +147,15 @@ fn json(path: &Path) -> serde_json::Value {
 #[test]
 fn replay_is_deterministic_and_reports_the_documented_fields() {
     let dir = scratch_dir("runner", "replay");
-    let (a, b) = (dir.join("a.json"), dir.join("b.json"));
-    for p in [&a, &b] {
+    let (a, b, c) = (dir.join("a.json"), dir.join("b.json"), dir.join("c.json"));
+    for (p, repeat) in [(&a, "1"), (&b, "1"), (&c, "3")] {
         let out = run(&[
             "replay",
             "--ticks",
             "2500",
             "--quiet",
+            "--repeat",
+            repeat,
             "--json",
             p.to_str().unwrap(),
         ]);
@@ -150,8 +164,17 @@ fn replay_is_deterministic_and_reports_the_documented_fields() {
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
+        if repeat == "3" {
+            let text = String::from_utf8_lossy(&out.stdout);
+            assert!(text.contains("fastest of 3 runs"), "{text}");
+        }
     }
-    let (a, b) = (json(&a), json(&b));
+    let (a, b, c) = (json(&a), json(&b), json(&c));
+    // `--repeat 3` replays three times from scratch: the same forces, timed per tick as the
+    // fastest of the three.
+    assert_eq!(c["force_digest"], a["force_digest"]);
+    assert_eq!(c["removed_volume"], a["removed_volume"]);
+    assert_eq!((a["runs"].as_u64(), c["runs"].as_u64()), (Some(1), Some(3)));
     for key in [
         "/mesh/nodes",
         "/mesh/tets",
