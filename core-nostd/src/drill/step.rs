@@ -294,9 +294,19 @@ impl<'a> Drill<'a> {
         frame.positions_packed(&item.bary, depth)
     }
 
+    /// The remembered spheres, newest first (the work being done is usually that of the
+    /// newest ones, so a sphere holding a node is met sooner). The ring fills from slot 0, so
+    /// the newest run down from `swept_next - 1` and, once it has wrapped, on from the end.
+    fn swept_newest_first(&self) -> impl Iterator<Item = &Sphere> {
+        let next = self.swept_next.min(self.swept_len);
+        let newer = self.swept.get(..next).unwrap_or(&[]);
+        let older = self.swept.get(next..self.swept_len).unwrap_or(&[]);
+        newer.iter().rev().chain(older.iter().rev())
+    }
+
     /// `true` when all four corners `p` lie inside one of the remembered spheres.
     fn inside_swept(&self, p: &[Vec3; 4]) -> bool {
-        self.swept.iter().take(self.swept_len).any(|s| {
+        self.swept_newest_first().any(|s| {
             let r2 = s.radius * s.radius;
             p.iter().all(|q| q.distance_squared(s.center) <= r2)
         })
@@ -304,9 +314,7 @@ impl<'a> Drill<'a> {
 
     /// `true` when `x` lies inside one of the remembered spheres.
     fn point_in_swept(&self, x: Vec3) -> bool {
-        self.swept
-            .iter()
-            .take(self.swept_len)
+        self.swept_newest_first()
             .any(|s| x.distance_squared(s.center) <= s.radius * s.radius)
     }
 
