@@ -262,10 +262,8 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         let mut digest = ForceDigest::new();
         let mut times = vec![0u64; ticks as usize];
         for i in 0..ticks {
-            let pose = poses.at(i);
-            let t0 = now_ns();
-            let (f, _) = engine::tick(&mut world, &mut tool, &params, &pose);
-            times[i as usize] = now_ns() - t0;
+            let (f, ns) = timed_tick(&mut world, &mut tool, &params, &poses.at(i));
+            times[i as usize] = ns;
             digest.push(f);
         }
         keep_fastest(&mut fastest, &times);
@@ -283,9 +281,8 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let progress = !args.quiet && ticks >= 20_000;
     for i in 0..ticks {
         let pose = poses.at(i);
-        let t0 = now_ns();
-        let (f, _) = engine::tick(&mut world, &mut tool, &params, &pose);
-        times[i as usize] = now_ns() - t0;
+        let (f, ns) = timed_tick(&mut world, &mut tool, &params, &pose);
+        times[i as usize] = ns;
         digest.push(f);
         max_n = max_n.max(f.length());
         if f != Vec3::ZERO {
@@ -367,6 +364,18 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         crate::viewer::screenshot(&mut scene, path)?;
     }
     valid.map_err(|e| CliError::failure(format!("the final state is invalid: {e}")))
+}
+
+/// One [`engine::tick`] at `pose`: the force and the tick's duration in nanoseconds.
+fn timed_tick(
+    world: &mut tetradrill_core::servo::World<'_>,
+    tool: &mut ToolState,
+    params: &TickParams,
+    pose: &crate::traces::Pose,
+) -> (Vec3, u64) {
+    let t0 = now_ns();
+    let (f, _) = engine::tick(world, tool, params, pose);
+    (f, now_ns() - t0)
 }
 
 /// `fastest[i] = min(fastest[i], times[i])`; an empty `fastest` takes `times`.
