@@ -259,11 +259,7 @@ impl Search {
                 index,
                 face,
             };
-            let better = match &self.best {
-                None => true,
-                Some((bd, bk, _)) => d2 < *bd || (d2 == *bd && key < *bk),
-            };
-            if !better {
+            if !beats((d2, key), self.best.as_ref().map(|b| (b.0, b.1))) {
                 continue;
             }
             let ok = *in_reach.get_or_insert_with(|| {
@@ -437,9 +433,9 @@ impl Hierarchy<'_> {
     /// [`Hierarchy::reclaimed`]), the walk starts in that tree with the nodes that were still
     /// waiting there, measured again from this centre, then takes the other trees in turn;
     /// otherwise it starts afresh at `q.start`. A search stopped by `max_nodes` leaves its
-    /// place in `cursor`; one that ends its rounds clears it. So successive bounded searches at a slowly
-    /// moving tool walk every tree near it to the end, one after another, paying the descent
-    /// from a root once, where [`Hierarchy::nearest_uncut_from`] restarts at a root every
+    /// place in `cursor`; one that ends its rounds clears it. So successive bounded searches
+    /// at a slowly moving tool walk every tree near it to the end, one after another, paying
+    /// the descent from a root once, where [`Hierarchy::nearest_uncut_from`] restarts at a root every
     /// time and never finishes a tree its bound cuts short.
     ///
     /// A round over the trees begins at `q.start` and ends when the walk comes round to the
@@ -890,13 +886,23 @@ fn closer(
     b: Option<(f32, FaceRef, VisibleTri)>,
 ) -> Option<(f32, FaceRef, VisibleTri)> {
     match (a, b) {
-        (Some(x), Some(y)) => Some(if y.0 < x.0 || (y.0 == x.0 && y.1 < x.1) {
+        (Some(x), Some(y)) => Some(if beats((y.0, y.1), Some((x.0, x.1))) {
             y
         } else {
             x
         }),
         (x, None) => x,
         (None, y) => y,
+    }
+}
+
+/// The order of answers: `(d2, key)` beats `best` when it is nearer, or as near with the
+/// smaller face (so no answer depends on the visiting order); anything beats no answer.
+#[inline]
+fn beats((d2, key): (f32, FaceRef), best: Option<(f32, FaceRef)>) -> bool {
+    match best {
+        None => true,
+        Some((bd, bk)) => d2 < bd || (d2 == bd && key < bk),
     }
 }
 
