@@ -784,9 +784,10 @@ fn erase_next_to_a_fully_refined_tree_stays_within_four_face_visits() {
 /// [`WorkCost`]: taking the item, a refinement's 8 nodes created and its 16 NTree visits (each
 /// at most `MAX_DEPTH + 1` nodes down to the neighbour plus the `(4^(L+1) - 1) / 3` nodes of a
 /// face subtree `L = max_depth` levels deep), then the new children classified (each
-/// classification at most one exact test).
+/// classification at most one exact test); a leaf's swept test may first look its sphere up.
 fn drill_op_cost(max_depth: u8) -> u32 {
     WorkCost::TAKEN
+        + WorkCost::LOCATE
         + WorkCost::EXACT_TEST
         + WorkCost::CREATED * 8
         + WorkCost::VISIT * 16 * (MAX_DEPTH as u32 + 1 + face_subtree(max_depth as u32))
@@ -844,7 +845,8 @@ fn drill_work_stays_within_budget_plus_one_operation() {
                     + WorkCost::EXPANDED * r.expanded
                     + WorkCost::VISIT * r.visits
                     + WorkCost::CREATED * r.created
-                    + WorkCost::EXACT_TEST * r.exact_tests,
+                    + WorkCost::EXACT_TEST * r.exact_tests
+                    + WorkCost::LOCATE * r.located,
                 "{ctx}"
             );
             assert!(r.pending as usize <= queue_len, "{ctx}");

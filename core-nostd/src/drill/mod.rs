@@ -13,7 +13,7 @@ mod step;
 
 pub use candidates::candidates_brute_force;
 pub use sphere::{classify, Class, Sphere};
-pub use step::{Drill, DrillParams, DrillReport, Pending, WorkCost, SWEPT};
+pub use step::{Drill, DrillParams, DrillReport, Pending, WorkCost, SWEPT, SWEPT_AHEAD};
 
 #[cfg(test)]
 mod tests;

@@ -66,6 +66,9 @@ impl WorkCost {
     pub const EXACT_TEST: u32 = 5;
     /// A node created by a refinement (eight a refinement, besides its visits).
     pub const CREATED: u32 = 13;
+    /// Finding an item's sphere among the remembered ones (up to [`SWEPT`] comparisons; once
+    /// per sphere whose items reach the swept test).
+    pub const LOCATE: u32 = 4;
 }
 
 /// One unit of pending work: a node of a tree, against the sphere it was queued for, with the
@@ -149,6 +152,8 @@ pub struct DrillReport {
     pub visits: u32,
     /// Tet-sphere classifications that needed the exact test ([`WorkCost::EXACT_TEST`]).
     pub exact_tests: u32,
+    /// Searches of the remembered spheres for an item's sphere ([`WorkCost::LOCATE`]).
+    pub located: u32,
     /// Work items left for the next tick.
     pub pending: u32,
     /// Capacity saturations this step (arena full, pending queue full).
@@ -177,11 +182,19 @@ struct Parent {
 /// Spheres remembered to skip re-queueing an unchanged sphere whose work is already queued.
 const MEMO: usize = 8;
 
-/// The most recently queued spheres the drill remembers as the swept volume (see
-/// [`Drill::step`]): a burr queued every eighth of the radius
-/// ([`crate::servo::DRILL_SPACING`]) is covered on each side by the next eight positions, so
-/// sixteen spheres hold the whole neighbourhood of one.
-pub const SWEPT: usize = 16;
+/// Spheres the drill remembers, in the order they were queued (a ring: the oldest is
+/// forgotten). Work is taken in that order too, so while the drill lags behind the burr the
+/// spheres queued after the one being worked on are known; [`SWEPT_AHEAD`] of them are its
+/// swept volume (see [`Drill::step`]). The ring holds that many past a lag of
+/// `SWEPT - SWEPT_AHEAD` spheres; a drill further behind sees fewer, down to none once its
+/// sphere has been forgotten.
+pub const SWEPT: usize = 64;
+
+/// How many spheres queued after an item's own count as the swept volume for it: a burr queued
+/// every eighth of the radius ([`crate::servo::DRILL_SPACING`]) meets the next sixteen
+/// positions, the only ones a node on its surface can lie inside. Spheres queued *before* an
+/// item's are not tested: their work came first, and it erased what lay inside them.
+pub const SWEPT_AHEAD: usize = 16;
 
 /// The drill: a pending-work deque in caller storage and counters.
 #[derive(Debug)]
@@ -194,6 +207,9 @@ pub struct Drill<'a> {
     swept: [Sphere; SWEPT],
     swept_next: usize,
     swept_len: usize,
+    /// The ring slot of the sphere the last item was queued for (checked before use: the
+    /// slot may have been overwritten since).
+    swept_at: usize,
     /// The root frame of the last tet processed (items come tree by tree).
     frame: Option<(TetId, RootFrame)>,
     /// Per depth, the last node whose children were queued and the ten points of its
@@ -217,6 +233,7 @@ impl<'a> Drill<'a> {
             swept: [Sphere::default(); SWEPT],
             swept_next: 0,
             swept_len: 0,
+            swept_at: SWEPT,
             frame: None,
             parents: [None; MAX_DEPTH],
             retry: false,
@@ -294,28 +311,54 @@ impl<'a> Drill<'a> {
         frame.positions_packed(&item.bary, depth)
     }
 
-    /// The remembered spheres, newest first (the work being done is usually that of the
-    /// newest ones, so a sphere holding a node is met sooner). The ring fills from slot 0, so
-    /// the newest run down from `swept_next - 1` and, once it has wrapped, on from the end.
-    fn swept_newest_first(&self) -> impl Iterator<Item = &Sphere> {
-        let next = self.swept_next.min(self.swept_len);
-        let newer = self.swept.get(..next).unwrap_or(&[]);
-        let older = self.swept.get(next..self.swept_len).unwrap_or(&[]);
-        newer.iter().rev().chain(older.iter().rev())
+    /// The spheres queued after `s` (at most [`SWEPT_AHEAD`], oldest first), or none when `s`
+    /// is no longer remembered. The slot of the last sphere asked for is kept: items come
+    /// sphere by sphere, so the ring is searched once per sphere.
+    ///
+    /// # Bounded work
+    /// O(1) when `s` is the last sphere asked for, else O([`SWEPT`]) comparisons, charged
+    /// [`WorkCost::LOCATE`].
+    fn swept_after<'s>(
+        &'s mut self,
+        s: &Sphere,
+        rep: &mut DrillReport,
+    ) -> impl Iterator<Item = &'s Sphere> + 's {
+        // Slots are below SWEPT; `swept_at == SWEPT` means "not remembered".
+        let oldest = (self.swept_next + SWEPT - self.swept_len) % SWEPT;
+        let age = |slot: usize| (slot + SWEPT - oldest) % SWEPT;
+        let held = |d: &Self, slot: usize| {
+            slot < SWEPT && age(slot) < d.swept_len && d.swept.get(slot) == Some(s)
+        };
+        if !held(self, self.swept_at) {
+            rep.work = rep.work.saturating_add(WorkCost::LOCATE);
+            rep.located += 1;
+            self.swept_at = (0..self.swept_len)
+                .map(|k| (oldest + k) % SWEPT)
+                .find(|&slot| held(self, slot))
+                .unwrap_or(SWEPT);
+        }
+        let at = self.swept_at;
+        let ahead = if at < SWEPT {
+            self.swept_len.saturating_sub(1 + age(at)).min(SWEPT_AHEAD)
+        } else {
+            0
+        };
+        let ring = &self.swept;
+        (1..=ahead).filter_map(move |k| ring.get((at + k) % SWEPT))
     }
 
-    /// `true` when all four corners `p` lie inside one of the remembered spheres.
-    fn inside_swept(&self, p: &[Vec3; 4]) -> bool {
-        self.swept_newest_first().any(|s| {
-            let r2 = s.radius * s.radius;
-            p.iter().all(|q| q.distance_squared(s.center) <= r2)
+    /// `true` when all four corners `p` lie inside one of the spheres queued after `s`.
+    fn inside_swept(&mut self, s: &Sphere, p: &[Vec3; 4], rep: &mut DrillReport) -> bool {
+        self.swept_after(s, rep).any(|t| {
+            let r2 = t.radius * t.radius;
+            p.iter().all(|q| q.distance_squared(t.center) <= r2)
         })
     }
 
-    /// `true` when `x` lies inside one of the remembered spheres.
-    fn point_in_swept(&self, x: Vec3) -> bool {
-        self.swept_newest_first()
-            .any(|s| x.distance_squared(s.center) <= s.radius * s.radius)
+    /// `true` when `x` lies inside one of the spheres queued after `s`.
+    fn point_in_swept(&mut self, s: &Sphere, x: Vec3, rep: &mut DrillReport) -> bool {
+        self.swept_after(s, rep)
+            .any(|t| x.distance_squared(t.center) <= t.radius * t.radius)
     }
 
     fn push_back(&mut self, p: Pending) -> bool {
@@ -377,14 +420,17 @@ impl<'a> Drill<'a> {
     /// - an inner node's eight children are classified from the ten points of its refinement
     ///   and those that meet the sphere and still hold material are queued (the others would
     ///   only be dropped);
-    /// - a leaf entirely inside the sphere (all four corners), or inside one of the last
-    ///   [`SWEPT`] spheres queued (the swept path, which erases it anyway when its own work
-    ///   arrives), is erased at once: only the boundary of the swept volume is refined, not
-    ///   the shell of every sphere along it;
+    /// - a leaf entirely inside the sphere (all four corners), or inside one of the
+    ///   [`SWEPT_AHEAD`] spheres queued after it (the swept path, which erases it anyway when
+    ///   its own work arrives), is erased at once: only the boundary of the swept volume is
+    ///   refined, not the shell of every sphere along it. The later spheres are known when
+    ///   the drill lags behind the burr, which is when the work matters (before 2026-11-24 the
+    ///   last [`SWEPT_AHEAD`] spheres queued were tested instead: useless once the drill was
+    ///   more than that many spheres behind, and the earlier ones never hold material);
     /// - a leaf crossing the sphere is refined when it is above `max_depth` and its smallest
     ///   face is at least `min_area`, and its children are queued;
     /// - a crossing leaf at `max_depth` or below `min_area` is erased iff its centroid is
-    ///   inside the sphere or one of the remembered swept spheres. This is the erosion
+    ///   inside the sphere or one of the spheres queued after it. This is the erosion
     ///   criterion: the misclassified volume lies within one leaf of the sphere's surface and
     ///   is unbiased to first order, so the removed volume converges to the swept volume as
     ///   the leaves shrink;
@@ -398,7 +444,10 @@ impl<'a> Drill<'a> {
     /// `budget` units are spent ([`WorkCost`]: each item taken, each node expanded, each
     /// NTree node visited and each node created is charged what it costs); the last one may
     /// overrun it by its own cost: a refinement is 8 nodes created plus 16 NTree visits, an
-    /// erasure 4 NTree visits, each O(depth) plus the instantiated nodes across one face.
+    /// erasure 4 NTree visits, each O(depth) plus the instantiated nodes across one face. A
+    /// leaf's swept test is at most [`SWEPT_AHEAD`] sphere tests, after a search of the
+    /// [`SWEPT`] remembered spheres when the item's sphere is not the last one looked up
+    /// ([`WorkCost::LOCATE`]).
     ///
     /// # Capacity
     /// Arena full (no fresh block, and no wholly erased subtree to take one back from): the
@@ -511,7 +560,7 @@ impl<'a> Drill<'a> {
         let Some(path) = Path::of_index(item.index) else {
             return;
         };
-        if class == Class::Inside || self.inside_swept(&p) {
+        if class == Class::Inside || self.inside_swept(&item.sphere, &p, rep) {
             self.erase(h, mesh, item, &path, rep);
             return;
         }
@@ -549,7 +598,9 @@ impl<'a> Drill<'a> {
         }
         let centroid = (p[0] + p[1] + p[2] + p[3]) * 0.25;
         let r = item.sphere.radius;
-        if centroid.distance_squared(item.sphere.center) <= r * r || self.point_in_swept(centroid) {
+        if centroid.distance_squared(item.sphere.center) <= r * r
+            || self.point_in_swept(&item.sphere, centroid, rep)
+        {
             self.erase(h, mesh, item, &path, rep);
         }
     }
