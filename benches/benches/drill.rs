@@ -216,7 +216,7 @@ fn bench(c: &mut Criterion) {
         // an equilateral triangle of edge r/8.
         let (_, r_tool, _) = trace(&mesh);
         let min_area = 0.433 * (r_tool / 8.0) * (r_tool / 8.0);
-        for budget in [10_000u32, 24_000, u32::MAX] {
+        for budget in [11_000u32, 24_000, u32::MAX] {
             report(
                 name,
                 &mesh,

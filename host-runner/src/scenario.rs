@@ -202,7 +202,7 @@ impl Default for Scenario {
             max_depth: 5,
             min_area: 0.0,
             hierarchy_capacity: 1 << 20,
-            budget_per_tick: 10_000,
+            budget_per_tick: 11_000,
             hash_capacity: None,
             candidate_capacity: tetradrill_core::servo::WorldSizes::new(0, 0).candidates,
             vlist_capacity: None,

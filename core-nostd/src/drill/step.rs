@@ -30,7 +30,7 @@ impl Default for DrillParams {
         Self {
             max_depth: 6,
             min_area: 0.0,
-            budget: 10_000,
+            budget: 11_000,
         }
     }
 }
