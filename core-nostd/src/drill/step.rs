@@ -207,9 +207,11 @@ pub struct Drill<'a> {
     swept: [Sphere; SWEPT],
     swept_next: usize,
     swept_len: usize,
-    /// The ring slot of the sphere the last item was queued for (checked before use: the
-    /// slot may have been overwritten since).
-    swept_at: usize,
+    /// The sphere whose successors were last looked up (cleared when a sphere is
+    /// remembered), the slot of the first of them and how many (see [`Drill::swept_after`]).
+    swept_for: Option<Sphere>,
+    swept_first: usize,
+    swept_count: usize,
     /// The root frame of the last tet processed (items come tree by tree).
     frame: Option<(TetId, RootFrame)>,
     /// Per depth, the last node whose children were queued and the ten points of its
@@ -233,7 +235,9 @@ impl<'a> Drill<'a> {
             swept: [Sphere::default(); SWEPT],
             swept_next: 0,
             swept_len: 0,
-            swept_at: SWEPT,
+            swept_for: None,
+            swept_first: 0,
+            swept_count: 0,
             frame: None,
             parents: [None; MAX_DEPTH],
             retry: false,
@@ -275,6 +279,7 @@ impl<'a> Drill<'a> {
         }
         self.swept_next = (self.swept_next + 1) % SWEPT;
         self.swept_len = (self.swept_len + 1).min(SWEPT);
+        self.swept_for = None;
     }
 
     /// The root frame of `tet`, cached across consecutive items of one tree.
@@ -311,9 +316,10 @@ impl<'a> Drill<'a> {
         frame.positions_packed(&item.bary, depth)
     }
 
-    /// The spheres queued after `s` (at most [`SWEPT_AHEAD`], oldest first), or none when `s`
-    /// is no longer remembered. The slot of the last sphere asked for is kept: items come
-    /// sphere by sphere, so the ring is searched once per sphere.
+    /// The spheres queued after `s`, oldest first, at most [`SWEPT_AHEAD`] of them. When `s`
+    /// is no longer remembered, every remembered sphere was queued after it: the oldest
+    /// [`SWEPT_AHEAD`] of them. The answer for the last sphere asked for is kept (items come
+    /// sphere by sphere); remembering a new sphere clears it.
     ///
     /// # Bounded work
     /// O(1) when `s` is the last sphere asked for, else O([`SWEPT`]) comparisons, charged
@@ -323,28 +329,22 @@ impl<'a> Drill<'a> {
         s: &Sphere,
         rep: &mut DrillReport,
     ) -> impl Iterator<Item = &'s Sphere> + 's {
-        // Slots are below SWEPT; `swept_at == SWEPT` means "not remembered".
-        let oldest = (self.swept_next + SWEPT - self.swept_len) % SWEPT;
-        let age = |slot: usize| (slot + SWEPT - oldest) % SWEPT;
-        let held = |d: &Self, slot: usize| {
-            slot < SWEPT && age(slot) < d.swept_len && d.swept.get(slot) == Some(s)
-        };
-        if !held(self, self.swept_at) {
+        if self.swept_for != Some(*s) {
             rep.work = rep.work.saturating_add(WorkCost::LOCATE);
             rep.located += 1;
-            self.swept_at = (0..self.swept_len)
-                .map(|k| (oldest + k) % SWEPT)
-                .find(|&slot| held(self, slot))
-                .unwrap_or(SWEPT);
+            let oldest = (self.swept_next + SWEPT - self.swept_len) % SWEPT;
+            let ring = &self.swept;
+            let (first, count) =
+                match (0..self.swept_len).find(|&k| ring.get((oldest + k) % SWEPT) == Some(s)) {
+                    Some(k) => (oldest + k + 1, self.swept_len - 1 - k),
+                    None => (oldest, self.swept_len),
+                };
+            self.swept_for = Some(*s);
+            self.swept_first = first % SWEPT;
+            self.swept_count = count.min(SWEPT_AHEAD);
         }
-        let at = self.swept_at;
-        let ahead = if at < SWEPT {
-            self.swept_len.saturating_sub(1 + age(at)).min(SWEPT_AHEAD)
-        } else {
-            0
-        };
-        let ring = &self.swept;
-        (1..=ahead).filter_map(move |k| ring.get((at + k) % SWEPT))
+        let (first, ring) = (self.swept_first, &self.swept);
+        (0..self.swept_count).filter_map(move |k| ring.get((first + k) % SWEPT))
     }
 
     /// `true` when all four corners `p` lie inside one of the spheres queued after `s`.
