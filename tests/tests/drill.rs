@@ -656,52 +656,7 @@ fn spheres_queued_together_refine_only_the_union_boundary() {
     let mut h = st.hierarchy(&mesh);
     let (removed, created) = drill_together(&mesh, &mut h, &spheres, 4, 300);
 
-    // 1. No inner node entirely inside one sphere (f64 corners, a margin for f32 rounding).
-    let mut inner: HashSet<(usize, u32)> = HashSet::new();
-    for l in leaves(&mesh, &h, 0..mesh.tet_count()) {
-        let mut i = l.index;
-        while i > 0 {
-            i = (i - 1) / 8;
-            inner.insert((l.tet.idx(), i));
-        }
-    }
-    assert!(
-        inner.len() > 100,
-        "the spheres must refine: {}",
-        inner.len()
-    );
-    for &(t, i) in &inner {
-        let (p, _) = corners(&mesh, TetId::from_idx(t), i);
-        for s in &spheres {
-            let c = [s.center.x as f64, s.center.y as f64, s.center.z as f64];
-            let far = p
-                .iter()
-                .map(|q| dot(sub(*q, c), sub(*q, c)).sqrt())
-                .fold(0.0, f64::max);
-            assert!(
-                far > s.radius as f64 - 1e-5,
-                "node {i} of tet {t} was refined although it lies inside a sphere"
-            );
-        }
-    }
-
-    // 2. Visible faces against the brute force.
-    let all: HashSet<usize> = (0..mesh.tet_count()).collect();
-    check_visible(&mesh, &h, &all);
-
-    // 3. Removed volume against a Monte Carlo estimate of the union (all inside the cube).
-    let mut rng = StdRng::seed_from_u64(11);
-    let samples = 400_000;
-    let hits = (0..samples)
-        .filter(|_| {
-            let x = Vec3::new(rng.gen(), rng.gen(), rng.gen());
-            spheres.iter().any(|s| x.distance(s.center) <= s.radius)
-        })
-        .count();
-    let union = hits as f64 / samples as f64;
-    let rel = (removed - union).abs() / union;
-    eprintln!("union of 6 spheres: removed {removed:.6}, Monte Carlo {union:.6} ({rel:.4})");
-    assert!(rel < 0.05, "removed {removed} vs union {union}");
+    let union = check_drilled_union(&mesh, &h, &spheres, removed, 11);
 
     // 4. Drilled one after the other (each sphere's work done before the next is queued),
     //    every sphere refines its own shell: more nodes for the same union.
@@ -717,6 +672,69 @@ fn spheres_queued_together_refine_only_the_union_boundary() {
         "together {created} vs apart {created_apart}"
     );
     assert!((h2.removed_volume() - union).abs() / union < 0.05);
+}
+
+/// What drilling the union of `spheres` (inside the unit cube) must leave, checked against
+/// oracles of their own: 1. no inner node lies entirely inside one sphere (f64 corners, a
+/// margin for f32 rounding), 2. the visible faces equal the brute force, 3. `removed` is
+/// within 5 % of a Monte Carlo estimate of the union (sampled with `seed`), which is returned.
+fn check_drilled_union(
+    mesh: &Mesh<'_>,
+    h: &Hierarchy<'_>,
+    spheres: &[Sphere],
+    removed: f64,
+    seed: u64,
+) -> f64 {
+    // 1. No inner node entirely inside one sphere (f64 corners, a margin for f32 rounding).
+    let mut inner: HashSet<(usize, u32)> = HashSet::new();
+    for l in leaves(mesh, h, 0..mesh.tet_count()) {
+        let mut i = l.index;
+        while i > 0 {
+            i = (i - 1) / 8;
+            inner.insert((l.tet.idx(), i));
+        }
+    }
+    assert!(
+        inner.len() > 100,
+        "the spheres must refine: {}",
+        inner.len()
+    );
+    for &(t, i) in &inner {
+        let (p, _) = corners(mesh, TetId::from_idx(t), i);
+        for s in spheres {
+            let c = [s.center.x as f64, s.center.y as f64, s.center.z as f64];
+            let far = p
+                .iter()
+                .map(|q| dot(sub(*q, c), sub(*q, c)).sqrt())
+                .fold(0.0, f64::max);
+            assert!(
+                far > s.radius as f64 - 1e-5,
+                "node {i} of tet {t} was refined although it lies inside a sphere"
+            );
+        }
+    }
+
+    // 2. Visible faces against the brute force.
+    let all: HashSet<usize> = (0..mesh.tet_count()).collect();
+    check_visible(mesh, h, &all);
+
+    // 3. Removed volume against a Monte Carlo estimate of the union (all inside the cube).
+    let mut rng = StdRng::seed_from_u64(seed);
+    let samples = 400_000;
+    let hits = (0..samples)
+        .filter(|_| {
+            let x = Vec3::new(rng.gen(), rng.gen(), rng.gen());
+            spheres.iter().any(|s| x.distance(s.center) <= s.radius)
+        })
+        .count();
+    let union = hits as f64 / samples as f64;
+    let rel = (removed - union).abs() / union;
+    eprintln!(
+        "union of {} spheres: removed {removed:.6}, Monte Carlo {union:.6} ({rel:.4})",
+        spheres.len()
+    );
+    assert!(rel < 0.05, "removed {removed} vs union {union}");
+    union
 }
 
 /// A drill far behind the burr (one sphere queued a tick on a path of 40, an eighth of the
@@ -772,53 +790,7 @@ fn a_drill_far_behind_erases_what_the_later_spheres_hold() {
         "lagging drill: {created} nodes, {ticks} ticks after the path, deque peak {most_pending}"
     );
 
-    // 1. No inner node entirely inside a sphere (f64 corners, a margin for f32 rounding).
-    let mut inner: HashSet<(usize, u32)> = HashSet::new();
-    for l in leaves(&mesh, &h, 0..mesh.tet_count()) {
-        let mut i = l.index;
-        while i > 0 {
-            i = (i - 1) / 8;
-            inner.insert((l.tet.idx(), i));
-        }
-    }
-    assert!(
-        inner.len() > 100,
-        "the spheres must refine: {}",
-        inner.len()
-    );
-    for &(t, i) in &inner {
-        let (p, _) = corners(&mesh, TetId::from_idx(t), i);
-        for s in &spheres {
-            let c = [s.center.x as f64, s.center.y as f64, s.center.z as f64];
-            let far = p
-                .iter()
-                .map(|q| dot(sub(*q, c), sub(*q, c)).sqrt())
-                .fold(0.0, f64::max);
-            assert!(
-                far > s.radius as f64 - 1e-5,
-                "node {i} of tet {t} was refined although it lies inside a sphere"
-            );
-        }
-    }
-
-    // 2. Visible faces against the brute force.
-    let all: HashSet<usize> = (0..mesh.tet_count()).collect();
-    check_visible(&mesh, &h, &all);
-
-    // 3. Removed volume against a Monte Carlo estimate of the union (all inside the cube).
-    let mut rng = StdRng::seed_from_u64(12);
-    let samples = 400_000;
-    let hits = (0..samples)
-        .filter(|_| {
-            let x = Vec3::new(rng.gen(), rng.gen(), rng.gen());
-            spheres.iter().any(|s| x.distance(s.center) <= s.radius)
-        })
-        .count();
-    let union = hits as f64 / samples as f64;
-    let removed = h.removed_volume();
-    let rel = (removed - union).abs() / union;
-    eprintln!("union of 40 spheres: removed {removed:.6}, Monte Carlo {union:.6} ({rel:.4})");
-    assert!(rel < 0.05, "removed {removed} vs union {union}");
+    let union = check_drilled_union(&mesh, &h, &spheres, h.removed_volume(), 12);
 
     // 4. The same spheres, each finished before the next is queued.
     let mut st2 = Store::new(mesh.tet_count(), 4 << 20);
