@@ -3,6 +3,11 @@
 //! worst tick, p99, median, nodes per second of erosion, the hold time to convergence and the
 //! memory per node; then criterion times one steady drilling tick.
 //!
+//! The burr positions go to the drill as `World::simulate` gives them
+//! ([`tetradrill_core::drill::Spacing`]: one per eighth of the radius of motion, and the place
+//! where the burr settles); one line per mesh also queues a sphere at every tick, a stress
+//! case with 8 to 30 times as much work as the path needs, which overflows the pending deque.
+//!
 //! Run: `cargo bench -p tetradrill-benches --bench drill` (set `TETRADRILL_MESHES` when the
 //! shared meshes are not at `../shared/meshes`).
 
@@ -12,7 +17,10 @@ use std::time::Instant;
 use criterion::{criterion_group, Criterion};
 use glam::Vec3;
 use tetradrill::owned::OwnedMesh;
-use tetradrill_core::drill::{candidates_brute_force, Drill, DrillParams, Pending, Sphere};
+use tetradrill_core::drill::{
+    candidates_brute_force, Drill, DrillParams, Pending, Spacing, Sphere, DRILL_HOLD_STEPS,
+    MAX_STEP_SPHERES,
+};
 use tetradrill_core::hierarchy::{HNode, Hierarchy, HierarchyStorage, VEntry, NODE_BYTES};
 use tetradrill_core::mesh::{BuildOptions, Mesh};
 use tetradrill_core::TetId;
@@ -58,9 +66,11 @@ fn tetgen(rel: &str) -> OwnedMesh {
     OwnedMesh::build(p, &t, BuildOptions::default()).unwrap()
 }
 
-/// The burr's path: plunge along the inward normal of a boundary node, run along the surface,
-/// hold. Radius from the mesh size.
-fn trace(mesh: &Mesh<'_>) -> (Vec<Vec3>, f32, usize) {
+/// The burr's path: plunge along the inward normal of a boundary node (200 ticks / `speed`),
+/// run along the surface (800 ticks / `speed`), hold. Radius from the mesh size: at speed 1
+/// the burr moves a hundredth of its radius a tick while plunging and 0.00375 radii along the
+/// surface (the demo path: about 0.0026).
+fn trace(mesh: &Mesh<'_>, speed: usize) -> (Vec<Vec3>, f32, usize) {
     let p = mesh.positions();
     let lo = p.iter().fold(Vec3::splat(f32::MAX), |a, &b| a.min(b));
     let hi = p.iter().fold(Vec3::splat(f32::MIN), |a, &b| a.max(b));
@@ -77,14 +87,33 @@ fn trace(mesh: &Mesh<'_>) -> (Vec<Vec3>, f32, usize) {
     let bottom = p[i] - n * r;
     let side = n.any_orthonormal_vector();
     let mut out = Vec::new();
-    for k in 0..=200 {
-        out.push(start.lerp(bottom, k as f32 / 200.0));
+    let (plunge, run) = (200 / speed.max(1), 800 / speed.max(1));
+    for k in 0..=plunge {
+        out.push(start.lerp(bottom, k as f32 / plunge as f32));
     }
-    for k in 1..=800 {
-        out.push(bottom + side * (3.0 * r * k as f32 / 800.0));
+    for k in 1..=run {
+        out.push(bottom + side * (3.0 * r * k as f32 / run as f32));
     }
     let moving = out.len();
     (out, r, moving)
+}
+
+/// Which burr positions become drill work.
+#[derive(Clone, Copy, PartialEq)]
+enum Queue {
+    /// As `World::simulate` ([`Spacing`]).
+    Spaced,
+    /// A sphere at every tick (the stress case).
+    EveryTick,
+}
+
+impl Queue {
+    fn label(self) -> &'static str {
+        match self {
+            Queue::Spaced => "spaced",
+            Queue::EveryTick => "every tick",
+        }
+    }
 }
 
 struct Run {
@@ -98,7 +127,7 @@ struct Run {
     saturations: u32,
 }
 
-fn run(mesh: &Mesh<'_>, params: &DrillParams) -> Run {
+fn run(mesh: &Mesh<'_>, params: &DrillParams, queue_rule: Queue, speed: usize) -> Run {
     let t = mesh.tet_count();
     let mut roots = vec![HNode::LEAF; t];
     let mut arena = vec![HNode::LEAF; ARENA];
@@ -114,7 +143,7 @@ fn run(mesh: &Mesh<'_>, params: &DrillParams) -> Run {
     .unwrap();
     let mut queue = vec![Pending::default(); QUEUE];
     let mut drill = Drill::new(&mut queue);
-    let (path, r, moving) = trace(mesh);
+    let (path, r, moving) = trace(mesh, speed);
     let mut cand = vec![TetId::NONE; t];
     let mut out = Run {
         ticks_us: Vec::new(),
@@ -126,6 +155,8 @@ fn run(mesh: &Mesh<'_>, params: &DrillParams) -> Run {
         visible: 0,
         saturations: 0,
     };
+    let mut spacing = Spacing::new();
+    let mut kept = [Sphere::default(); MAX_STEP_SPHERES];
     let mut k = 0;
     loop {
         let c = path[k.min(path.len() - 1)];
@@ -133,14 +164,25 @@ fn run(mesh: &Mesh<'_>, params: &DrillParams) -> Run {
             center: c,
             radius: r,
         }];
-        let n = candidates_brute_force(mesh, &s, &mut cand);
+        let nk = match queue_rule {
+            Queue::Spaced => spacing.admit(c, r, &s, &mut kept),
+            Queue::EveryTick => {
+                kept[0] = s[0];
+                1
+            }
+        };
+        let spheres = &kept[..nk];
+        let n = candidates_brute_force(mesh, spheres, &mut cand);
         let t0 = Instant::now();
-        let rep = drill.step(&mut h, mesh, &cand[..n], &s, params);
+        let rep = drill.step(&mut h, mesh, &cand[..n], spheres, params);
         out.ticks_us.push(t0.elapsed().as_secs_f64() * 1e6);
         out.created += rep.created as u64;
         out.erased += rep.erased as u64;
         k += 1;
-        if k >= moving && rep.pending == 0 {
+        // Held until nothing is pending, and (spaced) the resting place was queued: a burr
+        // that settles is queued again after `DRILL_HOLD_STEPS` steps.
+        let settled = queue_rule == Queue::EveryTick || k > moving + DRILL_HOLD_STEPS as usize;
+        if k >= moving && settled && rep.pending == 0 {
             break;
         }
         if k > moving + 20_000 {
@@ -155,15 +197,15 @@ fn run(mesh: &Mesh<'_>, params: &DrillParams) -> Run {
     out
 }
 
-fn report(name: &str, mesh: &Mesh<'_>, params: &DrillParams) {
+fn report(name: &str, mesh: &Mesh<'_>, params: &DrillParams, queue_rule: Queue, speed: usize) {
     // The machine is shared: a tick preempted by another process shows up as a multiple of the
     // 4 ms scheduler quantum. The runs are deterministic, so the same trace is run three times
     // and each tick keeps its fastest time; the raw worst tick is printed as well.
-    let r = run(mesh, params);
+    let r = run(mesh, params, queue_rule, speed);
     let raw_worst = r.ticks_us.iter().copied().fold(0.0, f64::max);
     let mut best = r.ticks_us.clone();
     for _ in 0..2 {
-        let again = run(mesh, params);
+        let again = run(mesh, params, queue_rule, speed);
         assert_eq!(again.ticks_us.len(), best.len(), "runs must be identical");
         for (b, t) in best.iter_mut().zip(again.ticks_us) {
             *b = b.min(t);
@@ -174,9 +216,10 @@ fn report(name: &str, mesh: &Mesh<'_>, params: &DrillParams) {
     let pct = |q: f64| s[((s.len() - 1) as f64 * q) as usize];
     let total_s: f64 = best.iter().sum::<f64>() * 1e-6;
     println!(
-        "drill {name}: tets {} budget {} max_depth {} min_area {:.2e}: ticks {} worst {:.1} us (raw {:.0} us) p99 {:.1} us \
+        "drill {name} ({}, speed {speed}): tets {} budget {} max_depth {} min_area {:.2e}: ticks {} worst {:.1} us (raw {:.0} us) p99 {:.1} us \
          median {:.1} us; created {} erased {} ({:.0} nodes/s of erosion); hold to converge \
          {} ticks; nodes {} visible faces {} removed volume {:.6} saturations {}",
+        queue_rule.label(),
         mesh.tet_count(),
         params.budget,
         params.max_depth,
@@ -214,9 +257,17 @@ fn bench(c: &mut Criterion) {
         let mesh = om.view();
         // Leaves down to about r/8..r/16: refine while the smallest face is at least that of
         // an equilateral triangle of edge r/8.
-        let (_, r_tool, _) = trace(&mesh);
+        let (_, r_tool, _) = trace(&mesh, 1);
         let min_area = 0.433 * (r_tool / 8.0) * (r_tool / 8.0);
-        for budget in [11_000u32, 24_000, u32::MAX] {
+        for (budget, queue_rule, speed) in [
+            (11_000u32, Queue::Spaced, 1),
+            (u32::MAX, Queue::Spaced, 1),
+            (11_000, Queue::Spaced, 4),
+            (u32::MAX, Queue::Spaced, 4),
+            (11_000, Queue::Spaced, 16),
+            (u32::MAX, Queue::Spaced, 16),
+            (11_000, Queue::EveryTick, 1),
+        ] {
             report(
                 name,
                 &mesh,
@@ -225,6 +276,8 @@ fn bench(c: &mut Criterion) {
                     min_area,
                     budget,
                 },
+                queue_rule,
+                speed,
             );
         }
         // Criterion: one tick of a sphere moving through fresh material each iteration.
@@ -243,7 +296,7 @@ fn bench(c: &mut Criterion) {
         .unwrap();
         let mut queue = vec![Pending::default(); QUEUE];
         let mut drill = Drill::new(&mut queue);
-        let (path, _, _) = trace(&mesh);
+        let (path, _, _) = trace(&mesh, 1);
         let params = DrillParams {
             max_depth: 6,
             min_area,

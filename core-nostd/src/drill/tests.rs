@@ -155,3 +155,62 @@ fn pending_items_of_a_block_taken_back_are_dropped() {
         assert!(n.is_leaf() && !n.erased());
     }
 }
+
+/// [`Spacing::admit`] against a count made by hand: one position per `DRILL_SPACING` radii
+/// along a straight path offered in one step, at most `MAX_STEP_SPHERES` of them with the
+/// newest last; unusable positions are never taken.
+#[test]
+fn spacing_takes_every_eighth_radius_and_keeps_the_newest() {
+    let r = 0.5;
+    let gap = DRILL_SPACING * r;
+    // 40 positions a third of a gap apart: every third is a gap from the last one taken
+    // (the first is taken, then 3, 6, ...), 14 in all: 0, 3, ..., 39.
+    let path: [Sphere; 40] = core::array::from_fn(|i| Sphere {
+        center: Vec3::X * (gap * i as f32 / 3.0 + 1.0e-4 * i as f32),
+        radius: r,
+    });
+    let mut out = [Sphere::default(); MAX_STEP_SPHERES];
+    let mut sp = Spacing::new();
+    let n = sp.admit(Vec3::ZERO, r, &path, &mut out);
+    assert_eq!(n, 14);
+    for (k, s) in out[..n].iter().enumerate() {
+        assert_eq!(s.center, path[3 * k].center, "slot {k}");
+    }
+    // 100 positions each a full gap from the last: 16 slots, the last holding the newest.
+    let far: [Sphere; 100] = core::array::from_fn(|i| Sphere {
+        center: Vec3::Y * (1.5 * gap * i as f32),
+        radius: r,
+    });
+    let mut sp = Spacing::new();
+    let n = sp.admit(Vec3::ZERO, r, &far, &mut out);
+    assert_eq!(n, MAX_STEP_SPHERES);
+    assert_eq!(
+        out[..15]
+            .iter()
+            .map(|s| s.center)
+            .collect::<heapless::Vec<_, 16>>(),
+        far[..15]
+            .iter()
+            .map(|s| s.center)
+            .collect::<heapless::Vec<_, 16>>()
+    );
+    assert_eq!(out[15].center, far[99].center);
+    // Not finite, or no radius: never taken, and nothing taken since.
+    let bad = [
+        Sphere {
+            center: Vec3::splat(f32::NAN),
+            radius: r,
+        },
+        Sphere {
+            center: Vec3::Z * 10.0,
+            radius: 0.0,
+        },
+    ];
+    let mut sp = Spacing::new();
+    assert_eq!(sp.admit(Vec3::ZERO, r, &bad, &mut out), 0);
+    assert_eq!(sp, {
+        let mut fresh = Spacing::new();
+        fresh.admit(Vec3::ZERO, r, &[], &mut out);
+        fresh
+    });
+}

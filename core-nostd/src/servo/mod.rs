@@ -14,7 +14,8 @@
 
 use glam::Vec3;
 
-use crate::drill::{Drill, DrillParams, DrillReport, Pending, Sphere};
+use crate::drill::{Drill, DrillParams, DrillReport, Pending, Spacing, Sphere};
+pub use crate::drill::{DRILL_HOLD_STEPS, DRILL_SETTLE, DRILL_SPACING, MAX_STEP_SPHERES};
 use crate::force::{clamp_force, damping_force, sphere_contact, ForceParams, ToolState};
 use crate::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, HashError, SpatialHash};
 use crate::hierarchy::{
@@ -215,40 +216,13 @@ pub struct World<'a> {
     /// from there ([`Hierarchy::nearest_continued`]).
     cursor: NearestCursor,
     sat: Saturations,
-    last_queued: Option<Vec3>,
-    since_queued: u32,
-    /// Where the burr settled (see [`DRILL_SETTLE`]) and for how many steps it has stayed
-    /// within that distance of it.
-    anchor: Option<Vec3>,
-    settled_steps: u32,
+    /// Which burr positions become drill work.
+    spacing: Spacing,
 }
 
 /// Default bound on the hierarchy nodes the contact search of one simulation step tests
 /// (see [`World::set_contact_max_nodes`]).
 pub const CONTACT_MAX_NODES: u32 = 4096;
-
-/// A burr position goes to the drill once it is this fraction of the radius away from the last
-/// one queued: spheres an eighth of the radius apart cover the swept capsule to within
-/// `r - sqrt(r^2 - (r/16)^2)`, 0.2 % of the radius. On the demo path the removed volume with
-/// every position queued densely is 3.45 %, at this spacing 3.44 %, at a quarter radius 3.34 %
-/// (the erosion criterion at the depth limit loses more in the wider grooves than their
-/// volume; measured 2026-11-22).
-pub const DRILL_SPACING: f32 = 0.125;
-
-/// A burr that has settled (stayed within [`DRILL_SETTLE`] of one point) for this many steps
-/// is queued again where it is, if it moved at all since the last position queued, so the
-/// last position of a motion is eroded too.
-pub const DRILL_HOLD_STEPS: u32 = 16;
-
-/// The distance, as a fraction of the radius, within which a burr counts as settled for
-/// [`DRILL_HOLD_STEPS`]: a sixteenth of [`DRILL_SPACING`]. A burr still moving (on the demo
-/// path about a 24th of the radius every 16 steps) is queued by distance only; before
-/// 2026-11-22 any motion re-queued it every 16 steps, six times as many burr positions as the
-/// spacing asks for on that path, each walking its whole neighbourhood again.
-pub const DRILL_SETTLE: f32 = DRILL_SPACING / 16.0;
-
-/// Most burr positions one simulation step takes.
-pub const MAX_STEP_SPHERES: usize = 16;
 
 impl<'a> World<'a> {
     /// Hashes the mesh's tets once (cell size = average edge length), stores each tet's box
@@ -305,10 +279,7 @@ impl<'a> World<'a> {
             contact_max_nodes: CONTACT_MAX_NODES,
             cursor: NearestCursor::new(),
             sat,
-            last_queued: None,
-            since_queued: 0,
-            anchor: None,
-            settled_steps: 0,
+            spacing: Spacing::new(),
         })
     }
 
@@ -434,40 +405,7 @@ impl<'a> World<'a> {
         // Only positions far enough from the last one queued (or held long enough) become new
         // drill work; the rest is covered by the spheres already queued.
         let mut kept = [Sphere::default(); MAX_STEP_SPHERES];
-        let mut nk = 0usize;
-        self.since_queued = self.since_queued.saturating_add(1);
-        match self.anchor {
-            Some(a) if a.distance(centre) <= DRILL_SETTLE * radius => {
-                self.settled_steps = self.settled_steps.saturating_add(1);
-            }
-            _ => {
-                self.anchor = Some(centre);
-                self.settled_steps = 0;
-            }
-        }
-        let settled = self.settled_steps >= DRILL_HOLD_STEPS;
-        for s in spheres
-            .iter()
-            .filter(|s| s.center.is_finite() && s.radius > 0.0)
-        {
-            let far = match self.last_queued {
-                None => true,
-                Some(q) => {
-                    let d = q.distance(s.center);
-                    d >= DRILL_SPACING * s.radius
-                        || (d > 0.0 && settled && self.since_queued >= DRILL_HOLD_STEPS)
-                }
-            };
-            if far {
-                if nk == MAX_STEP_SPHERES {
-                    nk -= 1; // keep the newest in the last slot
-                }
-                kept[nk] = *s;
-                nk += 1;
-                self.last_queued = Some(s.center);
-                self.since_queued = 0;
-            }
-        }
+        let nk = self.spacing.admit(centre, radius, spheres, &mut kept);
         let spheres = &kept[..nk];
         rep.queued = nk as u32;
         let mut tight = Aabb::of::<0>([]);
