@@ -8,8 +8,11 @@ use crate::mesh::Mesh;
 /// in ascending order, and returns how many were written (stops when `out` is full).
 ///
 /// # Bounded work
-/// O(T * S) for T tets and S spheres.
+/// O(T * S) for T tets and S spheres; constant without spheres.
 pub fn candidates_brute_force(mesh: &Mesh<'_>, spheres: &[Sphere], out: &mut [TetId]) -> usize {
+    if spheres.is_empty() {
+        return 0; // no box overlaps nothing (and a step with nothing queued costs no walk)
+    }
     let mut n = 0;
     for t in 0..mesh.tet_count() {
         let id = TetId::from_idx(t);
