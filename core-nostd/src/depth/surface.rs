@@ -60,8 +60,13 @@ pub fn exit_values(body: &Body<'_, '_>, t: TetId, f: u8, p: Vec3, q: Vec3) -> Op
         edge_value(pb, pc, ids[1], ids[2], p, q),
         edge_value(pc, pa, ids[2], ids[0], p, q),
     ];
-    let leaves = e[0] <= 0.0 && e[1] <= 0.0 && e[2] <= 0.0 && (e[0] + e[1] + e[2]) < 0.0;
-    leaves.then_some(e)
+    leaves(e).then_some(e)
+}
+
+/// `true` when a face's edge values say the line leaves through it: all `<= 0`, not all zero.
+#[inline]
+pub(crate) fn leaves(e: [f32; 3]) -> bool {
+    e[0] <= 0.0 && e[1] <= 0.0 && e[2] <= 0.0 && (e[0] + e[1] + e[2]) < 0.0
 }
 
 /// The hit on boundary face `f` of `t` for edge values from [`exit_values`].

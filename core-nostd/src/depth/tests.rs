@@ -272,3 +272,79 @@ fn traced_walk_gives_up_after_max_steps() {
     assert!(trace_to_surface(&bb, t, p, q, 2, &mut s2).is_none());
     assert_eq!(s2, 2);
 }
+
+/// The walk as seed 000 describes it, each face tested afresh with [`surface::exit_values`]:
+/// the oracle for the walk that keeps its edge values from tet to tet.
+fn walk_testing_every_face(
+    b: &Body<'_, '_>,
+    start: crate::ids::TetId,
+    p: Vec3,
+    q: Vec3,
+    max_steps: u32,
+) -> (Option<SurfaceHit>, u32) {
+    let (mut t, mut entry, mut steps) = (start, 4u8, 0u32);
+    while steps < max_steps {
+        steps += 1;
+        let Some((f, e)) = (0..4u8)
+            .filter(|&f| f != entry)
+            .find_map(|f| surface::exit_values(b, t, f, p, q).map(|e| (f, e)))
+        else {
+            return (None, steps);
+        };
+        let tet = b.mesh.tets()[t.idx()];
+        if tet.neighbours[f as usize].is_none() {
+            return (surface::hit_on_face(b, t, f, e, p, q), steps);
+        }
+        entry = tet.reverse[f as usize].face();
+        t = tet.neighbours[f as usize];
+    }
+    (None, steps)
+}
+
+#[test]
+fn the_walk_keeping_edge_values_crosses_the_faces_testing_each_face_does() {
+    let mut b = Store::<125, 384>::block(4, 0.25, Vec3::splat(-0.5));
+    let b = b.mesh();
+    let bb = Body::fixed(&b);
+    // Lines from points inside the block in many directions, some through nodes and edges
+    // of the grid (where faces tie), walked to the surface and cut short.
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let mut next = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5
+    };
+    let (mut walked, mut long) = (0, 0);
+    for k in 0..400 {
+        let p = match k % 4 {
+            0 => Vec3::new(next(), next(), next()) * 0.98,
+            // On a grid plane, a grid line and a grid node.
+            1 => Vec3::new(0.25, next(), next()) * 0.98,
+            2 => Vec3::new(0.0, 0.25, next() * 0.98),
+            _ => Vec3::new(-0.25, 0.0, 0.25),
+        };
+        let q = p + Vec3::new(next(), next(), next()) * 3.0;
+        let Some(t) = (0..b.tet_count())
+            .map(crate::ids::TetId::from_idx)
+            .find(|&t| {
+                crate::geom::barycentric(p, bb.tet_positions(t).unwrap())
+                    .is_some_and(|x| crate::geom::inside(x, 0.0))
+            })
+        else {
+            continue;
+        };
+        for max_steps in [1, 3, 64] {
+            let mut steps = 0;
+            let got = traced::trace_exit(&bb, t, p, q, max_steps, &mut steps);
+            let want = walk_testing_every_face(&bb, t, p, q, max_steps);
+            assert_eq!((got, steps), want, "line {p} -> {q}, {max_steps} steps");
+            walked += 1;
+            long += (steps > 3) as u32;
+        }
+    }
+    assert!(
+        walked > 1000 && long > 100,
+        "{walked} walks, {long} longer than 3 tets"
+    );
+}
