@@ -4,7 +4,6 @@ use glam::Vec3;
 
 use super::surface::{hit_on_face, leaves, on_edge, SurfaceHit};
 use crate::collide::Body;
-use crate::geom;
 use crate::ids::{NodeId, TetId};
 use crate::mesh::template::{EDGE_OF_VERTS, EDGE_VERTS, FACE_VERTS};
 
@@ -32,7 +31,8 @@ pub fn trace_to_surface(
 /// The line's value against an edge depends only on the edge ([`super::surface`]), so the
 /// walk keeps the six values of the tet it is in: the tet it steps into shares three edges
 /// with the last one, and only the three edges to its new corner are computed (three 3x3
-/// determinants a step, where testing each face afresh took up to nine). The faces are tested
+/// determinants a step, where testing each face afresh took up to nine, each from scratch:
+/// see [`Corner`]). The faces are tested
 /// in the same order with the same numbers [`super::surface::exit_values`] gives, so the walk
 /// crosses the same faces, bit for bit.
 ///
@@ -49,13 +49,14 @@ pub(crate) fn trace_exit(
     let tets = body.mesh.tets();
     let mut t = start;
     let mut tet = tets.get(t.idx())?;
-    let mut pos = [Vec3::ZERO; 4];
-    for (c, &n) in pos.iter_mut().zip(tet.nodes.iter()) {
-        *c = body.pos(n)?;
+    let d = q - p;
+    let mut corners = [Corner::default(); 4];
+    for (c, &n) in corners.iter_mut().zip(tet.nodes.iter()) {
+        *c = Corner::new(body.pos(n)?, p, d);
     }
     let mut value = [0.0f32; 6];
     for (v, &[i, j]) in value.iter_mut().zip(EDGE_VERTS.iter()) {
-        *v = edge_value(&tet.nodes, &pos, i, j, p, q);
+        *v = edge_value(&tet.nodes, &corners, i, j);
     }
     let mut entry = 4u8;
     for _ in 0..max_steps {
@@ -80,39 +81,57 @@ pub(crate) fn trace_exit(
         let next = tets.get(nb.idx())?;
         // Where each corner of the next tet is in this one (`entry`: the new corner).
         let mut from = [0u8; 4];
-        let mut next_pos = [Vec3::ZERO; 4];
+        let mut next_corners = [Corner::default(); 4];
         for (k, &n) in next.nodes.iter().enumerate() {
             if k as u8 == entry {
-                next_pos[k] = body.pos(n)?;
+                next_corners[k] = Corner::new(body.pos(n)?, p, d);
             } else {
                 let j = tet.nodes.iter().position(|&m| m == n)?;
                 from[k] = j as u8;
-                next_pos[k] = pos[j];
+                next_corners[k] = corners[j];
             }
         }
         let mut next_value = [0.0f32; 6];
         for (v, &[a, b]) in next_value.iter_mut().zip(EDGE_VERTS.iter()) {
             *v = if a == entry || b == entry {
-                edge_value(&next.nodes, &next_pos, a, b, p, q)
+                edge_value(&next.nodes, &next_corners, a, b)
             } else {
                 let (ja, jb) = (from[a as usize], from[b as usize]);
                 signed(&value, ja, jb)
             };
         }
-        (t, tet, pos, value) = (nb, next, next_pos, next_value);
+        (t, tet, corners, value) = (nb, next, next_corners, next_value);
     }
     None
+}
+
+/// A corner `x` of the walk's tet as the line's determinants use it: `r = x - p` and
+/// `c = (q - p) x r`. The line against the edge `u -> v` is then `c_u . r_v`, the very
+/// operations [`crate::geom::det6`]`(p, q, u, v)` performs, in the same order: the same bits, with
+/// the differences and the cross product done once per corner instead of once per edge.
+#[derive(Clone, Copy, Default)]
+struct Corner {
+    r: Vec3,
+    c: Vec3,
+}
+
+impl Corner {
+    #[inline]
+    fn new(x: Vec3, p: Vec3, d: Vec3) -> Self {
+        let r = x - p;
+        Self { r, c: d.cross(r) }
+    }
 }
 
 /// The line against the edge from local corner `i` to `j` (`i < j`): [`super::surface`]'s
 /// canonical value, the same bits (the determinant over the smaller node id first).
 #[inline]
-fn edge_value(nodes: &[NodeId; 4], pos: &[Vec3; 4], i: u8, j: u8, p: Vec3, q: Vec3) -> f32 {
+fn edge_value(nodes: &[NodeId; 4], corners: &[Corner; 4], i: u8, j: u8) -> f32 {
     let (i, j) = (i as usize & 3, j as usize & 3);
     if nodes[i] < nodes[j] {
-        geom::det6(p, q, pos[i], pos[j])
+        corners[i].c.dot(corners[j].r)
     } else {
-        -geom::det6(p, q, pos[j], pos[i])
+        -corners[j].c.dot(corners[i].r)
     }
 }
 
