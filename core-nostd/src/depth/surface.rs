@@ -55,8 +55,15 @@ pub fn exit_values(body: &Body<'_, '_>, t: TetId, f: u8, p: Vec3, q: Vec3) -> Op
     let pa = body.pos(ids[0])?;
     let pb = body.pos(ids[1])?;
     let pc = body.pos(ids[2])?;
+    // Most faces tested fail on their first edge: the other two are computed only when
+    // needed (the same answer as computing all three first).
+    let ab = edge_value(pa, pb, ids[0], ids[1], p, q);
+    let may_leave = ab <= 0.0; // false for NaN too, as in `leaves`
+    if !may_leave {
+        return None;
+    }
     let e = [
-        edge_value(pa, pb, ids[0], ids[1], p, q),
+        ab,
         edge_value(pb, pc, ids[1], ids[2], p, q),
         edge_value(pc, pa, ids[2], ids[0], p, q),
     ];
