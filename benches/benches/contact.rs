@@ -217,9 +217,11 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
     );
     let (mut s1, mut q1) = (vec![NodeSlot::default(); np], vec![NodeId::NONE; np]);
     let (mut s2, mut q2) = (vec![NodeSlot::default(); no], vec![NodeId::NONE; no]);
+    let mut found = vec![TetId::NONE; np];
     let mut bufs = PenBuffers {
         world: &mut world,
         pen_hits: &mut h1,
+        pen_found: &mut found,
         object_hits: &mut h2,
         pen_pens: &mut p1,
         object_pens: &mut p2,

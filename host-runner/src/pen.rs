@@ -11,6 +11,7 @@ use tetradrill_core::depth::{
 };
 use tetradrill_core::force::{PenBuffers, PenScene};
 use tetradrill_core::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, SpatialHash};
+use tetradrill_core::ids::TetId;
 use tetradrill_core::{NodeId, Vec3};
 
 use crate::owned::OwnedMesh;
@@ -190,9 +191,11 @@ impl PenRig {
         );
         let (mut s1, mut q1) = (vec![NodeSlot::default(); np], vec![NodeId::NONE; qp]);
         let (mut s2, mut q2) = (vec![NodeSlot::default(); no], vec![NodeId::NONE; qo]);
+        let mut found = vec![TetId::NONE; np];
         let mut bufs = PenBuffers {
             world: &mut world,
             pen_hits: &mut h1,
+            pen_found: &mut found,
             object_hits: &mut h2,
             pen_pens: &mut p1,
             object_pens: &mut p2,

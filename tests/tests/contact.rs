@@ -391,6 +391,73 @@ fn full_lists_keep_previous_nodes_then_smallest_ids_cow() {
     );
 }
 
+/// Pen nodes found by walking from last tick's tets and from their neighbours' tets
+/// (`PenOptions::max_walk`) along a path that drives the pen, turning, into the cow: every
+/// tick's list is brute force's (each node with the smallest tet that holds it), and the
+/// forces are bit-identical to those of the same path looked up in the hash alone
+/// (`max_walk` 0).
+#[test]
+fn walked_pen_nodes_match_brute_force_along_a_path_cow() {
+    let mut rig = rig(10.0, COW, 1.0);
+    let (start, normal) = {
+        let obj = rig.obj.view();
+        let b = (0..obj.node_count())
+            .find(|&i| obj.nodes()[i].boundary && obj.normals()[i].x > 0.8)
+            .expect("a boundary node facing +x");
+        (obj.positions()[b], obj.normals()[b])
+    };
+    let path: Vec<(Vec3, Quat)> = (0..50)
+        .map(|i| {
+            let rot = Quat::from_rotation_arc(Vec3::Z, normal)
+                * Quat::from_rotation_z(0.07 * i as f32)
+                * Quat::from_rotation_x(0.3 + 0.01 * i as f32);
+            (start - normal * (0.004 * i as f32), rot)
+        })
+        .collect();
+    let run = |rig: &mut PenRig, max_walk: u32, check: bool| {
+        let opts = PenOptions {
+            max_walk,
+            ..PenOptions::default()
+        };
+        rig.with(|scene, bufs| {
+            let mut state = PenState::default();
+            let mut ticks = Vec::new();
+            for &(pos, rot) in &path {
+                let c = pen_contact(scene, bufs, pos, rot, &opts, &mut state);
+                assert!(!c.saturated());
+                let got = bufs.pen_hits[..c.pen_collisions.count].to_vec();
+                if check {
+                    assert_eq!(got, brute(&scene.object, bufs.world, None), "at {pos}");
+                }
+                ticks.push((
+                    got,
+                    c.force.to_array().map(f32::to_bits),
+                    c.pen_collisions.candidates,
+                ));
+            }
+            ticks
+        })
+        .expect("pen scene")
+    };
+    let walked = run(&mut rig, PenOptions::default().max_walk, true);
+    let hashed = run(&mut rig, 0, false);
+    let (mut inside, mut saved) = (0, 0);
+    for (k, (w, h)) in walked.iter().zip(&hashed).enumerate() {
+        assert_eq!((&w.0, w.1), (&h.0, h.1), "tick {k}");
+        inside += w.0.len();
+        saved += h.2.saturating_sub(w.2);
+    }
+    println!(
+        "{inside} pen-node contacts over {} ticks; {saved} candidate tests saved",
+        path.len()
+    );
+    assert!(inside > 500, "the path must go deep: {inside}");
+    assert!(
+        saved as usize > inside,
+        "walks replace most look-ups: {saved} saved"
+    );
+}
+
 /// Independent f64 consistent depth of the pen nodes in the object (brute force over the
 /// object's boundary faces, own adjacency, own breadth-first layers). With `partial` (a full
 /// collision list) an edge to a node outside `colliding` takes the first place its line

@@ -29,7 +29,10 @@ mod tests;
 
 pub use body::Body;
 pub use occupancy::{Occupancy, OccupancyError, OccupancyStorage};
-pub use points::{hash_tets, points_in_tets, points_in_tets_coherent, points_in_tets_occupied};
+pub use points::{
+    hash_tets, points_in_tets, points_in_tets_coherent, points_in_tets_occupied,
+    points_in_tets_walked, walk_to_holder, WalkStarts, WALK_MARGIN,
+};
 pub use rigid::{
     rigid_tets_over_points_coherent, NearClusters, RigidError, RigidTets, RigidTetsStorage,
     MAX_NEAR_CLUSTERS,
@@ -45,7 +48,7 @@ use crate::ids::{NodeId, TetId};
 ///
 /// # Bounded work
 /// At most `kept` calls of `locate`.
-fn keep_previous<F: FnMut(NodeId, glam::Vec3) -> TetId>(
+fn keep_previous<F: FnMut(NodeId, glam::Vec3, TetId) -> TetId>(
     out: &mut [Collision],
     kept: usize,
     points: &[glam::Vec3],
@@ -62,7 +65,7 @@ fn keep_previous<F: FnMut(NodeId, glam::Vec3) -> TetId>(
             continue;
         };
         last = Some(node);
-        let tet = locate(node, p);
+        let tet = locate(node, p, out[i].tet);
         if tet.is_some() {
             out[m] = Collision { node, tet };
             m += 1;

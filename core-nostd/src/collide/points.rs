@@ -92,6 +92,105 @@ pub fn points_in_tets_occupied<F: Fn(usize) -> bool>(
     coherent(tets, body, points, own, out, kept, Some(cells), may_hit)
 }
 
+/// Where the walks of [`points_in_tets_walked`] start.
+#[derive(Debug)]
+pub struct WalkStarts<'w, N> {
+    /// One entry per point, written by the call: the tet the point was found in (`NONE` when
+    /// it is in none or was not examined). Points beyond its length never walk.
+    pub found: &'w mut [TetId],
+    /// The points near point `i` (a mesh's node neighbours, say): a point not listed last
+    /// call walks from the tet of the first of them found already in this call.
+    pub near: N,
+    /// Most tets one walk tests (0: no walks, every point looked up in the hash).
+    pub max_steps: u32,
+}
+
+/// [`points_in_tets_occupied`] (with `own` false) that first walks to each point from a tet
+/// near it: the tet the point was in last call (its entry in `out[..kept]`) or else the tet
+/// of a nearby point found earlier in this call ([`WalkStarts::near`]). The walk
+/// ([`walk_to_holder`]) is taken only when it ends in a tet that holds the point by at least
+/// [`WALK_MARGIN`] in every barycentric coordinate; otherwise the point is looked up in the
+/// hash as [`points_in_tets_occupied`] does.
+///
+/// A point that deep inside a tet is in no other tet unless `body`'s tets overlap (tetgen
+/// and gmsh meshes do not; the f32 rounding of a barycentric coordinate of a reasonably
+/// shaped tet is about 1e-6, a thousandth of the margin), so the tet found is the smallest-id
+/// tet that holds the point and the result is [`points_in_tets_occupied`]'s, bit for bit
+/// (tests compare the two on the shared meshes). For the nodes of a tool in the object most
+/// points inside are found by a walk of one or two tets (a barycentric test each) instead of
+/// a cell's candidates.
+///
+/// # Bounded work
+/// As [`points_in_tets_occupied`], plus clearing `found` and at most `max_steps`
+/// barycentric tests and one `near` call (with a look at each point it names) per point
+/// examined.
+#[allow(clippy::too_many_arguments)]
+pub fn points_in_tets_walked<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> bool>(
+    tets: &SpatialHash<'_>,
+    cells: &Occupancy<'_>,
+    body: &Body<'_, '_>,
+    points: &[Vec3],
+    out: &mut [Collision],
+    kept: usize,
+    starts: WalkStarts<'_, N>,
+    may_hit: F,
+) -> CollideReport {
+    starts.found.fill(TetId::NONE);
+    coherent_walked(
+        tets,
+        body,
+        points,
+        false,
+        out,
+        kept,
+        Some(cells),
+        may_hit,
+        Some(starts),
+    )
+}
+
+/// Barycentric margin for accepting a walk's tet ([`points_in_tets_walked`]).
+pub const WALK_MARGIN: f32 = 1.0e-3;
+
+/// From tet `from`, steps towards `p` (across the face whose barycentric coordinate is the
+/// most negative) until a tet holds `p` with every coordinate at least [`WALK_MARGIN`]
+/// (returned), or gives up (`NONE`): `p` near a face of the tet it is in, the walk leaving
+/// the body, a degenerate tet, or `max_steps` tets tested.
+///
+/// # Bounded work
+/// At most `max_steps` barycentric tests.
+pub fn walk_to_holder(body: &Body<'_, '_>, from: TetId, p: Vec3, max_steps: u32) -> TetId {
+    let mut t = from;
+    for _ in 0..max_steps {
+        let Some(b) = body
+            .tet_positions(t)
+            .and_then(|corners| crate::geom::barycentric(p, corners))
+        else {
+            return TetId::NONE;
+        };
+        let mut low = 0usize;
+        for k in 1..4 {
+            if b[k] < b[low] {
+                low = k;
+            }
+        }
+        // `>=` is false for NaN, which gives up below.
+        let deep = b[low] >= WALK_MARGIN;
+        if deep {
+            return t;
+        }
+        let outside = b[low] < 0.0;
+        if !outside {
+            return TetId::NONE; // inside, near a face: the hash decides
+        }
+        t = body.neighbour(t, low as u8);
+        if t.is_none() {
+            return TetId::NONE;
+        }
+    }
+    TetId::NONE
+}
+
 /// [`points_in_tets_coherent`], culled by `cells` when given and by `filter`.
 #[allow(clippy::too_many_arguments)]
 fn coherent<F: Fn(usize) -> bool>(
@@ -104,12 +203,62 @@ fn coherent<F: Fn(usize) -> bool>(
     cells: Option<&Occupancy<'_>>,
     filter: F,
 ) -> CollideReport {
+    coherent_walked(tets, body, points, own, out, kept, cells, filter, NO_WALKS)
+}
+
+/// No point has near points.
+type NoNear = fn(usize) -> &'static [NodeId];
+
+/// [`coherent`] without walks.
+const NO_WALKS: Option<WalkStarts<'static, NoNear>> = None;
+
+/// [`coherent`] with an optional walk before each hash look-up (`starts.found` cleared).
+#[allow(clippy::too_many_arguments)]
+fn coherent_walked<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> bool>(
+    tets: &SpatialHash<'_>,
+    body: &Body<'_, '_>,
+    points: &[Vec3],
+    own: bool,
+    out: &mut [Collision],
+    kept: usize,
+    cells: Option<&Occupancy<'_>>,
+    filter: F,
+    mut starts: Option<WalkStarts<'_, N>>,
+) -> CollideReport {
     let may_hit = |i: usize, p: Vec3| filter(i) && cells.is_none_or(|c| c.may_hold(p));
     let mut r = CollideReport::default();
+    // A walk starts in the tet the point was in last call, else in a near point's.
+    let mut locate = |node: NodeId, p: Vec3, was: TetId, r: &mut CollideReport| {
+        let Some(w) = starts.as_mut() else {
+            return smallest_tet(tets, body, cells, p, node, own, r);
+        };
+        let mut t = TetId::NONE;
+        if w.max_steps > 0 {
+            let start = if was.is_some() {
+                was
+            } else {
+                (w.near)(node.idx())
+                    .iter()
+                    .map(|j| w.found.get(j.idx()).copied().unwrap_or(TetId::NONE))
+                    .find(|t| t.is_some())
+                    .unwrap_or(TetId::NONE)
+            };
+            if start.idx() < body.tet_count() {
+                t = walk_to_holder(body, start, p, w.max_steps);
+            }
+        }
+        if t.is_none() {
+            t = smallest_tet(tets, body, cells, p, node, own, r);
+        }
+        if let Some(f) = w.found.get_mut(node.idx()) {
+            *f = t;
+        }
+        t
+    };
     // The previous entries still inside, compacted in place (in node order).
-    let m = super::keep_previous(out, kept, points, |node, p| {
+    let m = super::keep_previous(out, kept, points, |node, p, was| {
         if may_hit(node.idx(), p) {
-            smallest_tet(tets, body, cells, p, node, own, &mut r)
+            locate(node, p, was, &mut r)
         } else {
             TetId::NONE
         }
@@ -128,7 +277,7 @@ fn coherent<F: Fn(usize) -> bool>(
         if !may_hit(i, p) {
             continue;
         }
-        let tet = smallest_tet(tets, body, cells, p, node, own, &mut r);
+        let tet = locate(node, p, TetId::NONE, &mut r);
         if tet.is_some() {
             let Some(slot) = out.get_mut(n) else {
                 r.saturated = true;

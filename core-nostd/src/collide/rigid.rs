@@ -455,7 +455,7 @@ pub fn rigid_tets_over_points_coherent(
     let mut r = CollideReport::default();
 
     // The previous points still inside, compacted in place (in node order).
-    let m = super::keep_previous(out, kept, points, |_, p| {
+    let m = super::keep_previous(out, kept, points, |_, p, _| {
         rigid.locate(inv.transform_point3(p), p, body, &mut r)
     });
 

@@ -726,3 +726,99 @@ fn inside_tet_answers_as_barycentric() {
     }
     assert!(seen.iter().all(|&n| n > 500), "cases met: {seen:?}");
 }
+
+/// `walk_to_holder` from any tet either gives up or names a tet that holds the point by the
+/// margin in every coordinate, which is then brute force's (smallest-id) tet; and
+/// `points_in_tets_walked`, with any walk length and any start (neighbours' tets, last
+/// call's tets), gives `points_in_tets_occupied`'s lists, bit for bit.
+#[test]
+fn walks_find_the_smallest_tet_or_give_up() {
+    let mut obj_store = Store::<125, 384>::block(4, 0.25, Vec3::splat(-0.5));
+    let obj = obj_store.mesh();
+    let ob = Body::fixed(&obj);
+    let (mut th_s, mut th_e) = ([0u32; 64], [HashEntry::default(); 4096]);
+    let mut th = SpatialHash::new(&mut th_s, &mut th_e, 0.25).unwrap();
+    assert!(!hash_tets(&mut th, &ob).saturated);
+    let empty = crate::hash::Aabb::of::<0>([]);
+    let (mut w, mut bx) = ([0u32; 64], [empty; 384]);
+    let storage = OccupancyStorage {
+        words: &mut w,
+        boxes: &mut bx,
+    };
+    let cells = Occupancy::build(&ob, 0.05, 1e-4, storage).unwrap();
+    let mut rng = Rng(0x0123_4567_89ab_cdef);
+    let (mut found, mut gave_up) = (0, 0);
+    for _ in 0..2000 {
+        let p = Vec3::new(
+            rng.range(-0.6, 0.6),
+            rng.range(-0.6, 0.6),
+            rng.range(-0.6, 0.6),
+        );
+        let from = TetId::from_idx((rng.next() * 384.0) as usize % 384);
+        let t = walk_to_holder(&ob, from, p, 1 + (rng.next() * 12.0) as u32);
+        if t.is_none() {
+            gave_up += 1;
+            continue;
+        }
+        found += 1;
+        let b = crate::geom::barycentric(p, ob.tet_positions(t).unwrap()).unwrap();
+        assert!(b.iter().all(|&c| c >= WALK_MARGIN), "{p} in {t:?}: {b:?}");
+        assert_eq!(Some(t), brute(&ob, &[p], false)[0], "{p}");
+    }
+    assert!(
+        found > 300 && gave_up > 300,
+        "found {found}, gave up {gave_up}"
+    );
+
+    // A cloud of points, each near the one before (a tool's nodes), moved a little per call.
+    let mut pts = [Vec3::ZERO; 64];
+    let mut near = [[NodeId::NONE; 2]; 64];
+    for (i, nb) in near.iter_mut().enumerate() {
+        *nb = [
+            NodeId::from_idx(i.saturating_sub(1)),
+            NodeId::from_idx((i + 7) % 64),
+        ];
+    }
+    let (mut prev, mut kept) = ([Collision::default(); 64], 0usize);
+    let mut walked_hits = 0;
+    for round in 0..60 {
+        let mut x = Vec3::new(rng.range(-0.7, 0.7), rng.range(-0.7, 0.7), 0.0);
+        for (k, p) in pts.iter_mut().enumerate() {
+            x += Vec3::new(rng.range(-0.04, 0.04), rng.range(-0.04, 0.04), 0.02);
+            *p = if round % 5 == 0 && k % 4 == 0 {
+                obj.positions()[(k * 3 + round) % 125] // exactly on nodes and faces
+            } else {
+                x
+            };
+        }
+        let mut want = [Collision::default(); 64];
+        let r0 = points_in_tets_occupied(&th, &cells, &ob, &pts, false, &mut want, 0, |_| true);
+        for max_steps in [0u32, 1, 3, 16] {
+            let mut out = [Collision::default(); 64];
+            // Last call's list as it was left, for the walks from last call's tets.
+            out[..kept].copy_from_slice(&prev[..kept]);
+            let mut f = [TetId::NONE; 64];
+            let starts = WalkStarts {
+                found: &mut f,
+                near: |i: usize| &near[i][..],
+                max_steps,
+            };
+            let r = points_in_tets_walked(&th, &cells, &ob, &pts, &mut out, kept, starts, |_| true);
+            assert_eq!(
+                &out[..r.count],
+                &want[..r0.count],
+                "round {round}, {max_steps}"
+            );
+            for c in &out[..r.count] {
+                assert_eq!(f[c.node.idx()], c.tet, "found records the tet");
+            }
+            walked_hits += (max_steps > 0 && r.candidates < r0.candidates) as u32;
+        }
+        prev = want;
+        kept = r0.count;
+    }
+    assert!(
+        walked_hits > 60,
+        "walks saved candidate tests {walked_hits} times"
+    );
+}

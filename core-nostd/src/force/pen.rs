@@ -12,13 +12,14 @@ use glam::{Affine3A, Quat, Vec3};
 use super::entry::EntryPlane;
 use super::response::{clamp_force, damping_force, display_offset, ForceParams, ToolState};
 use crate::collide::{
-    points_in_tets_occupied, rigid_tets_over_points_coherent, Body, CollideReport, Collision,
-    Occupancy, RigidTets,
+    points_in_tets_walked, rigid_tets_over_points_coherent, Body, CollideReport, Collision,
+    Occupancy, RigidTets, WalkStarts,
 };
 use crate::depth::{
     penetration_depth_of, DepthReport, DepthScratch, Listed, Method, NodeGraph, Penetration,
 };
 use crate::hash::{Aabb, SpatialHash};
+use crate::ids::{NodeId, TetId};
 use crate::mesh::Mesh;
 
 /// What stays fixed during a session: the pen at rest (tip at its origin), the static object,
@@ -56,6 +57,10 @@ pub struct PenBuffers<'b> {
     pub world: &'b mut [Vec3],
     /// Pen nodes inside object tets.
     pub pen_hits: &'b mut [Collision],
+    /// Per pen node, the object tet it was found in this tick, where the walks of its
+    /// neighbours start ([`WalkStarts::found`]; pen nodes beyond its length are looked up in
+    /// the object's tet hash without a walk).
+    pub pen_found: &'b mut [TetId],
     /// Object nodes inside pen tets.
     pub object_hits: &'b mut [Collision],
     /// Depths of the pen nodes.
@@ -92,6 +97,10 @@ pub struct PenOptions {
     pub max_cells: u32,
     /// Use the entry-plane remedy for the pen's nodes ([`EntryPlane`]).
     pub entry_remedy: bool,
+    /// Most object tets a pen node's walk may test before the node is looked up in the
+    /// object's tet hash instead ([`points_in_tets_walked`]; 0: always the hash). The same
+    /// contacts either way.
+    pub max_walk: u32,
 }
 
 impl Default for PenOptions {
@@ -102,6 +111,7 @@ impl Default for PenOptions {
             max_steps: 256,
             max_cells: 512,
             entry_remedy: false,
+            max_walk: 8,
         }
     }
 }
@@ -115,7 +125,7 @@ pub struct PenState {
     /// For the remedy.
     pub entry: EntryPlane,
     /// Entries of [`PenBuffers::pen_hits`] written last tick: a full list keeps those nodes
-    /// first ([`points_in_tets_occupied`]).
+    /// first ([`points_in_tets_walked`]).
     pub pen_listed: usize,
     /// Entries of [`PenBuffers::object_hits`] written last tick
     /// ([`rigid_tets_over_points_coherent`]).
@@ -165,14 +175,14 @@ impl PenContact {
 /// One servo tick of the pen tool at `position` (its tip) and `rotation`.
 ///
 /// When a collision list is full, it keeps last tick's nodes that still collide first
-/// ([`PenState::pen_listed`], [`points_in_tets_occupied`], [`rigid_tets_over_points_coherent`]) and
+/// ([`PenState::pen_listed`], [`points_in_tets_walked`], [`rigid_tets_over_points_coherent`]) and
 /// its depths follow edges to unlisted nodes on to the surface ([`Listed::Partial`], at most
 /// `max_steps` tets): a node enters or leaves the list only as it enters or leaves the other
 /// body, where its depth is near zero, so the force stays continuous.
 ///
 /// # Bounded work
-/// O(N_pen) to place the pen; collision: O(N_pen * b) for b the largest bucket of the
-/// object's tet hash ([`points_in_tets_occupied`]) and, per pen cluster, one query of at most
+/// O(N_pen) to place the pen; collision: O(N_pen * (w + b)) for w = `max_walk` and b the
+/// largest bucket of the object's tet hash ([`points_in_tets_walked`]) and, per pen cluster, one query of at most
 /// [`crate::collide::MAX_CELLS_PER_TET`] cells of the object's node hash with a rest-hash
 /// lookup per node met ([`rigid_tets_over_points_coherent`]; for poses far from the origin the
 /// walk over every pen tet, O(T_pen * cells * b), twice at most); depth: see
@@ -208,14 +218,18 @@ pub fn pen_contact(
         // The pen's clusters whose moved boxes meet cells the object occupies: the others'
         // nodes are in no object tet, and no object node is in their tets.
         let near = scene.pen_rest.near(pose, scene.object_cells);
-        out.pen_collisions = points_in_tets_occupied(
+        out.pen_collisions = points_in_tets_walked(
             scene.object_tets,
             scene.object_cells,
             &scene.object,
             world,
-            false,
             bufs.pen_hits,
             state.pen_listed,
+            WalkStarts {
+                found: bufs.pen_found,
+                near: |i| scene.pen_graph.neighbours(NodeId::from_idx(i)),
+                max_steps: opts.max_walk,
+            },
             |i| scene.pen_rest.node_near(i, &near),
         );
         out.object_collisions = rigid_tets_over_points_coherent(

@@ -8,7 +8,7 @@ use crate::collide::{
 };
 use crate::depth::{hash_boundary_faces, DepthScratch, NodeGraph, NodeSlot, Penetration};
 use crate::hash::{Aabb, HashEntry, SpatialHash};
-use crate::ids::NodeId;
+use crate::ids::{NodeId, TetId};
 
 #[test]
 fn sphere_pressed_into_flat_face() {
@@ -200,9 +200,11 @@ fn pen_tick(
     let (mut p1, mut p2) = ([Penetration::default(); 27], [Penetration::default(); 125]);
     let (mut s1, mut q1) = ([NodeSlot::default(); 27], [NodeId::NONE; 27]);
     let (mut s2, mut q2) = ([NodeSlot::default(); 125], [NodeId::NONE; 125]);
+    let mut found = [TetId::NONE; 27];
     let mut bufs = PenBuffers {
         world: &mut world,
         pen_hits: &mut h1[..caps.min(27)],
+        pen_found: &mut found,
         object_hits: &mut h2[..caps.min(125)],
         pen_pens: &mut p1[..caps.min(27)],
         object_pens: &mut p2[..caps.min(125)],
