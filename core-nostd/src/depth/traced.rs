@@ -5,7 +5,7 @@ use glam::Vec3;
 use super::surface::{hit_on_face, leaves, on_edge, SurfaceHit};
 use crate::collide::Body;
 use crate::ids::{NodeId, TetId};
-use crate::mesh::template::{EDGE_OF_VERTS, EDGE_VERTS, FACE_VERTS};
+use crate::mesh::template::{EDGE_VERTS, FACE_VERTS};
 
 /// Follows the line `p -> q` from tet `start` (which holds `p`) through neighbours until it
 /// leaves `body` through a boundary face; returns that crossing if it lies on the segment.
@@ -29,12 +29,12 @@ pub fn trace_to_surface(
 /// from `start` (which holds `p`), wherever that is along the line (`s` may exceed 1).
 ///
 /// The line's value against an edge depends only on the edge ([`super::surface`]), so the
-/// walk keeps the six values of the tet it is in: the tet it steps into shares three edges
-/// with the last one, and only the three edges to its new corner are computed (three 3x3
-/// determinants a step, where testing each face afresh took up to nine, each from scratch:
-/// see [`Corner`]). The faces are tested
-/// in the same order with the same numbers [`super::surface::exit_values`] gives, so the walk
-/// crosses the same faces, bit for bit.
+/// walk keeps the values of the tet it is in ([`Walker`]): the tet it steps into shares three
+/// corners and their three edges with the last one, and only its new corner and the three
+/// edges to it are computed (three dot products a step, where testing each face afresh took
+/// up to nine 3x3 determinants). The faces are tested in the same order with the same
+/// numbers [`super::surface::exit_values`] gives, so the walk crosses the same faces, bit for
+/// bit.
 ///
 /// # Bounded work
 /// As [`trace_to_surface`].
@@ -49,15 +49,7 @@ pub(crate) fn trace_exit(
     let tets = body.mesh.tets();
     let mut t = start;
     let mut tet = tets.get(t.idx())?;
-    let d = q - p;
-    let mut corners = [Corner::default(); 4];
-    for (c, &n) in corners.iter_mut().zip(tet.nodes.iter()) {
-        *c = Corner::new(body.pos(n)?, p, d);
-    }
-    let mut value = [0.0f32; 6];
-    for (v, &[i, j]) in value.iter_mut().zip(EDGE_VERTS.iter()) {
-        *v = edge_value(&tet.nodes, &corners, i, j);
-    }
+    let mut w = Walker::enter(body, tet.nodes, p, q - p)?;
     let mut entry = 4u8;
     for _ in 0..max_steps {
         *steps = steps.wrapping_add(1);
@@ -66,7 +58,7 @@ pub(crate) fn trace_exit(
             if f == entry {
                 continue;
             }
-            let e = face_values(&value, f);
+            let e = w.face_values(f);
             if leaves(e) {
                 exit = Some((f, e));
                 break;
@@ -79,30 +71,101 @@ pub(crate) fn trace_exit(
         }
         entry = tet.reverse.get(f as usize)?.face();
         let next = tets.get(nb.idx())?;
-        // Where each corner of the next tet is in this one (`entry`: the new corner).
-        let mut from = [0u8; 4];
-        let mut next_corners = [Corner::default(); 4];
-        for (k, &n) in next.nodes.iter().enumerate() {
-            if k as u8 == entry {
-                next_corners[k] = Corner::new(body.pos(n)?, p, d);
-            } else {
-                let j = tet.nodes.iter().position(|&m| m == n)?;
-                from[k] = j as u8;
-                next_corners[k] = corners[j];
-            }
-        }
-        let mut next_value = [0.0f32; 6];
-        for (v, &[a, b]) in next_value.iter_mut().zip(EDGE_VERTS.iter()) {
-            *v = if a == entry || b == entry {
-                edge_value(&next.nodes, &next_corners, a, b)
-            } else {
-                let (ja, jb) = (from[a as usize], from[b as usize]);
-                signed(&value, ja, jb)
-            };
-        }
-        (t, tet, corners, value) = (nb, next, next_corners, next_value);
+        w.step(body, f, next.nodes, entry, p, q - p)?;
+        (t, tet) = (nb, next);
     }
     None
+}
+
+/// The walk's working set: the four corners of the tet it is in, each in a fixed slot (a
+/// step puts the corner it arrives at in the slot of the corner it leaves behind), which
+/// slot holds each of the tet's vertices, and the line's value along each ordered pair of
+/// slots.
+struct Walker {
+    /// Per slot: the node and its [`Corner`].
+    node: [NodeId; 4],
+    corner: [Corner; 4],
+    /// Per vertex of the tet: its slot.
+    slot: [u8; 4],
+    /// `value[a][b]`: the line against the edge from slot `a` to slot `b`
+    /// (`value[b][a] = -value[a][b]`, exactly).
+    value: [[f32; 4]; 4],
+}
+
+impl Walker {
+    /// The walk's first tet, `nodes` (`None` for a node out of range).
+    fn enter(body: &Body<'_, '_>, nodes: [NodeId; 4], p: Vec3, d: Vec3) -> Option<Self> {
+        let mut w = Self {
+            node: nodes,
+            corner: [Corner::default(); 4],
+            slot: [0, 1, 2, 3],
+            value: [[0.0; 4]; 4],
+        };
+        for (c, &n) in w.corner.iter_mut().zip(nodes.iter()) {
+            *c = Corner::new(body.pos(n)?, p, d);
+        }
+        for [a, b] in EDGE_VERTS {
+            w.set_edge(a as usize, b as usize);
+        }
+        Some(w)
+    }
+
+    /// Steps out of the current tet through its face `f` into the tet `nodes`, entered
+    /// through its face `entry` (`None` when the two do not share that face's corners).
+    fn step(
+        &mut self,
+        body: &Body<'_, '_>,
+        f: u8,
+        nodes: [NodeId; 4],
+        entry: u8,
+        p: Vec3,
+        d: Vec3,
+    ) -> Option<()> {
+        // The corner opposite `f` is left behind; its slot takes the new corner.
+        let free = *self.slot.get(f as usize)? as usize & 3;
+        let mut slot = [0u8; 4];
+        for (k, (&n, s)) in nodes.iter().zip(slot.iter_mut()).enumerate() {
+            *s = if k as u8 == entry {
+                free as u8
+            } else {
+                let s = self.node.iter().position(|&m| m == n)?;
+                if s == free {
+                    return None;
+                }
+                s as u8
+            };
+        }
+        let n = *nodes.get(entry as usize)?;
+        self.node[free] = n;
+        self.corner[free] = Corner::new(body.pos(n)?, p, d);
+        self.slot = slot;
+        for other in 1..4 {
+            self.set_edge(free, (free + other) & 3);
+        }
+        Some(())
+    }
+
+    /// Computes the edge between slots `a` and `b`: [`super::surface`]'s canonical value (the
+    /// determinant over the smaller node id first), the same bits.
+    #[inline]
+    fn set_edge(&mut self, a: usize, b: usize) {
+        let (a, b) = (a & 3, b & 3);
+        let (ca, cb) = (self.corner[a], self.corner[b]);
+        let ab = if self.node[a] < self.node[b] {
+            ca.c.dot(cb.r)
+        } else {
+            -cb.c.dot(ca.r)
+        };
+        self.value[a][b] = ab;
+        self.value[b][a] = -ab;
+    }
+
+    /// The values of face `f` of the tet as listed `(a, b, c)`: `[e_ab, e_bc, e_ca]`.
+    #[inline]
+    fn face_values(&self, f: u8) -> [f32; 3] {
+        let [a, b, c] = FACE_VERTS[f as usize & 3].map(|v| self.slot[v as usize] as usize & 3);
+        [self.value[a][b], self.value[b][c], self.value[c][a]]
+    }
 }
 
 /// A corner `x` of the walk's tet as the line's determinants use it: `r = x - p` and
@@ -121,39 +184,4 @@ impl Corner {
         let r = x - p;
         Self { r, c: d.cross(r) }
     }
-}
-
-/// The line against the edge from local corner `i` to `j` (`i < j`): [`super::surface`]'s
-/// canonical value, the same bits (the determinant over the smaller node id first).
-#[inline]
-fn edge_value(nodes: &[NodeId; 4], corners: &[Corner; 4], i: u8, j: u8) -> f32 {
-    let (i, j) = (i as usize & 3, j as usize & 3);
-    if nodes[i] < nodes[j] {
-        corners[i].c.dot(corners[j].r)
-    } else {
-        -corners[j].c.dot(corners[i].r)
-    }
-}
-
-/// The line against the edge from local corner `a` to `b`, from the values kept per edge in
-/// [`EDGE_VERTS`] order (each from its lower corner to its higher): exact, a sign flip.
-#[inline]
-fn signed(value: &[f32; 6], a: u8, b: u8) -> f32 {
-    let e = EDGE_OF_VERTS[a as usize & 3][b as usize & 3] as usize % 6;
-    if a < b {
-        value[e]
-    } else {
-        -value[e]
-    }
-}
-
-/// The values of face `f` as listed `(a, b, c)`: `[e_ab, e_bc, e_ca]`.
-#[inline]
-fn face_values(value: &[f32; 6], f: u8) -> [f32; 3] {
-    let [a, b, c] = FACE_VERTS[f as usize & 3];
-    [
-        signed(value, a, b),
-        signed(value, b, c),
-        signed(value, c, a),
-    ]
 }
