@@ -61,7 +61,7 @@ pub fn points_in_tets_coherent(
     out: &mut [Collision],
     kept: usize,
 ) -> CollideReport {
-    coherent(tets, body, points, own, out, kept, None, |_| true)
+    coherent(tets, body, points, own, out, kept, None, |_| true, NO_WALKS)
 }
 
 /// [`points_in_tets_coherent`] that looks a point up only when `cells` says a tet box of
@@ -89,7 +89,17 @@ pub fn points_in_tets_occupied<F: Fn(usize) -> bool>(
     kept: usize,
     may_hit: F,
 ) -> CollideReport {
-    coherent(tets, body, points, own, out, kept, Some(cells), may_hit)
+    coherent(
+        tets,
+        body,
+        points,
+        own,
+        out,
+        kept,
+        Some(cells),
+        may_hit,
+        NO_WALKS,
+    )
 }
 
 /// Where the walks of [`points_in_tets_walked`] start.
@@ -136,7 +146,7 @@ pub fn points_in_tets_walked<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> b
     may_hit: F,
 ) -> CollideReport {
     starts.found.fill(TetId::NONE);
-    coherent_walked(
+    coherent(
         tets,
         body,
         points,
@@ -168,19 +178,19 @@ pub fn walk_to_holder(body: &Body<'_, '_>, from: TetId, p: Vec3, max_steps: u32)
         else {
             return TetId::NONE;
         };
+        if b.iter().any(|c| c.is_nan()) {
+            return TetId::NONE;
+        }
         let mut low = 0usize;
         for k in 1..4 {
             if b[k] < b[low] {
                 low = k;
             }
         }
-        // `>=` is false for NaN, which gives up below.
-        let deep = b[low] >= WALK_MARGIN;
-        if deep {
+        if b[low] >= WALK_MARGIN {
             return t;
         }
-        let outside = b[low] < 0.0;
-        if !outside {
+        if b[low] >= 0.0 {
             return TetId::NONE; // inside, near a face: the hash decides
         }
         t = body.neighbour(t, low as u8);
@@ -191,30 +201,16 @@ pub fn walk_to_holder(body: &Body<'_, '_>, from: TetId, p: Vec3, max_steps: u32)
     TetId::NONE
 }
 
-/// [`points_in_tets_coherent`], culled by `cells` when given and by `filter`.
-#[allow(clippy::too_many_arguments)]
-fn coherent<F: Fn(usize) -> bool>(
-    tets: &SpatialHash<'_>,
-    body: &Body<'_, '_>,
-    points: &[Vec3],
-    own: bool,
-    out: &mut [Collision],
-    kept: usize,
-    cells: Option<&Occupancy<'_>>,
-    filter: F,
-) -> CollideReport {
-    coherent_walked(tets, body, points, own, out, kept, cells, filter, NO_WALKS)
-}
-
 /// No point has near points.
 type NoNear = fn(usize) -> &'static [NodeId];
 
-/// [`coherent`] without walks.
+/// No walks: every point looked up in the hash.
 const NO_WALKS: Option<WalkStarts<'static, NoNear>> = None;
 
-/// [`coherent`] with an optional walk before each hash look-up (`starts.found` cleared).
+/// [`points_in_tets_coherent`], culled by `cells` when given and by `filter`, with a walk
+/// before each hash look-up when `starts` is given (`starts.found` cleared).
 #[allow(clippy::too_many_arguments)]
-fn coherent_walked<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> bool>(
+fn coherent<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> bool>(
     tets: &SpatialHash<'_>,
     body: &Body<'_, '_>,
     points: &[Vec3],

@@ -769,6 +769,19 @@ fn walks_find_the_smallest_tet_or_give_up() {
         found > 300 && gave_up > 300,
         "found {found}, gave up {gave_up}"
     );
+    // Points that are not finite are never found by a walk.
+    for p in [
+        Vec3::new(f32::NAN, 0.1, 0.1),
+        Vec3::new(f32::INFINITY, 0.1, 0.1),
+        Vec3::new(0.1, f32::NEG_INFINITY, f32::NAN),
+    ] {
+        for from in [0, 100, 383] {
+            assert!(
+                walk_to_holder(&ob, TetId::from_idx(from), p, 16).is_none(),
+                "{p}"
+            );
+        }
+    }
 
     // A cloud of points, each near the one before (a tool's nodes), moved a little per call.
     let mut pts = [Vec3::ZERO; 64];
