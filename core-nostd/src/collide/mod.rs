@@ -94,7 +94,8 @@ pub struct CollideReport {
     pub saturated: bool,
     /// Candidate tets skipped because they are degenerate (no barycentric coordinates).
     pub degenerate: u32,
-    /// Point-tet candidates examined (a cost measure).
+    /// Point-tet candidates examined (a cost measure): the hash's candidates tested, plus the
+    /// tets of [`points_in_tets_walked`]'s walks.
     pub candidates: u32,
     /// Tets skipped because their box covered too many cells
     /// ([`teschner::MAX_CELLS_PER_TET`]).

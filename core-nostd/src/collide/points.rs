@@ -167,11 +167,20 @@ pub const WALK_MARGIN: f32 = 1.0e-3;
 /// (returned), or gives up (`NONE`): `p` near a face of the tet it is in, the walk leaving
 /// the body, a degenerate tet, or `max_steps` tets tested.
 ///
+/// `tests` counts the barycentric tests made.
+///
 /// # Bounded work
 /// At most `max_steps` barycentric tests.
-pub fn walk_to_holder(body: &Body<'_, '_>, from: TetId, p: Vec3, max_steps: u32) -> TetId {
+pub fn walk_to_holder(
+    body: &Body<'_, '_>,
+    from: TetId,
+    p: Vec3,
+    max_steps: u32,
+    tests: &mut u32,
+) -> TetId {
     let mut t = from;
     for _ in 0..max_steps {
+        *tests = tests.wrapping_add(1);
         let Some(b) = body
             .tet_positions(t)
             .and_then(|corners| crate::geom::barycentric(p, corners))
@@ -240,7 +249,7 @@ fn coherent<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> bool>(
                     .unwrap_or(TetId::NONE)
             };
             if start.idx() < body.tet_count() {
-                t = walk_to_holder(body, start, p, w.max_steps);
+                t = walk_to_holder(body, start, p, w.max_steps, &mut r.candidates);
             }
         }
         if t.is_none() {
