@@ -20,7 +20,7 @@ use parry3d::partitioning::{Bvh, BvhBuildStrategy};
 use parry3d::query::PointQuery;
 use parry3d::shape::Tetrahedron;
 use tetradrill::owned::OwnedMesh;
-use tetradrill_core::collide::{hash_tets, points_in_tets, Body, Collision};
+use tetradrill_core::collide::{hash_tets, points_in_tets, walks_exact, Body, Collision};
 use tetradrill_core::depth::{
     graph_sizes, hash_boundary_faces, DepthScratch, NodeGraph, NodeSlot, Penetration,
 };
@@ -204,6 +204,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
         object_nodes: &nh,
         object_cells: &cells,
         object_faces: Some(&fh),
+        object_walks: walks_exact(&ob),
     };
     let (np, no) = (pen.node_count(), obj.node_count());
     let mut world = vec![Vec3::ZERO; np];

@@ -3,8 +3,8 @@
 //! built over it. Used by `replay --tool mesh:FILE`, the contact tests and the benches.
 
 use tetradrill_core::collide::{
-    hash_tets, Body, Collision, Occupancy, OccupancyError, OccupancyStorage, RigidError, RigidTets,
-    RigidTetsStorage, MAX_NEAR_CLUSTERS,
+    hash_tets, walks_exact, Body, Collision, Occupancy, OccupancyError, OccupancyStorage,
+    RigidError, RigidTets, RigidTetsStorage, MAX_NEAR_CLUSTERS,
 };
 use tetradrill_core::depth::{
     graph_sizes, hash_boundary_faces, DepthScratch, GraphError, NodeGraph, NodeSlot, Penetration,
@@ -140,7 +140,8 @@ impl PenRig {
             ts.entries.resize(n, HashEntry::default());
         }
         let mut th = ts.hash(cell).ok_or(RigError::Hash)?;
-        if hash_tets(&mut th, &ob).saturated {
+        let tets_hashed = !hash_tets(&mut th, &ob).saturated;
+        if !tets_hashed {
             if sizes.hash.is_none() {
                 return Err(RigError::Saturated("object tet"));
             }
@@ -176,6 +177,8 @@ impl PenRig {
             object_nodes: &nh,
             object_cells: &cells,
             object_faces: Some(&fh),
+            // Walks give the hash's contacts only over well-shaped tets that are all hashed.
+            object_walks: tets_hashed && walks_exact(&ob),
         };
         let (np, no) = (pen.node_count(), obj.node_count());
         let (cp, co) = (sizes.contacts.unwrap_or(np), sizes.contacts.unwrap_or(no));

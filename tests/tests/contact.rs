@@ -116,7 +116,7 @@ impl AsD for Vec3 {
 }
 use rand::{Rng, SeedableRng};
 use tetradrill::owned::OwnedMesh;
-use tetradrill_core::collide::{Body, Collision};
+use tetradrill_core::collide::{walks_exact, Body, Collision};
 use tetradrill_core::depth::{graph_sizes, NodeGraph, Penetration};
 use tetradrill_core::force::{
     force_digest, pen_contact, DepthMethod, ForceParams, PenBuffers, PenContact, PenOptions,
@@ -128,6 +128,8 @@ use tetradrill_core::mesh::Mesh;
 const PEN: &str = "models/pen_tool_gmsh.mesh";
 const COW: &str = "models/spot_tetgen_q1.414.node";
 const TEDDY: &str = "models/teddy_cgalbear_tetgen_q1.414.node";
+/// The sliver-rich cow (tetgen without a quality bound).
+const COARSE_COW: &str = "models/spot_tetgen_coarse.node";
 
 fn load(rel: &str, scale: f64) -> OwnedMesh {
     let p = if rel.starts_with("builtin:") {
@@ -456,6 +458,37 @@ fn walked_pen_nodes_match_brute_force_along_a_path_cow() {
         saved as usize > inside,
         "walks replace most look-ups: {saved} saved"
     );
+}
+
+/// Walks are trusted only on well-shaped tets (`collide::walks_exact`): the quality meshes
+/// pass, the sliver-rich coarse cow fails (some points there are inside two tets by the f32
+/// test, and a walk could name the larger-id one), and on it the pen's lists stay brute
+/// force's because the rig turns walks off.
+#[test]
+fn walks_only_over_well_shaped_tets() {
+    for (rel, exact) in [(COW, true), (TEDDY, true), (COARSE_COW, false)] {
+        let mut obj = load(rel, 1.0);
+        let view = obj.view();
+        assert_eq!(walks_exact(&Body::fixed(&view)), exact, "{rel}");
+    }
+    let mut rig = rig(10.0, COARSE_COW, 1.0);
+    let ps = {
+        let obj_view = rig.obj.view();
+        poses(&obj_view, 24, 0.3, 5)
+    };
+    let mut inside = 0;
+    rig.with(|scene, bufs| {
+        assert!(!scene.object_walks, "walks off over slivers");
+        let mut state = PenState::default();
+        for &(pos, rot) in &ps {
+            let c = pen_contact(scene, bufs, pos, rot, &PenOptions::default(), &mut state);
+            let got = bufs.pen_hits[..c.pen_collisions.count].to_vec();
+            assert_eq!(got, brute(&scene.object, bufs.world, None), "at {pos}");
+            inside += got.len();
+        }
+    })
+    .expect("pen scene");
+    assert!(inside > 100, "the poses must touch: {inside}");
 }
 
 /// Independent f64 consistent depth of the pen nodes in the object (brute force over the

@@ -31,7 +31,7 @@ pub use body::Body;
 pub use occupancy::{Occupancy, OccupancyError, OccupancyStorage};
 pub use points::{
     hash_tets, points_in_tets, points_in_tets_coherent, points_in_tets_occupied,
-    points_in_tets_walked, walk_to_holder, WalkStarts, WALK_MARGIN,
+    points_in_tets_walked, walk_to_holder, walks_exact, WalkStarts, WALK_MARGIN, WALK_MAX_SHAPE,
 };
 pub use rigid::{
     rigid_tets_over_points_coherent, NearClusters, RigidError, RigidTets, RigidTetsStorage,

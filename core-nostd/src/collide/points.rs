@@ -106,7 +106,8 @@ pub fn points_in_tets_occupied<F: Fn(usize) -> bool>(
 #[derive(Debug)]
 pub struct WalkStarts<'w, N> {
     /// One entry per point, written by the call: the tet the point was found in (`NONE` when
-    /// it is in none or was not examined). Points beyond its length never walk.
+    /// it is in none or was not examined). A point beyond its length walks only from its own
+    /// tet of last call.
     pub found: &'w mut [TetId],
     /// The points near point `i` (a mesh's node neighbours, say): a point not listed last
     /// call walks from the tet of the first of them found already in this call.
@@ -122,11 +123,13 @@ pub struct WalkStarts<'w, N> {
 /// [`WALK_MARGIN`] in every barycentric coordinate; otherwise the point is looked up in the
 /// hash as [`points_in_tets_occupied`] does.
 ///
-/// A point that deep inside a tet is in no other tet unless `body`'s tets overlap (tetgen
-/// and gmsh meshes do not; the f32 rounding of a barycentric coordinate of a reasonably
-/// shaped tet is about 1e-6, a thousandth of the margin), so the tet found is the smallest-id
-/// tet that holds the point and the result is [`points_in_tets_occupied`]'s, bit for bit
-/// (tests compare the two on the shared meshes). For the nodes of a tool in the object most
+/// A point that deep inside a tet is in no other tet when `body`'s tets do not overlap and
+/// are well shaped ([`walks_exact`]: the f32 rounding of their barycentric coordinates stays
+/// under the margin), so the tet found is the smallest-id tet that holds the point and the
+/// result is [`points_in_tets_occupied`]'s, bit for bit (tests compare the two on the shared
+/// meshes). On a body that fails [`walks_exact`] (slivers), or with a `tets` hash that did not
+/// hold every tet, a walk may name another tet that holds the point, or a point the hash
+/// misses: pass `max_steps` 0 there. For the nodes of a tool in the object most
 /// points inside are found by a walk of one or two tets (a barycentric test each) instead of
 /// a cell's candidates.
 ///
@@ -161,6 +164,42 @@ pub fn points_in_tets_walked<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> b
 
 /// Barycentric margin for accepting a walk's tet ([`points_in_tets_walked`]).
 pub const WALK_MARGIN: f32 = 1.0e-3;
+
+/// Largest tet shape measure `L^3 / (6 V)` (longest edge cubed over six times the volume;
+/// 8.5 for a regular tet) of a body whose walks give the hash's answers ([`walks_exact`]).
+pub const WALK_MAX_SHAPE: f64 = 100.0;
+
+/// `true` when every tet of `body` has a shape measure `L^3 / (6 V)` of at most
+/// [`WALK_MAX_SHAPE`] (computed in f64; degenerate or non-finite tets fail): then the f32
+/// rounding of a barycentric coordinate, below about `6e-6 L^3 / (6 V)` (at most 6e-4
+/// here), stays under [`WALK_MARGIN`], so a point that deep inside one tet is in no other
+/// tet of comparable size by the f32 test either, and a walk's tet is the smallest-id tet
+/// that holds the point ([`points_in_tets_walked`]). Sliver meshes fail it (the shared
+/// `spot_tetgen_coarse` reaches 6,206 and has points that the f32 test puts in two tets);
+/// the tetgen meshes made with a quality bound pass (teddy 52, cow 87).
+///
+/// # Bounded work
+/// O(T): a volume and six edges per tet. Call it at set-up.
+pub fn walks_exact(body: &Body<'_, '_>) -> bool {
+    (0..body.tet_count()).all(|t| {
+        let Some(c) = body.tet_positions(TetId::from_idx(t)) else {
+            return false;
+        };
+        let c = c.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
+        let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+        let (u, v, w) = (sub(c[1], c[0]), sub(c[2], c[0]), sub(c[3], c[0]));
+        let det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
+            + u[2] * (v[0] * w[1] - v[1] * w[0]);
+        let mut longest = 0.0f64;
+        for [i, j] in crate::mesh::template::EDGE_VERTS {
+            let e = sub(c[i as usize], c[j as usize]);
+            longest = longest.max(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+        }
+        let l3 = longest * libm::sqrt(longest);
+        let shape = l3 / libm::fabs(det);
+        shape.is_finite() && shape <= WALK_MAX_SHAPE
+    })
+}
 
 /// From tet `from`, steps towards `p` (across the face whose barycentric coordinate is the
 /// most negative) until a tet holds `p` with every coordinate at least [`WALK_MARGIN`]

@@ -34,7 +34,9 @@ pub fn trace_to_surface(
 /// edges to it are computed (three dot products a step, where testing each face afresh took
 /// up to nine 3x3 determinants). The faces are tested in the same order with the same
 /// numbers [`super::surface::exit_values`] gives, so the walk crosses the same faces, bit for
-/// bit.
+/// bit, on a mesh that passes [`crate::mesh::Mesh::validate`] with every node's position
+/// given (a missing position or a neighbour that does not share the face ends the walk with
+/// `None`).
 ///
 /// # Bounded work
 /// As [`trace_to_surface`].

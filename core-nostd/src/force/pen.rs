@@ -48,6 +48,10 @@ pub struct PenScene<'s, 'm, 'a> {
     pub object_cells: &'s Occupancy<'s>,
     /// The object's boundary faces hashed (only for [`DepthMethod::Hashed`]).
     pub object_faces: Option<&'s SpatialHash<'s>>,
+    /// `true` when pen nodes may be found by walking through the object's tets
+    /// ([`PenOptions::max_walk`]): the object passes [`crate::collide::walks_exact`] and
+    /// `object_tets` holds every tet. Otherwise every pen node is looked up in the hash.
+    pub object_walks: bool,
 }
 
 /// Per-tick storage; the lengths are the capacities.
@@ -98,8 +102,8 @@ pub struct PenOptions {
     /// Use the entry-plane remedy for the pen's nodes ([`EntryPlane`]).
     pub entry_remedy: bool,
     /// Most object tets a pen node's walk may test before the node is looked up in the
-    /// object's tet hash instead ([`points_in_tets_walked`]; 0: always the hash). The same
-    /// contacts either way.
+    /// object's tet hash instead ([`points_in_tets_walked`]; 0: always the hash; no walks
+    /// unless [`PenScene::object_walks`]). The same contacts either way.
     pub max_walk: u32,
 }
 
@@ -181,8 +185,9 @@ impl PenContact {
 /// body, where its depth is near zero, so the force stays continuous.
 ///
 /// # Bounded work
-/// O(N_pen) to place the pen; collision: O(N_pen * (w + b)) for w = `max_walk` and b the
-/// largest bucket of the object's tet hash ([`points_in_tets_walked`]) and, per pen cluster, one query of at most
+/// O(N_pen) to place the pen; collision: O(N_pen * (w + b + g)) for w = `max_walk`, b the
+/// largest bucket of the object's tet hash and g the pen graph's largest node degree
+/// ([`points_in_tets_walked`]) and, per pen cluster, one query of at most
 /// [`crate::collide::MAX_CELLS_PER_TET`] cells of the object's node hash with a rest-hash
 /// lookup per node met ([`rigid_tets_over_points_coherent`]; for poses far from the origin the
 /// walk over every pen tet, O(T_pen * cells * b), twice at most); depth: see
@@ -228,7 +233,7 @@ pub fn pen_contact(
             WalkStarts {
                 found: bufs.pen_found,
                 near: |i| scene.pen_graph.neighbours(NodeId::from_idx(i)),
-                max_steps: opts.max_walk,
+                max_steps: if scene.object_walks { opts.max_walk } else { 0 },
             },
             |i| scene.pen_rest.node_near(i, &near),
         );
