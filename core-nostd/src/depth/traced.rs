@@ -51,7 +51,8 @@ pub(crate) fn trace_exit(
     let tets = body.mesh.tets();
     let mut t = start;
     let mut tet = tets.get(t.idx())?;
-    let mut w = Walker::enter(body, tet.nodes, p, q - p)?;
+    let d = q - p;
+    let mut w = Walker::enter(body, tet.nodes, p, d)?;
     let mut entry = 4u8;
     for _ in 0..max_steps {
         *steps = steps.wrapping_add(1);
@@ -73,7 +74,7 @@ pub(crate) fn trace_exit(
         }
         entry = tet.reverse.get(f as usize)?.face();
         let next = tets.get(nb.idx())?;
-        w.step(body, f, next.nodes, entry, p, q - p)?;
+        w.step(body, f, next.nodes, entry, p, d)?;
         (t, tet) = (nb, next);
     }
     None
