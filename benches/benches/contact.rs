@@ -205,6 +205,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
         object_cells: &cells,
         object_faces: Some(&fh),
         object_walks: walks_exact(&ob),
+        pen_walks: walks_exact(&Body::fixed(&pen)),
     };
     let (np, no) = (pen.node_count(), obj.node_count());
     let mut world = vec![Vec3::ZERO; np];

@@ -179,6 +179,8 @@ impl PenRig {
             object_faces: Some(&fh),
             // Walks give the hash's contacts only over well-shaped tets that are all hashed.
             object_walks: tets_hashed && walks_exact(&ob),
+            // `pen_rest` holds every pen tet (a full rest hash fails its build).
+            pen_walks: walks_exact(&Body::fixed(&pen)),
         };
         let (np, no) = (pen.node_count(), obj.node_count());
         let (cp, co) = (sizes.contacts.unwrap_or(np), sizes.contacts.unwrap_or(no));

@@ -421,6 +421,11 @@ impl RigidTets<'_> {
 /// may hold one of the points ([`RigidTets::near`] over an [`Occupancy`] of the body whose
 /// nodes the points are, or [`NearClusters::ALL`]).
 ///
+/// With `max_walk` above 0 each previous point first walks from its previous tet through
+/// `body` ([`super::walk_to_holder`], at most `max_walk` tets) and keeps the tet it ends in
+/// when that holds it by [`super::WALK_MARGIN`]: the same tet when `body` passes
+/// [`super::walks_exact`] and `rigid` holds all its tets (pass 0 otherwise).
+///
 /// Falls back to [`tets_over_points_coherent`] (same result) when the pose is not a rotation
 /// (a quaternion far from unit length), or so far from the origin that rounding could exceed
 /// `rigid`'s margin (`64 x f32::EPSILON x (|translation| + rest radius) > margin`), or when a
@@ -428,7 +433,7 @@ impl RigidTets<'_> {
 /// [`MAX_CELLS_PER_TET`] cells of `points_hash`.
 ///
 /// # Bounded work
-/// O(kept x b) for the previous points, then per near cluster one box transform and a query
+/// O(kept x (max_walk + b)) for the previous points, then per near cluster one box transform and a query
 /// of at most
 /// [`MAX_CELLS_PER_TET`] cells of `points_hash`; per point met one transform and, for the
 /// points in the cluster's own cell, at most `b` candidate tets, for `b` the fullest cell of
@@ -444,6 +449,7 @@ pub fn rigid_tets_over_points_coherent(
     near: &NearClusters,
     out: &mut [Collision],
     kept: usize,
+    max_walk: u32,
 ) -> CollideReport {
     let g = points_hash.cell_size();
     let per_axis = libm::floorf(2.0 * (rigid.reach + 2.0 * rigid.margin) / g) as u64 + 2;
@@ -455,7 +461,13 @@ pub fn rigid_tets_over_points_coherent(
     let mut r = CollideReport::default();
 
     // The previous points still inside, compacted in place (in node order).
-    let m = super::keep_previous(out, kept, points, |_, p, _| {
+    let m = super::keep_previous(out, kept, points, |_, p, was| {
+        if max_walk > 0 && was.idx() < body.tet_count() {
+            let t = super::walk_to_holder(body, was, p, max_walk, &mut r.candidates);
+            if t.is_some() {
+                return t;
+            }
+        }
         rigid.locate(inv.transform_point3(p), p, body, &mut r)
     });
 

@@ -486,6 +486,7 @@ fn rigid_tool_matches_brute_force() {
                     &near,
                     &mut out,
                     0,
+                    0,
                 );
                 assert!(!r.saturated, "pose {i} far {far}");
                 assert_eq!(
@@ -530,12 +531,17 @@ fn rigid_tool_matches_brute_force() {
 
 /// Full outputs along a path through the object (the tool turning as it goes): the previous
 /// call's points still inside stay, the room left goes to the smallest new indices, and the
-/// list is the brute-force one whenever it fits. Oracle: brute force plus its own selection.
+/// list is the brute-force one whenever it fits, with or without walks from the previous
+/// tets (the tool's tets are well shaped). Oracle: brute force plus its own selection.
 #[test]
 fn rigid_tool_coherent_capacity() {
     rigid_scene!(tool, obj, rest, nh, cells, Vec3::splat(-0.5));
+    assert!(walks_exact(&Body::fixed(&tool)));
     let mut full = 0;
-    for cap in [0usize, 1, 2, 3, 5, 8, 125] {
+    for (cap, max_walk) in [0usize, 1, 2, 3, 5, 8, 125]
+        .into_iter()
+        .flat_map(|c| [(c, 0u32), (c, 8)])
+    {
         let mut out = [Collision::default(); 125];
         let mut prev = [false; 125];
         let mut kept = 0;
@@ -557,6 +563,7 @@ fn rigid_tool_coherent_capacity() {
                 &rest.near(pose, &cells),
                 &mut out[..cap],
                 kept,
+                max_walk,
             );
             // Oracle selection: previous points still inside, then the smallest new ones.
             let mut want = [false; 125];
@@ -573,7 +580,7 @@ fn rigid_tool_coherent_capacity() {
                     n += 1;
                 }
             }
-            let ctx = (cap, i);
+            let ctx = (cap, max_walk, i);
             assert_eq!(r.count, n, "{ctx:?}");
             assert_eq!(r.saturated, n_all > cap, "{ctx:?}");
             let mut got = [false; 125];
@@ -590,7 +597,7 @@ fn rigid_tool_coherent_capacity() {
             (prev, kept) = (got, r.count);
         }
     }
-    assert!(full > 50, "the output filled {full} times");
+    assert!(full > 100, "the output filled {full} times");
 }
 
 /// `Occupancy`: every point that brute force puts inside a tet is in a set cell, and every

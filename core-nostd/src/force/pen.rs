@@ -52,6 +52,10 @@ pub struct PenScene<'s, 'm, 'a> {
     /// ([`PenOptions::max_walk`]): the object passes [`crate::collide::walks_exact`] and
     /// `object_tets` holds every tet. Otherwise every pen node is looked up in the hash.
     pub object_walks: bool,
+    /// `true` when object nodes that were in the pen last tick may be found by walking
+    /// through the pen's tets ([`PenOptions::max_walk`]): the pen passes
+    /// [`crate::collide::walks_exact`] and `pen_rest` holds every pen tet.
+    pub pen_walks: bool,
 }
 
 /// Per-tick storage; the lengths are the capacities.
@@ -103,7 +107,9 @@ pub struct PenOptions {
     pub entry_remedy: bool,
     /// Most object tets a pen node's walk may test before the node is looked up in the
     /// object's tet hash instead ([`points_in_tets_walked`]; 0: always the hash; no walks
-    /// unless [`PenScene::object_walks`]). The same contacts either way.
+    /// unless [`PenScene::object_walks`]), and the most pen tets an object node that was in
+    /// the pen last tick may walk ([`rigid_tets_over_points_coherent`]; only with
+    /// [`PenScene::pen_walks`]). The same contacts either way.
     pub max_walk: u32,
 }
 
@@ -246,6 +252,7 @@ pub fn pen_contact(
             &near,
             bufs.object_hits,
             state.object_listed,
+            if scene.pen_walks { opts.max_walk } else { 0 },
         );
         let (m_obj, m_pen) = match (opts.method, scene.object_faces, scene.pen_faces) {
             (DepthMethod::Hashed, Some(of), Some(pf)) => (

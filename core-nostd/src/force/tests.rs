@@ -195,6 +195,7 @@ fn pen_tick(
         object_cells: &cells,
         object_faces: Some(&fh),
         object_walks: crate::collide::walks_exact(&ob),
+        pen_walks: crate::collide::walks_exact(&Body::fixed(&pen)),
     };
     let mut world = [Vec3::ZERO; 27];
     let (mut h1, mut h2) = ([Collision::default(); 27], [Collision::default(); 125]);
