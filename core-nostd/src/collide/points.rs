@@ -185,14 +185,15 @@ pub fn walks_exact(body: &Body<'_, '_>) -> bool {
         let Some(c) = body.tet_positions(TetId::from_idx(t)) else {
             return false;
         };
-        let c = c.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
-        let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-        let (u, v, w) = (sub(c[1], c[0]), sub(c[2], c[0]), sub(c[3], c[0]));
-        let det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
-            + u[2] * (v[0] * w[1] - v[1] * w[0]);
+        let det = crate::geom::det6_f64(c[0], c[1], c[2], c[3]);
         let mut longest = 0.0f64;
         for [i, j] in crate::mesh::template::EDGE_VERTS {
-            let e = sub(c[i as usize], c[j as usize]);
+            let (a, b) = (c[i as usize], c[j as usize]);
+            let e = [
+                b.x as f64 - a.x as f64,
+                b.y as f64 - a.y as f64,
+                b.z as f64 - a.z as f64,
+            ];
             longest = longest.max(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
         }
         let l3 = longest * libm::sqrt(longest);
