@@ -13,8 +13,8 @@ use tetradrill_core::drill::{DrillParams, Pending};
 use tetradrill_core::force::{closest_point_on_triangle, sphere_contact};
 use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{
-    FaceRef, HNode, Hierarchy, HierarchyStorage, Nearest, NearestCursor, NearestQuery, SphereMemo,
-    SphereSlot, VEntry,
+    FaceRef, HNode, Hierarchy, HierarchyStorage, Kept, Nearest, NearestCursor, NearestQuery,
+    SphereMemo, SphereSlot, VEntry, VisibleTri,
 };
 use tetradrill_core::mesh::{BuildOptions, Mesh};
 use tetradrill_core::servo::{World, WorldSizes, WorldStorage};
@@ -270,7 +270,7 @@ fn check_contact(
                 centre: c,
                 reach: radius + reach,
                 cut,
-                hint: None,
+                hints: &[],
                 max_nodes,
             };
             let bare =
@@ -665,6 +665,7 @@ fn continued_searches_finish_every_tree_and_reach_the_exhaustive_answer() {
             let mut memo = SphereMemo::new(&mut slots);
             let mut cursor = NearestCursor::new();
             let (mut hint, mut last, mut ended) = (None, f32::INFINITY, false);
+            let mut hint_tri = None;
             for step in 0..400 {
                 let max_nodes = 12;
                 let q = NearestQuery {
@@ -673,7 +674,7 @@ fn continued_searches_finish_every_tree_and_reach_the_exhaustive_answer() {
                     centre: c,
                     reach: r + reach,
                     cut: None,
-                    hint,
+                    hints: hint_tri.as_slice(),
                     max_nodes,
                 };
                 let had_place = cursor.tet().is_some();
@@ -686,6 +687,7 @@ fn continued_searches_finish_every_tree_and_reach_the_exhaustive_answer() {
                 );
                 went_on += u32::from(had_place);
                 follow(&near, &mut hint, &mut last, exact, c, step);
+                hint_tri = near.tri.or(hint_tri);
                 if ended {
                     assert_eq!(near.d2.to_bits(), exact.to_bits(), "{c}: step {step}");
                     assert_eq!(hint, Some(key), "{c}: step {step}");
@@ -703,5 +705,155 @@ fn continued_searches_finish_every_tree_and_reach_the_exhaustive_answer() {
             "the bound must stop searches here ({went_on})"
         );
         eprintln!("{rounds} rounds at {poses} poses, {went_on} searches went on");
+    });
+}
+
+/// Every visible face of the candidate trees, from the v_list (no walk shared with the
+/// search): face -> corners.
+fn visible_faces(
+    h: &Hierarchy<'_>,
+    mesh: &Mesh<'_>,
+    cands: &[TetId],
+) -> std::collections::HashMap<FaceRef, [Vec3; 3]> {
+    let mut all = std::collections::HashMap::new();
+    h.for_each_visible(mesh, |vt| {
+        if cands.binary_search(&vt.tet).is_ok() {
+            all.insert(
+                FaceRef {
+                    tet: vt.tet,
+                    index: vt.index,
+                    face: vt.face,
+                },
+                vt.corners,
+            );
+        }
+    });
+    all
+}
+
+/// The faces a search keeps (`Hierarchy::nearest_continued_keeping`), along a path through a
+/// drilled cavity with searches bounded at a few nodes: every kept face is a visible face of
+/// the candidate trees, within reach and not skipped by the cutting rule, at the squared
+/// distance measured here from the v_list; nearest first, no face twice, at most `KEEP`; the
+/// answer is the first of them, never closer than the exhaustive answer, and no farther than the
+/// nearest hint still in play; a search that completes gives the exhaustive answer whatever
+/// the hints (every tenth search is unbounded). Carrying all the kept faces to the next
+/// search as hints ends, summed over the path, strictly closer to the exhaustive answers
+/// than carrying the answer alone (what `World::simulate` did before 2026-11-24).
+#[test]
+fn kept_faces_are_true_faces_nearest_first_and_carry_the_answer_closer() {
+    on_block4(|world, params, r, reach| {
+        drill_cavity(world, params, r, reach);
+        let path: Vec<Vec3> = (0..120)
+            .map(|k| {
+                let u = k as f32 / 119.0;
+                Vec3::new(-0.02 + 0.2 * u, 0.03 * (7.0 * u).sin(), 0.42 - 0.1 * u)
+            })
+            .collect();
+        // Each chain runs the same path with its own cursor and memo; `all_kept` chooses
+        // what goes on as hints.
+        let mut chain = |all_kept: bool| -> (f64, u32, u32) {
+            let mut slots = vec![SphereSlot::EMPTY; 64];
+            let mut memo = SphereMemo::new(&mut slots);
+            let mut cursor = NearestCursor::new();
+            let mut hints: Vec<VisibleTri> = Vec::new();
+            let (mut shortfall, mut stopped, mut completed) = (0.0f64, 0u32, 0u32);
+            for (step, &c) in path.iter().enumerate() {
+                let cut = (step % 3 == 0).then_some(r);
+                world.simulate(c, r, reach, false, params);
+                let (h, m) = (world.hierarchy(), world.mesh());
+                let mut cands = world.candidates().to_vec();
+                cands.sort_unstable();
+                let faces = visible_faces(h, m, &cands);
+                let reach2 = (r + reach) * (r + reach);
+                let measure = |k: &FaceRef| -> Option<f32> {
+                    let q = faces.get(k)?;
+                    let d2 = (c - closest_point_on_triangle(c, *q)).length_squared();
+                    (d2 <= reach2 && !skipped(*q, c, cut)).then_some(d2)
+                };
+                let best_hint = hints
+                    .iter()
+                    .filter_map(|t| measure(&t.key()))
+                    .fold(f32::INFINITY, f32::min);
+                let q = NearestQuery {
+                    tets: &cands,
+                    start: 0,
+                    centre: c,
+                    reach: r + reach,
+                    cut,
+                    hints: &hints,
+                    max_nodes: if step % 10 == 9 { u32::MAX } else { 24 },
+                };
+                let mut kept = Kept::new();
+                let near = h.nearest_continued_keeping(m, &q, &mut memo, &mut cursor, &mut kept);
+                let exact = exhaustive_uncut(h, m, &cands, c, r + reach, cut);
+                assert!(kept.len() <= tetradrill_core::hierarchy::KEEP);
+                for (i, &(d2, t)) in kept.iter().enumerate() {
+                    let k = t.key();
+                    assert_eq!(faces.get(&k), Some(&t.corners), "{c}: {k:?} corners");
+                    assert_eq!(
+                        measure(&k).map(f32::to_bits),
+                        Some(d2.to_bits()),
+                        "{c}: {k:?}"
+                    );
+                    if i > 0 {
+                        let (pd, pk) = (kept[i - 1].0, kept[i - 1].1.key());
+                        assert!(pd < d2 || (pd == d2 && pk < k), "{c}: kept out of order");
+                    }
+                }
+                if let Some(vt) = near.tri {
+                    let key = FaceRef {
+                        tet: vt.tet,
+                        index: vt.index,
+                        face: vt.face,
+                    };
+                    assert_eq!(
+                        kept.first().map(|(_, t)| t.key()),
+                        Some(key),
+                        "{c}: the answer is not the first kept face"
+                    );
+                    assert!(near.d2 <= best_hint, "{c}: farther than a hint in play");
+                }
+                match exact {
+                    Some((e, key, _)) => {
+                        assert!(near.d2 >= e, "{c}: closer than the exhaustive answer");
+                        if near.complete {
+                            completed += 1;
+                            assert_eq!(near.d2.to_bits(), e.to_bits(), "{c}");
+                            assert_eq!(
+                                near.tri.map(|t| (t.tet, t.index, t.face)),
+                                Some((key.tet, key.index, key.face))
+                            );
+                        }
+                        if near.tri.is_some() {
+                            shortfall += f64::from(near.d2.sqrt() - e.sqrt());
+                        }
+                    }
+                    None => assert!(near.tri.is_none(), "{c}: a face beyond reach"),
+                }
+                stopped += u32::from(!near.complete);
+                hints = if all_kept {
+                    kept.iter().map(|&(_, t)| t).collect()
+                } else {
+                    near.tri.into_iter().collect()
+                };
+            }
+            (shortfall, stopped, completed)
+        };
+        let (kept_all, stopped, completed) = chain(true);
+        let (answer_only, _, _) = chain(false);
+        eprintln!(
+            "shortfall summed over the path: kept faces {kept_all:.4}, answer only \
+             {answer_only:.4} ({stopped} of 120 searches stopped, {completed} complete)"
+        );
+        assert!(
+            stopped > 60,
+            "the bound must stop most searches ({stopped})"
+        );
+        assert!(completed > 0, "no search completed");
+        assert!(
+            kept_all < answer_only,
+            "kept faces {kept_all} not closer than the answer alone {answer_only}"
+        );
     });
 }

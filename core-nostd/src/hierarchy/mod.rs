@@ -44,7 +44,7 @@ pub mod visit;
 pub(crate) use geometry::{child_of_refinement, child_of_ten, refinement_points, RootFrame};
 pub use geometry::{node_positions, node_volume};
 pub use memo::{SphereMemo, SphereSlot};
-pub use nearest::{FaceRef, Nearest, NearestCursor, NearestQuery};
+pub use nearest::{keep_face, FaceRef, Kept, Nearest, NearestCursor, NearestQuery, KEEP};
 pub use node::{HNode, VEntry, MAX_BLOCKS, NODE_BYTES, NO_BLOCK, NO_SLOT};
 pub use ops::OpReport;
 pub use store::{Hierarchy, HierarchyError, HierarchyStats, HierarchyStorage};

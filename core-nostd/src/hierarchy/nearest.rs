@@ -11,15 +11,15 @@
 //! - children are walked nearest first (by the distance of their bounding spheres' centres),
 //!   and a subtree whose bounding sphere lies farther than the best distance found so far (by
 //!   more than a rounding slack) is pruned;
-//! - a hint (last step's triangle, which moves little between steps) gives a tight bound from
-//!   the start, so far trees are pruned at their root.
+//! - hints (the closest faces the last step met, which move little between steps: [`Kept`])
+//!   give a tight bound from the start, so far trees are pruned at their root.
 //!
 //! Every node that is kept passes exactly the bounding-sphere test of
 //! [`Hierarchy::for_each_visible_in`] (same positions, same arithmetic), and the triangles are
 //! compared with the same arithmetic and the same tie-break, so the answer is the one the
 //! exhaustive search gives, bit for bit, whenever the search completes.
 //!
-//! A search bounded by a node count answers with the closest triangle it met (or the hint)
+//! A search bounded by a node count answers with the closest triangle it met or hinted
 //! and says where it would go on ([`Nearest::resume`]: [`Hierarchy::nearest_uncut_from`]
 //! starts the next one in the next tree). [`Hierarchy::nearest_continued`] keeps more: the
 //! nodes still waiting in the tree where it stopped ([`NearestCursor`]), so successive bounded
@@ -56,6 +56,17 @@ pub struct FaceRef {
     pub face: u8,
 }
 
+impl VisibleTri {
+    /// The face's name.
+    pub fn key(&self) -> FaceRef {
+        FaceRef {
+            tet: self.tet,
+            index: self.index,
+            face: self.face,
+        }
+    }
+}
+
 /// What [`Hierarchy::nearest_visible`] found.
 #[derive(Clone, Copy, PartialEq, Debug)]
 pub struct Nearest {
@@ -72,8 +83,8 @@ pub struct Nearest {
     /// [`Hierarchy::nearest_uncut_from`] reads as 0). A later search over a similar list that
     /// starts there looks at other trees than this one did.
     pub resume: u32,
-    /// `false` when `max_nodes` stopped the walk: `tri` is then the closer of the hint and the
-    /// closest triangle of the part walked: a visible triangle no closer than the closest one
+    /// `false` when `max_nodes` stopped the walk: `tri` is then the closest of the hints in
+    /// play and the triangles of the part walked: a visible triangle no closer than the closest one
     /// (an anytime answer: the depth it gives is never too deep).
     pub complete: bool,
 }
@@ -106,8 +117,11 @@ pub struct NearestQuery<'q> {
     pub reach: f32,
     /// The radius of a burr that is cutting (see [`Hierarchy::nearest_uncut`]), or `None`.
     pub cut: Option<f32>,
-    /// A face likely to be close (the last answer), to prune from the start.
-    pub hint: Option<FaceRef>,
+    /// Faces likely to be close (the last search's [`Kept`] faces): the closest of them still
+    /// in play prunes from the start, and all of them compete for the answer of a search the
+    /// node bound stops. Their corners must be the ones the hierarchy gives (a hint is only
+    /// checked to be still visible, then measured from its corners).
+    pub hints: &'q [VisibleTri],
     /// The most bounding-sphere tests the search makes.
     pub max_nodes: u32,
 }
@@ -213,6 +227,49 @@ struct Search {
     stopped: bool,
     /// The index in the walk's list of the tree being walked when it stopped.
     stopped_in: usize,
+    /// The closest faces met (ascending by distance, then face).
+    kept: Kept,
+}
+
+/// How many of the closest faces a search keeps for the next one ([`Kept`]).
+///
+/// Why more than the answer: a search stopped by its node bound answers with the closest face
+/// it met or was hinted, and the next step's closest face is most often one that was nearly
+/// as close a step before (a neighbour of the answer on the same wall, or the near wall of a
+/// cavity the burr is crossing). On the demo replay with the contact bound at 1,024 nodes,
+/// hinting the 4 closest faces met instead of the answer alone cut the contact depth's
+/// shortfall against the exhaustive search from 2.5e-4 to 5.4e-5 mesh units on average and
+/// the ticks short by more than 1e-3 from 115 to 32 (2, 8, 16, 64 faces: 85, 28, 36, 35
+/// ticks; docs/DRILLING.md). Each hint costs a node look-up per level and a triangle test
+/// a search (4 of them: 0.2 % of the firmware's worst tick).
+pub const KEEP: usize = 4;
+
+/// The closest faces a search met or was hinted, with their squared distances from its
+/// centre, nearest first (ties: the smaller face), each face once.
+pub type Kept = heapless::Vec<(f32, VisibleTri), KEEP>;
+
+/// Puts face `tri` at squared distance `d2` into `kept` when it is among the [`KEEP`] nearest
+/// by `(d2, face)`; a face already there stays as it is.
+///
+/// # Bounded work
+/// O([`KEEP`]).
+pub fn keep_face(kept: &mut Kept, d2: f32, tri: VisibleTri) {
+    let key = tri.key();
+    let before = |&(d, t): &(f32, VisibleTri)| d2 < d || (d2 == d && key < t.key());
+    if kept.is_full() && kept.last().is_some_and(|e| !before(e)) {
+        return;
+    }
+    if kept.iter().any(|(_, t)| t.key() == key) {
+        return;
+    }
+    let at = kept.iter().position(before).unwrap_or(kept.len());
+    if at >= KEEP {
+        return;
+    }
+    if kept.is_full() {
+        kept.pop();
+    }
+    let _ = kept.insert(at, (d2, tri));
 }
 
 impl Search {
@@ -259,6 +316,16 @@ impl Search {
                 index,
                 face,
             };
+            keep_face(
+                &mut self.kept,
+                d2,
+                VisibleTri {
+                    tet: t,
+                    index,
+                    face,
+                    corners,
+                },
+            );
             if !beats((d2, key), self.best.as_ref().map(|b| (b.0, b.1))) {
                 continue;
             }
@@ -315,6 +382,32 @@ impl Hierarchy<'_> {
         Some(((centre - x).length_squared(), vt))
     }
 
+    /// `true` when face `key` is still visible: its node is a non-erased leaf with that face
+    /// visible.
+    ///
+    /// # Bounded work
+    /// O(depth) node look-ups.
+    pub fn face_visible(&self, key: FaceRef) -> bool {
+        self.find(key.tet, key.index)
+            .and_then(|r| self.node(r))
+            .is_some_and(|n| n.is_leaf() && !n.erased() && n.visible() & (1 << (key.face & 3)) != 0)
+    }
+
+    /// Hint `tri` measured from `centre` when a search with squared reach `reach2` and squared
+    /// cutting radius `cut2` (negative: not cutting) would consider it: still a visible face,
+    /// within reach, not skipped by the cutting rule. Its squared distance.
+    ///
+    /// # Bounded work
+    /// O(depth) node look-ups and one triangle test (the corners come with the hint).
+    fn hint_in_play(&self, tri: &VisibleTri, centre: Vec3, reach2: f32, cut2: f32) -> Option<f32> {
+        if !self.face_visible(tri.key()) {
+            return None;
+        }
+        let x = closest_point_on_triangle(centre, tri.corners);
+        let d2 = (centre - x).length_squared();
+        (d2 <= reach2 && !cut_skips(&tri.corners, centre, x, cut2)).then_some(d2)
+    }
+
     /// The visible triangle of the trees of `tets` closest to `centre` within `reach`: the
     /// triangle whose closest point is nearest (squared distance at most `reach^2`), ties to
     /// the smallest `(tet, index, face)`, among the triangles that
@@ -322,13 +415,14 @@ impl Hierarchy<'_> {
     /// same triangle, bit for bit, when `complete`.
     ///
     /// `hint`: a face likely to be close (the last step's answer); it only tightens the
-    /// pruning bound from the start. When it turns out not to be a triangle the walk can
-    /// reach (rounding at the edge of the reach ball), the walk is done again without it.
+    /// pruning bound from the start (a [`NearestQuery`] takes several). When it turns out
+    /// not to be a triangle the walk can reach (rounding at the edge of the reach ball), the
+    /// walk is done again without it.
     ///
     /// # Bounded work
     /// At most `max_nodes` bounding-sphere tests (each constant: the node's corners come from
     /// integer barycentric coordinates carried down the stack), 4 triangle tests per leaf
-    /// reached, plus O(depth) for the hint and O(`tets`) root look-ups; twice that when the
+    /// reached, plus O(depth) per hint and O(`tets`) root look-ups; twice that when the
     /// walk is redone without the hint. Without the bound: the nodes holding surface within
     /// `reach` that are not pruned, typically a few hundred on a drilled groove at depth 5.
     ///
@@ -397,13 +491,16 @@ impl Hierarchy<'_> {
         hint: Option<FaceRef>,
         max_nodes: u32,
     ) -> Nearest {
+        let hint_tri = hint
+            .and_then(|k| self.visible_face_distance2(mesh, k, centre))
+            .map(|(_, vt)| vt);
         let q = NearestQuery {
             tets,
             start,
             centre,
             reach,
             cut,
-            hint,
+            hints: hint_tri.as_slice(),
             max_nodes,
         };
         self.nearest(mesh, &q, &mut SphereMemo::new(&mut []))
@@ -425,7 +522,7 @@ impl Hierarchy<'_> {
         q: &NearestQuery<'_>,
         memo: &mut SphereMemo<'_>,
     ) -> Nearest {
-        self.nearest_inner(mesh, q, memo, None)
+        self.nearest_inner(mesh, q, memo, None, None)
     }
 
     /// [`Hierarchy::nearest`] that goes on where the last bounded search stopped: when
@@ -444,8 +541,9 @@ impl Hierarchy<'_> {
     /// is `true` when that fresh round ends too: its answer is then the exhaustive one, bit
     /// for bit (the triangles met in the old round are true faces measured from this
     /// centre, never closer than the closest). Otherwise the answer is the closest triangle
-    /// met or the hint, like any stopped search. An expansion is never split: a node's
-    /// children are tested only when all of them fit in what is left of `max_nodes`.
+    /// met or the closest hint in play, like any stopped search. An expansion is never
+    /// split: a node's children are tested only when all of them fit in what is left of
+    /// `max_nodes`.
     ///
     /// # Bounded work
     /// As [`Hierarchy::nearest`], plus O(stack) to measure the waiting nodes again (at most
@@ -457,7 +555,25 @@ impl Hierarchy<'_> {
         memo: &mut SphereMemo<'_>,
         cursor: &mut NearestCursor,
     ) -> Nearest {
-        self.nearest_inner(mesh, q, memo, Some(cursor))
+        self.nearest_inner(mesh, q, memo, Some(cursor), None)
+    }
+
+    /// [`Hierarchy::nearest_continued`] that also leaves in `kept` the closest faces the
+    /// walks met and the hints in play ([`Kept`]: visible faces within reach that the cutting
+    /// rule keeps, measured from `q.centre`, nearest first), the answer among them: the
+    /// hints for the next search. Same answer as [`Hierarchy::nearest_continued`].
+    ///
+    /// # Bounded work
+    /// As [`Hierarchy::nearest_continued`], plus O([`KEEP`]) per triangle tested and per hint.
+    pub fn nearest_continued_keeping(
+        &self,
+        mesh: &Mesh<'_>,
+        q: &NearestQuery<'_>,
+        memo: &mut SphereMemo<'_>,
+        cursor: &mut NearestCursor,
+        kept: &mut Kept,
+    ) -> Nearest {
+        self.nearest_inner(mesh, q, memo, Some(cursor), Some(kept))
     }
 
     fn nearest_inner(
@@ -466,6 +582,7 @@ impl Hierarchy<'_> {
         q: &NearestQuery<'_>,
         memo: &mut SphereMemo<'_>,
         mut cursor: Option<&mut NearestCursor>,
+        kept_out: Option<&mut Kept>,
     ) -> Nearest {
         let NearestQuery {
             tets,
@@ -473,7 +590,7 @@ impl Hierarchy<'_> {
             centre,
             reach,
             cut,
-            hint,
+            hints,
             max_nodes,
         } = *q;
         let n = tets.len();
@@ -509,12 +626,17 @@ impl Hierarchy<'_> {
         let cut2 = cut
             .filter(|r| r.is_finite() && *r >= 0.0)
             .map_or(-1.0, |r| r * r);
-        let hint_tri = hint
-            .and_then(|k| self.visible_face_distance2(mesh, k, centre))
-            .filter(|(d2, vt)| {
-                let x = closest_point_on_triangle(centre, vt.corners);
-                *d2 <= reach2 && !cut_skips(&vt.corners, centre, x, cut2)
-            });
+        // The hints still in play, measured from this centre; the closest prunes.
+        let mut measured = Kept::new();
+        let mut hint_tri: Option<(f32, VisibleTri)> = None;
+        for vt in hints {
+            if let Some(d2) = self.hint_in_play(vt, centre, reach2, cut2) {
+                keep_face(&mut measured, d2, *vt);
+                if beats((d2, vt.key()), hint_tri.map(|(h, t)| (h, t.key()))) {
+                    hint_tri = Some((d2, *vt));
+                }
+            }
+        }
         let hinted = hint_tri.map(|(d2, _)| d2);
         let fresh = Walk {
             tets,
@@ -548,6 +670,9 @@ impl Hierarchy<'_> {
                     again.nodes += s.nodes;
                     again.triangles += s.triangles;
                     again.best = closer(again.best, s.best);
+                    for &(d2, t) in &s.kept {
+                        keep_face(&mut again.kept, d2, t);
+                    }
                     going_on = None;
                     ended += 1;
                     again
@@ -563,6 +688,10 @@ impl Hierarchy<'_> {
                 let left = max_nodes.saturating_sub(s.nodes);
                 let again = self.nearest_walk(mesh, &fresh, None, left, memo, stack, false);
                 let (nodes, triangles) = (s.nodes + again.nodes, s.triangles + again.triangles);
+                let mut again = again;
+                for &(d2, t) in &s.kept {
+                    keep_face(&mut again.kept, d2, t);
+                }
                 s = again;
                 s.nodes = nodes;
                 s.triangles = triangles;
@@ -581,16 +710,18 @@ impl Hierarchy<'_> {
             }
         }
         if s.stopped {
-            // Anytime answer: the hint's triangle unless the walk met one at least as close.
+            // Anytime answer: the closer of the closest hint and the closest triangle met (ties:
+            // the smaller face), so the answer is the first kept face.
             if let Some((h, vt)) = hint_tri {
-                if s.best.is_none_or(|(d2, _, _)| d2 > h) {
-                    let key = FaceRef {
-                        tet: vt.tet,
-                        index: vt.index,
-                        face: vt.face,
-                    };
-                    s.best = Some((h, key, vt));
+                if beats((h, vt.key()), s.best.map(|(d2, k, _)| (d2, k))) {
+                    s.best = Some((h, vt.key(), vt));
                 }
+            }
+        }
+        if let Some(out) = kept_out {
+            *out = s.kept.clone();
+            for &(d2, t) in &measured {
+                keep_face(out, d2, t);
             }
         }
         Nearest {
@@ -661,6 +792,7 @@ impl Hierarchy<'_> {
             max_nodes,
             stopped: false,
             stopped_in: 0,
+            kept: Kept::new(),
         };
         // The ten points of the refinement being expanded (only those some child needs) and
         // the spheres of its children (from the memo or evaluated).

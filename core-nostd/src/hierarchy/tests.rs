@@ -648,3 +648,47 @@ fn visits_from_a_known_node_match_the_table_walk() {
     // The shortcut was taken (a sibling face at depth >= 1 skips the descent).
     assert!(siblings > 100, "{siblings}");
 }
+
+/// `keep_face` against a brute force: after any stream of offers (repeats, ties, every
+/// order), the list holds the `KEEP` smallest distinct faces by (distance, face), in that
+/// order. Each face has one distance here (as in a search, which measures a face once).
+#[test]
+fn keep_face_holds_the_nearest_distinct_faces_in_order() {
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = |n: u32| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 33) as u32 % n
+    };
+    let face = |i: u32| VisibleTri {
+        tet: TetId(i / 8),
+        index: i % 3,
+        face: (i % 4) as u8,
+        corners: [Vec3::splat(i as f32); 3],
+    };
+    // Few distances, so ties between different faces are common.
+    let dist = |i: u32| ((i * 7) % 5) as f32 * 0.25;
+    for round in 0..200 {
+        let mut kept = Kept::new();
+        let mut offered = [0u32; 40];
+        let n = 1 + next(40) as usize;
+        for o in offered.iter_mut().take(n) {
+            *o = next(24);
+            keep_face(&mut kept, dist(*o), face(*o));
+            assert!(kept.len() <= KEEP);
+        }
+        let mut want = [(0.0f32, face(0)); 40];
+        let mut m = 0;
+        for &o in offered.iter().take(n) {
+            if !want[..m].iter().any(|&(_, k)| k.key() == face(o).key()) {
+                want[m] = (dist(o), face(o));
+                m += 1;
+            }
+        }
+        let want = &mut want[..m];
+        want.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.key().cmp(&b.1.key())));
+        let want = &want[..m.min(KEEP)];
+        assert_eq!(kept.as_slice(), want, "round {round}");
+    }
+}

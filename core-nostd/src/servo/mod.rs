@@ -19,8 +19,8 @@ pub use crate::drill::{DRILL_HOLD_STEPS, DRILL_SETTLE, DRILL_SPACING, MAX_STEP_S
 use crate::force::{clamp_force, damping_force, sphere_contact, ForceParams, ToolState};
 use crate::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, HashError, SpatialHash};
 use crate::hierarchy::{
-    FaceRef, Hierarchy, HierarchyError, HierarchyStorage, NearestCursor, NearestQuery, SphereMemo,
-    SphereSlot,
+    Hierarchy, HierarchyError, HierarchyStorage, Kept, NearestCursor, NearestQuery, SphereMemo,
+    SphereSlot, VisibleTri, KEEP,
 };
 use crate::ids::TetId;
 use crate::mesh::Mesh;
@@ -210,7 +210,9 @@ pub struct World<'a> {
     memo: SphereMemo<'a>,
     max_cells: u32,
     contact: ContactState,
-    contact_face: Option<FaceRef>,
+    /// The closest faces the last contact search met, its answer among them: the hints of the
+    /// next search.
+    kept: Kept,
     contact_max_nodes: u32,
     /// Where the last contact search that hit its node bound stopped: the next one goes on
     /// from there ([`Hierarchy::nearest_continued`]).
@@ -275,7 +277,7 @@ impl<'a> World<'a> {
             memo: SphereMemo::new(sphere_memo),
             max_cells: 4096,
             contact: ContactState::default(),
-            contact_face: None,
+            kept: Kept::new(),
             contact_max_nodes: CONTACT_MAX_NODES,
             cursor: NearestCursor::new(),
             sat,
@@ -392,7 +394,7 @@ impl<'a> World<'a> {
         let mut rep = SimReport::default();
         if !(centre.is_finite() && radius.is_finite() && radius > 0.0) {
             self.contact = ContactState::default();
-            self.contact_face = None;
+            self.kept.clear();
             return rep;
         }
         let reach = if reach.is_finite() && reach > 0.0 {
@@ -491,17 +493,18 @@ impl<'a> World<'a> {
 
     /// The closest visible triangle of the candidate trees within `reach` of `centre`, turned
     /// into a contact plane by [`sphere_contact`], through [`Hierarchy::nearest_uncut`]
-    /// hinted with the last step's triangle; while the burr is `cutting` (drill on this
+    /// hinted with the closest faces the last step met ([`Kept`], the last answer among
+    /// them); while the burr is `cutting` (drill on this
     /// step), triangles entirely inside it are material being removed and are skipped, so
     /// the burr is never pushed through a sliver it is eroding. Ties go to the smallest
     /// (tet, index, face), so
     /// the result never depends on visiting order, and it is the triangle the exhaustive
     /// search over [`Hierarchy::for_each_visible_in`] finds. When the search reaches
-    /// `contact_max_nodes` the answer is the closer of the hint and the triangles met (or the
-    /// previous plane when there is neither), and it is counted; the next search goes on
-    /// where this one stopped ([`Hierarchy::nearest_continued`]), so searches that keep
-    /// hitting the bound walk every tree near the tool to the end in turn, and the hint
-    /// carries the closest triangle found.
+    /// `contact_max_nodes` the answer is the closest of the hints in play and the triangles
+    /// met (or the previous plane when there is none), and it is counted; the next search
+    /// goes on where this one stopped ([`Hierarchy::nearest_continued`]), so searches that
+    /// keep hitting the bound walk every tree near the tool to the end in turn, and the kept
+    /// faces carry the closest triangles found.
     fn update_contact(
         &mut self,
         centre: Vec3,
@@ -511,18 +514,27 @@ impl<'a> World<'a> {
         rep: &mut SimReport,
     ) {
         let cands = &self.candidates[..self.ncand];
+        let mut hints: heapless::Vec<VisibleTri, KEEP> = heapless::Vec::new();
+        for &(_, t) in &self.kept {
+            let _ = hints.push(t);
+        }
         let q = NearestQuery {
             tets: cands,
             start: 0,
             centre,
             reach,
             cut: cutting.then_some(radius),
-            hint: self.contact_face,
+            hints: &hints,
             max_nodes: self.contact_max_nodes,
         };
-        let near = self
-            .hier
-            .nearest_continued(&self.mesh, &q, &mut self.memo, &mut self.cursor);
+        let mut kept = Kept::new();
+        let near = self.hier.nearest_continued_keeping(
+            &self.mesh,
+            &q,
+            &mut self.memo,
+            &mut self.cursor,
+            &mut kept,
+        );
         rep.triangles = near.triangles;
         rep.contact_nodes = near.nodes;
         if !near.complete {
@@ -536,11 +548,7 @@ impl<'a> World<'a> {
             // Otherwise the closest triangle met (or the hint): a true visible face, no
             // deeper than the exact answer; the next step starts from it.
         }
-        self.contact_face = near.tri.map(|vt| FaceRef {
-            tet: vt.tet,
-            index: vt.index,
-            face: vt.face,
-        });
+        self.kept = kept;
         self.contact = match near.tri {
             None => ContactState {
                 centre,
