@@ -28,6 +28,7 @@ pub struct EngineStorage {
     candidates: Vec<TetId>,
     sphere_memo: Vec<SphereSlot>,
     contact_search_nodes: u32,
+    tick_budget: u32,
 }
 
 /// The storage sizes of a scenario's world over a mesh of `tets` tets: the core's defaults
@@ -68,17 +69,17 @@ impl EngineStorage {
         };
         let s = world_sizes(tets, &raised)
             .unwrap_or_else(|_| WorldSizes::new(tets, sc.hierarchy_capacity));
-        Self::with_sizes(mesh, s, sc.contact_search_nodes)
+        Self::with_sizes(mesh, s, sc)
     }
 
     /// [`EngineStorage::allocate`] refusing, with exit status 2, a capacity the mesh cannot
     /// take.
     pub fn try_allocate(mesh: OwnedMesh, sc: &Scenario) -> Result<Self, CliError> {
         let s = world_sizes(mesh.tets().len(), sc).map_err(CliError::input)?;
-        Ok(Self::with_sizes(mesh, s, sc.contact_search_nodes))
+        Ok(Self::with_sizes(mesh, s, sc))
     }
 
-    fn with_sizes(mesh: OwnedMesh, s: WorldSizes, contact_search_nodes: u32) -> Self {
+    fn with_sizes(mesh: OwnedMesh, s: WorldSizes, sc: &Scenario) -> Self {
         Self {
             mesh,
             hash_starts: vec![0; s.hash_starts],
@@ -90,7 +91,8 @@ impl EngineStorage {
             pending: vec![Pending::default(); s.pending],
             candidates: vec![TetId::NONE; s.candidates],
             sphere_memo: vec![SphereSlot::EMPTY; s.sphere_memo],
-            contact_search_nodes,
+            contact_search_nodes: sc.contact_search_nodes,
+            tick_budget: sc.tick_budget,
         }
     }
 
@@ -114,6 +116,7 @@ impl EngineStorage {
         )
         .map(|mut w| {
             w.set_contact_max_nodes(self.contact_search_nodes);
+            w.set_tick_budget((self.tick_budget > 0).then_some(self.tick_budget));
             w
         })
         .map_err(|e| CliError::failure(format!("cannot set up the simulation: {e}")))

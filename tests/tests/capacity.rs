@@ -36,6 +36,9 @@ fn base() -> Scenario {
     Scenario {
         mesh: "builtin:block:4".into(),
         max_depth: 4,
+        // Separate bounds: a shared tick budget cuts contact searches short by design (it
+        // counts them), and these runs study one capacity at a time.
+        tick_budget: 0,
         ..Scenario::default()
     }
 }
@@ -603,4 +606,43 @@ fn zero_and_absurd_capacities_exit_2_naming_the_flag_or_the_line() {
         &["replay", "--scenario", p.to_str().unwrap()],
         &["huge.toml:1:", "queue_capacity"],
     );
+}
+
+/// The tick budget on the command line: by default the drill and the contact search share
+/// `DEFAULT_TICK_BUDGET` units and `--tick-budget 0` gives back separate bounds, with the same
+/// material removed (the drill's own budget is the smaller); a budget below the drill's slows
+/// the drill and cuts contact searches short, counted; a negative one is refused.
+#[test]
+fn the_tick_budget_is_shared_by_default_and_zero_turns_it_off() {
+    let dir = scratch_dir("capacity", "tick-budget");
+    let common = ["--mesh", "builtin:block:4", "--max-depth", "4"];
+    let with = |extra: &[&str], name: &str| {
+        let mut a = common.to_vec();
+        a.extend_from_slice(extra);
+        replay_json(&dir, name, &a)
+    };
+    let shared = with(&[], "shared");
+    let separate = with(&["--tick-budget", "0"], "separate");
+    let tight = with(&["--tick-budget", "300"], "tight");
+    assert_eq!(
+        shared["scenario"]["tick_budget"].as_u64(),
+        Some(u64::from(tetradrill::scenario::DEFAULT_TICK_BUDGET))
+    );
+    assert_eq!(separate["scenario"]["tick_budget"].as_u64(), Some(0));
+    for k in [
+        "removed_volume",
+        "hierarchy_nodes",
+        "visible_faces",
+        "components",
+    ] {
+        assert_eq!(shared[k], separate[k], "{k}");
+    }
+    let removed = |j: &serde_json::Value| j["removed_volume"].as_f64().expect("volume");
+    assert!(
+        removed(&tight) < removed(&separate),
+        "300 units must slow the drill"
+    );
+    assert!(tight["saturations"]["contact_search"].as_u64() > Some(0));
+    refused(&["replay", "--tick-budget", "-1"], &["tick-budget"]);
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -857,3 +857,87 @@ fn kept_faces_are_true_faces_nearest_first_and_carry_the_answer_closer() {
         );
     });
 }
+
+/// One budget for the whole step (`World::set_tick_budget`). Three worlds drill the same path:
+/// without a tick budget, with one too large to bind, and with one a third of the first
+/// world's busiest step. The second is the first bit for bit (reports and contacts). In the
+/// third, at every step the contact search's bound is what the drill left,
+/// `min(contact_max_nodes, (budget - drill work) / CONTACT_NODE_UNITS)`, the search keeps to
+/// it, the contact face is never nearer than the exhaustive one, and the drill's work stays within
+/// the budget plus its last operation's overshoot.
+#[test]
+fn a_tick_budget_is_shared_by_the_drill_and_the_contact_search() {
+    use tetradrill_core::servo::{SimReport, CONTACT_NODE_UNITS};
+    let path: Vec<(Vec3, bool)> = (0..160)
+        .map(|k| {
+            let u = k as f32 / 159.0;
+            let c = if k < 60 {
+                Vec3::new(0.0, 0.0, 0.58 - 0.004 * k as f32)
+            } else {
+                Vec3::new(0.25 * (u - 0.375), 0.04 * (9.0 * u).sin(), 0.34)
+            };
+            (c, k % 40 < 30)
+        })
+        .collect();
+    let run = |budget: Option<u32>, check: &mut dyn FnMut(&World<'_>, &SimReport, Vec3, bool)| {
+        let mut reports = Vec::new();
+        on_block4(|world, params, r, reach| {
+            world.set_tick_budget(budget);
+            assert_eq!(world.tick_budget(), budget);
+            for &(c, drill) in &path {
+                let rep = world.simulate(c, r, reach, drill, params);
+                check(world, &rep, c, drill);
+                reports.push((rep, *world.contact()));
+            }
+        });
+        reports
+    };
+    let plain = run(None, &mut |_, _, _, _| {});
+    let roomy = run(Some(u32::MAX), &mut |_, _, _, _| {});
+    assert_eq!(plain, roomy, "a budget that never binds changed a step");
+    let busiest = plain.iter().map(|(r, _)| r.drill.work).max().unwrap();
+    let t = busiest / 3;
+    assert!(t > 100, "the path must give the drill work ({busiest})");
+    let (mut bound_cut, mut over, mut steps_at_budget, mut kept_plane) = (0, 0u32, 0, 0);
+    run(Some(t), &mut |world, rep, c, drill| {
+        let left = t.saturating_sub(rep.drill.work) / CONTACT_NODE_UNITS;
+        assert_eq!(
+            rep.contact_bound,
+            left.min(world.contact_max_nodes()),
+            "at {c}"
+        );
+        assert!(rep.contact_nodes <= rep.contact_bound, "at {c}");
+        bound_cut += u32::from(rep.contact_bound < world.contact_max_nodes());
+        if rep.drill.work >= t {
+            steps_at_budget += 1;
+            over = over.max(rep.drill.work - t);
+        }
+        let (h, m) = (world.hierarchy(), world.mesh());
+        let mut cands = world.candidates().to_vec();
+        cands.sort_unstable();
+        let r = 0.1;
+        let want = exhaustive_uncut(h, m, &cands, c, r + 0.05, drill.then_some(r));
+        let got = world.contact();
+        kept_plane += u32::from(got.centre != c);
+        if let (true, true, Some((d2, _, _))) = (got.valid, got.centre == c, want) {
+            // The contact point is on the face the search chose (unless it found none and
+            // kept an older step's plane): never nearer than the exhaustive closest face.
+            let d = (c - got.point).length();
+            assert!(
+                d >= d2.sqrt() * (1.0 - 1e-6),
+                "{c}: {d} nearer than {}",
+                d2.sqrt()
+            );
+        }
+    });
+    eprintln!(
+        "tick budget {t} (busiest step {busiest}): {steps_at_budget} steps spent it, \
+         overshoot at most {over}, contact bound cut at {bound_cut} steps, an older plane \
+         kept at {kept_plane}"
+    );
+    assert!(
+        steps_at_budget > 0 && bound_cut > 0,
+        "the budget never bound"
+    );
+    assert!(over < 256, "the drill overshot the budget by {over} units");
+}

@@ -165,9 +165,12 @@ pub struct SimReport {
     pub triangles: u32,
     /// Hierarchy nodes tested by the contact search.
     pub contact_nodes: u32,
-    /// The contact search hit [`World::contact_max_nodes`]: the contact is the closest
-    /// triangle met or the last step's (never deeper than the exact one), or the previous
-    /// plane when there is neither (counted in `saturations().contact`).
+    /// The node bound the contact search had: [`World::contact_max_nodes`], or less under a
+    /// tick budget ([`World::set_tick_budget`]).
+    pub contact_bound: u32,
+    /// The contact search hit its node bound (`contact_bound`): the contact is the closest
+    /// triangle met or kept from the last step (never deeper than the exact one), or the
+    /// previous plane when there is neither (counted in `saturations().contact`).
     pub contact_saturated: bool,
     /// The candidate list filled up (tets were left out of this step; counted).
     pub candidates_saturated: bool,
@@ -214,6 +217,8 @@ pub struct World<'a> {
     /// next search.
     kept: Kept,
     contact_max_nodes: u32,
+    /// Work units for a whole simulation step (drill and contact search), if set.
+    tick_budget: Option<u32>,
     /// Where the last contact search that hit its node bound stopped: the next one goes on
     /// from there ([`Hierarchy::nearest_continued`]).
     cursor: NearestCursor,
@@ -225,6 +230,13 @@ pub struct World<'a> {
 /// Default bound on the hierarchy nodes the contact search of one simulation step tests
 /// (see [`World::set_contact_max_nodes`]).
 pub const CONTACT_MAX_NODES: u32 = 4096;
+
+/// What one contact-search node test is charged under a tick budget
+/// ([`World::set_tick_budget`]), in drill work units ([`crate::drill::WorkCost`], about 100
+/// Cortex-M4 instructions each): a node test costs 500 to 800 M4 instructions in a drilled
+/// cavity (docs/PORTING.md), and about 6 drill units' worth of host instructions on the demo's
+/// slowest ticks (docs/DRILLING.md, "One budget for the whole tick").
+pub const CONTACT_NODE_UNITS: u32 = 6;
 
 impl<'a> World<'a> {
     /// Hashes the mesh's tets once (cell size = average edge length), stores each tet's box
@@ -279,6 +291,7 @@ impl<'a> World<'a> {
             contact: ContactState::default(),
             kept: Kept::new(),
             contact_max_nodes: CONTACT_MAX_NODES,
+            tick_budget: None,
             cursor: NearestCursor::new(),
             sat,
             spacing: Spacing::new(),
@@ -324,6 +337,24 @@ impl<'a> World<'a> {
         self.contact_max_nodes = n;
     }
 
+    /// The work units one simulation step may spend on the drill and the contact search
+    /// together, if set ([`World::set_tick_budget`]).
+    pub fn tick_budget(&self) -> Option<u32> {
+        self.tick_budget
+    }
+
+    /// Sets one budget for a whole simulation step, in drill work units: the drill step gets
+    /// at most `units` (and at most its own `DrillParams::budget`), and the contact search
+    /// that follows gets what the drill left, `(units - drill work) / CONTACT_NODE_UNITS`
+    /// node tests (and at most [`World::contact_max_nodes`]). So a step's counted work is at
+    /// most `units` plus the overshoot of the drill's last operation, however the work falls
+    /// between the two; a contact search cut short answers as any bounded one does (the
+    /// closest face met or kept, never too deep) and goes on next step. `None` (the default):
+    /// the two bounds apply separately.
+    pub fn set_tick_budget(&mut self, units: Option<u32>) {
+        self.tick_budget = units;
+    }
+
     /// The coarse tets the last [`World::simulate`] found near the tool, each once: those
     /// whose box meets the burr's positions first, then the others, each part in the order
     /// the hash query met them (cell by cell, tet order within a cell).
@@ -353,12 +384,14 @@ impl<'a> World<'a> {
     /// # Bounded work
     /// O(max cells + candidates) for the query, the drill step's budget (see
     /// [`Drill::step`]), and for the contact at most [`World::contact_max_nodes`] node tests
-    /// of [`Hierarchy::nearest_visible`] (typically a few hundred), plus O(candidates + depth).
+    /// of [`Hierarchy::nearest_visible`] (typically a few hundred), plus O(candidates + depth)
+    /// and O(depth) per kept face ([`crate::hierarchy::KEEP`]). Under a tick budget
+    /// ([`World::set_tick_budget`]) the drill and the contact search share it.
     ///
     /// # Capacity
     /// A full candidate list keeps the tets found first and counts `saturations().candidates`;
     /// the drill and the hierarchy saturate as they document; a contact search that reaches
-    /// its node bound answers with the closest triangle it met or the last step's (see
+    /// its node bound answers with the closest triangle it met or kept (see
     /// [`World::set_contact_max_nodes`]) and counts `saturations().contact`.
     /// The state stays valid.
     pub fn simulate(
@@ -479,12 +512,18 @@ impl<'a> World<'a> {
         }
         rep.candidates = k as u32;
         if !spheres.is_empty() || self.drill.pending() > 0 {
+            let params = DrillParams {
+                budget: self
+                    .tick_budget
+                    .map_or(params.budget, |t| t.min(params.budget)),
+                ..*params
+            };
             rep.drill = self.drill.step(
                 &mut self.hier,
                 &self.mesh,
                 &self.candidates[..m],
                 spheres,
-                params,
+                &params,
             );
         }
         self.update_contact(centre, radius, radius + reach, cutting, &mut rep);
@@ -518,6 +557,13 @@ impl<'a> World<'a> {
         for &(_, t) in &self.kept {
             let _ = hints.push(t);
         }
+        let bound = match self.tick_budget {
+            Some(t) => {
+                (t.saturating_sub(rep.drill.work) / CONTACT_NODE_UNITS).min(self.contact_max_nodes)
+            }
+            None => self.contact_max_nodes,
+        };
+        rep.contact_bound = bound;
         let q = NearestQuery {
             tets: cands,
             start: 0,
@@ -525,7 +571,7 @@ impl<'a> World<'a> {
             reach,
             cut: cutting.then_some(radius),
             hints: &hints,
-            max_nodes: self.contact_max_nodes,
+            max_nodes: bound,
         };
         let mut kept = Kept::new();
         let near = self.hier.nearest_continued_keeping(
