@@ -272,6 +272,13 @@ pub fn keep_face(kept: &mut Kept, d2: f32, tri: VisibleTri) {
     let _ = kept.insert(at, (d2, tri));
 }
 
+/// [`keep_face`] for every face of `from`.
+fn keep_all(kept: &mut Kept, from: &Kept) {
+    for &(d2, t) in from {
+        keep_face(kept, d2, t);
+    }
+}
+
 impl Search {
     /// `true` when a bounding sphere `(d2 = |mid - centre|^2, rad)` may hold a point at most
     /// `bound` (plus slack) from the centre.
@@ -364,11 +371,7 @@ impl Hierarchy<'_> {
         key: FaceRef,
         centre: Vec3,
     ) -> Option<(f32, VisibleTri)> {
-        let r = self.find(key.tet, key.index)?;
-        let node = self.node(r)?;
-        if !node.is_leaf() || node.erased() || node.visible() & (1 << (key.face & 3)) == 0 {
-            return None;
-        }
+        let node = self.visible_leaf(key)?;
         let path = Path::of_index(key.index)?;
         let p = node_positions(mesh, key.tet, &path);
         let corners = face_corners(p, key.face, node.inverted());
@@ -388,9 +391,14 @@ impl Hierarchy<'_> {
     /// # Bounded work
     /// O(depth) node look-ups.
     pub fn face_visible(&self, key: FaceRef) -> bool {
-        self.find(key.tet, key.index)
-            .and_then(|r| self.node(r))
-            .is_some_and(|n| n.is_leaf() && !n.erased() && n.visible() & (1 << (key.face & 3)) != 0)
+        self.visible_leaf(key).is_some()
+    }
+
+    /// The leaf of face `key` when it is not erased and has that face visible.
+    fn visible_leaf(&self, key: FaceRef) -> Option<HNode> {
+        let node = self.node(self.find(key.tet, key.index)?)?;
+        (node.is_leaf() && !node.erased() && node.visible() & (1 << (key.face & 3)) != 0)
+            .then_some(node)
     }
 
     /// Hint `tri` measured from `centre` when a search with squared reach `reach2` and squared
@@ -670,9 +678,7 @@ impl Hierarchy<'_> {
                     again.nodes += s.nodes;
                     again.triangles += s.triangles;
                     again.best = closer(again.best, s.best);
-                    for &(d2, t) in &s.kept {
-                        keep_face(&mut again.kept, d2, t);
-                    }
+                    keep_all(&mut again.kept, &s.kept);
                     going_on = None;
                     ended += 1;
                     again
@@ -689,9 +695,7 @@ impl Hierarchy<'_> {
                 let again = self.nearest_walk(mesh, &fresh, None, left, memo, stack, false);
                 let (nodes, triangles) = (s.nodes + again.nodes, s.triangles + again.triangles);
                 let mut again = again;
-                for &(d2, t) in &s.kept {
-                    keep_face(&mut again.kept, d2, t);
-                }
+                keep_all(&mut again.kept, &s.kept);
                 s = again;
                 s.nodes = nodes;
                 s.triangles = triangles;
@@ -720,9 +724,7 @@ impl Hierarchy<'_> {
         }
         if let Some(out) = kept_out {
             *out = s.kept.clone();
-            for &(d2, t) in &measured {
-                keep_face(out, d2, t);
-            }
+            keep_all(out, &measured);
         }
         Nearest {
             tri: s.best.map(|(_, _, vt)| vt),
