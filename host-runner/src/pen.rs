@@ -7,7 +7,8 @@ use tetradrill_core::collide::{
     RigidError, RigidTets, RigidTetsStorage, MAX_NEAR_CLUSTERS,
 };
 use tetradrill_core::depth::{
-    graph_sizes, hash_boundary_faces, DepthScratch, GraphError, NodeGraph, NodeSlot, Penetration,
+    graph_sizes, hash_boundary_faces, Crossing, DepthScratch, GraphError, NodeGraph, NodeSlot,
+    Penetration,
 };
 use tetradrill_core::force::{PenBuffers, PenScene};
 use tetradrill_core::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, SpatialHash};
@@ -197,6 +198,8 @@ impl PenRig {
         let (mut s1, mut q1) = (vec![NodeSlot::default(); np], vec![NodeId::NONE; qp]);
         let (mut s2, mut q2) = (vec![NodeSlot::default(); no], vec![NodeId::NONE; qo]);
         let mut found = vec![TetId::NONE; np];
+        // One remembered crossing per directed edge of each graph.
+        let (mut c1, mut c2) = (vec![Crossing::default(); pa], vec![Crossing::default(); oa]);
         let mut bufs = PenBuffers {
             world: &mut world,
             pen_hits: &mut h1,
@@ -204,8 +207,8 @@ impl PenRig {
             object_hits: &mut h2,
             pen_pens: &mut p1,
             object_pens: &mut p2,
-            pen_depth: DepthScratch::new(&mut s1, &mut q1),
-            object_depth: DepthScratch::new(&mut s2, &mut q2),
+            pen_depth: DepthScratch::with_crossings(&mut s1, &mut q1, &mut c1),
+            object_depth: DepthScratch::with_crossings(&mut s2, &mut q2, &mut c2),
         };
         Ok((f(&scene, &mut bufs), setup))
     }

@@ -18,6 +18,18 @@ pub enum DepthMethod {
     Hashed,
 }
 
+/// Where a mesh tool's border edges take their surface crossings from, tick after tick.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Crossings {
+    /// Every border edge searches (`depth_method`) every tick: the exact first crossing.
+    Search,
+    /// A border edge first tries the face it crossed last tick (one face test) and searches
+    /// only when the edge no longer crosses it (`tetradrill_core::depth::DepthScratch::
+    /// with_crossings`): not exact where a fold of the surface comes between.
+    Reuse,
+}
+
 /// A complete scenario. Field names are the TOML keys and match the flags.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -45,6 +57,8 @@ pub struct Scenario {
     pub switch_ms: f64,
     /// Depth method for a mesh tool.
     pub depth_method: DepthMethod,
+    /// Whether a mesh tool's border edges reuse last tick's crossing faces.
+    pub crossings: Crossings,
     /// Deepest subdivision level of a drilled tet.
     pub max_depth: u8,
     /// Refinement stops below this face area (mesh units squared).
@@ -203,6 +217,7 @@ impl Default for Scenario {
             max_force: 8.0,
             switch_ms: 16.0,
             depth_method: DepthMethod::Traced,
+            crossings: Crossings::Reuse,
             max_depth: 5,
             min_area: 0.0,
             hierarchy_capacity: 1 << 20,
@@ -265,6 +280,10 @@ pub struct ScenarioFlags {
     /// Depth method for a mesh tool.
     #[arg(long, value_enum)]
     pub depth_method: Option<DepthMethod>,
+    /// Mesh tool: `reuse` last tick's crossing face of each border edge when it still holds
+    /// (default), or `search` every tick (exact).
+    #[arg(long, value_enum)]
+    pub crossings: Option<Crossings>,
     /// Deepest subdivision level (1..=9).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u8).range(1..=9))]
     pub max_depth: Option<u8>,
@@ -378,6 +397,7 @@ impl Scenario {
         take!(switch_ms);
         take!(
             depth_method,
+            crossings,
             max_depth,
             min_area,
             hierarchy_capacity,

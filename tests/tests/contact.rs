@@ -460,6 +460,84 @@ fn walked_pen_nodes_match_brute_force_along_a_path_cow() {
     );
 }
 
+/// Border edges reusing last tick's crossing face (`PenOptions::reuse_crossings`) along a
+/// path that drives the pen, turning, into the cow, 0.8 mm of the cow's scale a tick: most
+/// border edges skip the search, every tick's depths are the searched ones' but where the
+/// cow's surface folds between a border point and its old face, and those few stay within
+/// 1 % of the force. The traced and hashed searches find the same first faces, so with reuse
+/// they still agree bit for bit.
+#[test]
+fn reused_crossings_follow_the_searched_ones_into_the_cow() {
+    let mut rig = rig(10.0, COW, 1.0);
+    let (start, normal) = {
+        let obj = rig.obj.view();
+        let b = (0..obj.node_count())
+            .find(|&i| obj.nodes()[i].boundary && obj.normals()[i].y > 0.8)
+            .expect("a boundary node facing +y");
+        (obj.positions()[b], obj.normals()[b])
+    };
+    let path: Vec<(Vec3, Quat)> = (0..300)
+        .map(|i| {
+            let t = i as f32;
+            let rot = Quat::from_rotation_arc(Vec3::Z, normal)
+                * Quat::from_rotation_z(0.004 * t)
+                * Quat::from_rotation_x(0.2 + 0.001 * t);
+            (start - normal * (0.0008 * t), rot)
+        })
+        .collect();
+    let run = |rig: &mut PenRig, reuse_crossings: bool, method: DepthMethod| {
+        let opts = PenOptions {
+            reuse_crossings,
+            method,
+            ..PenOptions::default()
+        };
+        rig.with(|scene, bufs| {
+            let mut state = PenState::default();
+            let (mut ticks, mut border, mut reused) = (Vec::new(), 0, 0);
+            for &(pos, rot) in &path {
+                let c = pen_contact(scene, bufs, pos, rot, &opts, &mut state);
+                assert!(!c.saturated() && !c.hashed_unavailable);
+                border += c.pen_depth.border_edges + c.object_depth.border_edges;
+                reused += c.pen_depth.reused + c.object_depth.reused;
+                ticks.push((c.raw, c.penetrations));
+            }
+            (ticks, border, reused)
+        })
+        .expect("pen scene")
+    };
+    let (search, border, none) = run(&mut rig, false, DepthMethod::Traced);
+    let (traced, t_border, reused) = run(&mut rig, true, DepthMethod::Traced);
+    let (hashed, _, h_reused) = run(&mut rig, true, DepthMethod::Hashed);
+    assert_eq!((none, t_border), (0, border));
+    // The hashed search may name the other face beside an edge the line crosses exactly
+    // (the same crossing, bit for bit): it then reuses a face the traced walk did not.
+    assert!(
+        h_reused.abs_diff(reused) * 100 <= reused,
+        "{h_reused} vs {reused}"
+    );
+    let (mut differ, mut worst) = (0, 0.0f32);
+    for (k, ((s, t), h)) in search.iter().zip(&traced).zip(&hashed).enumerate() {
+        assert_eq!(
+            t.0.to_array().map(f32::to_bits),
+            h.0.to_array().map(f32::to_bits)
+        );
+        assert_eq!(s.1, t.1, "tick {k}: the same nodes get depths");
+        let err = (s.0 - t.0).length() / s.0.length().max(1.0);
+        differ += (s.0 != t.0) as usize;
+        worst = worst.max(err);
+    }
+    println!(
+        "{reused} of {border} border edges reused; {differ} of {} ticks differ, worst {worst:e}",
+        path.len()
+    );
+    assert!(border > 10_000, "the path must go deep: {border}");
+    assert!(
+        reused * 10 > border * 8,
+        "most edges reuse: {reused} of {border}"
+    );
+    assert!(worst < 0.01, "forces within 1 %: {worst}");
+}
+
 /// Walks are trusted only on well-shaped tets (`collide::walks_exact`): the quality meshes
 /// pass, the sliver-rich coarse cow fails (some points there are inside two tets by the f32
 /// test, and a walk could name the larger-id one), and on it the pen's lists stay brute

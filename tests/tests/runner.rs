@@ -281,3 +281,73 @@ fn real_time_run_keeps_1khz_and_removes_what_the_replay_removes() {
         "real time removed {vr}, the replay {vo}"
     );
 }
+
+/// `--crossings`: a mesh tool's border edges take last tick's crossing face when they still
+/// cross it by default (the JSON counts them), and search every tick with `search`. On the
+/// block, which is convex, a line from inside leaves it once, so the forces agree: to the bit
+/// but where a line crosses exactly where two faces meet and the search names the other one
+/// (10 of these 1,500 ticks, by at most 1e-4 N). A bad value exits 2 naming the flag.
+#[test]
+fn mesh_tool_crossings_reuse_by_default_and_search_on_request() {
+    let dir = scratch_dir("runner", "crossings");
+    let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
+    let tool = format!("mesh:{}", pen.display());
+    let mut runs = Vec::new();
+    for mode in ["", "search", "reuse"] {
+        let out_json = dir.join(format!("crossings-{mode}.json"));
+        let mut args = vec![
+            "replay",
+            "--quiet",
+            "--mesh",
+            "builtin:block:8",
+            "--tool",
+            &tool,
+            "--tool-scale",
+            "10",
+            "--trace",
+            "wander:3",
+            "--ticks",
+            "1500",
+            "--max-force",
+            "10000",
+            "--json",
+            out_json.to_str().unwrap(),
+        ];
+        if !mode.is_empty() {
+            args.extend(["--crossings", mode]);
+        }
+        let out = run(&args);
+        assert!(
+            out.status.success(),
+            "{mode}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let j = json(&out_json);
+        let count = |k: &str| j["pen"][k].as_u64().expect(k);
+        let last: Vec<f64> = (0..3)
+            .map(|i| j["force"]["final"][i].as_f64().expect("final force"))
+            .collect();
+        runs.push((
+            j["force_digest"].clone(),
+            count("border_edges"),
+            count("reused_crossings"),
+            j["scenario"]["crossings"].clone(),
+            last,
+        ));
+    }
+    let [default, search, reuse] = [&runs[0], &runs[1], &runs[2]];
+    assert_eq!((&default.3, &search.3), (&"reuse".into(), &"search".into()));
+    assert!(default.1 > 1_000, "the pen must touch: {default:?}");
+    assert_eq!(search.2, 0);
+    assert!(default.2 * 10 > default.1 * 8, "most reuse: {default:?}");
+    assert_eq!(default, reuse);
+    assert_eq!(search.1, default.1);
+    let gap: f64 = (0..3).map(|i| (search.4[i] - default.4[i]).abs()).sum();
+    assert!(gap < 1e-3, "{:?} vs {:?}", search.4, default.4);
+    assert!(
+        search.4.iter().any(|f| f.abs() > 1.0),
+        "a force: {:?}",
+        search.4
+    );
+    refused(&["replay", "--crossings", "sometimes"], &["--crossings"]);
+}

@@ -96,6 +96,15 @@ impl<'a> NodeGraph<'a> {
         self.offsets.len().saturating_sub(1)
     }
 
+    /// The index of `n`'s first adjacency entry and its neighbours: neighbour `i` of the row
+    /// is adjacency entry `index + i`, one number per directed edge (empty for an id out of
+    /// range).
+    #[inline]
+    pub fn row(&self, n: NodeId) -> (usize, &'a [NodeId]) {
+        let lo = self.offsets.get(n.idx()).copied().unwrap_or(0) as usize;
+        (lo, self.neighbours(n))
+    }
+
     /// The neighbours of `n` (empty for an id out of range).
     #[inline]
     pub fn neighbours(&self, n: NodeId) -> &'a [NodeId] {

@@ -47,7 +47,7 @@ mod traced;
 pub use graph::{graph_sizes, GraphError, NodeGraph};
 pub use hashed::hash_boundary_faces;
 pub use propagate::{
-    penetration_depth, penetration_depth_of, DepthReport, DepthScratch, Listed, NodeSlot,
+    penetration_depth, penetration_depth_of, Crossing, DepthReport, DepthScratch, Listed, NodeSlot,
     Penetration,
 };
 pub use surface::SurfaceHit;

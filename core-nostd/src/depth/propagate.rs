@@ -3,11 +3,12 @@
 use glam::Vec3;
 
 use super::hashed::hashed_hit;
-use super::surface::{on_edge, SurfaceHit, S_SLACK};
+use super::surface::{exit_values, hit_on_face, on_edge, SurfaceHit, S_SLACK};
 use super::traced::trace_exit;
 use super::{Method, NodeGraph};
 use crate::collide::{Body, Collision};
 use crate::ids::{NodeId, TetId};
+use crate::mesh::FaceUse;
 
 /// Squared distances are clamped below by this before they are inverted, so a point exactly
 /// on the surface gets a huge but finite weight.
@@ -30,6 +31,24 @@ const COLLIDING: u8 = 1;
 const QUEUED: u8 = 2;
 const KNOWN: u8 = 3;
 
+/// The boundary face of B where one directed edge of A's graph last left B (see
+/// [`DepthScratch::with_crossings`]).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Crossing {
+    face: FaceUse,
+}
+
+impl Default for Crossing {
+    fn default() -> Self {
+        Self {
+            face: FaceUse {
+                tet: TetId::NONE,
+                local: 0,
+            },
+        }
+    }
+}
+
 /// Scratch for [`penetration_depth`]: one slot per node of body A (its length bounds the node
 /// ids handled) and a queue for the propagation. The queue holds the first nodes of the
 /// breadth-first order; the rest are chained through their slots (one link per slot), so a
@@ -39,6 +58,8 @@ const KNOWN: u8 = 3;
 pub struct DepthScratch<'a> {
     slots: &'a mut [NodeSlot],
     queue: &'a mut [NodeId],
+    crossings: &'a mut [Crossing],
+    reuse: bool,
     stamp: u32,
 }
 
@@ -48,12 +69,53 @@ impl<'a> DepthScratch<'a> {
     /// # Bounded work
     /// O(slots) to clear them once.
     pub fn new(slots: &'a mut [NodeSlot], queue: &'a mut [NodeId]) -> Self {
+        Self::with_crossings(slots, queue, &mut [])
+    }
+
+    /// Scratch that also remembers, per directed edge of A's graph (one [`Crossing`] per
+    /// adjacency entry: [`super::graph_sizes`]'s second number), the boundary face of B where
+    /// the edge last left B. With [`DepthScratch::set_reuse`] on, a border edge first tries
+    /// that face (one face test): when the edge still leaves B through it, that crossing is
+    /// taken without a search ([`DepthReport::reused`]).
+    ///
+    /// A reused crossing is where the edge's line leaves B through that face, but it is not
+    /// proven the *first* place the line leaves B: where a fold of B's surface has come
+    /// between the border point and the remembered face since the last call, the search
+    /// would have found the fold. So reuse trades the exact first crossing for one face test
+    /// a border edge; it is off until [`DepthScratch::set_reuse`] turns it on, and the two
+    /// methods agree bit for bit only without it. Edges beyond `crossings` never reuse.
+    ///
+    /// # Bounded work
+    /// O(slots + crossings) to clear them once.
+    pub fn with_crossings(
+        slots: &'a mut [NodeSlot],
+        queue: &'a mut [NodeId],
+        crossings: &'a mut [Crossing],
+    ) -> Self {
         slots.fill(NodeSlot::default());
+        crossings.fill(Crossing::default());
         Self {
             slots,
             queue,
+            crossings,
+            reuse: false,
             stamp: 0,
         }
+    }
+
+    /// Turns the reuse of remembered crossings on or off ([`DepthScratch::with_crossings`];
+    /// without crossing storage it changes nothing). Crossings are remembered either way, so
+    /// turning reuse on later starts from the last call's faces.
+    pub fn set_reuse(&mut self, on: bool) {
+        self.reuse = on;
+    }
+
+    /// Forgets every remembered crossing (for a body that jumped, or a new scene).
+    ///
+    /// # Bounded work
+    /// O(crossings).
+    pub fn forget_crossings(&mut self) {
+        self.crossings.fill(Crossing::default());
     }
 
     fn next_stamp(&mut self) {
@@ -96,6 +158,9 @@ pub struct DepthReport {
     pub border_edges: u32,
     /// Border edges whose surface crossing was found.
     pub hits: u32,
+    /// Of the `hits`, the crossings taken from the edge's remembered face without a search
+    /// ([`DepthScratch::with_crossings`]).
+    pub reused: u32,
     /// Border edges with no crossing found (walk too long or lost, box too large, no face).
     pub missed_edges: u32,
     /// Of the `hits`, the edges to a node missing from a partial list ([`Listed::Partial`])
@@ -233,7 +298,8 @@ pub fn penetration_depth_of(
         }
         let (mut sw, mut sd, mut sn) = (0.0f32, 0.0f32, Vec3::ZERO);
         let mut border = false;
-        for &qn in graph.neighbours(c.node) {
+        let (row, nbs) = graph.row(c.node);
+        for (k, &qn) in (row..).zip(nbs) {
             if scratch.slot(qn).is_some() {
                 continue; // both ends collide: not a border edge
             }
@@ -242,7 +308,16 @@ pub fn penetration_depth_of(
             };
             border = true;
             r.border_edges += 1;
-            let Some(h) = crossing(b, c.tet, p, q, method, past, &mut r) else {
+            let memo = scratch.crossings.get_mut(k);
+            let again = match (&memo, scratch.reuse) {
+                (Some(m), true) => reuse(b, m.face, p, q, &mut r),
+                _ => None,
+            };
+            let found = again.or_else(|| crossing(b, c.tet, p, q, method, past, &mut r));
+            if let Some(m) = memo {
+                m.face = found.map_or(Crossing::default().face, |h| h.face);
+            }
+            let Some(h) = found else {
                 r.missed_edges += 1;
                 continue;
             };
@@ -338,6 +413,25 @@ pub fn penetration_depth_of(
         r.written += 1;
     }
     r
+}
+
+/// The remembered face's crossing when the edge `p -> q` still leaves B through it, on the
+/// edge.
+fn reuse(
+    b: &Body<'_, '_>,
+    face: FaceUse,
+    p: Vec3,
+    q: Vec3,
+    r: &mut DepthReport,
+) -> Option<SurfaceHit> {
+    if face.tet.is_none() {
+        return None;
+    }
+    r.work = r.work.wrapping_add(1);
+    let e = exit_values(b, face.tet, face.local, p, q)?;
+    let h = hit_on_face(b, face.tet, face.local, e, p, q).filter(on_edge)?;
+    r.reused += 1;
+    Some(h)
 }
 
 /// Where the border edge `p -> q` (p in tet `tet` of B) leaves B: on the edge, or with

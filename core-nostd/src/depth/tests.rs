@@ -348,3 +348,219 @@ fn the_walk_keeping_edge_values_crosses_the_faces_testing_each_face_does() {
         "{walked} walks, {long} longer than 3 tets"
     );
 }
+
+/// Reused crossings ([`DepthScratch::with_crossings`]) against searching every edge every
+/// call, over a small block (A) moved in 400 small steps through the top of a convex block
+/// (B), tilting, across its edge and corner and back out. B being convex, a line from inside
+/// leaves it once, so the remembered face, when the edge still leaves through it, is the
+/// crossing the search finds: the depths must agree bit for bit, while most border edges skip
+/// the search. Then `forget_crossings` and `set_reuse(false)` must make the next call search
+/// every edge again.
+#[test]
+fn reused_crossings_are_the_searched_ones_on_a_convex_body() {
+    let mut f = fixture(TOP - 0.17);
+    let a = f.a.mesh();
+    let b = f.b.mesh();
+    let bb = Body::fixed(&b);
+    let rest: [Vec3; 125] = core::array::from_fn(|i| a.positions()[i]);
+    let mut go = [0u32; 126];
+    let mut ga = [NodeId::NONE; 1208];
+    let g = NodeGraph::build(&a, &mut go, &mut ga).unwrap();
+    let (mut s1, mut q1) = ([NodeSlot::default(); 125], [NodeId::NONE; 125]);
+    let (mut s2, mut q2) = ([NodeSlot::default(); 125], [NodeId::NONE; 125]);
+    let mut memo = [Crossing::default(); 1208];
+    let mut search = DepthScratch::new(&mut s1, &mut q1);
+    let mut reuse = DepthScratch::with_crossings(&mut s2, &mut q2, &mut memo);
+    reuse.set_reuse(true);
+    let m = Method::Traced { max_steps: 64 };
+    let (mut border, mut reused, mut compared) = (0u32, 0u32, 0usize);
+    let mut moved = [Vec3::ZERO; 125];
+    for step in 0..400 {
+        // Out to the top edge and corner (x, y up to 0.5) and back, tilting about two axes.
+        let u = step as f32 / 399.0;
+        let w = 1.0 - (2.0 * u - 1.0).abs();
+        let pose = Affine3A::from_rotation_translation(
+            glam::Quat::from_euler(glam::EulerRot::XYZ, 0.4 * w, -0.3 * w, 0.2 * u),
+            Vec3::new(0.55 * w, 0.5 * w, 0.1 * (6.0 * u).sin()),
+        );
+        for (m, r) in moved.iter_mut().zip(&rest) {
+            *m = pose.transform_point3(*r);
+        }
+        let (cols, n) = brute_force_inside(&bb, &moved);
+        let (mut o1, mut o2) = ([Penetration::default(); 125], [Penetration::default(); 125]);
+        let r1 = penetration_depth(&moved, &g, &bb, &cols[..n], &m, &mut search, &mut o1);
+        let r2 = penetration_depth(&moved, &g, &bb, &cols[..n], &m, &mut reuse, &mut o2);
+        assert_eq!(r1.reused, 0);
+        assert_eq!((r1.written, r1.hits), (r2.written, r2.hits), "step {step}");
+        for (x, y) in o1[..r1.written].iter().zip(&o2[..r2.written]) {
+            assert_eq!((x.node, x.layer), (y.node, y.layer), "step {step}");
+            assert_eq!(
+                x.depth.to_bits(),
+                y.depth.to_bits(),
+                "step {step} {x:?} {y:?}"
+            );
+            assert_eq!(
+                x.dir.to_array().map(f32::to_bits),
+                y.dir.to_array().map(f32::to_bits),
+                "step {step}"
+            );
+        }
+        compared += r1.written;
+        border += r2.border_edges;
+        reused += r2.reused;
+    }
+    assert!(compared > 10_000, "the block went in: {compared}");
+    assert!(
+        reused * 10 > border * 8,
+        "most edges reuse: {reused} of {border}"
+    );
+    // Forgotten, or turned off: every border edge searches again.
+    let mut o1 = [Penetration::default(); 125];
+    let (cols, n) = brute_force_inside(&bb, &moved);
+    let again = penetration_depth(&moved, &g, &bb, &cols[..n], &m, &mut reuse, &mut o1);
+    assert!(
+        again.border_edges > 0 && again.reused == again.hits,
+        "{again:?}"
+    );
+    reuse.set_reuse(false);
+    let off = penetration_depth(&moved, &g, &bb, &cols[..n], &m, &mut reuse, &mut o1);
+    assert_eq!(off.reused, 0);
+    reuse.set_reuse(true);
+    reuse.forget_crossings();
+    let forgot = penetration_depth(&moved, &g, &bb, &cols[..n], &m, &mut reuse, &mut o1);
+    assert_eq!((forgot.reused, forgot.hits), (0, again.hits));
+}
+
+/// The points inside `b`, each with the smallest-id tet holding it, by testing every tet.
+fn brute_force_inside(b: &Body<'_, '_>, points: &[Vec3; 125]) -> ([Collision; 125], usize) {
+    let mut cols = [Collision::default(); 125];
+    let mut n = 0;
+    for (i, &p) in points.iter().enumerate() {
+        let held = (0..b.tet_count())
+            .map(crate::ids::TetId::from_idx)
+            .find(|&t| {
+                let c = b.tet_positions(t).unwrap();
+                crate::geom::barycentric(p, c).is_some_and(|w| w.iter().all(|&x| x >= 0.0))
+            });
+        if let Some(tet) = held {
+            cols[n] = Collision {
+                node: NodeId::from_idx(i),
+                tet,
+            };
+            n += 1;
+        }
+    }
+    (cols, n)
+}
+
+/// Where reuse is not exact, and where its `on_edge` check keeps it exact: B is a block with
+/// a slot cut into its top (a U: walls at x < -0.25 and x > 0.25 above z = 0), A one long tet
+/// lying along x through the walls. The first call puts A's node 0 in the right wall with
+/// its other nodes outside to the right: its border edges leave through the right wall's
+/// outer face. Then node 0 jumps into the left wall:
+/// - with the other nodes in the slot, the remembered face is crossed only past them, is not
+///   taken, and the search gives the left wall's inner face: the exact depth;
+/// - with the other nodes past the right wall, the edges still cross the remembered face, on
+///   the edge, so it is taken, though the line first leaves B at the left wall's inner face:
+///   reuse gives a real crossing of the edge with B's surface, not the first one (the fold
+///   [`DepthScratch::with_crossings`] warns of).
+#[test]
+fn reuse_keeps_a_face_past_a_fold_only_when_the_edge_still_crosses_it() {
+    let mut b = Store::<125, 384>::block(4, 0.25, Vec3::splat(-0.5));
+    let mut kept = 0;
+    for k in 0..b.t {
+        let c = b.tet_nodes[k]
+            .iter()
+            .fold(Vec3::ZERO, |s, &i| s + b.positions[i as usize])
+            / 4.0;
+        if !(c.x.abs() < 0.25 && c.z > 0.0) {
+            b.tet_nodes[kept] = b.tet_nodes[k];
+            kept += 1;
+        }
+    }
+    b.t = kept;
+    let bm = b.mesh();
+    let bb = Body::fixed(&bm);
+    let mut a = Store::<4, 1>::empty();
+    a.tet_nodes[0] = [0, 1, 2, 3];
+    (a.n, a.t) = (4, 1);
+    a.positions = [
+        Vec3::new(0.4, 0.1, 0.3),
+        Vec3::new(0.7, 0.1, 0.3),
+        Vec3::new(0.7, 0.12, 0.3),
+        Vec3::new(0.7, 0.1, 0.32),
+    ];
+    let am = a.mesh();
+    let mut go = [0u32; 5];
+    let mut ga = [NodeId::NONE; 12];
+    let g = NodeGraph::build(&am, &mut go, &mut ga).unwrap();
+    let (mut s1, mut q1) = ([NodeSlot::default(); 4], [NodeId::NONE; 4]);
+    let (mut s2, mut q2) = ([NodeSlot::default(); 4], [NodeId::NONE; 4]);
+    let mut memo = [Crossing::default(); 12];
+    let m = Method::Traced { max_steps: 64 };
+    // Node 0's depth searched and reused, after a first call at the right wall.
+    let depths = |s1: &mut [NodeSlot; 4], q1: &mut [NodeId; 4], s2, q2, memo, moved: [Vec3; 4]| {
+        let mut search = DepthScratch::new(s1, q1);
+        let mut reuse = DepthScratch::with_crossings(s2, q2, memo);
+        reuse.set_reuse(true);
+        let mut out = [Penetration::default(); 4];
+        let held = |p: Vec3| {
+            (0..bb.tet_count())
+                .map(crate::ids::TetId::from_idx)
+                .find(|&t| {
+                    let c = bb.tet_positions(t).unwrap();
+                    crate::geom::barycentric(p, c).is_some_and(|w| w.iter().all(|&x| x >= 0.0))
+                })
+                .unwrap()
+        };
+        let first = [Collision {
+            node: NodeId(0),
+            tet: held(a.positions[0]),
+        }];
+        let r = penetration_depth(&a.positions, &g, &bb, &first, &m, &mut reuse, &mut out);
+        assert_eq!((r.hits, r.reused), (3, 0));
+        // 0.1 to the right wall's outer face (its vertex normals lean up near the top).
+        assert!(
+            (out[0].depth - 0.1).abs() < 0.01 && out[0].dir.x > 0.95,
+            "{:?}",
+            out[0]
+        );
+        let now = [Collision {
+            node: NodeId(0),
+            tet: held(moved[0]),
+        }];
+        let r = penetration_depth(&moved, &g, &bb, &now, &m, &mut search, &mut out);
+        assert_eq!(r.hits, 3);
+        let searched = out[0];
+        let r = penetration_depth(&moved, &g, &bb, &now, &m, &mut reuse, &mut out);
+        (searched, out[0], r.reused)
+    };
+    let left = Vec3::new(-0.4, 0.1, 0.3);
+    let in_slot = [
+        left,
+        Vec3::new(0.1, 0.1, 0.3),
+        a.positions[2] - Vec3::X * 0.6,
+        a.positions[3] - Vec3::X * 0.6,
+    ];
+    let (s, r, reused) = depths(&mut s1, &mut q1, &mut s2, &mut q2, &mut memo, in_slot);
+    assert_eq!(reused, 0);
+    assert_eq!((s.depth.to_bits(), s.dir), (r.depth.to_bits(), r.dir));
+    assert!(
+        (s.depth - 0.15).abs() < 0.02,
+        "the left wall's inner face: {s:?}"
+    );
+    let past = [left, a.positions[1], a.positions[2], a.positions[3]];
+    let (mut s1, mut q1) = ([NodeSlot::default(); 4], [NodeId::NONE; 4]);
+    let (mut s2, mut q2) = ([NodeSlot::default(); 4], [NodeId::NONE; 4]);
+    let mut memo = [Crossing::default(); 12];
+    let (s, r, reused) = depths(&mut s1, &mut q1, &mut s2, &mut q2, &mut memo, past);
+    assert!(
+        (s.depth - 0.15).abs() < 0.02,
+        "search: the left wall's inner face: {s:?}"
+    );
+    assert!(reused > 0, "the remembered face is still crossed");
+    assert!(
+        r.depth > 0.85,
+        "reuse: the right wall's outer face, 0.9 away: {r:?}"
+    );
+}

@@ -111,6 +111,11 @@ pub struct PenOptions {
     /// the pen last tick may walk ([`rigid_tets_over_points_coherent`]; only with
     /// [`PenScene::pen_walks`]). The same contacts either way.
     pub max_walk: u32,
+    /// Let a border edge take the face it left the other body through last tick when it
+    /// still leaves through it (one face test instead of a search;
+    /// [`DepthScratch::with_crossings`], only where the scratches have crossing storage).
+    /// Not exact where a fold of the surface comes between; off by default.
+    pub reuse_crossings: bool,
 }
 
 impl Default for PenOptions {
@@ -122,6 +127,7 @@ impl Default for PenOptions {
             max_cells: 512,
             entry_remedy: false,
             max_walk: 8,
+            reuse_crossings: false,
         }
     }
 }
@@ -221,6 +227,8 @@ pub fn pen_contact(
     let world = bufs.world.get(..n).unwrap_or(&[]);
     let pen_body = Body::moved(scene.pen, world, rotation);
     let k = opts.params.stiffness;
+    bufs.pen_depth.set_reuse(opts.reuse_crossings);
+    bufs.object_depth.set_reuse(opts.reuse_crossings);
 
     let mut raw = Vec3::ZERO;
     let mut pen_count = 0;

@@ -16,7 +16,7 @@ use crate::engine::{self, EngineStorage, TickParams};
 use crate::error::CliError;
 use crate::pen::{PenRig, PenSizes};
 use crate::platform::now_ns;
-use crate::scenario::{DepthMethod, Scenario, ScenarioFlags, ToolKind};
+use crate::scenario::{Crossings, DepthMethod, Scenario, ScenarioFlags, ToolKind};
 use crate::stats::{summarise_ns, Summary};
 use crate::traces::PoseSource;
 
@@ -106,6 +106,10 @@ pub struct PenSummary {
     pub clamped_ticks: u64,
     /// Ticks in which a buffer saturated.
     pub saturated_ticks: u64,
+    /// Border edges met, both bodies, summed over ticks.
+    pub border_edges: u64,
+    /// Of them, crossings taken from last tick's face without a search (`crossings = "reuse"`).
+    pub reused_crossings: u64,
 }
 
 /// Mesh counts of a report.
@@ -450,6 +454,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
             DepthMethod::Traced => PenMethod::Traced,
             DepthMethod::Hashed => PenMethod::Hashed,
         },
+        reuse_crossings: sc.crossings == Crossings::Reuse,
         ..PenOptions::default()
     };
     let mut pen_info = PenSummary {
@@ -490,6 +495,9 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
                     .max(c.object_collisions.count);
                 pen_info.unreached += (c.pen_depth.unreached + c.object_depth.unreached) as u64;
                 pen_info.clamped_ticks += c.clamped as u64;
+                pen_info.border_edges +=
+                    (c.pen_depth.border_edges + c.object_depth.border_edges) as u64;
+                pen_info.reused_crossings += (c.pen_depth.reused + c.object_depth.reused) as u64;
                 pen_info.saturated_ticks += c.saturated() as u64;
                 let (p, o) = (&c.pen_depth, &c.object_depth);
                 sat.contacts += (c.pen_collisions.saturated
@@ -539,14 +547,16 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
     if let Some(p) = &rep.pen {
         println!(
             "tool {} nodes / {} tets, depth {}: most tool nodes inside {}, object nodes inside {}, \
-             unreached {}, clamped ticks {}",
+             unreached {}, clamped ticks {}, crossings reused {} of {}",
             p.tool_nodes,
             p.tool_tets,
             p.depth_method,
             p.pen_collisions_max,
             p.object_collisions_max,
             p.unreached,
-            p.clamped_ticks
+            p.clamped_ticks,
+            p.reused_crossings,
+            p.border_edges
         );
     }
     if let Some(path) = &args.json {
