@@ -99,6 +99,9 @@ impl<'a> NodeGraph<'a> {
     /// The index of `n`'s first adjacency entry and its neighbours: neighbour `i` of the row
     /// is adjacency entry `index + i`, one number per directed edge (empty for an id out of
     /// range).
+    ///
+    /// # Bounded work
+    /// Constant.
     #[inline]
     pub fn row(&self, n: NodeId) -> (usize, &'a [NodeId]) {
         let lo = self.offsets.get(n.idx()).copied().unwrap_or(0) as usize;

@@ -106,6 +106,9 @@ impl<'a> DepthScratch<'a> {
     /// Turns the reuse of remembered crossings on or off ([`DepthScratch::with_crossings`];
     /// without crossing storage it changes nothing). Crossings are remembered either way, so
     /// turning reuse on later starts from the last call's faces.
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn set_reuse(&mut self, on: bool) {
         self.reuse = on;
     }
@@ -252,7 +255,9 @@ pub fn penetration_depth(
 ///
 /// # Bounded work
 /// As [`penetration_depth`], with f also covering one walk of at most `max_steps` tets per
-/// border edge for [`Listed::Partial`] with [`Method::Hashed`].
+/// border edge for [`Listed::Partial`] with [`Method::Hashed`], and, with reuse on
+/// ([`DepthScratch::with_crossings`]), one face test per border edge before its search (the
+/// search skipped when the test holds).
 pub fn penetration_depth_of(
     a_positions: &[Vec3],
     graph: &NodeGraph<'_>,
