@@ -180,7 +180,8 @@ pub struct DepthReport {
     /// `true` when the output filled up (later penetrations not written).
     pub out_full: bool,
     /// Tets crossed by traced walks, or candidate faces tested by the hashed search (plus the
-    /// tets of its walks past unlisted nodes, [`Listed::Partial`]).
+    /// tets of its walks past unlisted nodes, [`Listed::Partial`]), plus one per remembered
+    /// face tested ([`DepthScratch::with_crossings`]).
     pub work: u32,
 }
 
