@@ -431,18 +431,22 @@ fn reused_crossings_are_the_searched_ones_on_a_convex_body() {
     assert_eq!((forgot.reused, forgot.hits), (0, again.hits));
 }
 
+/// The smallest-id tet of `b` holding `p`, by testing every tet.
+fn brute_force_holder(b: &Body<'_, '_>, p: Vec3) -> Option<crate::ids::TetId> {
+    (0..b.tet_count())
+        .map(crate::ids::TetId::from_idx)
+        .find(|&t| {
+            let c = b.tet_positions(t).unwrap();
+            crate::geom::barycentric(p, c).is_some_and(|w| w.iter().all(|&x| x >= 0.0))
+        })
+}
+
 /// The points inside `b`, each with the smallest-id tet holding it, by testing every tet.
 fn brute_force_inside(b: &Body<'_, '_>, points: &[Vec3; 125]) -> ([Collision; 125], usize) {
     let mut cols = [Collision::default(); 125];
     let mut n = 0;
     for (i, &p) in points.iter().enumerate() {
-        let held = (0..b.tet_count())
-            .map(crate::ids::TetId::from_idx)
-            .find(|&t| {
-                let c = b.tet_positions(t).unwrap();
-                crate::geom::barycentric(p, c).is_some_and(|w| w.iter().all(|&x| x >= 0.0))
-            });
-        if let Some(tet) = held {
+        if let Some(tet) = brute_force_holder(b, p) {
             cols[n] = Collision {
                 node: NodeId::from_idx(i),
                 tet,
@@ -504,15 +508,7 @@ fn reuse_keeps_a_face_past_a_fold_only_when_the_edge_still_crosses_it() {
         let mut reuse = DepthScratch::with_crossings(s2, q2, memo);
         reuse.set_reuse(true);
         let mut out = [Penetration::default(); 4];
-        let held = |p: Vec3| {
-            (0..bb.tet_count())
-                .map(crate::ids::TetId::from_idx)
-                .find(|&t| {
-                    let c = bb.tet_positions(t).unwrap();
-                    crate::geom::barycentric(p, c).is_some_and(|w| w.iter().all(|&x| x >= 0.0))
-                })
-                .unwrap()
-        };
+        let held = |p: Vec3| brute_force_holder(&bb, p).expect("inside the U");
         let first = [Collision {
             node: NodeId(0),
             tet: held(a.positions[0]),
