@@ -13,6 +13,7 @@
 use glam::Vec3;
 
 use crate::depth::Penetration;
+use crate::ids::NodeId;
 
 /// The remembered entry plane.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
@@ -39,6 +40,20 @@ impl EntryPlane {
     /// # Bounded work
     /// O(penetrations).
     pub fn force(&mut self, positions: &[Vec3], pens: &[Penetration], stiffness: f32) -> Vec3 {
+        self.force_at(|n| positions.get(n.idx()).copied(), pens, stiffness)
+    }
+
+    /// [`EntryPlane::force`] with each tool node's position given by `at` (nodes it has none
+    /// for are left out).
+    ///
+    /// # Bounded work
+    /// O(penetrations) calls of `at`.
+    pub fn force_at<P: Fn(NodeId) -> Option<Vec3>>(
+        &mut self,
+        at: P,
+        pens: &[Penetration],
+        stiffness: f32,
+    ) -> Vec3 {
         if pens.is_empty() {
             self.plane = None;
             return Vec3::ZERO;
@@ -46,7 +61,7 @@ impl EntryPlane {
         if self.plane.is_none() {
             let (mut sp, mut sw, mut sf) = (Vec3::ZERO, 0.0f32, Vec3::ZERO);
             for q in pens {
-                let Some(&p) = positions.get(q.node.idx()) else {
+                let Some(p) = at(q.node) else {
                     continue;
                 };
                 let w = q.depth.max(0.0);
@@ -65,7 +80,7 @@ impl EntryPlane {
         };
         let mut d = 0.0f32;
         for q in pens {
-            let Some(&p) = positions.get(q.node.idx()) else {
+            let Some(p) = at(q.node) else {
                 continue;
             };
             d += (e - p).dot(n).max(0.0);

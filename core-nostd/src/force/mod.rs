@@ -5,6 +5,7 @@
 //! | [`triangles`] | sphere / active sample point: radius minus distance to the surface    |
 //! | [`segment`]   | passive point: the segment between two positions against the faces    |
 //! | [`pen`]       | tet-mesh tool: collisions both ways, consistent depth, summed force   |
+//! | [`held`]      | the pen's servo half: force carried from the last contact pass        |
 //! | [`entry`]     | the thin-pen remedy: an entry plane remembered while in contact        |
 //! | [`response`]  | damping, clamping, the displayed (non-penetrating) tool offset        |
 //! | [`frames`]    | camera `C = M . T`, allocentric pen `P_a = P_e . C`, forces mapped back |
@@ -17,6 +18,7 @@
 pub mod digest;
 pub mod entry;
 pub mod frames;
+pub mod held;
 pub mod pen;
 pub mod response;
 pub mod segment;
@@ -24,7 +26,11 @@ pub mod triangles;
 
 pub use digest::{force_digest, ForceDigest};
 pub use entry::EntryPlane;
-pub use pen::{pen_contact, DepthMethod, PenBuffers, PenContact, PenOptions, PenScene, PenState};
+pub use held::{pen_servo_force, HeldContact, PenServo, ServoScratch};
+pub use pen::{
+    pen_contact, pen_pass, DepthMethod, PenBuffers, PenContact, PenForce, PenOptions, PenPass,
+    PenScene, PenState,
+};
 pub use response::{clamp_force, damping_force, display_offset, ForceParams, ToolState};
 pub use segment::{segment_first_hit, SegmentHit};
 pub use triangles::{

@@ -1,11 +1,14 @@
-//! The tet-mesh tool (the pen): one call per servo tick from the pen's pose to its force.
+//! The tet-mesh tool (the pen): from the pen's pose to its force, in two halves.
 //!
-//! Per tick: move the pen's nodes to the pose; pen nodes inside the object (object tets hashed
-//! once, only pen nodes in cells the object occupies looked up); object nodes inside the pen
-//! (object nodes hashed once, queried over the moved boxes of the pen's rest-frame clusters
-//! and looked up in the pen's tets hashed at rest); the consistent depth of both sets; force = stiffness x (sum of the pen nodes'
-//! depth x direction - sum of the object nodes' depth x direction), optionally through the
-//! entry-plane remedy; damping; clamping; the displayed offset.
+//! The contact pass ([`pen_pass`]): move the pen's nodes to the pose; pen nodes inside the
+//! object (object tets hashed once, only pen nodes in cells the object occupies looked up);
+//! object nodes inside the pen (object nodes hashed once, queried over the moved boxes of the
+//! pen's rest-frame clusters and looked up in the pen's tets hashed at rest); the consistent
+//! depth of both sets. The force: stiffness x (sum of the pen nodes' depth x direction - sum
+//! of the object nodes' depth x direction), optionally through the entry-plane remedy;
+//! damping; clamping; the displayed offset. [`pen_contact`] does both at one pose; a servo
+//! that runs faster than the pass takes the force from the last pass instead
+//! ([`super::pen_servo_force`]).
 
 use glam::{Affine3A, Quat, Vec3};
 
@@ -175,6 +178,13 @@ pub struct PenContact {
     pub clamped: bool,
 }
 
+impl PenPass {
+    /// `true` when any buffer filled in this pass (the result is valid but incomplete).
+    pub fn saturated(&self) -> bool {
+        PenContact::of(*self, PenForce::default()).saturated()
+    }
+}
+
 impl PenContact {
     /// `true` when any buffer filled this tick (the result is valid but incomplete).
     pub fn saturated(&self) -> bool {
@@ -188,7 +198,91 @@ impl PenContact {
     }
 }
 
-/// One servo tick of the pen tool at `position` (its tip) and `rotation`.
+/// What the contact half of a tick found ([`pen_pass`]).
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct PenPass {
+    /// Pen nodes in the object.
+    pub pen_collisions: CollideReport,
+    /// Object nodes in the pen.
+    pub object_collisions: CollideReport,
+    /// Depth of the pen nodes.
+    pub pen_depth: DepthReport,
+    /// Depth of the object nodes.
+    pub object_depth: DepthReport,
+    /// Penetrations written (pen nodes in [`PenBuffers::pen_pens`], object nodes in
+    /// [`PenBuffers::object_pens`]).
+    pub penetrations: (usize, usize),
+    /// `true` when the world buffer is shorter than the pen (nodes beyond it ignored).
+    pub world_short: bool,
+    /// `true` when [`DepthMethod::Hashed`] was asked for without face hashes.
+    pub hashed_unavailable: bool,
+}
+
+/// What the force half of a tick gives ([`pen_contact`], [`super::pen_servo_force`]).
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct PenForce {
+    /// The contact force before damping and clamping.
+    pub raw: Vec3,
+    /// The force to render (damped, clamped).
+    pub force: Vec3,
+    /// Where to draw the pen relative to its pose so it does not visibly penetrate.
+    pub display_offset: Vec3,
+    /// `true` when the force was clamped.
+    pub clamped: bool,
+}
+
+impl PenContact {
+    fn of(pass: PenPass, force: PenForce) -> Self {
+        Self {
+            raw: force.raw,
+            force: force.force,
+            display_offset: force.display_offset,
+            pen_collisions: pass.pen_collisions,
+            object_collisions: pass.object_collisions,
+            pen_depth: pass.pen_depth,
+            object_depth: pass.object_depth,
+            penetrations: pass.penetrations,
+            world_short: pass.world_short,
+            hashed_unavailable: pass.hashed_unavailable,
+            clamped: force.clamped,
+        }
+    }
+}
+
+/// One servo tick of the pen tool at `position` (its tip) and `rotation`: [`pen_pass`], then
+/// the force from its penetrations at the same pose. The same force, bit for bit, as
+/// [`super::pen_servo_force`] from that pass at that pose.
+///
+/// # Bounded work
+/// [`pen_pass`]'s, plus O(penetrations) for the force.
+pub fn pen_contact(
+    scene: &PenScene<'_, '_, '_>,
+    bufs: &mut PenBuffers<'_>,
+    position: Vec3,
+    rotation: Quat,
+    opts: &PenOptions,
+    state: &mut PenState,
+) -> PenContact {
+    let pass = pen_pass(scene, bufs, position, rotation, opts, state);
+    let (p, o) = pass.penetrations;
+    let pens = bufs.pen_pens.get(..p).unwrap_or(&[]);
+    let objs = bufs.object_pens.get(..o).unwrap_or(&[]);
+    let world = &*bufs.world;
+    let force = respond(
+        |n| world.get(n.idx()).copied(),
+        pens,
+        objs,
+        position,
+        opts,
+        state,
+    );
+    PenContact::of(pass, force)
+}
+
+/// The contact half of a tick: the pen's nodes at the pose ([`PenBuffers::world`]), the
+/// collisions both ways and their consistent depths ([`PenBuffers::pen_pens`],
+/// [`PenBuffers::object_pens`]; [`PenPass::penetrations`] says how many). Updates only
+/// [`PenState::pen_listed`] and [`PenState::object_listed`].
 ///
 /// When a collision list is full, it keeps last tick's nodes that still collide first
 /// ([`PenState::pen_listed`], [`points_in_tets_walked`], [`rigid_tets_over_points_coherent`]) and
@@ -206,15 +300,15 @@ impl PenContact {
 /// [`penetration_depth_of`], bounded by the collision buffers and `max_steps` / `max_cells`.
 /// Every buffer saturates as documented on the functions it is handed to;
 /// [`PenContact::saturated`] tells.
-pub fn pen_contact(
+pub fn pen_pass(
     scene: &PenScene<'_, '_, '_>,
     bufs: &mut PenBuffers<'_>,
     position: Vec3,
     rotation: Quat,
     opts: &PenOptions,
     state: &mut PenState,
-) -> PenContact {
-    let mut out = PenContact::default();
+) -> PenPass {
+    let mut out = PenPass::default();
     let pose = Affine3A::from_rotation_translation(rotation, position);
     let rest = scene.pen.positions();
     let n = rest.len().min(bufs.world.len());
@@ -226,11 +320,9 @@ pub fn pen_contact(
     }
     let world = bufs.world.get(..n).unwrap_or(&[]);
     let pen_body = Body::moved(scene.pen, world, rotation);
-    let k = opts.params.stiffness;
     bufs.pen_depth.set_reuse(opts.reuse_crossings);
     bufs.object_depth.set_reuse(opts.reuse_crossings);
 
-    let mut raw = Vec3::ZERO;
     let mut pen_count = 0;
     let mut obj_count = 0;
     if bounds.overlaps(&scene.object_tets.bounds()) {
@@ -318,25 +410,43 @@ pub fn pen_contact(
     }
     state.pen_listed = out.pen_collisions.count;
     state.object_listed = out.object_collisions.count;
-    let pen_pens = bufs.pen_pens.get(..pen_count).unwrap_or(&[]);
-    let obj_pens = bufs.object_pens.get(..obj_count).unwrap_or(&[]);
     out.penetrations = (pen_count, obj_count);
+    out
+}
 
+/// The force from penetrations (`at` gives a pen node's position, for the entry plane):
+/// stiffness x (the pen nodes' depths along their directions, or the entry plane's, minus the
+/// object nodes'), damping, clamping, the displayed offset.
+///
+/// # Bounded work
+/// O(penetrations).
+pub(super) fn respond<P: Fn(NodeId) -> Option<Vec3>>(
+    at: P,
+    pen: &[Penetration],
+    object: &[Penetration],
+    position: Vec3,
+    opts: &PenOptions,
+    state: &mut PenState,
+) -> PenForce {
+    let k = opts.params.stiffness;
+    let mut raw = Vec3::ZERO;
     if opts.entry_remedy {
-        raw += state.entry.force(world, pen_pens, k);
+        raw += state.entry.force_at(at, pen, k);
     } else {
-        for p in pen_pens {
+        for p in pen {
             raw += p.dir * (k * p.depth);
         }
     }
-    for p in obj_pens {
+    for p in object {
         raw -= p.dir * (k * p.depth);
     }
-    out.raw = raw;
-    let in_contact = pen_count + obj_count > 0;
+    let in_contact = !pen.is_empty() || !object.is_empty();
     let total = raw + damping_force(&mut state.tool, position, in_contact, &opts.params);
-    out.force = clamp_force(total, opts.params.max_force);
-    out.clamped = out.force != total;
-    out.display_offset = display_offset(out.force, pen_pens, obj_pens);
-    out
+    let force = clamp_force(total, opts.params.max_force);
+    PenForce {
+        raw,
+        force,
+        display_offset: display_offset(force, pen, object),
+        clamped: force != total,
+    }
 }

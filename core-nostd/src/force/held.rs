@@ -1,0 +1,160 @@
+//! The servo half of the pen: the force at the pen's current pose from the last contact pass.
+//!
+//! A contact pass ([`pen_pass`](super::pen_pass): collisions both ways and their consistent
+//! depths) may take longer than a servo tick; DESIGN section 4 runs it in the simulation task
+//! and leaves the servo only the force. [`pen_servo_force`] holds the pass's penetrations and
+//! carries each one to the current pose to first order, as the sphere burr's servo carries its
+//! contact plane (seed 001 section 3.3):
+//!
+//! - a pen node inside the object moved by `m` along its direction since the pass (the pen
+//!   moved, the object did not): its depth is `d - m`;
+//! - an object node inside the pen moved by `m` along its direction *in the pen's frame*: its
+//!   depth is `d - m`, and its direction turns with the pen.
+//!
+//! A depth that was not negative is never carried below zero (the node left the other body).
+//! This is exact for a flat surface while no node enters or leaves the other body; the next
+//! pass brings the nodes that did. At the pass's own pose every depth and direction is the
+//! pass's, bit for bit, so [`pen_servo_force`] then gives [`pen_contact`](super::pen_contact)'s
+//! force.
+
+use glam::{Affine3A, Quat, Vec3};
+
+use super::pen::{respond, PenForce, PenOptions, PenScene, PenState};
+use crate::depth::Penetration;
+
+/// One contact pass's penetrations, as the servo holds them: the pose the pass was made at
+/// and what it wrote ([`super::PenBuffers::pen_pens`] and
+/// [`super::PenBuffers::object_pens`], up to [`super::PenPass::penetrations`]).
+#[derive(Clone, Copy, Debug)]
+pub struct HeldContact<'h> {
+    /// The pen's tip at the pass.
+    pub position: Vec3,
+    /// The pen's rotation at the pass.
+    pub rotation: Quat,
+    /// Pen nodes inside the object (directions out of the object).
+    pub pen: &'h [Penetration],
+    /// Object nodes inside the pen (directions out of the pen).
+    pub object: &'h [Penetration],
+}
+
+impl HeldContact<'_> {
+    /// No pass yet: no penetration, so no force (damping acts only in contact).
+    pub const NONE: HeldContact<'static> = HeldContact {
+        position: Vec3::ZERO,
+        rotation: Quat::IDENTITY,
+        pen: &[],
+        object: &[],
+    };
+}
+
+/// The servo's storage for the carried penetrations; the lengths are the capacities.
+#[derive(Debug)]
+pub struct ServoScratch<'b> {
+    /// The pen nodes' penetrations at the current pose.
+    pub pen: &'b mut [Penetration],
+    /// The object nodes' penetrations at the current pose.
+    pub object: &'b mut [Penetration],
+}
+
+/// What one servo tick gives.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct PenServo {
+    /// The force (as [`pen_contact`](super::pen_contact) gives it from the carried
+    /// penetrations).
+    pub force: PenForce,
+    /// Penetrations carried (pen nodes, object nodes).
+    pub carried: (usize, usize),
+    /// `true` when the scratch could not hold every held penetration (those beyond are left
+    /// out of the force) or a held node is beyond its mesh (left out).
+    pub short: bool,
+}
+
+/// The pen's force at `position` and `rotation` from the held pass `held`: each penetration
+/// carried to this pose (module docs), then stiffness, the entry-plane remedy when
+/// `opts.entry_remedy`, damping, clamping and the displayed offset as
+/// [`pen_contact`](super::pen_contact) does. Uses only [`PenState::tool`] and
+/// [`PenState::entry`] of `state`.
+///
+/// # Bounded work
+/// O(held penetrations): per pen node two point transforms, per object node two point
+/// transforms and two rotations, then [`pen_contact`](super::pen_contact)'s force. Nothing
+/// else: no search, no hash. At most `now`'s lengths are carried ([`PenServo::short`]).
+pub fn pen_servo_force(
+    scene: &PenScene<'_, '_, '_>,
+    held: &HeldContact<'_>,
+    now: &mut ServoScratch<'_>,
+    position: Vec3,
+    rotation: Quat,
+    opts: &PenOptions,
+    state: &mut PenState,
+) -> PenServo {
+    let mut out = PenServo::default();
+    let pose = Affine3A::from_rotation_translation(rotation, position);
+    let then = Affine3A::from_rotation_translation(held.rotation, held.position);
+    let rest = scene.pen.positions();
+
+    let mut np = 0usize;
+    for q in held.pen {
+        let Some(&r) = rest.get(q.node.idx()) else {
+            out.short = true;
+            continue;
+        };
+        let Some(slot) = now.pen.get_mut(np) else {
+            out.short = true;
+            break;
+        };
+        let moved = pose.transform_point3(r) - then.transform_point3(r);
+        *slot = Penetration {
+            depth: carried(q.depth, moved.dot(q.dir)),
+            ..*q
+        };
+        np += 1;
+    }
+
+    let mut no = 0usize;
+    let same_turn = rotation == held.rotation;
+    let (inv, inv_then) = (pose.inverse(), then.inverse());
+    let back = held.rotation.inverse();
+    for q in held.object {
+        let Some(&y) = scene.object.positions.get(q.node.idx()) else {
+            out.short = true;
+            continue;
+        };
+        let Some(slot) = now.object.get_mut(no) else {
+            out.short = true;
+            break;
+        };
+        let rest_dir = back * q.dir;
+        let moved = inv.transform_point3(y) - inv_then.transform_point3(y);
+        *slot = Penetration {
+            depth: carried(q.depth, moved.dot(rest_dir)),
+            dir: if same_turn {
+                q.dir
+            } else {
+                rotation * rest_dir
+            },
+            ..*q
+        };
+        no += 1;
+    }
+    out.carried = (np, no);
+
+    let pens = now.pen.get(..np).unwrap_or(&[]);
+    let objs = now.object.get(..no).unwrap_or(&[]);
+    out.force = respond(
+        |n| rest.get(n.idx()).map(|&r| pose.transform_point3(r)),
+        pens,
+        objs,
+        position,
+        opts,
+        state,
+    );
+    out
+}
+
+/// A held depth `d` after its node moved `m` along its direction: `d - m`, not below zero
+/// unless `d` was (then not below `d`). `m == 0` gives `d` exactly.
+#[inline]
+fn carried(d: f32, m: f32) -> f32 {
+    (d - m).max(d.min(0.0))
+}
