@@ -59,6 +59,10 @@ pub struct Scenario {
     pub depth_method: DepthMethod,
     /// Whether a mesh tool's border edges reuse last tick's crossing faces.
     pub crossings: Crossings,
+    /// Mesh tool: servo ticks per contact pass. The pass (collisions and depths) runs every
+    /// `contact_period`-th tick and the servo carries its penetrations to the pose of the
+    /// ticks between (`tetradrill_core::force::pen_servo_force`); 1 passes every tick (exact).
+    pub contact_period: u32,
     /// Deepest subdivision level of a drilled tet.
     pub max_depth: u8,
     /// Refinement stops below this face area (mesh units squared).
@@ -218,6 +222,7 @@ impl Default for Scenario {
             switch_ms: 16.0,
             depth_method: DepthMethod::Traced,
             crossings: Crossings::Reuse,
+            contact_period: 1,
             max_depth: 5,
             min_area: 0.0,
             hierarchy_capacity: 1 << 20,
@@ -284,6 +289,10 @@ pub struct ScenarioFlags {
     /// (default), or `search` every tick (exact).
     #[arg(long, value_enum)]
     pub crossings: Option<Crossings>,
+    /// Mesh tool: servo ticks per contact pass (1..=1000); between passes the servo carries
+    /// the last pass's penetrations to the current pose. 1 (default): a pass every tick.
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub contact_period: Option<u32>,
     /// Deepest subdivision level (1..=9).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u8).range(1..=9))]
     pub max_depth: Option<u8>,
@@ -398,6 +407,7 @@ impl Scenario {
         take!(
             depth_method,
             crossings,
+            contact_period,
             max_depth,
             min_area,
             hierarchy_capacity,
@@ -458,6 +468,15 @@ impl Scenario {
             return Err((
                 "max_depth",
                 format!("max_depth must be 1..=9, got {}", self.max_depth),
+            ));
+        }
+        if !(1..=1000).contains(&self.contact_period) {
+            return Err((
+                "contact_period",
+                format!(
+                    "contact_period must be 1..=1000, got {}",
+                    self.contact_period
+                ),
             ));
         }
         if self.budget_per_tick == 0 {

@@ -351,3 +351,78 @@ fn mesh_tool_crossings_reuse_by_default_and_search_on_request() {
     );
     refused(&["replay", "--crossings", "sometimes"], &["--crossings"]);
 }
+
+/// `--contact-period N`: a mesh tool's contact pass runs every N-th tick and the servo
+/// carries the last pass to the ticks between. The default is a pass every tick, the same
+/// forces bit for bit as `--contact-period 1`; with 4 the replay makes a quarter of the
+/// passes, its forces differ, and the JSON times the servo half and the passes apart. A
+/// period out of range, or one with a sphere tool (whose replay simulates every tick), exits
+/// 2 naming the flag; a scenario file's value is checked the same way.
+#[test]
+fn mesh_tool_contact_period_spaces_the_passes() {
+    let dir = scratch_dir("runner", "contact-period");
+    let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
+    let tool = format!("mesh:{}", pen.display());
+    let mut runs = Vec::new();
+    for period in ["", "1", "4"] {
+        let out_json = dir.join(format!("period-{period}.json"));
+        let mut args = vec![
+            "replay",
+            "--quiet",
+            "--mesh",
+            "builtin:block:8",
+            "--tool",
+            &tool,
+            "--tool-scale",
+            "10",
+            "--trace",
+            "wander:3",
+            "--ticks",
+            "1501",
+            "--max-force",
+            "10000",
+            "--json",
+            out_json.to_str().unwrap(),
+        ];
+        if !period.is_empty() {
+            args.extend(["--contact-period", period]);
+        }
+        let out = run(&args);
+        assert!(
+            out.status.success(),
+            "{period}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let j = json(&out_json);
+        let servo_max = j["pen"]["servo_us"]["tick_max"]
+            .as_f64()
+            .expect("servo max");
+        let pass_max = j["pen"]["pass_us"]["tick_max"].as_f64().expect("pass max");
+        assert!(servo_max > 0.0 && pass_max > 0.0, "{period}: {j}");
+        runs.push((
+            j["force_digest"].as_str().expect("digest").to_string(),
+            j["pen"]["passes"].as_u64().expect("passes"),
+            j["pen"]["contact_period"].as_u64().expect("period"),
+            j["force"]["contact_ticks"].as_u64().expect("contact ticks"),
+        ));
+    }
+    let [default, one, four] = [&runs[0], &runs[1], &runs[2]];
+    assert_eq!(default, one);
+    assert_eq!((one.1, one.2), (1501, 1));
+    assert_eq!((four.1, four.2), (376, 4), "ticks 0, 4, ..., 1500");
+    assert!(one.3 > 100, "the pen must touch: {one:?}");
+    assert_ne!(four.0, one.0, "carried forces are not the passes'");
+    refused(
+        &["replay", "--tool", &tool, "--contact-period", "0"],
+        &["--contact-period"],
+    );
+    refused(
+        &["replay", "--tool", "sphere:0.1", "--contact-period", "2"],
+        &["--contact-period"],
+    );
+    let bad = write(&dir, "period.toml", "contact_period = 5000\n");
+    refused(
+        &["replay", "--scenario", bad.to_str().unwrap()],
+        &["period.toml:1:", "contact_period"],
+    );
+}

@@ -4,9 +4,10 @@
 use std::path::PathBuf;
 
 use serde::Serialize;
+use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
-    pen_contact, DepthMethod as PenMethod, ForceDigest, ForceParams, PenOptions, PenState,
-    ToolState,
+    pen_pass, pen_servo_force, DepthMethod as PenMethod, ForceDigest, ForceParams, HeldContact,
+    PenOptions, PenState, ServoScratch, ToolState,
 };
 use tetradrill_core::servo::Saturations;
 use tetradrill_core::Quat;
@@ -110,6 +111,16 @@ pub struct PenSummary {
     pub border_edges: u64,
     /// Of them, crossings taken from last tick's face without a search (`crossings = "reuse"`).
     pub reused_crossings: u64,
+    /// Servo ticks per contact pass (`contact_period`).
+    pub contact_period: u32,
+    /// Contact passes run.
+    pub passes: u64,
+    /// Time of the servo half alone (the force carried from the last pass), every tick.
+    pub servo_us: TickTiming,
+    /// Time of the contact passes alone.
+    pub pass_us: TickTiming,
+    /// Ticks whose servo could not carry every held penetration (left out of the force).
+    pub servo_short_ticks: u64,
 }
 
 /// Mesh counts of a report.
@@ -136,7 +147,7 @@ pub struct ForceSummary {
 }
 
 /// Tick timing of a report, microseconds.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Default, Serialize)]
 pub struct TickTiming {
     /// Mean.
     pub tick_mean: f64,
@@ -247,6 +258,12 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
             ));
         }
         return replay_pen(args, sc, &pen);
+    }
+    if sc.contact_period != 1 {
+        return Err(CliError::input(
+            "--contact-period spaces a mesh tool's contact passes; a sphere tool's replay \
+             simulates every tick",
+        ));
     }
     let view = crate::viewer::ViewOptions::of(true, args.screenshot.clone())?;
     let params = TickParams::of(&sc)?;
@@ -474,36 +491,75 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
         contacts: sc.contact_capacity,
         queue: sc.queue_capacity,
     };
+    let period = u64::from(sc.contact_period.max(1));
+    pen_info.contact_period = sc.contact_period;
+    let mut servo_times = vec![0u64; ticks as usize];
+    let mut pass_times = Vec::with_capacity(ticks.div_ceil(period) as usize);
     let ((), setup) = rig
         .with_sizes(sizes, |scene, bufs| {
             let mut state = PenState::default();
+            // The servo's scratch: as many penetrations as the pass may write.
+            let mut now_pen = vec![Penetration::default(); bufs.pen_pens.len()];
+            let mut now_obj = vec![Penetration::default(); bufs.object_pens.len()];
+            let mut now = ServoScratch {
+                pen: &mut now_pen,
+                object: &mut now_obj,
+            };
+            let mut held = (Vec3::ZERO, Quat::IDENTITY, (0usize, 0usize));
             for i in 0..ticks {
                 let pose = poses.at(i);
                 let [w, x, y, z] = pose.rotation;
                 let rot = Quat::from_xyzw(x, y, z, w).normalize();
                 let t0 = now_ns();
-                let c = pen_contact(scene, bufs, pose.position, rot, &opts, &mut state);
-                times[i as usize] = now_ns() - t0;
-                digest.push(c.force);
-                max_n = max_n.max(c.force.length());
-                contact_ticks += (c.force != Vec3::ZERO) as u64;
-                last = c.force;
+                let pass = (i % period == 0)
+                    .then(|| pen_pass(scene, bufs, pose.position, rot, &opts, &mut state));
+                let t1 = now_ns();
+                if let Some(c) = &pass {
+                    held = (pose.position, rot, c.penetrations);
+                }
+                let contact = HeldContact {
+                    position: held.0,
+                    rotation: held.1,
+                    pen: bufs.pen_pens.get(..held.2 .0).unwrap_or(&[]),
+                    object: bufs.object_pens.get(..held.2 .1).unwrap_or(&[]),
+                };
+                let f = pen_servo_force(
+                    scene,
+                    &contact,
+                    &mut now,
+                    pose.position,
+                    rot,
+                    &opts,
+                    &mut state,
+                );
+                let t2 = now_ns();
+                times[i as usize] = t2 - t0;
+                servo_times[i as usize] = t2 - t1;
+                digest.push(f.force.force);
+                max_n = max_n.max(f.force.force.length());
+                contact_ticks += (f.force.force != Vec3::ZERO) as u64;
+                last = f.force.force;
+                pen_info.clamped_ticks += f.force.clamped as u64;
+                pen_info.servo_short_ticks += f.short as u64;
+                let Some(c) = pass else { continue };
+                pass_times.push(t1 - t0);
+                pen_info.passes += 1;
                 pen_info.pen_collisions_max =
                     pen_info.pen_collisions_max.max(c.pen_collisions.count);
                 pen_info.object_collisions_max = pen_info
                     .object_collisions_max
                     .max(c.object_collisions.count);
                 pen_info.unreached += (c.pen_depth.unreached + c.object_depth.unreached) as u64;
-                pen_info.clamped_ticks += c.clamped as u64;
                 pen_info.border_edges +=
                     (c.pen_depth.border_edges + c.object_depth.border_edges) as u64;
                 pen_info.reused_crossings += (c.pen_depth.reused + c.object_depth.reused) as u64;
-                pen_info.saturated_ticks += c.saturated() as u64;
                 let (p, o) = (&c.pen_depth, &c.object_depth);
-                sat.contacts += (c.pen_collisions.saturated
+                let full = c.pen_collisions.saturated
                     || c.object_collisions.saturated
                     || p.out_full
-                    || o.out_full) as u32;
+                    || o.out_full;
+                pen_info.saturated_ticks += c.saturated() as u64;
+                sat.contacts += full as u32;
                 sat.queue += (p.queue_full || o.queue_full) as u32;
                 if progress && i % 5000 == 0 {
                     eprint!(
@@ -518,6 +574,8 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
         eprintln!("\rreplay: 100% ({ticks}/{ticks} ticks)");
     }
     let t = summarise_ns(&times);
+    pen_info.servo_us = TickTiming::from(summarise_ns(&servo_times));
+    pen_info.pass_us = TickTiming::from(summarise_ns(&pass_times));
     let rep = ReplayReport {
         mesh: counts,
         ticks,
@@ -557,6 +615,18 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
             p.clamped_ticks,
             p.reused_crossings,
             p.border_edges
+        );
+        println!(
+            "servo half us: mean {:.1}  p99 {:.1}  max {:.1};  {} contact passes (every {} \
+             ticks) us: mean {:.1}  p99 {:.1}  max {:.1}",
+            p.servo_us.tick_mean,
+            p.servo_us.tick_p99,
+            p.servo_us.tick_max,
+            p.passes,
+            p.contact_period,
+            p.pass_us.tick_mean,
+            p.pass_us.tick_p99,
+            p.pass_us.tick_max
         );
     }
     if let Some(path) = &args.json {
