@@ -10,7 +10,7 @@
 #   folder, default target/worst-case), WORST_ONLY (one scenario name).
 #
 # Instructions per tick, how: the harness does each tick in one `#[inline(never)]` function
-# (`worst_case::drill_tick` / `worst_case::pen_tick`). callgrind runs with collection off at
+# (`worst_case::drill_tick`, `pen_tick`, `servo_tick`). callgrind runs with collection off at
 # start and toggled on only inside that function (`--toggle-collect=worst_case::drill_tick`), and dumps its counters
 # after every call (`--dump-after`), so dump k holds exactly the instructions of tick k
 # (set-up, the pose search and the timing code are never counted). The script reads the
@@ -33,7 +33,7 @@ cargo build --release --quiet -p tetradrill-benches --bin worst_case
 bin=$target/release/worst_case
 [ -x "$bin" ] || { echo "worst-case.sh: no harness binary at $bin" >&2; exit 2; }
 
-scenarios="burr-cow pen-teddy drill-teddy-b1 drill-teddy-bdefault drill-teddy-bmax"
+scenarios="burr-cow pen-teddy pen-teddy-servo drill-teddy-b1 drill-teddy-bdefault drill-teddy-bmax"
 if [ -n "${WORST_ONLY:-}" ]; then scenarios=$WORST_ONLY; fi
 
 echo "== host time per tick, $ticks ticks each ($(nproc) cores, load: $(cut -d' ' -f1-3 /proc/loadavg)) =="
@@ -56,6 +56,7 @@ for s in $scenarios; do
   mkdir -p "$d"
   fn=worst_case::drill_tick
   [ "$s" = pen-teddy ] && fn=worst_case::pen_tick
+  [ "$s" = pen-teddy-servo ] && fn=worst_case::servo_tick
   # Exact names: valgrind 3.19 matched the toggle but not the dump with a wildcard pattern.
   valgrind --tool=callgrind --callgrind-out-file="$d/cg.out" \
     --collect-atstart=no --toggle-collect="$fn" \

@@ -25,7 +25,8 @@ use tetradrill_core::depth::{
     graph_sizes, hash_boundary_faces, DepthScratch, NodeGraph, NodeSlot, Penetration,
 };
 use tetradrill_core::force::{
-    mesh_sphere_contact, pen_contact, DepthMethod, PenBuffers, PenOptions, PenScene, PenState,
+    mesh_sphere_contact, pen_contact, pen_pass, pen_servo_force, DepthMethod, HeldContact,
+    PenBuffers, PenOptions, PenScene, PenState, ServoScratch,
 };
 use tetradrill_core::hash::{average_edge_length, prime_at_most, HashEntry, SpatialHash};
 use tetradrill_core::ids::{NodeId, TetId};
@@ -295,6 +296,55 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
         });
     }
     g.finish();
+
+    // The servo half alone (`pen_servo_force`): each touching pose's pass held (copied,
+    // untimed), carried to the pose moved 0.5 mm, as a servo tick does between passes.
+    let held: Vec<(Vec3, Quat, Vec<Penetration>, Vec<Penetration>)> = ps_list
+        .iter()
+        .map(|&(p, q)| {
+            let r = pen_pass(&scene, &mut bufs, p, q, &traced, &mut PenState::default());
+            let (np, no) = r.penetrations;
+            (
+                p,
+                q,
+                bufs.pen_pens[..np].to_vec(),
+                bufs.object_pens[..no].to_vec(),
+            )
+        })
+        .collect();
+    let (mut a, mut b) = (
+        vec![Penetration::default(); pen.node_count()],
+        vec![Penetration::default(); obj.node_count()],
+    );
+    let mut now = ServoScratch {
+        pen: &mut a,
+        object: &mut b,
+    };
+    let step = Vec3::new(3e-4, -3e-4, 2.5e-4);
+    let servo = |i: usize, st: &mut PenState, now: &mut ServoScratch<'_>| {
+        let (p, q, pens, objs) = &held[i];
+        let h = HeldContact {
+            position: *p,
+            rotation: *q,
+            pen: pens,
+            object: objs,
+        };
+        pen_servo_force(&scene, &h, now, *p + step, *q, &traced, st)
+    };
+    let mut st = PenState::default();
+    report(
+        &format!("pen_servo/{label}"),
+        worst(held.len(), 20, |i| {
+            black_box(servo(i, &mut st, &mut now));
+        }),
+    );
+    let mut i = 0usize;
+    c.bench_function(&format!("pen_servo/{label}"), |bch| {
+        bch.iter(|| {
+            i += 1;
+            black_box(servo(i % held.len(), &mut st, &mut now))
+        })
+    });
 
     // Collision queries only: our hash vs parry3d's BVH over the same tet boxes, the same
     // points (the pen's nodes at each pose), smallest containing tet per point.

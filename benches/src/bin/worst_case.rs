@@ -10,6 +10,10 @@
 //!   per-tick step as `replay` (`engine::tick`: `World::simulate` + `servo_force`);
 //! - `pen-teddy`: the pen (x10) buried in the teddy at the pose that puts the most of its
 //!   nodes inside (searched once before timing), tip circling 5 mm, `pen_contact` per tick;
+//! - `pen-teddy-servo`: the pen at the pose (same search) with the most penetrations (a
+//!   buried pen has none: no border edge), the same circling path, each tick's pass untimed,
+//!   then the servo half (`pen_servo_force`, function `servo_tick`) timed carrying that pass
+//!   to the next tick's pose: the servo's work is its penetrations;
 //! - `drill-teddy-b1`, `drill-teddy-bdefault`, `drill-teddy-bmax`: the burr r 0.03 dragged along
 //!   the teddy's surface at max depth 5 with the smallest budget the scenario accepts (1), the
 //!   default (the issue's target row) and the largest (`u32::MAX`, no budget).
@@ -27,8 +31,10 @@ use tetradrill::owned::OwnedMesh;
 use tetradrill::pen::PenRig;
 use tetradrill::scenario::Scenario;
 use tetradrill::traces::Pose;
+use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
-    pen_contact, ForceParams, PenBuffers, PenContact, PenOptions, PenScene, PenState, ToolState,
+    pen_contact, pen_pass, pen_servo_force, ForceParams, HeldContact, PenBuffers, PenContact,
+    PenOptions, PenPass, PenScene, PenServo, PenState, ServoScratch, ToolState,
 };
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::servo::{SimReport, World};
@@ -37,9 +43,10 @@ use tetradrill_core::{NodeId, Quat, TetId, Vec3};
 const COW_COARSE: &str = "models/spot_tetgen_coarse.node";
 const TEDDY: &str = "models/teddy_cgalbear_tetgen_q1.414.node";
 const PEN: &str = "models/pen_tool_gmsh.mesh";
-const SCENARIOS: [&str; 5] = [
+const SCENARIOS: [&str; 6] = [
     "burr-cow",
     "pen-teddy",
+    "pen-teddy-servo",
     "drill-teddy-b1",
     "drill-teddy-bdefault",
     "drill-teddy-bmax",
@@ -377,7 +384,25 @@ fn pen_tick(
     pen_contact(scene, bufs, tip, rot, opts, state)
 }
 
-fn pen_scenario(meshes: &Path, pen_scale: f64, ticks: u64) -> Result<(), ExitCode> {
+/// One servo half of the pen: the force carried from a held pass.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn servo_tick(
+    scene: &PenScene<'_, '_, '_>,
+    held: &HeldContact<'_>,
+    now: &mut ServoScratch<'_>,
+    tip: Vec3,
+    rot: Quat,
+    opts: &PenOptions,
+    state: &mut PenState,
+) -> PenServo {
+    pen_servo_force(scene, held, now, tip, rot, opts, state)
+}
+
+/// `pen-teddy` (`servo` false: the whole tick, [`pen_tick`]) or `pen-teddy-servo` (`servo`
+/// true: each tick's pass untimed, then the servo half timed at the next tick's pose,
+/// carrying the most penetrations the buried pen gives).
+fn pen_scenario(meshes: &Path, pen_scale: f64, ticks: u64, servo: bool) -> Result<(), ExitCode> {
     let mut rig = PenRig {
         pen: load(&meshes.join(PEN), pen_scale)?,
         obj: load(&meshes.join(TEDDY), 1.0)?,
@@ -426,10 +451,15 @@ fn pen_scenario(meshes: &Path, pen_scale: f64, ticks: u64) -> Result<(), ExitCod
                 for sign in [1.0f32, -1.0] {
                     let rot = Quat::from_rotation_arc(Vec3::Z, d * sign);
                     let c2 = pen_contact(scene, bufs, c, rot, &opts, &mut state);
-                    let n = c2.pen_collisions.count;
+                    // The servo's work is its penetrations; the pass's, the nodes inside.
+                    let n = if servo {
+                        c2.penetrations.0 + c2.penetrations.1
+                    } else {
+                        c2.pen_collisions.count
+                    };
                     if n > best.0 {
                         best = (n, c, rot);
-                        if n == pen_nodes {
+                        if n == pen_nodes && !servo {
                             break 'search;
                         }
                     }
@@ -440,31 +470,86 @@ fn pen_scenario(meshes: &Path, pen_scale: f64, ticks: u64) -> Result<(), ExitCod
         let mut state = PenState::default();
         let mut ns = Vec::with_capacity(ticks as usize);
         let (mut most_pen, mut most_obj, mut sat, mut work) = (0usize, 0usize, 0u64, 0u32);
-        for i in 0..ticks {
+        let mut now_pen = vec![Penetration::default(); bufs.pen_pens.len()];
+        let mut now_obj = vec![Penetration::default(); bufs.object_pens.len()];
+        let mut carried = 0usize;
+        let at = |i: u64| {
             let a = i as f32 * std::f32::consts::TAU / 1000.0;
-            let p = tip + Vec3::new(a.cos(), a.sin(), 0.0) * 0.005;
+            tip + Vec3::new(a.cos(), a.sin(), 0.0) * 0.005
+        };
+        for i in 0..ticks {
+            let p = at(i);
             let t0 = Instant::now();
-            let c = pen_tick(scene, bufs, p, rot, &opts, &mut state);
-            ns.push(t0.elapsed().as_nanos() as u64);
+            let c = if servo {
+                let c = pen_pass(scene, bufs, p, rot, &opts, &mut state);
+                let (np, no) = c.penetrations;
+                let held = HeldContact {
+                    position: p,
+                    rotation: rot,
+                    pen: &bufs.pen_pens[..np],
+                    object: &bufs.object_pens[..no],
+                };
+                let mut now = ServoScratch {
+                    pen: &mut now_pen,
+                    object: &mut now_obj,
+                };
+                let t1 = Instant::now();
+                let s = servo_tick(scene, &held, &mut now, at(i + 1), rot, &opts, &mut state);
+                ns.push(t1.elapsed().as_nanos() as u64);
+                carried = carried.max(s.carried.0 + s.carried.1);
+                c
+            } else {
+                let c = pen_tick(scene, bufs, p, rot, &opts, &mut state);
+                ns.push(t0.elapsed().as_nanos() as u64);
+                PenPass {
+                    pen_collisions: c.pen_collisions,
+                    object_collisions: c.object_collisions,
+                    pen_depth: c.pen_depth,
+                    object_depth: c.object_depth,
+                    penetrations: c.penetrations,
+                    world_short: c.world_short,
+                    hashed_unavailable: c.hashed_unavailable,
+                }
+            };
             most_pen = most_pen.max(c.pen_collisions.count);
             most_obj = most_obj.max(c.object_collisions.count);
             sat += c.saturated() as u64;
             work = work.max(c.pen_depth.work + c.object_depth.work);
         }
-        (ns, inside, tip, rot, most_pen, most_obj, sat, work)
+        (ns, inside, tip, rot, most_pen, most_obj, sat, work, carried)
     });
-    let (ns, inside, tip, rot, most_pen, most_obj, sat, work) = res.map_err(|e| {
+    let (ns, inside, tip, rot, most_pen, most_obj, sat, work, carried) = res.map_err(|e| {
         eprintln!("worst_case: pen rig: {e}");
         ExitCode::from(2)
     })?;
     let axis = rot * Vec3::Z;
     let notes = format!(
-        "pen x{pen_scale}, traced depth; {inside} of {pen_nodes} pen nodes inside at the chosen pose \
+        "pen x{pen_scale}, traced depth; {inside} {} at the chosen pose \
          (tip {:.3} {:.3} {:.3}, axis {:.2} {:.2} {:.2}); max pen nodes in {most_pen}, teddy nodes in pen {most_obj}; \
-         max depth work {work}; saturated ticks {sat}",
-        tip.x, tip.y, tip.z, axis.x, axis.y, axis.z
+         max depth work {work}; saturated ticks {sat}{}",
+        if servo {
+            "penetrations (pen and teddy nodes)".to_string()
+        } else {
+            format!("of {pen_nodes} pen nodes inside")
+        },
+        tip.x,
+        tip.y,
+        tip.z,
+        axis.x,
+        axis.y,
+        axis.z,
+        if servo {
+            format!("; servo half only: most penetrations carried {carried}")
+        } else {
+            String::new()
+        }
     );
-    print_summary("pen-teddy", &summarise(&ns), &notes);
+    let name = if servo {
+        "pen-teddy-servo"
+    } else {
+        "pen-teddy"
+    };
+    print_summary(name, &summarise(&ns), &notes);
     Ok(())
 }
 
@@ -486,7 +571,10 @@ fn run() -> Result<(), ExitCode> {
         )?;
     }
     if want("pen-teddy") {
-        pen_scenario(&a.meshes, a.pen_scale, a.ticks)?;
+        pen_scenario(&a.meshes, a.pen_scale, a.ticks, false)?;
+    }
+    if want("pen-teddy-servo") {
+        pen_scenario(&a.meshes, a.pen_scale, a.ticks, true)?;
     }
     let teddy = a.meshes.join(TEDDY);
     for (name, budget) in [

@@ -17,7 +17,7 @@
 //! pass's, bit for bit, so [`pen_servo_force`] then gives [`pen_contact`](super::pen_contact)'s
 //! force.
 
-use glam::{Affine3A, Quat, Vec3};
+use glam::{Affine3A, Mat3A, Quat, Vec3};
 
 use super::pen::{respond, PenForce, PenOptions, PenScene, PenState};
 use crate::depth::Penetration;
@@ -76,8 +76,8 @@ pub struct PenServo {
 /// [`PenState::entry`] of `state`.
 ///
 /// # Bounded work
-/// O(held penetrations): per pen node two point transforms, per object node two point
-/// transforms and two rotations, then [`pen_contact`](super::pen_contact)'s force. Nothing
+/// O(held penetrations): per pen node one point transform, per object node one point
+/// transform and two 3x3 products, then [`pen_contact`](super::pen_contact)'s force. Nothing
 /// else: no search, no hash. At most `now`'s lengths are carried ([`PenServo::short`]).
 pub fn pen_servo_force(
     scene: &PenScene<'_, '_, '_>,
@@ -92,6 +92,9 @@ pub fn pen_servo_force(
     let pose = Affine3A::from_rotation_translation(rotation, position);
     let then = Affine3A::from_rotation_translation(held.rotation, held.position);
     let rest = scene.pen.positions();
+    // How a point fixed to the pen moved since the pass (one transform instead of two, and
+    // exactly zero at the pass's pose).
+    let step = difference(&pose, &then);
 
     let mut np = 0usize;
     for q in held.pen {
@@ -103,7 +106,7 @@ pub fn pen_servo_force(
             out.short = true;
             break;
         };
-        let moved = pose.transform_point3(r) - then.transform_point3(r);
+        let moved = step.transform_point3(r);
         *slot = Penetration {
             depth: carried(q.depth, moved.dot(q.dir)),
             ..*q
@@ -113,8 +116,11 @@ pub fn pen_servo_force(
 
     let mut no = 0usize;
     let same_turn = rotation == held.rotation;
-    let (inv, inv_then) = (pose.inverse(), then.inverse());
-    let back = held.rotation.inverse();
+    // How a point fixed in the world moved in the pen's frame since the pass, and the turns
+    // from the world to the pen's frame at the pass and from there to the world now.
+    let seen = difference(&pose.inverse(), &then.inverse());
+    let back = Mat3A::from_quat(held.rotation.inverse());
+    let turn = Mat3A::from_quat(rotation) * back;
     for q in held.object {
         let Some(&y) = scene.object.positions.get(q.node.idx()) else {
             out.short = true;
@@ -124,15 +130,10 @@ pub fn pen_servo_force(
             out.short = true;
             break;
         };
-        let rest_dir = back * q.dir;
-        let moved = inv.transform_point3(y) - inv_then.transform_point3(y);
+        let moved = seen.transform_point3(y);
         *slot = Penetration {
-            depth: carried(q.depth, moved.dot(rest_dir)),
-            dir: if same_turn {
-                q.dir
-            } else {
-                rotation * rest_dir
-            },
+            depth: carried(q.depth, moved.dot(back * q.dir)),
+            dir: if same_turn { q.dir } else { turn * q.dir },
             ..*q
         };
         no += 1;
@@ -150,6 +151,15 @@ pub fn pen_servo_force(
         state,
     );
     out
+}
+
+/// `a - b` as maps of points: `(a - b)(x) = a(x) - b(x)` up to rounding, zero when `a == b`.
+#[inline]
+fn difference(a: &Affine3A, b: &Affine3A) -> Affine3A {
+    Affine3A {
+        matrix3: a.matrix3 - b.matrix3,
+        translation: a.translation - b.translation,
+    }
 }
 
 /// A held depth `d` after its node moved `m` along its direction: `d - m`, not below zero
