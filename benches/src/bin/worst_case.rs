@@ -34,7 +34,7 @@ use tetradrill::traces::Pose;
 use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
     pen_contact, pen_pass, pen_servo_force, ForceParams, HeldContact, PenBuffers, PenContact,
-    PenOptions, PenPass, PenScene, PenServo, PenState, ServoScratch, ToolState,
+    PenOptions, PenScene, PenServo, PenState, ServoScratch, ToolState,
 };
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::servo::{SimReport, World};
@@ -501,15 +501,7 @@ fn pen_scenario(meshes: &Path, pen_scale: f64, ticks: u64, servo: bool) -> Resul
             } else {
                 let c = pen_tick(scene, bufs, p, rot, &opts, &mut state);
                 ns.push(t0.elapsed().as_nanos() as u64);
-                PenPass {
-                    pen_collisions: c.pen_collisions,
-                    object_collisions: c.object_collisions,
-                    pen_depth: c.pen_depth,
-                    object_depth: c.object_depth,
-                    penetrations: c.penetrations,
-                    world_short: c.world_short,
-                    hashed_unavailable: c.hashed_unavailable,
-                }
+                c.pass()
             };
             most_pen = most_pen.max(c.pen_collisions.count);
             most_obj = most_obj.max(c.object_collisions.count);

@@ -181,13 +181,6 @@ pub struct PenContact {
 impl PenPass {
     /// `true` when any buffer filled in this pass (the result is valid but incomplete).
     pub fn saturated(&self) -> bool {
-        PenContact::of(*self, PenForce::default()).saturated()
-    }
-}
-
-impl PenContact {
-    /// `true` when any buffer filled this tick (the result is valid but incomplete).
-    pub fn saturated(&self) -> bool {
         self.world_short
             || self.pen_collisions.saturated
             || self.object_collisions.saturated
@@ -195,6 +188,26 @@ impl PenContact {
             || self.pen_depth.out_full
             || self.object_depth.queue_full
             || self.object_depth.out_full
+    }
+}
+
+impl PenContact {
+    /// `true` when any buffer filled this tick (the result is valid but incomplete).
+    pub fn saturated(&self) -> bool {
+        self.pass().saturated()
+    }
+
+    /// The contact half of this tick.
+    pub fn pass(&self) -> PenPass {
+        PenPass {
+            pen_collisions: self.pen_collisions,
+            object_collisions: self.object_collisions,
+            pen_depth: self.pen_depth,
+            object_depth: self.object_depth,
+            penetrations: self.penetrations,
+            world_short: self.world_short,
+            hashed_unavailable: self.hashed_unavailable,
+        }
     }
 }
 
