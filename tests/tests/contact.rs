@@ -151,6 +151,16 @@ fn rig(pen_scale: f64, obj: &str, obj_scale: f64) -> PenRig {
     }
 }
 
+/// The object's first boundary node whose normal is within ~37 degrees of `axis`: its
+/// position and normal (where the path tests start).
+fn facing(rig: &mut PenRig, axis: Vec3) -> (Vec3, Vec3) {
+    let obj = rig.obj.view();
+    let b = (0..obj.node_count())
+        .find(|&i| obj.nodes()[i].boundary && obj.normals()[i].dot(axis) > 0.8)
+        .expect("a boundary node facing the axis");
+    (obj.positions()[b], obj.normals()[b])
+}
+
 /// Random pen poses whose tip is near the object's surface, pushed in by up to `depth`.
 fn poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3, Quat)> {
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
@@ -315,13 +325,7 @@ fn full_lists_keep_previous_nodes_then_smallest_ids_cow() {
         contacts: Some(cap),
         ..Default::default()
     };
-    let (start, normal) = {
-        let obj = rig.obj.view();
-        let b = (0..obj.node_count())
-            .find(|&i| obj.nodes()[i].boundary && obj.normals()[i].z > 0.8)
-            .expect("an upward boundary node");
-        (obj.positions()[b], obj.normals()[b])
-    };
+    let (start, normal) = facing(&mut rig, Vec3::Z);
     let (mut full, mut fitted) = ([0u32; 2], [0u32; 2]);
     rig.with_sizes(sizes, |scene, bufs| {
         let mut state = PenState::default();
@@ -401,13 +405,7 @@ fn full_lists_keep_previous_nodes_then_smallest_ids_cow() {
 #[test]
 fn walked_pen_nodes_match_brute_force_along_a_path_cow() {
     let mut rig = rig(10.0, COW, 1.0);
-    let (start, normal) = {
-        let obj = rig.obj.view();
-        let b = (0..obj.node_count())
-            .find(|&i| obj.nodes()[i].boundary && obj.normals()[i].x > 0.8)
-            .expect("a boundary node facing +x");
-        (obj.positions()[b], obj.normals()[b])
-    };
+    let (start, normal) = facing(&mut rig, Vec3::X);
     let path: Vec<(Vec3, Quat)> = (0..50)
         .map(|i| {
             let rot = Quat::from_rotation_arc(Vec3::Z, normal)
@@ -469,13 +467,7 @@ fn walked_pen_nodes_match_brute_force_along_a_path_cow() {
 #[test]
 fn reused_crossings_follow_the_searched_ones_into_the_cow() {
     let mut rig = rig(10.0, COW, 1.0);
-    let (start, normal) = {
-        let obj = rig.obj.view();
-        let b = (0..obj.node_count())
-            .find(|&i| obj.nodes()[i].boundary && obj.normals()[i].y > 0.8)
-            .expect("a boundary node facing +y");
-        (obj.positions()[b], obj.normals()[b])
-    };
+    let (start, normal) = facing(&mut rig, Vec3::Y);
     let path: Vec<(Vec3, Quat)> = (0..300)
         .map(|i| {
             let t = i as f32;
@@ -1016,13 +1008,7 @@ fn servo_tick(
 #[test]
 fn servo_half_at_the_pass_pose_is_pen_contact() {
     let mut rig = rig(10.0, COW, 1.0);
-    let (start, normal) = {
-        let obj = rig.obj.view();
-        let b = (0..obj.node_count())
-            .find(|&i| obj.nodes()[i].boundary && obj.normals()[i].x > 0.8)
-            .expect("a boundary node facing +x");
-        (obj.positions()[b], obj.normals()[b])
-    };
+    let (start, normal) = facing(&mut rig, Vec3::X);
     for entry_remedy in [false, true] {
         let opts = PenOptions {
             entry_remedy,
