@@ -282,6 +282,35 @@ fn real_time_run_keeps_1khz_and_removes_what_the_replay_removes() {
     );
 }
 
+/// `replay` of the mesh tool `tool` (x10) on `builtin:block:8` along `wander:3` for `ticks`
+/// ticks (forces clamped at 10 kN), JSON to `json`, plus the flag and value in `extra` unless
+/// the value is empty.
+fn pen_on_block(tool: &str, ticks: u32, json: &Path, extra: &[&str; 2]) -> Output {
+    let ticks = ticks.to_string();
+    let mut args = vec![
+        "replay",
+        "--quiet",
+        "--mesh",
+        "builtin:block:8",
+        "--tool",
+        tool,
+        "--tool-scale",
+        "10",
+        "--trace",
+        "wander:3",
+        "--ticks",
+        &ticks,
+        "--max-force",
+        "10000",
+        "--json",
+        json.to_str().expect("a UTF-8 scratch path"),
+    ];
+    if !extra[1].is_empty() {
+        args.extend(extra);
+    }
+    run(&args)
+}
+
 /// `--crossings`: a mesh tool's border edges take last tick's crossing face when they still
 /// cross it by default (the JSON counts them), and search every tick with `search`. On the
 /// block, which is convex, a line from inside leaves it once, so the forces agree: to the bit
@@ -295,28 +324,7 @@ fn mesh_tool_crossings_reuse_by_default_and_search_on_request() {
     let mut runs = Vec::new();
     for mode in ["", "search", "reuse"] {
         let out_json = dir.join(format!("crossings-{mode}.json"));
-        let mut args = vec![
-            "replay",
-            "--quiet",
-            "--mesh",
-            "builtin:block:8",
-            "--tool",
-            &tool,
-            "--tool-scale",
-            "10",
-            "--trace",
-            "wander:3",
-            "--ticks",
-            "1500",
-            "--max-force",
-            "10000",
-            "--json",
-            out_json.to_str().unwrap(),
-        ];
-        if !mode.is_empty() {
-            args.extend(["--crossings", mode]);
-        }
-        let out = run(&args);
+        let out = pen_on_block(&tool, 1500, &out_json, &["--crossings", mode]);
         assert!(
             out.status.success(),
             "{mode}: {}",
@@ -366,28 +374,7 @@ fn mesh_tool_contact_period_spaces_the_passes() {
     let mut runs = Vec::new();
     for period in ["", "1", "4"] {
         let out_json = dir.join(format!("period-{period}.json"));
-        let mut args = vec![
-            "replay",
-            "--quiet",
-            "--mesh",
-            "builtin:block:8",
-            "--tool",
-            &tool,
-            "--tool-scale",
-            "10",
-            "--trace",
-            "wander:3",
-            "--ticks",
-            "1501",
-            "--max-force",
-            "10000",
-            "--json",
-            out_json.to_str().unwrap(),
-        ];
-        if !period.is_empty() {
-            args.extend(["--contact-period", period]);
-        }
-        let out = run(&args);
+        let out = pen_on_block(&tool, 1501, &out_json, &["--contact-period", period]);
         assert!(
             out.status.success(),
             "{period}: {}",
