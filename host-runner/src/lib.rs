@@ -27,6 +27,7 @@ pub mod hdapi;
 pub mod meshio;
 pub mod owned;
 pub mod pen;
+pub mod pen_tasks;
 pub mod platform;
 pub mod rt;
 pub mod scenario;

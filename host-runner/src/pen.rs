@@ -10,7 +10,9 @@ use tetradrill_core::depth::{
     graph_sizes, hash_boundary_faces, Crossing, DepthScratch, GraphError, NodeGraph, NodeSlot,
     Penetration,
 };
-use tetradrill_core::force::{PenBuffers, PenScene};
+use tetradrill_core::force::{
+    DepthMethod as PenMethod, ForceParams, PenBuffers, PenOptions, PenScene,
+};
 use tetradrill_core::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, SpatialHash};
 use tetradrill_core::ids::TetId;
 use tetradrill_core::{NodeId, Vec3};
@@ -97,6 +99,39 @@ pub struct PenSizes {
     pub contacts: Option<usize>,
     /// Entries of each depth propagation queue (`None`: the body's node count).
     pub queue: Option<usize>,
+}
+
+impl PenSizes {
+    /// The capacities a scenario asks for (`hash_capacity`, `contact_capacity`,
+    /// `queue_capacity`).
+    pub fn of(sc: &crate::scenario::Scenario) -> Self {
+        Self {
+            hash: sc.hash_capacity,
+            contacts: sc.contact_capacity,
+            queue: sc.queue_capacity,
+        }
+    }
+}
+
+/// The pen options a scenario asks for: its stiffness, damping and force clamp at the servo's
+/// period, its depth method and crossing rule.
+pub fn options(sc: &crate::scenario::Scenario) -> PenOptions {
+    use crate::scenario::{Crossings, DepthMethod};
+    PenOptions {
+        params: ForceParams {
+            stiffness: sc.stiffness as f32,
+            damping: sc.damping as f32,
+            max_force: sc.max_force as f32,
+            dt: crate::traces::PERIOD_S as f32,
+            ..ForceParams::default()
+        },
+        method: match sc.depth_method {
+            DepthMethod::Traced => PenMethod::Traced,
+            DepthMethod::Hashed => PenMethod::Hashed,
+        },
+        reuse_crossings: sc.crossings == Crossings::Reuse,
+        ..PenOptions::default()
+    }
 }
 
 /// What setting up a pen rig counted.

@@ -3,8 +3,8 @@
 //!
 //! | task       | priority                 | period              | reads                          | writes                          |
 //! |------------|--------------------------|---------------------|--------------------------------|---------------------------------|
-//! | servo      | SCHED_FIFO 80, last core | 1 ms, absolute      | device, `ContactState`, camera `C` (triple buffers) | force to device, `ToolSample` ring |
-//! | simulation | normal                   | as fast as it can   | `ToolSample` ring              | `ContactState`, `SimStatus` (triple buffers) |
+//! | servo      | SCHED_FIFO 80, last core | 1 ms, absolute      | device, `ContactState` or `HeldPen`, camera `C` (triple buffers) | force to device, `ToolSample` ring |
+//! | simulation | normal                   | as fast as it can   | `ToolSample` ring              | `ContactState` or `HeldPen`, `SimStatus` (triple buffers) |
 //! | status     | normal                   | 250 ms              | `SimStatus`, servo counters (atomics) | the status line          |
 //! | watchdog   | SCHED_FIFO 81, not the servo's core | 1 ms     | the servo's beat (atomic)      | the device's cutoff (force off) |
 //! | viewer     | normal, the main thread  | about 60 Hz         | `Snapshot` queue, servo counters | `Controls`, camera `C` (triple buffers) |
@@ -16,6 +16,13 @@
 //! servo and the status task read without ever waiting. When the simulation is slower than the
 //! servo, the servo keeps computing the force from the last contact plane at the tool's current
 //! position: the extrapolation of seed 001 section 3.3.
+//!
+//! With a tet-mesh tool (`--tool mesh:FILE`) the same servo, watchdog and status tasks run, the
+//! servo's force law is [`crate::pen_tasks::PenLaw`] and the simulation task is the pen's
+//! contact task ([`crate::pen_tasks::pen_contact_task`]): it runs the contact pass (collisions
+//! and consistent depths) at the newest pose and publishes the pass's penetrations and pose
+//! ([`crate::pen_tasks::HeldPen`], a triple buffer); the servo carries them to the pose of each
+//! tick. No viewer with a mesh tool yet.
 //!
 //! With the live window, the viewer also publishes its camera rotation through a triple buffer
 //! the servo reads each tick ([`DeviceFrame`]): the device's positions turn with the view
@@ -33,7 +40,7 @@ use crossbeam::queue::ArrayQueue;
 use tetradrill_core::drill::Sphere;
 use tetradrill_core::force::{ForceDigest, ToolState};
 use tetradrill_core::servo::{servo_force, ContactState, World};
-use tetradrill_core::Vec3;
+use tetradrill_core::{Quat, Vec3};
 use tetradrill_device::{DeviceError, ForceCommand, HapticDevice, MotorCutoff};
 
 use crate::engine::TickParams;
@@ -61,7 +68,7 @@ pub const TASKS: [TaskDecl; 5] = [
         name: "servo",
         priority: "SCHED_FIFO 80, pinned to the last core, memory locked",
         period: "1 ms on absolute deadlines",
-        reads: "device sample; ContactState, camera C (triple buffers)",
+        reads: "device sample; ContactState or HeldPen (mesh tool), camera C (triple buffers)",
         writes: "force command to the device; ToolSample (SPSC ring); servo counters (atomics)",
     },
     TaskDecl {
@@ -69,7 +76,7 @@ pub const TASKS: [TaskDecl; 5] = [
         priority: "normal",
         period: "as fast as it can, at most once per servo tick",
         reads: "ToolSample (SPSC ring); Controls (triple buffer)",
-        writes: "ContactState, SimStatus (triple buffers); Snapshot queue (refuses when full)",
+        writes: "ContactState or HeldPen (mesh tool), SimStatus (triple buffers); Snapshot queue",
     },
     TaskDecl {
         name: "status",
@@ -108,8 +115,10 @@ pub const MAX_SPHERES: usize = 16;
 pub struct ToolSample {
     /// Servo tick.
     pub tick: u64,
-    /// Tool centre, mesh units.
+    /// Tool centre (the burr) or tip (a mesh tool), mesh units.
     pub position: Vec3,
+    /// Tool rotation in the scene (the identity for a device that senses none).
+    pub rotation: Quat,
     /// Buttons (bit 0 = drill on).
     pub buttons: u32,
 }
@@ -346,6 +355,26 @@ impl DeviceFrame {
         }
     }
 
+    /// A device rotation (unit quaternion `[w, x, y, z]`, device frame) to the scene: `C q`, the
+    /// rotation part of `P_a = C P_e`. A quaternion that is not finite or has length zero gives
+    /// [`Quat::NAN`] (a mesh tool's law then gives zero force); others are normalised.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn rotation_to_scene(&self, q: [f64; 4]) -> Quat {
+        let [w, x, y, z] = q.map(|v| v as f32);
+        let q = Quat::from_xyzw(x, y, z, w);
+        let len = q.length();
+        if !(len.is_finite() && len > 0.0) {
+            return Quat::NAN;
+        }
+        let q = q / len;
+        if self.identity {
+            return q;
+        }
+        (Quat::from_mat4(&frame_mat(&self.camera)) * q).normalize()
+    }
+
     /// A scene force (newtons) to the device frame: `C^-1 F` (zero for a singular `C`, which
     /// [`set_camera`](Self::set_camera) never takes).
     ///
@@ -437,9 +466,11 @@ pub fn camera_handoff() -> (CameraIn, CameraOut) {
     triple_buffer::TripleBuffer::new(&IDENTITY).split()
 }
 
-/// The servo task: `ticks` ticks at 1 kHz, or until `stop`. Everything it needs is allocated
-/// before its loop; the loop neither allocates nor locks (the allocation-counting test runs
-/// [`servo_tick`], the loop's body). `frame` is the device frame it starts with; with a
+/// The servo task: `ticks` ticks at 1 kHz, or until `stop`, each computing its force with
+/// `law` ([`BurrLaw`] for the drill, [`crate::pen_tasks::PenLaw`] for a mesh tool). Everything
+/// it needs is allocated before its loop; the loop neither allocates nor locks (the
+/// allocation-counting tests run [`servo_io`], the loop's body, with either law). `frame` is
+/// the device frame it starts with; with a
 /// `camera` hand-off, each tick takes the latest camera the viewer published (a triple-buffer
 /// read: a few atomic operations, never a wait).
 ///
@@ -453,8 +484,7 @@ pub fn servo_task(
     rt: RtConfig,
     ticks: u64,
     workspace: Workspace,
-    params: TickParams,
-    contact: &mut triple_buffer::Output<ContactState>,
+    law: &mut dyn ForceLaw,
     ring: &ArrayQueue<ToolSample>,
     counters: &ServoCounters,
     stop: &AtomicBool,
@@ -482,7 +512,6 @@ pub fn servo_task(
     let mut timer = Periodic::new(SERVO_PERIOD_NS, 0);
     let mut error = None;
     let mut done = 0u64;
-    let mut live = params;
     let mut window_max = 0u64;
     // The end of the last tick, and the time between the last two ends: a stall is the longer
     // of that gap (stalled inside a tick) and the time since (stalled between ticks).
@@ -493,34 +522,13 @@ pub fn servo_task(
         let t0 = now_ns();
         let stalled = last_gap.max(t0.saturating_sub(last_end));
         recover_from_stall(device, cutoff.as_deref(), watch, stalled);
-        // The viewer's controls (0: the scenario's value).
-        let r = counters.radius_bits.load(Ordering::Relaxed);
-        live.radius = if r == 0 {
-            params.radius
-        } else {
-            f32::from_bits(r)
-        };
-        let k = counters.stiffness_bits.load(Ordering::Relaxed);
-        live.force.stiffness = if k == 0 {
-            params.force.stiffness
-        } else {
-            f32::from_bits(k)
-        };
         // The viewer's camera (a matrix that is not a rotation is refused: the old one stays).
         if let Some(c) = camera.as_deref_mut() {
             if c.update() {
                 state.frame.set_camera(c.output_buffer());
             }
         }
-        let out = servo_tick(
-            device,
-            &workspace,
-            &live,
-            contact.read(),
-            ring,
-            &mut state,
-            done,
-        );
+        let out = servo_io(device, &workspace, law, ring, &mut state, done);
         let i = done as usize;
         counters.record_wake(w.latency_ns, done, &mut window_max);
         for (a, v) in counters.force_xyz.iter().zip(state.last_force.to_array()) {
@@ -593,7 +601,7 @@ pub fn recover_from_stall(
 /// What the servo carries from tick to tick.
 #[derive(Debug, Default)]
 pub struct ServoState {
-    /// Damping state.
+    /// Damping state of [`servo_tick`] (the laws of [`servo_task`] keep their own).
     pub tool: ToolState,
     /// Digest of the forces.
     pub digest: ForceDigest,
@@ -609,9 +617,77 @@ pub struct ServoState {
     pub nonfinite_samples: u64,
 }
 
-/// One servo tick: read the device, map its position into the scene through `st.frame`, hand
-/// the sample to the simulation, compute the force from the latest contact plane, write it
-/// back through the frame. Allocation-free and lock-free.
+/// Where a servo tick's force comes from: the burr's contact plane ([`BurrLaw`]) or a mesh
+/// tool's held contact ([`crate::pen_tasks::PenLaw`]). Any `FnMut(tick, position, rotation)`
+/// closure is one too.
+pub trait ForceLaw {
+    /// The force on the tool at `position` and `rotation` (scene frame) at servo tick `tick`,
+    /// newtons. Runs on the servo thread every tick: bounded work, no allocation, no lock, no
+    /// wait (hand-offs are read through triple buffers).
+    fn force(&mut self, tick: u64, position: Vec3, rotation: Quat) -> Vec3;
+}
+
+impl<F: FnMut(u64, Vec3, Quat) -> Vec3> ForceLaw for F {
+    fn force(&mut self, tick: u64, position: Vec3, rotation: Quat) -> Vec3 {
+        self(tick, position, rotation)
+    }
+}
+
+/// The burr's force law: the latest contact plane the simulation published, at the burr's
+/// current position (seed 001 section 3.3), with the viewer's radius and stiffness when it set
+/// them (`counters`).
+#[derive(Debug)]
+pub struct BurrLaw<'a> {
+    /// The scenario's parameters.
+    pub params: TickParams,
+    /// The simulation's contact plane.
+    pub contact: &'a mut triple_buffer::Output<ContactState>,
+    /// The viewer's controls (radius and stiffness, 0 = the scenario's).
+    pub counters: &'a ServoCounters,
+    /// Damping state.
+    pub tool: ToolState,
+}
+
+impl<'a> BurrLaw<'a> {
+    /// The law for `params` over `contact`, controlled through `counters`.
+    pub fn new(
+        params: TickParams,
+        contact: &'a mut triple_buffer::Output<ContactState>,
+        counters: &'a ServoCounters,
+    ) -> Self {
+        Self {
+            params,
+            contact,
+            counters,
+            tool: ToolState::default(),
+        }
+    }
+}
+
+impl ForceLaw for BurrLaw<'_> {
+    fn force(&mut self, _tick: u64, position: Vec3, _rotation: Quat) -> Vec3 {
+        // The viewer's controls (0: the scenario's value).
+        let mut live = self.params;
+        let r = self.counters.radius_bits.load(Ordering::Relaxed);
+        if r != 0 {
+            live.radius = f32::from_bits(r);
+        }
+        let k = self.counters.stiffness_bits.load(Ordering::Relaxed);
+        if k != 0 {
+            live.force.stiffness = f32::from_bits(k);
+        }
+        servo_force(
+            self.contact.read(),
+            position,
+            live.radius,
+            &mut self.tool,
+            &live.force,
+        )
+    }
+}
+
+/// One burr servo tick: [`servo_io`] with the force from `contact` (the damping state in
+/// `st.tool`). Allocation-free and lock-free.
 ///
 /// # Errors
 /// A device error (disconnect, NaN refused, ...) is returned after the force was zeroed.
@@ -624,6 +700,31 @@ pub fn servo_tick(
     st: &mut ServoState,
     tick: u64,
 ) -> Result<(), DeviceError> {
+    let mut tool = st.tool;
+    let mut law = |_: u64, position: Vec3, _: Quat| {
+        servo_force(contact, position, params.radius, &mut tool, &params.force)
+    };
+    let out = servo_io(device, workspace, &mut law, ring, st, tick);
+    st.tool = tool;
+    out
+}
+
+/// One servo tick: read the device, map its pose into the scene through `st.frame`, hand the
+/// sample to the simulation, compute the force with `law`, write it back through the frame.
+/// Allocation-free and lock-free when `law` is.
+///
+/// A non-finite position is counted and still handed to `law` (the laws give it zero force).
+///
+/// # Errors
+/// A device error (disconnect, NaN refused, ...) is returned after the force was zeroed.
+pub fn servo_io(
+    device: &mut dyn HapticDevice,
+    workspace: &Workspace,
+    law: &mut dyn ForceLaw,
+    ring: &ArrayQueue<ToolSample>,
+    st: &mut ServoState,
+    tick: u64,
+) -> Result<(), DeviceError> {
     let s = match device.read() {
         Ok(s) => s,
         Err(e) => {
@@ -632,25 +733,20 @@ pub fn servo_tick(
         }
     };
     let position = st.frame.to_scene(workspace, s.position);
-    // A non-finite position gets zero force from `servo_force`; it is counted for the report.
+    let rotation = st.frame.rotation_to_scene(s.rotation);
     st.nonfinite_samples += u64::from(!position.is_finite());
     if ring
         .push(ToolSample {
             tick,
             position,
+            rotation,
             buttons: s.buttons,
         })
         .is_err()
     {
         st.dropped += 1;
     }
-    let f = servo_force(
-        contact,
-        position,
-        params.radius,
-        &mut st.tool,
-        &params.force,
-    );
+    let f = law.force(tick, position, rotation);
     st.digest.push(f);
     st.max_force = st.max_force.max(f.length());
     st.last_force = f;

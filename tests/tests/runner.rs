@@ -413,3 +413,73 @@ fn mesh_tool_contact_period_spaces_the_passes() {
         &["period.toml:1:", "contact_period"],
     );
 }
+
+/// `run --tool mesh:FILE`: the pen in the real-time pipeline (the contact task's passes, the
+/// servo carrying them) keeps 1 kHz and reports its passes; what it cannot do exits 2 naming
+/// the flag. (`tests/pen_pipeline.rs` checks its forces tick by tick.)
+#[test]
+fn mesh_tool_runs_in_real_time() {
+    let dir = scratch_dir("runner", "pen-run");
+    let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
+    let tool = format!("mesh:{}", pen.display());
+    let out_json = dir.join("pen-run.json");
+    let out = run(&[
+        "run",
+        "--no-rt",
+        "--headless",
+        "--quiet",
+        "--tool",
+        &tool,
+        "--tool-scale",
+        "10",
+        "--trace",
+        "wander:3",
+        "--duration",
+        "1.5",
+        "--max-force",
+        "10000",
+        "--json",
+        out_json.to_str().expect("a UTF-8 scratch path"),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("contact passes"), "{stdout}");
+    let j = json(&out_json);
+    let ticks = j["ticks"].as_f64().expect("ticks");
+    let secs = j["duration_s"].as_f64().expect("duration");
+    assert_eq!(ticks, 1500.0);
+    assert!(
+        (ticks - secs * 1000.0).abs() <= 0.02 * ticks,
+        "{ticks} ticks in {secs} s"
+    );
+    let p = &j["pen"];
+    let passes = p["passes"].as_u64().expect("passes");
+    assert!(passes > 0 && passes <= 1500, "{p}");
+    assert_eq!(j["simulation_steps"].as_u64(), Some(passes));
+    assert!(p["pass_us"]["tick_max"].as_f64().expect("pass max") > 0.0);
+    assert!(p["pass_age_max_ticks"].as_u64().expect("age") >= 1);
+    assert!(p["pen_collisions_max"].as_u64().expect("inside") > 0, "{p}");
+    assert!(j["force_max_n"].as_f64().expect("force") > 0.0);
+    assert_eq!(j["valid"], true);
+    assert_eq!(j["removed_volume"].as_f64(), Some(0.0));
+
+    refused(
+        &["run", "--no-rt", "--tool", &tool, "--contact-period", "2"],
+        &["--contact-period"],
+    );
+    refused(
+        &[
+            "run",
+            "--no-rt",
+            "--tool",
+            &tool,
+            "--screenshot",
+            dir.join("pen.png").to_str().expect("a UTF-8 scratch path"),
+        ],
+        &["--screenshot", "sphere"],
+    );
+}

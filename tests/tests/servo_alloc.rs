@@ -2,16 +2,20 @@
 //! allocator, armed only on this test's thread, sees zero calls over a thousand ticks of
 //! [`tetradrill::tasks::servo_tick`] with the simulated device, the SPSC ring and the contact
 //! triple buffer, in contact with a surface and out of it; nor does the way back from a stall
-//! the watchdog caught ([`tetradrill::tasks::recover_from_stall`]).
+//! the watchdog caught ([`tetradrill::tasks::recover_from_stall`]); nor does a mesh tool's
+//! tick ([`tetradrill::tasks::servo_io`] with [`tetradrill::pen_tasks::PenLaw`]).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use crossbeam::queue::ArrayQueue;
 use tetradrill::engine::TickParams;
+use tetradrill::pen::{PenRig, PenSizes};
+use tetradrill::pen_tasks::{held_handoff, PenLaw};
 use tetradrill::scenario::Scenario;
-use tetradrill::tasks::{recover_from_stall, servo_tick, ServoState, Workspace};
+use tetradrill::tasks::{recover_from_stall, servo_io, servo_tick, ServoState, Workspace};
 use tetradrill::watchdog::ServoWatch;
+use tetradrill_core::force::{pen_pass, PenState};
 use tetradrill_core::servo::ContactState;
 use tetradrill_core::Vec3;
 use tetradrill_device::{
@@ -165,4 +169,82 @@ fn coming_back_from_a_stall_allocates_nothing() {
         "force again: {f}"
     );
     assert_eq!(calls, 0, "coming back allocated or freed {calls} times");
+}
+
+/// The mesh tool's servo tick ([`servo_io`] with [`PenLaw`]): the pen's tip pressed into the
+/// block's top face and lifted, tilting, while another task (here the same thread, disarmed)
+/// publishes a contact pass every third tick; a thousand armed ticks allocate nothing.
+#[test]
+fn the_pen_servo_tick_allocates_nothing_after_warm_up() {
+    let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
+    let sc = Scenario {
+        tool: format!("mesh:{}", pen.display()),
+        tool_scale: 5.0,
+        stiffness: 20.0,
+        ..Scenario::default()
+    };
+    let obj = tetradrill::engine::load_mesh(&sc).expect("block").mesh;
+    let tool = tetradrill::meshio::load(&pen, sc.tool_scale).expect("pen");
+    let opts = tetradrill::pen::options(&sc);
+    let path = Scripted(|t: f64| {
+        let a = 0.4 * (t * 2.0).sin();
+        PathPoint {
+            position: [0.1 * (t * 3.0).sin(), 0.0, 0.5 - 0.04 * (t * 5.0).sin()],
+            rotation: [(a / 2.0).cos(), 0.0, (a / 2.0).sin(), 0.0],
+            buttons: 0,
+        }
+    });
+    let mut device = SimDevice::new(path, SimConfig::default());
+    let ws = Workspace {
+        scale: 1.0,
+        offset: Vec3::ZERO,
+    };
+    let mut rig = PenRig {
+        pen: tool.mesh,
+        obj,
+    };
+    let ((calls, max_force), _) = rig
+        .with_sizes(PenSizes::of(&sc), |scene, bufs| {
+            let ring = ArrayQueue::new(64);
+            let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
+            let mut law = PenLaw::new(scene, held_out, opts);
+            let mut pass_state = PenState::default();
+            let mut st = ServoState::default();
+            let mut run = |from: u64, to: u64, st: &mut ServoState| {
+                for tick in from..to {
+                    servo_io(&mut device, &ws, &mut law, &ring, st, tick).expect("tick");
+                    // The contact task's share (not counted: another task).
+                    ARMED.with(|a| a.set(false));
+                    let mut latest = None;
+                    while let Some(s) = ring.pop() {
+                        latest = Some(s);
+                    }
+                    if let Some(s) = latest.filter(|_| tick % 3 == 0) {
+                        let pass =
+                            pen_pass(scene, bufs, s.position, s.rotation, &opts, &mut pass_state);
+                        let (np, no) = pass.penetrations;
+                        held_in.input_buffer_mut().set(
+                            &s,
+                            &bufs.pen_pens[..np],
+                            &bufs.object_pens[..no],
+                        );
+                        held_in.publish();
+                    }
+                    ARMED.with(|a| a.set(true));
+                }
+            };
+            ARMED.with(|a| a.set(false));
+            run(0, 100, &mut st);
+            CALLS.with(|c| c.set(0));
+            ARMED.with(|a| a.set(true));
+            run(100, 1100, &mut st);
+            ARMED.with(|a| a.set(false));
+            (CALLS.with(|c| c.get()), st.max_force)
+        })
+        .expect("the rig");
+    assert!(max_force > 0.0, "the pen touched the block: the carry ran");
+    assert_eq!(
+        calls, 0,
+        "the pen's servo tick allocated or freed {calls} times"
+    );
 }

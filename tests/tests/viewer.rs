@@ -11,7 +11,7 @@ use tetradrill::engine::{self, EngineStorage, TickParams};
 use tetradrill::rt::RtConfig;
 use tetradrill::scenario::Scenario;
 use tetradrill::tasks::{
-    camera_handoff, servo_task, simulation_task, DeviceFrame, Shared, SimEnd, SimStatus,
+    camera_handoff, servo_task, simulation_task, BurrLaw, DeviceFrame, Shared, SimEnd, SimStatus,
     ToolSample, Workspace, IDENTITY,
 };
 use tetradrill::traces::PoseSource;
@@ -726,6 +726,7 @@ fn the_servo_takes_the_published_camera_and_the_stiffness_control_each_tick() {
             position: f64s(device_at),
             forces: Vec::new(),
         };
+        let mut law = BurrLaw::new(params, &mut contact_out, &shared.counters);
         let res = servo_task(
             &mut dev,
             RtConfig {
@@ -735,8 +736,7 @@ fn the_servo_takes_the_published_camera_and_the_stiffness_control_each_tick() {
             },
             20,
             MESH_UNITS,
-            params,
-            &mut contact_out,
+            &mut law,
             &shared.ring,
             &shared.counters,
             &shared.stop,
@@ -805,6 +805,7 @@ fn the_controls_reach_the_simulation() {
                     tick: i,
                     position: Vec3::new(0.0, 0.0, z),
                     buttons: DRILL_ON,
+                    ..ToolSample::default()
                 })
                 .expect("room");
         }

@@ -15,11 +15,12 @@ use tetradrill_core::servo::ContactState;
 use tetradrill_core::Vec3;
 use tetradrill_device::{DeviceError, DeviceKind, HapticDevice};
 
-use crate::commands::replay::SaturationCounts;
+use crate::commands::replay::{SaturationCounts, TickTiming};
 use crate::engine::{self, EngineStorage, TickParams};
 use crate::error::CliError;
+use crate::pen::{PenRig, PenSizes};
 use crate::rt::RtConfig;
-use crate::scenario::Scenario;
+use crate::scenario::{Scenario, ToolKind};
 use crate::stats::{histogram_us, summarise_ns, Summary};
 use crate::tasks::{self, Shared, SimStatus, Workspace};
 use crate::watchdog;
@@ -105,6 +106,46 @@ pub struct RunReport {
     pub wake_histogram_us: Vec<u64>,
     /// Real-time settings achieved.
     pub realtime: crate::commands::timing::RealtimeReport,
+    /// A mesh tool's contact (`--tool mesh:FILE` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pen: Option<PenRunSummary>,
+}
+
+/// A mesh tool's figures in a real-time run: the contact task's passes and what the servo
+/// carried from them.
+#[derive(Debug, Default, Serialize)]
+pub struct PenRunSummary {
+    /// Tool nodes.
+    pub tool_nodes: usize,
+    /// Tool tets.
+    pub tool_tets: usize,
+    /// Depth method used.
+    pub depth_method: String,
+    /// Contact passes run (the simulation task's steps).
+    pub passes: u64,
+    /// Time of the contact passes, microseconds.
+    pub pass_us: TickTiming,
+    /// Servo ticks that carried a pass (every tick after the first pass).
+    pub carried_ticks: u64,
+    /// Age of the pass a servo tick carried (servo ticks since the tool sample the pass was
+    /// run at), mean over the carried ticks.
+    pub pass_age_mean_ticks: f64,
+    /// The oldest pass a servo tick carried, servo ticks.
+    pub pass_age_max_ticks: u64,
+    /// Most tool nodes inside the object in one pass.
+    pub pen_collisions_max: usize,
+    /// Most object nodes inside the tool in one pass.
+    pub object_collisions_max: usize,
+    /// Colliding nodes that got no depth (a region without a border edge), summed over passes.
+    pub unreached: u64,
+    /// Passes in which a buffer saturated.
+    pub saturated_passes: u64,
+    /// Servo ticks whose force was clamped.
+    pub clamped_ticks: u64,
+    /// Servo ticks that could not carry every held penetration (left out of the force).
+    pub servo_short_ticks: u64,
+    /// Servo ticks whose pose (position or rotation) was not finite: zero force.
+    pub nonfinite_ticks: u64,
 }
 
 /// Servo tick timing.
@@ -127,6 +168,9 @@ pub fn run(
     setup: PipelineSetup,
     json: Option<&PathBuf>,
 ) -> Result<RunReport, CliError> {
+    if let ToolKind::Mesh(pen) = sc.tool_kind().map_err(CliError::input)? {
+        return run_pen(sc, setup, json, &pen);
+    }
     let params = TickParams::of(sc)?;
     let loaded = engine::load_mesh(sc)?;
     let mut store = EngineStorage::try_allocate(loaded.mesh, sc)?;
@@ -167,6 +211,7 @@ pub fn run(
     let frame = tasks::DeviceFrame::new(centre);
     let mut scene = crate::viewer::scene::Scene::new();
 
+    let mut law = tasks::BurrLaw::new(params, &mut contact_out, &shared.counters);
     let (servo, sim_status, ending) = std::thread::scope(|scope| -> Result<_, CliError> {
         let sh = &shared;
         let any_view = view.any();
@@ -210,72 +255,20 @@ pub fn run(
                 }
             })
             .map_err(|e| CliError::failure(format!("cannot start the simulation task: {e}")))?;
-        let servo = std::thread::Builder::new()
-            .name("servo".into())
-            .spawn_scoped(
-                scope,
-                move || -> Result<tasks::ServoResult, ServoFailure> {
-                    let watch = &sh.counters.watch;
-                    let opened = watchdog::quiet_unwind(open);
-                    let mut device = match opened {
-                        Ok(Ok(d)) => d,
-                        Ok(Err(e)) => {
-                            sh.stop.store(true, Ordering::Relaxed);
-                            return Err(ServoFailure::Device(e));
-                        }
-                        Err(panic) => {
-                            sh.stop.store(true, Ordering::Relaxed);
-                            return Err(ServoFailure::Panicked {
-                                ticks: 0,
-                                panic,
-                                force: "the motors were never turned on".into(),
-                            });
-                        }
-                    };
-                    let cutoff = device.cutoff();
-                    watch.attach(cutoff.clone());
-                    let run = watchdog::quiet_unwind(|| {
-                        tasks::servo_task(
-                            device.as_mut(),
-                            rt,
-                            ticks,
-                            workspace,
-                            params,
-                            &mut contact_out,
-                            &sh.ring,
-                            &sh.counters,
-                            &sh.stop,
-                            frame,
-                            view.window.then_some(&mut camera_out),
-                        )
-                    });
-                    run.map_err(|panic| {
-                        let force = watchdog::after_panic(watch, device, cutoff, &sh.stop);
-                        ServoFailure::Panicked {
-                            ticks: sh.counters.ticks.load(Ordering::Relaxed),
-                            panic,
-                            force,
-                        }
-                    })
-                },
-            )
-            .map_err(|e| CliError::failure(format!("cannot start the servo task: {e}")))?;
-        let supervisor = std::thread::Builder::new()
-            .name("watchdog".into())
-            .spawn_scoped(scope, move || {
-                watchdog::supervisor_rt(&rt);
-                watchdog::supervisor_task(
-                    &sh.counters.watch,
-                    kind.name(),
-                    watchdog::SERVO_WATCHDOG_NS,
-                    &sh.stop,
-                    |line| eprintln!("tetradrill: warning: {line}"),
-                );
-            })
-            .map_err(|e| {
-                sh.stop.store(true, Ordering::Relaxed);
-                CliError::failure(format!("cannot start the watchdog task: {e}"))
-            })?;
+        let servo = spawn_servo(
+            scope,
+            sh,
+            ServoRun {
+                open,
+                rt,
+                ticks,
+                workspace,
+                frame,
+                camera: view.window.then_some(&mut camera_out),
+            },
+            &mut law,
+        )?;
+        let supervisor = spawn_watchdog(scope, sh, rt, kind)?;
         let drain = |scene: &mut crate::viewer::scene::Scene| {
             while let Some(snap) = sh.snapshots.take() {
                 scene.apply(snap);
@@ -334,70 +327,115 @@ pub fn run(
         Ok((servo, *status_out.read(), ending))
     })?;
     let (saturations, valid) = ending;
-    let elapsed = started.elapsed().as_secs_f64();
-    let servo = servo.map_err(|e| match e {
-        ServoFailure::Device(e) => device_error(kind, e),
-        ServoFailure::Panicked {
-            ticks,
-            panic,
-            force,
-        } => CliError::failure(format!(
-            "the servo panicked after {ticks} ticks (a bug): {panic}; {force}"
-        )),
-    })?;
-    for w in &servo.rt.warnings {
-        eprintln!("tetradrill: warning: {w}");
-    }
-    let t = summarise_ns(&servo.tick_ns);
-    let rep = RunReport {
-        device: format!("{kind:?}").to_lowercase(),
-        ticks: servo.ticks,
-        overruns: servo.overruns,
-        duration_s: elapsed,
+    let ended = Ended {
+        kind,
+        elapsed: started.elapsed().as_secs_f64(),
         initial_volume,
-        removed_volume: sim_status.removed_volume,
-        hierarchy_nodes: sim_status.hierarchy_nodes,
-        visible_faces: sim_status.visible_faces,
-        simulation_steps: sim_status.steps,
-        simulation_hz: sim_status.steps as f64 / elapsed.max(1e-9),
-        simulation_step_max_us: sim_status.max_step_ns as f64 / 1000.0,
-        dropped_samples: shared.counters.dropped_samples.load(Ordering::Relaxed),
-        nonfinite_samples: servo.nonfinite_samples,
-        servo_stalls: shared.counters.watch.stalls(),
-        servo_stall_max_ms: shared.counters.watch.stall_max_ns() as f64 / 1e6,
+        sim: sim_status,
         saturations,
-        valid: valid.is_ok(),
-        force_max_n: servo.max_force,
-        force_digest: format!("{:016x}", servo.digest.value()),
-        timing_us: RunTiming {
-            tick_mean: t.mean,
-            tick_p99: t.p99,
-            tick_p999: t.p999,
-            tick_max: t.max,
-        },
-        wake_us: summarise_ns(&servo.wake_ns),
-        wake_histogram_us: histogram_us(&servo.wake_ns, 200),
-        realtime: crate::commands::timing::RealtimeReport {
-            fifo: servo.rt.fifo,
-            pinned: servo.rt.pinned,
-            memory_locked: servo.rt.memory_locked,
-        },
     };
-    print_summary(&rep);
-    if rep.nonfinite_samples > 0 {
-        eprintln!(
-            "tetradrill: warning: the {} device sent {} non-finite positions; the force was zero \
-             on those ticks",
-            rep.device, rep.nonfinite_samples
-        );
-    }
+    let (rep, error) = ended.report(servo, &shared, None)?;
     if let Some(path) = &view.screenshot {
         crate::viewer::screenshot(&mut scene, path)?;
     }
+    conclude(rep, json, error, valid)
+}
+
+/// How the tasks of a run ended.
+struct Ended {
+    kind: DeviceKind,
+    elapsed: f64,
+    initial_volume: f64,
+    sim: SimStatus,
+    saturations: SaturationCounts,
+}
+
+impl Ended {
+    /// The run's report (printed, with the servo's warnings) and the device error that ended
+    /// the run, if one did; a servo that could not open its device or panicked is the run's
+    /// error.
+    fn report(
+        &self,
+        servo: Result<tasks::ServoResult, ServoFailure>,
+        shared: &Shared,
+        pen: Option<PenRunSummary>,
+    ) -> Result<(RunReport, Option<DeviceError>), CliError> {
+        let kind = self.kind;
+        let servo = servo.map_err(|e| match e {
+            ServoFailure::Device(e) => device_error(kind, e),
+            ServoFailure::Panicked {
+                ticks,
+                panic,
+                force,
+            } => CliError::failure(format!(
+                "the servo panicked after {ticks} ticks (a bug): {panic}; {force}"
+            )),
+        })?;
+        for w in &servo.rt.warnings {
+            eprintln!("tetradrill: warning: {w}");
+        }
+        let (elapsed, sim) = (self.elapsed, &self.sim);
+        let t = summarise_ns(&servo.tick_ns);
+        let rep = RunReport {
+            device: format!("{kind:?}").to_lowercase(),
+            ticks: servo.ticks,
+            overruns: servo.overruns,
+            duration_s: elapsed,
+            initial_volume: self.initial_volume,
+            removed_volume: sim.removed_volume,
+            hierarchy_nodes: sim.hierarchy_nodes,
+            visible_faces: sim.visible_faces,
+            simulation_steps: sim.steps,
+            simulation_hz: sim.steps as f64 / elapsed.max(1e-9),
+            simulation_step_max_us: sim.max_step_ns as f64 / 1000.0,
+            dropped_samples: shared.counters.dropped_samples.load(Ordering::Relaxed),
+            nonfinite_samples: servo.nonfinite_samples,
+            servo_stalls: shared.counters.watch.stalls(),
+            servo_stall_max_ms: shared.counters.watch.stall_max_ns() as f64 / 1e6,
+            saturations: self.saturations.totalled(),
+            force_max_n: servo.max_force,
+            force_digest: format!("{:016x}", servo.digest.value()),
+            timing_us: RunTiming {
+                tick_mean: t.mean,
+                tick_p99: t.p99,
+                tick_p999: t.p999,
+                tick_max: t.max,
+            },
+            wake_us: summarise_ns(&servo.wake_ns),
+            wake_histogram_us: histogram_us(&servo.wake_ns, 200),
+            realtime: crate::commands::timing::RealtimeReport {
+                fifo: servo.rt.fifo,
+                pinned: servo.rt.pinned,
+                memory_locked: servo.rt.memory_locked,
+            },
+            valid: false,
+            pen,
+        };
+        print_summary(&rep);
+        if rep.nonfinite_samples > 0 {
+            eprintln!(
+                "tetradrill: warning: the {} device sent {} non-finite positions; the force was \
+                 zero on those ticks",
+                rep.device, rep.nonfinite_samples
+            );
+        }
+        Ok((rep, servo.error))
+    }
+}
+
+/// Writes the JSON (with `valid`), then gives the run's error if it had one: the device that
+/// failed mid-run (`error`), a final state that is not valid.
+fn conclude(
+    mut rep: RunReport,
+    json: Option<&PathBuf>,
+    error: Option<DeviceError>,
+    valid: Result<(), String>,
+) -> Result<RunReport, CliError> {
+    rep.valid = valid.is_ok();
     if let Some(path) = json {
         crate::cli::write_json(path, &rep)?;
     }
-    if let Some(e) = servo.error {
+    if let Some(e) = error {
         return Err(CliError::failure(format!(
             "the {} device failed after {} ticks: {e}; force was set to zero",
             rep.device, rep.ticks
@@ -405,6 +443,173 @@ pub fn run(
     }
     valid.map_err(|e| CliError::failure(format!("the final state is invalid: {e}")))?;
     Ok(rep)
+}
+
+/// The pipeline with a tet-mesh tool (`--tool mesh:FILE`): the simulation task is the pen's
+/// contact task ([`crate::pen_tasks::pen_contact_task`]: collisions and depths at the newest
+/// pose, as often as it can), the servo carries the latest pass to every tick's pose
+/// ([`crate::pen_tasks::PenLaw`]). The object is touched, not drilled. No viewer: the live
+/// window and `--screenshot` show the drilled surface and the burr.
+fn run_pen(
+    sc: &Scenario,
+    setup: PipelineSetup,
+    json: Option<&PathBuf>,
+    pen_path: &std::path::Path,
+) -> Result<RunReport, CliError> {
+    use crate::pen_tasks::{held_handoff, pen_contact_task, PenLaw, PenTaskReport};
+    if setup.view.screenshot.is_some() {
+        return Err(CliError::input(
+            "--screenshot shows the drilled surface: it needs a sphere:R tool",
+        ));
+    }
+    if sc.contact_period != 1 {
+        return Err(CliError::input(format!(
+            "--contact-period {}: a real-time run's contact pass runs as often as it can; the \
+             period is for replay",
+            sc.contact_period
+        )));
+    }
+    if setup.view.window {
+        eprintln!("tetradrill: note: the viewer does not show a mesh tool yet; running headless");
+    }
+    let obj = engine::load_mesh(sc)?.mesh;
+    let pen = crate::meshio::load(pen_path, sc.tool_scale)?;
+    for w in &pen.warnings {
+        eprintln!("tetradrill: warning: {w}");
+    }
+    // The object's counts and state, from an untouched hierarchy (it is only read).
+    let small = Scenario {
+        hierarchy_capacity: 8,
+        ..sc.clone()
+    };
+    let mut store = EngineStorage::try_allocate(obj.clone(), &small)?;
+    let (initial_volume, centre, base, valid) = {
+        let world = store.world()?;
+        let base = SimStatus {
+            hierarchy_nodes: world.hierarchy().node_count(),
+            visible_faces: world.hierarchy().visible_face_count(),
+            ..SimStatus::default()
+        };
+        (
+            world.mesh().volume(),
+            mesh_centre(world.mesh().positions()),
+            base,
+            engine::validate(&world),
+        )
+    };
+    let opts = crate::pen::options(sc);
+    let PipelineSetup {
+        kind,
+        open,
+        ticks,
+        workspace,
+        rt,
+        status_line,
+        view: _,
+    } = setup;
+    let mut summary = PenRunSummary {
+        tool_nodes: pen.mesh.positions().len(),
+        tool_tets: pen.mesh.tets().len(),
+        depth_method: format!("{:?}", sc.depth_method).to_lowercase(),
+        ..PenRunSummary::default()
+    };
+    let shared = Shared::new();
+    let started = std::time::Instant::now();
+    let mut rig = PenRig { pen: pen.mesh, obj };
+    let ((servo, sim_status, task, stats), setup) = rig
+        .with_sizes(PenSizes::of(sc), |scene, bufs| {
+            let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
+            let (mut status_in, mut status_out) = triple_buffer::TripleBuffer::new(&base).split();
+            let mut law = PenLaw::new(scene, held_out, opts);
+            let mut task = PenTaskReport::with_room(ticks as usize);
+            let run = ServoRun {
+                open,
+                rt,
+                ticks,
+                workspace,
+                frame: tasks::DeviceFrame::new(centre),
+                camera: None,
+            };
+            let servo = std::thread::scope(|scope| -> Result<_, CliError> {
+                let sh = &shared;
+                let task = &mut task;
+                let sim = std::thread::Builder::new()
+                    .name("simulation".into())
+                    .spawn_scoped(scope, move || {
+                        pen_contact_task(scene, bufs, &opts, sh, &mut held_in, &mut status_in, task)
+                    })
+                    .map_err(|e| {
+                        CliError::failure(format!("cannot start the contact task: {e}"))
+                    })?;
+                let servo = spawn_servo(scope, sh, run, &mut law)?;
+                let supervisor = spawn_watchdog(scope, sh, rt, kind)?;
+                status_loop(sh, &mut status_out, status_line, initial_volume, || {});
+                let servo = servo
+                    .join()
+                    .map_err(|_| CliError::failure("the servo task panicked"))?;
+                sh.stop.store(true, Ordering::Relaxed);
+                supervisor
+                    .join()
+                    .map_err(|_| CliError::failure("the watchdog task panicked"))?;
+                sim.join()
+                    .map_err(|_| CliError::failure("the contact task panicked"))?;
+                Ok(servo)
+            })?;
+            Ok((servo, *status_out.read(), task, law.stats))
+        })
+        .map_err(|e| CliError::failure(format!("cannot set up the tool contact: {e}")))
+        .and_then(|(r, setup)| r.map(|r| (r, setup)))?;
+    summary.passes = task.passes;
+    summary.pass_us = TickTiming::from(summarise_ns(&task.pass_ns));
+    summary.carried_ticks = stats.carried_ticks;
+    summary.pass_age_mean_ticks = stats.age_sum as f64 / stats.carried_ticks.max(1) as f64;
+    summary.pass_age_max_ticks = stats.age_max;
+    summary.pen_collisions_max = task.pen_collisions_max;
+    summary.object_collisions_max = task.object_collisions_max;
+    summary.unreached = task.unreached;
+    summary.saturated_passes = task.saturated;
+    summary.clamped_ticks = stats.clamped_ticks;
+    summary.servo_short_ticks = stats.short_ticks;
+    summary.nonfinite_ticks = stats.nonfinite_ticks;
+    let ended = Ended {
+        kind,
+        elapsed: started.elapsed().as_secs_f64(),
+        initial_volume,
+        sim: sim_status,
+        saturations: SaturationCounts {
+            hash: setup.hash_saturations,
+            contacts: task.contacts_full,
+            queue: task.queue_full,
+            ..SaturationCounts::default()
+        },
+    };
+    let (rep, error) = ended.report(servo, &shared, Some(summary))?;
+    if let Some(p) = &rep.pen {
+        println!(
+            "tool {} nodes / {} tets, depth {}: {} contact passes, us: mean {:.1}  p99 {:.1}  \
+             max {:.1}; pass age ticks: mean {:.2}  max {}",
+            p.tool_nodes,
+            p.tool_tets,
+            p.depth_method,
+            p.passes,
+            p.pass_us.tick_mean,
+            p.pass_us.tick_p99,
+            p.pass_us.tick_max,
+            p.pass_age_mean_ticks,
+            p.pass_age_max_ticks
+        );
+        println!(
+            "most tool nodes inside {}, object nodes inside {}, unreached {}, saturated passes {}, \
+             clamped ticks {}, short ticks {}",
+            p.pen_collisions_max,
+            p.object_collisions_max,
+            p.unreached,
+            p.saturated_passes,
+            p.clamped_ticks,
+            p.servo_short_ticks
+        );
+    }
+    conclude(rep, json, error, valid)
 }
 
 /// What the simulation task leaves: saturations by kind and the final state's validity.
@@ -424,6 +629,110 @@ enum ServoFailure {
         /// What happened to the force (`force was set to zero`, or why not).
         force: String,
     },
+}
+
+/// What the servo thread needs besides its law.
+struct ServoRun<'c> {
+    open: DeviceFactory,
+    rt: RtConfig,
+    ticks: u64,
+    workspace: Workspace,
+    frame: tasks::DeviceFrame,
+    camera: Option<&'c mut tasks::CameraOut>,
+}
+
+/// The servo thread: opens the device, attaches its cutoff to the watchdog, and runs
+/// [`tasks::servo_task`] with `law` under a panic guard (a panic zeroes the force).
+fn spawn_servo<'scope, 'env: 'scope, L: tasks::ForceLaw + Send>(
+    scope: &'scope std::thread::Scope<'scope, 'env>,
+    sh: &'env Shared,
+    run: ServoRun<'env>,
+    law: &'env mut L,
+) -> Result<std::thread::ScopedJoinHandle<'scope, Result<tasks::ServoResult, ServoFailure>>, CliError>
+{
+    let ServoRun {
+        open,
+        rt,
+        ticks,
+        workspace,
+        frame,
+        camera,
+    } = run;
+    std::thread::Builder::new()
+        .name("servo".into())
+        .spawn_scoped(scope, move || {
+            let watch = &sh.counters.watch;
+            let opened = watchdog::quiet_unwind(open);
+            let mut device = match opened {
+                Ok(Ok(d)) => d,
+                Ok(Err(e)) => {
+                    sh.stop.store(true, Ordering::Relaxed);
+                    return Err(ServoFailure::Device(e));
+                }
+                Err(panic) => {
+                    sh.stop.store(true, Ordering::Relaxed);
+                    return Err(ServoFailure::Panicked {
+                        ticks: 0,
+                        panic,
+                        force: "the motors were never turned on".into(),
+                    });
+                }
+            };
+            let cutoff = device.cutoff();
+            watch.attach(cutoff.clone());
+            let run = watchdog::quiet_unwind(|| {
+                tasks::servo_task(
+                    device.as_mut(),
+                    rt,
+                    ticks,
+                    workspace,
+                    law,
+                    &sh.ring,
+                    &sh.counters,
+                    &sh.stop,
+                    frame,
+                    camera,
+                )
+            });
+            run.map_err(|panic| {
+                let force = watchdog::after_panic(watch, device, cutoff, &sh.stop);
+                ServoFailure::Panicked {
+                    ticks: sh.counters.ticks.load(Ordering::Relaxed),
+                    panic,
+                    force,
+                }
+            })
+        })
+        .map_err(|e| {
+            // The tasks already started end too (the scope waits for them).
+            sh.stop.store(true, Ordering::Relaxed);
+            CliError::failure(format!("cannot start the servo task: {e}"))
+        })
+}
+
+/// The watchdog thread ([`watchdog::supervisor_task`]) for a run of `kind`.
+fn spawn_watchdog<'scope, 'env: 'scope>(
+    scope: &'scope std::thread::Scope<'scope, 'env>,
+    sh: &'env Shared,
+    rt: RtConfig,
+    kind: DeviceKind,
+) -> Result<std::thread::ScopedJoinHandle<'scope, ()>, CliError> {
+    std::thread::Builder::new()
+        .name("watchdog".into())
+        .spawn_scoped(scope, move || {
+            watchdog::supervisor_rt(&rt);
+            watchdog::supervisor_task(
+                &sh.counters.watch,
+                kind.name(),
+                watchdog::SERVO_WATCHDOG_NS,
+                &sh.stop,
+                |line| eprintln!("tetradrill: warning: {line}"),
+            );
+        })
+        .map_err(|e| {
+            sh.stop.store(true, Ordering::Relaxed);
+            CliError::failure(format!("cannot start the watchdog task: {e}"))
+        })
 }
 
 /// The status task: until `stop`, the status line every 250 ms (one line a second in logs),

@@ -6,8 +6,7 @@ use std::path::PathBuf;
 use serde::Serialize;
 use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
-    pen_pass, pen_servo_force, DepthMethod as PenMethod, ForceDigest, ForceParams, HeldContact,
-    PenOptions, PenState, ServoScratch, ToolState,
+    pen_pass, pen_servo_force, ForceDigest, HeldContact, PenState, ServoScratch, ToolState,
 };
 use tetradrill_core::servo::Saturations;
 use tetradrill_core::Quat;
@@ -17,7 +16,7 @@ use crate::engine::{self, EngineStorage, TickParams};
 use crate::error::CliError;
 use crate::pen::{PenRig, PenSizes};
 use crate::platform::now_ns;
-use crate::scenario::{Crossings, DepthMethod, Scenario, ScenarioFlags, ToolKind};
+use crate::scenario::{Scenario, ScenarioFlags, ToolKind};
 use crate::stats::{summarise_ns, Summary};
 use crate::traces::PoseSource;
 
@@ -459,21 +458,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
         },
         h.visible_face_count(),
     );
-    let opts = PenOptions {
-        params: ForceParams {
-            stiffness: sc.stiffness as f32,
-            damping: sc.damping as f32,
-            max_force: sc.max_force as f32,
-            dt: crate::traces::PERIOD_S as f32,
-            ..ForceParams::default()
-        },
-        method: match sc.depth_method {
-            DepthMethod::Traced => PenMethod::Traced,
-            DepthMethod::Hashed => PenMethod::Hashed,
-        },
-        reuse_crossings: sc.crossings == Crossings::Reuse,
-        ..PenOptions::default()
-    };
+    let opts = crate::pen::options(&sc);
     let mut pen_info = PenSummary {
         tool_nodes: pen.mesh.positions().len(),
         tool_tets: pen.mesh.tets().len(),
@@ -486,11 +471,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
     let (mut max_n, mut last, mut contact_ticks) = (0.0f32, Vec3::ZERO, 0u64);
     let mut sat = SaturationCounts::default();
     let progress = !args.quiet && ticks >= 20_000;
-    let sizes = PenSizes {
-        hash: sc.hash_capacity,
-        contacts: sc.contact_capacity,
-        queue: sc.queue_capacity,
-    };
+    let sizes = PenSizes::of(&sc);
     let period = u64::from(sc.contact_period.max(1));
     pen_info.contact_period = sc.contact_period;
     let mut servo_times = vec![0u64; ticks as usize];

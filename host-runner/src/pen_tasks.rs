@@ -1,0 +1,286 @@
+//! A tet-mesh tool (the pen) in the real-time pipeline: the contact task runs the core's
+//! [`pen_pass`] (collisions and consistent depths) as often as it can at the newest tool pose
+//! and publishes what it found; the servo's [`PenLaw`] carries that contact to the tool's pose
+//! of every tick with [`pen_servo_force`] (seed 001 section 3.3's split, applied to the pen).
+//!
+//! The hand-off is a triple buffer of [`HeldPen`]: three copies allocated before the run, each
+//! with room for every penetration a pass can write, so publishing is a copy into the back
+//! copy and a swap, and the servo's read is a few atomic operations; neither side waits.
+
+use std::sync::atomic::Ordering;
+
+use tetradrill_core::depth::Penetration;
+use tetradrill_core::force::{
+    pen_pass, pen_servo_force, HeldContact, PenBuffers, PenOptions, PenScene, PenState,
+    ServoScratch,
+};
+use tetradrill_core::{Quat, Vec3};
+
+use crate::platform::now_ns;
+use crate::tasks::{ForceLaw, Shared, SimStatus, ToolSample};
+
+/// One contact pass, as the contact task hands it to the servo.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct HeldPen {
+    /// Passes published before and including this one (0: none yet, no contact).
+    pub pass: u64,
+    /// Servo tick of the tool sample the pass was run at.
+    pub tick: u64,
+    /// The pose the pass was run at.
+    pub position: Vec3,
+    /// The rotation the pass was run at.
+    pub rotation: Quat,
+    /// Pen nodes in the object: storage, the first `counts.0` are this pass's.
+    pub pen: Vec<Penetration>,
+    /// Object nodes in the pen: storage, the first `counts.1` are this pass's.
+    pub object: Vec<Penetration>,
+    /// Penetrations of this pass (pen nodes, object nodes).
+    pub counts: (usize, usize),
+}
+
+impl HeldPen {
+    /// No contact yet, with room for `pen` and `object` penetrations.
+    pub fn with_room(pen: usize, object: usize) -> Self {
+        Self {
+            pen: vec![Penetration::default(); pen],
+            object: vec![Penetration::default(); object],
+            ..Self::default()
+        }
+    }
+
+    /// The contact for [`pen_servo_force`].
+    pub fn contact(&self) -> HeldContact<'_> {
+        HeldContact {
+            position: self.position,
+            rotation: self.rotation,
+            pen: self.pen.get(..self.counts.0).unwrap_or(&[]),
+            object: self.object.get(..self.counts.1).unwrap_or(&[]),
+        }
+    }
+
+    /// Copies a pass's penetrations in (as many as there is room for; returns `false` when
+    /// some did not fit, which [`HeldPen::with_room`] sized from the pass buffers never does).
+    /// No allocation.
+    pub fn set(
+        &mut self,
+        sample: &ToolSample,
+        pen: &[Penetration],
+        object: &[Penetration],
+    ) -> bool {
+        let np = pen.len().min(self.pen.len());
+        let no = object.len().min(self.object.len());
+        self.pen[..np].copy_from_slice(&pen[..np]);
+        self.object[..no].copy_from_slice(&object[..no]);
+        self.pass += 1;
+        self.tick = sample.tick;
+        self.position = sample.position;
+        self.rotation = sample.rotation;
+        self.counts = (np, no);
+        np == pen.len() && no == object.len()
+    }
+}
+
+/// The servo's end of the pen hand-off.
+pub type HeldOut = triple_buffer::Output<HeldPen>;
+/// The contact task's end of the pen hand-off.
+pub type HeldIn = triple_buffer::Input<HeldPen>;
+
+/// A pen hand-off with room for `pen` and `object` penetrations in each of its three copies.
+pub fn held_handoff(pen: usize, object: usize) -> (HeldIn, HeldOut) {
+    triple_buffer::TripleBuffer::new(&HeldPen::with_room(pen, object)).split()
+}
+
+/// What the servo's pen law counted.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct PenServoStats {
+    /// Ticks that had a pass to carry.
+    pub carried_ticks: u64,
+    /// Sum over those ticks of the pass's age (servo ticks since the sample it was run at).
+    pub age_sum: u64,
+    /// The oldest pass carried, servo ticks.
+    pub age_max: u64,
+    /// Ticks whose force was clamped.
+    pub clamped_ticks: u64,
+    /// Ticks whose scratch could not carry every held penetration.
+    pub short_ticks: u64,
+    /// Ticks whose pose was not finite (zero force).
+    pub nonfinite_ticks: u64,
+}
+
+/// The pen's force law on the servo thread: the latest published pass carried to this tick's
+/// pose ([`pen_servo_force`]): bounded by the penetrations held (at most the pass buffers'
+/// size), no allocation, no lock, no wait.
+pub struct PenLaw<'a, 's, 'm, 'p> {
+    scene: &'a PenScene<'s, 'm, 'p>,
+    held: HeldOut,
+    now_pen: Vec<Penetration>,
+    now_object: Vec<Penetration>,
+    opts: PenOptions,
+    state: PenState,
+    /// What the law counted.
+    pub stats: PenServoStats,
+}
+
+impl std::fmt::Debug for PenLaw<'_, '_, '_, '_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PenLaw")
+            .field("opts", &self.opts)
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<'a, 's, 'm, 'p> PenLaw<'a, 's, 'm, 'p> {
+    /// The law over `scene` reading `held`, with scratch for as many penetrations as the
+    /// hand-off holds.
+    pub fn new(scene: &'a PenScene<'s, 'm, 'p>, held: HeldOut, opts: PenOptions) -> Self {
+        let (np, no) = {
+            let h = held.output_buffer();
+            (h.pen.len(), h.object.len())
+        };
+        Self {
+            scene,
+            held,
+            now_pen: vec![Penetration::default(); np],
+            now_object: vec![Penetration::default(); no],
+            opts,
+            state: PenState::default(),
+            stats: PenServoStats::default(),
+        }
+    }
+}
+
+impl ForceLaw for PenLaw<'_, '_, '_, '_> {
+    fn force(&mut self, tick: u64, position: Vec3, rotation: Quat) -> Vec3 {
+        if !(position.is_finite() && rotation.is_finite()) {
+            self.stats.nonfinite_ticks += 1;
+            return Vec3::ZERO;
+        }
+        let held = self.held.read();
+        let contact = if held.pass == 0 {
+            HeldContact::NONE
+        } else {
+            let age = tick.saturating_sub(held.tick);
+            self.stats.carried_ticks += 1;
+            self.stats.age_sum += age;
+            self.stats.age_max = self.stats.age_max.max(age);
+            held.contact()
+        };
+        let mut now = ServoScratch {
+            pen: &mut self.now_pen,
+            object: &mut self.now_object,
+        };
+        let s = pen_servo_force(
+            self.scene,
+            &contact,
+            &mut now,
+            position,
+            rotation,
+            &self.opts,
+            &mut self.state,
+        );
+        self.stats.clamped_ticks += u64::from(s.force.clamped);
+        self.stats.short_ticks += u64::from(s.short);
+        s.force.force
+    }
+}
+
+/// What the contact task counted.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PenTaskReport {
+    /// Passes run.
+    pub passes: u64,
+    /// Each pass's compute time, ns (the first `capacity` passes: the vector is allocated
+    /// before the task starts and never grows).
+    pub pass_ns: Vec<u64>,
+    /// Passes whose buffers saturated (collisions, depth output or queue).
+    pub saturated: u64,
+    /// Passes whose collision or depth output filled.
+    pub contacts_full: u32,
+    /// Passes whose depth queue filled.
+    pub queue_full: u32,
+    /// Colliding nodes that got no depth (no border edge), summed over passes.
+    pub unreached: u64,
+    /// Most pen nodes inside the object in one pass.
+    pub pen_collisions_max: usize,
+    /// Most object nodes inside the pen in one pass.
+    pub object_collisions_max: usize,
+}
+
+impl PenTaskReport {
+    /// An empty report with room for `passes` pass times.
+    pub fn with_room(passes: usize) -> Self {
+        Self {
+            pass_ns: Vec::with_capacity(passes),
+            ..Self::default()
+        }
+    }
+}
+
+/// The pen's contact task: until `shared.stop`, takes the newest tool sample from the ring
+/// (older ones are passed over: a pass depends on the pose only), runs [`pen_pass`] there and
+/// publishes it through `held`, and its time and saturations through `status` (starting from
+/// the status the hand-off was made with: the object's counts). Sleeps 200 us when no sample
+/// came. Allocation-free after start-up (`report.pass_ns` has its room already).
+pub fn pen_contact_task(
+    scene: &PenScene<'_, '_, '_>,
+    bufs: &mut PenBuffers<'_>,
+    opts: &PenOptions,
+    shared: &Shared,
+    held: &mut HeldIn,
+    status: &mut triple_buffer::Input<SimStatus>,
+    report: &mut PenTaskReport,
+) {
+    let mut state = PenState::default();
+    let mut st = *status.input_buffer();
+    loop {
+        let stopping = shared.stop.load(Ordering::Relaxed);
+        let mut latest = None;
+        while let Some(s) = shared.ring.pop() {
+            latest = Some(s);
+        }
+        let Some(tool) = latest.filter(|t| t.position.is_finite() && t.rotation.is_finite()) else {
+            if stopping {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_micros(200));
+            continue;
+        };
+        let t0 = now_ns();
+        let pass = pen_pass(scene, bufs, tool.position, tool.rotation, opts, &mut state);
+        let (np, no) = pass.penetrations;
+        let pen = bufs.pen_pens.get(..np).unwrap_or(&[]);
+        let object = bufs.object_pens.get(..no).unwrap_or(&[]);
+        held.input_buffer_mut().set(&tool, pen, object);
+        held.publish();
+        let dt = now_ns() - t0;
+
+        report.passes += 1;
+        if report.pass_ns.len() < report.pass_ns.capacity() {
+            report.pass_ns.push(dt);
+        }
+        let (p, o) = (&pass.pen_depth, &pass.object_depth);
+        report.saturated += u64::from(pass.saturated());
+        report.contacts_full += u32::from(
+            pass.pen_collisions.saturated
+                || pass.object_collisions.saturated
+                || p.out_full
+                || o.out_full,
+        );
+        report.queue_full += u32::from(p.queue_full || o.queue_full);
+        report.unreached += u64::from(p.unreached + o.unreached);
+        report.pen_collisions_max = report.pen_collisions_max.max(pass.pen_collisions.count);
+        report.object_collisions_max = report
+            .object_collisions_max
+            .max(pass.object_collisions.count);
+
+        st.steps += 1;
+        st.last_step_ns = dt;
+        st.max_step_ns = st.max_step_ns.max(dt);
+        st.saturations = report.contacts_full + report.queue_full;
+        status.write(st);
+        if stopping {
+            break;
+        }
+    }
+}
