@@ -514,9 +514,8 @@ fn run_pen(
         ..PenRunSummary::default()
     };
     let shared = Shared::new();
-    let started = std::time::Instant::now();
     let mut rig = PenRig { pen: pen.mesh, obj };
-    let ((servo, sim_status, task, stats), setup) = rig
+    let ((servo, sim_status, task, stats, elapsed), setup) = rig
         .with_sizes(PenSizes::of(sc), |scene, bufs| {
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let (mut status_in, mut status_out) = triple_buffer::TripleBuffer::new(&base).split();
@@ -530,6 +529,8 @@ fn run_pen(
                 frame: tasks::DeviceFrame::new(centre),
                 camera: None,
             };
+            // The run's time starts with its tasks (the scene is built by now).
+            let started = std::time::Instant::now();
             let servo = std::thread::scope(|scope| -> Result<_, CliError> {
                 let sh = &shared;
                 let task = &mut task;
@@ -555,7 +556,8 @@ fn run_pen(
                     .map_err(|_| CliError::failure("the contact task panicked"))?;
                 Ok(servo)
             })?;
-            Ok((servo, *status_out.read(), task, law.stats))
+            let elapsed = started.elapsed().as_secs_f64();
+            Ok((servo, *status_out.read(), task, law.stats, elapsed))
         })
         .map_err(|e| CliError::failure(format!("cannot set up the tool contact: {e}")))
         .and_then(|(r, setup)| r.map(|r| (r, setup)))?;
@@ -573,7 +575,7 @@ fn run_pen(
     summary.nonfinite_ticks = stats.nonfinite_ticks;
     let ended = Ended {
         kind,
-        elapsed: started.elapsed().as_secs_f64(),
+        elapsed,
         initial_volume,
         sim: sim_status,
         saturations: SaturationCounts {
