@@ -47,7 +47,7 @@ pub fn main() -> i32 {
     match run(cli) {
         Ok(()) => 0,
         Err(e) => {
-            eprintln!("tetradrill: {e}");
+            errln!("tetradrill: {e}");
             e.code
         }
     }

@@ -140,7 +140,7 @@ pub fn validate(world: &World<'_>) -> Result<(), String> {
 pub fn load_mesh(sc: &Scenario) -> Result<meshio::LoadedMesh, CliError> {
     let loaded = meshio::load(std::path::Path::new(&sc.mesh), sc.scale)?;
     for w in &loaded.warnings {
-        eprintln!("tetradrill: warning: {w}");
+        errln!("tetradrill: warning: {w}");
     }
     Ok(loaded)
 }

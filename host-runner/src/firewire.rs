@@ -1810,7 +1810,7 @@ pub fn omni_factory() -> Result<DeviceFactory, CliError> {
     let transport = CdevFirewire::open(&node.path, CdevConfig::for_omni(&config))
         .map_err(|e| CliError::input(format!("--device omni: {e}")))?;
     if let Some(w) = transport.warning() {
-        eprintln!("tetradrill: warning: {}: {w}", node.path.display());
+        errln!("tetradrill: warning: {}: {w}", node.path.display());
     }
     Ok(Box::new(move || {
         let device = OmniDevice::start(transport, config)?;
@@ -1965,7 +1965,7 @@ int main(void) {
     fn layout_and_numbers_agree_with_the_c_compiler() {
         let header = Path::new("/usr/include/linux/firewire-cdev.h");
         if !header.exists() {
-            eprintln!("note: skipped: {} is not installed", header.display());
+            errln!("note: skipped: {} is not installed", header.display());
             return;
         }
         let dir = scratch("cprobe");
@@ -1975,7 +1975,7 @@ int main(void) {
         let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
         let built = match Command::new(&cc).arg("-o").arg(&bin).arg(&src).output() {
             Err(e) if e.kind() == io::ErrorKind::NotFound => {
-                eprintln!("note: skipped: no C compiler ({cc})");
+                errln!("note: skipped: no C compiler ({cc})");
                 return;
             }
             Err(e) => panic!("{cc} could not run: {e}"),
@@ -2343,7 +2343,7 @@ int main(void) {
             let e = read_config_rom(null).expect_err("not a node");
             assert_eq!(e.step, "FW_CDEV_IOC_GET_INFO");
         } else {
-            eprintln!("note: /dev/null is absent here; its part of the test is skipped");
+            errln!("note: /dev/null is absent here; its part of the test is skipped");
         }
 
         let bad = CdevConfig {
@@ -2526,7 +2526,7 @@ int main(void) {
     #[test]
     fn mapped_buffers_check_every_range() {
         let Ok(zero) = OpenOptions::new().read(true).write(true).open("/dev/zero") else {
-            eprintln!("note: skipped: /dev/zero cannot be opened here");
+            errln!("note: skipped: /dev/zero cannot be opened here");
             return;
         };
         let mut buf = IsoBuffer::map(&zero, 100, true).expect("map /dev/zero");

@@ -18,6 +18,42 @@
 
 #![deny(unsafe_code)]
 
+// Output that never panics. `println!` panics when stdout is gone (`tetradrill replay | head
+// -1` closes the pipe): that would lose the run's JSON and, mid-run, its orderly stop. These
+// drop the line instead; the run goes on.
+
+/// `println!` to stdout, a failed write dropped.
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// `print!` to stdout, a failed write dropped.
+macro_rules! out {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// `eprintln!` to stderr, a failed write dropped.
+macro_rules! errln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
+/// `eprint!` to stderr, a failed write dropped.
+macro_rules! err {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stderr(), $($t)*);
+    }};
+}
+
 pub mod cli;
 pub mod commands;
 pub mod engine;

@@ -483,3 +483,30 @@ fn mesh_tool_runs_in_real_time() {
         &["--screenshot", "sphere"],
     );
 }
+
+/// A closed stdout (`tetradrill replay | head -1`) loses the summary lines, not the run: no
+/// panic, exit status 0, the JSON written. The pipe's reading end is closed before the run
+/// starts, so every write to stdout fails.
+#[test]
+fn a_closed_stdout_loses_lines_not_the_run() {
+    let dir = scratch_dir("runner", "closed-stdout");
+    for (cmd, extra) in [
+        ("replay", &["--ticks", "200"][..]),
+        ("demo", &["--headless", "--duration", "0.2", "--no-rt"][..]),
+    ] {
+        let out_json = dir.join(format!("{cmd}.json"));
+        let (reader, writer) = std::io::pipe().expect("a pipe");
+        drop(reader);
+        let out = Command::new(tetradrill_bin())
+            .arg(cmd)
+            .args(extra)
+            .args(["--json", out_json.to_str().expect("a UTF-8 scratch path")])
+            .stdout(writer)
+            .output()
+            .expect("run tetradrill");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{cmd}: {:?}\n{err}", out.status);
+        assert!(!err.contains("panicked"), "{cmd}: {err}");
+        assert!(json(&out_json)["ticks"].as_u64().expect("ticks") > 0);
+    }
+}

@@ -37,7 +37,7 @@ pub struct DemoArgs {
 pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     let sc = Scenario::default();
     let view = ViewOptions::of(args.headless, args.screenshot.clone())?;
-    eprintln!(
+    errln!(
         "tetradrill demo: {} drilled by a {} burr on the simulated device ({} s scripted path)",
         sc.mesh,
         sc.tool,

@@ -15,9 +15,9 @@ pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
         .filter(|d| d.kind != tetradrill_device::DeviceKind::Omni)
         .collect();
     let omnis = crate::firewire::discover_omnis();
-    println!("sim      always available (the simulated device)");
+    outln!("sim      always available (the simulated device)");
     if found.is_empty() && omnis.is_empty() {
-        println!(
+        outln!(
             "(no hardware found: looked for a Falcon on USB 0403:cb48, a Touch on USB \
              0301:2988 or 2988:0302, an Omni among /dev/fw* nodes of vendor 0x000b99)"
         );
@@ -25,8 +25,8 @@ pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
     // The Touch opens through the vendor HD library, which discovery cannot see.
     let hd = crate::hdapi::probe();
     match &hd {
-        Ok(path) => println!("(HD library for the Touch: found, {path})"),
-        Err(e) => println!("(HD library for the Touch: {e})"),
+        Ok(path) => outln!("(HD library for the Touch: found, {path})"),
+        Err(e) => outln!("(HD library for the Touch: {e})"),
     }
     for d in &found {
         let kind = format!("{:?}", d.kind).to_lowercase();
@@ -36,10 +36,10 @@ pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
         } else {
             "  (found, but this build cannot open it)"
         };
-        println!("{kind:<8} {}{how}", d.location);
+        outln!("{kind:<8} {}{how}", d.location);
     }
     for o in &omnis {
-        println!("omni     {}", o.describe());
+        outln!("omni     {}", o.describe());
     }
     Ok(())
 }

@@ -243,7 +243,7 @@ pub fn summarise(loaded: &mut LoadedMesh, scale: f64) -> MeshSummary {
 pub fn summary(mesh: &Path, scale: f64) -> Result<MeshSummary, CliError> {
     let mut loaded = meshio::load(mesh, scale)?;
     for w in &loaded.warnings {
-        eprintln!("tetradrill: warning: {w}");
+        errln!("tetradrill: warning: {w}");
     }
     Ok(summarise(&mut loaded, scale))
 }
@@ -256,13 +256,13 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     let s = summary(&args.mesh, args.scale)?;
     let to_stdout = args.json.as_deref() == Some(Path::new("-"));
     if !to_stdout {
-        print!("{}", s.to_text());
+        out!("{}", s.to_text());
     }
     match &args.json {
         Some(_) if to_stdout => {
             let text = serde_json::to_string_pretty(&s.to_json())
                 .map_err(|e| CliError::failure(format!("cannot encode JSON: {e}")))?;
-            println!("{text}");
+            outln!("{text}");
         }
         Some(out) => crate::cli::write_json(out, &s.to_json())?,
         None => {}

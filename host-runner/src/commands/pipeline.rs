@@ -372,7 +372,7 @@ impl Ended {
             )),
         })?;
         for w in &servo.rt.warnings {
-            eprintln!("tetradrill: warning: {w}");
+            errln!("tetradrill: warning: {w}");
         }
         let (elapsed, sim) = (self.elapsed, &self.sim);
         let t = summarise_ns(&servo.tick_ns);
@@ -413,10 +413,11 @@ impl Ended {
         };
         print_summary(&rep);
         if rep.nonfinite_samples > 0 {
-            eprintln!(
+            errln!(
                 "tetradrill: warning: the {} device sent {} non-finite positions; the force was \
                  zero on those ticks",
-                rep.device, rep.nonfinite_samples
+                rep.device,
+                rep.nonfinite_samples
             );
         }
         Ok((rep, servo.error))
@@ -470,12 +471,12 @@ fn run_pen(
         )));
     }
     if setup.view.window {
-        eprintln!("tetradrill: note: the viewer does not show a mesh tool yet; running headless");
+        errln!("tetradrill: note: the viewer does not show a mesh tool yet; running headless");
     }
     let obj = engine::load_mesh(sc)?.mesh;
     let pen = crate::meshio::load(pen_path, sc.tool_scale)?;
     for w in &pen.warnings {
-        eprintln!("tetradrill: warning: {w}");
+        errln!("tetradrill: warning: {w}");
     }
     // The object's counts and state, from an untouched hierarchy (it is only read).
     let small = Scenario {
@@ -587,7 +588,7 @@ fn run_pen(
     };
     let (rep, error) = ended.report(servo, &shared, Some(summary))?;
     if let Some(p) = &rep.pen {
-        println!(
+        outln!(
             "tool {} nodes / {} tets, depth {}: {} contact passes, us: mean {:.1}  p99 {:.1}  \
              max {:.1}; pass age ticks: mean {:.2}  max {}",
             p.tool_nodes,
@@ -600,7 +601,7 @@ fn run_pen(
             p.pass_age_mean_ticks,
             p.pass_age_max_ticks
         );
-        println!(
+        outln!(
             "most tool nodes inside {}, object nodes inside {}, unreached {}, saturated passes {}, \
              clamped ticks {}, short ticks {}",
             p.pen_collisions_max,
@@ -728,7 +729,7 @@ fn spawn_watchdog<'scope, 'env: 'scope>(
                 kind.name(),
                 watchdog::SERVO_WATCHDOG_NS,
                 &sh.stop,
-                |line| eprintln!("tetradrill: warning: {line}"),
+                |line| errln!("tetradrill: warning: {line}"),
             );
         })
         .map_err(|e| {
@@ -767,7 +768,7 @@ fn status_loop(
         if !tty && !(sh.counters.ticks.load(Ordering::Relaxed) / 250).is_multiple_of(4) {
             continue;
         }
-        eprint!(
+        err!(
             "{} t {:5.1} s | servo {:4} Hz, overruns {} | sim {:4} Hz | removed {:.5} ({:.2}%) | force {:5.2} N   {}",
             if tty { "\r" } else { "" },
             t as f64 / 1000.0,
@@ -785,7 +786,7 @@ fn status_loop(
         last_at = std::time::Instant::now();
     }
     if printed {
-        eprintln!();
+        errln!();
     }
 }
 
@@ -802,11 +803,14 @@ fn device_error(kind: DeviceKind, e: DeviceError) -> CliError {
 }
 
 fn print_summary(r: &RunReport) {
-    println!(
+    outln!(
         "{} ticks in {:.2} s on the {} device, {} overruns",
-        r.ticks, r.duration_s, r.device, r.overruns
+        r.ticks,
+        r.duration_s,
+        r.device,
+        r.overruns
     );
-    println!(
+    outln!(
         "servo tick us: mean {:.1}  p99 {:.1}  max {:.1};  wake-up us: p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
         r.timing_us.tick_mean,
         r.timing_us.tick_p99,
@@ -816,7 +820,7 @@ fn print_summary(r: &RunReport) {
         r.wake_us.p999,
         r.wake_us.max
     );
-    println!(
+    outln!(
         "simulation: {} steps ({:.0} Hz), longest {:.0} us;  removed volume {:.6} of {:.6} ({:.2}%)",
         r.simulation_steps,
         r.simulation_hz,
@@ -825,14 +829,15 @@ fn print_summary(r: &RunReport) {
         r.initial_volume,
         100.0 * r.removed_volume / r.initial_volume.max(f64::MIN_POSITIVE)
     );
-    println!(
+    outln!(
         "hierarchy nodes {}, visible faces {}, saturations {}, dropped samples {}, force max {:.2} N",
         r.hierarchy_nodes, r.visible_faces, r.saturations, r.dropped_samples, r.force_max_n
     );
     if r.servo_stalls > 0 {
-        println!(
+        outln!(
             "servo stalls {} (longest {:.1} ms): the watchdog set the force to zero each time",
-            r.servo_stalls, r.servo_stall_max_ms
+            r.servo_stalls,
+            r.servo_stall_max_ms
         );
     }
 }

@@ -274,7 +274,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let mut digests: Vec<u64> = Vec::new();
     for run in 1..args.repeat {
         if !args.quiet {
-            eprintln!("replay: run {run} of {} (timing)", args.repeat);
+            errln!("replay: run {run} of {} (timing)", args.repeat);
         }
         let mut store = EngineStorage::try_allocate(loaded.mesh.clone(), &sc)?;
         let mut world = store.world()?;
@@ -311,14 +311,14 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         last = f;
         last_pose = Some(pose);
         if progress && i % 5000 == 0 {
-            eprint!(
+            err!(
                 "\rreplay: {:>3}% ({i}/{ticks} ticks)",
                 i * 100 / ticks.max(1)
             );
         }
     }
     if progress {
-        eprintln!("\rreplay: 100% ({ticks}/{ticks} ticks)");
+        errln!("\rreplay: 100% ({ticks}/{ticks} ticks)");
     }
     if let Some(d) = digests.iter().find(|&&d| d != digest.value()) {
         return Err(CliError::failure(format!(
@@ -432,7 +432,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
     let obj = engine::load_mesh(&sc)?.mesh;
     let pen = crate::meshio::load(pen_path, sc.tool_scale)?;
     for w in &pen.warnings {
-        eprintln!("tetradrill: warning: {w}");
+        errln!("tetradrill: warning: {w}");
     }
     let ticks = replay_ticks(args, &poses);
     // The object is not drilled here: its components come from an untouched hierarchy.
@@ -543,7 +543,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
                 sat.contacts += full as u32;
                 sat.queue += (p.queue_full || o.queue_full) as u32;
                 if progress && i % 5000 == 0 {
-                    eprint!(
+                    err!(
                         "\rreplay: {:>3}% ({i}/{ticks} ticks)",
                         i * 100 / ticks.max(1)
                     );
@@ -552,7 +552,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
         })
         .map_err(|e| CliError::failure(format!("cannot set up the tool contact: {e}")))?;
     if progress {
-        eprintln!("\rreplay: 100% ({ticks}/{ticks} ticks)");
+        errln!("\rreplay: 100% ({ticks}/{ticks} ticks)");
     }
     let t = summarise_ns(&times);
     pen_info.servo_us = TickTiming::from(summarise_ns(&servo_times));
@@ -584,7 +584,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
     };
     print_summary(&rep);
     if let Some(p) = &rep.pen {
-        println!(
+        outln!(
             "tool {} nodes / {} tets, depth {}: most tool nodes inside {}, object nodes inside {}, \
              unreached {}, clamped ticks {}, crossings reused {} of {}",
             p.tool_nodes,
@@ -597,7 +597,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
             p.reused_crossings,
             p.border_edges
         );
-        println!(
+        outln!(
             "servo half us: mean {:.1}  p99 {:.1}  max {:.1};  {} contact passes (every {} \
              ticks) us: mean {:.1}  p99 {:.1}  max {:.1}",
             p.servo_us.tick_mean,
@@ -617,11 +617,14 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
 }
 
 fn print_summary(r: &ReplayReport) {
-    println!(
+    outln!(
         "replayed {} ticks on {} ({} nodes, {} tets)",
-        r.ticks, r.scenario.mesh, r.mesh.nodes, r.mesh.tets
+        r.ticks,
+        r.scenario.mesh,
+        r.mesh.nodes,
+        r.mesh.tets
     );
-    println!(
+    outln!(
         "removed volume {:.6} of {:.6} ({:.2}%), {} hierarchy nodes, {} visible faces, {} component(s)",
         r.removed_volume,
         r.initial_volume,
@@ -630,16 +633,20 @@ fn print_summary(r: &ReplayReport) {
         r.visible_faces,
         r.components
     );
-    println!(
+    outln!(
         "force max {:.3} N, final [{:.3}, {:.3}, {:.3}] N, digest {}",
-        r.force.max_n, r.force.last[0], r.force.last[1], r.force.last[2], r.force_digest
+        r.force.max_n,
+        r.force.last[0],
+        r.force.last[1],
+        r.force.last[2],
+        r.force_digest
     );
     let of = if r.runs > 1 {
         format!(" (each tick's fastest of {} runs)", r.runs)
     } else {
         String::new()
     };
-    println!(
+    outln!(
         "tick us{of}: mean {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1};  saturations {}",
         r.timing_us.tick_mean,
         r.timing_us.tick_p99,

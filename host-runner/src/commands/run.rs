@@ -92,7 +92,7 @@ pub fn viewer_note(headless: bool) {
         return;
     }
     if crate::viewer::has_display() && !headless {
-        eprintln!("tetradrill: note: this build has no viewer yet; running headless");
+        errln!("tetradrill: note: this build has no viewer yet; running headless");
     }
 }
 

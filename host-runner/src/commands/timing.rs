@@ -76,7 +76,7 @@ pub struct RealtimeReport {
 pub fn run(args: &TimingArgs) -> Result<(), CliError> {
     let ticks = (args.duration * 1e6 / args.period_us as f64).ceil() as usize;
     let name = args.work.describe().to_string();
-    eprintln!(
+    errln!(
         "tetradrill: timing {ticks} ticks at {} us; tick work: {name}",
         args.period_us
     );
@@ -109,7 +109,7 @@ pub fn run(args: &TimingArgs) -> Result<(), CliError> {
         let done = progress.load(Ordering::Relaxed);
         if done * args.period_us as usize / 1_000_000 != last * args.period_us as usize / 1_000_000
         {
-            eprintln!(
+            errln!(
                 "  {:.0}/{:.0} s",
                 done as f64 * args.period_us as f64 / 1e6,
                 args.duration
@@ -121,7 +121,7 @@ pub fn run(args: &TimingArgs) -> Result<(), CliError> {
         .join()
         .map_err(|_| CliError::failure("the servo thread panicked"))??;
     for w in &status.warnings {
-        eprintln!("tetradrill: warning: {w}");
+        errln!("tetradrill: warning: {w}");
     }
     let rep = report(&wake, &tick, overruns, &status, name);
     print_summary(&rep);
@@ -134,16 +134,22 @@ pub fn run(args: &TimingArgs) -> Result<(), CliError> {
 fn print_summary(r: &TimingReport) {
     let w = &r.wake_us;
     let t = &r.tick_us;
-    println!("ticks {}  overruns {}", r.ticks, r.overruns);
-    println!(
+    outln!("ticks {}  overruns {}", r.ticks, r.overruns);
+    outln!(
         "wake-up latency us: min {:.1}  p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
-        w.min, w.p50, w.p99, w.p999, w.max
+        w.min,
+        w.p50,
+        w.p99,
+        w.p999,
+        w.max
     );
-    println!(
+    outln!(
         "tick compute us:    mean {:.1}  p99 {:.1}  max {:.1}",
-        t.mean, t.p99, t.max
+        t.mean,
+        t.p99,
+        t.max
     );
-    println!(
+    outln!(
         "real-time: SCHED_FIFO {}  pinned {}  memory locked {}",
         r.realtime.fifo,
         r.realtime

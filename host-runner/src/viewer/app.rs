@@ -121,7 +121,7 @@ pub fn run(link: LiveLink<'_>) -> Result<Scene, CliError> {
     .map_err(|e| CliError::failure(format!("cannot open the viewer window: {e}")))?;
     let mut s = lock(&side);
     let secs = opened.elapsed().as_secs_f64();
-    eprintln!(
+    errln!(
         "tetradrill: viewer: {} frames in {:.1} s ({:.1} Hz), 3D view draw mean {:.2} ms, max {:.2} ms, {} triangles",
         s.draws,
         secs,

@@ -124,6 +124,6 @@ pub fn screenshot(scene: &mut Scene, path: &Path) -> Result<(), CliError> {
         ))
     })?;
     pic.write_png(path)?;
-    eprintln!("tetradrill: screenshot written to {}", path.display());
+    errln!("tetradrill: screenshot written to {}", path.display());
     Ok(())
 }
