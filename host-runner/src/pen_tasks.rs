@@ -11,13 +11,16 @@ use std::sync::atomic::Ordering;
 
 use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
-    pen_pass, pen_servo_force, HeldContact, PenBuffers, PenOptions, PenScene, PenState,
-    ServoScratch,
+    display_offset, pen_pass, pen_servo_force, HeldContact, PenBuffers, PenOptions, PenScene,
+    PenState, ServoScratch,
 };
+use tetradrill_core::servo::World;
 use tetradrill_core::{Quat, Vec3};
 
 use crate::platform::now_ns;
 use crate::tasks::{ForceLaw, Shared, SimStatus, ToolSample};
+use crate::viewer::handoff::ToolView;
+use crate::viewer::publish::SimViewer;
 
 /// One contact pass, as the contact task hands it to the servo.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -217,11 +220,30 @@ impl PenTaskReport {
     }
 }
 
+/// The viewer's side of the pen's contact task: the link publishing snapshots and the
+/// untouched object whose surface the first one carries.
+pub struct PenViewer<'v, 'q, 'w> {
+    /// The link (with the pen's shape set: [`crate::viewer::publish::tool_shape`]).
+    pub link: &'v mut SimViewer<'q>,
+    /// The object.
+    pub world: &'v World<'w>,
+}
+
+impl std::fmt::Debug for PenViewer<'_, '_, '_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PenViewer").finish_non_exhaustive()
+    }
+}
+
 /// The pen's contact task: until `shared.stop`, takes the newest tool sample from the ring
 /// (older ones are passed over: a pass depends on the pose only), runs [`pen_pass`] there and
 /// publishes it through `held`, and its time and saturations through `status` (starting from
 /// the status the hand-off was made with: the object's counts). Sleeps 200 us when no sample
-/// came. Allocation-free after start-up (`report.pass_ns` has its room already).
+/// came. Allocation-free after start-up (`report.pass_ns` has its room already) but for the
+/// viewer's snapshots, at most about 60 a second: the pen at the pass's pose moved back along
+/// the pass's force by its deepest penetration along it (seed 000 section 5), with the
+/// servo's force.
+#[allow(clippy::too_many_arguments)]
 pub fn pen_contact_task(
     scene: &PenScene<'_, '_, '_>,
     bufs: &mut PenBuffers<'_>,
@@ -230,9 +252,11 @@ pub fn pen_contact_task(
     held: &mut HeldIn,
     status: &mut triple_buffer::Input<SimStatus>,
     report: &mut PenTaskReport,
+    mut viewer: Option<PenViewer<'_, '_, '_>>,
 ) {
     let mut state = PenState::default();
     let mut st = *status.input_buffer();
+    let mut shown: Option<ToolView> = None;
     loop {
         let stopping = shared.stop.load(Ordering::Relaxed);
         let mut latest = None;
@@ -241,6 +265,9 @@ pub fn pen_contact_task(
         }
         let Some(tool) = latest.filter(|t| t.position.is_finite() && t.rotation.is_finite()) else {
             if stopping {
+                if let (Some(v), Some(tv)) = (viewer.as_mut(), shown) {
+                    last_picture(v, tv, &st);
+                }
                 break;
             }
             std::thread::sleep(std::time::Duration::from_micros(200));
@@ -279,8 +306,50 @@ pub fn pen_contact_task(
         st.max_step_ns = st.max_step_ns.max(dt);
         st.saturations = report.contacts_full + report.queue_full;
         status.write(st);
+        if let Some(v) = viewer.as_mut() {
+            let tv = pen_view(&tool, pen, object, shared.counters.force());
+            shown = Some(tv);
+            if stopping {
+                last_picture(v, tv, &st);
+            } else {
+                v.link.publish(v.world, tv, &st, now_ns());
+            }
+        }
         if stopping {
             break;
         }
+    }
+}
+
+/// The pen as the viewer draws it: at the pass's pose moved back along the pass's force so no
+/// colliding node stays inside ([`display_offset`]), with the servo's `force`.
+fn pen_view(
+    tool: &ToolSample,
+    pen: &[Penetration],
+    object: &[Penetration],
+    force: Vec3,
+) -> ToolView {
+    let mut raw = Vec3::ZERO;
+    for p in pen {
+        raw += p.dir * p.depth;
+    }
+    for p in object {
+        raw -= p.dir * p.depth;
+    }
+    ToolView {
+        position: tool.position,
+        shown: tool.position + display_offset(raw, pen, object),
+        force,
+        rotation: tool.rotation,
+        ..ToolView::default()
+    }
+}
+
+/// The run's last snapshot must get through (a screenshot draws it): the servo has stopped,
+/// so waiting up to 2 s for the viewer to drain is fine.
+fn last_picture(v: &mut PenViewer<'_, '_, '_>, tv: ToolView, st: &SimStatus) {
+    let until = now_ns() + 2_000_000_000;
+    while !v.link.publish_now(v.world, tv, st, now_ns()) && now_ns() < until {
+        std::thread::sleep(std::time::Duration::from_millis(2));
     }
 }

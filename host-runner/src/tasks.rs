@@ -22,7 +22,7 @@
 //! contact task ([`crate::pen_tasks::pen_contact_task`]): it runs the contact pass (collisions
 //! and consistent depths) at the newest pose and publishes the pass's penetrations and pose
 //! ([`crate::pen_tasks::HeldPen`], a triple buffer); the servo carries them to the pose of each
-//! tick. No viewer with a mesh tool yet.
+//! tick. The viewer draws the pen with its boundary triangles, clear of the object.
 //!
 //! With the live window, the viewer also publishes its camera rotation through a triple buffer
 //! the servo reads each tick ([`DeviceFrame`]): the device's positions turn with the view

@@ -415,8 +415,9 @@ fn mesh_tool_contact_period_spaces_the_passes() {
 }
 
 /// `run --tool mesh:FILE`: the pen in the real-time pipeline (the contact task's passes, the
-/// servo carrying them) keeps 1 kHz and reports its passes; what it cannot do exits 2 naming
-/// the flag. (`tests/pen_pipeline.rs` checks its forces tick by tick.)
+/// servo carrying them) keeps 1 kHz, reports its passes and takes a screenshot; a contact
+/// period (replay's) exits 2 naming the flag. (`tests/pen_pipeline.rs` checks its forces tick
+/// by tick, `tests/viewer.rs` how the pen is drawn.)
 #[test]
 fn mesh_tool_runs_in_real_time() {
     let dir = scratch_dir("runner", "pen-run");
@@ -471,17 +472,31 @@ fn mesh_tool_runs_in_real_time() {
         &["run", "--no-rt", "--tool", &tool, "--contact-period", "2"],
         &["--contact-period"],
     );
-    refused(
-        &[
-            "run",
-            "--no-rt",
-            "--tool",
-            &tool,
-            "--screenshot",
-            dir.join("pen.png").to_str().expect("a UTF-8 scratch path"),
-        ],
-        &["--screenshot", "sphere"],
+    // The picture at the end: the block and the pen (drawn clear of it).
+    let png = dir.join("pen.png");
+    let out = run(&[
+        "run",
+        "--no-rt",
+        "--headless",
+        "--quiet",
+        "--tool",
+        &tool,
+        "--tool-scale",
+        "10",
+        "--trace",
+        "wander:3",
+        "--duration",
+        "0.3",
+        "--screenshot",
+        png.to_str().expect("a UTF-8 scratch path"),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
     );
+    let bytes = std::fs::read(&png).expect("the screenshot");
+    assert!(bytes.starts_with(b"\x89PNG"), "not a PNG");
 }
 
 /// A closed stdout (`tetradrill replay | head -1`) loses the summary lines, not the run: no

@@ -17,7 +17,7 @@ use tetradrill::tasks::{
 use tetradrill::traces::PoseSource;
 use tetradrill::viewer::camera::{project, Camera};
 use tetradrill::viewer::gl::{DrawOptions, Offscreen, Renderer, PALETTE};
-use tetradrill::viewer::handoff::{controls, Controls, SnapshotQueue, ToolView};
+use tetradrill::viewer::handoff::{controls, Controls, Snapshot, SnapshotQueue, ToolView};
 use tetradrill::viewer::headless::{render, Picture};
 use tetradrill::viewer::publish::{full_patches, scene_of, SimViewer};
 use tetradrill::viewer::scene::{Scene, VERTEX_FLOATS};
@@ -912,4 +912,74 @@ fn reset_ends_the_simulation_task_for_a_rebuild() {
         task.join().expect("simulation task")
     });
     assert_eq!(end, SimEnd::Reset);
+}
+
+/// A mesh tool is drawn as its shape at the view's `shown` and `rotation`, not as the burr's
+/// sphere: a rod from the origin to +z (0.1 wide, 1 long), turned a quarter about x so it lies
+/// along -y from `shown`. Its turned cells are tool-coloured; where the unturned rod or a
+/// sphere at `shown` would stand out of it, the background shows (the camera's placement is
+/// the documented one, projected here independently of the renderer).
+#[test]
+fn a_mesh_tool_is_drawn_as_its_shape_at_its_pose() {
+    let (h, l) = (0.05f32, 1.0f32);
+    let c = |x: f32, y: f32, z: f32| Vec3::new(x * h, y * h, z * l);
+    let corner = |i: usize| {
+        c(
+            [-1.0, 1.0][i & 1],
+            [-1.0, 1.0][(i >> 1) & 1],
+            [0.0, 1.0][i >> 2],
+        )
+    };
+    // The six faces of the box as two triangles each.
+    let quads = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    let mut tris = Vec::new();
+    for q in quads {
+        tris.push([corner(q[0]), corner(q[1]), corner(q[2])]);
+        tris.push([corner(q[0]), corner(q[2]), corner(q[3])]);
+    }
+    let shown = Vec3::new(0.0, 0.4, 0.0);
+    let mut scene = Scene::new();
+    scene.apply(Snapshot {
+        seq: 1,
+        full: true,
+        tool: ToolView {
+            position: shown,
+            shown,
+            rotation: glam::Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
+            ..ToolView::default()
+        },
+        tool_shape: Some(tris.into()),
+        ..Snapshot::default()
+    });
+    let camera = Camera {
+        target: Vec3::ZERO,
+        distance: 3.2,
+        yaw: 0.6,
+        pitch: 0.45,
+        fov_y: 0.7,
+    };
+    let pic = render(&mut scene, &camera, W, H, true).expect("a headless GL context (Mesa EGL)");
+    let (d, y, p) = (3.2f64, 0.6f64, 0.45f64);
+    let eye = [d * p.cos() * y.cos(), d * p.cos() * y.sin(), d * p.sin()];
+    let at = |q: [f64; 3]| {
+        let (col, row) = pixel_of(eye, [0.0; 3], 0.7, q);
+        pic.at(col as u32, row as u32)
+    };
+    // Along the turned rod (x = 0, z = 0, y from 0.4 down to -0.6).
+    for y in [0.2, 0.0, -0.2, -0.4] {
+        let px = at([0.0, y, 0.0]);
+        assert!(!near(px, background(), 6), "the rod at y = {y}: {px:?}");
+    }
+    // Where the unturned rod would be, above `shown`.
+    for z in [0.4, 0.6, 0.8] {
+        let px = at([0.0, 0.4, z]);
+        assert!(near(px, background(), 2), "no rod at z = {z}: {px:?}");
+    }
 }

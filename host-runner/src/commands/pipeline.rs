@@ -184,7 +184,7 @@ pub fn run(
     };
     let (mut contact_in, mut contact_out) =
         triple_buffer::TripleBuffer::new(&ContactState::default()).split();
-    let (mut status_in, mut status_out) =
+    let (mut status_in, status_out) =
         triple_buffer::TripleBuffer::new(&SimStatus::default()).split();
     let shared = Shared::new();
     let PipelineSetup {
@@ -209,123 +209,78 @@ pub fn run(
     // window the servo keeps the identity frame.
     let (camera_in, mut camera_out) = tasks::camera_handoff();
     let frame = tasks::DeviceFrame::new(centre);
-    let mut scene = crate::viewer::scene::Scene::new();
 
     let mut law = tasks::BurrLaw::new(params, &mut contact_out, &shared.counters);
-    let (servo, sim_status, ending) = std::thread::scope(|scope| -> Result<_, CliError> {
-        let sh = &shared;
-        let any_view = view.any();
-        let sim = std::thread::Builder::new()
-            .name("simulation".into())
-            .spawn_scoped(scope, move || -> Result<SimEnding, CliError> {
-                let mut link = any_view.then(|| {
-                    let mut l = crate::viewer::publish::SimViewer::new(
-                        &sh.snapshots,
-                        Some(controls_out),
-                        tets,
-                    );
-                    l.set_initial_volume(initial_volume);
-                    l
-                });
-                loop {
-                    // The world is rebuilt, untouched, when the viewer asks for a reset.
-                    let mut world = store.world()?;
-                    let end = tasks::simulation_task(
-                        &mut world,
-                        params,
-                        &sh.ring,
-                        &mut contact_in,
-                        &mut status_in,
-                        &sh.stop,
-                        &sh.counters,
-                        link.as_mut(),
-                    );
-                    match end {
-                        tasks::SimEnd::Stopped => {
-                            // The final state: saturations by kind, and the core's validate().
-                            let sat = SaturationCounts::from(world.saturations());
-                            return Ok((sat, engine::validate(&world)));
-                        }
-                        tasks::SimEnd::Reset => {
-                            if let Some(l) = link.as_mut() {
-                                l.restart();
+    let (servo, sim_status, ending, mut scene) =
+        std::thread::scope(|scope| -> Result<_, CliError> {
+            let sh = &shared;
+            let any_view = view.any();
+            let sim = std::thread::Builder::new()
+                .name("simulation".into())
+                .spawn_scoped(scope, move || -> Result<SimEnding, CliError> {
+                    let mut link = any_view.then(|| {
+                        let mut l = crate::viewer::publish::SimViewer::new(
+                            &sh.snapshots,
+                            Some(controls_out),
+                            tets,
+                        );
+                        l.set_initial_volume(initial_volume);
+                        l
+                    });
+                    loop {
+                        // The world is rebuilt, untouched, when the viewer asks for a reset.
+                        let mut world = store.world()?;
+                        let end = tasks::simulation_task(
+                            &mut world,
+                            params,
+                            &sh.ring,
+                            &mut contact_in,
+                            &mut status_in,
+                            &sh.stop,
+                            &sh.counters,
+                            link.as_mut(),
+                        );
+                        match end {
+                            tasks::SimEnd::Stopped => {
+                                // The final state: saturations by kind, and the core's validate().
+                                let sat = SaturationCounts::from(world.saturations());
+                                return Ok((sat, engine::validate(&world)));
+                            }
+                            tasks::SimEnd::Reset => {
+                                if let Some(l) = link.as_mut() {
+                                    l.restart();
+                                }
                             }
                         }
                     }
-                }
-            })
-            .map_err(|e| CliError::failure(format!("cannot start the simulation task: {e}")))?;
-        let servo = spawn_servo(
-            scope,
-            sh,
-            ServoRun {
-                open,
-                rt,
-                ticks,
-                workspace,
-                frame,
-                camera: view.window.then_some(&mut camera_out),
-            },
-            &mut law,
-        )?;
-        let supervisor = spawn_watchdog(scope, sh, rt, kind)?;
-        let drain = |scene: &mut crate::viewer::scene::Scene| {
-            while let Some(snap) = sh.snapshots.take() {
-                scene.apply(snap);
-            }
-        };
-        if view.window {
-            // The viewer on the main thread, the status task on its own.
-            let status = std::thread::Builder::new()
-                .name("status".into())
-                .spawn_scoped(scope, move || {
-                    status_loop(sh, &mut status_out, status_line, initial_volume, || {});
-                    status_out
                 })
-                .map_err(|e| CliError::failure(format!("cannot start the status task: {e}")))?;
-            let link = crate::viewer::LiveLink {
-                shared: sh,
+                .map_err(|e| CliError::failure(format!("cannot start the simulation task: {e}")))?;
+            let servo = spawn_servo(
+                scope,
+                sh,
+                ServoRun {
+                    open,
+                    rt,
+                    ticks,
+                    workspace,
+                    frame,
+                    camera: view.window.then_some(&mut camera_out),
+                },
+                &mut law,
+            )?;
+            let supervisor = spawn_watchdog(scope, sh, rt, kind)?;
+            let front = Front {
+                view: &view,
+                status_line,
+                initial_volume,
                 controls: controls_in,
-                initial: initial_controls,
-                camera: Some(camera_in),
+                initial_controls,
+                camera: camera_in,
             };
-            scene = crate::viewer::run_window(link)?;
-            // A closed window ends the run.
-            sh.stop.store(true, Ordering::Relaxed);
-            status_out = status
-                .join()
-                .map_err(|_| CliError::failure("the status task panicked"))?;
-        } else {
-            drop(controls_in);
-            drop(camera_in);
-            // The status task: the main thread.
-            status_loop(sh, &mut status_out, status_line, initial_volume, || {
-                if any_view {
-                    drain(&mut scene)
-                }
-            });
-        }
-        let servo = servo
-            .join()
-            .map_err(|_| CliError::failure("the servo task panicked"))?;
-        sh.stop.store(true, Ordering::Relaxed);
-        supervisor
-            .join()
-            .map_err(|_| CliError::failure("the watchdog task panicked"))?;
-        while !sim.is_finished() {
-            if any_view && !view.window {
-                drain(&mut scene);
-            }
-            std::thread::sleep(Duration::from_millis(2));
-        }
-        let ending = sim
-            .join()
-            .map_err(|_| CliError::failure("the simulation task panicked"))??;
-        if any_view && !view.window {
-            drain(&mut scene);
-        }
-        Ok((servo, *status_out.read(), ending))
-    })?;
+            let (servo, status, ending, scene) =
+                main_thread_tasks(scope, sh, front, status_out, servo, supervisor, sim)?;
+            Ok((servo, status, ending?, scene))
+        })?;
     let (saturations, valid) = ending;
     let ended = Ended {
         kind,
@@ -449,20 +404,16 @@ fn conclude(
 /// The pipeline with a tet-mesh tool (`--tool mesh:FILE`): the simulation task is the pen's
 /// contact task ([`crate::pen_tasks::pen_contact_task`]: collisions and depths at the newest
 /// pose, as often as it can), the servo carries the latest pass to every tick's pose
-/// ([`crate::pen_tasks::PenLaw`]). The object is touched, not drilled. No viewer: the live
-/// window and `--screenshot` show the drilled surface and the burr.
+/// ([`crate::pen_tasks::PenLaw`]). The object is touched, not drilled. The live window and
+/// `--screenshot` show the object and the pen where it is drawn clear of it (the window's
+/// drilling controls do nothing here).
 fn run_pen(
     sc: &Scenario,
     setup: PipelineSetup,
     json: Option<&PathBuf>,
     pen_path: &std::path::Path,
 ) -> Result<RunReport, CliError> {
-    use crate::pen_tasks::{held_handoff, pen_contact_task, PenLaw, PenTaskReport};
-    if setup.view.screenshot.is_some() {
-        return Err(CliError::input(
-            "--screenshot shows the drilled surface: it needs a sphere:R tool",
-        ));
-    }
+    use crate::pen_tasks::{held_handoff, pen_contact_task, PenLaw, PenTaskReport, PenViewer};
     if sc.contact_period != 1 {
         return Err(CliError::input(format!(
             "--contact-period {}: a real-time run's contact pass runs as often as it can; the \
@@ -470,11 +421,8 @@ fn run_pen(
             sc.contact_period
         )));
     }
-    if setup.view.window {
-        errln!("tetradrill: note: the viewer does not show a mesh tool yet; running headless");
-    }
     let obj = engine::load_mesh(sc)?.mesh;
-    let pen = crate::meshio::load(pen_path, sc.tool_scale)?;
+    let mut pen = crate::meshio::load(pen_path, sc.tool_scale)?;
     for w in &pen.warnings {
         errln!("tetradrill: warning: {w}");
     }
@@ -484,20 +432,18 @@ fn run_pen(
         ..sc.clone()
     };
     let mut store = EngineStorage::try_allocate(obj.clone(), &small)?;
-    let (initial_volume, centre, base, valid) = {
-        let world = store.world()?;
-        let base = SimStatus {
-            hierarchy_nodes: world.hierarchy().node_count(),
-            visible_faces: world.hierarchy().visible_face_count(),
-            ..SimStatus::default()
-        };
-        (
-            world.mesh().volume(),
-            mesh_centre(world.mesh().positions()),
-            base,
-            engine::validate(&world),
-        )
+    let world = store.world()?;
+    let base = SimStatus {
+        hierarchy_nodes: world.hierarchy().node_count(),
+        visible_faces: world.hierarchy().visible_face_count(),
+        ..SimStatus::default()
     };
+    let (initial_volume, centre, valid) = (
+        world.mesh().volume(),
+        mesh_centre(world.mesh().positions()),
+        engine::validate(&world),
+    );
+    let tets = world.mesh().tet_count();
     let opts = crate::pen::options(sc);
     let PipelineSetup {
         kind,
@@ -506,8 +452,9 @@ fn run_pen(
         workspace,
         rt,
         status_line,
-        view: _,
+        view,
     } = setup;
+    let shape = crate::viewer::publish::tool_shape(&pen.mesh.view());
     let mut summary = PenRunSummary {
         tool_nodes: pen.mesh.positions().len(),
         tool_tets: pen.mesh.tets().len(),
@@ -516,49 +463,75 @@ fn run_pen(
     };
     let shared = Shared::new();
     let mut rig = PenRig { pen: pen.mesh, obj };
-    let ((servo, sim_status, task, stats, elapsed), setup) = rig
+    let initial_controls = crate::viewer::handoff::Controls {
+        radius: 0.0,
+        stiffness: opts.params.stiffness,
+        max_depth: sc.max_depth,
+        paused: false,
+        reset: 0,
+    };
+    let ((servo, sim_status, task, stats, elapsed, mut shown), setup) = rig
         .with_sizes(PenSizes::of(sc), |scene, bufs| {
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
-            let (mut status_in, mut status_out) = triple_buffer::TripleBuffer::new(&base).split();
+            let (mut status_in, status_out) = triple_buffer::TripleBuffer::new(&base).split();
             let mut law = PenLaw::new(scene, held_out, opts);
             let mut task = PenTaskReport::with_room(ticks as usize);
+            // The window's controls drill: the pen's task does not read them.
+            let (controls_in, _) = crate::viewer::handoff::controls(initial_controls);
+            let (camera_in, mut camera_out) = tasks::camera_handoff();
+            let mut link = view.any().then(|| {
+                let mut l = crate::viewer::publish::SimViewer::new(&shared.snapshots, None, tets);
+                l.set_initial_volume(initial_volume);
+                l.set_tool_shape(shape.clone());
+                l
+            });
             let run = ServoRun {
                 open,
                 rt,
                 ticks,
                 workspace,
                 frame: tasks::DeviceFrame::new(centre),
-                camera: None,
+                camera: view.window.then_some(&mut camera_out),
             };
             // The run's time starts with its tasks (the scene is built by now).
             let started = std::time::Instant::now();
             let servo = std::thread::scope(|scope| -> Result<_, CliError> {
                 let sh = &shared;
                 let task = &mut task;
+                let (world, link) = (&world, link.as_mut());
                 let sim = std::thread::Builder::new()
                     .name("simulation".into())
                     .spawn_scoped(scope, move || {
-                        pen_contact_task(scene, bufs, &opts, sh, &mut held_in, &mut status_in, task)
+                        let viewer = link.map(|link| PenViewer { link, world });
+                        pen_contact_task(
+                            scene,
+                            bufs,
+                            &opts,
+                            sh,
+                            &mut held_in,
+                            &mut status_in,
+                            task,
+                            viewer,
+                        );
                     })
                     .map_err(|e| {
                         CliError::failure(format!("cannot start the contact task: {e}"))
                     })?;
                 let servo = spawn_servo(scope, sh, run, &mut law)?;
                 let supervisor = spawn_watchdog(scope, sh, rt, kind)?;
-                status_loop(sh, &mut status_out, status_line, initial_volume, || {});
-                let servo = servo
-                    .join()
-                    .map_err(|_| CliError::failure("the servo task panicked"))?;
-                sh.stop.store(true, Ordering::Relaxed);
-                supervisor
-                    .join()
-                    .map_err(|_| CliError::failure("the watchdog task panicked"))?;
-                sim.join()
-                    .map_err(|_| CliError::failure("the contact task panicked"))?;
-                Ok(servo)
+                let front = Front {
+                    view: &view,
+                    status_line,
+                    initial_volume,
+                    controls: controls_in,
+                    initial_controls,
+                    camera: camera_in,
+                };
+                main_thread_tasks(scope, sh, front, status_out, servo, supervisor, sim)
             })?;
+            let (servo, status, (), shown) = servo;
             let elapsed = started.elapsed().as_secs_f64();
-            Ok((servo, *status_out.read(), task, law.stats, elapsed))
+            Ok((servo, status, task, law.stats, elapsed, shown))
         })
         .map_err(|e| CliError::failure(format!("cannot set up the tool contact: {e}")))
         .and_then(|(r, setup)| r.map(|r| (r, setup)))?;
@@ -587,6 +560,9 @@ fn run_pen(
         },
     };
     let (rep, error) = ended.report(servo, &shared, Some(summary))?;
+    if let Some(path) = &view.screenshot {
+        crate::viewer::screenshot(&mut shown, path)?;
+    }
     if let Some(p) = &rep.pen {
         outln!(
             "tool {} nodes / {} tets, depth {}: {} contact passes, us: mean {:.1}  p99 {:.1}  \
@@ -736,6 +712,110 @@ fn spawn_watchdog<'scope, 'env: 'scope>(
             sh.stop.store(true, Ordering::Relaxed);
             CliError::failure(format!("cannot start the watchdog task: {e}"))
         })
+}
+
+/// What the main thread needs for its part of a run.
+struct Front<'v> {
+    view: &'v crate::viewer::ViewOptions,
+    status_line: bool,
+    initial_volume: f64,
+    controls: crate::viewer::handoff::ControlsIn,
+    initial_controls: crate::viewer::handoff::Controls,
+    camera: tasks::CameraIn,
+}
+
+/// What [`main_thread_tasks`] gives back: the servo's result, the last status, the simulation
+/// task's result and the scene a screenshot draws.
+type Joined<S> = (
+    Result<tasks::ServoResult, ServoFailure>,
+    SimStatus,
+    S,
+    crate::viewer::scene::Scene,
+);
+
+/// The main thread's part of a run once the simulation, servo and watchdog threads are up: the
+/// live window (the status task then on its own thread; a closed window ends the run) or the
+/// status task, draining snapshots for a screenshot; then the joins, in the order that lets
+/// every task end (servo, watchdog, simulation).
+fn main_thread_tasks<'scope, 'env: 'scope, S>(
+    scope: &'scope std::thread::Scope<'scope, 'env>,
+    sh: &'env Shared,
+    front: Front<'_>,
+    mut status_out: triple_buffer::Output<SimStatus>,
+    servo: std::thread::ScopedJoinHandle<'scope, Result<tasks::ServoResult, ServoFailure>>,
+    supervisor: std::thread::ScopedJoinHandle<'scope, ()>,
+    sim: std::thread::ScopedJoinHandle<'scope, S>,
+) -> Result<Joined<S>, CliError> {
+    let Front {
+        view,
+        status_line,
+        initial_volume,
+        controls,
+        initial_controls,
+        camera,
+    } = front;
+    let any_view = view.any();
+    let mut scene = crate::viewer::scene::Scene::new();
+    let drain = |scene: &mut crate::viewer::scene::Scene| {
+        while let Some(snap) = sh.snapshots.take() {
+            scene.apply(snap);
+        }
+    };
+    if view.window {
+        // The viewer on the main thread, the status task on its own.
+        let status = std::thread::Builder::new()
+            .name("status".into())
+            .spawn_scoped(scope, move || {
+                status_loop(sh, &mut status_out, status_line, initial_volume, || {});
+                status_out
+            })
+            .map_err(|e| {
+                sh.stop.store(true, Ordering::Relaxed);
+                CliError::failure(format!("cannot start the status task: {e}"))
+            })?;
+        let link = crate::viewer::LiveLink {
+            shared: sh,
+            controls,
+            initial: initial_controls,
+            camera: Some(camera),
+        };
+        let shown = crate::viewer::run_window(link);
+        // A closed window ends the run.
+        sh.stop.store(true, Ordering::Relaxed);
+        scene = shown?;
+        status_out = status
+            .join()
+            .map_err(|_| CliError::failure("the status task panicked"))?;
+    } else {
+        drop(controls);
+        drop(camera);
+        // The status task: the main thread.
+        status_loop(sh, &mut status_out, status_line, initial_volume, || {
+            if any_view {
+                drain(&mut scene)
+            }
+        });
+    }
+    let servo = servo
+        .join()
+        .map_err(|_| CliError::failure("the servo task panicked"))?;
+    sh.stop.store(true, Ordering::Relaxed);
+    supervisor
+        .join()
+        .map_err(|_| CliError::failure("the watchdog task panicked"))?;
+    while !sim.is_finished() {
+        if any_view && !view.window {
+            drain(&mut scene);
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let ending = sim
+        .join()
+        .map_err(|_| CliError::failure("the simulation task panicked"))?;
+    if any_view && !view.window {
+        drain(&mut scene);
+    }
+    Ok((servo, *status_out.read(), ending, scene))
 }
 
 /// The status task: until `stop`, the status line every 250 ms (one line a second in logs),

@@ -9,9 +9,10 @@
 use std::sync::Arc;
 
 use eframe::glow::{self, HasContext};
-use tetradrill_core::Vec3;
+use tetradrill_core::{Quat, Vec3};
 
 use super::camera::{mul, Camera};
+use super::handoff::ToolShape;
 use super::scene::{Scene, Updates, CHUNK_FLOATS, VERTEX_FLOATS};
 
 /// Colours of the view (linear 0..1 RGB).
@@ -98,6 +99,9 @@ pub struct Renderer {
     surface_floats: usize,
     sphere: Mesh,
     arrow: Mesh,
+    /// A mesh tool's triangles, and the shape they were made from.
+    tool: Mesh,
+    tool_shape: Option<ToolShape>,
     u_vp: Option<glow::UniformLocation>,
     u_model: Option<glow::UniformLocation>,
     u_eye: Option<glow::UniformLocation>,
@@ -155,6 +159,7 @@ impl Renderer {
             let surface = new_mesh(gl, &[])?;
             let sphere = new_mesh(gl, &sphere_vertices(12, 20))?;
             let arrow = new_mesh(gl, &arrow_vertices(16))?;
+            let tool = new_mesh(gl, &[])?;
             Ok(Self {
                 u_vp: gl.get_uniform_location(program, "u_vp"),
                 u_model: gl.get_uniform_location(program, "u_model"),
@@ -166,6 +171,8 @@ impl Renderer {
                 surface_floats: 0,
                 sphere,
                 arrow,
+                tool,
+                tool_shape: None,
                 last_upload_bytes: 0,
             })
         }
@@ -175,6 +182,26 @@ impl Renderer {
     /// grew, else only the runs of changed chunks (`glBufferSubData`).
     pub fn sync(&mut self, gl: &glow::Context, scene: &mut Scene) {
         let mut bytes = 0usize;
+        let same = match (&scene.tool_shape, &self.tool_shape) {
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            (None, None) => true,
+            _ => false,
+        };
+        if !same {
+            let data = scene
+                .tool_shape
+                .as_deref()
+                .map_or(Vec::new(), shape_vertices);
+            // SAFETY: `gl` is current; the buffer is ours and is re-specified whole.
+            unsafe {
+                gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.tool.vbo));
+                gl.buffer_data_u8_slice(glow::ARRAY_BUFFER, as_bytes(&data), glow::STATIC_DRAW);
+                gl.bind_buffer(glow::ARRAY_BUFFER, None);
+            }
+            self.tool.vertices = (data.len() / VERTEX_FLOATS) as i32;
+            self.tool_shape = scene.tool_shape.clone();
+            bytes += 4 * data.len();
+        }
         let updates = scene.take_updates();
         // SAFETY: `gl` is current; the buffer is ours; ranges lie within the buffer, whose
         // size is `surface_floats` floats, equal to the scene's data unless it grew (then the
@@ -239,11 +266,16 @@ impl Renderer {
             self.draw_mesh(gl, &self.surface, &IDENTITY, p.surface, p.drilled);
             if let Some(t) = scene.tool.filter(|_| opts.tool) {
                 let r = t.radius;
-                let m = [
-                    r, 0.0, 0.0, 0.0, 0.0, r, 0.0, 0.0, 0.0, 0.0, r, 0.0, t.shown.x, t.shown.y,
-                    t.shown.z, 1.0,
-                ];
-                self.draw_mesh(gl, &self.sphere, &m, p.tool, p.tool);
+                if self.tool_shape.is_some() {
+                    let m = pose_model(t.rotation, t.shown);
+                    self.draw_mesh(gl, &self.tool, &m, p.tool, p.tool);
+                } else {
+                    let m = [
+                        r, 0.0, 0.0, 0.0, 0.0, r, 0.0, 0.0, 0.0, 0.0, r, 0.0, t.shown.x, t.shown.y,
+                        t.shown.z, 1.0,
+                    ];
+                    self.draw_mesh(gl, &self.sphere, &m, p.tool, p.tool);
+                }
                 let f = t.force.length();
                 if f > 1e-6 {
                     let diag = scene.bounds.map_or(1.0, |(lo, hi)| (hi - lo).length());
@@ -310,7 +342,7 @@ impl Renderer {
         // SAFETY: `gl` is current; the objects are ours and not used afterwards.
         unsafe {
             gl.delete_program(self.program);
-            for m in [&self.surface, &self.sphere, &self.arrow] {
+            for m in [&self.surface, &self.sphere, &self.arrow, &self.tool] {
                 gl.delete_vertex_array(m.vao);
                 gl.delete_buffer(m.vbo);
             }
@@ -359,6 +391,26 @@ fn as_bytes(v: &[f32]) -> &[u8] {
 
 fn push_vertex(out: &mut Vec<f32>, p: Vec3, n: Vec3) {
     out.extend_from_slice(&[p.x, p.y, p.z, n.x, n.y, n.z, 0.0]);
+}
+
+/// A mesh tool's triangles with flat normals.
+fn shape_vertices(tris: &[[Vec3; 3]]) -> Vec<f32> {
+    let mut out = Vec::with_capacity(tris.len() * 3 * VERTEX_FLOATS);
+    for [a, b, c] in tris {
+        let n = (*b - *a).cross(*c - *a).normalize_or_zero();
+        for p in [a, b, c] {
+            push_vertex(&mut out, *p, n);
+        }
+    }
+    out
+}
+
+/// Column-major model matrix: `rotation`, then the shift to `at`.
+fn pose_model(rotation: Quat, at: Vec3) -> [f32; 16] {
+    let (x, y, z) = (rotation * Vec3::X, rotation * Vec3::Y, rotation * Vec3::Z);
+    [
+        x.x, x.y, x.z, 0.0, y.x, y.y, y.z, 0.0, z.x, z.y, z.z, 0.0, at.x, at.y, at.z, 1.0,
+    ]
 }
 
 /// A unit UV sphere, smooth normals.

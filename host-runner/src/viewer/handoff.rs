@@ -9,7 +9,7 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use crossbeam::queue::ArrayQueue;
-use tetradrill_core::Vec3;
+use tetradrill_core::{Quat, Vec3};
 
 use crate::tasks::SimStatus;
 
@@ -53,7 +53,14 @@ pub struct ToolView {
     pub force: Vec3,
     /// Drill on.
     pub drilling: bool,
+    /// The tool's rotation (a mesh tool's; the burr's sphere ignores it).
+    pub rotation: Quat,
 }
+
+/// A tool drawn as a mesh (the pen): its boundary triangles in its own frame (tip at the
+/// origin, counter-clockwise seen from outside), drawn at a [`ToolView`]'s `shown` and
+/// `rotation`. Shared, never copied: full snapshots carry the same allocation.
+pub type ToolShape = std::sync::Arc<[[Vec3; 3]]>;
 
 /// One snapshot from the simulation.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -70,6 +77,8 @@ pub struct Snapshot {
     pub status: SimStatus,
     /// Initial volume of the mesh.
     pub initial_volume: f64,
+    /// A mesh tool's shape (full snapshots only; `None` leaves the viewer's as it is).
+    pub tool_shape: Option<ToolShape>,
 }
 
 /// The snapshot queue: the simulation publishes, the viewer drains.

@@ -17,7 +17,9 @@ use tetradrill_core::servo::World;
 use tetradrill_core::{TetId, Vec3};
 
 use super::handoff::SNAPSHOT_PERIOD_NS;
-use super::handoff::{Controls, ControlsOut, Patch, Snapshot, SnapshotQueue, SurfTri, ToolView};
+use super::handoff::{
+    Controls, ControlsOut, Patch, Snapshot, SnapshotQueue, SurfTri, ToolShape, ToolView,
+};
 use super::scene::Scene;
 use crate::tasks::SimStatus;
 
@@ -35,6 +37,7 @@ pub struct SimViewer<'q> {
     seq: u64,
     last_ns: u64,
     initial_volume: f64,
+    tool_shape: Option<ToolShape>,
 }
 
 impl<'q> SimViewer<'q> {
@@ -53,7 +56,13 @@ impl<'q> SimViewer<'q> {
             seq: 0,
             last_ns: 0,
             initial_volume: 0.0,
+            tool_shape: None,
         }
+    }
+
+    /// Sets the shape a mesh tool is drawn with (sent with every full snapshot).
+    pub fn set_tool_shape(&mut self, shape: ToolShape) {
+        self.tool_shape = Some(shape);
     }
 
     /// Sets the mesh's initial volume shown by the viewer.
@@ -175,6 +184,7 @@ impl<'q> SimViewer<'q> {
             tool,
             status: *status,
             initial_volume: self.initial_volume,
+            tool_shape: self.tool_shape.clone().filter(|_| full),
         };
         match self.queue.try_publish(s) {
             Ok(()) => {
@@ -281,7 +291,26 @@ pub fn tool_view(
         radius,
         force,
         drilling,
+        rotation: tetradrill_core::Quat::IDENTITY,
     }
+}
+
+/// The boundary triangles of a tool mesh in its own frame, counter-clockwise seen from outside
+/// (each face's corners ordered along its outward normal).
+pub fn tool_shape(mesh: &tetradrill_core::mesh::Mesh<'_>) -> ToolShape {
+    let mut tris = Vec::new();
+    for t in 0..mesh.tet_count() {
+        let t = TetId(t as u32);
+        for f in 0..4u8 {
+            if !mesh.is_boundary_face(t, f) {
+                continue;
+            }
+            let [a, b, c] = mesh.face_positions(t, f);
+            let outward = (b - a).cross(c - a).dot(mesh.face_normal(t, f)) >= 0.0;
+            tris.push(if outward { [a, b, c] } else { [a, c, b] });
+        }
+    }
+    tris.into()
 }
 
 /// The scene of `world` as it is now: every visible triangle, the tool and the status.
@@ -294,6 +323,7 @@ pub fn scene_of(world: &World<'_>, tool: Option<ToolView>, status: SimStatus) ->
         tool: tool.unwrap_or_default(),
         status,
         initial_volume: world.mesh().volume(),
+        tool_shape: None,
     });
     if tool.is_none() {
         scene.tool = None;

@@ -50,6 +50,8 @@ pub struct Scene {
     pub applied: u64,
     /// Bounds of every triangle ever shown (for the camera), if any.
     pub bounds: Option<(Vec3, Vec3)>,
+    /// A mesh tool's shape (drawn instead of the burr's sphere), once a snapshot gave one.
+    pub tool_shape: Option<super::handoff::ToolShape>,
 }
 
 impl Scene {
@@ -67,6 +69,9 @@ impl Scene {
             self.set_patch(p);
         }
         self.tool = Some(s.tool);
+        if s.tool_shape.is_some() {
+            self.tool_shape = s.tool_shape;
+        }
         self.status = s.status;
         self.initial_volume = s.initial_volume;
         self.seq = s.seq;
