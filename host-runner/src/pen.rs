@@ -134,6 +134,23 @@ pub fn options(sc: &crate::scenario::Scenario) -> PenOptions {
     }
 }
 
+/// Storage for an object a mesh tool touches but does not drill: its mesh and an untouched
+/// hierarchy (the object's surface, components and checks come from it), the smallest the
+/// scenario's other capacities allow.
+///
+/// # Errors
+/// Storage the scenario's sizes cannot give (exit 2, naming the capacity).
+pub fn object_store(
+    obj: OwnedMesh,
+    sc: &crate::scenario::Scenario,
+) -> Result<crate::engine::EngineStorage, crate::error::CliError> {
+    let untouched = crate::scenario::Scenario {
+        hierarchy_capacity: 8,
+        ..sc.clone()
+    };
+    crate::engine::EngineStorage::try_allocate(obj, &untouched)
+}
+
 /// What setting up a pen rig counted.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct PenSetup {

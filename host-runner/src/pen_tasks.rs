@@ -25,7 +25,7 @@ use crate::viewer::publish::SimViewer;
 /// One contact pass, as the contact task hands it to the servo.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct HeldPen {
-    /// Passes published before and including this one (0: none yet, no contact).
+    /// This pass's number in the contact task (1, 2, ...; 0: none yet, no contact).
     pub pass: u64,
     /// Servo tick of the tool sample the pass was run at.
     pub tick: u64,
@@ -61,11 +61,12 @@ impl HeldPen {
         }
     }
 
-    /// Copies a pass's penetrations in (as many as there is room for; returns `false` when
-    /// some did not fit, which [`HeldPen::with_room`] sized from the pass buffers never does).
-    /// No allocation.
+    /// Copies pass number `pass`, run at `sample`, in (as many penetrations as there is room
+    /// for; returns `false` when some did not fit, which [`HeldPen::with_room`] sized from the
+    /// pass buffers never does). No allocation.
     pub fn set(
         &mut self,
+        pass: u64,
         sample: &ToolSample,
         pen: &[Penetration],
         object: &[Penetration],
@@ -74,7 +75,7 @@ impl HeldPen {
         let no = object.len().min(self.object.len());
         self.pen[..np].copy_from_slice(&pen[..np]);
         self.object[..no].copy_from_slice(&object[..no]);
-        self.pass += 1;
+        self.pass = pass;
         self.tick = sample.tick;
         self.position = sample.position;
         self.rotation = sample.rotation;
@@ -227,6 +228,9 @@ pub struct PenViewer<'v, 'q, 'w> {
     pub link: &'v mut SimViewer<'q>,
     /// The object.
     pub world: &'v World<'w>,
+    /// Wait for the last snapshot to go out when the run ends (a screenshot draws it; a
+    /// closed window drains nothing more).
+    pub last_picture: bool,
 }
 
 impl std::fmt::Debug for PenViewer<'_, '_, '_> {
@@ -278,24 +282,19 @@ pub fn pen_contact_task(
         let (np, no) = pass.penetrations;
         let pen = bufs.pen_pens.get(..np).unwrap_or(&[]);
         let object = bufs.object_pens.get(..no).unwrap_or(&[]);
-        held.input_buffer_mut().set(&tool, pen, object);
+        report.passes += 1;
+        held.input_buffer_mut()
+            .set(report.passes, &tool, pen, object);
         held.publish();
         let dt = now_ns() - t0;
 
-        report.passes += 1;
         if report.pass_ns.len() < report.pass_ns.capacity() {
             report.pass_ns.push(dt);
         }
-        let (p, o) = (&pass.pen_depth, &pass.object_depth);
         report.saturated += u64::from(pass.saturated());
-        report.contacts_full += u32::from(
-            pass.pen_collisions.saturated
-                || pass.object_collisions.saturated
-                || p.out_full
-                || o.out_full,
-        );
-        report.queue_full += u32::from(p.queue_full || o.queue_full);
-        report.unreached += u64::from(p.unreached + o.unreached);
+        report.contacts_full += u32::from(pass.contacts_full());
+        report.queue_full += u32::from(pass.queue_full());
+        report.unreached += u64::from(pass.pen_depth.unreached + pass.object_depth.unreached);
         report.pen_collisions_max = report.pen_collisions_max.max(pass.pen_collisions.count);
         report.object_collisions_max = report
             .object_collisions_max
@@ -348,6 +347,9 @@ fn pen_view(
 /// The run's last snapshot must get through (a screenshot draws it): the servo has stopped,
 /// so waiting up to 2 s for the viewer to drain is fine.
 fn last_picture(v: &mut PenViewer<'_, '_, '_>, tv: ToolView, st: &SimStatus) {
+    if !v.last_picture {
+        return;
+    }
     let until = now_ns() + 2_000_000_000;
     while !v.link.publish_now(v.world, tv, st, now_ns()) && now_ns() < until {
         std::thread::sleep(std::time::Duration::from_millis(2));

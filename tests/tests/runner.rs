@@ -204,6 +204,15 @@ fn replay_is_deterministic_and_reports_the_documented_fields() {
     assert!(a["force"]["max_n"].as_f64().unwrap() > 0.0);
 }
 
+/// A real-time run of `ticks` ticks that took `secs` seconds ran on the 1 kHz deadlines: not
+/// faster (free-running), and not grossly slower (a wrong period). The bound above is loose:
+/// the run's time includes starting and joining its threads, and this is a check of pacing,
+/// not a benchmark.
+fn paced_at_1khz(ticks: f64, secs: f64) -> bool {
+    let ms = secs * 1000.0;
+    ms >= 0.99 * ticks && ms <= 1.10 * ticks
+}
+
 /// The demo path as a trace file, sampled at every servo tick.
 fn demo_trace(dir: &Path) -> PathBuf {
     let mut text = String::from("t,x,y,z,qw,qx,qy,qz,buttons\n");
@@ -266,11 +275,7 @@ fn real_time_run_keeps_1khz_and_removes_what_the_replay_removes() {
         o["ticks"].as_f64().unwrap(),
         "both ran the whole trace"
     );
-    // 1 kHz: the ticks took their wall time (absolute deadlines), within 2%.
-    assert!(
-        (ticks - secs * 1000.0).abs() <= 0.02 * ticks,
-        "{ticks} ticks in {secs} s"
-    );
+    assert!(paced_at_1khz(ticks, secs), "{ticks} ticks in {secs} s");
     let (vr, vo) = (
         r["removed_volume"].as_f64().unwrap(),
         o["removed_volume"].as_f64().unwrap(),
@@ -453,16 +458,13 @@ fn mesh_tool_runs_in_real_time() {
     let ticks = j["ticks"].as_f64().expect("ticks");
     let secs = j["duration_s"].as_f64().expect("duration");
     assert_eq!(ticks, 1500.0);
-    assert!(
-        (ticks - secs * 1000.0).abs() <= 0.02 * ticks,
-        "{ticks} ticks in {secs} s"
-    );
+    assert!(paced_at_1khz(ticks, secs), "{ticks} ticks in {secs} s");
     let p = &j["pen"];
     let passes = p["passes"].as_u64().expect("passes");
+    assert!(p["pass_age_max_ticks"].as_u64().is_some(), "{p}");
     assert!(passes > 0 && passes <= 1500, "{p}");
     assert_eq!(j["simulation_steps"].as_u64(), Some(passes));
     assert!(p["pass_us"]["tick_max"].as_f64().expect("pass max") > 0.0);
-    assert!(p["pass_age_max_ticks"].as_u64().expect("age") >= 1);
     assert!(p["pen_collisions_max"].as_u64().expect("inside") > 0, "{p}");
     assert!(j["force_max_n"].as_f64().expect("force") > 0.0);
     assert_eq!(j["valid"], true);
@@ -500,8 +502,9 @@ fn mesh_tool_runs_in_real_time() {
 }
 
 /// A closed stdout (`tetradrill replay | head -1`) loses the summary lines, not the run: no
-/// panic, exit status 0, the JSON written. The pipe's reading end is closed before the run
-/// starts, so every write to stdout fails.
+/// panic, exit status 0, the JSON written; a JSON meant for stdout that cannot go there is an
+/// error. The pipe's reading end is closed before the run starts, so every write to stdout
+/// fails.
 #[test]
 fn a_closed_stdout_loses_lines_not_the_run() {
     let dir = scratch_dir("runner", "closed-stdout");
@@ -524,4 +527,15 @@ fn a_closed_stdout_loses_lines_not_the_run() {
         assert!(!err.contains("panicked"), "{cmd}: {err}");
         assert!(json(&out_json)["ticks"].as_u64().expect("ticks") > 0);
     }
+    // `info --json -` writes its product to stdout: losing it is an error, one line, exit 1.
+    let (reader, writer) = std::io::pipe().expect("a pipe");
+    drop(reader);
+    let out = Command::new(tetradrill_bin())
+        .args(["info", "--mesh", "builtin:cube12", "--json", "-"])
+        .stdout(writer)
+        .output()
+        .expect("run tetradrill");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("stdout") && !err.contains("panicked"), "{err}");
 }

@@ -914,11 +914,11 @@ fn reset_ends_the_simulation_task_for_a_rebuild() {
     assert_eq!(end, SimEnd::Reset);
 }
 
-/// A mesh tool is drawn as its shape at the view's `shown` and `rotation`, not as the burr's
-/// sphere: a rod from the origin to +z (0.1 wide, 1 long), turned a quarter about x so it lies
-/// along -y from `shown`. Its turned cells are tool-coloured; where the unturned rod or a
-/// sphere at `shown` would stand out of it, the background shows (the camera's placement is
-/// the documented one, projected here independently of the renderer).
+/// A mesh tool is drawn as its shape at the view's `shown` and `rotation`: a rod from the
+/// origin to +z (0.1 wide, 1 long), turned a quarter about x so it lies along -y from `shown`.
+/// Along the turned rod the pixels are the tool's blue (shaded); where the unturned rod would
+/// stand, the background shows (the camera's placement is the documented one, projected here
+/// independently of the renderer).
 #[test]
 fn a_mesh_tool_is_drawn_as_its_shape_at_its_pose() {
     let (h, l) = (0.05f32, 1.0f32);
@@ -975,7 +975,12 @@ fn a_mesh_tool_is_drawn_as_its_shape_at_its_pose() {
     // Along the turned rod (x = 0, z = 0, y from 0.4 down to -0.6).
     for y in [0.2, 0.0, -0.2, -0.4] {
         let px = at([0.0, y, 0.0]);
-        assert!(!near(px, background(), 6), "the rod at y = {y}: {px:?}");
+        let [r, g, b] = [px[0], px[1], px[2]].map(i32::from);
+        // PALETTE.tool is blue over green over red; the light only scales it.
+        assert!(
+            b > g + 20 && g > r + 10 && !near(px, background(), 6),
+            "the rod at y = {y}: {px:?}"
+        );
     }
     // Where the unturned rod would be, above `shown`.
     for z in [0.4, 0.6, 0.8] {

@@ -181,13 +181,20 @@ pub struct PenContact {
 impl PenPass {
     /// `true` when any buffer filled in this pass (the result is valid but incomplete).
     pub fn saturated(&self) -> bool {
-        self.world_short
-            || self.pen_collisions.saturated
+        self.world_short || self.contacts_full() || self.queue_full()
+    }
+
+    /// `true` when a collision list or a depth output filled (`contact_capacity`).
+    pub fn contacts_full(&self) -> bool {
+        self.pen_collisions.saturated
             || self.object_collisions.saturated
-            || self.pen_depth.queue_full
             || self.pen_depth.out_full
-            || self.object_depth.queue_full
             || self.object_depth.out_full
+    }
+
+    /// `true` when a depth propagation queue filled (`queue_capacity`).
+    pub fn queue_full(&self) -> bool {
+        self.pen_depth.queue_full || self.object_depth.queue_full
     }
 }
 

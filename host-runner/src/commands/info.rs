@@ -262,7 +262,10 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         Some(_) if to_stdout => {
             let text = serde_json::to_string_pretty(&s.to_json())
                 .map_err(|e| CliError::failure(format!("cannot encode JSON: {e}")))?;
-            outln!("{text}");
+            // The JSON is the command's product: a failed write is an error (exit 1).
+            use std::io::Write as _;
+            writeln!(std::io::stdout(), "{text}")
+                .map_err(|e| CliError::failure(format!("stdout: cannot write the JSON: {e}")))?;
         }
         Some(out) => crate::cli::write_json(out, &s.to_json())?,
         None => {}

@@ -427,11 +427,7 @@ fn run_pen(
         errln!("tetradrill: warning: {w}");
     }
     // The object's counts and state, from an untouched hierarchy (it is only read).
-    let small = Scenario {
-        hierarchy_capacity: 8,
-        ..sc.clone()
-    };
-    let mut store = EngineStorage::try_allocate(obj.clone(), &small)?;
+    let mut store = crate::pen::object_store(obj.clone(), sc)?;
     let world = store.world()?;
     let base = SimStatus {
         hierarchy_nodes: world.hierarchy().node_count(),
@@ -502,7 +498,11 @@ fn run_pen(
                 let sim = std::thread::Builder::new()
                     .name("simulation".into())
                     .spawn_scoped(scope, move || {
-                        let viewer = link.map(|link| PenViewer { link, world });
+                        let viewer = link.map(|link| PenViewer {
+                            link,
+                            world,
+                            last_picture: !view.window,
+                        });
                         pen_contact_task(
                             scene,
                             bufs,
@@ -796,10 +796,9 @@ fn main_thread_tasks<'scope, 'env: 'scope, S>(
             }
         });
     }
-    let servo = servo
-        .join()
-        .map_err(|_| CliError::failure("the servo task panicked"))?;
+    let servo = servo.join();
     sh.stop.store(true, Ordering::Relaxed);
+    let servo = servo.map_err(|_| CliError::failure("the servo task panicked"))?;
     supervisor
         .join()
         .map_err(|_| CliError::failure("the watchdog task panicked"))?;

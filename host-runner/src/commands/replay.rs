@@ -436,11 +436,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
     }
     let ticks = replay_ticks(args, &poses);
     // The object is not drilled here: its components come from an untouched hierarchy.
-    let small = Scenario {
-        hierarchy_capacity: 8,
-        ..sc.clone()
-    };
-    let mut store = EngineStorage::allocate(obj.clone(), &small);
+    let mut store = crate::pen::object_store(obj.clone(), &sc)?;
     let world = store.world()?;
     // The object is only read: its state is checked once, at the end as at the start.
     let valid = engine::validate(&world);
@@ -534,14 +530,9 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
                 pen_info.border_edges +=
                     (c.pen_depth.border_edges + c.object_depth.border_edges) as u64;
                 pen_info.reused_crossings += (c.pen_depth.reused + c.object_depth.reused) as u64;
-                let (p, o) = (&c.pen_depth, &c.object_depth);
-                let full = c.pen_collisions.saturated
-                    || c.object_collisions.saturated
-                    || p.out_full
-                    || o.out_full;
                 pen_info.saturated_ticks += c.saturated() as u64;
-                sat.contacts += full as u32;
-                sat.queue += (p.queue_full || o.queue_full) as u32;
+                sat.contacts += c.contacts_full() as u32;
+                sat.queue += c.queue_full() as u32;
                 if progress && i % 5000 == 0 {
                     err!(
                         "\rreplay: {:>3}% ({i}/{ticks} ticks)",
