@@ -18,7 +18,7 @@ use tetradrill_core::servo::World;
 use tetradrill_core::{Quat, Vec3};
 
 use crate::platform::now_ns;
-use crate::tasks::{ForceLaw, Shared, SimStatus, ToolSample};
+use crate::tasks::{ForceLaw, ServoCounters, Shared, SimStatus, ToolSample};
 use crate::viewer::handoff::ToolView;
 use crate::viewer::publish::SimViewer;
 
@@ -116,6 +116,7 @@ pub struct PenServoStats {
 /// size), no allocation, no lock, no wait.
 pub struct PenLaw<'a, 's, 'm, 'p> {
     scene: &'a PenScene<'s, 'm, 'p>,
+    counters: &'a ServoCounters,
     held: HeldOut,
     now_pen: Vec<Penetration>,
     now_object: Vec<Penetration>,
@@ -136,14 +137,20 @@ impl std::fmt::Debug for PenLaw<'_, '_, '_, '_> {
 
 impl<'a, 's, 'm, 'p> PenLaw<'a, 's, 'm, 'p> {
     /// The law over `scene` reading `held`, with scratch for as many penetrations as the
-    /// hand-off holds.
-    pub fn new(scene: &'a PenScene<'s, 'm, 'p>, held: HeldOut, opts: PenOptions) -> Self {
+    /// hand-off holds; the viewer's stiffness, when it set one, comes through `counters`.
+    pub fn new(
+        scene: &'a PenScene<'s, 'm, 'p>,
+        counters: &'a ServoCounters,
+        held: HeldOut,
+        opts: PenOptions,
+    ) -> Self {
         let (np, no) = {
             let h = held.output_buffer();
             (h.pen.len(), h.object.len())
         };
         Self {
             scene,
+            counters,
             held,
             now_pen: vec![Penetration::default(); np],
             now_object: vec![Penetration::default(); no],
@@ -174,13 +181,19 @@ impl ForceLaw for PenLaw<'_, '_, '_, '_> {
             pen: &mut self.now_pen,
             object: &mut self.now_object,
         };
+        // The viewer's stiffness (0: the scenario's).
+        let mut opts = self.opts;
+        let k = self.counters.stiffness_bits.load(Ordering::Relaxed);
+        if k != 0 {
+            opts.params.stiffness = f32::from_bits(k);
+        }
         let s = pen_servo_force(
             self.scene,
             &contact,
             &mut now,
             position,
             rotation,
-            &self.opts,
+            &opts,
             &mut self.state,
         );
         self.stats.clamped_ticks += u64::from(s.force.clamped);
@@ -306,6 +319,14 @@ pub fn pen_contact_task(
         st.saturations = report.contacts_full + report.queue_full;
         status.write(st);
         if let Some(v) = viewer.as_mut() {
+            // The window's stiffness goes to the servo's law (its drilling controls do not
+            // apply to a mesh tool).
+            if let Some(c) = v.link.new_controls() {
+                shared
+                    .counters
+                    .stiffness_bits
+                    .store(c.stiffness.to_bits(), Ordering::Relaxed);
+            }
             let tv = pen_view(&tool, pen, object, shared.counters.force());
             shown = Some(tv);
             if stopping {

@@ -11,11 +11,14 @@
 
 use std::sync::{Arc, Mutex};
 
+use std::sync::atomic::Ordering;
 use tetradrill::commands::pipeline::{self, PipelineSetup, MESH_UNITS};
+
 use tetradrill::pen::{options, PenRig, PenSizes};
+use tetradrill::pen_tasks::{held_handoff, PenLaw};
 use tetradrill::rt::RtConfig;
 use tetradrill::scenario::{Crossings, Scenario};
-use tetradrill::tasks::DeviceFrame;
+use tetradrill::tasks::{DeviceFrame, ForceLaw, ServoCounters, ToolSample};
 use tetradrill::viewer::ViewOptions;
 use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
@@ -213,4 +216,75 @@ fn every_real_time_force_is_a_recent_pass_carried_to_its_tick() {
         mean < 0.1 * rep.force_max_n,
         "carried vs exact: mean {mean} N"
     );
+}
+
+/// The window's stiffness reaches the pen's law through the servo counters (0: the
+/// scenario's): at a pass's own pose, with damping off and no clamp reached, doubling the
+/// stiffness doubles the force exactly, and the scenario's is the exact pass's force.
+#[test]
+fn the_stiffness_control_scales_the_pens_force() {
+    let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
+    let sc = Scenario {
+        mesh: "builtin:block:8".into(),
+        tool: format!("mesh:{}", pen.display()),
+        tool_scale: 5.0,
+        stiffness: 20.0,
+        damping: 0.0,
+        max_force: 1000.0,
+        ..Scenario::default()
+    };
+    let obj = tetradrill::engine::load_mesh(&sc).expect("block").mesh;
+    let tool = tetradrill::meshio::load(&pen, sc.tool_scale).expect("pen");
+    let opts = options(&sc);
+    let mut rig = PenRig {
+        pen: tool.mesh,
+        obj,
+    };
+    let ((exact, single, double), _) = rig
+        .with_sizes(PenSizes::of(&sc), |scene, bufs| {
+            let counters = ServoCounters::default();
+            let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
+            let mut law = PenLaw::new(scene, &counters, held_out, opts);
+            let sample = ToolSample {
+                tick: 0,
+                position: Vec3::new(0.1, 0.0, 0.47),
+                rotation: Quat::from_rotation_y(0.3),
+                buttons: 0,
+            };
+            let exact = pen_contact(
+                scene,
+                bufs,
+                sample.position,
+                sample.rotation,
+                &opts,
+                &mut PenState::default(),
+            )
+            .force;
+            let pass = pen_pass(
+                scene,
+                bufs,
+                sample.position,
+                sample.rotation,
+                &opts,
+                &mut PenState::default(),
+            );
+            let (np, no) = pass.penetrations;
+            held_in.input_buffer_mut().set(
+                1,
+                &sample,
+                &bufs.pen_pens[..np],
+                &bufs.object_pens[..no],
+            );
+            held_in.publish();
+            let single = law.force(1, sample.position, sample.rotation);
+            counters
+                .stiffness_bits
+                .store((2.0 * sc.stiffness as f32).to_bits(), Ordering::Relaxed);
+            let double = law.force(2, sample.position, sample.rotation);
+            (exact, single, double)
+        })
+        .expect("the rig");
+    assert!(exact.length() > 0.5, "the tip is in: {exact}");
+    assert_eq!(single, exact);
+    assert_eq!(double, 2.0 * single);
 }

@@ -213,7 +213,8 @@ fn the_pen_servo_tick_allocates_nothing_after_warm_up() {
         .with_sizes(PenSizes::of(&sc), |scene, bufs| {
             let ring = ArrayQueue::new(64);
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
-            let mut law = PenLaw::new(scene, held_out, opts);
+            let counters = ServoCounters::default();
+            let mut law = PenLaw::new(scene, &counters, held_out, opts);
             let mut pass_state = PenState::default();
             let mut st = ServoState::default();
             let mut run = |from: u64, to: u64, st: &mut ServoState| {

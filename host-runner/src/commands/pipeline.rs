@@ -405,8 +405,8 @@ fn conclude(
 /// contact task ([`crate::pen_tasks::pen_contact_task`]: collisions and depths at the newest
 /// pose, as often as it can), the servo carries the latest pass to every tick's pose
 /// ([`crate::pen_tasks::PenLaw`]). The object is touched, not drilled. The live window and
-/// `--screenshot` show the object and the pen where it is drawn clear of it (the window's
-/// drilling controls do nothing here).
+/// `--screenshot` show the object and the pen where it is drawn clear of it; the window's
+/// stiffness slider sets the pen's stiffness (its drilling controls are hidden).
 fn run_pen(
     sc: &Scenario,
     setup: PipelineSetup,
@@ -470,13 +470,17 @@ fn run_pen(
         .with_sizes(PenSizes::of(sc), |scene, bufs| {
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let (mut status_in, status_out) = triple_buffer::TripleBuffer::new(&base).split();
-            let mut law = PenLaw::new(scene, held_out, opts);
+            let mut law = PenLaw::new(scene, &shared.counters, held_out, opts);
             let mut task = PenTaskReport::with_room(ticks as usize);
-            // The window's controls drill: the pen's task does not read them.
-            let (controls_in, _) = crate::viewer::handoff::controls(initial_controls);
+            // The window's stiffness reaches the pen's law through the contact task.
+            let (controls_in, controls_out) = crate::viewer::handoff::controls(initial_controls);
             let (camera_in, mut camera_out) = tasks::camera_handoff();
             let mut link = view.any().then(|| {
-                let mut l = crate::viewer::publish::SimViewer::new(&shared.snapshots, None, tets);
+                let mut l = crate::viewer::publish::SimViewer::new(
+                    &shared.snapshots,
+                    Some(controls_out),
+                    tets,
+                );
                 l.set_initial_volume(initial_volume);
                 l.set_tool_shape(shape.clone());
                 l

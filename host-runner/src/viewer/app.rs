@@ -47,6 +47,8 @@ struct ViewerApp<'a> {
     /// The camera `C` last handed to the servo.
     published: [f32; 16],
     fitted: bool,
+    /// The tool is a mesh (the pen): no drilling controls.
+    mesh_tool: bool,
     controls: Controls,
     force_plot: VecDeque<f32>,
     latency_plot: VecDeque<f32>,
@@ -104,6 +106,7 @@ pub fn run(link: LiveLink<'_>) -> Result<Scene, CliError> {
                 home: Camera::default(),
                 published: crate::tasks::IDENTITY,
                 fitted: false,
+                mesh_tool: false,
                 controls: initial,
                 force_plot: VecDeque::with_capacity(PLOT_SAMPLES),
                 latency_plot: VecDeque::with_capacity(PLOT_SAMPLES),
@@ -149,6 +152,7 @@ impl eframe::App for ViewerApp<'_> {
                 }
                 s.scene.apply(snap);
             }
+            self.mesh_tool = s.scene.tool_shape.is_some();
             if !self.fitted {
                 if let Some((lo, hi)) = s.scene.bounds {
                     self.camera.fit(lo, hi);
@@ -283,11 +287,14 @@ impl ViewerApp<'_> {
         let before = self.controls;
         let init = self.link.initial;
         let c = &mut self.controls;
-        ui.add(
-            egui::Slider::new(&mut c.radius, 0.25 * init.radius..=3.0 * init.radius)
-                .text("tool radius"),
-        )
-        .on_hover_text("The burr's radius: the drill spheres and the servo's contact.");
+        let drill = !self.mesh_tool;
+        if drill {
+            ui.add(
+                egui::Slider::new(&mut c.radius, 0.25 * init.radius..=3.0 * init.radius)
+                    .text("tool radius"),
+            )
+            .on_hover_text("The burr's radius: the drill spheres and the servo's contact.");
+        }
         ui.add(
             egui::Slider::new(
                 &mut c.stiffness,
@@ -296,21 +303,24 @@ impl ViewerApp<'_> {
             .text("stiffness"),
         )
         .on_hover_text("The servo's spring constant, N per mesh unit (force stays clamped).");
-        ui.add(
-            egui::Slider::new(
-                &mut c.max_depth,
-                0..=tetradrill_core::hierarchy::MAX_DEPTH as u8,
+        if drill {
+            ui.add(
+                egui::Slider::new(
+                    &mut c.max_depth,
+                    0..=tetradrill_core::hierarchy::MAX_DEPTH as u8,
+                )
+                .text("max depth"),
             )
-            .text("max depth"),
-        )
-        .on_hover_text("The deepest refinement level the drill uses from now on.");
-        ui.checkbox(&mut c.paused, "pause drilling")
-            .on_hover_text("The burr still touches (force on); no material is removed.");
+            .on_hover_text("The deepest refinement level the drill uses from now on.");
+            ui.checkbox(&mut c.paused, "pause drilling")
+                .on_hover_text("The burr still touches (force on); no material is removed.");
+        }
         ui.horizontal(|ui| {
-            if ui
-                .button("reset")
-                .on_hover_text("Rebuild the untouched mesh (the run goes on).")
-                .clicked()
+            if drill
+                && ui
+                    .button("reset")
+                    .on_hover_text("Rebuild the untouched mesh (the run goes on).")
+                    .clicked()
             {
                 c.reset = c.reset.wrapping_add(1);
             }
