@@ -172,6 +172,18 @@ impl TickParams {
                 )))
             }
         };
+        if sc.contact_period != 1 {
+            return Err(CliError::input(
+                "--contact-period spaces a mesh tool's contact passes; a sphere tool simulates \
+                 every tick",
+            ));
+        }
+        if sc.entry_remedy {
+            return Err(CliError::input(
+                "--entry-remedy is a mesh tool's remedy (seed 000 section 6); a sphere tool has \
+                 none",
+            ));
+        }
         Ok(Self {
             radius,
             reach: 0.5 * radius,

@@ -114,7 +114,7 @@ impl PenSizes {
 }
 
 /// The pen options a scenario asks for: its stiffness, damping and force clamp at the servo's
-/// period, its depth method and crossing rule.
+/// period, its depth method, crossing rule and entry-plane remedy.
 pub fn options(sc: &crate::scenario::Scenario) -> PenOptions {
     use crate::scenario::{Crossings, DepthMethod};
     PenOptions {
@@ -130,6 +130,7 @@ pub fn options(sc: &crate::scenario::Scenario) -> PenOptions {
             DepthMethod::Hashed => PenMethod::Hashed,
         },
         reuse_crossings: sc.crossings == Crossings::Reuse,
+        entry_remedy: sc.entry_remedy,
         ..PenOptions::default()
     }
 }

@@ -63,6 +63,10 @@ pub struct Scenario {
     /// `contact_period`-th tick and the servo carries its penetrations to the pose of the
     /// ticks between (`tetradrill_core::force::pen_servo_force`); 1 passes every tick (exact).
     pub contact_period: u32,
+    /// Mesh tool: measure the pen's depths against the plane where it entered the object
+    /// while a contact lasts (seed 000 section 6's remedy for a thin pen pushed sideways,
+    /// `tetradrill_core::force::EntryPlane`; docs/CONTACT.md).
+    pub entry_remedy: bool,
     /// Deepest subdivision level of a drilled tet.
     pub max_depth: u8,
     /// Refinement stops below this face area (mesh units squared).
@@ -223,6 +227,7 @@ impl Default for Scenario {
             depth_method: DepthMethod::Traced,
             crossings: Crossings::Reuse,
             contact_period: 1,
+            entry_remedy: false,
             max_depth: 5,
             min_area: 0.0,
             hierarchy_capacity: 1 << 20,
@@ -293,6 +298,10 @@ pub struct ScenarioFlags {
     /// the last pass's penetrations to the current pose. 1 (default): a pass every tick.
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub contact_period: Option<u32>,
+    /// Mesh tool: the entry-plane remedy for a thin pen pushed sideways (seed 000 section 6):
+    /// `--entry-remedy` or `--entry-remedy true|false` (default false).
+    #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
+    pub entry_remedy: Option<bool>,
     /// Deepest subdivision level (1..=9).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u8).range(1..=9))]
     pub max_depth: Option<u8>,
@@ -408,6 +417,7 @@ impl Scenario {
             depth_method,
             crossings,
             contact_period,
+            entry_remedy,
             max_depth,
             min_area,
             hierarchy_capacity,

@@ -539,3 +539,68 @@ fn a_closed_stdout_loses_lines_not_the_run() {
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("stdout") && !err.contains("panicked"), "{err}");
 }
+
+/// `--entry-remedy` (scenario key `entry_remedy`) reaches a mesh tool's force in `replay` and
+/// `run`: the pen wandering into the block gets other forces with it than without, the JSON
+/// says it was on; a sphere tool has no such remedy (exit 2 naming the flag).
+#[test]
+fn mesh_tool_entry_remedy_is_a_flag() {
+    let dir = scratch_dir("runner", "entry-remedy");
+    let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
+    let tool = format!("mesh:{}", pen.display());
+    let mut digests = Vec::new();
+    for on in ["false", "true"] {
+        let out_json = dir.join(format!("remedy-{on}.json"));
+        let out = pen_on_block(&tool, 1500, &out_json, &["--entry-remedy", on]);
+        assert!(
+            out.status.success(),
+            "{on}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let j = json(&out_json);
+        assert_eq!(j["scenario"]["entry_remedy"].as_bool(), Some(on == "true"));
+        assert!(j["force"]["contact_ticks"].as_u64().expect("contact ticks") > 100);
+        digests.push(j["force_digest"].as_str().expect("digest").to_string());
+    }
+    assert_ne!(
+        digests[0], digests[1],
+        "the remedy changes the forces in contact"
+    );
+    let run_json = dir.join("remedy-run.json");
+    let out = run(&[
+        "run",
+        "--no-rt",
+        "--headless",
+        "--quiet",
+        "--tool",
+        &tool,
+        "--tool-scale",
+        "10",
+        "--trace",
+        "wander:3",
+        "--duration",
+        "0.3",
+        "--entry-remedy",
+        "--json",
+        run_json.to_str().expect("a UTF-8 scratch path"),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(json(&run_json)["pen"]["entry_remedy"].as_bool(), Some(true));
+    refused(
+        &["replay", "--tool", "sphere:0.1", "--entry-remedy"],
+        &["--entry-remedy"],
+    );
+    let bad = write(&dir, "remedy.toml", "entry_remedy = 3\n");
+    refused(
+        &[
+            "replay",
+            "--scenario",
+            bad.to_str().expect("a UTF-8 scratch path"),
+        ],
+        &["remedy.toml:1:"],
+    );
+}

@@ -121,6 +121,8 @@ pub struct PenRunSummary {
     pub tool_tets: usize,
     /// Depth method used.
     pub depth_method: String,
+    /// The entry-plane remedy was on (`--entry-remedy`).
+    pub entry_remedy: bool,
     /// Contact passes run (the simulation task's steps).
     pub passes: u64,
     /// Time of the contact passes, microseconds.
@@ -455,6 +457,7 @@ fn run_pen(
         tool_nodes: pen.mesh.positions().len(),
         tool_tets: pen.mesh.tets().len(),
         depth_method: format!("{:?}", sc.depth_method).to_lowercase(),
+        entry_remedy: sc.entry_remedy,
         ..PenRunSummary::default()
     };
     let shared = Shared::new();
