@@ -16,11 +16,9 @@ use std::time::{Duration, Instant};
 use crossbeam::queue::ArrayQueue;
 use tetradrill::commands::pipeline::{self, PipelineSetup, MESH_UNITS};
 use tetradrill::engine::{self, EngineStorage, TickParams};
-use tetradrill::rt::RtConfig;
 use tetradrill::scenario::Scenario;
 use tetradrill::tasks::{servo_tick, ServoState, ToolSample};
 use tetradrill::traces::Pose;
-use tetradrill::viewer::ViewOptions;
 use tetradrill::watchdog::{self, ServoWatch, SERVO_WATCHDOG_NS};
 use tetradrill_core::force::ToolState;
 use tetradrill_core::servo::ContactState;
@@ -671,23 +669,7 @@ fn pipeline_with(
         mesh: "builtin:block:4".into(),
         ..Scenario::default()
     };
-    let setup = PipelineSetup {
-        kind,
-        open,
-        ticks,
-        workspace: MESH_UNITS,
-        rt: RtConfig {
-            fifo_priority: None,
-            core: None,
-            lock_memory: false,
-        },
-        status_line: false,
-        view: ViewOptions {
-            window: false,
-            screenshot: None,
-        },
-    };
-    pipeline::run(&sc, setup, None)
+    pipeline::run(&sc, PipelineSetup::plain(kind, open, ticks), None)
 }
 
 #[test]

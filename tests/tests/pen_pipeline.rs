@@ -16,10 +16,8 @@ use tetradrill::commands::pipeline::{self, PipelineSetup, MESH_UNITS};
 
 use tetradrill::pen::{options, PenRig, PenSizes};
 use tetradrill::pen_tasks::{held_handoff, PenLaw};
-use tetradrill::rt::RtConfig;
 use tetradrill::scenario::{Crossings, Scenario};
 use tetradrill::tasks::{DeviceFrame, ForceLaw, ServoCounters, ToolSample};
-use tetradrill::viewer::ViewOptions;
 use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
     pen_contact, pen_pass, pen_servo_force, HeldContact, PenState, ServoScratch,
@@ -84,8 +82,10 @@ impl HapticDevice for Kinematic {
     }
 }
 
-#[test]
-fn every_real_time_force_is_a_recent_pass_carried_to_its_tick() {
+/// The pen (x5) on `builtin:block:8`: stiffness 20, no damping, clamp far away (1 kN), every
+/// pass searching its crossings (a pass then depends on its pose only). Returns the scenario
+/// and the pen's file.
+fn pen_on_block() -> (Scenario, std::path::PathBuf) {
     let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
     let sc = Scenario {
         mesh: "builtin:block:8".into(),
@@ -94,33 +94,24 @@ fn every_real_time_force_is_a_recent_pass_carried_to_its_tick() {
         stiffness: 20.0,
         damping: 0.0,
         max_force: 1000.0,
-        // Every pass searches its crossings: a pass then depends on its pose only.
         crossings: Crossings::Search,
         ..Scenario::default()
     };
+    (sc, pen)
+}
+
+#[test]
+fn every_real_time_force_is_a_recent_pass_carried_to_its_tick() {
+    let (sc, pen) = pen_on_block();
     let forces: Record = Arc::new(Mutex::new(Vec::with_capacity(TICKS as usize)));
     let recorded = Arc::clone(&forces);
-    let setup = PipelineSetup {
-        kind: DeviceKind::Sim,
-        open: Box::new(move || {
-            Ok(Box::new(Kinematic {
-                reads: 0,
-                forces: recorded,
-            }) as Box<dyn HapticDevice>)
-        }),
-        ticks: TICKS,
-        workspace: MESH_UNITS,
-        rt: RtConfig {
-            fifo_priority: None,
-            core: None,
-            lock_memory: false,
-        },
-        status_line: false,
-        view: ViewOptions {
-            window: false,
-            screenshot: None,
-        },
-    };
+    let open: pipeline::DeviceFactory = Box::new(move || {
+        Ok(Box::new(Kinematic {
+            reads: 0,
+            forces: recorded,
+        }) as Box<dyn HapticDevice>)
+    });
+    let setup = PipelineSetup::plain(DeviceKind::Sim, open, TICKS);
     let rep = pipeline::run(&sc, setup, None).expect("the pen's real-time run");
     let p = rep.pen.as_ref().expect("a mesh tool's summary");
     assert_eq!(rep.ticks, TICKS);
@@ -223,16 +214,7 @@ fn every_real_time_force_is_a_recent_pass_carried_to_its_tick() {
 /// stiffness doubles the force exactly, and the scenario's is the exact pass's force.
 #[test]
 fn the_stiffness_control_scales_the_pens_force() {
-    let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
-    let sc = Scenario {
-        mesh: "builtin:block:8".into(),
-        tool: format!("mesh:{}", pen.display()),
-        tool_scale: 5.0,
-        stiffness: 20.0,
-        damping: 0.0,
-        max_force: 1000.0,
-        ..Scenario::default()
-    };
+    let (sc, pen) = pen_on_block();
     let obj = tetradrill::engine::load_mesh(&sc).expect("block").mesh;
     let tool = tetradrill::meshio::load(&pen, sc.tool_scale).expect("pen");
     let opts = options(&sc);

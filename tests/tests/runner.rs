@@ -419,6 +419,27 @@ fn mesh_tool_contact_period_spaces_the_passes() {
     );
 }
 
+/// `run` (no real-time settings, headless, quiet) of the mesh tool `tool` (x10) on
+/// `builtin:block:8` along `wander:3` for `secs` seconds, plus `extra`.
+fn pen_run(tool: &str, secs: &str, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "run",
+        "--no-rt",
+        "--headless",
+        "--quiet",
+        "--tool",
+        tool,
+        "--tool-scale",
+        "10",
+        "--trace",
+        "wander:3",
+        "--duration",
+        secs,
+    ];
+    args.extend(extra);
+    run(&args)
+}
+
 /// `run --tool mesh:FILE`: the pen in the real-time pipeline (the contact task's passes, the
 /// servo carrying them) keeps 1 kHz, reports its passes and takes a screenshot; a contact
 /// period (replay's) exits 2 naming the flag. (`tests/pen_pipeline.rs` checks its forces tick
@@ -429,24 +450,8 @@ fn mesh_tool_runs_in_real_time() {
     let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
     let tool = format!("mesh:{}", pen.display());
     let out_json = dir.join("pen-run.json");
-    let out = run(&[
-        "run",
-        "--no-rt",
-        "--headless",
-        "--quiet",
-        "--tool",
-        &tool,
-        "--tool-scale",
-        "10",
-        "--trace",
-        "wander:3",
-        "--duration",
-        "1.5",
-        "--max-force",
-        "10000",
-        "--json",
-        out_json.to_str().expect("a UTF-8 scratch path"),
-    ]);
+    let j = out_json.to_str().expect("a UTF-8 scratch path");
+    let out = pen_run(&tool, "1.5", &["--max-force", "10000", "--json", j]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
@@ -476,22 +481,8 @@ fn mesh_tool_runs_in_real_time() {
     );
     // The picture at the end: the block and the pen (drawn clear of it).
     let png = dir.join("pen.png");
-    let out = run(&[
-        "run",
-        "--no-rt",
-        "--headless",
-        "--quiet",
-        "--tool",
-        &tool,
-        "--tool-scale",
-        "10",
-        "--trace",
-        "wander:3",
-        "--duration",
-        "0.3",
-        "--screenshot",
-        png.to_str().expect("a UTF-8 scratch path"),
-    ]);
+    let shot = png.to_str().expect("a UTF-8 scratch path");
+    let out = pen_run(&tool, "0.3", &["--screenshot", shot]);
     assert!(
         out.status.success(),
         "{}",
@@ -567,23 +558,8 @@ fn mesh_tool_entry_remedy_is_a_flag() {
         "the remedy changes the forces in contact"
     );
     let run_json = dir.join("remedy-run.json");
-    let out = run(&[
-        "run",
-        "--no-rt",
-        "--headless",
-        "--quiet",
-        "--tool",
-        &tool,
-        "--tool-scale",
-        "10",
-        "--trace",
-        "wander:3",
-        "--duration",
-        "0.3",
-        "--entry-remedy",
-        "--json",
-        run_json.to_str().expect("a UTF-8 scratch path"),
-    ]);
+    let j = run_json.to_str().expect("a UTF-8 scratch path");
+    let out = pen_run(&tool, "0.3", &["--entry-remedy", "--json", j]);
     assert!(
         out.status.success(),
         "{}",

@@ -46,6 +46,29 @@ pub struct PipelineSetup {
     pub view: crate::viewer::ViewOptions,
 }
 
+impl PipelineSetup {
+    /// The plainest setup for an in-process run (tests, embedding): the device from `open`
+    /// moving in mesh units, no real-time settings, no status line, no view.
+    pub fn plain(kind: DeviceKind, open: DeviceFactory, ticks: u64) -> Self {
+        Self {
+            kind,
+            open,
+            ticks,
+            workspace: MESH_UNITS,
+            rt: RtConfig {
+                fifo_priority: None,
+                core: None,
+                lock_memory: false,
+            },
+            status_line: false,
+            view: crate::viewer::ViewOptions {
+                window: false,
+                screenshot: None,
+            },
+        }
+    }
+}
+
 impl std::fmt::Debug for PipelineSetup {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("PipelineSetup")
@@ -443,15 +466,6 @@ fn run_pen(
     );
     let tets = world.mesh().tet_count();
     let opts = crate::pen::options(sc);
-    let PipelineSetup {
-        kind,
-        open,
-        ticks,
-        workspace,
-        rt,
-        status_line,
-        view,
-    } = setup;
     let shape = crate::viewer::publish::tool_shape(&pen.mesh.view());
     let mut summary = PenRunSummary {
         tool_nodes: pen.mesh.positions().len(),
@@ -469,16 +483,16 @@ fn run_pen(
         paused: false,
         reset: 0,
     };
-    let ((servo, sim_status, task, stats, elapsed, mut shown), setup) = rig
+    let ((servo, sim_status, task, stats, elapsed, mut shown), built) = rig
         .with_sizes(PenSizes::of(sc), |scene, bufs| {
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let (mut status_in, status_out) = triple_buffer::TripleBuffer::new(&base).split();
             let mut law = PenLaw::new(scene, &shared.counters, held_out, opts);
-            let mut task = PenTaskReport::with_room(ticks as usize);
+            let mut task = PenTaskReport::with_room(setup.ticks as usize);
             // The window's stiffness reaches the pen's law through the contact task.
             let (controls_in, controls_out) = crate::viewer::handoff::controls(initial_controls);
             let (camera_in, mut camera_out) = tasks::camera_handoff();
-            let mut link = view.any().then(|| {
+            let mut link = setup.view.any().then(|| {
                 let mut l = crate::viewer::publish::SimViewer::new(
                     &shared.snapshots,
                     Some(controls_out),
@@ -489,12 +503,12 @@ fn run_pen(
                 l
             });
             let run = ServoRun {
-                open,
-                rt,
-                ticks,
-                workspace,
+                open: setup.open,
+                rt: setup.rt,
+                ticks: setup.ticks,
+                workspace: setup.workspace,
                 frame: tasks::DeviceFrame::new(centre),
-                camera: view.window.then_some(&mut camera_out),
+                camera: setup.view.window.then_some(&mut camera_out),
             };
             // The run's time starts with its tasks (the scene is built by now).
             let started = std::time::Instant::now();
@@ -508,7 +522,7 @@ fn run_pen(
                         let viewer = link.map(|link| PenViewer {
                             link,
                             world,
-                            last_picture: !view.window,
+                            last_picture: !setup.view.window,
                         });
                         pen_contact_task(
                             scene,
@@ -525,10 +539,10 @@ fn run_pen(
                         CliError::failure(format!("cannot start the contact task: {e}"))
                     })?;
                 let servo = spawn_servo(scope, sh, run, &mut law)?;
-                let supervisor = spawn_watchdog(scope, sh, rt, kind)?;
+                let supervisor = spawn_watchdog(scope, sh, setup.rt, setup.kind)?;
                 let front = Front {
-                    view: &view,
-                    status_line,
+                    view: &setup.view,
+                    status_line: setup.status_line,
                     initial_volume,
                     controls: controls_in,
                     initial_controls,
@@ -541,7 +555,7 @@ fn run_pen(
             Ok((servo, status, task, law.stats, elapsed, shown))
         })
         .map_err(|e| CliError::failure(format!("cannot set up the tool contact: {e}")))
-        .and_then(|(r, setup)| r.map(|r| (r, setup)))?;
+        .and_then(|(r, built)| r.map(|r| (r, built)))?;
     summary.passes = task.passes;
     summary.pass_us = TickTiming::from(summarise_ns(&task.pass_ns));
     summary.carried_ticks = stats.carried_ticks;
@@ -555,19 +569,19 @@ fn run_pen(
     summary.servo_short_ticks = stats.short_ticks;
     summary.nonfinite_ticks = stats.nonfinite_ticks;
     let ended = Ended {
-        kind,
+        kind: setup.kind,
         elapsed,
         initial_volume,
         sim: sim_status,
         saturations: SaturationCounts {
-            hash: setup.hash_saturations,
+            hash: built.hash_saturations,
             contacts: task.contacts_full,
             queue: task.queue_full,
             ..SaturationCounts::default()
         },
     };
     let (rep, error) = ended.report(servo, &shared, Some(summary))?;
-    if let Some(path) = &view.screenshot {
+    if let Some(path) = &setup.view.screenshot {
         crate::viewer::screenshot(&mut shown, path)?;
     }
     if let Some(p) = &rep.pen {
