@@ -13,7 +13,8 @@
 # SOAK_SEED (the wander's seed, default 1), SOAK_OUT (where the JSON, the log and the RSS
 # samples go; default target/soak), SOAK_TOLERANCE_KB (allowed growth after warm-up; default
 # 1024 KiB or 1% of the RSS at the end of warm-up, whichever is larger),
-# SOAK_ARGS (extra flags for `run`, e.g. --no-rt).
+# SOAK_ARGS (extra flags for `run`, e.g. --no-rt), SOAK_TOOL (the tool, default sphere:0.03;
+# `mesh:FILE` soaks a tet-mesh tool's contact pipeline, e.g. with SOAK_ARGS=--tool-scale 10).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -52,9 +53,10 @@ warm=$(( seconds / 10 ))
 [ "$warm" -gt $(( seconds - 3 * interval )) ] && warm=$(( seconds - 3 * interval ))
 until=$(( seconds - 2 * interval ))
 
-echo "soak: ${seconds} s, teddy, wander:$seed, burr 0.03, drill on; RSS every ${interval} s after ${warm} s of warm-up"
+tool=${SOAK_TOOL:-sphere:0.03}
+echo "soak: ${seconds} s, teddy, wander:$seed, tool $tool, drill on; RSS every ${interval} s after ${warm} s of warm-up"
 # shellcheck disable=SC2086
-"$bin" run --device sim --mesh "$teddy" --trace "wander:$seed" --tool sphere:0.03 \
+"$bin" run --device sim --mesh "$teddy" --trace "wander:$seed" --tool "$tool" \
   --max-depth 3 --duration "$seconds" --headless --quiet --json "$out/soak.json" \
   ${SOAK_ARGS:-} >"$out/soak.log" 2>&1 &
 pid=$!

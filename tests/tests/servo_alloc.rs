@@ -4,7 +4,7 @@
 //! and the contact triple buffer), in contact with a surface and out of it; nor does the way
 //! back from a stall the watchdog caught ([`tetradrill::tasks::recover_from_stall`]); nor does
 //! a mesh tool's tick ([`tetradrill::tasks::servo_io`] with
-//! [`tetradrill::pen_tasks::PenLaw`]).
+//! [`tetradrill::pen_tasks::PenLaw`]), nor its contact task.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -12,10 +12,11 @@ use std::cell::Cell;
 use crossbeam::queue::ArrayQueue;
 use tetradrill::engine::TickParams;
 use tetradrill::pen::{PenRig, PenSizes};
-use tetradrill::pen_tasks::{held_handoff, PenLaw};
+use tetradrill::pen_tasks::{held_handoff, pen_contact_task, PenLaw, PenTaskReport};
 use tetradrill::scenario::Scenario;
 use tetradrill::tasks::{
-    recover_from_stall, servo_io, servo_tick, BurrLaw, ServoCounters, ServoState, Workspace,
+    recover_from_stall, servo_io, servo_tick, BurrLaw, ServoCounters, ServoState, Shared,
+    SimStatus, ToolSample, Workspace,
 };
 use tetradrill::watchdog::ServoWatch;
 use tetradrill_core::force::{pen_pass, PenState};
@@ -259,5 +260,83 @@ fn the_pen_servo_tick_allocates_nothing_after_warm_up() {
     assert_eq!(
         calls, 0,
         "the pen's servo tick allocated or freed {calls} times"
+    );
+}
+
+/// The pen's contact task ([`pen_contact_task`], headless) allocates nothing after start-up:
+/// armed on the task's own thread while another thread feeds it tool samples pressing the
+/// tip into the block and lifting it, it runs its passes and publishes them with no
+/// allocator call (its pass-time vector has its room beforehand).
+#[test]
+fn the_pen_contact_task_allocates_nothing() {
+    let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
+    let sc = Scenario {
+        tool: format!("mesh:{}", pen.display()),
+        tool_scale: 5.0,
+        ..Scenario::default()
+    };
+    let obj = tetradrill::engine::load_mesh(&sc).expect("block").mesh;
+    let tool = tetradrill::meshio::load(&pen, sc.tool_scale).expect("pen");
+    let opts = tetradrill::pen::options(&sc);
+    let mut rig = PenRig {
+        pen: tool.mesh,
+        obj,
+    };
+    let ((calls, report), _) = rig
+        .with_sizes(PenSizes::of(&sc), |scene, bufs| {
+            let shared = Shared::new();
+            let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
+            let (mut status_in, _status_out) =
+                triple_buffer::TripleBuffer::new(&SimStatus::default()).split();
+            let mut report = PenTaskReport::with_room(4000);
+            let calls = std::thread::scope(|s| {
+                let sh = &shared;
+                let task = s.spawn(|| {
+                    CALLS.with(|c| c.set(0));
+                    ARMED.with(|a| a.set(true));
+                    pen_contact_task(
+                        scene,
+                        bufs,
+                        &opts,
+                        sh,
+                        &mut held_in,
+                        &mut status_in,
+                        &mut report,
+                        None,
+                    );
+                    ARMED.with(|a| a.set(false));
+                    CALLS.with(|c| c.get())
+                });
+                for tick in 0..2000u64 {
+                    let t = tick as f32 / 1000.0;
+                    let sample = ToolSample {
+                        tick,
+                        position: Vec3::new(
+                            0.1 * (t * 3.0).sin(),
+                            0.0,
+                            0.5 - 0.04 * (t * 5.0).sin(),
+                        ),
+                        rotation: glam::Quat::from_rotation_y(0.3 * (t * 2.0).sin()),
+                        buttons: 0,
+                    };
+                    while sh.ring.push(sample).is_err() {
+                        std::thread::yield_now();
+                    }
+                    if tick % 50 == 0 {
+                        std::thread::sleep(std::time::Duration::from_millis(1));
+                    }
+                }
+                sh.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+                task.join().expect("the contact task")
+            });
+            drop(held_out);
+            (calls, report)
+        })
+        .expect("the rig");
+    assert!(report.passes > 10, "{} passes", report.passes);
+    assert!(report.pen_collisions_max > 0, "the pen went in");
+    assert_eq!(
+        calls, 0,
+        "the contact task allocated or freed {calls} times"
     );
 }
