@@ -66,6 +66,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         workspace,
         rt,
         status_line: true,
+        summary: true,
         view,
     };
     pipeline::run(&sc, setup, args.json.as_ref()).map(|_| ())

@@ -42,13 +42,15 @@ pub struct PipelineSetup {
     pub rt: RtConfig,
     /// Print the live status line.
     pub status_line: bool,
+    /// Print the summary on stdout at the end (the report is returned either way).
+    pub summary: bool,
     /// Live window and/or screenshot.
     pub view: crate::viewer::ViewOptions,
 }
 
 impl PipelineSetup {
     /// The plainest setup for an in-process run (tests, embedding): the device from `open`
-    /// moving in mesh units, no real-time settings, no status line, no view.
+    /// moving in mesh units, no real-time settings, no status line, no summary, no view.
     pub fn plain(kind: DeviceKind, open: DeviceFactory, ticks: u64) -> Self {
         Self {
             kind,
@@ -61,6 +63,7 @@ impl PipelineSetup {
                 lock_memory: false,
             },
             status_line: false,
+            summary: false,
             view: crate::viewer::ViewOptions {
                 window: false,
                 screenshot: None,
@@ -219,6 +222,7 @@ pub fn run(
         workspace,
         rt,
         status_line,
+        summary,
         view,
     } = setup;
     let started = std::time::Instant::now();
@@ -313,6 +317,7 @@ pub fn run(
         initial_volume,
         sim: sim_status,
         saturations,
+        summary,
     };
     let (rep, error) = ended.report(servo, &shared, None)?;
     if let Some(path) = &view.screenshot {
@@ -328,6 +333,8 @@ struct Ended {
     initial_volume: f64,
     sim: SimStatus,
     saturations: SaturationCounts,
+    /// Print the summary.
+    summary: bool,
 }
 
 impl Ended {
@@ -391,7 +398,9 @@ impl Ended {
             valid: false,
             pen,
         };
-        print_summary(&rep);
+        if self.summary {
+            print_summary(&rep);
+        }
         if rep.nonfinite_samples > 0 {
             errln!(
                 "tetradrill: warning: the {} device sent {} non-finite positions; the force was \
@@ -579,12 +588,13 @@ fn run_pen(
             queue: task.queue_full,
             ..SaturationCounts::default()
         },
+        summary: setup.summary,
     };
     let (rep, error) = ended.report(servo, &shared, Some(summary))?;
     if let Some(path) = &setup.view.screenshot {
         crate::viewer::screenshot(&mut shown, path)?;
     }
-    if let Some(p) = &rep.pen {
+    if let Some(p) = rep.pen.as_ref().filter(|_| setup.summary) {
         outln!(
             "tool {} nodes / {} tets, depth {}: {} contact passes, us: mean {:.1}  p99 {:.1}  \
              max {:.1}; pass age ticks: mean {:.2}  max {}",

@@ -81,6 +81,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         workspace,
         rt,
         status_line: !args.quiet,
+        summary: true,
         view,
     };
     pipeline::run(&sc, setup, args.json.as_ref()).map(|_| ())
