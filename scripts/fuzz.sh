@@ -9,7 +9,7 @@
 # AddressSanitizer off (it is on by default; the stable toolchain ships its runtime).
 #
 # Seeds: fuzz/seeds/<target>/ (small hand-written files, committed) plus, for the mesh targets,
-# the real files in $TETRADRILL_MESHES (default ../shared/meshes), copied at run time into
+# the real files in $TETRADRILL_MESHES (default tests/data/meshes), copied at run time into
 # fuzz/corpus/<target>/, which is ignored by git and grows from run to run. Before fuzzing, each
 # mesh target runs once over the whole real files (larger than -max_len).
 #
@@ -23,7 +23,7 @@ secs=${1:-60}
 shift || true
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 fuzz="$root/fuzz"
-meshes=${TETRADRILL_MESHES:-$root/../shared/meshes}
+meshes=${TETRADRILL_MESHES:-$root/tests/data/meshes}
 sanitizer=${FUZZ_SANITIZER:-address}
 all=(mesh_tetgen mesh_medit mesh_gmsh mesh_vtk mesh_vtu trace scenario falcon omni)
 targets=("$@")

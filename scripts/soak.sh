@@ -8,7 +8,7 @@
 #
 #   scripts/soak.sh [MINUTES|SECONDSs]
 #
-# Environment: TETRADRILL_MESHES (the shared meshes; default ../shared/meshes),
+# Environment: TETRADRILL_MESHES (the meshes folder; default tests/data/meshes),
 # TETRADRILL_BIN (a built binary; default: build the release binary with cargo),
 # SOAK_SEED (the wander's seed, default 1), SOAK_OUT (where the JSON, the log and the RSS
 # samples go; default target/soak), SOAK_TOLERANCE_KB (allowed growth after warm-up; default
@@ -28,7 +28,7 @@ if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -lt 20 ]; then
   exit 2
 fi
 
-meshes=${TETRADRILL_MESHES:-../shared/meshes}
+meshes=${TETRADRILL_MESHES:-tests/data/meshes}
 teddy=$meshes/models/teddy_cgalbear_tetgen_q1.414.node
 [ -f "$teddy" ] || { echo "soak: no teddy at $teddy (set TETRADRILL_MESHES)" >&2; exit 2; }
 target=${CARGO_TARGET_DIR:-target}

@@ -6,7 +6,7 @@
 # Usage: scripts/worst-case.sh [TICKS [CG_TICKS]]
 #   TICKS     native ticks per scenario (default 100000; the documented full run, ~20 min)
 #   CG_TICKS  ticks per scenario under callgrind (default 2000; 0 skips callgrind)
-# Env: TETRADRILL_MESHES (default ../shared/meshes), CARGO_TARGET_DIR, WORST_OUT (output
+# Env: TETRADRILL_MESHES (default tests/data/meshes), CARGO_TARGET_DIR, WORST_OUT (output
 #   folder, default target/worst-case), WORST_ONLY (one scenario name).
 #
 # Instructions per tick, how: the harness does each tick in one `#[inline(never)]` function
@@ -21,7 +21,7 @@ ticks=${1:-100000}
 cg_ticks=${2:-2000}
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
-export TETRADRILL_MESHES=${TETRADRILL_MESHES:-$root/../shared/meshes}
+export TETRADRILL_MESHES=${TETRADRILL_MESHES:-$root/tests/data/meshes}
 [ -d "$TETRADRILL_MESHES" ] || { echo "worst-case.sh: no meshes at $TETRADRILL_MESHES (set TETRADRILL_MESHES)" >&2; exit 2; }
 case $ticks in ''|*[!0-9]*) echo "worst-case.sh: TICKS must be a whole number, not '$ticks'" >&2; exit 2;; esac
 case $cg_ticks in ''|*[!0-9]*) echo "worst-case.sh: CG_TICKS must be a whole number, not '$cg_ticks'" >&2; exit 2;; esac

@@ -3,7 +3,7 @@
 //! parry3d's BVH with its tetrahedron point queries on the same queries.
 //!
 //! Run: `cargo bench -p tetradrill-benches --bench contact` (set `TETRADRILL_MESHES` if the
-//! shared meshes are not at `../shared/meshes`). Besides criterion's means, a worst-case pass
+//! meshes are not the repository's `tests/data/meshes`). Besides criterion's means, a worst-case pass
 //! prints, per scenario, the mean, the 99th percentile and the maximum of single ticks
 //! (`WORST`), and the same over the poses with each pose's fastest call (`POSES`: the work's
 //! worst case without the preemption of a shared machine).
@@ -35,7 +35,7 @@ use tetradrill_core::mesh::Mesh;
 fn meshes_dir() -> PathBuf {
     match std::env::var("TETRADRILL_MESHES") {
         Ok(d) => PathBuf::from(d),
-        Err(_) => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes"),
+        Err(_) => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/meshes"),
     }
 }
 

@@ -9,7 +9,7 @@
 //! case with 8 to 30 times as much work as the path needs, which overflows the pending deque.
 //!
 //! Run: `cargo bench -p tetradrill-benches --bench drill` (set `TETRADRILL_MESHES` when the
-//! shared meshes are not at `../shared/meshes`).
+//! meshes are not the repository's `tests/data/meshes`).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -31,7 +31,7 @@ const QUEUE: usize = 1 << 16;
 fn meshes_dir() -> PathBuf {
     std::env::var("TETRADRILL_MESHES")
         .map(PathBuf::from)
-        .unwrap_or_else(|_| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes"))
+        .unwrap_or_else(|_| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/meshes"))
 }
 
 /// A minimal TetGen reader (the bench's own).

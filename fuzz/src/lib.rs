@@ -4,8 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use tetradrill::error::CliError;
-use tetradrill::meshio;
+use tetradrill::meshio::{self, MeshError};
 
 /// A file in this process's scratch directory: `$TETRADRILL_FUZZ_SCRATCH` when set (the
 /// script sets it and removes it afterwards), else a directory under the system temp dir.
@@ -30,14 +29,18 @@ pub fn write_scratch(name: &str, bytes: &[u8]) -> PathBuf {
 }
 
 /// The error contract of the command line: bad input is exit status 2 and one non-empty line.
-pub fn check_error(e: &CliError) {
-    assert_eq!(e.code, 2, "bad input must exit 2: {}", e.message);
-    assert!(!e.message.is_empty(), "empty error message");
+pub fn check_line(code: i32, message: &str) {
+    assert_eq!(code, 2, "bad input must exit 2: {message}");
+    assert!(!message.is_empty(), "empty error message");
     assert!(
-        !e.message.contains(['\n', '\r']),
-        "error message is not one line: {:?}",
-        e.message
+        !message.contains(['\n', '\r']),
+        "error message is not one line: {message:?}"
     );
+}
+
+/// [`check_line`] for a mesh reader's error.
+pub fn check_error(e: &MeshError) {
+    check_line(e.code, &e.message);
 }
 
 /// Reads and loads a mesh file: neither may panic; a refusal is a one-line exit-2 error; a

@@ -5,9 +5,9 @@ use std::fmt;
 use std::path::Path;
 
 /// Exit status for bad input (a mesh file, a trace, a device frame, a flag).
-pub const EXIT_BAD_INPUT: i32 = 2;
+pub const EXIT_BAD_INPUT: i32 = tetradrill_meshio::EXIT_BAD_INPUT;
 /// Exit status for a failure of the run itself (a device lost, an I/O error on output).
-pub const EXIT_FAILURE: i32 = 1;
+pub const EXIT_FAILURE: i32 = tetradrill_meshio::EXIT_FAILURE;
 
 /// One line for the user and the exit status that goes with it.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -51,3 +51,12 @@ impl fmt::Display for CliError {
 }
 
 impl std::error::Error for CliError {}
+
+impl From<tetradrill_meshio::MeshError> for CliError {
+    fn from(e: tetradrill_meshio::MeshError) -> Self {
+        Self {
+            code: e.code,
+            message: e.message,
+        }
+    }
+}

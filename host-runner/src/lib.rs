@@ -7,8 +7,8 @@
 //! | [`cli`]     | the command line: `demo`, `run`, `replay`, `info`, `timing` |
 //! | [`error`]   | one-line errors with exit status 2 for bad input            |
 //! | [`hdapi`]   | the Touch through the vendor HD library, loaded at run time (`unsafe`, FFI) |
-//! | [`meshio`]  | mesh file readers (TetGen, MEDIT, Gmsh, VTK)                |
-//! | [`owned`]   | host-owned storage for one core mesh                        |
+//! | [`meshio`]  | mesh files: the `tetradrill-meshio` crate, re-exported      |
+//! | [`owned`]   | host-owned storage for one core mesh (from `tetradrill-meshio`) |
 //! | [`platform`]| clock, absolute sleeps, SCHED_FIFO, mlockall, pinning (`unsafe`, libc)       |
 //! | [`rt`]      | servo thread set-up and the absolute-deadline period        |
 //! | [`stats`]   | percentiles and histograms of timing samples                |
@@ -60,8 +60,6 @@ pub mod engine;
 pub mod error;
 pub mod firewire;
 pub mod hdapi;
-pub mod meshio;
-pub mod owned;
 pub mod pen;
 pub mod pen_tasks;
 pub mod platform;
@@ -73,3 +71,6 @@ pub mod traces;
 pub mod viewer;
 pub mod watchdog;
 pub mod workload;
+
+pub use tetradrill_meshio as meshio;
+pub use tetradrill_meshio::owned;

@@ -4,22 +4,19 @@ use std::path::PathBuf;
 use std::process::Command;
 use std::sync::OnceLock;
 
-/// The folder of real meshes, from `TETRADRILL_MESHES`, or `../shared/meshes` next to the
-/// workspace when it exists. Tests that need real meshes fail loudly when neither is there:
-/// a skipped oracle is a defect, not a pass.
+/// The folder of real meshes: `tests/data/meshes` in the repository (the public models the
+/// suite needs; a fresh clone has them), or the folder named by `TETRADRILL_MESHES` when that is
+/// set (an override with the same layout, e.g. a larger set for benches). Tests that need real
+/// meshes fail loudly when the folder is missing: a skipped oracle is a defect, not a pass.
 pub fn meshes_dir() -> PathBuf {
-    if let Ok(dir) = std::env::var("TETRADRILL_MESHES") {
-        let p = PathBuf::from(dir);
-        if p.is_absolute() {
-            return p;
-        }
-        // Relative paths are taken from the workspace root, as CI sets `../shared/meshes`.
-        return workspace_root().join(p);
-    }
-    let p = workspace_root().join("../shared/meshes");
+    let p = match std::env::var_os("TETRADRILL_MESHES") {
+        // Relative paths are taken from the workspace root.
+        Some(dir) => workspace_root().join(PathBuf::from(dir)),
+        None => workspace_root().join("tests/data/meshes"),
+    };
     assert!(
         p.is_dir(),
-        "set TETRADRILL_MESHES to the shared meshes folder (tried {})",
+        "no meshes folder at {} (TETRADRILL_MESHES names another one)",
         p.display()
     );
     p
@@ -33,10 +30,10 @@ pub fn workspace_root() -> PathBuf {
         .to_path_buf()
 }
 
-/// Path of one mesh file below the shared meshes folder.
+/// Path of one mesh file below the meshes folder ([`meshes_dir`]).
 pub fn mesh(rel: &str) -> PathBuf {
     let p = meshes_dir().join(rel);
-    assert!(p.exists(), "missing shared mesh {}", p.display());
+    assert!(p.exists(), "missing mesh {}", p.display());
     p
 }
 

@@ -36,7 +36,7 @@ fn assert_one_line(e: &CliError) {
 /// line with exit status 2, a loaded mesh is valid.
 fn check_mesh(path: &Path) -> Result<(), CliError> {
     if let Err(e) = meshio::read(path) {
-        assert_one_line(&e);
+        assert_one_line(&e.into());
     }
     match meshio::load(path, 1.0) {
         Ok(mut m) => {
@@ -44,6 +44,7 @@ fn check_mesh(path: &Path) -> Result<(), CliError> {
             Ok(())
         }
         Err(e) => {
+            let e = CliError::from(e);
             assert_one_line(&e);
             Err(e)
         }

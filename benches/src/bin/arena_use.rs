@@ -6,8 +6,8 @@
 //! (`engine::tick`, as `tetradrill replay` runs them).
 //!
 //! ```text
-//! TETRADRILL_MESHES=/work/shared/meshes cargo run --release -p tetradrill-benches --bin arena_use -- \
-//!   --mesh $TETRADRILL_MESHES/models/teddy_cgalbear_tetgen_q1.414.node --trace wander:1 \
+//! M=tests/data/meshes cargo run --release -p tetradrill-benches --bin arena_use -- \
+//!   --mesh $M/models/teddy_cgalbear_tetgen_q1.414.node --trace wander:1 \
 //!   --tool sphere:0.03 --max-depth 5 --ticks 40000
 //! ```
 //!

@@ -19,7 +19,7 @@
 //!   default (the target row) and the largest (`u32::MAX`, no budget).
 //!
 //! Run (release, the full 100,000 ticks each; 7 minutes on the quiet 2-core VM, more under load):
-//! `TETRADRILL_MESHES=/work/shared/meshes cargo run --release -p tetradrill-benches --bin worst_case`
+//! `cargo run --release -p tetradrill-benches --bin worst_case`
 //! Flags: `--ticks N` (default 100000), `--only NAME`, `--pen-scale S` (default 10).
 
 use std::path::{Path, PathBuf};
@@ -79,7 +79,7 @@ fn parse_args() -> Result<Args, ExitCode> {
         meshes: std::env::var("TETRADRILL_MESHES")
             .map(PathBuf::from)
             .unwrap_or_else(|_| {
-                PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes")
+                PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/meshes")
             }),
     };
     let mut it = std::env::args().skip(1);

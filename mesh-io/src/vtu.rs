@@ -12,7 +12,7 @@ use super::text::{
     line_of, one_line, parse_float, parse_int, parse_uint, read_text, short, Cursor,
 };
 use super::RawMesh;
-use crate::error::CliError;
+use crate::MeshError;
 
 /// VTK cell type of the linear tetrahedron.
 const VTK_TETRA: u64 = 10;
@@ -160,10 +160,10 @@ struct Piece {
 /// Exit status 2, `FILE:LINE: reason`: malformed XML, another file type, binary or appended
 /// arrays, missing arrays, array lengths that disagree with the declared counts, bad numbers,
 /// node indices out of range, tet cells without 4 points.
-pub fn read(path: &Path) -> Result<RawMesh, CliError> {
+pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
     let text = read_text(path, "VTU")?;
     let at = |off: usize, reason: String| {
-        CliError::at(path, Some(line_of(&text, off)), one_line(&reason))
+        MeshError::at(path, Some(line_of(&text, off)), one_line(&reason))
     };
     let tags = scan(&text).map_err(|(off, r)| at(off, format!("malformed XML: {r}")))?;
     let mut stack: Vec<&str> = Vec::new();
@@ -197,7 +197,7 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
                         ));
                     }
                     "Piece" if stack.last() == Some(&"UnstructuredGrid") => {
-                        let num = |k: &str| -> Result<u64, CliError> {
+                        let num = |k: &str| -> Result<u64, MeshError> {
                             let v = tag.attr(k).unwrap_or("0");
                             v.parse().map_err(|_| {
                                 at(tag.start, format!("{k}=\"{}\" is not a count", short(v)))
@@ -265,21 +265,25 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
         }
     }
     if !seen_file {
-        return Err(CliError::at(
+        return Err(MeshError::at(
             path,
             None,
             "not a VTK XML file: no <VTKFile type=\"UnstructuredGrid\">",
         ));
     }
     if let Some(name) = stack.last() {
-        return Err(CliError::at(
+        return Err(MeshError::at(
             path,
             Some(line_of(&text, text.trim_end().len())),
             format!("truncated file: <{}> is not closed", short(name)),
         ));
     }
     if pieces.is_empty() {
-        return Err(CliError::at(path, None, "no <Piece> in <UnstructuredGrid>"));
+        return Err(MeshError::at(
+            path,
+            None,
+            "no <Piece> in <UnstructuredGrid>",
+        ));
     }
     let mut positions = Vec::new();
     let mut tets = Vec::new();
@@ -298,8 +302,10 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
     }
     Ok(RawMesh {
         positions,
+        labels: vec![0; tets.len()],
         tets,
         tet_lines,
+        label_source: None,
         format: "vtu",
         warnings: Vec::new(),
     })
@@ -323,9 +329,9 @@ fn array<'a>(
     range: Option<(usize, usize)>,
     what: &str,
     piece_line: usize,
-) -> Result<Cursor<'a>, CliError> {
+) -> Result<Cursor<'a>, MeshError> {
     let Some((a, b)) = range else {
-        return Err(CliError::at(
+        return Err(MeshError::at(
             path,
             Some(piece_line),
             format!("this <Piece> has no {what} DataArray"),
@@ -343,7 +349,7 @@ fn read_piece(
     positions: &mut Vec<[f64; 3]>,
     tets: &mut Vec<[u32; 4]>,
     tet_lines: &mut Vec<usize>,
-) -> Result<(), CliError> {
+) -> Result<(), MeshError> {
     let pl = piece.line;
     let mut c = array(path, text, piece.points, "Points", pl)?;
     let mut coords = Vec::new();

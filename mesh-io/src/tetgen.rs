@@ -11,18 +11,18 @@ use std::path::{Path, PathBuf};
 
 use super::text::{node_ids, parse_int, parse_uint, parse_xyz, read_text, Cursor};
 use super::RawMesh;
-use crate::error::CliError;
+use crate::MeshError;
 
 /// Reads a TetGen pair named by either of its files; returns the mesh and the `.ele` path.
 ///
 /// # Errors
 /// Exit status 2, `FILE:LINE: reason`, for a missing partner file and every bad record.
-pub fn read(path: &Path) -> Result<(RawMesh, PathBuf), CliError> {
+pub fn read(path: &Path) -> Result<(RawMesh, PathBuf), MeshError> {
     let node_path = path.with_extension("node");
     let ele_path = path.with_extension("ele");
     for p in [&node_path, &ele_path] {
         if !p.is_file() {
-            return Err(CliError::at(
+            return Err(MeshError::at(
                 path,
                 None,
                 format!(
@@ -39,8 +39,10 @@ pub fn read(path: &Path) -> Result<(RawMesh, PathBuf), CliError> {
     Ok((
         RawMesh {
             positions,
+            labels: vec![0; tets.len()],
             tets,
             tet_lines,
+            label_source: None,
             format: "tetgen",
             warnings: Vec::new(),
         },
@@ -49,7 +51,7 @@ pub fn read(path: &Path) -> Result<(RawMesh, PathBuf), CliError> {
 }
 
 /// Header numbers: the first required, the others 0 when absent.
-fn header<const N: usize>(c: &mut Cursor<'_>, what: &str) -> Result<(usize, [u64; N]), CliError> {
+fn header<const N: usize>(c: &mut Cursor<'_>, what: &str) -> Result<(usize, [u64; N]), MeshError> {
     let (line, toks) = c.need_line(what)?;
     let mut out = [0u64; N];
     for (o, t) in out.iter_mut().zip(toks.iter()) {
@@ -58,7 +60,7 @@ fn header<const N: usize>(c: &mut Cursor<'_>, what: &str) -> Result<(usize, [u64
     Ok((line, out))
 }
 
-fn read_nodes(path: &Path, text: &str) -> Result<(Vec<[f64; 3]>, i64), CliError> {
+fn read_nodes(path: &Path, text: &str) -> Result<(Vec<[f64; 3]>, i64), MeshError> {
     let mut c = Cursor::new(path, text, 1, Some('#'));
     let (hline, [n, dim, attrs, markers]) = header::<4>(&mut c, "the .node header")?;
     if dim != 3 {
@@ -113,7 +115,7 @@ fn read_tets(
     text: &str,
     base: i64,
     nodes: usize,
-) -> Result<(Vec<[u32; 4]>, Vec<usize>), CliError> {
+) -> Result<(Vec<[u32; 4]>, Vec<usize>), MeshError> {
     let mut c = Cursor::new(path, text, 1, Some('#'));
     let (hline, [t, per, _attr]) = header::<3>(&mut c, "the .ele header")?;
     if per != 4 && per != 10 {

@@ -4,15 +4,15 @@
 use std::path::Path;
 use std::str::SplitWhitespace;
 
-use crate::error::CliError;
+use crate::MeshError;
 
 /// Reads a whole file as text. Empty files, files with NUL bytes and files that are not UTF-8
 /// are refused (`binary {format} files are not supported`), naming the first bad line.
-pub(crate) fn read_text(path: &Path, format: &str) -> Result<String, CliError> {
+pub(crate) fn read_text(path: &Path, format: &str) -> Result<String, MeshError> {
     let bytes =
-        std::fs::read(path).map_err(|e| CliError::at(path, None, format!("cannot read: {e}")))?;
+        std::fs::read(path).map_err(|e| MeshError::at(path, None, format!("cannot read: {e}")))?;
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
-        return Err(CliError::at(path, None, "empty file"));
+        return Err(MeshError::at(path, None, "empty file"));
     }
     let bad = match std::str::from_utf8(&bytes) {
         Ok(s) => s.bytes().position(|b| b == 0),
@@ -20,13 +20,13 @@ pub(crate) fn read_text(path: &Path, format: &str) -> Result<String, CliError> {
     };
     if let Some(at) = bad {
         let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
-        return Err(CliError::at(
+        return Err(MeshError::at(
             path,
             Some(line),
             format!("binary data: binary {format} files are not supported (write ASCII)"),
         ));
     }
-    String::from_utf8(bytes).map_err(|_| CliError::at(path, None, "not UTF-8 text"))
+    String::from_utf8(bytes).map_err(|_| MeshError::at(path, None, "not UTF-8 text"))
 }
 
 /// Line number (1-based) of byte offset `at` in `text`.
@@ -133,7 +133,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// Like [`Cursor::line`], but the end of the text is an error naming `what` was expected.
-    pub(crate) fn need_line(&mut self, what: &str) -> Result<(usize, Vec<&'a str>), CliError> {
+    pub(crate) fn need_line(&mut self, what: &str) -> Result<(usize, Vec<&'a str>), MeshError> {
         match self.line() {
             Some(l) => Ok(l),
             None => Err(self.eof(what)),
@@ -141,7 +141,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// The next token; the end of the text is an error naming `what` was expected.
-    pub(crate) fn need(&mut self, what: &str) -> Result<(&'a str, usize), CliError> {
+    pub(crate) fn need(&mut self, what: &str) -> Result<(&'a str, usize), MeshError> {
         match self.token() {
             Some(t) => Ok(t),
             None => Err(self.eof(what)),
@@ -154,8 +154,8 @@ impl<'a> Cursor<'a> {
     }
 
     /// Error at a line of this file.
-    pub(crate) fn err(&self, line: usize, reason: impl std::fmt::Display) -> CliError {
-        CliError::at(
+    pub(crate) fn err(&self, line: usize, reason: impl std::fmt::Display) -> MeshError {
+        MeshError::at(
             self.path,
             (line > 0).then_some(line),
             one_line(&reason.to_string()),
@@ -163,7 +163,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// "Truncated" error at the last line.
-    pub(crate) fn eof(&self, what: &str) -> CliError {
+    pub(crate) fn eof(&self, what: &str) -> MeshError {
         self.err(
             self.line_no.max(1),
             format!("unexpected end of file (truncated?): expected {what}"),
@@ -178,7 +178,7 @@ impl<'a> Cursor<'a> {
         min_tokens: usize,
         what: &str,
         line: usize,
-    ) -> Result<usize, CliError> {
+    ) -> Result<usize, MeshError> {
         let per = 2 * min_tokens.max(1) as u64;
         let room = self.remaining_bytes() as u64 + 1;
         match declared.checked_mul(per) {
@@ -195,13 +195,13 @@ impl<'a> Cursor<'a> {
     }
 
     /// The next token as an unsigned integer.
-    pub(crate) fn uint(&mut self, what: &str) -> Result<(u64, usize), CliError> {
+    pub(crate) fn uint(&mut self, what: &str) -> Result<(u64, usize), MeshError> {
         let (t, l) = self.need(what)?;
         Ok((parse_uint(self, t, l, what)?, l))
     }
 
     /// The next token as a finite float.
-    pub(crate) fn float(&mut self, what: &str) -> Result<f64, CliError> {
+    pub(crate) fn float(&mut self, what: &str) -> Result<f64, MeshError> {
         let (t, l) = self.need(what)?;
         parse_float(self, t, l, what)
     }
@@ -213,7 +213,7 @@ pub(crate) fn parse_uint(
     t: &str,
     line: usize,
     what: &str,
-) -> Result<u64, CliError> {
+) -> Result<u64, MeshError> {
     t.parse::<u64>().map_err(|_| {
         c.err(
             line,
@@ -226,7 +226,12 @@ pub(crate) fn parse_uint(
 }
 
 /// Parses a signed integer token (node indices, which may be 0 or negative in a bad file).
-pub(crate) fn parse_int(c: &Cursor<'_>, t: &str, line: usize, what: &str) -> Result<i64, CliError> {
+pub(crate) fn parse_int(
+    c: &Cursor<'_>,
+    t: &str,
+    line: usize,
+    what: &str,
+) -> Result<i64, MeshError> {
     t.parse::<i64>().map_err(|_| {
         c.err(
             line,
@@ -241,7 +246,7 @@ pub(crate) fn parse_float(
     t: &str,
     line: usize,
     what: &str,
-) -> Result<f64, CliError> {
+) -> Result<f64, MeshError> {
     match t.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
         Ok(_) => Err(c.err(line, format!("NaN or infinite {what} '{}'", short(t)))),
@@ -253,7 +258,7 @@ pub(crate) fn parse_float(
 }
 
 /// Three coordinates from three tokens.
-pub(crate) fn parse_xyz(c: &Cursor<'_>, t: &[&str], line: usize) -> Result<[f64; 3], CliError> {
+pub(crate) fn parse_xyz(c: &Cursor<'_>, t: &[&str], line: usize) -> Result<[f64; 3], MeshError> {
     Ok([
         parse_float(c, t[0], line, "coordinate")?,
         parse_float(c, t[1], line, "coordinate")?,
@@ -306,7 +311,7 @@ pub(crate) fn node_ids(
     base: i64,
     nodes: usize,
     line: usize,
-) -> Result<[u32; 4], CliError> {
+) -> Result<[u32; 4], MeshError> {
     let mut out = [0u32; 4];
     for (o, &v) in out.iter_mut().zip(raw.iter()) {
         let last = base + nodes as i64 - 1;

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use super::text::{node_ids, parse_int, read_text, short, Cursor};
 use super::RawMesh;
-use crate::error::CliError;
+use crate::MeshError;
 
 /// Sections this reader skips, with the number of values per record.
 const SKIPPED: &[(&str, usize)] = &[
@@ -40,7 +40,7 @@ const SKIPPED: &[(&str, usize)] = &[
 /// # Errors
 /// Exit status 2, `FILE:LINE: reason`: 2-D meshes, missing `Vertices` or `Tetrahedra`,
 /// truncated sections, counts larger than the file, bad numbers, node indices out of range.
-pub fn read(path: &Path) -> Result<RawMesh, CliError> {
+pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
     let text = read_text(path, "MEDIT")?;
     let mut c = Cursor::new(path, &text, 1, Some('#'));
     let mut positions: Option<Vec<[f64; 3]>> = None;
@@ -125,10 +125,10 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
         }
     }
     let Some(positions) = positions else {
-        return Err(CliError::at(path, None, "no Vertices section"));
+        return Err(MeshError::at(path, None, "no Vertices section"));
     };
     let Some((raw, tet_lines)) = raw_tets else {
-        return Err(CliError::at(
+        return Err(MeshError::at(
             path,
             None,
             "no Tetrahedra section (no tets to read)",
@@ -140,8 +140,10 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
     }
     Ok(RawMesh {
         positions,
+        labels: vec![0; tets.len()],
         tets,
         tet_lines,
+        label_source: None,
         format: "medit",
         warnings: Vec::new(),
     })

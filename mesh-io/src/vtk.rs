@@ -7,7 +7,7 @@ use std::path::Path;
 
 use super::text::{node_ids, parse_int, read_text, short, Cursor};
 use super::RawMesh;
-use crate::error::CliError;
+use crate::MeshError;
 
 /// VTK cell type of the linear tetrahedron.
 const VTK_TETRA: u64 = 10;
@@ -25,7 +25,7 @@ struct Cells {
 /// Exit status 2, `FILE:LINE: reason`: binary files, other datasets, truncated sections,
 /// counts larger than the file, bad numbers, node indices out of range, tets whose cell does
 /// not have 4 points, CELLS and CELL_TYPES disagreeing.
-pub fn read(path: &Path) -> Result<RawMesh, CliError> {
+pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
     let text = read_text(path, "VTK")?;
     let mut c = Cursor::new(path, &text, 1, None);
     let (l1, first) = c.need_line("the '# vtk DataFile Version' line")?;
@@ -214,20 +214,20 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
         }
     }
     if !dataset {
-        return Err(CliError::at(
+        return Err(MeshError::at(
             path,
             None,
             "no 'DATASET UNSTRUCTURED_GRID' line",
         ));
     }
     let Some(positions) = positions else {
-        return Err(CliError::at(path, None, "no POINTS section"));
+        return Err(MeshError::at(path, None, "no POINTS section"));
     };
     let Some(cells) = cells else {
-        return Err(CliError::at(path, None, "no CELLS section"));
+        return Err(MeshError::at(path, None, "no CELLS section"));
     };
     let Some((types, tl)) = types else {
-        return Err(CliError::at(path, None, "no CELL_TYPES section"));
+        return Err(MeshError::at(path, None, "no CELL_TYPES section"));
     };
     let ncells = cells.offsets.len().saturating_sub(1);
     if types.len() != ncells {
@@ -254,15 +254,17 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
     let format = if new_layout { "vtk 5" } else { "vtk 4" };
     Ok(RawMesh {
         positions,
+        labels: vec![0; tets.len()],
         tets,
         tet_lines,
+        label_source: None,
         format,
         warnings: Vec::new(),
     })
 }
 
 /// The next token must be `kw`.
-fn keyword(c: &mut Cursor<'_>, kw: &str) -> Result<(), CliError> {
+fn keyword(c: &mut Cursor<'_>, kw: &str) -> Result<(), MeshError> {
     let (t, l) = c.need(kw)?;
     if t.eq_ignore_ascii_case(kw) {
         Ok(())

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use super::text::{parse_uint, parse_xyz, read_text, short, Cursor};
 use super::RawMesh;
-use crate::error::CliError;
+use crate::MeshError;
 
 /// Gmsh element type of the 4-node tetrahedron.
 const TET4: u64 = 4;
@@ -38,7 +38,7 @@ struct State {
 /// # Errors
 /// Exit status 2, `FILE:LINE: reason`: binary files, unsupported versions, truncated sections,
 /// counts larger than the file, bad numbers, unknown or duplicated node tags, no tets.
-pub fn read(path: &Path) -> Result<RawMesh, CliError> {
+pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
     let text = read_text(path, "Gmsh")?;
     let mut c = Cursor::new(path, &text, 1, None);
     let mut version = None;
@@ -108,17 +108,17 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
         }
     }
     if version.is_none() {
-        return Err(CliError::at(
+        return Err(MeshError::at(
             path,
             None,
             "not a Gmsh file: no $MeshFormat section",
         ));
     }
     if !st.nodes_seen {
-        return Err(CliError::at(path, None, "no $Nodes section"));
+        return Err(MeshError::at(path, None, "no $Nodes section"));
     }
     if !st.elements_seen {
-        return Err(CliError::at(path, None, "no $Elements section"));
+        return Err(MeshError::at(path, None, "no $Elements section"));
     }
     let mut tets = Vec::with_capacity(st.tets.len());
     let mut tet_lines = Vec::with_capacity(st.tets.len());
@@ -148,16 +148,18 @@ pub fn read(path: &Path) -> Result<RawMesh, CliError> {
         _ => "gmsh 2.2",
     };
     Ok(RawMesh {
+        labels: vec![0; tets.len()],
         positions: st.positions,
         tets,
         tet_lines,
+        label_source: None,
         format,
         warnings,
     })
 }
 
 /// Skips lines up to and including `$End<section>`.
-fn skip_to_end(c: &mut Cursor<'_>, section: &str) -> Result<(), CliError> {
+fn skip_to_end(c: &mut Cursor<'_>, section: &str) -> Result<(), MeshError> {
     let end = format!("$End{section}");
     loop {
         let (_, t) = c.need_line(&end)?;
@@ -168,7 +170,7 @@ fn skip_to_end(c: &mut Cursor<'_>, section: &str) -> Result<(), CliError> {
 }
 
 /// Numbers of a header line.
-fn header<const N: usize>(c: &mut Cursor<'_>, what: &str) -> Result<(usize, [u64; N]), CliError> {
+fn header<const N: usize>(c: &mut Cursor<'_>, what: &str) -> Result<(usize, [u64; N]), MeshError> {
     let (l, t) = c.need_line(what)?;
     if t.len() < N {
         return Err(c.err(l, format!("expected {N} numbers in {what}")));
@@ -186,7 +188,7 @@ fn add_node(
     tag: u64,
     xyz: [f64; 3],
     line: usize,
-) -> Result<(), CliError> {
+) -> Result<(), MeshError> {
     let idx = st.positions.len() as u32;
     if st.ids.insert(tag, idx).is_some() {
         return Err(c.err(line, format!("node {tag} is listed twice")));
@@ -195,7 +197,7 @@ fn add_node(
     Ok(())
 }
 
-fn nodes_v2(c: &mut Cursor<'_>, st: &mut State) -> Result<(), CliError> {
+fn nodes_v2(c: &mut Cursor<'_>, st: &mut State) -> Result<(), MeshError> {
     let (hl, [n]) = header::<1>(c, "the number of nodes")?;
     let n = c.count(n, 4, "nodes", hl)?;
     st.nodes_seen = true;
@@ -211,7 +213,7 @@ fn nodes_v2(c: &mut Cursor<'_>, st: &mut State) -> Result<(), CliError> {
     Ok(())
 }
 
-fn nodes_v41(c: &mut Cursor<'_>, st: &mut State) -> Result<(), CliError> {
+fn nodes_v41(c: &mut Cursor<'_>, st: &mut State) -> Result<(), MeshError> {
     let (hl, [blocks, n, _, _]) = header::<4>(c, "the $Nodes header")?;
     let n = c.count(n, 4, "nodes", hl)?;
     let blocks = c.count(blocks, 4, "node blocks", hl)?;
@@ -254,7 +256,7 @@ fn element(
     etype: u64,
     nodes: &[&str],
     line: usize,
-) -> Result<(), CliError> {
+) -> Result<(), MeshError> {
     if etype != TET4 {
         if VOLUME_TYPES.contains(&etype) {
             st.skipped_volume += 1;
@@ -272,7 +274,7 @@ fn element(
     Ok(())
 }
 
-fn elements_v2(c: &mut Cursor<'_>, st: &mut State) -> Result<(), CliError> {
+fn elements_v2(c: &mut Cursor<'_>, st: &mut State) -> Result<(), MeshError> {
     let (hl, [n]) = header::<1>(c, "the number of elements")?;
     let n = c.count(n, 4, "elements", hl)?;
     st.elements_seen = true;
@@ -297,7 +299,7 @@ fn elements_v2(c: &mut Cursor<'_>, st: &mut State) -> Result<(), CliError> {
     Ok(())
 }
 
-fn elements_v41(c: &mut Cursor<'_>, st: &mut State) -> Result<(), CliError> {
+fn elements_v41(c: &mut Cursor<'_>, st: &mut State) -> Result<(), MeshError> {
     let (hl, [blocks, n, _, _]) = header::<4>(c, "the $Elements header")?;
     let n = c.count(n, 2, "elements", hl)?;
     let blocks = c.count(blocks, 4, "element blocks", hl)?;

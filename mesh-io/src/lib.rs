@@ -1,4 +1,6 @@
-//! Mesh file readers: one file per format, all ASCII, all written here (docs/FORMATS.md).
+//! tetradrill mesh files: one reader per format (docs/FORMATS.md), and the host's storage for
+//! a built core mesh ([`owned::OwnedMesh`]). Usable by any tool that wants the core's compact
+//! mesh from a file; the command line (`tetradrill`) is one such tool.
 //!
 //! | file          | format                                                        |
 //! |---------------|---------------------------------------------------------------|
@@ -10,11 +12,15 @@
 //!
 //! [`read`] gives the file's nodes and tets as they are ([`RawMesh`]); [`load`] scales them,
 //! drops unreferenced nodes and builds the core mesh ([`LoadedMesh`]). Both also take the
-//! built-in names `builtin:cube12` and `builtin:block:N`. Every bad input is a [`CliError`]
+//! built-in names `builtin:cube12` and `builtin:block:N`. Every bad input is a [`MeshError`]
 //! with exit status 2 and one line `FILE:LINE: reason`; nothing here panics on input.
 
+#![forbid(unsafe_code)]
+
+mod error;
 pub mod gmsh;
 pub mod medit;
+pub mod owned;
 pub mod tetgen;
 pub(crate) mod text;
 pub mod vtk;
@@ -25,7 +31,7 @@ use std::path::{Path, PathBuf};
 use tetradrill_core::mesh::{BuildError, BuildOptions};
 use tetradrill_core::Vec3;
 
-use crate::error::CliError;
+pub use crate::error::{MeshError, EXIT_BAD_INPUT, EXIT_FAILURE};
 use crate::owned::OwnedMesh;
 
 /// The largest `N` accepted in `builtin:block:N` (6 N^3 tets).
@@ -41,11 +47,35 @@ pub struct RawMesh {
     pub tets: Vec<[u32; 4]>,
     /// The source line of each tet (1-based), 0 if unknown.
     pub tet_lines: Vec<usize>,
+    /// The region label of each tet (MEDIT reference, Gmsh physical tag, VTK cell data, TetGen
+    /// region attribute), 0 for every tet of a file that has none.
+    pub labels: Vec<i32>,
+    /// Where the labels came from (e.g. `"cell data 'material'"`), `None` when the file has
+    /// none.
+    pub label_source: Option<String>,
     /// Format name, e.g. `"gmsh 4.1"`.
     pub format: &'static str,
     /// Things the user should know that do not stop the load (one line each).
     pub warnings: Vec<String>,
 }
+
+/// How to read a file, beyond what its name and contents say.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// The integer cell array that holds the region labels of a VTK or VTU file; `None` takes
+    /// the first of [`REGION_ARRAYS`] the file has.
+    pub region_array: Option<String>,
+}
+
+/// The cell arrays taken as region labels when [`ReadOptions::region_array`] is `None`, in
+/// order of preference.
+pub const REGION_ARRAYS: [&str; 5] = [
+    "material",
+    "region",
+    "gmsh:physical",
+    "medit:ref",
+    "CellEntityIds",
+];
 
 /// A mesh file loaded and built into the core's compact mesh.
 #[derive(Debug, Clone)]
@@ -58,6 +88,11 @@ pub struct LoadedMesh {
     pub format: &'static str,
     /// Nodes no tet uses, dropped before building.
     pub dropped_nodes: usize,
+    /// The region label of each tet of the built mesh (same order as its tets), 0 when the
+    /// file has none (see [`RawMesh::labels`]).
+    pub labels: Vec<i32>,
+    /// Where the labels came from, `None` when the file has none.
+    pub label_source: Option<String>,
     /// Warnings from reading and loading (one line each, without the `tetradrill:` prefix).
     pub warnings: Vec<String>,
 }
@@ -69,12 +104,22 @@ pub const EXTENSIONS: &str = ".node/.ele, .mesh, .msh, .vtk, .vtu";
 ///
 /// # Errors
 /// Exit status 2 and one line `FILE:LINE: reason` for unreadable, unknown or bad files.
-pub fn read(path: &Path) -> Result<RawMesh, CliError> {
-    read_with_source(path).map(|(raw, _)| raw)
+pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
+    read_with(path, &ReadOptions::default())
+}
+
+/// [`read`] with [`ReadOptions`].
+///
+/// # Errors
+/// As [`read`]; also a [`ReadOptions::region_array`] the file does not have, or that is not
+/// an integer cell array.
+pub fn read_with(path: &Path, options: &ReadOptions) -> Result<RawMesh, MeshError> {
+    read_with_source(path, options).map(|(raw, _)| raw)
 }
 
 /// Like [`read`], also giving the file that holds the tets (the `.ele` of a TetGen pair).
-fn read_with_source(path: &Path) -> Result<(RawMesh, PathBuf), CliError> {
+fn read_with_source(path: &Path, options: &ReadOptions) -> Result<(RawMesh, PathBuf), MeshError> {
+    let _ = options;
     if let Some(name) = path.to_str().and_then(|s| s.strip_prefix("builtin:")) {
         return Ok((builtin(name)?, path.to_path_buf()));
     }
@@ -85,7 +130,7 @@ fn read_with_source(path: &Path) -> Result<(RawMesh, PathBuf), CliError> {
     match ext.as_deref() {
         Some("node") | Some("ele") => tetgen::read(path),
         Some("mesh") => medit::read(path).map(|m| (m, path.to_path_buf())),
-        Some("meshb") => Err(CliError::at(
+        Some("meshb") => Err(MeshError::at(
             path,
             None,
             "binary MEDIT (.meshb) files are not supported (write ASCII .mesh)",
@@ -93,12 +138,12 @@ fn read_with_source(path: &Path) -> Result<(RawMesh, PathBuf), CliError> {
         Some("msh") => gmsh::read(path).map(|m| (m, path.to_path_buf())),
         Some("vtk") => vtk::read(path).map(|m| (m, path.to_path_buf())),
         Some("vtu") => vtu::read(path).map(|m| (m, path.to_path_buf())),
-        Some(other) => Err(CliError::at(
+        Some(other) => Err(MeshError::at(
             path,
             None,
             format!("unknown mesh file extension '.{other}' (expected {EXTENSIONS}, or builtin:cube12, builtin:block:N)"),
         )),
-        None => Err(CliError::at(
+        None => Err(MeshError::at(
             path,
             None,
             format!("mesh file has no extension (expected {EXTENSIONS}, or builtin:cube12, builtin:block:N)"),
@@ -107,9 +152,9 @@ fn read_with_source(path: &Path) -> Result<(RawMesh, PathBuf), CliError> {
 }
 
 /// The built-in meshes: `cube12` and `block:N` (the unit cube `[-0.5, 0.5]^3` in `N^3` cubes).
-fn builtin(name: &str) -> Result<RawMesh, CliError> {
+fn builtin(name: &str) -> Result<RawMesh, MeshError> {
     let bad = || {
-        CliError::input(format!(
+        MeshError::input(format!(
             "unknown built-in mesh 'builtin:{name}' (expected builtin:cube12 or builtin:block:N, \
              N in 1..={MAX_BUILTIN_BLOCK})"
         ))
@@ -138,6 +183,8 @@ fn builtin(name: &str) -> Result<RawMesh, CliError> {
             .map(|p| [p.x as f64, p.y as f64, p.z as f64])
             .collect(),
         tet_lines: vec![0; tets.len()],
+        labels: vec![0; tets.len()],
+        label_source: None,
         tets,
         format: "builtin",
         warnings: Vec::new(),
@@ -152,22 +199,32 @@ fn builtin(name: &str) -> Result<RawMesh, CliError> {
 /// coordinates too large for f32 after scaling, and what the build refuses (zero-volume tets,
 /// a face shared by more than two tets, overlapping tets), as `FILE:LINE: reason` with the
 /// line of the offending tet.
-pub fn load(path: &Path, scale: f64) -> Result<LoadedMesh, CliError> {
+pub fn load(path: &Path, scale: f64) -> Result<LoadedMesh, MeshError> {
+    load_with(path, scale, &ReadOptions::default())
+}
+
+/// [`load`] with [`ReadOptions`].
+///
+/// # Errors
+/// As [`load`] and [`read_with`].
+pub fn load_with(path: &Path, scale: f64, options: &ReadOptions) -> Result<LoadedMesh, MeshError> {
     if !(scale.is_finite() && scale > 0.0) {
-        return Err(CliError::input(format!(
+        return Err(MeshError::input(format!(
             "--scale must be a positive finite number, not {scale}"
         )));
     }
-    let (raw, tet_path) = read_with_source(path)?;
+    let (raw, tet_path) = read_with_source(path, options)?;
     let RawMesh {
         positions,
         tets,
         tet_lines,
+        labels,
+        label_source,
         format,
         mut warnings,
     } = raw;
     if tets.is_empty() {
-        return Err(CliError::at(&tet_path, None, "no tetrahedra in the file"));
+        return Err(MeshError::at(&tet_path, None, "no tetrahedra in the file"));
     }
     let line_of = |t: usize| tet_lines.get(t).copied().filter(|&l| l > 0);
 
@@ -178,7 +235,7 @@ pub fn load(path: &Path, scale: f64) -> Result<LoadedMesh, CliError> {
             match new_id.get_mut(v as usize) {
                 Some(slot) => *slot = 0,
                 None => {
-                    return Err(CliError::at(
+                    return Err(MeshError::at(
                         &tet_path,
                         line_of(t),
                         format!("node index {v} out of range ({} nodes)", positions.len()),
@@ -194,7 +251,7 @@ pub fn load(path: &Path, scale: f64) -> Result<LoadedMesh, CliError> {
             let [x, y, z] = positions[i].map(|c| c * scale);
             let q = Vec3::new(x as f32, y as f32, z as f32);
             if !q.is_finite() {
-                return Err(CliError::at(
+                return Err(MeshError::at(
                     path,
                     None,
                     format!("node {i}: coordinates too large for 32-bit floats after scaling by {scale:e}"),
@@ -238,12 +295,12 @@ pub fn load(path: &Path, scale: f64) -> Result<LoadedMesh, CliError> {
             ),
             BuildError::TooLarge => (None, "more nodes or tets than 32-bit ids can name".into()),
             BuildError::StorageTooSmall { .. } => {
-                return CliError::failure(format!("internal error building the mesh: {e}"))
+                return MeshError::failure(format!("internal error building the mesh: {e}"))
             }
         };
         match tet {
-            Some(t) => CliError::at(&tet_path, line_of(t as usize), reason),
-            None => CliError::at(path, None, reason),
+            Some(t) => MeshError::at(&tet_path, line_of(t as usize), reason),
+            None => MeshError::at(path, None, reason),
         }
     })?;
     Ok(LoadedMesh {
@@ -251,6 +308,8 @@ pub fn load(path: &Path, scale: f64) -> Result<LoadedMesh, CliError> {
         path: path.to_path_buf(),
         format,
         dropped_nodes: dropped,
+        labels,
+        label_source,
         warnings,
     })
 }
