@@ -5,7 +5,9 @@ use tetradrill_core::drill::{DrillParams, Pending};
 use tetradrill_core::force::{ForceParams, ToolState};
 use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{HNode, HierarchyStorage, SphereSlot, VEntry};
-use tetradrill_core::servo::{servo_force, SimReport, World, WorldSizes, WorldStorage};
+use tetradrill_core::servo::{
+    servo_force, SimReport, World, WorldSizes, WorldStorage, DEFAULT_MAX_CELLS, DEFAULT_PENDING,
+};
 use tetradrill_core::{TetId, Vec3};
 
 use crate::error::CliError;
@@ -13,6 +15,91 @@ use crate::meshio;
 use crate::owned::OwnedMesh;
 use crate::scenario::{Scenario, ToolKind};
 use crate::traces::{Pose, PERIOD_S};
+
+/// What a burr needs on a mesh: the candidate list and the zone query's cells, sized from the
+/// tool's radius against the size of the tets at the mesh's boundary (where a burr works).
+///
+/// A step looks for tets in the box `radius + reach` around the burr (`reach` = half the
+/// radius, [`TickParams::reach`]), widened by one more radius for the several burr positions
+/// one step may queue. The tets whose boxes meet it number about `(L + 2 e)^3 / v` for a box
+/// side `L`, boundary tets of mean box side `e` and mean volume `v`; the list gets 1.5 times
+/// that (at least the core's 1,024). The query visits at most as many cells as that zone
+/// covers at the hash's cell size (the mesh's average edge), twice over (at least the core's
+/// 4,096). A burr of 4 mm on a mesh of 0.3 mm tets needs about a hundred times what the same
+/// burr needs on a mesh of 1.4 mm tets: fixed defaults would starve it (every step saturated,
+/// nothing drilled).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolSizing {
+    /// Burr radius the sizes are for, mesh units.
+    pub radius: f64,
+    /// Mean box side of the tets with a boundary face, mesh units.
+    pub boundary_edge: f64,
+    /// Candidate list entries.
+    pub candidates: usize,
+    /// Most hash cells one step's zone query visits ([`World::set_max_cells`]).
+    pub max_cells: u32,
+    /// Pending drill work items: two for every tet whose box meets one burr position's box
+    /// (a new position queues one item per tet it touches; refining them queues more), at
+    /// least the core's [`DEFAULT_PENDING`].
+    pub pending: usize,
+}
+
+impl ToolSizing {
+    /// The sizes for a burr of `radius` on `mesh`.
+    ///
+    /// Work: O(T) over the mesh's tets, once at start-up.
+    pub fn of(mesh: &OwnedMesh, radius: f64) -> Self {
+        let positions = mesh.positions();
+        let (mut side, mut vol, mut n) = (0.0f64, 0.0f64, 0usize);
+        let (mut all_side, mut all_edge) = (0.0f64, 0.0f64);
+        for tet in mesh.tets() {
+            // f32 is plenty for a size estimate.
+            let p = tet.nodes.map(|v| positions[v.idx()]);
+            let lo = p[0].min(p[1]).min(p[2]).min(p[3]);
+            let hi = p[0].max(p[1]).max(p[2]).max(p[3]);
+            let s = (hi - lo).max_element() as f64;
+            all_side += s;
+            for a in 0..4 {
+                for b in a + 1..4 {
+                    all_edge += (p[a] - p[b]).length() as f64;
+                }
+            }
+            if tet.neighbours.contains(&TetId::NONE) {
+                side += s;
+                vol += (p[1] - p[0]).dot((p[2] - p[0]).cross(p[3] - p[0])).abs() as f64 / 6.0;
+                n += 1;
+            }
+        }
+        let tets = mesh.tets().len().max(1) as f64;
+        let (e, v) = if n > 0 && vol > 0.0 {
+            (side / n as f64, vol / n as f64)
+        } else {
+            (all_side / tets, 1.0)
+        };
+        let zone = 2.0 * (radius + 0.5 * radius) + radius;
+        let defaults = WorldSizes::new(0, 0);
+        let estimate = (zone + 2.0 * e).powi(3) / v;
+        let candidates = ((1.5 * estimate).ceil() as usize)
+            .max(defaults.candidates)
+            .min(mesh.tets().len().max(defaults.candidates));
+        let cell = all_edge / (6.0 * tets);
+        let per_axis = if cell > 0.0 {
+            (zone / cell).ceil() + 2.0
+        } else {
+            16.0
+        };
+        let max_cells = (2.0 * per_axis.powi(3)).min(u32::MAX as f64) as u32;
+        let sphere = (2.0 * radius + 2.0 * e).powi(3) / v;
+        let pending = ((2.0 * sphere).ceil() as usize).max(DEFAULT_PENDING);
+        Self {
+            radius,
+            boundary_edge: e,
+            pending,
+            candidates,
+            max_cells: max_cells.max(DEFAULT_MAX_CELLS),
+        }
+    }
+}
 
 /// Storage for one [`World`], allocated once before the run.
 #[derive(Debug)]
@@ -29,6 +116,7 @@ pub struct EngineStorage {
     sphere_memo: Vec<SphereSlot>,
     contact_search_nodes: u32,
     tick_budget: u32,
+    sizing: Option<ToolSizing>,
 }
 
 /// The storage sizes of a scenario's world over a mesh of `tets` tets: the core's defaults
@@ -39,8 +127,27 @@ pub struct EngineStorage {
 /// A v_list shorter than the mesh's tet count (one entry per coarse tet is the least the
 /// hierarchy needs), naming the key and the flag.
 pub fn world_sizes(tets: usize, sc: &Scenario) -> Result<WorldSizes, String> {
-    let mut s = WorldSizes::new(tets, sc.hierarchy_capacity).with_pending(sc.pending_capacity);
-    s.candidates = sc.candidate_capacity;
+    world_sizes_for(tets, sc, None)
+}
+
+/// [`world_sizes`] with the candidate list sized for the scenario's burr on the mesh
+/// (`sizing`) when the scenario does not set `candidate_capacity`.
+fn world_sizes_for(
+    tets: usize,
+    sc: &Scenario,
+    sizing: Option<&ToolSizing>,
+) -> Result<WorldSizes, String> {
+    let pending = match (sc.pending_capacity, sizing) {
+        (Some(p), _) => p,
+        (None, Some(z)) => z.pending,
+        (None, None) => DEFAULT_PENDING,
+    };
+    let mut s = WorldSizes::new(tets, sc.hierarchy_capacity).with_pending(pending);
+    s.candidates = match (sc.candidate_capacity, sizing) {
+        (Some(c), _) => c,
+        (None, Some(z)) => z.candidates,
+        (None, None) => s.candidates,
+    };
     if let Some(h) = sc.hash_capacity {
         s.hash_entries = h;
     }
@@ -67,19 +174,44 @@ impl EngineStorage {
             vlist_capacity: sc.vlist_capacity.map(|v| v.max(tets)),
             ..sc.clone()
         };
-        let s = world_sizes(tets, &raised)
+        let sizing = Self::sizing(&mesh, sc);
+        let s = world_sizes_for(tets, &raised, sizing.as_ref())
             .unwrap_or_else(|_| WorldSizes::new(tets, sc.hierarchy_capacity));
-        Self::with_sizes(mesh, s, sc)
+        Self::with_sizes(mesh, s, sc, sizing)
+    }
+
+    /// The burr's sizes on `mesh` ([`ToolSizing`]) when the scenario's tool is a sphere.
+    fn sizing(mesh: &OwnedMesh, sc: &Scenario) -> Option<ToolSizing> {
+        match sc.tool_kind() {
+            Ok(ToolKind::Sphere(r)) => Some(ToolSizing::of(mesh, r)),
+            _ => None,
+        }
+    }
+
+    /// The sizes chosen for the scenario's burr, `None` for a mesh tool.
+    pub fn tool_sizing(&self) -> Option<&ToolSizing> {
+        self.sizing.as_ref()
+    }
+
+    /// The candidate list's length.
+    pub fn candidate_capacity(&self) -> usize {
+        self.candidates.len()
     }
 
     /// [`EngineStorage::allocate`] refusing, with exit status 2, a capacity the mesh cannot
     /// take.
     pub fn try_allocate(mesh: OwnedMesh, sc: &Scenario) -> Result<Self, CliError> {
-        let s = world_sizes(mesh.tets().len(), sc).map_err(CliError::input)?;
-        Ok(Self::with_sizes(mesh, s, sc))
+        let sizing = Self::sizing(&mesh, sc);
+        let s = world_sizes_for(mesh.tets().len(), sc, sizing.as_ref()).map_err(CliError::input)?;
+        Ok(Self::with_sizes(mesh, s, sc, sizing))
     }
 
-    fn with_sizes(mesh: OwnedMesh, s: WorldSizes, sc: &Scenario) -> Self {
+    fn with_sizes(
+        mesh: OwnedMesh,
+        s: WorldSizes,
+        sc: &Scenario,
+        sizing: Option<ToolSizing>,
+    ) -> Self {
         Self {
             mesh,
             hash_starts: vec![0; s.hash_starts],
@@ -93,11 +225,17 @@ impl EngineStorage {
             sphere_memo: vec![SphereSlot::EMPTY; s.sphere_memo],
             contact_search_nodes: sc.contact_search_nodes,
             tick_budget: sc.tick_budget,
+            sizing,
         }
     }
 
     /// The world over this storage (hashes the mesh once).
     pub fn world(&mut self) -> Result<World<'_>, CliError> {
+        // The zone query may visit as many cells as the burr's zone covers, and never fewer
+        // than a list of this length can be filled from.
+        let cells = self.sizing.map_or(DEFAULT_MAX_CELLS, |z| z.max_cells);
+        let by_list = (self.candidates.len() / 2).min(u32::MAX as usize) as u32;
+        let max_cells = cells.max(by_list).max(DEFAULT_MAX_CELLS);
         World::new(
             self.mesh.view(),
             WorldStorage {
@@ -116,6 +254,7 @@ impl EngineStorage {
         )
         .map(|mut w| {
             w.set_contact_max_nodes(self.contact_search_nodes);
+            w.set_max_cells(max_cells);
             w.set_tick_budget((self.tick_budget > 0).then_some(self.tick_budget));
             w
         })
@@ -138,7 +277,10 @@ pub fn validate(world: &World<'_>) -> Result<(), String> {
 
 /// The scenario's mesh, loaded and built.
 pub fn load_mesh(sc: &Scenario) -> Result<meshio::LoadedMesh, CliError> {
-    let loaded = meshio::load(std::path::Path::new(&sc.mesh), sc.scale)?;
+    let options = meshio::ReadOptions {
+        region_array: sc.region_array.clone(),
+    };
+    let loaded = meshio::load_with(std::path::Path::new(&sc.mesh), sc.scale, &options)?;
     for w in &loaded.warnings {
         errln!("tetradrill: warning: {w}");
     }

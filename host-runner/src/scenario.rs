@@ -38,6 +38,10 @@ pub struct Scenario {
     pub mesh: String,
     /// Factor applied to the mesh's coordinates.
     pub scale: f64,
+    /// The integer cell array of a VTK or VTU mesh that holds its region labels (absent: the
+    /// first of `tetradrill_meshio::REGION_ARRAYS` the file has).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub region_array: Option<String>,
     /// Trace CSV file, `builtin:demo`, or `wander:SEED` (a seeded random wander over the
     /// mesh's surface, drill on); positions in mesh units after `scale`.
     pub trace: String,
@@ -83,14 +87,19 @@ pub struct Scenario {
     /// Entries of the static spatial hash of the mesh's tets (absent: 8 per tet).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hash_capacity: Option<usize>,
-    /// Coarse tets one simulation step may take near the tool.
-    pub candidate_capacity: usize,
+    /// Coarse tets one simulation step may take near the tool (absent: sized from the burr's
+    /// radius against the mesh's boundary tets, `crate::engine::ToolSizing`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub candidate_capacity: Option<usize>,
     /// v_list entries (absent: what the arena needs). Fewer than the arena needs shrink the
     /// arena to fit (refinements refused when it is full are counted as `arena`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub vlist_capacity: Option<usize>,
-    /// Drill work items the pending deque holds.
-    pub pending_capacity: usize,
+    /// Drill work items the pending deque holds (absent: sized from the burr's radius against
+    /// the mesh's boundary tets, `crate::engine::ToolSizing`, at least
+    /// `tetradrill_core::servo::DEFAULT_PENDING`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pending_capacity: Option<usize>,
     /// Hierarchy nodes one contact search may test (then the closest face met, or the last
     /// step's, answers).
     pub contact_search_nodes: u32,
@@ -217,6 +226,7 @@ impl Default for Scenario {
         Self {
             mesh: "builtin:block:8".into(),
             scale: 1.0,
+            region_array: None,
             trace: "builtin:demo".into(),
             tool: "sphere:0.1".into(),
             tool_scale: 1.0,
@@ -234,9 +244,9 @@ impl Default for Scenario {
             budget_per_tick: 11_000,
             tick_budget: DEFAULT_TICK_BUDGET,
             hash_capacity: None,
-            candidate_capacity: tetradrill_core::servo::WorldSizes::new(0, 0).candidates,
+            candidate_capacity: None,
             vlist_capacity: None,
-            pending_capacity: tetradrill_core::servo::DEFAULT_PENDING,
+            pending_capacity: None,
             contact_search_nodes: tetradrill_core::servo::CONTACT_MAX_NODES,
             contact_capacity: None,
             queue_capacity: None,
@@ -265,6 +275,9 @@ pub struct ScenarioFlags {
     /// Scale the mesh's coordinates.
     #[arg(long, allow_negative_numbers = true, value_parser = positive)]
     pub scale: Option<f64>,
+    /// The integer cell array of a VTK/VTU mesh holding region labels.
+    #[arg(long, value_name = "NAME")]
+    pub region_array: Option<String>,
     /// Trace CSV (`t,x,y,z,qw,qx,qy,qz,buttons`), `builtin:demo` or `wander:SEED`.
     #[arg(long)]
     pub trace: Option<String>,
@@ -369,7 +382,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             hierarchy_capacity: 20_000,
             budget_per_tick: 300,
             contact_search_nodes: 64,
-            pending_capacity: 16_384,
+            pending_capacity: Some(16_384),
             tick_budget: 0,
             ..Scenario::default()
         }),
@@ -424,11 +437,16 @@ impl Scenario {
             budget_per_tick,
             tick_budget
         );
-        take!(candidate_capacity, pending_capacity, contact_search_nodes);
+        take!(contact_search_nodes);
         macro_rules! take_some {
             ($($field:ident),*) => { $( if let Some(v) = f.$field { s.$field = Some(v); } )* };
         }
+        if let Some(v) = &f.region_array {
+            s.region_array = Some(v.clone());
+        }
         take_some!(
+            candidate_capacity,
+            pending_capacity,
             hash_capacity,
             vlist_capacity,
             contact_capacity,
@@ -509,9 +527,9 @@ impl Scenario {
         match key {
             "hierarchy_capacity" => Some(self.hierarchy_capacity),
             "hash_capacity" => self.hash_capacity,
-            "candidate_capacity" => Some(self.candidate_capacity),
+            "candidate_capacity" => self.candidate_capacity,
             "vlist_capacity" => self.vlist_capacity,
-            "pending_capacity" => Some(self.pending_capacity),
+            "pending_capacity" => self.pending_capacity,
             "contact_search_nodes" => Some(self.contact_search_nodes as usize),
             "contact_capacity" => self.contact_capacity,
             "queue_capacity" => self.queue_capacity,

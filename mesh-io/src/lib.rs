@@ -35,7 +35,7 @@ pub use crate::error::{MeshError, EXIT_BAD_INPUT, EXIT_FAILURE};
 use crate::owned::OwnedMesh;
 
 /// The largest `N` accepted in `builtin:block:N` (6 N^3 tets).
-pub const MAX_BUILTIN_BLOCK: usize = 64;
+pub const MAX_BUILTIN_BLOCK: usize = 128;
 
 /// A mesh as a file lists it: node positions and tets, 0-based node ids.
 #[derive(Debug, Clone, PartialEq)]

@@ -68,7 +68,7 @@ fn world_cases() -> Vec<Case> {
         (
             "candidate_capacity",
             Scenario {
-                candidate_capacity: 4,
+                candidate_capacity: Some(4),
                 ..base()
             },
             |s| s.candidates,
@@ -86,7 +86,7 @@ fn world_cases() -> Vec<Case> {
         (
             "pending_capacity",
             Scenario {
-                pending_capacity: 16,
+                pending_capacity: Some(16),
                 ..base()
             },
             |s| s.pending,

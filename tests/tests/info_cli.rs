@@ -24,6 +24,7 @@ fn info_json(mesh_path: &Path, scale: f64) -> serde_json::Value {
             mesh: mesh_path.to_path_buf(),
             json: Some(out.clone()),
             scale,
+            region_array: None,
         }),
     };
     cli::run(cli).unwrap_or_else(|e| panic!("{e}"));
@@ -288,4 +289,13 @@ fn binary_warns_about_unreferenced_nodes_on_stderr() {
     assert_eq!(j["tets"], 1);
     assert_eq!(j["boundary_faces"], 4);
     assert!((j["volume"].as_f64().unwrap() - 1.0 / 6.0).abs() < 1e-9);
+}
+
+#[test]
+fn a_mesh_without_labels_is_one_region_zero() {
+    let j = info_json(&mesh("cube12/cube12.node"), 1.0);
+    let regions = j["regions"].as_object().expect("regions is an object");
+    assert_eq!(regions.len(), 1, "{regions:?}");
+    assert_eq!(regions["0"], 12);
+    assert!(j["region_source"].is_null());
 }

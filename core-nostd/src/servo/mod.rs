@@ -172,7 +172,8 @@ pub struct SimReport {
     /// triangle met or kept from the last step (never deeper than the exact one), or the
     /// previous plane when there is neither (counted in `saturations().contact`).
     pub contact_saturated: bool,
-    /// The candidate list filled up (tets were left out of this step; counted).
+    /// The candidate list filled up, or the zone covered more than [`World::max_cells`]
+    /// cells (tets were left out of this step; counted).
     pub candidates_saturated: bool,
 }
 
@@ -181,7 +182,8 @@ pub struct SimReport {
 pub struct Saturations {
     /// Static hash builds that ran out of entries.
     pub hash: u32,
-    /// Simulation steps whose candidate list filled up.
+    /// Simulation steps whose candidate list filled up or whose zone was too many cells
+    /// wide ([`World::set_max_cells`]).
     pub candidates: u32,
     /// Refinements refused because the hierarchy arena was full.
     pub arena: u32,
@@ -226,6 +228,10 @@ pub struct World<'a> {
     /// Which burr positions become drill work.
     spacing: Spacing,
 }
+
+/// Default bound on the hash cells one step's zone query visits ([`World::set_max_cells`]):
+/// 16^3 cells, a zone 16 average edges wide.
+pub const DEFAULT_MAX_CELLS: u32 = 4096;
 
 /// Default bound on the hierarchy nodes the contact search of one simulation step tests
 /// (see [`World::set_contact_max_nodes`]).
@@ -287,7 +293,7 @@ impl<'a> World<'a> {
             candidates,
             ncand: 0,
             memo: SphereMemo::new(sphere_memo),
-            max_cells: 4096,
+            max_cells: DEFAULT_MAX_CELLS,
             contact: ContactState::default(),
             kept: Kept::new(),
             contact_max_nodes: CONTACT_MAX_NODES,
@@ -362,6 +368,28 @@ impl<'a> World<'a> {
         &self.candidates[..self.ncand]
     }
 
+    /// The most hash cells one step's zone query visits ([`World::set_max_cells`]).
+    pub fn max_cells(&self) -> u32 {
+        self.max_cells
+    }
+
+    /// Sets the most hash cells one step's zone query visits (default
+    /// [`DEFAULT_MAX_CELLS`]). A zone (the burr's box grown by `radius + reach`) that covers
+    /// more cells than this finds no tets: the step drills nothing, keeps the previous contact
+    /// plane and counts `saturations().candidates`. Size it with the candidate list from the
+    /// tool's radius against the mesh's cell size ([`World::cell_size`]).
+    ///
+    /// # Bounded work
+    /// O(1); a step's query then costs O(`n` + entries met).
+    pub fn set_max_cells(&mut self, n: u32) {
+        self.max_cells = n;
+    }
+
+    /// The edge of the spatial hash's cells (the mesh's average edge length).
+    pub fn cell_size(&self) -> f32 {
+        self.hash.cell_size()
+    }
+
     /// Drill work items carried to the next tick.
     pub fn pending(&self) -> usize {
         self.drill.pending()
@@ -389,7 +417,8 @@ impl<'a> World<'a> {
     /// ([`World::set_tick_budget`]) the drill and the contact search share it.
     ///
     /// # Capacity
-    /// A full candidate list keeps the tets found first and counts `saturations().candidates`;
+    /// A full candidate list keeps the tets found first and counts `saturations().candidates`,
+    /// and so does a zone of more than [`World::max_cells`] cells (which finds none);
     /// the drill and the hierarchy saturate as they document; a contact search that reaches
     /// its node bound answers with the closest triangle it met or kept (see
     /// [`World::set_contact_max_nodes`]) and counts `saturations().contact`.
@@ -457,7 +486,7 @@ impl<'a> World<'a> {
         let cap = cands.len();
         let (mut m, mut back) = (0usize, 0usize);
         let mut full = false;
-        hash.query_box_once(&zone, self.max_cells, |item| {
+        let visited = hash.query_box_once(&zone, self.max_cells, |item| {
             let t = TetId(item);
             if full || t.idx() >= mesh.tet_count() {
                 return;
@@ -506,7 +535,9 @@ impl<'a> World<'a> {
             rest.reverse();
         }
         self.ncand = k;
-        if full {
+        // A zone of more cells than the query may visit finds nothing at all: as much a
+        // saturation as a full list (the drill and the contact see no tets this step).
+        if full || !visited {
             self.sat.candidates += 1;
             rep.candidates_saturated = true;
         }

@@ -2,6 +2,7 @@
 //! mesh) the way every command does and summarises it: counts, boundary, orientation fixes,
 //! validity, dihedral angles, volume, bounding box.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use serde_json::json;
@@ -9,7 +10,7 @@ use tetradrill_core::mesh::TET_BYTES;
 use tetradrill_core::Vec3;
 
 use crate::error::CliError;
-use crate::meshio::{self, LoadedMesh};
+use crate::meshio::{self, LoadedMesh, ReadOptions};
 
 /// Arguments of `info`.
 #[derive(Debug, Clone, clap::Args)]
@@ -25,6 +26,10 @@ pub struct InfoArgs {
     /// Multiply every coordinate by this factor (file units to metres).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub scale: f64,
+    /// The integer cell array of a VTK or VTU file that holds the region labels (default:
+    /// the first of material, region, gmsh:physical, medit:ref, CellEntityIds).
+    #[arg(long, value_name = "NAME")]
+    pub region_array: Option<String>,
 }
 
 /// Everything `info` reports about one mesh.
@@ -66,6 +71,10 @@ pub struct MeshSummary {
     pub bbox_max: [f64; 3],
     /// The scale applied.
     pub scale: f64,
+    /// Tets per region label (one entry, label 0, when the file has no labels).
+    pub regions: BTreeMap<i32, usize>,
+    /// Where the labels came from (`None`: the file has none).
+    pub region_source: Option<String>,
     /// Load warnings.
     pub warnings: Vec<String>,
 }
@@ -91,6 +100,12 @@ impl MeshSummary {
             "volume": self.volume,
             "bounding_box": { "min": self.bbox_min, "max": self.bbox_max },
             "scale": self.scale,
+            "regions": self
+                .regions
+                .iter()
+                .map(|(label, n)| (label.to_string(), json!(n)))
+                .collect::<serde_json::Map<_, _>>(),
+            "region_source": self.region_source,
             "warnings": self.warnings,
         })
     }
@@ -117,7 +132,8 @@ impl MeshSummary {
              dihedral angles    {:.3} .. {:.3} deg\n\
              volume             {:.6e}\n\
              bounding box       [{a:.6}, {b:.6}, {c:.6}] .. [{d:.6}, {e:.6}, {f:.6}]\n\
-             scale              {}\n",
+             scale              {}\n\
+             regions            {}\n",
             self.file,
             self.format,
             self.nodes,
@@ -132,7 +148,21 @@ impl MeshSummary {
             self.max_dihedral_deg,
             self.volume,
             self.scale,
+            self.regions_text(),
         )
+    }
+
+    /// `1: 612 tets, 2: 612 tets (MEDIT references)`, or `none (all N tets in region 0)`.
+    fn regions_text(&self) -> String {
+        let Some(source) = &self.region_source else {
+            return format!("none (all {} tets in region 0)", self.tets);
+        };
+        let list: Vec<String> = self
+            .regions
+            .iter()
+            .map(|(label, n)| format!("{label}: {n} tets"))
+            .collect();
+        format!("{} ({source})", list.join(", "))
     }
 }
 
@@ -232,8 +262,19 @@ pub fn summarise(loaded: &mut LoadedMesh, scale: f64) -> MeshSummary {
         bbox_min,
         bbox_max,
         scale,
+        regions: region_counts(&loaded.labels),
+        region_source: loaded.label_source.clone(),
         warnings: loaded.warnings.clone(),
     }
+}
+
+/// Tets per label.
+pub fn region_counts(labels: &[i32]) -> BTreeMap<i32, usize> {
+    let mut counts = BTreeMap::new();
+    for &l in labels {
+        *counts.entry(l).or_insert(0) += 1;
+    }
+    counts
 }
 
 /// Loads the mesh and computes the summary, printing load warnings to stderr.
@@ -241,7 +282,19 @@ pub fn summarise(loaded: &mut LoadedMesh, scale: f64) -> MeshSummary {
 /// # Errors
 /// What [`meshio::load`] refuses (exit status 2).
 pub fn summary(mesh: &Path, scale: f64) -> Result<MeshSummary, CliError> {
-    let mut loaded = meshio::load(mesh, scale)?;
+    summary_with(mesh, scale, &ReadOptions::default())
+}
+
+/// [`summary`] with [`ReadOptions`] (the region array).
+///
+/// # Errors
+/// What [`meshio::load_with`] refuses (exit status 2).
+pub fn summary_with(
+    mesh: &Path,
+    scale: f64,
+    options: &ReadOptions,
+) -> Result<MeshSummary, CliError> {
+    let mut loaded = meshio::load_with(mesh, scale, options)?;
     for w in &loaded.warnings {
         errln!("tetradrill: warning: {w}");
     }
@@ -253,7 +306,10 @@ pub fn summary(mesh: &Path, scale: f64) -> Result<MeshSummary, CliError> {
 /// # Errors
 /// Exit status 2 for a bad mesh, 1 when the JSON cannot be written.
 pub fn run(args: &InfoArgs) -> Result<(), CliError> {
-    let s = summary(&args.mesh, args.scale)?;
+    let options = ReadOptions {
+        region_array: args.region_array.clone(),
+    };
+    let s = summary_with(&args.mesh, args.scale, &options)?;
     let to_stdout = args.json.as_deref() == Some(Path::new("-"));
     if !to_stdout {
         out!("{}", s.to_text());

@@ -201,6 +201,7 @@ pub fn run(
     }
     let params = TickParams::of(sc)?;
     let loaded = engine::load_mesh(sc)?;
+    let regions = crate::viewer::handoff::region_slots(&loaded.labels);
     let mut store = EngineStorage::try_allocate(loaded.mesh, sc)?;
     let (initial_volume, tets, centre) = {
         let world = store.world()?;
@@ -254,6 +255,7 @@ pub fn run(
                             tets,
                         );
                         l.set_initial_volume(initial_volume);
+                        l.set_regions(regions);
                         l
                     });
                     loop {
@@ -949,6 +951,9 @@ fn print_summary(r: &RunReport) {
             r.servo_stalls,
             r.servo_stall_max_ms
         );
+    }
+    for w in r.saturations.warnings(r.ticks) {
+        errln!("tetradrill: warning: {w}");
     }
 }
 

@@ -82,9 +82,52 @@ pub struct ReplayReport {
     pub saturations: SaturationCounts,
     /// The final state passed the core's `validate()` (mesh and hierarchy).
     pub valid: bool,
+    /// The burr's buffers as sized for this mesh (sphere tools only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sizing: Option<SizingSummary>,
     /// Contact of a tet-mesh tool (`--tool mesh:FILE` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pen: Option<PenSummary>,
+}
+
+/// The buffers a burr run chose from the tool and the mesh ([`engine::ToolSizing`]).
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct SizingSummary {
+    /// Mean box side of the mesh's boundary tets, mesh units (0 when not sized).
+    pub boundary_edge: f64,
+    /// Candidate list entries.
+    pub candidate_capacity: usize,
+    /// `true` when the list was sized from the tool, `false` when the scenario set it.
+    pub candidates_from_tool: bool,
+    /// Most hash cells one step's zone query visits.
+    pub max_cells: u32,
+}
+
+impl SizingSummary {
+    /// What `store` chose for `sc` (the query cells are the world's, set afterwards).
+    pub fn of(store: &EngineStorage, sc: &Scenario) -> Self {
+        Self {
+            boundary_edge: store.tool_sizing().map_or(0.0, |z| z.boundary_edge),
+            candidate_capacity: store.candidate_capacity(),
+            candidates_from_tool: sc.candidate_capacity.is_none(),
+            max_cells: store.tool_sizing().map_or(0, |z| z.max_cells),
+        }
+    }
+
+    /// One line for the summary.
+    pub fn line(&self) -> String {
+        format!(
+            "sized for the burr: {} candidates ({}), {} query cells (boundary tets {:.4} units)",
+            self.candidate_capacity,
+            if self.candidates_from_tool {
+                "from the tool and the mesh"
+            } else {
+                "candidate_capacity"
+            },
+            self.max_cells,
+            self.boundary_edge
+        )
+    }
 }
 
 /// Contact figures of a tet-mesh tool replay.
@@ -207,6 +250,54 @@ impl SaturationCounts {
     }
 }
 
+impl SaturationCounts {
+    /// One warning line for each kind of saturation that stops material removal or contact,
+    /// naming the flag and scenario key that raise the buffer, and how often it happened in
+    /// the run's `ticks`.
+    /// Contact searches cut short by their node bound are not among them: they answer with
+    /// the closest face met (docs/SAFETY.md).
+    pub fn warnings(&self, ticks: u64) -> Vec<String> {
+        let kinds = [
+            (
+                self.candidates,
+                "the candidate list was full or the burr's zone too wide: tets near the burr were \
+                 left out; raise --candidate-capacity (key candidate_capacity)",
+            ),
+            (
+                self.arena,
+                "the hierarchy arena was full: refinements were refused and the drilled surface \
+                 stopped short of --max-depth; raise --hierarchy-capacity (key \
+                 hierarchy_capacity)",
+            ),
+            (
+                self.pending,
+                "the pending deque was full: drill work was dropped and material in the burr's \
+                 path was left; raise --pending-capacity (key pending_capacity)",
+            ),
+            (
+                self.hash,
+                "the hash ran out of entries: tets were left out of collision; raise \
+                 --hash-capacity (key hash_capacity)",
+            ),
+            (
+                self.contacts,
+                "the mesh tool's collision list was full; raise --contact-capacity (key \
+                 contact_capacity)",
+            ),
+            (
+                self.queue,
+                "the mesh tool's depth queue was full; raise --queue-capacity (key \
+                 queue_capacity)",
+            ),
+        ];
+        kinds
+            .iter()
+            .filter(|(n, _)| *n > 0)
+            .map(|(n, what)| format!("{what} ({n} times in {ticks} ticks)"))
+            .collect()
+    }
+}
+
 impl std::fmt::Display for SaturationCounts {
     /// The total, then the kinds that are not zero: `12 (arena 9, pending 3)`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -290,7 +381,12 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         digests.push(digest.value());
     }
     let mut store = EngineStorage::try_allocate(loaded.mesh, &sc)?;
+    let sizing = SizingSummary::of(&store, &sc);
     let mut world = store.world()?;
+    let sizing = SizingSummary {
+        max_cells: world.max_cells(),
+        ..sizing
+    };
     let initial_volume = world.mesh().volume();
 
     let mut tool = ToolState::default();
@@ -357,6 +453,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         runs: args.repeat,
         saturations: SaturationCounts::from(world.saturations()),
         valid: valid.is_ok(),
+        sizing: Some(sizing),
         scenario: sc,
         pen: None,
     };
@@ -571,6 +668,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
         .totalled(),
         valid: valid.is_ok(),
         scenario: sc,
+        sizing: None,
         pen: Some(pen_info),
     };
     print_summary(&rep);
@@ -645,6 +743,12 @@ fn print_summary(r: &ReplayReport) {
         r.timing_us.tick_max,
         r.saturations
     );
+    if let Some(z) = &r.sizing {
+        outln!("{}", z.line());
+    }
+    for w in r.saturations.warnings(r.ticks) {
+        errln!("tetradrill: warning: {w}");
+    }
 }
 
 /// Writes the visible faces as an OBJ (one vertex triple per face: the drilled surface is a

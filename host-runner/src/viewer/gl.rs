@@ -13,6 +13,7 @@ use tetradrill_core::{Quat, Vec3};
 
 use super::camera::{mul, Camera};
 use super::handoff::ToolShape;
+use super::handoff::REGION_SLOTS;
 use super::scene::{Scene, Updates, CHUNK_FLOATS, VERTEX_FLOATS};
 
 /// Colours of the view (linear 0..1 RGB).
@@ -28,6 +29,9 @@ pub struct Palette {
     pub tool: [f32; 3],
     /// The force arrow.
     pub force: [f32; 3],
+    /// The original surface of regions 1.. (region 0 has `surface`); a region's drilled
+    /// surface is its colour halfway to `drilled`.
+    pub regions: [[f32; 3]; REGION_SLOTS as usize - 1],
 }
 
 /// The palette in use.
@@ -37,6 +41,15 @@ pub const PALETTE: Palette = Palette {
     drilled: [0.85, 0.30, 0.22],
     tool: [0.45, 0.62, 0.95],
     force: [0.35, 0.95, 0.40],
+    regions: [
+        [0.40, 0.55, 0.80],
+        [0.45, 0.75, 0.45],
+        [0.70, 0.50, 0.80],
+        [0.35, 0.75, 0.75],
+        [0.90, 0.65, 0.30],
+        [0.85, 0.55, 0.65],
+        [0.65, 0.65, 0.35],
+    ],
 };
 
 /// What to draw besides the surface.
@@ -73,12 +86,22 @@ in float v_flag;
 uniform vec3 u_eye;
 uniform vec3 u_color0;
 uniform vec3 u_color1;
+uniform vec3 u_regions[7];
 out vec4 o_color;
 void main() {
     vec3 n = normalize(v_normal);
     vec3 l = normalize(u_eye - v_world);
     float d = abs(dot(n, l));
-    vec3 c = mix(u_color0, u_color1, clamp(v_flag, 0.0, 1.0));
+    // The flag is drilled (0 or 1) + 2 x the region's colour slot.
+    float slot = floor((v_flag + 0.5) / 2.0);
+    float drilled = clamp(v_flag - 2.0 * slot, 0.0, 1.0);
+    vec3 c0 = u_color0;
+    vec3 c1 = u_color1;
+    if (slot > 0.5) {
+        c0 = u_regions[int(slot) - 1];
+        c1 = mix(c0, u_color1, 0.5);
+    }
+    vec3 c = mix(c0, c1, drilled);
     o_color = vec4(c * (0.28 + 0.72 * d), 1.0);
 }
 "#;
@@ -107,6 +130,7 @@ pub struct Renderer {
     u_eye: Option<glow::UniformLocation>,
     u_color0: Option<glow::UniformLocation>,
     u_color1: Option<glow::UniformLocation>,
+    u_regions: Option<glow::UniformLocation>,
     /// Bytes uploaded by the last [`Renderer::sync`].
     pub last_upload_bytes: usize,
 }
@@ -166,6 +190,7 @@ impl Renderer {
                 u_eye: gl.get_uniform_location(program, "u_eye"),
                 u_color0: gl.get_uniform_location(program, "u_color0"),
                 u_color1: gl.get_uniform_location(program, "u_color1"),
+                u_regions: gl.get_uniform_location(program, "u_regions"),
                 program,
                 surface,
                 surface_floats: 0,
@@ -263,6 +288,8 @@ impl Renderer {
             gl.use_program(Some(self.program));
             gl.uniform_matrix_4_f32_slice(self.u_vp.as_ref(), false, &vp);
             gl.uniform_3_f32(self.u_eye.as_ref(), eye.x, eye.y, eye.z);
+            let regions: Vec<f32> = p.regions.iter().flatten().copied().collect();
+            gl.uniform_3_f32_slice(self.u_regions.as_ref(), &regions);
             self.draw_mesh(gl, &self.surface, &IDENTITY, p.surface, p.drilled);
             if let Some(t) = scene.tool.filter(|_| opts.tool) {
                 let r = t.radius;

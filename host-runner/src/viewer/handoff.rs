@@ -62,6 +62,36 @@ pub struct ToolView {
 /// `rotation`. Shared, never copied: full snapshots carry the same allocation.
 pub type ToolShape = std::sync::Arc<[[Vec3; 3]]>;
 
+/// The colour slot of every coarse tet's region (see [`region_slots`]). Shared, never
+/// copied: full snapshots carry the same allocation.
+pub type RegionSlots = std::sync::Arc<[u8]>;
+
+/// Region colours besides the surface's own: a mesh's regions take the surface colour (its
+/// smallest label) and then these slots in turn.
+pub const REGION_SLOTS: u8 = 8;
+
+/// The colour slot of each tet from its region label: the smallest label present gets slot
+/// 0 (the surface colour), the next ones slots 1, 2, ... in label order, wrapping after
+/// [`REGION_SLOTS`] - 1 colours. `None` when every tet has the same label (nothing to tell
+/// apart).
+pub fn region_slots(labels: &[i32]) -> Option<RegionSlots> {
+    let mut distinct: Vec<i32> = labels.to_vec();
+    distinct.sort_unstable();
+    distinct.dedup();
+    if distinct.len() < 2 {
+        return None;
+    }
+    let slot = |l: i32| {
+        let i = distinct.binary_search(&l).unwrap_or(0);
+        if i == 0 {
+            0
+        } else {
+            (1 + (i - 1) % (REGION_SLOTS as usize - 1)) as u8
+        }
+    };
+    Some(labels.iter().map(|&l| slot(l)).collect())
+}
+
 /// One snapshot from the simulation.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Snapshot {
@@ -79,6 +109,9 @@ pub struct Snapshot {
     pub initial_volume: f64,
     /// A mesh tool's shape (full snapshots only; `None` leaves the viewer's as it is).
     pub tool_shape: Option<ToolShape>,
+    /// The object's region colours (full snapshots only; `None` leaves the viewer's as it
+    /// is).
+    pub regions: Option<RegionSlots>,
 }
 
 /// The snapshot queue: the simulation publishes, the viewer drains.

@@ -18,7 +18,8 @@ use tetradrill_core::{TetId, Vec3};
 
 use super::handoff::SNAPSHOT_PERIOD_NS;
 use super::handoff::{
-    Controls, ControlsOut, Patch, Snapshot, SnapshotQueue, SurfTri, ToolShape, ToolView,
+    Controls, ControlsOut, Patch, RegionSlots, Snapshot, SnapshotQueue, SurfTri, ToolShape,
+    ToolView,
 };
 use super::scene::Scene;
 use crate::tasks::SimStatus;
@@ -38,6 +39,7 @@ pub struct SimViewer<'q> {
     last_ns: u64,
     initial_volume: f64,
     tool_shape: Option<ToolShape>,
+    regions: Option<RegionSlots>,
 }
 
 impl<'q> SimViewer<'q> {
@@ -57,7 +59,14 @@ impl<'q> SimViewer<'q> {
             last_ns: 0,
             initial_volume: 0.0,
             tool_shape: None,
+            regions: None,
         }
+    }
+
+    /// Sets the object's region colours (sent with every full snapshot; see
+    /// [`super::handoff::region_slots`]).
+    pub fn set_regions(&mut self, regions: Option<RegionSlots>) {
+        self.regions = regions;
     }
 
     /// Sets the shape a mesh tool is drawn with (sent with every full snapshot).
@@ -185,6 +194,7 @@ impl<'q> SimViewer<'q> {
             status: *status,
             initial_volume: self.initial_volume,
             tool_shape: self.tool_shape.clone().filter(|_| full),
+            regions: self.regions.clone().filter(|_| full),
         };
         match self.queue.try_publish(s) {
             Ok(()) => {
@@ -324,6 +334,7 @@ pub fn scene_of(world: &World<'_>, tool: Option<ToolView>, status: SimStatus) ->
         status,
         initial_volume: world.mesh().volume(),
         tool_shape: None,
+        regions: None,
     });
     if tool.is_none() {
         scene.tool = None;

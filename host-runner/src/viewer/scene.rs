@@ -52,6 +52,9 @@ pub struct Scene {
     pub bounds: Option<(Vec3, Vec3)>,
     /// A mesh tool's shape (drawn instead of the burr's sphere), once a snapshot gave one.
     pub tool_shape: Option<super::handoff::ToolShape>,
+    /// The colour slot of each coarse tet's region, once a snapshot gave them (none: every
+    /// tet in slot 0, the surface colour).
+    pub regions: Option<super::handoff::RegionSlots>,
 }
 
 impl Scene {
@@ -64,6 +67,9 @@ impl Scene {
     pub fn apply(&mut self, s: Snapshot) {
         if s.full {
             self.clear();
+        }
+        if s.regions.is_some() {
+            self.regions = s.regions;
         }
         for p in s.patches {
             self.set_patch(p);
@@ -99,6 +105,7 @@ impl Scene {
         self.drilled -= old.drilled;
         let old = old.chunks;
         let need = p.tris.len().div_ceil(CHUNK_TRIS);
+        let slot = self.region_slot(p.tet);
         let mut mine = old;
         while mine.len() > need {
             if let Some(c) = mine.pop() {
@@ -113,7 +120,7 @@ impl Scene {
         for (k, &c) in mine.iter().enumerate() {
             let lo = k * CHUNK_TRIS;
             let hi = (lo + CHUNK_TRIS).min(p.tris.len());
-            self.write_chunk(c, &p.tris[lo..hi]);
+            self.write_chunk(c, &p.tris[lo..hi], slot);
         }
         let drilled = p.tris.iter().filter(|t| t.drilled).count();
         self.tris += p.tris.len();
@@ -167,7 +174,17 @@ impl Scene {
         self.mark(c);
     }
 
-    fn write_chunk(&mut self, c: u32, tris: &[SurfTri]) {
+    /// The colour slot of coarse tet `tet` (0 without regions).
+    pub fn region_slot(&self, tet: u32) -> u8 {
+        self.regions
+            .as_ref()
+            .and_then(|r| r.get(tet as usize).copied())
+            .unwrap_or(0)
+    }
+
+    /// Writes `tris` into chunk `c`; each vertex's flag is `drilled + 2 slot` (the shader
+    /// takes both apart).
+    fn write_chunk(&mut self, c: u32, tris: &[SurfTri], slot: u8) {
         let base = c as usize * CHUNK_FLOATS;
         let out = &mut self.data[base..base + CHUNK_FLOATS];
         out.iter_mut().for_each(|x| *x = 0.0);
@@ -183,7 +200,7 @@ impl Scene {
                     n.x,
                     n.y,
                     n.z,
-                    if t.drilled { 1.0 } else { 0.0 },
+                    if t.drilled { 1.0 } else { 0.0 } + 2.0 * slot as f32,
                 ]);
             }
         }

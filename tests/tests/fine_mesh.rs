@@ -1,0 +1,103 @@
+//! A burr much larger than the mesh's tets (a clinical-size mesh: a 4 mm burr on 0.3 mm
+//! tets): the default buffers follow the tool and the mesh (`engine::ToolSizing`), so the
+//! burr drills what it touches instead of saturating every step and removing nothing.
+//!
+//! Oracle: the analytic volume of a sphere held inside the block, `4/3 pi r^3`, against the
+//! removed volume once the drill has nothing left to do; the leaves at the sphere's surface
+//! (at most `max_depth` levels below tets of edge `1/n`) bound the difference.
+
+use tetradrill::engine::{self, EngineStorage, TickParams};
+use tetradrill::scenario::Scenario;
+use tetradrill::traces::Pose;
+use tetradrill_core::force::ToolState;
+use tetradrill_core::script::DRILL_ON;
+use tetradrill_core::Vec3;
+
+/// Holds a burr of `radius` at the centre of `builtin:block:n` with the drill on until the
+/// drill's work is done (or `max_ticks`); returns the removed volume, the world's candidate
+/// saturations and the capacities chosen.
+fn hold(n: usize, radius: f64, max_depth: u8, max_ticks: u64) -> (f64, u32, usize, u32) {
+    let sc = Scenario {
+        mesh: format!("builtin:block:{n}"),
+        tool: format!("sphere:{radius}"),
+        max_depth,
+        ..Scenario::default()
+    };
+    let params = TickParams::of(&sc).expect("scenario");
+    let loaded = engine::load_mesh(&sc).expect("mesh");
+    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let cands = store.candidate_capacity();
+    let mut world = store.world().expect("world");
+    let cells = world.max_cells();
+    let mut tool = ToolState::default();
+    let pose = Pose {
+        position: Vec3::ZERO,
+        rotation: [1.0, 0.0, 0.0, 0.0],
+        buttons: DRILL_ON,
+    };
+    for i in 0..max_ticks {
+        engine::tick(&mut world, &mut tool, &params, &pose);
+        if i > 10 && world.pending() == 0 {
+            break;
+        }
+    }
+    let removed = world.hierarchy().removed_volume();
+    (removed, world.saturations().candidates, cands, cells)
+}
+
+#[test]
+fn a_burr_many_tets_wide_drills_its_own_volume_with_the_default_buffers() {
+    // 196,608 tets of edge 1/32; a burr of radius 0.15 spans ten of them. Its zone holds
+    // about 40,000 tets: the fixed list of 1,024 used to fill on every step.
+    let r = 0.15;
+    let (removed, saturated, cands, _) = hold(32, r, 2, 4000);
+    let sphere = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+    assert!(cands > 1024, "the list was not sized for the burr: {cands}");
+    assert_eq!(saturated, 0, "steps saturated with {cands} candidates");
+    // Leaves of edge 1/128 at the sphere's surface: a shell of half a leaf either way.
+    let shell = 4.0 * std::f64::consts::PI * r * r * (0.5 / 128.0);
+    assert!(
+        (removed - sphere).abs() <= shell,
+        "removed {removed:.6}, sphere {sphere:.6}, shell {shell:.6}"
+    );
+}
+
+#[test]
+fn a_zone_wider_than_the_query_may_visit_is_counted_never_silent() {
+    // Radius 0.3 on edge 1/40: the burr's zone covers tens of thousands of hash cells. The
+    // world sized for it drills; a world whose list (and so query) is held to the core's
+    // defaults counts every step it cannot see, instead of drilling nothing quietly.
+    let (removed, saturated, _, cells) = hold(40, 0.3, 1, 4000);
+    assert!(
+        cells > 4096,
+        "the query was not sized for the burr: {cells} cells"
+    );
+    assert_eq!(saturated, 0);
+    let sphere = 4.0 / 3.0 * std::f64::consts::PI * 0.027;
+    assert!(removed > 0.9 * sphere, "removed {removed}, sphere {sphere}");
+
+    let sc = Scenario {
+        mesh: "builtin:block:40".into(),
+        tool: "sphere:0.3".into(),
+        max_depth: 1,
+        candidate_capacity: Some(1024),
+        ..Scenario::default()
+    };
+    let params = TickParams::of(&sc).expect("scenario");
+    let loaded = engine::load_mesh(&sc).expect("mesh");
+    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let mut world = store.world().expect("world");
+    world.set_max_cells(tetradrill_core::servo::DEFAULT_MAX_CELLS);
+    let mut tool = ToolState::default();
+    let pose = Pose {
+        position: Vec3::ZERO,
+        rotation: [1.0, 0.0, 0.0, 0.0],
+        buttons: DRILL_ON,
+    };
+    for _ in 0..50 {
+        let (_, rep) = engine::tick(&mut world, &mut tool, &params, &pose);
+        assert!(rep.candidates_saturated, "a clipped zone must be reported");
+        assert_eq!(rep.candidates, 0, "a clipped zone finds nothing");
+    }
+    assert_eq!(world.saturations().candidates, 50);
+}
