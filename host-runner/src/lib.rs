@@ -6,7 +6,6 @@
 //! |-------------|-------------------------------------------------------------|
 //! | [`cli`]     | the command line: `demo`, `run`, `replay`, `info`, `timing` |
 //! | [`error`]   | one-line errors with exit status 2 for bad input            |
-//! | [`hdapi`]   | the Touch through the vendor HD library, loaded at run time (`unsafe`, FFI) |
 //! | [`meshio`]  | mesh files: the `tetradrill-meshio` crate, re-exported      |
 //! | [`owned`]   | host-owned storage for one core mesh (from `tetradrill-meshio`) |
 //! | [`platform`]| clock, absolute sleeps, SCHED_FIFO, mlockall, pinning (`unsafe`, libc)       |
@@ -58,8 +57,6 @@ pub mod cli;
 pub mod commands;
 pub mod engine;
 pub mod error;
-pub mod firewire;
-pub mod hdapi;
 pub mod pen;
 pub mod pen_tasks;
 pub mod platform;

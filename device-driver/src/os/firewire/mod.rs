@@ -5,7 +5,7 @@
 //! No vendor code is involved. The structures, event layouts and request numbers below are
 //! written from the kernel's uapi headers (`linux/firewire-cdev.h`,
 //! `linux/firewire-constants.h`; each item names what it mirrors); the register addresses and
-//! packet layouts are the device crate's ([`tetradrill_device::omni`]).
+//! packet layouts are the Omni codec's ([`crate::omni`]).
 //!
 //! | what the Omni protocol needs | kernel interface used here |
 //! |------------------------------|----------------------------|
@@ -20,7 +20,7 @@
 //!
 //! The transmit stream is shared, behind a mutex, with [`CdevOut`]: the second path a
 //! supervisor thread uses to queue motors-off packets while the servo thread is stalled
-//! ([`tetradrill_device::MotorCutoff`]). The servo only `try_lock`s it and never waits on it.
+//! ([`crate::MotorCutoff`]). The servo only `try_lock`s it and never waits on it.
 //!
 //! Every wait is a `ppoll` with a deadline: a dead bus or an unplugged node becomes
 //! [`DeviceError::Timeout`] or [`DeviceError::Disconnected`], never a hang or a panic. After
@@ -28,9 +28,9 @@
 //! fixed.
 //!
 //! Nothing here has run against a FireWire bus (none is attached to the build machines); see
-//! docs/DEVICES.md for exactly what is untested. As in [`crate::platform`] and [`crate::hdapi`],
-//! `unsafe` is allowed in this file only: each block is one system call or one copy in a mapped
-//! buffer, with its `// SAFETY:` reason.
+//! docs/DEVICES.md for exactly what is untested. As in [`super::hdapi`] and [`super::clock`],
+//! `unsafe` is allowed in this module only: each block is one system call or one copy in a
+//! mapped buffer, with its `// SAFETY:` reason.
 #![allow(unsafe_code)]
 
 use std::fmt;
@@ -43,17 +43,12 @@ use std::path::{Path, PathBuf};
 use std::ptr::NonNull;
 use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 
-use tetradrill_device::cutoff::{OutPath, PACKET_LEN};
-use tetradrill_device::discovery::{is_sensable_vendor, SENSABLE_VENDOR};
-use tetradrill_device::omni::packet::{
-    encode_output, OmniOutput, INPUT_LEN, MOTOR_ZERO, OUTPUT_LEN,
-};
-use tetradrill_device::omni::{FirewireTransport, OmniConfig, OmniDevice};
-use tetradrill_device::{Cut, DeviceError, DeviceKind, HapticDevice};
-
-use crate::commands::pipeline::DeviceFactory;
-use crate::error::CliError;
-use crate::platform::now_ns;
+use crate::cutoff::{Cut, OutPath, PACKET_LEN};
+use crate::device::DeviceError;
+use crate::discovery::{is_sensable_vendor, SENSABLE_VENDOR};
+use crate::omni::packet::{encode_output, OmniOutput, INPUT_LEN, MOTOR_ZERO, OUTPUT_LEN};
+use crate::omni::{FirewireTransport, OmniConfig};
+use crate::os::clock::now_ns;
 
 // ---------------------------------------------------------------------------------------------
 // The ABI, from linux/firewire-cdev.h and linux/firewire-constants.h.
@@ -1791,39 +1786,20 @@ impl Drop for CdevFirewire {
     }
 }
 
-// ---------------------------------------------------------------------------------------------
-// Command-line glue.
-// ---------------------------------------------------------------------------------------------
-
-/// The device factory of `tetradrill run --device omni`: finds the Omni and opens its node
-/// here, on the main thread, so a missing or unreadable node is one line and exit status 2;
-/// the start-up register sequence runs in the servo thread when the factory is called.
-pub fn omni_factory() -> Result<DeviceFactory, CliError> {
-    let nodes = discover_omnis();
-    let Some(node) = nodes.iter().find(|n| n.rom.is_ok()) else {
-        return Err(CliError::input(match nodes.first() {
-            Some(OmniNode { rom: Err(e), .. }) => format!("--device omni: {e}"),
-            _ => format!("--device omni: {}", DeviceError::NotFound(DeviceKind::Omni)),
-        }));
-    };
-    let config = OmniConfig::default();
-    let transport = CdevFirewire::open(&node.path, CdevConfig::for_omni(&config))
-        .map_err(|e| CliError::input(format!("--device omni: {e}")))?;
-    if let Some(w) = transport.warning() {
-        errln!("tetradrill: warning: {}: {w}", node.path.display());
-    }
-    Ok(Box::new(move || {
-        let device = OmniDevice::start(transport, config)?;
-        Ok(Box::new(device) as Box<dyn HapticDevice>)
-    }))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::collections::HashMap;
     use std::mem::offset_of;
     use std::process::Command;
+
+    /// A note on stderr that the test harness does not capture (a skipped part says why).
+    macro_rules! note {
+        ($($t:tt)*) => {{
+            use std::io::Write as _;
+            let _ = writeln!(std::io::stderr(), $($t)*);
+        }};
+    }
 
     /// A fresh directory under the system's temporary directory.
     fn scratch(tag: &str) -> PathBuf {
@@ -1965,7 +1941,7 @@ int main(void) {
     fn layout_and_numbers_agree_with_the_c_compiler() {
         let header = Path::new("/usr/include/linux/firewire-cdev.h");
         if !header.exists() {
-            errln!("note: skipped: {} is not installed", header.display());
+            note!("note: skipped: {} is not installed", header.display());
             return;
         }
         let dir = scratch("cprobe");
@@ -1975,7 +1951,7 @@ int main(void) {
         let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
         let built = match Command::new(&cc).arg("-o").arg(&bin).arg(&src).output() {
             Err(e) if e.kind() == io::ErrorKind::NotFound => {
-                errln!("note: skipped: no C compiler ({cc})");
+                note!("note: skipped: no C compiler ({cc})");
                 return;
             }
             Err(e) => panic!("{cc} could not run: {e}"),
@@ -2343,7 +2319,7 @@ int main(void) {
             let e = read_config_rom(null).expect_err("not a node");
             assert_eq!(e.step, "FW_CDEV_IOC_GET_INFO");
         } else {
-            errln!("note: /dev/null is absent here; its part of the test is skipped");
+            note!("note: /dev/null is absent here; its part of the test is skipped");
         }
 
         let bad = CdevConfig {
@@ -2526,7 +2502,7 @@ int main(void) {
     #[test]
     fn mapped_buffers_check_every_range() {
         let Ok(zero) = OpenOptions::new().read(true).write(true).open("/dev/zero") else {
-            errln!("note: skipped: /dev/zero cannot be opened here");
+            note!("note: skipped: /dev/zero cannot be opened here");
             return;
         };
         let mut buf = IsoBuffer::map(&zero, 100, true).expect("map /dev/zero");
