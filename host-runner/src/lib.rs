@@ -1,6 +1,8 @@
 //! tetradrill host runner: reads mesh files, runs the servo and simulation tasks, serves the
 //! command line. The core (`tetradrill-core`) never sees a file, a thread or a clock; this crate
-//! does all of that around it.
+//! does all of that around it. The devices, their codecs and their OS transports (FireWire
+//! cdev, the HD library loader) are `tetradrill-device`'s; `commands::run` builds the device
+//! factories from them.
 //!
 //! | module      | what                                                        |
 //! |-------------|-------------------------------------------------------------|
