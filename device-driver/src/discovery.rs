@@ -115,9 +115,11 @@ pub struct OpenOptions {
 
 /// Opens a real device by kind. `--device sim` is built with [`open_sim`] (it needs a path).
 /// Errors: [`DeviceError::NotFound`] when nothing of that kind is attached (the message says
-/// what was looked for); [`DeviceError::Unsupported`] for an attached Omni (this crate has no
-/// FireWire transport: the host runner opens it with `tetradrill::firewire::CdevFirewire`); [`DeviceError::LibraryNotFound`] for an attached Touch (the host
-/// must load the HD library and use [`crate::touch::TouchDevice`]).
+/// what was looked for); [`DeviceError::Unsupported`] for an attached Omni (it opens through
+/// its FireWire transport, `os::firewire::CdevFirewire`, with the node found by
+/// `os::firewire::discover_omnis`); [`DeviceError::LibraryNotFound`] for an attached Touch
+/// (the host must load the HD library, `os::hdapi::HdApi`, and use
+/// [`crate::touch::TouchDevice`]).
 pub fn open(kind: DeviceKind, options: &OpenOptions) -> Result<Box<dyn HapticDevice>, DeviceError> {
     match kind {
         DeviceKind::Sim => Err(DeviceError::Unsupported(DeviceKind::Sim)),

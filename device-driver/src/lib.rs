@@ -12,8 +12,13 @@
 //! - [`falcon`]: Novint Falcon over USB (`rusb`) behind a [`falcon::Transport`];
 //! - [`omni`]: SensAble PHANTOM Omni (IEEE-1394) protocol behind an [`omni::FirewireTransport`];
 //! - [`touch`]: Geomagic / 3D Systems Touch through a run-time loaded [`touch::HdLibrary`];
-//! - [`discovery`]: what is attached, for `tetradrill devices`.
-#![forbid(unsafe_code)]
+//! - [`discovery`]: what is attached, for `tetradrill devices`;
+//! - `os` (feature `os`, on by default): the operating system transports, the FireWire
+//!   character device under the Omni ([`omni::FirewireTransport`]) and the run-time loader of
+//!   the Touch's vendor HD library ([`touch::HdLibrary`]). They are the only modules with
+//!   `unsafe` (each allows it for itself; every block is one system or library call with its
+//!   `// SAFETY:` reason); without `os` the crate has none.
+#![deny(unsafe_code)]
 #![deny(missing_docs)]
 
 pub mod cutoff;
@@ -33,6 +38,8 @@ pub use trace::{Trace, TraceError, TraceErrorKind, TraceSample, TRACE_HEADER};
 pub mod discovery;
 pub mod falcon;
 pub mod omni;
+#[cfg(feature = "os")]
+pub mod os;
 pub mod touch;
 
 pub use discovery::{discover, open, open_sim, FoundDevice, OpenOptions};

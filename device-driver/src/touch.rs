@@ -1,9 +1,9 @@
 //! Geomagic / 3D Systems Touch through the vendor's HD library (OpenHaptics HDAPI).
 //!
-//! There is no public protocol for the Touch. The host runner loads the vendor library
-//! (`libHD.so`) at run time and implements [`HdLibrary`] over it; nothing is linked at build
-//! time and no vendor header is used. This crate forbids `unsafe`, so the loader itself lives
-//! in the host runner. [`MockHdLibrary`] stands in for tests.
+//! There is no public protocol for the Touch. The loader `os::hdapi::HdApi` (feature `os`)
+//! opens the vendor library (`libHD.so`) at run time and implements [`HdLibrary`] over it;
+//! nothing is linked at build time and no vendor header is used. This codec has no `unsafe`:
+//! the foreign calls are the loader's. [`MockHdLibrary`] stands in for tests.
 
 use crate::device::{DeviceError, DeviceSpec, DeviceState, ForceCommand, HapticDevice, Quat};
 use crate::safety::{ForceSafety, SafetyConfig};

@@ -1,12 +1,13 @@
 //! tetradrill host runner: reads mesh files, runs the servo and simulation tasks, serves the
 //! command line. The core (`tetradrill-core`) never sees a file, a thread or a clock; this crate
-//! does all of that around it.
+//! does all of that around it. The devices, their codecs and their OS transports (FireWire
+//! cdev, the HD library loader) are `tetradrill-device`'s; `commands::run` builds the device
+//! factories from them.
 //!
 //! | module      | what                                                        |
 //! |-------------|-------------------------------------------------------------|
 //! | [`cli`]     | the command line: `demo`, `run`, `replay`, `info`, `timing` |
 //! | [`error`]   | one-line errors with exit status 2 for bad input            |
-//! | [`hdapi`]   | the Touch through the vendor HD library, loaded at run time (`unsafe`, FFI) |
 //! | [`meshio`]  | mesh files: the `tetradrill-meshio` crate, re-exported      |
 //! | [`owned`]   | host-owned storage for one core mesh (from `tetradrill-meshio`) |
 //! | [`platform`]| clock, absolute sleeps, SCHED_FIFO, mlockall, pinning (`unsafe`, libc)       |
@@ -58,8 +59,6 @@ pub mod cli;
 pub mod commands;
 pub mod engine;
 pub mod error;
-pub mod firewire;
-pub mod hdapi;
 pub mod pen;
 pub mod pen_tasks;
 pub mod platform;

@@ -1,4 +1,4 @@
-//! The Touch loader (`tetradrill::hdapi`) without a Touch: the error paths when no library
+//! The Touch loader (`tetradrill_device::os::hdapi`) without a Touch: the error paths when no library
 //! exists or the override is not a library, and the real `dlopen` path through a small
 //! stand-in HD library written here in C and compiled with the system C compiler at test time.
 //!
@@ -12,7 +12,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use tetradrill::hdapi::{candidates, HdApi, HdLoadError, HD_LIBRARY_ENV};
+use tetradrill_device::os::hdapi::{candidates, HdApi, HdLoadError, HD_LIBRARY_ENV};
 use tetradrill_device::safety::SafetyConfig;
 use tetradrill_device::touch::{HdLibrary, TouchDevice, HD_LIBRARY_NAMES};
 use tetradrill_device::{DeviceError, ForceCommand, HapticDevice};

@@ -3,9 +3,9 @@
 //! The protocol is the publicly reverse-engineered one: identification by the vendor OUI in the
 //! configuration ROM, a few register writes to start isochronous streaming, 44-byte input
 //! packets and 16-byte output packets ([`packet`]), 15000 encoder counts per joint revolution,
-//! and the arm kinematics of [`kinematics`]. Everything goes through [`FirewireTransport`];
-//! this crate forbids `unsafe`, so the Linux firewire-cdev transport (ioctls) lives in the host
-//! runner (`tetradrill::firewire::CdevFirewire`); [`mock::MockFirewire`] drives the tests.
+//! and the arm kinematics of [`kinematics`]. Everything goes through [`FirewireTransport`]:
+//! this codec has no `unsafe`; the Linux firewire-cdev transport (ioctls) is
+//! `os::firewire::CdevFirewire` (feature `os`); [`mock::MockFirewire`] drives the tests.
 //! A transport may offer a second path for output packets ([`FirewireTransport::out_path`]);
 //! the device then has a [`MotorCutoff`](crate::cutoff::MotorCutoff) that sends a motors-off
 //! packet through it.

@@ -9,12 +9,12 @@ pub struct DevicesArgs {}
 /// Runs `devices`.
 pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
     // The Omni is found (and opened) by its configuration ROM through firewire-cdev
-    // (crate::firewire), not by the device crate's sysfs scan.
+    // (tetradrill_device::os::firewire), not by the device crate's sysfs scan.
     let found: Vec<_> = tetradrill_device::discover()
         .into_iter()
         .filter(|d| d.kind != tetradrill_device::DeviceKind::Omni)
         .collect();
-    let omnis = crate::firewire::discover_omnis();
+    let omnis = tetradrill_device::os::firewire::discover_omnis();
     outln!("sim      always available (the simulated device)");
     if found.is_empty() && omnis.is_empty() {
         outln!(
@@ -23,7 +23,7 @@ pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
         );
     }
     // The Touch opens through the vendor HD library, which discovery cannot see.
-    let hd = crate::hdapi::probe();
+    let hd = tetradrill_device::os::hdapi::probe();
     match &hd {
         Ok(path) => outln!("(HD library for the Touch: found, {path})"),
         Err(e) => outln!("(HD library for the Touch: {e})"),

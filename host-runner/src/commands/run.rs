@@ -3,8 +3,12 @@
 use std::path::PathBuf;
 
 use tetradrill_core::script::DEMO;
+use tetradrill_device::omni::{OmniConfig, OmniDevice};
+use tetradrill_device::os::firewire::{discover_omnis, CdevConfig, CdevFirewire, OmniNode};
+use tetradrill_device::os::hdapi::{HdApi, HdLoadError};
 use tetradrill_device::{
-    discovery::OpenOptions, DeviceKind, DeviceSpec, PathPoint, Scripted, SimDevice, QUAT_IDENTITY,
+    discovery::OpenOptions, DeviceError, DeviceKind, DeviceSpec, HapticDevice, PathPoint, Scripted,
+    SimDevice, QUAT_IDENTITY,
 };
 
 use super::pipeline::{self, DeviceFactory, PipelineSetup, MESH_UNITS};
@@ -153,7 +157,7 @@ pub fn device_factory(
             let open: DeviceFactory = if real == DeviceKind::Touch {
                 touch_factory()?
             } else if real == DeviceKind::Omni {
-                crate::firewire::omni_factory()?
+                omni_factory()?
             } else {
                 Box::new(move || tetradrill_device::discovery::open(real, &options))
             };
@@ -166,12 +170,35 @@ pub fn device_factory(
 /// library or device is one line and exit status 2; the opened library moves into the servo
 /// thread, where the device is built (and made current there).
 fn touch_factory() -> Result<DeviceFactory, CliError> {
-    let bad = |e: crate::hdapi::HdLoadError| CliError::input(format!("--device touch: {e}"));
-    let mut api = crate::hdapi::HdApi::load().map_err(bad)?;
+    let bad = |e: HdLoadError| CliError::input(format!("--device touch: {e}"));
+    let mut api = HdApi::load().map_err(bad)?;
     api.open_device(None).map_err(bad)?;
     Ok(Box::new(move || {
         let dev = tetradrill_device::touch::TouchDevice::new(api, None)?;
         Ok(Box::new(dev) as Box<dyn tetradrill_device::HapticDevice>)
+    }))
+}
+
+/// The device factory of `tetradrill run --device omni`: finds the Omni and opens its node
+/// here, on the main thread, so a missing or unreadable node is one line and exit status 2;
+/// the start-up register sequence runs in the servo thread when the factory is called.
+fn omni_factory() -> Result<DeviceFactory, CliError> {
+    let nodes = discover_omnis();
+    let Some(node) = nodes.iter().find(|n| n.rom.is_ok()) else {
+        return Err(CliError::input(match nodes.first() {
+            Some(OmniNode { rom: Err(e), .. }) => format!("--device omni: {e}"),
+            _ => format!("--device omni: {}", DeviceError::NotFound(DeviceKind::Omni)),
+        }));
+    };
+    let config = OmniConfig::default();
+    let transport = CdevFirewire::open(&node.path, CdevConfig::for_omni(&config))
+        .map_err(|e| CliError::input(format!("--device omni: {e}")))?;
+    if let Some(w) = transport.warning() {
+        errln!("tetradrill: warning: {}: {w}", node.path.display());
+    }
+    Ok(Box::new(move || {
+        let device = OmniDevice::start(transport, config)?;
+        Ok(Box::new(device) as Box<dyn HapticDevice>)
     }))
 }
 

@@ -3,10 +3,10 @@
 //! header is used or committed: the few HDAPI types and codes this file needs are written out
 //! below, each with where its value was checked.
 //!
-//! [`HdApi`] implements [`HdLibrary`], so the device itself is the device crate's
-//! [`TouchDevice`](tetradrill_device::touch::TouchDevice) with its `ForceSafety` filter.
+//! [`HdApi`] implements [`HdLibrary`], so the device itself is this crate's
+//! [`TouchDevice`](crate::touch::TouchDevice) with its `ForceSafety` filter.
 //!
-//! This is the second file of the host runner with `unsafe` (after `platform.rs`): loading a
+//! `unsafe` is allowed in this file (one of the OS transports of [`crate::os`]): loading a
 //! library runs its initialisers, and every HDAPI entry point is a foreign call. Each block is
 //! one call with its `// SAFETY:` reason.
 //!
@@ -36,8 +36,9 @@ use std::ffi::{c_char, c_int, CStr, CString, OsStr};
 use std::fmt;
 
 use libloading::Library;
-use tetradrill_device::touch::{HdLibrary, HD_LIBRARY_NAMES};
-use tetradrill_device::DeviceError;
+
+use crate::device::{DeviceError, DeviceKind};
+use crate::touch::{HdLibrary, HD_LIBRARY_NAMES};
 
 // ---------------------------------------------------------------------------------------------
 // HDAPI types and codes.
@@ -461,8 +462,7 @@ impl HdApi {
     }
 
     fn opened(&self) -> Result<Hhd, DeviceError> {
-        self.handle
-            .ok_or(DeviceError::NotFound(tetradrill_device::DeviceKind::Touch))
+        self.handle.ok_or(DeviceError::NotFound(DeviceKind::Touch))
     }
 
     fn get_doubles<const N: usize>(&self, pname: HdEnum) -> Result<[f64; N], DeviceError> {
