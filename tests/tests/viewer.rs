@@ -17,7 +17,9 @@ use tetradrill::tasks::{
 use tetradrill::traces::PoseSource;
 use tetradrill::viewer::camera::{project, Camera};
 use tetradrill::viewer::gl::{DrawOptions, Offscreen, Renderer, PALETTE};
-use tetradrill::viewer::handoff::{controls, Controls, Snapshot, SnapshotQueue, ToolView};
+use tetradrill::viewer::handoff::{
+    controls, region_slots, Controls, Snapshot, SnapshotQueue, ToolView,
+};
 use tetradrill::viewer::headless::{render, Picture};
 use tetradrill::viewer::publish::{full_patches, scene_of, SimViewer};
 use tetradrill::viewer::scene::{Scene, VERTEX_FLOATS};
@@ -987,4 +989,52 @@ fn a_mesh_tool_is_drawn_as_its_shape_at_its_pose() {
         let px = at([0.0, 0.4, z]);
         assert!(near(px, background(), 2), "no rod at z = {z}: {px:?}");
     }
+}
+
+#[test]
+fn regions_are_coloured_apart() {
+    // block:8 labelled by side: tets left of x = 0 are region 7, the others region 11.
+    let (mut store, _) = storage("builtin:block:8");
+    let world = store.world().expect("world");
+    let labels: Vec<i32> = (0..world.mesh().tet_count())
+        .map(|t| {
+            let p = world
+                .mesh()
+                .tet_positions(tetradrill_core::TetId::from_idx(t));
+            if p.iter().map(|q| q.x).sum::<f32>() < 0.0 {
+                7
+            } else {
+                11
+            }
+        })
+        .collect();
+    let slots = region_slots(&labels).expect("two regions");
+    // 3,072 tets, none across x = 0.
+    assert_eq!(slots.iter().filter(|&&s| s == 0).count(), 1536);
+    assert_eq!(slots.iter().filter(|&&s| s == 1).count(), 1536);
+    assert!(
+        region_slots(&[5; 10]).is_none(),
+        "one region needs no colours"
+    );
+    let mut scene = Scene::new();
+    scene.apply(Snapshot {
+        seq: 1,
+        full: true,
+        patches: full_patches(&world),
+        regions: Some(slots),
+        ..Snapshot::default()
+    });
+    let cam = top_camera();
+    let pic = render(&mut scene, &cam, W, H, false).expect("render");
+    // The lit colour of a palette entry is the entry times one light factor: the ratios of
+    // its channels are the entry's. Region 7 is the surface colour (red over blue), region
+    // 11 the first region colour (blue over red).
+    let (lx, ly) = pixel(&cam, [-0.25, 0.0, 0.5]);
+    let (rx, ry) = pixel(&cam, [0.25, 0.0, 0.5]);
+    let ratio = |px: [u8; 4]| px[2] as f32 / px[0].max(1) as f32;
+    let (l, r) = (pic.at(lx, ly), pic.at(rx, ry));
+    let want_l = PALETTE.surface[2] / PALETTE.surface[0];
+    let want_r = PALETTE.regions[0][2] / PALETTE.regions[0][0];
+    assert!((ratio(l) - want_l).abs() < 0.05, "left {l:?}");
+    assert!((ratio(r) - want_r).abs() < 0.1, "right {r:?}");
 }
