@@ -13,7 +13,7 @@ use tetradrill_core::{TetId, Vec3};
 use crate::error::CliError;
 use crate::meshio;
 use crate::owned::OwnedMesh;
-use crate::scenario::{Scenario, ToolKind};
+use crate::scenario::{Scenario, ToolKind, DEFAULT_HIERARCHY_CAPACITY};
 use crate::traces::{Pose, PERIOD_S};
 
 /// What a burr needs on a mesh: the candidate list and the zone query's cells, sized from the
@@ -42,7 +42,16 @@ pub struct ToolSizing {
     /// (a new position queues one item per tet it touches; refining them queues more), at
     /// least the core's [`DEFAULT_PENDING`].
     pub pending: usize,
+    /// Hierarchy arena nodes: the drilled surface a burr leaves grows with its area in
+    /// boundary tets, `(radius / e)^2`, so [`DEFAULT_HIERARCHY_CAPACITY`] (enough for a burr
+    /// about one tet wide) times that, between the default and [`MAX_SIZED_ARENA`].
+    pub arena: usize,
 }
+
+/// The largest arena [`ToolSizing`] chooses on its own: 2^23 nodes (128 MiB). A burr
+/// wider than that is meant for a finer `--max-depth`'s leaves than the mesh needs; set
+/// `--hierarchy-capacity` to go further.
+pub const MAX_SIZED_ARENA: usize = 1 << 23;
 
 impl ToolSizing {
     /// The sizes for a burr of `radius` on `mesh`.
@@ -91,9 +100,13 @@ impl ToolSizing {
         let max_cells = (2.0 * per_axis.powi(3)).min(u32::MAX as f64) as u32;
         let sphere = (2.0 * radius + 2.0 * e).powi(3) / v;
         let pending = ((2.0 * sphere).ceil() as usize).max(DEFAULT_PENDING);
+        let widths = if e > 0.0 { (radius / e).max(1.0) } else { 1.0 };
+        let arena = ((DEFAULT_HIERARCHY_CAPACITY as f64) * widths * widths)
+            .min(MAX_SIZED_ARENA as f64) as usize;
         Self {
             radius,
             boundary_edge: e,
+            arena,
             pending,
             candidates,
             max_cells: max_cells.max(DEFAULT_MAX_CELLS),
@@ -142,7 +155,12 @@ fn world_sizes_for(
         (None, Some(z)) => z.pending,
         (None, None) => DEFAULT_PENDING,
     };
-    let mut s = WorldSizes::new(tets, sc.hierarchy_capacity).with_pending(pending);
+    let arena = match (sc.hierarchy_capacity, sizing) {
+        (Some(a), _) => a,
+        (None, Some(z)) => z.arena,
+        (None, None) => DEFAULT_HIERARCHY_CAPACITY,
+    };
+    let mut s = WorldSizes::new(tets, arena).with_pending(pending);
     s.candidates = match (sc.candidate_capacity, sizing) {
         (Some(c), _) => c,
         (None, Some(z)) => z.candidates,
@@ -175,8 +193,12 @@ impl EngineStorage {
             ..sc.clone()
         };
         let sizing = Self::sizing(&mesh, sc);
-        let s = world_sizes_for(tets, &raised, sizing.as_ref())
-            .unwrap_or_else(|_| WorldSizes::new(tets, sc.hierarchy_capacity));
+        let s = world_sizes_for(tets, &raised, sizing.as_ref()).unwrap_or_else(|_| {
+            let arena = sizing
+                .as_ref()
+                .map_or(DEFAULT_HIERARCHY_CAPACITY, |z| z.arena);
+            WorldSizes::new(tets, sc.hierarchy_capacity.unwrap_or(arena))
+        });
         Self::with_sizes(mesh, s, sc, sizing)
     }
 

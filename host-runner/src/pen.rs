@@ -146,7 +146,7 @@ pub fn object_store(
     sc: &crate::scenario::Scenario,
 ) -> Result<crate::engine::EngineStorage, crate::error::CliError> {
     let untouched = crate::scenario::Scenario {
-        hierarchy_capacity: 8,
+        hierarchy_capacity: Some(8),
         ..sc.clone()
     };
     crate::engine::EngineStorage::try_allocate(obj, &untouched)

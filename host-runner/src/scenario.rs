@@ -75,8 +75,11 @@ pub struct Scenario {
     pub max_depth: u8,
     /// Refinement stops below this face area (mesh units squared).
     pub min_area: f64,
-    /// Hierarchy nodes available for drilling.
-    pub hierarchy_capacity: usize,
+    /// Hierarchy nodes available for drilling (absent: sized from the burr's radius against
+    /// the mesh's boundary tets, `crate::engine::ToolSizing`, at least
+    /// [`DEFAULT_HIERARCHY_CAPACITY`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hierarchy_capacity: Option<usize>,
     /// Work units of erosion per servo tick (about 100 Cortex-M4 instructions each:
     /// `tetradrill_core::drill::WorkCost`); the rest is carried to later ticks.
     pub budget_per_tick: u32,
@@ -240,7 +243,7 @@ impl Default for Scenario {
             entry_remedy: false,
             max_depth: 5,
             min_area: 0.0,
-            hierarchy_capacity: 1 << 20,
+            hierarchy_capacity: None,
             budget_per_tick: 11_000,
             tick_budget: DEFAULT_TICK_BUDGET,
             hash_capacity: None,
@@ -253,6 +256,11 @@ impl Default for Scenario {
         }
     }
 }
+
+/// The least hierarchy arena a burr gets when the scenario does not size it: 2^20 nodes
+/// (16 MiB), what a burr about one boundary tet wide needs over long sessions
+/// (docs/DRILLING.md).
+pub const DEFAULT_HIERARCHY_CAPACITY: usize = 1 << 20;
 
 /// Default work units of a whole simulation step, drill and contact search together
 /// (`--tick-budget`): the drill's 11,000 plus about 900 contact-node tests of 6 units. On this
@@ -379,7 +387,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
         "firmware" => Some(Scenario {
             mesh: "builtin:block:4".into(),
             max_depth: 4,
-            hierarchy_capacity: 20_000,
+            hierarchy_capacity: Some(20_000),
             budget_per_tick: 300,
             contact_search_nodes: 64,
             pending_capacity: Some(16_384),
@@ -433,7 +441,6 @@ impl Scenario {
             entry_remedy,
             max_depth,
             min_area,
-            hierarchy_capacity,
             budget_per_tick,
             tick_budget
         );
@@ -445,6 +452,7 @@ impl Scenario {
             s.region_array = Some(v.clone());
         }
         take_some!(
+            hierarchy_capacity,
             candidate_capacity,
             pending_capacity,
             hash_capacity,
@@ -525,7 +533,7 @@ impl Scenario {
     /// The value of the capacity `key` when the scenario sets one.
     pub fn capacity_value(&self, key: &str) -> Option<usize> {
         match key {
-            "hierarchy_capacity" => Some(self.hierarchy_capacity),
+            "hierarchy_capacity" => self.hierarchy_capacity,
             "hash_capacity" => self.hash_capacity,
             "candidate_capacity" => self.candidate_capacity,
             "vlist_capacity" => self.vlist_capacity,

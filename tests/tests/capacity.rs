@@ -52,7 +52,7 @@ fn world_cases() -> Vec<Case> {
         (
             "hierarchy_capacity",
             Scenario {
-                hierarchy_capacity: 64,
+                hierarchy_capacity: Some(64),
                 ..base()
             },
             |s| s.arena,

@@ -57,7 +57,7 @@ fn replay(trace: &str, capacity: usize) -> Run {
         trace: trace.into(),
         tool: "sphere:0.1".into(),
         max_depth: 4,
-        hierarchy_capacity: capacity,
+        hierarchy_capacity: Some(capacity),
         ..Scenario::default()
     };
     let params = TickParams::of(&sc).expect("scenario");

@@ -70,7 +70,7 @@ fn parse_args() -> Result<Args, ExitCode> {
             "--trace" => a.sc.trace = v,
             "--tool" => a.sc.tool = v,
             "--max-depth" => a.sc.max_depth = number(&flag, &v)?,
-            "--hierarchy-capacity" => a.sc.hierarchy_capacity = number(&flag, &v)?,
+            "--hierarchy-capacity" => a.sc.hierarchy_capacity = Some(number(&flag, &v)?),
             "--budget-per-tick" => a.sc.budget_per_tick = number(&flag, &v)?,
             "--ticks" => a.ticks = Some(number(&flag, &v)?),
             "--every" => a.every = number(&flag, &v)?,

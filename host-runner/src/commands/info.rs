@@ -168,6 +168,18 @@ impl MeshSummary {
 
 /// The six dihedral angles of a tet, radians, computed in f64.
 pub fn dihedral_angles(p: [[f64; 3]; 4]) -> [f64; 6] {
+    dihedral_cosines(p).map(angle_of_cosine)
+}
+
+/// The dihedral angle whose [`dihedral_cosines`] entry is `c` (the angle falls as `c` grows).
+fn angle_of_cosine(c: f64) -> f64 {
+    std::f64::consts::PI - c.acos()
+}
+
+/// For each of the six edges, the cosine of the angle between the two face normals that
+/// meet there (each normal pointing away from the opposite vertex); 1 for a degenerate face,
+/// which [`angle_of_cosine`] turns into an angle of 0.
+fn dihedral_cosines(p: [[f64; 3]; 4]) -> [f64; 6] {
     let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
     let cross = |a: [f64; 3], b: [f64; 3]| {
         [
@@ -202,9 +214,9 @@ pub fn dihedral_angles(p: [[f64; 3]; 4]) -> [f64; 6] {
         let (u, v) = (n[c], n[d]);
         let denom = (dot(u, u) * dot(v, v)).sqrt();
         if denom > 0.0 {
-            std::f64::consts::PI - (dot(u, v) / denom).clamp(-1.0, 1.0).acos()
+            (dot(u, v) / denom).clamp(-1.0, 1.0)
         } else {
-            0.0
+            1.0
         }
     })
 }
@@ -227,14 +239,15 @@ pub fn summarise(loaded: &mut LoadedMesh, scale: f64) -> MeshSummary {
             bbox_max[k] = bbox_max[k].max(p[k]);
         }
     }
-    let mut min_d = f64::INFINITY;
-    let mut max_d = f64::NEG_INFINITY;
+    // Extremes of the cosines, one arc cosine each at the end (the angle is monotone in it).
+    let mut max_cos = f64::NEG_INFINITY;
+    let mut min_cos = f64::INFINITY;
     let mut volume = 0.0f64;
     for tet in loaded.mesh.tets() {
         let q = tet.nodes.map(|n| pos[n.idx()]);
-        for a in dihedral_angles(q) {
-            min_d = min_d.min(a);
-            max_d = max_d.max(a);
+        for c in dihedral_cosines(q) {
+            max_cos = max_cos.max(c);
+            min_cos = min_cos.min(c);
         }
         let u = [q[1][0] - q[0][0], q[1][1] - q[0][1], q[1][2] - q[0][2]];
         let v = [q[2][0] - q[0][0], q[2][1] - q[0][1], q[2][2] - q[0][2]];
@@ -256,8 +269,8 @@ pub fn summarise(loaded: &mut LoadedMesh, scale: f64) -> MeshSummary {
         unreferenced_nodes: loaded.dropped_nodes,
         valid: validation_error.is_none(),
         validation_error,
-        min_dihedral_deg: min_d.to_degrees(),
-        max_dihedral_deg: max_d.to_degrees(),
+        min_dihedral_deg: angle_of_cosine(max_cos).to_degrees(),
+        max_dihedral_deg: angle_of_cosine(min_cos).to_degrees(),
         volume,
         bbox_min,
         bbox_max,
