@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Soak test: the simulated device wanders over the teddy with the drill on, at 1 kHz, through
 # the real-time pipeline (`tetradrill run --device sim --trace wander:SEED`, headless), for
-# MINUTES (default 10; `20s` for seconds). The run's resident memory (VmRSS) is sampled every
+# MINUTES (default 10; `20s` for seconds, `1h` for hours: a training session's length). The
+# run's resident memory (VmRSS) is sampled every
 # few seconds; after a warm-up it must not grow beyond a small tolerance. The run must end with
 # exit 0 and a valid final state (`valid` in its JSON, the core's validate()); overruns and
 # saturations are reported.
 #
-#   scripts/soak.sh [MINUTES|SECONDSs]
+#   scripts/soak.sh [MINUTES|SECONDSs|HOURSh]      e.g. scripts/soak.sh 1h
 #
 # Environment: TETRADRILL_MESHES (the meshes folder; default tests/data/meshes),
 # TETRADRILL_BIN (a built binary; default: build the release binary with cargo),
@@ -21,6 +22,7 @@ cd "$(dirname "$0")/.."
 arg=${1:-10}
 case "$arg" in
   *s) seconds=${arg%s} ;;
+  *h) seconds=$(awk -v h="${arg%h}" 'BEGIN { printf "%.0f", h * 3600 }') ;;
   *) seconds=$(awk -v m="$arg" 'BEGIN { printf "%.0f", m * 60 }') ;;
 esac
 if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -lt 20 ]; then
@@ -44,8 +46,8 @@ seed=${SOAK_SEED:-1}
 
 # Samples: every 5 s for long runs, every second for short ones. Warm-up: the first 10% of the
 # run, at least 10 s (the mesh is loaded, the storage allocated and touched, the first
-# drilling done). The last two intervals are left out: at the end the runner sorts its timing
-# samples for the summary (a copy of 16 bytes per tick), which is not growth.
+# drilling done). The last two intervals are left out (the run's end: the summary and the
+# JSON).
 interval=5
 [ "$seconds" -lt 120 ] && interval=1
 warm=$(( seconds / 10 ))

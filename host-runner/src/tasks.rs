@@ -8,6 +8,7 @@
 //! | status     | normal                   | 250 ms              | `SimStatus`, servo counters (atomics) | the status line          |
 //! | watchdog   | SCHED_FIFO 81, not the servo's core | 1 ms     | the servo's beat (atomic)      | the device's cutoff (force off) |
 //! | viewer     | normal, the main thread  | about 60 Hz         | `Snapshot` queue, servo counters | `Controls`, camera `C` (triple buffers) |
+//! | recorder   | normal (`--record` only) | 10 ms               | `RecordRing` (SPSC ring)       | the trace CSV file              |
 //!
 //! Hand-offs are lock-free and allocation-free after start-up: the servo pushes every tick's
 //! tool sample into a bounded SPSC ring (crossbeam `ArrayQueue`; a full ring drops the sample
@@ -65,13 +66,13 @@ pub struct TaskDecl {
 }
 
 /// Every task of a real-time run.
-pub const TASKS: [TaskDecl; 5] = [
+pub const TASKS: [TaskDecl; 6] = [
     TaskDecl {
         name: "servo",
         priority: "SCHED_FIFO 80, pinned to the last core, memory locked",
         period: "1 ms on absolute deadlines",
-        reads: "device sample; ContactState or HeldPen (mesh tool), camera C (triple buffers)",
-        writes: "force command to the device; ToolSample (SPSC ring); servo counters (atomics)",
+        reads: "device sample; ContactState or HeldPen (mesh tool), camera C (triple buffers); the stop request (atomic)",
+        writes: "force command to the device; ToolSample (SPSC rings: simulation, recorder); servo counters and timing histograms (atomics)",
     },
     TaskDecl {
         name: "simulation",
@@ -100,6 +101,13 @@ pub const TASKS: [TaskDecl; 5] = [
         period: "1 ms",
         reads: "the servo's beat (atomic)",
         writes: "the device's cutoff (force off, latch) when the servo misses 10 ms of ticks",
+    },
+    TaskDecl {
+        name: "recorder",
+        priority: "normal (only with --record)",
+        period: "10 ms",
+        reads: "RecordRing (SPSC ring; a full ring drops the row and counts it)",
+        writes: "the trace CSV file",
     },
 ];
 
