@@ -395,3 +395,27 @@ fn a_second_signal_exits_at_once() {
     );
     assert!(!json.exists(), "no JSON after a second signal");
 }
+
+#[test]
+fn only_scripts_and_traces_give_a_run_its_own_end() {
+    use tetradrill::commands::run::{device_factory, run_ticks};
+    use tetradrill_device::discovery::OpenOptions;
+    let ticks = |kind: DeviceKind, trace: &str| {
+        let sc = Scenario {
+            mesh: "builtin:block:2".into(),
+            trace: trace.into(),
+            ..Scenario::default()
+        };
+        // The real devices' factories open nothing until the servo calls them.
+        let (_, t, _) = device_factory(kind, &sc, OpenOptions::default()).expect("a factory");
+        t
+    };
+    assert_eq!(
+        ticks(DeviceKind::Sim, "builtin:demo"),
+        tetradrill_core::script::DEMO.ticks() as u64
+    );
+    assert_eq!(ticks(DeviceKind::Sim, "wander:3"), UNTIL_STOPPED);
+    assert_eq!(ticks(DeviceKind::Falcon, "builtin:demo"), UNTIL_STOPPED);
+    assert_eq!(run_ticks(None, UNTIL_STOPPED), UNTIL_STOPPED);
+    assert_eq!(run_ticks(Some(2.5), UNTIL_STOPPED), 2500);
+}
