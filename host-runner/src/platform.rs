@@ -102,18 +102,15 @@ pub fn exit_now(code: i32) -> ! {
 pub const STOP_SIGNALS: [i32; 3] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP];
 
 /// Handlers for [`STOP_SIGNALS`] that raise `flags` (through `signal-hook`, which chains
-/// them with any handler already there). The first signal only raises the request; a later
-/// one, once the servo has written zero force, ends the process at once with status
-/// 128 + the signal's number. The handlers do atomic operations, one `clock_gettime` and at
-/// most `_exit`: nothing that allocates or locks. Returns their ids for
-/// [`off_stop_signals`].
+/// them with any handler already there), for the rest of the process. The first signal only
+/// raises the request; a later one, once the servo has written zero force (or any once the
+/// run is over), ends the process at once with status 128 + the signal's number. The handlers
+/// do atomic operations, one `clock_gettime` and at most `_exit`: nothing that allocates or
+/// locks.
 ///
 /// # Errors
 /// A signal whose handler could not be installed.
-pub fn on_stop_signals(
-    flags: &std::sync::Arc<crate::watchdog::StopFlags>,
-) -> io::Result<Vec<signal_hook::SigId>> {
-    let mut ids = Vec::with_capacity(STOP_SIGNALS.len());
+pub fn on_stop_signals(flags: &std::sync::Arc<crate::watchdog::StopFlags>) -> io::Result<()> {
     for sig in STOP_SIGNALS {
         let f = std::sync::Arc::clone(flags);
         let action = move || {
@@ -124,14 +121,7 @@ pub fn on_stop_signals(
         // SAFETY: the action is async-signal-safe: `StopFlags::raise` does atomic operations
         // and `clock_gettime` only, and `exit_now` is `_exit`. It neither allocates nor locks
         // (the `Arc` it holds was cloned before, here, and is only read).
-        ids.push(unsafe { signal_hook::low_level::register(sig, action) }?);
+        let _ = unsafe { signal_hook::low_level::register(sig, action) }?;
     }
-    Ok(ids)
-}
-
-/// Removes handlers [`on_stop_signals`] installed (the signals' earlier behaviour returns).
-pub fn off_stop_signals(ids: Vec<signal_hook::SigId>) {
-    for id in ids {
-        signal_hook::low_level::unregister(id);
-    }
+    Ok(())
 }

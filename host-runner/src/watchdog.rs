@@ -279,13 +279,15 @@ pub struct StopFlags {
     last: AtomicI32,
     /// CLOCK_MONOTONIC time of the first request, ns.
     at_ns: AtomicU64,
-    /// The servo has written zero force for the request.
+    /// The servo has written zero force for the request, or the run is over: a signal now
+    /// ends the process at once.
     zeroed: AtomicBool,
 }
 
 impl StopFlags {
     /// Raises the request for signal `signal` (0: a call, not a signal). Returns whether the
-    /// process should exit at once: this is a second signal and the force is zero already.
+    /// process should exit at once: a signal that comes when the force is zero already (a
+    /// second signal after the servo's zero-force write, or any after the run is over).
     /// Async-signal-safe: atomic operations and `clock_gettime` only.
     pub fn raise(&self, signal: i32) -> bool {
         let _ = self.at_ns.compare_exchange(
@@ -294,16 +296,15 @@ impl StopFlags {
             Ordering::SeqCst,
             Ordering::SeqCst,
         );
-        let mut second = false;
         if signal != 0 {
             let _ = self
                 .signal
                 .compare_exchange(0, signal, Ordering::SeqCst, Ordering::SeqCst);
             self.last.store(signal, Ordering::SeqCst);
-            second = self.signals.fetch_add(1, Ordering::SeqCst) > 0;
+            self.signals.fetch_add(1, Ordering::SeqCst);
         }
         self.requests.fetch_add(1, Ordering::SeqCst);
-        second && self.zeroed.load(Ordering::SeqCst)
+        signal != 0 && self.zeroed.load(Ordering::SeqCst)
     }
 }
 
@@ -341,6 +342,12 @@ impl StopRequest {
         if self.0.signals.load(Ordering::SeqCst) > 1 {
             platform::exit_now(128 + self.0.last.load(Ordering::SeqCst));
         }
+    }
+
+    /// The run is over (the force off, the device released): from now on a signal ends the
+    /// process at once, as if no handler were installed.
+    pub fn run_over(&self) {
+        self.0.zeroed.store(true, Ordering::SeqCst);
     }
 
     /// The shared atomics (for the signal handlers, [`platform::on_stop_signals`]).
@@ -491,6 +498,10 @@ mod tests {
             "the first request's time stays"
         );
         assert_eq!(r.signal(), Some(15), "and its signal");
+        // After the run, even a first signal exits.
+        let over = StopRequest::new();
+        over.run_over();
+        assert!(over.flags().raise(1));
         // Calls are no signals: they never ask for an exit.
         let c = StopRequest::new();
         c.request();

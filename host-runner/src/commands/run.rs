@@ -106,17 +106,19 @@ pub fn run_ticks(duration: Option<f64>, default_ticks: u64) -> u64 {
 }
 
 /// [`pipeline::run`] with the stop signals (SIGINT, SIGTERM, SIGHUP) raising the setup's stop
-/// request while it runs.
+/// request while it runs; after it, a signal ends the process at once.
 pub fn run_until_signal(
     sc: &Scenario,
     setup: PipelineSetup,
     json: Option<&PathBuf>,
 ) -> Result<(), CliError> {
-    let ids = crate::platform::on_stop_signals(setup.stop.flags()).map_err(|e| {
+    crate::platform::on_stop_signals(setup.stop.flags()).map_err(|e| {
         CliError::failure(format!("cannot install the stop signals' handlers: {e}"))
     })?;
+    let request = setup.stop.clone();
     let r = pipeline::run(sc, setup, json).map(|_| ());
-    crate::platform::off_stop_signals(ids);
+    // The device is released: a signal from now on ends the process at once.
+    request.run_over();
     r
 }
 
