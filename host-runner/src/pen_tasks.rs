@@ -203,13 +203,13 @@ impl ForceLaw for PenLaw<'_, '_, '_, '_> {
 }
 
 /// What the contact task counted.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Default)]
 pub struct PenTaskReport {
     /// Passes run.
     pub passes: u64,
-    /// Each pass's compute time, ns (the first `capacity` passes: the vector is allocated
-    /// before the task starts and never grows).
-    pub pass_ns: Vec<u64>,
+    /// The passes' compute times (fixed buckets, allocated when the report is made: the
+    /// memory does not grow with the run).
+    pub pass: crate::stats::Histogram,
     /// Passes whose buffers saturated (collisions, depth output or queue).
     pub saturated: u64,
     /// Passes whose collision or depth output filled.
@@ -225,12 +225,9 @@ pub struct PenTaskReport {
 }
 
 impl PenTaskReport {
-    /// An empty report with room for `passes` pass times.
-    pub fn with_room(passes: usize) -> Self {
-        Self {
-            pass_ns: Vec::with_capacity(passes),
-            ..Self::default()
-        }
+    /// An empty report.
+    pub fn new() -> Self {
+        Self::default()
     }
 }
 
@@ -256,7 +253,7 @@ impl std::fmt::Debug for PenViewer<'_, '_, '_> {
 /// (older ones are passed over: a pass depends on the pose only), runs [`pen_pass`] there and
 /// publishes it through `held`, and its time and saturations through `status` (starting from
 /// the status the hand-off was made with: the object's counts). Sleeps 200 us when no sample
-/// came. Allocation-free after start-up (`report.pass_ns` has its room already) but for the
+/// came. Allocation-free after start-up (`report.pass` has its buckets already) but for the
 /// viewer's snapshots, at most about 60 a second: the pen at the pass's pose moved back along
 /// the pass's force by its deepest penetration along it (seed 000 section 5), with the
 /// servo's force.
@@ -301,9 +298,7 @@ pub fn pen_contact_task(
         held.publish();
         let dt = now_ns() - t0;
 
-        if report.pass_ns.len() < report.pass_ns.capacity() {
-            report.pass_ns.push(dt);
-        }
+        report.pass.record(dt);
         report.saturated += u64::from(pass.saturated());
         report.contacts_full += u32::from(pass.contacts_full());
         report.queue_full += u32::from(pass.queue_full());

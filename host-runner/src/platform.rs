@@ -1,5 +1,5 @@
 //! The platform layer of the real-time tasks: the monotonic clock, absolute-deadline sleeps,
-//! SCHED_FIFO, memory locking and core pinning. This is the only file of the workspace with
+//! SCHED_FIFO, memory locking, core pinning and the stop signals' handlers. This is the only file of the workspace with
 //! `unsafe` (each block is one libc call with its `// SAFETY:` reason); everything else calls
 //! these safe wrappers.
 #![allow(unsafe_code)]
@@ -89,4 +89,39 @@ pub fn cores() -> usize {
     std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1)
+}
+
+/// Ends the process at once with `code` (`_exit`: no destructors, no buffered output; what a
+/// second stop signal asks for once the force is zero).
+pub fn exit_now(code: i32) -> ! {
+    // SAFETY: `_exit` takes a plain integer and never returns; it is async-signal-safe.
+    unsafe { libc::_exit(code) }
+}
+
+/// The signals that stop a run: SIGINT (Ctrl-C), SIGTERM and SIGHUP.
+pub const STOP_SIGNALS: [i32; 3] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP];
+
+/// Handlers for [`STOP_SIGNALS`] that raise `flags` (through `signal-hook`, which chains
+/// them with any handler already there), for the rest of the process. The first signal only
+/// raises the request; a later one, once the servo has written zero force (or any once the
+/// run is over), ends the process at once with status 128 + the signal's number. The handlers
+/// do atomic operations, one `clock_gettime` and at most `_exit`: nothing that allocates or
+/// locks.
+///
+/// # Errors
+/// A signal whose handler could not be installed.
+pub fn on_stop_signals(flags: &std::sync::Arc<crate::watchdog::StopFlags>) -> io::Result<()> {
+    for sig in STOP_SIGNALS {
+        let f = std::sync::Arc::clone(flags);
+        let action = move || {
+            if f.raise(sig) {
+                exit_now(128 + sig);
+            }
+        };
+        // SAFETY: the action is async-signal-safe: `StopFlags::raise` does atomic operations
+        // and `clock_gettime` only, and `exit_now` is `_exit`. It neither allocates nor locks
+        // (the `Arc` it holds was cloned before, here, and is only read).
+        let _ = unsafe { signal_hook::low_level::register(sig, action) }?;
+    }
+    Ok(())
 }

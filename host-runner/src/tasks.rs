@@ -8,6 +8,7 @@
 //! | status     | normal                   | 250 ms              | `SimStatus`, servo counters (atomics) | the status line          |
 //! | watchdog   | SCHED_FIFO 81, not the servo's core | 1 ms     | the servo's beat (atomic)      | the device's cutoff (force off) |
 //! | viewer     | normal, the main thread  | about 60 Hz         | `Snapshot` queue, servo counters | `Controls`, camera `C` (triple buffers) |
+//! | recorder   | normal (`--record` only) | 10 ms               | `RecordRing` (SPSC ring)       | the trace CSV file              |
 //!
 //! Hand-offs are lock-free and allocation-free after start-up: the servo pushes every tick's
 //! tool sample into a bounded SPSC ring (crossbeam `ArrayQueue`; a full ring drops the sample
@@ -46,6 +47,8 @@ use tetradrill_device::{DeviceError, ForceCommand, HapticDevice, MotorCutoff};
 use crate::engine::TickParams;
 use crate::platform::now_ns;
 use crate::rt::{Periodic, RtConfig, RtStatus};
+use crate::stats::Histogram;
+use crate::watchdog::StopRequest;
 
 /// One task's declaration: what it is, how urgent, how often, what it shares.
 #[derive(Debug, Clone, Copy)]
@@ -63,13 +66,13 @@ pub struct TaskDecl {
 }
 
 /// Every task of a real-time run.
-pub const TASKS: [TaskDecl; 5] = [
+pub const TASKS: [TaskDecl; 6] = [
     TaskDecl {
         name: "servo",
         priority: "SCHED_FIFO 80, pinned to the last core, memory locked",
         period: "1 ms on absolute deadlines",
-        reads: "device sample; ContactState or HeldPen (mesh tool), camera C (triple buffers)",
-        writes: "force command to the device; ToolSample (SPSC ring); servo counters (atomics)",
+        reads: "device sample; ContactState or HeldPen (mesh tool), camera C (triple buffers); the stop request (atomic)",
+        writes: "force command to the device; ToolSample (SPSC rings: simulation, recorder); servo counters and timing histograms (atomics)",
     },
     TaskDecl {
         name: "simulation",
@@ -98,6 +101,13 @@ pub const TASKS: [TaskDecl; 5] = [
         period: "1 ms",
         reads: "the servo's beat (atomic)",
         writes: "the device's cutoff (force off, latch) when the servo misses 10 ms of ticks",
+    },
+    TaskDecl {
+        name: "recorder",
+        priority: "normal (only with --record)",
+        period: "10 ms",
+        reads: "RecordRing (SPSC ring; a full ring drops the row and counts it)",
+        writes: "the trace CSV file",
     },
 ];
 
@@ -155,10 +165,11 @@ pub struct ServoCounters {
     pub force_bits: AtomicU64,
     /// Last force vector, f32 bits of x, y, z (for the viewer's arrow).
     pub force_xyz: [AtomicU32; 3],
-    /// Wake-up latency histogram (see [`wake_bucket`]).
-    pub wake_hist: [AtomicU64; WAKE_BUCKETS],
-    /// Largest wake-up latency of the run, ns.
-    pub wake_max_ns: AtomicU64,
+    /// Wake-up latencies of the run (fixed buckets: the status line, the viewer and the JSON
+    /// read it).
+    pub wake: Histogram,
+    /// Tick compute times of the run (fixed buckets).
+    pub tick: Histogram,
     /// Largest wake-up latency of the last complete second, ns.
     pub wake_recent_max_ns: AtomicU64,
     /// Burr radius the servo uses, f32 bits; 0 = the scenario's (set from the viewer's
@@ -170,50 +181,10 @@ pub struct ServoCounters {
     pub watch: crate::watchdog::ServoWatch,
 }
 
-/// Buckets of the wake-up latency histogram the servo keeps in atomics.
-pub const WAKE_BUCKETS: usize = 32;
-
-/// The histogram bucket of a wake-up latency: 4 us wide up to 96 us, then 96-128, 128-192,
-/// 192-256, 256-512, 512-1000, 1000-2000, 2000-5000 us and the rest.
-pub fn wake_bucket(ns: u64) -> usize {
-    let us = ns / 1000;
-    match us {
-        0..=95 => (us / 4) as usize,
-        96..=127 => 24,
-        128..=191 => 25,
-        192..=255 => 26,
-        256..=511 => 27,
-        512..=999 => 28,
-        1000..=1999 => 29,
-        2000..=4999 => 30,
-        _ => 31,
-    }
-}
-
-/// The upper edge of bucket `b`, microseconds (the last bucket's is unbounded: infinity).
-pub fn wake_bucket_upper_us(b: usize) -> f64 {
-    const EDGES: [f64; 8] = [
-        128.0,
-        192.0,
-        256.0,
-        512.0,
-        1000.0,
-        2000.0,
-        5000.0,
-        f64::INFINITY,
-    ];
-    if b < 24 {
-        4.0 * (b + 1) as f64
-    } else {
-        EDGES[(b - 24).min(7)]
-    }
-}
-
 impl ServoCounters {
     /// Counts one wake-up latency (atomics only: no allocation, no lock).
     pub fn record_wake(&self, ns: u64, tick: u64, window_max: &mut u64) {
-        self.wake_hist[wake_bucket(ns)].fetch_add(1, Ordering::Relaxed);
-        self.wake_max_ns.fetch_max(ns, Ordering::Relaxed);
+        self.wake.record(ns);
         *window_max = (*window_max).max(ns);
         if tick % 1000 == 999 {
             self.wake_recent_max_ns
@@ -222,27 +193,13 @@ impl ServoCounters {
         }
     }
 
-    /// The wake-up latency percentile `q` (0..1) from the histogram, as the upper edge of its
-    /// bucket in microseconds (`None` before the first tick).
+    /// The wake-up latency percentile `q` (0..1) from [`ServoCounters::wake`], microseconds
+    /// (`None` before the first tick).
     pub fn wake_percentile_us(&self, q: f64) -> Option<f64> {
-        let counts: Vec<u64> = self
-            .wake_hist
-            .iter()
-            .map(|c| c.load(Ordering::Relaxed))
-            .collect();
-        let total: u64 = counts.iter().sum();
-        if total == 0 {
-            return None;
-        }
-        let want = (q * total as f64).ceil().max(1.0) as u64;
-        let mut seen = 0;
-        for (b, c) in counts.iter().enumerate() {
-            seen += c;
-            if seen >= want {
-                return Some(wake_bucket_upper_us(b));
-            }
-        }
-        Some(f64::INFINITY)
+        let per_mille = (q.clamp(0.0, 1.0) * 1000.0).round() as u32;
+        self.wake
+            .percentile_ns(per_mille)
+            .map(|ns| ns as f64 / 1000.0)
     }
 
     /// The last force vector.
@@ -431,15 +388,46 @@ impl Workspace {
     }
 }
 
-/// What the servo task measured, returned when it ends.
+/// Why the servo task ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ServoEnd {
+    /// It ran the ticks it was given (`--duration`, a trace's length).
+    Ticks,
+    /// A stop was requested ([`StopRequest`]: a signal, or a caller): the force was zeroed
+    /// within the tick that saw it.
+    Requested,
+    /// Another task set the pipeline's stop flag (the live window closed).
+    Stopped,
+    /// The device failed.
+    DeviceError,
+}
+
+impl ServoEnd {
+    /// The name the JSON's `stop_reason` gives it: `duration`, `signal`, `window`,
+    /// `device_error`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Ticks => "duration",
+            Self::Requested => "signal",
+            Self::Stopped => "window",
+            Self::DeviceError => "device_error",
+        }
+    }
+}
+
+/// What the servo task measured, returned when it ends (its timing distributions are in the
+/// [`ServoCounters`] it was given).
 #[derive(Debug)]
 pub struct ServoResult {
     /// Real-time settings achieved.
     pub rt: RtStatus,
-    /// Wake-up latency per tick, ns.
-    pub wake_ns: Vec<u64>,
-    /// Compute time per tick, ns.
-    pub tick_ns: Vec<u64>,
+    /// Why it ended.
+    pub end: ServoEnd,
+    /// After a stop request: nanoseconds from the request to the end of the zero-force write.
+    pub request_to_zero_ns: Option<u64>,
+    /// Magnitude of the last force command the device took (newtons, device frame): 0 after
+    /// the closing zero-force write went through.
+    pub last_written_n: f32,
     /// Ticks done.
     pub ticks: u64,
     /// Deadlines missed.
@@ -466,10 +454,18 @@ pub fn camera_handoff() -> (CameraIn, CameraOut) {
     triple_buffer::TripleBuffer::new(&IDENTITY).split()
 }
 
-/// The servo task: `ticks` ticks at 1 kHz, or until `stop`, each computing its force with
-/// `law` ([`BurrLaw`] for the drill, [`crate::pen_tasks::PenLaw`] for a mesh tool). Everything
-/// it needs is allocated before its loop; the loop neither allocates nor locks (the
-/// allocation-counting tests run [`servo_io`], the loop's body, with either law). `frame` is
+/// The servo task: `ticks` ticks at 1 kHz (`u64::MAX`: no end), or until `stop` or a
+/// `request`, each computing its force with `law` ([`BurrLaw`] for the drill,
+/// [`crate::pen_tasks::PenLaw`] for a mesh tool). Everything it needs is allocated before its
+/// loop; the loop neither allocates nor locks (the allocation-counting tests run [`servo_io`],
+/// the loop's body, with either law, and the histogram and recorder pushes). Wake-up latency
+/// and tick time go into `counters.wake` and `counters.tick` (fixed buckets: memory does not
+/// grow with the run). With a `record` ring, each tick's sample is pushed there too (a full
+/// ring drops the row and counts it; never a wait).
+///
+/// A stop `request` is looked at right after each wake-up: the tick that sees it writes zero
+/// force ([`crate::watchdog::zero_force`], the watchdog's cutoff and the servo's own path)
+/// and ends the loop, so the device gets zero force within one period of the request. `frame` is
 /// the device frame it starts with; with a
 /// `camera` hand-off, each tick takes the latest camera the viewer published (a triple-buffer
 /// read: a few atomic operations, never a wait).
@@ -488,25 +484,19 @@ pub fn servo_task(
     ring: &ArrayQueue<ToolSample>,
     counters: &ServoCounters,
     stop: &AtomicBool,
+    request: &StopRequest,
+    record: Option<Arc<RecordRing>>,
     frame: DeviceFrame,
     mut camera: Option<&mut CameraOut>,
 ) -> ServoResult {
     let rt = rt.apply();
-    let n = ticks as usize;
-    let mut wake_ns = vec![0u64; n];
-    let mut tick_ns = vec![0u64; n];
-    // Zeroed allocations are mapped lazily: touch every page now, so the loop takes no page
-    // faults and the resident memory stays flat (without `mlockall`, 16 bytes a tick would
-    // otherwise become resident during the run).
-    for v in [&mut wake_ns, &mut tick_ns] {
-        for x in v.iter_mut().step_by(512) {
-            *x = std::hint::black_box(0);
-        }
-    }
     let mut state = ServoState {
         frame,
+        record,
         ..ServoState::default()
     };
+    let mut end = ServoEnd::Ticks;
+    let mut request_to_zero_ns = None;
     let watch = &counters.watch;
     let cutoff = device.cutoff();
     let mut timer = Periodic::new(SERVO_PERIOD_NS, 0);
@@ -517,8 +507,22 @@ pub fn servo_task(
     // of that gap (stalled inside a tick) and the time since (stalled between ticks).
     let mut last_end = now_ns();
     let mut last_gap = 0u64;
-    while done < ticks && !stop.load(Ordering::Relaxed) {
+    while done < ticks {
+        if stop.load(Ordering::Relaxed) {
+            end = ServoEnd::Stopped;
+            break;
+        }
         let w = timer.wait();
+        if request.is_requested() {
+            if crate::watchdog::zero_force(device, cutoff.as_deref()).is_ok() {
+                state.last_written = 0.0;
+            }
+            let at = request.requested_at_ns().unwrap_or(0);
+            request_to_zero_ns = Some(now_ns().saturating_sub(at));
+            request.force_zeroed();
+            end = ServoEnd::Requested;
+            break;
+        }
         let t0 = now_ns();
         let stalled = last_gap.max(t0.saturating_sub(last_end));
         recover_from_stall(device, cutoff.as_deref(), watch, stalled);
@@ -529,16 +533,14 @@ pub fn servo_task(
             }
         }
         let out = servo_io(device, &workspace, law, ring, &mut state, done);
-        let i = done as usize;
         counters.record_wake(w.latency_ns, done, &mut window_max);
         for (a, v) in counters.force_xyz.iter().zip(state.last_force.to_array()) {
             a.store(v.to_bits(), Ordering::Relaxed);
         }
-        wake_ns[i] = w.latency_ns;
-        let end = now_ns();
-        tick_ns[i] = end - t0;
-        last_gap = end.saturating_sub(last_end);
-        last_end = end;
+        let t1 = now_ns();
+        counters.tick.record(t1 - t0);
+        last_gap = t1.saturating_sub(last_end);
+        last_end = t1;
         done += 1;
         watch.beat(done);
         counters.ticks.store(done, Ordering::Relaxed);
@@ -552,19 +554,21 @@ pub fn servo_task(
         );
         if let Err(e) = out {
             error = Some(e);
+            end = ServoEnd::DeviceError;
             break;
         }
     }
     // Leave the device safe: force off, whatever happened.
     watch.disarm();
-    let _ = device.write(&ForceCommand::OFF);
-    stop.store(true, Ordering::Relaxed);
-    wake_ns.truncate(done as usize);
-    tick_ns.truncate(done as usize);
+    if device.write(&ForceCommand::OFF).is_ok() {
+        state.last_written = 0.0;
+    }
+    stop.store(true, Ordering::Release);
     ServoResult {
         rt,
-        wake_ns,
-        tick_ns,
+        end,
+        request_to_zero_ns,
+        last_written_n: state.last_written,
         ticks: done,
         overruns: timer.overruns,
         digest: state.digest,
@@ -615,6 +619,10 @@ pub struct ServoState {
     pub frame: DeviceFrame,
     /// Device samples whose position was NaN or infinite (their force is zero).
     pub nonfinite_samples: u64,
+    /// Magnitude of the last force command the device took, newtons (device frame).
+    pub last_written: f32,
+    /// Where each tick's sample is recorded (`--record`), if anywhere.
+    pub record: Option<Arc<RecordRing>>,
 }
 
 /// Where a servo tick's force comes from: the burr's contact plane ([`BurrLaw`]) or a mesh
@@ -728,23 +736,26 @@ pub fn servo_io(
     let s = match device.read() {
         Ok(s) => s,
         Err(e) => {
-            let _ = device.write(&ForceCommand::OFF);
+            if device.write(&ForceCommand::OFF).is_ok() {
+                st.last_written = 0.0;
+            }
             return Err(e);
         }
     };
     let position = st.frame.to_scene(workspace, s.position);
     let rotation = st.frame.rotation_to_scene(s.rotation);
     st.nonfinite_samples += u64::from(!position.is_finite());
-    if ring
-        .push(ToolSample {
-            tick,
-            position,
-            rotation,
-            buttons: s.buttons,
-        })
-        .is_err()
-    {
+    let sample = ToolSample {
+        tick,
+        position,
+        rotation,
+        buttons: s.buttons,
+    };
+    if ring.push(sample).is_err() {
         st.dropped += 1;
+    }
+    if let Some(r) = &st.record {
+        r.push(sample);
     }
     let f = law.force(tick, position, rotation);
     st.digest.push(f);
@@ -754,7 +765,9 @@ pub fn servo_io(
     // scale and a shift, which leave directions alone).
     let d = st.frame.force_to_device(f);
     let cmd = ForceCommand::force([d.x as f64, d.y as f64, d.z as f64]);
-    device.write(&cmd)
+    device.write(&cmd)?;
+    st.last_written = d.length();
+    Ok(())
 }
 
 /// How the simulation task ended.
@@ -918,6 +931,98 @@ impl Shared {
             snapshots: crate::viewer::handoff::SnapshotQueue::default(),
         })
     }
+}
+
+/// Rows the recorder's ring holds: 8 s of servo ticks.
+pub const RECORD_RING: usize = 8192;
+
+/// The servo-to-recorder hand-off of `--record`: a bounded lock-free ring of tool samples
+/// (crossbeam `ArrayQueue`, allocated when it is made). The servo pushes and never waits: a
+/// full ring drops the row and counts it.
+#[derive(Debug)]
+pub struct RecordRing {
+    queue: ArrayQueue<ToolSample>,
+    dropped: AtomicU64,
+}
+
+impl RecordRing {
+    /// A ring of `capacity` rows (at least one).
+    pub fn new(capacity: usize) -> Self {
+        Self {
+            queue: ArrayQueue::new(capacity.max(1)),
+            dropped: AtomicU64::new(0),
+        }
+    }
+
+    /// Hands one sample to the recorder; a full ring drops it and counts it.
+    ///
+    /// # Bounded work
+    /// Constant: one lock-free push, at most one relaxed atomic add; no allocation, no wait.
+    pub fn push(&self, sample: ToolSample) {
+        if self.queue.push(sample).is_err() {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// Takes the oldest row (the recorder's side).
+    pub fn pop(&self) -> Option<ToolSample> {
+        self.queue.pop()
+    }
+
+    /// Rows dropped so far (the ring was full, or a pose was not finite).
+    pub fn dropped(&self) -> u64 {
+        self.dropped.load(Ordering::Relaxed)
+    }
+}
+
+/// The header of a trace CSV (DESIGN section 4).
+pub const TRACE_HEADER: &str = "t,x,y,z,qw,qx,qy,qz,buttons";
+
+/// The recorder task (`--record FILE`, normal priority): until `stop` is set and the ring is
+/// empty, drains `ring` every 10 ms and writes each sample as a row of a trace CSV to `out`:
+/// the servo tick's time (tick / 1000 s, written exactly), the tool pose the servo used (mesh
+/// units, scene frame: what the simulation drilled) and the buttons. `replay --trace` reads the
+/// file back. A sample whose pose is not finite is left out and counted with the ring's
+/// dropped rows. Returns the rows written.
+///
+/// # Errors
+/// The first write error (the task stops there; the servo goes on, its later rows are counted
+/// as dropped when the ring fills).
+pub fn recorder_task<W: std::io::Write>(
+    ring: &RecordRing,
+    out: W,
+    stop: &AtomicBool,
+) -> std::io::Result<u64> {
+    use std::io::Write as _;
+    let mut out = std::io::BufWriter::new(out);
+    writeln!(out, "{TRACE_HEADER}")?;
+    let mut rows = 0u64;
+    loop {
+        let stopping = stop.load(Ordering::Acquire);
+        while let Some(s) = ring.pop() {
+            let [x, y, z] = s.position.to_array();
+            let [qx, qy, qz, qw] = s.rotation.to_array();
+            if !(s.position.is_finite() && s.rotation.is_finite()) {
+                ring.dropped.fetch_add(1, Ordering::Relaxed);
+                continue;
+            }
+            writeln!(
+                out,
+                "{}.{:03},{x},{y},{z},{qw},{qx},{qy},{qz},{}",
+                s.tick / 1000,
+                s.tick % 1000,
+                s.buttons
+            )?;
+            rows += 1;
+        }
+        if stopping {
+            break;
+        }
+        out.flush()?;
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    out.flush()?;
+    Ok(rows)
 }
 
 #[cfg(test)]

@@ -19,10 +19,15 @@
 //! A servo that panics (a bug) is caught by [`quiet_unwind`] around its task; the pipeline then
 //! zeroes the force through the cutoff and the device ([`after_panic`]) and ends the run with
 //! one line and exit status 1.
+//!
+//! A clean stop (a signal, or a caller) goes through a [`StopRequest`]: the servo looks at it
+//! after each wake-up and the tick that sees it zeroes the force the way a trip does
+//! ([`zero_force`]: the cutoff, then [`ForceCommand::OFF`] through the servo's own path)
+//! before the run winds down.
 
 use std::cell::{Cell, RefCell};
 use std::panic::AssertUnwindSafe;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, Once};
 
 use tetradrill_device::{Cut, DeviceError, ForceCommand, HapticDevice, MotorCutoff};
@@ -234,6 +239,123 @@ pub fn supervisor_task(
     }
 }
 
+/// Zeroes the force now, through both of the paths a trip uses: the device's cutoff when it
+/// has one (the latch is set, so no later write of this run renders force; zero force with
+/// the motors off through the device's second path), then [`ForceCommand::OFF`] through the
+/// device itself. Called on the servo thread.
+///
+/// # Bounded work
+/// One cutoff call and one device write; no allocation, no lock of this crate's.
+///
+/// # Errors
+/// The device write's error (the cutoff's latch is set whatever happens).
+pub fn zero_force(
+    device: &mut dyn HapticDevice,
+    cutoff: Option<&dyn MotorCutoff>,
+) -> Result<(), DeviceError> {
+    if let Some(c) = cutoff {
+        let _ = c.cut();
+    }
+    device.write(&ForceCommand::OFF)
+}
+
+/// A request to end a real-time run cleanly, shared by whoever asks (the signal handlers of
+/// `run` and `demo`, a test, an embedding program) and the servo, which looks at it once a
+/// tick. Cloning shares the request. Raising it is atomics and a clock read only, so a signal
+/// handler may do it.
+#[derive(Debug, Clone, Default)]
+pub struct StopRequest(Arc<StopFlags>);
+
+/// The atomics behind a [`StopRequest`].
+#[derive(Debug, Default)]
+pub struct StopFlags {
+    /// Requests so far (signals and calls).
+    requests: AtomicU32,
+    /// Signals among them.
+    signals: AtomicU32,
+    /// The first signal's number (0: none yet).
+    signal: AtomicI32,
+    /// The latest signal's number.
+    last: AtomicI32,
+    /// CLOCK_MONOTONIC time of the first request, ns.
+    at_ns: AtomicU64,
+    /// The servo has written zero force for the request, or the run is over: a signal now
+    /// ends the process at once.
+    zeroed: AtomicBool,
+}
+
+impl StopFlags {
+    /// Raises the request for signal `signal` (0: a call, not a signal). Returns whether the
+    /// process should exit at once: a signal that comes when the force is zero already (a
+    /// second signal after the servo's zero-force write, or any after the run is over).
+    /// Async-signal-safe: atomic operations and `clock_gettime` only.
+    pub fn raise(&self, signal: i32) -> bool {
+        let _ = self.at_ns.compare_exchange(
+            0,
+            platform::now_ns().max(1),
+            Ordering::SeqCst,
+            Ordering::SeqCst,
+        );
+        if signal != 0 {
+            let _ = self
+                .signal
+                .compare_exchange(0, signal, Ordering::SeqCst, Ordering::SeqCst);
+            self.last.store(signal, Ordering::SeqCst);
+            self.signals.fetch_add(1, Ordering::SeqCst);
+        }
+        self.requests.fetch_add(1, Ordering::SeqCst);
+        signal != 0 && self.zeroed.load(Ordering::SeqCst)
+    }
+}
+
+impl StopRequest {
+    /// A request not raised yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Asks the run to stop cleanly (what the first signal does).
+    pub fn request(&self) {
+        let _ = self.0.raise(0);
+    }
+
+    /// Whether a stop was asked for. An atomic load.
+    pub fn is_requested(&self) -> bool {
+        self.0.requests.load(Ordering::SeqCst) > 0
+    }
+
+    /// CLOCK_MONOTONIC time of the first request, ns.
+    pub fn requested_at_ns(&self) -> Option<u64> {
+        Some(self.0.at_ns.load(Ordering::SeqCst)).filter(|&t| t > 0)
+    }
+
+    /// The first signal that raised the request, if a signal did.
+    pub fn signal(&self) -> Option<i32> {
+        Some(self.0.signal.load(Ordering::SeqCst)).filter(|&s| s != 0)
+    }
+
+    /// The servo wrote zero force for the request. When a second signal came already, the
+    /// process exits here with status 128 + that signal's number (the summary and the JSON are
+    /// skipped, as a second signal asks); a signal after this exits from its handler.
+    pub fn force_zeroed(&self) {
+        self.0.zeroed.store(true, Ordering::SeqCst);
+        if self.0.signals.load(Ordering::SeqCst) > 1 {
+            platform::exit_now(128 + self.0.last.load(Ordering::SeqCst));
+        }
+    }
+
+    /// The run is over (the force off, the device released): from now on a signal ends the
+    /// process at once, as if no handler were installed.
+    pub fn run_over(&self) {
+        self.0.zeroed.store(true, Ordering::SeqCst);
+    }
+
+    /// The shared atomics (for the signal handlers, [`platform::on_stop_signals`]).
+    pub fn flags(&self) -> &Arc<StopFlags> {
+        &self.0
+    }
+}
+
 thread_local! {
     /// This thread's panics are caught by [`quiet_unwind`]: the hook keeps their line instead
     /// of printing it.
@@ -353,6 +475,39 @@ mod tests {
         assert!(line.contains("watchdog.rs:"), "{line}");
         // Nothing is left over for the next call.
         assert_eq!(quiet_unwind(|| 5), Ok(5));
+    }
+
+    #[test]
+    fn a_stop_request_keeps_its_first_time_and_signal() {
+        let r = StopRequest::new();
+        assert!(!r.is_requested());
+        assert_eq!((r.requested_at_ns(), r.signal()), (None, None));
+        let shared = r.clone();
+        let before = platform::now_ns();
+        assert!(!shared.flags().raise(15), "a first signal never exits");
+        let at = r.requested_at_ns().expect("stamped");
+        assert!(r.is_requested() && at >= before && at <= platform::now_ns());
+        // A second signal before the force is zero does not exit either (the servo does,
+        // once it has written zero); one after it does.
+        assert!(!shared.flags().raise(2));
+        r.0.zeroed.store(true, Ordering::SeqCst);
+        assert!(r.flags().raise(2));
+        assert_eq!(
+            r.requested_at_ns(),
+            Some(at),
+            "the first request's time stays"
+        );
+        assert_eq!(r.signal(), Some(15), "and its signal");
+        // After the run, even a first signal exits.
+        let over = StopRequest::new();
+        over.run_over();
+        assert!(over.flags().raise(1));
+        // Calls are no signals: they never ask for an exit.
+        let c = StopRequest::new();
+        c.request();
+        c.0.zeroed.store(true, Ordering::SeqCst);
+        assert!(!c.flags().raise(0));
+        assert_eq!(c.signal(), None);
     }
 
     #[test]

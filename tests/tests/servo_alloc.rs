@@ -4,7 +4,9 @@
 //! and the contact triple buffer), in contact with a surface and out of it; nor does the way
 //! back from a stall the watchdog caught ([`tetradrill::tasks::recover_from_stall`]); nor does
 //! a mesh tool's tick ([`tetradrill::tasks::servo_io`] with
-//! [`tetradrill::pen_tasks::PenLaw`]), nor its contact task.
+//! [`tetradrill::pen_tasks::PenLaw`]), nor its contact task. The burr's ticks also push every
+//! sample to a `--record` ring (full half of the time), record the timing histograms, look at
+//! a stop request and end with the zero-force write of a clean stop.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -15,10 +17,10 @@ use tetradrill::pen::{PenRig, PenSizes};
 use tetradrill::pen_tasks::{held_handoff, pen_contact_task, PenLaw, PenTaskReport};
 use tetradrill::scenario::Scenario;
 use tetradrill::tasks::{
-    recover_from_stall, servo_io, servo_tick, BurrLaw, ServoCounters, ServoState, Shared,
-    SimStatus, ToolSample, Workspace,
+    recover_from_stall, servo_io, servo_tick, BurrLaw, RecordRing, ServoCounters, ServoState,
+    Shared, SimStatus, ToolSample, Workspace,
 };
-use tetradrill::watchdog::ServoWatch;
+use tetradrill::watchdog::{zero_force, ServoWatch, StopRequest};
 use tetradrill_core::force::{pen_pass, PenState};
 use tetradrill_core::servo::ContactState;
 use tetradrill_core::Vec3;
@@ -90,17 +92,30 @@ fn servo_tick_allocates_nothing_after_warm_up() {
         scale: 1.0,
         offset: Vec3::ZERO,
     };
-    let mut st = ServoState::default();
+    let record = std::sync::Arc::new(RecordRing::new(64));
+    let mut st = ServoState {
+        record: Some(record.clone()),
+        ..ServoState::default()
+    };
+    let request = StopRequest::new();
     // The burr's law as the servo task runs it (the controls' atomics read every tick).
     let counters = ServoCounters::default();
     let mut law = BurrLaw::new(params, &mut output, &counters);
+    let mut window_max = 0;
     let mut run = |from: u64, to: u64, st: &mut ServoState| {
         for tick in from..to {
+            assert!(!request.is_requested());
             servo_io(&mut device, &ws, &mut law, &ring, st, tick).expect("tick");
-            // The simulation side drains the ring (not counted: it is another task).
+            counters.record_wake(tick * 7919 % 3_000_000, tick, &mut window_max);
+            counters.tick.record(tick * 104_729 % 200_000);
+            // The simulation side drains the ring, the recorder its own every 128 ticks, so
+            // that one is full half of the time (not counted: they are other tasks).
             if tick % 16 == 0 {
                 ARMED.with(|a| a.set(false));
                 while ring.pop().is_some() {}
+                if tick % 128 == 0 {
+                    while record.pop().is_some() {}
+                }
                 ARMED.with(|a| a.set(true));
             }
         }
@@ -110,12 +125,22 @@ fn servo_tick_allocates_nothing_after_warm_up() {
     CALLS.with(|c| c.set(0));
     ARMED.with(|a| a.set(true));
     run(100, 1100, &mut st);
+    // A clean stop's tick: the request seen, zero force through the cutoff and the device.
+    let cutoff = device.cutoff();
+    ARMED.with(|a| a.set(false));
+    request.request();
+    ARMED.with(|a| a.set(true));
+    assert!(request.is_requested());
+    zero_force(&mut device, cutoff.as_deref()).expect("zero force");
     ARMED.with(|a| a.set(false));
     let calls = CALLS.with(|c| c.get());
     assert!(
         st.max_force > 0.0,
         "the stylus reached the surface: the contact path ran"
     );
+    assert!(record.dropped() > 0, "the record ring was full at times");
+    assert_eq!(counters.wake.count(), 1100);
+    assert_eq!(device.applied_force(), [0.0; 3]);
     assert_eq!(calls, 0, "the servo tick allocated or freed {calls} times");
 
     // The counter itself works: an allocation on this thread while armed is seen.
@@ -288,7 +313,7 @@ fn the_pen_contact_task_allocates_nothing() {
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let (mut status_in, _status_out) =
                 triple_buffer::TripleBuffer::new(&SimStatus::default()).split();
-            let mut report = PenTaskReport::with_room(4000);
+            let mut report = PenTaskReport::new();
             let calls = std::thread::scope(|s| {
                 let sh = &shared;
                 let task = s.spawn(|| {

@@ -742,6 +742,8 @@ fn the_servo_takes_the_published_camera_and_the_stiffness_control_each_tick() {
             &shared.ring,
             &shared.counters,
             &shared.stop,
+            &tetradrill::watchdog::StopRequest::new(),
+            None,
             DeviceFrame::new(pivot),
             Some(&mut cam_out),
         );

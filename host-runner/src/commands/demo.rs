@@ -1,13 +1,14 @@
 //! `tetradrill demo`: the main job with nothing attached: the built-in block, the simulated
 //! device drilling the scripted path through the real-time pipeline, a live status line and a
-//! summary.
+//! summary. It ends after the scripted path (or `--duration`), when its window closes, or on
+//! a stop signal, as `run` does.
 
 use std::path::PathBuf;
 
 use tetradrill_device::{discovery::OpenOptions, DeviceKind};
 
-use super::pipeline::{self, PipelineSetup};
-use super::run::{device_factory, viewer_note};
+use super::pipeline::PipelineSetup;
+use super::run::{device_factory, run_ticks, run_until_signal, viewer_note};
 use crate::error::CliError;
 use crate::rt::RtConfig;
 use crate::scenario::Scenario;
@@ -45,10 +46,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     );
     let (open, default_ticks, workspace) =
         device_factory(DeviceKind::Sim, &sc, OpenOptions::default())?;
-    let ticks = args
-        .duration
-        .map_or(default_ticks, |d| (d * 1000.0).round() as u64)
-        .max(1);
+    let ticks = run_ticks(args.duration, default_ticks);
     viewer_note(args.headless);
     let rt = if args.no_rt {
         RtConfig {
@@ -68,6 +66,8 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         status_line: true,
         summary: true,
         view,
+        stop: crate::watchdog::StopRequest::new(),
+        record: None,
     };
-    pipeline::run(&sc, setup, args.json.as_ref()).map(|_| ())
+    run_until_signal(&sc, setup, args.json.as_ref())
 }

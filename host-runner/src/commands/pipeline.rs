@@ -5,6 +5,12 @@
 //! stalls past the watchdog time has its force zeroed by the watchdog thread (one warning line,
 //! the run goes on: exit status 0, `servo_stalls` in the JSON); a servo that panics has its
 //! force zeroed and ends the run with one line and exit status 1.
+//!
+//! A run ends when its ticks are done (`--duration`, a trace's length; [`UNTIL_STOPPED`]: no
+//! end), when the live window closes, when its device fails, or on a [`StopRequest`] (the
+//! signal handlers of `run` and `demo` raise it): the servo tick that sees the request writes
+//! zero force, then the tasks stop, the summary and the JSON are written and the device is
+//! released. `stop_reason` in the JSON says which.
 
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -21,9 +27,13 @@ use crate::error::CliError;
 use crate::pen::{PenRig, PenSizes};
 use crate::rt::RtConfig;
 use crate::scenario::{Scenario, ToolKind};
-use crate::stats::{histogram_us, summarise_ns, Summary};
-use crate::tasks::{self, Shared, SimStatus, Workspace};
-use crate::watchdog;
+use crate::stats::Summary;
+use crate::tasks::{self, RecordRing, Shared, SimStatus, Workspace};
+use crate::watchdog::{self, StopRequest};
+
+/// Ticks of a run without an end of its own: it runs until the window closes, a stop request
+/// (a signal) or a device error.
+pub const UNTIL_STOPPED: u64 = u64::MAX;
 
 /// Opens the device on the servo thread (a device handle need not be `Send`).
 pub type DeviceFactory = Box<dyn FnOnce() -> Result<Box<dyn HapticDevice>, DeviceError> + Send>;
@@ -34,7 +44,7 @@ pub struct PipelineSetup {
     pub kind: DeviceKind,
     /// Opens the device.
     pub open: DeviceFactory,
-    /// Servo ticks to run.
+    /// Servo ticks to run ([`UNTIL_STOPPED`]: no end of its own).
     pub ticks: u64,
     /// Device-to-mesh map.
     pub workspace: Workspace,
@@ -46,6 +56,10 @@ pub struct PipelineSetup {
     pub summary: bool,
     /// Live window and/or screenshot.
     pub view: crate::viewer::ViewOptions,
+    /// Ends the run cleanly when raised (zero force within a tick, then the summary).
+    pub stop: StopRequest,
+    /// Record the tool samples as a trace CSV to this file (`--record`).
+    pub record: Option<PathBuf>,
 }
 
 impl PipelineSetup {
@@ -68,6 +82,8 @@ impl PipelineSetup {
                 window: false,
                 screenshot: None,
             },
+            stop: StopRequest::new(),
+            record: None,
         }
     }
 }
@@ -78,6 +94,7 @@ impl std::fmt::Debug for PipelineSetup {
             .field("kind", &self.kind)
             .field("ticks", &self.ticks)
             .field("workspace", &self.workspace)
+            .field("record", &self.record)
             .finish_non_exhaustive()
     }
 }
@@ -87,6 +104,21 @@ impl std::fmt::Debug for PipelineSetup {
 pub struct RunReport {
     /// Device used.
     pub device: String,
+    /// Why the run ended: `duration` (its ticks were done), `signal` (a stop request: SIGINT,
+    /// SIGTERM, SIGHUP or a caller), `window` (the live window closed), `device_error`.
+    pub stop_reason: &'static str,
+    /// The signal that asked for the stop (`SIGINT`, `SIGTERM`, `SIGHUP`), if one did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stop_signal: Option<String>,
+    /// After a stop request: microseconds from the request to the end of the zero-force write.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stop_to_zero_force_us: Option<f64>,
+    /// The force commands written to the device.
+    pub force: RunForce,
+    /// Rows `--record` wrote to its trace.
+    pub recorded_rows: u64,
+    /// Rows `--record` could not take (its ring was full, or a pose was not finite).
+    pub dropped_rows: u64,
     /// Servo ticks done.
     pub ticks: u64,
     /// Deadlines missed by more than a period.
@@ -124,9 +156,10 @@ pub struct RunReport {
     pub force_max_n: f32,
     /// Digest of the servo's force series (hex).
     pub force_digest: String,
-    /// Servo tick compute times, microseconds.
+    /// Servo tick compute times, microseconds (from the servo's fixed-bucket histogram: the
+    /// mean and max exact, percentiles within 125 ns or 1/128 above the exact ones).
     pub timing_us: RunTiming,
-    /// Servo wake-up latency, microseconds.
+    /// Servo wake-up latency, microseconds (the same histogram as the status line's).
     pub wake_us: Summary,
     /// Wake-up latency histogram, 1 us buckets, the last is the overflow bucket.
     pub wake_histogram_us: Vec<u64>,
@@ -174,6 +207,13 @@ pub struct PenRunSummary {
     pub servo_short_ticks: u64,
     /// Servo ticks whose pose (position or rotation) was not finite: zero force.
     pub nonfinite_ticks: u64,
+}
+
+/// The force commands of a run.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct RunForce {
+    /// Magnitude of the last force command the device took, newtons: 0 after a clean stop.
+    pub last_written_n: f32,
 }
 
 /// Servo tick timing.
@@ -225,7 +265,10 @@ pub fn run(
         status_line,
         summary,
         view,
+        stop: request,
+        record,
     } = setup;
+    let recorder = Recorder::open(record.as_deref())?;
     let started = std::time::Instant::now();
     let initial_controls = crate::viewer::handoff::Controls {
         radius: params.radius,
@@ -241,77 +284,81 @@ pub fn run(
     let frame = tasks::DeviceFrame::new(centre);
 
     let mut law = tasks::BurrLaw::new(params, &mut contact_out, &shared.counters);
-    let (servo, sim_status, ending, mut scene) =
-        std::thread::scope(|scope| -> Result<_, CliError> {
-            let sh = &shared;
-            let any_view = view.any();
-            let sim = std::thread::Builder::new()
-                .name("simulation".into())
-                .spawn_scoped(scope, move || -> Result<SimEnding, CliError> {
-                    let mut link = any_view.then(|| {
-                        let mut l = crate::viewer::publish::SimViewer::new(
-                            &sh.snapshots,
-                            Some(controls_out),
-                            tets,
-                        );
-                        l.set_initial_volume(initial_volume);
-                        l.set_regions(regions);
-                        l
-                    });
-                    loop {
-                        // The world is rebuilt, untouched, when the viewer asks for a reset.
-                        let mut world = store.world()?;
-                        let end = tasks::simulation_task(
-                            &mut world,
-                            params,
-                            &sh.ring,
-                            &mut contact_in,
-                            &mut status_in,
-                            &sh.stop,
-                            &sh.counters,
-                            link.as_mut(),
-                        );
-                        match end {
-                            tasks::SimEnd::Stopped => {
-                                // The final state: saturations by kind, and the core's validate().
-                                let sat = SaturationCounts::from(world.saturations());
-                                return Ok((sat, engine::validate(&world)));
-                            }
-                            tasks::SimEnd::Reset => {
-                                if let Some(l) = link.as_mut() {
-                                    l.restart();
-                                }
+    let (servo, sim_status, ending, scene) = std::thread::scope(|scope| -> Result<_, CliError> {
+        let sh = &shared;
+        let any_view = view.any();
+        let sim = std::thread::Builder::new()
+            .name("simulation".into())
+            .spawn_scoped(scope, move || -> Result<SimEnding, CliError> {
+                let mut link = any_view.then(|| {
+                    let mut l = crate::viewer::publish::SimViewer::new(
+                        &sh.snapshots,
+                        Some(controls_out),
+                        tets,
+                    );
+                    l.set_initial_volume(initial_volume);
+                    l.set_regions(regions);
+                    l
+                });
+                loop {
+                    // The world is rebuilt, untouched, when the viewer asks for a reset.
+                    let mut world = store.world()?;
+                    let end = tasks::simulation_task(
+                        &mut world,
+                        params,
+                        &sh.ring,
+                        &mut contact_in,
+                        &mut status_in,
+                        &sh.stop,
+                        &sh.counters,
+                        link.as_mut(),
+                    );
+                    match end {
+                        tasks::SimEnd::Stopped => {
+                            // The final state: saturations by kind, and the core's validate().
+                            let sat = SaturationCounts::from(world.saturations());
+                            return Ok((sat, engine::validate(&world)));
+                        }
+                        tasks::SimEnd::Reset => {
+                            if let Some(l) = link.as_mut() {
+                                l.restart();
                             }
                         }
                     }
-                })
-                .map_err(|e| CliError::failure(format!("cannot start the simulation task: {e}")))?;
-            let servo = spawn_servo(
-                scope,
-                sh,
-                ServoRun {
-                    open,
-                    rt,
-                    ticks,
-                    workspace,
-                    frame,
-                    camera: view.window.then_some(&mut camera_out),
-                },
-                &mut law,
-            )?;
-            let supervisor = spawn_watchdog(scope, sh, rt, kind)?;
-            let front = Front {
-                view: &view,
-                status_line,
-                initial_volume,
-                controls: controls_in,
-                initial_controls,
-                camera: camera_in,
-            };
-            let (servo, status, ending, scene) =
-                main_thread_tasks(scope, sh, front, status_out, servo, supervisor, sim)?;
-            Ok((servo, status, ending?, scene))
-        })?;
+                }
+            })
+            .map_err(|e| CliError::failure(format!("cannot start the simulation task: {e}")))?;
+        let servo = spawn_servo(
+            scope,
+            sh,
+            ServoRun {
+                open,
+                rt,
+                ticks,
+                workspace,
+                frame,
+                camera: view.window.then_some(&mut camera_out),
+                request: &request,
+                record: recorder.ring(),
+            },
+            &mut law,
+        )?;
+        let supervisor = spawn_watchdog(scope, sh, rt, kind)?;
+        let rec = recorder.spawn(scope, sh)?;
+        let front = Front {
+            view: &view,
+            status_line,
+            initial_volume,
+            controls: controls_in,
+            initial_controls,
+            camera: camera_in,
+        };
+        let (servo, status, ending, scene) =
+            main_thread_tasks(scope, sh, front, status_out, servo, supervisor, sim)?;
+        let recorded = Recorder::join(rec)?;
+        Ok((servo, status, ending?, (scene, recorded)))
+    })?;
+    let (mut scene, recorded) = scene;
     let (saturations, valid) = ending;
     let ended = Ended {
         kind,
@@ -320,6 +367,8 @@ pub fn run(
         sim: sim_status,
         saturations,
         summary,
+        request: request.clone(),
+        recorded: (recorded, recorder.dropped()),
     };
     let (rep, error) = ended.report(servo, &shared, None)?;
     if let Some(path) = &view.screenshot {
@@ -337,6 +386,10 @@ struct Ended {
     saturations: SaturationCounts,
     /// Print the summary.
     summary: bool,
+    /// The run's stop request.
+    request: StopRequest,
+    /// `--record`'s rows written and dropped.
+    recorded: (u64, u64),
 }
 
 impl Ended {
@@ -364,9 +417,21 @@ impl Ended {
             errln!("tetradrill: warning: {w}");
         }
         let (elapsed, sim) = (self.elapsed, &self.sim);
-        let t = summarise_ns(&servo.tick_ns);
+        let c = &shared.counters;
+        let t = c.tick.summary();
+        let stopped_by = (servo.end == tasks::ServoEnd::Requested)
+            .then(|| self.request.signal())
+            .flatten();
         let rep = RunReport {
             device: format!("{kind:?}").to_lowercase(),
+            stop_reason: servo.end.name(),
+            stop_signal: stopped_by.map(signal_name),
+            stop_to_zero_force_us: servo.request_to_zero_ns.map(|ns| ns as f64 / 1000.0),
+            force: RunForce {
+                last_written_n: servo.last_written_n,
+            },
+            recorded_rows: self.recorded.0,
+            dropped_rows: self.recorded.1,
             ticks: servo.ticks,
             overruns: servo.overruns,
             duration_s: elapsed,
@@ -390,8 +455,8 @@ impl Ended {
                 tick_p999: t.p999,
                 tick_max: t.max,
             },
-            wake_us: summarise_ns(&servo.wake_ns),
-            wake_histogram_us: histogram_us(&servo.wake_ns, 200),
+            wake_us: c.wake.summary(),
+            wake_histogram_us: c.wake.histogram_us(200),
             realtime: crate::commands::timing::RealtimeReport {
                 fifo: servo.rt.fifo,
                 pinned: servo.rt.pinned,
@@ -486,6 +551,7 @@ fn run_pen(
         ..PenRunSummary::default()
     };
     let shared = Shared::new();
+    let recorder = Recorder::open(setup.record.as_deref())?;
     let mut rig = PenRig { pen: pen.mesh, obj };
     let initial_controls = crate::viewer::handoff::Controls {
         radius: 0.0,
@@ -494,12 +560,12 @@ fn run_pen(
         paused: false,
         reset: 0,
     };
-    let ((servo, sim_status, task, stats, elapsed, mut shown), built) = rig
+    let ((servo, sim_status, task, stats, elapsed, (mut shown, recorded)), built) = rig
         .with_sizes(PenSizes::of(sc), |scene, bufs| {
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let (mut status_in, status_out) = triple_buffer::TripleBuffer::new(&base).split();
             let mut law = PenLaw::new(scene, &shared.counters, held_out, opts);
-            let mut task = PenTaskReport::with_room(setup.ticks as usize);
+            let mut task = PenTaskReport::new();
             // The window's stiffness reaches the pen's law through the contact task.
             let (controls_in, controls_out) = crate::viewer::handoff::controls(initial_controls);
             let (camera_in, mut camera_out) = tasks::camera_handoff();
@@ -520,6 +586,8 @@ fn run_pen(
                 workspace: setup.workspace,
                 frame: tasks::DeviceFrame::new(centre),
                 camera: setup.view.window.then_some(&mut camera_out),
+                request: &setup.stop,
+                record: recorder.ring(),
             };
             // The run's time starts with its tasks (the scene is built by now).
             let started = std::time::Instant::now();
@@ -551,6 +619,7 @@ fn run_pen(
                     })?;
                 let servo = spawn_servo(scope, sh, run, &mut law)?;
                 let supervisor = spawn_watchdog(scope, sh, setup.rt, setup.kind)?;
+                let rec = recorder.spawn(scope, sh)?;
                 let front = Front {
                     view: &setup.view,
                     status_line: setup.status_line,
@@ -559,16 +628,18 @@ fn run_pen(
                     initial_controls,
                     camera: camera_in,
                 };
-                main_thread_tasks(scope, sh, front, status_out, servo, supervisor, sim)
+                let joined =
+                    main_thread_tasks(scope, sh, front, status_out, servo, supervisor, sim)?;
+                Ok((joined, Recorder::join(rec)?))
             })?;
-            let (servo, status, (), shown) = servo;
+            let ((servo, status, (), shown), recorded) = servo;
             let elapsed = started.elapsed().as_secs_f64();
-            Ok((servo, status, task, law.stats, elapsed, shown))
+            Ok((servo, status, task, law.stats, elapsed, (shown, recorded)))
         })
         .map_err(|e| CliError::failure(format!("cannot set up the tool contact: {e}")))
         .and_then(|(r, built)| r.map(|r| (r, built)))?;
     summary.passes = task.passes;
-    summary.pass_us = TickTiming::from(summarise_ns(&task.pass_ns));
+    summary.pass_us = TickTiming::from(task.pass.summary());
     summary.carried_ticks = stats.carried_ticks;
     summary.pass_age_mean_ticks = stats.age_sum as f64 / stats.carried_ticks.max(1) as f64;
     summary.pass_age_max_ticks = stats.age_max;
@@ -591,6 +662,8 @@ fn run_pen(
             ..SaturationCounts::default()
         },
         summary: setup.summary,
+        request: setup.stop.clone(),
+        recorded: (recorded, recorder.dropped()),
     };
     let (rep, error) = ended.report(servo, &shared, Some(summary))?;
     if let Some(path) = &setup.view.screenshot {
@@ -651,6 +724,8 @@ struct ServoRun<'c> {
     workspace: Workspace,
     frame: tasks::DeviceFrame,
     camera: Option<&'c mut tasks::CameraOut>,
+    request: &'c StopRequest,
+    record: Option<std::sync::Arc<RecordRing>>,
 }
 
 /// The servo thread: opens the device, attaches its cutoff to the watchdog, and runs
@@ -669,6 +744,8 @@ fn spawn_servo<'scope, 'env: 'scope, L: tasks::ForceLaw + Send>(
         workspace,
         frame,
         camera,
+        request,
+        record,
     } = run;
     std::thread::Builder::new()
         .name("servo".into())
@@ -702,6 +779,8 @@ fn spawn_servo<'scope, 'env: 'scope, L: tasks::ForceLaw + Send>(
                     &sh.ring,
                     &sh.counters,
                     &sh.stop,
+                    request,
+                    record,
                     frame,
                     camera,
                 )
@@ -720,6 +799,85 @@ fn spawn_servo<'scope, 'env: 'scope, L: tasks::ForceLaw + Send>(
             sh.stop.store(true, Ordering::Relaxed);
             CliError::failure(format!("cannot start the servo task: {e}"))
         })
+}
+
+/// `--record FILE`: the file, created before the run starts (a path that cannot be written is
+/// bad input: exit 2 naming it), and the ring the servo feeds.
+struct Recorder {
+    file: Option<(PathBuf, std::fs::File)>,
+    ring: Option<std::sync::Arc<RecordRing>>,
+}
+
+/// The recorder thread's handle: the rows it wrote, or why it stopped.
+type RecorderHandle<'scope> = Option<(
+    PathBuf,
+    std::thread::ScopedJoinHandle<'scope, std::io::Result<u64>>,
+)>;
+
+impl Recorder {
+    fn open(path: Option<&std::path::Path>) -> Result<Self, CliError> {
+        let Some(path) = path else {
+            return Ok(Self {
+                file: None,
+                ring: None,
+            });
+        };
+        let file = std::fs::File::create(path)
+            .map_err(|e| CliError::at(path, None, format!("--record: cannot create: {e}")))?;
+        Ok(Self {
+            file: Some((path.to_path_buf(), file)),
+            ring: Some(std::sync::Arc::new(RecordRing::new(tasks::RECORD_RING))),
+        })
+    }
+
+    fn ring(&self) -> Option<std::sync::Arc<RecordRing>> {
+        self.ring.clone()
+    }
+
+    fn dropped(&self) -> u64 {
+        self.ring.as_ref().map_or(0, |r| r.dropped())
+    }
+
+    /// The recorder task ([`tasks::recorder_task`]) on its own thread, until `sh.stop`.
+    fn spawn<'scope, 'env: 'scope>(
+        &'env self,
+        scope: &'scope std::thread::Scope<'scope, 'env>,
+        sh: &'env Shared,
+    ) -> Result<RecorderHandle<'scope>, CliError> {
+        let (Some((path, file)), Some(ring)) = (&self.file, &self.ring) else {
+            return Ok(None);
+        };
+        let h = std::thread::Builder::new()
+            .name("recorder".into())
+            .spawn_scoped(scope, move || tasks::recorder_task(ring, file, &sh.stop))
+            .map_err(|e| {
+                sh.stop.store(true, Ordering::Relaxed);
+                CliError::failure(format!("cannot start the recorder task: {e}"))
+            })?;
+        Ok(Some((path.clone(), h)))
+    }
+
+    /// The rows written (0 without `--record`); a write error ends the run with exit 1.
+    fn join(h: RecorderHandle<'_>) -> Result<u64, CliError> {
+        let Some((path, h)) = h else {
+            return Ok(0);
+        };
+        h.join()
+            .map_err(|_| CliError::failure("the recorder task panicked"))?
+            .map_err(|e| {
+                CliError::failure(format!("{}: --record: cannot write: {e}", path.display()))
+            })
+    }
+}
+
+/// A signal's name (`SIGINT`), or its number.
+fn signal_name(sig: i32) -> String {
+    match sig {
+        libc::SIGINT => "SIGINT".into(),
+        libc::SIGTERM => "SIGTERM".into(),
+        libc::SIGHUP => "SIGHUP".into(),
+        n => format!("signal {n}"),
+    }
 }
 
 /// The watchdog thread ([`watchdog::supervisor_task`]) for a run of `kind`.
@@ -881,11 +1039,12 @@ fn status_loop(
             continue;
         }
         err!(
-            "{} t {:5.1} s | servo {:4} Hz, overruns {} | sim {:4} Hz | removed {:.5} ({:.2}%) | force {:5.2} N   {}",
+            "{} t {:5.1} s | servo {:4} Hz, overruns {}, wake p99 {:4.0} us | sim {:4} Hz | removed {:.5} ({:.2}%) | force {:5.2} N   {}",
             if tty { "\r" } else { "" },
             t as f64 / 1000.0,
             ((t - last_ticks) as f64 / last_at.elapsed().as_secs_f64()).round(),
             c.overruns.load(Ordering::Relaxed),
+            c.wake_percentile_us(0.99).unwrap_or(0.0),
             ((st.steps - last_steps) as f64 / last_at.elapsed().as_secs_f64()).round(),
             st.removed_volume,
             100.0 * st.removed_volume / initial_volume.max(f64::MIN_POSITIVE),

@@ -1,4 +1,11 @@
 //! `tetradrill run`: the real-time pipeline with a device (the simulated one by default).
+//!
+//! A run lasts `--duration`, or the length of the simulated device's script or trace; a
+//! wander (`--trace wander:SEED`) and the real devices have no end of their own. Any run ends
+//! when its window closes, or on SIGINT (Ctrl-C), SIGTERM or SIGHUP: the first signal zeroes
+//! the force within a servo tick, then the run stops cleanly (summary, `--json`, device
+//! released, exit status 0); a second one exits at once (status 128 + its number), after the
+//! zero force.
 
 use std::path::PathBuf;
 
@@ -11,7 +18,7 @@ use tetradrill_device::{
     SimDevice, QUAT_IDENTITY,
 };
 
-use super::pipeline::{self, DeviceFactory, PipelineSetup, MESH_UNITS};
+use super::pipeline::{self, DeviceFactory, PipelineSetup, MESH_UNITS, UNTIL_STOPPED};
 use crate::error::CliError;
 use crate::rt::RtConfig;
 use crate::scenario::{Scenario, ScenarioFlags};
@@ -27,7 +34,8 @@ pub struct RunArgs {
     /// Scenario settings (mesh, trace for the simulated device, tool, stiffness, drilling).
     #[command(flatten)]
     pub scenario: ScenarioFlags,
-    /// Seconds to run (default: the trace's length with the simulated device, else 10 s).
+    /// Seconds to run (default: the script's or trace's length with the simulated device;
+    /// a wander and the real devices run until the window closes or a signal).
     #[arg(long, allow_negative_numbers = true, value_parser = crate::cli::positive_seconds)]
     pub duration: Option<f64>,
     /// No viewer.
@@ -36,6 +44,9 @@ pub struct RunArgs {
     /// Write the summary as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Record the session's tool samples as a trace CSV (`replay --trace` reads it).
+    #[arg(long)]
+    pub record: Option<PathBuf>,
     /// The Falcon's firmware file (yours; never bundled). Without it the firmware is assumed
     /// to be running already.
     #[arg(long)]
@@ -64,10 +75,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         ..OpenOptions::default()
     };
     let (open, default_ticks, workspace) = device_factory(args.device, &sc, options)?;
-    let ticks = args
-        .duration
-        .map_or(default_ticks, |d| (d * 1000.0).round() as u64)
-        .max(1);
+    let ticks = run_ticks(args.duration, default_ticks);
     let rt = if args.no_rt {
         RtConfig {
             fifo_priority: None,
@@ -87,8 +95,35 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         status_line: !args.quiet,
         summary: true,
         view,
+        stop: crate::watchdog::StopRequest::new(),
+        record: args.record.clone(),
     };
-    pipeline::run(&sc, setup, args.json.as_ref()).map(|_| ())
+    run_until_signal(&sc, setup, args.json.as_ref())
+}
+
+/// The ticks of a run: `--duration` (seconds), else the device's own length
+/// ([`UNTIL_STOPPED`] for none).
+pub fn run_ticks(duration: Option<f64>, default_ticks: u64) -> u64 {
+    duration
+        .map_or(default_ticks, |d| (d * 1000.0).round() as u64)
+        .max(1)
+}
+
+/// [`pipeline::run`] with the stop signals (SIGINT, SIGTERM, SIGHUP) raising the setup's stop
+/// request while it runs; after it, a signal ends the process at once.
+pub fn run_until_signal(
+    sc: &Scenario,
+    setup: PipelineSetup,
+    json: Option<&PathBuf>,
+) -> Result<(), CliError> {
+    crate::platform::on_stop_signals(setup.stop.flags()).map_err(|e| {
+        CliError::failure(format!("cannot install the stop signals' handlers: {e}"))
+    })?;
+    let request = setup.stop.clone();
+    let r = pipeline::run(sc, setup, json).map(|_| ());
+    // The device is released: a signal from now on ends the process at once.
+    request.run_over();
+    r
 }
 
 /// Says once that the viewer is not part of this build when a display exists.
@@ -101,7 +136,9 @@ pub fn viewer_note(headless: bool) {
     }
 }
 
-/// The device factory, the default number of ticks, and the device-to-mesh map for `kind`.
+/// The device factory, the default number of ticks (the simulated device's script or trace
+/// length; [`UNTIL_STOPPED`] for a wander and the real devices), and the device-to-mesh map
+/// for `kind`.
 pub fn device_factory(
     kind: DeviceKind,
     sc: &Scenario,
@@ -110,7 +147,10 @@ pub fn device_factory(
     match kind {
         DeviceKind::Sim => {
             let source = PoseSource::for_scenario(sc)?;
-            let ticks = source.ticks();
+            let ticks = match source {
+                PoseSource::Wander { .. } => UNTIL_STOPPED,
+                _ => source.ticks(),
+            };
             let sim = options.sim;
             let open: DeviceFactory = match source {
                 wander @ PoseSource::Wander { .. } => Box::new(move || {
@@ -161,7 +201,7 @@ pub fn device_factory(
             } else {
                 Box::new(move || tetradrill_device::discovery::open(real, &options))
             };
-            Ok((open, 10_000, workspace))
+            Ok((open, UNTIL_STOPPED, workspace))
         }
     }
 }
