@@ -1,13 +1,14 @@
 //! `tetradrill demo`: the main job with nothing attached: the built-in block, the simulated
 //! device drilling the scripted path through the real-time pipeline, a live status line and a
-//! summary. It ends after the scripted path (or `--duration`), when its window closes, or on
-//! a stop signal, as `run` does.
+//! summary. Headless it ends after the scripted path (or `--duration`); with a window it runs
+//! until the window closes (the device holding the path's last pose), a stop signal or
+//! `--duration`, as `run` does.
 
 use std::path::PathBuf;
 
 use tetradrill_device::{discovery::OpenOptions, DeviceKind};
 
-use super::pipeline::PipelineSetup;
+use super::pipeline::{PipelineSetup, UNTIL_STOPPED};
 use super::run::{device_factory, run_ticks, run_until_signal, viewer_note};
 use crate::error::CliError;
 use crate::rt::RtConfig;
@@ -20,7 +21,8 @@ pub struct DemoArgs {
     /// No viewer.
     #[arg(long)]
     pub headless: bool,
-    /// Seconds to run (default: the scripted path, 6 s).
+    /// Seconds to run (default: the scripted path, 6 s, headless; until the window closes with
+    /// a window).
     #[arg(long, allow_negative_numbers = true, value_parser = crate::cli::positive_seconds)]
     pub duration: Option<f64>,
     /// Write the summary as JSON.
@@ -46,7 +48,16 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     );
     let (open, default_ticks, workspace) =
         device_factory(DeviceKind::Sim, &sc, OpenOptions::default())?;
-    let ticks = run_ticks(args.duration, default_ticks);
+    // With a window the demo is a session: it runs until the window closes (or a signal, or
+    // `--duration`); the device holds the path's last pose after it. Scripted runs under Xvfb
+    // that ask the window to close by itself (`TETRADRILL_VIEWER_CLOSE=1`) keep the path's
+    // length.
+    let close_at_end = std::env::var_os(crate::viewer::CLOSE_AT_END).is_some_and(|v| v == "1");
+    let ticks = if args.duration.is_none() && view.window && !close_at_end {
+        UNTIL_STOPPED
+    } else {
+        run_ticks(args.duration, default_ticks)
+    };
     viewer_note(args.headless);
     let rt = if args.no_rt {
         RtConfig {

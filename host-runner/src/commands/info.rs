@@ -171,7 +171,7 @@ pub fn dihedral_angles(p: [[f64; 3]; 4]) -> [f64; 6] {
     dihedral_cosines(p).map(angle_of_cosine)
 }
 
-/// The dihedral angle whose [`dihedral_cosines`] entry is `c` (the angle falls as `c` grows).
+/// The dihedral angle whose [`dihedral_cosines`] entry is `c` (the angle grows with `c`).
 fn angle_of_cosine(c: f64) -> f64 {
     std::f64::consts::PI - c.acos()
 }
@@ -269,8 +269,8 @@ pub fn summarise(loaded: &mut LoadedMesh, scale: f64) -> MeshSummary {
         unreferenced_nodes: loaded.dropped_nodes,
         valid: validation_error.is_none(),
         validation_error,
-        min_dihedral_deg: angle_of_cosine(max_cos).to_degrees(),
-        max_dihedral_deg: angle_of_cosine(min_cos).to_degrees(),
+        min_dihedral_deg: angle_of_cosine(min_cos).to_degrees(),
+        max_dihedral_deg: angle_of_cosine(max_cos).to_degrees(),
         volume,
         bbox_min,
         bbox_max,

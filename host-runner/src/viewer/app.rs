@@ -22,8 +22,7 @@ use super::scene::Scene;
 use super::LiveLink;
 use crate::error::CliError;
 
-/// Set to `1`, the window closes by itself when the run ends (scripted runs under Xvfb).
-pub const CLOSE_AT_END: &str = "TETRADRILL_VIEWER_CLOSE";
+pub use super::CLOSE_AT_END;
 
 /// Samples the live plots keep (about 5 s at 60 Hz).
 const PLOT_SAMPLES: usize = 300;

@@ -28,6 +28,10 @@ pub mod headless;
 
 use std::path::PathBuf;
 
+/// Set to `1`, the window closes by itself when the run ends (scripted runs under Xvfb; the
+/// demo then keeps its scripted length).
+pub const CLOSE_AT_END: &str = "TETRADRILL_VIEWER_CLOSE";
+
 /// What a command asks of the viewer.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct ViewOptions {
