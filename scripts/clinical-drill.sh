@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# A clinical-size mesh drilled as the coarse one: the teddy (80k tets) and the same shape
+# re-meshed at about 2 million tets (scripts/make-fine-mesh.py, tetgen from PyPI), drilled by
+# the same burr along the same path (a plunge at the top of the head, a drag, then a hold),
+# default capacities and max depth. Prints removed volume, tick p99 and the buffers chosen for
+# each, and `info`'s load time and resident memory per tet for the fine mesh.
+#
+# Usage: scripts/clinical-drill.sh [HOLD_S]   (default 12: the fine mesh converges)
+# Env: OUT (work folder, default target/clinical), TETRADRILL_BIN, FINE_TETS (target count
+# given to the generator, default 1150000: about 2.06 million tets come out).
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+hold=${1:-12}
+out=${OUT:-$root/target/clinical}
+bin=${TETRADRILL_BIN:-$root/target/release/tetradrill}
+coarse=$root/tests/data/meshes/models/teddy_cgalbear_tetgen_q1.414
+mkdir -p "$out"
+[ -x "$bin" ] || (cd "$root" && cargo build --release -p tetradrill)
+if [ ! -f "$out/teddy-fine.ele" ]; then
+  python3 -c 'import tetgen, numpy' 2>/dev/null || pip install --quiet tetgen numpy
+  python3 "$root/scripts/make-fine-mesh.py" "$coarse" "${FINE_TETS:-1150000}" "$out/teddy-fine"
+fi
+python3 - "$coarse.node" "$hold" > "$out/path.csv" <<'PY'
+import sys
+rows = [l.split() for l in open(sys.argv[1]) if l.strip() and not l.startswith("#")]
+n = int(rows[0][0])
+x0, y0, z0 = max((tuple(map(float, r[1:4])) for r in rows[1:n + 1]), key=lambda p: p[2])
+hold = float(sys.argv[2])
+print("t,x,y,z,qw,qx,qy,qz,buttons")
+for i in range(0, 3001, 10):
+    t = i / 1000
+    x, z = (x0, z0 + 0.05 - 0.08 * t) if t < 1 else (x0 + 0.1 * min(t - 1, 2) / 2, z0 - 0.03)
+    print(f"{t},{x:.6f},{y0:.6f},{z:.6f},1,0,0,0,1")
+print(f"{3 + hold},{x0 + 0.1:.6f},{y0:.6f},{z0 - 0.03:.6f},1,0,0,0,1")
+PY
+for m in "$coarse.node" "$out/teddy-fine.ele"; do
+  name=$(basename "$m")
+  "$bin" replay --quiet --mesh "$m" --trace "$out/path.csv" --tool sphere:0.03 \
+    --json "$out/$name.json" > "$out/$name.txt"
+  python3 - "$out/$name.json" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+z = d.get("sizing", {})
+print(f"{d['scenario']['mesh'].split('/')[-1]}: {d['mesh']['tets']} tets, removed "
+      f"{d['removed_volume']:.6g}, tick p99 {d['timing_us']['tick_p99']:.1f} us, "
+      f"saturations {d['saturations']['total']}, candidates {z.get('candidate_capacity')}, "
+      f"query cells {z.get('max_cells')}")
+PY
+done
+/usr/bin/time -f "info: %e s, %M KiB peak" "$bin" info --mesh "$out/teddy-fine.ele" \
+  --json "$out/info.json" > /dev/null 2> "$out/info.time"
+python3 - "$out/info.json" "$out/info.time" <<'PY'
+import json, re, sys
+tets = json.load(open(sys.argv[1]))["tets"]
+s, kib = map(float, re.search(r"info: ([\d.]+) s, (\d+) KiB", open(sys.argv[2]).read()).groups())
+print(f"info on {tets} tets: {s:.2f} s ({s / tets * 1e6:.2f} s per million tets), "
+      f"{kib * 1024 / tets:.0f} bytes per tet")
+PY
