@@ -11,10 +11,27 @@ use crate::ids::{NodeId, TetId};
 
 /// One face of one tet as a sortable key: the face's node ids sorted ascending and the owner
 /// `tet * 4 + face`. Scratch for [`Mesh::build`]: the caller hands in `4 * tets` of them.
+///
+/// Packed in one `u128` (ids from the high bits down, the owner lowest), so sorting compares
+/// one integer: the order is the ids' lexicographic order, then the owner's.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug, Default)]
-pub struct FaceKey {
-    verts: [u32; 3],
-    owner: u32,
+pub struct FaceKey(u128);
+
+impl FaceKey {
+    fn new(verts: [u32; 3], owner: u32) -> Self {
+        let [a, b, c] = verts.map(u128::from);
+        Self((a << 96) | (b << 64) | (c << 32) | u128::from(owner))
+    }
+
+    /// The face's node ids, ascending.
+    fn verts(self) -> u128 {
+        self.0 >> 32
+    }
+
+    /// `tet * 4 + face`.
+    fn owner(self) -> u32 {
+        self.0 as u32
+    }
 }
 
 /// What [`Mesh::build`] may change in the input, and how.
@@ -259,25 +276,22 @@ impl<'a> Mesh<'a> {
                 let fv = FACE_VERTS[f].map(|k| tet.nodes[k as usize].0);
                 let mut verts = fv;
                 verts.sort_unstable();
-                scratch[ti * 4 + f] = FaceKey {
-                    verts,
-                    owner: (ti * 4 + f) as u32,
-                };
+                scratch[ti * 4 + f] = FaceKey::new(verts, (ti * 4 + f) as u32);
             }
         }
         scratch.sort_unstable();
         let mut i = 0;
         while i < scratch.len() {
             let mut j = i + 1;
-            while j < scratch.len() && scratch[j].verts == scratch[i].verts {
+            while j < scratch.len() && scratch[j].verts() == scratch[i].verts() {
                 j += 1;
             }
             match j - i {
                 1 => stats.boundary_faces += 1,
-                2 => link(tets, scratch[i].owner, scratch[i + 1].owner)?,
+                2 => link(tets, scratch[i].owner(), scratch[i + 1].owner())?,
                 _ => {
                     return Err(BuildError::NonManifoldFace {
-                        tet: scratch[i].owner / 4,
+                        tet: scratch[i].owner() / 4,
                     })
                 }
             }
