@@ -17,10 +17,14 @@
 
 #![forbid(unsafe_code)]
 
+pub(crate) mod binary;
 mod error;
 pub mod gmsh;
+pub(crate) mod gmsh_binary;
 pub mod medit;
+pub mod meshb;
 pub mod owned;
+pub mod source;
 pub mod tetgen;
 pub(crate) mod text;
 pub mod vtk;
@@ -119,25 +123,22 @@ pub fn read_with(path: &Path, options: &ReadOptions) -> Result<RawMesh, MeshErro
 
 /// Like [`read`], also giving the file that holds the tets (the `.ele` of a TetGen pair).
 fn read_with_source(path: &Path, options: &ReadOptions) -> Result<(RawMesh, PathBuf), MeshError> {
-    let _ = options;
     if let Some(name) = path.to_str().and_then(|s| s.strip_prefix("builtin:")) {
+        no_region_array(path, options, "a built-in mesh")?;
         return Ok((builtin(name)?, path.to_path_buf()));
     }
-    let ext = path
+    let (plain, _) = source::strip_gz(path);
+    let ext = plain
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
-    match ext.as_deref() {
+    let (raw, tet_path) = match ext.as_deref() {
         Some("node") | Some("ele") => tetgen::read(path),
         Some("mesh") => medit::read(path).map(|m| (m, path.to_path_buf())),
-        Some("meshb") => Err(MeshError::at(
-            path,
-            None,
-            "binary MEDIT (.meshb) files are not supported (write ASCII .mesh)",
-        )),
+        Some("meshb") => meshb::read(path).map(|m| (m, path.to_path_buf())),
         Some("msh") => gmsh::read(path).map(|m| (m, path.to_path_buf())),
-        Some("vtk") => vtk::read(path).map(|m| (m, path.to_path_buf())),
-        Some("vtu") => vtu::read(path).map(|m| (m, path.to_path_buf())),
+        Some("vtk") => vtk::read_with(path, options).map(|m| (m, path.to_path_buf())),
+        Some("vtu") => vtu::read_with(path, options).map(|m| (m, path.to_path_buf())),
         Some(other) => Err(MeshError::at(
             path,
             None,
@@ -148,6 +149,26 @@ fn read_with_source(path: &Path, options: &ReadOptions) -> Result<(RawMesh, Path
             None,
             format!("mesh file has no extension (expected {EXTENSIONS}, or builtin:cube12, builtin:block:N)"),
         )),
+    }?;
+    if !matches!(ext.as_deref(), Some("vtk") | Some("vtu")) {
+        no_region_array(path, options, raw.format)?;
+    }
+    Ok((raw, tet_path))
+}
+
+/// Refuses a [`ReadOptions::region_array`] for a file without named cell arrays.
+fn no_region_array(path: &Path, options: &ReadOptions, what: &str) -> Result<(), MeshError> {
+    match &options.region_array {
+        Some(name) => Err(MeshError::at(
+            path,
+            None,
+            format!(
+                "--region-array '{}': {what} files have no named cell arrays (only VTK and VTU do; \
+                 this file's labels are read without it)",
+                text::short(name)
+            ),
+        )),
+        None => Ok(()),
     }
 }
 
