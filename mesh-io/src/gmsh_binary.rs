@@ -83,12 +83,14 @@ pub(crate) fn read(
     b.big = match one {
         [1, 0, 0, 0] => false,
         [0, 0, 0, 1] => true,
-        _ => return Err(b.err_at(
-            start,
-            format!(
+        _ => {
+            return Err(b.err_at(
+                start,
+                format!(
                 "expected the integer 1 (byte order) after the format line, found bytes {one:02x?}"
             ),
-        )),
+            ))
+        }
     };
     end_of(&mut b, "MeshFormat")?;
     let mut st = State::default();
