@@ -187,3 +187,283 @@ fn region_array_names_a_missing_or_float_array() {
     let raw = meshio::read_with(&p, &opts).unwrap();
     assert_eq!(raw.label_source.as_deref(), Some("cell data 'material'"));
 }
+
+#[test]
+fn gzipped_tetgen_pair_found_by_either_name() {
+    let o = oracle();
+    for name in ["octa_tetgen.ele.gz", "octa_tetgen.node.gz"] {
+        let raw = meshio::read(&mesh(&format!("formats/binary/{name}"))).unwrap();
+        assert_eq!(raw.tets, o.tets, "{name}");
+        assert_eq!(raw.positions, o.nodes, "{name}");
+        assert_eq!(label_counts(&raw.labels), BTreeMap::from([(100, 1224)]));
+    }
+}
+
+/// The error contract for a bad binary file: exit 2, one line, the file named, and a byte
+/// offset, a line, a data array (with its block) or a missing section named.
+fn clean_refusal(path: &Path, what: &str) -> String {
+    let e = match meshio::load(path, 1.0) {
+        Ok(_) => panic!("{what}: a bad file loaded"),
+        Err(e) => e,
+    };
+    let m = e.message.clone();
+    assert_eq!(e.code, EXIT_BAD_INPUT, "{what}: {m}");
+    assert!(!m.contains(['\n', '\r']), "{what}: {m:?}");
+    let file = path.display().to_string();
+    let rest = m.strip_prefix(&file).unwrap_or_else(|| panic!("{what}: {m}"));
+    let placed = rest.starts_with(": byte ")
+        || rest.starts_with(": no ")
+        || rest[1..].split(':').next().is_some_and(|l| l.parse::<usize>().is_ok())
+        || rest.contains("DataArray")
+        || rest.contains("no tetrahedra")
+        || rest == ": empty file";
+    assert!(placed, "{what}: no byte offset, line or block in '{m}'");
+    m
+}
+
+/// The uncompressed binary variants, cut every `stride` bytes and at the last byte: every cut
+/// is a clean refusal, never a panic.
+#[test]
+fn truncated_binary_files_are_refused_with_their_offset() {
+    let dir = scratch("cuts");
+    for name in [
+        "octa.meshb",
+        "octa_22bin.msh",
+        "octa_41bin.msh",
+        "octa_bin.vtk",
+        "octa_raw.vtu",
+        "octa_zlib.vtu",
+        "octa_lz4.vtu",
+        "octa_lzma_u64.vtu",
+        "octa_appended_raw_zlib.vtu",
+        "octa_appended_b64_lz4.vtu",
+    ] {
+        let data = std::fs::read(mesh(&format!("formats/binary/{name}"))).unwrap();
+        let p = dir.join(name);
+        let mut cuts: Vec<usize> = (1..data.len()).step_by(97).collect();
+        cuts.push(data.len() - 1);
+        for cut in cuts {
+            // Cutting only trailing whitespace, or the position word after MEDIT's End
+            // keyword (its last 8 bytes), leaves a whole file.
+            let after_end = name.ends_with(".meshb") && cut + 8 >= data.len();
+            if after_end || data[cut..].iter().all(|b| b.is_ascii_whitespace()) {
+                continue;
+            }
+            std::fs::write(&p, &data[..cut]).unwrap();
+            // A cut right after a whole section can leave a whole file: VTK's cell data
+            // block is optional, so a cut just after `CELL_DATA 1224` gives the mesh without
+            // labels.
+            if let Ok(raw) = meshio::read(&p) {
+                if name.ends_with(".vtk") && raw.tets.len() == 1224 && raw.label_source.is_none()
+                {
+                    continue;
+                }
+            }
+            clean_refusal(&p, &format!("{name} cut at {cut}"));
+        }
+    }
+}
+
+/// Every byte of each binary header region flipped in turn: never a panic; a refusal is clean.
+#[test]
+fn flipped_bytes_never_panic() {
+    let dir = scratch("flips");
+    for name in [
+        "octa.meshb",
+        "octa_22bin.msh",
+        "octa_41bin.msh",
+        "octa_bin.vtk",
+        "octa_zlib.vtu",
+        "octa_appended_raw_zlib.vtu",
+    ] {
+        let data = std::fs::read(mesh(&format!("formats/binary/{name}"))).unwrap();
+        let p = dir.join(name);
+        // The start (headers, counts, the first records) and the tail (last sections).
+        let tail = data.len().saturating_sub(300);
+        for k in (0..600.min(data.len())).chain(tail..data.len()) {
+            let mut d = data.clone();
+            d[k] ^= 0xff;
+            std::fs::write(&p, &d).unwrap();
+            // A flip can also make a valid file with other numbers, or one the build
+            // refuses (a huge coordinate, a degenerate tet): then the error names the tet's
+            // line or the node, not a byte.
+            if let Err(e) = meshio::load(&p, 1.0) {
+                assert_eq!(e.code, EXIT_BAD_INPUT, "{name} byte {k}: {}", e.message);
+                assert!(!e.message.contains(['\n', '\r']), "{name} byte {k}");
+                assert!(e.message.starts_with(&p.display().to_string()), "{}", e.message);
+            }
+        }
+    }
+}
+
+/// Writes `data` with bytes `at..at + new.len()` replaced.
+fn patched(dir: &Path, name: &str, data: &[u8], at: usize, new: &[u8]) -> PathBuf {
+    let mut d = data.to_vec();
+    d[at..at + new.len()].copy_from_slice(new);
+    let p = dir.join(name);
+    std::fs::write(&p, d).unwrap();
+    p
+}
+
+fn find(hay: &[u8], needle: &[u8]) -> usize {
+    hay.windows(needle.len())
+        .position(|w| w == needle)
+        .unwrap_or_else(|| panic!("{:?} not found", String::from_utf8_lossy(needle)))
+}
+
+/// Counts far larger than the file (2^60: allocating them would abort the test) are refused
+/// before anything is allocated, naming the byte where the count is.
+#[test]
+fn oversized_counts_are_refused_before_allocating() {
+    let dir = scratch("huge");
+    let huge = (1u64 << 60).to_le_bytes();
+    // MEDIT version 4: the vertex count (64-bit) after `4`, next position.
+    let meshb = std::fs::read(mesh("formats/binary/octa.meshb")).unwrap();
+    let p = patched(&dir, "a.meshb", &meshb, 36, &huge);
+    let m = clean_refusal(&p, "meshb vertices");
+    assert!(m.contains("byte 44: declares 1152921504606846976 vertices, more than the rest"), "{m}");
+    // Gmsh 4.1: the node count in the $Nodes header.
+    let msh = std::fs::read(mesh("formats/binary/octa_41bin.msh")).unwrap();
+    let at = find(&msh, b"$Nodes\n") + 7 + 8;
+    let p = patched(&dir, "a.msh", &msh, at, &huge);
+    let m = clean_refusal(&p, "msh 4.1 nodes");
+    assert!(m.contains("more than the rest of the file can hold"), "{m}");
+    // Gmsh 2.2: the element block's count of elements that follow.
+    let msh = std::fs::read(mesh("formats/binary/octa_22bin.msh")).unwrap();
+    let at = find(&msh, b"$Elements\n1224\n") + 15 + 4;
+    let p = patched(&dir, "b.msh", &msh, at, &i32::MAX.to_le_bytes());
+    let m = clean_refusal(&p, "msh 2.2 elements");
+    assert!(m.contains(&format!("byte {}", at - 4)), "{m}");
+    // VTK: POINTS with a count past the file.
+    let vtk = std::fs::read(mesh("formats/binary/octa_bin.vtk")).unwrap();
+    let at = find(&vtk, b"POINTS 330 ");
+    let mut big = vtk[..at].to_vec();
+    big.extend(b"POINTS 99999999 ");
+    big.extend(&vtk[at + 11..]);
+    let p = dir.join("a.vtk");
+    std::fs::write(&p, big).unwrap();
+    let m = clean_refusal(&p, "vtk points");
+    assert!(m.contains("more than the rest of the file can hold"), "{m}");
+    // VTU appended raw: the first array's block count.
+    let vtu = std::fs::read(mesh("formats/binary/octa_appended_raw_zlib.vtu")).unwrap();
+    let at = find(&vtu, b"\n_") + 2;
+    let p = patched(&dir, "a.vtu", &vtu, at, &0x7fff_ffffu32.to_le_bytes());
+    let m = clean_refusal(&p, "vtu blocks");
+    assert!(m.contains(&format!("byte {}", at + 12)) && m.contains("compressed blocks"), "{m}");
+}
+
+/// The plain nodes and tets of a MEDIT file (0-based tets).
+fn medit_plain(path: &Path) -> (Vec<[f64; 3]>, Vec<[u32; 4]>) {
+    let t = numbers(path);
+    let v = t.iter().position(|l| l[0] == "Vertices").unwrap();
+    let n: usize = t[v + 1][0].parse().unwrap();
+    let nodes = t[v + 2..v + 2 + n]
+        .iter()
+        .map(|l| std::array::from_fn(|k| l[k].parse().unwrap()))
+        .collect();
+    let e = t.iter().position(|l| l[0] == "Tetrahedra").unwrap();
+    let m: usize = t[e + 1][0].parse().unwrap();
+    let tets = t[e + 2..e + 2 + m]
+        .iter()
+        .map(|l| std::array::from_fn(|k| l[k].parse::<u32>().unwrap() - 1))
+        .collect();
+    (nodes, tets)
+}
+
+/// The cow written here in three binary formats (writers of a few lines each, from the
+/// MEDIT file's numbers) loads with the same counts as its ASCII files.
+#[test]
+fn the_cow_in_binary_formats_gives_the_same_counts() {
+    let (nodes, tets) = medit_plain(&mesh("models/spot_tetgen_q1.414.mesh"));
+    let dir = scratch("cow");
+    // MEDIT binary version 2, little-endian.
+    let mut b = Vec::new();
+    let i = |b: &mut Vec<u8>, v: i32| b.extend(v.to_le_bytes());
+    i(&mut b, 1);
+    i(&mut b, 2);
+    i(&mut b, 3);
+    i(&mut b, 20);
+    i(&mut b, 3);
+    i(&mut b, 4);
+    i(&mut b, 0);
+    i(&mut b, nodes.len() as i32);
+    for p in &nodes {
+        p.iter().for_each(|c| b.extend(c.to_le_bytes()));
+        i(&mut b, 0);
+    }
+    i(&mut b, 8);
+    i(&mut b, 0);
+    i(&mut b, tets.len() as i32);
+    for t in &tets {
+        t.iter().for_each(|&v| i(&mut b, v as i32 + 1));
+        i(&mut b, 0);
+    }
+    i(&mut b, 54);
+    std::fs::write(dir.join("cow.meshb"), &b).unwrap();
+    // Gmsh 2.2 binary, big-endian, no tags.
+    let mut g = b"$MeshFormat\n2.2 1 8\n".to_vec();
+    g.extend(1i32.to_be_bytes());
+    g.extend(format!("\n$EndMeshFormat\n$Nodes\n{}\n", nodes.len()).bytes());
+    for (k, p) in nodes.iter().enumerate() {
+        g.extend((k as i32 + 1).to_be_bytes());
+        p.iter().for_each(|c| g.extend(c.to_be_bytes()));
+    }
+    g.extend(format!("\n$EndNodes\n$Elements\n{}\n", tets.len()).bytes());
+    for v in [4, tets.len() as i32, 0] {
+        g.extend(v.to_be_bytes());
+    }
+    for (k, t) in tets.iter().enumerate() {
+        g.extend((k as i32 + 1).to_be_bytes());
+        t.iter().for_each(|&v| g.extend((v as i32 + 1).to_be_bytes()));
+    }
+    g.extend(b"\n$EndElements\n");
+    std::fs::write(dir.join("cow.msh"), &g).unwrap();
+    // VTU appended raw, uncompressed, UInt32 headers.
+    let mut data = Vec::new();
+    let mut offsets = Vec::new();
+    let mut block = |bytes: Vec<u8>| {
+        offsets.push(data.len());
+        data.extend((bytes.len() as u32).to_le_bytes());
+        data.extend(bytes);
+    };
+    block(nodes.iter().flatten().flat_map(|c| c.to_le_bytes()).collect());
+    block(tets.iter().flatten().flat_map(|&v| (v as i64).to_le_bytes()).collect());
+    block((1..=tets.len() as i64).flat_map(|k| (4 * k).to_le_bytes()).collect());
+    block(vec![10u8; tets.len()]);
+    let mut x = format!(
+        "<VTKFile type=\"UnstructuredGrid\" byte_order=\"LittleEndian\">\n<UnstructuredGrid>\n\
+         <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">\n<Points>\n\
+         <DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"appended\" offset=\"{}\"/>\n\
+         </Points>\n<Cells>\n\
+         <DataArray type=\"Int64\" Name=\"connectivity\" format=\"appended\" offset=\"{}\"/>\n\
+         <DataArray type=\"Int64\" Name=\"offsets\" format=\"appended\" offset=\"{}\"/>\n\
+         <DataArray type=\"UInt8\" Name=\"types\" format=\"appended\" offset=\"{}\"/>\n\
+         </Cells>\n</Piece>\n</UnstructuredGrid>\n<AppendedData encoding=\"raw\">\n_",
+        nodes.len(),
+        tets.len(),
+        offsets[0],
+        offsets[1],
+        offsets[2],
+        offsets[3]
+    )
+    .into_bytes();
+    x.extend(data);
+    x.extend(b"\n</AppendedData>\n</VTKFile>\n");
+    std::fs::write(dir.join("cow.vtu"), &x).unwrap();
+
+    let counts = |p: &Path| {
+        let mut m = meshio::load(p, 1.0).unwrap_or_else(|e| panic!("{e}"));
+        let s = m.mesh.stats();
+        m.mesh.view().validate().expect("valid");
+        (m.mesh.positions().len(), m.mesh.tets().len(), s.boundary_faces, s.boundary_nodes)
+    };
+    let want = counts(&mesh("models/spot_tetgen_q1.414.ele"));
+    assert_eq!(want.1, 18_098);
+    for f in ["cow.meshb", "cow.msh", "cow.vtu"] {
+        assert_eq!(counts(&dir.join(f)), want, "{f}");
+    }
+    for ascii in ["mesh", "msh22.msh", "msh41.msh", "vtk", "vtu"] {
+        let p = mesh(&format!("models/spot_tetgen_q1.414.{ascii}"));
+        assert_eq!(counts(&p), want, "{ascii}");
+    }
+}
