@@ -467,3 +467,128 @@ fn the_cow_in_binary_formats_gives_the_same_counts() {
         assert_eq!(counts(&p), want, "{ascii}");
     }
 }
+
+/// The octahedron written here as ASCII Gmsh 2.2 (physical tags), Gmsh 4.1 (`$Entities`),
+/// VTK 4.2 (`POINT_DATA` first, then `CELL_DATA` with a float and an integer array) and VTU
+/// (`CellData`): the labels come back.
+#[test]
+fn ascii_files_carry_their_labels() {
+    let o = oracle();
+    let dir = scratch("ascii-labels");
+    let n = o.nodes.len();
+    let m = o.tets.len();
+    let xyz = |p: &[f64; 3]| format!("{} {} {}", p[0], p[1], p[2]);
+    // Gmsh 2.2: tags = physical, elementary.
+    let mut g = format!("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n{n}\n");
+    for (k, p) in o.nodes.iter().enumerate() {
+        g += &format!("{} {}\n", k + 1, xyz(p));
+    }
+    g += &format!("$EndNodes\n$Elements\n{m}\n");
+    for (k, (t, l)) in o.tets.iter().zip(&o.labels).enumerate() {
+        g += &format!("{} 4 2 {l} 7 {} {} {} {}\n", k + 1, t[0] + 1, t[1] + 1, t[2] + 1, t[3] + 1);
+    }
+    g += "$EndElements\n";
+    std::fs::write(dir.join("a.msh"), &g).unwrap();
+    // Gmsh 4.1: volume entities 10 and 20 with physical tags 1 and 2; one block per run.
+    let mut g = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Entities\n1 0 0 2\n".to_string();
+    g += "5 0 0 0 1 77\n10 0 0 0 1 1 1 1 1 0\n20 0 0 0 1 1 1 1 2 0\n$EndEntities\n";
+    g += &format!("$Nodes\n1 {n} 1 {n}\n3 10 0 {n}\n");
+    for k in 0..n {
+        g += &format!("{}\n", k + 1);
+    }
+    for p in &o.nodes {
+        g += &format!("{}\n", xyz(p));
+    }
+    g += "$EndNodes\n";
+    let mut runs: Vec<(i32, usize, usize)> = Vec::new();
+    for (k, &l) in o.labels.iter().enumerate() {
+        match runs.last_mut() {
+            Some(r) if r.0 == l => r.2 += 1,
+            _ => runs.push((l, k, 1)),
+        }
+    }
+    g += &format!("$Elements\n{} {m} 1 {m}\n", runs.len());
+    for (l, start, len) in &runs {
+        g += &format!("3 {} 4 {len}\n", l * 10);
+        for k in *start..start + len {
+            let t = o.tets[k];
+            g += &format!("{} {} {} {} {}\n", k + 1, t[0] + 1, t[1] + 1, t[2] + 1, t[3] + 1);
+        }
+    }
+    g += "$EndElements\n";
+    std::fs::write(dir.join("b.msh"), &g).unwrap();
+    // VTK 4.2.
+    let mut v = format!("# vtk DataFile Version 4.2\nocta\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS {n} double\n");
+    for p in &o.nodes {
+        v += &format!("{}\n", xyz(p));
+    }
+    v += &format!("CELLS {m} {}\n", 5 * m);
+    for t in &o.tets {
+        v += &format!("4 {} {} {} {}\n", t[0], t[1], t[2], t[3]);
+    }
+    v += &format!("CELL_TYPES {m}\n{}", "10\n".repeat(m));
+    v += &format!("POINT_DATA {n}\nSCALARS temp float 1\nLOOKUP_TABLE default\n{}", "0.5\n".repeat(n));
+    v += &format!("VECTORS u double\n{}", "0 0 1\n".repeat(n));
+    v += &format!("CELL_DATA {m}\nSCALARS density float\nLOOKUP_TABLE default\n{}", "1.5\n".repeat(m));
+    v += "SCALARS region int 1\nLOOKUP_TABLE default\n";
+    for l in &o.labels {
+        v += &format!("{l}\n");
+    }
+    std::fs::write(dir.join("c.vtk"), &v).unwrap();
+    // VTU with ASCII arrays.
+    let mut u = format!(
+        "<VTKFile type=\"UnstructuredGrid\"><UnstructuredGrid><Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{m}\">\n\
+         <Points><DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n"
+    );
+    for p in &o.nodes {
+        u += &format!("{}\n", xyz(p));
+    }
+    u += "</DataArray></Points><Cells><DataArray type=\"Int32\" Name=\"connectivity\" format=\"ascii\">\n";
+    for t in &o.tets {
+        u += &format!("{} {} {} {}\n", t[0], t[1], t[2], t[3]);
+    }
+    u += "</DataArray><DataArray type=\"Int32\" Name=\"offsets\" format=\"ascii\">\n";
+    for k in 1..=m {
+        u += &format!("{}\n", 4 * k);
+    }
+    u += &format!(
+        "</DataArray><DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n{}</DataArray></Cells>\n",
+        "10\n".repeat(m)
+    );
+    u += "<CellData><DataArray type=\"Float32\" Name=\"material\" format=\"ascii\">\n";
+    u += &"2.5\n".repeat(m);
+    u += "</DataArray><DataArray type=\"Int16\" Name=\"CellEntityIds\" format=\"ascii\">\n";
+    for l in &o.labels {
+        u += &format!("{l}\n");
+    }
+    u += "</DataArray></CellData></Piece></UnstructuredGrid></VTKFile>\n";
+    std::fs::write(dir.join("d.vtu"), &u).unwrap();
+
+    for (f, source) in [
+        ("a.msh", "Gmsh physical tags"),
+        ("b.msh", "Gmsh physical tags"),
+        ("c.vtk", "cell data 'region'"),
+        ("d.vtu", "cell data 'CellEntityIds'"),
+    ] {
+        let raw = meshio::read(&dir.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+        same_as_oracle(&raw, &o, false, true, f);
+        assert_eq!(raw.label_source.as_deref(), Some(source), "{f}");
+    }
+    // A float array asked for by name is refused, naming the file and the array.
+    for (f, name) in [("c.vtk", "density"), ("d.vtu", "material")] {
+        let p = dir.join(f);
+        let opts = ReadOptions {
+            region_array: Some(name.into()),
+        };
+        let e = meshio::load_with(&p, 1.0, &opts).unwrap_err();
+        assert_eq!(e.code, EXIT_BAD_INPUT);
+        assert!(e.message.starts_with(&p.display().to_string()), "{}", e.message);
+        assert!(e.message.contains(&format!("'{name}'")) && e.message.contains("integer"), "{}", e.message);
+    }
+    // --region-array on a format without named arrays is refused.
+    let opts = ReadOptions {
+        region_array: Some("material".into()),
+    };
+    let e = meshio::read_with(&dir.join("a.msh"), &opts).unwrap_err();
+    assert!(e.message.contains("--region-array 'material'"), "{}", e.message);
+}
