@@ -210,10 +210,15 @@ fn clean_refusal(path: &Path, what: &str) -> String {
     assert_eq!(e.code, EXIT_BAD_INPUT, "{what}: {m}");
     assert!(!m.contains(['\n', '\r']), "{what}: {m:?}");
     let file = path.display().to_string();
-    let rest = m.strip_prefix(&file).unwrap_or_else(|| panic!("{what}: {m}"));
+    let rest = m
+        .strip_prefix(&file)
+        .unwrap_or_else(|| panic!("{what}: {m}"));
     let placed = rest.starts_with(": byte ")
         || rest.starts_with(": no ")
-        || rest[1..].split(':').next().is_some_and(|l| l.parse::<usize>().is_ok())
+        || rest[1..]
+            .split(':')
+            .next()
+            .is_some_and(|l| l.parse::<usize>().is_ok())
         || rest.contains("DataArray")
         || rest.contains("no tetrahedra")
         || rest == ": empty file";
@@ -254,8 +259,7 @@ fn truncated_binary_files_are_refused_with_their_offset() {
             // block is optional, so a cut just after `CELL_DATA 1224` gives the mesh without
             // labels.
             if let Ok(raw) = meshio::read(&p) {
-                if name.ends_with(".vtk") && raw.tets.len() == 1224 && raw.label_source.is_none()
-                {
+                if name.ends_with(".vtk") && raw.tets.len() == 1224 && raw.label_source.is_none() {
                     continue;
                 }
             }
@@ -290,7 +294,11 @@ fn flipped_bytes_never_panic() {
             if let Err(e) = meshio::load(&p, 1.0) {
                 assert_eq!(e.code, EXIT_BAD_INPUT, "{name} byte {k}: {}", e.message);
                 assert!(!e.message.contains(['\n', '\r']), "{name} byte {k}");
-                assert!(e.message.starts_with(&p.display().to_string()), "{}", e.message);
+                assert!(
+                    e.message.starts_with(&p.display().to_string()),
+                    "{}",
+                    e.message
+                );
             }
         }
     }
@@ -321,7 +329,10 @@ fn oversized_counts_are_refused_before_allocating() {
     let meshb = std::fs::read(mesh("formats/binary/octa.meshb")).unwrap();
     let p = patched(&dir, "a.meshb", &meshb, 36, &huge);
     let m = clean_refusal(&p, "meshb vertices");
-    assert!(m.contains("byte 44: declares 1152921504606846976 vertices, more than the rest"), "{m}");
+    assert!(
+        m.contains("byte 44: declares 1152921504606846976 vertices, more than the rest"),
+        "{m}"
+    );
     // Gmsh 4.1: the node count in the $Nodes header.
     let msh = std::fs::read(mesh("formats/binary/octa_41bin.msh")).unwrap();
     let at = find(&msh, b"$Nodes\n") + 7 + 8;
@@ -349,7 +360,10 @@ fn oversized_counts_are_refused_before_allocating() {
     let at = find(&vtu, b"\n_") + 2;
     let p = patched(&dir, "a.vtu", &vtu, at, &0x7fff_ffffu32.to_le_bytes());
     let m = clean_refusal(&p, "vtu blocks");
-    assert!(m.contains(&format!("byte {}", at + 12)) && m.contains("compressed blocks"), "{m}");
+    assert!(
+        m.contains(&format!("byte {}", at + 12)) && m.contains("compressed blocks"),
+        "{m}"
+    );
 }
 
 /// The plain nodes and tets of a MEDIT file (0-based tets).
@@ -414,7 +428,8 @@ fn the_cow_in_binary_formats_gives_the_same_counts() {
     }
     for (k, t) in tets.iter().enumerate() {
         g.extend((k as i32 + 1).to_be_bytes());
-        t.iter().for_each(|&v| g.extend((v as i32 + 1).to_be_bytes()));
+        t.iter()
+            .for_each(|&v| g.extend((v as i32 + 1).to_be_bytes()));
     }
     g.extend(b"\n$EndElements\n");
     std::fs::write(dir.join("cow.msh"), &g).unwrap();
@@ -426,9 +441,24 @@ fn the_cow_in_binary_formats_gives_the_same_counts() {
         data.extend((bytes.len() as u32).to_le_bytes());
         data.extend(bytes);
     };
-    block(nodes.iter().flatten().flat_map(|c| c.to_le_bytes()).collect());
-    block(tets.iter().flatten().flat_map(|&v| (v as i64).to_le_bytes()).collect());
-    block((1..=tets.len() as i64).flat_map(|k| (4 * k).to_le_bytes()).collect());
+    block(
+        nodes
+            .iter()
+            .flatten()
+            .flat_map(|c| c.to_le_bytes())
+            .collect(),
+    );
+    block(
+        tets.iter()
+            .flatten()
+            .flat_map(|&v| (v as i64).to_le_bytes())
+            .collect(),
+    );
+    block(
+        (1..=tets.len() as i64)
+            .flat_map(|k| (4 * k).to_le_bytes())
+            .collect(),
+    );
     block(vec![10u8; tets.len()]);
     let mut x = format!(
         "<VTKFile type=\"UnstructuredGrid\" byte_order=\"LittleEndian\">\n<UnstructuredGrid>\n\
@@ -455,7 +485,12 @@ fn the_cow_in_binary_formats_gives_the_same_counts() {
         let mut m = meshio::load(p, 1.0).unwrap_or_else(|e| panic!("{e}"));
         let s = m.mesh.stats();
         m.mesh.view().validate().expect("valid");
-        (m.mesh.positions().len(), m.mesh.tets().len(), s.boundary_faces, s.boundary_nodes)
+        (
+            m.mesh.positions().len(),
+            m.mesh.tets().len(),
+            s.boundary_faces,
+            s.boundary_nodes,
+        )
     };
     let want = counts(&mesh("models/spot_tetgen_q1.414.ele"));
     assert_eq!(want.1, 18_098);
@@ -485,7 +520,14 @@ fn ascii_files_carry_their_labels() {
     }
     g += &format!("$EndNodes\n$Elements\n{m}\n");
     for (k, (t, l)) in o.tets.iter().zip(&o.labels).enumerate() {
-        g += &format!("{} 4 2 {l} 7 {} {} {} {}\n", k + 1, t[0] + 1, t[1] + 1, t[2] + 1, t[3] + 1);
+        g += &format!(
+            "{} 4 2 {l} 7 {} {} {} {}\n",
+            k + 1,
+            t[0] + 1,
+            t[1] + 1,
+            t[2] + 1,
+            t[3] + 1
+        );
     }
     g += "$EndElements\n";
     std::fs::write(dir.join("a.msh"), &g).unwrap();
@@ -512,13 +554,22 @@ fn ascii_files_carry_their_labels() {
         g += &format!("3 {} 4 {len}\n", l * 10);
         for k in *start..start + len {
             let t = o.tets[k];
-            g += &format!("{} {} {} {} {}\n", k + 1, t[0] + 1, t[1] + 1, t[2] + 1, t[3] + 1);
+            g += &format!(
+                "{} {} {} {} {}\n",
+                k + 1,
+                t[0] + 1,
+                t[1] + 1,
+                t[2] + 1,
+                t[3] + 1
+            );
         }
     }
     g += "$EndElements\n";
     std::fs::write(dir.join("b.msh"), &g).unwrap();
     // VTK 4.2.
-    let mut v = format!("# vtk DataFile Version 4.2\nocta\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS {n} double\n");
+    let mut v = format!(
+        "# vtk DataFile Version 4.2\nocta\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS {n} double\n"
+    );
     for p in &o.nodes {
         v += &format!("{}\n", xyz(p));
     }
@@ -527,9 +578,15 @@ fn ascii_files_carry_their_labels() {
         v += &format!("4 {} {} {} {}\n", t[0], t[1], t[2], t[3]);
     }
     v += &format!("CELL_TYPES {m}\n{}", "10\n".repeat(m));
-    v += &format!("POINT_DATA {n}\nSCALARS temp float 1\nLOOKUP_TABLE default\n{}", "0.5\n".repeat(n));
+    v += &format!(
+        "POINT_DATA {n}\nSCALARS temp float 1\nLOOKUP_TABLE default\n{}",
+        "0.5\n".repeat(n)
+    );
     v += &format!("VECTORS u double\n{}", "0 0 1\n".repeat(n));
-    v += &format!("CELL_DATA {m}\nSCALARS density float\nLOOKUP_TABLE default\n{}", "1.5\n".repeat(m));
+    v += &format!(
+        "CELL_DATA {m}\nSCALARS density float\nLOOKUP_TABLE default\n{}",
+        "1.5\n".repeat(m)
+    );
     v += "SCALARS region int 1\nLOOKUP_TABLE default\n";
     for l in &o.labels {
         v += &format!("{l}\n");
@@ -582,13 +639,25 @@ fn ascii_files_carry_their_labels() {
         };
         let e = meshio::load_with(&p, 1.0, &opts).unwrap_err();
         assert_eq!(e.code, EXIT_BAD_INPUT);
-        assert!(e.message.starts_with(&p.display().to_string()), "{}", e.message);
-        assert!(e.message.contains(&format!("'{name}'")) && e.message.contains("integer"), "{}", e.message);
+        assert!(
+            e.message.starts_with(&p.display().to_string()),
+            "{}",
+            e.message
+        );
+        assert!(
+            e.message.contains(&format!("'{name}'")) && e.message.contains("integer"),
+            "{}",
+            e.message
+        );
     }
     // --region-array on a format without named arrays is refused.
     let opts = ReadOptions {
         region_array: Some("material".into()),
     };
     let e = meshio::read_with(&dir.join("a.msh"), &opts).unwrap_err();
-    assert!(e.message.contains("--region-array 'material'"), "{}", e.message);
+    assert!(
+        e.message.contains("--region-array 'material'"),
+        "{}",
+        e.message
+    );
 }
