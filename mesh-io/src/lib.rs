@@ -2,18 +2,22 @@
 //! a built core mesh ([`owned::OwnedMesh`]). Usable by any tool that wants the core's compact
 //! mesh from a file; the command line (`tetradrill`) is one such tool.
 //!
-//! | file          | format                                                        |
-//! |---------------|---------------------------------------------------------------|
-//! | [`tetgen`]    | TetGen `.node` + `.ele`, 0- or 1-based                        |
-//! | [`medit`]     | MEDIT `.mesh` (`Vertices`, `Tetrahedra`)                      |
-//! | [`gmsh`]      | Gmsh `.msh` 2.2 and 4.1 ASCII (4-node tets; others skipped)   |
-//! | [`vtk`]       | VTK legacy `.vtk` 4.2 and 5.1 ASCII, `UNSTRUCTURED_GRID`      |
-//! | [`vtu`]       | VTK XML `.vtu`, ASCII data arrays                             |
+//! | file          | format                                                                  |
+//! |---------------|-------------------------------------------------------------------------|
+//! | [`tetgen`]    | TetGen `.node` + `.ele`, 0- or 1-based, region attribute                |
+//! | [`medit`]     | MEDIT `.mesh` (`Vertices`, `Tetrahedra` with references)                |
+//! | [`meshb`]     | MEDIT binary `.meshb`, versions 1 to 4, either byte order               |
+//! | [`gmsh`]      | Gmsh `.msh` 2.2 and 4.1, ASCII and binary (4-node tets; others skipped) |
+//! | [`vtk`]       | VTK legacy `.vtk` 4.2 and 5.1, ASCII and BINARY, `UNSTRUCTURED_GRID`    |
+//! | [`vtu`]       | VTK XML `.vtu`: ASCII, base64 and appended arrays, zlib/LZ4/LZMA        |
+//! | [`source`]    | a file's bytes, gunzipped when its name ends in `.gz`                   |
 //!
-//! [`read`] gives the file's nodes and tets as they are ([`RawMesh`]); [`load`] scales them,
-//! drops unreferenced nodes and builds the core mesh ([`LoadedMesh`]). Both also take the
-//! built-in names `builtin:cube12` and `builtin:block:N`. Every bad input is a [`MeshError`]
-//! with exit status 2 and one line `FILE:LINE: reason`; nothing here panics on input.
+//! [`read`] gives the file's nodes, tets and region labels as they are ([`RawMesh`]); [`load`]
+//! scales them, drops unreferenced nodes and builds the core mesh ([`LoadedMesh`]). Both also
+//! take the built-in names `builtin:cube12` and `builtin:block:N`. Every bad input is a
+//! [`MeshError`] with exit status 2 and one line `FILE:LINE: reason` (`FILE: byte N: reason` in
+//! binary data); nothing here panics on input, and declared counts are checked against the
+//! bytes left before anything is allocated.
 
 #![forbid(unsafe_code)]
 
@@ -102,7 +106,7 @@ pub struct LoadedMesh {
 }
 
 /// The extensions [`read`] understands.
-pub const EXTENSIONS: &str = ".node/.ele, .mesh, .msh, .vtk, .vtu";
+pub const EXTENSIONS: &str = ".node/.ele, .mesh, .meshb, .msh, .vtk, .vtu, each also .gz";
 
 /// Reads a mesh file (format from the extension) or a built-in name, without building it.
 ///

@@ -773,7 +773,13 @@ impl Ctx<'_> {
             if base.is_some() {
                 e
             } else {
-                let reason = e.message.rsplit(": ").next().unwrap_or("").to_string();
+                // The reason without the `FILE: byte N: ` the cursor put before it.
+                let m = &e.message;
+                let reason = m
+                    .find(": byte ")
+                    .and_then(|i| m[i + 7..].split_once(": "))
+                    .map_or(m.as_str(), |(_, r)| r)
+                    .to_string();
                 self.err(
                     a,
                     format!("{reason} (at byte {} of the decoded data)", r.offset()),
