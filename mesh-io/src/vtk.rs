@@ -202,10 +202,12 @@ impl<'a> Reader<'a> {
             }
             return Ok(Vals::I(v));
         }
-        let mut f = Vec::new();
-        let mut i = Vec::new();
+        let mut f = Vec::with_capacity(if float { n } else { 0 });
+        let mut i = Vec::with_capacity(if float { 0 } else { n });
         for k in 0..n {
-            let t = self.need(&format!("{what} {} of {n}", k + 1))?;
+            let Some(t) = self.token() else {
+                return Err(self.eof(&format!("{what} {} of {n}", k + 1)));
+            };
             if let Some(l) = lines.as_deref_mut() {
                 l.push(t.line);
             }

@@ -249,16 +249,30 @@ fn appended_start(bytes: &[u8]) -> Option<(usize, usize)> {
     Some((tag, under))
 }
 
+/// The first offset of `needle` (non-empty) in `hay`.
 fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
-    hay.windows(needle.len()).position(|w| w == needle)
+    let mut from = 0;
+    while let Some(i) = hay[from..].iter().position(|&b| b == needle[0]) {
+        let at = from + i;
+        if hay[at..].starts_with(needle) {
+            return Some(at);
+        }
+        from = at + 1;
+    }
+    None
 }
 
 fn read_bytes(path: &Path, bytes: Vec<u8>, options: &ReadOptions) -> Result<RawMesh, MeshError> {
-    let (head, appended) = match appended_start(&bytes) {
-        Some((_, under)) => (bytes[..under].to_vec(), Some(under + 1)),
-        None => (bytes.clone(), None),
+    // The text up to the appended data's `_` marker, and the bytes after it.
+    let (text, appended_bytes, appended) = match appended_start(&bytes) {
+        Some((_, under)) => {
+            let tail = bytes[under + 1..].to_vec();
+            let mut head = bytes;
+            head.truncate(under);
+            (text_from(path, head, "VTU")?, tail, Some(under + 1))
+        }
+        None => (text_from(path, bytes, "VTU")?, Vec::new(), None),
     };
-    let text = text_from(path, head, "VTU")?;
     let at = |off: usize, reason: String| {
         MeshError::at(path, Some(line_of(&text, off)), one_line(&reason))
     };
@@ -471,7 +485,7 @@ fn read_bytes(path: &Path, bytes: Vec<u8>, options: &ReadOptions) -> Result<RawM
         header,
         compressor,
         appended: appended.map(|start| {
-            let mut data = &bytes[start..];
+            let mut data = &appended_bytes[..];
             if appended_base64 {
                 if let Some(end) = find(data, b"</AppendedData") {
                     data = &data[..end];
@@ -626,6 +640,15 @@ impl Ctx<'_> {
 
     /// The values of array `a`.
     fn values(&self, a: &Array<'_>) -> Result<Values, MeshError> {
+        self.values_lines(a, None)
+    }
+
+    /// The values of array `a`, and for an ASCII array the line of each when `lines` is given.
+    fn values_lines(
+        &self,
+        a: &Array<'_>,
+        lines: Option<&mut Vec<usize>>,
+    ) -> Result<Values, MeshError> {
         let Some((size, float)) = type_size(a.ty) else {
             return Err(self.err(
                 a,
@@ -633,7 +656,7 @@ impl Ctx<'_> {
             ));
         };
         if a.format == "ascii" {
-            return self.ascii(a, float);
+            return self.ascii(a, float, lines);
         }
         let (bytes, base) = match a.format {
             "binary" => {
@@ -725,22 +748,13 @@ impl Ctx<'_> {
         }
     }
 
-    /// The line of each value of an ASCII array (empty for a binary one).
-    fn ascii_lines(&self, a: &Array<'_>) -> Vec<usize> {
-        if a.format != "ascii" {
-            return Vec::new();
-        }
-        let (s, e) = a.content;
-        let mut c = Cursor::new(self.path, &self.text[s..e], line_of(self.text, s), None);
-        let mut lines = Vec::new();
-        while let Some((_, l)) = c.token() {
-            lines.push(l);
-        }
-        lines
-    }
-
-    /// An ASCII array.
-    fn ascii(&self, a: &Array<'_>, float: bool) -> Result<Values, MeshError> {
+    /// An ASCII array, and the line of each value when `lines` is given.
+    fn ascii(
+        &self,
+        a: &Array<'_>,
+        float: bool,
+        mut lines: Option<&mut Vec<usize>>,
+    ) -> Result<Values, MeshError> {
         let (s, e) = a.content;
         let mut c = Cursor::new(self.path, &self.text[s..e], line_of(self.text, s), None);
         if float {
@@ -753,6 +767,9 @@ impl Ctx<'_> {
             let mut v = Vec::new();
             while let Some((t, l)) = c.token() {
                 v.push(parse_int(&c, t, l, "an integer")?);
+                if let Some(lines) = lines.as_deref_mut() {
+                    lines.push(l);
+                }
             }
             Ok(Values::Int(v))
         }
@@ -970,7 +987,20 @@ fn read_piece(
     let ta = need(ctx, &piece.types, "types", pl)?;
     let types = ints(ctx, ta, "types")?;
     let ca = need(ctx, &piece.connectivity, "connectivity", pl)?;
-    let conn = ints(ctx, ca, "connectivity")?;
+    // ASCII: the line of each index, for the tets' lines and errors.
+    let mut value_lines = Vec::new();
+    let conn = match ctx.values_lines(ca, Some(&mut value_lines))? {
+        Values::Int(v) => v,
+        Values::Float(_) => {
+            return Err(ctx.err(
+                ca,
+                format!(
+                    "connectivity must be an integer array, not {}",
+                    short(ca.ty)
+                ),
+            ))
+        }
+    };
     let cells = piece.declared_cells;
     if offsets.len() as u64 != cells || types.len() as u64 != cells {
         return Err(piece_err(format!(
@@ -1008,7 +1038,6 @@ fn read_piece(
         ));
     }
     let conn_line = line_of(ctx.text, ca.tag);
-    let value_lines = ctx.ascii_lines(ca);
     let mut start = 0usize;
     for (k, (&end, &ty)) in offsets.iter().zip(&types).enumerate() {
         if end < start as i64 || end > conn.len() as i64 {
