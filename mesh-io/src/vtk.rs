@@ -328,7 +328,10 @@ pub fn read_with(path: &Path, options: &ReadOptions) -> Result<RawMesh, MeshErro
             enc,
             format!("expected ASCII or BINARY, found '{}'", short(enc.s)),
         ));
-    } else if let Some(at) = data.iter().position(|&b| b == 0 || b >= 0x80) {
+    } else if let Some(at) = match std::str::from_utf8(&data) {
+        Ok(text) => text.bytes().position(|b| b == 0),
+        Err(e) => Some(e.valid_up_to()),
+    } {
         let line = 1 + data[..at].iter().filter(|&&b| b == b'\n').count();
         return Err(MeshError::at(
             path,

@@ -568,7 +568,7 @@ fn ascii_files_carry_their_labels() {
     std::fs::write(dir.join("b.msh"), &g).unwrap();
     // VTK 4.2.
     let mut v = format!(
-        "# vtk DataFile Version 4.2\nocta\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS {n} double\n"
+        "# vtk DataFile Version 4.2\nocta, written by Müller\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS {n} double\n"
     );
     for p in &o.nodes {
         v += &format!("{}\n", xyz(p));
