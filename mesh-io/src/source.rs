@@ -21,8 +21,8 @@ pub(crate) fn strip_gz(path: &Path) -> (PathBuf, bool) {
     }
 }
 
-/// Reads a whole file; a `.gz` file is decompressed (an error names the compressed byte
-/// offset where the stream broke).
+/// Reads a whole file; a `.gz` file is decompressed (an error says how many bytes came out
+/// before the stream broke).
 pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>, MeshError> {
     let bytes =
         std::fs::read(path).map_err(|e| MeshError::at(path, None, format!("cannot read: {e}")))?;
@@ -42,17 +42,18 @@ pub(crate) fn gunzip(path: &Path, bytes: &[u8]) -> Result<Vec<u8>, MeshError> {
             "not a gzip file (the name ends in .gz but the data does not start with the gzip magic 1f 8b)",
         ));
     }
-    let mut src = bytes;
     let mut out = Vec::new();
-    let res = MultiGzDecoder::new(&mut src)
+    let res = MultiGzDecoder::new(bytes)
         .take(MAX_GUNZIPPED + 1)
         .read_to_end(&mut out);
-    let consumed = bytes.len() - src.len();
     match res {
-        Err(e) => Err(MeshError::at_byte(
+        Err(e) => Err(MeshError::at(
             path,
-            consumed as u64,
-            format!("corrupt or truncated gzip data: {e}"),
+            None,
+            format!(
+                "corrupt or truncated gzip data after {} decompressed bytes: {e}",
+                out.len()
+            ),
         )),
         Ok(_) if out.len() as u64 > MAX_GUNZIPPED => Err(MeshError::at(
             path,

@@ -221,7 +221,8 @@ fn clean_refusal(path: &Path, what: &str) -> String {
             .is_some_and(|l| l.parse::<usize>().is_ok())
         || rest.contains("DataArray")
         || rest.contains("no tetrahedra")
-        || rest == ": empty file";
+        || rest == ": empty file"
+        || rest.contains("gzip");
     assert!(placed, "{what}: no byte offset, line or block in '{m}'");
     m
 }
@@ -660,4 +661,21 @@ fn ascii_files_carry_their_labels() {
         "{}",
         e.message
     );
+}
+
+/// A cut gzip file is refused as such (the gzip trailer is missing), naming how much came out;
+/// a file named `.gz` that is not gzip is refused too.
+#[test]
+fn truncated_gzip_files_are_refused() {
+    let dir = scratch("gz");
+    let data = std::fs::read(mesh("formats/binary/octa_refs.mesh.gz")).unwrap();
+    let p = dir.join("a.mesh.gz");
+    for cut in (2..data.len()).step_by(211) {
+        std::fs::write(&p, &data[..cut]).unwrap();
+        let m = clean_refusal(&p, &format!("gz cut at {cut}"));
+        assert!(m.contains("corrupt or truncated gzip data after "), "{m}");
+    }
+    std::fs::write(&p, b"MeshVersionFormatted 2\n").unwrap();
+    let m = clean_refusal(&p, "not gzip");
+    assert!(m.contains("not a gzip file"), "{m}");
 }
