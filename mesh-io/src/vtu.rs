@@ -786,21 +786,25 @@ impl Ctx<'_> {
         let path = self.path;
         let mut r = crate::binary::Bytes::new(path, bytes, base.unwrap_or(0), self.big);
         // Errors inside inline data name the array's line; inside raw appended data, the byte.
+        // Errors from the cursor read `FILE: byte N: reason`: inside raw appended data they
+        // keep the byte and gain the array's name; inside inline data they name the array's
+        // line and the byte of the decoded data.
         let wrap = |e: MeshError, r: &crate::binary::Bytes<'_>| {
-            if base.is_some() {
-                e
-            } else {
-                // The reason without the `FILE: byte N: ` the cursor put before it.
-                let m = &e.message;
-                let reason = m
-                    .find(": byte ")
-                    .and_then(|i| m[i + 7..].split_once(": "))
-                    .map_or(m.as_str(), |(_, r)| r)
-                    .to_string();
-                self.err(
+            let m = &e.message;
+            let (off, reason) = m
+                .find(": byte ")
+                .and_then(|i| m[i + 7..].split_once(": "))
+                .map_or(("", m.as_str()), |(o, r)| (o, r));
+            match (base, off.parse::<u64>()) {
+                (Some(_), Ok(off)) => MeshError::at_byte(
+                    path,
+                    off,
+                    format!("DataArray '{}': {reason}", short(a.name)),
+                ),
+                _ => self.err(
                     a,
                     format!("{reason} (at byte {} of the decoded data)", r.offset()),
-                )
+                ),
             }
         };
         let h = self.header;
@@ -849,7 +853,11 @@ impl Ctx<'_> {
                     at + cs as usize
                 );
                 match base {
-                    Some(_) => MeshError::at_byte(path, at as u64, one_line(&what)),
+                    Some(_) => MeshError::at_byte(
+                        path,
+                        at as u64,
+                        one_line(&format!("DataArray '{}': {what}", short(a.name))),
+                    ),
                     None => self.err(a, what),
                 }
             })?;
