@@ -4,7 +4,7 @@
 //! versions 1-2 32-bit positions, 3-4 64-bit; version 4 64-bit integers. `Vertices`
 //! (`x y z ref`) and `Tetrahedra` (`n1 n2 n3 n4 ref`, 1-based; the reference is the tet's
 //! region label) are read; every other keyword is stepped over through its next-position
-//! field. Errors name the byte offset.
+//! field; the `End` keyword (code 54) closes the file. Errors name the byte offset.
 
 use std::path::Path;
 
@@ -54,7 +54,10 @@ fn read_bytes(path: &Path, data: &[u8]) -> Result<RawMesh, MeshError> {
     let mut dim = 3;
     let mut positions: Option<Vec<[f64; 3]>> = None;
     let mut raw_tets: Option<(Vec<[i64; 4]>, Vec<i32>, usize)> = None;
-    while !b.at_end() {
+    loop {
+        if b.at_end() {
+            return Err(b.err("unexpected end of file (truncated?): no End keyword"));
+        }
         let kat = b.offset();
         let kw = b.i32("a keyword code")?;
         if kw == END {
@@ -118,9 +121,6 @@ fn read_bytes(path: &Path, data: &[u8]) -> Result<RawMesh, MeshError> {
             }
             _ => {
                 // Any other keyword: go to the next one.
-                if next == 0 {
-                    break;
-                }
                 if next <= kat as u64 || next > data.len() as u64 {
                     return Err(b.err_at(
                         kat,
@@ -236,7 +236,7 @@ mod tests {
     #[test]
     fn every_cut_is_an_error_naming_a_byte() {
         let f = one_tet(false);
-        for cut in 0..f.len() - 4 {
+        for cut in 0..f.len() {
             let e = read_bytes(Path::new("t.meshb"), &f[..cut]).unwrap_err();
             assert_eq!(e.code, crate::EXIT_BAD_INPUT);
             assert!(

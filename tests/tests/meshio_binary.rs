@@ -227,8 +227,54 @@ fn clean_refusal(path: &Path, what: &str) -> String {
     m
 }
 
-/// The uncompressed binary variants, cut every `stride` bytes and at the last byte: every cut
-/// is a clean refusal, never a panic.
+/// Where the sections of a binary file start and end: Gmsh `$` lines, VTK keyword lines,
+/// VTU `DataArray` tags and the appended data's `_`, MEDIT keywords (followed through their
+/// next-position fields); each boundary and the bytes just before and after it.
+fn section_boundaries(name: &str, data: &[u8]) -> Vec<usize> {
+    let mut at = Vec::new();
+    if name.ends_with(".meshb") {
+        // Version 4: code (4 bytes), next position (8 bytes).
+        let mut p = 8usize;
+        while p + 12 <= data.len() {
+            at.push(p);
+            at.push(p + 4);
+            at.push(p + 12);
+            let next = u64::from_le_bytes(data[p + 4..p + 12].try_into().unwrap()) as usize;
+            if next <= p || next >= data.len() {
+                break;
+            }
+            p = next;
+        }
+    } else {
+        let marks: &[&[u8]] = &[
+            b"\n$",
+            b"\nPOINTS",
+            b"\nCELLS",
+            b"\nOFFSETS",
+            b"\nCONNECTIVITY",
+            b"\nCELL_TYPES",
+            b"\nCELL_DATA",
+            b"\nFIELD",
+            b"\nmaterial",
+            b"<DataArray",
+            b"</DataArray",
+            b"<CellData",
+            b"\n_",
+        ];
+        for p in 0..data.len() {
+            if marks.iter().any(|m| data[p..].starts_with(m)) {
+                at.push(p);
+            }
+        }
+    }
+    at.iter()
+        .flat_map(|&p| [p.saturating_sub(1), p, p + 1, p + 2])
+        .filter(|&p| p > 0 && p < data.len())
+        .collect()
+}
+
+/// The binary variants, cut every 97 bytes, at every section boundary and at the last byte:
+/// every cut is a clean refusal, never a panic.
 #[test]
 fn truncated_binary_files_are_refused_with_their_offset() {
     let dir = scratch("cuts");
@@ -248,10 +294,11 @@ fn truncated_binary_files_are_refused_with_their_offset() {
         let p = dir.join(name);
         let mut cuts: Vec<usize> = (1..data.len()).step_by(97).collect();
         cuts.push(data.len() - 1);
+        cuts.extend(section_boundaries(name, &data));
         for cut in cuts {
             // Cutting only trailing whitespace, or the position word after MEDIT's End
             // keyword (its last 8 bytes), leaves a whole file.
-            let after_end = name.ends_with(".meshb") && cut + 8 >= data.len();
+            let after_end = name.ends_with(".meshb") && cut >= data.len() - 8;
             if after_end || data[cut..].iter().all(|b| b.is_ascii_whitespace()) {
                 continue;
             }
