@@ -892,6 +892,17 @@ fn decompress(c: Compressor, comp: &[u8], want: u64) -> Result<Vec<u8>, String> 
                 .map_err(|e| format!("corrupt lz4 data: {e}"))?;
         }
         Compressor::Lzma => {
+            // The decoder holds a whole LZMA2 run in memory before handing it on: the sizes
+            // the chunk headers declare are checked against the table first.
+            match xz_declared_size(comp) {
+                Some(n) if n <= want => {}
+                Some(n) => {
+                    return Err(format!(
+                        "its xz chunks declare {n} bytes, the block table says {want}"
+                    ))
+                }
+                None => return Err("not an xz stream of LZMA2 chunks (truncated?)".into()),
+            }
             let mut input = comp;
             let mut w = Limited {
                 out: &mut out,
@@ -913,6 +924,54 @@ fn decompress(c: Compressor, comp: &[u8], want: u64) -> Result<Vec<u8>, String> 
         ));
     }
     Ok(out)
+}
+
+/// The uncompressed size that the LZMA2 chunk headers of an xz stream declare, read without
+/// decoding (stream header, then per block: its header, the chunks, padding and check, until
+/// the index); `None` when the bytes are not laid out so.
+fn xz_declared_size(x: &[u8]) -> Option<u64> {
+    if x.len() < 12 || &x[..6] != b"\xFD7zXZ\x00" {
+        return None;
+    }
+    let check = match x[7] & 0x0f {
+        0 => 0,
+        id => 4usize << ((id - 1) / 3),
+    };
+    let be16 = |p: usize| Some(u16::from_be_bytes([*x.get(p)?, *x.get(p + 1)?]) as u64);
+    let mut p = 12usize;
+    let mut total = 0u64;
+    loop {
+        let block = p;
+        let h = *x.get(p)?;
+        if h == 0 {
+            // The index: no more blocks.
+            return Some(total);
+        }
+        p = p.checked_add((h as usize + 1) * 4)?;
+        loop {
+            let c = *x.get(p)?;
+            p += 1;
+            match c {
+                0 => break,
+                1 | 2 => {
+                    let n = be16(p)? + 1;
+                    total = total.checked_add(n)?;
+                    p = p.checked_add(2 + n as usize)?;
+                }
+                0x80..=0xff => {
+                    let unpacked = (((c & 0x1f) as u64) << 16) + be16(p)? + 1;
+                    let packed = be16(p + 2)? as usize + 1;
+                    total = total.checked_add(unpacked)?;
+                    p = p.checked_add(4 + usize::from(c >= 0xc0) + packed)?;
+                }
+                _ => return None,
+            }
+        }
+        // Block padding to a multiple of four, then the check.
+        p = p
+            .checked_add((4 - (p - block) % 4) % 4)?
+            .checked_add(check)?;
+    }
 }
 
 /// A writer that refuses to grow past `limit` bytes.
@@ -1098,4 +1157,34 @@ fn read_piece(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An xz stream as Python's `lzma.compress(bytes(1000), format=lzma.FORMAT_XZ)` writes it
+    /// (the framing of VTK's LZMA compressor): 1000 zero bytes.
+    const ZEROS_1000: &[u8] = &[
+        0xfd, 0x37, 0x7a, 0x58, 0x5a, 0x00, 0x00, 0x04, 0xe6, 0xd6, 0xb4, 0x46, 0x02, 0x00, 0x21,
+        0x01, 0x16, 0x00, 0x00, 0x00, 0x74, 0x2f, 0xe5, 0xa3, 0xe0, 0x03, 0xe7, 0x00, 0x0b, 0x5d,
+        0x00, 0x00, 0x6f, 0xfd, 0xff, 0xff, 0xa3, 0xb7, 0x5a, 0x0d, 0x5e, 0x00, 0x00, 0x00, 0x4f,
+        0x25, 0x8a, 0xec, 0x2b, 0xe2, 0x2a, 0x37, 0x00, 0x01, 0x27, 0xe8, 0x07, 0x00, 0x00, 0x00,
+        0xf4, 0x55, 0x8f, 0x5c, 0xb1, 0xc4, 0x67, 0xfb, 0x02, 0x00, 0x00, 0x00, 0x00, 0x04, 0x59,
+        0x5a,
+    ];
+
+    #[test]
+    fn xz_chunk_sizes_are_read_before_decoding() {
+        assert_eq!(xz_declared_size(ZEROS_1000), Some(1000));
+        let out = decompress(Compressor::Lzma, ZEROS_1000, 1000).unwrap();
+        assert_eq!(out, vec![0u8; 1000]);
+        // A table that says less than the chunks hold: refused before anything is decoded.
+        let e = decompress(Compressor::Lzma, ZEROS_1000, 999).unwrap_err();
+        assert!(e.contains("declare 1000 bytes"), "{e}");
+        // Cut anywhere: refused, never a panic.
+        for cut in 0..ZEROS_1000.len() {
+            assert!(decompress(Compressor::Lzma, &ZEROS_1000[..cut], 1000).is_err());
+        }
+    }
 }
