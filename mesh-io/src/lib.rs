@@ -128,7 +128,7 @@ pub fn read_with(path: &Path, options: &ReadOptions) -> Result<RawMesh, MeshErro
 /// Like [`read`], also giving the file that holds the tets (the `.ele` of a TetGen pair).
 fn read_with_source(path: &Path, options: &ReadOptions) -> Result<(RawMesh, PathBuf), MeshError> {
     if let Some(name) = path.to_str().and_then(|s| s.strip_prefix("builtin:")) {
-        no_region_array(path, options, "a built-in mesh")?;
+        no_region_array(path, options, "built-in")?;
         return Ok((builtin(name)?, path.to_path_buf()));
     }
     let (plain, _) = source::strip_gz(path);
@@ -167,8 +167,8 @@ fn no_region_array(path: &Path, options: &ReadOptions, what: &str) -> Result<(),
             path,
             None,
             format!(
-                "--region-array '{}': {what} files have no named cell arrays (only VTK and VTU do; \
-                 this file's labels are read without it)",
+                "--region-array '{}': only VTK and VTU files have named cell arrays, not this \
+                 {what} mesh (its labels are read without the flag)",
                 text::short(name)
             ),
         )),
