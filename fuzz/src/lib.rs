@@ -28,6 +28,15 @@ pub fn write_scratch(name: &str, bytes: &[u8]) -> PathBuf {
     p
 }
 
+/// The scratch names of the `mesh_gz` target, picked by its input's first byte.
+pub const GZ_NAMES: [&str; 5] = [
+    "input.mesh.gz",
+    "input.msh.gz",
+    "input.vtk.gz",
+    "input.vtu.gz",
+    "input.meshb.gz",
+];
+
 /// The error contract of the command line: bad input is exit status 2 and one non-empty line.
 pub fn check_line(code: i32, message: &str) {
     assert_eq!(code, 2, "bad input must exit 2: {message}");
@@ -51,6 +60,7 @@ pub fn check_mesh_file(path: &Path) {
     match &read {
         Ok(raw) => {
             assert_eq!(raw.tets.len(), raw.tet_lines.len(), "one line per tet");
+            assert_eq!(raw.tets.len(), raw.labels.len(), "one label per tet");
             assert!(
                 raw.positions.iter().flatten().all(|c| c.is_finite()),
                 "non-finite node"

@@ -35,6 +35,11 @@ impl MeshError {
         }
     }
 
+    /// Bad input in a binary file, at a byte offset: `FILE: byte N: reason`.
+    pub fn at_byte(path: &Path, offset: u64, reason: impl fmt::Display) -> Self {
+        Self::input(format!("{}: byte {offset}: {reason}", path.display()))
+    }
+
     /// A failure that is not the input's fault (exit 1).
     pub fn failure(message: impl Into<String>) -> Self {
         Self {

@@ -1,11 +1,13 @@
-//! Gmsh `.msh` ASCII, versions 2.x (2.2) and 4.1. `$Nodes` and `$Elements` are read; 4-node
-//! tets (element type 4) are kept, other element types are skipped (a warning names the
-//! skipped 3-D ones); other sections are skipped. Binary files and version 4.0 are refused.
+//! Gmsh `.msh`, versions 2.x (2.2) and 4.1, ASCII here and binary in `gmsh_binary`. `$Nodes`
+//! and `$Elements` are read; 4-node tets (element type 4) are kept with their physical tag as
+//! region label (2.2: the first element tag; 4.1: the first physical tag of the volume entity
+//! in `$Entities`), other element types are skipped (a warning names the skipped 3-D ones);
+//! other sections are skipped. Version 4.0 is refused.
 
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::text::{parse_uint, parse_xyz, read_text, short, Cursor};
+use super::text::{parse_int, parse_uint, parse_xyz, short, text_from, Cursor};
 use super::RawMesh;
 use crate::MeshError;
 
@@ -28,6 +30,12 @@ struct State {
     positions: Vec<[f64; 3]>,
     /// Tets as node tags, with their lines.
     tets: Vec<([u64; 4], usize)>,
+    /// The physical tag of each tet (0 without one).
+    labels: Vec<i32>,
+    /// Some tet has a physical tag.
+    has_physical: bool,
+    /// Volume entity tag -> its first physical tag (4.1 `$Entities`).
+    volume_physical: HashMap<i64, i32>,
     skipped_volume: usize,
     nodes_seen: bool,
     elements_seen: bool,
@@ -39,7 +47,11 @@ struct State {
 /// Exit status 2, `FILE:LINE: reason`: binary files, unsupported versions, truncated sections,
 /// counts larger than the file, bad numbers, unknown or duplicated node tags, no tets.
 pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
-    let text = read_text(path, "Gmsh")?;
+    let bytes = crate::source::read_file(path)?;
+    if let Some((v41, size, start)) = binary_header(path, &bytes)? {
+        return crate::gmsh_binary::read(path, &bytes, v41, size, start);
+    }
+    let text = text_from(path, bytes, "Gmsh")?;
     let mut c = Cursor::new(path, &text, 1, None);
     let mut version = None;
     let mut st = State::default();
@@ -63,7 +75,10 @@ pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
                     return Err(c.err(l, "expected 'version file-type data-size'"));
                 }
                 if f[1] != "0" {
-                    return Err(c.err(l, "binary Gmsh files are not supported (save as ASCII)"));
+                    return Err(c.err(
+                        l,
+                        format!("file-type {} is not 0 (ASCII) or 1 (binary)", short(f[1])),
+                    ));
                 }
                 version = Some(match f[0] {
                     "2" | "2.0" | "2.1" | "2.2" => Version::V2,
@@ -103,6 +118,10 @@ pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
                         ),
                     ));
                 }
+            }
+            "Entities" if version == Some(Version::V41) => {
+                entities_v41(&mut c, &mut st)?;
+                skip_to_end(&mut c, section)?;
             }
             _ => skip_to_end(&mut c, section)?,
         }
@@ -147,15 +166,65 @@ pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
         Some(Version::V41) => "gmsh 4.1",
         _ => "gmsh 2.2",
     };
+    let label_source = st.has_physical.then(|| "Gmsh physical tags".to_string());
     Ok(RawMesh {
-        labels: vec![0; tets.len()],
+        labels: st.labels,
         positions: st.positions,
         tets,
         tet_lines,
-        label_source: None,
+        label_source,
         format,
         warnings,
     })
+}
+
+/// For a binary file (file-type 1 on the format line): whether it is 4.1, its data size and
+/// the offset after the format line. `None` for a text file.
+fn binary_header(path: &Path, bytes: &[u8]) -> Result<Option<(bool, usize, usize)>, MeshError> {
+    let mut b = crate::binary::Bytes::new(path, bytes, 0, false);
+    b.skip_space();
+    if b.line().map(|l| l.trim_ascii()) != Some(b"$MeshFormat") {
+        return Ok(None);
+    }
+    let at = b.offset();
+    let Some(line) = b.line() else {
+        return Ok(None);
+    };
+    let f: Vec<&[u8]> = line
+        .split(|c| c.is_ascii_whitespace())
+        .filter(|t| !t.is_empty())
+        .collect();
+    if f.len() < 3 || f[1] != b"1" {
+        return Ok(None);
+    }
+    let v41 = match f[0] {
+        b"2" | b"2.0" | b"2.1" | b"2.2" => false,
+        b"4.1" => true,
+        v => {
+            return Err(b.err_at(
+                at,
+                format!(
+                    "Gmsh version {} is not supported (2.2 and 4.1 are read)",
+                    crate::binary::show(v)
+                ),
+            ))
+        }
+    };
+    let size = match (v41, f[2]) {
+        (true, b"8") => 8,
+        (true, b"4") => 4,
+        (false, b"8") => 8,
+        (_, s) => {
+            return Err(b.err_at(
+                at,
+                format!(
+                    "data size {} is not supported (8, or 4 for 4.1 size_t)",
+                    crate::binary::show(s)
+                ),
+            ))
+        }
+    };
+    Ok(Some((v41, size, b.offset())))
 }
 
 /// Skips lines up to and including `$End<section>`.
@@ -249,12 +318,51 @@ fn nodes_v41(c: &mut Cursor<'_>, st: &mut State) -> Result<(), MeshError> {
     Ok(())
 }
 
-/// Keeps one element if it is a 4-node tet: `nodes` are its node tags.
+/// The volume entities' physical tags from an ASCII 4.1 `$Entities` section: `numPoints
+/// numCurves numSurfaces numVolumes`, then per entity `tag`, a bounding box (3 numbers for a
+/// point, 6 otherwise), `numPhysicalTags tags...` and, past points, `numBounding tags...`.
+fn entities_v41(c: &mut Cursor<'_>, st: &mut State) -> Result<(), MeshError> {
+    let (hl, counts) = header::<4>(c, "the $Entities header")?;
+    for (dim, &n) in counts.iter().enumerate() {
+        let n = c.count(n, 5, "entities", hl)?;
+        for _ in 0..n {
+            let (t, l) = c.need("an entity tag")?;
+            let tag = parse_int(c, t, l, "an entity tag")?;
+            for _ in 0..if dim == 0 { 3 } else { 6 } {
+                c.float("a bounding box coordinate")?;
+            }
+            let (np, npl) = c.uint("the number of physical tags")?;
+            let np = c.count(np, 1, "physical tags", npl)?;
+            for k in 0..np {
+                let (t, l) = c.need("a physical tag")?;
+                let v = parse_int(c, t, l, "a physical tag")?;
+                let v = i32::try_from(v)
+                    .map_err(|_| c.err(l, format!("physical tag {v} does not fit 32 bits")))?;
+                if dim == 3 && k == 0 {
+                    st.volume_physical.insert(tag, v);
+                }
+            }
+            if dim > 0 {
+                let (nb, nbl) = c.uint("the number of bounding entities")?;
+                let nb = c.count(nb, 1, "bounding entities", nbl)?;
+                for _ in 0..nb {
+                    let (t, l) = c.need("a bounding entity tag")?;
+                    parse_int(c, t, l, "a bounding entity tag")?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Keeps one element if it is a 4-node tet: `nodes` are its node tags, `physical` its
+/// physical tag when it has one.
 fn element(
     c: &Cursor<'_>,
     st: &mut State,
     etype: u64,
     nodes: &[&str],
+    physical: Option<i32>,
     line: usize,
 ) -> Result<(), MeshError> {
     if etype != TET4 {
@@ -271,6 +379,8 @@ fn element(
         *tag = parse_uint(c, s, line, "a node tag")?;
     }
     st.tets.push((tags, line));
+    st.labels.push(physical.unwrap_or(0));
+    st.has_physical |= physical.is_some();
     Ok(())
 }
 
@@ -294,7 +404,16 @@ fn elements_v2(c: &mut Cursor<'_>, st: &mut State) -> Result<(), MeshError> {
                 format!("element declares {ntags} tags but the line is shorter"),
             ));
         }
-        element(c, st, etype, &t[first..], l)?;
+        let physical = if ntags > 0 {
+            let v = parse_int(c, t[3], l, "a physical tag")?;
+            Some(
+                i32::try_from(v)
+                    .map_err(|_| c.err(l, format!("physical tag {v} does not fit 32 bits")))?,
+            )
+        } else {
+            None
+        };
+        element(c, st, etype, &t[first..], physical, l)?;
     }
     Ok(())
 }
@@ -306,7 +425,19 @@ fn elements_v41(c: &mut Cursor<'_>, st: &mut State) -> Result<(), MeshError> {
     st.elements_seen = true;
     let mut total = 0usize;
     for _ in 0..blocks {
-        let (bl, [_dim, _tag, etype, m]) = header::<4>(c, "an element block header")?;
+        let (bl, t) = c.need_line("an element block header")?;
+        if t.len() < 4 {
+            return Err(c.err(bl, "expected 4 numbers in an element block header"));
+        }
+        let dim = parse_uint(c, t[0], bl, "an entity dimension")?;
+        let tag = parse_int(c, t[1], bl, "an entity tag")?;
+        let etype = parse_uint(c, t[2], bl, "an element type")?;
+        let m = parse_uint(c, t[3], bl, "the number of elements")?;
+        let physical = if dim == 3 {
+            st.volume_physical.get(&tag).copied()
+        } else {
+            None
+        };
         let m = c.count(m, 2, "elements", bl)?;
         total += m;
         if total > n {
@@ -317,7 +448,10 @@ fn elements_v41(c: &mut Cursor<'_>, st: &mut State) -> Result<(), MeshError> {
         }
         for k in 0..m {
             let (l, t) = c.need_line(&format!("element {} of {m}", k + 1))?;
-            element(c, st, etype, &t[1..], l)?;
+            if t.len() < 2 {
+                return Err(c.err(l, "expected 'tag node-tags...'"));
+            }
+            element(c, st, etype, &t[1..], physical, l)?;
         }
     }
     if total != n {

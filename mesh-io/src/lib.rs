@@ -2,25 +2,33 @@
 //! a built core mesh ([`owned::OwnedMesh`]). Usable by any tool that wants the core's compact
 //! mesh from a file; the command line (`tetradrill`) is one such tool.
 //!
-//! | file          | format                                                        |
-//! |---------------|---------------------------------------------------------------|
-//! | [`tetgen`]    | TetGen `.node` + `.ele`, 0- or 1-based                        |
-//! | [`medit`]     | MEDIT `.mesh` (`Vertices`, `Tetrahedra`)                      |
-//! | [`gmsh`]      | Gmsh `.msh` 2.2 and 4.1 ASCII (4-node tets; others skipped)   |
-//! | [`vtk`]       | VTK legacy `.vtk` 4.2 and 5.1 ASCII, `UNSTRUCTURED_GRID`      |
-//! | [`vtu`]       | VTK XML `.vtu`, ASCII data arrays                             |
+//! | file          | format                                                                  |
+//! |---------------|-------------------------------------------------------------------------|
+//! | [`tetgen`]    | TetGen `.node` + `.ele`, 0- or 1-based, region attribute                |
+//! | [`medit`]     | MEDIT `.mesh` (`Vertices`, `Tetrahedra` with references)                |
+//! | [`meshb`]     | MEDIT binary `.meshb`, versions 1 to 4, either byte order               |
+//! | [`gmsh`]      | Gmsh `.msh` 2.2 and 4.1, ASCII and binary (4-node tets; others skipped) |
+//! | [`vtk`]       | VTK legacy `.vtk` 4.2 and 5.1, ASCII and BINARY, `UNSTRUCTURED_GRID`    |
+//! | [`vtu`]       | VTK XML `.vtu`: ASCII, base64 and appended arrays, zlib/LZ4/LZMA        |
+//! | [`source`]    | a file's bytes, gunzipped when its name ends in `.gz`                   |
 //!
-//! [`read`] gives the file's nodes and tets as they are ([`RawMesh`]); [`load`] scales them,
-//! drops unreferenced nodes and builds the core mesh ([`LoadedMesh`]). Both also take the
-//! built-in names `builtin:cube12` and `builtin:block:N`. Every bad input is a [`MeshError`]
-//! with exit status 2 and one line `FILE:LINE: reason`; nothing here panics on input.
+//! [`read`] gives the file's nodes, tets and region labels as they are ([`RawMesh`]); [`load`]
+//! scales them, drops unreferenced nodes and builds the core mesh ([`LoadedMesh`]). Both also
+//! take the built-in names `builtin:cube12` and `builtin:block:N`. Every bad input is a
+//! [`MeshError`] with exit status 2 and one line `FILE:LINE: reason` (`FILE: byte N: reason` in
+//! binary data); nothing here panics on input, and declared counts are checked against the
+//! bytes left before anything is allocated.
 
 #![forbid(unsafe_code)]
 
+pub(crate) mod binary;
 mod error;
 pub mod gmsh;
+pub(crate) mod gmsh_binary;
 pub mod medit;
+pub mod meshb;
 pub mod owned;
+pub mod source;
 pub mod tetgen;
 pub(crate) mod text;
 pub mod vtk;
@@ -98,7 +106,7 @@ pub struct LoadedMesh {
 }
 
 /// The extensions [`read`] understands.
-pub const EXTENSIONS: &str = ".node/.ele, .mesh, .msh, .vtk, .vtu";
+pub const EXTENSIONS: &str = ".node/.ele, .mesh, .meshb, .msh, .vtk, .vtu, each also .gz";
 
 /// Reads a mesh file (format from the extension) or a built-in name, without building it.
 ///
@@ -119,25 +127,22 @@ pub fn read_with(path: &Path, options: &ReadOptions) -> Result<RawMesh, MeshErro
 
 /// Like [`read`], also giving the file that holds the tets (the `.ele` of a TetGen pair).
 fn read_with_source(path: &Path, options: &ReadOptions) -> Result<(RawMesh, PathBuf), MeshError> {
-    let _ = options;
     if let Some(name) = path.to_str().and_then(|s| s.strip_prefix("builtin:")) {
+        no_region_array(path, options, "built-in")?;
         return Ok((builtin(name)?, path.to_path_buf()));
     }
-    let ext = path
+    let (plain, _) = source::strip_gz(path);
+    let ext = plain
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
-    match ext.as_deref() {
+    let (raw, tet_path) = match ext.as_deref() {
         Some("node") | Some("ele") => tetgen::read(path),
         Some("mesh") => medit::read(path).map(|m| (m, path.to_path_buf())),
-        Some("meshb") => Err(MeshError::at(
-            path,
-            None,
-            "binary MEDIT (.meshb) files are not supported (write ASCII .mesh)",
-        )),
+        Some("meshb") => meshb::read(path).map(|m| (m, path.to_path_buf())),
         Some("msh") => gmsh::read(path).map(|m| (m, path.to_path_buf())),
-        Some("vtk") => vtk::read(path).map(|m| (m, path.to_path_buf())),
-        Some("vtu") => vtu::read(path).map(|m| (m, path.to_path_buf())),
+        Some("vtk") => vtk::read_with(path, options).map(|m| (m, path.to_path_buf())),
+        Some("vtu") => vtu::read_with(path, options).map(|m| (m, path.to_path_buf())),
         Some(other) => Err(MeshError::at(
             path,
             None,
@@ -148,6 +153,26 @@ fn read_with_source(path: &Path, options: &ReadOptions) -> Result<(RawMesh, Path
             None,
             format!("mesh file has no extension (expected {EXTENSIONS}, or builtin:cube12, builtin:block:N)"),
         )),
+    }?;
+    if !matches!(ext.as_deref(), Some("vtk") | Some("vtu")) {
+        no_region_array(path, options, raw.format)?;
+    }
+    Ok((raw, tet_path))
+}
+
+/// Refuses a [`ReadOptions::region_array`] for a file without named cell arrays.
+fn no_region_array(path: &Path, options: &ReadOptions, what: &str) -> Result<(), MeshError> {
+    match &options.region_array {
+        Some(name) => Err(MeshError::at(
+            path,
+            None,
+            format!(
+                "--region-array '{}': only VTK and VTU files have named cell arrays, not this \
+                 {what} mesh (its labels are read without the flag)",
+                text::short(name)
+            ),
+        )),
+        None => Ok(()),
     }
 }
 

@@ -1,5 +1,6 @@
 //! MEDIT `.mesh` (ASCII, INRIA libMesh format): `MeshVersionFormatted`, `Dimension 3`,
-//! `Vertices` (`x y z ref`), `Tetrahedra` (`n1 n2 n3 n4 ref`, 1-based), `End`. Other sections
+//! `Vertices` (`x y z ref`), `Tetrahedra` (`n1 n2 n3 n4 ref`, 1-based; the reference is the
+//! tet's region label), `End`. Other sections
 //! (triangles, edges, corners, normals, ...) are skipped; `#` starts a comment.
 
 use std::path::Path;
@@ -46,6 +47,7 @@ pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
     let mut positions: Option<Vec<[f64; 3]>> = None;
     let mut raw_tets: Option<(Vec<[i64; 4]>, Vec<usize>)> = None;
     let mut dim = 3u64;
+    let mut refs: Vec<i32> = Vec::new();
     while let Some((kw, line)) = c.token() {
         if kw.eq_ignore_ascii_case("End") {
             break;
@@ -85,6 +87,7 @@ pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
             let n = c.count(n, 5, "tetrahedra", l)?;
             let mut t = Vec::with_capacity(n);
             let mut lines = Vec::with_capacity(n);
+            refs = Vec::with_capacity(n);
             for k in 0..n {
                 let what = format!("tetrahedron {} of {n}", k + 1);
                 let mut ids = [0i64; 4];
@@ -97,7 +100,13 @@ pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
                     *id = parse_int(&c, s, sl, "a node index")?;
                 }
                 let (r, rl) = c.need(&what)?;
-                parse_int(&c, r, rl, "a tetrahedron reference")?;
+                let r = parse_int(&c, r, rl, "a tetrahedron reference")?;
+                refs.push(i32::try_from(r).map_err(|_| {
+                    c.err(
+                        rl,
+                        format!("tetrahedron reference {r} does not fit 32 bits"),
+                    )
+                })?);
                 t.push(ids);
                 lines.push(first);
             }
@@ -140,10 +149,10 @@ pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
     }
     Ok(RawMesh {
         positions,
-        labels: vec![0; tets.len()],
+        labels: refs,
         tets,
         tet_lines,
-        label_source: None,
+        label_source: Some("MEDIT references".into()),
         format: "medit",
         warnings: Vec::new(),
     })

@@ -4,7 +4,8 @@
 //! point `<index> <x> <y> <z> [attributes] [marker]`. The first index (0 or 1) sets the
 //! numbering base for both files; indices must then be consecutive.
 //! `.ele`: header `<tets> <nodes per tet: 4 or 10> <region attribute 0|1>`, then one line per
-//! tet `<index> <n1> .. <n4> [n5 .. n10] [attribute]`; only the four corners are kept.
+//! tet `<index> <n1> .. <n4> [n5 .. n10] [attribute]`; only the four corners are kept, and the
+//! first attribute is the tet's region label. Either file may be gzipped (`.node.gz`).
 //! `#` starts a comment to the end of the line in both files.
 
 use std::path::{Path, PathBuf};
@@ -18,8 +19,18 @@ use crate::MeshError;
 /// # Errors
 /// Exit status 2, `FILE:LINE: reason`, for a missing partner file and every bad record.
 pub fn read(path: &Path) -> Result<(RawMesh, PathBuf), MeshError> {
-    let node_path = path.with_extension("node");
-    let ele_path = path.with_extension("ele");
+    let (stem, _) = crate::source::strip_gz(path);
+    let partner = |ext: &str| {
+        let plain = stem.with_extension(ext);
+        let gz = stem.with_extension(format!("{ext}.gz"));
+        if !plain.is_file() && gz.is_file() {
+            gz
+        } else {
+            plain
+        }
+    };
+    let node_path = partner("node");
+    let ele_path = partner("ele");
     for p in [&node_path, &ele_path] {
         if !p.is_file() {
             return Err(MeshError::at(
@@ -35,14 +46,17 @@ pub fn read(path: &Path) -> Result<(RawMesh, PathBuf), MeshError> {
     let node_text = read_text(&node_path, "TetGen")?;
     let (positions, base) = read_nodes(&node_path, &node_text)?;
     let ele_text = read_text(&ele_path, "TetGen")?;
-    let (tets, tet_lines) = read_tets(&ele_path, &ele_text, base, positions.len())?;
+    let (tets, tet_lines, labels) = read_tets(&ele_path, &ele_text, base, positions.len())?;
+    let label_source = labels
+        .is_some()
+        .then(|| "TetGen region attribute".to_string());
     Ok((
         RawMesh {
             positions,
-            labels: vec![0; tets.len()],
+            labels: labels.unwrap_or_else(|| vec![0; tets.len()]),
             tets,
             tet_lines,
-            label_source: None,
+            label_source,
             format: "tetgen",
             warnings: Vec::new(),
         },
@@ -109,30 +123,44 @@ fn read_nodes(path: &Path, text: &str) -> Result<(Vec<[f64; 3]>, i64), MeshError
     Ok((positions, base))
 }
 
+/// The tets, their lines, and their region attributes when the header declares them.
 #[allow(clippy::type_complexity)]
 fn read_tets(
     path: &Path,
     text: &str,
     base: i64,
     nodes: usize,
-) -> Result<(Vec<[u32; 4]>, Vec<usize>), MeshError> {
+) -> Result<(Vec<[u32; 4]>, Vec<usize>, Option<Vec<i32>>), MeshError> {
     let mut c = Cursor::new(path, text, 1, Some('#'));
-    let (hline, [t, per, _attr]) = header::<3>(&mut c, "the .ele header")?;
+    let (hline, [t, per, attr]) = header::<3>(&mut c, "the .ele header")?;
     if per != 4 && per != 10 {
         return Err(c.err(hline, format!("{per} nodes per tet: only 4 or 10 are read")));
     }
     if t == 0 {
         return Err(c.err(hline, "the .ele file declares no tets"));
     }
-    let t = c.count(t, 1 + per as usize, "tets", hline)?;
+    let has_attr = attr > 0;
+    let per_line = 1 + per as usize + usize::from(has_attr);
+    let t = c.count(t, per_line, "tets", hline)?;
     let mut tets = Vec::with_capacity(t);
     let mut lines = Vec::with_capacity(t);
+    let mut labels = Vec::with_capacity(if has_attr { t } else { 0 });
     for k in 0..t {
         let Some((line, tok)) = c.line() else {
             return Err(c.eof(&format!("tet {} of {t}", k + 1)));
         };
-        if tok.len() < 1 + per as usize {
-            return Err(c.err(line, format!("expected a tet index and {per} node indices")));
+        if tok.len() < per_line {
+            return Err(c.err(
+                line,
+                if has_attr {
+                    format!("expected a tet index, {per} node indices and a region attribute")
+                } else {
+                    format!("expected a tet index and {per} node indices")
+                },
+            ));
+        }
+        if has_attr {
+            labels.push(region(&c, tok[1 + per as usize], line)?);
         }
         let _ = parse_int(&c, tok[0], line, "a tet index")?;
         let mut raw = [0i64; 4];
@@ -142,5 +170,23 @@ fn read_tets(
         tets.push(node_ids(&c, raw, base, nodes, line)?);
         lines.push(line);
     }
-    Ok((tets, lines))
+    Ok((tets, lines, has_attr.then_some(labels)))
+}
+
+/// A region attribute: an integer (TetGen writes it as a number that may carry a fraction
+/// part of zero, `2` or `2.0`) that fits 32 bits.
+fn region(c: &Cursor<'_>, t: &str, line: usize) -> Result<i32, MeshError> {
+    if let Ok(v) = t.parse::<i32>() {
+        return Ok(v);
+    }
+    match t.parse::<f64>() {
+        Ok(v) if v.fract() == 0.0 && v >= i32::MIN as f64 && v <= i32::MAX as f64 => Ok(v as i32),
+        _ => Err(c.err(
+            line,
+            format!(
+                "region attribute '{}' is not an integer that fits 32 bits",
+                crate::text::short(t)
+            ),
+        )),
+    }
 }

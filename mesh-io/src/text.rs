@@ -6,11 +6,14 @@ use std::str::SplitWhitespace;
 
 use crate::MeshError;
 
-/// Reads a whole file as text. Empty files, files with NUL bytes and files that are not UTF-8
+/// Reads a whole file as text (decompressed when its name ends in `.gz`). Empty files, files with NUL bytes and files that are not UTF-8
 /// are refused (`binary {format} files are not supported`), naming the first bad line.
 pub(crate) fn read_text(path: &Path, format: &str) -> Result<String, MeshError> {
-    let bytes =
-        std::fs::read(path).map_err(|e| MeshError::at(path, None, format!("cannot read: {e}")))?;
+    text_from(path, crate::source::read_file(path)?, format)
+}
+
+/// [`read_text`] for bytes already read (and decompressed).
+pub(crate) fn text_from(path: &Path, bytes: Vec<u8>, format: &str) -> Result<String, MeshError> {
     if bytes.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(MeshError::at(path, None, "empty file"));
     }
@@ -23,7 +26,7 @@ pub(crate) fn read_text(path: &Path, format: &str) -> Result<String, MeshError> 
         return Err(MeshError::at(
             path,
             Some(line),
-            format!("binary data: binary {format} files are not supported (write ASCII)"),
+            format!("binary data in a text {format} file"),
         ));
     }
     String::from_utf8(bytes).map_err(|_| MeshError::at(path, None, "not UTF-8 text"))
@@ -66,11 +69,6 @@ impl<'a> Cursor<'a> {
             cur: "".split_whitespace(),
             comment,
         }
-    }
-
-    /// Number of the current line (the last one a token or line came from).
-    pub(crate) fn line_no(&self) -> usize {
-        self.line_no
     }
 
     /// Loads the next line into `cur`; `false` at the end of the text.
@@ -119,17 +117,6 @@ impl<'a> Cursor<'a> {
                 return Some((self.line_no, toks));
             }
         }
-    }
-
-    /// Drops what is left of the current line and returns the next line as raw text (comments
-    /// not removed), or `None` at the end.
-    pub(crate) fn raw_line(&mut self) -> Option<&'a str> {
-        let start = self.pos;
-        if !self.advance() {
-            return None;
-        }
-        self.cur = "".split_whitespace();
-        Some(self.text[start..self.pos].trim_end_matches(['\n', '\r']))
     }
 
     /// Like [`Cursor::line`], but the end of the text is an error naming `what` was expected.

@@ -35,8 +35,9 @@ fn assert_one_line(e: &CliError) {
 /// What the mesh fuzz targets check: `read` and `load` return (no panic), refusals are one
 /// line with exit status 2, a loaded mesh is valid.
 fn check_mesh(path: &Path) -> Result<(), CliError> {
-    if let Err(e) = meshio::read(path) {
-        assert_one_line(&e.into());
+    match meshio::read(path) {
+        Ok(raw) => assert_eq!(raw.labels.len(), raw.tets.len(), "one label per tet"),
+        Err(e) => assert_one_line(&e.into()),
     }
     match meshio::load(path, 1.0) {
         Ok(mut m) => {
@@ -58,6 +59,16 @@ fn mesh_input(target: &str, name: &str, data: &[u8]) -> Result<(), CliError> {
         "mesh_gmsh" => "msh",
         "mesh_vtk" => "vtk",
         "mesh_vtu" => "vtu",
+        "mesh_meshb" => "meshb",
+        "mesh_gz" => {
+            // As the target: the first byte picks the format inside the gzip file.
+            let names = ["mesh.gz", "msh.gz", "vtk.gz", "vtu.gz", "meshb.gz"];
+            let Some((&pick, gz)) = data.split_first() else {
+                return Ok(());
+            };
+            let ext = names[pick as usize % names.len()];
+            return check_mesh(&write(&format!("{name}.{ext}"), gz));
+        }
         "mesh_tetgen" => {
             let (node, ele) = match data.iter().position(|&b| b == 0) {
                 Some(i) => (&data[..i], &data[i + 1..]),
