@@ -25,7 +25,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 fuzz="$root/fuzz"
 meshes=${TETRADRILL_MESHES:-$root/tests/data/meshes}
 sanitizer=${FUZZ_SANITIZER:-address}
-all=(mesh_tetgen mesh_medit mesh_gmsh mesh_vtk mesh_vtu trace scenario falcon omni)
+all=(mesh_tetgen mesh_medit mesh_meshb mesh_gmsh mesh_vtk mesh_vtu mesh_gz trace scenario falcon omni)
 targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=("${all[@]}")
 
@@ -61,9 +61,11 @@ real_seeds() {
     [ -d "$m" ] || return 0
     case $1 in
         mesh_medit) ls "$m"/cube12/*.mesh "$m"/formats/*.mesh "$m"/models/pen_tool_gmsh.mesh ;;
-        mesh_gmsh) ls "$m"/cube12/*.msh "$m"/formats/*.msh "$m"/models/pen_tool_gmsh.msh22.msh ;;
-        mesh_vtk) ls "$m"/cube12/*.vtk "$m"/models/*.vtk ;;
-        mesh_vtu) ls "$m"/cube12/*.vtu "$m"/models/*.vtu ;;
+        mesh_meshb) ls "$m"/formats/binary/*.meshb ;;
+        mesh_gmsh) ls "$m"/cube12/*.msh "$m"/formats/*.msh "$m"/formats/binary/*.msh \
+            "$m"/models/pen_tool_gmsh.msh22.msh ;;
+        mesh_vtk) ls "$m"/cube12/*.vtk "$m"/models/*.vtk "$m"/formats/binary/*.vtk ;;
+        mesh_vtu) ls "$m"/cube12/*.vtu "$m"/models/*.vtu "$m"/formats/binary/*.vtu ;;
     esac 2> /dev/null
 }
 

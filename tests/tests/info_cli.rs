@@ -299,3 +299,25 @@ fn a_mesh_without_labels_is_one_region_zero() {
     assert_eq!(regions["0"], 12);
     assert!(j["region_source"].is_null());
 }
+
+#[test]
+fn regions_come_from_refs_physical_tags_cell_data_and_attributes() {
+    // The octahedron's variants label the tets below z = 0 as 1 and the others as 2
+    // (tests/data/meshes/formats/binary/README.md); TetGen's original gives every tet its
+    // region attribute 100.
+    let halves = serde_json::json!({"1": 612, "2": 612});
+    for (file, source) in [
+        ("formats/binary/octa_refs.mesh", "MEDIT"),
+        ("formats/binary/octa.meshb", "MEDIT"),
+        ("formats/binary/octa_22bin.msh", "Gmsh"),
+        ("formats/binary/octa_zlib.vtu", "material"),
+        ("formats/binary/octa_bin.vtk", "material"),
+    ] {
+        let j = info_json(&mesh(file), 1.0);
+        assert_eq!(j["regions"], halves, "{file}");
+        let s = j["region_source"].as_str().unwrap_or_default();
+        assert!(s.contains(source), "{file}: {s}");
+    }
+    let j = info_json(&mesh("formats/sfepy_octahedron.ele"), 1.0);
+    assert_eq!(j["regions"], serde_json::json!({"100": 1224}));
+}
