@@ -2,7 +2,7 @@
 //! tokens or whole lines with their line numbers, so every error names `FILE:LINE`.
 
 use std::path::Path;
-use std::str::SplitWhitespace;
+use std::str::SplitAsciiWhitespace;
 
 use crate::MeshError;
 
@@ -40,6 +40,66 @@ pub(crate) fn line_of(text: &str, at: usize) -> usize {
         .count()
 }
 
+/// Tokens a line keeps without allocating (a tet's line has five to nine).
+const INLINE_TOKENS: usize = 16;
+
+/// The tokens of one line, as a slice: up to [`INLINE_TOKENS`] held inline, a longer line's in
+/// a `Vec`. Millions of lines are read without an allocation each.
+// The inline variant is the point: it lives on the stack, one per line read.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone)]
+pub(crate) enum Tokens<'a> {
+    /// A line of at most [`INLINE_TOKENS`] tokens: the first `.1` of the array.
+    Inline([&'a str; INLINE_TOKENS], usize),
+    /// A longer line.
+    Heap(Vec<&'a str>),
+}
+
+impl<'a> Tokens<'a> {
+    fn of(mut it: impl Iterator<Item = &'a str>) -> Self {
+        let mut a = [""; INLINE_TOKENS];
+        let mut n = 0;
+        while n < INLINE_TOKENS {
+            match it.next() {
+                Some(t) => {
+                    a[n] = t;
+                    n += 1;
+                }
+                None => return Self::Inline(a, n),
+            }
+        }
+        match it.next() {
+            None => Self::Inline(a, n),
+            Some(t) => {
+                let mut v = a.to_vec();
+                v.push(t);
+                v.extend(it);
+                Self::Heap(v)
+            }
+        }
+    }
+}
+
+impl<'a, 'b> IntoIterator for &'b Tokens<'a> {
+    type Item = &'b &'a str;
+    type IntoIter = std::slice::Iter<'b, &'a str>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
+}
+
+impl<'a> std::ops::Deref for Tokens<'a> {
+    type Target = [&'a str];
+
+    fn deref(&self) -> &[&'a str] {
+        match self {
+            Self::Inline(a, n) => &a[..*n],
+            Self::Heap(v) => v,
+        }
+    }
+}
+
 /// Tokens and lines of a text, with line numbers and optional comments to end of line.
 #[derive(Debug)]
 pub(crate) struct Cursor<'a> {
@@ -49,7 +109,7 @@ pub(crate) struct Cursor<'a> {
     pos: usize,
     /// Number of the line held in `cur` (0 before the first).
     line_no: usize,
-    cur: SplitWhitespace<'a>,
+    cur: SplitAsciiWhitespace<'a>,
     comment: Option<char>,
 }
 
@@ -66,7 +126,7 @@ impl<'a> Cursor<'a> {
             text,
             pos: 0,
             line_no: first_line.saturating_sub(1),
-            cur: "".split_whitespace(),
+            cur: "".split_ascii_whitespace(),
             comment,
         }
     }
@@ -74,7 +134,7 @@ impl<'a> Cursor<'a> {
     /// Loads the next line into `cur`; `false` at the end of the text.
     fn advance(&mut self) -> bool {
         if self.pos >= self.text.len() {
-            self.cur = "".split_whitespace();
+            self.cur = "".split_ascii_whitespace();
             return false;
         }
         let rest = &self.text[self.pos..];
@@ -88,7 +148,7 @@ impl<'a> Cursor<'a> {
             Some(i) => &line[..i],
             None => line,
         };
-        self.cur = line.split_whitespace();
+        self.cur = line.split_ascii_whitespace();
         true
     }
 
@@ -106,21 +166,21 @@ impl<'a> Cursor<'a> {
 
     /// Drops what is left of the current line and returns the tokens of the next line that has
     /// any, with its number; `None` at the end.
-    pub(crate) fn line(&mut self) -> Option<(usize, Vec<&'a str>)> {
+    pub(crate) fn line(&mut self) -> Option<(usize, Tokens<'a>)> {
         loop {
             if !self.advance() {
                 return None;
             }
-            let toks: Vec<&'a str> = self.cur.clone().collect();
+            let toks = Tokens::of(self.cur.clone());
             if !toks.is_empty() {
-                self.cur = "".split_whitespace();
+                self.cur = "".split_ascii_whitespace();
                 return Some((self.line_no, toks));
             }
         }
     }
 
     /// Like [`Cursor::line`], but the end of the text is an error naming `what` was expected.
-    pub(crate) fn need_line(&mut self, what: &str) -> Result<(usize, Vec<&'a str>), MeshError> {
+    pub(crate) fn need_line(&mut self, what: &str) -> Result<(usize, Tokens<'a>), MeshError> {
         match self.line() {
             Some(l) => Ok(l),
             None => Err(self.eof(what)),
@@ -219,12 +279,38 @@ pub(crate) fn parse_int(
     line: usize,
     what: &str,
 ) -> Result<i64, MeshError> {
-    t.parse::<i64>().map_err(|_| {
-        c.err(
-            line,
-            format!("expected {what} (an integer), found '{}'", short(t)),
-        )
-    })
+    fast_int(t)
+        .or_else(|| t.parse::<i64>().ok())
+        .ok_or_else(|| {
+            c.err(
+                line,
+                format!("expected {what} (an integer), found '{}'", short(t)),
+            )
+        })
+}
+
+/// An optional sign and at most 18 ASCII digits (no overflow possible), the common case of
+/// a mesh file's integers, without `str::parse`'s generality; `None` for anything else (the
+/// caller falls back to `str::parse`, so the accepted set is the same).
+fn fast_int(t: &str) -> Option<i64> {
+    let b = t.as_bytes();
+    let (neg, digits) = match b.first() {
+        Some(b'-') => (true, &b[1..]),
+        Some(b'+') => (false, &b[1..]),
+        _ => (false, b),
+    };
+    if digits.is_empty() || digits.len() > 18 {
+        return None;
+    }
+    let mut v = 0i64;
+    for &c in digits {
+        let d = c.wrapping_sub(b'0');
+        if d > 9 {
+            return None;
+        }
+        v = v * 10 + d as i64;
+    }
+    Some(if neg { -v } else { v })
 }
 
 /// Parses a float token and refuses NaN and infinities.
@@ -313,4 +399,52 @@ pub(crate) fn node_ids(
         *o = (v - base) as u32;
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lines_of_any_length_give_their_tokens_in_order() {
+        for n in [
+            1usize,
+            5,
+            INLINE_TOKENS - 1,
+            INLINE_TOKENS,
+            INLINE_TOKENS + 1,
+            40,
+        ] {
+            let words: Vec<String> = (0..n).map(|i| format!("w{i}")).collect();
+            let text = format!("\n  # nothing\n{}  # tail\n", words.join(" \t "));
+            let mut c = Cursor::new(Path::new("t"), &text, 1, Some('#'));
+            let (line, toks) = c.line().expect("a line");
+            assert_eq!(line, 3);
+            assert_eq!(toks.len(), n);
+            assert!(toks.iter().zip(&words).all(|(a, b)| a == b), "{n}");
+            assert!(matches!(toks, Tokens::Inline(..)) == (n <= INLINE_TOKENS));
+            assert!(c.line().is_none());
+        }
+    }
+
+    #[test]
+    fn fast_integers_agree_with_str_parse() {
+        let mut cases: Vec<String> = ["0", "-0", "+7", "-", "+", "", "12a", "1.0", " 1", "٣"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        for k in 0..=19 {
+            let n = 10i64.pow(k.min(18)) - 1 + (k as i64);
+            cases.push(n.to_string());
+            cases.push(format!("-{n}"));
+            cases.push(format!("+{n}"));
+        }
+        cases.push(i64::MAX.to_string());
+        cases.push(i64::MIN.to_string());
+        cases.push("9223372036854775808".into());
+        for t in &cases {
+            let fast = fast_int(t).or_else(|| t.parse::<i64>().ok());
+            assert_eq!(fast, t.parse::<i64>().ok(), "{t:?}");
+        }
+    }
 }
