@@ -1,21 +1,15 @@
 //! The platform layer of the real-time tasks: the monotonic clock, absolute-deadline sleeps,
-//! SCHED_FIFO, memory locking, core pinning and the stop signals' handlers. This is the only file of the workspace with
-//! `unsafe` (each block is one libc call with its `// SAFETY:` reason); everything else calls
-//! these safe wrappers.
+//! SCHED_FIFO, memory locking, core pinning and the stop signals' handlers. This is the only
+//! file of the host runner with `unsafe` (each block is one libc call with its `// SAFETY:`
+//! reason; the device crate's OS transports have their own); everything else calls these safe
+//! wrappers.
 #![allow(unsafe_code)]
 
 use std::io;
 
-/// Nanoseconds on CLOCK_MONOTONIC.
-pub fn now_ns() -> u64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC always exists on Linux.
-    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
-    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
-}
+/// Nanoseconds on CLOCK_MONOTONIC: the device crate's clock, which the transports' deadlines
+/// use too.
+pub use tetradrill_device::os::clock::now_ns;
 
 /// Sleeps until the absolute CLOCK_MONOTONIC time `t_ns` (`clock_nanosleep` with
 /// TIMER_ABSTIME, restarted after signals). Neither allocates nor locks.
