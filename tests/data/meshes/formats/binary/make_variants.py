@@ -13,7 +13,9 @@ headers, big-endian files, MEDIT versions 1-3, Gmsh binary of the other byte ord
 import base64
 import gzip
 import lzma
+import os
 import struct
+import tempfile
 import zlib
 
 import lz4.block
@@ -129,8 +131,10 @@ vtu("octa_appended_b64_lz4.vtu", fmt="base64", compressor="lz4", header="UInt64"
 # ---- VTK legacy 4.2 binary (meshio) -----------------------------------------------------------
 
 mesh = meshio.Mesh(POINTS, [("tetra", TETS)], cell_data={"material": [LABELS]})
-meshio.vtk.write("/tmp/octa_42bin.vtk", mesh, binary=True, fmt_version="4.2")
-gz("octa_42bin.vtk.gz", open("/tmp/octa_42bin.vtk", "rb").read())
+with tempfile.TemporaryDirectory() as scratch:
+    legacy = os.path.join(scratch, "octa_42bin.vtk")
+    meshio.vtk.write(legacy, mesh, binary=True, fmt_version="4.2")
+    gz("octa_42bin.vtk.gz", open(legacy, "rb").read())
 
 # ---- Gmsh binary, big-endian (the writing machine's byte order) -------------------------------
 
