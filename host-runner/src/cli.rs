@@ -64,19 +64,3 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Timing(args) => crate::commands::timing::run(&args),
     }
 }
-
-/// Parses a positive, finite number of seconds (a clap value parser).
-pub fn positive_seconds(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        _ => Err(format!("`{s}` is not a positive number of seconds")),
-    }
-}
-
-/// Writes `value` as pretty JSON to `path` (exit 1 on an I/O error: the run itself is fine).
-pub fn write_json<T: serde::Serialize>(path: &std::path::Path, value: &T) -> Result<(), CliError> {
-    let text = serde_json::to_string_pretty(value)
-        .map_err(|e| CliError::failure(format!("cannot encode JSON: {e}")))?;
-    std::fs::write(path, text + "\n")
-        .map_err(|e| CliError::failure(format!("{}: cannot write: {e}", path.display())))
-}

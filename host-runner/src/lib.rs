@@ -11,6 +11,7 @@
 //! | [`meshio`]  | mesh files: the `tetradrill-meshio` crate, re-exported      |
 //! | [`owned`]   | host-owned storage for one core mesh (from `tetradrill-meshio`) |
 //! | [`platform`]| clock, absolute sleeps, SCHED_FIFO, mlockall, pinning (`unsafe`, libc)       |
+//! | [`report`]  | the JSON reports the commands write                         |
 //! | [`rt`]      | servo thread set-up and the absolute-deadline period        |
 //! | [`stats`]   | percentiles and histograms of timing samples                |
 //! | [`workload`]| the per-tick work of the built-in scenario                  |
@@ -62,6 +63,7 @@ pub mod error;
 pub mod pen;
 pub mod pen_tasks;
 pub mod platform;
+pub mod report;
 pub mod rt;
 pub mod scenario;
 pub mod stats;

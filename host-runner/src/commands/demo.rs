@@ -23,7 +23,7 @@ pub struct DemoArgs {
     pub headless: bool,
     /// Seconds to run (default: the scripted path, 6 s, headless; until the window closes with
     /// a window).
-    #[arg(long, allow_negative_numbers = true, value_parser = crate::cli::positive_seconds)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::scenario::positive_seconds)]
     pub duration: Option<f64>,
     /// Write the summary as JSON.
     #[arg(long)]

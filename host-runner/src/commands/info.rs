@@ -336,7 +336,7 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
             writeln!(std::io::stdout(), "{text}")
                 .map_err(|e| CliError::failure(format!("stdout: cannot write the JSON: {e}")))?;
         }
-        Some(out) => crate::cli::write_json(out, &s.to_json())?,
+        Some(out) => crate::report::write_json(out, &s.to_json())?,
         None => {}
     }
     Ok(())

@@ -490,7 +490,7 @@ fn conclude(
 ) -> Result<RunReport, CliError> {
     rep.valid = valid.is_ok();
     if let Some(path) = json {
-        crate::cli::write_json(path, &rep)?;
+        crate::report::write_json(path, &rep)?;
     }
     if let Some(e) = error {
         return Err(CliError::failure(format!(

@@ -462,7 +462,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     }
     print_summary(&rep);
     if let Some(path) = &args.json {
-        crate::cli::write_json(path, &rep)?;
+        crate::report::write_json(path, &rep)?;
     }
     if let Some(path) = &view.screenshot {
         let tool = last_pose.map(|p| {
@@ -700,7 +700,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
         );
     }
     if let Some(path) = &args.json {
-        crate::cli::write_json(path, &rep)?;
+        crate::report::write_json(path, &rep)?;
     }
     valid.map_err(|e| CliError::failure(format!("the object's state is invalid: {e}")))
 }

@@ -36,7 +36,7 @@ pub struct RunArgs {
     pub scenario: ScenarioFlags,
     /// Seconds to run (default: the script's or trace's length with the simulated device;
     /// a wander and the real devices run until the window closes or a signal).
-    #[arg(long, allow_negative_numbers = true, value_parser = crate::cli::positive_seconds)]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::scenario::positive_seconds)]
     pub duration: Option<f64>,
     /// No viewer.
     #[arg(long)]

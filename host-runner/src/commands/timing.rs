@@ -22,7 +22,7 @@ pub struct TimingArgs {
         long,
         default_value_t = 10.0,
         allow_negative_numbers = true,
-        value_parser = crate::cli::positive_seconds
+        value_parser = crate::scenario::positive_seconds
     )]
     pub duration: f64,
     /// Write the results as JSON.
@@ -126,7 +126,7 @@ pub fn run(args: &TimingArgs) -> Result<(), CliError> {
     let rep = report(&wake, &tick, overruns, &status, name);
     print_summary(&rep);
     if let Some(path) = &args.json {
-        crate::cli::write_json(path, &rep)?;
+        crate::report::write_json(path, &rep)?;
     }
     Ok(())
 }
