@@ -12,9 +12,9 @@ use super::RawMesh;
 use crate::MeshError;
 
 /// Gmsh element type of the 4-node tetrahedron.
-const TET4: u64 = 4;
+pub(crate) const TET4: u64 = 4;
 /// Gmsh element types with a volume (hexahedra, prisms, pyramids, high-order tets, ...).
-const VOLUME_TYPES: &[u64] = &[5, 6, 7, 11, 12, 13, 14, 17, 18, 19, 29, 30, 31, 92, 93];
+pub(crate) const VOLUME_TYPES: &[u64] = &[5, 6, 7, 11, 12, 13, 14, 17, 18, 19, 29, 30, 31, 92, 93];
 
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum Version {
@@ -22,23 +22,99 @@ enum Version {
     V41,
 }
 
-/// What is read so far.
+/// What is read so far, by the ASCII reader here and the binary one (`gmsh_binary`): `at` is
+/// a line for the one and a byte offset for the other.
 #[derive(Default)]
-struct State {
+pub(crate) struct State {
     /// Node tag -> index into `positions`.
-    ids: HashMap<u64, u32>,
-    positions: Vec<[f64; 3]>,
-    /// Tets as node tags, with their lines.
-    tets: Vec<([u64; 4], usize)>,
+    pub(crate) ids: HashMap<u64, u32>,
+    pub(crate) positions: Vec<[f64; 3]>,
+    /// Tets as node tags, with where they were read (`at`).
+    pub(crate) tets: Vec<([u64; 4], usize)>,
     /// The physical tag of each tet (0 without one).
-    labels: Vec<i32>,
+    pub(crate) labels: Vec<i32>,
     /// Some tet has a physical tag.
-    has_physical: bool,
+    pub(crate) has_physical: bool,
     /// Volume entity tag -> its first physical tag (4.1 `$Entities`).
-    volume_physical: HashMap<i64, i32>,
-    skipped_volume: usize,
-    nodes_seen: bool,
-    elements_seen: bool,
+    pub(crate) volume_physical: HashMap<i64, i32>,
+    pub(crate) skipped_volume: usize,
+    pub(crate) nodes_seen: bool,
+    pub(crate) elements_seen: bool,
+}
+
+impl State {
+    /// Adds node `tag`; `Err(())` when the tag was listed before.
+    pub(crate) fn add_node(&mut self, tag: u64, xyz: [f64; 3]) -> Result<(), ()> {
+        let idx = self.positions.len() as u32;
+        if self.ids.insert(tag, idx).is_some() {
+            return Err(());
+        }
+        self.positions.push(xyz);
+        Ok(())
+    }
+
+    /// Keeps an element of type `etype` read at `at` if it is a 4-node tet (`tags`, its
+    /// first four node tags), counts it if it is another volume element, and drops the rest.
+    pub(crate) fn element(&mut self, etype: u64, tags: [u64; 4], physical: Option<i32>, at: usize) {
+        if etype != TET4 {
+            if VOLUME_TYPES.contains(&etype) {
+                self.skipped_volume += 1;
+            }
+            return;
+        }
+        self.tets.push((tags, at));
+        self.labels.push(physical.unwrap_or(0));
+        self.has_physical |= physical.is_some();
+    }
+
+    /// The mesh read: tets by node index (`err(at, reason)` for a tag not in `$Nodes`), each
+    /// tet's line when `lines`, a warning for skipped volume elements.
+    pub(crate) fn finish(
+        self,
+        path: &Path,
+        format: &'static str,
+        lines: bool,
+        err: impl Fn(usize, String) -> MeshError,
+    ) -> Result<RawMesh, MeshError> {
+        if !self.nodes_seen {
+            return Err(MeshError::at(path, None, "no $Nodes section"));
+        }
+        if !self.elements_seen {
+            return Err(MeshError::at(path, None, "no $Elements section"));
+        }
+        let mut tets = Vec::with_capacity(self.tets.len());
+        let mut tet_lines = Vec::with_capacity(self.tets.len());
+        for (tags, at) in &self.tets {
+            let mut ids = [0u32; 4];
+            for (id, tag) in ids.iter_mut().zip(tags) {
+                *id = *self.ids.get(tag).ok_or_else(|| {
+                    err(
+                        *at,
+                        format!("node {tag} out of range: it is not listed in $Nodes"),
+                    )
+                })?;
+            }
+            tets.push(ids);
+            tet_lines.push(if lines { *at } else { 0 });
+        }
+        let mut warnings = Vec::new();
+        if self.skipped_volume > 0 {
+            warnings.push(format!(
+                "{}: {} volume elements that are not 4-node tets skipped",
+                path.display(),
+                self.skipped_volume
+            ));
+        }
+        Ok(RawMesh {
+            labels: self.labels,
+            positions: self.positions,
+            tets,
+            tet_lines,
+            label_source: self.has_physical.then(|| "Gmsh physical tags".to_string()),
+            format,
+            warnings,
+        })
+    }
 }
 
 /// Reads a Gmsh `.msh` file (ASCII 2.x or 4.1).
@@ -133,49 +209,11 @@ pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
             "not a Gmsh file: no $MeshFormat section",
         ));
     }
-    if !st.nodes_seen {
-        return Err(MeshError::at(path, None, "no $Nodes section"));
-    }
-    if !st.elements_seen {
-        return Err(MeshError::at(path, None, "no $Elements section"));
-    }
-    let mut tets = Vec::with_capacity(st.tets.len());
-    let mut tet_lines = Vec::with_capacity(st.tets.len());
-    for (tags, line) in &st.tets {
-        let mut ids = [0u32; 4];
-        for (id, tag) in ids.iter_mut().zip(tags) {
-            *id = *st.ids.get(tag).ok_or_else(|| {
-                c.err(
-                    *line,
-                    format!("node {tag} out of range: it is not listed in $Nodes"),
-                )
-            })?;
-        }
-        tets.push(ids);
-        tet_lines.push(*line);
-    }
-    let mut warnings = Vec::new();
-    if st.skipped_volume > 0 {
-        warnings.push(format!(
-            "{}: {} volume elements that are not 4-node tets skipped",
-            path.display(),
-            st.skipped_volume
-        ));
-    }
     let format = match version {
         Some(Version::V41) => "gmsh 4.1",
         _ => "gmsh 2.2",
     };
-    let label_source = st.has_physical.then(|| "Gmsh physical tags".to_string());
-    Ok(RawMesh {
-        labels: st.labels,
-        positions: st.positions,
-        tets,
-        tet_lines,
-        label_source,
-        format,
-        warnings,
-    })
+    st.finish(path, format, true, |line, reason| c.err(line, reason))
 }
 
 /// For a binary file (file-type 1 on the format line): whether it is 4.1, its data size and
@@ -258,12 +296,8 @@ fn add_node(
     xyz: [f64; 3],
     line: usize,
 ) -> Result<(), MeshError> {
-    let idx = st.positions.len() as u32;
-    if st.ids.insert(tag, idx).is_some() {
-        return Err(c.err(line, format!("node {tag} is listed twice")));
-    }
-    st.positions.push(xyz);
-    Ok(())
+    st.add_node(tag, xyz)
+        .map_err(|()| c.err(line, format!("node {tag} is listed twice")))
 }
 
 fn nodes_v2(c: &mut Cursor<'_>, st: &mut State) -> Result<(), MeshError> {
@@ -365,22 +399,16 @@ fn element(
     physical: Option<i32>,
     line: usize,
 ) -> Result<(), MeshError> {
-    if etype != TET4 {
-        if VOLUME_TYPES.contains(&etype) {
-            st.skipped_volume += 1;
-        }
-        return Ok(());
-    }
-    if nodes.len() < 4 {
-        return Err(c.err(line, "a tet (type 4) needs 4 node tags"));
-    }
     let mut tags = [0u64; 4];
-    for (tag, s) in tags.iter_mut().zip(nodes) {
-        *tag = parse_uint(c, s, line, "a node tag")?;
+    if etype == TET4 {
+        if nodes.len() < 4 {
+            return Err(c.err(line, "a tet (type 4) needs 4 node tags"));
+        }
+        for (tag, s) in tags.iter_mut().zip(nodes) {
+            *tag = parse_uint(c, s, line, "a node tag")?;
+        }
     }
-    st.tets.push((tags, line));
-    st.labels.push(physical.unwrap_or(0));
-    st.has_physical |= physical.is_some();
+    st.element(etype, tags, physical, line);
     Ok(())
 }
 

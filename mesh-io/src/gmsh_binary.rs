@@ -4,10 +4,10 @@
 //! (2.2: the first element tag; 4.1: the first physical tag of the volume entity in
 //! `$Entities`); other element types are skipped, other sections passed over.
 
-use std::collections::HashMap;
 use std::path::Path;
 
 use crate::binary::{show, Bytes};
+use crate::gmsh::State;
 use crate::{MeshError, RawMesh};
 
 /// Nodes per element of the Gmsh element types (`None`: a type this reader does not know,
@@ -48,24 +48,6 @@ fn nodes_per_element(t: i64) -> Option<usize> {
         93 => 125,
         _ => return None,
     })
-}
-
-/// Gmsh element types with a volume, other than the 4-node tet.
-const VOLUME_TYPES: &[i64] = &[5, 6, 7, 11, 12, 13, 14, 17, 18, 19, 29, 30, 31, 92, 93];
-
-/// What is read so far.
-#[derive(Default)]
-struct State {
-    ids: HashMap<u64, u32>,
-    positions: Vec<[f64; 3]>,
-    /// Tets as node tags, with the byte offset of their record.
-    tets: Vec<([u64; 4], usize)>,
-    labels: Vec<i32>,
-    has_physical: bool,
-    volume_physical: HashMap<i64, i32>,
-    skipped_volume: usize,
-    nodes_seen: bool,
-    elements_seen: bool,
 }
 
 /// Reads a binary Gmsh file; `v41` for 4.1 (else 2.2), `size` the declared data size
@@ -115,46 +97,12 @@ pub(crate) fn read(
         }
         end_of(&mut b, &section)?;
     }
-    if !st.nodes_seen {
-        return Err(MeshError::at(path, None, "no $Nodes section"));
-    }
-    if !st.elements_seen {
-        return Err(MeshError::at(path, None, "no $Elements section"));
-    }
-    let mut tets = Vec::with_capacity(st.tets.len());
-    for (tags, at) in &st.tets {
-        let mut ids = [0u32; 4];
-        for (id, tag) in ids.iter_mut().zip(tags) {
-            *id = *st.ids.get(tag).ok_or_else(|| {
-                b.err_at(
-                    *at,
-                    format!("node {tag} out of range: it is not listed in $Nodes"),
-                )
-            })?;
-        }
-        tets.push(ids);
-    }
-    let mut warnings = Vec::new();
-    if st.skipped_volume > 0 {
-        warnings.push(format!(
-            "{}: {} volume elements that are not 4-node tets skipped",
-            path.display(),
-            st.skipped_volume
-        ));
-    }
-    Ok(RawMesh {
-        positions: st.positions,
-        tet_lines: vec![0; tets.len()],
-        tets,
-        labels: st.labels,
-        label_source: st.has_physical.then(|| "Gmsh physical tags".to_string()),
-        format: if v41 {
-            "gmsh 4.1 binary"
-        } else {
-            "gmsh 2.2 binary"
-        },
-        warnings,
-    })
+    let format = if v41 {
+        "gmsh 4.1 binary"
+    } else {
+        "gmsh 2.2 binary"
+    };
+    st.finish(path, format, false, |at, reason| b.err_at(at, reason))
 }
 
 /// Skips whitespace and reads the `$End<section>` line.
@@ -211,12 +159,8 @@ fn add_node(
     xyz: [f64; 3],
     at: usize,
 ) -> Result<(), MeshError> {
-    let idx = st.positions.len() as u32;
-    if st.ids.insert(tag, idx).is_some() {
-        return Err(b.err_at(at, format!("node {tag} is listed twice")));
-    }
-    st.positions.push(xyz);
-    Ok(())
+    st.add_node(tag, xyz)
+        .map_err(|()| b.err_at(at, format!("node {tag} is listed twice")))
 }
 
 fn nodes_v2(b: &mut Bytes<'_>, st: &mut State) -> Result<(), MeshError> {
@@ -293,17 +237,14 @@ fn nodes_v41(b: &mut Bytes<'_>, st: &mut State, size: usize) -> Result<(), MeshE
     Ok(())
 }
 
-/// Keeps one element if it is a 4-node tet.
+/// Keeps one element if it is a 4-node tet (`State::element`).
 fn element(st: &mut State, etype: i64, nodes: &[u64], physical: Option<i32>, at: usize) {
-    if etype != 4 {
-        if VOLUME_TYPES.contains(&etype) {
-            st.skipped_volume += 1;
-        }
-        return;
-    }
-    st.tets.push(([nodes[0], nodes[1], nodes[2], nodes[3]], at));
-    st.labels.push(physical.unwrap_or(0));
-    st.has_physical |= physical.is_some();
+    let tags = match nodes {
+        [a, b, c, d, ..] => [*a, *b, *c, *d],
+        _ => [0; 4],
+    };
+    // A negative type is no Gmsh element: counted as nothing, like any unknown type.
+    st.element(u64::try_from(etype).unwrap_or(u64::MAX), tags, physical, at);
 }
 
 fn elements_v2(b: &mut Bytes<'_>, st: &mut State) -> Result<(), MeshError> {
