@@ -301,6 +301,7 @@ pub fn validate(world: &World<'_>) -> Result<(), String> {
 pub fn load_mesh(sc: &Scenario) -> Result<meshio::LoadedMesh, CliError> {
     let options = meshio::ReadOptions {
         region_array: sc.region_array.clone(),
+        ..meshio::ReadOptions::default()
     };
     let loaded = meshio::load_with(std::path::Path::new(&sc.mesh), sc.scale, &options)?;
     for w in &loaded.warnings {

@@ -27,6 +27,7 @@ pub mod gmsh;
 pub(crate) mod gmsh_binary;
 pub mod medit;
 pub mod meshb;
+pub mod order;
 pub mod owned;
 pub mod source;
 pub mod tetgen;
@@ -73,6 +74,11 @@ pub struct ReadOptions {
     /// The integer cell array that holds the region labels of a VTK or VTU file; `None` takes
     /// the first of [`REGION_ARRAYS`] the file has.
     pub region_array: Option<String>,
+    /// [`load_with`] keeps the file's node and tet order (default: renumbered along a
+    /// space-filling curve, which makes every pass over a large mesh cache-friendly; the file's
+    /// numbering is in [`LoadedMesh::file_nodes`] and [`LoadedMesh::file_tets`] either way).
+    /// Built-in meshes are always in their generator's order.
+    pub file_order: bool,
 }
 
 /// The cell arrays taken as region labels when [`ReadOptions::region_array`] is `None`, in
@@ -96,6 +102,11 @@ pub struct LoadedMesh {
     pub format: &'static str,
     /// Nodes no tet uses, dropped before building.
     pub dropped_nodes: usize,
+    /// The file's index (counting from 0) of each node of the built mesh. Files are loaded in
+    /// spatial order (`order.rs`) unless [`ReadOptions::file_order`] is set.
+    pub file_nodes: Vec<u32>,
+    /// The file's index (counting from 0) of each tet of the built mesh.
+    pub file_tets: Vec<u32>,
     /// The region label of each tet of the built mesh (same order as its tets), 0 when the
     /// file has none (see [`RawMesh::labels`]).
     pub labels: Vec<i32>,
@@ -251,9 +262,9 @@ pub fn load_with(path: &Path, scale: f64, options: &ReadOptions) -> Result<Loade
     if tets.is_empty() {
         return Err(MeshError::at(&tet_path, None, "no tetrahedra in the file"));
     }
-    let line_of = |t: usize| tet_lines.get(t).copied().filter(|&l| l > 0);
+    let file_line = |t: usize| tet_lines.get(t).copied().filter(|&l| l > 0);
 
-    // Renumber the referenced nodes in file order.
+    // Renumber the referenced nodes.
     let mut new_id = vec![u32::MAX; positions.len()];
     for (t, tet) in tets.iter().enumerate() {
         for &v in tet {
@@ -262,7 +273,7 @@ pub fn load_with(path: &Path, scale: f64, options: &ReadOptions) -> Result<Loade
                 None => {
                     return Err(MeshError::at(
                         &tet_path,
-                        line_of(t),
+                        file_line(t),
                         format!("node index {v} out of range ({} nodes)", positions.len()),
                     ))
                 }
@@ -270,6 +281,7 @@ pub fn load_with(path: &Path, scale: f64, options: &ReadOptions) -> Result<Loade
         }
     }
     let mut kept = Vec::new();
+    let mut file_nodes = Vec::new();
     for (i, slot) in new_id.iter_mut().enumerate() {
         if *slot == 0 {
             *slot = kept.len() as u32;
@@ -283,6 +295,7 @@ pub fn load_with(path: &Path, scale: f64, options: &ReadOptions) -> Result<Loade
                 ));
             }
             kept.push(q);
+            file_nodes.push(i as u32);
         }
     }
     let dropped = positions.len() - kept.len();
@@ -293,7 +306,39 @@ pub fn load_with(path: &Path, scale: f64, options: &ReadOptions) -> Result<Loade
             path.display()
         ));
     }
-    let tets: Vec<[u32; 4]> = tets.iter().map(|t| t.map(|v| new_id[v as usize])).collect();
+    drop(positions);
+    let spatial = format != "builtin" && !options.file_order;
+    if spatial {
+        // Nodes along a Z-order curve, then tets by their first node (order.rs says why).
+        let by_curve = order::node_order(&kept);
+        let mut rank = vec![0u32; kept.len()];
+        for (new, &old) in by_curve.iter().enumerate() {
+            rank[old as usize] = new as u32;
+        }
+        for slot in new_id.iter_mut().filter(|s| **s != u32::MAX) {
+            *slot = rank[*slot as usize];
+        }
+        kept = by_curve.iter().map(|&o| kept[o as usize]).collect();
+        file_nodes = by_curve.iter().map(|&o| file_nodes[o as usize]).collect();
+    }
+    let mut tets: Vec<[u32; 4]> = tets.iter().map(|t| t.map(|v| new_id[v as usize])).collect();
+    drop(new_id);
+    let file_tets: Vec<u32> = if spatial {
+        let by_first = order::tet_order(&tets);
+        tets = by_first.iter().map(|&o| tets[o as usize]).collect();
+        by_first
+    } else {
+        (0..tets.len() as u32).collect()
+    };
+    let labels = if labels.is_empty() {
+        labels
+    } else {
+        file_tets.iter().map(|&o| labels[o as usize]).collect()
+    };
+    let line_of = |t: usize| {
+        let file = file_tets.get(t).map_or(t, |&o| o as usize);
+        tet_lines.get(file).copied().filter(|&l| l > 0)
+    };
 
     let mesh = OwnedMesh::build(kept, &tets, BuildOptions::default()).map_err(|e| {
         let (tet, reason) = match e {
@@ -333,6 +378,8 @@ pub fn load_with(path: &Path, scale: f64, options: &ReadOptions) -> Result<Loade
         path: path.to_path_buf(),
         format,
         dropped_nodes: dropped,
+        file_nodes,
+        file_tets,
         labels,
         label_source,
         warnings,

@@ -173,6 +173,7 @@ fn region_array_names_a_missing_or_float_array() {
     let p = mesh("formats/binary/octa_zlib.vtu");
     let opts = ReadOptions {
         region_array: Some("nope".into()),
+        ..ReadOptions::default()
     };
     let e = meshio::read_with(&p, &opts).unwrap_err();
     assert_eq!(e.code, EXIT_BAD_INPUT);
@@ -183,6 +184,7 @@ fn region_array_names_a_missing_or_float_array() {
     );
     let opts = ReadOptions {
         region_array: Some("material".into()),
+        ..ReadOptions::default()
     };
     let raw = meshio::read_with(&p, &opts).unwrap();
     assert_eq!(raw.label_source.as_deref(), Some("cell data 'material'"));
@@ -684,6 +686,7 @@ fn ascii_files_carry_their_labels() {
         let p = dir.join(f);
         let opts = ReadOptions {
             region_array: Some(name.into()),
+            ..ReadOptions::default()
         };
         let e = meshio::load_with(&p, 1.0, &opts).unwrap_err();
         assert_eq!(e.code, EXIT_BAD_INPUT);
@@ -701,6 +704,7 @@ fn ascii_files_carry_their_labels() {
     // --region-array on a format without named arrays is refused.
     let opts = ReadOptions {
         region_array: Some("material".into()),
+        ..ReadOptions::default()
     };
     let e = meshio::read_with(&dir.join("a.msh"), &opts).unwrap_err();
     assert!(

@@ -190,7 +190,8 @@ impl<'a> Mesh<'a> {
     /// again when this returns.
     ///
     /// # Bounded work
-    /// O(T log T) for T tets (one unstable sort of 4T keys), O(N) for N nodes; no allocation.
+    /// O(T log T) for T tets (the 4T face keys sorted in two parts, run by run when the tets come
+    /// sorted by their smallest node), O(N) for N nodes; no allocation.
     ///
     /// # Errors
     /// [`BuildError`] names the first bad tet or node; storage too small is reported before
@@ -270,32 +271,55 @@ impl<'a> Mesh<'a> {
             *dst = Tet::new(ids.map(NodeId));
         }
 
-        // Face keys: sort, then link equal neighbours.
+        // Face keys, sorted, then equal neighbours linked. The three faces through each tet's
+        // smallest node go first (`near`), the opposite faces after (`far`): when the tets come
+        // sorted by their smallest node, as a loaded file's do (spatial order), `near` is already
+        // grouped by its leading id and sorts run by run; the two halves are then walked as one
+        // sorted sequence, so the links are the ones a single sort would give.
+        let (near, far) = scratch.split_at_mut(3 * t);
         for (ti, tet) in tets.iter().enumerate() {
-            for f in 0..4 {
-                let fv = FACE_VERTS[f].map(|k| tet.nodes[k as usize].0);
-                let mut verts = fv;
+            let first = (0..4).min_by_key(|&k| tet.nodes[k].0).unwrap_or(0);
+            let mut slot = 0;
+            for (f, face) in FACE_VERTS.iter().enumerate() {
+                let mut verts = face.map(|k| tet.nodes[k as usize].0);
                 verts.sort_unstable();
-                scratch[ti * 4 + f] = FaceKey::new(verts, (ti * 4 + f) as u32);
+                let key = FaceKey::new(verts, (ti * 4 + f) as u32);
+                // Face f is opposite local node f.
+                if f == first {
+                    far[ti] = key;
+                } else {
+                    near[ti * 3 + slot] = key;
+                    slot += 1;
+                }
             }
         }
-        scratch.sort_unstable();
-        let mut i = 0;
-        while i < scratch.len() {
-            let mut j = i + 1;
-            while j < scratch.len() && scratch[j].verts() == scratch[i].verts() {
-                j += 1;
+        sort_faces(near);
+        far.sort_unstable();
+        let mut faces = Merged::new(near, far);
+        let mut group = faces.next();
+        while let Some(head) = group {
+            let mut count = 1;
+            let mut second = head;
+            group = None;
+            for key in faces.by_ref() {
+                if key.verts() != head.verts() {
+                    group = Some(key);
+                    break;
+                }
+                if count == 1 {
+                    second = key;
+                }
+                count += 1;
             }
-            match j - i {
+            match count {
                 1 => stats.boundary_faces += 1,
-                2 => link(tets, scratch[i].owner(), scratch[i + 1].owner())?,
+                2 => link(tets, head.owner(), second.owner())?,
                 _ => {
                     return Err(BuildError::NonManifoldFace {
-                        tet: scratch[i].owner() / 4,
+                        tet: head.owner() / 4,
                     })
                 }
             }
-            i = j;
         }
 
         for node in nodes.iter_mut() {
@@ -321,6 +345,59 @@ impl<'a> Mesh<'a> {
         };
         mesh.update_boundary();
         Ok(mesh)
+    }
+}
+
+/// Sorts face keys, run by run when they are already grouped by their smallest node id (each
+/// run holds one node's faces: a few dozen keys), whole otherwise.
+///
+/// # Bounded work
+/// O(K log K) for K keys; one O(K) scan to choose.
+fn sort_faces(keys: &mut [FaceKey]) {
+    let lead = |k: &FaceKey| (k.0 >> 96) as u32;
+    if !keys.windows(2).all(|w| lead(&w[0]) <= lead(&w[1])) {
+        keys.sort_unstable();
+        return;
+    }
+    let mut rest = keys;
+    while let Some(first) = rest.first() {
+        let id = lead(first);
+        let end = rest
+            .iter()
+            .position(|k| lead(k) != id)
+            .unwrap_or(rest.len());
+        let (run, tail) = rest.split_at_mut(end);
+        run.sort_unstable();
+        rest = tail;
+    }
+}
+
+/// Two sorted runs of face keys read as one sorted sequence (a merge without a buffer).
+struct Merged<'k> {
+    a: &'k [FaceKey],
+    b: &'k [FaceKey],
+}
+
+impl<'k> Merged<'k> {
+    fn new(a: &'k [FaceKey], b: &'k [FaceKey]) -> Self {
+        Self { a, b }
+    }
+}
+
+impl Iterator for Merged<'_> {
+    type Item = FaceKey;
+
+    fn next(&mut self) -> Option<FaceKey> {
+        let take_a = match (self.a.first(), self.b.first()) {
+            (Some(x), Some(y)) => x <= y,
+            (Some(_), None) => true,
+            (None, Some(_)) => false,
+            (None, None) => return None,
+        };
+        let side = if take_a { &mut self.a } else { &mut self.b };
+        let (head, tail) = side.split_first()?;
+        *side = tail;
+        Some(*head)
     }
 }
 

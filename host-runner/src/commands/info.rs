@@ -321,6 +321,7 @@ pub fn summary_with(
 pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     let options = ReadOptions {
         region_array: args.region_array.clone(),
+        ..ReadOptions::default()
     };
     let s = summary_with(&args.mesh, args.scale, &options)?;
     let to_stdout = args.json.as_deref() == Some(Path::new("-"));
