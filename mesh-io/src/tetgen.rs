@@ -97,28 +97,31 @@ fn read_nodes(path: &Path, text: &str) -> Result<(Vec<[f64; 3]>, i64), MeshError
     let mut positions = Vec::with_capacity(n);
     let mut base = 0i64;
     for k in 0..n {
-        let Some((line, t)) = c.line() else {
-            return Err(c.eof(&format!("point {} of {n}", k + 1)));
-        };
-        if t.len() < 4 {
-            return Err(c.err(line, "expected a point index and three coordinates"));
-        }
-        let idx = parse_int(&c, t[0], line, "a point index")?;
-        if k == 0 {
-            if idx != 0 && idx != 1 {
-                return Err(c.err(line, format!("first point index must be 0 or 1, not {idx}")));
+        let point = c.with_line(|c, line, t| {
+            if t.len() < 4 {
+                return Err(c.err(line, "expected a point index and three coordinates"));
             }
-            base = idx;
-        } else if idx != base + k as i64 {
-            return Err(c.err(
-                line,
-                format!(
-                    "point indices must be consecutive: expected {}, found {idx}",
-                    base + k as i64
-                ),
-            ));
+            let idx = parse_int(c, t[0], line, "a point index")?;
+            if k == 0 {
+                if idx != 0 && idx != 1 {
+                    return Err(c.err(line, format!("first point index must be 0 or 1, not {idx}")));
+                }
+                base = idx;
+            } else if idx != base + k as i64 {
+                return Err(c.err(
+                    line,
+                    format!(
+                        "point indices must be consecutive: expected {}, found {idx}",
+                        base + k as i64
+                    ),
+                ));
+            }
+            parse_xyz(c, &t[1..4], line)
+        });
+        match point {
+            Some(p) => positions.push(p?),
+            None => return Err(c.eof(&format!("point {} of {n}", k + 1))),
         }
-        positions.push(parse_xyz(&c, &t[1..4], line)?);
     }
     Ok((positions, base))
 }
@@ -146,29 +149,35 @@ fn read_tets(
     let mut lines = Vec::with_capacity(t);
     let mut labels = Vec::with_capacity(if has_attr { t } else { 0 });
     for k in 0..t {
-        let Some((line, tok)) = c.line() else {
-            return Err(c.eof(&format!("tet {} of {t}", k + 1)));
-        };
-        if tok.len() < per_line {
-            return Err(c.err(
-                line,
-                if has_attr {
-                    format!("expected a tet index, {per} node indices and a region attribute")
-                } else {
-                    format!("expected a tet index and {per} node indices")
-                },
-            ));
+        let tet = c.with_line(|c, line, tok| {
+            if tok.len() < per_line {
+                return Err(c.err(
+                    line,
+                    if has_attr {
+                        format!("expected a tet index, {per} node indices and a region attribute")
+                    } else {
+                        format!("expected a tet index and {per} node indices")
+                    },
+                ));
+            }
+            if has_attr {
+                labels.push(region(c, tok[1 + per as usize], line)?);
+            }
+            let _ = parse_int(c, tok[0], line, "a tet index")?;
+            let mut raw = [0i64; 4];
+            for (r, s) in raw.iter_mut().zip(&tok[1..5]) {
+                *r = parse_int(c, s, line, "a node index")?;
+            }
+            Ok((node_ids(c, raw, base, nodes, line)?, line))
+        });
+        match tet {
+            Some(Ok((ids, line))) => {
+                tets.push(ids);
+                lines.push(line);
+            }
+            Some(Err(e)) => return Err(e),
+            None => return Err(c.eof(&format!("tet {} of {t}", k + 1))),
         }
-        if has_attr {
-            labels.push(region(&c, tok[1 + per as usize], line)?);
-        }
-        let _ = parse_int(&c, tok[0], line, "a tet index")?;
-        let mut raw = [0i64; 4];
-        for (r, s) in raw.iter_mut().zip(&tok[1..5]) {
-            *r = parse_int(&c, s, line, "a node index")?;
-        }
-        tets.push(node_ids(&c, raw, base, nodes, line)?);
-        lines.push(line);
     }
     Ok((tets, lines, has_attr.then_some(labels)))
 }

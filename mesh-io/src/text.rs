@@ -179,6 +179,45 @@ impl<'a> Cursor<'a> {
         }
     }
 
+    /// [`Cursor::line`] for the hot loops of large files: hands the next line's tokens to `f`
+    /// as a slice on the stack, without moving them (`None` at the end). `f` gets the cursor
+    /// back for its errors.
+    pub(crate) fn with_line<R>(
+        &mut self,
+        f: impl FnOnce(&Self, usize, &[&'a str]) -> R,
+    ) -> Option<R> {
+        loop {
+            if !self.advance() {
+                return None;
+            }
+            let mut a = [""; INLINE_TOKENS];
+            let mut n = 0;
+            let mut it = self.cur.clone();
+            for slot in a.iter_mut() {
+                match it.next() {
+                    Some(t) => {
+                        *slot = t;
+                        n += 1;
+                    }
+                    None => break,
+                }
+            }
+            if n == 0 {
+                continue;
+            }
+            self.cur = "".split_ascii_whitespace();
+            return Some(match it.next() {
+                None => f(self, self.line_no, &a[..n]),
+                Some(t) => {
+                    let mut v = a.to_vec();
+                    v.push(t);
+                    v.extend(it);
+                    f(self, self.line_no, &v)
+                }
+            });
+        }
+    }
+
     /// Like [`Cursor::line`], but the end of the text is an error naming `what` was expected.
     pub(crate) fn need_line(&mut self, what: &str) -> Result<(usize, Tokens<'a>), MeshError> {
         match self.line() {
