@@ -43,10 +43,27 @@ pub fn read(path: &Path) -> Result<(RawMesh, PathBuf), MeshError> {
             ));
         }
     }
-    let node_text = read_text(&node_path, "TetGen")?;
-    let (positions, base) = read_nodes(&node_path, &node_text)?;
-    let ele_text = read_text(&ele_path, "TetGen")?;
-    let (tets, tet_lines, labels) = read_tets(&ele_path, &ele_text, base, positions.len())?;
+    // The two files at the same time: the `.ele` file (the larger) on a second thread.
+    let (nodes, ele) = std::thread::scope(|s| {
+        let ele = s.spawn(|| {
+            read_text(&ele_path, "TetGen").map(|text| {
+                let parsed = parse_tets(&ele_path, &text);
+                (text, parsed)
+            })
+        });
+        let nodes = read_text(&node_path, "TetGen").and_then(|text| read_nodes(&node_path, &text));
+        let ele = ele.join().unwrap_or_else(|_| {
+            Err(MeshError::failure(
+                "internal error: the .ele reader stopped",
+            ))
+        });
+        (nodes, ele)
+    });
+    let (positions, base) = nodes?;
+    let (ele_text, parsed) = ele?;
+    let (tets, tet_lines, labels) =
+        resolve_tets(&ele_path, &ele_text, parsed, base, positions.len())?;
+    drop(ele_text);
     let label_source = labels
         .is_some()
         .then(|| "TetGen region attribute".to_string());
@@ -126,60 +143,128 @@ fn read_nodes(path: &Path, text: &str) -> Result<(Vec<[f64; 3]>, i64), MeshError
     Ok((positions, base))
 }
 
-/// The tets, their lines, and their region attributes when the header declares them.
-#[allow(clippy::type_complexity)]
-fn read_tets(
-    path: &Path,
-    text: &str,
-    base: i64,
-    nodes: usize,
-) -> Result<(Vec<[u32; 4]>, Vec<usize>, Option<Vec<i32>>), MeshError> {
+/// The `.ele` file as parsed before the node count is known: node ids as written (each fits
+/// 32 bits), their lines, the region attributes, and why parsing stopped early if it did.
+#[derive(Debug)]
+struct ParsedTets {
+    ids: Vec<[u32; 4]>,
+    lines: Vec<usize>,
+    labels: Option<Vec<i32>>,
+    stop: Option<Stop>,
+}
+
+/// Why [`parse_tets`] stopped before the last tet.
+#[derive(Debug)]
+enum Stop {
+    /// A bad line (or a bad header).
+    Bad(MeshError),
+    /// A node id that fits no 32-bit index, at this line: out of range whatever the node count.
+    Range(usize, [i64; 4]),
+}
+
+/// Parses the tets of an `.ele` file up to the first bad line (the node range is checked by
+/// [`resolve_tets`] once the `.node` file is read; the two files are read at the same time).
+fn parse_tets(path: &Path, text: &str) -> ParsedTets {
+    let mut out = ParsedTets {
+        ids: Vec::new(),
+        lines: Vec::new(),
+        labels: None,
+        stop: None,
+    };
     let mut c = Cursor::new(path, text, 1, Some('#'));
-    let (hline, [t, per, attr]) = header::<3>(&mut c, "the .ele header")?;
-    if per != 4 && per != 10 {
-        return Err(c.err(hline, format!("{per} nodes per tet: only 4 or 10 are read")));
-    }
-    if t == 0 {
-        return Err(c.err(hline, "the .ele file declares no tets"));
-    }
-    let has_attr = attr > 0;
+    let header = header::<3>(&mut c, "the .ele header").and_then(|(hline, [t, per, attr])| {
+        if per != 4 && per != 10 {
+            return Err(c.err(hline, format!("{per} nodes per tet: only 4 or 10 are read")));
+        }
+        if t == 0 {
+            return Err(c.err(hline, "the .ele file declares no tets"));
+        }
+        let per_line = 1 + per as usize + usize::from(attr > 0);
+        Ok((c.count(t, per_line, "tets", hline)?, per, attr > 0))
+    });
+    let (t, per, has_attr) = match header {
+        Ok(h) => h,
+        Err(e) => {
+            out.stop = Some(Stop::Bad(e));
+            return out;
+        }
+    };
     let per_line = 1 + per as usize + usize::from(has_attr);
-    let t = c.count(t, per_line, "tets", hline)?;
-    let mut tets = Vec::with_capacity(t);
-    let mut lines = Vec::with_capacity(t);
+    out.ids.reserve_exact(t);
+    out.lines.reserve_exact(t);
     let mut labels = Vec::with_capacity(if has_attr { t } else { 0 });
     for k in 0..t {
         let tet = c.with_line(|c, line, tok| {
             if tok.len() < per_line {
-                return Err(c.err(
+                return Err(Stop::Bad(c.err(
                     line,
                     if has_attr {
                         format!("expected a tet index, {per} node indices and a region attribute")
                     } else {
                         format!("expected a tet index and {per} node indices")
                     },
-                ));
+                )));
             }
             if has_attr {
-                labels.push(region(c, tok[1 + per as usize], line)?);
+                labels.push(region(c, tok[1 + per as usize], line).map_err(Stop::Bad)?);
             }
-            let _ = parse_int(c, tok[0], line, "a tet index")?;
+            let _ = parse_int(c, tok[0], line, "a tet index").map_err(Stop::Bad)?;
             let mut raw = [0i64; 4];
             for (r, s) in raw.iter_mut().zip(&tok[1..5]) {
-                *r = parse_int(c, s, line, "a node index")?;
+                *r = parse_int(c, s, line, "a node index").map_err(Stop::Bad)?;
             }
-            Ok((node_ids(c, raw, base, nodes, line)?, line))
+            match raw.map(u32::try_from) {
+                [Ok(a), Ok(b), Ok(c), Ok(d)] => Ok(([a, b, c, d], line)),
+                _ => Err(Stop::Range(line, raw)),
+            }
         });
         match tet {
             Some(Ok((ids, line))) => {
-                tets.push(ids);
-                lines.push(line);
+                out.ids.push(ids);
+                out.lines.push(line);
             }
-            Some(Err(e)) => return Err(e),
-            None => return Err(c.eof(&format!("tet {} of {t}", k + 1))),
+            Some(Err(stop)) => {
+                out.stop = Some(stop);
+                break;
+            }
+            None => {
+                out.stop = Some(Stop::Bad(c.eof(&format!("tet {} of {t}", k + 1))));
+                break;
+            }
         }
     }
-    Ok((tets, lines, has_attr.then_some(labels)))
+    out.labels = has_attr.then_some(labels);
+    out
+}
+
+/// The tets with node ids counted from 0, checked against the node count; the first bad line
+/// of the file is the error, as if the file were read line by line.
+#[allow(clippy::type_complexity)]
+fn resolve_tets(
+    path: &Path,
+    text: &str,
+    parsed: ParsedTets,
+    base: i64,
+    nodes: usize,
+) -> Result<(Vec<[u32; 4]>, Vec<usize>, Option<Vec<i32>>), MeshError> {
+    let c = Cursor::new(path, text, 1, Some('#'));
+    let ParsedTets {
+        mut ids,
+        lines,
+        labels,
+        stop,
+    } = parsed;
+    for (tet, &line) in ids.iter_mut().zip(&lines) {
+        *tet = node_ids(&c, tet.map(i64::from), base, nodes, line)?;
+    }
+    match stop {
+        None => Ok((ids, lines, labels)),
+        Some(Stop::Bad(e)) => Err(e),
+        Some(Stop::Range(line, raw)) => match node_ids(&c, raw, base, nodes, line) {
+            Err(e) => Err(e),
+            Ok(_) => Err(c.err(line, "node index out of range")),
+        },
+    }
 }
 
 /// A region attribute: an integer (TetGen writes it as a number that may carry a fraction

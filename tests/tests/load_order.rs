@@ -170,3 +170,58 @@ fn spatial_order_puts_neighbours_close() {
     let msg = e.to_string();
     assert!(msg.contains(&format!("s.ele:{}:", k + 1)), "{msg}");
 }
+
+/// The `.node` and `.ele` files are read at the same time; the error is still the first bad
+/// line of the file, whatever kind it is: a node id out of range before a bad line, a bad line
+/// before an id out of range, an id beyond 32 bits after an id out of range.
+#[test]
+fn the_first_bad_line_is_reported_when_both_files_are_read_at_once() {
+    let node = "5 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n4 1 1 1\n";
+    let good = "0 0 1 2 3";
+    let cases: [(&str, [&str; 4], usize, &str); 4] = [
+        (
+            "range-then-bad",
+            [good, "1 0 1 2 9", "2 0 1 x 3", good],
+            3,
+            "out of range",
+        ),
+        (
+            "bad-then-range",
+            [good, "1 0 1 x 3", "2 0 1 2 9", good],
+            3,
+            "an integer",
+        ),
+        (
+            "range-then-huge",
+            [good, "1 0 1 2 7", "2 0 1 2 99999999999", good],
+            3,
+            "node index 7",
+        ),
+        (
+            "huge",
+            [good, good, "2 0 1 2 -99999999999", good],
+            4,
+            "node index -99999999999",
+        ),
+    ];
+    for (name, rows, line, needle) in cases {
+        let dir = scratch_dir("load_order", name);
+        std::fs::write(dir.join("a.node"), node).unwrap();
+        std::fs::write(dir.join("a.ele"), format!("4 4 0\n{}\n", rows.join("\n"))).unwrap();
+        let p = dir.join("a.ele");
+        let e = meshio::load(&p, 1.0).unwrap_err();
+        assert_eq!(e.code, EXIT_BAD_INPUT, "{name}");
+        assert!(
+            e.message.starts_with(&format!("{}:{line}: ", p.display()))
+                && e.message.contains(needle),
+            "{name}: {}",
+            e.message
+        );
+    }
+    // A bad .node file is reported before anything in the .ele file.
+    let dir = scratch_dir("load_order", "bad-node");
+    std::fs::write(dir.join("a.node"), node.replace("2 0 1 0", "2 0 one 0")).unwrap();
+    std::fs::write(dir.join("a.ele"), "1 4 0\n0 0 1 2 9\n").unwrap();
+    let e = meshio::load(&dir.join("a.ele"), 1.0).unwrap_err();
+    assert!(e.message.contains("a.node:4:"), "{}", e.message);
+}
