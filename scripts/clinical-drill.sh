@@ -3,7 +3,8 @@
 # re-meshed at about 2 million tets (scripts/make-fine-mesh.py, tetgen from PyPI), drilled by
 # the same burr along the same path (a plunge at the top of the head, a drag, then a hold),
 # default capacities and max depth. Prints removed volume, tick p99 and the buffers chosen for
-# each, and `info`'s load time and resident memory per tet for the fine mesh.
+# each (whole tick, each tick's fastest of 3 runs), and `info`'s load time and resident
+# memory per tet for the fine mesh.
 #
 # Usage: scripts/clinical-drill.sh [HOLD_S]   (default 12: the fine mesh converges)
 # Env: OUT (work folder, default target/clinical), TETRADRILL_BIN, FINE_TETS (target count
@@ -35,7 +36,7 @@ print(f"{3 + hold},{x0 + 0.1:.6f},{y0:.6f},{z0 - 0.03:.6f},1,0,0,0,1")
 PY
 for m in "$coarse.node" "$out/teddy-fine.ele"; do
   name=$(basename "$m")
-  "$bin" replay --quiet --mesh "$m" --trace "$out/path.csv" --tool sphere:0.03 \
+  "$bin" replay --quiet --repeat 3 --mesh "$m" --trace "$out/path.csv" --tool sphere:0.03 \
     --json "$out/$name.json" > "$out/$name.txt"
   python3 - "$out/$name.json" <<'PY'
 import json, sys
