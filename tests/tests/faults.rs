@@ -948,10 +948,9 @@ impl MotorCutoff for BusyCutoff {
 /// A stand-in servo: beats `n` times, stops beating until the watchdog trips, then (after
 /// `then` ran) comes back like the servo task does and beats until `stop`.
 fn fake_servo(watch: &ServoWatch, stop: &AtomicBool, then: impl FnOnce()) {
-    for k in 1..=20 {
-        watch.beat(k);
-        std::thread::sleep(Duration::from_millis(1));
-    }
+    // Twenty ticks done, then silence (one store: a loaded machine cannot make the watchdog
+    // see a gap between beats).
+    watch.beat(20);
     let until = Instant::now() + Duration::from_secs(30);
     while !watch.tripped() && Instant::now() < until {
         std::thread::sleep(Duration::from_millis(1));
@@ -978,7 +977,9 @@ fn the_watchdog_reports_once_what_it_could_do() {
             s.spawn(|| fake_servo(&watch, &stop, then));
             watchdog::supervisor_task(&watch, "touch", SERVO_WATCHDOG_NS, &stop, |l| lines.push(l));
         });
-        assert_eq!(watch.stalls(), 1);
+        // At least the stall the fake servo made; a loaded machine may add a second one while
+        // it beats again, which must not add a line.
+        assert!(watch.stalls() >= 1);
         lines
     };
     // No second path (the Touch): said so, once.
