@@ -58,6 +58,7 @@ macro_rules! err {
 
 pub mod cli;
 pub mod commands;
+pub mod device_config;
 pub mod engine;
 pub mod error;
 pub mod pen;

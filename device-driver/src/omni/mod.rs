@@ -58,6 +58,9 @@ pub const STARTUP_QUADLET: u32 = 0xf80f_0000;
 /// first after it (1/8 revolution); a larger one means the counters restarted and the
 /// calibration is dropped.
 pub const MAX_RESYNC_STEP: i64 = 1875;
+/// Complete input packets after a bus reset during which the motors stay off (the first one
+/// is checked against [`MAX_RESYNC_STEP`]); the force ramps up again after them.
+pub const RESYNC_PACKETS: u32 = 4;
 
 /// Access to one FireWire node: asynchronous register reads/writes, the isochronous channels
 /// and the two isochronous streams.
@@ -158,7 +161,7 @@ pub struct OmniDevice<T: FirewireTransport> {
     counts: [i64; 3],
     started: bool,
     calibrated: bool,
-    resync: bool,
+    resync: u32,
     bus_resets: u64,
     offsets: Vec3,
     joints: Vec3,
@@ -238,7 +241,7 @@ impl<T: FirewireTransport> OmniDevice<T> {
             counts: [0; 3],
             started: false,
             calibrated: false,
-            resync: false,
+            resync: 0,
             bus_resets: 0,
             offsets: [0.0; 3],
             joints: [0.0; 3],
@@ -313,7 +316,7 @@ impl<T: FirewireTransport> OmniDevice<T> {
 
     /// Whether force may reach the motors: calibrated, and no bus reset waiting for a packet.
     fn force_allowed(&self) -> bool {
-        self.calibrated && !self.resync && !self.latched()
+        self.calibrated && self.resync == 0 && !self.latched()
     }
 
     /// Sends `out`, or motors off while force is not allowed (uncalibrated, after a bus reset,
@@ -384,7 +387,7 @@ impl<T: FirewireTransport> OmniDevice<T> {
     /// The start-up again after a bus reset: the Omni forgets its channels and its enable bit.
     fn redo_start_up(&mut self) -> Result<(), DeviceError> {
         self.bus_resets += 1;
-        self.resync = true;
+        self.resync = RESYNC_PACKETS;
         self.safety.disable();
         let channels = self.transport.channels().map_err(|e| self.fail(e))?;
         self.channels = channels;
@@ -395,7 +398,7 @@ impl<T: FirewireTransport> OmniDevice<T> {
     /// Unwraps the 16-bit counters; the first packet after a bus reset continues the counts when
     /// its step is small, and otherwise restarts them and drops the calibration.
     fn take_encoders(&mut self, encoders: [u16; 3]) {
-        if self.resync {
+        if self.resync == RESYNC_PACKETS {
             let jump = (0..3).any(|k| {
                 let step = encoders[k].wrapping_sub(self.raw[k]) as i16;
                 i64::from(step).abs() > MAX_RESYNC_STEP
@@ -405,8 +408,8 @@ impl<T: FirewireTransport> OmniDevice<T> {
                 self.calibrated = false;
                 self.offsets = [0.0; 3];
             }
-            self.resync = false;
         }
+        self.resync = self.resync.saturating_sub(1);
         for k in 0..3 {
             if self.started {
                 let step = encoders[k].wrapping_sub(self.raw[k]) as i16;
@@ -466,9 +469,6 @@ impl<T: FirewireTransport> HapticDevice for OmniDevice<T> {
         if !self.connected {
             return Err(DeviceError::Disconnected);
         }
-        if self.transport.take_bus_reset() {
-            self.redo_start_up()?;
-        }
         let out = self.safety.tick();
         if !self.sent_since_read {
             self.send(&out)?;
@@ -485,6 +485,10 @@ impl<T: FirewireTransport> HapticDevice for OmniDevice<T> {
         }
         if !complete {
             return Err(DeviceError::NoFrame);
+        }
+        // A reset the transport met while receiving: this packet is the first after it.
+        if self.transport.take_bus_reset() {
+            self.redo_start_up()?;
         }
         let input = packet::decode_input(&p);
         self.take_encoders(input.encoders);
@@ -544,11 +548,7 @@ impl<T: FirewireTransport> HapticDevice for OmniDevice<T> {
         let a = self.encoder_angles();
         let dock = self.config.dock_angles;
         let c = self.config.joint3_coupling;
-        self.offsets = [
-            dock[0] - a[0],
-            dock[1] - a[1],
-            dock[2] - a[2] - c * dock[1],
-        ];
+        self.offsets = [dock[0] - a[0], dock[1] - a[1], dock[2] - a[2] - c * dock[1]];
         self.calibrated = true;
         self.joints = self.joint_angles();
         Ok(())
