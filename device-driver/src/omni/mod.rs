@@ -272,6 +272,11 @@ impl<T: FirewireTransport> OmniDevice<T> {
         self.bus_resets
     }
 
+    /// The last input packet, decoded (raw encoder counts, gimbal channels, buttons, dock).
+    pub fn last_input(&self) -> OmniInput {
+        self.input
+    }
+
     /// The transport (e.g. to inspect a mock).
     pub fn transport(&self) -> &T {
         &self.transport
