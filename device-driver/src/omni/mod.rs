@@ -415,14 +415,14 @@ impl<T: FirewireTransport> OmniDevice<T> {
             }
         }
         self.resync = self.resync.saturating_sub(1);
-        for k in 0..3 {
+        for (k, &e) in encoders.iter().enumerate() {
             if self.started {
-                let step = encoders[k].wrapping_sub(self.raw[k]) as i16;
+                let step = e.wrapping_sub(self.raw[k]) as i16;
                 self.counts[k] += i64::from(step);
             } else {
-                self.counts[k] = i64::from(encoders[k] as i16);
+                self.counts[k] = i64::from(e as i16);
             }
-            self.raw[k] = encoders[k];
+            self.raw[k] = e;
         }
         self.started = true;
     }
