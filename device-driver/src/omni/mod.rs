@@ -16,7 +16,7 @@
 //! this codec has no `unsafe`; the Linux firewire-cdev transport (ioctls) is
 //! `os::firewire::CdevFirewire` (feature `os`); [`mock::MockFirewire`] drives the tests.
 //! A transport may offer a second path for output packets ([`FirewireTransport::out_path`]);
-//! the device then has a [`MotorCutoff`](crate::cutoff::MotorCutoff) that sends a motors-off
+//! the device then has a [`MotorCutoff`] that sends a motors-off
 //! packet through it.
 
 pub mod kinematics;

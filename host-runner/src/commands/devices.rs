@@ -21,7 +21,7 @@ pub struct DevicesArgs {
     /// encoder readings, writing no force.
     #[arg(long)]
     pub check: bool,
-    /// Device constants (TOML: [omni], [falcon], [touch]) used to open the devices.
+    /// Device constants (TOML: `[omni]`, `[falcon]`, `[touch]`) used to open the devices.
     #[arg(long, value_name = "FILE")]
     pub device_config: Option<PathBuf>,
 }

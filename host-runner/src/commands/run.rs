@@ -53,7 +53,7 @@ pub struct RunArgs {
     /// to be running already.
     #[arg(long)]
     pub falcon_firmware: Option<PathBuf>,
-    /// Device constants (TOML: [omni], [falcon], [touch]); defaults in docs/devices/*.toml.
+    /// Device constants (TOML: `[omni]`, `[falcon]`, `[touch]`); defaults in docs/devices/*.toml.
     #[arg(long, value_name = "FILE")]
     pub device_config: Option<PathBuf>,
     /// Do not ask for SCHED_FIFO, core pinning or memory locking.
