@@ -97,7 +97,8 @@ fn granted(allocated: bool, channel: i32, bandwidth: i32) -> Result<u8, String> 
 
 /// Allocates one channel in `mask` with `bandwidth` units for the life of the control file
 /// (the kernel reallocates it after bus resets and frees it on close) and waits, up to
-/// `timeout_ms`, for the resource manager's answer. Bus resets met are counted in `resets`.
+/// `timeout_ms`, for the resource manager's answer. Bus resets met are counted in `resets`
+/// and their generation kept in `generation`.
 fn allocate_one(
     ctl: &mut EventFile,
     closure: u64,
@@ -105,6 +106,7 @@ fn allocate_one(
     bandwidth: u32,
     timeout_ms: u32,
     resets: &mut u64,
+    generation: &mut u32,
 ) -> Result<u8, String> {
     let mut a = AllocateIsoResource {
         closure,
@@ -133,7 +135,10 @@ fn allocate_one(
                 channel,
                 bandwidth,
             }) if c == closure => return granted(allocated, channel, bandwidth),
-            Some(Event::BusReset { .. }) => *resets += 1,
+            Some(Event::BusReset { generation: g, .. }) => {
+                *resets += 1;
+                *generation = g;
+            }
             _ => {}
         }
     }
@@ -220,6 +225,7 @@ impl CdevFirewire {
             bandwidth_units(RX_SLOT_BYTES, config.speed),
             config.allocate_timeout_ms,
             &mut ctl_resets,
+            &mut bus.generation,
         )
         .map_err(refused)?;
         let tx_channel = allocate_one(
@@ -229,6 +235,7 @@ impl CdevFirewire {
             bandwidth_units(OUTPUT_LEN, config.speed),
             config.allocate_timeout_ms,
             &mut ctl_resets,
+            &mut bus.generation,
         )
         .map_err(refused)?;
 
