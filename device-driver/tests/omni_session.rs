@@ -12,6 +12,15 @@ fn config() -> OmniConfig {
     c
 }
 
+/// Every encoder counting up, every motor pushing its joint forward: the plain convention the
+/// expected values below are computed in.
+fn plain_config() -> OmniConfig {
+    let mut c = config();
+    c.encoder_sign = [1.0; 3];
+    c.dac_per_newton_metre = [4096.0; 3];
+    c
+}
+
 #[test]
 fn start_up_follows_published_register_sequence() {
     let dev = OmniDevice::start(MockFirewire::omni(), config()).unwrap();
@@ -32,6 +41,7 @@ fn start_up_follows_published_register_sequence() {
             RegOp::Write(0x1000, 1),
             RegOp::Read(0x1083),
             RegOp::Read(0x1082),
+            RegOp::WriteQuadlet(0x2_0010, 0xf80f_0000),
             RegOp::Read(0x1087),
             RegOp::Write(0x1087, 0x08),
         ]
@@ -61,6 +71,11 @@ fn wrong_oui_and_bad_status_are_refused() {
 #[test]
 fn encoders_give_position_with_wraparound_and_force_maps_through_jt() {
     let mut m = MockFirewire::omni();
+    // Calibrated in the dock at zero counts, the dock pose being all zero.
+    m.inputs.push_back(OmniInput {
+        docked: true,
+        ..Default::default()
+    });
     // 15000 counts per revolution: 1250 counts = 30 degrees. Joint 1 crosses the 16-bit wrap.
     let seq = [
         [0u16, 65_000, 1250],
@@ -80,8 +95,11 @@ fn encoders_give_position_with_wraparound_and_force_maps_through_jt() {
         gimbal: [1024; 3],
         ..Default::default()
     };
-    m.short_every = Some(4);
-    let mut dev = OmniDevice::start(m, config()).unwrap();
+    m.short_every = Some(5);
+    let mut dev = OmniDevice::start(m, plain_config()).unwrap();
+    dev.read().unwrap();
+    dev.calibrate().unwrap();
+    dev.write(&ForceCommand::ZERO).unwrap();
     let mut s = dev.read().unwrap();
     dev.write(&ForceCommand::ZERO).unwrap();
     for _ in 0..2 {
@@ -121,7 +139,7 @@ fn inkwell_calibration_buttons_and_disconnect() {
         button1: true,
         button2: false,
         docked: false,
-        counter: 0,
+        ..Default::default()
     };
     m.disconnect_after = Some(6);
     let mut dev = OmniDevice::start(m, config()).unwrap();
@@ -176,9 +194,12 @@ fn docked_calibration_sets_dock_pose() {
 
 #[test]
 fn a_cut_from_another_thread_sends_motors_off_and_holds_until_rearmed() {
-    let m = MockFirewire::omni();
+    let mut m = MockFirewire::omni();
+    m.current.docked = true;
     let second_path = std::sync::Arc::clone(&m.out_log);
     let mut dev = OmniDevice::start(m, config()).unwrap();
+    dev.read().unwrap();
+    dev.calibrate().unwrap();
     for _ in 0..5 {
         dev.read().unwrap();
         dev.write(&ForceCommand::force([0.0, 1.0, 0.0])).unwrap();

@@ -50,8 +50,20 @@ impl FirewireTransport for FuzzNode<'_> {
         self.regs.read_quadlet(address)
     }
 
+    fn write_quadlet(&mut self, address: u64, value: u32) -> Result<(), DeviceError> {
+        self.regs.write_quadlet(address, value)
+    }
+
     fn read_byte(&mut self, address: u64) -> Result<u8, DeviceError> {
         self.regs.read_byte(address)
+    }
+
+    fn channels(&mut self) -> Result<(u8, u8), DeviceError> {
+        self.regs.channels()
+    }
+
+    fn take_bus_reset(&mut self) -> bool {
+        self.regs.take_bus_reset()
     }
 
     fn write_byte(&mut self, address: u64, value: u8) -> Result<(), DeviceError> {

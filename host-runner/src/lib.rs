@@ -7,6 +7,7 @@
 //! | module      | what                                                        |
 //! |-------------|-------------------------------------------------------------|
 //! | [`cli`]     | the command line: `demo`, `run`, `replay`, `info`, `timing` |
+//! | [`device_config`] | `--device-config FILE`: the device constants from TOML |
 //! | [`error`]   | one-line errors with exit status 2 for bad input            |
 //! | [`meshio`]  | mesh files: the `tetradrill-meshio` crate, re-exported      |
 //! | [`owned`]   | host-owned storage for one core mesh (from `tetradrill-meshio`) |
@@ -58,6 +59,7 @@ macro_rules! err {
 
 pub mod cli;
 pub mod commands;
+pub mod device_config;
 pub mod engine;
 pub mod error;
 pub mod pen;

@@ -347,7 +347,11 @@ fn omni_disconnect_and_truncated_frames_end_with_the_named_error() {
     // Disconnect: the named error, the output off.
     let mut mock = MockFirewire::omni();
     mock.disconnect_after = Some(40);
+    // Calibrated in the dock first: the Omni renders no force before that.
+    mock.current.docked = true;
     let mut dev = OmniDevice::start(mock, c).expect("start-up");
+    dev.read().expect("a first packet");
+    dev.calibrate().expect("docked");
     let contact = plane_at_device(&mut dev, 0.01);
     let mut st = ServoState::default();
     let results = drive(&mut dev, &contact, 1000, &mut st);

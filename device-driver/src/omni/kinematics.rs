@@ -1,7 +1,11 @@
-//! PHANTOM Omni arm kinematics (l1 = l2 = 133.35 mm), analytic Jacobian, torque = J^T F.
+//! PHANTOM Omni arm kinematics (l1 = l2 = 133.35 mm by default), analytic Jacobian,
+//! torque = J^T F.
 //!
 //! `r = l1 cos t2 + l2 sin t3; x = -sin(t1) r; y = l1 sin t2 - l2 cos t3 + l2;
-//! z = -l1 + cos(t1) r` (metres here).
+//! z = -l1 + cos(t1) r` (metres here). `t3` is the forearm's angle from the vertical, not its
+//! angle to the upper arm: the forearm keeps its direction when only `t2` changes (the Omni
+//! drives it from the base). The `_with` functions take the link lengths `[l1, l2]` (the
+//! device file's `link_lengths_m`); the plain ones use [`L1`] and [`L2`].
 
 use crate::device::Vec3;
 
@@ -12,30 +16,47 @@ pub const L2: f64 = 0.13335;
 
 /// Tool position, m, from the three arm joint angles, rad.
 pub fn forward(t: Vec3) -> Vec3 {
-    let r = L1 * t[1].cos() + L2 * t[2].sin();
+    forward_with(t, [L1, L2])
+}
+
+/// Tool position, m, from the three arm joint angles, rad, and the link lengths `[l1, l2]`, m.
+pub fn forward_with(t: Vec3, l: [f64; 2]) -> Vec3 {
+    let [l1, l2] = l;
+    let r = l1 * t[1].cos() + l2 * t[2].sin();
     [
         -t[0].sin() * r,
-        L1 * t[1].sin() - L2 * t[2].cos() + L2,
-        -L1 + t[0].cos() * r,
+        l1 * t[1].sin() - l2 * t[2].cos() + l2,
+        -l1 + t[0].cos() * r,
     ]
 }
 
 /// `J = d p / d t` (row = position component, column = joint), analytic.
 pub fn jacobian(t: Vec3) -> [[f64; 3]; 3] {
+    jacobian_with(t, [L1, L2])
+}
+
+/// [`jacobian`] for the link lengths `[l1, l2]`, m.
+pub fn jacobian_with(t: Vec3, l: [f64; 2]) -> [[f64; 3]; 3] {
+    let [l1, l2] = l;
     let (s1, c1) = t[0].sin_cos();
     let (s2, c2) = t[1].sin_cos();
     let (s3, c3) = t[2].sin_cos();
-    let r = L1 * c2 + L2 * s3;
+    let r = l1 * c2 + l2 * s3;
     [
-        [-c1 * r, L1 * s1 * s2, -s1 * L2 * c3],
-        [0.0, L1 * c2, L2 * s3],
-        [-s1 * r, -L1 * c1 * s2, c1 * L2 * c3],
+        [-c1 * r, l1 * s1 * s2, -s1 * l2 * c3],
+        [0.0, l1 * c2, l2 * s3],
+        [-s1 * r, -l1 * c1 * s2, c1 * l2 * c3],
     ]
 }
 
 /// Joint torques, N m, rendering force `f`, N: `tau = J^T F`.
 pub fn joint_torques(t: Vec3, f: Vec3) -> Vec3 {
-    let j = jacobian(t);
+    joint_torques_with(t, f, [L1, L2])
+}
+
+/// [`joint_torques`] for the link lengths `[l1, l2]`, m.
+pub fn joint_torques_with(t: Vec3, f: Vec3, l: [f64; 2]) -> Vec3 {
+    let j = jacobian_with(t, l);
     [
         j[0][0] * f[0] + j[1][0] * f[1] + j[2][0] * f[2],
         j[0][1] * f[0] + j[1][1] * f[1] + j[2][1] * f[2],

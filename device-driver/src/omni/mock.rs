@@ -1,4 +1,5 @@
-//! [`MockFirewire`]: a scripted Omni node for tests (registers, input stream, faults). Its
+//! [`MockFirewire`]: a scripted Omni node for tests (registers, input stream, faults, a bus
+//! reset, an isochronous resource manager that grants the lowest free channels). Its
 //! second path ([`FirewireTransport::out_path`]) records the packets another thread sends in
 //! [`MockFirewire::out_log`], shared, so a test reads it while the device runs elsewhere.
 
@@ -6,7 +7,7 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 
 use super::packet::{decode_output, encode_input, OmniInput, OmniOutput, INPUT_LEN, OUTPUT_LEN};
-use super::{FirewireTransport, REG_SERIAL, REG_STATUS_A, REG_VENDOR};
+use super::{FirewireTransport, REG_CONTROL, REG_SERIAL, REG_STATUS_A, REG_VENDOR};
 use crate::cutoff::{Cut, OutPath, PACKET_LEN};
 use crate::device::DeviceError;
 
@@ -19,6 +20,8 @@ pub enum RegOp {
     Read(u64),
     /// Byte write.
     Write(u64, u8),
+    /// Quadlet write.
+    WriteQuadlet(u64, u32),
 }
 
 /// A scripted Omni. Registers are a small map; reads of unknown registers return 0.
@@ -44,6 +47,15 @@ pub struct MockFirewire {
     pub disconnect_after: Option<usize>,
     /// Output packets sent through the second path, from any thread, decoded.
     pub out_log: Arc<Mutex<Vec<OmniOutput>>>,
+    /// The resource manager's free channels (bit `c` set: channel `c` is free). The first
+    /// [`FirewireTransport::channels`] call takes the two lowest and clears their bits.
+    pub free_channels: u64,
+    /// The channels taken, once taken.
+    pub held: Option<(u8, u8)>,
+    /// Reset the bus after this many received packets: the node forgets its byte registers
+    /// (channels and control read 0 again) and the next `take_bus_reset` reports it.
+    pub bus_reset_after: Option<usize>,
+    reset_pending: bool,
     received: usize,
 }
 
@@ -75,6 +87,10 @@ impl MockFirewire {
             sent: Vec::new(),
             disconnect_after: None,
             out_log: Arc::default(),
+            free_channels: u64::MAX,
+            held: None,
+            bus_reset_after: None,
+            reset_pending: false,
             received: 0,
         }
     }
@@ -103,6 +119,11 @@ impl FirewireTransport for MockFirewire {
         })
     }
 
+    fn write_quadlet(&mut self, address: u64, value: u32) -> Result<(), DeviceError> {
+        self.log.push(RegOp::WriteQuadlet(address, value));
+        Ok(())
+    }
+
     fn read_byte(&mut self, address: u64) -> Result<u8, DeviceError> {
         self.log.push(RegOp::Read(address));
         Ok(self.reg(address))
@@ -114,9 +135,43 @@ impl FirewireTransport for MockFirewire {
         Ok(())
     }
 
+    fn channels(&mut self) -> Result<(u8, u8), DeviceError> {
+        if let Some(held) = self.held {
+            return Ok(held);
+        }
+        let mut take = || {
+            let c = self.free_channels.trailing_zeros();
+            if c >= 64 {
+                return None;
+            }
+            self.free_channels &= !(1u64 << c);
+            Some(c as u8)
+        };
+        match (take(), take()) {
+            (Some(rx), Some(tx)) => {
+                self.held = Some((rx, tx));
+                Ok((rx, tx))
+            }
+            _ => Err(DeviceError::Transport(
+                "the isochronous resource manager has no free channel",
+            )),
+        }
+    }
+
+    fn take_bus_reset(&mut self) -> bool {
+        std::mem::take(&mut self.reset_pending)
+    }
+
     fn receive(&mut self, packet: &mut [u8; INPUT_LEN]) -> Result<usize, DeviceError> {
         if self.gone() {
             return Err(DeviceError::Disconnected);
+        }
+        if self.bus_reset_after == Some(self.received) {
+            self.bus_reset_after = None;
+            self.reset_pending = true;
+            // The node comes back from the reset with its registers at their power-on values.
+            self.registers.retain(|(a, _)| *a == REG_STATUS_A);
+            self.registers.push((REG_CONTROL, 0));
         }
         self.received += 1;
         let input = self.inputs.pop_front().unwrap_or(self.current);

@@ -4,7 +4,9 @@
 //! Input, 44 bytes: offsets 4/6/8 the three arm encoders (16-bit counts, 15000 per joint
 //! revolution); 10/12/14 the gimbal channels (the upper 11 bits carry the value, the low 5 are
 //! noise); byte 19 status bits, active low: bit 0 button 1, bit 1 button 2, bit 2 docked;
-//! 22/24/26 the gimbal channels inverted; 32..36 a packet counter. Other fields unknown.
+//! 22/24/26 the second reading of each gimbal potentiometer (the "inverse" channel, same
+//! 11-bit layout: each gimbal angle is read from the ratio `a / (a + b)` of its two channels);
+//! 32..36 a packet counter. Other fields unknown.
 //!
 //! Output, 16 bytes: offsets 0/2/4 the three motor values (12-bit DAC in offset binary, 0x07FF =
 //! zero torque); offset 6 control bits (bit 0 dock-light flash, bit 1 fast flash, bit 3 motors
@@ -34,6 +36,8 @@ pub struct OmniInput {
     pub encoders: [u16; 3],
     /// Gimbal channels, 11-bit values (0..2047).
     pub gimbal: [u16; 3],
+    /// The second (inverse) channel of each gimbal potentiometer, 11-bit values.
+    pub gimbal_inv: [u16; 3],
     /// Button 1 pressed.
     pub button1: bool,
     /// Button 2 pressed.
@@ -68,6 +72,7 @@ pub fn decode_input(p: &[u8; INPUT_LEN]) -> OmniInput {
     OmniInput {
         encoders: [le16(p, 4), le16(p, 6), le16(p, 8)],
         gimbal: [le16(p, 10) >> 5, le16(p, 12) >> 5, le16(p, 14) >> 5],
+        gimbal_inv: [le16(p, 22) >> 5, le16(p, 24) >> 5, le16(p, 26) >> 5],
         button1: status & 0x01 == 0,
         button2: status & 0x02 == 0,
         docked: status & 0x04 == 0,
@@ -75,7 +80,7 @@ pub fn decode_input(p: &[u8; INPUT_LEN]) -> OmniInput {
     }
 }
 
-/// Encodes an input packet (for mocks and tests); unknown fields zero, inverted gimbal filled.
+/// Encodes an input packet (for mocks and tests); unknown fields zero.
 pub fn encode_input(i: &OmniInput) -> [u8; INPUT_LEN] {
     let mut p = [0u8; INPUT_LEN];
     let mut put = |at: usize, v: u16| {
@@ -87,7 +92,7 @@ pub fn encode_input(i: &OmniInput) -> [u8; INPUT_LEN] {
     for k in 0..3 {
         put(4 + 2 * k, i.encoders[k]);
         put(10 + 2 * k, (i.gimbal[k] & 0x7FF) << 5);
-        put(22 + 2 * k, ((0x7FF - (i.gimbal[k] & 0x7FF)) & 0x7FF) << 5);
+        put(22 + 2 * k, (i.gimbal_inv[k] & 0x7FF) << 5);
     }
     let mut status = 0xF8u8;
     if !i.button1 {
@@ -162,10 +167,14 @@ mod tests {
         p[12] = 0xE0;
         p[13] = 0xFF; // 0xFFE0 >> 5 = 2047
         p[19] = 0xFA;
+        p[22] = 0xE0;
+        p[23] = 0x0F; // 0x0FE0 >> 5 = 127
+        p[26] = 0x40; // 2 << 5
         p[32] = 7;
         let i = decode_input(&p);
         assert_eq!(i.encoders, [0x1234, 0xFFFF, 15000]);
         assert_eq!(i.gimbal, [1, 2047, 0]);
+        assert_eq!(i.gimbal_inv, [127, 0, 2]);
         assert!(i.button1 && !i.button2 && i.docked);
         assert_eq!(i.counter, 7);
         assert_eq!(decode_input(&encode_input(&i)), i);

@@ -1,26 +1,54 @@
-//! `tetradrill devices`: the haptic devices found on this machine.
+//! `tetradrill devices [--check]`: the haptic devices found on this machine; with `--check`,
+//! each one opened and read for a moment (firmware, homing, calibration state, live encoder
+//! readings), never writing force.
 
+use std::path::PathBuf;
+
+use tetradrill_device::falcon::FalconDevice;
+use tetradrill_device::omni::OmniDevice;
+use tetradrill_device::os::firewire::{discover_omnis, CdevConfig, CdevFirewire, OmniNode};
+use tetradrill_device::os::hdapi::HdApi;
+use tetradrill_device::touch::TouchDevice;
+use tetradrill_device::{DeviceKind, DeviceState, HapticDevice};
+
+use crate::device_config::DeviceConfig;
 use crate::error::CliError;
 
 /// Arguments of `devices`.
 #[derive(Debug, clap::Args)]
-pub struct DevicesArgs {}
+pub struct DevicesArgs {
+    /// Open each device found and print its firmware, homing and calibration state and live
+    /// encoder readings, writing no force.
+    #[arg(long)]
+    pub check: bool,
+    /// Device constants (TOML: `[omni]`, `[falcon]`, `[touch]`) used to open the devices.
+    #[arg(long, value_name = "FILE")]
+    pub device_config: Option<PathBuf>,
+}
+
+/// Readings taken per device by `--check`, about 1 ms apart.
+pub const CHECK_READS: usize = 50;
+
+/// What was looked for, for the nothing-found lines.
+const LOOKED_FOR: &str = "looked for a Falcon on USB 0403:cb48, a Touch on USB 0301:2988 or \
+                          2988:0302, an Omni among /dev/fw* nodes of vendor 0x000b99";
 
 /// Runs `devices`.
-pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
+pub fn run(args: &DevicesArgs) -> Result<(), CliError> {
+    let config = DeviceConfig::from_flag(args.device_config.as_deref())?;
     // The Omni is found (and opened) by its configuration ROM through firewire-cdev
     // (tetradrill_device::os::firewire), not by the device crate's sysfs scan.
     let found: Vec<_> = tetradrill_device::discover()
         .into_iter()
-        .filter(|d| d.kind != tetradrill_device::DeviceKind::Omni)
+        .filter(|d| d.kind != DeviceKind::Omni)
         .collect();
-    let omnis = tetradrill_device::os::firewire::discover_omnis();
+    let omnis = discover_omnis();
+    if args.check {
+        return check(&config, &found, &omnis);
+    }
     outln!("sim      always available (the simulated device)");
     if found.is_empty() && omnis.is_empty() {
-        outln!(
-            "(no hardware found: looked for a Falcon on USB 0403:cb48, a Touch on USB \
-             0301:2988 or 2988:0302, an Omni among /dev/fw* nodes of vendor 0x000b99)"
-        );
+        outln!("(no hardware found: {LOOKED_FOR})");
     }
     // The Touch opens through the vendor HD library, which discovery cannot see.
     let hd = tetradrill_device::os::hdapi::probe();
@@ -30,7 +58,7 @@ pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
     }
     for d in &found {
         let kind = format!("{:?}", d.kind).to_lowercase();
-        let hd_ok = d.kind == tetradrill_device::DeviceKind::Touch && hd.is_ok();
+        let hd_ok = d.kind == DeviceKind::Touch && hd.is_ok();
         let how = if d.openable || hd_ok {
             ""
         } else {
@@ -42,4 +70,146 @@ pub fn run(_args: &DevicesArgs) -> Result<(), CliError> {
         outln!("omni     {}", o.describe());
     }
     Ok(())
+}
+
+/// `devices --check`: every device found, opened, read [`CHECK_READS`] times with the motors
+/// off, described; one line when nothing is attached.
+fn check(
+    config: &DeviceConfig,
+    found: &[tetradrill_device::FoundDevice],
+    omnis: &[OmniNode],
+) -> Result<(), CliError> {
+    // The vendor library reaches a Touch (or an Omni through the vendor driver) that the USB
+    // scan may not list; it is asked only when it loads.
+    let touch = match HdApi::load() {
+        Ok(mut api) => match api.open_device(None) {
+            Ok(()) => Some(api),
+            Err(_) => None,
+        },
+        Err(_) => None,
+    };
+    let falcons: Vec<_> = found
+        .iter()
+        .filter(|d| d.kind == DeviceKind::Falcon)
+        .collect();
+    if falcons.is_empty() && omnis.is_empty() && touch.is_none() {
+        outln!("no haptic device attached ({LOOKED_FOR}, and the vendor HD library for a Touch); no force written");
+        return Ok(());
+    }
+    for f in &falcons {
+        outln!("falcon   {}", f.location);
+        match FalconDevice::open_usb(config.falcon) {
+            Ok(mut dev) => {
+                let (ok, last) = sample(&mut dev);
+                if ok == 0 {
+                    outln!("  firmware: not answering ({}); load it with `run --device falcon --falcon-firmware FILE`", last.err().unwrap_or("no frame".into()));
+                } else {
+                    outln!("  firmware: running ({ok} of {CHECK_READS} readings)");
+                    let h = dev.homed();
+                    let state = if h & 0b111 == 0b111 {
+                        "homed on all three axes".to_string()
+                    } else {
+                        format!(
+                            "not homed (axes homed {h:03b}); move the grip through the workspace"
+                        )
+                    };
+                    outln!("  homing: {state}");
+                    if let Ok(s) = last {
+                        print_state(&s);
+                    }
+                }
+            }
+            Err(e) => outln!("  cannot open: {e}"),
+        }
+    }
+    for o in omnis {
+        outln!("omni     {}", o.describe());
+        if o.rom.is_err() {
+            continue;
+        }
+        let transport = match CdevFirewire::open(&o.path, CdevConfig::default()) {
+            Ok(t) => t,
+            Err(e) => {
+                outln!("  cannot open: {e}");
+                continue;
+            }
+        };
+        match OmniDevice::start(transport, config.omni) {
+            Ok(mut dev) => {
+                let (rx, tx) = dev.channels();
+                outln!(
+                    "  started: serial {:#010x}, isochronous channels receive {rx} transmit {tx}",
+                    dev.serial()
+                );
+                let (ok, last) = sample(&mut dev);
+                outln!("  packets: {ok} of {CHECK_READS} readings complete");
+                let input = dev.last_input();
+                let docked = if input.docked { "docked" } else { "not docked" };
+                outln!(
+                    "  calibration: not calibrated (stylus {docked}); `run --device omni` calibrates in the inkwell"
+                );
+                outln!(
+                    "  encoders (counts): {:?}; gimbal channels {:?} / {:?}; buttons {}{}",
+                    input.encoders.map(|c| c as i16),
+                    input.gimbal,
+                    input.gimbal_inv,
+                    u8::from(input.button1),
+                    u8::from(input.button2)
+                );
+                match last {
+                    Ok(s) => print_state(&s),
+                    Err(e) => outln!("  last reading: {e}"),
+                }
+            }
+            Err(e) => outln!("  start-up failed: {e}"),
+        }
+    }
+    if let Some(api) = touch {
+        outln!("touch    through the vendor HD library ({})", api.path());
+        match TouchDevice::new(api, None) {
+            Ok(mut dev) => {
+                let (ok, last) = sample(&mut dev);
+                outln!("  readings: {ok} of {CHECK_READS}; calibration: the vendor library's");
+                if let Ok(s) = last {
+                    print_state(&s);
+                }
+            }
+            Err(e) => outln!("  cannot start: {e}"),
+        }
+    }
+    outln!("(no force written)");
+    Ok(())
+}
+
+/// Reads `device` [`CHECK_READS`] times about 1 ms apart with the motors off: the complete
+/// readings and the last result.
+fn sample(device: &mut dyn HapticDevice) -> (usize, Result<DeviceState, String>) {
+    let mut ok = 0;
+    let mut last = Err("no reading".to_string());
+    for _ in 0..CHECK_READS {
+        last = device.read().map_err(|e| e.to_string());
+        if last.is_ok() {
+            ok += 1;
+        }
+        let _ = device.write(&tetradrill_device::ForceCommand::OFF);
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    (ok, last)
+}
+
+fn print_state(s: &DeviceState) {
+    let j = s.joint_angles;
+    outln!(
+        "  joints (rad): {:.4} {:.4} {:.4}  gimbal {:.4} {:.4} {:.4}; position (m): {:.4} {:.4} {:.4}; docked {}",
+        j[0],
+        j[1],
+        j[2],
+        j[3],
+        j[4],
+        j[5],
+        s.position[0],
+        s.position[1],
+        s.position[2],
+        s.docked
+    );
 }

@@ -14,16 +14,18 @@ use tetradrill_device::omni::{OmniConfig, OmniDevice};
 use tetradrill_device::os::firewire::{discover_omnis, CdevConfig, CdevFirewire, OmniNode};
 use tetradrill_device::os::hdapi::{HdApi, HdLoadError};
 use tetradrill_device::{
-    discovery::OpenOptions, DeviceError, DeviceKind, DeviceSpec, HapticDevice, PathPoint, Scripted,
-    SimDevice, QUAT_IDENTITY,
+    discovery::OpenOptions, CalibrationStyle, DeviceError, DeviceKind, DeviceSpec, ForceCommand,
+    HapticDevice, PathPoint, Scripted, SimDevice, QUAT_IDENTITY,
 };
 
 use super::pipeline::{self, DeviceFactory, PipelineSetup, MESH_UNITS, UNTIL_STOPPED};
+use crate::device_config::DeviceConfig;
 use crate::error::CliError;
 use crate::rt::RtConfig;
 use crate::scenario::{Scenario, ScenarioFlags};
 use crate::tasks::Workspace;
 use crate::traces::PoseSource;
+use crate::watchdog::StopRequest;
 
 /// Arguments of `run`.
 #[derive(Debug, clap::Args)]
@@ -51,6 +53,9 @@ pub struct RunArgs {
     /// to be running already.
     #[arg(long)]
     pub falcon_firmware: Option<PathBuf>,
+    /// Device constants (TOML: `[omni]`, `[falcon]`, `[touch]`); defaults in docs/devices/*.toml.
+    #[arg(long, value_name = "FILE")]
+    pub device_config: Option<PathBuf>,
     /// Do not ask for SCHED_FIFO, core pinning or memory locking.
     #[arg(long)]
     pub no_rt: bool,
@@ -70,11 +75,15 @@ fn parse_device(s: &str) -> Result<DeviceKind, String> {
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let sc = Scenario::from_flags(&args.scenario)?;
     let view = crate::viewer::ViewOptions::of(args.headless, args.screenshot.clone())?;
+    let devices = DeviceConfig::from_flag(args.device_config.as_deref())?;
     let options = OpenOptions {
         falcon_firmware: args.falcon_firmware.clone(),
+        falcon: devices.falcon,
         ..OpenOptions::default()
     };
-    let (open, default_ticks, workspace) = device_factory(args.device, &sc, options)?;
+    let stop = StopRequest::new();
+    let (open, default_ticks, workspace) =
+        device_factory_with(args.device, &sc, options, &devices, &stop)?;
     let ticks = run_ticks(args.duration, default_ticks);
     let rt = if args.no_rt {
         RtConfig {
@@ -95,7 +104,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         status_line: !args.quiet,
         summary: true,
         view,
-        stop: crate::watchdog::StopRequest::new(),
+        stop,
         record: args.record.clone(),
     };
     run_until_signal(&sc, setup, args.json.as_ref())
@@ -143,6 +152,24 @@ pub fn device_factory(
     kind: DeviceKind,
     sc: &Scenario,
     options: OpenOptions,
+) -> Result<(DeviceFactory, u64, Workspace), CliError> {
+    device_factory_with(
+        kind,
+        sc,
+        options,
+        &DeviceConfig::default(),
+        &StopRequest::new(),
+    )
+}
+
+/// [`device_factory`] with the device file's constants; `stop` ends the Omni's wait for its
+/// stylus in the dock.
+pub fn device_factory_with(
+    kind: DeviceKind,
+    sc: &Scenario,
+    options: OpenOptions,
+    devices: &DeviceConfig,
+    stop: &StopRequest,
 ) -> Result<(DeviceFactory, u64, Workspace), CliError> {
     match kind {
         DeviceKind::Sim => {
@@ -197,7 +224,7 @@ pub fn device_factory(
             let open: DeviceFactory = if real == DeviceKind::Touch {
                 touch_factory()?
             } else if real == DeviceKind::Omni {
-                omni_factory()?
+                omni_factory(devices.omni, stop.clone())?
             } else {
                 Box::new(move || tetradrill_device::discovery::open(real, &options))
             };
@@ -220,9 +247,11 @@ fn touch_factory() -> Result<DeviceFactory, CliError> {
 }
 
 /// The device factory of `tetradrill run --device omni`: finds the Omni and opens its node
-/// here, on the main thread, so a missing or unreadable node is one line and exit status 2;
-/// the start-up register sequence runs in the servo thread when the factory is called.
-fn omni_factory() -> Result<DeviceFactory, CliError> {
+/// here, on the main thread, so a missing or unreadable node, or channels the bus's resource
+/// manager does not grant, is one line and exit status 2. The start-up register sequence and
+/// the inkwell calibration ([`calibrate_in_dock`]) run in the servo thread when the factory
+/// is called.
+fn omni_factory(config: OmniConfig, stop: StopRequest) -> Result<DeviceFactory, CliError> {
     let nodes = discover_omnis();
     let Some(node) = nodes.iter().find(|n| n.rom.is_ok()) else {
         return Err(CliError::input(match nodes.first() {
@@ -230,16 +259,58 @@ fn omni_factory() -> Result<DeviceFactory, CliError> {
             _ => format!("--device omni: {}", DeviceError::NotFound(DeviceKind::Omni)),
         }));
     };
-    let config = OmniConfig::default();
-    let transport = CdevFirewire::open(&node.path, CdevConfig::for_omni(&config))
+    let transport = CdevFirewire::open(&node.path, CdevConfig::default())
         .map_err(|e| CliError::input(format!("--device omni: {e}")))?;
-    if let Some(w) = transport.warning() {
-        errln!("tetradrill: warning: {}: {w}", node.path.display());
-    }
     Ok(Box::new(move || {
-        let device = OmniDevice::start(transport, config)?;
+        let mut device = OmniDevice::start(transport, config)?;
+        calibrate_in_dock(&mut device, &stop, DOCK_WAIT_TICKS, || {
+            errln!(
+                "tetradrill: put the Omni's stylus in its inkwell to calibrate (waiting up to \
+                 {} s; Ctrl-C stops)",
+                DOCK_WAIT_TICKS / 1000
+            );
+        })?;
         Ok(Box::new(device) as Box<dyn HapticDevice>)
     }))
+}
+
+/// How long `run` waits for the stylus in the dock, in 1 ms ticks.
+pub const DOCK_WAIT_TICKS: u64 = 60_000;
+
+/// Waits for the stylus in its inkwell, writing no force, and calibrates there (devices whose
+/// [`DeviceSpec::calibration`] is [`CalibrationStyle::Inkwell`]; others return at once).
+/// `ask` runs once when the stylus is not docked at the first reading. Returns whether the
+/// device was calibrated: `false` when `stop` was raised first (the device stays force-free);
+/// [`DeviceError::NotDocked`] after `limit_ticks` readings about 1 ms apart.
+///
+/// # Bounded work
+/// At most `limit_ticks` readings, each followed by a motors-off command and a 1 ms sleep.
+pub fn calibrate_in_dock(
+    device: &mut dyn HapticDevice,
+    stop: &StopRequest,
+    limit_ticks: u64,
+    ask: impl FnOnce(),
+) -> Result<bool, DeviceError> {
+    if device.spec().calibration != CalibrationStyle::Inkwell {
+        return Ok(true);
+    }
+    let mut ask = Some(ask);
+    for _ in 0..limit_ticks {
+        if stop.is_requested() {
+            return Ok(false);
+        }
+        let state = device.read()?;
+        if state.docked {
+            device.calibrate()?;
+            return Ok(true);
+        }
+        if let Some(ask) = ask.take() {
+            ask();
+        }
+        device.write(&ForceCommand::OFF)?;
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    Err(DeviceError::NotDocked)
 }
 
 /// The demo script's length in ticks.

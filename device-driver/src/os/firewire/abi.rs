@@ -20,6 +20,7 @@ pub(super) const EVENT_ISO_RESOURCE_ALLOCATED: u32 = 0x04;
 pub(super) const EVENT_ISO_RESOURCE_DEALLOCATED: u32 = 0x05;
 
 // TCODE_* (firewire-constants.h).
+pub(super) const TCODE_WRITE_QUADLET_REQUEST: u32 = 0x0;
 pub(super) const TCODE_WRITE_BLOCK_REQUEST: u32 = 0x1;
 pub(super) const TCODE_READ_QUADLET_REQUEST: u32 = 0x4;
 pub(super) const TCODE_READ_BLOCK_REQUEST: u32 = 0x5;
@@ -371,6 +372,7 @@ int main(void) {
     V(FW_CDEV_ISO_CONTEXT_TRANSMIT); V(FW_CDEV_ISO_CONTEXT_RECEIVE);
     V(FW_CDEV_ISO_INTERRUPT); V(FW_CDEV_ISO_HEADER_LENGTH(4));
     V(FW_CDEV_ISO_CONTEXT_MATCH_ALL_TAGS);
+    V(TCODE_WRITE_QUADLET_REQUEST);
     V(TCODE_WRITE_BLOCK_REQUEST); V(TCODE_READ_QUADLET_REQUEST); V(TCODE_READ_BLOCK_REQUEST);
     V(RCODE_COMPLETE); V(RCODE_CONFLICT_ERROR); V(RCODE_DATA_ERROR); V(RCODE_TYPE_ERROR);
     V(RCODE_ADDRESS_ERROR); V(RCODE_SEND_ERROR); V(RCODE_CANCELLED); V(RCODE_BUSY);
@@ -564,6 +566,10 @@ int main(void) {
             (
                 "value FW_CDEV_ISO_CONTEXT_MATCH_ALL_TAGS",
                 u64::from(ISO_CONTEXT_MATCH_ALL_TAGS),
+            ),
+            (
+                "value TCODE_WRITE_QUADLET_REQUEST",
+                u64::from(TCODE_WRITE_QUADLET_REQUEST),
             ),
             (
                 "value TCODE_WRITE_BLOCK_REQUEST",

@@ -13,7 +13,9 @@
 //! | quadlet and byte register reads, byte writes | `FW_CDEV_IOC_SEND_REQUEST` (quadlet read, 1-byte block read/write), answered by `FW_CDEV_EVENT_RESPONSE` read from the fd |
 //! | 44-byte input packets        | an isochronous receive context (`CREATE_ISO_CONTEXT`, `QUEUE_ISO`, `START_ISO`) filling a ring of 64 slots in an mmapped buffer |
 //! | 16-byte output packets       | an isochronous transmit context from an mmapped ring; each output is repeated every bus cycle (8 kHz) until the next one, as public Omni code does |
-//! | channel bookkeeping          | `FW_CDEV_IOC_ALLOCATE_ISO_RESOURCE` at the bus's isochronous resource manager |
+//! | the two channels             | `FW_CDEV_IOC_ALLOCATE_ISO_RESOURCE` at the bus's isochronous resource manager, the lowest free channels unless fixed ones are asked for; a refusal fails the open |
+//! | 0x20010 quadlet write        | `FW_CDEV_IOC_SEND_REQUEST` (quadlet write)                  |
+//! | bus resets                   | `FW_CDEV_EVENT_BUS_RESET` on the control and receive files, reported once by `take_bus_reset` |
 //! | identification               | the configuration ROM copy of `FW_CDEV_IOC_GET_INFO` |
 //!
 //! The kernel allows one isochronous context per open file, so a transport opens its node

@@ -9,7 +9,7 @@ use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use super::abi::{
     AllocateIsoResource, BusReset, ALLOCATE_ISO_RESOURCE, ISO_CONTEXT_RECEIVE,
     ISO_CONTEXT_TRANSMIT, RCODE_COMPLETE, RCODE_GENERATION, SCODE_100, TCODE_READ_BLOCK_REQUEST,
-    TCODE_READ_QUADLET_REQUEST, TCODE_WRITE_BLOCK_REQUEST,
+    TCODE_READ_QUADLET_REQUEST, TCODE_WRITE_BLOCK_REQUEST, TCODE_WRITE_QUADLET_REQUEST,
 };
 use super::error::{errno_error, rcode_result, OpenError};
 use super::event::{
@@ -24,22 +24,20 @@ use super::iso::{
 use crate::cutoff::{Cut, OutPath, PACKET_LEN};
 use crate::device::DeviceError;
 use crate::omni::packet::{encode_output, OmniOutput, INPUT_LEN, MOTOR_ZERO, OUTPUT_LEN};
-use crate::omni::{FirewireTransport, OmniConfig};
+use crate::omni::FirewireTransport;
 use crate::os::clock::now_ns;
 
 /// Settings of [`CdevFirewire`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CdevConfig {
-    /// Channel the host receives on (the Omni transmits on; written to its 0x1001).
-    pub receive_channel: u8,
-    /// Channel the host transmits on (written to the Omni's 0x1000).
-    pub transmit_channel: u8,
+    /// Channel the host receives on (the Omni transmits on; written to its 0x1001): `None`,
+    /// the default, takes the lowest channel the bus's isochronous resource manager has free.
+    pub receive_channel: Option<u8>,
+    /// Channel the host transmits on (written to the Omni's 0x1000): `None`, the default,
+    /// takes the lowest other free channel.
+    pub transmit_channel: Option<u8>,
     /// Transmit speed code ([`SCODE_100`] as public Omni code uses).
     pub speed: u32,
-    /// Allocate both channels and their bandwidth at the isochronous resource manager.
-    /// A refusal does not fail [`CdevFirewire::open`]; it is reported by
-    /// [`CdevFirewire::warning`].
-    pub allocate_channels: bool,
     /// Longest wait for a register read or write, ms.
     pub request_timeout_ms: u32,
     /// Longest wait for the resource manager's answer, ms.
@@ -58,10 +56,9 @@ pub struct CdevConfig {
 impl Default for CdevConfig {
     fn default() -> CdevConfig {
         CdevConfig {
-            receive_channel: 0,
-            transmit_channel: 1,
+            receive_channel: None,
+            transmit_channel: None,
             speed: SCODE_100,
-            allocate_channels: true,
             request_timeout_ms: 1000,
             allocate_timeout_ms: 2000,
             first_packet_timeout_ms: 500,
@@ -72,13 +69,77 @@ impl Default for CdevConfig {
     }
 }
 
-impl CdevConfig {
-    /// Defaults with the channels of an Omni configuration.
-    pub fn for_omni(config: &OmniConfig) -> CdevConfig {
-        CdevConfig {
-            receive_channel: config.receive_channel,
-            transmit_channel: config.transmit_channel,
-            ..CdevConfig::default()
+/// The `channels` mask of an allocation request: the wanted channel, or every channel but
+/// `taken` (the kernel grants the lowest free one in the mask).
+fn channel_mask(wanted: Option<u8>, taken: Option<u8>) -> u64 {
+    match (wanted, taken) {
+        (Some(c), _) => 1u64 << (c & 63),
+        (None, Some(t)) => !(1u64 << (t & 63)),
+        (None, None) => u64::MAX,
+    }
+}
+
+/// The channel an `FW_CDEV_EVENT_ISO_RESOURCE_*` event grants, or why it grants none (the
+/// kernel puts a negative errno in the channel or bandwidth field).
+fn granted(allocated: bool, channel: i32, bandwidth: i32) -> Result<u8, String> {
+    if !allocated {
+        return Err("the isochronous resource manager took the channel back".into());
+    }
+    if channel < 0 || bandwidth < 0 || channel > 63 {
+        let errno = if channel < 0 { -channel } else { -bandwidth };
+        return Err(format!(
+            "the isochronous resource manager granted no channel ({})",
+            io::Error::from_raw_os_error(errno.max(0))
+        ));
+    }
+    Ok(channel as u8)
+}
+
+/// Allocates one channel in `mask` with `bandwidth` units for the life of the control file
+/// (the kernel reallocates it after bus resets and frees it on close) and waits, up to
+/// `timeout_ms`, for the resource manager's answer. Bus resets met are counted in `resets`
+/// and their generation kept in `generation`.
+fn allocate_one(
+    ctl: &mut EventFile,
+    closure: u64,
+    mask: u64,
+    bandwidth: u32,
+    timeout_ms: u32,
+    resets: &mut u64,
+    generation: &mut u32,
+) -> Result<u8, String> {
+    let mut a = AllocateIsoResource {
+        closure,
+        channels: mask,
+        bandwidth,
+        handle: 0,
+    };
+    ioctl_plain(&ctl.file, ALLOCATE_ISO_RESOURCE, &mut a)
+        .map_err(|e| format!("FW_CDEV_IOC_ALLOCATE_ISO_RESOURCE: {e}"))?;
+    let deadline = now_ns() + u64::from(timeout_ms) * 1_000_000;
+    loop {
+        let Some(n) = ctl.read_one().map_err(|e| e.to_string())? else {
+            let left = deadline.saturating_sub(now_ns());
+            if left == 0 {
+                return Err(format!(
+                    "no answer from the isochronous resource manager in {timeout_ms} ms"
+                ));
+            }
+            ctl.wait(left).map_err(|e| e.to_string())?;
+            continue;
+        };
+        match ctl.event(n) {
+            Some(Event::IsoResource {
+                closure: c,
+                allocated,
+                channel,
+                bandwidth,
+            }) if c == closure => return granted(allocated, channel, bandwidth),
+            Some(Event::BusReset { generation: g, .. }) => {
+                *resets += 1;
+                *generation = g;
+            }
+            _ => {}
         }
     }
 }
@@ -121,16 +182,23 @@ pub struct CdevFirewire {
     rx: RxStream,
     tx: Arc<Mutex<TxStream>>,
     stats: CdevStats,
-    warning: Option<String>,
+    channels: (u8, u8),
+    ctl_resets: u64,
+    resets_taken: u64,
 }
 
 impl CdevFirewire {
-    /// Opens `path` three times (control, receive, transmit), creates both isochronous
-    /// contexts, maps their buffers and, when configured, allocates the channels. Nothing is
-    /// sent on the bus except the allocation; streams start on first use.
+    /// Opens `path` three times (control, receive, transmit), allocates the two channels at
+    /// the bus's isochronous resource manager, creates both isochronous contexts on them and
+    /// maps their buffers. A channel the manager does not grant fails the open (step
+    /// `channels`). Nothing is sent on the bus except the allocation; streams start on first
+    /// use.
     pub fn open(path: &Path, config: CdevConfig) -> Result<CdevFirewire, OpenError> {
         let io_err = |step: &'static str| move |e: io::Error| OpenError::io(path, step, &e);
-        for channel in [config.receive_channel, config.transmit_channel] {
+        for channel in [config.receive_channel, config.transmit_channel]
+            .into_iter()
+            .flatten()
+        {
             if channel > 63 {
                 return Err(OpenError {
                     path: path.to_path_buf(),
@@ -140,9 +208,36 @@ impl CdevFirewire {
                 });
             }
         }
-        let ctl = EventFile::open(path, true).map_err(io_err("open"))?;
+        let mut ctl = EventFile::open(path, true).map_err(io_err("open"))?;
         let mut bus = BusReset::default();
         get_info(&ctl.file, None, &mut bus).map_err(io_err("FW_CDEV_IOC_GET_INFO"))?;
+        let refused = |reason: String| OpenError {
+            path: path.to_path_buf(),
+            step: "channels",
+            reason,
+            device: DeviceError::Transport("no isochronous channel granted"),
+        };
+        let mut ctl_resets = 0;
+        let rx_channel = allocate_one(
+            &mut ctl,
+            CLOSURE_ALLOC_RX,
+            channel_mask(config.receive_channel, None),
+            bandwidth_units(RX_SLOT_BYTES, config.speed),
+            config.allocate_timeout_ms,
+            &mut ctl_resets,
+            &mut bus.generation,
+        )
+        .map_err(refused)?;
+        let tx_channel = allocate_one(
+            &mut ctl,
+            CLOSURE_ALLOC_TX,
+            channel_mask(config.transmit_channel, Some(rx_channel)),
+            bandwidth_units(OUTPUT_LEN, config.speed),
+            config.allocate_timeout_ms,
+            &mut ctl_resets,
+            &mut bus.generation,
+        )
+        .map_err(refused)?;
 
         let rx_ev = EventFile::open(path, true).map_err(io_err("open"))?;
         get_info(&rx_ev.file, None, &mut BusReset::default())
@@ -151,7 +246,7 @@ impl CdevFirewire {
             &rx_ev.file,
             ISO_CONTEXT_RECEIVE,
             RX_HEADER_BYTES as u32,
-            config.receive_channel,
+            rx_channel,
             0,
             CLOSURE_RX,
         )
@@ -166,7 +261,7 @@ impl CdevFirewire {
             &tx_ev.file,
             ISO_CONTEXT_TRANSMIT,
             0,
-            config.transmit_channel,
+            tx_channel,
             config.speed,
             CLOSURE_TX,
         )
@@ -174,7 +269,7 @@ impl CdevFirewire {
         let tx_buf = IsoBuffer::map(&tx_ev.file, TX_SLOTS * OUTPUT_LEN, true)
             .map_err(io_err("mmap (transmit buffer)"))?;
 
-        let mut t = CdevFirewire {
+        let t = CdevFirewire {
             path: path.to_path_buf(),
             config,
             ctl,
@@ -201,11 +296,10 @@ impl CdevFirewire {
                 completed: 0,
             })),
             stats: CdevStats::default(),
-            warning: None,
+            channels: (rx_channel, tx_channel),
+            ctl_resets,
+            resets_taken: 0,
         };
-        if config.allocate_channels {
-            t.warning = t.allocate().err();
-        }
         Ok(t)
     }
 
@@ -217,81 +311,6 @@ impl CdevFirewire {
     /// Counters.
     pub fn stats(&self) -> CdevStats {
         self.stats
-    }
-
-    /// Why the channels could not be allocated at the resource manager, if they could not
-    /// (the streams are still attempted).
-    pub fn warning(&self) -> Option<&str> {
-        self.warning.as_deref()
-    }
-
-    /// Allocates both channels with their bandwidth for the life of the control file (the
-    /// kernel reallocates them after bus resets and frees them on close).
-    fn allocate(&mut self) -> Result<(), String> {
-        let speed = self.config.speed;
-        let wanted = [
-            (
-                CLOSURE_ALLOC_RX,
-                self.config.receive_channel,
-                bandwidth_units(RX_SLOT_BYTES, speed),
-            ),
-            (
-                CLOSURE_ALLOC_TX,
-                self.config.transmit_channel,
-                bandwidth_units(OUTPUT_LEN, speed),
-            ),
-        ];
-        for (closure, channel, bandwidth) in wanted {
-            let mut a = AllocateIsoResource {
-                closure,
-                channels: 1u64 << channel,
-                bandwidth,
-                handle: 0,
-            };
-            ioctl_plain(&self.ctl.file, ALLOCATE_ISO_RESOURCE, &mut a)
-                .map_err(|e| format!("FW_CDEV_IOC_ALLOCATE_ISO_RESOURCE: {e}"))?;
-        }
-        let deadline = now_ns() + u64::from(self.config.allocate_timeout_ms) * 1_000_000;
-        let mut pending = wanted.len();
-        while pending > 0 {
-            let Some(n) = self.ctl.read_one().map_err(|e| e.to_string())? else {
-                let left = deadline.saturating_sub(now_ns());
-                if left == 0 {
-                    return Err(format!(
-                        "no answer from the isochronous resource manager in {} ms",
-                        self.config.allocate_timeout_ms
-                    ));
-                }
-                self.ctl.wait(left).map_err(|e| e.to_string())?;
-                continue;
-            };
-            match self.ctl.event(n) {
-                Some(Event::IsoResource {
-                    closure,
-                    allocated,
-                    channel,
-                    bandwidth,
-                }) => {
-                    let Some(&(_, wanted_channel, _)) =
-                        wanted.iter().find(|(c, _, _)| *c == closure)
-                    else {
-                        continue;
-                    };
-                    pending -= 1;
-                    if !allocated || channel < 0 || bandwidth < 0 {
-                        let errno = if channel < 0 { -channel } else { -bandwidth };
-                        return Err(format!(
-                            "isochronous channel {wanted_channel}: the resource manager did not \
-                             grant it ({})",
-                            io::Error::from_raw_os_error(errno.max(0))
-                        ));
-                    }
-                }
-                Some(Event::BusReset { generation, .. }) => self.generation = generation,
-                _ => {}
-            }
-        }
-        Ok(())
     }
 
     fn refresh_generation(&mut self) -> Result<(), DeviceError> {
@@ -353,7 +372,10 @@ impl CdevFirewire {
                         }
                         break rcode;
                     }
-                    Some(Event::BusReset { generation, .. }) => self.generation = generation,
+                    Some(Event::BusReset { generation, .. }) => {
+                        self.generation = generation;
+                        self.ctl_resets += 1;
+                    }
                     _ => {}
                 }
             };
@@ -373,6 +395,30 @@ impl FirewireTransport for CdevFirewire {
         let mut q = [0u8; 4];
         self.request(TCODE_READ_QUADLET_REQUEST, address, &[0; 4], &mut q)?;
         Ok(u32::from_be_bytes(q))
+    }
+
+    /// A quadlet write request; the value goes out big-endian (bus order).
+    fn write_quadlet(&mut self, address: u64, value: u32) -> Result<(), DeviceError> {
+        self.request(
+            TCODE_WRITE_QUADLET_REQUEST,
+            address,
+            &value.to_be_bytes(),
+            &mut [],
+        )
+    }
+
+    /// The channels granted at [`CdevFirewire::open`]; the kernel keeps them across bus
+    /// resets.
+    fn channels(&mut self) -> Result<(u8, u8), DeviceError> {
+        Ok(self.channels)
+    }
+
+    /// Bus resets seen on the control file (during requests) or the receive stream.
+    fn take_bus_reset(&mut self) -> bool {
+        let seen = self.ctl_resets + self.stats.bus_resets;
+        let new = seen != self.resets_taken;
+        self.resets_taken = seen;
+        new
     }
 
     /// A one-byte block read request.
@@ -591,7 +637,7 @@ mod tests {
         }
 
         let bad = CdevConfig {
-            transmit_channel: 64,
+            transmit_channel: Some(64),
             ..CdevConfig::default()
         };
         let e = CdevFirewire::open(&absent, bad).expect_err("channel 64");
@@ -600,14 +646,20 @@ mod tests {
     }
 
     #[test]
-    fn config_takes_the_omni_channels() {
-        let omni = OmniConfig {
-            receive_channel: 5,
-            transmit_channel: 9,
-            ..OmniConfig::default()
-        };
-        let c = CdevConfig::for_omni(&omni);
-        assert_eq!((c.receive_channel, c.transmit_channel), (5, 9));
+    fn channels_come_from_the_resource_manager() {
+        let c = CdevConfig::default();
+        assert_eq!((c.receive_channel, c.transmit_channel), (None, None));
         assert_eq!(c.speed, SCODE_100);
+        // Any channel for the first; any but the first for the second; or exactly one.
+        assert_eq!(channel_mask(None, None), u64::MAX);
+        assert_eq!(channel_mask(None, Some(0)), u64::MAX - 1);
+        assert_eq!(channel_mask(None, Some(63)), u64::MAX >> 1);
+        assert_eq!(channel_mask(Some(5), Some(0)), 0b10_0000);
+        // The manager's answer: the channel it granted, or a negative errno.
+        assert_eq!(granted(true, 7, 816), Ok(7));
+        let busy = granted(true, -libc::EBUSY, 816).expect_err("refused");
+        assert!(busy.contains("granted no channel"), "{busy}");
+        assert!(granted(true, 3, -libc::EAGAIN).is_err());
+        assert!(granted(false, 3, 816).is_err());
     }
 }
