@@ -105,7 +105,8 @@ fn firewire_nodes() -> Vec<String> {
 /// How to open a device.
 #[derive(Debug, Default)]
 pub struct OpenOptions {
-    /// Falcon: the user's firmware file (never bundled). `None`: assume it is running.
+    /// Falcon: the user's firmware file (never bundled). `None`: no upload; start-up still
+    /// sets normal mode and checks that a firmware answers.
     pub falcon_firmware: Option<PathBuf>,
     /// Falcon settings.
     pub falcon: FalconConfig,
@@ -125,9 +126,7 @@ pub fn open(kind: DeviceKind, options: &OpenOptions) -> Result<Box<dyn HapticDev
         DeviceKind::Sim => Err(DeviceError::Unsupported(DeviceKind::Sim)),
         DeviceKind::Falcon => {
             let mut dev = FalconDevice::open_usb(options.falcon)?;
-            if let Some(path) = &options.falcon_firmware {
-                dev.load_firmware_file(path)?;
-            }
+            dev.start_with_file(options.falcon_firmware.as_deref())?;
             Ok(Box::new(dev))
         }
         DeviceKind::Omni | DeviceKind::Touch => {
