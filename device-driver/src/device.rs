@@ -214,7 +214,7 @@ impl DeviceKind {
                  /sys/bus/firewire/devices"
             }
             DeviceKind::Touch => {
-                "USB 0301:2988 or 2988:0302 and the vendor HD library (libHD.so) at run time"
+                "USB 0301:2988, 2988:0302 or 2988:0304 and the vendor HD library (libHD.so) at run time"
             }
         }
     }

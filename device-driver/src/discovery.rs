@@ -157,6 +157,8 @@ mod tests {
         assert_eq!(classify_usb(0x0403, 0xcb48), Some(DeviceKind::Falcon));
         assert_eq!(classify_usb(0x0301, 0x2988), Some(DeviceKind::Touch));
         assert_eq!(classify_usb(0x2988, 0x0302), Some(DeviceKind::Touch));
+        assert_eq!(classify_usb(0x2988, 0x0304), Some(DeviceKind::Touch));
+        assert_eq!(classify_usb(0x2988, 0x0303), None);
         assert_eq!(classify_usb(0x0403, 0x6001), None);
         assert!(is_sensable_vendor("0x000b99\n"));
         assert!(!is_sensable_vendor("0x00a0b0"));
