@@ -115,12 +115,11 @@ fn zero_torque_until_homed_then_a_ramp_without_a_step_at_the_jump() {
     assert!(full_max > 100.0, "a real force: {full:?}");
     for (k, t) in ticks[first_homed..].iter().enumerate() {
         let s = ((k + 1) as f64 / f64::from(RAMP_TICKS)).min(1.0);
-        for i in 0..3 {
+        for (i, (m, f)) in t.motors.iter().zip(full).enumerate() {
             assert!(
-                (f64::from(t.motors[i]) - s * full[i]).abs() <= 1.0,
-                "homed tick {k}, motor {i}: {} vs {}",
-                t.motors[i],
-                s * full[i]
+                (f64::from(*m) - s * f).abs() <= 1.0,
+                "homed tick {k}, motor {i}: {m} vs {}",
+                s * f
             );
         }
         assert_eq!(t.leds, LED_GREEN);
