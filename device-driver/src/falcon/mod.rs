@@ -90,7 +90,7 @@ pub struct FalconConfig {
     /// `FalconCommLibUSB::setFirmwareMode`.
     pub handshake_tries: u32,
     /// Whole firmware uploads tried before giving up, count. Default 10, libnifalcon's
-    /// `FalconCLIBase::loadFirmware` (which reopens the device between tries; here the
+    /// `FalconCLIBase::parseOptions` (which reopens the device between tries; here the
     /// loader sequence restarts from its purges).
     pub upload_tries: u32,
     /// Zero-torque frames sent at start-up, each followed by up to `reads_per_tick` reads,
