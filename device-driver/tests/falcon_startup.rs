@@ -111,6 +111,13 @@ fn the_loader_handshake_retries_a_bad_echo_then_takes_the_good_one() {
     );
     assert!(dev.transport().firmware_running());
     assert_eq!(dev.transport().echoed(), 300);
+    // The reply with a leading zero byte is the other exact form: taken at the first try.
+    let mut mock = MockTransport::new();
+    mock.long_loader_reply = true;
+    let mut dev = FalconDevice::new(mock, config());
+    dev.start(Some(&firmware()))
+        .expect("00 0a 44 2c 0d is accepted");
+    assert_eq!(writes_of(&dev.transport().log, &[0x0a, 0x43, 0x0d]), 1);
 }
 
 #[test]

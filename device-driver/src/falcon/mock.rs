@@ -52,6 +52,9 @@ pub struct MockTransport {
     pub bad_loader_replies: usize,
     /// Answer the loader's `41` with `13 41` (a wrong reply) instead of `41`.
     pub bad_ready_reply: bool,
+    /// Answer `0a 43 0d` with a leading zero byte (`00 0a 44 2c 0d`), the other form
+    /// libnifalcon accepts.
+    pub long_loader_reply: bool,
     /// Split every report into two reads (short reads).
     pub short_reads: bool,
     /// Put this many garbage bytes before each report.
@@ -173,6 +176,8 @@ impl Transport for MockTransport {
             if self.bad_loader_replies > 0 {
                 self.bad_loader_replies -= 1;
                 self.pending.push_back(vec![0x0a, 0x44, 0x2c, 0x0e]);
+            } else if self.long_loader_reply {
+                self.pending.push_back(vec![0x00, 0x0a, 0x44, 0x2c, 0x0d]);
             } else {
                 self.pending.push_back(vec![0x0a, 0x44, 0x2c, 0x0d]);
             }

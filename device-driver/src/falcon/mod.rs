@@ -404,7 +404,9 @@ impl<T: Transport> FalconDevice<T> {
         for _ in 0..self.config.status_tries.max(1) {
             match self.transport.bulk_write(&zero, self.config.timeout_ms) {
                 Ok(_) => {}
-                Err(e) => return Err(self.fail(e)),
+                Err(DeviceError::Disconnected) => return Err(self.fail(DeviceError::Disconnected)),
+                // A frame that did not go out (a timeout): the next try sends it again.
+                Err(_) => continue,
             }
             for _ in 0..self.config.reads_per_tick.max(1) {
                 let n = self
