@@ -35,7 +35,7 @@
 //!   frame and sets a zero force while the servo's heartbeat is older than 2 ms. That a frame
 //!   in the scheduler's thread overrides the force the servo's thread set last is how
 //!   OpenHaptics' own examples render forces, but it is untested here. The entry points are
-//!   optional: a library without them (the test stand-in) runs without the guard.
+//!   optional: a library without them runs without the guard.
 #![allow(unsafe_code)]
 
 use std::ffi::{c_char, c_int, c_ulong, c_void, CStr, CString, OsStr};
