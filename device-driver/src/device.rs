@@ -214,7 +214,7 @@ impl DeviceKind {
                  /sys/bus/firewire/devices"
             }
             DeviceKind::Touch => {
-                "USB 0301:2988 or 2988:0302 and the vendor HD library (libHD.so) at run time"
+                "USB 0301:2988, 2988:0302 or 2988:0304 and the vendor HD library (libHD.so) at run time"
             }
         }
     }
@@ -265,6 +265,8 @@ pub enum DeviceError {
     },
     /// The firmware file could not be read or is empty.
     FirmwareFile,
+    /// No firmware answered a status frame at start-up (none loaded, or it stopped).
+    FirmwareNotRunning,
     /// Inkwell calibration asked for while the stylus is not docked.
     NotDocked,
     /// Position could not be computed from the joint readings (out of the mechanism's range).
@@ -312,6 +314,9 @@ impl fmt::Display for DeviceError {
                 write!(f, "firmware echo mismatch in the chunk at byte {offset}")
             }
             DeviceError::FirmwareFile => f.write_str("firmware file missing, unreadable or empty"),
+            DeviceError::FirmwareNotRunning => {
+                f.write_str("no firmware answers (no status frame came back)")
+            }
             DeviceError::NotDocked => f.write_str("put the stylus in its inkwell to calibrate"),
             DeviceError::Kinematics => f.write_str("joint readings outside the mechanism's range"),
             DeviceError::LibraryNotFound => f.write_str(
@@ -347,6 +352,12 @@ pub trait HapticDevice {
     fn cutoff(&self) -> Option<std::sync::Arc<dyn crate::cutoff::MotorCutoff>> {
         None
     }
+    /// How often the device reset its reported position (e.g. the Falcon's homing resets an
+    /// axis's encoder, so the position jumps). A host that differentiates positions restarts
+    /// its velocity filter when this changes. 0 (the default) for devices that never do.
+    fn position_resets(&self) -> u64 {
+        0
+    }
 }
 
 impl<D: HapticDevice + ?Sized> HapticDevice for Box<D> {
@@ -364,6 +375,9 @@ impl<D: HapticDevice + ?Sized> HapticDevice for Box<D> {
     }
     fn cutoff(&self) -> Option<std::sync::Arc<dyn crate::cutoff::MotorCutoff>> {
         (**self).cutoff()
+    }
+    fn position_resets(&self) -> u64 {
+        (**self).position_resets()
     }
 }
 

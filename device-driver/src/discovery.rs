@@ -105,7 +105,8 @@ fn firewire_nodes() -> Vec<String> {
 /// How to open a device.
 #[derive(Debug, Default)]
 pub struct OpenOptions {
-    /// Falcon: the user's firmware file (never bundled). `None`: assume it is running.
+    /// Falcon: the user's firmware file (never bundled). `None`: no upload; start-up still
+    /// sets normal mode and checks that a firmware answers.
     pub falcon_firmware: Option<PathBuf>,
     /// Falcon settings.
     pub falcon: FalconConfig,
@@ -125,9 +126,7 @@ pub fn open(kind: DeviceKind, options: &OpenOptions) -> Result<Box<dyn HapticDev
         DeviceKind::Sim => Err(DeviceError::Unsupported(DeviceKind::Sim)),
         DeviceKind::Falcon => {
             let mut dev = FalconDevice::open_usb(options.falcon)?;
-            if let Some(path) = &options.falcon_firmware {
-                dev.load_firmware_file(path)?;
-            }
+            dev.start_with_file(options.falcon_firmware.as_deref())?;
             Ok(Box::new(dev))
         }
         DeviceKind::Omni | DeviceKind::Touch => {
@@ -158,6 +157,8 @@ mod tests {
         assert_eq!(classify_usb(0x0403, 0xcb48), Some(DeviceKind::Falcon));
         assert_eq!(classify_usb(0x0301, 0x2988), Some(DeviceKind::Touch));
         assert_eq!(classify_usb(0x2988, 0x0302), Some(DeviceKind::Touch));
+        assert_eq!(classify_usb(0x2988, 0x0304), Some(DeviceKind::Touch));
+        assert_eq!(classify_usb(0x2988, 0x0303), None);
         assert_eq!(classify_usb(0x0403, 0x6001), None);
         assert!(is_sensable_vendor("0x000b99\n"));
         assert!(!is_sensable_vendor("0x00a0b0"));

@@ -4,14 +4,132 @@
 //! opens the vendor library (`libHD.so`) at run time and implements [`HdLibrary`] over it;
 //! nothing is linked at build time and no vendor header is used. This codec has no `unsafe`:
 //! the foreign calls are the loader's. [`MockHdLibrary`] stands in for tests.
+//!
+//! # Stall path
+//! The Touch has no second path of its own to the motors, but the vendor library runs its own
+//! scheduler thread. The device stamps a [`Heartbeat`] each time the servo reads or writes;
+//! [`HdLibrary::stall_guard`] installs a callback in that scheduler which zeroes the force
+//! whenever the heartbeat is older than [`STALL_LIMIT_NS`] (2 ms: two servo ticks), so a
+//! stalled servo does not leave its last force applied. When the guard has acted, the next
+//! enabled write ramps up from zero again.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
 
 use crate::device::{DeviceError, DeviceSpec, DeviceState, ForceCommand, HapticDevice, Quat};
 use crate::safety::{ForceSafety, SafetyConfig};
 
 /// Library file names a loader should try, in order.
 pub const HD_LIBRARY_NAMES: [&str; 3] = ["libHD.so", "libHD.so.3.4", "libHD.so.3.0"];
-/// USB ids of the Touch (CDC-ACM): (vendor, product).
-pub const TOUCH_USB_IDS: [(u16, u16); 2] = [(0x0301, 0x2988), (0x2988, 0x0302)];
+/// USB ids of the Touch: (vendor, product). Sources (public, none of them the vendor's own
+/// list):
+/// - `0301:2988`: the USB (CDC-ACM) Touch as the 2016 driver documents it and as
+///   jhu-saw/sawSensablePhantom's README shows it in `dmesg` and `lsusb`;
+/// - `2988:0302`: the same model as other units report it (bharatm11/Geomagic_Touch_ROS_Drivers
+///   issue 2, `lsusb` output);
+/// - `2988:0304`: the newer Touch (HID), the id of the udev rule (`99-3dsystems.rules`) of
+///   the vendor's 2023 TouchDriver, as quoted in public ROS 2 launch files
+///   (`Geomagic_Touch_ROS2/omni_common/launch/omni_state.launch.py`); not seen in an `lsusb`
+///   listing.
+pub const TOUCH_USB_IDS: [(u16, u16); 3] = [(0x0301, 0x2988), (0x2988, 0x0302), (0x2988, 0x0304)];
+/// Age of the servo's heartbeat after which the vendor scheduler's callback zeroes the force,
+/// ns (2 ms: two ticks of the 1 kHz servo).
+pub const STALL_LIMIT_NS: u64 = 2_000_000;
+
+/// Whether a heartbeat stamped at `last_ns` (0: never stamped) is stale at `now_ns`: never
+/// stamped, or more than `limit_ns` old. A clock that reads earlier than the stamp (another
+/// thread's stamp landing between the two reads) is not stale.
+pub const fn heartbeat_stale(last_ns: u64, now_ns: u64, limit_ns: u64) -> bool {
+    last_ns == 0 || now_ns.saturating_sub(last_ns) > limit_ns
+}
+
+/// One look of the stall guard at `now_ns`: when `heartbeat` is stale (older than
+/// `limit_ns`), records a trip and returns `true`: the caller (the vendor scheduler's
+/// callback) then zeroes the force. This is the whole decision the callback makes.
+///
+/// # Bounded work
+/// Two atomic operations.
+pub fn guard_step(heartbeat: &Heartbeat, now_ns: u64, limit_ns: u64) -> bool {
+    let stale = heartbeat.stale_at(now_ns, limit_ns);
+    if stale {
+        heartbeat.record_trip();
+    }
+    stale
+}
+
+/// The servo's heartbeat: a monotonic time stamp (ns since the heartbeat was made, plus one,
+/// so 0 means "never") that the servo stores each tick and another thread reads, and the
+/// number of times that thread zeroed the force. Atomics only: safe to touch from the vendor
+/// scheduler's callback and from the servo.
+///
+/// # Bounded work
+/// Every method is one clock read and one or two atomic operations.
+#[derive(Debug)]
+pub struct Heartbeat {
+    origin: Instant,
+    last_ns: AtomicU64,
+    trips: AtomicU64,
+}
+
+impl Default for Heartbeat {
+    fn default() -> Heartbeat {
+        Heartbeat::new()
+    }
+}
+
+impl Heartbeat {
+    /// A heartbeat never stamped (stale until the first [`beat`](Self::beat)).
+    pub fn new() -> Heartbeat {
+        Heartbeat {
+            origin: Instant::now(),
+            last_ns: AtomicU64::new(0),
+            trips: AtomicU64::new(0),
+        }
+    }
+
+    /// Now on this heartbeat's clock (monotonic), ns, at least 1.
+    pub fn now_ns(&self) -> u64 {
+        u64::try_from(self.origin.elapsed().as_nanos())
+            .unwrap_or(u64::MAX - 1)
+            .saturating_add(1)
+    }
+
+    /// Stamps the heartbeat now.
+    pub fn beat(&self) {
+        self.beat_at(self.now_ns());
+    }
+
+    /// Stamps the heartbeat at `now_ns` (this heartbeat's clock; for tests with their own).
+    pub fn beat_at(&self, now_ns: u64) {
+        self.last_ns.store(now_ns, Ordering::Release);
+    }
+
+    /// The last stamp, ns (0: never).
+    pub fn last_ns(&self) -> u64 {
+        self.last_ns.load(Ordering::Acquire)
+    }
+
+    /// Whether the heartbeat is stale at `now_ns` ([`heartbeat_stale`] with `limit_ns`).
+    pub fn stale_at(&self, now_ns: u64, limit_ns: u64) -> bool {
+        heartbeat_stale(self.last_ns(), now_ns, limit_ns)
+    }
+
+    /// Whether the heartbeat is older than [`STALL_LIMIT_NS`] now.
+    pub fn stale(&self) -> bool {
+        self.stale_at(self.now_ns(), STALL_LIMIT_NS)
+    }
+
+    /// Records that the force was zeroed because the heartbeat was stale.
+    pub fn record_trip(&self) {
+        self.trips.fetch_add(1, Ordering::AcqRel);
+    }
+
+    /// How often the force was zeroed because the heartbeat was stale.
+    pub fn trips(&self) -> u64 {
+        self.trips.load(Ordering::Acquire)
+    }
+}
 
 /// The subset of HDAPI the device needs. Positions in millimetres and transforms as HDAPI
 /// returns them; errors mapped to [`DeviceError`] by the implementor
@@ -37,6 +155,13 @@ pub trait HdLibrary {
     fn enable_force(&mut self, on: bool) -> Result<(), DeviceError>;
     /// `hdUpdateCalibration` with the device's calibration style.
     fn update_calibration(&mut self) -> Result<(), DeviceError>;
+    /// Installs a callback in the library's own scheduler that zeroes the force (and calls
+    /// [`Heartbeat::record_trip`]) while `heartbeat` is stale ([`Heartbeat::stale`]).
+    /// `Ok(false)` (the default) when the library offers no way to do it.
+    fn stall_guard(&mut self, heartbeat: Arc<Heartbeat>) -> Result<bool, DeviceError> {
+        let _ = heartbeat;
+        Ok(false)
+    }
 }
 
 /// Rotation quaternion of a column-major 4x4 transform's upper 3x3.
@@ -74,12 +199,18 @@ pub struct TouchDevice<L> {
     tick: u64,
     force_on: bool,
     wrote: bool,
+    heartbeat: Arc<Heartbeat>,
+    guarded: bool,
+    trips_seen: u64,
 }
 
 impl<L: HdLibrary> TouchDevice<L> {
-    /// Initialises the device through the library.
+    /// Initialises the device through the library and installs the stall guard
+    /// ([`HdLibrary::stall_guard`]) when the library offers one.
     pub fn new(mut lib: L, name: Option<&str>) -> Result<TouchDevice<L>, DeviceError> {
         lib.init(name)?;
+        let heartbeat = Arc::new(Heartbeat::new());
+        let guarded = lib.stall_guard(Arc::clone(&heartbeat))?;
         Ok(TouchDevice {
             lib,
             safety: ForceSafety::new(SafetyConfig::for_max_force(DeviceSpec::TOUCH.max_force_n)),
@@ -87,7 +218,31 @@ impl<L: HdLibrary> TouchDevice<L> {
             tick: 0,
             force_on: false,
             wrote: false,
+            heartbeat,
+            guarded,
+            trips_seen: 0,
         })
+    }
+
+    /// The servo's heartbeat, which the stall guard reads.
+    pub fn heartbeat(&self) -> &Arc<Heartbeat> {
+        &self.heartbeat
+    }
+
+    /// Whether the library's scheduler runs the stall guard.
+    pub fn stall_guarded(&self) -> bool {
+        self.guarded
+    }
+
+    /// Stamps the heartbeat; when the guard zeroed the force since the last look, the filter
+    /// restarts so the force ramps up again instead of jumping back.
+    fn beat(&mut self) {
+        self.heartbeat.beat();
+        let trips = self.heartbeat.trips();
+        if trips != self.trips_seen {
+            self.trips_seen = trips;
+            self.safety.disable();
+        }
     }
 
     /// Replaces the safety settings.
@@ -134,6 +289,7 @@ impl<L: HdLibrary> HapticDevice for TouchDevice<L> {
     }
 
     fn read(&mut self) -> Result<DeviceState, DeviceError> {
+        self.beat();
         let out = self.safety.tick();
         if !self.wrote {
             self.render(&out).map_err(|e| self.fail(e))?;
@@ -163,6 +319,7 @@ impl<L: HdLibrary> HapticDevice for TouchDevice<L> {
 
     fn write(&mut self, command: &ForceCommand) -> Result<(), DeviceError> {
         self.wrote = true;
+        self.beat();
         match self.safety.filter(command) {
             Ok(out) => self.render(&out).map_err(|e| self.fail(e)),
             Err(e) => {
@@ -194,7 +351,28 @@ pub struct MockHdLibrary {
     pub fail_after_frames: Option<usize>,
     /// Not installed: `init` fails with `LibraryNotFound`.
     pub missing: bool,
+    /// The heartbeat handed to [`HdLibrary::stall_guard`]; a test plays the scheduler's
+    /// callback with it ([`MockHdLibrary::scheduler_tick`]).
+    pub guard: Option<Arc<Heartbeat>>,
+    /// Offer no stall guard (`stall_guard` answers `Ok(false)`).
+    pub no_guard: bool,
     frames: usize,
+}
+
+impl MockHdLibrary {
+    /// What the vendor scheduler's callback does at `now_ns` on the heartbeat's clock:
+    /// [`guard_step`] with [`STALL_LIMIT_NS`], and a zero force when it says so. Returns
+    /// whether it zeroed.
+    pub fn scheduler_tick(&mut self, now_ns: u64) -> bool {
+        let Some(hb) = self.guard.clone() else {
+            return false;
+        };
+        let zero = guard_step(&hb, now_ns, STALL_LIMIT_NS);
+        if zero {
+            self.forces.push([0.0; 3]);
+        }
+        zero
+    }
 }
 
 impl MockHdLibrary {
@@ -252,6 +430,13 @@ impl HdLibrary for MockHdLibrary {
     fn update_calibration(&mut self) -> Result<(), DeviceError> {
         Ok(())
     }
+    fn stall_guard(&mut self, heartbeat: Arc<Heartbeat>) -> Result<bool, DeviceError> {
+        if self.no_guard {
+            return Ok(false);
+        }
+        self.guard = Some(heartbeat);
+        Ok(true)
+    }
 }
 
 #[cfg(test)]
@@ -306,6 +491,69 @@ mod tests {
         }
         assert_eq!(err, Some(DeviceError::Disconnected));
         assert!(!dev.library().force_enabled);
+    }
+
+    #[test]
+    fn heartbeat_older_than_the_limit_is_stale() {
+        // Written out: a stamp at 10 ms, the limit 2 ms.
+        assert!(heartbeat_stale(0, 5, STALL_LIMIT_NS), "never stamped");
+        assert!(!heartbeat_stale(10_000_000, 10_000_000, STALL_LIMIT_NS));
+        assert!(
+            !heartbeat_stale(10_000_000, 12_000_000, STALL_LIMIT_NS),
+            "exactly 2 ms"
+        );
+        assert!(heartbeat_stale(10_000_000, 12_000_001, STALL_LIMIT_NS));
+        assert!(
+            !heartbeat_stale(10_000_000, 9_000_000, STALL_LIMIT_NS),
+            "clock behind"
+        );
+        let hb = Heartbeat::new();
+        assert!(
+            guard_step(&hb, 1, STALL_LIMIT_NS),
+            "stale before the first beat"
+        );
+        hb.beat_at(3_000_000);
+        assert!(!guard_step(&hb, 4_500_000, STALL_LIMIT_NS));
+        assert!(guard_step(&hb, 5_500_000, STALL_LIMIT_NS));
+        assert_eq!(hb.trips(), 2);
+        // The real clock: a fresh beat is not stale.
+        hb.beat();
+        assert!(hb.last_ns() >= 1);
+        assert!(!hb.stale_at(hb.last_ns(), STALL_LIMIT_NS));
+    }
+
+    #[test]
+    fn a_stalled_servo_gets_its_force_zeroed_by_the_scheduler_and_then_ramps() {
+        let mut dev = TouchDevice::new(MockHdLibrary::default(), None)
+            .unwrap()
+            .with_safety(SafetyConfig {
+                ramp_ticks: 4,
+                ..SafetyConfig::for_max_force(3.3)
+            });
+        assert!(dev.stall_guarded());
+        let push = ForceCommand::force([0.0, 0.0, 2.0]);
+        for _ in 0..6 {
+            dev.read().unwrap();
+            dev.write(&push).unwrap();
+        }
+        assert_eq!(dev.library().forces.last().copied(), Some([0.0, 0.0, 2.0]));
+        // The scheduler looks 1 ms after the servo's last stamp: nothing to do.
+        let last = dev.heartbeat().last_ns();
+        assert!(!dev.lib.scheduler_tick(last + 1_000_000));
+        // The servo stalls: 3 ms later the scheduler zeroes the force.
+        assert!(dev.lib.scheduler_tick(last + 3_000_000));
+        assert_eq!(dev.library().forces.last().copied(), Some([0.0; 3]));
+        assert_eq!(dev.heartbeat().trips(), 1);
+        // The servo comes back: its force ramps again from a quarter, not a jump to 2 N.
+        dev.read().unwrap();
+        dev.write(&push).unwrap();
+        assert_eq!(dev.library().forces.last().copied(), Some([0.0, 0.0, 0.5]));
+        // A library without a guard says so.
+        let lib = MockHdLibrary {
+            no_guard: true,
+            ..Default::default()
+        };
+        assert!(!TouchDevice::new(lib, None).unwrap().stall_guarded());
     }
 
     #[test]

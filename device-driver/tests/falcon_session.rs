@@ -28,9 +28,12 @@ fn counts_for(p: [f64; 3]) -> [i16; 3] {
     })
 }
 
+/// No ramps: the motor commands are checked against full force (the homing gate's ramp has
+/// its own tests in `falcon_homing.rs`).
 fn config() -> FalconConfig {
     let mut c = FalconConfig::default();
     c.safety.ramp_ticks = 1;
+    c.homing_ramp_s = 0.0;
     c
 }
 
@@ -73,7 +76,12 @@ fn failed_upload_then_good_upload_follows_documented_sequence() {
     assert_eq!(&controls[11..22], &loader);
     assert_eq!(
         &controls[22..],
-        &[(SIO_SET_LATENCY_TIMER, 1), (SIO_SET_BAUD_RATE, 0x0002)]
+        &[
+            (SIO_SET_LATENCY_TIMER, 1),
+            (SIO_SET_BAUD_RATE, 0x0002),
+            (SIO_RESET, PURGE_RX),
+            (SIO_RESET, PURGE_TX)
+        ]
     );
     // The second upload wrote the whole file in 128-byte chunks after the two handshakes.
     let writes: Vec<&Vec<u8>> = log
@@ -127,12 +135,11 @@ fn running_session_reads_position_maps_force_and_survives_short_reads() {
     assert_eq!(s.buttons, 0b0101);
     assert_eq!(s.tick, 10);
     assert_eq!(dev.homed(), 0b111);
-    // Homed: homing mode off and green LED in the frames sent afterwards.
+    // Homed: green LED in the frames sent afterwards; the homing bit stays in every frame.
     let cmds = &dev.transport().commands;
     let last_cmd = cmds.last().unwrap();
-    assert!(!last_cmd.homing);
     assert_eq!(last_cmd.leds, LED_GREEN);
-    assert!(cmds[0].homing);
+    assert!(cmds.iter().all(|c| c.homing));
     // The motor commands are -10000 x J^T F at the reported position (independent recompute
     // from the Jacobian, not the torque solver).
     let mech = [
@@ -249,6 +256,7 @@ fn a_cut_from_another_thread_puts_zero_on_the_wire_and_holds_it_until_rearmed() 
     let second_path = Arc::clone(&mock.out_log);
     let mut c = FalconConfig::default();
     c.safety.ramp_ticks = 10;
+    c.homing_ramp_s = 0.0;
     let mut dev = FalconDevice::new(mock, c);
     let push = [0.0, 0.0, 3.0];
     for _ in 0..20 {
@@ -258,7 +266,7 @@ fn a_cut_from_another_thread_puts_zero_on_the_wire_and_holds_it_until_rearmed() 
     let full = dev.transport().commands.last().unwrap().motors;
     assert_ne!(full, [0; 3]);
     // The supervisor's thread cuts: one zero-motor frame on the second path, with the LED and
-    // homing bits the servo's frames carry (homed: green, homing off).
+    // homing bits the servo's frames carry (homed: green; the homing bit is always set).
     let cutoff = dev.cutoff().expect("the mock has a second path");
     std::thread::scope(|s| {
         s.spawn(|| assert_eq!(cutoff.cut(), Ok(Cut::Done)));
@@ -267,7 +275,7 @@ fn a_cut_from_another_thread_puts_zero_on_the_wire_and_holds_it_until_rearmed() 
     assert_eq!(sent.len(), 1);
     assert_eq!(sent[0].motors, [0; 3]);
     assert_eq!(sent[0].leds, LED_GREEN);
-    assert!(!sent[0].homing);
+    assert!(sent[0].homing);
     // While the latch is set the servo's own frames carry zero too.
     let before = dev.transport().commands.len();
     for _ in 0..5 {

@@ -10,7 +10,7 @@
 //! |------------|------|
 //! | `[omni]`   | [`OMNI_KEYS`] ([`OmniConfig`]'s fields; `max_force_n`, `ramp_ticks`, `watchdog_ticks` are its safety settings) |
 //! | `[falcon]` | [`FALCON_KEYS`] ([`FalconConfig`]'s fields, the same safety keys) |
-//! | `[touch]`  | none yet: the vendor library holds the Touch's constants |
+//! | `[touch]`  | [`TOUCH_KEYS`]: the safety filter's (the vendor library holds the rest) |
 
 use std::path::Path;
 
@@ -51,18 +51,37 @@ pub const FALCON_KEYS: &[&str] = &[
     "period_s",
     "timeout_ms",
     "reads_per_tick",
+    "homing_ramp_s",
+    "handshake_tries",
+    "upload_tries",
+    "status_tries",
     "max_force_n",
     "ramp_ticks",
     "watchdog_ticks",
 ];
 
+/// The `[touch]` keys: its safety filter's (the vendor library holds its other constants).
+pub const TOUCH_KEYS: &[&str] = &["max_force_n", "ramp_ticks", "watchdog_ticks"];
+
 /// Every device's constants.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DeviceConfig {
     /// The PHANTOM Omni's.
     pub omni: OmniConfig,
     /// The Novint Falcon's.
     pub falcon: FalconConfig,
+    /// The Touch's safety filter (`TouchDevice::with_safety`).
+    pub touch: SafetyConfig,
+}
+
+impl Default for DeviceConfig {
+    fn default() -> DeviceConfig {
+        DeviceConfig {
+            omni: OmniConfig::default(),
+            falcon: FalconConfig::default(),
+            touch: SafetyConfig::for_max_force(DeviceSpec::TOUCH.max_force_n),
+        }
+    }
 }
 
 impl DeviceConfig {
@@ -109,7 +128,13 @@ impl DeviceConfig {
             match name.get_ref().as_ref() {
                 "omni" => each(table, &line, |key, v| omni_key(&mut out.omni, key, v)),
                 "falcon" => each(table, &line, |key, v| falcon_key(&mut out.falcon, key, v)),
-                "touch" => each(table, &line, |key, _| Err(unknown("touch", key, &[]))),
+                "touch" => each(table, &line, |key, v| {
+                    let peak = DeviceSpec::TOUCH.max_force_n;
+                    match safety_key(&mut out.touch, peak, "Touch", key, v)? {
+                        true => Ok(()),
+                        false => Err(unknown("touch", key, TOUCH_KEYS)),
+                    }
+                }),
                 other => Err((
                     at,
                     format!("unknown table `[{other}]` (known: [omni], [falcon], [touch])"),
@@ -184,6 +209,15 @@ fn positive(key: &str, v: &Value<'_>) -> Result<f64, String> {
         Ok(x)
     } else {
         Err(format!("`{key}` is {x}; it must be above zero"))
+    }
+}
+
+fn non_negative(key: &str, v: &Value<'_>) -> Result<f64, String> {
+    let x = number(key, v)?;
+    if x >= 0.0 && x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("`{key}` is {x}; it must be zero or above"))
     }
 }
 
@@ -291,6 +325,10 @@ fn falcon_key(c: &mut FalconConfig, key: &str, v: &Value<'_>) -> Result<(), Stri
         "period_s" => c.period_s = positive(key, v)?,
         "timeout_ms" => c.timeout_ms = integer(key, v, 1, 60_000)?,
         "reads_per_tick" => c.reads_per_tick = integer(key, v, 1, 1000)?,
+        "homing_ramp_s" => c.homing_ramp_s = non_negative(key, v)?,
+        "handshake_tries" => c.handshake_tries = integer(key, v, 1, 10_000)?,
+        "upload_tries" => c.upload_tries = integer(key, v, 1, 100)?,
+        "status_tries" => c.status_tries = integer(key, v, 1, 10_000)?,
         _ => {
             let peak = DeviceSpec::FALCON.max_force_n;
             if !safety_key(&mut c.safety, peak, "Falcon", key, v)? {
@@ -347,7 +385,7 @@ mod tests {
             ("[omni]\nmax_force_n = 9\n", "dev.toml:2:", "peak"),
             ("[omni]\ncounts_per_rev = nan\n", "dev.toml:2:", "finite"),
             ("\n[phantom]\n", "dev.toml:2:", "unknown table"),
-            ("[touch]\nname = 1\n", "dev.toml:2:", "no keys"),
+            ("[touch]\nname = 1\n", "dev.toml:2:", "unknown key `name`"),
             (
                 "[falcon]\nmax_command = 1.5\n",
                 "dev.toml:2:",

@@ -4,7 +4,7 @@
 
 use std::process::Command;
 
-use tetradrill::device_config::{DeviceConfig, OMNI_KEYS};
+use tetradrill::device_config::{DeviceConfig, FALCON_KEYS, OMNI_KEYS, TOUCH_KEYS};
 use tetradrill_tests::{refused, scratch_dir, tetradrill_bin, workspace_root};
 
 fn shipped() -> Vec<std::path::PathBuf> {
@@ -28,11 +28,12 @@ fn shipped_device_files_equal_the_built_in_defaults() {
     }
 }
 
-#[test]
-fn the_omni_file_names_every_constant_with_a_source() {
-    let path = workspace_root().join("docs/devices/omni.toml");
+/// Every setting of `file` (the keys its table accepts) is in the file, under a comment that
+/// names one of `sources`.
+fn names_every_constant_with_a_source(file: &str, keys: &[&str], sources: &[&str]) {
+    let path = workspace_root().join("docs/devices").join(file);
     let text = std::fs::read_to_string(&path).unwrap();
-    for key in OMNI_KEYS {
+    for key in keys {
         let at = text
             .lines()
             .position(|l| l.starts_with(&format!("{key} = ")))
@@ -47,17 +48,28 @@ fn the_omni_file_names_every_constant_with_a_source() {
             .copied()
             .collect();
         let comment = comment.join(" ");
-        let sourced = [
-            "[ROS]",
-            "[PD]",
-            "No public source",
-            "seed 000",
-            "Project choice",
-        ]
-        .iter()
-        .any(|s| comment.contains(s));
-        assert!(sourced, "{key}: no source in {comment:?}");
+        let sourced = sources.iter().any(|s| comment.contains(s));
+        assert!(sourced, "{file} {key}: no source in {comment:?}");
     }
+}
+
+#[test]
+fn the_omni_file_names_every_constant_with_a_source() {
+    let sources = [
+        "[ROS]",
+        "[PD]",
+        "No public source",
+        "seed 000",
+        "Project choice",
+    ];
+    names_every_constant_with_a_source("omni.toml", OMNI_KEYS, &sources);
+}
+
+#[test]
+fn the_falcon_and_touch_files_name_every_constant_with_a_source() {
+    let sources = ["libnifalcon", "CHAI3D", "Ours", "ours"];
+    names_every_constant_with_a_source("falcon.toml", FALCON_KEYS, &sources);
+    names_every_constant_with_a_source("touch.toml", TOUCH_KEYS, &sources);
 }
 
 #[test]

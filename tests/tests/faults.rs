@@ -537,6 +537,8 @@ fn missed_writes_zero_the_force_within_the_watchdog() {
     mock.report = falcon_report();
     let mut c = FalconConfig::default();
     c.safety.ramp_ticks = 100;
+    // Homed from the first report: no homing ramp on top of the enable ramp this test counts.
+    c.homing_ramp_s = 0.0;
     let inner = FalconDevice::new(mock, c);
     let mut dev = FaultDevice::new(
         inner,

@@ -6,8 +6,9 @@
 //! resolves, with trivial behaviour written for these tests (a frame counter drives the
 //! position and buttons, the force set is kept and read back through `HD_CURRENT_FORCE` while
 //! force output is enabled, frame
-//! misuse pushes an error on a small error stack). Its numeric codes are the ones the loader
-//! declares; the test checks the loader against them, not against hardware.
+//! misuse pushes an error on a small error stack; with `WITH_SCHEDULER`, a scheduler thread
+//! that runs the stall guard's callback). Its numeric codes are the ones the loader declares;
+//! the test checks the loader against them, not against hardware.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -18,6 +19,10 @@ use tetradrill_device::touch::{HdLibrary, TouchDevice, HD_LIBRARY_NAMES};
 use tetradrill_device::{DeviceError, ForceCommand, HapticDevice};
 
 /// The stand-in library. `FAIL_INIT` makes `hdInitDevice` fail as with no device attached.
+/// `WITH_SCHEDULER` adds a scheduler thread (started by `hdStartScheduler`, stopped and
+/// joined by `hdStopScheduler`) that calls the callback given to `hdScheduleAsynchronous`
+/// about every millisecond; frames and the error stack are then per thread, as the force is
+/// shared under a lock.
 const FAKE_HD_C: &str = r#"
 #include <stddef.h>
 
@@ -25,11 +30,51 @@ typedef unsigned int HHD;
 typedef unsigned int HDenum;
 typedef struct { unsigned int errorCode; int internalErrorCode; HHD hHD; } HDErrorInfo;
 
-static int initialised = 0, in_frame = 0, force_on = 0, scheduler = 0, calibrated = 0;
+#ifdef WITH_SCHEDULER
+#include <pthread.h>
+#include <time.h>
+#define PER_THREAD __thread
+static pthread_mutex_t force_lock = PTHREAD_MUTEX_INITIALIZER;
+#define LOCK() pthread_mutex_lock(&force_lock)
+#define UNLOCK() pthread_mutex_unlock(&force_lock)
+#else
+#define PER_THREAD
+#define LOCK()
+#define UNLOCK()
+#endif
+
+static int initialised = 0, force_on = 0, scheduler = 0, calibrated = 0;
+static PER_THREAD int in_frame = 0;
 static long frames = 0;
 static double force[3];
-static HDErrorInfo errors[8];
-static int n_errors = 0;
+static PER_THREAD HDErrorInfo errors[8];
+static PER_THREAD int n_errors = 0;
+
+#ifdef WITH_SCHEDULER
+typedef unsigned int (*HDSchedulerCallback)(void *);
+static HDSchedulerCallback callback = NULL;
+static void *callback_data = NULL;
+static int running = 0;
+static pthread_t scheduler_thread;
+
+static void *scheduler_loop(void *arg) {
+    struct timespec ms = { 0, 1000000 };
+    (void)arg;
+    while (__atomic_load_n(&running, __ATOMIC_ACQUIRE)) {
+        HDSchedulerCallback f = __atomic_load_n(&callback, __ATOMIC_ACQUIRE);
+        if (f) f(callback_data);
+        nanosleep(&ms, NULL);
+    }
+    return NULL;
+}
+unsigned long hdScheduleAsynchronous(HDSchedulerCallback f, void *data, unsigned short prio) {
+    (void)prio;
+    callback_data = data;
+    __atomic_store_n(&callback, f, __ATOMIC_RELEASE);
+    return 1;
+}
+void hdUnschedule(unsigned long h) { if (h == 1) __atomic_store_n(&callback, NULL, __ATOMIC_RELEASE); }
+#endif
 
 static void push(unsigned int code, int internal) {
     if (n_errors < 8) {
@@ -53,13 +98,27 @@ HHD hdInitDevice(const char *name) {
 }
 void hdDisableDevice(HHD h) { if (h == 7) initialised = 0; else push(0x0104, 0); }
 void hdMakeCurrentDevice(HHD h) { if (h != 7 || !initialised) push(0x0104, 0); }
-void hdStartScheduler(void) { scheduler = 1; }
-void hdStopScheduler(void) { scheduler = 0; }
+void hdStartScheduler(void) {
+    scheduler = 1;
+#ifdef WITH_SCHEDULER
+    __atomic_store_n(&running, 1, __ATOMIC_RELEASE);
+    pthread_create(&scheduler_thread, NULL, scheduler_loop, NULL);
+#endif
+}
+void hdStopScheduler(void) {
+#ifdef WITH_SCHEDULER
+    if (scheduler) {
+        __atomic_store_n(&running, 0, __ATOMIC_RELEASE);
+        pthread_join(scheduler_thread, NULL);
+    }
+#endif
+    scheduler = 0;
+}
 void hdBeginFrame(HHD h) {
     if (h != 7) { push(0x0104, 0); return; }
     if (in_frame) { push(0x0400, 0); return; }
     in_frame = 1;
-    frames++;
+    __atomic_add_fetch(&frames, 1, __ATOMIC_RELAXED);
 }
 void hdEndFrame(HHD h) {
     if (h != 7) { push(0x0104, 0); return; }
@@ -85,7 +144,9 @@ void hdGetDoublev(HDenum p, double *v) {
     }
     else if (p == 0x2700) {
         /* What reaches the motors: nothing while force output is disabled. */
+        LOCK();
         for (i = 0; i < 3; i++) v[i] = force_on ? force[i] : 0.0;
+        UNLOCK();
     }
     else push(0x0100, 0);
 }
@@ -101,7 +162,7 @@ void hdGetBooleanv(HDenum p, unsigned char *v) {
 }
 void hdSetDoublev(HDenum p, const double *v) {
     if (!in_frame) { push(0x0102, 0); return; }
-    if (p == 0x2700) { force[0] = v[0]; force[1] = v[1]; force[2] = v[2]; }
+    if (p == 0x2700) { LOCK(); force[0] = v[0]; force[1] = v[1]; force[2] = v[2]; UNLOCK(); }
     else push(0x0100, 0);
 }
 HDenum hdCheckCalibration(void) {
@@ -129,7 +190,7 @@ fn build_fake(dir: &Path, name: &str, defines: &[&str]) -> Option<PathBuf> {
     let out = dir.join(name);
     let cc = std::env::var("CC").unwrap_or_else(|_| "gcc".into());
     let mut cmd = Command::new(&cc);
-    cmd.args(["-shared", "-fPIC", "-O1", "-o"])
+    cmd.args(["-shared", "-fPIC", "-pthread", "-O1", "-o"])
         .arg(&out)
         .arg(&src);
     for d in defines {
@@ -318,5 +379,46 @@ fn stand_in_library_frames_position_buttons_and_force() {
         Err(DeviceError::NonFiniteCommand)
     );
     assert_eq!(dev.library().current_force(), Ok([0.0; 3]));
+    drop(dev);
+}
+
+#[test]
+fn the_scheduler_runs_the_stall_guard_which_zeroes_a_stalled_servos_force() {
+    let dir = scratch("guard");
+    let Some(lib) = build_fake(&dir, "libHD.so", &["WITH_SCHEDULER"]) else {
+        return;
+    };
+    let p = lib.to_string_lossy().into_owned();
+    let mut api = HdApi::load_from(&[p], true).expect("the stand-in loads");
+    api.open_device(None).expect("the stand-in opens");
+    let mut dev = TouchDevice::new(api, None)
+        .expect("made current")
+        .with_safety(SafetyConfig {
+            ramp_ticks: 1,
+            ..SafetyConfig::for_max_force(3.3)
+        });
+    assert!(
+        dev.stall_guarded(),
+        "the stand-in has hdScheduleAsynchronous"
+    );
+    dev.read().expect("read");
+    dev.write(&ForceCommand::force([0.0, 0.0, 1.0]))
+        .expect("write");
+    let trips_before = dev.heartbeat().trips();
+    // The servo stops here. The stand-in's scheduler runs the guard about every millisecond;
+    // once the heartbeat is 2 ms old the guard sets zero. The loop only keeps a broken guard
+    // from hanging the test; nothing is asserted about how long it took.
+    let mut zeroed = false;
+    for _ in 0..10_000 {
+        if dev.heartbeat().trips() > trips_before && dev.library().current_force() == Ok([0.0; 3]) {
+            zeroed = true;
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    assert!(zeroed, "the guard never zeroed the stalled servo's force");
+    // The guard's frames left no HD error behind: the servo goes on.
+    dev.read().expect("read after the stall");
+    // Dropping stops the scheduler, unschedules the guard and unloads the library.
     drop(dev);
 }

@@ -406,7 +406,6 @@ fn only_scripts_and_traces_give_a_run_its_own_end() {
             trace: trace.into(),
             ..Scenario::default()
         };
-        // The real devices' factories open nothing until the servo calls them.
         let (_, t, _) = device_factory(kind, &sc, OpenOptions::default()).expect("a factory");
         t
     };
@@ -415,7 +414,21 @@ fn only_scripts_and_traces_give_a_run_its_own_end() {
         tetradrill_core::script::DEMO.ticks() as u64
     );
     assert_eq!(ticks(DeviceKind::Sim, "wander:3"), UNTIL_STOPPED);
-    assert_eq!(ticks(DeviceKind::Falcon, "builtin:demo"), UNTIL_STOPPED);
+    // A real device is opened and started by `device_factory` itself, on the main thread:
+    // with a Falcon attached the run has no end of its own; without one, one line, exit 2.
+    let sc = Scenario {
+        mesh: "builtin:block:2".into(),
+        trace: "builtin:demo".into(),
+        ..Scenario::default()
+    };
+    match device_factory(DeviceKind::Falcon, &sc, OpenOptions::default()) {
+        Ok((_, t, _)) => assert_eq!(t, UNTIL_STOPPED),
+        Err(e) => {
+            assert_eq!(e.code, 2, "{}", e.message);
+            assert_eq!(e.message.lines().count(), 1, "{}", e.message);
+            assert!(e.message.contains("--device falcon"), "{}", e.message);
+        }
+    }
     assert_eq!(run_ticks(None, UNTIL_STOPPED), UNTIL_STOPPED);
     assert_eq!(run_ticks(Some(2.5), UNTIL_STOPPED), 2500);
 }

@@ -1,9 +1,10 @@
 //! [`MockTransport`]: a scripted Falcon behind the [`Transport`] trait, for tests.
 //!
 //! It models the device side of the protocol: the loader handshake replies, the echo of each
-//! firmware chunk, and a report frame for every command frame in normal mode. Fault knobs
-//! inject a corrupted firmware echo, short (split) reads, garbage between frames and a
-//! disconnect. Every operation is logged for the test to check against the documented
+//! firmware chunk, and, once a firmware runs (uploaded, or [`MockTransport::running`]), a
+//! report frame for every command frame in normal mode. A purge of the receive buffer drops
+//! what was waiting. Fault knobs inject wrong loader replies, corrupted firmware echoes, short
+//! (split) reads, garbage between frames and a disconnect. Every operation is logged for the test to check against the documented
 //! sequence. Its second path ([`Transport::out_path`]) records the frames another thread sends
 //! in [`MockTransport::out_log`], shared, so a test reads it while the device runs elsewhere
 //! (the mock does not answer those frames).
@@ -12,7 +13,7 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 
 use super::frame::{decode_command, encode_report, FalconCommand, FalconReport, FRAME_LEN};
-use super::ftdi::{BAUD_LOADER, BAUD_NORMAL, SIO_SET_BAUD_RATE};
+use super::ftdi::{BAUD_LOADER, BAUD_NORMAL, PURGE_RX, SIO_RESET, SIO_SET_BAUD_RATE};
 use super::Transport;
 use crate::cutoff::{Cut, OutPath, PACKET_LEN};
 use crate::device::DeviceError;
@@ -43,8 +44,17 @@ pub struct MockTransport {
     pub pending: VecDeque<Vec<u8>>,
     /// The report answered to each command frame (normal mode).
     pub report: FalconReport,
-    /// Corrupt the firmware echo at this byte (counted over the whole upload), once.
+    /// Corrupt the firmware echo at this byte (counted from the start of an upload), once.
     pub corrupt_echo_at: Option<usize>,
+    /// Uploads after the first that get the same corruption (`corrupt_echo_at`), count.
+    pub corrupt_echo_repeats: usize,
+    /// Answer this many `0a 43 0d` handshakes with a wrong reply (`0a 44 2c 0e`) first.
+    pub bad_loader_replies: usize,
+    /// Answer the loader's `41` with `13 41` (a wrong reply) instead of `41`.
+    pub bad_ready_reply: bool,
+    /// Answer `0a 43 0d` with a leading zero byte (`00 0a 44 2c 0d`), the other form
+    /// libnifalcon accepts.
+    pub long_loader_reply: bool,
     /// Split every report into two reads (short reads).
     pub short_reads: bool,
     /// Put this many garbage bytes before each report.
@@ -57,6 +67,7 @@ pub struct MockTransport {
     pub out_log: Arc<Mutex<Vec<FalconCommand>>>,
     loader_ready: bool,
     normal: bool,
+    firmware: bool,
     echoed: usize,
     gone: bool,
 }
@@ -71,11 +82,17 @@ impl MockTransport {
     pub fn running() -> MockTransport {
         MockTransport {
             normal: true,
+            firmware: true,
             ..MockTransport::default()
         }
     }
 
-    /// Firmware bytes echoed so far.
+    /// Whether a firmware runs (it answers command frames in normal mode).
+    pub fn firmware_running(&self) -> bool {
+        self.firmware
+    }
+
+    /// Firmware bytes echoed in the current or last upload.
     pub fn echoed(&self) -> usize {
         self.echoed
     }
@@ -108,12 +125,22 @@ impl Transport for MockTransport {
     fn control_out(&mut self, request: u8, value: u16, _index: u16) -> Result<(), DeviceError> {
         self.check()?;
         self.log.push(MockOp::Control { request, value });
+        if request == SIO_RESET && value == PURGE_RX {
+            self.pending.clear();
+        }
         if request == SIO_SET_BAUD_RATE {
             if value == BAUD_NORMAL {
+                // Leaving the loader after a whole upload starts the firmware.
+                if self.loader_ready && self.echoed > 0 {
+                    self.firmware = true;
+                }
                 self.normal = true;
                 self.loader_ready = false;
             } else if value != BAUD_LOADER {
+                // Back to the loader's 9600 baud: the loader starts over.
                 self.normal = false;
+                self.loader_ready = false;
+                self.firmware = false;
             }
         }
         Ok(())
@@ -123,6 +150,9 @@ impl Transport for MockTransport {
         self.check()?;
         self.log.push(MockOp::Write(data.to_vec()));
         if self.normal {
+            if !self.firmware {
+                return Ok(data.len());
+            }
             let Ok(frame) = <[u8; FRAME_LEN]>::try_from(data) else {
                 return Ok(data.len());
             };
@@ -142,11 +172,23 @@ impl Transport for MockTransport {
                     self.pending.push_back(bytes);
                 }
             }
-        } else if data == [0x0a, 0x43, 0x0d] {
-            self.pending.push_back(vec![0x0a, 0x44, 0x2c, 0x0d]);
+        } else if data == [0x0a, 0x43, 0x0d] && !self.loader_ready {
+            if self.bad_loader_replies > 0 {
+                self.bad_loader_replies -= 1;
+                self.pending.push_back(vec![0x0a, 0x44, 0x2c, 0x0e]);
+            } else if self.long_loader_reply {
+                self.pending.push_back(vec![0x00, 0x0a, 0x44, 0x2c, 0x0d]);
+            } else {
+                self.pending.push_back(vec![0x0a, 0x44, 0x2c, 0x0d]);
+            }
         } else if data == [0x41] && !self.loader_ready {
             self.loader_ready = true;
-            self.pending.push_back(vec![0x13, 0x41]);
+            self.echoed = 0;
+            if self.bad_ready_reply {
+                self.pending.push_back(vec![0x13, 0x41]);
+            } else {
+                self.pending.push_back(vec![0x41]);
+            }
         } else if self.loader_ready {
             let mut echo = data.to_vec();
             if let Some(at) = self.corrupt_echo_at {
@@ -154,7 +196,11 @@ impl Transport for MockTransport {
                     if let Some(b) = echo.get_mut(at - self.echoed) {
                         *b ^= 0xFF;
                     }
-                    self.corrupt_echo_at = None;
+                    if self.corrupt_echo_repeats > 0 {
+                        self.corrupt_echo_repeats -= 1;
+                    } else {
+                        self.corrupt_echo_at = None;
+                    }
                 }
             }
             self.echoed += echo.len();

@@ -12,6 +12,7 @@
 
 pub mod frame;
 pub mod ftdi;
+pub mod homing;
 pub mod kinematics;
 pub mod mock;
 pub mod usb;
@@ -20,19 +21,30 @@ use std::sync::Arc;
 
 use crate::cutoff::{MotorCutoff, OutPath, PacketCutoff};
 use crate::device::{
-    DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice, Vec3,
+    v3, DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice, Vec3,
     QUAT_IDENTITY,
 };
 use crate::safety::{ForceSafety, SafetyConfig};
-use frame::{encode_command, FalconCommand, FrameAssembler};
+use frame::{encode_command, FalconCommand, FalconReport, FrameAssembler};
 use ftdi::*;
+use homing::HomingGate;
 
 /// USB vendor id (FTDI).
 pub const VENDOR_ID: u16 = 0x0403;
 /// USB product id (Novint Falcon).
 pub const PRODUCT_ID: u16 = 0xcb48;
-/// Firmware upload chunk size, bytes.
+/// Firmware upload chunk size, bytes (libnifalcon `FalconComm.h`: "128 byte blocks").
 pub const FIRMWARE_CHUNK: usize = 128;
+/// What the loader sends to `0a 43 0d` (handshake step 5), after the FT232's status bytes:
+/// the Linux reading of libnifalcon's `FalconCommLibUSB::setFirmwareMode`.
+pub const LOADER_REPLY: [u8; 4] = [0x0a, 0x44, 0x2c, 0x0d];
+/// The same reply with the leading zero byte libnifalcon accepts too (its "Apple case").
+pub const LOADER_REPLY_LONG: [u8; 5] = [0x00, 0x0a, 0x44, 0x2c, 0x0d];
+/// What the loader sends to `41` (handshake step 7): `41` alone (libnifalcon reads 3 bytes,
+/// two of them the FT232's status).
+pub const LOADER_READY_REPLY: [u8; 1] = [0x41];
+/// Bulk reads gathered into one handshake reply before it is compared.
+const HANDSHAKE_READS: u32 = 2;
 
 /// A byte pipe to an FTDI chip: vendor control requests and bulk transfers.
 pub trait Transport {
@@ -67,6 +79,24 @@ pub struct FalconConfig {
     pub reads_per_tick: u32,
     /// Origin of reported positions in the mechanism frame (subtracted), m.
     pub origin: Vec3,
+    /// Time over which the force ramps from zero once all three axes report homed, s
+    /// ([`homing::HomingGate`]). Default 0.5 s: the same length as the enable ramp
+    /// ([`SafetyConfig::for_max_force`]), so the Falcon's 8 N grows by at most 16 mN per
+    /// 1 ms tick after the coordinate jump of homing (libnifalcon `FalconFirmware.h` asks for
+    /// no torque before homing; the ramp length is ours). 0: no ramp.
+    pub homing_ramp_s: f64,
+    /// Tries of the loader's first handshake (send `0a 43 0d`, expect exactly
+    /// [`LOADER_REPLY`]), count. Default 100, libnifalcon's
+    /// `FalconCommLibUSB::setFirmwareMode`.
+    pub handshake_tries: u32,
+    /// Whole firmware uploads tried before giving up, count. Default 10, libnifalcon's
+    /// `FalconCLIBase::parseOptions` (which reopens the device between tries; here the
+    /// loader sequence restarts from its purges).
+    pub upload_tries: u32,
+    /// Zero-torque frames sent at start-up, each followed by up to `reads_per_tick` reads,
+    /// before concluding that no firmware answers, count. Default 10, the outer loop of
+    /// libnifalcon's `FalconFirmware::isFirmwareLoaded`.
+    pub status_tries: u32,
 }
 
 impl Default for FalconConfig {
@@ -79,64 +109,71 @@ impl Default for FalconConfig {
             timeout_ms: 100,
             reads_per_tick: 4,
             origin: kinematics::WORKSPACE_CENTRE,
+            homing_ramp_s: 0.5,
+            handshake_tries: 100,
+            upload_tries: 10,
+            status_tries: 10,
         }
     }
 }
 
-/// A Novint Falcon. Open with [`FalconDevice::open_usb`] or over any [`Transport`].
+/// A Novint Falcon. Open with [`FalconDevice::open_usb`] or over any [`Transport`], then
+/// call [`start`](Self::start).
 #[derive(Debug)]
 pub struct FalconDevice<T> {
     transport: T,
     config: FalconConfig,
     safety: ForceSafety,
+    gate: HomingGate,
     assembler: FrameAssembler,
     tick: u64,
     leds: u8,
-    homing: bool,
-    homed: u8,
     buttons: u8,
     theta: Vec3,
     position: Vec3,
     sent_since_read: bool,
     connected: bool,
     cut: Option<Arc<PacketCutoff>>,
-    cut_look: (u8, bool),
+    cut_leds: u8,
 }
 
-/// The frame a cut sends: zero motors with these LED and homing bits.
-fn zero_frame(leds: u8, homing: bool) -> [u8; frame::FRAME_LEN] {
+/// The frame a cut sends: zero motors with these LED bits and the homing bit.
+fn zero_frame(leds: u8) -> [u8; frame::FRAME_LEN] {
     encode_command(&FalconCommand {
         motors: [0; 3],
         leds,
-        homing,
+        homing: true,
     })
 }
 
 impl FalconDevice<usb::RusbTransport> {
     /// Opens the first Falcon on USB; [`DeviceError::NotFound`] when none is attached.
+    /// Call [`start`](Self::start) before the first read.
     pub fn open_usb(config: FalconConfig) -> Result<Self, DeviceError> {
         Ok(FalconDevice::new(usb::RusbTransport::open()?, config))
     }
 }
 
 impl<T: Transport> FalconDevice<T> {
-    /// Wraps a transport. Call [`load_firmware`](Self::load_firmware) before the first read
-    /// unless the firmware is already running.
+    /// Wraps a transport. Call [`start`](Self::start) (normal mode, the firmware upload when
+    /// one is given, a status round trip) before the first read.
     pub fn new(transport: T, config: FalconConfig) -> FalconDevice<T> {
         let cut = transport
             .out_path()
-            .map(|out| Arc::new(PacketCutoff::new(out, &zero_frame(frame::LED_RED, true))));
+            .map(|out| Arc::new(PacketCutoff::new(out, &zero_frame(frame::LED_RED))));
         FalconDevice {
             cut,
-            cut_look: (frame::LED_RED, true),
+            cut_leds: frame::LED_RED,
             transport,
             safety: ForceSafety::new(config.safety),
+            gate: HomingGate::new(HomingGate::ramp_ticks_for(
+                config.homing_ramp_s,
+                config.period_s,
+            )),
             config,
             assembler: FrameAssembler::new(),
             tick: 0,
             leds: frame::LED_RED,
-            homing: true,
-            homed: 0,
             buttons: 0,
             theta: [0.0; 3],
             position: [0.0; 3],
@@ -150,14 +187,25 @@ impl<T: Transport> FalconDevice<T> {
         &self.transport
     }
 
-    /// Sets the LED bits (`frame::LED_*`), sent with the next frame.
+    /// The transport, mutable (e.g. to change what a mock reports between ticks).
+    pub fn transport_mut(&mut self) -> &mut T {
+        &mut self.transport
+    }
+
+    /// Sets the LED bits (`frame::LED_*`), sent with the next frame. The device sets red
+    /// itself when homing is lost and green when it completes.
     pub fn set_leds(&mut self, leds: u8) {
         self.leds = leds;
     }
 
     /// Homed flags from the last report (bit i = axis i).
     pub fn homed(&self) -> u8 {
-        self.homed
+        self.gate.homed()
+    }
+
+    /// The homing gate: the factor applied to the force, the position resets.
+    pub fn homing_gate(&self) -> &HomingGate {
+        &self.gate
     }
 
     /// The safety filter (counters).
@@ -181,7 +229,7 @@ impl<T: Transport> FalconDevice<T> {
         }
     }
 
-    /// Reads until `want` data bytes arrived (status bytes stripped) or `tries` reads passed.
+    /// Reads until `out` is full (status bytes stripped) or `tries` reads passed.
     fn read_data(&mut self, out: &mut [u8], tries: u32) -> Result<usize, DeviceError> {
         let mut got = 0;
         let mut packet = [0u8; MAX_PACKET];
@@ -214,27 +262,62 @@ impl<T: Transport> FalconDevice<T> {
         self.control(4, SIO_MODEM_CTRL, RTS_LOW)?;
         self.control(4, SIO_MODEM_CTRL, DTR_LOW)?;
         self.control(4, SIO_MODEM_CTRL, DTR_HIGH)?;
-        // Step 5: 0x0a 0x43 0x0d; the loader answers (0x0a 0x44 0x2c 0x0d).
-        self.handshake(5, &[0x0a, 0x43, 0x0d])?;
+        // Step 5: 0a 43 0d until the loader answers exactly 0a 44 2c 0d (or with a leading 00).
+        let tries = self.config.handshake_tries.max(1);
+        self.handshake(
+            5,
+            &[0x0a, 0x43, 0x0d],
+            &[&LOADER_REPLY, &LOADER_REPLY_LONG],
+            tries,
+        )?;
         self.control(6, SIO_MODEM_CTRL, DTR_LOW)?;
         self.control(6, SIO_SET_BAUD_RATE, BAUD_LOADER)?;
-        // Step 7: 'A'; the loader answers (0x13 0x41).
-        self.handshake(7, &[0x41])
+        // Step 7: 'A', answered by 41 alone. One try, as libnifalcon: at the loader's baud
+        // rate a second 'A' could be taken for firmware; the whole upload is retried instead.
+        self.handshake(7, &[0x41], &[&LOADER_READY_REPLY], 1)
     }
 
-    fn handshake(&mut self, step: u8, send: &[u8]) -> Result<(), DeviceError> {
+    /// Sends `send` and compares the reply exactly with each of `accept`, up to `tries`
+    /// times. A reply is the data of up to [`HANDSHAKE_READS`] reads, stopping at an empty
+    /// read or as soon as it matches.
+    fn handshake(
+        &mut self,
+        step: u8,
+        send: &[u8],
+        accept: &[&[u8]],
+        tries: u32,
+    ) -> Result<(), DeviceError> {
         let timeout = self.config.timeout_ms;
-        match self.transport.bulk_write(send, timeout) {
-            Ok(n) if n == send.len() => {}
-            Ok(_) => return Err(DeviceError::FirmwareHandshake { step }),
-            Err(e) => return Err(self.map_handshake(step, e)),
+        let longest = accept.iter().map(|a| a.len()).max().unwrap_or(0);
+        for _ in 0..tries {
+            match self.transport.bulk_write(send, timeout) {
+                Ok(n) if n == send.len() => {}
+                Ok(_) => continue,
+                Err(e) => return Err(self.map_handshake(step, e)),
+            }
+            let mut reply = [0u8; MAX_PACKET];
+            let mut len = 0;
+            let mut packet = [0u8; MAX_PACKET];
+            for _ in 0..HANDSHAKE_READS {
+                let n = match self.transport.bulk_read(&mut packet, timeout) {
+                    Ok(n) => n,
+                    Err(e) => return Err(self.map_handshake(step, e)),
+                };
+                let data = packet.get(STATUS_BYTES..n.min(MAX_PACKET)).unwrap_or(&[]);
+                for (slot, b) in reply.iter_mut().skip(len).zip(data) {
+                    *slot = *b;
+                }
+                len = (len + data.len()).min(MAX_PACKET);
+                let got = reply.get(..len).unwrap_or(&[]);
+                if data.is_empty() || len >= longest || accept.contains(&got) {
+                    break;
+                }
+            }
+            if accept.contains(&reply.get(..len).unwrap_or(&[])) {
+                return Ok(());
+            }
         }
-        let mut reply = [0u8; 4];
-        match self.read_data(&mut reply, 4) {
-            Ok(n) if n > 0 => Ok(()),
-            Ok(_) => Err(DeviceError::FirmwareHandshake { step }),
-            Err(e) => Err(self.map_handshake(step, e)),
-        }
+        Err(DeviceError::FirmwareHandshake { step })
     }
 
     fn map_handshake(&mut self, step: u8, e: DeviceError) -> DeviceError {
@@ -245,9 +328,24 @@ impl<T: Transport> FalconDevice<T> {
         }
     }
 
-    /// Uploads `firmware` (the bytes of the user's firmware file): loader handshake, then
-    /// 128-byte chunks each echoed back and compared, then normal mode (latency 1 ms,
-    /// 1.5 Mbaud).
+    /// Normal mode, as libnifalcon's `FalconCommLibUSB::setNormalMode` sets it after an
+    /// upload and on every open: latency timer 1 ms, divisor 2 (1.5 Mbaud nominal), purge RX
+    /// and TX. Part of [`start`](Self::start); needed also when no firmware is uploaded (the
+    /// chip may still be at the loader's settings).
+    pub fn normal_mode(&mut self) -> Result<(), DeviceError> {
+        self.control(8, SIO_SET_LATENCY_TIMER, 1)?;
+        self.control(8, SIO_SET_BAUD_RATE, BAUD_NORMAL)?;
+        self.control(8, SIO_RESET, PURGE_RX)?;
+        self.control(8, SIO_RESET, PURGE_TX)?;
+        self.assembler = FrameAssembler::new();
+        self.sent_since_read = false;
+        Ok(())
+    }
+
+    /// One firmware upload (the bytes of the user's firmware file): loader handshake, then
+    /// 128-byte chunks each echoed back and compared byte for byte, then
+    /// [`normal_mode`](Self::normal_mode). [`upload_firmware`](Self::upload_firmware) retries
+    /// it.
     pub fn load_firmware(&mut self, firmware: &[u8]) -> Result<(), DeviceError> {
         if firmware.is_empty() {
             return Err(DeviceError::FirmwareFile);
@@ -271,16 +369,104 @@ impl<T: Transport> FalconDevice<T> {
                 return Err(DeviceError::FirmwareMismatch { offset });
             }
         }
-        self.control(8, SIO_SET_LATENCY_TIMER, 1)?;
-        self.control(8, SIO_SET_BAUD_RATE, BAUD_NORMAL)?;
-        Ok(())
+        self.normal_mode()
     }
 
-    /// Reads the user's firmware file and uploads it ([`DeviceError::FirmwareFile`] if
+    /// [`load_firmware`](Self::load_firmware) up to `upload_tries` times (each from the
+    /// loader's purges); the last error when every try failed. A disconnect or an empty
+    /// file ends the tries at once.
+    ///
+    /// # Bounded work
+    /// At most `upload_tries` uploads, each at most `handshake_tries` + 1 handshakes and one
+    /// write and 8 reads per 128-byte chunk.
+    pub fn upload_firmware(&mut self, firmware: &[u8]) -> Result<(), DeviceError> {
+        let mut last = DeviceError::FirmwareFile;
+        for _ in 0..self.config.upload_tries.max(1) {
+            match self.load_firmware(firmware) {
+                Ok(()) => return Ok(()),
+                Err(e @ (DeviceError::Disconnected | DeviceError::FirmwareFile)) => return Err(e),
+                Err(e) => last = e,
+            }
+        }
+        Err(last)
+    }
+
+    /// Checks that a firmware answers: sends a zero-torque frame (red LED, homing bit) and
+    /// reads up to `reads_per_tick` times for a valid report, up to `status_tries` frames.
+    /// [`DeviceError::FirmwareNotRunning`] when none came back. The report's homed bits feed
+    /// the homing gate.
+    ///
+    /// # Bounded work
+    /// At most `status_tries` frames and `status_tries * reads_per_tick` reads.
+    pub fn check_firmware(&mut self) -> Result<(), DeviceError> {
+        let zero = zero_frame(self.leds);
+        let mut packet = [0u8; MAX_PACKET];
+        for _ in 0..self.config.status_tries.max(1) {
+            match self.transport.bulk_write(&zero, self.config.timeout_ms) {
+                Ok(_) => {}
+                Err(DeviceError::Disconnected) => return Err(self.fail(DeviceError::Disconnected)),
+                // A frame that did not go out (a timeout): the next try sends it again.
+                Err(_) => continue,
+            }
+            for _ in 0..self.config.reads_per_tick.max(1) {
+                let n = self
+                    .transport
+                    .bulk_read(&mut packet, self.config.timeout_ms)
+                    .map_err(|e| self.fail(e))?;
+                let data = packet.get(STATUS_BYTES..n.min(MAX_PACKET)).unwrap_or(&[]);
+                if let Some(report) = self.assembler.push(data) {
+                    self.take_homing(&report);
+                    self.sent_since_read = false;
+                    return Ok(());
+                }
+            }
+        }
+        Err(DeviceError::FirmwareNotRunning)
+    }
+
+    /// Start-up: with `firmware`, [`upload_firmware`](Self::upload_firmware) (which ends in
+    /// normal mode); without, [`normal_mode`](Self::normal_mode) alone. Then
+    /// [`check_firmware`](Self::check_firmware): the status round trip.
+    pub fn start(&mut self, firmware: Option<&[u8]>) -> Result<(), DeviceError> {
+        match firmware {
+            Some(bytes) => self.upload_firmware(bytes)?,
+            None => self.normal_mode()?,
+        }
+        self.check_firmware()
+    }
+
+    /// [`start`](Self::start) with the user's firmware file, when given
+    /// ([`DeviceError::FirmwareFile`] if unreadable).
+    pub fn start_with_file(
+        &mut self,
+        firmware: Option<&std::path::Path>,
+    ) -> Result<(), DeviceError> {
+        match firmware {
+            Some(path) => {
+                let bytes = std::fs::read(path).map_err(|_| DeviceError::FirmwareFile)?;
+                self.start(Some(&bytes))
+            }
+            None => self.start(None),
+        }
+    }
+
+    /// Reads the user's firmware file and uploads it once ([`DeviceError::FirmwareFile`] if
     /// unreadable).
     pub fn load_firmware_file(&mut self, path: &std::path::Path) -> Result<(), DeviceError> {
         let bytes = std::fs::read(path).map_err(|_| DeviceError::FirmwareFile)?;
         self.load_firmware(&bytes)
+    }
+
+    /// Feeds a report's homed bits to the gate; the LEDs follow: red while not homed, green
+    /// once homed.
+    fn take_homing(&mut self, report: &FalconReport) {
+        let was = self.gate.all_homed();
+        self.gate.update(report.homed);
+        match (was, self.gate.all_homed()) {
+            (false, true) => self.leds = frame::LED_GREEN,
+            (true, false) => self.leds = frame::LED_RED,
+            _ => {}
+        }
     }
 
     fn motor_commands(&self, out: &ForceCommand) -> [i16; 3] {
@@ -336,15 +522,22 @@ impl<T: Transport> FalconDevice<T> {
     }
 
     fn send_frame(&mut self, out: &ForceCommand) -> Result<(), DeviceError> {
+        // The homing gate: zero until all three axes are homed, then the ramp.
+        let gated = ForceCommand {
+            force: v3::scale(out.force, self.gate.scale()),
+            ..*out
+        };
         let cmd = FalconCommand {
-            motors: self.motor_commands(out),
+            motors: self.motor_commands(&gated),
             leds: self.leds,
-            homing: self.homing,
+            // libnifalcon `FalconFirmware.h`: the homing bit "must be set in each input packet
+            // sent in order for the falcon to stay homed".
+            homing: true,
         };
         if let Some(c) = &self.cut {
-            if self.cut_look != (cmd.leds, cmd.homing) {
-                self.cut_look = (cmd.leds, cmd.homing);
-                c.set_zero_packet(&zero_frame(cmd.leds, cmd.homing));
+            if self.cut_leds != cmd.leds {
+                self.cut_leds = cmd.leds;
+                c.set_zero_packet(&zero_frame(cmd.leds));
             }
         }
         let bytes = encode_command(&cmd);
@@ -391,11 +584,7 @@ impl<T: Transport> HapticDevice for FalconDevice<T> {
         let report = report.ok_or(DeviceError::NoFrame)?;
         self.tick += 1;
         self.buttons = report.buttons;
-        self.homed = report.homed;
-        if self.homed == 0x7 {
-            self.homing = false;
-            self.leds = frame::LED_GREEN;
-        }
+        self.take_homing(&report);
         let theta = report.encoders.map(kinematics::encoder_to_angle);
         let guess = [
             self.position[0] + self.config.origin[0],
@@ -442,15 +631,21 @@ impl<T: Transport> HapticDevice for FalconDevice<T> {
     }
 
     fn calibrate(&mut self) -> Result<(), DeviceError> {
-        // Homing: the firmware homes each axis as the user moves the grip through the
-        // workspace; progress shows in `homed()`. The LED turns green when all three are done.
-        self.homing = true;
-        self.leds = frame::LED_RED;
+        // Homing: every frame carries the homing bit, and the firmware homes each axis as the
+        // user pulls the grip all the way out and pushes it in; progress shows in `homed()`,
+        // the LED turns green when all three are done. Nothing more to ask for.
+        if !self.gate.all_homed() {
+            self.leds = frame::LED_RED;
+        }
         Ok(())
     }
 
     fn cutoff(&self) -> Option<Arc<dyn MotorCutoff>> {
         self.cut.clone().map(|c| c as Arc<dyn MotorCutoff>)
+    }
+
+    fn position_resets(&self) -> u64 {
+        self.gate.position_resets()
     }
 }
 

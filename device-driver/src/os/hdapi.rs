@@ -30,15 +30,22 @@
 //! - That force output needs the scheduler running is from OpenHaptics' programmer's guide,
 //!   chapter 5 (read in a public translation), not measured.
 //! - Which calibration style a Touch reports, and the error codes a missing device produces.
+//! - The stall guard ([`HdLibrary::stall_guard`]): a callback scheduled with
+//!   `hdScheduleAsynchronous` at the highest priority that, in the scheduler's thread, opens a
+//!   frame and sets a zero force while the servo's heartbeat is older than 2 ms. That a frame
+//!   in the scheduler's thread overrides the force the servo's thread set last is how
+//!   OpenHaptics' own examples render forces, but it is untested here. The entry points are
+//!   optional: a library without them runs without the guard.
 #![allow(unsafe_code)]
 
-use std::ffi::{c_char, c_int, CStr, CString, OsStr};
+use std::ffi::{c_char, c_int, c_ulong, c_void, CStr, CString, OsStr};
 use std::fmt;
+use std::sync::Arc;
 
 use libloading::Library;
 
 use crate::device::{DeviceError, DeviceKind};
-use crate::touch::{HdLibrary, HD_LIBRARY_NAMES};
+use crate::touch::{guard_step, HdLibrary, Heartbeat, HD_LIBRARY_NAMES, STALL_LIMIT_NS};
 
 // ---------------------------------------------------------------------------------------------
 // HDAPI types and codes.
@@ -110,6 +117,13 @@ pub const HD_CALIBRATION_AUTO: HdEnum = 1 << 1;
 /// `HD_CALIBRATION_INKWELL (1 << 2)` (hdDefines.h, calibration styles).
 pub const HD_CALIBRATION_INKWELL: HdEnum = 1 << 2;
 
+/// `HD_MAX_SCHEDULER_PRIORITY USHRT_MAX` (hdDefines.h, scheduler priority ranges).
+pub const HD_MAX_SCHEDULER_PRIORITY: u16 = u16::MAX;
+/// `HD_CALLBACK_CONTINUE 1` (hdDefines.h): the callback runs again next scheduler tick.
+pub const HD_CALLBACK_CONTINUE: u32 = 1;
+/// `HDSchedulerHandle`: `typedef unsigned long` (hdDefines.h).
+pub type HdSchedulerHandle = c_ulong;
+
 /// Environment variable naming the HD library to load instead of [`HD_LIBRARY_NAMES`].
 pub const HD_LIBRARY_ENV: &str = "TETRADRILL_HD_LIBRARY";
 
@@ -127,6 +141,11 @@ type FnGetIntegerv = unsafe extern "C" fn(HdEnum, *mut c_int);
 type FnGetBooleanv = unsafe extern "C" fn(HdEnum, *mut u8);
 type FnSetDoublev = unsafe extern "C" fn(HdEnum, *const f64);
 type FnCheckCalibration = unsafe extern "C" fn() -> HdEnum;
+/// `HDSchedulerCallback`: `HDCallbackCode (*)(void *pUserData)` (hdDefines.h).
+type HdCallback = unsafe extern "C" fn(*mut c_void) -> u32;
+type FnScheduleAsynchronous =
+    unsafe extern "C" fn(HdCallback, *mut c_void, u16) -> HdSchedulerHandle;
+type FnUnschedule = unsafe extern "C" fn(HdSchedulerHandle);
 
 /// The entry points, resolved once. Plain function pointers: `Copy` and `Send`.
 #[derive(Clone, Copy, Debug)]
@@ -148,6 +167,41 @@ struct Entry {
     update_calibration: FnEnum,
     start_scheduler: FnVoid,
     stop_scheduler: FnVoid,
+    schedule_asynchronous: Option<FnScheduleAsynchronous>,
+    unschedule: Option<FnUnschedule>,
+}
+
+/// What the stall guard's callback needs, boxed so its address stays put while the vendor
+/// scheduler holds it.
+struct GuardData {
+    heartbeat: Arc<Heartbeat>,
+    handle: Hhd,
+    begin_frame: FnHandle,
+    end_frame: FnHandle,
+    set_doublev: FnSetDoublev,
+}
+
+/// The stall guard, run by the vendor scheduler at its own rate in its own thread: a zero
+/// force in a frame of its own while the servo's heartbeat is stale. Atomics and three HDAPI
+/// calls; never blocks, allocates or panics.
+unsafe extern "C" fn stall_guard_callback(user: *mut c_void) -> u32 {
+    // SAFETY: `user` is the `GuardData` box `HdApi::stall_guard` scheduled; it is freed only
+    // after `hdStopScheduler` and `hdUnschedule` (`HdApi::drop`), so it is alive here, and
+    // it is only read.
+    let Some(g) = (unsafe { (user as *const GuardData).as_ref() }) else {
+        return HD_CALLBACK_CONTINUE;
+    };
+    if guard_step(&g.heartbeat, g.heartbeat.now_ns(), STALL_LIMIT_NS) {
+        let zero = [0.0f64; 3];
+        // SAFETY: `g.handle` is the initialised device; frames in the scheduler's thread are
+        // HDAPI's documented use; `zero` holds the 3 doubles HD_CURRENT_FORCE takes.
+        unsafe {
+            (g.begin_frame)(g.handle);
+            (g.set_doublev)(HD_CURRENT_FORCE, zero.as_ptr());
+            (g.end_frame)(g.handle);
+        }
+    }
+    HD_CALLBACK_CONTINUE
 }
 
 /// Why the HD library could not be used. Each `Display` is one line.
@@ -275,6 +329,7 @@ pub struct HdApi {
     handle: Option<Hhd>,
     scheduler: bool,
     in_frame: bool,
+    guard: Option<(HdSchedulerHandle, Box<GuardData>)>,
     _lib: Library,
 }
 
@@ -356,6 +411,13 @@ impl HdApi {
             update_calibration: sym!("hdUpdateCalibration"),
             start_scheduler: sym!("hdStartScheduler"),
             stop_scheduler: sym!("hdStopScheduler"),
+            // SAFETY: as above; optional entry points of `hd.h` (`hdScheduleAsynchronous`,
+            // `hdUnschedule`) with the signatures written out above.
+            schedule_asynchronous: unsafe { lib.get(b"hdScheduleAsynchronous\0") }
+                .ok()
+                .map(|s| *s),
+            // SAFETY: as above.
+            unschedule: unsafe { lib.get(b"hdUnschedule\0") }.ok().map(|s| *s),
         };
         Ok(HdApi {
             entry,
@@ -363,6 +425,7 @@ impl HdApi {
             handle: None,
             scheduler: false,
             in_frame: false,
+            guard: None,
             _lib: lib,
         })
     }
@@ -595,6 +658,34 @@ impl HdLibrary for HdApi {
             other => Err(DeviceError::LibraryCall { code: other }),
         }
     }
+
+    /// Schedules [`stall_guard_callback`] with `hdScheduleAsynchronous` at
+    /// [`HD_MAX_SCHEDULER_PRIORITY`]; `Ok(false)` when the library lacks the scheduler entry
+    /// points. Installing it again replaces nothing: the first guard stays.
+    fn stall_guard(&mut self, heartbeat: Arc<Heartbeat>) -> Result<bool, DeviceError> {
+        let h = self.opened()?;
+        if self.guard.is_some() {
+            return Ok(true);
+        }
+        let (Some(schedule), Some(_)) = (self.entry.schedule_asynchronous, self.entry.unschedule)
+        else {
+            return Ok(false);
+        };
+        let data = Box::new(GuardData {
+            heartbeat,
+            handle: h,
+            begin_frame: self.entry.begin_frame,
+            end_frame: self.entry.end_frame,
+            set_doublev: self.entry.set_doublev,
+        });
+        let user = &*data as *const GuardData as *mut c_void;
+        // SAFETY: the callback has the `HDSchedulerCallback` signature; `user` points into the
+        // box kept in `self.guard` until after the callback is unscheduled (`Drop`).
+        let id = unsafe { schedule(stall_guard_callback, user, HD_MAX_SCHEDULER_PRIORITY) };
+        self.check()?;
+        self.guard = Some((id, data));
+        Ok(true)
+    }
 }
 
 impl Drop for HdApi {
@@ -611,6 +702,11 @@ impl Drop for HdApi {
         if self.scheduler {
             // SAFETY: no arguments; the scheduler was started by `open_device`.
             unsafe { (self.entry.stop_scheduler)() };
+        }
+        if let (Some((id, _data)), Some(unschedule)) = (self.guard.take(), self.entry.unschedule) {
+            // SAFETY: `id` is the handle hdScheduleAsynchronous returned; the scheduler is
+            // stopped, so the callback is not running; its data is freed after this call.
+            unsafe { unschedule(id) };
         }
         // SAFETY: `h` is initialised and is not used after this call.
         unsafe { (self.entry.disable_device)(h) };

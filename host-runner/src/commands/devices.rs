@@ -30,8 +30,8 @@ pub struct DevicesArgs {
 pub const CHECK_READS: usize = 50;
 
 /// What was looked for, for the nothing-found lines.
-const LOOKED_FOR: &str = "looked for a Falcon on USB 0403:cb48, a Touch on USB 0301:2988 or \
-                          2988:0302, an Omni among /dev/fw* nodes of vendor 0x000b99";
+const LOOKED_FOR: &str = "looked for a Falcon on USB 0403:cb48, a Touch on USB 0301:2988, \
+                          2988:0302 or 2988:0304, an Omni among /dev/fw* nodes of vendor 0x000b99";
 
 /// Runs `devices`.
 pub fn run(args: &DevicesArgs) -> Result<(), CliError> {
@@ -100,6 +100,11 @@ fn check(
         outln!("falcon   {}", f.location);
         match FalconDevice::open_usb(config.falcon) {
             Ok(mut dev) => {
+                // Normal mode and a status round trip (zero-torque frames), as `run` starts it.
+                if let Err(e) = dev.start(None) {
+                    outln!("  firmware: not answering ({e}); load it with `run --device falcon --falcon-firmware FILE`");
+                    continue;
+                }
                 let (ok, last) = sample(&mut dev);
                 if ok == 0 {
                     outln!("  firmware: not answering ({}); load it with `run --device falcon --falcon-firmware FILE`", last.err().unwrap_or("no frame".into()));

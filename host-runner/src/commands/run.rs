@@ -10,9 +10,11 @@
 use std::path::PathBuf;
 
 use tetradrill_core::script::DEMO;
+use tetradrill_device::falcon::FalconDevice;
 use tetradrill_device::omni::{OmniConfig, OmniDevice};
 use tetradrill_device::os::firewire::{discover_omnis, CdevConfig, CdevFirewire, OmniNode};
 use tetradrill_device::os::hdapi::{HdApi, HdLoadError};
+use tetradrill_device::safety::SafetyConfig;
 use tetradrill_device::{
     discovery::OpenOptions, CalibrationStyle, DeviceError, DeviceKind, DeviceSpec, ForceCommand,
     HapticDevice, PathPoint, Scripted, SimDevice, QUAT_IDENTITY,
@@ -222,9 +224,11 @@ pub fn device_factory_with(
                 offset: 0.5 * (lo + hi),
             };
             let open: DeviceFactory = if real == DeviceKind::Touch {
-                touch_factory()?
+                touch_factory(devices.touch)?
             } else if real == DeviceKind::Omni {
                 omni_factory(devices.omni, stop.clone())?
+            } else if real == DeviceKind::Falcon {
+                falcon_factory(&options)?
             } else {
                 Box::new(move || tetradrill_device::discovery::open(real, &options))
             };
@@ -236,14 +240,47 @@ pub fn device_factory_with(
 /// The Touch through the vendor HD library: loaded and `hdInitDevice` run here, so a missing
 /// library or device is one line and exit status 2; the opened library moves into the servo
 /// thread, where the device is built (and made current there).
-fn touch_factory() -> Result<DeviceFactory, CliError> {
+fn touch_factory(safety: SafetyConfig) -> Result<DeviceFactory, CliError> {
     let bad = |e: HdLoadError| CliError::input(format!("--device touch: {e}"));
     let mut api = HdApi::load().map_err(bad)?;
     api.open_device(None).map_err(bad)?;
     Ok(Box::new(move || {
-        let dev = tetradrill_device::touch::TouchDevice::new(api, None)?;
+        let dev = tetradrill_device::touch::TouchDevice::new(api, None)?.with_safety(safety);
         Ok(Box::new(dev) as Box<dyn tetradrill_device::HapticDevice>)
     }))
+}
+
+/// The Falcon: opened and started here, on the main thread (normal mode, the firmware upload
+/// when `--falcon-firmware` is given, a status round trip), so a missing device, a failed
+/// upload or a firmware that does not answer is one line saying what to do, and exit status
+/// 2; the started device moves into the servo thread.
+fn falcon_factory(options: &OpenOptions) -> Result<DeviceFactory, CliError> {
+    let mut dev = FalconDevice::open_usb(options.falcon)
+        .map_err(|e| CliError::input(format!("--device falcon: {e}")))?;
+    dev.start_with_file(options.falcon_firmware.as_deref())
+        .map_err(|e| CliError::input(falcon_start_error(e, options.falcon_firmware.as_deref())))?;
+    Ok(Box::new(move || Ok(Box::new(dev) as Box<dyn HapticDevice>)))
+}
+
+/// The one line for a Falcon that did not start: what failed and what to do.
+pub fn falcon_start_error(e: DeviceError, firmware: Option<&std::path::Path>) -> String {
+    let what_to_do = match (e, firmware) {
+        (DeviceError::FirmwareNotRunning, None) => {
+            "run with --falcon-firmware FILE (the Falcon's firmware, e.g. libnifalcon's \
+             test_firmware.bin or Novint's; none is shipped)"
+        }
+        (DeviceError::FirmwareNotRunning, Some(_)) => {
+            "the upload went through but the firmware does not run: check the file is a \
+             Falcon firmware, then unplug the Falcon's power and USB and try again"
+        }
+        (DeviceError::FirmwareFile, _) => "check the path given to --falcon-firmware",
+        (DeviceError::FirmwareHandshake { .. } | DeviceError::FirmwareMismatch { .. }, _) => {
+            "unplug the Falcon's power and USB, plug them back and try again"
+        }
+        _ => "check the Falcon's power and USB cable",
+    };
+    let file = firmware.map_or(String::new(), |p| format!(" ({})", p.display()));
+    format!("--device falcon: {e}{file}: {what_to_do}")
 }
 
 /// The device factory of `tetradrill run --device omni`: finds the Omni and opens its node
