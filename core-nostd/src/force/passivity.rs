@@ -206,11 +206,15 @@ impl PassivityObserver {
     /// # Bounded work
     /// Constant: a few dozen flops, no loop, no allocation, no panic.
     pub fn step(&mut self, position: Vec3, force: Vec3, storage: Option<Storage>) -> Vec3 {
+        if self.tripped {
+            // Latched: nothing is rendered, so nothing more is counted.
+            return Vec3::ZERO;
+        }
         if !(position.is_finite() && force.is_finite()) {
             self.known = 0;
             self.held = Vec3::ZERO;
             self.held_damper = Vec3::ZERO;
-            return if self.tripped { Vec3::ZERO } else { force };
+            return force;
         }
         let dt = self.params.dt;
         let mut velocity = Vec3::ZERO;
@@ -306,12 +310,12 @@ impl PassivityObserver {
         self.generated
     }
 
-    /// The largest generated energy seen, joules.
+    /// The largest generated energy seen up to the trip, joules.
     pub fn generated_j_max(&self) -> f32 {
         self.generated_max
     }
 
-    /// The largest value of the trip's measure seen, joules: the energy stored past the force
+    /// The largest value of the trip's measure seen up to the trip, joules: the energy stored past the force
     /// limit for a law with a storage function, the generated energy for one without.
     pub fn trip_measure_j_max(&self) -> f32 {
         self.past_limit_max
