@@ -547,7 +547,10 @@ pub fn servo_task(
         }
         let t0 = now_ns();
         let stalled = last_gap.max(t0.saturating_sub(last_end));
-        recover_from_stall(device, cutoff.as_deref(), watch, stalled);
+        if recover_from_stall(device, cutoff.as_deref(), watch, stalled) {
+            // The force was off: what the tool did meanwhile was not the loop's doing.
+            state.passivity.restart();
+        }
         // The viewer's camera (a matrix that is not a rotation is refused: the old one stays).
         if let Some(c) = camera.as_deref_mut() {
             if c.update() {

@@ -30,8 +30,10 @@
 //! raw one-tick difference at the price of half a tick of delay. The energy itself needs no
 //! velocity: it is the exact work of the held force over each tick's displacement.
 //!
-//! The trip: when the energy a law stores past its force limit ([`Storage::past_limit_j`];
-//! for a law without a storage function, the generated energy) exceeds
+//! The trip: when the energy a law stores past its force limit ([`Storage::past_limit_j`],
+//! counted above the least of it since the contact began, so a tool that starts deep inside
+//! trips nothing until it is driven deeper; for a law without a storage function, the
+//! generated energy) exceeds
 //! [`PassivityParams::trip_j`], the observer latches tripped and its output is zero from then
 //! on. A sign or mirror fault at the device is
 //! invisible to any observer at this port (the measured signals are those of a user pushing
@@ -59,6 +61,11 @@ pub struct PassivityParams {
     pub trip_j: f32,
     /// Run the controller (the damper). `false` observes only (the trip stays armed).
     pub dissipate: bool,
+    /// Ticks after a [`PassivityObserver::restart`] during which the energy past the force
+    /// limit is not counted: a device's safety filter ramps the force up again after a cut
+    /// (500 ticks on the simulated device and the Falcon), and meanwhile the hand can push the
+    /// tool deeper than the loop's force would let it.
+    pub regrip_ticks: u32,
 }
 
 /// Default [`PassivityParams::slack_j`]: 0.1 mJ. A penalty wall at the default stiffness
@@ -77,7 +84,7 @@ pub const DEFAULT_TRIP_J: f32 = 0.05;
 
 impl Default for PassivityParams {
     /// 1 kHz, 20 N s/m (the simulated device's and the Falcon's damping limit), no force
-    /// limit, [`DEFAULT_SLACK_J`], [`DEFAULT_TRIP_J`], controller on.
+    /// limit, [`DEFAULT_SLACK_J`], [`DEFAULT_TRIP_J`], controller on, 500 ticks to regrip.
     fn default() -> Self {
         Self {
             dt: 1e-3,
@@ -86,6 +93,7 @@ impl Default for PassivityParams {
             slack_j: DEFAULT_SLACK_J,
             trip_j: DEFAULT_TRIP_J,
             dissipate: true,
+            regrip_ticks: 500,
         }
     }
 }
@@ -155,6 +163,10 @@ pub struct PassivityObserver {
     past_limit_max: f32,
     /// The law stored energy last tick (a contact was going on).
     holding: bool,
+    /// The least energy past the force limit during this contact.
+    past_base: f32,
+    /// Ticks left before the energy past the limit counts again after a restart.
+    regrip: u32,
     dissipated: f64,
     tripped: bool,
     trips: u32,
@@ -180,6 +192,8 @@ impl PassivityObserver {
             generated_max: 0.0,
             past_limit_max: 0.0,
             holding: false,
+            past_base: 0.0,
+            regrip: 0,
             dissipated: 0.0,
             tripped: false,
             trips: 0,
@@ -233,8 +247,10 @@ impl PassivityObserver {
             Some(s) if s.stored_j.is_finite() => {
                 if !self.holding && s.stored_j > 0.0 {
                     // A contact begins (or the tool is inside at the start): what the wall
-                    // holds at once is counted as taken, a deficit from before is kept.
+                    // holds at once is counted as taken, a deficit from before is kept, and
+                    // the energy past the limit is measured from here.
                     self.energy = s.stored_j + self.energy.min(0.0);
+                    self.past_base = s.past_limit_j;
                 }
                 if self.energy > s.stored_j {
                     // The environment dissipated the difference: no credit for later.
@@ -256,7 +272,13 @@ impl PassivityObserver {
         // form's generated energy also counts a contact plane that moves under a still tool,
         // which the damper takes but must not trip); without one, the generated energy.
         let measure = match storage {
-            Some(s) if s.past_limit_j.is_finite() => s.past_limit_j,
+            Some(s) if s.past_limit_j.is_finite() => {
+                if self.regrip > 0 {
+                    self.past_base = s.past_limit_j;
+                }
+                self.past_base = self.past_base.min(s.past_limit_j);
+                s.past_limit_j - self.past_base
+            }
             Some(_) => 0.0,
             None => generated,
         };
@@ -265,6 +287,7 @@ impl PassivityObserver {
             self.tripped = true;
             self.trips = self.trips.saturating_add(1);
         }
+        self.regrip = self.regrip.saturating_sub(1);
         self.history = [position, self.history[0]];
         self.known = (self.known + 1).min(2);
         let excess = generated - self.params.slack_j;
@@ -288,6 +311,23 @@ impl PassivityObserver {
             self.held_damper = Vec3::ZERO;
         }
         out
+    }
+
+    /// Forgets the contact and the velocity history (not the energies' maxima, the dissipated
+    /// energy or the trip): the next tick starts afresh, and the energy past the force limit
+    /// counts again only after [`PassivityParams::regrip_ticks`]. For a caller whose force was
+    /// off for a while (a watchdog cut): the motion then, and while the device ramps the force
+    /// up again, is not the loop's doing.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn restart(&mut self) {
+        self.known = 0;
+        self.held = Vec3::ZERO;
+        self.held_damper = Vec3::ZERO;
+        self.holding = false;
+        self.energy = self.energy.min(0.0);
+        self.regrip = self.params.regrip_ticks;
     }
 
     /// Whether the observer has tripped (latched: its output is zero from then on).
@@ -496,6 +536,39 @@ mod tests {
         // Latched: back out of contact, still zero.
         assert_eq!(obs.step(Vec3::Z, Vec3::Z, None), Vec3::ZERO);
         assert_eq!(obs.trips(), 1);
+    }
+
+    #[test]
+    fn a_tool_that_starts_deep_trips_only_when_driven_deeper() {
+        let mut obs = PassivityObserver::default();
+        // Inside from the first tick, 2 cm past the 8 N limit (0.16 J past it): held still.
+        let at = |d: f32| {
+            (
+                Vec3::new(0.0, 0.0, -d),
+                Vec3::Z * 8.0,
+                Some(penalty_storage(d, 200.0, 8.0)),
+            )
+        };
+        for _ in 0..100 {
+            let (p, f, s) = at(0.06);
+            assert_eq!(obs.step(p, f, s), f);
+        }
+        assert!(!obs.tripped());
+        // Pushed out 1 cm, then driven 7 mm deeper than the start: 8 N x 1.7 cm past the least.
+        let mut d = 0.06;
+        while d > 0.05 {
+            d -= 1e-4;
+            let (p, f, s) = at(d);
+            obs.step(p, f, s);
+        }
+        assert!(!obs.tripped());
+        while d < 0.067 && !obs.tripped() {
+            d += 1e-4;
+            let (p, f, s) = at(d);
+            obs.step(p, f, s);
+        }
+        assert!(obs.tripped());
+        assert!((d - (0.05 + DEFAULT_TRIP_J / 8.0)).abs() < 2e-4, "{d}");
     }
 
     #[test]
