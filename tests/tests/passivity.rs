@@ -33,10 +33,13 @@ fn press(t: f64) -> PathPoint {
 
 const PRESS_TICKS: u64 = 1500;
 
+/// The simulated device on the press.
+type PressDevice = SimDevice<Scripted<fn(f64) -> PathPoint>>;
+
 /// The simulated device, logging the magnitude of every force it is given (0 with the motors
 /// off).
 struct Logged {
-    inner: SimDevice<Scripted<fn(f64) -> PathPoint>>,
+    inner: PressDevice,
     writes: Arc<Mutex<Vec<f64>>>,
 }
 
