@@ -66,6 +66,11 @@ pub struct PassivityParams {
     /// (500 ticks on the simulated device and the Falcon), and meanwhile the hand can push the
     /// tool deeper than the loop's force would let it.
     pub regrip_ticks: u32,
+    /// Whether the controller and the trip also act for a law without a storage function
+    /// (the classic form). Off by default: there the observer only observes and reports, since
+    /// the classic form's credit and the contact planes a drill moves make its generated
+    /// energy a poor guide to act on (and the forces of such laws stay theirs, bit for bit).
+    pub act_without_storage: bool,
 }
 
 /// Default [`PassivityParams::slack_j`]: 0.1 mJ. A penalty wall at the default stiffness
@@ -84,7 +89,8 @@ pub const DEFAULT_TRIP_J: f32 = 0.05;
 
 impl Default for PassivityParams {
     /// 1 kHz, 20 N s/m (the simulated device's and the Falcon's damping limit), no force
-    /// limit, [`DEFAULT_SLACK_J`], [`DEFAULT_TRIP_J`], controller on, 500 ticks to regrip.
+    /// limit, [`DEFAULT_SLACK_J`], [`DEFAULT_TRIP_J`], controller on, 500 ticks to regrip, the
+    /// classic form observing only.
     fn default() -> Self {
         Self {
             dt: 1e-3,
@@ -94,6 +100,7 @@ impl Default for PassivityParams {
             trip_j: DEFAULT_TRIP_J,
             dissipate: true,
             regrip_ticks: 500,
+            act_without_storage: false,
         }
     }
 }
@@ -271,6 +278,7 @@ impl PassivityObserver {
         // The trip: with a storage function, the energy past the force limit (the storage
         // form's generated energy also counts a contact plane that moves under a still tool,
         // which the damper takes but must not trip); without one, the generated energy.
+        let acting = storage.is_some() || self.params.act_without_storage;
         let measure = match storage {
             Some(s) if s.past_limit_j.is_finite() => {
                 if self.regrip > 0 {
@@ -283,7 +291,7 @@ impl PassivityObserver {
             None => generated,
         };
         self.past_limit_max = self.past_limit_max.max(measure);
-        if !self.tripped && measure > self.params.trip_j {
+        if acting && !self.tripped && measure > self.params.trip_j {
             self.tripped = true;
             self.trips = self.trips.saturating_add(1);
         }
@@ -294,7 +302,7 @@ impl PassivityObserver {
         let v2 = velocity.length_squared();
         let out = if self.tripped {
             Vec3::ZERO
-        } else if self.params.dissipate && excess > 0.0 && v2 > 0.0 && dt > 0.0 {
+        } else if acting && self.params.dissipate && excess > 0.0 && v2 > 0.0 && dt > 0.0 {
             let alpha = (excess / (dt * v2)).min(self.params.max_damping);
             let out = clamp_force(force - alpha * velocity, self.params.max_force);
             if out.is_finite() {
@@ -416,6 +424,14 @@ mod tests {
         PassivityParams {
             dissipate: false,
             trip_j: f32::INFINITY,
+            ..acting()
+        }
+    }
+
+    /// The defaults, the classic form acting too.
+    fn acting() -> PassivityParams {
+        PassivityParams {
+            act_without_storage: true,
             ..PassivityParams::default()
         }
     }
@@ -441,14 +457,7 @@ mod tests {
     #[test]
     fn the_controller_makes_the_bounce_passive() {
         for with_storage in [false, true] {
-            let (ke0, ke1, obs) = bounce(
-                2000.0,
-                0.0,
-                0.1,
-                with_storage,
-                PassivityParams::default(),
-                300,
-            );
+            let (ke0, ke1, obs) = bounce(2000.0, 0.0, 0.1, with_storage, acting(), 300);
             // Within the slack and f32 rounding, the mass leaves with no more than it brought.
             let slack = f64::from(DEFAULT_SLACK_J);
             assert!(
@@ -465,6 +474,25 @@ mod tests {
                 obs.dissipated_j()
             );
         }
+    }
+
+    #[test]
+    fn without_a_storage_function_it_only_observes_by_default() {
+        let (ke0, ke1, obs) = bounce(2000.0, 0.0, 0.1, false, PassivityParams::default(), 300);
+        assert!(ke1 > ke0);
+        assert!(obs.generated_j_max() > 0.0);
+        assert_eq!(obs.dissipated_j(), 0.0);
+        // Far past the bound, still no trip: the classic form does not act.
+        let mut obs = PassivityObserver::new(PassivityParams {
+            trip_j: 1e-9,
+            ..PassivityParams::default()
+        });
+        for i in 0..10 {
+            let p = Vec3::new(0.0, 0.0, i as f32 * 1e-3);
+            assert_eq!(obs.step(p, Vec3::Z * 8.0, None), Vec3::Z * 8.0);
+        }
+        assert!(obs.generated_j_max() > 1e-9);
+        assert!(!obs.tripped());
     }
 
     #[test]

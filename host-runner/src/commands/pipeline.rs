@@ -230,8 +230,9 @@ pub struct RunSafety {
     /// The largest energy the rendered environment had generated at a tick (before the
     /// damper took it), joules.
     pub generated_j_max: f64,
-    /// The largest energy the force law stored past its force limit (the trip's measure; for
-    /// a mesh tool, whose law has no storage function, the generated energy), joules.
+    /// The largest energy the force law stored past its force limit since its contact began
+    /// (the trip's measure; for a mesh tool, whose law has no storage function, the generated
+    /// energy, observed only), joules.
     pub past_limit_j_max: f64,
 }
 
