@@ -37,13 +37,14 @@
 //! Every servo tick, for every device, runs the core's time-domain passivity observer and
 //! controller ([`tetradrill_core::force::passivity`]) between the force law and the device, in
 //! SI units (scene positions divided by the workspace scale: metres, in the scene's rotated
-//! frame, where the power is the same as at the device). It dissipates what the rendered
-//! environment generates; when it trips (the law's energy stored past its force limit beyond
-//! the bound: a reversed force or a mirrored axis; the burr's spring is a storage function only
-//! while the drill is off, since drilling removes what the tool pushes into), the tick cuts the motors through the
-//! device's cutoff (the watchdog's path: direct zero, latch), writes zero force with the
-//! motors off, and every later tick of the run does the same: the run goes on to its end with
-//! zero force (the observer's trip is latched for the run), and the JSON counts the trip.
+//! frame, where the power is the same as at the device). With the burr's law and the drill off
+//! (its penalty spring is then a storage function) it dissipates what the rendered wall
+//! generates and trips when the law stores energy past its force limit beyond the bound (a
+//! reversed force or a mirrored axis); with the drill on, or a mesh tool, it observes and
+//! reports only. A trip cuts the motors through the device's cutoff (the watchdog's path:
+//! direct zero, latch) and writes zero force with the motors off, and every later tick of the
+//! run does the same: the run goes on to its end with zero force (the observer's trip is
+//! latched for the run), and the JSON counts the trip.
 
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::Arc;

@@ -8,22 +8,24 @@
 //! flows into the environment is its negative. The observer sums that inflow, `E`.
 //!
 //! Two ways to count what the environment generated:
-//! - without a storage function (any force law), the classic observer: the environment has
-//!   generated energy when `E < 0` (it gave back more than it took). A contact that ends (zero
-//!   force) forgets what the environment had absorbed (`E = min(E, 0)`): a penalty wall holds
-//!   nothing once it pushes no more, so that energy cannot be claimed back later.
 //! - with the law's storage function `U` ([`Storage`], the energy its spring holds at the
-//!   tool's depth), the stricter observer: passivity is `U(t) <= E(t)` (an environment holds at
-//!   most what it took), so the generated energy is `U - E`; whenever the environment
-//!   dissipated (`E > U`), `E` is set to `U`, so a static press gives no credit that would let
-//!   an oscillation around it grow. For a penalty wall `K` with damping `b` under the
-//!   zero-order hold, one tick generates `(K T / 2 - b / T) dx^2`... more than nothing exactly
-//!   when `b < K T / 2`: Colgate's bound.
+//!   tool's depth), the strict form: passivity is `U(t) <= E(t)` (an environment holds at most
+//!   what it took), so the generated energy is `U - E`; whenever the environment dissipated
+//!   (`E > U`), `E` is set to `U`, so a static press gives no credit that would let an
+//!   oscillation around it grow. For a penalty wall `K` with damping `b` under the zero-order
+//!   hold, a tick that moves the tool `dx` out of the wall generates `(K / 2 - b / T) dx^2`:
+//!   more than nothing exactly when `b < K T / 2`, Colgate's bound. A contact that begins
+//!   counts what the wall holds at once as taken.
+//! - without one (any force law), the classic form: the environment has generated energy when
+//!   `E < 0` (it gave back more than it took). A contact that ends (zero force) forgets what
+//!   the environment had absorbed (`E = min(E, 0)`): a penalty wall holds nothing once it
+//!   pushes no more. By default this form only observes
+//!   ([`PassivityParams::act_without_storage`]).
 //!
-//! The controller (when [`PassivityParams::dissipate`]) adds a variable damper
-//! `-alpha v` with `alpha = (G - slack) / (T |v|^2)`, at most [`PassivityParams::max_damping`],
-//! whenever the generated energy `G` exceeds [`PassivityParams::slack_j`]: the damper
-//! dissipates the excess over the next tick. Below the slack the law's force passes bit for bit.
+//! The controller (when [`PassivityParams::dissipate`]) adds a variable damper `-alpha v` with
+//! `alpha = (G - slack) / (T |v|^2)`, at most [`PassivityParams::max_damping`], whenever the
+//! generated energy `G` exceeds [`PassivityParams::slack_j`]: the damper dissipates the excess
+//! over the next tick. Below the slack the law's force passes bit for bit.
 //!
 //! Velocity: the damper's `v` is the central difference over the last two ticks,
 //! `(p_k - p_{k-2}) / 2T`: a two-tap filter that halves the encoder quantisation noise of a
@@ -32,14 +34,12 @@
 //!
 //! The trip: when the energy a law stores past its force limit ([`Storage::past_limit_j`],
 //! counted above the least of it since the contact began, so a tool that starts deep inside
-//! trips nothing until it is driven deeper; for a law without a storage function, the
-//! generated energy) exceeds
-//! [`PassivityParams::trip_j`], the observer latches tripped and its output is zero from then
-//! on. A sign or mirror fault at the device is
-//! invisible to any observer at this port (the measured signals are those of a user pushing
-//! harder), but it drives the tool ever deeper into the wall, past the depth where the law's
-//! force reaches its limit: a passive wall holds no more than `F^2 / 2K` there, and the energy
-//! beyond it is what the faulty motors put into the user.
+//! trips nothing until it is driven deeper) exceeds [`PassivityParams::trip_j`], the observer
+//! latches tripped and its output is zero from then on. A sign or mirror fault at the device
+//! is invisible to any observer at this port (the measured signals are those of a user
+//! pushing harder), but it drives the tool ever deeper into the wall, past the depth where the
+//! law's force reaches its limit: a passive wall holds no more than `F^2 / 2K` there, and the
+//! energy beyond it is what the faulty motors put into the user.
 
 use glam::Vec3;
 
@@ -363,8 +363,9 @@ impl PassivityObserver {
         self.generated_max
     }
 
-    /// The largest value of the trip's measure seen up to the trip, joules: the energy stored past the force
-    /// limit for a law with a storage function, the generated energy for one without.
+    /// The largest value of the trip's measure seen up to the trip, joules: the energy stored
+    /// past the force limit (since the contact began) for a law with a storage function, the
+    /// generated energy for one without.
     pub fn trip_measure_j_max(&self) -> f32 {
         self.past_limit_max
     }
