@@ -80,6 +80,45 @@ impl Path for Still {
     }
 }
 
+/// A fault the simulated device can be built with (`run --sim-fault KIND`), to prove the
+/// safety layers above the driver catch what a miswired or misconfigured device does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SimFault {
+    /// None: the device as it should be.
+    #[default]
+    None,
+    /// The stylus receives the opposite of the force the device renders (a reversed motor
+    /// sign).
+    ReversedForce,
+    /// The reported x position is mirrored about the device's origin (a mirrored encoder);
+    /// the stylus itself moves normally.
+    MirroredX,
+}
+
+impl SimFault {
+    /// Every fault's name, as `--sim-fault` takes it.
+    pub const NAMES: [&'static str; 3] = ["none", "reversed-force", "mirrored-x"];
+
+    /// The fault named `s` (`none`, `reversed-force`, `mirrored-x`).
+    pub fn parse(s: &str) -> Option<SimFault> {
+        match s {
+            "none" => Some(SimFault::None),
+            "reversed-force" => Some(SimFault::ReversedForce),
+            "mirrored-x" => Some(SimFault::MirroredX),
+            _ => None,
+        }
+    }
+
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SimFault::None => "none",
+            SimFault::ReversedForce => "reversed-force",
+            SimFault::MirroredX => "mirrored-x",
+        }
+    }
+}
+
 /// Parameters of the simulated device.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SimConfig {
@@ -97,6 +136,14 @@ pub struct SimConfig {
     pub safety: SafetyConfig,
     /// Fault injection: report a disconnect from this tick on (`None` = never).
     pub disconnect_at_tick: Option<u64>,
+    /// Fault injection: a reversed force or a mirrored axis ([`SimFault`]).
+    pub fault: SimFault,
+    /// Integration steps per servo period (at least 1). With one, the stylus moves in
+    /// lockstep with the servo (semi-implicit Euler at the servo period), which happens to
+    /// cancel the energy a zero-order hold gives a stiff wall; with several, the stylus is
+    /// a continuous-time mass under a force held over the period, as a real one is, and a
+    /// stiff wall can oscillate.
+    pub substeps: u32,
 }
 
 impl Default for SimConfig {
@@ -110,6 +157,8 @@ impl Default for SimConfig {
             spec: DeviceSpec::SIM,
             safety: SafetyConfig::for_max_force(DeviceSpec::SIM.max_force_n),
             disconnect_at_tick: None,
+            fault: SimFault::None,
+            substeps: 1,
         }
     }
 }
@@ -253,19 +302,43 @@ impl<P: Path> SimDevice<P> {
             position: hand_pos,
             ..hand
         };
-        let spring = v3::scale(
-            v3::sub(hand_pos, self.position),
-            self.config.hand_stiffness_n_per_m,
-        );
-        let damper = v3::scale(
-            v3::sub(hand_vel, self.velocity),
-            self.config.hand_damping_n_s_per_m,
-        );
         let device = self.motors.output().force;
-        let total = v3::add(v3::add(spring, damper), device);
-        let accel = v3::scale(total, 1.0 / self.config.mass_kg);
-        self.velocity = v3::add(self.velocity, v3::scale(accel, dt));
-        self.position = v3::add(self.position, v3::scale(self.velocity, dt));
+        let device = match self.config.fault {
+            SimFault::ReversedForce => v3::scale(device, -1.0),
+            _ => device,
+        };
+        let n = self.config.substeps.max(1);
+        let h = dt / f64::from(n);
+        for _ in 0..n {
+            let spring = v3::scale(
+                v3::sub(hand_pos, self.position),
+                self.config.hand_stiffness_n_per_m,
+            );
+            let damper = v3::scale(
+                v3::sub(hand_vel, self.velocity),
+                self.config.hand_damping_n_s_per_m,
+            );
+            let total = v3::add(v3::add(spring, damper), device);
+            let accel = v3::scale(total, 1.0 / self.config.mass_kg);
+            self.velocity = v3::add(self.velocity, v3::scale(accel, h));
+            self.position = v3::add(self.position, v3::scale(self.velocity, h));
+        }
+    }
+
+    /// The stylus position the device reports: the true one, x mirrored under
+    /// [`SimFault::MirroredX`].
+    fn reported(&self) -> Vec3 {
+        let [x, y, z] = self.position;
+        match self.config.fault {
+            SimFault::MirroredX => [-x, y, z],
+            _ => [x, y, z],
+        }
+    }
+
+    /// Where the stylus really is (unlike [`HapticDevice::read`] under
+    /// [`SimFault::MirroredX`]).
+    pub fn true_position(&self) -> Vec3 {
+        self.position
     }
 
     fn disconnected(&self) -> bool {
@@ -293,7 +366,7 @@ impl<P: Path> HapticDevice for SimDevice<P> {
         Ok(DeviceState {
             timestamp_s: self.time(),
             tick: self.tick,
-            position: self.position,
+            position: self.reported(),
             rotation: self.hand.rotation,
             joint_angles: [0.0; 6],
             buttons: self.hand.buttons,
@@ -429,6 +502,93 @@ mod tests {
             dev.write(&ForceCommand::ZERO).unwrap();
         }
         assert!((s.position[0] - 0.03).abs() < 1e-5);
+    }
+
+    #[test]
+    fn a_reversed_force_pushes_the_stylus_the_other_way() {
+        // A 2 N force along +x on a stylus held by the hand at the origin settles where the
+        // hand spring (300 N/m) balances it: +2/300 m, and -2/300 m with the fault.
+        for (fault, sign) in [(SimFault::None, 1.0), (SimFault::ReversedForce, -1.0)] {
+            let c = SimConfig { fault, ..no_ramp() };
+            let mut dev = SimDevice::new(Still([0.0; 3]), c);
+            let mut s = DeviceState::ZERO;
+            for _ in 0..3000 {
+                s = dev.read().unwrap();
+                dev.write(&ForceCommand::force([2.0, 0.0, 0.0])).unwrap();
+            }
+            let want = sign * 2.0 / 300.0;
+            assert!(
+                (s.position[0] - want).abs() < 1e-6,
+                "{fault:?}: {:?}",
+                s.position
+            );
+        }
+    }
+
+    #[test]
+    fn a_mirrored_x_reports_minus_x_while_the_stylus_moves_normally() {
+        let c = SimConfig {
+            fault: SimFault::MirroredX,
+            ..SimConfig::default()
+        };
+        let mut dev = SimDevice::new(Scripted(line), c);
+        let mut plain = SimDevice::new(Scripted(line), SimConfig::default());
+        for _ in 0..500 {
+            let s = dev.read().unwrap();
+            let p = plain.read().unwrap();
+            assert_eq!(dev.true_position(), p.position);
+            assert_eq!(s.position, [-p.position[0], p.position[1], p.position[2]]);
+            dev.write(&ForceCommand::ZERO).unwrap();
+            plain.write(&ForceCommand::ZERO).unwrap();
+        }
+        assert!(plain.true_position()[0] > 0.02);
+    }
+
+    #[test]
+    fn one_substep_is_the_lockstep_integration_and_more_converge() {
+        // The hand steps 1 cm away at t = 0: the undamped part of the stylus's response
+        // against the exact solution of m x'' = k (1 cm - x) - c x' (underdamped, f64).
+        let step = |_t: f64| PathPoint {
+            position: [0.01, 0.0, 0.0],
+            rotation: QUAT_IDENTITY,
+            buttons: 0,
+        };
+        let run = |substeps: u32| {
+            let c = SimConfig {
+                substeps,
+                hand_damping_n_s_per_m: 2.0,
+                ..no_ramp()
+            };
+            let mut dev = SimDevice::new(Scripted(step), c);
+            dev.position = [0.0; 3];
+            dev.hand_prev = [0.01, 0.0, 0.0];
+            let mut out = Vec::new();
+            for _ in 0..200 {
+                out.push(dev.read().unwrap().position[0]);
+                dev.write(&ForceCommand::ZERO).unwrap();
+            }
+            out
+        };
+        let (m, k, c) = (0.1f64, 300.0f64, 2.0f64);
+        let wd = (k / m - (c / (2.0 * m)).powi(2)).sqrt();
+        let zeta_w = c / (2.0 * m);
+        let exact = |t: f64| {
+            0.01 * (1.0 - (-zeta_w * t).exp() * ((wd * t).cos() + zeta_w / wd * (wd * t).sin()))
+        };
+        let err = |xs: &[f64]| {
+            xs.iter()
+                .enumerate()
+                .map(|(i, x)| (x - exact(i as f64 * 1e-3)).abs())
+                .fold(0.0, f64::max)
+        };
+        let (one, many) = (run(1), run(20));
+        assert!(
+            err(&many) < 0.2 * err(&one),
+            "{} vs {}",
+            err(&many),
+            err(&one)
+        );
+        assert!(err(&many) < 2e-4, "{}", err(&many));
     }
 
     #[test]

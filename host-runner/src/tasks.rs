@@ -33,13 +33,28 @@
 //! The watchdog task ([`crate::watchdog`]) supervises the servo: the servo bumps an atomic beat
 //! each tick; when it stops for [`crate::watchdog::SERVO_WATCHDOG_NS`], the watchdog zeroes the
 //! force through the device's cutoff, without the servo thread.
+//!
+//! Every servo tick, for every device, runs the core's time-domain passivity observer and
+//! controller ([`tetradrill_core::force::passivity`]) between the force law and the device, in
+//! SI units (scene positions divided by the workspace scale: metres, in the scene's rotated
+//! frame, where the power is the same as at the device). With the burr's law and the drill off
+//! (its penalty spring is then a storage function) it dissipates what the rendered wall
+//! generates and trips when the law stores energy past its force limit beyond the bound (a
+//! reversed force or a mirrored axis); with the drill on, or a mesh tool, it observes and
+//! reports only. A trip cuts the motors through the device's cutoff (the watchdog's path:
+//! direct zero, latch) and writes zero force with the motors off, and every later tick of the
+//! run does the same: the run goes on to its end with zero force (the observer's trip is
+//! latched for the run), and the JSON counts the trip.
 
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::Arc;
 
 use crossbeam::queue::ArrayQueue;
 use tetradrill_core::drill::Sphere;
-use tetradrill_core::force::{ForceDigest, ToolState};
+use tetradrill_core::force::{
+    penalty_storage, ForceDigest, ForceParams, PassivityObserver, PassivityParams, Storage,
+    ToolState,
+};
 use tetradrill_core::servo::{servo_force, ContactState, World};
 use tetradrill_core::{Quat, Vec3};
 use tetradrill_device::{DeviceError, ForceCommand, HapticDevice, MotorCutoff};
@@ -440,6 +455,11 @@ pub struct ServoResult {
     pub error: Option<DeviceError>,
     /// Device samples with a NaN or infinite position (force zero on those ticks).
     pub nonfinite_samples: u64,
+    /// The passivity observer at the end of the run (trips, energies).
+    pub passivity: PassivityObserver,
+    /// Deepest penetration of the tool's contact point, metres (0 for a law that does not
+    /// report one).
+    pub max_depth_m: f32,
 }
 
 /// The servo's end of the camera hand-off: the latest camera `C` the viewer published
@@ -495,6 +515,9 @@ pub fn servo_task(
         record,
         ..ServoState::default()
     };
+    state
+        .passivity
+        .set_params(passivity_params(&device.spec(), SERVO_PERIOD_NS));
     let mut end = ServoEnd::Ticks;
     let mut request_to_zero_ns = None;
     let watch = &counters.watch;
@@ -525,7 +548,10 @@ pub fn servo_task(
         }
         let t0 = now_ns();
         let stalled = last_gap.max(t0.saturating_sub(last_end));
-        recover_from_stall(device, cutoff.as_deref(), watch, stalled);
+        if recover_from_stall(device, cutoff.as_deref(), watch, stalled) {
+            // The force was off: what the tool did meanwhile was not the loop's doing.
+            state.passivity.restart();
+        }
         // The viewer's camera (a matrix that is not a rotation is refused: the old one stays).
         if let Some(c) = camera.as_deref_mut() {
             if c.update() {
@@ -575,7 +601,25 @@ pub fn servo_task(
         max_force: state.max_force,
         error,
         nonfinite_samples: state.nonfinite_samples,
+        passivity: state.passivity,
+        max_depth_m: state.max_depth_m,
     }
+}
+
+/// The passivity observer's settings for a device: its force and damping limits, the servo
+/// period, the core's default slack and trip bound.
+pub fn passivity_params(spec: &tetradrill_device::DeviceSpec, period_ns: u64) -> PassivityParams {
+    let mut p = PassivityParams {
+        dt: period_ns as f32 * 1e-9,
+        ..PassivityParams::default()
+    };
+    if spec.max_force_n.is_finite() && spec.max_force_n > 0.0 {
+        p.max_force = spec.max_force_n as f32;
+    }
+    if spec.max_damping_n_s_per_m.is_finite() && spec.max_damping_n_s_per_m > 0.0 {
+        p.max_damping = spec.max_damping_n_s_per_m as f32;
+    }
+    p
 }
 
 /// The top of a servo tick: when the watchdog caught a stall (or the device's cutoff latch is
@@ -623,6 +667,14 @@ pub struct ServoState {
     pub last_written: f32,
     /// Where each tick's sample is recorded (`--record`), if anywhere.
     pub record: Option<Arc<RecordRing>>,
+    /// The time-domain passivity observer and controller between the law and the device.
+    pub passivity: PassivityObserver,
+    /// Deepest penetration of the tool's contact point so far, metres.
+    pub max_depth_m: f32,
+    /// The device's position resets seen so far ([`HapticDevice::position_resets`]: the
+    /// Falcon's homing moves its coordinates); a new one restarts the passivity observer, whose
+    /// energy would otherwise count the jump as the tool's motion.
+    pub position_resets: u64,
 }
 
 /// Where a servo tick's force comes from: the burr's contact plane ([`BurrLaw`]) or a mesh
@@ -633,11 +685,52 @@ pub trait ForceLaw {
     /// newtons. Runs on the servo thread every tick: bounded work, no allocation, no lock, no
     /// wait (hand-offs are read through triple buffers).
     fn force(&mut self, tick: u64, position: Vec3, rotation: Quat) -> Vec3;
+
+    /// The contact behind the last force, when the law knows its storage function (the
+    /// passivity observer then uses its stricter form and trips on the energy stored past the
+    /// force limit); `None` (the default) leaves the observer its classic form.
+    fn contact(&self) -> Option<LawContact> {
+        None
+    }
 }
 
 impl<F: FnMut(u64, Vec3, Quat) -> Vec3> ForceLaw for F {
     fn force(&mut self, tick: u64, position: Vec3, rotation: Quat) -> Vec3 {
         self(tick, position, rotation)
+    }
+}
+
+/// What a law knows of its contact at the tool's pose (scene units).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct LawContact {
+    /// Penetration of the tool's contact point, mesh units (0 out of contact).
+    pub depth: f32,
+    /// The energy its spring holds there, newton mesh units.
+    pub storage: Storage,
+}
+
+/// The burr's contact at `centre`: the depth below the contact plane and the storage of its
+/// penalty spring (stiffness and force limit of `force`). Out of contact, or for a pose that
+/// is not finite, zero.
+///
+/// # Bounded work
+/// Constant.
+pub fn burr_contact(
+    contact: &ContactState,
+    centre: Vec3,
+    radius: f32,
+    force: &ForceParams,
+) -> LawContact {
+    if !contact.valid {
+        return LawContact::default();
+    }
+    let depth = radius - (centre - contact.point).dot(contact.normal);
+    if !(depth.is_finite() && depth > 0.0) {
+        return LawContact::default();
+    }
+    LawContact {
+        depth,
+        storage: penalty_storage(depth, force.stiffness, force.max_force),
     }
 }
 
@@ -654,6 +747,8 @@ pub struct BurrLaw<'a> {
     pub counters: &'a ServoCounters,
     /// Damping state.
     pub tool: ToolState,
+    /// The contact behind the last force.
+    pub last: LawContact,
 }
 
 impl<'a> BurrLaw<'a> {
@@ -668,6 +763,7 @@ impl<'a> BurrLaw<'a> {
             contact,
             counters,
             tool: ToolState::default(),
+            last: LawContact::default(),
         }
     }
 }
@@ -684,13 +780,33 @@ impl ForceLaw for BurrLaw<'_> {
         if k != 0 {
             live.force.stiffness = f32::from_bits(k);
         }
-        servo_force(
-            self.contact.read(),
-            position,
-            live.radius,
-            &mut self.tool,
-            &live.force,
-        )
+        let contact = self.contact.read();
+        self.last = burr_contact(contact, position, live.radius, &live.force);
+        servo_force(contact, position, live.radius, &mut self.tool, &live.force)
+    }
+
+    fn contact(&self) -> Option<LawContact> {
+        Some(self.last)
+    }
+}
+
+/// [`servo_tick`]'s law: the burr's force from a fixed contact plane.
+struct PlaneLaw<'a> {
+    contact: &'a ContactState,
+    params: &'a TickParams,
+    tool: ToolState,
+    last: LawContact,
+}
+
+impl ForceLaw for PlaneLaw<'_> {
+    fn force(&mut self, _tick: u64, position: Vec3, _rotation: Quat) -> Vec3 {
+        let p = self.params;
+        self.last = burr_contact(self.contact, position, p.radius, &p.force);
+        servo_force(self.contact, position, p.radius, &mut self.tool, &p.force)
+    }
+
+    fn contact(&self) -> Option<LawContact> {
+        Some(self.last)
     }
 }
 
@@ -708,20 +824,26 @@ pub fn servo_tick(
     st: &mut ServoState,
     tick: u64,
 ) -> Result<(), DeviceError> {
-    let mut tool = st.tool;
-    let mut law = |_: u64, position: Vec3, _: Quat| {
-        servo_force(contact, position, params.radius, &mut tool, &params.force)
+    let mut law = PlaneLaw {
+        contact,
+        params,
+        tool: st.tool,
+        last: LawContact::default(),
     };
     let out = servo_io(device, workspace, &mut law, ring, st, tick);
-    st.tool = tool;
+    st.tool = law.tool;
     out
 }
 
 /// One servo tick: read the device, map its pose into the scene through `st.frame`, hand the
-/// sample to the simulation, compute the force with `law`, write it back through the frame.
+/// sample to the simulation, compute the force with `law`, pass it through the passivity
+/// observer and controller (`st.passivity`), write it back through the frame.
 /// Allocation-free and lock-free when `law` is.
 ///
 /// A non-finite position is counted and still handed to `law` (the laws give it zero force).
+///
+/// The tick the observer trips, the device's cutoff is cut (direct zero, latch: the
+/// watchdog's path); that tick and every later one writes [`ForceCommand::OFF`].
 ///
 /// # Errors
 /// A device error (disconnect, NaN refused, ...) is returned after the force was zeroed.
@@ -742,6 +864,12 @@ pub fn servo_io(
             return Err(e);
         }
     };
+    let s_buttons = s.buttons;
+    let resets = device.position_resets();
+    if resets != st.position_resets {
+        st.position_resets = resets;
+        st.passivity.restart();
+    }
     let position = st.frame.to_scene(workspace, s.position);
     let rotation = st.frame.rotation_to_scene(s.rotation);
     st.nonfinite_samples += u64::from(!position.is_finite());
@@ -758,6 +886,41 @@ pub fn servo_io(
         r.push(sample);
     }
     let f = law.force(tick, position, rotation);
+    // The observer works in SI: scene positions over the workspace scale are metres (in the
+    // scene's rotated frame, where the power is the device's).
+    let s = workspace.scale;
+    let to_si = if s.is_finite() && s > 0.0 {
+        1.0 / s
+    } else {
+        1.0
+    };
+    let contact = law.contact();
+    if let Some(c) = contact {
+        let d = c.depth * to_si;
+        if d.is_finite() {
+            st.max_depth_m = st.max_depth_m.max(d);
+        }
+    }
+    // With the drill on the material gives way by design (removal dissipates what the tool
+    // pushes into it), so the law's spring is no storage function: the classic form.
+    let drilling = s_buttons & tetradrill_core::script::DRILL_ON != 0;
+    let storage = contact
+        .filter(|_| !drilling)
+        .map(|c| c.storage.scaled(to_si));
+    let tripped = st.passivity.tripped();
+    let f = st.passivity.step(position * to_si, f, storage);
+    if st.passivity.tripped() {
+        if !tripped {
+            if let Some(c) = device.cutoff() {
+                let _ = c.cut();
+            }
+        }
+        st.digest.push(Vec3::ZERO);
+        st.last_force = Vec3::ZERO;
+        device.write(&ForceCommand::OFF)?;
+        st.last_written = 0.0;
+        return Ok(());
+    }
     st.digest.push(f);
     st.max_force = st.max_force.max(f.length());
     st.last_force = f;

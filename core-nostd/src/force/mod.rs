@@ -10,6 +10,7 @@
 //! | [`response`]  | damping, clamping, the displayed (non-penetrating) tool offset        |
 //! | [`frames`]    | camera `C = M . T`, allocentric pen `P_a = P_e . C`, forces mapped back |
 //! | [`digest`]    | FNV-1a 64 over the force series' bit patterns                          |
+//! | [`passivity`] | time-domain passivity observer and controller, the energy trip         |
 //!
 //! Triangles handed to the force functions are `[Vec3; 3]` listed counter-clockwise seen
 //! from outside (right-hand normal pointing out of the object); [`boundary_triangle`] turns a
@@ -19,6 +20,7 @@ pub mod digest;
 pub mod entry;
 pub mod frames;
 pub mod held;
+pub mod passivity;
 pub mod pen;
 pub mod response;
 pub mod segment;
@@ -27,6 +29,9 @@ pub mod triangles;
 pub use digest::{force_digest, ForceDigest};
 pub use entry::EntryPlane;
 pub use held::{pen_servo_force, HeldContact, PenServo, ServoScratch};
+pub use passivity::{
+    penalty_storage, PassivityObserver, PassivityParams, Storage, DEFAULT_SLACK_J, DEFAULT_TRIP_J,
+};
 pub use pen::{
     pen_contact, pen_pass, DepthMethod, PenBuffers, PenContact, PenForce, PenOptions, PenPass,
     PenScene, PenState,

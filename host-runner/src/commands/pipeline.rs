@@ -115,6 +115,10 @@ pub struct RunReport {
     pub stop_to_zero_force_us: Option<f64>,
     /// The force commands written to the device.
     pub force: RunForce,
+    /// The passivity observer and controller on the servo path.
+    pub safety: RunSafety,
+    /// The tool's contact.
+    pub contact: RunContact,
     /// Rows `--record` wrote to its trace.
     pub recorded_rows: u64,
     /// Rows `--record` could not take (its ring was full, or a pose was not finite).
@@ -214,6 +218,30 @@ pub struct PenRunSummary {
 pub struct RunForce {
     /// Magnitude of the last force command the device took, newtons: 0 after a clean stop.
     pub last_written_n: f32,
+}
+
+/// The passivity observer and controller of a run ([`tetradrill_core::force::passivity`]).
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct RunSafety {
+    /// Times it tripped (0 or 1: a trip cuts the motors for the rest of the run).
+    pub passivity_trips: u32,
+    /// Energy its damper dissipated, joules.
+    pub dissipated_j: f64,
+    /// The largest energy the rendered environment had generated at a tick (before the
+    /// damper took it), joules.
+    pub generated_j_max: f64,
+    /// The largest energy the force law stored past its force limit since its contact began
+    /// (the trip's measure; for a mesh tool, whose law has no storage function, the generated
+    /// energy, observed only), joules.
+    pub past_limit_j_max: f64,
+}
+
+/// The tool's contact over a run.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct RunContact {
+    /// The deepest penetration of the tool's contact point (the burr's depth below the
+    /// contact plane), metres; 0 for a mesh tool.
+    pub max_depth_m: f64,
 }
 
 /// Servo tick timing.
@@ -430,6 +458,15 @@ impl Ended {
             force: RunForce {
                 last_written_n: servo.last_written_n,
             },
+            safety: RunSafety {
+                passivity_trips: servo.passivity.trips(),
+                dissipated_j: servo.passivity.dissipated_j(),
+                generated_j_max: f64::from(servo.passivity.generated_j_max()),
+                past_limit_j_max: f64::from(servo.passivity.trip_measure_j_max()),
+            },
+            contact: RunContact {
+                max_depth_m: f64::from(servo.max_depth_m),
+            },
             recorded_rows: self.recorded.0,
             dropped_rows: self.recorded.1,
             ticks: servo.ticks,
@@ -467,6 +504,15 @@ impl Ended {
         };
         if self.summary {
             print_summary(&rep);
+        }
+        if rep.safety.passivity_trips > 0 {
+            errln!(
+                "tetradrill: warning: the passivity controller tripped: the {} device put \
+                 {:.3} J past the force limit into the tool (a reversed force or a mirrored \
+                 axis?); the motors were cut for the rest of the run",
+                rep.device,
+                rep.safety.past_limit_j_max
+            );
         }
         if rep.nonfinite_samples > 0 {
             errln!(
@@ -1103,6 +1149,13 @@ fn print_summary(r: &RunReport) {
     outln!(
         "hierarchy nodes {}, visible faces {}, saturations {}, dropped samples {}, force max {:.2} N",
         r.hierarchy_nodes, r.visible_faces, r.saturations, r.dropped_samples, r.force_max_n
+    );
+    outln!(
+        "passivity: {} trips, dissipated {:.6} J, generated max {:.6} J; deepest contact {:.4} m",
+        r.safety.passivity_trips,
+        r.safety.dissipated_j,
+        r.safety.generated_j_max,
+        r.contact.max_depth_m
     );
     if r.servo_stalls > 0 {
         outln!(

@@ -17,7 +17,7 @@ use tetradrill_device::os::hdapi::{HdApi, HdLoadError};
 use tetradrill_device::safety::SafetyConfig;
 use tetradrill_device::{
     discovery::OpenOptions, CalibrationStyle, DeviceError, DeviceKind, DeviceSpec, ForceCommand,
-    HapticDevice, PathPoint, Scripted, SimDevice, QUAT_IDENTITY,
+    HapticDevice, PathPoint, Scripted, SimDevice, SimFault, QUAT_IDENTITY,
 };
 
 use super::pipeline::{self, DeviceFactory, PipelineSetup, MESH_UNITS, UNTIL_STOPPED};
@@ -67,6 +67,15 @@ pub struct RunArgs {
     /// Write a PNG of the view at the end of the run (no display needed).
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
+    /// A fault for the simulated device: `reversed-force` (the stylus receives -F) or
+    /// `mirrored-x` (the reported x is mirrored); the passivity controller must trip.
+    #[arg(long, value_name = "KIND", value_parser = parse_sim_fault)]
+    pub sim_fault: Option<SimFault>,
+}
+
+fn parse_sim_fault(s: &str) -> Result<SimFault, String> {
+    SimFault::parse(s)
+        .ok_or_else(|| format!("`{s}` is not a fault ({})", SimFault::NAMES.join(", ")))
 }
 
 fn parse_device(s: &str) -> Result<DeviceKind, String> {
@@ -78,11 +87,20 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let sc = Scenario::from_flags(&args.scenario)?;
     let view = crate::viewer::ViewOptions::of(args.headless, args.screenshot.clone())?;
     let devices = DeviceConfig::from_flag(args.device_config.as_deref())?;
-    let options = OpenOptions {
+    let mut options = OpenOptions {
         falcon_firmware: args.falcon_firmware.clone(),
         falcon: devices.falcon,
         ..OpenOptions::default()
     };
+    if let Some(fault) = args.sim_fault {
+        if args.device != DeviceKind::Sim {
+            return Err(CliError::input(format!(
+                "--sim-fault {}: only the simulated device takes a fault (--device sim)",
+                fault.name()
+            )));
+        }
+        options.sim.fault = fault;
+    }
     let stop = StopRequest::new();
     let (open, default_ticks, workspace) =
         device_factory_with(args.device, &sc, options, &devices, &stop)?;

@@ -1,0 +1,387 @@
+//! Energy safety on the servo path (docs/SAFETY.md, "Passivity"): the simulated device pressed
+//! into a face of the paper's cube with the burr (`sphere:0.1`), fault-free and with each
+//! injected fault (a reversed force, a mirrored x axis): the faults trip the passivity
+//! controller, which cuts the motors before the tool is twice as deep as the fault-free press,
+//! and the fault-free press trips nothing. A wall ten times the default stiffness that
+//! oscillates without the controller settles with it. One run goes through the command line.
+
+use std::sync::{Arc, Mutex};
+
+use crossbeam::queue::ArrayQueue;
+use tetradrill::commands::pipeline::{self, PipelineSetup, RunReport, MESH_UNITS};
+use tetradrill::engine::TickParams;
+use tetradrill::scenario::Scenario;
+use tetradrill::tasks::{passivity_params, servo_tick, ServoState, SERVO_PERIOD_NS};
+use tetradrill_core::servo::ContactState;
+use tetradrill_core::Vec3;
+use tetradrill_device::{
+    DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice, MotorCutoff,
+    PathPoint, Scripted, SimConfig, SimDevice, SimFault, QUAT_IDENTITY,
+};
+use tetradrill_tests::{refused, scratch_dir, tetradrill_bin};
+
+/// The press: the burr's centre (radius 0.1) from x = 0.8 to x = 0.55 in 0.5 s, then held:
+/// the hand 5 cm past the cube's +x face (x = 0.5), drill off. 1.5 s.
+fn press(t: f64) -> PathPoint {
+    let x = 0.8 - 0.25 * (t / 0.5).min(1.0);
+    PathPoint {
+        position: [x, 0.0, 0.0],
+        rotation: QUAT_IDENTITY,
+        buttons: 0,
+    }
+}
+
+const PRESS_TICKS: u64 = 1500;
+
+/// The simulated device on the press.
+type PressDevice = SimDevice<Scripted<fn(f64) -> PathPoint>>;
+
+/// The simulated device, logging the magnitude of every force it is given (0 with the motors
+/// off).
+struct Logged {
+    inner: PressDevice,
+    writes: Arc<Mutex<Vec<f64>>>,
+}
+
+impl HapticDevice for Logged {
+    fn spec(&self) -> DeviceSpec {
+        self.inner.spec()
+    }
+    fn read(&mut self) -> Result<DeviceState, DeviceError> {
+        self.inner.read()
+    }
+    fn write(&mut self, command: &ForceCommand) -> Result<(), DeviceError> {
+        let f = command.force;
+        let n = if command.enable {
+            (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt()
+        } else {
+            0.0
+        };
+        self.writes.lock().expect("log").push(n);
+        self.inner.write(command)
+    }
+    fn calibrate(&mut self) -> Result<(), DeviceError> {
+        self.inner.calibrate()
+    }
+    fn cutoff(&self) -> Option<Arc<dyn MotorCutoff>> {
+        self.inner.cutoff()
+    }
+}
+
+fn cube() -> Scenario {
+    Scenario {
+        mesh: "builtin:cube12".into(),
+        tool: "sphere:0.1".into(),
+        ..Scenario::default()
+    }
+}
+
+/// Runs of the wall-clock pipeline a loaded machine may disturb: a run whose servo stalled past
+/// the watchdog (the force cut for a while, the hand pushing the stylus on meanwhile) is not
+/// the press the test is about, and is run again, up to this many times.
+const ATTEMPTS: usize = 5;
+
+/// The press through the real-time pipeline with `fault`, without a servo stall: the report
+/// (and its JSON) and the forces the device was given.
+fn press_run(fault: SimFault) -> (RunReport, serde_json::Value, Vec<f64>) {
+    for _ in 1..ATTEMPTS {
+        let run = press_run_once(fault);
+        if run.0.servo_stalls == 0 {
+            return run;
+        }
+    }
+    let run = press_run_once(fault);
+    assert_eq!(
+        run.0.servo_stalls, 0,
+        "the servo stalled in {ATTEMPTS} runs"
+    );
+    run
+}
+
+fn press_run_once(fault: SimFault) -> (RunReport, serde_json::Value, Vec<f64>) {
+    let writes = Arc::new(Mutex::new(Vec::new()));
+    let w = writes.clone();
+    let open: pipeline::DeviceFactory = Box::new(move || {
+        let c = SimConfig {
+            fault,
+            ..SimConfig::default()
+        };
+        let path: fn(f64) -> PathPoint = press;
+        Ok(Box::new(Logged {
+            inner: SimDevice::new(Scripted(path), c),
+            writes: w,
+        }) as Box<dyn HapticDevice>)
+    });
+    let dir = scratch_dir("passivity", fault.name());
+    let json = dir.join("run.json");
+    let rep = pipeline::run(
+        &cube(),
+        PipelineSetup::plain(DeviceKind::Sim, open, PRESS_TICKS),
+        Some(&json),
+    )
+    .expect("a run");
+    let j = serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("parse");
+    let log = writes.lock().expect("log").clone();
+    (rep, j, log)
+}
+
+#[test]
+fn each_fault_trips_the_passivity_controller_and_the_fault_free_press_does_not() {
+    let (ok, j, log) = press_run(SimFault::None);
+    assert_eq!(ok.stop_reason, "duration");
+    assert_eq!(ok.safety.passivity_trips, 0);
+    assert_eq!(j["safety"]["passivity_trips"], 0);
+    // A real press: the hand spring (300 N/m) against the wall (200 N/m) settles 3/5 of the
+    // hand's 5 cm deep, 3 cm; the approach overshoots, and more when the simulation task
+    // (another thread) publishes the contact plane late on a loaded machine.
+    let depth = ok.contact.max_depth_m;
+    assert!((0.028..0.05).contains(&depth), "fault-free depth {depth}");
+    assert_eq!(j["contact"]["max_depth_m"].as_f64(), Some(depth));
+    // Still pressing at the end: the last 300 forces (before the closing zero) were on.
+    let held = &log[log.len() - 301..log.len() - 1];
+    assert!(held.iter().all(|&f| f > 4.0), "{:?}", &held[..5]);
+    assert_eq!(log.last(), Some(&0.0));
+
+    for fault in [SimFault::ReversedForce, SimFault::MirroredX] {
+        let (rep, j, log) = press_run(fault);
+        let name = fault.name();
+        assert!(rep.safety.passivity_trips >= 1, "{name}: {:?}", rep.safety);
+        assert_eq!(j["safety"]["passivity_trips"], 1, "{name}");
+        assert!(
+            rep.safety.past_limit_j_max > 0.05,
+            "{name}: {:?}",
+            rep.safety
+        );
+        let d = rep.contact.max_depth_m;
+        assert!(d <= 2.0 * depth, "{name}: depth {d} against {depth}");
+        assert!(
+            d > 0.04,
+            "{name}: the fault drove the tool past the force limit: {d}"
+        );
+        // Cut: the force was on during the press, zero with the motors off from the trip to
+        // the end of the run.
+        assert!(log.iter().any(|&f| f > 7.0), "{name}");
+        let tail = &log[log.len() - 500..];
+        assert!(tail.iter().all(|&f| f == 0.0), "{name}: {:?}", &tail[..5]);
+        assert_eq!(rep.force.last_written_n, 0.0);
+        assert_eq!(j["force"]["last_written_n"], 0.0);
+        assert_eq!(
+            rep.stop_reason, "duration",
+            "{name}: the run goes on, force off"
+        );
+    }
+}
+
+/// The burr pressed down onto a fixed plane (the cube's top face, z = 0.5) by a loosely held
+/// stylus (hand damping 0.3 N s/m, the stylus a continuous-time mass: 10 integration steps per
+/// tick), the wall `stiffness`: the z force of every tick.
+fn hold(stiffness: f64, dissipate: bool) -> (Vec<f32>, ServoState) {
+    let sc = Scenario {
+        stiffness,
+        ..cube()
+    };
+    let params = TickParams::of(&sc).expect("params");
+    let plane = ContactState {
+        valid: true,
+        point: Vec3::new(0.0, 0.0, 0.5),
+        normal: Vec3::Z,
+        depth: 0.0,
+        centre: Vec3::new(0.0, 0.0, 0.6),
+        triangles: 1,
+    };
+    // The hand from 5 cm above contact to 2 cm into the wall in 0.5 s, then held.
+    let path = |t: f64| PathPoint {
+        position: [0.0, 0.0, 0.65 - 0.07 * (t / 0.5).min(1.0)],
+        rotation: QUAT_IDENTITY,
+        buttons: 0,
+    };
+    let c = SimConfig {
+        substeps: 10,
+        hand_damping_n_s_per_m: 0.3,
+        ..SimConfig::default()
+    };
+    let mut device = SimDevice::new(Scripted(path), c);
+    let mut st = ServoState::default();
+    let mut p = passivity_params(&device.spec(), SERVO_PERIOD_NS);
+    p.dissipate = dissipate;
+    st.passivity.set_params(p);
+    let ring = ArrayQueue::new(4);
+    let mut fz = Vec::new();
+    for tick in 0..4000 {
+        while ring.pop().is_some() {}
+        servo_tick(
+            &mut device,
+            &MESH_UNITS,
+            &params,
+            &plane,
+            &ring,
+            &mut st,
+            tick,
+        )
+        .expect("tick");
+        fz.push(st.last_force.z);
+    }
+    (fz, st)
+}
+
+/// Peak-to-peak over the last 0.5 s, and the mean.
+fn last_half_second(f: &[f32]) -> (f32, f32) {
+    let tail = &f[f.len() - 500..];
+    let hi = tail.iter().copied().fold(f32::MIN, f32::max);
+    let lo = tail.iter().copied().fold(f32::MAX, f32::min);
+    (hi - lo, tail.iter().sum::<f32>() / tail.len() as f32)
+}
+
+#[test]
+fn a_stiff_wall_that_oscillates_without_the_controller_settles_with_it() {
+    // Ten times the default stiffness: 2000 N/m, K T / 2 = 1 N s/m above the grip's 0.3 and
+    // the wall's 0.5 together (Colgate's bound broken).
+    let (free, st) = hold(2000.0, false);
+    let (pp, mean) = last_half_second(&free);
+    assert!(
+        pp > 0.5 * mean,
+        "without the controller: p-p {pp} N, mean {mean} N"
+    );
+    assert_eq!(st.passivity.dissipated_j(), 0.0);
+    let (held, st) = hold(2000.0, true);
+    let (pp, mean) = last_half_second(&held);
+    assert!(
+        pp < 0.05 * mean,
+        "with the controller: p-p {pp} N, mean {mean} N"
+    );
+    // Settled where the hand spring balances the wall: 300 (0.02 - d) = 2000 d.
+    let want = 2000.0 * 300.0 * 0.02 / 2300.0;
+    assert!((mean - want).abs() < 0.05, "mean {mean} want {want}");
+    assert!(st.passivity.dissipated_j() > 0.0);
+    assert!(!st.passivity.tripped());
+    // The default stiffness neither oscillates nor needs the controller: the forces are
+    // those of the law, bit for bit.
+    let (plain, _) = hold(200.0, false);
+    let (with, st) = hold(200.0, true);
+    assert_eq!(st.passivity.dissipated_j(), 0.0);
+    assert_eq!(
+        plain.iter().map(|f| f.to_bits()).collect::<Vec<_>>(),
+        with.iter().map(|f| f.to_bits()).collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn the_command_line_runs_a_faulty_press_and_refuses_bad_faults() {
+    let dir = scratch_dir("passivity", "cli");
+    let trace = dir.join("press.csv");
+    std::fs::write(
+        &trace,
+        "t,x,y,z,qw,qx,qy,qz,buttons\n0,0.8,0,0,1,0,0,0,0\n0.5,0.55,0,0,1,0,0,0,0\n\
+         1.5,0.55,0,0,1,0,0,0,0\n",
+    )
+    .expect("trace");
+    let json = dir.join("run.json");
+    let run = || {
+        let out = std::process::Command::new(tetradrill_bin())
+            .args(["run", "--headless", "--quiet", "--no-rt"])
+            .args(["--mesh", "builtin:cube12", "--tool", "sphere:0.1"])
+            .args(["--sim-fault", "mirrored-x", "--trace"])
+            .arg(&trace)
+            .arg("--json")
+            .arg(&json)
+            .output()
+            .expect("run tetradrill");
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(0), "{err}");
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("parse");
+        (j, err)
+    };
+    let (mut j, mut err) = run();
+    for _ in 1..ATTEMPTS {
+        if j["servo_stalls"] == 0 {
+            break;
+        }
+        (j, err) = run();
+    }
+    assert_eq!(j["servo_stalls"], 0, "the servo stalled in {ATTEMPTS} runs");
+    assert!(err.contains("passivity controller tripped"), "{err}");
+    assert_eq!(j["safety"]["passivity_trips"], 1);
+    assert!(j["safety"]["dissipated_j"].is_number());
+    assert!(j["safety"]["generated_j_max"].is_number());
+    let d = j["contact"]["max_depth_m"].as_f64().expect("depth");
+    assert!((0.04..0.09).contains(&d), "{d}");
+    assert_eq!(j["force"]["last_written_n"], 0.0);
+    refused(
+        &["run", "--headless", "--sim-fault", "sideways"],
+        &["sideways", "reversed-force, mirrored-x"],
+    );
+    refused(
+        &["run", "--device", "falcon", "--sim-fault", "reversed-force"],
+        &["--sim-fault", "--device sim"],
+    );
+}
+
+/// A device held still 1 cm into a wall whose reported position then jumps 19 cm deeper, as
+/// the Falcon's coordinates move when homing ends (`position_resets` counts it, or does not).
+struct Jumping {
+    tick: u64,
+    counted: bool,
+}
+
+impl HapticDevice for Jumping {
+    fn spec(&self) -> DeviceSpec {
+        DeviceSpec::SIM
+    }
+    fn read(&mut self) -> Result<DeviceState, DeviceError> {
+        self.tick += 1;
+        let z = if self.tick <= 200 { 0.59 } else { 0.40 };
+        Ok(DeviceState {
+            position: [0.0, 0.0, z],
+            ..DeviceState::ZERO
+        })
+    }
+    fn write(&mut self, _: &ForceCommand) -> Result<(), DeviceError> {
+        Ok(())
+    }
+    fn calibrate(&mut self) -> Result<(), DeviceError> {
+        Ok(())
+    }
+    fn position_resets(&self) -> u64 {
+        u64::from(self.counted && self.tick > 200)
+    }
+}
+
+/// The jump is no motion of the tool: counted as a position reset it restarts the observer
+/// and trips nothing; the same jump uncounted is 19 cm pushed past the force limit in one
+/// tick, which trips it (so the restart is what keeps a homing Falcon running).
+#[test]
+fn a_position_reset_restarts_the_observer() {
+    let run = |counted: bool| {
+        let params = TickParams::of(&cube()).expect("params");
+        let plane = ContactState {
+            valid: true,
+            point: Vec3::new(0.0, 0.0, 0.5),
+            normal: Vec3::Z,
+            depth: 0.0,
+            centre: Vec3::new(0.0, 0.0, 0.6),
+            triangles: 1,
+        };
+        let mut device = Jumping { tick: 0, counted };
+        let mut st = ServoState::default();
+        st.passivity
+            .set_params(passivity_params(&device.spec(), SERVO_PERIOD_NS));
+        let ring = ArrayQueue::new(4);
+        for tick in 0..1000 {
+            while ring.pop().is_some() {}
+            servo_tick(
+                &mut device,
+                &MESH_UNITS,
+                &params,
+                &plane,
+                &ring,
+                &mut st,
+                tick,
+            )
+            .expect("tick");
+        }
+        st.passivity.trips()
+    };
+    assert_eq!(run(true), 0, "a counted reset trips nothing");
+    assert!(run(false) >= 1, "the uncounted jump trips the observer");
+}
