@@ -95,26 +95,29 @@ pub fn exit_now(code: i32) -> ! {
 /// The signals that stop a run: SIGINT (Ctrl-C), SIGTERM and SIGHUP.
 pub const STOP_SIGNALS: [i32; 3] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP];
 
-/// Handlers for [`STOP_SIGNALS`] that raise `flags` (through `signal-hook`, which chains
-/// them with any handler already there), for the rest of the process. The first signal only
-/// raises the request; a later one, once the servo has written zero force (or any once the
-/// run is over), ends the process at once with status 128 + the signal's number. The handlers
-/// do atomic operations, one `clock_gettime` and at most `_exit`: nothing that allocates or
-/// locks.
+/// Handlers for [`STOP_SIGNALS`] that call `raise(signal)` (through `signal-hook`, which
+/// chains them with any handler already there), for the rest of the process. `raise` returns
+/// whether the process should end now: the first signal only raises the stop request
+/// (`watchdog::StopFlags::raise`); a later one, once the servo has written zero force (or any
+/// once the run is over), ends the process at once with status 128 + the signal's number.
+/// `raise` runs in a signal handler: it must be async-signal-safe (atomic operations, at most
+/// `clock_gettime`; nothing that allocates or locks).
 ///
 /// # Errors
 /// A signal whose handler could not be installed.
-pub fn on_stop_signals(flags: &std::sync::Arc<crate::watchdog::StopFlags>) -> io::Result<()> {
+pub fn on_stop_signals<F>(raise: F) -> io::Result<()>
+where
+    F: Fn(i32) -> bool + Clone + Send + Sync + 'static,
+{
     for sig in STOP_SIGNALS {
-        let f = std::sync::Arc::clone(flags);
+        let r = raise.clone();
         let action = move || {
-            if f.raise(sig) {
+            if r(sig) {
                 exit_now(128 + sig);
             }
         };
-        // SAFETY: the action is async-signal-safe: `StopFlags::raise` does atomic operations
-        // and `clock_gettime` only, and `exit_now` is `_exit`. It neither allocates nor locks
-        // (the `Arc` it holds was cloned before, here, and is only read).
+        // SAFETY: the action is async-signal-safe when `raise` is, as this function requires of
+        // it, and `exit_now` is `_exit`. The clone of `raise` it holds was made here, before.
         let _ = unsafe { signal_hook::low_level::register(sig, action) }?;
     }
     Ok(())

@@ -8,6 +8,9 @@
 
 use crate::platform;
 
+/// The servo's period: 1 ms (1 kHz).
+pub const SERVO_PERIOD_NS: u64 = 1_000_000;
+
 /// What the servo thread asks of the operating system.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RtConfig {

@@ -126,8 +126,7 @@ pub const TASKS: [TaskDecl; 6] = [
     },
 ];
 
-/// The servo's period.
-pub const SERVO_PERIOD_NS: u64 = 1_000_000;
+pub use crate::rt::SERVO_PERIOD_NS;
 
 /// Tool samples the ring holds: 1 s of servo ticks.
 pub const TOOL_RING: usize = 1000;
@@ -148,24 +147,7 @@ pub struct ToolSample {
     pub buttons: u32,
 }
 
-/// What the simulation publishes for the status line and the summary.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct SimStatus {
-    /// Simulation steps done.
-    pub steps: u64,
-    /// Removed volume.
-    pub removed_volume: f64,
-    /// Hierarchy nodes.
-    pub hierarchy_nodes: usize,
-    /// Visible faces.
-    pub visible_faces: u32,
-    /// Saturations so far, all kinds.
-    pub saturations: u32,
-    /// Last step's compute time, ns.
-    pub last_step_ns: u64,
-    /// Longest step, ns.
-    pub max_step_ns: u64,
-}
+pub use crate::viewer::handoff::SimStatus;
 
 /// Counters the servo shares through atomics (read by the status task).
 #[derive(Debug, Default)]

@@ -34,7 +34,7 @@ use tetradrill_device::{Cut, DeviceError, ForceCommand, HapticDevice, MotorCutof
 
 use crate::platform;
 use crate::rt::RtConfig;
-use crate::tasks::SERVO_PERIOD_NS;
+use crate::rt::SERVO_PERIOD_NS;
 
 /// How long the servo may go without a tick before the supervisor zeroes the force: 10 servo
 /// periods (10 ms).

@@ -145,7 +145,8 @@ pub fn run_until_signal(
     setup: PipelineSetup,
     json: Option<&PathBuf>,
 ) -> Result<(), CliError> {
-    crate::platform::on_stop_signals(setup.stop.flags()).map_err(|e| {
+    let flags = std::sync::Arc::clone(setup.stop.flags());
+    crate::platform::on_stop_signals(move |sig| flags.raise(sig)).map_err(|e| {
         CliError::failure(format!("cannot install the stop signals' handlers: {e}"))
     })?;
     let request = setup.stop.clone();

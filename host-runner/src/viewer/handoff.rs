@@ -11,7 +11,24 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use crossbeam::queue::ArrayQueue;
 use tetradrill_core::{Quat, Vec3};
 
-use crate::tasks::SimStatus;
+/// What the simulation publishes for the status line and the summary.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SimStatus {
+    /// Simulation steps done.
+    pub steps: u64,
+    /// Removed volume.
+    pub removed_volume: f64,
+    /// Hierarchy nodes.
+    pub hierarchy_nodes: usize,
+    /// Visible faces.
+    pub visible_faces: u32,
+    /// Saturations so far, all kinds.
+    pub saturations: u32,
+    /// Last step's compute time, ns.
+    pub last_step_ns: u64,
+    /// Longest step, ns.
+    pub max_step_ns: u64,
+}
 
 /// Snapshots the queue holds: a viewer more than this many snapshots behind makes the
 /// simulation merge its changes into later ones.

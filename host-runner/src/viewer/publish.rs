@@ -22,7 +22,7 @@ use super::handoff::{
     ToolView,
 };
 use super::scene::Scene;
-use crate::tasks::SimStatus;
+use crate::viewer::handoff::SimStatus;
 
 /// The simulation task's link to a viewer.
 #[derive(Debug)]

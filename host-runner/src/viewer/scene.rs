@@ -14,7 +14,7 @@ use std::collections::{BinaryHeap, HashMap};
 use tetradrill_core::Vec3;
 
 use super::handoff::{Patch, Snapshot, SurfTri, ToolView};
-use crate::tasks::SimStatus;
+use crate::viewer::handoff::SimStatus;
 
 /// Triangles per chunk.
 pub const CHUNK_TRIS: usize = 32;
