@@ -1,6 +1,9 @@
 //! Shared helpers for tetradrill's cross-crate tests: where the real meshes are, small oracles.
 
-use std::path::PathBuf;
+pub mod contact;
+pub mod oracle;
+
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
@@ -35,6 +38,18 @@ pub fn mesh(rel: &str) -> PathBuf {
     let p = meshes_dir().join(rel);
     assert!(p.exists(), "missing mesh {}", p.display());
     p
+}
+
+/// A mesh by its path below the meshes folder (or a `builtin:` name), scaled by `scale`.
+pub fn load(rel: &str, scale: f64) -> tetradrill::owned::OwnedMesh {
+    let p = if rel.starts_with("builtin:") {
+        Path::new(rel).to_path_buf()
+    } else {
+        mesh(rel)
+    };
+    tetradrill::meshio::load(&p, scale)
+        .expect("mesh loads")
+        .mesh
 }
 
 /// A fresh, empty scratch folder for one test: `<tmp>/tetradrill-<prefix>-<pid>-<name>`.
