@@ -115,3 +115,42 @@ impl AsD for glam::Vec3 {
         }
     }
 }
+
+/// An f64 vector as an array, for the brute-force oracles written with free functions.
+pub type D3 = [f64; 3];
+
+/// An f32 vector widened to [`D3`].
+pub fn d3(v: glam::Vec3) -> D3 {
+    [v.x as f64, v.y as f64, v.z as f64]
+}
+/// `a - b`.
+pub fn sub(a: D3, b: D3) -> D3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+/// `a + b`.
+pub fn add(a: D3, b: D3) -> D3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+/// `a * k`.
+pub fn scale(a: D3, k: f64) -> D3 {
+    [a[0] * k, a[1] * k, a[2] * k]
+}
+/// The dot product.
+pub fn dot(a: D3, b: D3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+/// The cross product.
+pub fn cross(a: D3, b: D3) -> D3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// The axis-aligned box `(lo, hi)` of a tet's four corners.
+pub fn tet_box(p: [glam::Vec3; 4]) -> (glam::Vec3, glam::Vec3) {
+    let lo = p.iter().fold(p[0], |a, &b| a.min(b));
+    let hi = p.iter().fold(p[0], |a, &b| a.max(b));
+    (lo, hi)
+}
