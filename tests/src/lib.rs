@@ -1,7 +1,9 @@
 //! Shared helpers for tetradrill's cross-crate tests: where the real meshes are, small oracles.
 
 pub mod contact;
+pub mod drill;
 pub mod oracle;
+pub mod tetgen_reader;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
