@@ -3,6 +3,7 @@
 pub mod contact;
 pub mod drill;
 pub mod oracle;
+pub mod search;
 pub mod tetgen_reader;
 
 use std::path::{Path, PathBuf};
