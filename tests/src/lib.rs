@@ -5,6 +5,7 @@ pub mod drill;
 pub mod oracle;
 pub mod search;
 pub mod tetgen_reader;
+pub mod viewer;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
