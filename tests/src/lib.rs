@@ -1,4 +1,14 @@
 //! Shared helpers for tetradrill's cross-crate tests: where the real meshes are, small oracles.
+//!
+//! The oracles are written here, apart from the crates they check (the exhaustive search of
+//! [`search`] takes the core's closest point on a triangle); the rest sets up scenes through the
+//! crates' public API:
+//! - [`oracle`]: f64 vector math for the reference computations;
+//! - [`contact`]: the pen-contact scene (meshes, rig, random poses, one fresh tick);
+//! - [`drill`]: the brute-force visible-face oracle and hierarchy storage;
+//! - [`search`]: world storage and the exhaustive contact search;
+//! - [`tetgen_reader`]: a minimal TetGen reader, independent of the host's readers;
+//! - [`viewer`]: the render size, engine storage and the f64 pinhole model.
 
 pub mod contact;
 pub mod drill;

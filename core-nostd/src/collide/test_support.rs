@@ -133,15 +133,18 @@ pub(crate) fn brute(body: &Body<'_, '_>, points: &[Vec3], own: bool) -> [Option<
 pub(crate) struct Rng(pub u64);
 
 impl Rng {
+    /// The next number in `[0, 1)`.
     pub fn next(&mut self) -> f32 {
         self.0 ^= self.0 << 13;
         self.0 ^= self.0 >> 7;
         self.0 ^= self.0 << 17;
         (self.0 >> 40) as f32 / (1u64 << 24) as f32
     }
+    /// The next number in `[lo, hi)`.
     pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
         lo + (hi - lo) * self.next()
     }
+    /// A random rotation (the identity when the drawn quaternion is too short to normalise).
     pub fn rotation(&mut self) -> Quat {
         let q = Quat::from_xyzw(
             self.range(-1.0, 1.0),
