@@ -1,6 +1,23 @@
 //! Shared helpers for tetradrill's cross-crate tests: where the real meshes are, small oracles.
+//!
+//! The oracles are written here, apart from the crates they check (the exhaustive search of
+//! [`search`] takes the core's closest point on a triangle); the rest sets up scenes through the
+//! crates' public API:
+//! - [`oracle`]: f64 vector math for the reference computations;
+//! - [`contact`]: the pen-contact scene (meshes, rig, random poses, one fresh tick);
+//! - [`drill`]: the brute-force visible-face oracle and hierarchy storage;
+//! - [`search`]: world storage and the exhaustive contact search;
+//! - [`tetgen_reader`]: a minimal TetGen reader, independent of the host's readers;
+//! - [`viewer`]: the render size, engine storage and the f64 pinhole model.
 
-use std::path::PathBuf;
+pub mod contact;
+pub mod drill;
+pub mod oracle;
+pub mod search;
+pub mod tetgen_reader;
+pub mod viewer;
+
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
@@ -35,6 +52,18 @@ pub fn mesh(rel: &str) -> PathBuf {
     let p = meshes_dir().join(rel);
     assert!(p.exists(), "missing mesh {}", p.display());
     p
+}
+
+/// A mesh by its path below the meshes folder (or a `builtin:` name), scaled by `scale`.
+pub fn load(rel: &str, scale: f64) -> tetradrill::owned::OwnedMesh {
+    let p = if rel.starts_with("builtin:") {
+        Path::new(rel).to_path_buf()
+    } else {
+        mesh(rel)
+    };
+    tetradrill::meshio::load(&p, scale)
+        .expect("mesh loads")
+        .mesh
 }
 
 /// A fresh, empty scratch folder for one test: `<tmp>/tetradrill-<prefix>-<pid>-<name>`.

@@ -19,13 +19,19 @@
 
 mod body;
 mod occupancy;
+#[cfg(test)]
+mod occupancy_tests;
 mod points;
 mod rigid;
+#[cfg(test)]
+mod rigid_tests;
 pub mod teschner;
 #[cfg(test)]
 pub(crate) mod test_support;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod walk_tests;
 
 pub use body::Body;
 pub use occupancy::{Occupancy, OccupancyError, OccupancyStorage};

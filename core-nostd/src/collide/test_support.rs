@@ -1,6 +1,10 @@
-//! Tiny meshes over fixed arrays for the unit tests of collide, depth and force.
+//! Tiny meshes over fixed arrays for the unit tests of collide, depth and force, and the
+//! brute-force point location and random numbers the collide tests share.
 
-use glam::Vec3;
+use glam::{Quat, Vec3};
+
+use super::{Body, Collision, INSIDE_EPS};
+use crate::ids::{NodeId, TetId};
 
 use crate::builtin;
 use crate::mesh::{BuildOptions, FaceKey, Mesh, MeshStorage, Node, Tet};
@@ -103,3 +107,80 @@ macro_rules! cube_hierarchy {
     };
 }
 pub(crate) use cube_hierarchy;
+
+/// Brute force over every tet of `body`: per point (at most 64) the smallest tet that holds it
+/// (`geom::barycentric`, `geom::inside`), skipping the point's own tets when `own`.
+pub(crate) fn brute(body: &Body<'_, '_>, points: &[Vec3], own: bool) -> [Option<TetId>; 64] {
+    let mut r = [None; 64];
+    for (i, &p) in points.iter().enumerate() {
+        for t in 0..body.tet_count() {
+            let t = TetId::from_idx(t);
+            if own && body.tet_nodes(t).unwrap().contains(&NodeId::from_idx(i)) {
+                continue;
+            }
+            if let Some(b) = crate::geom::barycentric(p, body.tet_positions(t).unwrap()) {
+                if crate::geom::inside(b, INSIDE_EPS) {
+                    r[i] = Some(t);
+                    break;
+                }
+            }
+        }
+    }
+    r
+}
+
+/// A xorshift generator for the rigid, occupancy and walk tests.
+pub(crate) struct Rng(pub u64);
+
+impl Rng {
+    /// The next number in `[0, 1)`.
+    pub fn next(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+    /// The next number in `[lo, hi)`.
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.next()
+    }
+    /// A random rotation (the identity when the drawn quaternion is too short to normalise).
+    pub fn rotation(&mut self) -> Quat {
+        let q = Quat::from_xyzw(
+            self.range(-1.0, 1.0),
+            self.range(-1.0, 1.0),
+            self.range(-1.0, 1.0),
+            self.range(-1.0, 1.0),
+        );
+        if q.length_squared() < 1e-3 {
+            Quat::IDENTITY
+        } else {
+            q.normalize()
+        }
+    }
+}
+
+/// Brute force over every tet of `body` in world coordinates: per point the smallest tet
+/// that holds it (`geom::barycentric`, `geom::inside`), as sorted collisions.
+pub(crate) fn brute_list<const N: usize>(
+    body: &Body<'_, '_>,
+    points: &[Vec3],
+    out: &mut [Collision; N],
+) -> usize {
+    let mut n = 0;
+    for (i, &p) in points.iter().enumerate() {
+        for t in 0..body.tet_count() {
+            let t = TetId::from_idx(t);
+            let b = crate::geom::barycentric(p, body.tet_positions(t).unwrap());
+            if b.is_some_and(|b| crate::geom::inside(b, INSIDE_EPS)) {
+                out[n] = Collision {
+                    node: NodeId::from_idx(i),
+                    tet: t,
+                };
+                n += 1;
+                break;
+            }
+        }
+    }
+    n
+}

@@ -1,0 +1,97 @@
+//! `Occupancy`: conservative against brute force, and culling far points and boxes.
+
+use glam::Vec3;
+
+use super::test_support::{brute_list, Rng, Store};
+use super::*;
+use crate::collide::{OccupancyError, OccupancyStorage};
+use crate::hash::{HashEntry, SpatialHash};
+
+/// `Occupancy`: every point that brute force puts inside a tet is in a set cell, and every
+/// box around such a point meets one; far points and boxes are culled; a grid too big for its
+/// storage coarsens and stays conservative; the tet boxes hold their tets' inside points.
+/// `points_in_tets_occupied` gives the brute-force lists.
+#[test]
+fn occupancy_is_conservative_and_culls() {
+    let mut obj_store = Store::<125, 384>::block(4, 0.25, Vec3::splat(-0.5));
+    let obj = obj_store.mesh();
+    let ob = Body::fixed(&obj);
+    let empty = crate::hash::Aabb::of::<0>([]);
+    let (mut th_s, mut th_e) = ([0u32; 64], [HashEntry::default(); 4096]);
+    let mut th = SpatialHash::new(&mut th_s, &mut th_e, 0.25).unwrap();
+    assert!(!hash_tets(&mut th, &ob).saturated);
+    for words in [1usize, 8, 64] {
+        let (mut w, mut bx) = ([0u32; 64], [empty; 384]);
+        let cells = Occupancy::build(
+            &ob,
+            0.05,
+            1e-4,
+            OccupancyStorage {
+                words: &mut w[..words],
+                boxes: &mut bx,
+            },
+        )
+        .unwrap();
+        let d = cells.dims();
+        assert!(
+            (d[0] * d[1] * d[2]) as usize <= 32 * words,
+            "coarsened to fit"
+        );
+        let mut rng = Rng(0xdead_beef_cafe_f00d ^ words as u64);
+        let mut pts = [Vec3::ZERO; 64];
+        let (mut inside, mut culled) = (0, 0);
+        for round in 0..40 {
+            for p in pts.iter_mut() {
+                *p = Vec3::new(
+                    rng.range(-0.9, 0.9),
+                    rng.range(-0.9, 0.9),
+                    rng.range(-0.9, 0.9),
+                );
+            }
+            if round % 4 == 0 {
+                // Exactly on the object's nodes and faces.
+                for (k, p) in pts.iter_mut().enumerate().take(20) {
+                    *p = obj.positions()[(k * 7 + round) % 125];
+                }
+            }
+            let mut want = [Collision::default(); 64];
+            let n = brute_list(&ob, &pts, &mut want);
+            for c in &want[..n] {
+                let p = pts[c.node.idx()];
+                assert!(cells.may_hold(p), "{p:?} inside tet {:?}", c.tet);
+                assert!(cells.tet_may_hold(c.tet, p));
+                assert!(cells.may_meet(&crate::hash::Aabb::point(p)));
+            }
+            inside += n;
+            culled += pts.iter().filter(|&&p| !cells.may_hold(p)).count();
+            let mut out = [Collision::default(); 64];
+            let r = points_in_tets_occupied(&th, &cells, &ob, &pts, false, &mut out, 0, |_| true);
+            assert!(!r.saturated);
+            assert_eq!(&out[..r.count], &want[..n], "words {words} round {round}");
+        }
+        assert!(
+            inside > 500 && culled > 200,
+            "inside {inside}, culled {culled}"
+        );
+        let far = crate::hash::Aabb::of([Vec3::splat(3.0), Vec3::splat(4.0)]);
+        assert!(!cells.may_meet(&far) && !cells.may_hold(Vec3::splat(3.5)));
+        assert!(!cells.may_hold(Vec3::splat(f32::NAN)));
+    }
+    // Bad storage and sizes are refused.
+    let mut w = [0u32; 4];
+    let err = |w: &mut [u32], cell: f32| {
+        Occupancy::build(
+            &ob,
+            cell,
+            0.0,
+            OccupancyStorage {
+                words: w,
+                boxes: &mut [],
+            },
+        )
+        .unwrap_err()
+    };
+    assert_eq!(err(&mut [], 0.1), OccupancyError::NoStorage);
+    assert_eq!(err(&mut w, 0.0), OccupancyError::BadCellSize);
+    assert_eq!(err(&mut w, f32::NAN), OccupancyError::BadCellSize);
+}

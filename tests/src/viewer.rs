@@ -1,0 +1,67 @@
+//! The viewer tests' shared pieces: the render size, engine storage for a scenario, the f64
+//! pinhole model the renders are checked against (written here, not the renderer's matrices),
+//! and the device workspace in mesh units.
+
+use tetradrill::engine::{self, EngineStorage};
+use tetradrill::scenario::Scenario;
+use tetradrill::tasks::Workspace;
+use tetradrill_core::Vec3;
+
+/// The width of the test renders, in pixels.
+pub const W: u32 = 240;
+
+/// The height of the test renders, in pixels.
+pub const H: u32 = 180;
+
+/// Engine storage for the scenario that loads `mesh` (a file or a `builtin:` name), and that
+/// scenario.
+pub fn storage(mesh: &str) -> (EngineStorage, Scenario) {
+    let sc = Scenario {
+        mesh: mesh.into(),
+        ..Scenario::default()
+    };
+    let loaded = engine::load_mesh(&sc).expect("built-in mesh");
+    (EngineStorage::allocate(loaded.mesh, &sc), sc)
+}
+
+/// The pixel (column, row from the top) where `p` lands for a camera at `eye` looking at
+/// `target` with z up and vertical field of view `fov`: an f64 pinhole model written here,
+/// not the renderer's matrices.
+pub fn pixel_of(eye: [f64; 3], target: [f64; 3], fov: f64, p: [f64; 3]) -> (f64, f64) {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let unit = |a: [f64; 3]| {
+        let l = dot(a, a).sqrt();
+        [a[0] / l, a[1] / l, a[2] / l]
+    };
+    let f = unit(sub(target, eye));
+    let r = unit(cross(f, [0.0, 0.0, 1.0]));
+    let u = cross(r, f);
+    let d = sub(p, eye);
+    let (x, y, z) = (dot(d, r), dot(d, u), dot(d, f));
+    let t = (fov / 2.0).tan();
+    let aspect = W as f64 / H as f64;
+    let ndc = (x / (z * t * aspect), y / (z * t));
+    (
+        (ndc.0 + 1.0) * 0.5 * W as f64,
+        (1.0 - ndc.1) * 0.5 * H as f64,
+    )
+}
+
+/// The device workspace in mesh units: scale 1, no offset.
+pub const MESH_UNITS: Workspace = Workspace {
+    scale: 1.0,
+    offset: Vec3::ZERO,
+};
+
+/// An f32 vector as f64 components.
+pub fn f64s(v: Vec3) -> [f64; 3] {
+    [v.x as f64, v.y as f64, v.z as f64]
+}
