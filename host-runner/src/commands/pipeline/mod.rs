@@ -1,0 +1,428 @@
+//! The real-time pipeline shared by `run` and `demo`: the tasks of [`crate::tasks`] on their
+//! threads, a live status line, and the summary at the end.
+//!
+//! The servo runs under a panic guard and a watchdog ([`crate::watchdog`]): a servo that
+//! stalls past the watchdog time has its force zeroed by the watchdog thread (one warning line,
+//! the run goes on: exit status 0, `servo_stalls` in the JSON); a servo that panics has its
+//! force zeroed and ends the run with one line and exit status 1.
+//!
+//! A run ends when its ticks are done (`--duration`, a trace's length; [`UNTIL_STOPPED`]: no
+//! end), when the live window closes, when its device fails, or on a [`StopRequest`] (the
+//! signal handlers of `run` and `demo` raise it): the servo tick that sees the request writes
+//! zero force, then the tasks stop, the summary and the JSON are written and the device is
+//! released. `stop_reason` in the JSON says which.
+
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+
+use tetradrill_core::servo::ContactState;
+use tetradrill_core::Vec3;
+use tetradrill_device::{DeviceError, DeviceKind, HapticDevice};
+
+use crate::commands::replay::SaturationCounts;
+use crate::engine::{self, EngineStorage, TickParams};
+use crate::error::CliError;
+use crate::rt::RtConfig;
+use crate::scenario::{Scenario, ToolKind};
+use crate::tasks::{self, Shared, SimStatus, Workspace};
+use crate::watchdog::StopRequest;
+
+mod pen;
+mod report;
+mod threads;
+
+use pen::run_pen;
+pub use report::*;
+use threads::*;
+
+/// Ticks of a run without an end of its own: it runs until the window closes, a stop request
+/// (a signal) or a device error.
+pub const UNTIL_STOPPED: u64 = u64::MAX;
+
+/// Opens the device on the servo thread (a device handle need not be `Send`).
+pub type DeviceFactory = Box<dyn FnOnce() -> Result<Box<dyn HapticDevice>, DeviceError> + Send>;
+
+/// Everything a pipeline run needs besides the scenario.
+pub struct PipelineSetup {
+    /// Which device (for messages).
+    pub kind: DeviceKind,
+    /// Opens the device.
+    pub open: DeviceFactory,
+    /// Servo ticks to run ([`UNTIL_STOPPED`]: no end of its own).
+    pub ticks: u64,
+    /// Device-to-mesh map.
+    pub workspace: Workspace,
+    /// Real-time settings of the servo thread.
+    pub rt: RtConfig,
+    /// Print the live status line.
+    pub status_line: bool,
+    /// Print the summary on stdout at the end (the report is returned either way).
+    pub summary: bool,
+    /// Live window and/or screenshot.
+    pub view: crate::viewer::ViewOptions,
+    /// Ends the run cleanly when raised (zero force within a tick, then the summary).
+    pub stop: StopRequest,
+    /// Record the tool samples as a trace CSV to this file (`--record`).
+    pub record: Option<PathBuf>,
+}
+
+impl PipelineSetup {
+    /// The plainest setup for an in-process run (tests, embedding): the device from `open`
+    /// moving in mesh units, no real-time settings, no status line, no summary, no view.
+    pub fn plain(kind: DeviceKind, open: DeviceFactory, ticks: u64) -> Self {
+        Self {
+            kind,
+            open,
+            ticks,
+            workspace: MESH_UNITS,
+            rt: RtConfig {
+                fifo_priority: None,
+                core: None,
+                lock_memory: false,
+            },
+            status_line: false,
+            summary: false,
+            view: crate::viewer::ViewOptions {
+                window: false,
+                screenshot: None,
+            },
+            stop: StopRequest::new(),
+            record: None,
+        }
+    }
+}
+
+impl std::fmt::Debug for PipelineSetup {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PipelineSetup")
+            .field("kind", &self.kind)
+            .field("ticks", &self.ticks)
+            .field("workspace", &self.workspace)
+            .field("record", &self.record)
+            .finish_non_exhaustive()
+    }
+}
+
+/// What the simulation task leaves: saturations by kind and the final state's validity.
+type SimEnding = (SaturationCounts, Result<(), String>);
+
+/// Runs the pipeline on `sc` with `setup`; returns the report (the device error that ended the
+/// run, if any, as an error: exit 2 when the device was not found, 1 when it failed mid-run).
+pub fn run(
+    sc: &Scenario,
+    setup: PipelineSetup,
+    json: Option<&PathBuf>,
+) -> Result<RunReport, CliError> {
+    if let ToolKind::Mesh(pen) = sc.tool_kind().map_err(CliError::input)? {
+        return run_pen(sc, setup, json, &pen);
+    }
+    let params = TickParams::of(sc)?;
+    let loaded = engine::load_mesh(sc)?;
+    let regions = crate::viewer::handoff::region_slots(&loaded.labels);
+    let mut store = EngineStorage::try_allocate(loaded.mesh, sc)?;
+    let (initial_volume, tets, centre) = {
+        let world = store.world()?;
+        (
+            world.mesh().volume(),
+            world.mesh().tet_count(),
+            mesh_centre(world.mesh().positions()),
+        )
+    };
+    let (mut contact_in, mut contact_out) =
+        triple_buffer::TripleBuffer::new(&ContactState::default()).split();
+    let (mut status_in, status_out) =
+        triple_buffer::TripleBuffer::new(&SimStatus::default()).split();
+    let shared = Shared::new();
+    let PipelineSetup {
+        kind,
+        open,
+        ticks,
+        workspace,
+        rt,
+        status_line,
+        summary,
+        view,
+        stop: request,
+        record,
+    } = setup;
+    let recorder = Recorder::open(record.as_deref())?;
+    let started = std::time::Instant::now();
+    let initial_controls = crate::viewer::handoff::Controls {
+        radius: params.radius,
+        stiffness: params.force.stiffness,
+        max_depth: params.drill.max_depth,
+        paused: false,
+        reset: 0,
+    };
+    let (controls_in, controls_out) = crate::viewer::handoff::controls(initial_controls);
+    // The camera C: from the live window to the servo (egocentric device frame). Without a
+    // window the servo keeps the identity frame.
+    let (camera_in, mut camera_out) = tasks::camera_handoff();
+    let frame = tasks::DeviceFrame::new(centre);
+
+    let mut law = tasks::BurrLaw::new(params, &mut contact_out, &shared.counters);
+    let (servo, sim_status, ending, scene) = std::thread::scope(|scope| -> Result<_, CliError> {
+        let sh = &shared;
+        let any_view = view.any();
+        let sim = std::thread::Builder::new()
+            .name("simulation".into())
+            .spawn_scoped(scope, move || -> Result<SimEnding, CliError> {
+                let mut link = any_view.then(|| {
+                    let mut l = crate::viewer::publish::SimViewer::new(
+                        &sh.snapshots,
+                        Some(controls_out),
+                        tets,
+                    );
+                    l.set_initial_volume(initial_volume);
+                    l.set_regions(regions);
+                    l
+                });
+                loop {
+                    // The world is rebuilt, untouched, when the viewer asks for a reset.
+                    let mut world = store.world()?;
+                    let end = tasks::simulation_task(
+                        &mut world,
+                        params,
+                        &sh.ring,
+                        &mut contact_in,
+                        &mut status_in,
+                        &sh.stop,
+                        &sh.counters,
+                        link.as_mut(),
+                    );
+                    match end {
+                        tasks::SimEnd::Stopped => {
+                            // The final state: saturations by kind, and the core's validate().
+                            let sat = SaturationCounts::from(world.saturations());
+                            return Ok((sat, engine::validate(&world)));
+                        }
+                        tasks::SimEnd::Reset => {
+                            if let Some(l) = link.as_mut() {
+                                l.restart();
+                            }
+                        }
+                    }
+                }
+            })
+            .map_err(|e| CliError::failure(format!("cannot start the simulation task: {e}")))?;
+        let servo = spawn_servo(
+            scope,
+            sh,
+            ServoRun {
+                open,
+                rt,
+                ticks,
+                workspace,
+                frame,
+                camera: view.window.then_some(&mut camera_out),
+                request: &request,
+                record: recorder.ring(),
+            },
+            &mut law,
+        )?;
+        let supervisor = spawn_watchdog(scope, sh, rt, kind)?;
+        let rec = recorder.spawn(scope, sh)?;
+        let front = Front {
+            view: &view,
+            status_line,
+            initial_volume,
+            controls: controls_in,
+            initial_controls,
+            camera: camera_in,
+        };
+        let (servo, status, ending, scene) =
+            main_thread_tasks(scope, sh, front, status_out, servo, supervisor, sim)?;
+        let recorded = Recorder::join(rec)?;
+        Ok((servo, status, ending?, (scene, recorded)))
+    })?;
+    let (mut scene, recorded) = scene;
+    let (saturations, valid) = ending;
+    let ended = Ended {
+        kind,
+        elapsed: started.elapsed().as_secs_f64(),
+        initial_volume,
+        sim: sim_status,
+        saturations,
+        summary,
+        request: request.clone(),
+        recorded: (recorded, recorder.dropped()),
+    };
+    let (rep, error) = ended.report(servo, &shared, None)?;
+    if let Some(path) = &view.screenshot {
+        crate::viewer::screenshot(&mut scene, path)?;
+    }
+    conclude(rep, json, error, valid)
+}
+
+/// How the tasks of a run ended.
+struct Ended {
+    kind: DeviceKind,
+    elapsed: f64,
+    initial_volume: f64,
+    sim: SimStatus,
+    saturations: SaturationCounts,
+    /// Print the summary.
+    summary: bool,
+    /// The run's stop request.
+    request: StopRequest,
+    /// `--record`'s rows written and dropped.
+    recorded: (u64, u64),
+}
+
+impl Ended {
+    /// The run's report (printed, with the servo's warnings) and the device error that ended
+    /// the run, if one did; a servo that could not open its device or panicked is the run's
+    /// error.
+    fn report(
+        &self,
+        servo: Result<tasks::ServoResult, ServoFailure>,
+        shared: &Shared,
+        pen: Option<PenRunSummary>,
+    ) -> Result<(RunReport, Option<DeviceError>), CliError> {
+        let kind = self.kind;
+        let servo = servo.map_err(|e| match e {
+            ServoFailure::Device(e) => device_error(kind, e),
+            ServoFailure::Panicked {
+                ticks,
+                panic,
+                force,
+            } => CliError::failure(format!(
+                "the servo panicked after {ticks} ticks (a bug): {panic}; {force}"
+            )),
+        })?;
+        for w in &servo.rt.warnings {
+            errln!("tetradrill: warning: {w}");
+        }
+        let (elapsed, sim) = (self.elapsed, &self.sim);
+        let c = &shared.counters;
+        let t = c.tick.summary();
+        let stopped_by = (servo.end == tasks::ServoEnd::Requested)
+            .then(|| self.request.signal())
+            .flatten();
+        let rep = RunReport {
+            device: format!("{kind:?}").to_lowercase(),
+            stop_reason: servo.end.name(),
+            stop_signal: stopped_by.map(signal_name),
+            stop_to_zero_force_us: servo.request_to_zero_ns.map(|ns| ns as f64 / 1000.0),
+            force: RunForce {
+                last_written_n: servo.last_written_n,
+            },
+            safety: RunSafety {
+                passivity_trips: servo.passivity.trips(),
+                dissipated_j: servo.passivity.dissipated_j(),
+                generated_j_max: f64::from(servo.passivity.generated_j_max()),
+                past_limit_j_max: f64::from(servo.passivity.trip_measure_j_max()),
+            },
+            contact: RunContact {
+                max_depth_m: f64::from(servo.max_depth_m),
+            },
+            recorded_rows: self.recorded.0,
+            dropped_rows: self.recorded.1,
+            ticks: servo.ticks,
+            overruns: servo.overruns,
+            duration_s: elapsed,
+            initial_volume: self.initial_volume,
+            removed_volume: sim.removed_volume,
+            hierarchy_nodes: sim.hierarchy_nodes,
+            visible_faces: sim.visible_faces,
+            simulation_steps: sim.steps,
+            simulation_hz: sim.steps as f64 / elapsed.max(1e-9),
+            simulation_step_max_us: sim.max_step_ns as f64 / 1000.0,
+            dropped_samples: shared.counters.dropped_samples.load(Ordering::Relaxed),
+            nonfinite_samples: servo.nonfinite_samples,
+            servo_stalls: shared.counters.watch.stalls(),
+            servo_stall_max_ms: shared.counters.watch.stall_max_ns() as f64 / 1e6,
+            saturations: self.saturations.totalled(),
+            force_max_n: servo.max_force,
+            force_digest: format!("{:016x}", servo.digest.value()),
+            timing_us: RunTiming {
+                tick_mean: t.mean,
+                tick_p99: t.p99,
+                tick_p999: t.p999,
+                tick_max: t.max,
+            },
+            wake_us: c.wake.summary(),
+            wake_histogram_us: c.wake.histogram_us(200),
+            realtime: crate::commands::timing::RealtimeReport {
+                fifo: servo.rt.fifo,
+                pinned: servo.rt.pinned,
+                memory_locked: servo.rt.memory_locked,
+            },
+            valid: false,
+            pen,
+        };
+        if self.summary {
+            print_summary(&rep);
+        }
+        if rep.safety.passivity_trips > 0 {
+            errln!(
+                "tetradrill: warning: the passivity controller tripped: the {} device put \
+                 {:.3} J past the force limit into the tool (a reversed force or a mirrored \
+                 axis?); the motors were cut for the rest of the run",
+                rep.device,
+                rep.safety.past_limit_j_max
+            );
+        }
+        if rep.nonfinite_samples > 0 {
+            errln!(
+                "tetradrill: warning: the {} device sent {} non-finite positions; the force was \
+                 zero on those ticks",
+                rep.device,
+                rep.nonfinite_samples
+            );
+        }
+        Ok((rep, servo.error))
+    }
+}
+
+/// Writes the JSON (with `valid`), then gives the run's error if it had one: the device that
+/// failed mid-run (`error`), a final state that is not valid.
+fn conclude(
+    mut rep: RunReport,
+    json: Option<&PathBuf>,
+    error: Option<DeviceError>,
+    valid: Result<(), String>,
+) -> Result<RunReport, CliError> {
+    rep.valid = valid.is_ok();
+    if let Some(path) = json {
+        crate::report::write_json(path, &rep)?;
+    }
+    if let Some(e) = error {
+        return Err(CliError::failure(format!(
+            "the {} device failed after {} ticks: {e}; force was set to zero",
+            rep.device, rep.ticks
+        )));
+    }
+    valid.map_err(|e| CliError::failure(format!("the final state is invalid: {e}")))?;
+    Ok(rep)
+}
+
+/// A device that could not be opened is bad input (exit 2, one line naming the device).
+fn device_error(kind: DeviceKind, e: DeviceError) -> CliError {
+    let name = format!("{kind:?}").to_lowercase();
+    match e {
+        DeviceError::NotFound(_)
+        | DeviceError::LibraryNotFound
+        | DeviceError::Unsupported(_)
+        | DeviceError::FirmwareFile => CliError::input(format!("--device {name}: {e}")),
+        _ => CliError::failure(format!("--device {name}: {e}")),
+    }
+}
+
+/// The centre of the box around `positions` (the origin when there are none): the point the
+/// viewer's camera orbits and the device frame turns about.
+pub fn mesh_centre(positions: &[Vec3]) -> Vec3 {
+    let Some(first) = positions.first() else {
+        return Vec3::ZERO;
+    };
+    let (lo, hi) = positions
+        .iter()
+        .fold((*first, *first), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    0.5 * (lo + hi)
+}
+
+/// The identity device-to-mesh map (the simulated device moves in mesh units).
+pub const MESH_UNITS: Workspace = Workspace {
+    scale: 1.0,
+    offset: Vec3::ZERO,
+};

@@ -1,0 +1,215 @@
+//! What a run reports: the JSON's structure (`RunReport` and its parts) and the summary printed
+//! at the end.
+
+use serde::Serialize;
+
+use crate::commands::replay::{SaturationCounts, TickTiming};
+use crate::stats::Summary;
+
+/// The summary of a real-time run (`--json`).
+#[derive(Debug, Serialize)]
+pub struct RunReport {
+    /// Device used.
+    pub device: String,
+    /// Why the run ended: `duration` (its ticks were done), `signal` (a stop request: SIGINT,
+    /// SIGTERM, SIGHUP or a caller), `window` (the live window closed), `device_error`.
+    pub stop_reason: &'static str,
+    /// The signal that asked for the stop (`SIGINT`, `SIGTERM`, `SIGHUP`), if one did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stop_signal: Option<String>,
+    /// After a stop request: microseconds from the request to the end of the zero-force write.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stop_to_zero_force_us: Option<f64>,
+    /// The force commands written to the device.
+    pub force: RunForce,
+    /// The passivity observer and controller on the servo path.
+    pub safety: RunSafety,
+    /// The tool's contact.
+    pub contact: RunContact,
+    /// Rows `--record` wrote to its trace.
+    pub recorded_rows: u64,
+    /// Rows `--record` could not take (its ring was full, or a pose was not finite).
+    pub dropped_rows: u64,
+    /// Servo ticks done.
+    pub ticks: u64,
+    /// Deadlines missed by more than a period.
+    pub overruns: u64,
+    /// Wall time of the run, seconds.
+    pub duration_s: f64,
+    /// Volume of the mesh before drilling.
+    pub initial_volume: f64,
+    /// Removed volume (sum of erased leaves).
+    pub removed_volume: f64,
+    /// Hierarchy nodes at the end.
+    pub hierarchy_nodes: usize,
+    /// Visible faces at the end.
+    pub visible_faces: u32,
+    /// Simulation steps done.
+    pub simulation_steps: u64,
+    /// Simulation rate, steps per second.
+    pub simulation_hz: f64,
+    /// Longest simulation step, microseconds.
+    pub simulation_step_max_us: f64,
+    /// Tool samples the simulation could not take (ring full).
+    pub dropped_samples: u64,
+    /// Device samples with a NaN or infinite position (the force was zero on those ticks).
+    pub nonfinite_samples: u64,
+    /// Stalls the watchdog caught (the servo went more than 10 ms without a tick; the force
+    /// was set to zero and ramped up again when it ran again).
+    pub servo_stalls: u64,
+    /// The longest of them (the longest time the servo went without ending a tick), milliseconds.
+    pub servo_stall_max_ms: f64,
+    /// Saturations by kind, and their total.
+    pub saturations: SaturationCounts,
+    /// The final state passed the core's `validate()` (mesh and hierarchy).
+    pub valid: bool,
+    /// Largest force, newtons.
+    pub force_max_n: f32,
+    /// Digest of the servo's force series (hex).
+    pub force_digest: String,
+    /// Servo tick compute times, microseconds (from the servo's fixed-bucket histogram: the
+    /// mean and max exact, percentiles within 125 ns or 1/128 above the exact ones).
+    pub timing_us: RunTiming,
+    /// Servo wake-up latency, microseconds (the same histogram as the status line's).
+    pub wake_us: Summary,
+    /// Wake-up latency histogram, 1 us buckets, the last is the overflow bucket.
+    pub wake_histogram_us: Vec<u64>,
+    /// Real-time settings achieved.
+    pub realtime: crate::commands::timing::RealtimeReport,
+    /// A mesh tool's contact (`--tool mesh:FILE` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pen: Option<PenRunSummary>,
+}
+
+/// A mesh tool's figures in a real-time run: the contact task's passes and what the servo
+/// carried from them.
+#[derive(Debug, Default, Serialize)]
+pub struct PenRunSummary {
+    /// Tool nodes.
+    pub tool_nodes: usize,
+    /// Tool tets.
+    pub tool_tets: usize,
+    /// Depth method used.
+    pub depth_method: String,
+    /// The entry-plane remedy was on (`--entry-remedy`).
+    pub entry_remedy: bool,
+    /// Contact passes run (the simulation task's steps).
+    pub passes: u64,
+    /// Time of the contact passes, microseconds.
+    pub pass_us: TickTiming,
+    /// Servo ticks that carried a pass (every tick after the first pass).
+    pub carried_ticks: u64,
+    /// Age of the pass a servo tick carried (servo ticks since the tool sample the pass was
+    /// run at), mean over the carried ticks.
+    pub pass_age_mean_ticks: f64,
+    /// The oldest pass a servo tick carried, servo ticks.
+    pub pass_age_max_ticks: u64,
+    /// Most tool nodes inside the object in one pass.
+    pub pen_collisions_max: usize,
+    /// Most object nodes inside the tool in one pass.
+    pub object_collisions_max: usize,
+    /// Colliding nodes that got no depth (a region without a border edge), summed over passes.
+    pub unreached: u64,
+    /// Passes in which a buffer saturated.
+    pub saturated_passes: u64,
+    /// Servo ticks whose force was clamped.
+    pub clamped_ticks: u64,
+    /// Servo ticks that could not carry every held penetration (left out of the force).
+    pub servo_short_ticks: u64,
+    /// Servo ticks whose pose (position or rotation) was not finite: zero force.
+    pub nonfinite_ticks: u64,
+}
+
+/// The force commands of a run.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct RunForce {
+    /// Magnitude of the last force command the device took, newtons: 0 after a clean stop.
+    pub last_written_n: f32,
+}
+
+/// The passivity observer and controller of a run ([`tetradrill_core::force::passivity`]).
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct RunSafety {
+    /// Times it tripped (0 or 1: a trip cuts the motors for the rest of the run).
+    pub passivity_trips: u32,
+    /// Energy its damper dissipated, joules.
+    pub dissipated_j: f64,
+    /// The largest energy the rendered environment had generated at a tick (before the
+    /// damper took it), joules.
+    pub generated_j_max: f64,
+    /// The largest energy the force law stored past its force limit since its contact began
+    /// (the trip's measure; for a mesh tool, whose law has no storage function, the generated
+    /// energy, observed only), joules.
+    pub past_limit_j_max: f64,
+}
+
+/// The tool's contact over a run.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct RunContact {
+    /// The deepest penetration of the tool's contact point (the burr's depth below the
+    /// contact plane), metres; 0 for a mesh tool.
+    pub max_depth_m: f64,
+}
+
+/// Servo tick timing.
+#[derive(Debug, Serialize)]
+pub struct RunTiming {
+    /// Mean.
+    pub tick_mean: f64,
+    /// 99th percentile.
+    pub tick_p99: f64,
+    /// 99.9th percentile.
+    pub tick_p999: f64,
+    /// Largest.
+    pub tick_max: f64,
+}
+
+pub(super) fn print_summary(r: &RunReport) {
+    outln!(
+        "{} ticks in {:.2} s on the {} device, {} overruns",
+        r.ticks,
+        r.duration_s,
+        r.device,
+        r.overruns
+    );
+    outln!(
+        "servo tick us: mean {:.1}  p99 {:.1}  max {:.1};  wake-up us: p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1}",
+        r.timing_us.tick_mean,
+        r.timing_us.tick_p99,
+        r.timing_us.tick_max,
+        r.wake_us.p50,
+        r.wake_us.p99,
+        r.wake_us.p999,
+        r.wake_us.max
+    );
+    outln!(
+        "simulation: {} steps ({:.0} Hz), longest {:.0} us;  removed volume {:.6} of {:.6} ({:.2}%)",
+        r.simulation_steps,
+        r.simulation_hz,
+        r.simulation_step_max_us,
+        r.removed_volume,
+        r.initial_volume,
+        100.0 * r.removed_volume / r.initial_volume.max(f64::MIN_POSITIVE)
+    );
+    outln!(
+        "hierarchy nodes {}, visible faces {}, saturations {}, dropped samples {}, force max {:.2} N",
+        r.hierarchy_nodes, r.visible_faces, r.saturations, r.dropped_samples, r.force_max_n
+    );
+    outln!(
+        "passivity: {} trips, dissipated {:.6} J, generated max {:.6} J; deepest contact {:.4} m",
+        r.safety.passivity_trips,
+        r.safety.dissipated_j,
+        r.safety.generated_j_max,
+        r.contact.max_depth_m
+    );
+    if r.servo_stalls > 0 {
+        outln!(
+            "servo stalls {} (longest {:.1} ms): the watchdog set the force to zero each time",
+            r.servo_stalls,
+            r.servo_stall_max_ms
+        );
+    }
+    for w in r.saturations.warnings(r.ticks) {
+        errln!("tetradrill: warning: {w}");
+    }
+}
