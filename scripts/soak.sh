@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Soak test: the simulated device wanders over the teddy with the drill on, at 1 kHz, through
 # the real-time pipeline (`tetradrill run --device sim --trace wander:SEED`, headless), for
-# MINUTES (default 10; `20s` for seconds, `1h` for hours: a training session's length). The
+# MINUTES (default 10; `20s` for seconds, `1h` for hours: a training run's length). The
 # run's resident memory (VmRSS) is sampled every
 # few seconds; after a warm-up it must not grow beyond a small tolerance. The run must end with
 # exit 0 and a valid final state (`valid` in its JSON, the core's validate()); overruns and
