@@ -6,12 +6,14 @@
 //! - [`oracle`]: f64 vector math for the reference computations;
 //! - [`contact`]: the pen-contact scene (meshes, rig, random poses, one fresh tick);
 //! - [`drill`]: the brute-force visible-face oracle and hierarchy storage;
+//! - [`faults`]: a device wrapper that injects faults by read number, the devices it wraps;
 //! - [`search`]: world storage and the exhaustive contact search;
 //! - [`tetgen_reader`]: a minimal TetGen reader, independent of the host's readers;
 //! - [`viewer`]: the render size, engine storage and the f64 pinhole model.
 
 pub mod contact;
 pub mod drill;
+pub mod faults;
 pub mod oracle;
 pub mod search;
 pub mod tetgen_reader;

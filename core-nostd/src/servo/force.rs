@@ -1,0 +1,81 @@
+//! The servo's force from the last contact plane: [`servo_force`].
+
+use glam::Vec3;
+
+use super::ContactState;
+use crate::force::{clamp_force, damping_force, ForceParams, ToolState};
+
+/// The force on a spherical burr of `radius` at `centre` from the contact plane `contact`,
+/// with `tool` carrying what the force needs from the last tick.
+///
+/// The spring of a plane `(point, normal)` is `s = clamp(stiffness * depth * normal)` with
+/// `depth = radius - (centre - point) . normal` (zero when not positive): first order in
+/// the position, so a plane kept from an older simulation step extrapolates the surface
+/// (seed 001 section 3.3). The force is `clamp(E + damping)`, damping only while the plane's
+/// depth is positive, with the elastic part `E = clamp(s + residual)`.
+///
+/// Plane switches. When the contact plane changes (another face became the closest, the
+/// drill removed the one under the burr), `s` jumps; a burr buried in half-eroded material,
+/// nearly equidistant from walls that face each other, would see the force reverse from one
+/// tick to the next. So the residual takes up the difference at the switch,
+/// `residual = E_old - s_new` with `E_old` the old plane's elastic force at `centre`, and
+/// shrinks towards zero by `2 max_force dt / switch_time` every tick, that one included: a
+/// switch is rendered as a ramp of at most `switch_time`. A plane that appears already
+/// penetrated (no plane before) ramps in from zero the same way. Per tick the force changes by at most
+/// `stiffness |dc| + damping (|v| + |v_prev|) + 2 max_force dt / switch_time`, plane change
+/// or not (`|dc|` the tool's motion, `v` its velocities). A `switch_time` of zero (or not
+/// finite) switches at once.
+///
+/// # Bounded work
+/// Constant. Never allocates, locks or panics; non-finite input gives zero force (and
+/// forgets the plane and the residual).
+pub fn servo_force(
+    contact: &ContactState,
+    centre: Vec3,
+    radius: f32,
+    tool: &mut ToolState,
+    params: &ForceParams,
+) -> Vec3 {
+    let plane = contact.valid.then_some((contact.point, contact.normal));
+    let spring = |plane: Option<(Vec3, Vec3)>| match plane {
+        Some((p, n)) => {
+            let depth = radius - (centre - p).dot(n);
+            if depth > 0.0 {
+                clamp_force(n * (params.stiffness * depth), params.max_force)
+            } else {
+                Vec3::ZERO
+            }
+        }
+        None => Vec3::ZERO,
+    };
+    let s = spring(plane);
+    let damping = damping_force(tool, centre, s != Vec3::ZERO, params);
+    if !(centre.is_finite() && radius.is_finite()) {
+        tool.plane = None;
+        tool.residual = Vec3::ZERO;
+        return Vec3::ZERO;
+    }
+    let step = 2.0 * params.max_force * params.dt / params.switch_time;
+    let mut residual = tool.residual;
+    if tool.plane != plane {
+        residual = clamp_force(spring(tool.plane) + residual, params.max_force) - s;
+        tool.plane = plane;
+    }
+    let residual = shrink(residual, step);
+    tool.residual = residual;
+    clamp_force(
+        clamp_force(s + residual, params.max_force) + damping,
+        params.max_force,
+    )
+}
+
+/// `v` shortened by `step` (zero when no longer than `step`, or when `v` or `step` is NaN or
+/// infinite).
+fn shrink(v: Vec3, step: f32) -> Vec3 {
+    let l = v.length();
+    if l.is_finite() && step.is_finite() && step >= 0.0 && l > step {
+        v * ((l - step) / l)
+    } else {
+        Vec3::ZERO
+    }
+}

@@ -1,0 +1,144 @@
+//! Unit tests of [`servo_force`](super::servo_force): the spring of one plane, plane switches as
+//! ramps against an f64 oracle, flickering planes, motion during a ramp, lost contact and NaN.
+
+use super::*;
+use crate::force::{ForceParams, ToolState};
+
+fn params(switch_time: f32) -> ForceParams {
+    ForceParams {
+        stiffness: 200.0,
+        damping: 0.0,
+        max_force: 8.0,
+        dt: 1e-3,
+        switch_time,
+    }
+}
+
+fn plane(point: Vec3, normal: Vec3) -> ContactState {
+    ContactState {
+        valid: true,
+        point,
+        normal,
+        ..ContactState::default()
+    }
+}
+
+/// A burr of radius 0.1 at the origin between two walls facing each other (planes x =
+/// -0.08 facing +x and x = 0.07 facing -x): springs of 200 * 0.02 = 4 N along +x and
+/// 200 * 0.03 = 6 N along -x.
+fn walls() -> (ContactState, ContactState) {
+    (
+        plane(Vec3::new(-0.08, 0.0, 0.0), Vec3::X),
+        plane(Vec3::new(0.07, 0.0, 0.0), -Vec3::X),
+    )
+}
+
+/// A tool that has been on `c` at the origin long enough for any ramp to be over.
+fn settled(c: &ContactState, p: &ForceParams) -> ToolState {
+    let mut tool = ToolState::default();
+    for _ in 0..20 {
+        servo_force(c, Vec3::ZERO, 0.1, &mut tool, p);
+    }
+    tool
+}
+
+/// The spring of one plane, felt at once when the tool moves into it; a plane that shows
+/// up already penetrated (first tick, a jump of the tool) ramps in from zero.
+#[test]
+fn one_plane_gives_the_spring() {
+    let (a, _) = walls();
+    let p = params(0.016);
+    let mut tool = ToolState::default();
+    let out = Vec3::new(0.5, 0.0, 0.0);
+    assert_eq!(servo_force(&a, out, 0.1, &mut tool, &p), Vec3::ZERO);
+    let f = servo_force(&a, Vec3::ZERO, 0.1, &mut tool, &p);
+    assert!((f - Vec3::new(4.0, 0.0, 0.0)).length() < 1e-5, "{f:?}");
+    assert_eq!(tool.residual, Vec3::ZERO);
+    let mut fresh = ToolState::default();
+    for t in 0..6 {
+        let f = servo_force(&a, Vec3::ZERO, 0.1, &mut fresh, &p);
+        let expected = (t as f32 + 1.0).min(4.0);
+        assert!((f.x - expected).abs() < 1e-4, "tick {t}: {f:?}");
+    }
+}
+
+/// Switching from one wall to the other ramps the force linearly (f64 oracle) from the
+/// old wall's 4 N to the new wall's -6 N, 2 * 8 N * 1 ms / 16 ms = 1 N per tick, the
+/// switch tick included: 10 ticks.
+#[test]
+fn a_plane_switch_is_a_ramp_of_bounded_slope() {
+    let (a, b) = walls();
+    let p = params(0.016);
+    let mut tool = settled(&a, &p);
+    let mut last = servo_force(&a, Vec3::ZERO, 0.1, &mut tool, &p);
+    for t in 0..14 {
+        let f = servo_force(&b, Vec3::ZERO, 0.1, &mut tool, &p);
+        let expected = (3.0 - t as f64).max(-6.0);
+        assert!(
+            (f64::from(f.x) - expected).abs() < 1e-4 && f.y == 0.0 && f.z == 0.0,
+            "tick {t}: {f:?}, expected {expected}"
+        );
+        assert!(f.distance(last) <= 1.0 + 1e-4);
+        last = f;
+    }
+    // Without the ramp the force reverses at once.
+    let p0 = params(0.0);
+    let mut tool = settled(&a, &p0);
+    let f = servo_force(&b, Vec3::ZERO, 0.1, &mut tool, &p0);
+    assert!((f - Vec3::new(-6.0, 0.0, 0.0)).length() < 1e-5, "{f:?}");
+}
+
+/// Walls swapping every tick (the burr equidistant from both): the force never jumps by
+/// more than the ramp's slope and stays between the two springs.
+#[test]
+fn flickering_planes_never_reverse_the_force() {
+    let (a, b) = walls();
+    let p = params(0.016);
+    let mut tool = settled(&a, &p);
+    let mut last = servo_force(&a, Vec3::ZERO, 0.1, &mut tool, &p);
+    for t in 0..200 {
+        let c = if (t / 3) % 2 == 0 { &b } else { &a };
+        let f = servo_force(c, Vec3::ZERO, 0.1, &mut tool, &p);
+        assert!(
+            f.distance(last) <= 1.0 + 1e-4,
+            "tick {t}: {last:?} -> {f:?}"
+        );
+        assert!(f.x >= -6.0 - 1e-4 && f.x <= 4.0 + 1e-4, "tick {t}: {f:?}");
+        last = f;
+    }
+}
+
+/// Moving while a switch is under way: the spring of the new plane follows the motion at
+/// once, the ramp only carries the jump.
+#[test]
+fn motion_is_felt_at_once_during_a_ramp() {
+    let (a, b) = walls();
+    let p = params(0.016);
+    let mut tool = settled(&a, &p);
+    let f0 = servo_force(&b, Vec3::ZERO, 0.1, &mut tool, &p);
+    // 1 mm towards the new wall: its spring grows by 0.2 N, the residual shrinks by 1 N.
+    let f1 = servo_force(&b, Vec3::new(0.001, 0.0, 0.0), 0.1, &mut tool, &p);
+    assert!(
+        (f64::from(f1.x - f0.x) - (-0.2 - 1.0)).abs() < 1e-4,
+        "{f0:?} {f1:?}"
+    );
+}
+
+/// Contact lost (erosion took the material): the force fades out over at most the switch
+/// time; non-finite input gives zero and forgets the residual.
+#[test]
+fn lost_contact_fades_and_nan_forgets() {
+    let (a, _) = walls();
+    let p = params(0.016);
+    let mut tool = settled(&a, &p);
+    let none = ContactState::default();
+    for t in 0..6 {
+        let x = servo_force(&none, Vec3::ZERO, 0.1, &mut tool, &p).x;
+        let expected = (3.0 - t as f32).max(0.0);
+        assert!((x - expected).abs() < 1e-4, "tick {t}: {x}");
+    }
+    servo_force(&a, Vec3::ZERO, 0.1, &mut tool, &p);
+    let nan = servo_force(&none, Vec3::splat(f32::NAN), 0.1, &mut tool, &p);
+    assert_eq!(nan, Vec3::ZERO);
+    assert_eq!((tool.residual, tool.plane), (Vec3::ZERO, None));
+}
