@@ -1,6 +1,7 @@
 //! Contact benchmarks (issue 3): per-tick contact + depth + force of the pen against the cow
-//! and the teddy, traced vs hashed depth, the sphere burr, and our spatial hash against
-//! parry3d's BVH with its tetrahedron point queries on the same queries.
+//! and the teddy, traced vs hashed depth, the sphere burr, and point location (the pen's nodes
+//! at touching and impaled poses: our hash alone, with the occupancy grid, with walks) against
+//! parry3d's BVH with its tetrahedron point queries, the same pairs checked on both sides.
 //!
 //! Run: `cargo bench -p tetradrill-benches --bench contact` (set `TETRADRILL_MESHES` if the
 //! meshes are not the repository's `tests/data/meshes`). Besides criterion's means, a worst-case pass
