@@ -397,6 +397,14 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
     let walks = if walks_exact(&ob) { 8 } else { 0 };
     let pen_graph = &pg;
     let plain = |pts: &[Vec3], out: &mut [Collision]| points_in_tets(&th, &ob, pts, false, out);
+    // The hash alone over cells of half an average edge (28 entries a tet on these meshes
+    // instead of 8): fewer tets share a cell.
+    let mut fine_store = HashStore::new(obj.tet_count(), 32);
+    let mut fine = fine_store.hash(cell * 0.5);
+    assert!(!hash_tets(&mut fine, &ob).saturated);
+    let fine = fine;
+    let plain_fine =
+        |pts: &[Vec3], out: &mut [Collision]| points_in_tets(&fine, &ob, pts, false, out);
     let occupied = |pts: &[Vec3], out: &mut [Collision]| {
         points_in_tets_occupied(&th, &cells, &ob, pts, false, out, 0, |_| true)
     };
@@ -429,6 +437,8 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
             ours += r.count;
             differ += got.iter().filter(|g| !want.contains(g)).count();
             differ += want.iter().filter(|w| !got.contains(w)).count();
+            let r = plain_fine(pts, &mut out);
+            assert_eq!(pairs(&out[..r.count]), got, "finer hash differs");
             let r = occupied(pts, &mut out);
             assert_eq!(pairs(&out[..r.count]), got, "occupied query differs");
             let r = walked(pts, &mut out, &mut found);
@@ -442,6 +452,12 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
             &format!("{group}/{label}/spatial_hash"),
             worst(pose_pts.len(), 20, |i| {
                 black_box(plain(&pose_pts[i], &mut out));
+            }),
+        );
+        report(
+            &format!("{group}/{label}/spatial_hash_half_cells"),
+            worst(pose_pts.len(), 20, |i| {
+                black_box(plain_fine(&pose_pts[i], &mut out));
             }),
         );
         report(
@@ -470,6 +486,12 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
             b.iter(|| {
                 i += 1;
                 black_box(plain(&pose_pts[i % n], &mut out))
+            })
+        });
+        g.bench_function("spatial_hash_half_cells", |b| {
+            b.iter(|| {
+                i += 1;
+                black_box(plain_fine(&pose_pts[i % n], &mut out))
             })
         });
         g.bench_function("occupied", |b| {

@@ -6,7 +6,9 @@
 //! `TETRADRILL_MESHES` or the repository's `tests/data/meshes`). Prints, per query, the
 //! contacts and the candidate tets tested per pose. Instruction counts:
 //! `valgrind --tool=callgrind --toggle-collect='*run_walked*' query_profile ...` (also
-//! `run_plain`, `run_occupied`). Exit status 2 for bad arguments or an unreadable mesh.
+//! `run_plain`, `run_occupied`). The environment may set the hash's cell edge in average edges
+//! (`CELL_SCALE`, default 1) and its entries per tet (`PER`, default 16). Exit status 2 for bad
+//! arguments, an unreadable mesh or a saturated hash.
 
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -186,16 +188,26 @@ fn main() -> ExitCode {
     };
     let (pen, obj) = (pen_m.view(), obj_m.view());
     let body = Body::fixed(&obj);
-    let cell = average_edge_length(&obj);
+    let cell = average_edge_length(&obj)
+        * std::env::var("CELL_SCALE")
+            .ok()
+            .and_then(|v| v.parse::<f32>().ok())
+            .unwrap_or(1.0);
     // The contact bench's table: 16 entries per tet, buckets about twice the entries.
-    let buckets = prime_at_most((2 * 16 * obj.tet_count()).clamp(3, u32::MAX as usize) as u32);
+    let per: usize = std::env::var("PER")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(16);
+    let buckets = prime_at_most((2 * per * obj.tet_count()).clamp(3, u32::MAX as usize) as u32);
     let mut starts = vec![0u32; buckets as usize + 1];
-    let mut entries = vec![HashEntry::default(); 16 * obj.tet_count()];
+    let mut entries = vec![HashEntry::default(); per * obj.tet_count()];
     let Ok(mut hash) = SpatialHash::new(&mut starts, &mut entries, cell) else {
         eprintln!("query_profile: {mesh}: no spatial hash for cell size {cell}");
         return ExitCode::from(2);
     };
-    if hash_tets(&mut hash, &body).saturated {
+    let built = hash_tets(&mut hash, &body);
+    let per_tet = built.entries as f64 / obj.tet_count() as f64;
+    if built.saturated {
         eprintln!("query_profile: {mesh}: the tet hash saturated");
         return ExitCode::from(2);
     }
@@ -235,7 +247,7 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
         println!(
-            "{mesh} {set}: {} contacts in {} poses; candidates per pose: plain {:.1}, occupied {:.1}, walked {:.1} (walks: {walks} steps)",
+            "{mesh} {set}: {per_tet:.1} hash entries per tet; {} contacts in {} poses; candidates per pose: plain {:.1}, occupied {:.1}, walked {:.1} (walks: {walks} steps)",
             p.count,
             pose_pts.len(),
             p.candidates as f64 * reps as f64 / n,
