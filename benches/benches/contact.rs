@@ -1,6 +1,7 @@
 //! Contact benchmarks (issue 3): per-tick contact + depth + force of the pen against the cow
-//! and the teddy, traced vs hashed depth, the sphere burr, and our spatial hash against
-//! parry3d's BVH with its tetrahedron point queries on the same queries.
+//! and the teddy, traced vs hashed depth, the sphere burr, and point location (the pen's nodes
+//! at touching and impaled poses: our hash alone, with the occupancy grid, with walks) against
+//! parry3d's BVH with its tetrahedron point queries, the same pairs checked on both sides.
 //!
 //! Run: `cargo bench -p tetradrill-benches --bench contact` (set `TETRADRILL_MESHES` if the
 //! meshes are not the repository's `tests/data/meshes`). Besides criterion's means, a worst-case pass
@@ -20,7 +21,10 @@ use parry3d::partitioning::{Bvh, BvhBuildStrategy};
 use parry3d::query::PointQuery;
 use parry3d::shape::Tetrahedron;
 use tetradrill::owned::OwnedMesh;
-use tetradrill_core::collide::{hash_tets, points_in_tets, walks_exact, Body, Collision};
+use tetradrill_core::collide::{
+    hash_tets, points_in_tets, points_in_tets_occupied, points_in_tets_walked, walks_exact, Body,
+    Collision, WalkStarts,
+};
 use tetradrill_core::depth::{
     graph_sizes, hash_boundary_faces, DepthScratch, NodeGraph, NodeSlot, Penetration,
 };
@@ -365,15 +369,13 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
         .map(|p| Tetrahedron::new(pv(p[0]), pv(p[1]), pv(p[2]), pv(p[3])))
         .collect();
     let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
-    let pose_pts: Vec<Vec<Vec3>> = ps_list
-        .iter()
-        .take(50)
-        .map(|&(p, q)| pen.positions().iter().map(|&x| q * x + p).collect())
-        .collect();
     let mut out = vec![Collision::default(); np];
-    let parry_query = |pts: &[Vec3]| -> usize {
+    let mut found = vec![TetId::NONE; np];
+    let mut scratch = Vec::new();
+    // parry3d: per point, the smallest leaf whose tet holds it (the answer our queries give).
+    let parry_query = |pts: &[Vec3], hits: &mut Vec<(u32, u32)>| -> usize {
         let mut n = 0;
-        for &x in pts {
+        for (i, &x) in pts.iter().enumerate() {
             let px = pv(x);
             let mut best = u32::MAX;
             for leaf in bvh.intersect_aabb(&PAabb::new(px, px)) {
@@ -383,51 +385,136 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
             }
             if best != u32::MAX {
                 n += 1;
+                hits.push((i as u32, best));
             }
         }
         n
     };
-    // Same answers (up to points exactly on faces, where the two predicates may differ).
-    let (mut ours, mut theirs) = (0usize, 0usize);
-    for pts in &pose_pts {
-        ours += points_in_tets(&th, &ob, pts, false, &mut out).count;
-        theirs += parry_query(pts);
+    // Ours, three ways over the same hash: every point looked up in its cell
+    // (`points_in_tets`); culled by the object's occupancy grid and tet boxes
+    // (`points_in_tets_occupied`); and walking from a neighbouring pen node's tet before the
+    // look-up (`points_in_tets_walked`, the pen pass's query; exact on these meshes).
+    let walks = if walks_exact(&ob) { 8 } else { 0 };
+    let pen_graph = &pg;
+    let plain = |pts: &[Vec3], out: &mut [Collision]| points_in_tets(&th, &ob, pts, false, out);
+    // The hash alone over cells of half an average edge (28 entries a tet on these meshes
+    // instead of 8): fewer tets share a cell.
+    let mut fine_store = HashStore::new(obj.tet_count(), 32);
+    let mut fine = fine_store.hash(cell * 0.5);
+    assert!(!hash_tets(&mut fine, &ob).saturated);
+    let fine = fine;
+    let plain_fine =
+        |pts: &[Vec3], out: &mut [Collision]| points_in_tets(&fine, &ob, pts, false, out);
+    let occupied = |pts: &[Vec3], out: &mut [Collision]| {
+        points_in_tets_occupied(&th, &cells, &ob, pts, false, out, 0, |_| true)
+    };
+    let walked = |pts: &[Vec3], out: &mut [Collision], found: &mut [TetId]| {
+        let starts = WalkStarts {
+            found,
+            near: |i| pen_graph.neighbours(NodeId::from_idx(i)),
+            max_steps: walks,
+        };
+        points_in_tets_walked(&th, &cells, &ob, pts, out, 0, starts, |_| true)
+    };
+    // Touching poses (most pen nodes outside the object) and impaled ones (many inside): the
+    // pen's nodes at the first 50 poses of each list.
+    for (group, list) in [("query", &ps_list), ("query_impaled", &deep_list)] {
+        let pose_pts: Vec<Vec<Vec3>> = list
+            .iter()
+            .take(50)
+            .map(|&(p, q)| pen.positions().iter().map(|&x| q * x + p).collect())
+            .collect();
+        // Same answers: the same (point, tet) pairs from every query on every pose.
+        let pairs = |c: &[Collision]| -> Vec<(u32, u32)> {
+            c.iter().map(|c| (c.node.0, c.tet.0)).collect()
+        };
+        let (mut ours, mut theirs, mut differ) = (0usize, 0usize, 0usize);
+        for pts in &pose_pts {
+            let mut want = Vec::new();
+            theirs += parry_query(pts, &mut want);
+            let r = plain(pts, &mut out);
+            let got = pairs(&out[..r.count]);
+            ours += r.count;
+            differ += got.iter().filter(|g| !want.contains(g)).count();
+            differ += want.iter().filter(|w| !got.contains(w)).count();
+            let r = plain_fine(pts, &mut out);
+            assert_eq!(pairs(&out[..r.count]), got, "finer hash differs");
+            let r = occupied(pts, &mut out);
+            assert_eq!(pairs(&out[..r.count]), got, "occupied query differs");
+            let r = walked(pts, &mut out, &mut found);
+            assert_eq!(pairs(&out[..r.count]), got, "walked query differs");
+        }
+        println!(
+            "{label}: {group} contacts ours {ours}, parry3d {theirs}, pairs that differ {differ} \
+             (walks: {walks} steps)"
+        );
+        report(
+            &format!("{group}/{label}/spatial_hash"),
+            worst(pose_pts.len(), 20, |i| {
+                black_box(plain(&pose_pts[i], &mut out));
+            }),
+        );
+        report(
+            &format!("{group}/{label}/spatial_hash_half_cells"),
+            worst(pose_pts.len(), 20, |i| {
+                black_box(plain_fine(&pose_pts[i], &mut out));
+            }),
+        );
+        report(
+            &format!("{group}/{label}/occupied"),
+            worst(pose_pts.len(), 20, |i| {
+                black_box(occupied(&pose_pts[i], &mut out));
+            }),
+        );
+        report(
+            &format!("{group}/{label}/walked"),
+            worst(pose_pts.len(), 20, |i| {
+                black_box(walked(&pose_pts[i], &mut out, &mut found));
+            }),
+        );
+        report(
+            &format!("{group}/{label}/parry3d_bvh"),
+            worst(pose_pts.len(), 20, |i| {
+                scratch.clear();
+                black_box(parry_query(&pose_pts[i], &mut scratch));
+            }),
+        );
+        let mut g = c.benchmark_group(format!("{group}/{label}"));
+        let n = pose_pts.len();
+        let mut i = 0usize;
+        g.bench_function("spatial_hash", |b| {
+            b.iter(|| {
+                i += 1;
+                black_box(plain(&pose_pts[i % n], &mut out))
+            })
+        });
+        g.bench_function("spatial_hash_half_cells", |b| {
+            b.iter(|| {
+                i += 1;
+                black_box(plain_fine(&pose_pts[i % n], &mut out))
+            })
+        });
+        g.bench_function("occupied", |b| {
+            b.iter(|| {
+                i += 1;
+                black_box(occupied(&pose_pts[i % n], &mut out))
+            })
+        });
+        g.bench_function("walked", |b| {
+            b.iter(|| {
+                i += 1;
+                black_box(walked(&pose_pts[i % n], &mut out, &mut found))
+            })
+        });
+        g.bench_function("parry3d_bvh", |b| {
+            b.iter(|| {
+                i += 1;
+                scratch.clear();
+                black_box(parry_query(&pose_pts[i % n], &mut scratch))
+            })
+        });
+        g.finish();
     }
-    println!("{label}: query contacts ours {ours}, parry3d {theirs}");
-    report(
-        &format!("query/{label}/spatial_hash"),
-        worst(pose_pts.len(), 20, |i| {
-            black_box(points_in_tets(&th, &ob, &pose_pts[i], false, &mut out));
-        }),
-    );
-    report(
-        &format!("query/{label}/parry3d_bvh"),
-        worst(pose_pts.len(), 20, |i| {
-            black_box(parry_query(&pose_pts[i]));
-        }),
-    );
-    let mut g = c.benchmark_group(format!("query/{label}"));
-    let mut i = 0usize;
-    g.bench_function("spatial_hash", |b| {
-        b.iter(|| {
-            i += 1;
-            black_box(points_in_tets(
-                &th,
-                &ob,
-                &pose_pts[i % pose_pts.len()],
-                false,
-                &mut out,
-            ))
-        })
-    });
-    let mut i = 0usize;
-    g.bench_function("parry3d_bvh", |b| {
-        b.iter(|| {
-            i += 1;
-            black_box(parry_query(&pose_pts[i % pose_pts.len()]))
-        })
-    });
-    g.finish();
 
     // Sphere burr: radius 0.03 (about half an edge), centre within the radius of the surface.
     let mut r = Lcg(11);

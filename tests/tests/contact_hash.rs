@@ -1,5 +1,6 @@
 //! Pen contact on real meshes, the collision lists: the spatial hash against brute force (every
-//! point against every tet) at many random pen poses, full lists keeping the previous nodes then
+//! point against every tet) at many random pen poses, the point-location queries alone (hash,
+//! occupancy, walks) against brute force, full lists keeping the previous nodes then
 //! the smallest ids, pen nodes walked along a path against brute force, reused crossings against
 //! searched ones, and walks only over well-shaped tets.
 //!
@@ -10,7 +11,10 @@ use std::collections::HashSet;
 
 use glam::{Quat, Vec3};
 use tetradrill::pen::PenRig;
-use tetradrill_core::collide::{walks_exact, Body, Collision};
+use tetradrill_core::collide::{
+    points_in_tets, points_in_tets_occupied, points_in_tets_walked, walks_exact, Body, Collision,
+    WalkStarts,
+};
 use tetradrill_core::force::{pen_contact, DepthMethod, PenOptions, PenState};
 use tetradrill_core::ids::{NodeId, TetId};
 use tetradrill_tests::contact::{facing, first_tick, poses, rig, COW, TEDDY};
@@ -119,6 +123,77 @@ fn hash_matches_brute_force_cow() {
 #[test]
 fn hash_matches_brute_force_teddy() {
     check_hash_vs_brute(TEDDY, 12, 2);
+}
+
+/// The three point-location queries the contact bench sets against parry3d's BVH, each call
+/// from scratch (no previous list): the hash alone (`points_in_tets`), culled by the
+/// object's occupancy grid and tet boxes (`points_in_tets_occupied`), and walking from a
+/// neighbouring pen node's tet first (`points_in_tets_walked`), at touching and impaled pen
+/// poses: each gives brute force's list (every pen node inside with the smallest tet that
+/// holds it). Oracle: brute force over every tet.
+fn check_point_queries_vs_brute(obj_rel: &str, n_poses: usize, seed: u64) {
+    let mut rig = rig(10.0, obj_rel, 1.0);
+    let ps = {
+        let obj_view = rig.obj.view();
+        let mut ps = poses(&obj_view, n_poses, 0.05, seed);
+        ps.extend(poses(&obj_view, n_poses, 0.3, seed + 1));
+        ps
+    };
+    let pen_rest: Vec<Vec3> = rig.pen.view().positions().to_vec();
+    let n = pen_rest.len();
+    let mut inside = 0usize;
+    rig.with(|scene, _| {
+        assert!(scene.object_walks, "{obj_rel} passes walks_exact");
+        let mut out = vec![Collision::default(); n];
+        let mut found = vec![TetId::NONE; n];
+        for &(pos, rot) in &ps {
+            let pts: Vec<Vec3> = pen_rest.iter().map(|&x| rot * x + pos).collect();
+            let want = brute(&scene.object, &pts, None);
+            let r = points_in_tets(scene.object_tets, &scene.object, &pts, false, &mut out);
+            assert_eq!(&out[..r.count], &want[..], "hash alone at {pos}");
+            let r = points_in_tets_occupied(
+                scene.object_tets,
+                scene.object_cells,
+                &scene.object,
+                &pts,
+                false,
+                &mut out,
+                0,
+                |_| true,
+            );
+            assert_eq!(&out[..r.count], &want[..], "occupied at {pos}");
+            let starts = WalkStarts {
+                found: &mut found,
+                near: |i| scene.pen_graph.neighbours(NodeId::from_idx(i)),
+                max_steps: PenOptions::default().max_walk,
+            };
+            let r = points_in_tets_walked(
+                scene.object_tets,
+                scene.object_cells,
+                &scene.object,
+                &pts,
+                &mut out,
+                0,
+                starts,
+                |_| true,
+            );
+            assert_eq!(&out[..r.count], &want[..], "walked at {pos}");
+            inside += want.len();
+        }
+    })
+    .expect("pen scene");
+    println!("{obj_rel}: {} poses, {inside} pen nodes inside", ps.len());
+    assert!(inside > 10 * ps.len(), "poses must go in: {inside}");
+}
+
+#[test]
+fn point_queries_match_brute_force_cow() {
+    check_point_queries_vs_brute(COW, 15, 3);
+}
+
+#[test]
+fn point_queries_match_brute_force_teddy() {
+    check_point_queries_vs_brute(TEDDY, 6, 4);
 }
 
 /// Both collision lists with room for only a few nodes, along a path that drives the pen
