@@ -43,10 +43,15 @@ pub struct ToolSizing {
     /// least the core's [`DEFAULT_PENDING`].
     pub pending: usize,
     /// Hierarchy arena nodes: the drilled surface a burr leaves grows with its area in
-    /// boundary tets, `(radius / e)^2`, so [`DEFAULT_HIERARCHY_CAPACITY`] (enough for a burr
-    /// about one tet wide) times that, between the default and [`MAX_SIZED_ARENA`].
+    /// boundary tets, `(radius / e)^2`, and with its leaves per tet face, four times for every
+    /// level of `--max-depth` past [`SIZED_FOR_DEPTH`]; so [`DEFAULT_HIERARCHY_CAPACITY`]
+    /// (enough for a burr about one tet wide at that depth) times both, between the default
+    /// and [`MAX_SIZED_ARENA`].
     pub arena: usize,
 }
+
+/// The `--max-depth` [`DEFAULT_HIERARCHY_CAPACITY`] is meant for (the default depth).
+pub const SIZED_FOR_DEPTH: u8 = 5;
 
 /// The largest arena [`ToolSizing`] chooses on its own: 2^23 nodes (128 MiB). A burr
 /// wider than that is meant for a finer `--max-depth`'s leaves than the mesh needs; set
@@ -54,10 +59,10 @@ pub struct ToolSizing {
 pub const MAX_SIZED_ARENA: usize = 1 << 23;
 
 impl ToolSizing {
-    /// The sizes for a burr of `radius` on `mesh`.
+    /// The sizes for a burr of `radius` on `mesh`, drilling down to `max_depth`.
     ///
     /// Work: O(T) over the mesh's tets, once at start-up.
-    pub fn of(mesh: &OwnedMesh, radius: f64) -> Self {
+    pub fn of(mesh: &OwnedMesh, radius: f64, max_depth: u8) -> Self {
         let positions = mesh.positions();
         let (mut side, mut vol, mut n) = (0.0f64, 0.0f64, 0usize);
         let (mut all_side, mut all_edge) = (0.0f64, 0.0f64);
@@ -101,7 +106,8 @@ impl ToolSizing {
         let sphere = (2.0 * radius + 2.0 * e).powi(3) / v;
         let pending = ((2.0 * sphere).ceil() as usize).max(DEFAULT_PENDING);
         let widths = if e > 0.0 { (radius / e).max(1.0) } else { 1.0 };
-        let arena = ((DEFAULT_HIERARCHY_CAPACITY as f64) * widths * widths)
+        let deeper = 4f64.powi(i32::from(max_depth.saturating_sub(SIZED_FOR_DEPTH)));
+        let arena = ((DEFAULT_HIERARCHY_CAPACITY as f64) * widths * widths * deeper)
             .min(MAX_SIZED_ARENA as f64) as usize;
         Self {
             radius,
@@ -205,7 +211,7 @@ impl EngineStorage {
     /// The burr's sizes on `mesh` ([`ToolSizing`]) when the scenario's tool is a sphere.
     fn sizing(mesh: &OwnedMesh, sc: &Scenario) -> Option<ToolSizing> {
         match sc.tool_kind() {
-            Ok(ToolKind::Sphere(r)) => Some(ToolSizing::of(mesh, r)),
+            Ok(ToolKind::Sphere(r)) => Some(ToolSizing::of(mesh, r, sc.max_depth)),
             _ => None,
         }
     }
@@ -218,6 +224,11 @@ impl EngineStorage {
     /// The candidate list's length.
     pub fn candidate_capacity(&self) -> usize {
         self.candidates.len()
+    }
+
+    /// The hierarchy arena's nodes.
+    pub fn hierarchy_capacity(&self) -> usize {
+        self.arena.len()
     }
 
     /// [`EngineStorage::allocate`] refusing, with exit status 2, a capacity the mesh cannot

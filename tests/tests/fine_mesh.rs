@@ -101,3 +101,61 @@ fn a_zone_wider_than_the_query_may_visit_is_counted_never_silent() {
     }
     assert_eq!(world.saturations().candidates, 50);
 }
+
+/// The hierarchy nodes a burr held at the centre of `builtin:block:n` uses once the drill has
+/// nothing left to do, and the arena the scenario's sizing chose.
+fn nodes_used(n: usize, radius: f64, max_depth: u8) -> (usize, usize) {
+    let sc = Scenario {
+        mesh: format!("builtin:block:{n}"),
+        tool: format!("sphere:{radius}"),
+        max_depth,
+        ..Scenario::default()
+    };
+    let params = TickParams::of(&sc).expect("scenario");
+    let loaded = engine::load_mesh(&sc).expect("mesh");
+    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let arena = store.hierarchy_capacity();
+    let mut world = store.world().expect("world");
+    let mut tool = ToolState::default();
+    let pose = Pose {
+        position: Vec3::ZERO,
+        rotation: [1.0, 0.0, 0.0, 0.0],
+        buttons: DRILL_ON,
+    };
+    for i in 0..20_000 {
+        engine::tick(&mut world, &mut tool, &params, &pose);
+        if i > 10 && world.pending() == 0 {
+            break;
+        }
+    }
+    let sat = world.saturations();
+    assert_eq!(sat.arena + sat.pending, 0, "depth {max_depth}: {sat:?}");
+    (world.hierarchy().node_count(), arena)
+}
+
+/// A finer `--max-depth` needs more hierarchy nodes for the same cut: its leaves are a
+/// quarter of the area, so the drilled surface takes about four times the nodes per level
+/// (measured here on a held burr, the oracle). The arena sized for the burr grows by the
+/// same factor per level past the default depth, so the default capacities drill at depth 6
+/// as at depth 5 instead of filling the arena (a 12 s hold on the teddy at depth 6 used to
+/// saturate it on 11,230 ticks).
+#[test]
+fn the_arena_grows_with_max_depth_as_the_drilled_surface_does() {
+    let (d3, _) = nodes_used(4, 0.3, 3);
+    let (d4, _) = nodes_used(4, 0.3, 4);
+    let growth = d4 as f64 / d3 as f64;
+    assert!(
+        (3.0..=5.0).contains(&growth),
+        "nodes {d3} -> {d4}: x{growth:.2}"
+    );
+    // The sizes chosen at the default depth and deeper, for a burr about one tet wide.
+    let (_, a5) = nodes_used(2, 0.05, 5);
+    let (_, a6) = nodes_used(2, 0.05, 6);
+    let (_, a7) = nodes_used(2, 0.05, 7);
+    assert_eq!(a6, 4 * a5, "arena {a5} -> {a6}");
+    assert_eq!(
+        a7,
+        (16 * a5).min(engine::MAX_SIZED_ARENA),
+        "arena {a5} -> {a7}"
+    );
+}

@@ -101,6 +101,9 @@ pub struct SizingSummary {
     pub candidates_from_tool: bool,
     /// Most hash cells one step's zone query visits.
     pub max_cells: u32,
+    /// Hierarchy arena nodes (sized from the tool, the mesh and `--max-depth` unless the
+    /// scenario set `hierarchy_capacity`).
+    pub hierarchy_capacity: usize,
 }
 
 impl SizingSummary {
@@ -111,13 +114,14 @@ impl SizingSummary {
             candidate_capacity: store.candidate_capacity(),
             candidates_from_tool: sc.candidate_capacity.is_none(),
             max_cells: store.tool_sizing().map_or(0, |z| z.max_cells),
+            hierarchy_capacity: store.hierarchy_capacity(),
         }
     }
 
     /// One line for the summary.
     pub fn line(&self) -> String {
         format!(
-            "sized for the burr: {} candidates ({}), {} query cells (boundary tets {:.4} units)",
+            "sized for the burr: {} candidates ({}), {} query cells, {} hierarchy nodes (boundary tets {:.4} units)",
             self.candidate_capacity,
             if self.candidates_from_tool {
                 "from the tool and the mesh"
@@ -125,6 +129,7 @@ impl SizingSummary {
                 "candidate_capacity"
             },
             self.max_cells,
+            self.hierarchy_capacity,
             self.boundary_edge
         )
     }
