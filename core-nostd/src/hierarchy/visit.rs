@@ -5,7 +5,7 @@
 //! level where the face is interior — or crosses the coarse face into the neighbouring tet's
 //! tree through the mesh's reverse index (its ring offset gives the listing permutation) —
 //! and walks back down on the other side, mapping each recorded position through the listing
-//! permutation. [`visit_across`] then follows that path in the instantiated hierarchy: it meets
+//! permutation. `visit_across` then follows that path in the instantiated hierarchy: it meets
 //! either one coarser leaf on the path, or the subtree of the neighbour restricted to the nodes
 //! with a face on the shared face.
 
@@ -103,7 +103,7 @@ pub fn neighbour(mesh: &Mesh<'_>, tet: TetId, path: &Path, face: u8) -> Option<N
     Some(out)
 }
 
-/// A leaf met by [`visit_across`].
+/// A leaf met by `visit_across`.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Met {
     /// Its coarse tet.
@@ -120,7 +120,7 @@ pub struct Met {
     pub record: HNode,
 }
 
-/// What [`visit_across`] found on the other side.
+/// What `visit_across` found on the other side.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum Side {
     /// The face is on the mesh boundary: nothing across it.

@@ -8,7 +8,7 @@
 //! [`mock::MockTransport`]; [`usb::RusbTransport`] is the real one. A transport may offer a
 //! second path to the OUT endpoint ([`Transport::out_path`]: the USB handle is shared, libusb's
 //! synchronous transfers are thread-safe); the device then has a
-//! [`MotorCutoff`](crate::cutoff::MotorCutoff) that sends a zero-motor frame through it.
+//! [`MotorCutoff`] that sends a zero-motor frame through it.
 
 pub mod frame;
 pub mod ftdi;

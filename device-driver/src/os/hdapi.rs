@@ -659,7 +659,7 @@ impl HdLibrary for HdApi {
         }
     }
 
-    /// Schedules [`stall_guard_callback`] with `hdScheduleAsynchronous` at
+    /// Schedules `stall_guard_callback` with `hdScheduleAsynchronous` at
     /// [`HD_MAX_SCHEDULER_PRIORITY`]; `Ok(false)` when the library lacks the scheduler entry
     /// points. Installing it again replaces nothing: the first guard stays.
     fn stall_guard(&mut self, heartbeat: Arc<Heartbeat>) -> Result<bool, DeviceError> {
