@@ -400,7 +400,6 @@ impl<T: Transport> FalconDevice<T> {
     /// At most `status_tries` frames and `status_tries * reads_per_tick` reads.
     pub fn check_firmware(&mut self) -> Result<(), DeviceError> {
         let zero = zero_frame(self.leds);
-        let mut packet = [0u8; MAX_PACKET];
         for _ in 0..self.config.status_tries.max(1) {
             match self.transport.bulk_write(&zero, self.config.timeout_ms) {
                 Ok(_) => {}
@@ -408,20 +407,33 @@ impl<T: Transport> FalconDevice<T> {
                 // A frame that did not go out (a timeout): the next try sends it again.
                 Err(_) => continue,
             }
-            for _ in 0..self.config.reads_per_tick.max(1) {
-                let n = self
-                    .transport
-                    .bulk_read(&mut packet, self.config.timeout_ms)
-                    .map_err(|e| self.fail(e))?;
-                let data = packet.get(STATUS_BYTES..n.min(MAX_PACKET)).unwrap_or(&[]);
-                if let Some(report) = self.assembler.push(data) {
-                    self.take_homing(&report);
-                    self.sent_since_read = false;
-                    return Ok(());
-                }
+            if let Some(report) = self.read_report()? {
+                self.take_homing(&report);
+                self.sent_since_read = false;
+                return Ok(());
             }
         }
         Err(DeviceError::FirmwareNotRunning)
+    }
+
+    /// Reads up to `reads_per_tick` packets until the assembler completes a report; `None`
+    /// when none completed. A transfer error fails the device (and is returned).
+    ///
+    /// # Bounded work
+    /// At most `reads_per_tick` bulk reads.
+    fn read_report(&mut self) -> Result<Option<FalconReport>, DeviceError> {
+        let mut packet = [0u8; MAX_PACKET];
+        for _ in 0..self.config.reads_per_tick.max(1) {
+            let n = self
+                .transport
+                .bulk_read(&mut packet, self.config.timeout_ms)
+                .map_err(|e| self.fail(e))?;
+            let data = packet.get(STATUS_BYTES..n.min(MAX_PACKET)).unwrap_or(&[]);
+            if let Some(report) = self.assembler.push(data) {
+                return Ok(Some(report));
+            }
+        }
+        Ok(None)
     }
 
     /// Start-up: with `firmware`, [`upload_firmware`](Self::upload_firmware) (which ends in
@@ -568,20 +580,7 @@ impl<T: Transport> HapticDevice for FalconDevice<T> {
             self.send(&out)?;
         }
         self.sent_since_read = false;
-        let mut packet = [0u8; MAX_PACKET];
-        let mut report = None;
-        for _ in 0..self.config.reads_per_tick.max(1) {
-            let n = self
-                .transport
-                .bulk_read(&mut packet, self.config.timeout_ms)
-                .map_err(|e| self.fail(e))?;
-            let data = packet.get(STATUS_BYTES..n.min(MAX_PACKET)).unwrap_or(&[]);
-            if let Some(r) = self.assembler.push(data) {
-                report = Some(r);
-                break;
-            }
-        }
-        let report = report.ok_or(DeviceError::NoFrame)?;
+        let report = self.read_report()?.ok_or(DeviceError::NoFrame)?;
         self.tick += 1;
         self.buttons = report.buttons;
         self.take_homing(&report);
