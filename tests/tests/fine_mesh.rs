@@ -11,12 +11,28 @@ use tetradrill::scenario::Scenario;
 use tetradrill::traces::Pose;
 use tetradrill_core::force::ToolState;
 use tetradrill_core::script::DRILL_ON;
+use tetradrill_core::servo::Saturations;
 use tetradrill_core::Vec3;
 
+/// What a burr held at the centre of a block did, and the capacities it had.
+struct Held {
+    /// Removed volume once the drill's work was done (or the ticks ran out).
+    removed: f64,
+    /// The world's saturations.
+    saturations: Saturations,
+    /// Candidate list entries chosen.
+    candidates: usize,
+    /// Hash cells one step's query may visit.
+    cells: u32,
+    /// Hierarchy arena nodes chosen.
+    arena: usize,
+    /// Hierarchy nodes in use at the end.
+    nodes: usize,
+}
+
 /// Holds a burr of `radius` at the centre of `builtin:block:n` with the drill on until the
-/// drill's work is done (or `max_ticks`); returns the removed volume, the world's candidate
-/// saturations and the capacities chosen.
-fn hold(n: usize, radius: f64, max_depth: u8, max_ticks: u64) -> (f64, u32, usize, u32) {
+/// drill's work is done (or `max_ticks`).
+fn hold(n: usize, radius: f64, max_depth: u8, max_ticks: u64) -> Held {
     let sc = Scenario {
         mesh: format!("builtin:block:{n}"),
         tool: format!("sphere:{radius}"),
@@ -26,7 +42,8 @@ fn hold(n: usize, radius: f64, max_depth: u8, max_ticks: u64) -> (f64, u32, usiz
     let params = TickParams::of(&sc).expect("scenario");
     let loaded = engine::load_mesh(&sc).expect("mesh");
     let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
-    let cands = store.candidate_capacity();
+    let candidates = store.candidate_capacity();
+    let arena = store.hierarchy_capacity();
     let mut world = store.world().expect("world");
     let cells = world.max_cells();
     let mut tool = ToolState::default();
@@ -41,8 +58,14 @@ fn hold(n: usize, radius: f64, max_depth: u8, max_ticks: u64) -> (f64, u32, usiz
             break;
         }
     }
-    let removed = world.hierarchy().removed_volume();
-    (removed, world.saturations().candidates, cands, cells)
+    Held {
+        removed: world.hierarchy().removed_volume(),
+        saturations: world.saturations(),
+        candidates,
+        cells,
+        arena,
+        nodes: world.hierarchy().node_count(),
+    }
 }
 
 #[test]
@@ -50,7 +73,8 @@ fn a_burr_many_tets_wide_drills_its_own_volume_with_the_default_buffers() {
     // 196,608 tets of edge 1/32; a burr of radius 0.15 spans ten of them. Its zone holds
     // about 40,000 tets: the fixed list of 1,024 used to fill on every step.
     let r = 0.15;
-    let (removed, saturated, cands, _) = hold(32, r, 2, 4000);
+    let held = hold(32, r, 2, 4000);
+    let (removed, saturated, cands) = (held.removed, held.saturations.candidates, held.candidates);
     let sphere = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
     assert!(cands > 1024, "the list was not sized for the burr: {cands}");
     assert_eq!(saturated, 0, "steps saturated with {cands} candidates");
@@ -67,7 +91,8 @@ fn a_zone_wider_than_the_query_may_visit_is_counted_never_silent() {
     // Radius 0.3 on edge 1/40: the burr's zone covers tens of thousands of hash cells. The
     // world sized for it drills; a world whose list (and so query) is held to the core's
     // defaults counts every step it cannot see, instead of drilling nothing quietly.
-    let (removed, saturated, _, cells) = hold(40, 0.3, 1, 4000);
+    let held = hold(40, 0.3, 1, 4000);
+    let (removed, saturated, cells) = (held.removed, held.saturations.candidates, held.cells);
     assert!(
         cells > 4096,
         "the query was not sized for the burr: {cells} cells"
@@ -103,34 +128,13 @@ fn a_zone_wider_than_the_query_may_visit_is_counted_never_silent() {
 }
 
 /// The hierarchy nodes a burr held at the centre of `builtin:block:n` uses once the drill has
-/// nothing left to do, and the arena the scenario's sizing chose.
+/// nothing left to do (neither the arena nor the pending deque ever full), and the arena the
+/// scenario's sizing chose.
 fn nodes_used(n: usize, radius: f64, max_depth: u8) -> (usize, usize) {
-    let sc = Scenario {
-        mesh: format!("builtin:block:{n}"),
-        tool: format!("sphere:{radius}"),
-        max_depth,
-        ..Scenario::default()
-    };
-    let params = TickParams::of(&sc).expect("scenario");
-    let loaded = engine::load_mesh(&sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
-    let arena = store.hierarchy_capacity();
-    let mut world = store.world().expect("world");
-    let mut tool = ToolState::default();
-    let pose = Pose {
-        position: Vec3::ZERO,
-        rotation: [1.0, 0.0, 0.0, 0.0],
-        buttons: DRILL_ON,
-    };
-    for i in 0..20_000 {
-        engine::tick(&mut world, &mut tool, &params, &pose);
-        if i > 10 && world.pending() == 0 {
-            break;
-        }
-    }
-    let sat = world.saturations();
+    let held = hold(n, radius, max_depth, 20_000);
+    let sat = held.saturations;
     assert_eq!(sat.arena + sat.pending, 0, "depth {max_depth}: {sat:?}");
-    (world.hierarchy().node_count(), arena)
+    (held.nodes, held.arena)
 }
 
 /// A finer `--max-depth` needs more hierarchy nodes for the same cut: its leaves are a
