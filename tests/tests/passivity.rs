@@ -12,6 +12,7 @@ use tetradrill::commands::pipeline::{self, PipelineSetup, RunReport, MESH_UNITS}
 use tetradrill::engine::TickParams;
 use tetradrill::scenario::Scenario;
 use tetradrill::tasks::{passivity_params, servo_tick, ServoState, SERVO_PERIOD_NS};
+use tetradrill_core::force::PassivityParams;
 use tetradrill_core::servo::ContactState;
 use tetradrill_core::Vec3;
 use tetradrill_device::{
@@ -172,6 +173,37 @@ fn each_fault_trips_the_passivity_controller_and_the_fault_free_press_does_not()
     }
 }
 
+/// A wall through z = 0.5 facing +z, the burr's centre (radius 0.1) touching it at z = 0.6.
+const WALL: ContactState = ContactState {
+    valid: true,
+    point: Vec3::new(0.0, 0.0, 0.5),
+    normal: Vec3::Z,
+    depth: 0.0,
+    centre: Vec3::new(0.0, 0.0, 0.6),
+    triangles: 1,
+};
+
+/// Runs `ticks` servo ticks of `device` against [`WALL`] with the scenario's force law and an
+/// observer with `observer` settings; `each` sees the state after every tick.
+fn against_the_wall(
+    device: &mut dyn HapticDevice,
+    sc: &Scenario,
+    observer: PassivityParams,
+    ticks: u64,
+    mut each: impl FnMut(&ServoState),
+) -> ServoState {
+    let params = TickParams::of(sc).expect("params");
+    let mut st = ServoState::default();
+    st.passivity.set_params(observer);
+    let ring = ArrayQueue::new(4);
+    for tick in 0..ticks {
+        while ring.pop().is_some() {}
+        servo_tick(device, &MESH_UNITS, &params, &WALL, &ring, &mut st, tick).expect("tick");
+        each(&st);
+    }
+    st
+}
+
 /// The burr pressed down onto a fixed plane (the cube's top face, z = 0.5) by a loosely held
 /// stylus (hand damping 0.3 N s/m, the stylus a continuous-time mass: 10 integration steps per
 /// tick), the wall `stiffness`: the z force of every tick.
@@ -179,15 +211,6 @@ fn hold(stiffness: f64, dissipate: bool) -> (Vec<f32>, ServoState) {
     let sc = Scenario {
         stiffness,
         ..cube()
-    };
-    let params = TickParams::of(&sc).expect("params");
-    let plane = ContactState {
-        valid: true,
-        point: Vec3::new(0.0, 0.0, 0.5),
-        normal: Vec3::Z,
-        depth: 0.0,
-        centre: Vec3::new(0.0, 0.0, 0.6),
-        triangles: 1,
     };
     // The hand from 5 cm above contact to 2 cm into the wall in 0.5 s, then held.
     let path = |t: f64| PathPoint {
@@ -201,26 +224,10 @@ fn hold(stiffness: f64, dissipate: bool) -> (Vec<f32>, ServoState) {
         ..SimConfig::default()
     };
     let mut device = SimDevice::new(Scripted(path), c);
-    let mut st = ServoState::default();
     let mut p = passivity_params(&device.spec(), SERVO_PERIOD_NS);
     p.dissipate = dissipate;
-    st.passivity.set_params(p);
-    let ring = ArrayQueue::new(4);
     let mut fz = Vec::new();
-    for tick in 0..4000 {
-        while ring.pop().is_some() {}
-        servo_tick(
-            &mut device,
-            &MESH_UNITS,
-            &params,
-            &plane,
-            &ring,
-            &mut st,
-            tick,
-        )
-        .expect("tick");
-        fz.push(st.last_force.z);
-    }
+    let st = against_the_wall(&mut device, &sc, p, 4000, |st| fz.push(st.last_force.z));
     (fz, st)
 }
 
@@ -353,33 +360,9 @@ impl HapticDevice for Jumping {
 #[test]
 fn a_position_reset_restarts_the_observer() {
     let run = |counted: bool| {
-        let params = TickParams::of(&cube()).expect("params");
-        let plane = ContactState {
-            valid: true,
-            point: Vec3::new(0.0, 0.0, 0.5),
-            normal: Vec3::Z,
-            depth: 0.0,
-            centre: Vec3::new(0.0, 0.0, 0.6),
-            triangles: 1,
-        };
         let mut device = Jumping { tick: 0, counted };
-        let mut st = ServoState::default();
-        st.passivity
-            .set_params(passivity_params(&device.spec(), SERVO_PERIOD_NS));
-        let ring = ArrayQueue::new(4);
-        for tick in 0..1000 {
-            while ring.pop().is_some() {}
-            servo_tick(
-                &mut device,
-                &MESH_UNITS,
-                &params,
-                &plane,
-                &ring,
-                &mut st,
-                tick,
-            )
-            .expect("tick");
-        }
+        let p = passivity_params(&device.spec(), SERVO_PERIOD_NS);
+        let st = against_the_wall(&mut device, &cube(), p, 1000, |_| {});
         st.passivity.trips()
     };
     assert_eq!(run(true), 0, "a counted reset trips nothing");
