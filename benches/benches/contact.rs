@@ -21,6 +21,7 @@ use parry3d::partitioning::{Bvh, BvhBuildStrategy};
 use parry3d::query::PointQuery;
 use parry3d::shape::Tetrahedron;
 use tetradrill::owned::OwnedMesh;
+use tetradrill_benches::{impaled_poses, touch_poses, Lcg};
 use tetradrill_core::collide::{
     hash_tets, points_in_tets, points_in_tets_occupied, points_in_tets_walked, walks_exact, Body,
     Collision, WalkStarts,
@@ -34,7 +35,6 @@ use tetradrill_core::force::{
 };
 use tetradrill_core::hash::{average_edge_length, prime_at_most, HashEntry, SpatialHash};
 use tetradrill_core::ids::{NodeId, TetId};
-use tetradrill_core::mesh::Mesh;
 
 fn meshes_dir() -> PathBuf {
     match std::env::var("TETRADRILL_MESHES") {
@@ -66,66 +66,6 @@ impl HashStore {
     fn hash(&mut self, cell: f32) -> SpatialHash<'_> {
         SpatialHash::new(&mut self.starts, &mut self.entries, cell).unwrap()
     }
-}
-
-/// A tiny deterministic generator (the benches have no `rand`).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 40) as f32) / ((1u64 << 24) as f32)
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next()
-    }
-}
-
-/// Touching poses: the tip pushed up to `depth` into the surface along the normal, the pen's
-/// axis (+z at rest) within about 40 degrees of the outward normal, any twist.
-fn touch_poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3, Quat)> {
-    let mut r = Lcg(seed);
-    let boundary: Vec<usize> = (0..obj.node_count())
-        .filter(|&i| obj.nodes()[i].boundary)
-        .collect();
-    (0..n)
-        .map(|_| {
-            let b = boundary[(r.next() * boundary.len() as f32) as usize % boundary.len()];
-            let nrm = obj.normals()[b];
-            let tip = obj.positions()[b] - nrm * r.range(0.0, depth);
-            let tilt = Vec3::new(r.range(-0.6, 0.6), r.range(-0.6, 0.6), r.range(-0.6, 0.6));
-            let axis = (nrm + tilt).normalize();
-            let q = Quat::from_rotation_arc(Vec3::Z, axis)
-                * Quat::from_rotation_z(r.range(0.0, std::f32::consts::TAU));
-            (tip, q)
-        })
-        .collect()
-}
-
-/// Adversarial poses: the tip near the surface, pushed in by up to `depth`, any orientation,
-/// so the pen often runs deep through the object.
-fn poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3, Quat)> {
-    let mut r = Lcg(seed);
-    let boundary: Vec<usize> = (0..obj.node_count())
-        .filter(|&i| obj.nodes()[i].boundary)
-        .collect();
-    (0..n)
-        .map(|_| {
-            let b = boundary[(r.next() * boundary.len() as f32) as usize % boundary.len()];
-            let tip = obj.positions()[b] - obj.normals()[b] * r.range(0.0, depth);
-            let q = Quat::from_xyzw(
-                r.range(-1.0, 1.0),
-                r.range(-1.0, 1.0),
-                r.range(-1.0, 1.0),
-                r.range(-1.0, 1.0),
-            )
-            .normalize();
-            (tip, q)
-        })
-        .collect()
 }
 
 /// Single-call timings in microseconds: over every call (mean, p99, max), and over the poses
@@ -236,7 +176,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
         object_depth: DepthScratch::new(&mut s2, &mut q2),
     };
     let ps_list = touch_poses(&obj, 200, 0.05, 7);
-    let deep_list = poses(&obj, 200, 0.25, 7);
+    let deep_list = impaled_poses(&obj, 200, 0.25, 7);
     let traced = PenOptions::default();
     let hashed = PenOptions {
         method: DepthMethod::Hashed,
@@ -523,7 +463,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
         .collect();
     let spheres: Vec<Vec3> = (0..200)
         .map(|_| {
-            let b = boundary[(r.next() * boundary.len() as f32) as usize % boundary.len()];
+            let b = boundary[(r.unit() * boundary.len() as f32) as usize % boundary.len()];
             obj.positions()[b] + obj.normals()[b] * r.range(-0.03, 0.03)
         })
         .collect();

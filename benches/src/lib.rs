@@ -1,1 +1,68 @@
-//! Shared set-up for tetradrill's benchmarks and worst-case timing harness.
+//! Shared set-up for tetradrill's benchmarks and worst-case timing harness: the deterministic
+//! generator and the pen poses the contact bench and `query_profile` both use.
+
+use glam::{Quat, Vec3};
+use tetradrill_core::mesh::Mesh;
+
+/// A tiny deterministic generator (the benches have no `rand`).
+#[derive(Debug, Clone)]
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    /// The next value in `[0, 1)`.
+    pub fn unit(&mut self) -> f32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((self.0 >> 40) as f32) / ((1u64 << 24) as f32)
+    }
+    /// The next value in `[lo, hi)`.
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.unit()
+    }
+}
+
+/// Touching poses: the tip pushed up to `depth` into the surface along the normal, the pen's
+/// axis (+z at rest) within about 40 degrees of the outward normal, any twist.
+pub fn touch_poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3, Quat)> {
+    let mut r = Lcg(seed);
+    let boundary: Vec<usize> = (0..obj.node_count())
+        .filter(|&i| obj.nodes()[i].boundary)
+        .collect();
+    (0..n)
+        .map(|_| {
+            let b = boundary[(r.unit() * boundary.len() as f32) as usize % boundary.len()];
+            let nrm = obj.normals()[b];
+            let tip = obj.positions()[b] - nrm * r.range(0.0, depth);
+            let tilt = Vec3::new(r.range(-0.6, 0.6), r.range(-0.6, 0.6), r.range(-0.6, 0.6));
+            let axis = (nrm + tilt).normalize();
+            let q = Quat::from_rotation_arc(Vec3::Z, axis)
+                * Quat::from_rotation_z(r.range(0.0, std::f32::consts::TAU));
+            (tip, q)
+        })
+        .collect()
+}
+
+/// Adversarial poses: the tip near the surface, pushed in by up to `depth`, any orientation,
+/// so the pen often runs deep through the object.
+pub fn impaled_poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3, Quat)> {
+    let mut r = Lcg(seed);
+    let boundary: Vec<usize> = (0..obj.node_count())
+        .filter(|&i| obj.nodes()[i].boundary)
+        .collect();
+    (0..n)
+        .map(|_| {
+            let b = boundary[(r.unit() * boundary.len() as f32) as usize % boundary.len()];
+            let tip = obj.positions()[b] - obj.normals()[b] * r.range(0.0, depth);
+            let q = Quat::from_xyzw(
+                r.range(-1.0, 1.0),
+                r.range(-1.0, 1.0),
+                r.range(-1.0, 1.0),
+                r.range(-1.0, 1.0),
+            )
+            .normalize();
+            (tip, q)
+        })
+        .collect()
+}

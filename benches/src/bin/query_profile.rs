@@ -17,6 +17,7 @@ use std::process::ExitCode;
 use glam::{Quat, Vec3};
 use tetradrill::owned::OwnedMesh;
 use tetradrill::pen::ObjectCells;
+use tetradrill_benches::{impaled_poses, touch_poses};
 use tetradrill_core::collide::{
     hash_tets, points_in_tets, points_in_tets_occupied, points_in_tets_walked, walks_exact, Body,
     CollideReport, Collision, Occupancy, WalkStarts,
@@ -26,53 +27,14 @@ use tetradrill_core::hash::{average_edge_length, prime_at_most, HashEntry, Spati
 use tetradrill_core::ids::{NodeId, TetId};
 use tetradrill_core::mesh::Mesh;
 
-/// The contact bench's deterministic generator.
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 40) as f32) / ((1u64 << 24) as f32)
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next()
-    }
-}
-
 /// The contact bench's poses: touching (tip up to 0.05 in, axis near the normal) or impaled
 /// (tip up to 0.25 in, any orientation), seed 7.
 fn poses(obj: &Mesh<'_>, n: usize, touching: bool) -> Vec<(Vec3, Quat)> {
-    let mut r = Lcg(7);
-    let boundary: Vec<usize> = (0..obj.node_count())
-        .filter(|&i| obj.nodes()[i].boundary)
-        .collect();
-    (0..n)
-        .map(|_| {
-            let b = boundary[(r.next() * boundary.len() as f32) as usize % boundary.len()];
-            let nrm = obj.normals()[b];
-            if touching {
-                let tip = obj.positions()[b] - nrm * r.range(0.0, 0.05);
-                let tilt = Vec3::new(r.range(-0.6, 0.6), r.range(-0.6, 0.6), r.range(-0.6, 0.6));
-                let axis = (nrm + tilt).normalize();
-                let q = Quat::from_rotation_arc(Vec3::Z, axis)
-                    * Quat::from_rotation_z(r.range(0.0, std::f32::consts::TAU));
-                (tip, q)
-            } else {
-                let tip = obj.positions()[b] - nrm * r.range(0.0, 0.25);
-                let q = Quat::from_xyzw(
-                    r.range(-1.0, 1.0),
-                    r.range(-1.0, 1.0),
-                    r.range(-1.0, 1.0),
-                    r.range(-1.0, 1.0),
-                )
-                .normalize();
-                (tip, q)
-            }
-        })
-        .collect()
+    if touching {
+        touch_poses(obj, n, 0.05, 7)
+    } else {
+        impaled_poses(obj, n, 0.25, 7)
+    }
 }
 
 /// Everything a query reads.
