@@ -8,7 +8,7 @@ use super::visit::visit_across;
 use crate::ids::TetId;
 use crate::mesh::Mesh;
 
-fn find(uf: &mut [u32], mut x: u32) -> u32 {
+pub(super) fn find(uf: &mut [u32], mut x: u32) -> u32 {
     // Path halving; every step strictly shortens the chain, so this ends.
     loop {
         let Some(&p) = uf.get(x as usize) else {
@@ -26,29 +26,13 @@ fn find(uf: &mut [u32], mut x: u32) -> u32 {
 }
 
 impl Hierarchy<'_> {
-    /// Scratch entries [`Hierarchy::components`] needs: one per instantiated node.
-    pub fn components_scratch_needed(&self) -> usize {
-        self.node_count()
-    }
-
-    /// Number of connected pieces of remaining material (non-erased leaves and untouched coarse
-    /// tets, joined across shared faces). A piece cut off by drilling counts as its own.
+    /// Fills `uf` (one entry per instantiated node) with a union-find forest of the non-erased
+    /// leaves joined across shared faces: after it, two leaves are in the same piece iff
+    /// `find` gives them the same root, the smallest node reference of the piece.
     ///
     /// # Bounded work
-    /// O(L * 4 * (depth + nodes across one face)) for L non-erased leaves, plus O(nodes) for
-    /// the union-find (path halving, smaller index wins).
-    ///
-    /// # Errors
-    /// [`HierarchyError::StorageTooSmall`] when `scratch` is shorter than
-    /// [`Hierarchy::components_scratch_needed`].
-    pub fn components(&self, mesh: &Mesh<'_>, scratch: &mut [u32]) -> Result<u32, HierarchyError> {
-        let n = self.node_count();
-        let uf = scratch
-            .get_mut(..n)
-            .ok_or(HierarchyError::StorageTooSmall {
-                what: "components scratch",
-                needed: n,
-            })?;
+    /// As [`Hierarchy::components`].
+    pub(super) fn join_pieces(&self, mesh: &Mesh<'_>, uf: &mut [u32]) {
         for (i, p) in uf.iter_mut().enumerate() {
             *p = i as u32;
         }
@@ -78,6 +62,32 @@ impl Hierarchy<'_> {
                 }
             });
         }
+    }
+
+    /// Scratch entries [`Hierarchy::components`] needs: one per instantiated node.
+    pub fn components_scratch_needed(&self) -> usize {
+        self.node_count()
+    }
+
+    /// Number of connected pieces of remaining material (non-erased leaves and untouched coarse
+    /// tets, joined across shared faces). A piece cut off by drilling counts as its own.
+    ///
+    /// # Bounded work
+    /// O(L * 4 * (depth + nodes across one face)) for L non-erased leaves, plus O(nodes) for
+    /// the union-find (path halving, smaller index wins).
+    ///
+    /// # Errors
+    /// [`HierarchyError::StorageTooSmall`] when `scratch` is shorter than
+    /// [`Hierarchy::components_scratch_needed`].
+    pub fn components(&self, mesh: &Mesh<'_>, scratch: &mut [u32]) -> Result<u32, HierarchyError> {
+        let n = self.node_count();
+        let uf = scratch
+            .get_mut(..n)
+            .ok_or(HierarchyError::StorageTooSmall {
+                what: "components scratch",
+                needed: n,
+            })?;
+        self.join_pieces(mesh, uf);
         let mut count = 0u32;
         for t in 0..self.tet_count() {
             self.for_each_leaf(TetId::from_idx(t), |leaf| {

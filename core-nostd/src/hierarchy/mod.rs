@@ -19,7 +19,8 @@
 //! - [`Hierarchy::nearest_visible`]: the closest visible triangle to a point (branch and
 //!   bound over the nodes whose *surface* bit says a v_list leaf lies below), for the contact;
 //!   [`SphereMemo`] remembers the nodes' bounding spheres across searches.
-//! - connected pieces of the remaining material: [`Hierarchy::components`].
+//! - connected pieces of the remaining material: [`Hierarchy::components`]; the small
+//!   detached ones (debris) erased: [`Hierarchy::remove_debris`].
 //! - giving back the blocks of wholly erased subtrees: `reclaim` ([`Hierarchy::arena_live`],
 //!   [`Hierarchy::arena_reclaimable`], [`Hierarchy::reclaimed`]).
 //! - invariants: [`Hierarchy::validate`].
@@ -29,6 +30,7 @@
 //! 8 + 12 bytes per coarse tet.
 
 mod components;
+mod debris;
 mod geometry;
 mod memo;
 mod nearest;
@@ -41,6 +43,7 @@ pub mod table;
 mod validate;
 pub mod visit;
 
+pub use debris::{DebrisReport, DEBRIS_LEAVES};
 pub(crate) use geometry::{child_of_refinement, child_of_ten, refinement_points, RootFrame};
 pub use geometry::{node_positions, node_volume};
 pub use memo::{SphereMemo, SphereSlot};

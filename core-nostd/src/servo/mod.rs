@@ -405,6 +405,26 @@ impl<'a> World<'a> {
         self.drill.pending()
     }
 
+    /// Erases the debris of the drilled material: detached pieces smaller than `max_leaves`
+    /// leaves of depth `max_depth` ([`Hierarchy::remove_debris`], usually with
+    /// [`crate::hierarchy::DEBRIS_LEAVES`] and the drill's `max_depth`). `scratch` holds
+    /// [`Hierarchy::debris_scratch_needed`] entries.
+    ///
+    /// # Bounded work
+    /// As [`Hierarchy::remove_debris`]: O(hierarchy nodes), not for a servo tick.
+    ///
+    /// # Errors
+    /// [`HierarchyError::StorageTooSmall`] for a short `scratch` (nothing changed).
+    pub fn remove_debris(
+        &mut self,
+        max_leaves: u32,
+        max_depth: u8,
+        scratch: &mut [u32],
+    ) -> Result<crate::hierarchy::DebrisReport, HierarchyError> {
+        self.hier
+            .remove_debris(&self.mesh, max_leaves, max_depth, scratch)
+    }
+
     /// Saturations so far, by kind.
     pub fn saturations(&self) -> Saturations {
         Saturations {
