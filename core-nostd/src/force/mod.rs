@@ -4,6 +4,8 @@
 //! |---------------|-----------------------------------------------------------------------|
 //! | [`triangles`] | sphere / active sample point: radius minus distance to the surface    |
 //! | [`segment`]   | passive point: the segment between two positions against the faces    |
+//! | [`passive`]   | passive points tracked tick to tick, held at a face they cross; force  |
+//! | [`shaft`]     | a drill: the burr and the passive points along its shaft               |
 //! | [`pen`]       | tet-mesh tool: collisions both ways, consistent depth, summed force   |
 //! | [`held`]      | the pen's servo half: force carried from the last contact pass        |
 //! | [`entry`]     | the thin-pen remedy: an entry plane remembered while in contact        |
@@ -20,15 +22,18 @@ pub mod digest;
 pub mod entry;
 pub mod frames;
 pub mod held;
+pub mod passive;
 pub mod passivity;
 pub mod pen;
 pub mod response;
 pub mod segment;
+pub mod shaft;
 pub mod triangles;
 
 pub use digest::{force_digest, ForceDigest};
 pub use entry::EntryPlane;
 pub use held::{pen_servo_force, HeldContact, PenServo, ServoScratch};
+pub use passive::{passive_force, PassivePoint, PassiveProbe};
 pub use passivity::{
     penalty_storage, PassivityObserver, PassivityParams, Storage, DEFAULT_SLACK_J, DEFAULT_TRIP_J,
 };
@@ -38,6 +43,7 @@ pub use pen::{
 };
 pub use response::{clamp_force, damping_force, display_offset, ForceParams, ToolState};
 pub use segment::{segment_first_hit, SegmentHit};
+pub use shaft::{DrillTool, MAX_PASSIVE};
 pub use triangles::{
     boundary_triangle, closest_point_on_triangle, mesh_sphere_contact, sphere_contact,
     SphereContact,

@@ -29,11 +29,13 @@ use crate::ids::TetId;
 use crate::mesh::Mesh;
 
 mod force;
+mod passive;
 mod simulate;
 #[cfg(test)]
 mod tests;
 
 pub use force::servo_force;
+pub use passive::{drill_force, DrillState, PassiveReport};
 
 /// Storage for a [`World`], handed in by the caller; [`WorldSizes`] says how much.
 #[derive(Debug)]

@@ -8,6 +8,7 @@ use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
     pen_pass, pen_servo_force, ForceDigest, HeldContact, PenState, ServoScratch, ToolState,
 };
+use tetradrill_core::hierarchy::DEBRIS_LEAVES;
 use tetradrill_core::servo::Saturations;
 use tetradrill_core::Quat;
 use tetradrill_core::Vec3;
@@ -66,8 +67,12 @@ pub struct ReplayReport {
     pub hierarchy_nodes: usize,
     /// Visible faces of the drilled surface.
     pub visible_faces: u32,
-    /// Connected pieces of remaining material.
+    /// Connected pieces of remaining material, after the debris is erased.
     pub components: u32,
+    /// Debris erased at the end of the run (detached pieces smaller than
+    /// `tetradrill_core::hierarchy::DEBRIS_LEAVES` max-depth leaves; its volume is in
+    /// `removed_volume`).
+    pub debris_erased: DebrisSummary,
     /// Forces.
     pub force: ForceSummary,
     /// FNV-1a hash of the bits of every tick's force, as hex: identical whenever the force
@@ -168,6 +173,17 @@ pub struct PenSummary {
     pub pass_us: TickTiming,
     /// Ticks whose servo could not carry every held penetration (left out of the force).
     pub servo_short_ticks: u64,
+}
+
+/// The debris a replay erased ([`tetradrill_core::hierarchy::DebrisReport`]).
+#[derive(Debug, Default, Clone, Copy, Serialize)]
+pub struct DebrisSummary {
+    /// Pieces erased.
+    pub pieces: u32,
+    /// Hierarchy leaves erased.
+    pub nodes: u32,
+    /// Volume erased.
+    pub volume: f64,
 }
 
 /// Mesh counts of a report.
@@ -430,11 +446,14 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     }
     keep_fastest(&mut fastest, &times);
     let t: Summary = summarise_ns(&fastest);
+    // The crumbs the drill's discretisation leaves along the swept boundary go, then the
+    // pieces left are counted.
+    let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
+    let debris = world
+        .remove_debris(DEBRIS_LEAVES, sc.max_depth, &mut scratch)
+        .map_err(|e| CliError::failure(format!("cannot erase the debris: {e}")))?;
     let h = world.hierarchy();
-    let mut scratch = vec![0u32; h.components_scratch_needed()];
-    let components = h
-        .components(world.mesh(), &mut scratch)
-        .map_err(|e| CliError::failure(format!("cannot count components: {e}")))?;
+    let components = debris.components;
     let valid = engine::validate(&world);
     let rep = ReplayReport {
         mesh: MeshCounts {
@@ -448,6 +467,11 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         hierarchy_nodes: h.node_count(),
         visible_faces: h.visible_face_count(),
         components,
+        debris_erased: DebrisSummary {
+            pieces: debris.pieces,
+            nodes: debris.nodes,
+            volume: debris.volume,
+        },
         force: ForceSummary {
             max_n,
             last: last.to_array(),
@@ -658,6 +682,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
         hierarchy_nodes: h.node_count(),
         visible_faces,
         components,
+        debris_erased: DebrisSummary::default(),
         force: ForceSummary {
             max_n,
             last: last.to_array(),
@@ -727,6 +752,14 @@ fn print_summary(r: &ReplayReport) {
         r.visible_faces,
         r.components
     );
+    if r.debris_erased.pieces > 0 {
+        outln!(
+            "debris erased: {} piece(s), {} leaves, volume {:.3e} (in the removed volume)",
+            r.debris_erased.pieces,
+            r.debris_erased.nodes,
+            r.debris_erased.volume
+        );
+    }
     outln!(
         "force max {:.3} N, final [{:.3}, {:.3}, {:.3}] N, digest {}",
         r.force.max_n,

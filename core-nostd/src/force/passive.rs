@@ -1,0 +1,250 @@
+//! Passive sample points (seed 001 section 3.2): points of the tool that collide and push
+//! back but never erode, such as the samples along a drill's shaft. Each is tracked from
+//! tick to tick: the segment from where it was last seen outside the material (its *proxy*)
+//! to where the device puts it now is tested against the visible faces near it, so a point
+//! that crosses the surface, however fast, is caught at the face it entered and held there
+//! (a god-object) until it comes back out in front of that face. It cannot tunnel.
+//!
+//! [`PassiveProbe`] takes the triangles near one point, one at a time (from any source: a
+//! slice, the hierarchy's visible faces near the point), and [`PassiveProbe::finish`] updates
+//! the point's [`PassivePoint`]; [`passive_force`] turns the points' planes into one force.
+
+use glam::Vec3;
+
+use super::response::clamp_force;
+use crate::geom::closest_point_on_triangle;
+
+/// One passive point's state, carried from tick to tick.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct PassivePoint {
+    /// Where the point was last seen outside the material, or, while held, its place on the
+    /// held face's plane (none before the first tick).
+    pub proxy: Option<Vec3>,
+    /// The plane `(point on the surface, outward unit normal)` of the face the point crossed:
+    /// while set, the point is inside the material and held on this plane.
+    pub held: Option<(Vec3, Vec3)>,
+    /// The contact plane the servo springs from (the held plane, or the closest visible face
+    /// within reach), if any.
+    pub plane: Option<(Vec3, Vec3)>,
+}
+
+impl PassivePoint {
+    /// `true` while the point is held at a face it crossed.
+    pub fn is_held(&self) -> bool {
+        self.held.is_some()
+    }
+}
+
+/// The triangles near one passive point, offered one at a time: the first face the segment
+/// from the proxy to the new position enters, and the closest face to the new position.
+#[derive(Clone, Copy, Debug)]
+pub struct PassiveProbe {
+    from: Vec3,
+    to: Vec3,
+    reach2: f32,
+    /// First entering crossing: `(s along the segment, point, unit normal)`.
+    hit: Option<(f32, Vec3, Vec3)>,
+    /// Closest face within reach: `(squared distance, closest point, unit face normal)`.
+    near: Option<(f32, Vec3, Vec3)>,
+    triangles: u32,
+}
+
+impl PassiveProbe {
+    /// A probe for the point `state` moving to `to`, looking for faces within `reach` of
+    /// `to` (the point's radius plus how far the servo may extrapolate).
+    pub fn new(state: &PassivePoint, to: Vec3, reach: f32) -> Self {
+        Self {
+            from: state.proxy.unwrap_or(to),
+            to,
+            reach2: reach * reach,
+            hit: None,
+            near: None,
+            triangles: 0,
+        }
+    }
+
+    /// The ball `(centre, radius)` that holds every face this probe needs: the segment and
+    /// the reach around its end.
+    pub fn ball(&self, reach: f32) -> (Vec3, f32) {
+        let mid = (self.from + self.to) * 0.5;
+        (mid, 0.5 * (self.to - self.from).length() + reach)
+    }
+
+    /// Triangles offered so far.
+    pub fn triangles(&self) -> u32 {
+        self.triangles
+    }
+
+    /// Offers one outward counter-clockwise triangle. Ties (the same crossing fraction, the
+    /// same distance) keep the triangle offered first.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn offer(&mut self, [a, b, c]: [Vec3; 3]) {
+        self.triangles = self.triangles.wrapping_add(1);
+        let n = (b - a).cross(c - a);
+        let d = self.to - self.from;
+        let den = n.dot(d);
+        // Entering crossing (moving against the outward normal), as `segment_first_hit`.
+        if den < 0.0 {
+            let s = n.dot(a - self.from) / den;
+            if (0.0..=1.0).contains(&s) && self.hit.is_none_or(|h| s < h.0) {
+                let x = self.from + d * s;
+                let inside = (b - a).cross(x - a).dot(n) >= 0.0
+                    && (c - b).cross(x - b).dot(n) >= 0.0
+                    && (a - c).cross(x - c).dot(n) >= 0.0;
+                if inside {
+                    self.hit = Some((s, x, n.normalize_or_zero()));
+                }
+            }
+        }
+        let x = closest_point_on_triangle(self.to, [a, b, c]);
+        let d2 = (self.to - x).length_squared();
+        if d2 <= self.reach2 && self.near.is_none_or(|m| d2 < m.0) {
+            self.near = Some((d2, x, n.normalize_or_zero()));
+        }
+    }
+
+    /// Updates `state` for the point now at `to`:
+    ///
+    /// - held, and `to` is still behind the held plane: stays held, the proxy slides to
+    ///   `to`'s projection on the plane (the faces are not needed);
+    /// - otherwise (free, or back in front of the held plane), when the segment from the
+    ///   proxy to `to` enters a face: held on that face's plane at the entry point;
+    /// - otherwise free: the proxy is `to`, the contact plane the closest face within reach
+    ///   (normal from the face towards the point; the face's normal when the point lies on
+    ///   it or behind it).
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn finish(self, state: &mut PassivePoint) {
+        let to = self.to;
+        if !to.is_finite() {
+            *state = PassivePoint::default();
+            return;
+        }
+        if let Some((q, n)) = state.held {
+            let behind = (to - q).dot(n);
+            if behind < 0.0 {
+                state.proxy = Some(to - n * behind);
+                state.plane = state.held;
+                return;
+            }
+            state.held = None;
+        }
+        if let Some((_, x, n)) = self.hit.filter(|h| h.2 != Vec3::ZERO) {
+            state.held = Some((x, n));
+            state.proxy = Some(x);
+            state.plane = state.held;
+            return;
+        }
+        state.proxy = Some(to);
+        state.plane = self.near.and_then(|(d2, x, face_n)| {
+            let v = to - x;
+            let n = if d2 > 0.0 && v.dot(face_n) > 0.0 {
+                v / libm::sqrtf(d2)
+            } else {
+                face_n
+            };
+            (n != Vec3::ZERO).then_some((x, n))
+        });
+    }
+}
+
+/// The spring force of passive points of `radius` at `positions` from their planes
+/// (`points[i].plane`, paired with `positions[i]`): for each, `stiffness * depth` along the
+/// plane's normal with `depth = radius - (position - plane point) . normal` when positive,
+/// summed and clamped to `max_force`. Also returns how many points push.
+///
+/// # Bounded work
+/// O(points).
+pub fn passive_force(
+    points: &[PassivePoint],
+    positions: &[Vec3],
+    radius: f32,
+    stiffness: f32,
+    max_force: f32,
+) -> (Vec3, u32) {
+    let mut f = Vec3::ZERO;
+    let mut touching = 0u32;
+    for (pt, &p) in points.iter().zip(positions) {
+        if let Some((q, n)) = pt.plane {
+            let depth = radius - (p - q).dot(n);
+            if depth > 0.0 {
+                f += n * (stiffness * depth);
+                touching += 1;
+            }
+        }
+    }
+    (clamp_force(f, max_force), touching)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The square `x = 0`, `|y|, |z| <= 1`, outward normal +x (material at `x < 0`), and the
+    /// square `x = -0.1` facing -x: a slab 0.1 thick.
+    fn slab() -> [[Vec3; 3]; 4] {
+        let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+        [
+            [v(0., -1., -1.), v(0., 1., -1.), v(0., 1., 1.)],
+            [v(0., -1., -1.), v(0., 1., 1.), v(0., -1., 1.)],
+            [v(-0.1, -1., -1.), v(-0.1, 1., 1.), v(-0.1, 1., -1.)],
+            [v(-0.1, -1., -1.), v(-0.1, -1., 1.), v(-0.1, 1., 1.)],
+        ]
+    }
+
+    fn step(pt: &mut PassivePoint, to: Vec3, reach: f32) {
+        let mut probe = PassiveProbe::new(pt, to, reach);
+        for t in slab() {
+            probe.offer(t);
+        }
+        probe.finish(pt);
+    }
+
+    #[test]
+    fn a_point_that_jumps_through_a_thin_slab_is_held_at_the_face_it_entered() {
+        let mut pt = PassivePoint::default();
+        step(&mut pt, Vec3::new(0.5, 0.2, 0.0), 0.05);
+        assert_eq!(pt.plane, None, "nothing within reach");
+        // One tick later it is past the slab: the segment entered the face at x = 0.
+        step(&mut pt, Vec3::new(-0.5, 0.2, 0.0), 0.05);
+        let (q, n) = pt.held.expect("held");
+        assert!((q - Vec3::new(0.0, 0.2, 0.0)).length() < 1e-6);
+        assert_eq!(n, Vec3::X);
+        let (f, k) = passive_force(&[pt], &[Vec3::new(-0.5, 0.2, 0.0)], 0.05, 100.0, 1e3);
+        assert_eq!(k, 1);
+        assert!((f - Vec3::new(55.0, 0.0, 0.0)).length() < 1e-3, "{f}");
+        // Sliding behind the face: still held, the proxy on the plane.
+        step(&mut pt, Vec3::new(-0.3, -0.4, 0.1), 0.05);
+        assert!(pt.is_held());
+        assert!((pt.proxy.unwrap() - Vec3::new(0.0, -0.4, 0.1)).length() < 1e-6);
+        // Back out in front: released, free, the closest face within reach is the plane.
+        step(&mut pt, Vec3::new(0.03, -0.4, 0.1), 0.05);
+        assert!(!pt.is_held());
+        let (q, n) = pt.plane.expect("a face within reach");
+        assert!(
+            (q - Vec3::new(0.0, -0.4, 0.1)).length() < 1e-5 && (n - Vec3::X).length() < 1e-5,
+            "{pt:?}"
+        );
+        let (f, _) = passive_force(&[pt], &[Vec3::new(0.03, -0.4, 0.1)], 0.05, 100.0, 1e3);
+        assert!((f.x - 2.0).abs() < 1e-3 && f.y.abs() < 1e-3, "{f}");
+    }
+
+    #[test]
+    fn leaving_the_material_is_not_a_hit_and_far_faces_give_no_plane() {
+        let mut pt = PassivePoint {
+            proxy: Some(Vec3::new(-0.05, 0.0, 0.0)),
+            ..PassivePoint::default()
+        };
+        // From inside the slab out through x = 0: an exit, not an entry.
+        step(&mut pt, Vec3::new(0.5, 0.0, 0.0), 0.05);
+        assert!(!pt.is_held());
+        assert_eq!(pt.plane, None);
+        assert_eq!(pt.proxy, Some(Vec3::new(0.5, 0.0, 0.0)));
+        // Non-finite positions forget everything.
+        step(&mut pt, Vec3::NAN, 0.05);
+        assert_eq!(pt, PassivePoint::default());
+    }
+}

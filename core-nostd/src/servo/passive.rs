@@ -1,0 +1,180 @@
+//! A drill's shaft in the [`World`]: its passive points tracked against the drilled surface
+//! each simulation step ([`World::simulate_drill`], [`World::track_passive`]), and the force
+//! of the burr and the shaft together ([`drill_force`]).
+
+use glam::Vec3;
+
+use super::{servo_force, ContactState, SimReport, World};
+use crate::drill::{DrillParams, Sphere};
+use crate::force::{
+    clamp_force, damping_force, passive_force, DrillTool, ForceParams, PassivePoint, PassiveProbe,
+    ToolState, MAX_PASSIVE,
+};
+use crate::hash::Aabb;
+
+/// What one [`World::track_passive`] did.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct PassiveReport {
+    /// Passive points tracked.
+    pub points: u32,
+    /// Of them, held at a face they crossed.
+    pub held: u32,
+    /// Of them, with a contact plane (a face within reach, or held).
+    pub near: u32,
+    /// Visible triangles offered to the points' probes.
+    pub triangles: u32,
+}
+
+/// A drill's passive points and the state they carry from step to step.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct DrillState {
+    /// Each passive point's proxy, held plane and contact plane.
+    pub points: [PassivePoint; MAX_PASSIVE],
+    /// The passive points' positions at the last step.
+    pub positions: [Vec3; MAX_PASSIVE],
+    /// How many of `points` and `positions` are in use.
+    pub count: usize,
+}
+
+impl Default for DrillState {
+    fn default() -> Self {
+        Self {
+            points: [PassivePoint::default(); MAX_PASSIVE],
+            positions: [Vec3::ZERO; MAX_PASSIVE],
+            count: 0,
+        }
+    }
+}
+
+impl DrillState {
+    /// The points in use.
+    pub fn points(&self) -> &[PassivePoint] {
+        &self.points[..self.count.min(MAX_PASSIVE)]
+    }
+}
+
+impl World<'_> {
+    /// One simulation step for a drill: the burr as [`World::simulate`] (it alone is drilled;
+    /// the candidate zone also covers the shaft's points and their proxies), then the
+    /// shaft's passive points at `centre + axis * offset` tracked by
+    /// [`World::track_passive`].
+    ///
+    /// # Bounded work
+    /// [`World::simulate`]'s bound plus [`World::track_passive`]'s for at most
+    /// [`MAX_PASSIVE`] points.
+    #[allow(clippy::too_many_arguments)]
+    pub fn simulate_drill(
+        &mut self,
+        tool: &DrillTool,
+        centre: Vec3,
+        axis: Vec3,
+        reach: f32,
+        drill_on: bool,
+        params: &DrillParams,
+        state: &mut DrillState,
+    ) -> (SimReport, PassiveReport) {
+        let mut pos = [Vec3::ZERO; MAX_PASSIVE];
+        let n = tool.passive_positions(centre, axis, &mut pos);
+        let grow = tool.shaft_radius + reach;
+        let mut extra: Option<Aabb> = None;
+        for (p, pt) in pos.iter().zip(&state.points).take(n) {
+            let mut b = Aabb::point(*p).grown(grow);
+            if let Some(q) = pt.proxy.filter(|q| q.is_finite()) {
+                b = b.union(Aabb::point(q).grown(grow));
+            }
+            extra = Some(extra.map_or(b, |e| e.union(b)));
+        }
+        let extra = extra.filter(|b| b.min.is_finite() && b.max.is_finite());
+        let sphere = [Sphere {
+            center: centre,
+            radius: tool.burr_radius,
+        }];
+        let spheres: &[Sphere] = if drill_on { &sphere } else { &[] };
+        let rep = self.simulate_in(centre, tool.burr_radius, reach, spheres, params, extra);
+        state.count = n;
+        state.positions = pos;
+        let prep = self.track_passive(&pos[..n], tool.shaft_radius, reach, &mut state.points);
+        (rep, prep)
+    }
+
+    /// Tracks passive points of `radius` now at `positions` (`points[i]` for
+    /// `positions[i]`) against the drilled surface: each point's [`PassiveProbe`] is offered
+    /// the visible faces of the candidate trees (the last simulation step's,
+    /// [`World::candidates`]) near the segment from its proxy to its position, within
+    /// `radius + reach`; a point held at a face and still behind it needs none. Passive
+    /// points never erode.
+    ///
+    /// # Bounded work
+    /// Per point, O(candidates + hierarchy nodes holding surface whose bounding spheres meet
+    /// the segment's ball) ([`crate::hierarchy::Hierarchy::for_each_visible_in`]), for at
+    /// most `positions.len()` points. Not counted in the tick budget.
+    pub fn track_passive(
+        &self,
+        positions: &[Vec3],
+        radius: f32,
+        reach: f32,
+        points: &mut [PassivePoint],
+    ) -> PassiveReport {
+        let mut rep = PassiveReport::default();
+        let cands = &self.candidates[..self.ncand];
+        let reach = radius
+            + if reach.is_finite() {
+                reach.max(0.0)
+            } else {
+                0.0
+            };
+        for (pt, &p) in points.iter_mut().zip(positions) {
+            rep.points += 1;
+            let mut probe = PassiveProbe::new(pt, p, reach);
+            let still_held = pt.held.is_some_and(|(q, n)| (p - q).dot(n) < 0.0);
+            if !still_held && p.is_finite() {
+                let ball = probe.ball(reach);
+                self.hier
+                    .for_each_visible_in(&self.mesh, cands, Some(ball), |t| probe.offer(t.corners));
+            }
+            rep.triangles = rep.triangles.wrapping_add(probe.triangles());
+            probe.finish(pt);
+            rep.held += pt.is_held() as u32;
+            rep.near += pt.plane.is_some() as u32;
+        }
+        rep
+    }
+}
+
+/// The force at a drill's handle: the burr's ([`servo_force`] from `contact`, with `burr`'s
+/// state) plus the shaft's passive points' springs ([`passive_force`] at the points'
+/// positions for the burr at `centre` along `axis`, from the planes of the last step) and,
+/// while one of them pushes, damping of the tool's motion (`shaft`'s state), clamped.
+///
+/// All the forces are added as one force at the handle, torque-free: the devices rendered
+/// here have 3 actuated degrees of freedom (position), so a moment about the handle, which a
+/// shaft pushed at one end would produce, cannot be displayed and is dropped.
+///
+/// # Bounded work
+/// O([`MAX_PASSIVE`]). Never allocates or panics.
+#[allow(clippy::too_many_arguments)]
+pub fn drill_force(
+    contact: &ContactState,
+    tool: &DrillTool,
+    centre: Vec3,
+    axis: Vec3,
+    state: &DrillState,
+    burr: &mut ToolState,
+    shaft: &mut ToolState,
+    params: &ForceParams,
+) -> Vec3 {
+    let f = servo_force(contact, centre, tool.burr_radius, burr, params);
+    let mut pos = [Vec3::ZERO; MAX_PASSIVE];
+    let n = tool
+        .passive_positions(centre, axis, &mut pos)
+        .min(state.count);
+    let (s, touching) = passive_force(
+        &state.points[..n],
+        &pos[..n],
+        tool.shaft_radius,
+        params.stiffness,
+        params.max_force,
+    );
+    let d = damping_force(shaft, centre, touching > 0, params);
+    clamp_force(f + clamp_force(s + d, params.max_force), params.max_force)
+}
