@@ -2,11 +2,12 @@
 //! per-tick step that replays, real-time runs and `timing` share.
 
 use tetradrill_core::drill::{DrillParams, Pending};
-use tetradrill_core::force::{ForceParams, ToolState};
+use tetradrill_core::force::{DrillTool, ForceParams, ToolState};
 use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{HNode, HierarchyStorage, SphereSlot, VEntry};
 use tetradrill_core::servo::{
-    servo_force, SimReport, World, WorldSizes, WorldStorage, DEFAULT_MAX_CELLS, DEFAULT_PENDING,
+    drill_force, servo_force, DrillState, PassiveReport, SimReport, World, WorldSizes,
+    WorldStorage, DEFAULT_MAX_CELLS, DEFAULT_PENDING,
 };
 use tetradrill_core::{TetId, Vec3};
 
@@ -212,6 +213,19 @@ impl EngineStorage {
     fn sizing(mesh: &OwnedMesh, sc: &Scenario) -> Option<ToolSizing> {
         match sc.tool_kind() {
             Ok(ToolKind::Sphere(r)) => Some(ToolSizing::of(mesh, r, sc.max_depth)),
+            Ok(ToolKind::Drill {
+                burr, shaft_length, ..
+            }) => {
+                // The burr's buffers, with the candidate list and the zone query grown to
+                // the shaft's reach (a burr as wide as the whole tool, for those two only).
+                let z = ToolSizing::of(mesh, burr, sc.max_depth);
+                let whole = ToolSizing::of(mesh, 0.5 * (shaft_length + burr), sc.max_depth);
+                Some(ToolSizing {
+                    candidates: z.candidates.max(whole.candidates),
+                    max_cells: z.max_cells.max(whole.max_cells),
+                    ..z
+                })
+            }
             _ => None,
         }
     }
@@ -326,6 +340,8 @@ pub fn load_mesh(sc: &Scenario) -> Result<meshio::LoadedMesh, CliError> {
 pub struct TickParams {
     /// Burr radius, mesh units.
     pub radius: f32,
+    /// The drill's shape when the tool is `drill:...` (a burr on a shaft of passive points).
+    pub shaft: Option<DrillTool>,
     /// How far beyond the burr the simulation looks for the surface (the servo's
     /// extrapolation range).
     pub reach: f32,
@@ -338,8 +354,21 @@ pub struct TickParams {
 impl TickParams {
     /// From a scenario with a spherical tool.
     pub fn of(sc: &Scenario) -> Result<Self, CliError> {
+        let mut shaft = None;
         let radius = match sc.tool_kind().map_err(CliError::input)? {
             ToolKind::Sphere(r) => r as f32,
+            ToolKind::Drill {
+                burr,
+                shaft_length,
+                shaft_radius,
+            } => {
+                shaft = Some(DrillTool {
+                    burr_radius: burr as f32,
+                    shaft_length: shaft_length as f32,
+                    shaft_radius: shaft_radius as f32,
+                });
+                burr as f32
+            }
             ToolKind::Mesh(p) => {
                 return Err(CliError::input(format!(
                     "tool mesh:{}: the drilling pipeline takes a spherical burr (sphere:R); \
@@ -362,6 +391,7 @@ impl TickParams {
         }
         Ok(Self {
             radius,
+            shaft,
             reach: 0.5 * radius,
             drill: DrillParams {
                 max_depth: sc.max_depth,
@@ -390,5 +420,56 @@ pub fn tick(
     let drill_on = pose.buttons & tetradrill_core::script::DRILL_ON != 0;
     let rep = world.simulate(pose.position, p.radius, p.reach, drill_on, &p.drill);
     let f = servo_force(world.contact(), pose.position, p.radius, tool, &p.force);
+    (f, rep)
+}
+
+/// What a drill tool carries from tick to tick besides the burr's [`ToolState`]: its passive
+/// points ([`DrillState`]) and the shaft's damping state.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ShaftState {
+    /// The passive points' proxies and planes.
+    pub drill: DrillState,
+    /// The shaft's damping state.
+    pub damping: ToolState,
+    /// The last step's passive-point report.
+    pub last: PassiveReport,
+}
+
+/// [`tick`] for any burr tool: a drill (`p.shaft`) runs [`World::simulate_drill`] and
+/// [`drill_force`] with the tool's axis from the pose's rotation (`shaft` carries its
+/// state); a plain burr runs [`tick`] exactly.
+pub fn tick_tool(
+    world: &mut World<'_>,
+    tool: &mut ToolState,
+    shaft: &mut ShaftState,
+    p: &TickParams,
+    pose: &Pose,
+) -> (Vec3, SimReport) {
+    let Some(d) = p.shaft else {
+        return tick(world, tool, p, pose);
+    };
+    let drill_on = pose.buttons & tetradrill_core::script::DRILL_ON != 0;
+    let [w, x, y, z] = pose.rotation;
+    let axis = DrillTool::axis(tetradrill_core::Quat::from_xyzw(x, y, z, w));
+    let (rep, prep) = world.simulate_drill(
+        &d,
+        pose.position,
+        axis,
+        p.reach,
+        drill_on,
+        &p.drill,
+        &mut shaft.drill,
+    );
+    shaft.last = prep;
+    let f = drill_force(
+        world.contact(),
+        &d,
+        pose.position,
+        axis,
+        &shaft.drill,
+        tool,
+        &mut shaft.damping,
+        &p.force,
+    );
     (f, rep)
 }

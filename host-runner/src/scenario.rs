@@ -45,8 +45,10 @@ pub struct Scenario {
     /// Trace CSV file, `builtin:demo`, or `wander:SEED` (a seeded random wander over the
     /// mesh's surface, drill on); positions in mesh units after `scale`.
     pub trace: String,
-    /// `sphere:R` (a spherical burr of radius R) or `mesh:FILE` (a tet-mesh tool, tip at the
-    /// origin, axis +z).
+    /// `sphere:R` (a spherical burr of radius R), `drill:BURR_R:SHAFT_LEN:SHAFT_R` (a burr on
+    /// a shaft from its centre along the tool's axis, +z rotated by the pose, whose passive
+    /// points collide but never erode; replay only) or `mesh:FILE` (a tet-mesh tool, tip at
+    /// the origin, axis +z).
     pub tool: String,
     /// Factor applied to a mesh tool's coordinates.
     pub tool_scale: f64,
@@ -289,7 +291,7 @@ pub struct ScenarioFlags {
     /// Trace CSV (`t,x,y,z,qw,qx,qy,qz,buttons`), `builtin:demo` or `wander:SEED`.
     #[arg(long)]
     pub trace: Option<String>,
-    /// `sphere:R` or `mesh:FILE`.
+    /// `sphere:R`, `drill:BURR_R:SHAFT_LEN:SHAFT_R` or `mesh:FILE`.
     #[arg(long)]
     pub tool: Option<String>,
     /// Scale a mesh tool's coordinates.
@@ -563,6 +565,26 @@ impl Scenario {
                     self.tool
                 )),
             }
+        } else if let Some(rest) = self.tool.strip_prefix("drill:") {
+            let v: Vec<Option<f64>> = rest.split(':').map(|x| x.parse::<f64>().ok()).collect();
+            let bad = |why: &str| Err(format!("tool `{}`: {why}", self.tool));
+            let [Some(burr), Some(len), Some(shaft)] = v[..] else {
+                return bad("expected drill:BURR_R:SHAFT_LEN:SHAFT_R (three numbers)");
+            };
+            if ![burr, len, shaft].iter().all(|x| x.is_finite() && *x > 0.0) {
+                return bad("the radii and the length must be positive numbers");
+            }
+            if shaft > burr {
+                return bad("the shaft's radius must be at most the burr's radius");
+            }
+            if len <= burr {
+                return bad("the shaft must be longer than the burr's radius");
+            }
+            Ok(ToolKind::Drill {
+                burr,
+                shaft_length: len,
+                shaft_radius: shaft,
+            })
         } else if let Some(file) = self.tool.strip_prefix("mesh:") {
             if file.is_empty() {
                 Err("tool `mesh:` needs a file".into())
@@ -571,7 +593,7 @@ impl Scenario {
             }
         } else {
             Err(format!(
-                "tool `{}`: expected sphere:R or mesh:FILE",
+                "tool `{}`: expected sphere:R or mesh:FILE, or drill:BURR_R:SHAFT_LEN:SHAFT_R",
                 self.tool
             ))
         }
@@ -594,6 +616,16 @@ fn key_line(text: &str, key: &str) -> Option<usize> {
 pub enum ToolKind {
     /// A spherical burr of this radius (mesh units).
     Sphere(f64),
+    /// A burr on a shaft (mesh units): the burr's radius, the shaft's length from the burr's
+    /// centre to the handle and its radius.
+    Drill {
+        /// Burr radius.
+        burr: f64,
+        /// Shaft length, burr centre to handle.
+        shaft_length: f64,
+        /// Shaft radius.
+        shaft_radius: f64,
+    },
     /// A tet-mesh tool from this file.
     Mesh(PathBuf),
 }

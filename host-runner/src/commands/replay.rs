@@ -13,7 +13,7 @@ use tetradrill_core::servo::Saturations;
 use tetradrill_core::Quat;
 use tetradrill_core::Vec3;
 
-use crate::engine::{self, EngineStorage, TickParams};
+use crate::engine::{self, EngineStorage, ShaftState, TickParams};
 use crate::error::CliError;
 use crate::pen::{PenRig, PenSizes};
 use crate::platform::now_ns;
@@ -90,6 +90,9 @@ pub struct ReplayReport {
     /// The burr's buffers as sized for this mesh (sphere tools only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sizing: Option<SizingSummary>,
+    /// The drill's shaft (`--tool drill:...` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shaft: Option<ShaftSummary>,
     /// Contact of a tet-mesh tool (`--tool mesh:FILE` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pen: Option<PenSummary>,
@@ -173,6 +176,19 @@ pub struct PenSummary {
     pub pass_us: TickTiming,
     /// Ticks whose servo could not carry every held penetration (left out of the force).
     pub servo_short_ticks: u64,
+}
+
+/// The passive points of a drill's shaft over a replay.
+#[derive(Debug, Default, Clone, Copy, Serialize)]
+pub struct ShaftSummary {
+    /// Passive points along the shaft.
+    pub passive_points: usize,
+    /// Ticks in which a passive point had a contact plane (a face within reach, or held).
+    pub near_ticks: u64,
+    /// Ticks in which a passive point was held at a face it had crossed.
+    pub held_ticks: u64,
+    /// Most passive points held in one tick.
+    pub held_max: u32,
 }
 
 /// The debris a replay erased ([`tetradrill_core::hierarchy::DebrisReport`]).
@@ -391,10 +407,11 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         let mut store = EngineStorage::try_allocate(loaded.mesh.clone(), &sc)?;
         let mut world = store.world()?;
         let mut tool = ToolState::default();
+        let mut shaft = ShaftState::default();
         let mut digest = ForceDigest::new();
         let mut times = vec![0u64; ticks as usize];
         for i in 0..ticks {
-            let (f, ns) = timed_tick(&mut world, &mut tool, &params, &poses.at(i));
+            let (f, ns) = timed_tick(&mut world, &mut tool, &mut shaft, &params, &poses.at(i));
             times[i as usize] = ns;
             digest.push(f);
         }
@@ -411,6 +428,11 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let initial_volume = world.mesh().volume();
 
     let mut tool = ToolState::default();
+    let mut shaft = ShaftState::default();
+    let mut shaft_sum = params.shaft.map(|d| ShaftSummary {
+        passive_points: d.passive_count(),
+        ..ShaftSummary::default()
+    });
     let mut digest = ForceDigest::new();
     let mut times = vec![0u64; ticks as usize];
     let (mut max_n, mut last, mut contact_ticks) = (0.0f32, Vec3::ZERO, 0u64);
@@ -418,7 +440,12 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let progress = !args.quiet && ticks >= 20_000;
     for i in 0..ticks {
         let pose = poses.at(i);
-        let (f, ns) = timed_tick(&mut world, &mut tool, &params, &pose);
+        let (f, ns) = timed_tick(&mut world, &mut tool, &mut shaft, &params, &pose);
+        if let Some(s) = shaft_sum.as_mut() {
+            s.near_ticks += u64::from(shaft.last.near > 0);
+            s.held_ticks += u64::from(shaft.last.held > 0);
+            s.held_max = s.held_max.max(shaft.last.held);
+        }
         times[i as usize] = ns;
         digest.push(f);
         max_n = max_n.max(f.length());
@@ -484,6 +511,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         valid: valid.is_ok(),
         sizing: Some(sizing),
         scenario: sc,
+        shaft: shaft_sum,
         pen: None,
     };
     if let Some(path) = &args.surface {
@@ -496,7 +524,8 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     if let Some(path) = &view.screenshot {
         let tool = last_pose.map(|p| {
             let on = p.buttons & tetradrill_core::script::DRILL_ON != 0;
-            crate::viewer::publish::tool_view(&world, p.position, params.radius, last, on)
+            let tv = crate::viewer::publish::tool_view(&world, p.position, params.radius, last, on);
+            crate::viewer::publish::with_shaft(tv, params.shaft, p.rotation, &shaft.drill)
         });
         let status = crate::tasks::SimStatus {
             steps: rep.ticks,
@@ -512,15 +541,16 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     valid.map_err(|e| CliError::failure(format!("the final state is invalid: {e}")))
 }
 
-/// One [`engine::tick`] at `pose`: the force and the tick's duration in nanoseconds.
+/// One [`engine::tick_tool`] at `pose`: the force and the tick's duration in nanoseconds.
 fn timed_tick(
     world: &mut tetradrill_core::servo::World<'_>,
     tool: &mut ToolState,
+    shaft: &mut ShaftState,
     params: &TickParams,
     pose: &crate::traces::Pose,
 ) -> (Vec3, u64) {
     let t0 = now_ns();
-    let (f, _) = engine::tick(world, tool, params, pose);
+    let (f, _) = engine::tick_tool(world, tool, shaft, params, pose);
     (f, now_ns() - t0)
 }
 
@@ -699,6 +729,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
         valid: valid.is_ok(),
         scenario: sc,
         sizing: None,
+        shaft: None,
         pen: Some(pen_info),
     };
     print_summary(&rep);

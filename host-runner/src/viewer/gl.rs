@@ -303,6 +303,21 @@ impl Renderer {
                     ];
                     self.draw_mesh(gl, &self.sphere, &m, p.tool, p.tool);
                 }
+                if let Some(s) = t.shaft.filter(|s| s.radius > 0.0 && s.length > s.from) {
+                    // The shaft as its passive points sample it: spheres a radius apart.
+                    let n = (((s.length - s.from) / s.radius).ceil() as usize + 1).min(256);
+                    for i in 0..n {
+                        let c = t.shown
+                            + s.axis
+                                * (s.from + (s.length - s.from) * i as f32 / (n - 1).max(1) as f32);
+                        let r = s.radius;
+                        let m = [
+                            r, 0.0, 0.0, 0.0, 0.0, r, 0.0, 0.0, 0.0, 0.0, r, 0.0, c.x, c.y, c.z,
+                            1.0,
+                        ];
+                        self.draw_mesh(gl, &self.sphere, &m, p.tool, p.tool);
+                    }
+                }
                 let f = t.force.length();
                 if f > 1e-6 {
                     let diag = scene.bounds.map_or(1.0, |(lo, hi)| (hi - lo).length());

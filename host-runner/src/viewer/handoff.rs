@@ -72,6 +72,22 @@ pub struct ToolView {
     pub drilling: bool,
     /// The tool's rotation (a mesh tool's; the burr's sphere ignores it).
     pub rotation: Quat,
+    /// A drill's shaft, drawn from the burr along the tool's axis.
+    pub shaft: Option<ShaftView>,
+}
+
+/// A drill's shaft as drawn: a row of spheres of its radius along its axis, as its passive
+/// points sample it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ShaftView {
+    /// Unit axis, burr to handle.
+    pub axis: Vec3,
+    /// Where the shaft starts, from the burr's centre (the burr's radius).
+    pub from: f32,
+    /// Length, burr centre to handle.
+    pub length: f32,
+    /// Radius.
+    pub radius: f32,
 }
 
 /// A tool drawn as a mesh (the pen): its boundary triangles in its own frame (tip at the

@@ -302,6 +302,59 @@ pub fn tool_view(
         force,
         drilling,
         rotation: tetradrill_core::Quat::IDENTITY,
+        shaft: None,
+    }
+}
+
+/// `tv` with the drill's shaft (`shaft`, when the tool is a drill) along the axis of the
+/// pose's `rotation` (`[w, x, y, z]`).
+///
+/// The tool is drawn moved out of the material as far as its deepest passive point is in
+/// (along the passive points' summed push, `state`'s planes), unless the burr's own
+/// displayed offset is larger: the shaft never visibly passes a face it is held at.
+pub fn with_shaft(
+    tv: ToolView,
+    shaft: Option<tetradrill_core::force::DrillTool>,
+    rotation: [f32; 4],
+    state: &tetradrill_core::servo::DrillState,
+) -> ToolView {
+    let [w, x, y, z] = rotation;
+    let q = tetradrill_core::Quat::from_xyzw(x, y, z, w);
+    let mut shown = tv.shown;
+    if let Some(d) = shaft {
+        let axis = tetradrill_core::force::DrillTool::axis(q);
+        let mut pos = [Vec3::ZERO; tetradrill_core::force::MAX_PASSIVE];
+        let n = d
+            .passive_positions(tv.position, axis, &mut pos)
+            .min(state.count);
+        let (mut push, mut deep) = (Vec3::ZERO, Vec::with_capacity(n));
+        for (pt, &p) in state.points().iter().zip(&pos[..n]) {
+            if let Some((c, nrm)) = pt.plane {
+                let depth = d.shaft_radius - (p - c).dot(nrm);
+                if depth > 0.0 {
+                    push += nrm * depth;
+                    deep.push((nrm, depth));
+                }
+            }
+        }
+        let dir = push.normalize_or_zero();
+        let m = deep
+            .iter()
+            .map(|(nrm, depth)| depth * nrm.dot(dir))
+            .fold(0.0f32, f32::max);
+        if m > (tv.shown - tv.position).length() {
+            shown = tv.position + dir * m;
+        }
+    }
+    ToolView {
+        shown,
+        shaft: shaft.map(|d| super::handoff::ShaftView {
+            axis: tetradrill_core::force::DrillTool::axis(q),
+            from: d.burr_radius,
+            length: d.shaft_length,
+            radius: d.shaft_radius,
+        }),
+        ..tv
     }
 }
 

@@ -113,8 +113,16 @@ pub fn run(
     setup: PipelineSetup,
     json: Option<&PathBuf>,
 ) -> Result<RunReport, CliError> {
-    if let ToolKind::Mesh(pen) = sc.tool_kind().map_err(CliError::input)? {
-        return run_pen(sc, setup, json, &pen);
+    match sc.tool_kind().map_err(CliError::input)? {
+        ToolKind::Mesh(pen) => return run_pen(sc, setup, json, &pen),
+        ToolKind::Drill { .. } => {
+            return Err(CliError::input(format!(
+                "tool `{}`: the drill with a shaft runs in `replay`; the real-time pipeline \
+                 takes sphere:R or mesh:FILE",
+                sc.tool
+            )))
+        }
+        ToolKind::Sphere(_) => {}
     }
     let params = TickParams::of(sc)?;
     let loaded = engine::load_mesh(sc)?;
