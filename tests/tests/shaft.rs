@@ -34,11 +34,14 @@ fn inside_block(p: Vec3, eps: f32) -> bool {
     p.abs().max_element() < 0.5 - eps
 }
 
+/// One tick's passive points: each one's proxy and whether it is held.
+type Points = Vec<(Option<Vec3>, bool)>;
+
 /// What a replay of `trace` with `tool` did, tick by tick.
 struct Run {
     forces: Vec<Vec3>,
     /// Per tick: (device position, every passive point's proxy, held flags).
-    points: Vec<(Vec3, Vec<(Option<Vec3>, bool)>)>,
+    points: Vec<(Vec3, Points)>,
     removed: f64,
     visible: u32,
     nodes: usize,
