@@ -30,6 +30,9 @@ pub struct PassivePoint {
 
 impl PassivePoint {
     /// `true` while the point is held at a face it crossed.
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn is_held(&self) -> bool {
         self.held.is_some()
     }
@@ -52,6 +55,9 @@ pub struct PassiveProbe {
 impl PassiveProbe {
     /// A probe for the point `state` moving to `to`, looking for faces within `reach` of
     /// `to` (the point's radius plus how far the servo may extrapolate).
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn new(state: &PassivePoint, to: Vec3, reach: f32) -> Self {
         Self {
             from: state.proxy.unwrap_or(to),
@@ -65,12 +71,18 @@ impl PassiveProbe {
 
     /// The ball `(centre, radius)` that holds every face this probe needs: the segment and
     /// the reach around its end.
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn ball(&self, reach: f32) -> (Vec3, f32) {
         let mid = (self.from + self.to) * 0.5;
         (mid, 0.5 * (self.to - self.from).length() + reach)
     }
 
     /// Triangles offered so far.
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn triangles(&self) -> u32 {
         self.triangles
     }

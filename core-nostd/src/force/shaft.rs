@@ -27,6 +27,9 @@ impl DrillTool {
     /// them) from the burr's surface to the handle, both ends included; at most
     /// [`MAX_PASSIVE`] (a longer shaft gets its points spread wider), at least one, none for
     /// a shaft no longer than the burr's radius or not finite.
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn passive_count(&self) -> usize {
         let span = self.shaft_length - self.burr_radius;
         if !(span.is_finite() && span > 0.0 && self.shaft_radius > 0.0) {
@@ -42,6 +45,9 @@ impl DrillTool {
 
     /// Distance of passive point `i` from the burr's centre along the axis (evenly spaced
     /// from `burr_radius` to `shaft_length`).
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn passive_offset(&self, i: usize) -> f32 {
         let n = self.passive_count();
         if n <= 1 {
@@ -53,6 +59,9 @@ impl DrillTool {
 
     /// The tool's axis (burr to handle) for a rotation: the rotated +z, unit (+z for a
     /// rotation that is not finite or not unit).
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn axis(rotation: Quat) -> Vec3 {
         let a = (rotation * Vec3::Z).normalize_or_zero();
         if a.is_finite() && a != Vec3::ZERO {
@@ -82,6 +91,9 @@ impl DrillTool {
 
     /// The handle: the shaft's far end, where the device holds the tool and where the forces
     /// of all its points are applied.
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn handle(&self, centre: Vec3, axis: Vec3) -> Vec3 {
         centre + axis * self.shaft_length
     }

@@ -35,6 +35,9 @@ const DEBRIS: u32 = u32::MAX;
 
 impl Hierarchy<'_> {
     /// Scratch entries [`Hierarchy::remove_debris`] needs: two per instantiated node.
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn debris_scratch_needed(&self) -> usize {
         2 * self.node_count()
     }

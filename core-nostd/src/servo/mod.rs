@@ -14,8 +14,9 @@
 //!
 //! Files: this one holds the [`World`], its storage, sizes, errors and accessors;
 //! `simulate.rs` the simulation step ([`World::simulate`], [`World::simulate_spheres`] and the
-//! contact update), `force.rs` [`servo_force`]; the unit tests of [`servo_force`] are in
-//! `tests.rs`.
+//! contact update), `force.rs` [`servo_force`], `passive.rs` a drill's shaft (its passive
+//! points tracked by [`World::simulate_drill`], the force at the handle [`drill_force`]); the
+//! unit tests of [`servo_force`] are in `tests.rs`.
 
 use glam::Vec3;
 

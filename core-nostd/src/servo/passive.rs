@@ -48,6 +48,9 @@ impl Default for DrillState {
 
 impl DrillState {
     /// The points in use.
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn points(&self) -> &[PassivePoint] {
         &self.points[..self.count.min(MAX_PASSIVE)]
     }
