@@ -5,12 +5,13 @@
 use glam::Vec3;
 
 use super::{servo_force, ContactState, SimReport, World};
-use crate::drill::{DrillParams, Sphere};
+use crate::drill::DrillParams;
 use crate::force::{
     clamp_force, damping_force, passive_force, DrillTool, ForceParams, PassivePoint, PassiveProbe,
     ToolState, MAX_PASSIVE,
 };
 use crate::hash::Aabb;
+use crate::ids::TetId;
 
 /// What one [`World::track_passive`] did.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
@@ -57,13 +58,14 @@ impl DrillState {
 }
 
 impl World<'_> {
-    /// One simulation step for a drill: the burr as [`World::simulate`] (it alone is drilled;
-    /// the candidate zone also covers the shaft's points and their proxies), then the
-    /// shaft's passive points at `centre + axis * offset` tracked by
-    /// [`World::track_passive`].
+    /// One simulation step for a drill: the burr exactly as [`World::simulate`] (it alone is
+    /// drilled), then the candidate list refilled with the tets near the shaft's points and
+    /// their proxies ([`World::shaft_candidates`]), then the shaft's passive points at
+    /// `centre + axis * offset` tracked by [`World::track_passive`].
     ///
     /// # Bounded work
-    /// [`World::simulate`]'s bound plus [`World::track_passive`]'s for at most
+    /// [`World::simulate`]'s bound, a second zone query (at most [`World::max_cells`] cells
+    /// and the candidate list), and [`World::track_passive`]'s bound for at most
     /// [`MAX_PASSIVE`] points.
     #[allow(clippy::too_many_arguments)]
     pub fn simulate_drill(
@@ -76,34 +78,73 @@ impl World<'_> {
         params: &DrillParams,
         state: &mut DrillState,
     ) -> (SimReport, PassiveReport) {
+        let mut rep = self.simulate(centre, tool.burr_radius, reach, drill_on, params);
         let mut pos = [Vec3::ZERO; MAX_PASSIVE];
         let n = tool.passive_positions(centre, axis, &mut pos);
         let grow = tool.shaft_radius + reach;
-        let mut extra: Option<Aabb> = None;
+        let mut zone: Option<Aabb> = None;
         for (p, pt) in pos.iter().zip(&state.points).take(n) {
             let mut b = Aabb::point(*p).grown(grow);
             if let Some(q) = pt.proxy.filter(|q| q.is_finite()) {
                 b = b.union(Aabb::point(q).grown(grow));
             }
-            extra = Some(extra.map_or(b, |e| e.union(b)));
+            zone = Some(zone.map_or(b, |e| e.union(b)));
         }
-        let extra = extra.filter(|b| b.min.is_finite() && b.max.is_finite());
-        let sphere = [Sphere {
-            center: centre,
-            radius: tool.burr_radius,
-        }];
-        let spheres: &[Sphere] = if drill_on { &sphere } else { &[] };
-        let rep = self.simulate_in(centre, tool.burr_radius, reach, spheres, params, extra);
         state.count = n;
         state.positions = pos;
+        if let Some(z) = zone.filter(|b| b.min.is_finite() && b.max.is_finite()) {
+            if self.shaft_candidates(&z) {
+                rep.candidates_saturated = true;
+            }
+        }
         let prep = self.track_passive(&pos[..n], tool.shaft_radius, reach, &mut state.points);
         (rep, prep)
     }
 
+    /// Refills the candidate list ([`World::candidates`]) with the tets whose boxes meet
+    /// `zone`, each once, in the order the hash query meets them; returns `true` (and counts
+    /// `saturations().candidates`) when the list filled up or the zone covered more than
+    /// [`World::max_cells`] cells. The next simulation step refills the list for the burr.
+    ///
+    /// # Bounded work
+    /// O(max cells + hash entries met).
+    pub fn shaft_candidates(&mut self, zone: &Aabb) -> bool {
+        let (cands, mesh, hash, boxes) =
+            (&mut *self.candidates, &self.mesh, &self.hash, &self.boxes);
+        let mut k = 0usize;
+        let mut full = false;
+        let visited = hash.query_box_once(zone, self.max_cells, |item| {
+            let t = TetId(item);
+            if full || t.idx() >= mesh.tet_count() {
+                return;
+            }
+            let meets = match boxes.get(t.idx()) {
+                Some(b) => b.overlaps(zone),
+                None => zone.overlaps_points(&mesh.tet_positions(t)),
+            };
+            if !meets {
+                return;
+            }
+            match cands.get_mut(k) {
+                Some(c) => {
+                    *c = t;
+                    k += 1;
+                }
+                None => full = true,
+            }
+        });
+        self.ncand = k;
+        let saturated = full || !visited;
+        if saturated {
+            self.sat.candidates += 1;
+        }
+        saturated
+    }
+
     /// Tracks passive points of `radius` now at `positions` (`points[i]` for
     /// `positions[i]`) against the drilled surface: each point's [`PassiveProbe`] is offered
-    /// the visible faces of the candidate trees (the last simulation step's,
-    /// [`World::candidates`]) near the segment from its proxy to its position, within
+    /// the visible faces of the candidate trees ([`World::candidates`], as
+    /// [`World::shaft_candidates`] leaves them) near the segment from its proxy to its position, within
     /// `radius + reach`; a point held at a face and still behind it needs none. Passive
     /// points never erode.
     ///

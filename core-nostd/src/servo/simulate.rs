@@ -63,21 +63,6 @@ impl World<'_> {
         spheres: &[Sphere],
         params: &DrillParams,
     ) -> SimReport {
-        self.simulate_in(centre, radius, reach, spheres, params, None)
-    }
-
-    /// [`World::simulate_spheres`] with the candidate zone grown to cover `extra` too (the
-    /// box of a tool's passive points, [`World::track_passive`]): the tets there join the
-    /// candidates after those near the burr, for the contact searches, and are never drilled.
-    pub(super) fn simulate_in(
-        &mut self,
-        centre: Vec3,
-        radius: f32,
-        reach: f32,
-        spheres: &[Sphere],
-        params: &DrillParams,
-        extra: Option<Aabb>,
-    ) -> SimReport {
         let mut rep = SimReport::default();
         if !(centre.is_finite() && radius.is_finite() && radius > 0.0) {
             self.contact = ContactState::default();
@@ -101,10 +86,7 @@ impl World<'_> {
         for s in spheres {
             tight = tight.union(Aabb::point(s.center).grown(s.radius));
         }
-        let mut zone = tight.union(Aabb::point(centre).grown(radius + reach));
-        if let Some(b) = extra {
-            zone = zone.union(b);
-        }
+        let zone = tight.union(Aabb::point(centre).grown(radius + reach));
         let (cands, mesh, hash, boxes) =
             (&mut *self.candidates, &self.mesh, &self.hash, &self.boxes);
         // Each tet once (in the first cell of the query that holds it), and only when its box
