@@ -84,6 +84,12 @@ echo "== arm-none-eabi-gcc examples/c/cortex_m"
 make --quiet -C examples/c/cortex_m LIB="$lib" OUT="$work"
 elf="$work/replay_firmware.elf"
 arm-none-eabi-size "$elf"
+# Where a panic could still come from in the linked program: calls into core::panicking (the
+# handler faults, see docs/FFI.md), by the function that makes them.
+arm-none-eabi-objdump -d --no-show-raw-insn -C "$elf" | awk '
+  /^[0-9a-f]+ <.*>:$/ { fn = $2; sub(/^</, "", fn); sub(/::.*/, "", fn); sub(/>:$/, "", fn) }
+  /core::panicking/ && !/^[0-9a-f]+ </ && fn !~ /^core$/ { n[fn]++ }
+  END { printf "panic call sites:"; for (f in n) printf " %s %d", f, n[f]; print "" }'
 echo "== run under QEMU (mps2-an386, cortex-m4)"
 set +e
 timeout "${C_EXAMPLE_TIMEOUT:-900}" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 \
