@@ -4,7 +4,8 @@
 #   scripts/c-example.sh              the host program: builds libtetradrill_ffi.a (profile
 #                                     ffi), compiles examples/c/replay_demo.c with cc, runs it,
 #                                     and compares its force_digest with
-#                                     `tetradrill replay --scenario builtin:demo --json`'s
+#                                     `tetradrill replay --scenario builtin:demo --json`'s; then
+#                                     the same over libtetradrill_ffi.so
 #   scripts/c-example.sh --cortex-m   the bare-metal program: the library for
 #                                     thumbv7em-none-eabihf, examples/c/cortex_m linked with
 #                                     arm-none-eabi-gcc, run under QEMU (mps2-an386), compared
@@ -20,7 +21,7 @@ mode=host
 while [ $# -gt 0 ]; do
   case "$1" in
     --cortex-m) mode=cortex-m; shift ;;
-    -h|--help) sed -n '2,18p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,17p' "$0"; exit 0 ;;
     *) echo "c-example: unknown argument '$1' (expected --cortex-m)" >&2; exit 2 ;;
   esac
 done
@@ -72,6 +73,13 @@ if [ "$mode" = host ]; then
   echo "== run"
   "$work/replay_demo" | tee "$work/out.txt"
   compare "$work/out.txt" demo
+  echo "== the same program over the shared library (libtetradrill_ffi.so)"
+  cargo build --quiet -p tetradrill-ffi --profile ffi
+  cc -std=c11 -O2 -Wall -Wextra -Werror -ffp-contract=off -I ffi/include \
+    examples/c/replay_demo.c -L "$target_dir/ffi" -ltetradrill_ffi \
+    -Wl,-rpath,"$target_dir/ffi" -o "$work/replay_demo_shared"
+  "$work/replay_demo_shared" >"$work/out-shared.txt"
+  compare "$work/out-shared.txt" demo
   exit 0
 fi
 
