@@ -59,9 +59,9 @@ compare() {
 
 if [ "$mode" = host ]; then
   command -v cc >/dev/null || { echo "c-example: no C compiler 'cc' found (apt-get install gcc)" >&2; exit 1; }
-  echo "== libtetradrill_ffi.a (profile ffi: release, panic = abort)"
-  # Only the static library, and the system libraries it needs from rustc's own list.
-  cargo rustc --quiet -p tetradrill-ffi --profile ffi --crate-type staticlib \
+  echo "== libtetradrill_ffi.a and .so (profile ffi: release, panic = abort)"
+  # The system libraries the static library needs come from rustc's own list.
+  cargo rustc --quiet -p tetradrill-ffi --profile ffi \
     -- --print native-static-libs 2>"$work/rustc.txt" || { cat "$work/rustc.txt" >&2; exit 1; }
   libs="$(sed -n 's/.*native-static-libs: //p' "$work/rustc.txt" | tail -1)"
   lib="$target_dir/ffi/libtetradrill_ffi.a"
@@ -74,7 +74,6 @@ if [ "$mode" = host ]; then
   "$work/replay_demo" | tee "$work/out.txt"
   compare "$work/out.txt" demo
   echo "== the same program over the shared library (libtetradrill_ffi.so)"
-  cargo build --quiet -p tetradrill-ffi --profile ffi
   cc -std=c11 -O2 -Wall -Wextra -Werror -ffp-contract=off -I ffi/include \
     examples/c/replay_demo.c -L "$target_dir/ffi" -ltetradrill_ffi \
     -Wl,-rpath,"$target_dir/ffi" -o "$work/replay_demo_shared"
