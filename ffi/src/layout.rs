@@ -215,3 +215,125 @@ impl Plan {
 
 /// Bytes of the header alone (for the docs and the tests).
 pub const STATE_BYTES: usize = size_of::<State>();
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use core::mem::align_of;
+
+    fn params(nodes: u32, tets: u32, arena: u32, pending: u32, memo: u32) -> TdParams {
+        TdParams {
+            node_count: nodes,
+            tet_count: tets,
+            hierarchy_capacity: arena,
+            pending_capacity: pending,
+            candidate_capacity: 3,
+            hash_capacity: 8 * tets,
+            sphere_memo_slots: memo,
+            max_cells: 1,
+            contact_search_nodes: 1,
+            tick_budget: 0,
+            max_depth: 1,
+            budget_per_tick: 1,
+            radius: 0.1,
+            reach: 0.0,
+            min_area: 0.0,
+            stiffness: 0.0,
+            damping: 0.0,
+            max_force: 1.0,
+            dt: 1e-3,
+            switch_time: 0.0,
+        }
+    }
+
+    /// Each region as (offset, bytes, alignment of its type), in plan order.
+    fn regions(p: &Plan) -> [(usize, usize, usize); 14] {
+        let s = p.sizes;
+        fn r<T>(at: usize, n: usize) -> (usize, usize, usize) {
+            (at, n * size_of::<T>(), align_of::<T>())
+        }
+        [
+            r::<Vec3>(p.positions, p.nodes),
+            r::<Vec3>(p.normals, p.nodes),
+            r::<Node>(p.node_recs, p.nodes),
+            r::<Tet>(p.tet_recs, p.tets),
+            r::<FaceKey>(p.scratch, 4 * p.tets),
+            r::<u32>(p.hash_starts, s.hash_starts),
+            r::<HashEntry>(p.hash_entries, s.hash_entries),
+            r::<Aabb>(p.tet_boxes, s.tet_boxes),
+            r::<HNode>(p.roots, s.roots),
+            r::<HNode>(p.arena, s.arena),
+            r::<VEntry>(p.vlist, s.vlist),
+            r::<Pending>(p.pending, s.pending),
+            r::<TetId>(p.candidates, s.candidates),
+            r::<SphereSlot>(p.memo, s.sphere_memo),
+        ]
+    }
+
+    #[test]
+    fn regions_follow_the_header_aligned_and_apart_inside_the_size() {
+        for (nodes, tets, arena, pending, memo) in [
+            (1, 1, 8, 1, 0),
+            (27, 48, 15, 7, 1),
+            (729, 3072, 1 << 20, 1 << 15, 4096),
+            (125, 384, 20_000, 16_384, 4096),
+        ] {
+            let plan = Plan::of(&params(nodes, tets, arena, pending, memo)).expect("plan");
+            assert!(plan.align.is_power_of_two());
+            assert!(plan.align >= align_of::<State>());
+            assert_eq!(plan.size % plan.align, 0);
+            let mut end = size_of::<State>();
+            for (i, (at, bytes, align)) in regions(&plan).into_iter().enumerate() {
+                assert!(at >= end, "region {i} overlaps the one before");
+                assert_eq!(at % align, 0, "region {i} misaligned");
+                assert!(
+                    align <= plan.align,
+                    "region {i} needs more than the plan's alignment"
+                );
+                end = at + bytes;
+            }
+            assert!(end <= plan.size, "the last region passes the size");
+            assert_eq!(plan.sizes.arena, arena as usize / 8 * 8);
+        }
+    }
+
+    #[test]
+    fn out_of_range_parameters_are_refused() {
+        let ok = params(8, 6, 8, 1, 0);
+        assert!(Plan::of(&ok).is_ok());
+        let bad: [fn(&mut TdParams); 12] = [
+            |p| p.node_count = 0,
+            |p| p.tet_count = TD_MAX_COUNT + 1,
+            |p| p.hierarchy_capacity = 7,
+            |p| p.pending_capacity = 0,
+            |p| p.candidate_capacity = 0,
+            |p| p.hash_capacity = 0,
+            |p| p.max_depth = 0,
+            |p| p.radius = 0.0,
+            |p| p.reach = f32::INFINITY,
+            |p| p.max_force = f32::NAN,
+            |p| p.dt = -1e-3,
+            |p| p.switch_time = -1.0,
+        ];
+        for (i, change) in bad.iter().enumerate() {
+            let mut p = ok;
+            change(&mut p);
+            assert_eq!(Plan::of(&p), Err(TdStatus::TdErrParams), "change {i}");
+        }
+    }
+
+    #[test]
+    fn a_world_larger_than_the_address_space_is_refused_not_wrapped() {
+        // Every count at its largest: on a 64-bit machine the plan fits, on a 32-bit one it
+        // must be refused; either way the size is at least the sum of the parts.
+        let p = params(TD_MAX_COUNT, TD_MAX_COUNT, u32::MAX, u32::MAX, u32::MAX);
+        match Plan::of(&p) {
+            Ok(plan) => {
+                let parts = size_of::<Pending>() as u128 * u128::from(u32::MAX)
+                    + size_of::<HNode>() as u128 * u128::from(u32::MAX / 8 * 8);
+                assert!(plan.size as u128 >= parts);
+            }
+            Err(e) => assert_eq!(e, TdStatus::TdErrParams),
+        }
+    }
+}
