@@ -8,11 +8,13 @@
 //! the sphere it was queued for, so the removed shape converges to the swept volume.
 
 mod candidates;
+mod material;
 mod spacing;
 mod sphere;
 mod step;
 
 pub use candidates::candidates_brute_force;
+pub use material::{Material, Region, RegionError, Regions, Spend, CREDIT_STEPS};
 pub use spacing::{Spacing, DRILL_HOLD_STEPS, DRILL_SETTLE, DRILL_SPACING, MAX_STEP_SPHERES};
 pub use sphere::{classify, Class, Sphere};
 pub use step::{Drill, DrillParams, DrillReport, Pending, WorkCost, SWEPT, SWEPT_AHEAD};
