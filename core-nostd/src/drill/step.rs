@@ -548,9 +548,12 @@ impl<'a> Drill<'a> {
         if node.all_erased() {
             return;
         }
-        // Material the pressing force does not remove is neither refined nor erased.
+        // Material the pressing force does not remove is neither refined nor erased; the
+        // burr's unchanged positions are queued again once the backlog is done (as after a
+        // full deque), so a burr held still cuts when pressed harder.
         if !self.admits(item.tet) {
             rep.held += 1;
+            self.retry = true;
             return;
         }
         let Some(depth) = Path::depth_of(item.index) else {

@@ -132,6 +132,8 @@ pub enum WorldError {
     Hash(HashError),
     /// The hierarchy refused its storage.
     Hierarchy(HierarchyError),
+    /// The region table refused its storage ([`Regions::new`]).
+    Regions(crate::drill::RegionError),
 }
 
 impl core::fmt::Display for WorldError {
@@ -139,6 +141,7 @@ impl core::fmt::Display for WorldError {
         match self {
             Self::Hash(e) => write!(f, "{e}"),
             Self::Hierarchy(e) => write!(f, "{e}"),
+            Self::Regions(e) => write!(f, "{e}"),
         }
     }
 }
