@@ -281,3 +281,125 @@ fn the_force_uses_the_stiffness_of_the_region_under_the_contact() {
         "default stiffness: {last:?}"
     );
 }
+
+/// Runs `tetradrill replay` with `args` and returns its JSON.
+fn replay_json(args: &[&str], name: &str) -> serde_json::Value {
+    let dir = tetradrill_tests::scratch_dir("materials", name);
+    let json = dir.join("out.json");
+    let out = std::process::Command::new(tetradrill_tests::tetradrill_bin())
+        .arg("replay")
+        .args(args)
+        .args(["--quiet", "--json"])
+        .arg(&json)
+        .output()
+        .expect("run tetradrill");
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("valid json")
+}
+
+/// The sum of `removed_by_region`'s values.
+fn by_region_sum(j: &serde_json::Value) -> f64 {
+    j["removed_by_region"]
+        .as_object()
+        .expect("removed_by_region")
+        .values()
+        .map(|v| v.as_f64().expect("a volume"))
+        .sum()
+}
+
+#[test]
+fn a_scenario_file_sets_the_regions_and_the_json_reports_them() {
+    let dir = tetradrill_tests::scratch_dir("materials", "scenario");
+    let sc = dir.join("two.toml");
+    std::fs::write(
+        &sc,
+        "mesh = \"builtin:block:8\"\n\
+         [regions.1]\nhardness = 2000.0\nthreshold = 3.0\nstiffness = 300.0\ncolour = \"#e8dcc0\"\n\
+         [regions.2]\nhardness = 300.0\nthreshold = 0.5\n",
+    )
+    .expect("write");
+    let j = replay_json(&["--scenario", sc.to_str().expect("utf8")], "scenario-run");
+    let removed = j["removed_volume"].as_f64().expect("removed");
+    let by = j["removed_by_region"].as_object().expect("by region");
+    assert_eq!(by.keys().collect::<Vec<_>>(), ["1", "2"]);
+    assert!(removed > 0.0);
+    assert!((by_region_sum(&j) - removed).abs() < 1e-12);
+    assert_eq!(j["scenario"]["regions"]["1"]["threshold"], 3.0);
+    // Without a table, the same path removes more: the block is all the default material.
+    let plain = replay_json(&["--mesh", "builtin:block:8"], "scenario-plain");
+    assert!(plain["removed_volume"].as_f64().expect("removed") > removed);
+    assert!((by_region_sum(&plain) - plain["removed_volume"].as_f64().expect("v")).abs() < 1e-12);
+}
+
+#[test]
+fn the_default_region_flags_gate_the_removal() {
+    // A threshold above the force clamp (8 N): nothing is ever removed.
+    let j = replay_json(
+        &["--hardness", "500", "--pressure-threshold", "9"],
+        "flags-gate",
+    );
+    assert_eq!(j["removed_volume"], 0.0);
+    assert_eq!(j["scenario"]["pressure_threshold"], 9.0);
+    // A hardness alone slows the removal down against the unlimited default.
+    let slow = replay_json(&["--hardness", "2000"], "flags-slow");
+    let fast = replay_json(&[], "flags-fast");
+    let (s, f) = (
+        slow["removed_volume"].as_f64().expect("v"),
+        fast["removed_volume"].as_f64().expect("v"),
+    );
+    assert!(s > 0.0 && s < 0.8 * f, "{s} vs {f}");
+}
+
+#[test]
+fn bad_region_tables_name_the_file_and_line() {
+    let dir = tetradrill_tests::scratch_dir("materials", "bad");
+    let cases = [
+        (
+            "label.toml",
+            "mesh = \"builtin:block:4\"\n\n[regions.shell]\nhardness = 1.0\n",
+            "label.toml:3:",
+            "region label",
+        ),
+        (
+            "colour.toml",
+            "[regions.1]\ncolour = \"red\"\n",
+            "colour.toml:1:",
+            "#rrggbb",
+        ),
+        (
+            "key.toml",
+            "[regions.1]\nhardnes = 1.0\n",
+            "key.toml:2:",
+            "hardnes",
+        ),
+        (
+            "neg.toml",
+            "[regions.2]\nthreshold = -1.0\n",
+            "neg.toml:1:",
+            "threshold",
+        ),
+        (
+            "top.toml",
+            "pressure_threshold = -2\n",
+            "top.toml:1:",
+            "pressure_threshold",
+        ),
+    ];
+    for (name, text, at, why) in cases {
+        let p = dir.join(name);
+        std::fs::write(&p, text).expect("write");
+        let p = p.to_str().expect("utf8").to_string();
+        tetradrill_tests::refused(
+            &["replay", "--scenario", &p, "--json", "/dev/null"],
+            &[at, why],
+        );
+    }
+    tetradrill_tests::refused(
+        &["replay", "--hardness", "-1", "--json", "/dev/null"],
+        &["--hardness"],
+    );
+}
