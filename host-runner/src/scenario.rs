@@ -456,13 +456,13 @@ fn non_negative(s: &str) -> Result<f64, String> {
 /// core (label 2) soft.
 pub fn demo_regions() -> BTreeMap<String, RegionSpec> {
     let shell = RegionSpec {
-        hardness: 1500.0,
+        hardness: 300.0,
         threshold: 2.0,
         stiffness: Some(300.0),
         colour: Some("#e8dcc0".into()),
     };
     let core = RegionSpec {
-        hardness: 400.0,
+        hardness: 120.0,
         threshold: 0.5,
         stiffness: Some(150.0),
         colour: Some("#c8786a".into()),
