@@ -6,6 +6,11 @@
 //! or a leaf at the refinement limit whose centroid is inside). A work budget bounds each tick;
 //! the rest waits in a pending deque in caller storage and is done in the next ticks, against
 //! the sphere it was queued for, so the removed shape converges to the swept volume.
+//!
+//! With materials per region ([`Regions`], [`Drill::set_regions`]) a leaf is removed only while
+//! the burr presses harder than its region's threshold, at the rate its hardness gives: each
+//! region earns credit from the pressing force and a leaf is erased once its region's credit
+//! covers its volume (`material.rs`, docs/DRILLING.md "Materials").
 
 mod candidates;
 mod material;
