@@ -415,7 +415,7 @@ impl EngineStorage {
         .and_then(|mut w| {
             if !self.regions.is_empty() {
                 let r = Regions::new(&mut self.regions, &self.tet_region)
-                    .map_err(|e| tetradrill_core::servo::WorldError::Regions(e))?;
+                    .map_err(tetradrill_core::servo::WorldError::Regions)?;
                 w.set_regions(r);
             }
             Ok(w)
