@@ -414,6 +414,11 @@ impl EngineStorage {
         )
         .and_then(|mut w| {
             if !self.regions.is_empty() {
+                // A fresh world (a viewer's reset too) starts with no credit and nothing
+                // removed.
+                for r in self.regions.iter_mut() {
+                    *r = Region::new(r.material);
+                }
                 let r = Regions::new(&mut self.regions, &self.tet_region)
                     .map_err(tetradrill_core::servo::WorldError::Regions)?;
                 w.set_regions(r);

@@ -403,3 +403,21 @@ fn bad_region_tables_name_the_file_and_line() {
         &["--hardness"],
     );
 }
+
+/// A world rebuilt over the same storage (the viewer's reset) starts with no credit and
+/// nothing removed by region, as its hierarchy does.
+#[test]
+fn a_new_world_over_the_same_storage_starts_from_nothing() {
+    let sc = block_scenario(400.0, 1.0);
+    let (mut store, _) = storage(&sc, Some(&[0; 3072]));
+    {
+        let mut world = store.world().expect("world");
+        press(&mut world, 5.0, 300);
+        let r = world.regions().expect("regions").table()[0];
+        assert!(r.removed() > 0.0 && r.credit() > 0.0);
+    }
+    let world = store.world().expect("world");
+    let r = world.regions().expect("regions").table()[0];
+    assert_eq!((r.removed(), r.credit()), (0.0, 0.0));
+    assert_eq!(world.hierarchy().removed_volume(), 0.0);
+}

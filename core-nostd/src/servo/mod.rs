@@ -331,7 +331,9 @@ impl<'a> World<'a> {
     /// material only while the burr presses harder than its threshold, at the rate its
     /// hardness gives ([`crate::drill::Material`]), and the contact takes the stiffness of the
     /// material under it. Without regions (the default) every leaf in the burr is removed at
-    /// once and the force uses [`crate::force::ForceParams::stiffness`].
+    /// once and the force uses [`crate::force::ForceParams::stiffness`]. The force comes from
+    /// [`World::set_pressing`]: until it is told one, a world presses with zero force, which
+    /// removes only the materials of threshold and hardness zero.
     ///
     /// # Bounded work
     /// O(1).

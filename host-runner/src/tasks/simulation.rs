@@ -130,7 +130,11 @@ pub fn simulation_task(
         st.visible_faces = world.hierarchy().visible_face_count();
         st.saturations = world.saturations().total();
         st.press_n = press;
-        st.threshold_n = world.contact_material().map(|m| m.threshold);
+        // Only a material that is not removed at once has a threshold worth showing.
+        st.threshold_n = world
+            .contact_material()
+            .filter(|m| m.threshold > 0.0 || m.rate_limited())
+            .map(|m| m.threshold);
         status.write(st);
         if let Some(v) = viewer.as_deref_mut() {
             v.note_step(world, rep.drill.created + rep.drill.erased > 0);

@@ -31,7 +31,7 @@ pub struct SimStatus {
     /// The force pressing the burr into the material at the last step, newtons.
     pub press_n: f32,
     /// The pressure threshold of the material under the burr, newtons (`None` without a
-    /// contact or without regions).
+    /// contact, without regions, or for a material removed at once whatever the force).
     pub threshold_n: Option<f32>,
 }
 
