@@ -21,7 +21,9 @@ impl World<'_> {
     /// [`Drill::step`]), and for the contact at most [`World::contact_max_nodes`] node tests
     /// of [`Hierarchy::nearest_visible`] (typically a few hundred), plus O(candidates + depth)
     /// and O(depth) per kept face ([`crate::hierarchy::KEEP`]). Under a tick budget
-    /// ([`World::set_tick_budget`]) the drill and the contact search share it.
+    /// ([`World::set_tick_budget`]) the drill and the contact search share it. With regions
+    /// ([`World::set_regions`]), O(regions) to grant them their credit, charged to the drill
+    /// as one work unit per rate-limited region.
     ///
     /// # Capacity
     /// A full candidate list keeps the tets found first and counts `saturations().candidates`,
