@@ -465,7 +465,7 @@ pub fn demo_regions() -> BTreeMap<String, RegionSpec> {
         hardness: 120.0,
         threshold: 0.5,
         stiffness: Some(150.0),
-        colour: Some("#c8786a".into()),
+        colour: Some("#f0c040".into()),
     };
     BTreeMap::from([
         (tetradrill_core::builtin::BLOCK_SHELL.to_string(), shell),
