@@ -421,3 +421,35 @@ fn a_new_world_over_the_same_storage_starts_from_nothing() {
     assert_eq!((r.removed(), r.credit()), (0.0, 0.0));
     assert_eq!(world.hierarchy().removed_volume(), 0.0);
 }
+
+/// `demo` (the real-time pipeline, simulated device) reports the removed volume by region in
+/// its JSON, summing to its removed volume.
+#[test]
+fn the_demo_json_has_the_removed_volume_by_region() {
+    let dir = tetradrill_tests::scratch_dir("materials", "demo");
+    let json = dir.join("demo.json");
+    let out = std::process::Command::new(tetradrill_tests::tetradrill_bin())
+        .args([
+            "demo",
+            "--headless",
+            "--no-rt",
+            "--duration",
+            "2.5",
+            "--json",
+        ])
+        .arg(&json)
+        .output()
+        .expect("run tetradrill");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("valid");
+    let removed = j["removed_volume"].as_f64().expect("removed");
+    let by = j["removed_by_region"].as_object().expect("by region");
+    assert_eq!(by.keys().collect::<Vec<_>>(), ["1", "2"]);
+    assert!(removed > 0.0, "the demo drills");
+    assert!((by_region_sum(&j) - removed).abs() < 1e-12, "{j}");
+}
