@@ -12,6 +12,7 @@
 //! unreadable mesh.
 
 use std::hint::black_box;
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -126,7 +127,10 @@ fn main() -> ExitCode {
     let p99 = sorted[(sorted.len() * 99 / 100).min(sorted.len() - 1)];
     let max = sorted[sorted.len() - 1];
     let raw: Vec<Vec3> = last.iter().map(|c| c.raw).collect();
-    println!(
+    let mut out = std::io::stdout().lock();
+    // A closed pipe (`| head`) ends the output, not the program.
+    let _ = writeln!(
+        out,
         "{mesh} {set}: {} poses, fastest of {reps}: mean {mean:.2} us, p99 {p99:.2} us, max {max:.2} us; raw force digest {:016x}",
         poses.len(),
         force_digest(&raw)
@@ -135,7 +139,8 @@ fn main() -> ExitCode {
     order.sort_by(|&a, &b| best[b].total_cmp(&best[a]));
     for &i in order.iter().take(5) {
         let c = &last[i];
-        println!(
+        let _ = writeln!(
+            out,
             "  pose {i:3}: {:8.2} us; pen nodes in {:4}, object nodes in {:4}; border edges {:4} + {:4}, walk work {:6} + {:6}",
             best[i],
             c.pen_collisions.count,
