@@ -91,7 +91,8 @@ impl<'s> RigidTets<'s> {
     ///
     /// # Bounded work
     /// O(T) for the boxes, the hash's rebuild (O(buckets + T + capacity)), O(T x clusters each
-    /// box meets) for the cluster boxes, O(`node_clusters.len()`) for the nodes' clusters.
+    /// box meets) for the cluster boxes, O(`node_clusters.len()`) for the nodes' clusters, O(N)
+    /// to check that the bounds hold every node ([`RigidTets::moved_bounds`]).
     /// Call it at set-up.
     ///
     /// # Errors
