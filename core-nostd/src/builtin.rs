@@ -4,7 +4,9 @@
 //! - [`cube12`]: the drilling paper's test object, the cube `[-0.5, 0.5]^3` split into 12 tets
 //!   by a centre vertex (seed 001, section 4).
 //! - [`block`]: an `n x n x n` block of cubes, each split into 6 tets around its main diagonal
-//!   (Kuhn/Freudenthal), which is conforming across cubes.
+//!   (Kuhn/Freudenthal), which is conforming across cubes; [`block_labels`] gives it two
+//!   regions, an outer shell one cube thick ([`BLOCK_SHELL`]) and the core inside it
+//!   ([`BLOCK_CORE`]).
 
 use glam::Vec3;
 
@@ -101,6 +103,43 @@ pub fn block(
         }
     }
     Some((nn, nt))
+}
+
+/// Region label of the tets of a [`block`]'s outer layer of cubes (a shell one cube thick).
+pub const BLOCK_SHELL: i32 = 1;
+/// Region label of the tets of a [`block`]'s cubes inside its shell.
+pub const BLOCK_CORE: i32 = 2;
+
+/// Writes the region label of each tet of an `n`-block ([`block`]'s order, six tets per cube)
+/// into `labels`: [`BLOCK_SHELL`] for the cubes on the block's boundary, [`BLOCK_CORE`] for
+/// the others (none when `n <= 2`). Returns the tet count, or `None` when `labels` is too
+/// short (nothing is written).
+///
+/// # Bounded work
+/// O(n^3).
+pub fn block_labels(n: usize, labels: &mut [i32]) -> Option<usize> {
+    let (_, nt) = block_counts(n);
+    if labels.len() < nt || n == 0 {
+        return None;
+    }
+    let edge = |i: usize| i == 0 || i + 1 == n;
+    let mut c = 0;
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let l = if edge(i) || edge(j) || edge(k) {
+                    BLOCK_SHELL
+                } else {
+                    BLOCK_CORE
+                };
+                for slot in labels.iter_mut().skip(c).take(6) {
+                    *slot = l;
+                }
+                c += 6;
+            }
+        }
+    }
+    Some(nt)
 }
 
 fn orient(p: &[Vec3], mut t: [u32; 4]) -> [u32; 4] {

@@ -15,7 +15,7 @@
 //! | [`collide`]   | vertices and sample points inside tets                               |
 //! | [`depth`]     | consistent penetration depth (hashed and traced intersections)       |
 //! | [`hierarchy`] | 1:8 subdivision trees with exact visible faces (Erase, Refine)       |
-//! | [`drill`]     | budgeted erosion by tool sample spheres                              |
+//! | [`drill`]     | budgeted erosion by tool sample spheres, materials per region         |
 //! | [`force`]     | tool forces, damping, clamping, displayed pose, passivity (energy)   |
 //! | [`servo`]     | the per-tick servo step that ties the above together                 |
 //! | [`script`]    | scripted tool paths shared bit for bit by the host and the firmware  |

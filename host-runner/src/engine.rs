@@ -1,7 +1,9 @@
 //! The host's side of the core's [`World`]: storage allocated once for a scenario, and the
 //! per-tick step that replays, real-time runs and `timing` share.
 
-use tetradrill_core::drill::{DrillParams, Pending};
+use std::collections::BTreeMap;
+
+use tetradrill_core::drill::{DrillParams, Material, Pending, Region, Regions};
 use tetradrill_core::force::{DrillTool, ForceParams, ToolState};
 use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{HNode, HierarchyStorage, SphereSlot, VEntry};
@@ -137,6 +139,90 @@ pub struct EngineStorage {
     contact_search_nodes: u32,
     tick_budget: u32,
     sizing: Option<ToolSizing>,
+    /// The materials per region ([`EngineStorage::set_labels`]; empty: none).
+    regions: Vec<Region>,
+    /// Each coarse tet's region index.
+    tet_region: Vec<u8>,
+    /// The mesh label of each region.
+    region_labels: Vec<i32>,
+}
+
+/// The regions of a scenario's world: one per distinct label of the mesh, in label order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RegionTable {
+    /// The label of each region.
+    pub labels: Vec<i32>,
+    /// The material of each region: the scenario's `[regions]` entry for its label, else the
+    /// default region's (`hardness`, `pressure_threshold`, the scenario's stiffness).
+    pub materials: Vec<Material>,
+    /// The display colour of each region, where the scenario sets one.
+    pub colours: Vec<Option<[f32; 3]>>,
+    /// Each tet's region index.
+    pub of_tet: Vec<u8>,
+}
+
+/// The regions of `labels` (one per tet) under the scenario's materials. `Ok(None)` when the
+/// mesh has more than 256 distinct labels and the scenario sets no material (a world then
+/// runs without regions, as every material would be the default one).
+///
+/// # Errors
+/// More than 256 distinct labels with materials set, naming the count.
+pub fn region_table(labels: &[i32], sc: &Scenario) -> Result<Option<RegionTable>, String> {
+    let mut distinct: Vec<i32> = labels.to_vec();
+    distinct.sort_unstable();
+    distinct.dedup();
+    if distinct.is_empty() {
+        distinct.push(0);
+    }
+    let default = Material {
+        hardness: sc.hardness as f32,
+        threshold: sc.pressure_threshold as f32,
+        stiffness: 0.0,
+    };
+    if distinct.len() > 256 {
+        if sc.regions.is_empty() && default == Material::DEFAULT {
+            return Ok(None);
+        }
+        return Err(format!(
+            "the mesh has {} region labels; materials work on at most 256",
+            distinct.len()
+        ));
+    }
+    let by_label: BTreeMap<i32, &crate::scenario::RegionSpec> = sc
+        .regions
+        .iter()
+        .filter_map(|(k, v)| k.trim().parse::<i32>().ok().map(|l| (l, v)))
+        .collect();
+    let materials = distinct
+        .iter()
+        .map(|l| by_label.get(l).map_or(default, |r| r.material()))
+        .collect();
+    let colours = distinct
+        .iter()
+        .map(|l| by_label.get(l).and_then(|r| r.rgb().ok().flatten()))
+        .collect();
+    let of_tet = labels
+        .iter()
+        .map(|l| distinct.binary_search(l).unwrap_or(0) as u8)
+        .collect();
+    Ok(Some(RegionTable {
+        labels: distinct,
+        materials,
+        colours,
+        of_tet,
+    }))
+}
+
+/// The volume removed from each region of `world`, by label (`None` without regions).
+pub fn removed_by_region(world: &World<'_>, labels: &[i32]) -> Option<BTreeMap<String, f64>> {
+    let r = world.regions()?;
+    Some(
+        r.table()
+            .iter()
+            .zip(labels)
+            .map(|(reg, l)| (l.to_string(), reg.removed()))
+            .collect(),
+    )
 }
 
 /// The storage sizes of a scenario's world over a mesh of `tets` tets: the core's defaults
@@ -273,7 +359,48 @@ impl EngineStorage {
             contact_search_nodes: sc.contact_search_nodes,
             tick_budget: sc.tick_budget,
             sizing,
+            regions: Vec::new(),
+            tet_region: Vec::new(),
+            region_labels: Vec::new(),
         }
+    }
+
+    /// Gives the world regions from the mesh's `labels` (one per tet) and the scenario's
+    /// materials ([`region_table`]); labels the `[regions]` table names that the mesh lacks
+    /// get one warning line. Without this call a world has no regions.
+    ///
+    /// # Errors
+    /// Exit status 2 for a table [`region_table`] refuses.
+    pub fn set_labels(&mut self, labels: &[i32], sc: &Scenario) -> Result<(), CliError> {
+        let Some(t) = region_table(labels, sc).map_err(CliError::input)? else {
+            return Ok(());
+        };
+        let missing: Vec<&str> = sc
+            .regions
+            .keys()
+            .filter(|k| {
+                k.trim()
+                    .parse::<i32>()
+                    .is_ok_and(|l| t.labels.binary_search(&l).is_err())
+            })
+            .map(String::as_str)
+            .collect();
+        if !missing.is_empty() {
+            errln!(
+                "tetradrill: warning: the mesh has no region labelled {} (materials set in \
+                 [regions] for nothing)",
+                missing.join(", ")
+            );
+        }
+        self.regions = t.materials.iter().map(|&m| Region::new(m)).collect();
+        self.tet_region = t.of_tet;
+        self.region_labels = t.labels;
+        Ok(())
+    }
+
+    /// The mesh label of each region (empty without regions).
+    pub fn region_labels(&self) -> &[i32] {
+        &self.region_labels
     }
 
     /// The world over this storage (hashes the mesh once).
@@ -299,6 +426,19 @@ impl EngineStorage {
                 sphere_memo: &mut self.sphere_memo,
             },
         )
+        .and_then(|mut w| {
+            if !self.regions.is_empty() {
+                // A fresh world (a viewer's reset too) starts with no credit and nothing
+                // removed.
+                for r in self.regions.iter_mut() {
+                    *r = Region::new(r.material);
+                }
+                let r = Regions::new(&mut self.regions, &self.tet_region)
+                    .map_err(tetradrill_core::servo::WorldError::Regions)?;
+                w.set_regions(r);
+            }
+            Ok(w)
+        })
         .map(|mut w| {
             w.set_contact_max_nodes(self.contact_search_nodes);
             w.set_max_cells(max_cells);
@@ -410,7 +550,9 @@ impl TickParams {
 }
 
 /// One whole tick in one thread: the simulation step at `pose`, then the servo force at the
-/// same pose. Replays, `timing` and the firmware run exactly this.
+/// same pose. Replays, `timing` and the firmware run exactly this. The force's magnitude is
+/// what presses the burr into the material at the next tick's step
+/// ([`World::set_pressing`]: the regions' erosion uses the previous tick's force).
 pub fn tick(
     world: &mut World<'_>,
     tool: &mut ToolState,
@@ -420,6 +562,8 @@ pub fn tick(
     let drill_on = pose.buttons & tetradrill_core::script::DRILL_ON != 0;
     let rep = world.simulate(pose.position, p.radius, p.reach, drill_on, &p.drill);
     let f = servo_force(world.contact(), pose.position, p.radius, tool, &p.force);
+    // What presses the burr against the material in the next step: this tick's force.
+    world.set_pressing(f.length(), PERIOD_S as f32);
     (f, rep)
 }
 
@@ -461,7 +605,7 @@ pub fn tick_tool(
         &mut shaft.drill,
     );
     shaft.last = prep;
-    let f = drill_force(
+    let (f, on_burr) = drill_force(
         world.contact(),
         &d,
         pose.position,
@@ -471,5 +615,7 @@ pub fn tick_tool(
         &mut shaft.damping,
         &p.force,
     );
+    // What presses the burr in the next step: the burr's own force, not the shaft's.
+    world.set_pressing(on_burr.length(), PERIOD_S as f32);
     (f, rep)
 }

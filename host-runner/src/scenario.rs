@@ -2,6 +2,7 @@
 //! capacities), with defaults in one place. A scenario comes from the defaults, then a TOML
 //! file or a `builtin:NAME`, then the command-line flags, each overriding the one before.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -61,6 +62,17 @@ pub struct Scenario {
     /// Milliseconds over which the burr's force moves from one contact plane to the next
     /// (`servo_force`); 0 switches at once.
     pub switch_ms: f64,
+    /// Hardness of the default region (every label the `regions` table does not name),
+    /// newton-seconds per cubic mesh unit: the burr pressing `F` newtons above the threshold
+    /// removes `F / hardness` cubic mesh units a second (docs/DRILLING.md, "Materials"); 0
+    /// removes at once.
+    pub hardness: f64,
+    /// Pressure threshold of the default region, newtons: below it the burr removes nothing.
+    pub pressure_threshold: f64,
+    /// Materials by region label (the mesh file's labels; the built-in block's shell is 1 and
+    /// its core 2): `[regions.LABEL]` with `hardness`, `threshold`, `stiffness`, `colour`.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub regions: BTreeMap<String, RegionSpec>,
     /// Depth method for a mesh tool.
     pub depth_method: DepthMethod,
     /// Whether a mesh tool's border edges reuse last tick's crossing faces.
@@ -116,6 +128,52 @@ pub struct Scenario {
     /// body's node count).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub queue_capacity: Option<usize>,
+}
+
+/// One region's material in a scenario's `[regions]` table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegionSpec {
+    /// Newton-seconds per cubic mesh unit (0: removed at once).
+    #[serde(default)]
+    pub hardness: f64,
+    /// Newtons the burr must press with before it removes anything.
+    #[serde(default)]
+    pub threshold: f64,
+    /// Contact stiffness, newtons per mesh unit of depth (absent: the scenario's `stiffness`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiffness: Option<f64>,
+    /// Display colour, `#rrggbb` (absent: the viewer's palette).
+    #[serde(default, alias = "color", skip_serializing_if = "Option::is_none")]
+    pub colour: Option<String>,
+}
+
+impl RegionSpec {
+    /// The core's material for this region.
+    pub fn material(&self) -> tetradrill_core::drill::Material {
+        tetradrill_core::drill::Material {
+            hardness: self.hardness as f32,
+            threshold: self.threshold as f32,
+            stiffness: self.stiffness.unwrap_or(0.0) as f32,
+        }
+    }
+
+    /// The colour as linear RGB in `0..=1`, if set.
+    ///
+    /// # Errors
+    /// A colour that is not `#rrggbb`.
+    pub fn rgb(&self) -> Result<Option<[f32; 3]>, String> {
+        let Some(c) = &self.colour else {
+            return Ok(None);
+        };
+        let hex = c.strip_prefix('#').unwrap_or(c);
+        if hex.len() != 6 || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return Err(format!("colour `{c}` is not #rrggbb"));
+        }
+        let ch =
+            |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).map_or(0.0, |v| v as f32 / 255.0);
+        Ok(Some([ch(0), ch(2), ch(4)]))
+    }
 }
 
 /// Largest storage one buffer may take. A larger capacity is refused as absurd: a mistyped
@@ -239,6 +297,9 @@ impl Default for Scenario {
             damping: 0.5,
             max_force: 8.0,
             switch_ms: 16.0,
+            hardness: 0.0,
+            pressure_threshold: 0.0,
+            regions: BTreeMap::new(),
             depth_method: DepthMethod::Traced,
             crossings: Crossings::Reuse,
             contact_period: 1,
@@ -310,6 +371,13 @@ pub struct ScenarioFlags {
     /// at once).
     #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
     pub switch_ms: Option<f64>,
+    /// Hardness of the default region, newton-seconds per cubic mesh unit (0: removed at
+    /// once).
+    #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
+    pub hardness: Option<f64>,
+    /// Pressure threshold of the default region, newtons (the burr removes nothing below it).
+    #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
+    pub pressure_threshold: Option<f64>,
     /// Depth method for a mesh tool.
     #[arg(long, value_enum)]
     pub depth_method: Option<DepthMethod>,
@@ -386,10 +454,36 @@ fn non_negative(s: &str) -> Result<f64, String> {
     }
 }
 
+/// The demo block's materials: its shell (label 1) hard, stiff and needing a firm push; its
+/// core (label 2) soft.
+pub fn demo_regions() -> BTreeMap<String, RegionSpec> {
+    let shell = RegionSpec {
+        hardness: 300.0,
+        threshold: 2.0,
+        stiffness: Some(300.0),
+        colour: Some("#e8dcc0".into()),
+    };
+    let core = RegionSpec {
+        hardness: 120.0,
+        threshold: 0.5,
+        stiffness: Some(150.0),
+        colour: Some("#f0c040".into()),
+    };
+    BTreeMap::from([
+        (tetradrill_core::builtin::BLOCK_SHELL.to_string(), shell),
+        (tetradrill_core::builtin::BLOCK_CORE.to_string(), core),
+    ])
+}
+
 /// A built-in scenario by name.
 pub fn builtin(name: &str) -> Option<Scenario> {
     match name {
-        "demo" => Some(Scenario::default()),
+        // The demo's block has two regions (`tetradrill_core::builtin::block_labels`): a hard
+        // outer shell and a soft core (docs/DRILLING.md, "Materials").
+        "demo" => Some(Scenario {
+            regions: demo_regions(),
+            ..Scenario::default()
+        }),
         // Small enough for the Cortex-M4 firmware's static storage; same path as the demo.
         // The firmware's numbers (ports/mps2-an386/src/main.rs and storage.rs): a budget and a
         // contact-search bound sized for a tick of a few hundred thousand instructions on a
@@ -443,7 +537,7 @@ impl Scenario {
             ($($field:ident),*) => { $( if let Some(v) = &f.$field { s.$field = v.clone(); } )* };
         }
         take!(mesh, scale, trace, tool, tool_scale, stiffness, damping, max_force);
-        take!(switch_ms);
+        take!(switch_ms, hardness, pressure_threshold);
         take!(
             depth_method,
             crossings,
@@ -503,6 +597,45 @@ impl Scenario {
                 "switch_ms",
                 format!("switch_ms must be non-negative, got {}", self.switch_ms),
             ));
+        }
+        for (key, v) in [
+            ("hardness", self.hardness),
+            ("pressure_threshold", self.pressure_threshold),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err((key, format!("{key} must be non-negative, got {v}")));
+            }
+        }
+        for (label, r) in &self.regions {
+            if label.trim().parse::<i32>().is_err() {
+                return Err((
+                    "regions",
+                    format!("regions: `{label}` is not a region label (an integer)"),
+                ));
+            }
+            for (what, v, ok) in [
+                ("hardness", r.hardness, r.hardness >= 0.0),
+                ("threshold", r.threshold, r.threshold >= 0.0),
+                (
+                    "stiffness",
+                    r.stiffness.unwrap_or(1.0),
+                    r.stiffness.is_none_or(|k| k > 0.0),
+                ),
+            ] {
+                if !(v.is_finite() && ok) {
+                    let sign = if what == "stiffness" {
+                        "positive"
+                    } else {
+                        "non-negative"
+                    };
+                    return Err((
+                        "regions",
+                        format!("regions.{label}.{what} must be a {sign} number, got {v}"),
+                    ));
+                }
+            }
+            r.rgb()
+                .map_err(|m| ("regions", format!("regions.{label}: {m}")))?;
         }
         if !(self.min_area.is_finite() && self.min_area >= 0.0) {
             return Err((
@@ -600,13 +733,16 @@ impl Scenario {
     }
 }
 
-/// The 1-based line of a TOML text where `key` is set (`key = ...` at the start of a line).
+/// The 1-based line of a TOML text where `key` is set (`key = ...` at the start of a line),
+/// or where its table starts (`[key` at the start of a line).
 fn key_line(text: &str, key: &str) -> Option<usize> {
     text.lines()
         .position(|l| {
-            l.trim_start()
-                .strip_prefix(key)
+            let l = l.trim_start();
+            l.strip_prefix(key)
                 .is_some_and(|rest| rest.trim_start().starts_with('='))
+                || l.strip_prefix('[')
+                    .is_some_and(|rest| rest.trim_start().starts_with(key))
         })
         .map(|i| i + 1)
 }

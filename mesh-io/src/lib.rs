@@ -195,9 +195,9 @@ fn builtin(name: &str) -> Result<RawMesh, MeshError> {
              N in 1..={MAX_BUILTIN_BLOCK})"
         ))
     };
-    let (positions, tets): (Vec<Vec3>, Vec<[u32; 4]>) = if name == "cube12" {
+    let (positions, tets, labels): (Vec<Vec3>, Vec<[u32; 4]>, Vec<i32>) = if name == "cube12" {
         let (p, t) = tetradrill_core::builtin::cube12();
-        (p.to_vec(), t.to_vec())
+        (p.to_vec(), t.to_vec(), vec![0; t.len()])
     } else if let Some(n) = name.strip_prefix("block:") {
         let n: usize = n.parse().map_err(|_| bad())?;
         if n == 0 || n > MAX_BUILTIN_BLOCK {
@@ -209,7 +209,10 @@ fn builtin(name: &str) -> Result<RawMesh, MeshError> {
         let edge = 1.0 / n as f32;
         tetradrill_core::builtin::block(n, edge, Vec3::splat(-0.5), &mut p, &mut t)
             .ok_or_else(bad)?;
-        (p, t)
+        // Two regions made here: the outer shell of cubes and the core inside it.
+        let mut l = vec![0; nt];
+        tetradrill_core::builtin::block_labels(n, &mut l).ok_or_else(bad)?;
+        (p, t, l)
     } else {
         return Err(bad());
     };
@@ -219,8 +222,9 @@ fn builtin(name: &str) -> Result<RawMesh, MeshError> {
             .map(|p| [p.x as f64, p.y as f64, p.z as f64])
             .collect(),
         tet_lines: vec![0; tets.len()],
-        labels: vec![0; tets.len()],
-        label_source: None,
+        label_source: (labels.iter().any(|&l| l != 0))
+            .then(|| "the built-in block's shell (1) and core (2)".to_string()),
+        labels,
         tets,
         format: "builtin",
         warnings: Vec::new(),

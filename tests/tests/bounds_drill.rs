@@ -524,6 +524,7 @@ fn servo_force_output_is_clamped_and_finite() {
         depth: 0.0,
         centre: Vec3::ZERO,
         triangles: 1,
+        stiffness: 0.0,
     };
     let mut tool = ToolState::default();
     for i in 0..2000 {

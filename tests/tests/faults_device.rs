@@ -45,6 +45,7 @@ fn plane(point: Vec3) -> ContactState {
         depth: 0.0,
         centre: point,
         triangles: 1,
+        stiffness: 0.0,
     }
 }
 

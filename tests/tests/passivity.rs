@@ -181,6 +181,7 @@ const WALL: ContactState = ContactState {
     depth: 0.0,
     centre: Vec3::new(0.0, 0.0, 0.6),
     triangles: 1,
+    stiffness: 0.0,
 };
 
 /// Runs `ticks` servo ticks of `device` against [`WALL`] with the scenario's force law and an

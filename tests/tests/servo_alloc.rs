@@ -84,6 +84,7 @@ fn servo_tick_allocates_nothing_after_warm_up() {
         depth: 0.0,
         centre: Vec3::new(0.0, 0.0, 0.6),
         triangles: 1,
+        stiffness: 0.0,
     };
     let (mut input, mut output) =
         triple_buffer::TripleBuffer::new(&ContactState::default()).split();
@@ -165,6 +166,7 @@ fn coming_back_from_a_stall_allocates_nothing() {
         depth: 0.0,
         centre: Vec3::new(0.0, 0.0, 0.6),
         triangles: 1,
+        stiffness: 0.0,
     };
     let ws = Workspace {
         scale: 1.0,

@@ -475,4 +475,23 @@ fn regions_are_coloured_apart() {
     let want_r = PALETTE.regions[0][2] / PALETTE.regions[0][0];
     assert!((ratio(l) - want_l).abs() < 0.05, "left {l:?}");
     assert!((ratio(r) - want_r).abs() < 0.1, "right {r:?}");
+    // A scenario's colours replace the palette's: green-blue on the left, magenta-ish on the
+    // right (the ratios of the channels are the colours' own).
+    let (cl, cr) = ([0.2f32, 0.8, 0.6], [0.9f32, 0.3, 0.6]);
+    let mut scene = Scene::new();
+    scene.apply(Snapshot {
+        seq: 1,
+        full: true,
+        patches: full_patches(&world),
+        regions: region_slots(&labels),
+        region_colours: Some(vec![Some(cl), Some(cr)].into()),
+        ..Snapshot::default()
+    });
+    let pic = render(&mut scene, &cam, W, H, false).expect("render");
+    let (l, r) = (pic.at(lx, ly), pic.at(rx, ry));
+    let green = |px: [u8; 4]| px[1] as f32 / px[0].max(1) as f32;
+    assert!((green(l) - cl[1] / cl[0]).abs() < 0.3, "left {l:?}");
+    assert!((ratio(l) - cl[2] / cl[0]).abs() < 0.2, "left {l:?}");
+    assert!((green(r) - cr[1] / cr[0]).abs() < 0.05, "right {r:?}");
+    assert!((ratio(r) - cr[2] / cr[0]).abs() < 0.05, "right {r:?}");
 }

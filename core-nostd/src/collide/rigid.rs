@@ -75,6 +75,9 @@ pub struct RigidTets<'s> {
     radius: f32,
     /// Largest length of a cluster box's half extent.
     reach: f32,
+    /// `true` when `bounds` holds every node of the body (so [`RigidTets::moved_bounds`]
+    /// holds every moved node).
+    nodes_bounded: bool,
 }
 
 impl<'s> RigidTets<'s> {
@@ -88,7 +91,8 @@ impl<'s> RigidTets<'s> {
     ///
     /// # Bounded work
     /// O(T) for the boxes, the hash's rebuild (O(buckets + T + capacity)), O(T x clusters each
-    /// box meets) for the cluster boxes, O(`node_clusters.len()`) for the nodes' clusters.
+    /// box meets) for the cluster boxes, O(`node_clusters.len()`) for the nodes' clusters, O(N)
+    /// to check that the bounds hold every node ([`RigidTets::moved_bounds`]).
     /// Call it at set-up.
     ///
     /// # Errors
@@ -170,6 +174,10 @@ impl<'s> RigidTets<'s> {
             margin,
             radius: 0.0,
             reach: 0.0,
+            nodes_bounded: (0..body.mesh.node_count()).all(|n| {
+                body.pos(NodeId::from_idx(n))
+                    .is_some_and(|q| bounds.contains(q))
+            }),
         };
         clusters.fill(Aabb::of::<0>([]));
         for t in 0..nt {
@@ -354,6 +362,32 @@ impl RigidTets<'_> {
         if b.min.x > b.max.x {
             return None; // empty cell (inverted box)
         }
+        let m = &pose.matrix3;
+        let centre = pose.transform_point3((b.min + b.max) * 0.5);
+        let h = (b.max - b.min) * 0.5;
+        let half = Vec3::from(m.x_axis.abs()) * h.x
+            + Vec3::from(m.y_axis.abs()) * h.y
+            + Vec3::from(m.z_axis.abs()) * h.z
+            + Vec3::splat(self.margin);
+        Some(Aabb {
+            min: centre - half,
+            max: centre + half,
+        })
+    }
+
+    /// A box holding every node of the body moved by `pose` (the rest bounds moved, grown by
+    /// the margin), or `None` when the pose is too far from the origin for the margin to
+    /// cover rounding or some node lies outside every tet box: then the caller bounds the
+    /// moved nodes itself.
+    ///
+    /// # Bounded work
+    /// Constant.
+    #[inline]
+    pub fn moved_bounds(&self, pose: &Affine3A) -> Option<Aabb> {
+        if !self.nodes_bounded || !self.pose_in_margin(pose) {
+            return None;
+        }
+        let b = self.bounds;
         let m = &pose.matrix3;
         let centre = pose.transform_point3((b.min + b.max) * 0.5);
         let h = (b.max - b.min) * 0.5;

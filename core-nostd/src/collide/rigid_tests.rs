@@ -225,3 +225,36 @@ fn rigid_tool_coherent_capacity() {
     }
     assert!(full > 100, "the output filled {full} times");
 }
+
+/// `moved_bounds` holds every moved node at random poses near the origin (so the pen pass may
+/// skip the nodes' own box) and refuses poses past the margin and scaled ones.
+#[test]
+fn moved_bounds_hold_every_moved_node() {
+    rigid_scene!(tool, obj, rest, nh, cells, Vec3::splat(-0.5));
+    let _ = (&obj, &nh, &cells);
+    let mut rng = Rng(0x0bad_cafe_f00d_1234);
+    for _ in 0..500 {
+        let t = Vec3::new(
+            rng.range(-3.0, 3.0),
+            rng.range(-3.0, 3.0),
+            rng.range(-3.0, 3.0),
+        );
+        let pose = glam::Affine3A::from_rotation_translation(rng.rotation(), t);
+        let b = rest.moved_bounds(&pose).expect("a pose near the origin");
+        for &p in tool.positions() {
+            assert!(b.contains(pose.transform_point3(p)), "{p:?} at {pose:?}");
+        }
+        // Not much larger than the moved nodes' own box (the rest box turned).
+        let own = tool
+            .positions()
+            .iter()
+            .fold(crate::hash::Aabb::of::<0>([]), |a, &p| {
+                a.union(crate::hash::Aabb::point(pose.transform_point3(p)))
+            });
+        assert!((b.max - b.min).max_element() <= 2.0 * (own.max - own.min).max_element());
+    }
+    let far = glam::Affine3A::from_translation(Vec3::splat(1e6));
+    assert!(rest.moved_bounds(&far).is_none());
+    let scaled = glam::Affine3A::from_rotation_translation(rng.rotation() * 1.1, Vec3::ZERO);
+    assert!(rest.moved_bounds(&scaled).is_none());
+}

@@ -30,6 +30,8 @@ pub struct NodeSlot {
 const COLLIDING: u8 = 1;
 const QUEUED: u8 = 2;
 const KNOWN: u8 = 3;
+/// Queued, but every weight from its known neighbours underflowed: no depth.
+const STRANDED: u8 = 4;
 
 /// The boundary face of B where one directed edge of A's graph last left B (see
 /// [`DepthScratch::with_crossings`]).
@@ -277,17 +279,15 @@ pub fn penetration_depth_of(
     scratch.next_stamp();
     let stamp = scratch.stamp;
 
-    // Mark colliding nodes.
+    // Mark colliding nodes (depth, direction and link are written before they are read: when
+    // the node becomes known, when it is chained).
     for c in collisions {
         match scratch.slots.get_mut(c.node.idx()) {
             Some(s) => {
-                *s = NodeSlot {
-                    stamp,
-                    state: COLLIDING,
-                    layer: 0,
-                    tet: c.tet,
-                    ..NodeSlot::default()
-                }
+                s.stamp = stamp;
+                s.state = COLLIDING;
+                s.layer = 0;
+                s.tet = c.tet;
             }
             None => r.out_of_range += 1,
         }
@@ -348,28 +348,45 @@ pub fn penetration_depth_of(
         }
     }
 
-    // Breadth-first propagation, layer by layer.
+    // Breadth-first propagation, layer by layer. A queued node takes its value from its known
+    // neighbours of lower layers and queues its colliding neighbours in the same pass over its
+    // neighbours (a neighbour is either known or colliding, never both, so the sums and the
+    // queue order are those of two separate passes).
     while let Some(u) = fifo.pop(scratch.queue, scratch.slots) {
         let Some(&pu) = a_positions.get(u.idx()) else {
             continue;
         };
-        let Some(&su) = scratch.slot(u) else { continue };
-        if su.state == QUEUED {
-            let (mut sm, mut sd, mut sr) = (0.0f32, 0.0f32, Vec3::ZERO);
-            for &j in graph.neighbours(u) {
-                let Some(&sj) = scratch.slot(j) else { continue };
-                if sj.state != KNOWN || sj.layer >= su.layer {
-                    continue;
-                }
-                let Some(&pj) = a_positions.get(j.idx()) else {
-                    continue;
-                };
-                let v = pj - pu;
-                let mu = 1.0 / v.length_squared().max(MIN_DIST2);
-                sm += mu;
-                sd += mu * (v.dot(sj.dir) + sj.depth);
-                sr += sj.dir * mu;
+        let Some(su) = scratch.slot(u) else { continue };
+        let (queued, su_layer) = (su.state == QUEUED, su.layer);
+        let layer = su_layer + 1;
+        let (mut sm, mut sd, mut sr) = (0.0f32, 0.0f32, Vec3::ZERO);
+        for &j in graph.neighbours(u) {
+            let Some(sj) = scratch.slots.get_mut(j.idx()) else {
+                continue;
+            };
+            if sj.stamp != stamp {
+                continue;
             }
+            if sj.state == COLLIDING {
+                sj.state = QUEUED;
+                sj.layer = layer;
+                fifo.push(scratch.queue, scratch.slots, j, &mut r);
+                continue;
+            }
+            if !queued || sj.state != KNOWN || sj.layer >= su_layer {
+                continue;
+            }
+            let (dj, rj) = (sj.depth, sj.dir);
+            let Some(&pj) = a_positions.get(j.idx()) else {
+                continue;
+            };
+            let v = pj - pu;
+            let mu = 1.0 / v.length_squared().max(MIN_DIST2);
+            sm += mu;
+            sd += mu * (v.dot(rj) + dj);
+            sr += rj * mu;
+        }
+        if queued {
             let Some(slot) = scratch.slots.get_mut(u.idx()) else {
                 continue;
             };
@@ -378,21 +395,11 @@ pub fn penetration_depth_of(
                 slot.depth = sd / sm;
                 slot.dir = sr.normalize_or_zero();
             } else {
-                slot.state = COLLIDING; // cannot happen: it was queued by a known neighbour
-                continue;
+                // Only for positions so far apart that every weight underflows (it was queued
+                // by a known neighbour): no depth, as for an unreached node, and never queued
+                // again (each node is queued at most once, so the work stays bounded).
+                slot.state = STRANDED;
             }
-        }
-        let layer = su.layer + 1;
-        for &v in graph.neighbours(u) {
-            let Some(sv) = scratch.slots.get_mut(v.idx()) else {
-                continue;
-            };
-            if sv.stamp != stamp || sv.state != COLLIDING {
-                continue;
-            }
-            sv.state = QUEUED;
-            sv.layer = layer;
-            fifo.push(scratch.queue, scratch.slots, v, &mut r);
         }
     }
 

@@ -3,6 +3,7 @@
 
 use glam::Vec3;
 
+use super::material::{Regions, Spend};
 use super::sphere::{classify_costed, Class, Sphere};
 use crate::geom::tri_area;
 use crate::hierarchy::{
@@ -158,6 +159,12 @@ pub struct DrillReport {
     pub pending: u32,
     /// Capacity saturations this step (arena full, pending queue full).
     pub saturations: u32,
+    /// Items dropped because the pressing force does not remove their region's material
+    /// ([`super::Material::admits`]).
+    pub held: u32,
+    /// 1 when the step ended on a leaf waiting for its region's credit
+    /// ([`super::Regions::spend`]).
+    pub waited: u32,
 }
 
 /// [`super::classify`], charging the exact test when it runs ([`WorkCost::EXACT_TEST`]).
@@ -219,6 +226,10 @@ pub struct Drill<'a> {
     parents: [Option<Parent>; MAX_DEPTH],
     retry: bool,
     saturations: u32,
+    /// The materials per region, if set ([`Drill::set_regions`]).
+    pub(super) regions: Option<Regions<'a>>,
+    /// A leaf waits for its region's credit: the step stops.
+    stalled: bool,
 }
 
 impl<'a> Drill<'a> {
@@ -242,6 +253,8 @@ impl<'a> Drill<'a> {
             parents: [None; MAX_DEPTH],
             retry: false,
             saturations: 0,
+            regions: None,
+            stalled: false,
         }
     }
 
@@ -270,6 +283,7 @@ impl<'a> Drill<'a> {
         self.swept_next = 0;
         self.frame = None;
         self.parents = [None; MAX_DEPTH];
+        self.stalled = false;
     }
 
     /// Remembers `s` as part of the swept volume (the oldest of [`SWEPT`] is forgotten).
@@ -466,6 +480,7 @@ impl<'a> Drill<'a> {
         params: &DrillParams,
     ) -> DrillReport {
         let mut rep = DrillReport::default();
+        self.stalled = false;
         let removed0 = h.removed_volume();
         let sat0 = h.saturations();
         if self.retry && self.len == 0 {
@@ -497,7 +512,7 @@ impl<'a> Drill<'a> {
             }
         }
         let max_depth = params.max_depth.min(crate::hierarchy::MAX_DEPTH as u8);
-        while rep.work < params.budget {
+        while rep.work < params.budget && !self.stalled {
             let Some(item) = self.pop_front() else { break };
             rep.work = rep.work.saturating_add(WorkCost::TAKEN);
             rep.taken += 1;
@@ -531,6 +546,14 @@ impl<'a> Drill<'a> {
             return;
         };
         if node.all_erased() {
+            return;
+        }
+        // Material the pressing force does not remove is neither refined nor erased; the
+        // burr's unchanged positions are queued again once the backlog is done (as after a
+        // full deque), so a burr held still cuts when pressed harder.
+        if !self.admits(item.tet) {
+            rep.held += 1;
+            self.retry = true;
             return;
         }
         let Some(depth) = Path::depth_of(item.index) else {
@@ -613,10 +636,19 @@ impl<'a> Drill<'a> {
         path: &Path,
         rep: &mut DrillReport,
     ) {
+        // A leaf of a rate-limited material waits at the front until its region has earned
+        // its volume; the step stops there.
+        if self.spend(mesh, item.tet, path.depth) == Spend::Wait {
+            self.push_front(item);
+            self.stalled = true;
+            rep.waited = 1;
+            return;
+        }
         if let Ok(r) = h.erase_at(mesh, item.tet, path, item.node) {
             rep.work = rep.work.saturating_add(WorkCost::VISIT * r.work);
             rep.visits = rep.visits.saturating_add(r.work);
             rep.erased += 1;
+            self.note_removed(item.tet, r.removed);
         }
     }
 

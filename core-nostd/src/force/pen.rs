@@ -333,12 +333,17 @@ pub fn pen_pass(
     let rest = scene.pen.positions();
     let n = rest.len().min(bufs.world.len());
     out.world_short = n < rest.len();
-    let mut bounds = Aabb::of::<0>([]);
     for (w, &r) in bufs.world.iter_mut().zip(rest.iter()) {
         *w = pose.transform_point3(r);
-        bounds = bounds.union(Aabb::point(*w));
     }
     let world = bufs.world.get(..n).unwrap_or(&[]);
+    // The pen's rest bounds moved (constant work); the moved nodes' own box only where those
+    // cannot be trusted to hold them.
+    let bounds = scene.pen_rest.moved_bounds(&pose).unwrap_or_else(|| {
+        world
+            .iter()
+            .fold(Aabb::of::<0>([]), |b, &w| b.union(Aabb::point(w)))
+    });
     let pen_body = Body::moved(scene.pen, world, rotation);
     bufs.pen_depth.set_reuse(opts.reuse_crossings);
     bufs.object_depth.set_reuse(opts.reuse_crossings);

@@ -49,6 +49,9 @@ pub struct ToolState {
     /// What the force still owes the last plane switch: added to the spring force and
     /// shrunk to zero at a bounded rate (see [`crate::servo::servo_force`]).
     pub residual: Vec3,
+    /// The stiffness `plane` was felt with, newtons per mesh unit (a change of the material
+    /// under the contact is a switch, rendered as a ramp like a change of plane).
+    pub stiffness: f32,
 }
 
 /// Damping force `-b v` with `v` from two consecutive positions; zero without a previous

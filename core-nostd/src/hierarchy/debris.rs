@@ -66,6 +66,26 @@ impl Hierarchy<'_> {
         max_depth: u8,
         scratch: &mut [u32],
     ) -> Result<DebrisReport, HierarchyError> {
+        self.remove_debris_with(mesh, max_leaves, max_depth, scratch, |_, _| {})
+    }
+
+    /// [`Hierarchy::remove_debris`] calling `erased(tet, volume)` for every leaf it erases
+    /// (the coarse tet whose tree held it and its volume), for tallies kept elsewhere (the
+    /// removed volume by region).
+    ///
+    /// # Bounded work
+    /// As [`Hierarchy::remove_debris`], plus one call per leaf erased.
+    ///
+    /// # Errors
+    /// As [`Hierarchy::remove_debris`].
+    pub fn remove_debris_with<F: FnMut(TetId, f64)>(
+        &mut self,
+        mesh: &Mesh<'_>,
+        max_leaves: u32,
+        max_depth: u8,
+        scratch: &mut [u32],
+        mut erased: F,
+    ) -> Result<DebrisReport, HierarchyError> {
         let n = self.node_count();
         let (uf, size) = scratch
             .get_mut(..2 * n)
@@ -145,6 +165,7 @@ impl Hierarchy<'_> {
                 Ok(op) => {
                     rep.nodes += 1;
                     rep.volume += op.removed;
+                    erased(e.tet, op.removed);
                 }
                 // Cannot happen for a v_list leaf; never loop on it.
                 Err(_) => i += 1,

@@ -26,6 +26,11 @@ use crate::force::{clamp_force, damping_force, ForceParams, ToolState};
 /// or not (`|dc|` the tool's motion, `v` its velocities). A `switch_time` of zero (or not
 /// finite) switches at once.
 ///
+/// Materials. The stiffness is the contact's ([`ContactState::stiffness`], the material under
+/// it) when positive, else `params.stiffness`. A change of stiffness under an unchanged plane
+/// is a switch too: the spring felt with the old stiffness is carried by the residual and
+/// ramped out, so crossing from one material into another never makes the force jump.
+///
 /// # Bounded work
 /// Constant. Never allocates, locks or panics; non-finite input gives zero force (and
 /// forgets the plane and the residual).
@@ -37,18 +42,24 @@ pub fn servo_force(
     params: &ForceParams,
 ) -> Vec3 {
     let plane = contact.valid.then_some((contact.point, contact.normal));
-    let spring = |plane: Option<(Vec3, Vec3)>| match plane {
+    // The material under the contact sets the stiffness (zero: the parameters').
+    let k = if contact.stiffness > 0.0 && contact.stiffness.is_finite() {
+        contact.stiffness
+    } else {
+        params.stiffness
+    };
+    let spring = |plane: Option<(Vec3, Vec3)>, k: f32| match plane {
         Some((p, n)) => {
             let depth = radius - (centre - p).dot(n);
             if depth > 0.0 {
-                clamp_force(n * (params.stiffness * depth), params.max_force)
+                clamp_force(n * (k * depth), params.max_force)
             } else {
                 Vec3::ZERO
             }
         }
         None => Vec3::ZERO,
     };
-    let s = spring(plane);
+    let s = spring(plane, k);
     let damping = damping_force(tool, centre, s != Vec3::ZERO, params);
     if !(centre.is_finite() && radius.is_finite()) {
         tool.plane = None;
@@ -57,9 +68,13 @@ pub fn servo_force(
     }
     let step = 2.0 * params.max_force * params.dt / params.switch_time;
     let mut residual = tool.residual;
-    if tool.plane != plane {
-        residual = clamp_force(spring(tool.plane) + residual, params.max_force) - s;
+    if tool.plane != plane || (plane.is_some() && tool.stiffness != k) {
+        residual = clamp_force(
+            spring(tool.plane, tool.stiffness) + residual,
+            params.max_force,
+        ) - s;
         tool.plane = plane;
+        tool.stiffness = k;
     }
     let residual = shrink(residual, step);
     tool.residual = residual;

@@ -20,7 +20,7 @@
 
 use glam::Vec3;
 
-use crate::drill::{Drill, DrillReport, Pending, Spacing};
+use crate::drill::{Drill, DrillReport, Material, Pending, Regions, Spacing};
 pub use crate::drill::{DRILL_HOLD_STEPS, DRILL_SETTLE, DRILL_SPACING, MAX_STEP_SPHERES};
 use crate::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, HashError, SpatialHash};
 use crate::hierarchy::{
@@ -135,6 +135,8 @@ pub enum WorldError {
     Hash(HashError),
     /// The hierarchy refused its storage.
     Hierarchy(HierarchyError),
+    /// The region table refused its storage ([`Regions::new`]).
+    Regions(crate::drill::RegionError),
 }
 
 impl core::fmt::Display for WorldError {
@@ -142,6 +144,7 @@ impl core::fmt::Display for WorldError {
         match self {
             Self::Hash(e) => write!(f, "{e}"),
             Self::Hierarchy(e) => write!(f, "{e}"),
+            Self::Regions(e) => write!(f, "{e}"),
         }
     }
 }
@@ -162,6 +165,9 @@ pub struct ContactState {
     pub centre: Vec3,
     /// Visible triangles examined.
     pub triangles: u32,
+    /// Contact stiffness of the material under the contact, newtons per mesh unit; zero: the
+    /// force parameters' own ([`crate::drill::Material::stiffness`]).
+    pub stiffness: f32,
 }
 
 /// What one [`World::simulate`] did.
@@ -240,6 +246,11 @@ pub struct World<'a> {
     sat: Saturations,
     /// Which burr positions become drill work.
     spacing: Spacing,
+    /// The pressing force (newtons) and the seconds it lasted, for the next step's grant
+    /// ([`World::set_pressing`]).
+    press: (f32, f32),
+    /// The coarse tet under the last contact, if any.
+    contact_tet: Option<TetId>,
 }
 
 /// Default bound on the hash cells one step's zone query visits ([`World::set_max_cells`]):
@@ -314,7 +325,45 @@ impl<'a> World<'a> {
             cursor: NearestCursor::new(),
             sat,
             spacing: Spacing::new(),
+            press: (0.0, 0.0),
+            contact_tet: None,
         })
+    }
+
+    /// Sets the materials per region ([`Regions`]): the drill then removes a region's
+    /// material only while the burr presses harder than its threshold, at the rate its
+    /// hardness gives ([`crate::drill::Material`]), and the contact takes the stiffness of the
+    /// material under it. Without regions (the default) every leaf in the burr is removed at
+    /// once and the force uses [`crate::force::ForceParams::stiffness`]. The force comes from
+    /// [`World::set_pressing`]: until it is told one, a world presses with zero force, which
+    /// removes only the materials of threshold and hardness zero.
+    ///
+    /// # Bounded work
+    /// O(1).
+    pub fn set_regions(&mut self, regions: Regions<'a>) {
+        self.drill.set_regions(regions);
+    }
+
+    /// The materials per region, if set (their credits and removed volumes).
+    pub fn regions(&self) -> Option<&Regions<'a>> {
+        self.drill.regions()
+    }
+
+    /// The force pressing the burr against the material, newtons (the magnitude of the
+    /// servo's last force), and the seconds since the last simulation step: the next
+    /// [`World::simulate`] earns each region's erosion credit from them (with the drill on).
+    /// Without regions it changes nothing.
+    ///
+    /// # Bounded work
+    /// O(1).
+    pub fn set_pressing(&mut self, force: f32, seconds: f32) {
+        self.press = (force, seconds);
+    }
+
+    /// The material under the last contact (`None` without a contact or without regions).
+    pub fn contact_material(&self) -> Option<Material> {
+        let r = self.drill.regions()?;
+        self.contact_tet.map(|t| r.material_of(t))
     }
 
     /// The mesh.
@@ -411,7 +460,8 @@ impl<'a> World<'a> {
     /// Erases the debris of the drilled material: detached pieces smaller than `max_leaves`
     /// leaves of depth `max_depth` ([`Hierarchy::remove_debris`], usually with
     /// [`crate::hierarchy::DEBRIS_LEAVES`] and the drill's `max_depth`). `scratch` holds
-    /// [`Hierarchy::debris_scratch_needed`] entries.
+    /// [`Hierarchy::debris_scratch_needed`] entries. With regions, the debris's volume is
+    /// counted in the removed volume of the region each leaf belongs to.
     ///
     /// # Bounded work
     /// As [`Hierarchy::remove_debris`]: O(hierarchy nodes), not for a servo tick.
@@ -424,8 +474,13 @@ impl<'a> World<'a> {
         max_depth: u8,
         scratch: &mut [u32],
     ) -> Result<crate::hierarchy::DebrisReport, HierarchyError> {
+        let mut regions = self.drill.regions_mut();
         self.hier
-            .remove_debris(&self.mesh, max_leaves, max_depth, scratch)
+            .remove_debris_with(&self.mesh, max_leaves, max_depth, scratch, |tet, v| {
+                if let Some(r) = regions.as_mut() {
+                    r.note_removed(tet, v);
+                }
+            })
     }
 
     /// Saturations so far, by kind.

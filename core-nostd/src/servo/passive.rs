@@ -185,7 +185,8 @@ impl World<'_> {
     }
 }
 
-/// The force at a drill's handle: the burr's ([`servo_force`] from `contact`, with `burr`'s
+/// The force at a drill's handle, and the burr's part of it (what presses the burr against the
+/// material: [`World::set_pressing`]): the burr's ([`servo_force`] from `contact`, with `burr`'s
 /// state) plus the shaft's passive points' springs ([`passive_force`] at the points'
 /// positions for the burr at `centre` along `axis`, from the planes of the last step) and,
 /// while one of them pushes, damping of the tool's motion (`shaft`'s state), clamped.
@@ -206,7 +207,7 @@ pub fn drill_force(
     burr: &mut ToolState,
     shaft: &mut ToolState,
     params: &ForceParams,
-) -> Vec3 {
+) -> (Vec3, Vec3) {
     let f = servo_force(contact, centre, tool.burr_radius, burr, params);
     let mut pos = [Vec3::ZERO; MAX_PASSIVE];
     let n = tool
@@ -220,5 +221,8 @@ pub fn drill_force(
         params.max_force,
     );
     let d = damping_force(shaft, centre, touching > 0, params);
-    clamp_force(f + clamp_force(s + d, params.max_force), params.max_force)
+    (
+        clamp_force(f + clamp_force(s + d, params.max_force), params.max_force),
+        f,
+    )
 }

@@ -21,7 +21,9 @@ impl World<'_> {
     /// [`Drill::step`]), and for the contact at most [`World::contact_max_nodes`] node tests
     /// of [`Hierarchy::nearest_visible`] (typically a few hundred), plus O(candidates + depth)
     /// and O(depth) per kept face ([`crate::hierarchy::KEEP`]). Under a tick budget
-    /// ([`World::set_tick_budget`]) the drill and the contact search share it.
+    /// ([`World::set_tick_budget`]) the drill and the contact search share it. With regions
+    /// ([`World::set_regions`]), O(regions) to grant them their credit, charged to the drill
+    /// as one work unit per rate-limited region.
     ///
     /// # Capacity
     /// A full candidate list keeps the tets found first and counts `saturations().candidates`,
@@ -152,11 +154,19 @@ impl World<'_> {
             rep.candidates_saturated = true;
         }
         rep.candidates = k as u32;
+        // The regions earn their erosion credit from the servo's force (one unit of work
+        // per rate-limited region, charged to the drill).
+        let (force, seconds) = self.press;
+        let granted = self
+            .drill
+            .regions_mut()
+            .map_or(0, |r| r.grant(force, seconds, cutting));
         if !spheres.is_empty() || self.drill.pending() > 0 {
+            let budget = self
+                .tick_budget
+                .map_or(params.budget, |t| t.min(params.budget));
             let params = DrillParams {
-                budget: self
-                    .tick_budget
-                    .map_or(params.budget, |t| t.min(params.budget)),
+                budget: budget.saturating_sub(granted),
                 ..*params
             };
             rep.drill = self.drill.step(
@@ -167,6 +177,7 @@ impl World<'_> {
                 &params,
             );
         }
+        rep.drill.work = rep.drill.work.saturating_add(granted);
         self.update_contact(centre, radius, radius + reach, cutting, &mut rep);
         rep
     }
@@ -240,6 +251,11 @@ impl World<'_> {
             // deeper than the exact answer; the next step starts from it.
         }
         self.kept = kept;
+        self.contact_tet = near.tri.map(|vt| vt.tet);
+        let stiffness = match (self.drill.regions(), near.tri) {
+            (Some(r), Some(vt)) => r.material_of(vt.tet).stiffness,
+            _ => 0.0,
+        };
         self.contact = match near.tri {
             None => ContactState {
                 centre,
@@ -255,6 +271,7 @@ impl World<'_> {
                     depth: c.depth,
                     centre,
                     triangles: near.triangles,
+                    stiffness,
                 }
             }
         };

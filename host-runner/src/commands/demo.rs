@@ -12,7 +12,6 @@ use super::pipeline::{PipelineSetup, UNTIL_STOPPED};
 use super::run::{device_factory, run_ticks, run_until_signal, viewer_note};
 use crate::error::CliError;
 use crate::rt::RtConfig;
-use crate::scenario::Scenario;
 use crate::viewer::ViewOptions;
 
 /// Arguments of `demo`.
@@ -38,7 +37,7 @@ pub struct DemoArgs {
 
 /// Runs `demo`.
 pub fn run(args: &DemoArgs) -> Result<(), CliError> {
-    let sc = Scenario::default();
+    let sc = crate::scenario::builtin("demo").unwrap_or_default();
     let view = ViewOptions::of(args.headless, args.screenshot.clone())?;
     errln!(
         "tetradrill demo: {} drilled by a {} burr on the simulated device ({} s scripted path)",

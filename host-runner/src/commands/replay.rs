@@ -63,6 +63,11 @@ pub struct ReplayReport {
     pub initial_volume: f64,
     /// Sum of the erased leaves' volumes.
     pub removed_volume: f64,
+    /// The removed volume by region label (each leaf counts for its root tet's label); the
+    /// values sum to `removed_volume`. Absent for a mesh tool, or a mesh of more than 256
+    /// labels without materials.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub removed_by_region: Option<std::collections::BTreeMap<String, f64>>,
     /// Hierarchy nodes instantiated (root slots included).
     pub hierarchy_nodes: usize,
     /// Visible faces of the drilled surface.
@@ -405,6 +410,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
             errln!("replay: run {run} of {} (timing)", args.repeat);
         }
         let mut store = EngineStorage::try_allocate(loaded.mesh.clone(), &sc)?;
+        store.set_labels(&loaded.labels, &sc)?;
         let mut world = store.world()?;
         let mut tool = ToolState::default();
         let mut shaft = ShaftState::default();
@@ -419,6 +425,8 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         digests.push(digest.value());
     }
     let mut store = EngineStorage::try_allocate(loaded.mesh, &sc)?;
+    store.set_labels(&loaded.labels, &sc)?;
+    let region_labels = store.region_labels().to_vec();
     let sizing = SizingSummary::of(&store, &sc);
     let mut world = store.world()?;
     let sizing = SizingSummary {
@@ -491,6 +499,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         ticks,
         initial_volume,
         removed_volume: h.removed_volume(),
+        removed_by_region: engine::removed_by_region(&world, &region_labels),
         hierarchy_nodes: h.node_count(),
         visible_faces: h.visible_face_count(),
         components,
@@ -709,6 +718,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
         ticks,
         initial_volume,
         removed_volume: 0.0,
+        removed_by_region: None,
         hierarchy_nodes: h.node_count(),
         visible_faces,
         components,

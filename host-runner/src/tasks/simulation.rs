@@ -65,7 +65,9 @@ pub fn simulation_task(
         let stopping = stop.load(Ordering::Relaxed);
         let mut ns = 0usize;
         let mut latest: Option<ToolSample> = None;
+        let mut drained = 0u32;
         while let Some(s) = ring.pop() {
+            drained += 1;
             let on = s.buttons & tetradrill_core::script::DRILL_ON != 0 && !paused;
             if on {
                 let far = ns == 0 || spheres[ns - 1].center.distance(s.position) >= spacing;
@@ -107,6 +109,10 @@ pub fn simulation_task(
                 radius: params.radius,
             };
         }
+        // The servo's last force presses the burr into the material for the servo ticks
+        // this step covers (one per sample drained).
+        let press = counters.force().length();
+        world.set_pressing(press, drained as f32 * crate::traces::PERIOD_S as f32);
         let rep = world.simulate_spheres(
             tool.position,
             params.radius,
@@ -123,6 +129,12 @@ pub fn simulation_task(
         st.hierarchy_nodes = world.hierarchy().node_count();
         st.visible_faces = world.hierarchy().visible_face_count();
         st.saturations = world.saturations().total();
+        st.press_n = press;
+        // Only a material that is not removed at once has a threshold worth showing.
+        st.threshold_n = world
+            .contact_material()
+            .filter(|m| m.threshold > 0.0 || m.rate_limited())
+            .map(|m| m.threshold);
         status.write(st);
         if let Some(v) = viewer.as_deref_mut() {
             v.note_step(world, rep.drill.created + rep.drill.erased > 0);

@@ -256,6 +256,14 @@ impl ViewerApp<'_> {
                 row("  last second", format!("{recent:.0} us"));
                 let f = f32::from_bits(c.force_bits.load(Ordering::Relaxed) as u32);
                 row("force", format!("{f:.2} N"));
+                // With materials: the force pressing the burr against the threshold of the
+                // material under it.
+                if let Some(th) = st.threshold_n {
+                    row(
+                        "press / threshold",
+                        format!("{:.2} / {th:.2} N", st.press_n),
+                    );
+                }
                 let pct = 100.0 * st.removed_volume / iv.max(f64::MIN_POSITIVE);
                 row("removed", format!("{:.5} ({pct:.2}%)", st.removed_volume));
                 row("hierarchy nodes", st.hierarchy_nodes.to_string());

@@ -269,7 +269,17 @@ impl Renderer {
     ) {
         let vp = camera.view_projection(width as f32 / height.max(1) as f32);
         let eye = camera.eye();
-        let p = PALETTE;
+        // The scenario's region colours replace the palette's slots (slot 0 is the surface).
+        let mut p = PALETTE;
+        if let Some(colours) = &scene.region_colours {
+            for (i, c) in colours.iter().enumerate().take(REGION_SLOTS as usize) {
+                match (i, c) {
+                    (0, Some(c)) => p.surface = *c,
+                    (i, Some(c)) => p.regions[i - 1] = *c,
+                    _ => {}
+                }
+            }
+        }
         // SAFETY: `gl` is current; the program and vertex arrays are ours; draw counts are
         // within the buffers (the surface's vertex count is set by `sync` from the data
         // uploaded).

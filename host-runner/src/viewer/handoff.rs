@@ -28,6 +28,11 @@ pub struct SimStatus {
     pub last_step_ns: u64,
     /// Longest step, ns.
     pub max_step_ns: u64,
+    /// The force pressing the burr into the material at the last step, newtons.
+    pub press_n: f32,
+    /// The pressure threshold of the material under the burr, newtons (`None` without a
+    /// contact, without regions, or for a material removed at once whatever the force).
+    pub threshold_n: Option<f32>,
 }
 
 /// Snapshots the queue holds: a viewer more than this many snapshots behind makes the
@@ -145,7 +150,14 @@ pub struct Snapshot {
     /// The object's region colours (full snapshots only; `None` leaves the viewer's as it
     /// is).
     pub regions: Option<RegionSlots>,
+    /// The colour the scenario gives each region, in label order (full snapshots only;
+    /// `None` leaves the viewer's as it is).
+    pub region_colours: Option<RegionColours>,
 }
+
+/// The colour a scenario gives each region (`[regions.LABEL] colour`), in label order, as
+/// linear RGB; `None` where it sets none (the palette's colour for that slot).
+pub type RegionColours = std::sync::Arc<[Option<[f32; 3]>]>;
 
 /// The snapshot queue: the simulation publishes, the viewer drains.
 #[derive(Debug)]

@@ -40,6 +40,7 @@ pub struct SimViewer<'q> {
     initial_volume: f64,
     tool_shape: Option<ToolShape>,
     regions: Option<RegionSlots>,
+    region_colours: Option<super::handoff::RegionColours>,
 }
 
 impl<'q> SimViewer<'q> {
@@ -60,6 +61,7 @@ impl<'q> SimViewer<'q> {
             initial_volume: 0.0,
             tool_shape: None,
             regions: None,
+            region_colours: None,
         }
     }
 
@@ -67,6 +69,12 @@ impl<'q> SimViewer<'q> {
     /// [`super::handoff::region_slots`]).
     pub fn set_regions(&mut self, regions: Option<RegionSlots>) {
         self.regions = regions;
+    }
+
+    /// Sets the colours the scenario gives the regions, in label order (sent with every
+    /// full snapshot).
+    pub fn set_region_colours(&mut self, colours: Option<Vec<Option<[f32; 3]>>>) {
+        self.region_colours = colours.map(Into::into);
     }
 
     /// Sets the shape a mesh tool is drawn with (sent with every full snapshot).
@@ -195,6 +203,7 @@ impl<'q> SimViewer<'q> {
             initial_volume: self.initial_volume,
             tool_shape: self.tool_shape.clone().filter(|_| full),
             regions: self.regions.clone().filter(|_| full),
+            region_colours: self.region_colours.clone().filter(|_| full),
         };
         match self.queue.try_publish(s) {
             Ok(()) => {
@@ -388,6 +397,7 @@ pub fn scene_of(world: &World<'_>, tool: Option<ToolView>, status: SimStatus) ->
         initial_volume: world.mesh().volume(),
         tool_shape: None,
         regions: None,
+        region_colours: None,
     });
     if tool.is_none() {
         scene.tool = None;

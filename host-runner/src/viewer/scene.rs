@@ -55,6 +55,8 @@ pub struct Scene {
     /// The colour slot of each coarse tet's region, once a snapshot gave them (none: every
     /// tet in slot 0, the surface colour).
     pub regions: Option<super::handoff::RegionSlots>,
+    /// The colour the scenario gives each region, once a snapshot gave them.
+    pub region_colours: Option<super::handoff::RegionColours>,
 }
 
 impl Scene {
@@ -70,6 +72,9 @@ impl Scene {
         }
         if s.regions.is_some() {
             self.regions = s.regions;
+        }
+        if s.region_colours.is_some() {
+            self.region_colours = s.region_colours;
         }
         for p in s.patches {
             self.set_patch(p);

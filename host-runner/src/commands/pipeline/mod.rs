@@ -104,7 +104,11 @@ impl std::fmt::Debug for PipelineSetup {
 }
 
 /// What the simulation task leaves: saturations by kind and the final state's validity.
-type SimEnding = (SaturationCounts, Result<(), String>);
+type SimEnding = (
+    SaturationCounts,
+    Result<(), String>,
+    Option<std::collections::BTreeMap<String, f64>>,
+);
 
 /// Runs the pipeline on `sc` with `setup`; returns the report (the device error that ended the
 /// run, if any, as an error: exit 2 when the device was not found, 1 when it failed mid-run).
@@ -128,6 +132,12 @@ pub fn run(
     let loaded = engine::load_mesh(sc)?;
     let regions = crate::viewer::handoff::region_slots(&loaded.labels);
     let mut store = EngineStorage::try_allocate(loaded.mesh, sc)?;
+    store.set_labels(&loaded.labels, sc)?;
+    let region_labels = store.region_labels().to_vec();
+    let region_colours = engine::region_table(&loaded.labels, sc)
+        .ok()
+        .flatten()
+        .map(|t| t.colours);
     let (initial_volume, tets, centre) = {
         let world = store.world()?;
         (
@@ -183,6 +193,7 @@ pub fn run(
                     );
                     l.set_initial_volume(initial_volume);
                     l.set_regions(regions);
+                    l.set_region_colours(region_colours);
                     l
                 });
                 loop {
@@ -202,7 +213,8 @@ pub fn run(
                         tasks::SimEnd::Stopped => {
                             // The final state: saturations by kind, and the core's validate().
                             let sat = SaturationCounts::from(world.saturations());
-                            return Ok((sat, engine::validate(&world)));
+                            let by_region = engine::removed_by_region(&world, &region_labels);
+                            return Ok((sat, engine::validate(&world), by_region));
                         }
                         tasks::SimEnd::Reset => {
                             if let Some(l) = link.as_mut() {
@@ -244,8 +256,9 @@ pub fn run(
         Ok((servo, status, ending?, (scene, recorded)))
     })?;
     let (mut scene, recorded) = scene;
-    let (saturations, valid) = ending;
+    let (saturations, valid, removed_by_region) = ending;
     let ended = Ended {
+        removed_by_region,
         kind,
         elapsed: started.elapsed().as_secs_f64(),
         initial_volume,
@@ -264,6 +277,8 @@ pub fn run(
 
 /// How the tasks of a run ended.
 struct Ended {
+    /// The removed volume by region label, when the world had regions.
+    removed_by_region: Option<std::collections::BTreeMap<String, f64>>,
     kind: DeviceKind,
     elapsed: f64,
     initial_volume: f64,
@@ -331,6 +346,7 @@ impl Ended {
             duration_s: elapsed,
             initial_volume: self.initial_volume,
             removed_volume: sim.removed_volume,
+            removed_by_region: self.removed_by_region.clone(),
             hierarchy_nodes: sim.hierarchy_nodes,
             visible_faces: sim.visible_faces,
             simulation_steps: sim.steps,

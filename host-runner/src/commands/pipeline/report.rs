@@ -40,6 +40,10 @@ pub struct RunReport {
     pub initial_volume: f64,
     /// Removed volume (sum of erased leaves).
     pub removed_volume: f64,
+    /// The removed volume by region label (each leaf counts for its root tet's label); the
+    /// values sum to `removed_volume`. Absent for a mesh tool.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub removed_by_region: Option<std::collections::BTreeMap<String, f64>>,
     /// Hierarchy nodes at the end.
     pub hierarchy_nodes: usize,
     /// Visible faces at the end.

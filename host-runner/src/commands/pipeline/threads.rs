@@ -352,8 +352,14 @@ pub(super) fn status_loop(
         if !tty && !(sh.counters.ticks.load(Ordering::Relaxed) / 250).is_multiple_of(4) {
             continue;
         }
+        // With materials: the force pressing the burr against the threshold of the material
+        // under it.
+        let press = st
+            .threshold_n
+            .map(|th| format!(" (press {:5.2} / threshold {th:4.2} N)", st.press_n))
+            .unwrap_or_default();
         err!(
-            "{} t {:5.1} s | servo {:4} Hz, overruns {}, wake p99 {:4.0} us | sim {:4} Hz | removed {:.5} ({:.2}%) | force {:5.2} N   {}",
+            "{} t {:5.1} s | servo {:4} Hz, overruns {}, wake p99 {:4.0} us | sim {:4} Hz | removed {:.5} ({:.2}%) | force {:5.2} N{}   {}",
             if tty { "\r" } else { "" },
             t as f64 / 1000.0,
             ((t - last_ticks) as f64 / last_at.elapsed().as_secs_f64()).round(),
@@ -363,6 +369,7 @@ pub(super) fn status_loop(
             st.removed_volume,
             100.0 * st.removed_volume / initial_volume.max(f64::MIN_POSITIVE),
             f,
+            press,
             if tty { "" } else { "\n" }
         );
         printed = tty;

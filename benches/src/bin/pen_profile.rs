@@ -1,0 +1,155 @@
+//! The pen's contact pass (`pen_contact`, traced depth, crossings searched) over the contact
+//! bench's poses of the pen x10, for wall clock and instruction counts without criterion.
+//!
+//! Usage: `pen_profile MESH touching|impaled [REPS]` (MESH relative to the meshes folder:
+//! `TETRADRILL_MESHES` or the repository's `tests/data/meshes`). Every pose runs REPS times
+//! (default 20), each run from a fresh `PenState`; prints the mean, p99 and maximum over the
+//! poses of each pose's fastest run, the slowest poses with their counts, and a digest of the
+//! raw forces (the same on every run and every build that keeps the forces). Instruction
+//! counts: `valgrind --tool=callgrind --dump-instr=no --toggle-collect='*run_pose*'
+//! pen_profile MESH touching 1` (one call per pose); `POSE=i` in the environment runs only
+//! pose i. Exit status 2 for bad arguments or an
+//! unreadable mesh.
+
+use std::hint::black_box;
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use glam::{Quat, Vec3};
+use tetradrill::owned::OwnedMesh;
+use tetradrill::pen::PenRig;
+use tetradrill_benches::{impaled_poses, touch_poses};
+use tetradrill_core::force::{
+    force_digest, pen_contact, PenBuffers, PenContact, PenOptions, PenScene, PenState,
+};
+
+/// One pen contact call at one pose, on its own so callgrind can count it alone.
+#[inline(never)]
+fn run_pose(
+    scene: &PenScene<'_, '_, '_>,
+    bufs: &mut PenBuffers<'_>,
+    pose: (Vec3, Quat),
+    opts: &PenOptions,
+) -> PenContact {
+    black_box(pen_contact(
+        scene,
+        bufs,
+        pose.0,
+        pose.1,
+        opts,
+        &mut PenState::default(),
+    ))
+}
+
+fn load(rel: &str, scale: f64) -> Result<OwnedMesh, String> {
+    let dir = match std::env::var("TETRADRILL_MESHES") {
+        Ok(d) => PathBuf::from(d),
+        Err(_) => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/meshes"),
+    };
+    let path = dir.join(rel);
+    tetradrill::meshio::load(&path, scale)
+        .map(|l| l.mesh)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let usage = "usage: pen_profile MESH touching|impaled [REPS]";
+    let (Some(mesh), Some(set)) = (args.first(), args.get(1)) else {
+        eprintln!("{usage}");
+        return ExitCode::from(2);
+    };
+    let touching = match set.as_str() {
+        "touching" => true,
+        "impaled" => false,
+        other => {
+            eprintln!("pen_profile: pose set must be touching or impaled, not `{other}`");
+            return ExitCode::from(2);
+        }
+    };
+    let reps: usize = match args.get(2).map(|r| r.parse()) {
+        None => 20,
+        Some(Ok(n)) if n > 0 => n,
+        Some(_) => {
+            eprintln!("pen_profile: REPS must be a positive whole number");
+            return ExitCode::from(2);
+        }
+    };
+    let (pen, mut obj) = match (load("models/pen_tool_gmsh.mesh", 10.0), load(mesh, 1.0)) {
+        (Ok(p), Ok(o)) => (p, o),
+        (Err(e), _) | (_, Err(e)) => {
+            eprintln!("pen_profile: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let mut poses = if touching {
+        touch_poses(&obj.view(), 200, 0.05, 7)
+    } else {
+        impaled_poses(&obj.view(), 200, 0.25, 7)
+    };
+    if let Some(i) = std::env::var("POSE")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+    {
+        if i >= poses.len() {
+            eprintln!("pen_profile: POSE must be below {}", poses.len());
+            return ExitCode::from(2);
+        }
+        poses = vec![poses[i]];
+    }
+    let opts = PenOptions::default();
+    let mut rig = PenRig { pen, obj };
+    let run = rig.with(|scene, bufs| {
+        let mut best = vec![f64::INFINITY; poses.len()];
+        let mut last = vec![PenContact::default(); poses.len()];
+        for _ in 0..reps {
+            for (i, &pose) in poses.iter().enumerate() {
+                let s = Instant::now();
+                let c = run_pose(scene, bufs, pose, &opts);
+                best[i] = best[i].min(s.elapsed().as_secs_f64() * 1e6);
+                last[i] = c;
+            }
+        }
+        (best, last)
+    });
+    let (best, last) = match run {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("pen_profile: {mesh}: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let mut sorted = best.clone();
+    sorted.sort_by(f64::total_cmp);
+    let mean = sorted.iter().sum::<f64>() / sorted.len() as f64;
+    let p99 = sorted[(sorted.len() * 99 / 100).min(sorted.len() - 1)];
+    let max = sorted[sorted.len() - 1];
+    let raw: Vec<Vec3> = last.iter().map(|c| c.raw).collect();
+    let mut out = std::io::stdout().lock();
+    // A closed pipe (`| head`) ends the output, not the program.
+    let _ = writeln!(
+        out,
+        "{mesh} {set}: {} poses, fastest of {reps}: mean {mean:.2} us, p99 {p99:.2} us, max {max:.2} us; raw force digest {:016x}",
+        poses.len(),
+        force_digest(&raw)
+    );
+    let mut order: Vec<usize> = (0..best.len()).collect();
+    order.sort_by(|&a, &b| best[b].total_cmp(&best[a]));
+    for &i in order.iter().take(5) {
+        let c = &last[i];
+        let _ = writeln!(
+            out,
+            "  pose {i:3}: {:8.2} us; pen nodes in {:4}, object nodes in {:4}; border edges {:4} + {:4}, walk work {:6} + {:6}",
+            best[i],
+            c.pen_collisions.count,
+            c.object_collisions.count,
+            c.pen_depth.border_edges,
+            c.object_depth.border_edges,
+            c.pen_depth.work,
+            c.object_depth.work,
+        );
+    }
+    ExitCode::SUCCESS
+}

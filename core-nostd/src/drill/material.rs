@@ -1,0 +1,493 @@
+//! Materials per region: how hard each part of the object is to drill, how hard the burr must
+//! press before it cuts at all, and how stiff it feels (docs/DRILLING.md, "Materials").
+//!
+//! The erosion model follows the energy-based erosion of Agus et al. (2003): the burr removes
+//! material at a rate proportional to the work it does on it, and removing a unit volume of a
+//! given material takes a fixed amount of work. With the burr spinning at a constant speed the
+//! work per second grows with the force pressing it against the material, so the volume a
+//! region loses per second is
+//!
+//! ```text
+//! dV/dt = (F - F_threshold) / H      while F > F_threshold, else 0
+//! ```
+//!
+//! with `F` the servo's contact force (newtons), `F_threshold` the region's pressure threshold
+//! (newtons) and `H` its hardness (newton-seconds per cubic mesh unit: the specific cutting
+//! energy divided by the burr's cutting speed and friction). Leaves are still erased whole:
+//! each region accumulates the volume its erosion has earned ([`Region::credit`], caller
+//! storage, one entry per region), and a leaf is erased once its region's credit covers the
+//! leaf's volume, which is then spent. A hardness of zero removes at once (no rate limit):
+//! with a threshold of zero too, that is the drill as it is without materials.
+
+use crate::ids::TetId;
+
+/// What a region is made of. [`Material::DEFAULT`] (hardness 0, threshold 0, the force
+/// parameters' stiffness) removes material whatever the force, at once: the drill without
+/// materials.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct Material {
+    /// Newton-seconds per cubic mesh unit: the pressing force above the threshold, held for a
+    /// second, removes `1 / hardness` cubic mesh units per newton. Zero: removed at once, as
+    /// soon as the force reaches the threshold.
+    pub hardness: f32,
+    /// Newtons: the burr must press harder than this (at least this with a hardness of zero)
+    /// for the material to be removed at all.
+    pub threshold: f32,
+    /// Contact stiffness, newtons per mesh unit of depth; zero: the force parameters' own
+    /// ([`crate::force::ForceParams::stiffness`]).
+    pub stiffness: f32,
+}
+
+impl Material {
+    /// Hardness 0, threshold 0, the force parameters' stiffness: removed at once, whatever the
+    /// force.
+    pub const DEFAULT: Self = Self {
+        hardness: 0.0,
+        threshold: 0.0,
+        stiffness: 0.0,
+    };
+
+    /// `true` when a pressing force of `force` newtons removes this material: above the
+    /// threshold, or at least the threshold when the hardness is zero. A force that is not a
+    /// number counts as zero.
+    #[inline]
+    pub fn admits(&self, force: f32) -> bool {
+        let f = if force.is_nan() { 0.0 } else { force };
+        if self.rate_limited() {
+            f > self.threshold
+        } else {
+            f >= self.threshold
+        }
+    }
+
+    /// `true` when removal is limited by a rate (a positive, finite hardness).
+    #[inline]
+    pub fn rate_limited(&self) -> bool {
+        self.hardness > 0.0 && self.hardness.is_finite()
+    }
+
+    /// The volume removed per second, cubic mesh units, while pressed with `force` newtons:
+    /// `(force - threshold) / hardness` above the threshold, zero below; infinite for a
+    /// material removed at once that the force admits.
+    pub fn rate(&self, force: f32) -> f64 {
+        if !self.admits(force) {
+            0.0
+        } else if self.rate_limited() {
+            (f64::from(force) - f64::from(self.threshold)) / f64::from(self.hardness)
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// One region's material and state, in caller storage (32 bytes): the volume its erosion has
+/// earned and not yet spent, and the volume removed from it.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct Region {
+    /// The region's material.
+    pub material: Material,
+    credit: f64,
+    removed: f64,
+}
+
+const _: () = assert!(core::mem::size_of::<Region>() == 32);
+
+impl Region {
+    /// A region of `material`, nothing earned or removed yet.
+    pub const fn new(material: Material) -> Self {
+        Self {
+            material,
+            credit: 0.0,
+            removed: 0.0,
+        }
+    }
+
+    /// Volume the burr's work has earned in this region and not yet spent on a leaf, cubic
+    /// mesh units.
+    pub fn credit(&self) -> f64 {
+        self.credit
+    }
+
+    /// Volume removed from this region so far, cubic mesh units (the sum of the volumes of
+    /// its erased leaves).
+    pub fn removed(&self) -> f64 {
+        self.removed
+    }
+}
+
+/// How many steps' worth of credit a region keeps while no leaf of it is waiting: the drill
+/// queues a held burr's position again every [`super::DRILL_HOLD_STEPS`] steps, so credit
+/// earned between two queued positions is not lost; work the burr does on nothing dissipates
+/// beyond that.
+pub const CREDIT_STEPS: f64 = 2.0 * super::DRILL_HOLD_STEPS as f64;
+
+/// Why [`Regions::new`] refused its storage.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum RegionError {
+    /// No region at all (region 0 is every tet's that names none).
+    Empty,
+    /// More regions than a tet's `u8` index reaches.
+    TooMany {
+        /// Regions given.
+        regions: usize,
+    },
+    /// A tet names a region beyond the table.
+    Unknown {
+        /// The tet.
+        tet: u32,
+        /// Its region.
+        region: u8,
+        /// Regions in the table.
+        regions: usize,
+    },
+}
+
+impl core::fmt::Display for RegionError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Empty => write!(f, "the region table is empty"),
+            Self::TooMany { regions } => {
+                write!(f, "{regions} regions (at most 256: a tet's region is a u8)")
+            }
+            Self::Unknown {
+                tet,
+                region,
+                regions,
+            } => write!(
+                f,
+                "tet {tet} names region {region}, but the table has {regions} regions"
+            ),
+        }
+    }
+}
+
+/// The regions of an object, over caller storage: each region's [`Region`] and each coarse
+/// tet's region index (a leaf takes the region of its root tet). A tet beyond `of_tet` is in
+/// region 0.
+#[derive(Debug)]
+pub struct Regions<'a> {
+    table: &'a mut [Region],
+    of_tet: &'a [u8],
+    /// The pressing force the last grant used, newtons.
+    force: f32,
+    /// Whether the burr was cutting at the last grant.
+    cutting: bool,
+    /// The region of the leaf waiting for credit, and the volume it needs.
+    waiting: Option<(u8, f64)>,
+}
+
+/// What [`Regions::spend`] decided for a leaf.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Spend {
+    /// The leaf's volume was taken from its region's credit (or its material is removed at
+    /// once): erase it.
+    Erase,
+    /// Its region's credit does not cover it yet: the leaf waits for more work.
+    Wait,
+}
+
+impl<'a> Regions<'a> {
+    /// Regions `table` (at most 256) with each coarse tet's region index in `of_tet`.
+    ///
+    /// # Bounded work
+    /// O(`of_tet` length), once.
+    ///
+    /// # Errors
+    /// [`RegionError`]: an empty or too long table, a tet naming a region beyond it.
+    pub fn new(table: &'a mut [Region], of_tet: &'a [u8]) -> Result<Self, RegionError> {
+        if table.is_empty() {
+            return Err(RegionError::Empty);
+        }
+        if table.len() > 256 {
+            return Err(RegionError::TooMany {
+                regions: table.len(),
+            });
+        }
+        if let Some((t, &r)) = of_tet
+            .iter()
+            .enumerate()
+            .find(|(_, &r)| r as usize >= table.len())
+        {
+            return Err(RegionError::Unknown {
+                tet: t as u32,
+                region: r,
+                regions: table.len(),
+            });
+        }
+        Ok(Self {
+            table,
+            of_tet,
+            force: 0.0,
+            cutting: false,
+            waiting: None,
+        })
+    }
+
+    /// The regions' state.
+    pub fn table(&self) -> &[Region] {
+        self.table
+    }
+
+    /// The region index of coarse tet `tet` (0 beyond the index slice).
+    #[inline]
+    pub fn region_of(&self, tet: TetId) -> u8 {
+        self.of_tet.get(tet.idx()).copied().unwrap_or(0)
+    }
+
+    /// The material of coarse tet `tet`.
+    #[inline]
+    pub fn material_of(&self, tet: TetId) -> Material {
+        self.table
+            .get(self.region_of(tet) as usize)
+            .map_or(Material::DEFAULT, |r| r.material)
+    }
+
+    /// The pressing force of the last grant, newtons.
+    pub fn force(&self) -> f32 {
+        self.force
+    }
+
+    /// Earns each region its credit for `dt` seconds of the burr pressing with `force`
+    /// newtons: `rate(force) * dt` where the region's material admits the force and the burr
+    /// is `cutting`; zero otherwise (work the burr does not do removes nothing later). A
+    /// region's credit is kept to [`CREDIT_STEPS`] grants, or to what its waiting leaf needs
+    /// when more. Returns the rate-limited regions visited (the work to charge).
+    ///
+    /// # Bounded work
+    /// O(regions).
+    pub fn grant(&mut self, force: f32, dt: f32, cutting: bool) -> u32 {
+        let force = if force.is_finite() {
+            force.max(0.0)
+        } else {
+            0.0
+        };
+        let dt = if dt.is_finite() {
+            f64::from(dt.max(0.0))
+        } else {
+            0.0
+        };
+        self.force = force;
+        self.cutting = cutting;
+        let mut visited = 0;
+        for (i, r) in self.table.iter_mut().enumerate() {
+            if !r.material.rate_limited() {
+                continue;
+            }
+            visited += 1;
+            let g = if cutting {
+                r.material.rate(force) * dt
+            } else {
+                0.0
+            };
+            if g <= 0.0 {
+                r.credit = 0.0;
+                continue;
+            }
+            let need = match self.waiting {
+                Some((w, v)) if w as usize == i => v,
+                _ => 0.0,
+            };
+            r.credit = (r.credit + g).min((g * CREDIT_STEPS).max(need));
+        }
+        visited
+    }
+
+    /// `true` when the last grant's force removes the material of `tet` (its leaves are worth
+    /// refining and erasing).
+    #[inline]
+    pub fn admits(&self, tet: TetId) -> bool {
+        self.material_of(tet).admits(self.force)
+    }
+
+    /// Decides whether a leaf of `tet` of `volume` is erased now: always for a material
+    /// removed at once; for a rate-limited one when its region's credit covers `volume`
+    /// (taken from the credit), else it waits (remembered, so the next grants may exceed
+    /// [`CREDIT_STEPS`] up to what it needs).
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn spend(&mut self, tet: TetId, volume: f64) -> Spend {
+        let r = self.region_of(tet);
+        let Some(reg) = self.table.get_mut(r as usize) else {
+            return Spend::Erase;
+        };
+        if !reg.material.rate_limited() {
+            return Spend::Erase;
+        }
+        if reg.credit >= volume {
+            reg.credit -= volume;
+            if self.waiting.is_some_and(|(w, _)| w == r) {
+                self.waiting = None;
+            }
+            Spend::Erase
+        } else {
+            self.waiting = Some((r, volume));
+            Spend::Wait
+        }
+    }
+
+    /// Adds `volume` to the removed volume of `tet`'s region.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn note_removed(&mut self, tet: TetId, volume: f64) {
+        let r = self.region_of(tet) as usize;
+        if let Some(reg) = self.table.get_mut(r) {
+            reg.removed += volume;
+        }
+    }
+
+    /// Forgets the credits, the waiting leaf and the removed volumes (after the hierarchy is
+    /// reset).
+    ///
+    /// # Bounded work
+    /// O(regions).
+    pub fn clear(&mut self) {
+        for r in self.table.iter_mut() {
+            r.credit = 0.0;
+            r.removed = 0.0;
+        }
+        self.waiting = None;
+    }
+}
+
+impl<'a> super::Drill<'a> {
+    /// Sets the materials per region: from now on an item of a material the pressing force
+    /// does not remove is dropped, and a leaf of a rate-limited material is erased only once
+    /// its region has earned its volume ([`Regions::spend`]). Without regions (the default)
+    /// every leaf is removed at once, whatever the force.
+    ///
+    /// # Bounded work
+    /// O(1).
+    pub fn set_regions(&mut self, regions: Regions<'a>) {
+        self.regions = Some(regions);
+    }
+
+    /// The materials per region, if set.
+    pub fn regions(&self) -> Option<&Regions<'a>> {
+        self.regions.as_ref()
+    }
+
+    /// The materials per region, if set, to grant them credit.
+    pub fn regions_mut(&mut self) -> Option<&mut Regions<'a>> {
+        self.regions.as_mut()
+    }
+
+    /// `true` when the pressing force removes the material of `tet` (always without regions).
+    #[inline]
+    pub(super) fn admits(&self, tet: TetId) -> bool {
+        self.regions.as_ref().is_none_or(|r| r.admits(tet))
+    }
+
+    /// Whether a leaf of `tet` at `depth` is erased now ([`Regions::spend`] of its volume,
+    /// `root volume / 8^depth`); always without regions.
+    #[inline]
+    pub(super) fn spend(&mut self, mesh: &crate::mesh::Mesh<'_>, tet: TetId, depth: u8) -> Spend {
+        match self.regions.as_mut() {
+            Some(r) if r.material_of(tet).rate_limited() => {
+                r.spend(tet, crate::hierarchy::node_volume(mesh, tet, depth))
+            }
+            _ => Spend::Erase,
+        }
+    }
+
+    /// Counts `volume` erased from `tet` in its region.
+    #[inline]
+    pub(super) fn note_removed(&mut self, tet: TetId, volume: f64) {
+        if let Some(r) = self.regions.as_mut() {
+            r.note_removed(tet, volume);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn soft() -> Material {
+        Material {
+            hardness: 100.0,
+            threshold: 1.0,
+            stiffness: 0.0,
+        }
+    }
+
+    #[test]
+    fn the_rate_is_the_force_above_the_threshold_over_the_hardness() {
+        let m = soft();
+        assert_eq!(m.rate(3.0), 0.02);
+        assert_eq!(m.rate(1.0), 0.0);
+        assert_eq!(m.rate(0.5), 0.0);
+        assert_eq!(m.rate(f32::NAN), 0.0);
+        assert!(Material::DEFAULT.admits(0.0));
+        assert_eq!(Material::DEFAULT.rate(0.0), f64::INFINITY);
+        let gate = Material {
+            threshold: 2.0,
+            ..Material::DEFAULT
+        };
+        assert!(!gate.admits(1.9) && gate.admits(2.0));
+    }
+
+    #[test]
+    fn a_leaf_waits_until_its_region_has_earned_its_volume() {
+        let mut table = [Region::new(Material::DEFAULT), Region::new(soft())];
+        let of_tet = [0u8, 1];
+        let mut r = Regions::new(&mut table, &of_tet).expect("valid");
+        // 0.02 per second at 3 N: 0.00002 a millisecond; a leaf of 0.000099 needs 5 grants.
+        for k in 0..5 {
+            r.grant(3.0, 0.001, true);
+            let expect = if k < 4 { Spend::Wait } else { Spend::Erase };
+            assert_eq!(r.spend(TetId(1), 0.000099), expect, "grant {k}");
+        }
+        assert!((r.table()[1].credit() - 0.000001).abs() < 1e-10);
+        // Region 0 erases at once; below the threshold nothing is earned.
+        assert_eq!(r.spend(TetId(0), 1.0), Spend::Erase);
+        r.grant(0.5, 0.001, true);
+        assert!(!r.admits(TetId(1)) && r.admits(TetId(0)));
+        assert_eq!(r.table()[1].credit(), 0.0);
+    }
+
+    #[test]
+    fn credit_without_a_waiting_leaf_is_kept_to_a_few_steps() {
+        let mut table = [Region::new(soft())];
+        let mut r = Regions::new(&mut table, &[]).expect("valid");
+        for _ in 0..1000 {
+            r.grant(3.0, 0.001, true);
+        }
+        let g = 0.02 * f64::from(0.001f32);
+        assert!((r.table()[0].credit() - g * CREDIT_STEPS).abs() < 1e-12);
+        // A waiting leaf lets the credit grow to what it needs.
+        assert_eq!(r.spend(TetId(0), 1e-3), Spend::Wait);
+        for _ in 0..50 {
+            r.grant(3.0, 0.001, true);
+        }
+        assert_eq!(r.spend(TetId(0), 1e-3), Spend::Erase);
+        r.grant(3.0, 0.001, false);
+        assert_eq!(
+            r.table()[0].credit(),
+            0.0,
+            "a burr that does not spin earns nothing"
+        );
+    }
+
+    #[test]
+    fn bad_tables_are_refused() {
+        let mut none: [Region; 0] = [];
+        assert_eq!(Regions::new(&mut none, &[]).err(), Some(RegionError::Empty));
+        let mut one = [Region::default()];
+        assert_eq!(
+            Regions::new(&mut one, &[0, 1]).err(),
+            Some(RegionError::Unknown {
+                tet: 1,
+                region: 1,
+                regions: 1
+            })
+        );
+    }
+}

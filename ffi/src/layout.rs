@@ -1,0 +1,339 @@
+//! Where everything of a world goes in the caller's memory: the [`State`] at the start, then
+//! every slice the core borrows, each at its type's alignment. [`Plan::of`] checks the
+//! parameters and computes the offsets with checked arithmetic; `td_world_size` reports its
+//! total and `td_world_init` carves the memory by it.
+
+use core::alloc::Layout;
+use core::mem::size_of;
+
+use tetradrill_core::drill::{DrillParams, Pending};
+use tetradrill_core::force::{ForceDigest, ForceParams, ToolState};
+use tetradrill_core::hash::{Aabb, HashEntry};
+use tetradrill_core::hierarchy::{HNode, SphereSlot, VEntry};
+use tetradrill_core::mesh::{FaceKey, Node, Tet};
+use tetradrill_core::servo::{World, WorldSizes};
+use tetradrill_core::{TetId, Vec3};
+
+use crate::types::{TdParams, TdStatus};
+
+/// Marks a [`State`] that `td_world_init` finished ("tdworld1").
+pub const MAGIC: u64 = u64::from_le_bytes(*b"tdworld1");
+
+/// The most nodes or tets a world takes: every size the core derives from the counts (8 hash
+/// entries per tet, a v_list of the tets plus 7/8 of the arena) then fits in 32 bits.
+pub const TD_MAX_COUNT: u32 = 1 << 28;
+
+/// The head of a world's memory: the core's world (borrowing the slices after it) and what
+/// the C calls carry from tick to tick.
+#[derive(Debug)]
+pub struct State {
+    /// [`MAGIC`] once set up; zero while `td_world_init` works on the memory.
+    pub magic: u64,
+    /// The core's world over the slices that follow this header.
+    pub world: World<'static>,
+    /// The tool state the servo force carries between ticks.
+    pub tool: ToolState,
+    /// Digest of the forces returned so far.
+    pub digest: ForceDigest,
+    /// Burr radius.
+    pub radius: f32,
+    /// Contact reach beyond the burr.
+    pub reach: f32,
+    /// Drill settings.
+    pub drill: DrillParams,
+    /// Force settings.
+    pub force: ForceParams,
+    /// `td_world_servo_force` calls.
+    pub servo_ticks: u64,
+    /// `td_world_simulate` calls.
+    pub steps: u64,
+    /// Servo ticks with a force other than zero.
+    pub contact_ticks: u64,
+    /// Mesh volume at set-up.
+    pub initial_volume: f64,
+}
+
+/// Offsets (bytes from the start of the memory) of every slice of a world, its total size
+/// and alignment, and the storage sizes they hold.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Plan {
+    /// Node count.
+    pub nodes: usize,
+    /// Tet count.
+    pub tets: usize,
+    /// The core's storage sizes.
+    pub sizes: WorldSizes,
+    /// `Vec3` per node: positions.
+    pub positions: usize,
+    /// `Vec3` per node: boundary normals.
+    pub normals: usize,
+    /// `Node` per node.
+    pub node_recs: usize,
+    /// `Tet` per tet.
+    pub tet_recs: usize,
+    /// `FaceKey` per tet face: the mesh build's scratch.
+    pub scratch: usize,
+    /// Hash bucket starts.
+    pub hash_starts: usize,
+    /// Hash entries.
+    pub hash_entries: usize,
+    /// Tet boxes.
+    pub tet_boxes: usize,
+    /// Hierarchy roots.
+    pub roots: usize,
+    /// Hierarchy arena.
+    pub arena: usize,
+    /// v_list.
+    pub vlist: usize,
+    /// Pending drill work.
+    pub pending: usize,
+    /// Candidate tets.
+    pub candidates: usize,
+    /// Sphere memo.
+    pub memo: usize,
+    /// Bytes in all.
+    pub size: usize,
+    /// Alignment the memory needs.
+    pub align: usize,
+}
+
+/// Appends arrays to a layout, each at its alignment.
+struct Builder {
+    layout: Layout,
+}
+
+impl Builder {
+    /// Appends `n` values of `T`; their offset, or `TdErrParams` when the total would not fit
+    /// the address space.
+    fn put<T>(&mut self, n: usize) -> Result<usize, TdStatus> {
+        let array = Layout::array::<T>(n).map_err(|_| TdStatus::TdErrParams)?;
+        let (layout, offset) = self
+            .layout
+            .extend(array)
+            .map_err(|_| TdStatus::TdErrParams)?;
+        self.layout = layout;
+        Ok(offset)
+    }
+}
+
+/// `Ok` when `ok`, else `TdErrParams`.
+fn check(ok: bool) -> Result<(), TdStatus> {
+    if ok {
+        Ok(())
+    } else {
+        Err(TdStatus::TdErrParams)
+    }
+}
+
+/// `true` for a finite `v >= 0`.
+fn non_negative(v: f32) -> bool {
+    v.is_finite() && v >= 0.0
+}
+
+/// `true` for a finite `v > 0`.
+fn positive(v: f32) -> bool {
+    v.is_finite() && v > 0.0
+}
+
+impl Plan {
+    /// Checks `p` and lays out its world.
+    ///
+    /// # Bounded work
+    /// Constant.
+    ///
+    /// # Errors
+    /// `TdErrParams` for a count or capacity out of range, a non-finite or out-of-range
+    /// setting, or a world larger than the address space.
+    pub fn of(p: &TdParams) -> Result<Self, TdStatus> {
+        check((1..=TD_MAX_COUNT).contains(&p.node_count))?;
+        check((1..=TD_MAX_COUNT).contains(&p.tet_count))?;
+        check(p.hierarchy_capacity >= 8)?;
+        check(p.pending_capacity >= 1)?;
+        check(p.candidate_capacity >= 1)?;
+        check(p.hash_capacity >= 1)?;
+        check(p.max_cells >= 1)?;
+        check(p.contact_search_nodes >= 1)?;
+        check((1..=9).contains(&p.max_depth))?;
+        check(p.budget_per_tick >= 1)?;
+        check(positive(p.radius) && non_negative(p.reach) && non_negative(p.min_area))?;
+        check(non_negative(p.stiffness) && non_negative(p.damping))?;
+        check(positive(p.max_force) && positive(p.dt) && non_negative(p.switch_time))?;
+        let to_usize = |v: u32| usize::try_from(v).map_err(|_| TdStatus::TdErrParams);
+        let nodes = to_usize(p.node_count)?;
+        let tets = to_usize(p.tet_count)?;
+        let arena = to_usize(p.hierarchy_capacity)?;
+        // The counts are at most 2^28 and the arena below 2^32: every size `WorldSizes::new`
+        // derives (2 t + 2, 8 t, t + 7/8 of the arena) fits a 32-bit usize.
+        let mut sizes = WorldSizes::new(tets, arena)
+            .with_pending(to_usize(p.pending_capacity)?)
+            .with_sphere_memo(to_usize(p.sphere_memo_slots)?);
+        sizes.candidates = to_usize(p.candidate_capacity)?;
+        sizes.hash_entries = to_usize(p.hash_capacity)?;
+        let faces = tets.checked_mul(4).ok_or(TdStatus::TdErrParams)?;
+
+        let mut b = Builder {
+            layout: Layout::new::<State>(),
+        };
+        let positions = b.put::<Vec3>(nodes)?;
+        let normals = b.put::<Vec3>(nodes)?;
+        let node_recs = b.put::<Node>(nodes)?;
+        let tet_recs = b.put::<Tet>(tets)?;
+        let scratch = b.put::<FaceKey>(faces)?;
+        let hash_starts = b.put::<u32>(sizes.hash_starts)?;
+        let hash_entries = b.put::<HashEntry>(sizes.hash_entries)?;
+        let tet_boxes = b.put::<Aabb>(sizes.tet_boxes)?;
+        let roots = b.put::<HNode>(sizes.roots)?;
+        let arena_at = b.put::<HNode>(sizes.arena)?;
+        let vlist = b.put::<VEntry>(sizes.vlist)?;
+        let pending = b.put::<Pending>(sizes.pending)?;
+        let candidates = b.put::<TetId>(sizes.candidates)?;
+        let memo = b.put::<SphereSlot>(sizes.sphere_memo)?;
+        let layout = b.layout.pad_to_align();
+        Ok(Self {
+            nodes,
+            tets,
+            sizes,
+            positions,
+            normals,
+            node_recs,
+            tet_recs,
+            scratch,
+            hash_starts,
+            hash_entries,
+            tet_boxes,
+            roots,
+            arena: arena_at,
+            vlist,
+            pending,
+            candidates,
+            memo,
+            size: layout.size(),
+            align: layout.align(),
+        })
+    }
+}
+
+/// Bytes of the header alone (for the docs and the tests).
+pub const STATE_BYTES: usize = size_of::<State>();
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use core::mem::align_of;
+
+    fn params(nodes: u32, tets: u32, arena: u32, pending: u32, memo: u32) -> TdParams {
+        TdParams {
+            node_count: nodes,
+            tet_count: tets,
+            hierarchy_capacity: arena,
+            pending_capacity: pending,
+            candidate_capacity: 3,
+            hash_capacity: 8 * tets,
+            sphere_memo_slots: memo,
+            max_cells: 1,
+            contact_search_nodes: 1,
+            tick_budget: 0,
+            max_depth: 1,
+            budget_per_tick: 1,
+            radius: 0.1,
+            reach: 0.0,
+            min_area: 0.0,
+            stiffness: 0.0,
+            damping: 0.0,
+            max_force: 1.0,
+            dt: 1e-3,
+            switch_time: 0.0,
+        }
+    }
+
+    /// Each region as (offset, bytes, alignment of its type), in plan order.
+    fn regions(p: &Plan) -> [(usize, usize, usize); 14] {
+        let s = p.sizes;
+        fn r<T>(at: usize, n: usize) -> (usize, usize, usize) {
+            (at, n * size_of::<T>(), align_of::<T>())
+        }
+        [
+            r::<Vec3>(p.positions, p.nodes),
+            r::<Vec3>(p.normals, p.nodes),
+            r::<Node>(p.node_recs, p.nodes),
+            r::<Tet>(p.tet_recs, p.tets),
+            r::<FaceKey>(p.scratch, 4 * p.tets),
+            r::<u32>(p.hash_starts, s.hash_starts),
+            r::<HashEntry>(p.hash_entries, s.hash_entries),
+            r::<Aabb>(p.tet_boxes, s.tet_boxes),
+            r::<HNode>(p.roots, s.roots),
+            r::<HNode>(p.arena, s.arena),
+            r::<VEntry>(p.vlist, s.vlist),
+            r::<Pending>(p.pending, s.pending),
+            r::<TetId>(p.candidates, s.candidates),
+            r::<SphereSlot>(p.memo, s.sphere_memo),
+        ]
+    }
+
+    #[test]
+    fn regions_follow_the_header_aligned_and_apart_inside_the_size() {
+        for (nodes, tets, arena, pending, memo) in [
+            (1, 1, 8, 1, 0),
+            (27, 48, 15, 7, 1),
+            (729, 3072, 1 << 20, 1 << 15, 4096),
+            (125, 384, 20_000, 16_384, 4096),
+        ] {
+            let plan = Plan::of(&params(nodes, tets, arena, pending, memo)).expect("plan");
+            assert!(plan.align.is_power_of_two());
+            assert!(plan.align >= align_of::<State>());
+            assert_eq!(plan.size % plan.align, 0);
+            let mut end = size_of::<State>();
+            for (i, (at, bytes, align)) in regions(&plan).into_iter().enumerate() {
+                assert!(at >= end, "region {i} overlaps the one before");
+                assert_eq!(at % align, 0, "region {i} misaligned");
+                assert!(
+                    align <= plan.align,
+                    "region {i} needs more than the plan's alignment"
+                );
+                end = at + bytes;
+            }
+            assert!(end <= plan.size, "the last region passes the size");
+            assert_eq!(plan.sizes.arena, arena as usize / 8 * 8);
+        }
+    }
+
+    #[test]
+    fn out_of_range_parameters_are_refused() {
+        let ok = params(8, 6, 8, 1, 0);
+        assert!(Plan::of(&ok).is_ok());
+        let bad: [fn(&mut TdParams); 12] = [
+            |p| p.node_count = 0,
+            |p| p.tet_count = TD_MAX_COUNT + 1,
+            |p| p.hierarchy_capacity = 7,
+            |p| p.pending_capacity = 0,
+            |p| p.candidate_capacity = 0,
+            |p| p.hash_capacity = 0,
+            |p| p.max_depth = 0,
+            |p| p.radius = 0.0,
+            |p| p.reach = f32::INFINITY,
+            |p| p.max_force = f32::NAN,
+            |p| p.dt = -1e-3,
+            |p| p.switch_time = -1.0,
+        ];
+        for (i, change) in bad.iter().enumerate() {
+            let mut p = ok;
+            change(&mut p);
+            assert_eq!(Plan::of(&p), Err(TdStatus::TdErrParams), "change {i}");
+        }
+    }
+
+    #[test]
+    fn a_world_larger_than_the_address_space_is_refused_not_wrapped() {
+        // Every count at its largest: on a 64-bit machine the plan fits, on a 32-bit one it
+        // must be refused; either way the size is at least the sum of the parts.
+        let p = params(TD_MAX_COUNT, TD_MAX_COUNT, u32::MAX, u32::MAX, u32::MAX);
+        match Plan::of(&p) {
+            Ok(plan) => {
+                let parts = size_of::<Pending>() as u128 * u128::from(u32::MAX)
+                    + size_of::<HNode>() as u128 * u128::from(u32::MAX / 8 * 8);
+                assert!(plan.size as u128 >= parts);
+            }
+            Err(e) => assert_eq!(e, TdStatus::TdErrParams),
+        }
+    }
+}

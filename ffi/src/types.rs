@@ -1,0 +1,212 @@
+//! The C-visible types: status codes, parameters, vectors, reports and counters. Every field
+//! is a plain integer or float, so any bit pattern C hands in is a valid value; nothing here
+//! is an enum that C writes (a C `int` outside an enum's values would be undefined behaviour
+//! in Rust).
+
+use core::ffi::c_char;
+
+/// What a call did. `TD_OK` is zero; every error leaves the world as it was, except
+/// `td_world_init`, which leaves the memory it was given unusable as a world until a
+/// successful init.
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+// The names are the C constants (`TD_OK`, `TD_ERR_NULL`, ...): the prefix is the point.
+#[allow(clippy::enum_variant_names)]
+pub enum TdStatus {
+    /// Done.
+    TdOk = 0,
+    /// A pointer that must not be null was null.
+    TdErrNull = 1,
+    /// A pointer was not aligned for what it points to (`td_world_size` gives the world's
+    /// alignment; float and index arrays need 4 bytes).
+    TdErrAlign = 2,
+    /// The memory given for the world is shorter than `td_world_size` says.
+    TdErrTooSmall = 3,
+    /// A parameter is out of range (a count or capacity of zero or too large for this
+    /// machine's address space, a radius that is not positive, a non-finite number).
+    TdErrParams = 4,
+    /// The mesh arrays were refused: a tet names a node out of range or twice, a node is not
+    /// finite, a tet has zero volume, a face is shared by more than two tets or two tets
+    /// overlap. `td_world_init`'s `bad_item` names the tet (or the node) at fault.
+    TdErrMesh = 5,
+    /// The world could not be set up over the mesh (the spatial hash or the hierarchy refused
+    /// its storage).
+    TdErrWorld = 6,
+    /// The world pointer does not point at a world `td_world_init` set up.
+    TdErrNotInit = 7,
+    /// A pose is not finite (NaN or infinite coordinates).
+    TdErrInput = 8,
+}
+
+impl TdStatus {
+    /// Every status, in code order (for `td_status_name`).
+    pub(crate) const ALL: [TdStatus; 9] = [
+        TdStatus::TdOk,
+        TdStatus::TdErrNull,
+        TdStatus::TdErrAlign,
+        TdStatus::TdErrTooSmall,
+        TdStatus::TdErrParams,
+        TdStatus::TdErrMesh,
+        TdStatus::TdErrWorld,
+        TdStatus::TdErrNotInit,
+        TdStatus::TdErrInput,
+    ];
+
+    /// A NUL-terminated line saying what the status means.
+    pub(crate) fn text(self) -> &'static core::ffi::CStr {
+        match self {
+            TdStatus::TdOk => c"ok",
+            TdStatus::TdErrNull => c"a required pointer is null",
+            TdStatus::TdErrAlign => c"a pointer is not aligned for its type",
+            TdStatus::TdErrTooSmall => c"the world memory is smaller than td_world_size says",
+            TdStatus::TdErrParams => c"a parameter is out of range",
+            TdStatus::TdErrMesh => c"the mesh arrays were refused (see bad_item)",
+            TdStatus::TdErrWorld => c"the world could not be set up over the mesh",
+            TdStatus::TdErrNotInit => c"the world pointer is not an initialised world",
+            TdStatus::TdErrInput => c"a pose is not finite",
+        }
+    }
+
+    /// The text as a C pointer.
+    pub(crate) fn c_text(self) -> *const c_char {
+        self.text().as_ptr()
+    }
+}
+
+/// Everything a world needs to know before it is built: the mesh's counts, the capacities of
+/// the storage it lives in, and the tool, drilling and force settings. `td_params_default`
+/// fills it; change fields, then `td_world_size` and `td_world_init`.
+///
+/// Capacities and their defaults are the core's (`WorldSizes::new`,
+/// `tetradrill_core::servo`); the tool and force defaults are the host's default scenario
+/// (`tetradrill replay` with no flags: a burr of radius 0.1 on a unit block).
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct TdParams {
+    /// Mesh nodes (`positions` holds `3 * node_count` floats). 1 ..= 2^28.
+    pub node_count: u32,
+    /// Mesh tets (`tets` holds `4 * tet_count` node indices). 1 ..= 2^28.
+    pub tet_count: u32,
+    /// Hierarchy arena nodes for drilling (rounded down to a multiple of 8; at least 8). A
+    /// full arena refuses refinements and counts them (`sat_arena`).
+    pub hierarchy_capacity: u32,
+    /// Drill work items carried from tick to tick (at least 1; a full deque drops items and
+    /// counts them, `sat_pending`).
+    pub pending_capacity: u32,
+    /// Coarse tets one simulation step may take near the tool (at least 1; a full list is
+    /// counted, `sat_candidates`).
+    pub candidate_capacity: u32,
+    /// Entries of the static tet hash (default 8 per tet; a full table keeps the first tets
+    /// and is counted, `sat_hash`).
+    pub hash_capacity: u32,
+    /// Slots of the contact search's sphere memo (any number, zero included, gives the same
+    /// results; it saves work).
+    pub sphere_memo_slots: u32,
+    /// Most hash cells one step's zone query visits (at least 1).
+    pub max_cells: u32,
+    /// Hierarchy nodes one contact search may test (at least 1; a search cut short is
+    /// counted, `sat_contact`).
+    pub contact_search_nodes: u32,
+    /// Work units for a whole simulation step, drill and contact search together; 0 gives
+    /// each its own bound.
+    pub tick_budget: u32,
+    /// Deepest subdivision level of a drilled tet, 1 ..= 9.
+    pub max_depth: u32,
+    /// Drill work units per tick (about 100 Cortex-M4 instructions each), at least 1.
+    pub budget_per_tick: u32,
+    /// Burr radius, mesh units (positive).
+    pub radius: f32,
+    /// How far beyond the burr the simulation looks for the surface (the servo's
+    /// extrapolation range), mesh units, at least 0. The host uses half the radius.
+    pub reach: f32,
+    /// Refinement stops below this face area, mesh units squared, at least 0.
+    pub min_area: f32,
+    /// Newtons per mesh unit of depth (at least 0).
+    pub stiffness: f32,
+    /// Newton-seconds per mesh unit (at least 0).
+    pub damping: f32,
+    /// Force clamp, newtons (positive).
+    pub max_force: f32,
+    /// Servo period, seconds (positive).
+    pub dt: f32,
+    /// Seconds over which the force moves from one contact plane to the next (at least 0).
+    pub switch_time: f32,
+}
+
+/// A point or a force: three floats.
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct TdVec3 {
+    /// x.
+    pub x: f32,
+    /// y.
+    pub y: f32,
+    /// z.
+    pub z: f32,
+}
+
+/// What one `td_world_simulate` did.
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct TdSimReport {
+    /// Coarse tets near the tool.
+    pub candidates: u32,
+    /// Visible triangles examined for the contact.
+    pub triangles: u32,
+    /// Hierarchy nodes the contact search tested.
+    pub contact_nodes: u32,
+    /// Drill work units spent (0 with the drill off).
+    pub drill_work: u32,
+    /// Hierarchy nodes the drill created.
+    pub created: u32,
+    /// Leaves the drill erased.
+    pub erased: u32,
+    /// Drill work items left for later ticks.
+    pub pending: u32,
+    /// 1 when the contact search hit its node bound.
+    pub contact_saturated: u32,
+    /// 1 when the candidate list filled up or the zone covered too many cells.
+    pub candidates_saturated: u32,
+}
+
+/// A world's counters since `td_world_init`.
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct TdCounters {
+    /// FNV-1a 64 digest of every force `td_world_servo_force` returned, in order: the
+    /// `force_digest` of `tetradrill replay` (printed as 16 hex digits).
+    pub force_digest: u64,
+    /// `td_world_servo_force` calls.
+    pub servo_ticks: u64,
+    /// `td_world_simulate` calls.
+    pub simulate_steps: u64,
+    /// Servo ticks whose force was not zero.
+    pub contact_ticks: u64,
+    /// Volume of the mesh before drilling, mesh units cubed.
+    pub initial_volume: f64,
+    /// Volume the drill removed, mesh units cubed.
+    pub removed_volume: f64,
+    /// Hierarchy nodes in use (roots included).
+    pub hierarchy_nodes: u64,
+    /// Visible faces of the drilled surface.
+    pub visible_faces: u32,
+    /// Static hash builds that ran out of entries.
+    pub sat_hash: u32,
+    /// Steps whose candidate list filled up or whose zone was too wide.
+    pub sat_candidates: u32,
+    /// Refinements refused because the arena was full.
+    pub sat_arena: u32,
+    /// Drill work items dropped because the pending deque was full.
+    pub sat_pending: u32,
+    /// Steps whose contact search hit its node bound.
+    pub sat_contact: u32,
+    /// All saturations added up.
+    pub sat_total: u32,
+}
+
+/// A world set up by `td_world_init` in caller memory. Opaque: C holds a pointer to it (the
+/// start of the memory it gave) and never reads it.
+#[derive(Debug)]
+pub struct TdWorld {
+    _opaque: [u8; 0],
+}

@@ -1,0 +1,112 @@
+#!/usr/bin/env bash
+# The C examples over the C interface (docs/FFI.md), each checked against the host's replay.
+#
+#   scripts/c-example.sh              the host program: builds libtetradrill_ffi.a (profile
+#                                     ffi), compiles examples/c/replay_demo.c with cc, runs it,
+#                                     and compares its force_digest with
+#                                     `tetradrill replay --scenario builtin:demo --json`'s; then
+#                                     the same over libtetradrill_ffi.so
+#   scripts/c-example.sh --cortex-m   the bare-metal program: the library for
+#                                     thumbv7em-none-eabihf, examples/c/cortex_m linked with
+#                                     arm-none-eabi-gcc, run under QEMU (mps2-an386), compared
+#                                     with `replay --scenario builtin:firmware`'s digest
+#
+# Prints `force_digest=HEX` (the C program's) and both digests. Exit status: 0 when they match;
+# 1 when they differ or a build or run fails; 2 for bad arguments. Honours CARGO_TARGET_DIR
+# (default: the workspace's target/) and TETRADRILL_BIN (default: the release build of
+# `tetradrill`, built when missing). C_EXAMPLE_TIMEOUT (seconds, default 900) bounds the QEMU run.
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+mode=host
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --cortex-m) mode=cortex-m; shift ;;
+    -h|--help) sed -n '2,17p' "$0"; exit 0 ;;
+    *) echo "c-example: unknown argument '$1' (expected --cortex-m)" >&2; exit 2 ;;
+  esac
+done
+target_dir="${CARGO_TARGET_DIR:-$root/target}"
+case "$target_dir" in /*) ;; *) target_dir="$root/$target_dir" ;; esac
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+cd "$root"
+
+# The host's digest of a built-in scenario, from `replay --json`.
+host_digest() {
+  local bin="${TETRADRILL_BIN:-}"
+  if [ -z "$bin" ]; then
+    cargo build --release --quiet -p tetradrill
+    bin="$target_dir/release/tetradrill"
+  fi
+  "$bin" replay --scenario "builtin:$1" --quiet --json "$work/replay.json" >/dev/null \
+    2>"$work/replay.err" || { cat "$work/replay.err" >&2; exit 1; }
+  sed -n 's/.*"force_digest": *"\([0-9a-f]\{16\}\)".*/\1/p' "$work/replay.json" | head -1
+}
+
+# Compares the C program's output (file $1) with the host's digest of scenario $2.
+compare() {
+  local c_digest want
+  c_digest="$(sed -n 's/^force_digest=\([0-9a-f]\{16\}\)\r\{0,1\}$/\1/p' "$1")"
+  want="$(host_digest "$2")"
+  echo "C interface:  force_digest=$c_digest"
+  echo "host replay:  force_digest=$want (replay --scenario builtin:$2)"
+  if [ -z "$c_digest" ] || [ "$c_digest" != "$want" ]; then
+    echo "c-example: FAIL: the digests differ" >&2
+    exit 1
+  fi
+  echo "c-example: OK, the same digest"
+}
+
+if [ "$mode" = host ]; then
+  command -v cc >/dev/null || { echo "c-example: no C compiler 'cc' found (apt-get install gcc)" >&2; exit 1; }
+  echo "== libtetradrill_ffi.a and .so (profile ffi: release, panic = abort)"
+  # The system libraries the static library needs come from rustc's own list.
+  cargo rustc --quiet -p tetradrill-ffi --profile ffi \
+    -- --print native-static-libs 2>"$work/rustc.txt" || { cat "$work/rustc.txt" >&2; exit 1; }
+  libs="$(sed -n 's/.*native-static-libs: //p' "$work/rustc.txt" | tail -1)"
+  lib="$target_dir/ffi/libtetradrill_ffi.a"
+  echo "== cc examples/c/replay_demo.c ($libs)"
+  # -ffp-contract=off: the block's positions must be the floats the core computes.
+  # shellcheck disable=SC2086
+  cc -std=c11 -O2 -Wall -Wextra -Werror -ffp-contract=off -I ffi/include \
+    examples/c/replay_demo.c "$lib" $libs -o "$work/replay_demo"
+  echo "== run"
+  "$work/replay_demo" | tee "$work/out.txt"
+  compare "$work/out.txt" demo
+  echo "== the same program over the shared library (libtetradrill_ffi.so)"
+  cc -std=c11 -O2 -Wall -Wextra -Werror -ffp-contract=off -I ffi/include \
+    examples/c/replay_demo.c -L "$target_dir/ffi" -ltetradrill_ffi \
+    -Wl,-rpath,"$target_dir/ffi" -o "$work/replay_demo_shared"
+  "$work/replay_demo_shared" >"$work/out-shared.txt"
+  compare "$work/out-shared.txt" demo
+  exit 0
+fi
+
+command -v arm-none-eabi-gcc >/dev/null || { echo "c-example: arm-none-eabi-gcc not found (apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi)" >&2; exit 1; }
+command -v qemu-system-arm >/dev/null || { echo "c-example: qemu-system-arm not found (apt-get install qemu-system-arm)" >&2; exit 1; }
+echo "== libtetradrill_ffi.a for thumbv7em-none-eabihf (profile ffi)"
+cargo rustc --quiet -p tetradrill-ffi --profile ffi --target thumbv7em-none-eabihf --crate-type staticlib
+lib="$target_dir/thumbv7em-none-eabihf/ffi/libtetradrill_ffi.a"
+echo "== arm-none-eabi-gcc examples/c/cortex_m"
+make --quiet -C examples/c/cortex_m LIB="$lib" OUT="$work"
+elf="$work/replay_firmware.elf"
+arm-none-eabi-size "$elf"
+# Where a panic could still come from in the linked program: calls into core::panicking (the
+# handler faults, see docs/FFI.md), by the function that makes them.
+arm-none-eabi-objdump -d --no-show-raw-insn -C "$elf" | awk '
+  /^[0-9a-f]+ <.*>:$/ { fn = $2; sub(/^</, "", fn); sub(/::.*/, "", fn); sub(/>:$/, "", fn) }
+  /core::panicking/ && !/^[0-9a-f]+ </ && fn !~ /^core$/ { n[fn]++ }
+  END { printf "panic call sites:"; for (f in n) printf " %s %d", f, n[f]; print "" }'
+echo "== run under QEMU (mps2-an386, cortex-m4)"
+set +e
+timeout "${C_EXAMPLE_TIMEOUT:-900}" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 \
+  -semihosting-config enable=on,target=native -nographic -kernel "$elf" \
+  </dev/null >"$work/out.txt" 2>&1
+rc=$?
+set -e
+cat "$work/out.txt"
+if [ "$rc" != 0 ]; then
+  echo "c-example: FAIL: the firmware exited with status $rc (124 = timeout)" >&2
+  exit 1
+fi
+compare "$work/out.txt" firmware
