@@ -8,6 +8,7 @@
 //! the sphere it was queued for, so the removed shape converges to the swept volume.
 
 mod candidates;
+mod deque;
 mod spacing;
 mod sphere;
 mod step;

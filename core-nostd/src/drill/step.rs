@@ -3,6 +3,7 @@
 
 use glam::Vec3;
 
+use super::deque::{split, Ring, FINE_DESCENT};
 use super::sphere::{classify_costed, Class, Sphere};
 use crate::geom::tri_area;
 use crate::hierarchy::{
@@ -179,6 +180,16 @@ struct Parent {
     pts: [Vec3; 10],
 }
 
+/// The ten points of a node's refinement: integer barycentric rows and positions.
+type Ten = ([u64; 10], [Vec3; 10]);
+
+/// Which ring an item came from (its children go to the same one).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Pass {
+    Coarse,
+    Fine,
+}
+
 /// Spheres remembered to skip re-queueing an unchanged sphere whose work is already queued.
 const MEMO: usize = 8;
 
@@ -199,9 +210,11 @@ pub const SWEPT_AHEAD: usize = 16;
 /// The drill: a pending-work deque in caller storage and counters.
 #[derive(Debug)]
 pub struct Drill<'a> {
-    queue: &'a mut [Pending],
-    head: usize,
-    len: usize,
+    /// The coarse pass: every sphere's work except the refinement of the last level.
+    coarse: Ring<'a>,
+    /// The fine pass: the roots whose coarse pass met a leaf one level above `max_depth`
+    /// worth refining, taken only once the coarse ring is empty.
+    fine: Ring<'a>,
     memo: [Option<Sphere>; MEMO],
     /// The last [`SWEPT`] spheres queued (a ring; `swept_len` of them valid).
     swept: [Sphere; SWEPT],
@@ -227,10 +240,10 @@ impl<'a> Drill<'a> {
     /// # Bounded work
     /// O(1).
     pub fn new(queue: &'a mut [Pending]) -> Self {
+        let (coarse, fine) = split(queue);
         Self {
-            queue,
-            head: 0,
-            len: 0,
+            coarse,
+            fine,
             memo: [None; MEMO],
             swept: [Sphere::default(); SWEPT],
             swept_next: 0,
@@ -248,7 +261,7 @@ impl<'a> Drill<'a> {
     /// Work items waiting for the next tick.
     #[inline]
     pub fn pending(&self) -> usize {
-        self.len
+        self.coarse.len() + self.fine.len()
     }
 
     /// Work items dropped because the pending deque was full (since creation). The arena's
@@ -263,8 +276,8 @@ impl<'a> Drill<'a> {
     /// # Bounded work
     /// O(1).
     pub fn clear(&mut self) {
-        self.head = 0;
-        self.len = 0;
+        self.coarse.clear();
+        self.fine.clear();
         self.memo = [None; MEMO];
         self.swept_len = 0;
         self.swept_next = 0;
@@ -361,47 +374,6 @@ impl<'a> Drill<'a> {
             .any(|t| x.distance_squared(t.center) <= t.radius * t.radius)
     }
 
-    fn push_back(&mut self, p: Pending) -> bool {
-        let cap = self.queue.len();
-        if self.len >= cap {
-            return false;
-        }
-        let at = (self.head + self.len) % cap;
-        if let Some(slot) = self.queue.get_mut(at) {
-            *slot = p;
-            self.len += 1;
-            true
-        } else {
-            false
-        }
-    }
-
-    fn push_front(&mut self, p: Pending) -> bool {
-        let cap = self.queue.len();
-        if self.len >= cap {
-            return false;
-        }
-        let at = (self.head + cap - 1) % cap;
-        if let Some(slot) = self.queue.get_mut(at) {
-            *slot = p;
-            self.head = at;
-            self.len += 1;
-            true
-        } else {
-            false
-        }
-    }
-
-    fn pop_front(&mut self) -> Option<Pending> {
-        if self.len == 0 {
-            return None;
-        }
-        let p = self.queue.get(self.head).copied()?;
-        self.head = (self.head + 1) % self.queue.len().max(1);
-        self.len -= 1;
-        Some(p)
-    }
-
     fn saturate(&mut self, rep: &mut DrillReport) {
         self.saturations += 1;
         rep.saturations += 1;
@@ -468,7 +440,7 @@ impl<'a> Drill<'a> {
         let mut rep = DrillReport::default();
         let removed0 = h.removed_volume();
         let sat0 = h.saturations();
-        if self.retry && self.len == 0 {
+        if self.retry && self.pending() == 0 {
             self.retry = false;
             self.memo = [None; MEMO];
         }
@@ -484,7 +456,7 @@ impl<'a> Drill<'a> {
                 if t.idx() >= h.tet_count() {
                     continue;
                 }
-                if !self.push_back(Pending::root(t, *s, epoch_of(h))) {
+                if !self.coarse.push_back(Pending::root(t, *s, epoch_of(h))) {
                     all = false;
                 }
             }
@@ -498,12 +470,18 @@ impl<'a> Drill<'a> {
         }
         let max_depth = params.max_depth.min(crate::hierarchy::MAX_DEPTH as u8);
         while rep.work < params.budget {
-            let Some(item) = self.pop_front() else { break };
+            let (item, pass) = match self.coarse.pop_front() {
+                Some(item) => (item, Pass::Coarse),
+                None => match self.fine.pop_front() {
+                    Some(item) => (item, Pass::Fine),
+                    None => break,
+                },
+            };
             rep.work = rep.work.saturating_add(WorkCost::TAKEN);
             rep.taken += 1;
-            self.process(h, mesh, item, max_depth, params.min_area, &mut rep);
+            self.process(h, mesh, item, pass, max_depth, params.min_area, &mut rep);
         }
-        rep.pending = self.len as u32;
+        rep.pending = self.pending() as u32;
         rep.removed_volume = h.removed_volume() - removed0;
         rep.saturations += h.saturations() - sat0;
         rep
@@ -514,6 +492,7 @@ impl<'a> Drill<'a> {
         h: &mut Hierarchy<'_>,
         mesh: &Mesh<'_>,
         item: Pending,
+        pass: Pass,
         max_depth: u8,
         min_area: f32,
         rep: &mut DrillReport,
@@ -552,7 +531,7 @@ impl<'a> Drill<'a> {
             return;
         }
         if !node.is_leaf() {
-            self.queue_children(h, &frame, item, depth, rep);
+            self.queue_children(h, &frame, item, depth, pass, None, rep);
             return;
         }
         // Inside this sphere, or inside another sphere of the swept path (which erases it
@@ -575,6 +554,21 @@ impl<'a> Drill<'a> {
                     >= min_area
         };
         if path.depth < max_depth && big_enough() {
+            if path.depth + 1 == max_depth {
+                // The last level: refined only when one of the children would be erased,
+                // and in the fine pass (the coarse pass of every sphere comes first).
+                if pass == Pass::Coarse && self.defer(&item) {
+                    return;
+                }
+            }
+            let ten = if path.depth + 1 == max_depth {
+                match self.a_child_would_go(&frame, &item, depth, rep) {
+                    Some(ten) => Some(ten),
+                    None => return,
+                }
+            } else {
+                None
+            };
             match h.refine_at(mesh, item.tet, &path, item.node) {
                 Ok(r) => {
                     rep.work = rep
@@ -582,7 +576,7 @@ impl<'a> Drill<'a> {
                         .saturating_add(WorkCost::VISIT * r.work + WorkCost::CREATED * r.created);
                     rep.visits = rep.visits.saturating_add(r.work);
                     rep.created += r.created;
-                    self.queue_children(h, &frame, item, depth, rep);
+                    self.queue_children(h, &frame, item, depth, pass, ten, rep);
                     return;
                 }
                 Err(HierarchyError::Full) => {
@@ -603,6 +597,47 @@ impl<'a> Drill<'a> {
         {
             self.erase(h, mesh, item, &path, rep);
         }
+    }
+
+    /// The ten points of `item`'s refinement (rows and positions) when the centroid of one of
+    /// its eight children lies inside its sphere or one of the spheres queued after it: refined
+    /// to the last level, the leaf would lose that child. `None` otherwise: no child would go
+    /// (a child inside a sphere has its centroid inside it), and refining the leaf would only
+    /// add nodes. Counted as the expansion that follows the refinement, which takes the points
+    /// from here ([`WorkCost::EXPANDED`], charged once).
+    fn a_child_would_go(
+        &mut self,
+        frame: &RootFrame,
+        item: &Pending,
+        depth: u8,
+        rep: &mut DrillReport,
+    ) -> Option<Ten> {
+        rep.expanded += 1;
+        rep.work = rep.work.saturating_add(WorkCost::EXPANDED);
+        let (rows, pts) = refinement_points(frame, &item.bary, depth);
+        let s = item.sphere;
+        let goes = (0..8u8).any(|c| {
+            let q = child_of_ten(&pts, c);
+            let centroid = (q[0] + q[1] + q[2] + q[3]) * 0.25;
+            centroid.distance_squared(s.center) <= s.radius * s.radius
+                || self.point_in_swept(&s, centroid, rep)
+        });
+        goes.then_some((rows, pts))
+    }
+
+    /// Leaves `item`'s refinement of the last level to the fine pass: its tree's root against
+    /// its sphere goes to the fine ring (once for a run of such leaves of one tree). `false`
+    /// when the fine ring has no room for it and a descent (the refinement is then done now).
+    fn defer(&mut self, item: &Pending) -> bool {
+        if let Some(b) = self.fine.back() {
+            if b.tet == item.tet && b.index == 0 && b.sphere == item.sphere {
+                return true;
+            }
+        }
+        self.fine.free() > FINE_DESCENT
+            && self
+                .fine
+                .push_back(Pending::root(item.tet, item.sphere, item.epoch))
     }
 
     fn erase(
@@ -626,9 +661,15 @@ impl<'a> Drill<'a> {
         frame: &RootFrame,
         item: Pending,
         depth: u8,
+        pass: Pass,
+        ten: Option<Ten>,
         rep: &mut DrillReport,
     ) {
-        if self.queue.len() - self.len < 8 {
+        let ring = match pass {
+            Pass::Coarse => &mut self.coarse,
+            Pass::Fine => &mut self.fine,
+        };
+        if ring.free() < 8 {
             self.saturate(rep);
             return;
         }
@@ -636,10 +677,13 @@ impl<'a> Drill<'a> {
         let Some(first) = h.child(item.node, 0) else {
             return;
         };
-        rep.expanded += 1;
-        rep.work = rep.work.saturating_add(WorkCost::EXPANDED);
         let epoch = epoch_of(h);
-        let (rows, pts) = refinement_points(frame, &item.bary, depth);
+        // Points from the last level's child test were counted there.
+        let (rows, pts) = ten.unwrap_or_else(|| {
+            rep.expanded += 1;
+            rep.work = rep.work.saturating_add(WorkCost::EXPANDED);
+            refinement_points(frame, &item.bary, depth)
+        });
         if let Some(slot) = self.parents.get_mut(depth as usize) {
             *slot = Some(Parent {
                 tet: item.tet,
@@ -663,7 +707,10 @@ impl<'a> Drill<'a> {
                 epoch,
                 ..item
             };
-            self.push_front(next);
+            let _ = match pass {
+                Pass::Coarse => self.coarse.push_front(next),
+                Pass::Fine => self.fine.push_front(next),
+            };
         }
     }
 }
