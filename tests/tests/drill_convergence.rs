@@ -112,7 +112,10 @@ fn swept_volume(nodes: &[D3], tets: &[[usize; 4]], centres: &[D3], r: f64, n: us
     // spheres r/64 apart misses at most r/32,768 of the swept surface's depth).
     let mut kept: Vec<D3> = Vec::new();
     for &c in centres {
-        if kept.last().is_none_or(|&k| dot(sub(c, k), sub(c, k)) >= (r / 64.0).powi(2)) {
+        if kept
+            .last()
+            .is_none_or(|&k| dot(sub(c, k), sub(c, k)) >= (r / 64.0).powi(2))
+        {
             kept.push(c);
         }
     }
@@ -129,7 +132,9 @@ fn swept_volume(nodes: &[D3], tets: &[[usize; 4]], centres: &[D3], r: f64, n: us
     }
     // The tets meeting the box, on a grid of 32^3 cells over it.
     const G: usize = 32;
-    let cell = |x: f64, a: usize| (((x - lo[a]) / (hi[a] - lo[a]) * G as f64).floor() as i64).clamp(0, G as i64 - 1) as usize;
+    let cell = |x: f64, a: usize| {
+        (((x - lo[a]) / (hi[a] - lo[a]) * G as f64).floor() as i64).clamp(0, G as i64 - 1) as usize
+    };
     let mut grid: Vec<Vec<usize>> = vec![Vec::new(); G * G * G];
     for (i, t) in tets.iter().enumerate() {
         let p = t.map(|k| nodes[k]);

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use super::deque::{split, Ring, FINE_DESCENT};
+use super::deque::{split, Ring, FINE_DESCENT, FINE_MIN_DEQUE};
 use super::sphere::{classify_costed, Class, Sphere};
 use crate::geom::tri_area;
 use crate::hierarchy::{
@@ -147,7 +147,8 @@ pub struct DrillReport {
     pub work: u32,
     /// Work items taken from the deque.
     pub taken: u32,
-    /// Nodes whose eight children were classified (and the survivors queued).
+    /// Nodes whose eight children were classified (and the survivors queued), or, one level
+    /// above `max_depth`, whose children's centroids were tested before a refinement.
     pub expanded: u32,
     /// Nodes touched by the NTree visits of the refinements and erasures.
     pub visits: u32,
@@ -207,7 +208,8 @@ pub const SWEPT: usize = 64;
 /// item's are not tested: their work came first, and it erased what lay inside them.
 pub const SWEPT_AHEAD: usize = 16;
 
-/// The drill: a pending-work deque in caller storage and counters.
+/// The drill: a pending-work deque in caller storage (two rings, coarse and fine: see
+/// [`Drill::step`]) and counters.
 #[derive(Debug)]
 pub struct Drill<'a> {
     /// The coarse pass: every sphere's work except the refinement of the last level.
@@ -235,7 +237,9 @@ pub struct Drill<'a> {
 }
 
 impl<'a> Drill<'a> {
-    /// A drill whose pending deque is `queue` (its length is the capacity).
+    /// A drill whose pending deque is `queue` (its length is the capacity). From
+    /// [`FINE_MIN_DEQUE`] entries up, the second half holds the fine pass's roots; a smaller
+    /// deque is all coarse pass (every refinement done at once).
     ///
     /// # Bounded work
     /// O(1).
@@ -385,9 +389,15 @@ impl<'a> Drill<'a> {
     /// One drill tick. New work: every candidate coarse tet against every sphere (skipped for
     /// a sphere identical to last tick's when its work is already queued or done; after work
     /// was dropped for a full deque, unchanged spheres are queued again once the deque is
-    /// empty). Then work
-    /// items are taken oldest first (each node's children go to the front, so one sphere's
-    /// subtree is finished depth first) until the budget is spent:
+    /// empty). Then work items are taken until the budget is spent, in two passes: the coarse
+    /// ring first, oldest sphere first (each node's children go to the front, so one sphere's
+    /// subtree is finished depth first); once it is empty, the fine ring, where the coarse pass
+    /// left the refinement of the last level (below). A path's work at a fine `max_depth` can
+    /// be more than its ticks' budget (the last level's refinements cost most of it and hold
+    /// the least volume): every sphere's coarse material goes first, and the drill no longer
+    /// falls behind the burr refining the first spheres' walls.
+    ///
+    /// Each item:
     /// - a node outside the sphere, or with every leaf erased, is dropped;
     /// - an inner node's eight children are classified from the ten points of its refinement
     ///   and those that meet the sphere and still hold material are queued (the others would
@@ -400,7 +410,12 @@ impl<'a> Drill<'a> {
     ///   last [`SWEPT_AHEAD`] spheres queued were tested instead: useless once the drill was
     ///   more than that many spheres behind, and the earlier ones never hold material);
     /// - a leaf crossing the sphere is refined when it is above `max_depth` and its smallest
-    ///   face is at least `min_area`, and its children are queued;
+    ///   face is at least `min_area`, and its children are queued. One level above
+    ///   `max_depth`: in the coarse pass its tree's root goes to the fine ring instead (once
+    ///   for a run of such leaves of one tree, while the fine ring has room for the root and a
+    ///   descent, else it is refined now), and the fine pass refines it only when the centroid
+    ///   of one of its children lies inside the sphere or the spheres queued after it (the
+    ///   children would otherwise all stay: the refinement would only add nodes);
     /// - a crossing leaf at `max_depth` or below `min_area` is erased iff its centroid is
     ///   inside the sphere or one of the spheres queued after it. This is the erosion
     ///   criterion: the misclassified volume lies within one leaf of the sphere's surface and
@@ -415,7 +430,9 @@ impl<'a> Drill<'a> {
     /// The new work is O(candidates * spheres) pushes. After that no operation starts once
     /// `budget` units are spent ([`WorkCost`]: each item taken, each node expanded, each
     /// NTree node visited and each node created is charged what it costs); the last one may
-    /// overrun it by its own cost: a refinement is 8 nodes created plus 16 NTree visits, an
+    /// overrun it by its own cost: a refinement is 8 nodes created plus 16 NTree visits (one
+    /// level above `max_depth`, after its children's centroid test, counted as the expansion
+    /// that follows the refinement), an
     /// erasure 4 NTree visits, each O(depth) plus the instantiated nodes across one face. A
     /// leaf's swept test is at most [`SWEPT_AHEAD`] sphere tests, after a search of the
     /// [`SWEPT`] remembered spheres when the item's sphere is not the last one looked up
