@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use super::deque::{split, Ring, FINE_DESCENT, FINE_MIN_DEQUE};
+use super::deque::{split, Ring, FINE_DESCENT};
 use super::sphere::{classify_costed, Class, Sphere};
 use crate::geom::tri_area;
 use crate::hierarchy::{
@@ -238,7 +238,7 @@ pub struct Drill<'a> {
 
 impl<'a> Drill<'a> {
     /// A drill whose pending deque is `queue` (its length is the capacity). From
-    /// [`FINE_MIN_DEQUE`] entries up, the second half holds the fine pass's roots; a smaller
+    /// [`super::FINE_MIN_DEQUE`] entries up, the second half holds the fine pass's roots; a smaller
     /// deque is all coarse pass (every refinement done at once).
     ///
     /// # Bounded work
@@ -504,6 +504,7 @@ impl<'a> Drill<'a> {
         rep
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn process(
         &mut self,
         h: &mut Hierarchy<'_>,
@@ -672,6 +673,7 @@ impl<'a> Drill<'a> {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn queue_children(
         &mut self,
         h: &Hierarchy<'_>,
