@@ -430,7 +430,9 @@ impl<'a> Drill<'a> {
     /// The new work is O(candidates * spheres) pushes. After that no operation starts once
     /// `budget` units are spent ([`WorkCost`]: each item taken, each node expanded, each
     /// NTree node visited and each node created is charged what it costs); the last one may
-    /// overrun it by its own cost: a refinement is 8 nodes created plus 16 NTree visits (one
+    /// overrun it by its own cost. A refinement does not start when its 8 created nodes alone
+    /// would pass the budget, unless it is the tick's first item: the item waits at the front
+    /// of its ring for the next tick. A refinement is 8 nodes created plus 16 NTree visits (one
     /// level above `max_depth`, after its children's centroid test, counted as the expansion
     /// that follows the refinement), an
     /// erasure 4 NTree visits, each O(depth) plus the instantiated nodes across one face. A
@@ -496,7 +498,14 @@ impl<'a> Drill<'a> {
             };
             rep.work = rep.work.saturating_add(WorkCost::TAKEN);
             rep.taken += 1;
-            self.process(h, mesh, item, pass, max_depth, params.min_area, &mut rep);
+            if !self.process(h, mesh, item, pass, max_depth, params, &mut rep) {
+                // A refinement that would overrun the budget: the item waits at the front.
+                let _ = match pass {
+                    Pass::Coarse => self.coarse.push_front(item),
+                    Pass::Fine => self.fine.push_front(item),
+                };
+                break;
+            }
         }
         rep.pending = self.pending() as u32;
         rep.removed_volume = h.removed_volume() - removed0;
@@ -512,9 +521,10 @@ impl<'a> Drill<'a> {
         item: Pending,
         pass: Pass,
         max_depth: u8,
-        min_area: f32,
+        params: &DrillParams,
         rep: &mut DrillReport,
-    ) {
+    ) -> bool {
+        let min_area = params.min_area;
         // A reference stays valid until the arena takes back the block holding it (only
         // blocks of erased leaves are taken back, once the fresh ones are used up). When a
         // block has been taken back since the item was queued, the reference may name a node
@@ -522,19 +532,19 @@ impl<'a> Drill<'a> {
         // subtree's nodes answer `None`; they were all erased, so the item had nothing left
         // to do).
         if item.epoch != h.reclaimed() && h.find(item.tet, item.index) != Some(item.node) {
-            return;
+            return true;
         }
         let Some(node) = h.node(item.node) else {
-            return;
+            return true;
         };
         if node.all_erased() {
-            return;
+            return true;
         }
         let Some(depth) = Path::depth_of(item.index) else {
-            return;
+            return true;
         };
         let Some(frame) = self.frame(mesh, item.tet) else {
-            return;
+            return true;
         };
         let item = match item.index {
             0 => Pending {
@@ -546,20 +556,20 @@ impl<'a> Drill<'a> {
         let p = self.corners(&frame, &item, depth);
         let class = classify_charged(p, &item.sphere, rep);
         if class == Class::Outside {
-            return;
+            return true;
         }
         if !node.is_leaf() {
             self.queue_children(h, &frame, item, depth, pass, None, rep);
-            return;
+            return true;
         }
         // Inside this sphere, or inside another sphere of the swept path (which erases it
         // anyway when its own work arrives): erased at once, never refined.
         let Some(path) = Path::of_index(item.index) else {
-            return;
+            return true;
         };
         if class == Class::Inside || self.inside_swept(&item.sphere, &p, rep) {
             self.erase(h, mesh, item, &path, rep);
-            return;
+            return true;
         }
         // Areas are never negative (and `f32::min` skips NaN), so a `min_area` of zero or
         // less passes without computing them; at `max_depth` they are not needed at all.
@@ -576,13 +586,19 @@ impl<'a> Drill<'a> {
                 // The last level: refined only when one of the children would be erased,
                 // and in the fine pass (the coarse pass of every sphere comes first).
                 if pass == Pass::Coarse && self.defer(&item) {
-                    return;
+                    return true;
                 }
+            }
+            // Not started when its nodes alone would overrun the budget, unless it is the
+            // tick's first item (the step always makes progress): the overrun of a tick is
+            // then at most an erasure or an expansion, not a refinement.
+            if rep.taken > 1 && rep.work.saturating_add(WorkCost::CREATED * 8) > params.budget {
+                return false;
             }
             let ten = if path.depth + 1 == max_depth {
                 match self.a_child_would_go(&frame, &item, depth, rep) {
                     Some(ten) => Some(ten),
-                    None => return,
+                    None => return true,
                 }
             } else {
                 None
@@ -595,7 +611,7 @@ impl<'a> Drill<'a> {
                     rep.visits = rep.visits.saturating_add(r.work);
                     rep.created += r.created;
                     self.queue_children(h, &frame, item, depth, pass, ten, rep);
-                    return;
+                    return true;
                 }
                 Err(HierarchyError::Full) => {
                     // Counted by the hierarchy. The leaf stays: erasing a coarse leaf by its
@@ -603,9 +619,9 @@ impl<'a> Drill<'a> {
                     // jump); kept, it still bounds the material and the burr feels it.
                     // Not retried here: the arena only gets blocks back when more material
                     // is erased; a later sphere's work reaches the leaf again.
-                    return;
+                    return true;
                 }
-                Err(_) => return,
+                Err(_) => return true,
             }
         }
         let centroid = (p[0] + p[1] + p[2] + p[3]) * 0.25;
@@ -615,6 +631,7 @@ impl<'a> Drill<'a> {
         {
             self.erase(h, mesh, item, &path, rep);
         }
+        true
     }
 
     /// The ten points of `item`'s refinement (rows and positions) when the centroid of one of
