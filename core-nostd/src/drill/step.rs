@@ -562,12 +562,11 @@ impl<'a> Drill<'a> {
             self.queue_children(h, &frame, item, depth, pass, None, rep);
             return true;
         }
-        // Inside this sphere, or inside another sphere of the swept path (which erases it
-        // anyway when its own work arrives): erased at once, never refined.
+        // Inside this sphere: erased at once, never refined.
         let Some(path) = Path::of_index(item.index) else {
             return true;
         };
-        if class == Class::Inside || self.inside_swept(&item.sphere, &p, rep) {
+        if class == Class::Inside {
             self.erase(h, mesh, item, &path, rep);
             return true;
         }
@@ -581,14 +580,20 @@ impl<'a> Drill<'a> {
                     .fold(f32::INFINITY, f32::min)
                     >= min_area
         };
-        if path.depth < max_depth && big_enough() {
-            if path.depth + 1 == max_depth {
-                // The last level: refined only when one of the children would be erased,
-                // and in the fine pass (the coarse pass of every sphere comes first).
-                if pass == Pass::Coarse && self.defer(&item) {
-                    return true;
-                }
-            }
+        let refinable = path.depth < max_depth && big_enough();
+        // One level above the last: refined in the fine pass (the coarse pass of every sphere
+        // comes first). Deferred before the swept test: a leaf inside a later sphere is
+        // erased by that sphere's own coarse pass.
+        if refinable && path.depth + 1 == max_depth && pass == Pass::Coarse && self.defer(&item) {
+            return true;
+        }
+        // Inside another sphere of the swept path (which erases it anyway when its own work
+        // arrives): erased at once, never refined.
+        if self.inside_swept(&item.sphere, &p, rep) {
+            self.erase(h, mesh, item, &path, rep);
+            return true;
+        }
+        if refinable {
             // Not started when its nodes alone would overrun the budget, unless it is the
             // tick's first item (the step always makes progress): the overrun of a tick is
             // then at most an erasure or an expansion, not a refinement.
