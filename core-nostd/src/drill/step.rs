@@ -184,6 +184,11 @@ struct Parent {
 /// The ten points of a node's refinement: integer barycentric rows and positions.
 type Ten = ([u64; 10], [Vec3; 10]);
 
+/// The coarse pass defers the last level's refinements only while at least this many spheres
+/// were queued after the item's own: a drill that keeps up with the burr refines at once (the
+/// fine pass walks the trees down again, about 7 % more work).
+const DEFER_LAG: usize = 8;
+
 /// Which ring an item came from (its children go to the same one).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum Pass {
@@ -227,6 +232,9 @@ pub struct Drill<'a> {
     swept_for: Option<Sphere>,
     swept_first: usize,
     swept_count: usize,
+    /// How many remembered spheres were queued after that sphere (all of them when it is
+    /// forgotten): how far the drill lags behind the burr.
+    swept_lag: usize,
     /// The root frame of the last tet processed (items come tree by tree).
     frame: Option<(TetId, RootFrame)>,
     /// Per depth, the last node whose children were queued and the ten points of its
@@ -255,6 +263,7 @@ impl<'a> Drill<'a> {
             swept_for: None,
             swept_first: 0,
             swept_count: 0,
+            swept_lag: 0,
             frame: None,
             parents: [None; MAX_DEPTH],
             retry: false,
@@ -359,6 +368,7 @@ impl<'a> Drill<'a> {
             self.swept_for = Some(*s);
             self.swept_first = first % SWEPT;
             self.swept_count = count.min(SWEPT_AHEAD);
+            self.swept_lag = count;
         }
         let (first, ring) = (self.swept_first, &self.swept);
         (0..self.swept_count).filter_map(move |k| ring.get((first + k) % SWEPT))
@@ -584,7 +594,11 @@ impl<'a> Drill<'a> {
         // One level above the last: refined in the fine pass (the coarse pass of every sphere
         // comes first). Deferred before the swept test: a leaf inside a later sphere is
         // erased by that sphere's own coarse pass.
-        if refinable && path.depth + 1 == max_depth && pass == Pass::Coarse && self.defer(&item) {
+        if refinable
+            && path.depth + 1 == max_depth
+            && pass == Pass::Coarse
+            && self.defer(&item, rep)
+        {
             return true;
         }
         // Inside another sphere of the swept path (which erases it anyway when its own work
@@ -668,7 +682,11 @@ impl<'a> Drill<'a> {
     /// Leaves `item`'s refinement of the last level to the fine pass: its tree's root against
     /// its sphere goes to the fine ring (once for a run of such leaves of one tree). `false`
     /// when the fine ring has no room for it and a descent (the refinement is then done now).
-    fn defer(&mut self, item: &Pending) -> bool {
+    fn defer(&mut self, item: &Pending, rep: &mut DrillReport) -> bool {
+        let _ = self.swept_after(&item.sphere, rep);
+        if self.swept_lag < DEFER_LAG {
+            return false;
+        }
         if let Some(b) = self.fine.back() {
             if b.tet == item.tet && b.index == 0 && b.sphere == item.sphere {
                 return true;
