@@ -187,7 +187,7 @@ type Ten = ([u64; 10], [Vec3; 10]);
 /// The coarse pass defers the last level's refinements only while at least this many spheres
 /// were queued after the item's own: a drill that keeps up with the burr refines at once (the
 /// fine pass walks the trees down again, about 7 % more work).
-const DEFER_LAG: usize = 8;
+pub const DEFER_LAG: usize = 8;
 
 /// Which ring an item came from (its children go to the same one).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -421,11 +421,13 @@ impl<'a> Drill<'a> {
     ///   more than that many spheres behind, and the earlier ones never hold material);
     /// - a leaf crossing the sphere is refined when it is above `max_depth` and its smallest
     ///   face is at least `min_area`, and its children are queued. One level above
-    ///   `max_depth`: in the coarse pass its tree's root goes to the fine ring instead (once
-    ///   for a run of such leaves of one tree, while the fine ring has room for the root and a
-    ///   descent, else it is refined now), and the fine pass refines it only when the centroid
-    ///   of one of its children lies inside the sphere or the spheres queued after it (the
-    ///   children would otherwise all stay: the refinement would only add nodes);
+    ///   `max_depth`, while the drill lags [`DEFER_LAG`] spheres or more behind the burr: in
+    ///   the coarse pass its tree's root goes to the fine ring instead (once for a run of such
+    ///   leaves of one tree, while the fine ring has room for the root and a descent, else it
+    ///   is refined now); the fine pass, or a coarse pass that keeps up, refines it only when
+    ///   the centroid of one of its children lies inside the sphere or the spheres queued
+    ///   after it (the children would otherwise all stay: the refinement would only add
+    ///   nodes);
     /// - a crossing leaf at `max_depth` or below `min_area` is erased iff its centroid is
     ///   inside the sphere or one of the spheres queued after it. This is the erosion
     ///   criterion: the misclassified volume lies within one leaf of the sphere's surface and
