@@ -8,8 +8,14 @@
 //! where the burr settles); one line per mesh also queues a sphere at every tick, a stress
 //! case with 8 to 30 times as much work as the path needs, which overflows the pending deque.
 //!
+//! The convergence case: a burr of 0.03 along the path of `scripts/clinical-drill.sh` (scaled
+//! by the radius) with a 0.5 s hold, at max depth 5 and 6, the default budget and no area
+//! limit; the removed volume at the end is printed beside a Monte Carlo estimate of the swept
+//! volume ([`tetradrill_benches::swept`]) and their ratio.
+//!
 //! Run: `cargo bench -p tetradrill-benches --bench drill` (set `TETRADRILL_MESHES` when the
-//! meshes are not the repository's `tests/data/meshes`).
+//! meshes are not the repository's `tests/data/meshes`; `TETRADRILL_BENCH_HOLD_ONLY=1` runs
+//! the convergence case alone).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -17,6 +23,7 @@ use std::time::Instant;
 use criterion::{criterion_group, Criterion};
 use glam::Vec3;
 use tetradrill::owned::OwnedMesh;
+use tetradrill_benches::swept::{hold_path, swept_volume};
 use tetradrill_core::drill::{
     candidates_brute_force, Drill, DrillParams, Pending, Spacing, Sphere, DRILL_HOLD_STEPS,
     MAX_STEP_SPHERES,
@@ -240,7 +247,63 @@ fn report(name: &str, mesh: &Mesh<'_>, params: &DrillParams, queue_rule: Queue, 
     );
 }
 
+/// The convergence case on `mesh`: the removed volume after the hold path at `max_depth`
+/// against the swept volume.
+fn hold_report(name: &str, mesh: &Mesh<'_>, max_depth: u8) {
+    let r = 0.03;
+    let path = hold_path(mesh, r, 500);
+    let (reference, se) = swept_volume(mesh, &path, r, 1_000_000);
+    let t = mesh.tet_count();
+    let mut roots = vec![HNode::LEAF; t];
+    let mut arena = vec![HNode::LEAF; ARENA];
+    let mut vlist = vec![VEntry::default(); HierarchyStorage::vlist_needed(t, ARENA)];
+    let mut h = Hierarchy::new(
+        mesh,
+        HierarchyStorage {
+            roots: &mut roots,
+            arena: &mut arena,
+            vlist: &mut vlist,
+        },
+    )
+    .unwrap();
+    let mut queue = vec![Pending::default(); QUEUE];
+    let mut drill = Drill::new(&mut queue);
+    let params = DrillParams {
+        max_depth,
+        min_area: 0.0,
+        budget: DrillParams::default().budget,
+    };
+    let mut cand = vec![TetId::NONE; t];
+    let mut spacing = Spacing::new();
+    let mut kept = [Sphere::default(); MAX_STEP_SPHERES];
+    let (mut worst, mut worst_work, mut pending) = (0.0f64, 0u32, 0u32);
+    for &c in &path {
+        let s = [Sphere {
+            center: c,
+            radius: r,
+        }];
+        let nk = spacing.admit(c, r, &s, &mut kept);
+        let n = candidates_brute_force(mesh, &kept[..nk], &mut cand);
+        let t0 = Instant::now();
+        let rep = drill.step(&mut h, mesh, &cand[..n], &kept[..nk], &params);
+        worst = worst.max(t0.elapsed().as_secs_f64() * 1e6);
+        worst_work = worst_work.max(rep.work);
+        pending = rep.pending;
+    }
+    let removed = h.removed_volume();
+    println!(
+        "drill {name} hold 0.5 s, burr {r}, max_depth {max_depth}, budget {}: removed {removed:.6e}, \
+         swept (Monte Carlo, 1e6 samples) {reference:.6e} (se {:.2} %), ratio {:.4}; pending at \
+         the end {pending}; worst tick {worst:.0} us (raw), {worst_work} units; saturations {}",
+        params.budget,
+        se * 100.0,
+        removed / reference,
+        h.saturations() + drill.saturations(),
+    );
+}
+
 fn bench(c: &mut Criterion) {
+    let hold_only = std::env::var_os("TETRADRILL_BENCH_HOLD_ONLY").is_some();
     println!(
         "memory: {NODE_BYTES} bytes per hierarchy node, {} bytes per v_list entry \
          ({:.1} bytes per arena node with the v_list sized for every leaf), {} bytes per \
@@ -255,6 +318,12 @@ fn bench(c: &mut Criterion) {
     ] {
         let mut om = tetgen(rel);
         let mesh = om.view();
+        for depth in [5, 6] {
+            hold_report(name, &mesh, depth);
+        }
+        if hold_only {
+            continue;
+        }
         // Leaves down to about r/8..r/16: refine while the smallest face is at least that of
         // an equilateral triangle of edge r/8.
         let (_, r_tool, _) = trace(&mesh, 1);

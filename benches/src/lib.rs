@@ -1,5 +1,8 @@
 //! Shared set-up for tetradrill's benchmarks and worst-case timing harness: the deterministic
-//! generator and the pen poses the contact bench and `query_profile` both use.
+//! generator and the pen poses the contact bench and `query_profile` both use, and the drill
+//! bench's convergence case ([`swept`]).
+
+pub mod swept;
 
 use glam::{Quat, Vec3};
 use tetradrill_core::mesh::Mesh;

@@ -3,6 +3,7 @@
 
 use glam::Vec3;
 
+use super::deque::{split, Ring, FINE_DESCENT};
 use super::material::{Regions, Spend};
 use super::sphere::{classify_costed, Class, Sphere};
 use crate::geom::tri_area;
@@ -147,7 +148,8 @@ pub struct DrillReport {
     pub work: u32,
     /// Work items taken from the deque.
     pub taken: u32,
-    /// Nodes whose eight children were classified (and the survivors queued).
+    /// Nodes whose eight children were classified (and the survivors queued), or, one level
+    /// above `max_depth`, whose children's centroids were tested before a refinement.
     pub expanded: u32,
     /// Nodes touched by the NTree visits of the refinements and erasures.
     pub visits: u32,
@@ -186,6 +188,21 @@ struct Parent {
     pts: [Vec3; 10],
 }
 
+/// The ten points of a node's refinement: integer barycentric rows and positions.
+type Ten = ([u64; 10], [Vec3; 10]);
+
+/// The coarse pass defers the last level's refinements only while at least this many spheres
+/// were queued after the item's own: a drill that keeps up with the burr refines at once (the
+/// fine pass walks the trees down again, about 7 % more work).
+pub const DEFER_LAG: usize = 8;
+
+/// Which ring an item came from (its children go to the same one).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Pass {
+    Coarse,
+    Fine,
+}
+
 /// Spheres remembered to skip re-queueing an unchanged sphere whose work is already queued.
 const MEMO: usize = 8;
 
@@ -203,12 +220,15 @@ pub const SWEPT: usize = 64;
 /// item's are not tested: their work came first, and it erased what lay inside them.
 pub const SWEPT_AHEAD: usize = 16;
 
-/// The drill: a pending-work deque in caller storage and counters.
+/// The drill: a pending-work deque in caller storage (two rings, coarse and fine: see
+/// [`Drill::step`]) and counters.
 #[derive(Debug)]
 pub struct Drill<'a> {
-    queue: &'a mut [Pending],
-    head: usize,
-    len: usize,
+    /// The coarse pass: every sphere's work except the refinement of the last level.
+    coarse: Ring<'a>,
+    /// The fine pass: the roots whose coarse pass met a leaf one level above `max_depth`
+    /// worth refining, taken only once the coarse ring is empty.
+    fine: Ring<'a>,
     memo: [Option<Sphere>; MEMO],
     /// The last [`SWEPT`] spheres queued (a ring; `swept_len` of them valid).
     swept: [Sphere; SWEPT],
@@ -219,6 +239,9 @@ pub struct Drill<'a> {
     swept_for: Option<Sphere>,
     swept_first: usize,
     swept_count: usize,
+    /// How many remembered spheres were queued after that sphere (all of them when it is
+    /// forgotten): how far the drill lags behind the burr.
+    swept_lag: usize,
     /// The root frame of the last tet processed (items come tree by tree).
     frame: Option<(TetId, RootFrame)>,
     /// Per depth, the last node whose children were queued and the ten points of its
@@ -233,15 +256,17 @@ pub struct Drill<'a> {
 }
 
 impl<'a> Drill<'a> {
-    /// A drill whose pending deque is `queue` (its length is the capacity).
+    /// A drill whose pending deque is `queue` (its length is the capacity). From
+    /// [`super::FINE_MIN_DEQUE`] entries up, the second half holds the fine pass's roots; a smaller
+    /// deque is all coarse pass (every refinement done at once).
     ///
     /// # Bounded work
     /// O(1).
     pub fn new(queue: &'a mut [Pending]) -> Self {
+        let (coarse, fine) = split(queue);
         Self {
-            queue,
-            head: 0,
-            len: 0,
+            coarse,
+            fine,
             memo: [None; MEMO],
             swept: [Sphere::default(); SWEPT],
             swept_next: 0,
@@ -249,6 +274,7 @@ impl<'a> Drill<'a> {
             swept_for: None,
             swept_first: 0,
             swept_count: 0,
+            swept_lag: 0,
             frame: None,
             parents: [None; MAX_DEPTH],
             retry: false,
@@ -261,7 +287,7 @@ impl<'a> Drill<'a> {
     /// Work items waiting for the next tick.
     #[inline]
     pub fn pending(&self) -> usize {
-        self.len
+        self.coarse.len() + self.fine.len()
     }
 
     /// Work items dropped because the pending deque was full (since creation). The arena's
@@ -276,8 +302,8 @@ impl<'a> Drill<'a> {
     /// # Bounded work
     /// O(1).
     pub fn clear(&mut self) {
-        self.head = 0;
-        self.len = 0;
+        self.coarse.clear();
+        self.fine.clear();
         self.memo = [None; MEMO];
         self.swept_len = 0;
         self.swept_next = 0;
@@ -356,6 +382,7 @@ impl<'a> Drill<'a> {
             self.swept_for = Some(*s);
             self.swept_first = first % SWEPT;
             self.swept_count = count.min(SWEPT_AHEAD);
+            self.swept_lag = count;
         }
         let (first, ring) = (self.swept_first, &self.swept);
         (0..self.swept_count).filter_map(move |k| ring.get((first + k) % SWEPT))
@@ -375,47 +402,6 @@ impl<'a> Drill<'a> {
             .any(|t| x.distance_squared(t.center) <= t.radius * t.radius)
     }
 
-    fn push_back(&mut self, p: Pending) -> bool {
-        let cap = self.queue.len();
-        if self.len >= cap {
-            return false;
-        }
-        let at = (self.head + self.len) % cap;
-        if let Some(slot) = self.queue.get_mut(at) {
-            *slot = p;
-            self.len += 1;
-            true
-        } else {
-            false
-        }
-    }
-
-    fn push_front(&mut self, p: Pending) -> bool {
-        let cap = self.queue.len();
-        if self.len >= cap {
-            return false;
-        }
-        let at = (self.head + cap - 1) % cap;
-        if let Some(slot) = self.queue.get_mut(at) {
-            *slot = p;
-            self.head = at;
-            self.len += 1;
-            true
-        } else {
-            false
-        }
-    }
-
-    fn pop_front(&mut self) -> Option<Pending> {
-        if self.len == 0 {
-            return None;
-        }
-        let p = self.queue.get(self.head).copied()?;
-        self.head = (self.head + 1) % self.queue.len().max(1);
-        self.len -= 1;
-        Some(p)
-    }
-
     fn saturate(&mut self, rep: &mut DrillReport) {
         self.saturations += 1;
         rep.saturations += 1;
@@ -427,9 +413,15 @@ impl<'a> Drill<'a> {
     /// One drill tick. New work: every candidate coarse tet against every sphere (skipped for
     /// a sphere identical to last tick's when its work is already queued or done; after work
     /// was dropped for a full deque, unchanged spheres are queued again once the deque is
-    /// empty). Then work
-    /// items are taken oldest first (each node's children go to the front, so one sphere's
-    /// subtree is finished depth first) until the budget is spent:
+    /// empty). Then work items are taken until the budget is spent, in two passes: the coarse
+    /// ring first, oldest sphere first (each node's children go to the front, so one sphere's
+    /// subtree is finished depth first); once it is empty, the fine ring, where the coarse pass
+    /// left the refinement of the last level (below). A path's work at a fine `max_depth` can
+    /// be more than its ticks' budget (the last level's refinements cost most of it and hold
+    /// the least volume): every sphere's coarse material goes first, and the drill no longer
+    /// falls behind the burr refining the first spheres' walls.
+    ///
+    /// Each item:
     /// - a node outside the sphere, or with every leaf erased, is dropped;
     /// - an inner node's eight children are classified from the ten points of its refinement
     ///   and those that meet the sphere and still hold material are queued (the others would
@@ -442,7 +434,14 @@ impl<'a> Drill<'a> {
     ///   last [`SWEPT_AHEAD`] spheres queued were tested instead: useless once the drill was
     ///   more than that many spheres behind, and the earlier ones never hold material);
     /// - a leaf crossing the sphere is refined when it is above `max_depth` and its smallest
-    ///   face is at least `min_area`, and its children are queued;
+    ///   face is at least `min_area`, and its children are queued. One level above
+    ///   `max_depth`, while the drill lags [`DEFER_LAG`] spheres or more behind the burr: in
+    ///   the coarse pass its tree's root goes to the fine ring instead (once for a run of such
+    ///   leaves of one tree, while the fine ring has room for the root and a descent, else it
+    ///   is refined now); the fine pass, or a coarse pass that keeps up, refines it only when
+    ///   the centroid of one of its children lies inside the sphere or the spheres queued
+    ///   after it (the children would otherwise all stay: the refinement would only add
+    ///   nodes);
     /// - a crossing leaf at `max_depth` or below `min_area` is erased iff its centroid is
     ///   inside the sphere or one of the spheres queued after it. This is the erosion
     ///   criterion: the misclassified volume lies within one leaf of the sphere's surface and
@@ -457,7 +456,11 @@ impl<'a> Drill<'a> {
     /// The new work is O(candidates * spheres) pushes. After that no operation starts once
     /// `budget` units are spent ([`WorkCost`]: each item taken, each node expanded, each
     /// NTree node visited and each node created is charged what it costs); the last one may
-    /// overrun it by its own cost: a refinement is 8 nodes created plus 16 NTree visits, an
+    /// overrun it by its own cost. A refinement does not start when its 8 created nodes alone
+    /// would pass the budget, unless it is the tick's first item: the item waits at the front
+    /// of its ring for the next tick. A refinement is 8 nodes created plus 16 NTree visits (one
+    /// level above `max_depth`, after its children's centroid test, counted as the expansion
+    /// that follows the refinement), an
     /// erasure 4 NTree visits, each O(depth) plus the instantiated nodes across one face. A
     /// leaf's swept test is at most [`SWEPT_AHEAD`] sphere tests, after a search of the
     /// [`SWEPT`] remembered spheres when the item's sphere is not the last one looked up
@@ -483,7 +486,7 @@ impl<'a> Drill<'a> {
         self.stalled = false;
         let removed0 = h.removed_volume();
         let sat0 = h.saturations();
-        if self.retry && self.len == 0 {
+        if self.retry && self.pending() == 0 {
             self.retry = false;
             self.memo = [None; MEMO];
         }
@@ -499,7 +502,7 @@ impl<'a> Drill<'a> {
                 if t.idx() >= h.tet_count() {
                     continue;
                 }
-                if !self.push_back(Pending::root(t, *s, epoch_of(h))) {
+                if !self.coarse.push_back(Pending::root(t, *s, epoch_of(h))) {
                     all = false;
                 }
             }
@@ -513,26 +516,42 @@ impl<'a> Drill<'a> {
         }
         let max_depth = params.max_depth.min(crate::hierarchy::MAX_DEPTH as u8);
         while rep.work < params.budget && !self.stalled {
-            let Some(item) = self.pop_front() else { break };
+            let (item, pass) = match self.coarse.pop_front() {
+                Some(item) => (item, Pass::Coarse),
+                None => match self.fine.pop_front() {
+                    Some(item) => (item, Pass::Fine),
+                    None => break,
+                },
+            };
             rep.work = rep.work.saturating_add(WorkCost::TAKEN);
             rep.taken += 1;
-            self.process(h, mesh, item, max_depth, params.min_area, &mut rep);
+            if !self.process(h, mesh, item, pass, max_depth, params, &mut rep) {
+                // A refinement that would overrun the budget: the item waits at the front.
+                let _ = match pass {
+                    Pass::Coarse => self.coarse.push_front(item),
+                    Pass::Fine => self.fine.push_front(item),
+                };
+                break;
+            }
         }
-        rep.pending = self.len as u32;
+        rep.pending = self.pending() as u32;
         rep.removed_volume = h.removed_volume() - removed0;
         rep.saturations += h.saturations() - sat0;
         rep
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn process(
         &mut self,
         h: &mut Hierarchy<'_>,
         mesh: &Mesh<'_>,
         item: Pending,
+        pass: Pass,
         max_depth: u8,
-        min_area: f32,
+        params: &DrillParams,
         rep: &mut DrillReport,
-    ) {
+    ) -> bool {
+        let min_area = params.min_area;
         // A reference stays valid until the arena takes back the block holding it (only
         // blocks of erased leaves are taken back, once the fresh ones are used up). When a
         // block has been taken back since the item was queued, the reference may name a node
@@ -540,13 +559,13 @@ impl<'a> Drill<'a> {
         // subtree's nodes answer `None`; they were all erased, so the item had nothing left
         // to do).
         if item.epoch != h.reclaimed() && h.find(item.tet, item.index) != Some(item.node) {
-            return;
+            return true;
         }
         let Some(node) = h.node(item.node) else {
-            return;
+            return true;
         };
         if node.all_erased() {
-            return;
+            return true;
         }
         // Material the pressing force does not remove is neither refined nor erased; the
         // burr's unchanged positions are queued again once the backlog is done (as after a
@@ -554,13 +573,13 @@ impl<'a> Drill<'a> {
         if !self.admits(item.tet) {
             rep.held += 1;
             self.retry = true;
-            return;
+            return true;
         }
         let Some(depth) = Path::depth_of(item.index) else {
-            return;
+            return true;
         };
         let Some(frame) = self.frame(mesh, item.tet) else {
-            return;
+            return true;
         };
         let item = match item.index {
             0 => Pending {
@@ -572,20 +591,19 @@ impl<'a> Drill<'a> {
         let p = self.corners(&frame, &item, depth);
         let class = classify_charged(p, &item.sphere, rep);
         if class == Class::Outside {
-            return;
+            return true;
         }
         if !node.is_leaf() {
-            self.queue_children(h, &frame, item, depth, rep);
-            return;
+            self.queue_children(h, &frame, item, depth, pass, None, rep);
+            return true;
         }
-        // Inside this sphere, or inside another sphere of the swept path (which erases it
-        // anyway when its own work arrives): erased at once, never refined.
+        // Inside this sphere: erased at once, never refined.
         let Some(path) = Path::of_index(item.index) else {
-            return;
+            return true;
         };
-        if class == Class::Inside || self.inside_swept(&item.sphere, &p, rep) {
-            self.erase(h, mesh, item, &path, rep);
-            return;
+        if class == Class::Inside {
+            self.erase(h, mesh, item, pass, &path, rep);
+            return true;
         }
         // Areas are never negative (and `f32::min` skips NaN), so a `min_area` of zero or
         // less passes without computing them; at `max_depth` they are not needed at all.
@@ -597,7 +615,38 @@ impl<'a> Drill<'a> {
                     .fold(f32::INFINITY, f32::min)
                     >= min_area
         };
-        if path.depth < max_depth && big_enough() {
+        let refinable = path.depth < max_depth && big_enough();
+        // One level above the last: refined in the fine pass (the coarse pass of every sphere
+        // comes first). Deferred before the swept test: a leaf inside a later sphere is
+        // erased by that sphere's own coarse pass.
+        if refinable
+            && path.depth + 1 == max_depth
+            && pass == Pass::Coarse
+            && self.defer(&item, rep)
+        {
+            return true;
+        }
+        // Inside another sphere of the swept path (which erases it anyway when its own work
+        // arrives): erased at once, never refined.
+        if self.inside_swept(&item.sphere, &p, rep) {
+            self.erase(h, mesh, item, pass, &path, rep);
+            return true;
+        }
+        if refinable {
+            // Not started when its nodes alone would overrun the budget, unless it is the
+            // tick's first item (the step always makes progress): the overrun of a tick is
+            // then at most an erasure or an expansion, not a refinement.
+            if rep.taken > 1 && rep.work.saturating_add(WorkCost::CREATED * 8) > params.budget {
+                return false;
+            }
+            let ten = if path.depth + 1 == max_depth {
+                match self.a_child_would_go(&frame, &item, depth, rep) {
+                    Some(ten) => Some(ten),
+                    None => return true,
+                }
+            } else {
+                None
+            };
             match h.refine_at(mesh, item.tet, &path, item.node) {
                 Ok(r) => {
                     rep.work = rep
@@ -605,8 +654,8 @@ impl<'a> Drill<'a> {
                         .saturating_add(WorkCost::VISIT * r.work + WorkCost::CREATED * r.created);
                     rep.visits = rep.visits.saturating_add(r.work);
                     rep.created += r.created;
-                    self.queue_children(h, &frame, item, depth, rep);
-                    return;
+                    self.queue_children(h, &frame, item, depth, pass, ten, rep);
+                    return true;
                 }
                 Err(HierarchyError::Full) => {
                     // Counted by the hierarchy. The leaf stays: erasing a coarse leaf by its
@@ -614,9 +663,9 @@ impl<'a> Drill<'a> {
                     // jump); kept, it still bounds the material and the burr feels it.
                     // Not retried here: the arena only gets blocks back when more material
                     // is erased; a later sphere's work reaches the leaf again.
-                    return;
+                    return true;
                 }
-                Err(_) => return,
+                Err(_) => return true,
             }
         }
         let centroid = (p[0] + p[1] + p[2] + p[3]) * 0.25;
@@ -624,8 +673,54 @@ impl<'a> Drill<'a> {
         if centroid.distance_squared(item.sphere.center) <= r * r
             || self.point_in_swept(&item.sphere, centroid, rep)
         {
-            self.erase(h, mesh, item, &path, rep);
+            self.erase(h, mesh, item, pass, &path, rep);
         }
+        true
+    }
+
+    /// The ten points of `item`'s refinement (rows and positions) when the centroid of one of
+    /// its eight children lies inside its sphere or one of the spheres queued after it: refined
+    /// to the last level, the leaf would lose that child. `None` otherwise: no child would go
+    /// (a child inside a sphere has its centroid inside it), and refining the leaf would only
+    /// add nodes. Counted as the expansion that follows the refinement, which takes the points
+    /// from here ([`WorkCost::EXPANDED`], charged once).
+    fn a_child_would_go(
+        &mut self,
+        frame: &RootFrame,
+        item: &Pending,
+        depth: u8,
+        rep: &mut DrillReport,
+    ) -> Option<Ten> {
+        rep.expanded += 1;
+        rep.work = rep.work.saturating_add(WorkCost::EXPANDED);
+        let (rows, pts) = refinement_points(frame, &item.bary, depth);
+        let s = item.sphere;
+        let goes = (0..8u8).any(|c| {
+            let q = child_of_ten(&pts, c);
+            let centroid = (q[0] + q[1] + q[2] + q[3]) * 0.25;
+            centroid.distance_squared(s.center) <= s.radius * s.radius
+                || self.point_in_swept(&s, centroid, rep)
+        });
+        goes.then_some((rows, pts))
+    }
+
+    /// Leaves `item`'s refinement of the last level to the fine pass: its tree's root against
+    /// its sphere goes to the fine ring (once for a run of such leaves of one tree). `false`
+    /// when the fine ring has no room for it and a descent (the refinement is then done now).
+    fn defer(&mut self, item: &Pending, rep: &mut DrillReport) -> bool {
+        let _ = self.swept_after(&item.sphere, rep);
+        if self.swept_lag < DEFER_LAG {
+            return false;
+        }
+        if let Some(b) = self.fine.back() {
+            if b.tet == item.tet && b.index == 0 && b.sphere == item.sphere {
+                return true;
+            }
+        }
+        self.fine.free() > FINE_DESCENT
+            && self
+                .fine
+                .push_back(Pending::root(item.tet, item.sphere, item.epoch))
     }
 
     fn erase(
@@ -633,13 +728,17 @@ impl<'a> Drill<'a> {
         h: &mut Hierarchy<'_>,
         mesh: &Mesh<'_>,
         item: Pending,
+        pass: Pass,
         path: &Path,
         rep: &mut DrillReport,
     ) {
-        // A leaf of a rate-limited material waits at the front until its region has earned
-        // its volume; the step stops there.
+        // A leaf of a rate-limited material waits at the front of its ring until its region
+        // has earned its volume; the step stops there.
         if self.spend(mesh, item.tet, path.depth) == Spend::Wait {
-            self.push_front(item);
+            let _ = match pass {
+                Pass::Coarse => self.coarse.push_front(item),
+                Pass::Fine => self.fine.push_front(item),
+            };
             self.stalled = true;
             rep.waited = 1;
             return;
@@ -652,15 +751,22 @@ impl<'a> Drill<'a> {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn queue_children(
         &mut self,
         h: &Hierarchy<'_>,
         frame: &RootFrame,
         item: Pending,
         depth: u8,
+        pass: Pass,
+        ten: Option<Ten>,
         rep: &mut DrillReport,
     ) {
-        if self.queue.len() - self.len < 8 {
+        let ring = match pass {
+            Pass::Coarse => &mut self.coarse,
+            Pass::Fine => &mut self.fine,
+        };
+        if ring.free() < 8 {
             self.saturate(rep);
             return;
         }
@@ -668,10 +774,13 @@ impl<'a> Drill<'a> {
         let Some(first) = h.child(item.node, 0) else {
             return;
         };
-        rep.expanded += 1;
-        rep.work = rep.work.saturating_add(WorkCost::EXPANDED);
         let epoch = epoch_of(h);
-        let (rows, pts) = refinement_points(frame, &item.bary, depth);
+        // Points from the last level's child test were counted there.
+        let (rows, pts) = ten.unwrap_or_else(|| {
+            rep.expanded += 1;
+            rep.work = rep.work.saturating_add(WorkCost::EXPANDED);
+            refinement_points(frame, &item.bary, depth)
+        });
         if let Some(slot) = self.parents.get_mut(depth as usize) {
             *slot = Some(Parent {
                 tet: item.tet,
@@ -695,7 +804,10 @@ impl<'a> Drill<'a> {
                 epoch,
                 ..item
             };
-            self.push_front(next);
+            let _ = match pass {
+                Pass::Coarse => self.coarse.push_front(next),
+                Pass::Fine => self.fine.push_front(next),
+            };
         }
     }
 }
