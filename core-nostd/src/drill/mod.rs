@@ -13,18 +13,20 @@
 //! covers its volume (`material.rs`, docs/DRILLING.md "Materials").
 
 mod candidates;
-mod material;
+mod cost;
 mod deque;
+mod material;
 mod spacing;
 mod sphere;
 mod step;
 
 pub use candidates::candidates_brute_force;
-pub use material::{Material, Region, RegionError, Regions, Spend, CREDIT_STEPS};
+pub use cost::{DrillParams, WorkCost};
 pub use deque::FINE_MIN_DEQUE;
+pub use material::{Material, Region, RegionError, Regions, Spend, CREDIT_STEPS};
 pub use spacing::{Spacing, DRILL_HOLD_STEPS, DRILL_SETTLE, DRILL_SPACING, MAX_STEP_SPHERES};
 pub use sphere::{classify, Class, Sphere};
-pub use step::{Drill, DrillParams, DrillReport, Pending, WorkCost, DEFER_LAG, SWEPT, SWEPT_AHEAD};
+pub use step::{Drill, DrillReport, Pending, DEFER_LAG, SWEPT, SWEPT_AHEAD};
 
 #[cfg(test)]
 mod tests;
