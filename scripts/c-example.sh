@@ -11,8 +11,10 @@
 #                                     arm-none-eabi-gcc, run under QEMU (mps2-an386), compared
 #                                     with `replay --scenario builtin:firmware`'s digest
 #
-# Prints `force_digest=HEX` (the C program's) and both digests. Exit status: 0 when they match;
-# 1 when they differ or a build or run fails; 2 for bad arguments. Honours CARGO_TARGET_DIR
+# Prints `force_digest=HEX` (the C program's) and both digests; where the C program prints
+# `removed_by_region.LABEL=V` lines (the host program), they are compared too with the host's
+# `removed_by_region` at the same six decimals. Exit status: 0 when they match; 1 when they
+# differ or a build or run fails; 2 for bad arguments. Honours CARGO_TARGET_DIR
 # (default: the workspace's target/) and TETRADRILL_BIN (default: the release build of
 # `tetradrill`, built when missing). C_EXAMPLE_TIMEOUT (seconds, default 900) bounds the QEMU run.
 set -euo pipefail
@@ -21,7 +23,7 @@ mode=host
 while [ $# -gt 0 ]; do
   case "$1" in
     --cortex-m) mode=cortex-m; shift ;;
-    -h|--help) sed -n '2,17p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
     *) echo "c-example: unknown argument '$1' (expected --cortex-m)" >&2; exit 2 ;;
   esac
 done
@@ -55,6 +57,21 @@ compare() {
     exit 1
   fi
   echo "c-example: OK, the same digest"
+  # The volume removed from each region, where the C program prints it.
+  local c_regions host_regions
+  c_regions="$(sed -n 's/\r$//; /^removed_by_region\./p' "$1")"
+  [ -n "$c_regions" ] || return 0
+  host_regions="$(sed -n '/"removed_by_region": *{/,/}/p' "$work/replay.json" |
+    sed -n 's/^ *"\(-\{0,1\}[0-9]*\)": *\([-0-9.eE+]*\),\{0,1\}$/\1 \2/p' |
+    awk '{ printf "removed_by_region.%s=%.6f\n", $1, $2 }')"
+  if [ "$c_regions" != "$host_regions" ]; then
+    echo "c-example: FAIL: removed_by_region differs; C:" >&2
+    echo "$c_regions" >&2
+    echo "host:" >&2
+    echo "$host_regions" >&2
+    exit 1
+  fi
+  echo "c-example: OK, the same removed_by_region ($(echo "$c_regions" | paste -sd' '))"
 }
 
 if [ "$mode" = host ]; then

@@ -1,5 +1,6 @@
 /* The unit block [-0.5, 0.5]^3 cut into n x n x n cubes of six tets each, as plain arrays for
- * td_world_init: the mesh tetradrill calls `builtin:block:N`, written here in C.
+ * td_world_init: the mesh tetradrill calls `builtin:block:N`, written here in C, with its
+ * region labels (an outer shell one cube thick and the core inside it).
  *
  * Nodes run along x, then y, then z; each cube gives the six tets along the six axis paths
  * from its low corner to its high one, each turned to positive orientation. Build with
@@ -62,6 +63,25 @@ static inline void block_write(uint32_t n, float *positions, uint32_t *tets) {
                     }
                     c++;
                 }
+}
+
+/* Region label of the tets of the block's outer layer of cubes. */
+#define BLOCK_SHELL 1
+/* Region label of the tets of the cubes inside the shell (none when n <= 2). */
+#define BLOCK_CORE 2
+
+/* Writes the region label of each tet (block_write's order, six per cube) to `labels`,
+ * block_tets(n) of them: BLOCK_SHELL for the cubes on the block's boundary, BLOCK_CORE for the
+ * others. */
+static inline void block_labels(uint32_t n, int32_t *labels) {
+    uint32_t c = 0;
+    for (uint32_t k = 0; k < n; k++)
+        for (uint32_t j = 0; j < n; j++)
+            for (uint32_t i = 0; i < n; i++) {
+                const int shell = i == 0 || j == 0 || k == 0 || i + 1 == n || j + 1 == n || k + 1 == n;
+                for (int q = 0; q < 6; q++)
+                    labels[c++] = shell ? BLOCK_SHELL : BLOCK_CORE;
+            }
 }
 
 #endif

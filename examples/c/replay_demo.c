@@ -1,9 +1,12 @@
 /* Replays tetradrill's demo through the C interface and prints its force digest.
  *
  * The demo is `tetradrill replay --scenario builtin:demo`: a burr of radius 0.1 drilling the
- * unit block of 8 x 8 x 8 cubes along the scripted path, 6,001 ticks at 1 kHz. Each tick is the
- * simulation step then the servo force at the same pose, and the digest of every force is
- * printed as `force_digest=HEX`, equal to the host's (scripts/c-example.sh checks it).
+ * unit block of 8 x 8 x 8 cubes along the scripted path, 6,001 ticks at 1 kHz. The block has
+ * two materials: a hard, stiff shell (label 1) and a soft core (label 2), removed only while
+ * the burr presses harder than their thresholds. Each tick is the simulation step then the
+ * servo force at the same pose, whose magnitude presses the burr at the next step; the digest
+ * of every force is printed as `force_digest=HEX`, equal to the host's (scripts/c-example.sh
+ * checks it), and the volume removed from each region as `removed_by_region.LABEL=V`.
  *
  * Every setting is the host scenario's, written the way the host derives it: the host parses
  * f64 and converts to f32, so the numbers below are doubles converted to float. */
@@ -27,11 +30,13 @@ int main(void) {
     const uint32_t nodes = block_nodes(BLOCK_N), tets = block_tets(BLOCK_N);
     float *positions = malloc(sizeof(float) * 3 * nodes);
     uint32_t *tet_nodes = malloc(sizeof(uint32_t) * 4 * tets);
-    if (!positions || !tet_nodes) {
+    int32_t *labels = malloc(sizeof(int32_t) * tets);
+    if (!positions || !tet_nodes || !labels) {
         fprintf(stderr, "replay_demo: out of memory for the mesh arrays\n");
         return 1;
     }
     block_write(BLOCK_N, positions, tet_nodes);
+    block_labels(BLOCK_N, labels);
 
     td_params p;
     check(td_params_default(nodes, tets, &p), "td_params_default");
@@ -54,6 +59,7 @@ int main(void) {
     p.candidate_capacity = 1266;
     p.pending_capacity = 1u << 15;
     p.max_cells = 4096;
+    p.region_capacity = 2; /* the shell and the core */
 
     size_t size = 0, align = 0;
     check(td_world_size(&p, &size, &align), "td_world_size");
@@ -65,10 +71,16 @@ int main(void) {
     }
     td_world *world = NULL;
     uint32_t bad = 0;
-    td_status st = td_world_init(mem, size, &p, positions, tet_nodes, &world, &bad);
-    if (st == TD_ERR_MESH)
+    td_status st = td_world_init(mem, size, &p, positions, tet_nodes, labels, &world, &bad);
+    if (st == TD_ERR_MESH || st == TD_ERR_LABEL)
         fprintf(stderr, "replay_demo: mesh refused at item %u\n", (unsigned)bad);
     check(st, "td_world_init");
+    /* The demo's materials (host-runner/src/scenario.rs, demo_regions): hardness in N s per
+     * cubic unit, threshold in N, stiffness in N per unit. */
+    check(td_world_set_region(world, BLOCK_SHELL, (float)300.0, (float)2.0, (float)300.0),
+          "td_world_set_region (shell)");
+    check(td_world_set_region(world, BLOCK_CORE, (float)120.0, (float)0.5, (float)150.0),
+          "td_world_set_region (core)");
 
     const uint32_t ticks = td_demo_ticks();
     for (uint32_t i = 0; i < ticks; i++) {
@@ -89,10 +101,16 @@ int main(void) {
     printf("saturations=%u (hash %u, candidates %u, arena %u, pending %u, contact %u)\n",
            (unsigned)c.sat_total, (unsigned)c.sat_hash, (unsigned)c.sat_candidates,
            (unsigned)c.sat_arena, (unsigned)c.sat_pending, (unsigned)c.sat_contact);
+    for (uint32_t i = 0; i < c.region_count; i++) {
+        td_region r;
+        check(td_world_region_at(world, i, &r), "td_world_region_at");
+        printf("removed_by_region.%d=%.6f\n", (int)r.label, r.removed_volume);
+    }
     printf("force_digest=%016llx\n", (unsigned long long)c.force_digest);
 
     /* Nothing to tear down in the world: its memory is simply given back. */
     free(mem);
+    free(labels);
     free(tet_nodes);
     free(positions);
     return 0;

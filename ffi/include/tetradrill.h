@@ -17,6 +17,10 @@
 // entries per tet, a v_list of the tets plus 7/8 of the arena) then fits in 32 bits.
 #define TD_MAX_COUNT (1 << 28)
 
+// The most regions a world keeps (`td_params.region_capacity`, and its default): a tet's
+// region index is a byte in the core.
+#define TD_MAX_REGIONS 256
+
 // What a call did. `TD_OK` is zero; every error leaves the world as it was, except
 // `td_world_init`, which leaves the memory it was given unusable as a world until a
 // successful init.
@@ -42,8 +46,15 @@ typedef enum td_status {
   TD_ERR_WORLD = 6,
   // The world pointer does not point at a world `td_world_init` set up.
   TD_ERR_NOT_INIT = 7,
-  // A pose is not finite (NaN or infinite coordinates).
+  // A pose or a pressing force is not finite (NaN or infinite), or the force or its
+  // duration is negative.
   TD_ERR_INPUT = 8,
+  // A region label was refused: `td_world_init` met more distinct labels than
+  // `region_capacity` (its `bad_item` names the first tet over), or a region function named
+  // a label the mesh does not have (or an index past the last region).
+  TD_ERR_LABEL = 9,
+  // Materials are set before the first simulation step; this world has already stepped.
+  TD_ERR_STARTED = 10,
 } td_status;
 
 // A world set up by `td_world_init` in caller memory. Opaque: C holds a pointer to it (the
@@ -85,6 +96,9 @@ typedef struct td_params {
   // Work units for a whole simulation step, drill and contact search together; 0 gives
   // each its own bound.
   uint32_t tick_budget;
+  // Distinct region labels the world keeps, 1 ..= 256 (`TD_MAX_REGIONS`, the default): 36
+  // bytes each. A mesh with more distinct labels is refused (`TD_ERR_LABEL`).
+  uint32_t region_capacity;
   // Deepest subdivision level of a drilled tet, 1 ..= 9.
   uint32_t max_depth;
   // Drill work units per tick (about 100 Cortex-M4 instructions each), at least 1.
@@ -140,6 +154,22 @@ typedef struct td_sim_report {
   uint32_t candidates_saturated;
 } td_sim_report;
 
+// One region of a world: its label, its material and the volume removed from it.
+typedef struct td_region {
+  // The region's label (the mesh's, from `td_world_init`'s `labels`; 0 without them).
+  int32_t label;
+  // Newton-seconds per cubic mesh unit: the burr pressing `F` newtons above the threshold
+  // removes `(F - threshold) / hardness` cubic mesh units a second; 0: removed at once.
+  float hardness;
+  // Newtons the burr must press with before it removes anything.
+  float threshold;
+  // Contact stiffness, newtons per mesh unit of depth; 0: `td_params.stiffness`.
+  float stiffness;
+  // Volume removed from the region so far, mesh units cubed (`removed_by_region` of
+  // `tetradrill replay`).
+  double removed_volume;
+} td_region;
+
 // A world's counters since `td_world_init`.
 typedef struct td_counters {
   // FNV-1a 64 digest of every force `td_world_servo_force` returned, in order: the
@@ -171,6 +201,9 @@ typedef struct td_counters {
   uint32_t sat_contact;
   // All saturations added up.
   uint32_t sat_total;
+  // Regions of the world: its mesh's distinct labels (one, label 0, without labels).
+  // `td_world_region` and `td_world_region_at` give each one's removed volume.
+  uint32_t region_count;
 } td_counters;
 
 
@@ -182,7 +215,7 @@ extern "C" {
 // Fills `*out` with the defaults for a mesh of `node_count` nodes and `tet_count` tets: the
 // core's capacities (hash 8 entries per tet, 1,024 candidates, a pending deque of 32,768,
 // 4,096 memo slots, 4,096 query cells and contact nodes, no tick budget) with an arena of
-// `TD_DEFAULT_HIERARCHY_CAPACITY`, and the host's default scenario's tool and forces (burr
+// `TD_DEFAULT_HIERARCHY_CAPACITY`, room for `TD_MAX_REGIONS` region labels, and the host's default scenario's tool and forces (burr
 // radius 0.1, reach 0.05, depth 5, budget 11,000 units, 200 N per unit, 0.5 N s per unit,
 // 8 N, 1 kHz, 16 ms plane switch).
 //
@@ -194,7 +227,9 @@ extern "C" {
 //
 // # Safety
 // `out` points at writable memory for a `td_params` (or is null: refused).
-enum td_status td_params_default(uint32_t node_count, uint32_t tet_count, struct td_params *out);
+enum td_status td_params_default(uint32_t node_count,
+                                 uint32_t tet_count,
+                                 struct td_params *out);
 
 // Writes the bytes (`*out_size`) and the alignment (`*out_align`, a power of two) the world
 // for `*params` needs. Allocate at least that many bytes at that alignment for
@@ -219,28 +254,39 @@ enum td_status td_world_size(const struct td_params *params, size_t *out_size, s
 // flipped to positive orientation and relabelled for refinement), the hash, hierarchy and
 // drill start empty, the digest and counters at zero.
 //
+// `labels`, when not null, holds each tet's region label (`tet_count` `int32_t`s, any
+// values: a mesh file's region or physical tags): the world has one region per distinct
+// label, in ascending order, as `tetradrill replay` gives a mesh file's labels. Null: one
+// region, label 0, for every tet. Every region starts with the default material (hardness
+// 0, threshold 0, the parameters' stiffness: removed at once, whatever the force);
+// `td_world_set_region` changes it before the first step.
+//
 // # Bounded work
 // O(T log T) for the mesh build's face sort plus O(every capacity) to initialise the storage,
-// for T tets; once, before the servo runs.
+// and O(T log R + R^2) to find the R distinct labels, for T tets; once, before the servo runs.
 //
 // # Errors
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer (`mem` at the world's alignment, the arrays at
 // 4 bytes), `TD_ERR_PARAMS` as `td_world_size`, `TD_ERR_TOO_SMALL` when `len` is short,
 // `TD_ERR_MESH` for refused arrays (`*bad_item`, when `bad_item` is not null, gets the tet, or
-// for a non-finite position the node, at fault), `TD_ERR_WORLD` when the core refuses the
-// storage. On any error after the checks of `mem` the memory holds no world.
+// for a non-finite position the node, at fault), `TD_ERR_LABEL` for more distinct labels
+// than `region_capacity` (`*bad_item` gets the first tet whose label does not fit),
+// `TD_ERR_WORLD` when the core refuses the storage. On any error after the checks of `mem`
+// the memory holds no world.
 //
 // # Safety
-// `params` points at an initialised `td_params`; `positions` at `3 * node_count` floats and
-// `tets` at `4 * tet_count` `uint32_t`s, neither inside `mem`; `mem` at `len` writable bytes
-// that the caller keeps, and does not read or write, for as long as it uses the world (there
-// is nothing to free: stop using the handle, then reuse the memory); `out` at a writable
-// `td_world *`; `bad_item` at a writable `uint32_t` or null.
+// `params` points at an initialised `td_params`; `positions` at `3 * node_count` floats,
+// `tets` at `4 * tet_count` `uint32_t`s and `labels` at `tet_count` `int32_t`s or null, none
+// inside `mem`; `mem` at `len` writable bytes that the caller keeps, and does not read or
+// write, for as long as it uses the world (there is nothing to free: stop using the handle,
+// then reuse the memory); `out` at a writable `td_world *`; `bad_item` at a writable
+// `uint32_t` or null.
 enum td_status td_world_init(void *mem,
                              size_t len,
                              const struct td_params *params,
                              const float *positions,
                              const uint32_t *tets,
+                             const int32_t *labels,
                              struct td_world **out,
                              uint32_t *bad_item);
 
@@ -248,10 +294,19 @@ enum td_status td_world_init(void *mem,
 // budgeted erosion when bit 0 of `buttons` is set, and the contact with the drilled surface
 // for the servo. `*report`, when `report` is not null, says what the step did.
 //
+// Materials: the regions earn their erosion from the pressing force last set, by
+// `td_world_tick` (the previous tick's servo force, as `tetradrill replay` runs) or by
+// `td_world_set_pressing` (a caller running this step and `td_world_servo_force` in two
+// tasks sets it before each step); none set: zero newtons, which removes only the regions
+// of threshold and hardness zero. The first step hands the regions to the core, after which
+// `td_world_set_region` is refused.
+//
 // # Bounded work
 // `World::simulate`'s: at most `max_cells` hash cells and `candidate_capacity` tets, at most
 // `budget_per_tick` drill work units (plus one operation's overshoot) and
-// `contact_search_nodes` node tests (under `tick_budget` when set, both together).
+// `contact_search_nodes` node tests (under `tick_budget` when set, both together), one work
+// unit of the drill's per region of non-zero hardness; the first step also O(T) once, for T
+// tets (the core checks each tet's region).
 //
 // # Errors
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the world, `TD_ERR_ALIGN` for
@@ -284,7 +339,9 @@ enum td_status td_world_servo_force(struct td_world *world,
                                     struct td_vec3 *force);
 
 // One whole tick as `tetradrill replay` runs it: `td_world_simulate` at `position` with
-// `buttons`, then `td_world_servo_force` at the same position, its force in `*force`.
+// `buttons`, then `td_world_servo_force` at the same position, its force in `*force`; that
+// force's magnitude then presses the burr for one servo period (`dt`) at the next tick's
+// step (`td_world_set_pressing`), as the host's replay feeds the materials.
 //
 // # Bounded work
 // `td_world_simulate`'s plus a constant.
@@ -298,6 +355,74 @@ enum td_status td_world_tick(struct td_world *world,
                              struct td_vec3 position,
                              uint32_t buttons,
                              struct td_vec3 *force);
+
+// Sets the force pressing the burr against the material, `newtons` (the magnitude of the
+// servo's latest force), held for `seconds` (the servo periods since the previous step): the
+// next `td_world_simulate` earns each region's erosion from them. `td_world_tick` sets it
+// itself; a caller running `td_world_simulate` and `td_world_servo_force` in two tasks calls
+// this before each step. It stays until set again. Without materials it changes nothing.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_simulate` for the world; `TD_ERR_INPUT` for a force or duration that is
+// negative or not finite (nothing is set).
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's.
+enum td_status td_world_set_pressing(struct td_world *world, float newtons, float seconds);
+
+// Sets the material of the region labelled `label` (docs/DRILLING.md, "Materials"): the
+// burr removes it only while pressing harder than `threshold` newtons, at `(F - threshold)
+// / hardness` cubic mesh units a second (`hardness` 0: at once), and its contact has
+// `stiffness` newtons per mesh unit (0: `td_params.stiffness`). Allowed from
+// `td_world_init` until the first `td_world_simulate` (or `td_world_tick`); the values of
+// `tetradrill`'s scenario `[regions.LABEL]` tables.
+//
+// # Bounded work
+// O(log R) for R regions.
+//
+// # Errors
+// As `td_world_simulate` for the world; `TD_ERR_PARAMS` for a value that is negative or not
+// finite, `TD_ERR_LABEL` for a label the mesh does not have, `TD_ERR_STARTED` after the
+// first step. An error changes nothing.
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's.
+enum td_status td_world_set_region(struct td_world *world,
+                                   int32_t label,
+                                   float hardness,
+                                   float threshold,
+                                   float stiffness);
+
+// Writes the region labelled `label` to `*out`: its material and the volume removed from it
+// (`removed_by_region` of `tetradrill replay`).
+//
+// # Bounded work
+// O(log R) for R regions.
+//
+// # Errors
+// As `td_world_simulate` for the world; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`,
+// `TD_ERR_LABEL` for a label the mesh does not have.
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's; `out` points
+// at a writable `td_region`.
+enum td_status td_world_region(struct td_world *world, int32_t label, struct td_region *out);
+
+// Writes region number `index` (0 .. `td_counters.region_count`, in ascending label order)
+// to `*out`, its label included: to list a world's regions.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_region`, with `TD_ERR_LABEL` for an index past the last region.
+//
+// # Safety
+// As `td_world_region`.
+enum td_status td_world_region_at(struct td_world *world, uint32_t index, struct td_region *out);
 
 // Writes the world's counters to `*out`: the force digest, ticks, volumes, hierarchy and
 // saturation counts.

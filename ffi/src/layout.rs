@@ -6,7 +6,7 @@
 use core::alloc::Layout;
 use core::mem::size_of;
 
-use tetradrill_core::drill::{DrillParams, Pending};
+use tetradrill_core::drill::{DrillParams, Pending, Region};
 use tetradrill_core::force::{ForceDigest, ForceParams, ToolState};
 use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{HNode, SphereSlot, VEntry};
@@ -22,6 +22,20 @@ pub const MAGIC: u64 = u64::from_le_bytes(*b"tdworld1");
 /// The most nodes or tets a world takes: every size the core derives from the counts (8 hash
 /// entries per tet, a v_list of the tets plus 7/8 of the arena) then fits in 32 bits.
 pub const TD_MAX_COUNT: u32 = 1 << 28;
+
+/// The most regions a world keeps (`td_params.region_capacity`, and its default): a tet's
+/// region index is a byte in the core.
+pub const TD_MAX_REGIONS: u32 = 256;
+
+/// A world's regions before its first simulation step: the materials `td_world_set_region`
+/// still changes and each tet's region index. The first step hands both to the core.
+#[derive(Debug)]
+pub struct Unstarted {
+    /// One entry per region, in label order.
+    pub table: &'static mut [Region],
+    /// Each coarse tet's region index.
+    pub of_tet: &'static [u8],
+}
 
 /// The head of a world's memory: the core's world (borrowing the slices after it) and what
 /// the C calls carry from tick to tick.
@@ -51,6 +65,31 @@ pub struct State {
     pub contact_ticks: u64,
     /// Mesh volume at set-up.
     pub initial_volume: f64,
+    /// The label of each region, ascending (one per distinct label of the mesh).
+    pub labels: &'static [i32],
+    /// The regions until the first simulation step hands them to the world (`None` after).
+    pub unstarted: Option<Unstarted>,
+}
+
+impl State {
+    /// The regions' materials and removed volumes, in label order.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn regions(&self) -> &[Region] {
+        match &self.unstarted {
+            Some(u) => u.table,
+            None => self.world.regions().map_or(&[], |r| r.table()),
+        }
+    }
+
+    /// The index of the region labelled `label`, if the mesh has it.
+    ///
+    /// # Bounded work
+    /// O(log regions).
+    pub fn region_index(&self, label: i32) -> Option<usize> {
+        self.labels.binary_search(&label).ok()
+    }
 }
 
 /// Offsets (bytes from the start of the memory) of every slice of a world, its total size
@@ -91,6 +130,14 @@ pub struct Plan {
     pub candidates: usize,
     /// Sphere memo.
     pub memo: usize,
+    /// Region slots (`Region` each).
+    pub regions: usize,
+    /// Region labels (`i32` each).
+    pub region_labels: usize,
+    /// Each tet's region index (`u8` each).
+    pub tet_region: usize,
+    /// Region slots: `region_capacity`.
+    pub region_slots: usize,
     /// Bytes in all.
     pub size: usize,
     /// Alignment the memory needs.
@@ -155,6 +202,7 @@ impl Plan {
         check(p.contact_search_nodes >= 1)?;
         check((1..=9).contains(&p.max_depth))?;
         check(p.budget_per_tick >= 1)?;
+        check((1..=TD_MAX_REGIONS).contains(&p.region_capacity))?;
         check(positive(p.radius) && non_negative(p.reach) && non_negative(p.min_area))?;
         check(non_negative(p.stiffness) && non_negative(p.damping))?;
         check(positive(p.max_force) && positive(p.dt) && non_negative(p.switch_time))?;
@@ -188,6 +236,10 @@ impl Plan {
         let pending = b.put::<Pending>(sizes.pending)?;
         let candidates = b.put::<TetId>(sizes.candidates)?;
         let memo = b.put::<SphereSlot>(sizes.sphere_memo)?;
+        let region_slots = to_usize(p.region_capacity)?;
+        let regions = b.put::<Region>(region_slots)?;
+        let region_labels = b.put::<i32>(region_slots)?;
+        let tet_region = b.put::<u8>(tets)?;
         let layout = b.layout.pad_to_align();
         Ok(Self {
             nodes,
@@ -207,6 +259,10 @@ impl Plan {
             pending,
             candidates,
             memo,
+            regions,
+            region_labels,
+            tet_region,
+            region_slots,
             size: layout.size(),
             align: layout.align(),
         })
@@ -233,6 +289,7 @@ mod tests {
             max_cells: 1,
             contact_search_nodes: 1,
             tick_budget: 0,
+            region_capacity: 2,
             max_depth: 1,
             budget_per_tick: 1,
             radius: 0.1,
@@ -247,7 +304,7 @@ mod tests {
     }
 
     /// Each region as (offset, bytes, alignment of its type), in plan order.
-    fn regions(p: &Plan) -> [(usize, usize, usize); 14] {
+    fn regions(p: &Plan) -> [(usize, usize, usize); 17] {
         let s = p.sizes;
         fn r<T>(at: usize, n: usize) -> (usize, usize, usize) {
             (at, n * size_of::<T>(), align_of::<T>())
@@ -267,6 +324,9 @@ mod tests {
             r::<Pending>(p.pending, s.pending),
             r::<TetId>(p.candidates, s.candidates),
             r::<SphereSlot>(p.memo, s.sphere_memo),
+            r::<Region>(p.regions, p.region_slots),
+            r::<i32>(p.region_labels, p.region_slots),
+            r::<u8>(p.tet_region, p.tets),
         ]
     }
 
@@ -301,7 +361,7 @@ mod tests {
     fn out_of_range_parameters_are_refused() {
         let ok = params(8, 6, 8, 1, 0);
         assert!(Plan::of(&ok).is_ok());
-        let bad: [fn(&mut TdParams); 12] = [
+        let bad: [fn(&mut TdParams); 14] = [
             |p| p.node_count = 0,
             |p| p.tet_count = TD_MAX_COUNT + 1,
             |p| p.hierarchy_capacity = 7,
@@ -314,6 +374,8 @@ mod tests {
             |p| p.max_force = f32::NAN,
             |p| p.dt = -1e-3,
             |p| p.switch_time = -1.0,
+            |p| p.region_capacity = 0,
+            |p| p.region_capacity = TD_MAX_REGIONS + 1,
         ];
         for (i, change) in bad.iter().enumerate() {
             let mut p = ok;

@@ -15,7 +15,10 @@
 //! | [`td_world_simulate`]    | one simulation step at a pose (drill, contact)                |
 //! | [`td_world_servo_force`] | the force at a pose from the last contact                     |
 //! | [`td_world_tick`]        | both, as `tetradrill replay` runs a tick                      |
+//! | [`td_world_set_region`]  | a region's material, by label, before the first step          |
+//! | [`td_world_set_pressing`]| the force pressing the burr for the next step (two tasks)      |
 //! | [`td_world_counters`]    | digest, removed volume, saturations                           |
+//! | [`td_world_region`], [`td_world_region_at`] | a region's material and removed volume     |
 //! | [`td_demo_ticks`], [`td_demo_pose`] | the host's scripted demo path                      |
 //! | [`td_status_name`]       | one line per status code                                      |
 //!
@@ -42,7 +45,7 @@ mod types;
 use core::ffi::{c_char, c_void};
 use core::ptr;
 
-use tetradrill_core::drill::{DrillParams, Pending};
+use tetradrill_core::drill::{DrillParams, Material, Pending, Region, Regions};
 use tetradrill_core::force::{ForceDigest, ForceParams, ToolState};
 use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{HNode, HierarchyStorage, SphereSlot, VEntry};
@@ -54,10 +57,10 @@ use tetradrill_core::servo::{
 };
 use tetradrill_core::{TetId, Vec3};
 
-pub use layout::{Plan, STATE_BYTES, TD_MAX_COUNT};
-pub use types::{TdCounters, TdParams, TdSimReport, TdStatus, TdVec3, TdWorld};
+pub use layout::{Plan, STATE_BYTES, TD_MAX_COUNT, TD_MAX_REGIONS};
+pub use types::{TdCounters, TdParams, TdRegion, TdSimReport, TdStatus, TdVec3, TdWorld};
 
-use layout::{State, MAGIC};
+use layout::{State, Unstarted, MAGIC};
 
 /// The hierarchy arena `td_params_default` gives: 2^20 nodes (8 MiB), the least arena the
 /// host gives a burr (its scenarios' `DEFAULT_HIERARCHY_CAPACITY`).
@@ -135,6 +138,11 @@ fn pose(p: TdVec3) -> Result<Vec3, TdStatus> {
     }
 }
 
+/// `true` for a finite `v >= 0`.
+fn non_negative(v: f32) -> bool {
+    v.is_finite() && v >= 0.0
+}
+
 /// A C vector from a `Vec3`.
 fn td_vec(v: Vec3) -> TdVec3 {
     TdVec3 {
@@ -147,7 +155,7 @@ fn td_vec(v: Vec3) -> TdVec3 {
 /// Fills `*out` with the defaults for a mesh of `node_count` nodes and `tet_count` tets: the
 /// core's capacities (hash 8 entries per tet, 1,024 candidates, a pending deque of 32,768,
 /// 4,096 memo slots, 4,096 query cells and contact nodes, no tick budget) with an arena of
-/// `TD_DEFAULT_HIERARCHY_CAPACITY`, and the host's default scenario's tool and forces (burr
+/// `TD_DEFAULT_HIERARCHY_CAPACITY`, room for `TD_MAX_REGIONS` region labels, and the host's default scenario's tool and forces (burr
 /// radius 0.1, reach 0.05, depth 5, budget 11,000 units, 200 N per unit, 0.5 N s per unit,
 /// 8 N, 1 kHz, 16 ms plane switch).
 ///
@@ -177,6 +185,7 @@ pub unsafe extern "C" fn td_params_default(
         max_cells: DEFAULT_MAX_CELLS,
         contact_search_nodes: CONTACT_MAX_NODES,
         tick_budget: 0,
+        region_capacity: TD_MAX_REGIONS,
         max_depth: 5,
         budget_per_tick: DrillParams::default().budget,
         radius: 0.1,
@@ -256,6 +265,42 @@ fn bad_index(e: &BuildError) -> u32 {
     }
 }
 
+/// Writes `v` to `*bad_item` when `bad_item` is not null and aligned.
+///
+/// # Safety
+/// `bad_item` is null or points at a writable `uint32_t`.
+unsafe fn report_bad(bad_item: *mut u32, v: u32) {
+    if !bad_item.is_null() && bad_item.is_aligned() {
+        // SAFETY: not null, aligned; writable by the caller's contract.
+        unsafe { bad_item.write(v) };
+    }
+}
+
+/// The distinct values of `labels` in ascending order, written to the front of `slots`; their
+/// count, or the first index of `labels` whose value does not fit.
+///
+/// # Bounded work
+/// O(L log S + S^2) for L labels and S slots.
+fn distinct_labels(labels: &[i32], slots: &mut [i32]) -> Result<usize, usize> {
+    let mut n = 0;
+    for (t, &l) in labels.iter().enumerate() {
+        let at = match slots.get(..n).map(|s| s.binary_search(&l)) {
+            Some(Err(at)) => at,
+            _ => continue,
+        };
+        if n == slots.len() {
+            return Err(t);
+        }
+        // Insert at `at`, shifting the larger labels one slot up.
+        let mut carry = l;
+        for slot in slots.iter_mut().take(n + 1).skip(at) {
+            core::mem::swap(slot, &mut carry);
+        }
+        n += 1;
+    }
+    Ok(n)
+}
+
 /// Builds the mesh from `positions` (`3 * node_count` floats: x, y, z of each node) and
 /// `tets` (`4 * tet_count` node indices from 0, any orientation), then the world over it,
 /// all inside `mem` (`len` bytes, aligned as `td_world_size` says), and writes the world's
@@ -263,23 +308,33 @@ fn bad_index(e: &BuildError) -> u32 {
 /// flipped to positive orientation and relabelled for refinement), the hash, hierarchy and
 /// drill start empty, the digest and counters at zero.
 ///
+/// `labels`, when not null, holds each tet's region label (`tet_count` `int32_t`s, any
+/// values: a mesh file's region or physical tags): the world has one region per distinct
+/// label, in ascending order, as `tetradrill replay` gives a mesh file's labels. Null: one
+/// region, label 0, for every tet. Every region starts with the default material (hardness
+/// 0, threshold 0, the parameters' stiffness: removed at once, whatever the force);
+/// `td_world_set_region` changes it before the first step.
+///
 /// # Bounded work
 /// O(T log T) for the mesh build's face sort plus O(every capacity) to initialise the storage,
-/// for T tets; once, before the servo runs.
+/// and O(T log R + R^2) to find the R distinct labels, for T tets; once, before the servo runs.
 ///
 /// # Errors
 /// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer (`mem` at the world's alignment, the arrays at
 /// 4 bytes), `TD_ERR_PARAMS` as `td_world_size`, `TD_ERR_TOO_SMALL` when `len` is short,
 /// `TD_ERR_MESH` for refused arrays (`*bad_item`, when `bad_item` is not null, gets the tet, or
-/// for a non-finite position the node, at fault), `TD_ERR_WORLD` when the core refuses the
-/// storage. On any error after the checks of `mem` the memory holds no world.
+/// for a non-finite position the node, at fault), `TD_ERR_LABEL` for more distinct labels
+/// than `region_capacity` (`*bad_item` gets the first tet whose label does not fit),
+/// `TD_ERR_WORLD` when the core refuses the storage. On any error after the checks of `mem`
+/// the memory holds no world.
 ///
 /// # Safety
-/// `params` points at an initialised `td_params`; `positions` at `3 * node_count` floats and
-/// `tets` at `4 * tet_count` `uint32_t`s, neither inside `mem`; `mem` at `len` writable bytes
-/// that the caller keeps, and does not read or write, for as long as it uses the world (there
-/// is nothing to free: stop using the handle, then reuse the memory); `out` at a writable
-/// `td_world *`; `bad_item` at a writable `uint32_t` or null.
+/// `params` points at an initialised `td_params`; `positions` at `3 * node_count` floats,
+/// `tets` at `4 * tet_count` `uint32_t`s and `labels` at `tet_count` `int32_t`s or null, none
+/// inside `mem`; `mem` at `len` writable bytes that the caller keeps, and does not read or
+/// write, for as long as it uses the world (there is nothing to free: stop using the handle,
+/// then reuse the memory); `out` at a writable `td_world *`; `bad_item` at a writable
+/// `uint32_t` or null.
 #[no_mangle]
 pub unsafe extern "C" fn td_world_init(
     mem: *mut c_void,
@@ -287,6 +342,7 @@ pub unsafe extern "C" fn td_world_init(
     params: *const TdParams,
     positions: *const f32,
     tets: *const u32,
+    labels: *const i32,
     out: *mut *mut TdWorld,
     bad_item: *mut u32,
 ) -> TdStatus {
@@ -294,6 +350,9 @@ pub unsafe extern "C" fn td_world_init(
         check_ptr(out)?;
         check_ptr(positions)?;
         check_ptr(tets)?;
+        if !labels.is_null() {
+            check_ptr(labels)?;
+        }
         // SAFETY: the caller's contract on `params`; `get` checks null and alignment.
         let p = unsafe { get(params) }?;
         let plan = Plan::of(&p)?;
@@ -315,12 +374,14 @@ pub unsafe extern "C" fn td_world_init(
         // from here on until the init succeeds.
         unsafe { ptr::addr_of_mut!((*state).magic).write(0) };
 
-        // SAFETY: the caller's contract: `3 * node_count` floats and `4 * tet_count` indices,
-        // aligned (checked), outside `mem`. The products fit (counts are at most 2^28).
-        let (xyz, tet_nodes) = unsafe {
+        // SAFETY: the caller's contract: `3 * node_count` floats, `4 * tet_count` indices and
+        // (when not null) `tet_count` labels, aligned (checked), outside `mem`. The products
+        // fit (counts are at most 2^28).
+        let (xyz, tet_nodes, tet_labels) = unsafe {
             (
                 core::slice::from_raw_parts(positions, 3 * plan.nodes),
                 core::slice::from_raw_parts(tets.cast::<[u32; 4]>(), plan.tets),
+                (!labels.is_null()).then(|| core::slice::from_raw_parts(labels, plan.tets)),
             )
         };
         let s = plan.sizes;
@@ -369,12 +430,39 @@ pub unsafe extern "C" fn td_world_init(
             BuildOptions::default(),
         )
         .map_err(|e| {
-            if !bad_item.is_null() && bad_item.is_aligned() {
-                // SAFETY: not null, aligned; writable by the caller's contract.
-                unsafe { bad_item.write(bad_index(&e)) };
-            }
+            // SAFETY: the caller's contract on `bad_item`.
+            unsafe { report_bad(bad_item, bad_index(&e)) };
             TdStatus::TdErrMesh
         })?;
+        // SAFETY: as the carving above: the plan's label and tet-region regions.
+        let (slots, of_tet) = unsafe {
+            (
+                carve(base, plan.region_labels, plan.region_slots, 0i32),
+                carve(base, plan.tet_region, plan.tets, 0u8),
+            )
+        };
+        let count = match tet_labels {
+            None => 1,
+            Some(ls) => {
+                let n = distinct_labels(ls, slots).map_err(|t| {
+                    // SAFETY: the caller's contract on `bad_item`.
+                    unsafe { report_bad(bad_item, t as u32) };
+                    TdStatus::TdErrLabel
+                })?;
+                let distinct = slots.get(..n).unwrap_or(&[]);
+                for (r, l) in of_tet.iter_mut().zip(ls) {
+                    // At most 256 regions (the plan's check): the index fits a byte.
+                    *r = distinct.binary_search(l).unwrap_or(0) as u8;
+                }
+                n
+            }
+        };
+        let slots: &'static [i32] = slots;
+        let region_labels = slots.get(..count).unwrap_or(&[]);
+        // SAFETY: as the carving above: the plan's region table, `count <= region_slots`.
+        let table = unsafe { carve(base, plan.regions, count, Region::default()) };
+        // The core's check of the table, now rather than at the first step.
+        Regions::new(&mut *table, of_tet).map_err(|_| TdStatus::TdErrWorld)?;
         let initial_volume = mesh.volume();
         let mut world = World::new(mesh, storage).map_err(|_| TdStatus::TdErrWorld)?;
         world.set_contact_max_nodes(p.contact_search_nodes);
@@ -404,6 +492,8 @@ pub unsafe extern "C" fn td_world_init(
             steps: 0,
             contact_ticks: 0,
             initial_volume,
+            labels: region_labels,
+            unstarted: Some(Unstarted { table, of_tet }),
         };
         // SAFETY: aligned, inside `mem` (checked above); the slices the world borrows start
         // after the header. Written whole, the magic last of all in effect: a handle is valid
@@ -419,10 +509,19 @@ pub unsafe extern "C" fn td_world_init(
 /// budgeted erosion when bit 0 of `buttons` is set, and the contact with the drilled surface
 /// for the servo. `*report`, when `report` is not null, says what the step did.
 ///
+/// Materials: the regions earn their erosion from the pressing force last set, by
+/// `td_world_tick` (the previous tick's servo force, as `tetradrill replay` runs) or by
+/// `td_world_set_pressing` (a caller running this step and `td_world_servo_force` in two
+/// tasks sets it before each step); none set: zero newtons, which removes only the regions
+/// of threshold and hardness zero. The first step hands the regions to the core, after which
+/// `td_world_set_region` is refused.
+///
 /// # Bounded work
 /// `World::simulate`'s: at most `max_cells` hash cells and `candidate_capacity` tets, at most
 /// `budget_per_tick` drill work units (plus one operation's overshoot) and
-/// `contact_search_nodes` node tests (under `tick_budget` when set, both together).
+/// `contact_search_nodes` node tests (under `tick_budget` when set, both together), one work
+/// unit of the drill's per region of non-zero hardness; the first step also O(T) once, for T
+/// tets (the core checks each tet's region).
 ///
 /// # Errors
 /// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the world, `TD_ERR_ALIGN` for
@@ -445,6 +544,11 @@ pub unsafe extern "C" fn td_world_simulate(
         // SAFETY: the caller's contract on `world`; `state` checks it.
         let st = unsafe { state(world) }?;
         let at = pose(position)?;
+        if let Some(u) = st.unstarted.take() {
+            // Checked at init: the table is 1 ..= 256 long and every tet's index within it.
+            let r = Regions::new(u.table, u.of_tet).map_err(|_| TdStatus::TdErrWorld)?;
+            st.world.set_regions(r);
+        }
         let drill_on = buttons & tetradrill_core::script::DRILL_ON != 0;
         let rep = st
             .world
@@ -507,7 +611,9 @@ pub unsafe extern "C" fn td_world_servo_force(
 }
 
 /// One whole tick as `tetradrill replay` runs it: `td_world_simulate` at `position` with
-/// `buttons`, then `td_world_servo_force` at the same position, its force in `*force`.
+/// `buttons`, then `td_world_servo_force` at the same position, its force in `*force`; that
+/// force's magnitude then presses the burr for one servo period (`dt`) at the next tick's
+/// step (`td_world_set_pressing`), as the host's replay feeds the materials.
 ///
 /// # Bounded work
 /// `td_world_simulate`'s plus a constant.
@@ -536,9 +642,166 @@ pub unsafe extern "C" fn td_world_tick(
         }
         // SAFETY: as above.
         match unsafe { td_world_servo_force(world, position, force) } {
-            TdStatus::TdOk => Ok(()),
-            e => Err(e),
+            TdStatus::TdOk => {}
+            e => return Err(e),
         }
+        // SAFETY: as above; `force` was just written.
+        let (st, f) = unsafe { (state(world)?, force.read()) };
+        let pressing = Vec3::new(f.x, f.y, f.z).length();
+        st.world.set_pressing(pressing, st.force.dt);
+        Ok(())
+    })
+}
+
+/// Sets the force pressing the burr against the material, `newtons` (the magnitude of the
+/// servo's latest force), held for `seconds` (the servo periods since the previous step): the
+/// next `td_world_simulate` earns each region's erosion from them. `td_world_tick` sets it
+/// itself; a caller running `td_world_simulate` and `td_world_servo_force` in two tasks calls
+/// this before each step. It stays until set again. Without materials it changes nothing.
+///
+/// # Bounded work
+/// Constant.
+///
+/// # Errors
+/// As `td_world_simulate` for the world; `TD_ERR_INPUT` for a force or duration that is
+/// negative or not finite (nothing is set).
+///
+/// # Safety
+/// `world` is a handle from `td_world_init` whose memory is still the caller's.
+#[no_mangle]
+pub unsafe extern "C" fn td_world_set_pressing(
+    world: *mut TdWorld,
+    newtons: f32,
+    seconds: f32,
+) -> TdStatus {
+    status(|| {
+        // SAFETY: the caller's contract on `world`; `state` checks it.
+        let st = unsafe { state(world) }?;
+        if !(non_negative(newtons) && non_negative(seconds)) {
+            return Err(TdStatus::TdErrInput);
+        }
+        st.world.set_pressing(newtons, seconds);
+        Ok(())
+    })
+}
+
+/// Sets the material of the region labelled `label` (docs/DRILLING.md, "Materials"): the
+/// burr removes it only while pressing harder than `threshold` newtons, at `(F - threshold)
+/// / hardness` cubic mesh units a second (`hardness` 0: at once), and its contact has
+/// `stiffness` newtons per mesh unit (0: `td_params.stiffness`). Allowed from
+/// `td_world_init` until the first `td_world_simulate` (or `td_world_tick`); the values of
+/// `tetradrill`'s scenario `[regions.LABEL]` tables.
+///
+/// # Bounded work
+/// O(log R) for R regions.
+///
+/// # Errors
+/// As `td_world_simulate` for the world; `TD_ERR_PARAMS` for a value that is negative or not
+/// finite, `TD_ERR_LABEL` for a label the mesh does not have, `TD_ERR_STARTED` after the
+/// first step. An error changes nothing.
+///
+/// # Safety
+/// `world` is a handle from `td_world_init` whose memory is still the caller's.
+#[no_mangle]
+pub unsafe extern "C" fn td_world_set_region(
+    world: *mut TdWorld,
+    label: i32,
+    hardness: f32,
+    threshold: f32,
+    stiffness: f32,
+) -> TdStatus {
+    status(|| {
+        // SAFETY: the caller's contract on `world`; `state` checks it.
+        let st = unsafe { state(world) }?;
+        if !(non_negative(hardness) && non_negative(threshold) && non_negative(stiffness)) {
+            return Err(TdStatus::TdErrParams);
+        }
+        let i = st.region_index(label).ok_or(TdStatus::TdErrLabel)?;
+        let u = st.unstarted.as_mut().ok_or(TdStatus::TdErrStarted)?;
+        let slot = u.table.get_mut(i).ok_or(TdStatus::TdErrLabel)?;
+        *slot = Region::new(Material {
+            hardness,
+            threshold,
+            stiffness,
+        });
+        Ok(())
+    })
+}
+
+/// Writes the region at `index` (0 .. `region_count`, in ascending label order) to `*out`.
+///
+/// # Safety
+/// As `td_world_region`.
+unsafe fn write_region(st: &State, index: usize, out: *mut TdRegion) -> Status {
+    let (Some(r), Some(&label)) = (st.regions().get(index), st.labels.get(index)) else {
+        return Err(TdStatus::TdErrLabel);
+    };
+    let m = r.material;
+    let v = TdRegion {
+        label,
+        hardness: m.hardness,
+        threshold: m.threshold,
+        stiffness: m.stiffness,
+        removed_volume: r.removed(),
+    };
+    // SAFETY: checked by the callers; writable by the caller's contract.
+    unsafe { out.write(v) };
+    Ok(())
+}
+
+/// Writes the region labelled `label` to `*out`: its material and the volume removed from it
+/// (`removed_by_region` of `tetradrill replay`).
+///
+/// # Bounded work
+/// O(log R) for R regions.
+///
+/// # Errors
+/// As `td_world_simulate` for the world; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`,
+/// `TD_ERR_LABEL` for a label the mesh does not have.
+///
+/// # Safety
+/// `world` is a handle from `td_world_init` whose memory is still the caller's; `out` points
+/// at a writable `td_region`.
+#[no_mangle]
+pub unsafe extern "C" fn td_world_region(
+    world: *mut TdWorld,
+    label: i32,
+    out: *mut TdRegion,
+) -> TdStatus {
+    status(|| {
+        check_ptr(out)?;
+        // SAFETY: the caller's contract on `world`; `state` checks it.
+        let st = unsafe { state(world) }?;
+        let i = st.region_index(label).ok_or(TdStatus::TdErrLabel)?;
+        // SAFETY: `out` checked; the caller's contract.
+        unsafe { write_region(st, i, out) }
+    })
+}
+
+/// Writes region number `index` (0 .. `td_counters.region_count`, in ascending label order)
+/// to `*out`, its label included: to list a world's regions.
+///
+/// # Bounded work
+/// Constant.
+///
+/// # Errors
+/// As `td_world_region`, with `TD_ERR_LABEL` for an index past the last region.
+///
+/// # Safety
+/// As `td_world_region`.
+#[no_mangle]
+pub unsafe extern "C" fn td_world_region_at(
+    world: *mut TdWorld,
+    index: u32,
+    out: *mut TdRegion,
+) -> TdStatus {
+    status(|| {
+        check_ptr(out)?;
+        // SAFETY: the caller's contract on `world`; `state` checks it.
+        let st = unsafe { state(world) }?;
+        let i = usize::try_from(index).map_err(|_| TdStatus::TdErrLabel)?;
+        // SAFETY: `out` checked; the caller's contract.
+        unsafe { write_region(st, i, out) }
     })
 }
 
@@ -577,6 +840,7 @@ pub unsafe extern "C" fn td_world_counters(world: *mut TdWorld, out: *mut TdCoun
             sat_pending: sat.pending,
             sat_contact: sat.contact,
             sat_total: sat.total(),
+            region_count: st.labels.len() as u32,
         };
         // SAFETY: checked above; writable by the caller's contract.
         unsafe { out.write(c) };

@@ -34,13 +34,20 @@ pub enum TdStatus {
     TdErrWorld = 6,
     /// The world pointer does not point at a world `td_world_init` set up.
     TdErrNotInit = 7,
-    /// A pose is not finite (NaN or infinite coordinates).
+    /// A pose or a pressing force is not finite (NaN or infinite), or the force or its
+    /// duration is negative.
     TdErrInput = 8,
+    /// A region label was refused: `td_world_init` met more distinct labels than
+    /// `region_capacity` (its `bad_item` names the first tet over), or a region function named
+    /// a label the mesh does not have (or an index past the last region).
+    TdErrLabel = 9,
+    /// Materials are set before the first simulation step; this world has already stepped.
+    TdErrStarted = 10,
 }
 
 impl TdStatus {
     /// Every status, in code order (for `td_status_name`).
-    pub(crate) const ALL: [TdStatus; 9] = [
+    pub(crate) const ALL: [TdStatus; 11] = [
         TdStatus::TdOk,
         TdStatus::TdErrNull,
         TdStatus::TdErrAlign,
@@ -50,6 +57,8 @@ impl TdStatus {
         TdStatus::TdErrWorld,
         TdStatus::TdErrNotInit,
         TdStatus::TdErrInput,
+        TdStatus::TdErrLabel,
+        TdStatus::TdErrStarted,
     ];
 
     /// A NUL-terminated line saying what the status means.
@@ -63,7 +72,9 @@ impl TdStatus {
             TdStatus::TdErrMesh => c"the mesh arrays were refused (see bad_item)",
             TdStatus::TdErrWorld => c"the world could not be set up over the mesh",
             TdStatus::TdErrNotInit => c"the world pointer is not an initialised world",
-            TdStatus::TdErrInput => c"a pose is not finite",
+            TdStatus::TdErrInput => c"a pose or pressing force is not finite or is negative",
+            TdStatus::TdErrLabel => c"a region label is unknown, or there are too many labels",
+            TdStatus::TdErrStarted => c"materials are set before the first simulation step",
         }
     }
 
@@ -110,6 +121,9 @@ pub struct TdParams {
     /// Work units for a whole simulation step, drill and contact search together; 0 gives
     /// each its own bound.
     pub tick_budget: u32,
+    /// Distinct region labels the world keeps, 1 ..= 256 (`TD_MAX_REGIONS`, the default): 36
+    /// bytes each. A mesh with more distinct labels is refused (`TD_ERR_LABEL`).
+    pub region_capacity: u32,
     /// Deepest subdivision level of a drilled tet, 1 ..= 9.
     pub max_depth: u32,
     /// Drill work units per tick (about 100 Cortex-M4 instructions each), at least 1.
@@ -202,6 +216,27 @@ pub struct TdCounters {
     pub sat_contact: u32,
     /// All saturations added up.
     pub sat_total: u32,
+    /// Regions of the world: its mesh's distinct labels (one, label 0, without labels).
+    /// `td_world_region` and `td_world_region_at` give each one's removed volume.
+    pub region_count: u32,
+}
+
+/// One region of a world: its label, its material and the volume removed from it.
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct TdRegion {
+    /// The region's label (the mesh's, from `td_world_init`'s `labels`; 0 without them).
+    pub label: i32,
+    /// Newton-seconds per cubic mesh unit: the burr pressing `F` newtons above the threshold
+    /// removes `(F - threshold) / hardness` cubic mesh units a second; 0: removed at once.
+    pub hardness: f32,
+    /// Newtons the burr must press with before it removes anything.
+    pub threshold: f32,
+    /// Contact stiffness, newtons per mesh unit of depth; 0: `td_params.stiffness`.
+    pub stiffness: f32,
+    /// Volume removed from the region so far, mesh units cubed (`removed_by_region` of
+    /// `tetradrill replay`).
+    pub removed_volume: f64,
 }
 
 /// A world set up by `td_world_init` in caller memory. Opaque: C holds a pointer to it (the

@@ -1,13 +1,16 @@
 //! The C interface, called as C calls it, against the host's replay engine: the same scenario
-//! gives the same force digest, and every bad pointer, size, count and mesh gets its status.
+//! gives the same force digest, removed volumes and saturations, and every bad pointer, size,
+//! count, mesh, label and material gets its status.
 
 use std::alloc::{alloc_zeroed, dealloc, Layout};
+use std::collections::BTreeMap;
 use std::ffi::CStr;
 use std::ptr;
 
 use tetradrill::engine::{self, EngineStorage, TickParams, ToolSizing};
 use tetradrill::scenario::{self, Scenario};
 use tetradrill::traces::PoseSource;
+use tetradrill_core::drill::Material;
 use tetradrill_core::force::{ForceDigest, ToolState};
 use tetradrill_core::servo::Saturations;
 use tetradrill_ffi::*;
@@ -73,6 +76,7 @@ fn params_of(sc: &Scenario, n: usize) -> TdParams {
         max_cells: 0,
         contact_search_nodes: 0,
         tick_budget: 0,
+        region_capacity: 0,
         max_depth: 0,
         budget_per_tick: 0,
         radius: 0.0,
@@ -108,12 +112,23 @@ fn params_of(sc: &Scenario, n: usize) -> TdParams {
     p
 }
 
-/// The host's replay of `sc`: its force digest, removed volume and saturations.
-fn host_replay(sc: &Scenario) -> (u64, f64, Saturations) {
+/// What a replay ended with: the force digest, the removed volume, the saturations and the
+/// volume removed from each region by label.
+struct Outcome {
+    digest: u64,
+    removed: f64,
+    sat: Saturations,
+    by_region: BTreeMap<i32, f64>,
+}
+
+/// The host's replay of `sc`, its mesh's labels and materials set as `replay` sets them.
+fn host_replay(sc: &Scenario) -> Outcome {
     let loaded = engine::load_mesh(sc).expect("scenario mesh");
     let params = TickParams::of(sc).expect("tick params");
     let poses = PoseSource::for_scenario(sc).expect("poses");
     let mut store = EngineStorage::try_allocate(loaded.mesh, sc).expect("storage");
+    store.set_labels(&loaded.labels, sc).expect("labels");
+    let labels = store.region_labels().to_vec();
     let mut world = store.world().expect("world");
     let mut tool = ToolState::default();
     let mut digest = ForceDigest::new();
@@ -121,11 +136,32 @@ fn host_replay(sc: &Scenario) -> (u64, f64, Saturations) {
         let (f, _) = engine::tick(&mut world, &mut tool, &params, &poses.at(i));
         digest.push(f);
     }
-    (
-        digest.value(),
-        world.hierarchy().removed_volume(),
-        world.saturations(),
-    )
+    let by_region = engine::removed_by_region(&world, &labels)
+        .expect("the host's world has regions")
+        .into_iter()
+        .map(|(l, v)| (l.parse::<i32>().expect("integer label"), v))
+        .collect();
+    Outcome {
+        digest: digest.value(),
+        removed: world.hierarchy().removed_volume(),
+        sat: world.saturations(),
+        by_region,
+    }
+}
+
+/// The materials of `sc`'s `[regions]` table, by label.
+fn materials(sc: &Scenario) -> Vec<(i32, Material)> {
+    sc.regions
+        .iter()
+        .map(|(l, r)| (l.parse().expect("integer label"), r.material()))
+        .collect()
+}
+
+/// The labels of the `n`-block: the rule of `builtin::block_labels`.
+fn block_labels(n: usize) -> Vec<i32> {
+    let mut l = vec![0; tetradrill_core::builtin::block_counts(n).1];
+    tetradrill_core::builtin::block_labels(n, &mut l).expect("labels");
+    l
 }
 
 /// The counters' saturations as the core's.
@@ -139,9 +175,28 @@ fn saturations(c: &TdCounters) -> Saturations {
     }
 }
 
-/// The demo path through the C interface: a world in fresh memory, `td_world_tick` at every
-/// `td_demo_pose`; the counters at the end.
-fn c_replay(p: &TdParams, n: usize) -> TdCounters {
+/// How the C side runs each tick.
+#[derive(Clone, Copy, PartialEq)]
+enum Ticks {
+    /// `td_world_tick`.
+    Whole,
+    /// `td_world_set_pressing` with the last force, `td_world_simulate`, then
+    /// `td_world_servo_force`: the two halves as two tasks would call them.
+    Halves,
+    /// The halves without `td_world_set_pressing`.
+    HalvesUnpressed,
+}
+
+/// The demo path through the C interface: a world in fresh memory with `labels` (or none) and
+/// `materials`, each `td_demo_pose` ticked as `ticks` says; the counters and every region's
+/// removed volume at the end.
+fn c_replay(
+    p: &TdParams,
+    n: usize,
+    labels: Option<&[i32]>,
+    materials: &[(i32, Material)],
+    ticks: Ticks,
+) -> (TdCounters, BTreeMap<i32, f64>) {
     let (xyz, tets) = block_arrays(n);
     let (mut size, mut align) = (0usize, 0usize);
     // SAFETY: valid pointers to initialised or writable values.
@@ -159,43 +214,86 @@ fn c_replay(p: &TdParams, n: usize) -> TdCounters {
             p,
             xyz.as_ptr(),
             tets.as_ptr(),
+            labels.map_or(ptr::null(), <[i32]>::as_ptr),
             &mut world,
             &mut bad,
         )
     };
     assert_eq!(st, TdStatus::TdOk);
+    for &(label, m) in materials {
+        // SAFETY: a live world.
+        let st = unsafe { td_world_set_region(world, label, m.hardness, m.threshold, m.stiffness) };
+        assert_eq!(st, TdStatus::TdOk, "region {label}");
+    }
     let mut force = TdVec3::default();
     for i in 0..td_demo_ticks() {
         let (mut pos, mut buttons) = (TdVec3::default(), 0u32);
         // SAFETY: a live world and writable outputs.
         unsafe {
             assert_eq!(td_demo_pose(i, &mut pos, &mut buttons), TdStatus::TdOk);
+            if ticks == Ticks::Whole {
+                assert_eq!(
+                    td_world_tick(world, pos, buttons, &mut force),
+                    TdStatus::TdOk
+                );
+                continue;
+            }
+            if ticks == Ticks::Halves {
+                let pressing = (force.x * force.x + force.y * force.y + force.z * force.z).sqrt();
+                let pressing = if i == 0 { 0.0 } else { pressing };
+                let seconds = if i == 0 { 0.0 } else { p.dt };
+                assert_eq!(
+                    td_world_set_pressing(world, pressing, seconds),
+                    TdStatus::TdOk
+                );
+            }
             assert_eq!(
-                td_world_tick(world, pos, buttons, &mut force),
+                td_world_simulate(world, pos, buttons, ptr::null_mut()),
                 TdStatus::TdOk
             );
+            assert_eq!(td_world_servo_force(world, pos, &mut force), TdStatus::TdOk);
         }
     }
     let mut c = TdCounters::default();
     // SAFETY: a live world.
     unsafe { assert_eq!(td_world_counters(world, &mut c), TdStatus::TdOk) };
-    c
+    let mut by_region = BTreeMap::new();
+    for i in 0..c.region_count {
+        let mut r = TdRegion::default();
+        // SAFETY: a live world, a writable output.
+        unsafe { assert_eq!(td_world_region_at(world, i, &mut r), TdStatus::TdOk) };
+        by_region.insert(r.label, r.removed_volume);
+    }
+    (c, by_region)
 }
 
 #[test]
 fn demo_digest_equals_the_hosts_replay() {
     let sc = scenario::builtin("demo").expect("builtin:demo");
     assert_eq!(sc.mesh, "builtin:block:8");
-    let (digest, removed, sat) = host_replay(&sc);
-    let c = c_replay(&params_of(&sc, 8), 8);
+    let host = host_replay(&sc);
+    let labels = block_labels(8);
+    let (c, by_region) = c_replay(
+        &params_of(&sc, 8),
+        8,
+        Some(&labels),
+        &materials(&sc),
+        Ticks::Whole,
+    );
     assert_eq!(
         format!("{:016x}", c.force_digest),
-        format!("{digest:016x}"),
+        format!("{:016x}", host.digest),
         "the C interface's demo digest differs from the host's replay"
     );
-    assert_eq!(c.removed_volume, removed);
-    assert_eq!(saturations(&c), sat);
-    assert_eq!(c.sat_total, sat.total());
+    assert_eq!(c.removed_volume, host.removed);
+    assert_eq!(saturations(&c), host.sat);
+    assert_eq!(c.sat_total, host.sat.total());
+    assert_eq!(by_region, host.by_region, "removed_by_region");
+    assert_eq!(c.region_count, 2, "the shell and the core");
+    assert!(
+        by_region.values().all(|&v| v > 0.0),
+        "the demo drills both regions: {by_region:?}"
+    );
     assert_eq!(c.servo_ticks, 6001);
     assert_eq!(c.simulate_steps, 6001);
     assert!(c.removed_volume > 0.0, "the demo drills");
@@ -203,14 +301,46 @@ fn demo_digest_equals_the_hosts_replay() {
 }
 
 #[test]
+fn the_demo_in_two_halves_needs_the_pressing_force() {
+    let sc = scenario::builtin("demo").expect("builtin:demo");
+    let host = host_replay(&sc);
+    let labels = block_labels(8);
+    let p = params_of(&sc, 8);
+    // The halves fed the previous tick's force: the host's run, tick for tick.
+    let (c, by_region) = c_replay(&p, 8, Some(&labels), &materials(&sc), Ticks::Halves);
+    assert_eq!(c.force_digest, host.digest);
+    assert_eq!(by_region, host.by_region);
+    // Never told a force, the burr presses with none: below both thresholds, nothing goes.
+    let (c, by_region) = c_replay(
+        &p,
+        8,
+        Some(&labels),
+        &materials(&sc),
+        Ticks::HalvesUnpressed,
+    );
+    assert_eq!(c.removed_volume, 0.0);
+    assert!(by_region.values().all(|&v| v == 0.0));
+    assert_ne!(c.force_digest, host.digest);
+}
+
+#[test]
 fn firmware_digest_equals_the_hosts_replay() {
     let sc = scenario::builtin("firmware").expect("builtin:firmware");
     assert_eq!(sc.mesh, "builtin:block:4");
-    let (digest, removed, sat) = host_replay(&sc);
-    let c = c_replay(&params_of(&sc, 4), 4);
-    assert_eq!(c.force_digest, digest);
-    assert_eq!(c.removed_volume, removed);
-    assert_eq!(saturations(&c), sat);
+    assert!(
+        sc.regions.is_empty(),
+        "no materials in the firmware scenario"
+    );
+    let host = host_replay(&sc);
+    // Without labels, as the Cortex-M example runs it: one region, label 0, holding all.
+    let (c, by_region) = c_replay(&params_of(&sc, 4), 4, None, &[], Ticks::Whole);
+    assert_eq!(c.force_digest, host.digest);
+    assert_eq!(c.removed_volume, host.removed);
+    assert_eq!(saturations(&c), host.sat);
+    assert_eq!(by_region.keys().copied().collect::<Vec<_>>(), [0]);
+    let whole: f64 = host.by_region.values().sum();
+    assert!(c.removed_volume > 0.0);
+    assert!((by_region[&0] - whole).abs() <= 1e-12 * whole);
 }
 
 fn demo_params() -> TdParams {
@@ -286,6 +416,7 @@ fn bad_pointers_sizes_and_counts_get_their_status() {
                 &p,
                 xyz.as_ptr(),
                 tets.as_ptr(),
+                ptr::null(),
                 w,
                 ptr::null_mut(),
             )
@@ -351,6 +482,7 @@ fn bad_pointers_sizes_and_counts_get_their_status() {
                 &q,
                 xyz.as_ptr(),
                 tets.as_ptr(),
+                ptr::null(),
                 &mut world,
                 ptr::null_mut()
             ),
@@ -368,6 +500,7 @@ fn bad_pointers_sizes_and_counts_get_their_status() {
                 &p,
                 xyz.as_ptr(),
                 bad_tets.as_ptr(),
+                ptr::null(),
                 &mut world,
                 &mut bad
             ),
@@ -384,6 +517,7 @@ fn bad_pointers_sizes_and_counts_get_their_status() {
                 &p,
                 flat.as_ptr(),
                 tets.as_ptr(),
+                ptr::null(),
                 &mut world,
                 &mut bad
             ),
@@ -395,7 +529,7 @@ fn bad_pointers_sizes_and_counts_get_their_status() {
 
 #[test]
 fn every_status_has_its_own_line() {
-    let names: Vec<String> = (0..=8)
+    let names: Vec<String> = (0..=10)
         .map(|code| {
             // SAFETY: td_status_name returns a static NUL-terminated string.
             unsafe { CStr::from_ptr(td_status_name(code)) }
@@ -412,6 +546,167 @@ fn every_status_has_its_own_line() {
     let unknown = unsafe { CStr::from_ptr(td_status_name(99)) };
     assert_eq!(unknown.to_str(), Ok("unknown status"));
     assert_eq!(TdStatus::TdErrInput as i32, 8);
+    assert_eq!(TdStatus::TdErrStarted as i32, 10);
+}
+
+#[test]
+fn labels_materials_and_pressing_get_their_status() {
+    let mut p = demo_params();
+    let (xyz, tets) = block_arrays(2);
+    // Labels out of order and with gaps: the regions come in ascending label order.
+    let labels: Vec<i32> = (0..tets.len() / 4).map(|t| [7, -3, 7, 40][t % 4]).collect();
+    let (mut size, mut align) = (0usize, 0usize);
+    // SAFETY: every pointer below is valid, null, or deliberately misaligned; the functions
+    // check before they touch any.
+    unsafe {
+        assert_eq!(td_world_size(&p, &mut size, &mut align), TdStatus::TdOk);
+        let mem = Memory::new(size + 4, align);
+        let mut world: *mut TdWorld = ptr::null_mut();
+        let mut bad = u32::MAX;
+        let init = |p: &TdParams, l: *const i32, w: &mut *mut TdWorld, bad: &mut u32| {
+            td_world_init(
+                mem.ptr.cast(),
+                size + 4,
+                p,
+                xyz.as_ptr(),
+                tets.as_ptr(),
+                l,
+                w,
+                bad,
+            )
+        };
+        let odd = labels.as_ptr().cast::<u8>().add(1).cast::<i32>();
+        assert_eq!(init(&p, odd, &mut world, &mut bad), TdStatus::TdErrAlign);
+        // Two slots for three distinct labels: refused at the first tet of the third (tet 3,
+        // label 40, after 7 and -3).
+        p.region_capacity = 2;
+        let (mut small, mut small_align) = (0usize, 0usize);
+        assert_eq!(
+            td_world_size(&p, &mut small, &mut small_align),
+            TdStatus::TdOk
+        );
+        assert!(small < size, "fewer region slots take less memory");
+        assert_eq!(
+            init(&p, labels.as_ptr(), &mut world, &mut bad),
+            TdStatus::TdErrLabel
+        );
+        assert_eq!(bad, 3);
+        p.region_capacity = 3;
+        assert_eq!(
+            init(&p, labels.as_ptr(), &mut world, &mut bad),
+            TdStatus::TdOk
+        );
+        let mut c = TdCounters::default();
+        assert_eq!(td_world_counters(world, &mut c), TdStatus::TdOk);
+        assert_eq!(c.region_count, 3);
+        let mut r = TdRegion::default();
+        let listed: Vec<i32> = (0..3)
+            .map(|i| {
+                assert_eq!(td_world_region_at(world, i, &mut r), TdStatus::TdOk);
+                r.label
+            })
+            .collect();
+        assert_eq!(listed, [-3, 7, 40]);
+        assert_eq!(td_world_region_at(world, 3, &mut r), TdStatus::TdErrLabel);
+        assert_eq!(
+            td_world_region(world, 7, ptr::null_mut()),
+            TdStatus::TdErrNull
+        );
+        assert_eq!(td_world_region(world, 8, &mut r), TdStatus::TdErrLabel);
+
+        // Materials: checked values, known labels, before the first step.
+        assert_eq!(
+            td_world_set_region(world, 7, 300.0, 2.0, 150.0),
+            TdStatus::TdOk
+        );
+        assert_eq!(
+            td_world_set_region(world, 8, 300.0, 2.0, 150.0),
+            TdStatus::TdErrLabel
+        );
+        for (h, t, k) in [
+            (-1.0, 0.0, 0.0),
+            (0.0, f32::NAN, 0.0),
+            (0.0, 0.0, f32::INFINITY),
+        ] {
+            assert_eq!(
+                td_world_set_region(world, 40, h, t, k),
+                TdStatus::TdErrParams
+            );
+        }
+        assert_eq!(td_world_region(world, 7, &mut r), TdStatus::TdOk);
+        assert_eq!(
+            (
+                r.label,
+                r.hardness,
+                r.threshold,
+                r.stiffness,
+                r.removed_volume
+            ),
+            (7, 300.0, 2.0, 150.0, 0.0)
+        );
+        assert_eq!(td_world_region(world, 40, &mut r), TdStatus::TdOk);
+        assert_eq!(
+            (r.hardness, r.threshold, r.stiffness),
+            (0.0, 0.0, 0.0),
+            "refused values change nothing"
+        );
+
+        // Pressing: finite and non-negative.
+        for (f, s) in [
+            (-1.0, 1e-3),
+            (f32::NAN, 1e-3),
+            (1.0, -1e-3),
+            (1.0, f32::INFINITY),
+        ] {
+            assert_eq!(td_world_set_pressing(world, f, s), TdStatus::TdErrInput);
+        }
+        assert_eq!(td_world_set_pressing(world, 3.0, 1e-3), TdStatus::TdOk);
+        assert_eq!(
+            td_world_set_pressing(ptr::null_mut(), 3.0, 1e-3),
+            TdStatus::TdErrNull
+        );
+
+        // A refused step does not start the world; a done one does.
+        let nan = TdVec3 {
+            x: f32::NAN,
+            y: 0.0,
+            z: 0.0,
+        };
+        assert_eq!(
+            td_world_simulate(world, nan, 1, ptr::null_mut()),
+            TdStatus::TdErrInput
+        );
+        assert_eq!(
+            td_world_set_region(world, 40, 1.0, 0.0, 0.0),
+            TdStatus::TdOk
+        );
+        let at = TdVec3 {
+            x: 0.0,
+            y: 0.0,
+            z: 0.9,
+        };
+        assert_eq!(
+            td_world_simulate(world, at, 1, ptr::null_mut()),
+            TdStatus::TdOk
+        );
+        assert_eq!(
+            td_world_set_region(world, 7, 1.0, 0.0, 0.0),
+            TdStatus::TdErrStarted
+        );
+        // The materials set before the start are the core's now.
+        assert_eq!(td_world_region(world, 7, &mut r), TdStatus::TdOk);
+        assert_eq!((r.hardness, r.threshold, r.stiffness), (300.0, 2.0, 150.0));
+        assert_eq!(td_world_region(world, 40, &mut r), TdStatus::TdOk);
+        assert_eq!(r.hardness, 1.0);
+
+        // Without labels: one region, label 0.
+        assert_eq!(init(&p, ptr::null(), &mut world, &mut bad), TdStatus::TdOk);
+        assert_eq!(td_world_counters(world, &mut c), TdStatus::TdOk);
+        assert_eq!(c.region_count, 1);
+        assert_eq!(td_world_region_at(world, 0, &mut r), TdStatus::TdOk);
+        assert_eq!(r.label, 0);
+        assert_eq!(td_world_region(world, 7, &mut r), TdStatus::TdErrLabel);
+    }
 }
 
 #[test]

@@ -6,6 +6,7 @@
  *
  * Every setting is the host scenario's (host-runner/src/scenario.rs), written as the host
  * derives it: doubles converted to float. */
+#include <stddef.h>
 #include <stdint.h>
 
 #include "../block.h"
@@ -89,6 +90,8 @@ int main(void) {
     p.pending_capacity = 16384;
     p.candidate_capacity = 1024;
     p.max_cells = 4096;
+    /* No materials in this scenario: the mesh goes in without labels, one region. */
+    p.region_capacity = 1;
 
     size_t size = 0, align = 0;
     if (failed(td_world_size(&p, &size, &align), "td_world_size"))
@@ -100,7 +103,7 @@ int main(void) {
     }
     td_world *world = 0;
     uint32_t bad = 0;
-    td_status st = td_world_init(world_mem, sizeof world_mem, &p, positions, tet_nodes, &world, &bad);
+    td_status st = td_world_init(world_mem, sizeof world_mem, &p, positions, tet_nodes, NULL, &world, &bad);
     if (st == TD_ERR_MESH)
         put_u32("bad_item", bad);
     if (failed(st, "td_world_init"))
