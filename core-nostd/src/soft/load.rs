@@ -16,7 +16,9 @@ pub fn spread_point_force(p: [Vec3; 4], point: Vec3, force: Vec3) -> Option<[Vec
     let b = geom::barycentric(point, p)?;
     let c = b.map(|x| x.clamp(0.0, 1.0));
     let sum = c[0] + c[1] + c[2] + c[3];
-    if !(sum > 0.0) {
+    // `sum` is positive or NaN here (weights are clamped to [0, 1], and one is at least
+    // 1/4 for a finite point); NaN means a non-finite input.
+    if sum.is_nan() || sum <= 0.0 {
         return None;
     }
     Some(c.map(|x| force * (x / sum)))

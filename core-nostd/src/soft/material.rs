@@ -121,9 +121,27 @@ mod tests {
         assert_eq!(ok.check(), Ok(()));
         let bad = |m: Material, e| assert_eq!(m.check(), Err(e));
         bad(Material { young: 0.0, ..ok }, MaterialError::Young);
-        bad(Material { young: f32::NAN, ..ok }, MaterialError::Young);
+        bad(
+            Material {
+                young: f32::NAN,
+                ..ok
+            },
+            MaterialError::Young,
+        );
         bad(Material { poisson: 0.5, ..ok }, MaterialError::Poisson);
-        bad(Material { poisson: -0.1, ..ok }, MaterialError::Poisson);
-        bad(Material { density: f32::INFINITY, ..ok }, MaterialError::Density);
+        bad(
+            Material {
+                poisson: -0.1,
+                ..ok
+            },
+            MaterialError::Poisson,
+        );
+        bad(
+            Material {
+                density: f32::INFINITY,
+                ..ok
+            },
+            MaterialError::Density,
+        );
     }
 }

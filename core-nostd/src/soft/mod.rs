@@ -34,7 +34,7 @@ pub struct SoftParams {
     /// Gravity (acceleration) on every free node.
     pub gravity: Vec3,
     /// Velocity damping rate `c` (per unit time): each substep scales velocities by
-    /// `1 / (1 + c h)`. It damps rigid motion too (like a viscous surrounding); 0 for none.
+    /// `1 / (1 + c h)` before adding the substep's accelerations. It damps rigid motion too (like a viscous surrounding); 0 for none.
     pub damping: f32,
     /// Substeps per step (`1..=MAX_SUBSTEPS`): the multipliers restart every substep.
     pub substeps: u32,
@@ -245,7 +245,12 @@ impl<'a> SoftBody<'a> {
         }
         params.check()?;
         storage.mass.fill(0.0);
-        for (i, (tet, rest)) in mesh.tets.iter().zip(storage.tet_rest.iter_mut()).enumerate() {
+        for (i, (tet, rest)) in mesh
+            .tets
+            .iter()
+            .zip(storage.tet_rest.iter_mut())
+            .enumerate()
+        {
             let id = i as u32;
             let mut x = [Vec3::ZERO; 4];
             for (xk, &k) in x.iter_mut().zip(tet) {
@@ -347,7 +352,11 @@ impl<'a> SoftBody<'a> {
     /// # Bounded work
     /// O(N).
     pub fn write_positions(&self, out: &mut [Vec3]) {
-        for ((o, &x), &u) in out.iter_mut().zip(self.rest).zip(self.s.displacement.iter()) {
+        for ((o, &x), &u) in out
+            .iter_mut()
+            .zip(self.rest)
+            .zip(self.s.displacement.iter())
+        {
             *o = x + u;
         }
     }
@@ -473,7 +482,10 @@ impl<'a> SoftBody<'a> {
         let g = self.params.gravity;
         let s = &mut self.s;
         for _ in 0..self.params.substeps {
-            let forces = external.iter().copied().chain(core::iter::repeat(Vec3::ZERO));
+            let forces = external
+                .iter()
+                .copied()
+                .chain(core::iter::repeat(Vec3::ZERO));
             for ((((u, p), v), &w), f) in s
                 .displacement
                 .iter_mut()
@@ -484,7 +496,8 @@ impl<'a> SoftBody<'a> {
             {
                 *p = *u;
                 if w > 0.0 {
-                    *v = (*v + (g + f * w) * h) * keep;
+                    // Damping first, so a body at rest under a load feels all of it.
+                    *v = *v * keep + (g + f * w) * h;
                     *u += *v * h;
                 }
             }
@@ -527,3 +540,6 @@ impl<'a> SoftBody<'a> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -50,8 +50,7 @@ impl TetRest {
             }
         }
         let floor = 6.0 * 1e-7 * longest * longest * longest;
-        // Written so that NaN also fails.
-        if !(det > floor) {
+        if det.is_nan() || det <= floor {
             return None;
         }
         let dm = Mat3::from_cols(x[1] - x[0], x[2] - x[0], x[3] - x[0]);
@@ -86,7 +85,8 @@ impl TetRest {
     /// Constant.
     pub fn energy(&self, u: [Vec3; 4]) -> f64 {
         let f = self.deformation(u);
-        let [a, b, c] = [f.x_axis, f.y_axis, f.z_axis].map(|v| [v.x as f64, v.y as f64, v.z as f64]);
+        let [a, b, c] =
+            [f.x_axis, f.y_axis, f.z_axis].map(|v| [v.x as f64, v.y as f64, v.z as f64]);
         let d = |p: [f64; 3], q: [f64; 3]| p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
         let frob = d(a, a) + d(b, b) + d(c, c);
         let cross = [
@@ -99,7 +99,8 @@ impl TetRest {
         let mu = 1.0 / (self.alpha_dev as f64 * v);
         let hydro = 1.0 / (self.alpha_hydro as f64 * v);
         let g = self.gamma as f64;
-        v * (0.5 * mu * (frob - 3.0) + 0.5 * hydro * ((det - g) * (det - g) - (1.0 - g) * (1.0 - g)))
+        v * (0.5 * mu * (frob - 3.0)
+            + 0.5 * hydro * ((det - g) * (det - g) - (1.0 - g) * (1.0 - g)))
     }
 }
 
