@@ -572,3 +572,36 @@ fn a_point_force_pushes_the_touched_nodes_and_a_region_material_is_softer() {
     // Linear small strain: a quarter of the modulus, four times the dent.
     assert!((dents[1] / dents[0] - 4.0).abs() < 0.2, "{dents:?}");
 }
+
+#[test]
+fn out_of_range_requests_are_refused_without_change() {
+    let (rest, tets) = grid(1, 1, 1, H);
+    let mut st = Store::new(rest, tets);
+    let mat = Material {
+        young: E,
+        poisson: 0.3,
+        density: RHO,
+    };
+    let mut body = st.body(mat, params(0.0));
+    let n = body.node_count();
+    let mut f = vec![Vec3::ZERO; n];
+    assert!(!body.add_point_force(body.tet_count(), Vec3::ZERO, Vec3::X, &mut f));
+    assert!(!body.add_point_force(0, Vec3::ZERO, Vec3::X, &mut f[..n - 1]));
+    assert!(f.iter().all(|v| *v == Vec3::ZERO));
+    assert!(!body.set_fixed(n, true));
+    assert!(body.position(n).is_none());
+    assert!(body.is_fixed(n));
+    assert!(!body.is_fixed(0));
+    assert!(body.set_fixed(0, true) && body.is_fixed(0));
+    assert!(body.set_fixed(0, false) && !body.is_fixed(0));
+    let bad = SoftParams {
+        iterations: MAX_ITERATIONS + 1,
+        ..params(0.0)
+    };
+    assert_eq!(body.set_params(bad), Err(SoftError::Param("iterations")));
+    assert_eq!(body.params(), params(0.0));
+    // A short force slice counts the rest as zero: nothing moves without forces (beyond
+    // f32 rounding of the rest state's cancelling pushes: 1e-7 of the edge).
+    body.step(DT, &[]).unwrap();
+    assert!(max_disp(&body) < 1e-7 * H, "{}", max_disp(&body));
+}
