@@ -22,6 +22,8 @@ pub struct TetRest {
     pub gamma: f32,
 }
 
+const _: () = assert!(core::mem::size_of::<TetRest>() == 52);
+
 impl Default for TetRest {
     fn default() -> Self {
         Self {
