@@ -18,6 +18,7 @@
 //! | [`drill`]     | budgeted erosion by tool sample spheres, materials per region         |
 //! | [`force`]     | tool forces, damping, clamping, displayed pose, passivity (energy)   |
 //! | [`servo`]     | the per-tick servo step that ties the above together                 |
+//! | [`soft`]      | reference soft-body physics (XPBD stable Neo-Hookean), fixed nodes, loads |
 //! | [`script`]    | scripted tool paths shared bit for bit by the host and the firmware  |
 //!
 //! Rules that hold everywhere: no heap, no `unsafe`, no panics on the servo path; every
@@ -38,6 +39,7 @@ pub mod ids;
 pub mod mesh;
 pub mod script;
 pub mod servo;
+pub mod soft;
 
 pub use glam::{Quat, Vec3};
 pub use ids::{NodeId, TetId};

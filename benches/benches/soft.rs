@@ -1,0 +1,192 @@
+//! Soft-body bench: one `SoftBody::step` (1 ms, 10 substeps, 1 iteration) on the cow
+//! (spot, about 18k tets) and the teddy (about 80k tets), with gravity and the lowest tenth of
+//! the nodes fixed, timed from a body already sagging (the state of a running scene).
+//!
+//! Run: `cargo bench -p tetradrill-benches --bench soft` (set `TETRADRILL_MESHES` if the meshes
+//! are not the repository's `tests/data/meshes`). Besides criterion's means, a plain pass prints
+//! per mesh the mean, minimum and maximum of single steps (`STEPS`) and the time per tet
+//! projection. `SOFT_PROFILE=1` (or `=cow`, `=teddy` for one mesh) skips criterion and runs
+//! 20 steps per mesh after the 20 of the set-up, for instruction counts under callgrind:
+//! `valgrind --tool=callgrind --toggle-collect='*SoftBody*step*'` counts those 40 steps.
+
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, Criterion};
+use glam::Vec3;
+use tetradrill::owned::OwnedMesh;
+use tetradrill_core::soft::{
+    mesh_tets, Material, SoftBody, SoftMesh, SoftParams, SoftStorage, TetRest,
+};
+
+fn meshes_dir() -> PathBuf {
+    match std::env::var("TETRADRILL_MESHES") {
+        Ok(d) => PathBuf::from(d),
+        Err(_) => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/meshes"),
+    }
+}
+
+fn load(rel: &str) -> OwnedMesh {
+    tetradrill::meshio::load(&meshes_dir().join(rel), 1.0)
+        .expect("mesh loads")
+        .mesh
+}
+
+const MESHES: [(&str, &str); 2] = [
+    ("cow", "models/spot_tetgen_q1.414.node"),
+    ("teddy", "models/teddy_cgalbear_tetgen_q1.414.node"),
+];
+
+/// Owned storage of one soft body.
+struct Scene {
+    rest: Vec<Vec3>,
+    tets: Vec<[u32; 4]>,
+    u: Vec<Vec3>,
+    v: Vec<Vec3>,
+    prev: Vec<Vec3>,
+    m: Vec<f32>,
+    w: Vec<f32>,
+    tr: Vec<TetRest>,
+    l: Vec<[f32; 2]>,
+}
+
+impl Scene {
+    fn new(rel: &str) -> Self {
+        let mut owned = load(rel);
+        let mesh = owned.view();
+        let rest = mesh.positions().to_vec();
+        let mut tets = vec![[0u32; 4]; mesh.tet_count()];
+        mesh_tets(&mesh, &mut tets).expect("room for the tets");
+        let (n, t) = (rest.len(), tets.len());
+        Self {
+            rest,
+            tets,
+            u: vec![Vec3::ZERO; n],
+            v: vec![Vec3::ZERO; n],
+            prev: vec![Vec3::ZERO; n],
+            m: vec![0.0; n],
+            w: vec![0.0; n],
+            tr: vec![TetRest::default(); t],
+            l: vec![[0.0; 2]; t],
+        }
+    }
+
+    fn body(&mut self) -> SoftBody<'_> {
+        let mat = Material {
+            young: 1e5,
+            poisson: 0.3,
+            density: 1000.0,
+        };
+        let params = SoftParams {
+            gravity: Vec3::new(0.0, 0.0, -9.81),
+            damping: 20.0,
+            substeps: 10,
+            iterations: 1,
+        };
+        let (lo, hi) = self
+            .rest
+            .iter()
+            .fold((f32::MAX, f32::MIN), |(a, b), x| (a.min(x.z), b.max(x.z)));
+        let mut body = SoftBody::new(
+            SoftMesh {
+                rest: &self.rest,
+                tets: &self.tets,
+                tet_material: &[],
+            },
+            &[mat],
+            params,
+            SoftStorage {
+                displacement: &mut self.u,
+                velocity: &mut self.v,
+                previous: &mut self.prev,
+                mass: &mut self.m,
+                inv_mass: &mut self.w,
+                tet_rest: &mut self.tr,
+                lambdas: &mut self.l,
+            },
+        )
+        .expect("the mesh is a valid soft body");
+        body.fix_below(Vec3::new(0.0, 0.0, lo + 0.1 * (hi - lo)), Vec3::Z);
+        // Sag a little first: the bench times a moving body, not one at rest.
+        for _ in 0..20 {
+            body.step(1e-3, &[]).expect("valid step");
+        }
+        body
+    }
+}
+
+const DT: f32 = 1e-3;
+
+fn steps_pass() {
+    for (name, rel) in MESHES {
+        let mut scene = Scene::new(rel);
+        let mut body = scene.body();
+        let runs = 100;
+        let mut times = Vec::with_capacity(runs);
+        for _ in 0..runs {
+            let t0 = Instant::now();
+            body.step(black_box(DT), &[]).expect("valid step");
+            times.push(t0.elapsed());
+        }
+        let mean = times.iter().sum::<Duration>() / runs as u32;
+        let min = times.iter().min().copied().unwrap_or_default();
+        let max = times.iter().max().copied().unwrap_or_default();
+        let p = body.params();
+        let projections = (p.substeps * p.iterations) as f64 * body.tet_count() as f64;
+        println!(
+            "STEPS soft {name}: {} nodes, {} tets, {} substeps x {} iterations: mean {:.2} ms, min {:.2} ms, max {:.2} ms per step, {:.1} ns per tet projection (min)",
+            body.node_count(),
+            body.tet_count(),
+            p.substeps,
+            p.iterations,
+            mean.as_secs_f64() * 1e3,
+            min.as_secs_f64() * 1e3,
+            max.as_secs_f64() * 1e3,
+            min.as_secs_f64() * 1e9 / projections,
+        );
+        let worst = body
+            .displacements()
+            .iter()
+            .map(|u| u.length())
+            .fold(0.0f32, f32::max);
+        assert!(worst.is_finite(), "the {name} stays finite");
+    }
+}
+
+fn bench_soft(c: &mut Criterion) {
+    for (name, rel) in MESHES {
+        let mut scene = Scene::new(rel);
+        let mut body = scene.body();
+        c.bench_function(&format!("soft_step_{name}"), |b| {
+            b.iter(|| body.step(black_box(DT), &[]).expect("valid step"))
+        });
+    }
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default()
+        .measurement_time(Duration::from_secs(3))
+        .sample_size(10);
+    targets = bench_soft
+}
+
+fn main() {
+    if let Ok(only) = std::env::var("SOFT_PROFILE") {
+        for (_, rel) in MESHES
+            .iter()
+            .filter(|(name, _)| only == "1" || only == *name)
+        {
+            let mut scene = Scene::new(rel);
+            let mut body = scene.body();
+            for _ in 0..20 {
+                body.step(black_box(DT), &[]).expect("valid step");
+            }
+        }
+        return;
+    }
+    steps_pass();
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

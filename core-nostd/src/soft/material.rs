@@ -1,0 +1,147 @@
+//! Materials: Young's modulus, Poisson ratio and density, and the XPBD compliances of the
+//! stable Neo-Hookean constraints derived from them.
+
+use core::fmt;
+
+/// An isotropic elastic material in consistent units (for example pascal, kilogram per cubic
+/// metre; or the mesh's length unit throughout).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Material {
+    /// Young's modulus `E` (force per area), finite and positive.
+    pub young: f32,
+    /// Poisson ratio `nu`, in `[0, 0.49]`.
+    pub poisson: f32,
+    /// Density (mass per volume), finite and positive.
+    pub density: f32,
+}
+
+/// Why a [`Material`] is refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MaterialError {
+    /// Young's modulus is not finite and positive.
+    Young,
+    /// The Poisson ratio is outside `[0, 0.49]` (or not finite).
+    Poisson,
+    /// The density is not finite and positive.
+    Density,
+}
+
+impl fmt::Display for MaterialError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Young => "Young's modulus must be finite and positive",
+            Self::Poisson => "Poisson ratio must be in [0, 0.49]",
+            Self::Density => "density must be finite and positive",
+        })
+    }
+}
+
+/// Largest Poisson ratio accepted: nearer 0.5 the hydrostatic compliance goes to zero and a
+/// fixed number of iterations no longer reaches the incompressible limit.
+pub const MAX_POISSON: f32 = 0.49;
+
+/// The per-volume constants the solver uses for one material.
+///
+/// The stable Neo-Hookean energy density (Macklin and Mueller 2021, after Smith, de Goes and
+/// Kim 2018) is `psi = mu/2 tr(F^T F) + lam/2 (det F - gamma)^2` with `gamma = 1 + mu/lam`.
+/// Linearised at `F = I` it is linear elasticity with Lamé constants `(mu, lam - mu)`, so
+/// `lam` here is the Lamé `lambda` plus `mu`: that choice makes small strains match
+/// Hooke's law for the given `E` and `nu` (docs/SOFT.md has the derivation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lame {
+    /// Shear modulus `mu = E / (2 (1 + nu))`.
+    pub mu: f32,
+    /// The hydrostatic stiffness `lambda + mu`, with Lamé `lambda = E nu / ((1 + nu)(1 - 2 nu))`.
+    pub hydro: f32,
+    /// Rest value of `det F` in the hydrostatic constraint: `1 + mu / hydro`.
+    pub gamma: f32,
+}
+
+impl Material {
+    /// Checks the material's ranges.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn check(&self) -> Result<(), MaterialError> {
+        if !(self.young.is_finite() && self.young > 0.0) {
+            return Err(MaterialError::Young);
+        }
+        if !(self.poisson >= 0.0 && self.poisson <= MAX_POISSON) {
+            return Err(MaterialError::Poisson);
+        }
+        if !(self.density.is_finite() && self.density > 0.0) {
+            return Err(MaterialError::Density);
+        }
+        Ok(())
+    }
+
+    /// The solver's constants ([`Lame`]) for this material, computed in f64.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn lame(&self) -> Lame {
+        let e = self.young as f64;
+        let nu = self.poisson as f64;
+        let mu = e / (2.0 * (1.0 + nu));
+        let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+        let hydro = lambda + mu;
+        Lame {
+            mu: mu as f32,
+            hydro: hydro as f32,
+            gamma: (1.0 + mu / hydro) as f32,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lame_constants_match_textbook_values() {
+        // E = 1, nu = 0.25: mu = 0.4, lambda = 0.4, hydro = 0.8, gamma = 1.5.
+        let l = Material {
+            young: 1.0,
+            poisson: 0.25,
+            density: 1.0,
+        }
+        .lame();
+        assert!((l.mu - 0.4).abs() < 1e-7);
+        assert!((l.hydro - 0.8).abs() < 1e-7);
+        assert!((l.gamma - 1.5).abs() < 1e-7);
+    }
+
+    #[test]
+    fn bad_materials_are_refused() {
+        let ok = Material {
+            young: 1e5,
+            poisson: 0.3,
+            density: 1000.0,
+        };
+        assert_eq!(ok.check(), Ok(()));
+        let bad = |m: Material, e| assert_eq!(m.check(), Err(e));
+        bad(Material { young: 0.0, ..ok }, MaterialError::Young);
+        bad(
+            Material {
+                young: f32::NAN,
+                ..ok
+            },
+            MaterialError::Young,
+        );
+        bad(Material { poisson: 0.5, ..ok }, MaterialError::Poisson);
+        bad(
+            Material {
+                poisson: -0.1,
+                ..ok
+            },
+            MaterialError::Poisson,
+        );
+        bad(
+            Material {
+                density: f32::INFINITY,
+                ..ok
+            },
+            MaterialError::Density,
+        );
+    }
+}
