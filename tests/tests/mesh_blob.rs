@@ -8,7 +8,7 @@
 use tetradrill::meshio::{self, LoadedMesh};
 use tetradrill_core::blob::{self, BlobError, MeshBlob, HEADER_LEN, VERSION};
 use tetradrill_core::{NodeId, TetId};
-use tetradrill_tests::meshes_dir;
+use tetradrill_tests::{meshes_dir, refused, scratch_dir, tetradrill_bin};
 
 fn cow() -> LoadedMesh {
     let path = meshes_dir().join("models/spot_tetgen_q1.414.node");
@@ -239,4 +239,54 @@ fn write_refuses_wrong_lengths() {
         Err(BlobError::Buffer)
     );
     assert_eq!(blob::blob_len(usize::MAX, 1), None);
+}
+
+/// `tetradrill export --firmware OUT --mesh FILE` writes the blob of the mesh every command
+/// builds: the file parses and holds the cow's counts and records.
+#[test]
+fn export_command_writes_the_built_mesh() {
+    let dir = scratch_dir("blob", "export");
+    let out = dir.join("cow.tdb");
+    let cow_path = meshes_dir().join("models/spot_tetgen_q1.414.node");
+    let status = std::process::Command::new(tetradrill_bin())
+        .args(["export", "--quiet", "--firmware"])
+        .arg(&out)
+        .arg("--mesh")
+        .arg(&cow_path)
+        .status()
+        .expect("run tetradrill");
+    assert!(status.success());
+    let bytes = std::fs::read(&out).expect("the blob");
+    let view = MeshBlob::parse(&bytes).expect("parses");
+    let mut m = cow();
+    let mesh = m.mesh.view();
+    assert_eq!(
+        (view.node_count(), view.tet_count()),
+        (mesh.node_count(), mesh.tet_count())
+    );
+    for i in (0..mesh.tet_count()).step_by(101) {
+        let t = TetId(i as u32);
+        assert_eq!(view.tet(t).as_ref(), Some(mesh.tet(t)), "tet {i}");
+    }
+    let bad_dir = dir.join("missing").join("x.tdb");
+    refused(
+        &[
+            "export",
+            "--firmware",
+            bad_dir.to_str().unwrap(),
+            "--mesh",
+            "builtin:block:2",
+        ],
+        &["x.tdb", "cannot write"],
+    );
+    refused(
+        &[
+            "export",
+            "--firmware",
+            out.to_str().unwrap(),
+            "--mesh",
+            "/nonexistent/cow.node",
+        ],
+        &["/nonexistent/cow.node"],
+    );
 }
