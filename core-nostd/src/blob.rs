@@ -16,7 +16,8 @@
 //! | 20                | 4      | FNV-1a 32 of the payload                                    |
 //! | 24                | 12 N   | positions, 3 x f32 per node                                 |
 //! | 24 + 12 N         | 12 N   | boundary normals, 3 x f32 per node (zero inside)            |
-//! | 24 + 24 N         | 8 N    | node records: tet u32, local u8, boundary u8, 2 zero bytes  |
+//! | 24 + 24 N         | 8 N    | node records: tet u32 (`u32::MAX`: no tet), local u8,       |
+//! |                   |        | boundary u8, 2 zero bytes                                   |
 //! | 24 + 32 N         | 36 T   | tets: 4 node ids, 4 neighbour ids (`u32::MAX`: boundary),   |
 //! |                   |        | 4 reverse-index bytes                                       |
 //! | 24 + 32 N + 36 T  | 4 T    | region labels, i32 per tet                                  |
@@ -305,7 +306,8 @@ impl<'a> MeshBlob<'a> {
         let bad = |what, offset| Err(BlobError::BadRecord { what, offset });
         for i in 0..self.nodes {
             let at = self.node_at(i);
-            if le32(self.bytes, at) as usize >= self.tets {
+            let tet = le32(self.bytes, at);
+            if tet != TetId::NONE.0 && tet as usize >= self.tets {
                 return bad("node record: tet id out of range", at);
             }
             if self.bytes[at + 4] > 3 {

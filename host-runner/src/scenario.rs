@@ -281,7 +281,7 @@ pub const DEFAULT_TICK_BUDGET: u32 = 16_500;
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct ScenarioFlags {
     /// A scenario file (TOML, keys as these flags with `_` for `-`) or `builtin:demo`,
-    /// `builtin:firmware`.
+    /// `builtin:firmware`, `builtin:firmware-cow`.
     #[arg(long)]
     pub scenario: Option<String>,
     /// Mesh file or `builtin:cube12`, `builtin:block:N`.
@@ -419,8 +419,35 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             servo_lag: 1,
             ..Scenario::default()
         }),
+        // The firmware scenario on the shared cow (18,098 tets; `scripts/port-check.sh
+        // --scenario cow`): the same path and settings, sized for the firmware's 4 MB of RAM
+        // (ports/mps2-an386/src/scenario.rs holds the same numbers).
+        "firmware-cow" => Some(Scenario {
+            mesh: firmware_cow_mesh(),
+            hierarchy_capacity: Some(40_000),
+            pending_capacity: Some(8_192),
+            candidate_capacity: Some(4_096),
+            ..builtin("firmware")?
+        }),
         _ => None,
     }
+}
+
+/// The cow of `builtin:firmware-cow`: `models/spot_tetgen_q1.414.node` in the folder
+/// `TETRADRILL_MESHES` names when it has one, else in the project's test data.
+fn firmware_cow_mesh() -> String {
+    const COW: &str = "models/spot_tetgen_q1.414.node";
+    if let Some(dir) = std::env::var_os("TETRADRILL_MESHES") {
+        let p = Path::new(&dir).join(COW);
+        if p.is_file() {
+            return p.to_string_lossy().into_owned();
+        }
+    }
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/data/meshes")
+        .join(COW)
+        .to_string_lossy()
+        .into_owned()
 }
 
 impl Scenario {
@@ -430,7 +457,7 @@ impl Scenario {
         if let Some(name) = spec.strip_prefix("builtin:") {
             return builtin(name).ok_or_else(|| {
                 CliError::input(format!(
-                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware)"
+                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow)"
                 ))
             });
         }

@@ -33,18 +33,20 @@ mod target;
 use cortex_m_rt::{exception, ExceptionFrame};
 use cortex_m_semihosting::{debug, hprintln};
 
+use tetradrill_core::blob::MeshBlob;
 use tetradrill_core::builtin;
 use tetradrill_core::force::closest_point_on_triangle;
-use tetradrill_core::mesh::{BuildOptions, FaceKey, Mesh, MeshStorage};
+use tetradrill_core::mesh::{BuildOptions, BuildStats, FaceKey, Mesh, MeshStorage};
 use tetradrill_core::servo::World;
-use tetradrill_core::Vec3;
+use tetradrill_core::{NodeId, TetId, Vec3};
 
 use storage::{Storage, NODES, TETS};
 
 /// Cubes per side of the built-in block (`builtin:block:4`).
 pub const BLOCK_N: usize = 4;
-/// Hierarchy arena nodes (`hierarchy_capacity` of `builtin:firmware`).
-pub const ARENA: usize = 20_000;
+/// The mesh blob `tetradrill export --firmware` wrote, included at build time and read in
+/// place from flash (empty for the block; see `build.rs`).
+static MESH_BLOB: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/mesh.tdb"));
 
 #[rtic::app(device = crate::board, peripherals = false)]
 mod app {
@@ -73,7 +75,7 @@ mod app {
         let world = crate::build_world();
         let (release_tx, release_rx) = cx.local.releases.split();
         let (done_tx, done_rx) = cx.local.dones.split();
-        let scenario = &crate::scenario::BLOCK;
+        let scenario = &crate::scenario::DEMO_PATH;
         let ticks = scenario.ticks();
         crate::clock::start_servo_timer(&mut core.SYST);
         let a = crate::clock::now();
@@ -113,27 +115,47 @@ mod app {
     }
 }
 
-/// Builds the block, its mesh and the world over the static storage.
+/// Builds the mesh (the block, or the blob's) and the world over the static storage.
 fn build_world() -> World<'static> {
     let st = Storage::take();
-    // The unit block, exactly as the host's `builtin:block:N` makes it.
-    let edge = 1.0 / BLOCK_N as f32;
-    let mut tet_nodes = [[0u32; 4]; TETS];
-    if builtin::block(
-        BLOCK_N,
-        edge,
-        Vec3::splat(-0.5),
-        st.positions,
-        &mut tet_nodes,
-    )
-    .is_none()
-    {
-        fail("block storage too small");
+    if cfg!(scenario_cow) {
+        let mesh = mesh_from_blob(st.positions, st.mesh);
+        let mut world =
+            World::new(mesh, st.world).unwrap_or_else(|_| fail("world storage refused"));
+        world.set_contact_max_nodes(scenario::contact_nodes());
+        return world;
     }
-    let mesh = build_mesh(st.positions, &tet_nodes, st.mesh);
+    let mesh = block_mesh(st.positions, st.mesh);
     let mut world = World::new(mesh, st.world).unwrap_or_else(|_| fail("world storage refused"));
     world.set_contact_max_nodes(scenario::contact_nodes());
     world
+}
+
+/// The mesh of the included blob: checked ([`MeshBlob::parse`]: version, checksum, ids in
+/// range), then its records decoded into the core's mesh storage.
+fn mesh_from_blob(positions: &'static mut [Vec3], storage: MeshStorage<'static>) -> Mesh<'static> {
+    let blob = MeshBlob::parse(MESH_BLOB).unwrap_or_else(|e| {
+        hprintln!("error: mesh blob: {}", e);
+        exit_failure()
+    });
+    if blob.node_count() != positions.len() || blob.tet_count() != storage.tets.len() {
+        fail("mesh blob counts differ from the storage");
+    }
+    let mut stats = BuildStats::default();
+    for (i, p) in positions.iter_mut().enumerate() {
+        let n = NodeId(i as u32);
+        *p = blob.position(n).unwrap_or(Vec3::ZERO);
+        storage.normals[i] = blob.normal(n).unwrap_or(Vec3::ZERO);
+        let rec = blob.node(n).unwrap_or_default();
+        stats.boundary_nodes += rec.boundary as u32;
+        storage.nodes[i] = rec;
+    }
+    for (i, t) in storage.tets.iter_mut().enumerate() {
+        *t = blob.tet(TetId(i as u32)).unwrap_or_default();
+        stats.boundary_faces += t.neighbours.iter().filter(|n| **n == TetId::NONE).count() as u32;
+    }
+    let tets = storage.tets.len();
+    Mesh::from_parts(positions, storage, tets, stats)
 }
 
 /// Instructions for a few primitives the core leans on (a diagnostic for docs/PORTING.md):
@@ -157,6 +179,18 @@ fn unit_costs(overhead: u64) -> [u64; 3] {
     black_box(black_box(a) * b + c);
     let t3 = clock::read();
     [t1 - t0, t2 - t1, t3 - t2].map(|d| clock::instructions(d as u64).saturating_sub(overhead))
+}
+
+/// The unit block, exactly as the host's `builtin:block:N` makes it (its tet list on this
+/// function's stack).
+#[inline(never)]
+fn block_mesh(positions: &'static mut [Vec3], storage: MeshStorage<'static>) -> Mesh<'static> {
+    let edge = 1.0 / BLOCK_N as f32;
+    let mut tet_nodes = [[0u32; 4]; TETS];
+    if builtin::block(BLOCK_N, edge, Vec3::splat(-0.5), positions, &mut tet_nodes).is_none() {
+        fail("block storage too small");
+    }
+    build_mesh(positions, &tet_nodes, storage)
 }
 
 /// Builds the core mesh over the static storage. The face scratch (`4 * TETS` keys, 24 KB) is

@@ -28,6 +28,22 @@ pub const BUDGET: u32 = 300;
 /// Hierarchy nodes one contact search may test (`contact_search_nodes`).
 pub const CONTACT_NODES: u32 = 64;
 
+/// Hierarchy arena nodes (`hierarchy_capacity`): 20,000 on the block, 40,000 on the cow.
+pub const ARENA: usize = if cfg!(scenario_cow) { 40_000 } else { 20_000 };
+/// Entries of the drill's pending deque (`pending_capacity`, 60 bytes each): 16,384 on the
+/// block (its peak is under 9,400), 8,192 on the cow (it fills there; the host's
+/// `builtin:firmware-cow` drops the same work).
+pub const PENDING_ITEMS: usize = if cfg!(scenario_cow) { 8_192 } else { 16_384 };
+/// Coarse tets one step takes near the tool (`candidate_capacity`): the core's default 1,024
+/// on the block, 4,096 on the cow's finer tets.
+pub const CANDIDATES: usize = if cfg!(scenario_cow) { 4_096 } else { 1_024 };
+/// The scenario's name in the output.
+pub const NAME: &str = if cfg!(scenario_cow) {
+    "builtin:firmware-cow"
+} else {
+    "builtin:firmware"
+};
+
 /// Scripted ticks to run: the whole path, or fewer when set at build time with
 /// `TETRADRILL_TICKS=N` (the host then runs `replay --ticks N`).
 const TICKS: Option<&str> = option_env!("TETRADRILL_TICKS");
@@ -76,8 +92,9 @@ pub struct Scenario {
     pub script: Script<'static>,
 }
 
-/// `builtin:firmware`: the demo's path over the unit block.
-pub static BLOCK: Scenario = Scenario { script: DEMO };
+/// `builtin:firmware` and `builtin:firmware-cow`: the demo's path (over the unit block; on
+/// the cow it drills the back).
+pub static DEMO_PATH: Scenario = Scenario { script: DEMO };
 
 impl Scenario {
     /// The pose and the drill button at tick `i`.

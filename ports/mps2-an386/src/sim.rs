@@ -178,7 +178,8 @@ impl Sim {
             crate::target::PERIOD_INSTRUCTIONS
         );
         hprintln!(
-            "settings: budget {} contact_nodes {} servo_lag {}",
+            "settings: scenario {} budget {} contact_nodes {} servo_lag {}",
+            scenario::NAME,
             scenario::budget(),
             scenario::contact_nodes(),
             crate::servo::LAG
