@@ -77,3 +77,21 @@ fn servo_lag_above_one_is_refused() {
     let err = sc.check().expect_err("servo_lag 2");
     assert!(err.contains("servo_lag"), "{err}");
 }
+
+/// `builtin:firmware-cow` finds the shared cow (in `TETRADRILL_MESHES` or the project's test
+/// data) and keeps the firmware's release rule and sizes.
+#[test]
+fn firmware_cow_scenario_names_the_cow() {
+    let sc = scenario::builtin("firmware-cow").expect("builtin:firmware-cow");
+    assert!(std::path::Path::new(&sc.mesh).is_file(), "{}", sc.mesh);
+    assert!(sc.mesh.ends_with("spot_tetgen_q1.414.node"), "{}", sc.mesh);
+    assert_eq!(sc.servo_lag, 1);
+    assert_eq!(
+        (
+            sc.hierarchy_capacity,
+            sc.pending_capacity,
+            sc.candidate_capacity
+        ),
+        (Some(40_000), Some(8_192), Some(4_096))
+    );
+}
