@@ -1,7 +1,7 @@
 //! tetradrill-core, unchanged, on a Cortex-M4F or a Cortex-M7 as an RTIC 2 application: a
 //! 1 kHz servo task at the highest priority and the simulation task below it, preempted by
 //! it, with lock-free hand-offs between them. It plays the host's `builtin:firmware` scenario
-//! and prints the force digest the host's `replay` prints, the servo's latency and the
+//! (or `builtin:firmware-cow`, the mesh from a blob in flash) and prints the force digest the host's `replay` prints, the servo's latency and the
 //! simulation's steps in instructions, and the deadline misses.
 //!
 //! Runs on QEMU's `mps2-an386` machine (`mps2-an500` with the `m7` feature; see
