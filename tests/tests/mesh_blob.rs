@@ -78,11 +78,12 @@ fn round_trip_of_the_cow_every_field() {
         assert_eq!(view.node(n), Some(mesh.node(n)), "node {i}");
     }
     let mut boundary_faces = 0;
-    for i in 0..mesh.tet_count() {
+    assert_eq!(labels.len(), mesh.tet_count());
+    for (i, &label) in labels.iter().enumerate() {
         let t = TetId(i as u32);
         let rec = view.tet(t).unwrap();
         assert_eq!(&rec, mesh.tet(t), "tet {i}");
-        assert_eq!(view.label(t), Some(labels[i]), "label {i}");
+        assert_eq!(view.label(t), Some(label), "label {i}");
         boundary_faces += rec.neighbours.iter().filter(|n| **n == TetId::NONE).count();
     }
     assert_eq!(boundary_faces, mesh.stats().boundary_faces as usize);
