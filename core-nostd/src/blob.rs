@@ -1,5 +1,5 @@
 //! The mesh blob: a built mesh as one versioned, checksummed byte string a firmware includes
-//! at build time (`include_bytes!`) and reads in place. [`write`] lays it out from a built
+//! at build time (`include_bytes!`) and reads in place. [`write()`] lays it out from a built
 //! [`Mesh`] into a caller buffer; [`MeshBlob::parse`] checks one and gives a zero-copy view
 //! whose accessors decode fixed-width little-endian fields (no `unsafe`, no alignment needed).
 //!
@@ -87,7 +87,7 @@ pub enum BlobError {
         /// Byte offset of the field in the blob.
         offset: usize,
     },
-    /// The output buffer of [`write`] is too small, or the labels do not match the tets.
+    /// The output buffer of [`write()`] is too small, or the labels do not match the tets.
     Buffer,
 }
 
@@ -198,7 +198,7 @@ pub fn write(mesh: &Mesh<'_>, labels: &[i32], out: &mut [u8]) -> Result<usize, B
     Ok(len)
 }
 
-/// A forward writer over a buffer [`write`] has sized.
+/// A forward writer over a buffer [`write()`] has sized.
 struct Cursor<'a> {
     out: &'a mut [u8],
     at: usize,
