@@ -10,6 +10,7 @@
 //! | [`ids`]       | `u32` newtype ids with one `NONE` value                               |
 //! | [`geom`]      | small exact-enough geometry kernels (volumes, barycentric coordinates)|
 //! | [`mesh`]      | compact tetrahedral mesh: templates, reverse indices, traversals     |
+//! | [`blob`]      | a built mesh as a checksummed byte blob, read in place (flash)        |
 //! | [`builtin`]   | the paper's 12-tet cube and generated blocks, written into caller slices |
 //! | [`hash`]      | Teschner's spatial hash, counting-sort layout, caller storage        |
 //! | [`collide`]   | vertices and sample points inside tets                               |
@@ -27,6 +28,7 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod blob;
 pub mod builtin;
 pub mod collide;
 pub mod depth;

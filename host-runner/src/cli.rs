@@ -28,6 +28,8 @@ pub enum Command {
     Timing(crate::commands::timing::TimingArgs),
     /// List the haptic devices found.
     Devices(crate::commands::devices::DevicesArgs),
+    /// Write a built mesh as the blob a firmware includes and reads in place.
+    Export(crate::commands::export::ExportArgs),
 }
 
 /// Parses the arguments, runs the command, prints errors as one line; returns the exit status.
@@ -62,5 +64,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Info(args) => crate::commands::info::run(&args),
         Command::Replay(args) => crate::commands::replay::run(&args),
         Command::Timing(args) => crate::commands::timing::run(&args),
+        Command::Export(args) => crate::commands::export::run(&args),
     }
 }

@@ -489,6 +489,9 @@ pub struct TickParams {
     pub drill: DrillParams,
     /// Force parameters.
     pub force: ForceParams,
+    /// Servo ticks between a simulation step and the force that uses its contact: 0 or 1
+    /// (`Scenario::servo_lag`).
+    pub servo_lag: u32,
 }
 
 impl TickParams {
@@ -545,14 +548,18 @@ impl TickParams {
                 dt: PERIOD_S as f32,
                 switch_time: (sc.switch_ms / 1000.0) as f32,
             },
+            servo_lag: sc.servo_lag,
         })
     }
 }
 
-/// One whole tick in one thread: the simulation step at `pose`, then the servo force at the
-/// same pose. Replays, `timing` and the firmware run exactly this. The force's magnitude is
-/// what presses the burr into the material at the next tick's step
-/// ([`World::set_pressing`]: the regions' erosion uses the previous tick's force).
+/// One whole tick in one thread. With `servo_lag` 0: the simulation step at `pose`, then
+/// the servo force at the same pose. With `servo_lag` 1 (the RTIC firmware's release rule):
+/// the servo force at `pose` from the contact of the previous tick's step, then the step at
+/// `pose`, whose contact the next tick uses. Replays, `timing` and the firmware run exactly
+/// this. The force's magnitude presses the burr into the material at the next step
+/// ([`World::set_pressing`]; with `servo_lag` 0 the step after this tick's, with 1 this tick's
+/// own step, which follows the force).
 pub fn tick(
     world: &mut World<'_>,
     tool: &mut ToolState,
@@ -560,11 +567,18 @@ pub fn tick(
     pose: &Pose,
 ) -> (Vec3, SimReport) {
     let drill_on = pose.buttons & tetradrill_core::script::DRILL_ON != 0;
-    let rep = world.simulate(pose.position, p.radius, p.reach, drill_on, &p.drill);
-    let f = servo_force(world.contact(), pose.position, p.radius, tool, &p.force);
-    // What presses the burr against the material in the next step: this tick's force.
-    world.set_pressing(f.length(), PERIOD_S as f32);
-    (f, rep)
+    if p.servo_lag == 0 {
+        let rep = world.simulate(pose.position, p.radius, p.reach, drill_on, &p.drill);
+        let f = servo_force(world.contact(), pose.position, p.radius, tool, &p.force);
+        // What presses the burr against the material in the next step: this tick's force.
+        world.set_pressing(f.length(), PERIOD_S as f32);
+        (f, rep)
+    } else {
+        let f = servo_force(world.contact(), pose.position, p.radius, tool, &p.force);
+        world.set_pressing(f.length(), PERIOD_S as f32);
+        let rep = world.simulate(pose.position, p.radius, p.reach, drill_on, &p.drill);
+        (f, rep)
+    }
 }
 
 /// What a drill tool carries from tick to tick besides the burr's [`ToolState`]: its passive

@@ -120,6 +120,12 @@ pub struct Scenario {
     /// Hierarchy nodes one contact search may test (then the closest face met, or the last
     /// step's, answers).
     pub contact_search_nodes: u32,
+    /// When a sphere tool's servo uses a simulation step's contact: 0, the step and the force
+    /// in the same tick (step first); 1, the RTIC firmware's release rule: the servo computes
+    /// tick `i`'s force from the contact of the step released at tick `i - 1`, then releases
+    /// the step of tick `i` (docs/PORTING.md, "The release rule").
+    #[serde(skip_serializing_if = "is_zero")]
+    pub servo_lag: u32,
     /// Collisions each body of a tet-mesh tool contact may hold per tick, pen nodes in the
     /// object and object nodes in the pen (absent: each body's node count).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -314,6 +320,7 @@ impl Default for Scenario {
             vlist_capacity: None,
             pending_capacity: None,
             contact_search_nodes: tetradrill_core::servo::CONTACT_MAX_NODES,
+            servo_lag: 0,
             contact_capacity: None,
             queue_capacity: None,
         }
@@ -337,7 +344,7 @@ pub const DEFAULT_TICK_BUDGET: u32 = 16_500;
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct ScenarioFlags {
     /// A scenario file (TOML, keys as these flags with `_` for `-`) or `builtin:demo`,
-    /// `builtin:firmware`.
+    /// `builtin:firmware`, `builtin:firmware-cow`.
     #[arg(long)]
     pub scenario: Option<String>,
     /// Mesh file or `builtin:cube12`, `builtin:block:N`.
@@ -424,12 +431,21 @@ pub struct ScenarioFlags {
     /// Hierarchy nodes one contact search may test.
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
     pub contact_search_nodes: Option<u32>,
+    /// Sphere tool: 0, each tick's force from its own simulation step; 1, from the step
+    /// released the tick before (the RTIC firmware's release rule).
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(0..=1))]
+    pub servo_lag: Option<u32>,
     /// Collisions per body per tick of a mesh tool (default: the body's node count).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
     pub contact_capacity: Option<usize>,
     /// Depth propagation queue entries per body of a mesh tool (default: its node count).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
     pub queue_capacity: Option<usize>,
+}
+
+/// `serde`'s `skip_serializing_if` for a key whose default is 0.
+fn is_zero(v: &u32) -> bool {
+    *v == 0
 }
 
 fn positive(s: &str) -> Result<f64, String> {
@@ -496,10 +512,38 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             contact_search_nodes: 64,
             pending_capacity: Some(16_384),
             tick_budget: 0,
+            servo_lag: 1,
             ..Scenario::default()
+        }),
+        // The firmware scenario on the shared cow (18,098 tets; `scripts/port-check.sh
+        // --scenario cow`): the same path and settings, sized for the firmware's 4 MB of RAM
+        // (ports/mps2-an386/src/scenario.rs holds the same numbers).
+        "firmware-cow" => Some(Scenario {
+            mesh: firmware_cow_mesh(),
+            hierarchy_capacity: Some(40_000),
+            pending_capacity: Some(8_192),
+            candidate_capacity: Some(4_096),
+            ..builtin("firmware")?
         }),
         _ => None,
     }
+}
+
+/// The cow of `builtin:firmware-cow`: `models/spot_tetgen_q1.414.node` in the folder
+/// `TETRADRILL_MESHES` names when it has one, else in the project's test data.
+fn firmware_cow_mesh() -> String {
+    const COW: &str = "models/spot_tetgen_q1.414.node";
+    if let Some(dir) = std::env::var_os("TETRADRILL_MESHES") {
+        let p = Path::new(&dir).join(COW);
+        if p.is_file() {
+            return p.to_string_lossy().into_owned();
+        }
+    }
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/data/meshes")
+        .join(COW)
+        .to_string_lossy()
+        .into_owned()
 }
 
 impl Scenario {
@@ -509,7 +553,7 @@ impl Scenario {
         if let Some(name) = spec.strip_prefix("builtin:") {
             return builtin(name).ok_or_else(|| {
                 CliError::input(format!(
-                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware)"
+                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow)"
                 ))
             });
         }
@@ -548,7 +592,7 @@ impl Scenario {
             budget_per_tick,
             tick_budget
         );
-        take!(contact_search_nodes);
+        take!(contact_search_nodes, servo_lag);
         macro_rules! take_some {
             ($($field:ident),*) => { $( if let Some(v) = f.$field { s.$field = Some(v); } )* };
         }
@@ -656,6 +700,12 @@ impl Scenario {
                     "contact_period must be 1..=1000, got {}",
                     self.contact_period
                 ),
+            ));
+        }
+        if self.servo_lag > 1 {
+            return Err((
+                "servo_lag",
+                format!("servo_lag must be 0 or 1, got {}", self.servo_lag),
             ));
         }
         if self.budget_per_tick == 0 {

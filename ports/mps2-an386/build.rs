@@ -1,4 +1,9 @@
-//! Puts `memory.x` where the linker finds it (cortex-m-rt's `link.x` includes it).
+//! Puts `memory.x` where the linker finds it (cortex-m-rt's `link.x` includes it), with the
+//! target's PSRAM address written in, and picks
+//! the scenario: `TETRADRILL_SCENARIO=cow` with `TETRADRILL_BLOB=FILE` (a blob written by
+//! `tetradrill export --firmware`) copies the blob to `OUT_DIR/mesh.tdb` for `include_bytes!`
+//! and writes its counts to `OUT_DIR/mesh_counts.rs` so the statics are sized at build time;
+//! otherwise the firmware builds the built-in block and the blob is empty.
 
 use std::env;
 use std::fs;
@@ -6,8 +11,44 @@ use std::path::PathBuf;
 
 fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
-    fs::write(out.join("memory.x"), include_bytes!("memory.x")).expect("cannot write memory.x");
+    let psram = if env::var_os("CARGO_FEATURE_M7").is_some() {
+        "0x60000000"
+    } else {
+        "0x21000000"
+    };
+    let memory = include_str!("memory.x.in").replace("PSRAM_ORIGIN", psram);
+    fs::write(out.join("memory.x"), memory).expect("cannot write memory.x");
     println!("cargo:rustc-link-search={}", out.display());
-    println!("cargo:rerun-if-changed=memory.x");
+    println!("cargo:rerun-if-changed=memory.x.in");
     println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo:rerun-if-env-changed=TETRADRILL_SCENARIO");
+    println!("cargo:rerun-if-env-changed=TETRADRILL_BLOB");
+    println!("cargo::rustc-check-cfg=cfg(scenario_cow)");
+    let cow = env::var("TETRADRILL_SCENARIO").is_ok_and(|s| s == "cow");
+    let (blob, nodes, tets) = if cow {
+        let path = env::var("TETRADRILL_BLOB").expect(
+            "TETRADRILL_SCENARIO=cow needs TETRADRILL_BLOB=FILE (tetradrill export --firmware)",
+        );
+        println!("cargo:rerun-if-changed={path}");
+        let blob = fs::read(&path).unwrap_or_else(|e| panic!("{path}: cannot read: {e}"));
+        assert!(
+            blob.len() >= 24 && &blob[0..4] == b"TDMB",
+            "{path}: not a tetradrill mesh blob"
+        );
+        let word = |at: usize| u32::from_le_bytes(blob[at..at + 4].try_into().unwrap());
+        println!("cargo:rustc-cfg=scenario_cow");
+        let (n, t) = (word(8), word(12));
+        (blob, n, t)
+    } else {
+        (Vec::new(), 0, 0)
+    };
+    fs::write(out.join("mesh.tdb"), &blob).expect("cannot write mesh.tdb");
+    fs::write(
+        out.join("mesh_counts.rs"),
+        format!(
+            "/// Nodes of the included blob.\npub const BLOB_NODES: usize = {nodes};\n\
+             /// Tets of the included blob.\npub const BLOB_TETS: usize = {tets};\n"
+        ),
+    )
+    .expect("cannot write mesh_counts.rs");
 }

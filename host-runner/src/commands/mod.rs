@@ -2,6 +2,7 @@
 
 pub mod demo;
 pub mod devices;
+pub mod export;
 pub mod info;
 pub mod pipeline;
 pub mod replay;

@@ -1,100 +1,139 @@
-//! SysTick as an instruction counter.
+//! SysTick as the servo's 1 kHz timer and as an instruction counter.
 //!
 //! Under QEMU with `-icount shift=S` every instruction takes `2^S` ns of virtual time, and the
-//! mps2-an386 SysTick runs from the 25 MHz processor clock (40 ns a count) when CLKSOURCE
-//! selects it, so `instructions = counts * 40 / 2^S`. The 24-bit counter wraps every 2^24
-//! counts (about 655,000 instructions at S = 10); the SysTick exception counts the wraps, so
-//! [`Clock::now`] is a 64-bit count that never wraps in practice. The DWT cycle counter reads
-//! 0 under QEMU and is not used.
+//! MPS2 SysTick runs from the 25 MHz processor clock (40 ns a count) when CLKSOURCE selects it,
+//! so `instructions = counts * 40 / 2^S`. The firmware gives the servo period in instructions
+//! ([`crate::target::PERIOD_INSTRUCTIONS`], 1 ms at the target's clock, one instruction a
+//! cycle) and sets the SysTick reload to that many counts: the SysTick exception is the servo's
+//! timer event, and `reload - current` is the time since the event, exact to the instruction.
+//! [`now`] extends it with the number of events the servo has counted ([`EVENTS`]). The DWT
+//! cycle counter reads 0 under QEMU and is not used.
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::{SCB, SYST};
 
+use crate::target::PERIOD_INSTRUCTIONS;
+
 /// The `-icount shift` the runner uses.
 pub const ICOUNT_SHIFT: u32 = 10;
-/// SysTick counts per 2^ICOUNT_SHIFT instructions: 40 ns per count at 25 MHz.
+/// Nanoseconds per SysTick count at 25 MHz.
 const NS_PER_COUNT: u64 = 40;
-/// The reload value: the full 24 bits.
-const RELOAD: u32 = 0x00FF_FFFF;
+/// SysTick counts in one servo period: `PERIOD_INSTRUCTIONS * 2^S / 40`.
+pub const PERIOD_COUNTS: u32 = {
+    let c = (PERIOD_INSTRUCTIONS as u64) << ICOUNT_SHIFT;
+    assert!(
+        c.is_multiple_of(NS_PER_COUNT),
+        "the period must be a whole number of counts"
+    );
+    let c = c / NS_PER_COUNT;
+    assert!(c <= 0x0100_0000, "the period must fit the 24-bit SysTick");
+    c as u32
+};
+/// The SysTick reload value for one period.
+pub const RELOAD: u32 = PERIOD_COUNTS - 1;
+/// The full 24-bit reload used while calibrating.
+const FULL: u32 = 0x00FF_FFFF;
 
-/// SysTick wraps since [`Clock::start`], counted by the SysTick exception.
-static WRAPS: AtomicU32 = AtomicU32::new(0);
-
-/// Called by the SysTick exception handler.
-pub fn wrapped() {
-    WRAPS.fetch_add(1, Ordering::Relaxed);
-}
+/// Timer events the servo has taken (incremented first thing in its handler).
+pub static EVENTS: AtomicU32 = AtomicU32::new(0);
 
 /// Instructions in `counts` SysTick counts.
 pub fn instructions(counts: u64) -> u64 {
     (counts * NS_PER_COUNT) >> ICOUNT_SHIFT
 }
 
-/// The running SysTick.
-pub struct Clock {
-    _syst: SYST,
+/// SysTick counts since the current period's timer event (the event itself counts 1).
+#[inline(always)]
+pub fn since_event() -> u32 {
+    RELOAD - SYST::get_current() + 1
 }
 
-/// What [`Clock::calibrate`] found.
+/// Instructions since the current period's timer event.
+#[inline(always)]
+pub fn instructions_since_event() -> u32 {
+    instructions(since_event() as u64) as u32
+}
+
+/// SysTick counts since the servo timer started: events counted by the servo times the
+/// period, plus the time into the current period. Read from below the servo's priority: an
+/// event taken between the reads is seen by the event count changing and the reads redone; an
+/// event not yet taken (the exception pending for the instruction or two before it preempts
+/// the reader) is added here.
+#[inline(never)]
+pub fn now() -> u64 {
+    loop {
+        let a = EVENTS.load(Ordering::Acquire);
+        let v = SYST::get_current();
+        let pending = SCB::is_pendst_pending();
+        let b = EVENTS.load(Ordering::Acquire);
+        if a == b {
+            let mut events = a as u64;
+            if pending && v > RELOAD / 2 {
+                events += 1;
+            }
+            return events * PERIOD_COUNTS as u64 + (RELOAD - v) as u64;
+        }
+    }
+}
+
+/// What [`calibrate`] found.
 #[derive(Clone, Copy, Debug)]
 pub struct Calibration {
     /// Instructions the delay loop executes.
     pub expected: u64,
     /// Instructions measured for it, less the read overhead.
     pub measured: u64,
-    /// Instructions between two back-to-back [`Clock::now`] calls (subtracted from each
-    /// measured interval).
+    /// Instructions between two back-to-back reads of the counter.
     pub overhead: u64,
 }
 
-impl Clock {
-    /// Starts SysTick from the processor clock with the full 24-bit reload and its exception
-    /// enabled.
-    pub fn start(mut syst: SYST) -> Self {
-        syst.set_clock_source(SystClkSource::Core);
-        syst.set_reload(RELOAD);
-        syst.clear_current();
-        syst.enable_interrupt();
-        syst.enable_counter();
-        Self { _syst: syst }
-    }
+/// Reads the free-running counter [`calibrate`] leaves running until the servo timer starts
+/// (no wrap: the intervals measured with it are short).
+#[inline(never)]
+pub fn read() -> u32 {
+    FULL - SYST::get_current()
+}
 
-    /// SysTick counts since [`Clock::start`].
-    ///
-    /// A wrap whose exception is still pending when the counter is read (the counter is back
-    /// near the top but the handler has not run) is added here, so the count never goes back.
-    #[inline(never)]
-    pub fn now(&mut self) -> u64 {
-        cortex_m::interrupt::free(|_| {
-            let mut wraps = WRAPS.load(Ordering::Relaxed) as u64;
-            let v = SYST::get_current();
-            if SCB::is_pendst_pending() && v > RELOAD / 2 {
-                wraps += 1;
-            }
-            wraps * (RELOAD as u64 + 1) + (RELOAD - v) as u64
-        })
+/// Checks the formula on a loop of known length before the servo timer starts, with the full
+/// 24-bit reload and no exception: `cortex_m::asm::delay(n)` (cortex-m 0.7.10) runs `n + 1`
+/// iterations of `subs; bne`, 2 instructions each. The counter keeps running, free, for
+/// [`read`].
+pub fn calibrate(syst: &mut SYST) -> Calibration {
+    syst.disable_interrupt();
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(FULL);
+    syst.clear_current();
+    syst.enable_counter();
+    let a = read();
+    let b = read();
+    let overhead = instructions((b - a) as u64);
+    const N: u32 = 100_000;
+    let expected = 2 * (N as u64 + 1);
+    let t0 = read();
+    cortex_m::asm::delay(N);
+    let t1 = read();
+    Calibration {
+        expected,
+        measured: instructions((t1 - t0) as u64).saturating_sub(overhead),
+        overhead,
     }
+}
 
-    /// Checks the formula on a loop of known length: `cortex_m::asm::delay(n)` (cortex-m
-    /// 0.7.10) runs `n + 1` iterations of `subs; bne`, 2 instructions each.
-    pub fn calibrate(&mut self) -> Calibration {
-        let a = self.now();
-        let b = self.now();
-        let overhead = instructions(b - a);
-        const N: u32 = 2_000_000;
-        let expected = 2 * (N as u64 + 1);
-        let t0 = self.now();
-        cortex_m::asm::delay(N);
-        let t1 = self.now();
-        let measured = instructions(t1 - t0).saturating_sub(overhead);
-        Calibration {
-            expected,
-            measured,
-            overhead,
-        }
-    }
+/// Starts SysTick as the servo timer: one exception every [`PERIOD_COUNTS`] counts.
+pub fn start_servo_timer(syst: &mut SYST) {
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(RELOAD);
+    syst.clear_current();
+    syst.enable_interrupt();
+    syst.enable_counter();
+}
+
+/// Stops the servo timer (after the last scripted tick).
+pub fn stop_servo_timer(syst: &mut SYST) {
+    syst.disable_interrupt();
+    syst.disable_counter();
 }
 
 /// Max and mean of per-tick instruction counts.

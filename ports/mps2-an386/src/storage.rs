@@ -21,17 +21,30 @@ use tetradrill_core::mesh::{MeshStorage, Node, Reverse, Tet};
 use tetradrill_core::servo::{WorldSizes, WorldStorage};
 use tetradrill_core::{NodeId, TetId, Vec3};
 
-use crate::{ARENA, BLOCK_N};
+use crate::scenario::{self, ARENA, PENDING_ITEMS};
+use crate::BLOCK_N;
 
-/// Nodes of the block.
-pub const NODES: usize = block_counts(BLOCK_N).0;
-/// Tets of the block.
-pub const TETS: usize = block_counts(BLOCK_N).1;
-/// Entries of the drill's pending deque (60 bytes each, 983 KB): above the scenario's peak
-/// of 9,358.
-pub const PENDING_ITEMS: usize = 16_384;
-/// The world's storage sizes, as the host computes them, with a [`PENDING_ITEMS`]-entry deque.
-pub const SIZES: WorldSizes = WorldSizes::new(TETS, ARENA).with_pending(PENDING_ITEMS);
+include!(concat!(env!("OUT_DIR"), "/mesh_counts.rs"));
+
+/// Nodes of the mesh: the block's, or the included blob's.
+pub const NODES: usize = if cfg!(scenario_cow) {
+    BLOB_NODES
+} else {
+    block_counts(BLOCK_N).0
+};
+/// Tets of the mesh: the block's, or the included blob's.
+pub const TETS: usize = if cfg!(scenario_cow) {
+    BLOB_TETS
+} else {
+    block_counts(BLOCK_N).1
+};
+/// The world's storage sizes, as the host computes them, with the scenario's pending deque
+/// and candidate list.
+pub const SIZES: WorldSizes = {
+    let mut s = WorldSizes::new(TETS, ARENA).with_pending(PENDING_ITEMS);
+    s.candidates = scenario::CANDIDATES;
+    s
+};
 
 // All-zero placeholders (so the statics go to .bss); see `Storage::take`.
 const ZERO_NODE: Node = Node {
@@ -62,6 +75,8 @@ static NODE_RECS: ConstStaticCell<[Node; NODES]> = ConstStaticCell::new([ZERO_NO
 static TET_RECS: ConstStaticCell<[Tet; TETS]> = ConstStaticCell::new([ZERO_TET; TETS]);
 static HASH_STARTS: ConstStaticCell<[u32; SIZES.hash_starts]> =
     ConstStaticCell::new([0; SIZES.hash_starts]);
+// On the cow the hash (8 entries a tet, 2.3 MB) and the pending deque live in PSRAM.
+#[cfg_attr(scenario_cow, link_section = ".psram.hash_entries")]
 static HASH_ENTRIES: ConstStaticCell<[HashEntry; SIZES.hash_entries]> =
     ConstStaticCell::new([ZERO_ENTRY; SIZES.hash_entries]);
 static TET_BOXES: ConstStaticCell<[Aabb; SIZES.tet_boxes]> =
@@ -72,6 +87,7 @@ static ARENA_NODES: ConstStaticCell<[HNode; SIZES.arena]> =
     ConstStaticCell::new([HNode::LEAF; SIZES.arena]);
 static VLIST: ConstStaticCell<[VEntry; SIZES.vlist]> =
     ConstStaticCell::new([ZERO_VENTRY; SIZES.vlist]);
+#[cfg_attr(scenario_cow, link_section = ".psram.pending")]
 static PENDING: ConstStaticCell<[Pending; SIZES.pending]> =
     ConstStaticCell::new([ZERO_PENDING; SIZES.pending]);
 static CANDIDATES: ConstStaticCell<[TetId; SIZES.candidates]> =

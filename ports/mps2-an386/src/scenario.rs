@@ -1,0 +1,112 @@
+//! The scenario's numbers exactly as the host derives them (`TickParams::of` of
+//! `builtin:firmware`): the host parses f64 and converts to f32, so the firmware writes the
+//! same f64 literals and converts.
+
+use tetradrill_core::drill::DrillParams;
+use tetradrill_core::force::ForceParams;
+use tetradrill_core::script::{Script, DEMO, DRILL_ON};
+use tetradrill_core::Vec3;
+
+/// `tool = "sphere:0.1"`.
+pub const RADIUS: f32 = 0.1_f64 as f32;
+/// The servo's extrapolation range: half the radius.
+pub const REACH: f32 = 0.5 * RADIUS;
+/// N/m.
+pub const STIFFNESS: f32 = 200.0_f64 as f32;
+/// N s/m.
+pub const DAMPING: f32 = 0.5_f64 as f32;
+/// N.
+pub const MAX_FORCE: f32 = 8.0_f64 as f32;
+/// `PERIOD_S` of the host, 1 kHz.
+pub const DT: f32 = 1e-3_f64 as f32;
+/// Deepest refinement level.
+pub const MAX_DEPTH: u8 = 4;
+/// Smallest face area refined.
+pub const MIN_AREA: f32 = 0.0_f64 as f32;
+/// Drill work units per tick.
+pub const BUDGET: u32 = 300;
+/// Hierarchy nodes one contact search may test (`contact_search_nodes`).
+pub const CONTACT_NODES: u32 = 64;
+
+/// Hierarchy arena nodes (`hierarchy_capacity`): 20,000 on the block, 40,000 on the cow.
+pub const ARENA: usize = if cfg!(scenario_cow) { 40_000 } else { 20_000 };
+/// Entries of the drill's pending deque (`pending_capacity`, 60 bytes each): 16,384 on the
+/// block (its peak is under 9,400), 8,192 on the cow (it fills there; the host's
+/// `builtin:firmware-cow` drops the same work).
+pub const PENDING_ITEMS: usize = if cfg!(scenario_cow) { 8_192 } else { 16_384 };
+/// Coarse tets one step takes near the tool (`candidate_capacity`): the core's default 1,024
+/// on the block, 4,096 on the cow's finer tets.
+pub const CANDIDATES: usize = if cfg!(scenario_cow) { 4_096 } else { 1_024 };
+/// The scenario's name in the output.
+pub const NAME: &str = if cfg!(scenario_cow) {
+    "builtin:firmware-cow"
+} else {
+    "builtin:firmware"
+};
+
+/// Scripted ticks to run: the whole path, or fewer when set at build time with
+/// `TETRADRILL_TICKS=N` (the host then runs `replay --ticks N`).
+const TICKS: Option<&str> = option_env!("TETRADRILL_TICKS");
+
+/// A whole number given at build time (an empty or unset variable is `None`).
+pub fn build_number(v: Option<&str>) -> Option<u32> {
+    v.and_then(|s| s.parse().ok())
+}
+
+/// Drill work units per tick for this build: [`BUDGET`], or `TETRADRILL_BUDGET=N` at build
+/// time for a settings sweep (the host then runs `replay --scenario builtin:firmware
+/// --budget-per-tick N`).
+pub fn budget() -> u32 {
+    build_number(option_env!("TETRADRILL_BUDGET")).unwrap_or(BUDGET)
+}
+
+/// [`CONTACT_NODES`], or `TETRADRILL_CONTACT_NODES=N` at build time (host:
+/// `--contact-search-nodes N`).
+pub fn contact_nodes() -> u32 {
+    build_number(option_env!("TETRADRILL_CONTACT_NODES")).unwrap_or(CONTACT_NODES)
+}
+
+/// The drill step's parameters.
+pub fn drill_params() -> DrillParams {
+    DrillParams {
+        max_depth: MAX_DEPTH,
+        min_area: MIN_AREA,
+        budget: budget(),
+    }
+}
+
+/// The servo's force parameters.
+pub fn force_params() -> ForceParams {
+    ForceParams {
+        stiffness: STIFFNESS,
+        damping: DAMPING,
+        max_force: MAX_FORCE,
+        dt: DT,
+        ..ForceParams::default()
+    }
+}
+
+/// The scripted path the device stand-in plays.
+pub struct Scenario {
+    /// The path.
+    pub script: Script<'static>,
+}
+
+/// `builtin:firmware` and `builtin:firmware-cow`: the demo's path (over the unit block; on
+/// the cow it drills the back).
+pub static DEMO_PATH: Scenario = Scenario { script: DEMO };
+
+impl Scenario {
+    /// The pose and the drill button at tick `i`.
+    #[inline(always)]
+    pub fn pose(&self, i: u32) -> (Vec3, bool) {
+        let (p, buttons) = self.script.at(i);
+        (p, buttons & DRILL_ON != 0)
+    }
+
+    /// Ticks to run: the path's, or `TETRADRILL_TICKS` when fewer.
+    pub fn ticks(&self) -> u32 {
+        let all = self.script.ticks();
+        build_number(TICKS).map_or(all, |t| t.min(all))
+    }
+}

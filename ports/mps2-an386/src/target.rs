@@ -1,0 +1,23 @@
+//! What differs between the two targets: the board QEMU models and the clock the servo period
+//! assumes. The default build is the Cortex-M4F on `mps2-an386`; the `m7` feature builds the
+//! same application for the Cortex-M7 on `mps2-an500` (with `-C target-cpu=cortex-m7`, as
+//! `scripts/port-check.sh --target m7` does).
+
+/// The target's name in the firmware's output.
+#[cfg(not(feature = "m7"))]
+pub const NAME: &str = "cortex-m4 (mps2-an386)";
+/// The target's name in the firmware's output.
+#[cfg(feature = "m7")]
+pub const NAME: &str = "cortex-m7 (mps2-an500)";
+
+/// The core clock the servo period assumes: 168 MHz, an STM32F4-class Cortex-M4F.
+#[cfg(not(feature = "m7"))]
+pub const CLOCK_MHZ: u32 = 168;
+/// The core clock the servo period assumes: 480 MHz, an STM32H7-class Cortex-M7.
+#[cfg(feature = "m7")]
+pub const CLOCK_MHZ: u32 = 480;
+
+/// Instructions in one 1 kHz servo period at [`CLOCK_MHZ`], one instruction a cycle (QEMU's
+/// `-icount` model; a real core loses cycles to wait states and stalls, an M7 gains some by
+/// dual issue).
+pub const PERIOD_INSTRUCTIONS: u32 = CLOCK_MHZ * 1000;
