@@ -2,8 +2,9 @@
 //! with the simulated device and a trace, `demo`, and the shaft handed to the viewer.
 //!
 //! Oracles: the unit block's geometry (faces at +-0.5), the simulated device's hand spring
-//! (a stylus held at the force limit `F` sits `F / k` behind its hand), and `replay` of the
-//! run's own recorded poses (`--record`).
+//! (a stylus held at the force limit `F` sits `F / k` behind its hand), `replay` of the
+//! run's own recorded poses (`--record`), and for the picture the tests' own f64 pinhole
+//! model (`tetradrill_tests::viewer`).
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -301,4 +302,72 @@ fn the_simulation_task_publishes_the_shaft_to_the_viewer_and_the_servo() {
         (tv.shown - (centre + Vec3::Z * 0.01)).length() < 1e-4,
         "{tv:?}"
     );
+}
+
+/// The shaft as the viewer draws it (headless render, EGL on Mesa): tool-coloured pixels along
+/// its axis from the burr to the handle, background past the handle and beside the shaft.
+#[test]
+fn the_viewer_draws_the_shaft_along_its_axis() {
+    use tetradrill::viewer::camera::Camera;
+    use tetradrill::viewer::gl::PALETTE;
+    use tetradrill::viewer::handoff::{ShaftView, Snapshot, ToolView};
+    use tetradrill::viewer::headless::render;
+    use tetradrill::viewer::scene::Scene;
+    use tetradrill_tests::viewer::{pixel_of, H, W};
+
+    let centre = Vec3::new(0.0, -0.5, 0.0);
+    let mut scene = Scene::new();
+    scene.apply(Snapshot {
+        seq: 1,
+        full: true,
+        tool: ToolView {
+            position: centre,
+            shown: centre,
+            radius: 0.1,
+            shaft: Some(ShaftView {
+                axis: Vec3::Y,
+                from: 0.1,
+                length: 0.8,
+                radius: 0.03,
+            }),
+            ..ToolView::default()
+        },
+        ..Snapshot::default()
+    });
+    let camera = Camera {
+        target: Vec3::ZERO,
+        distance: 3.2,
+        yaw: 0.6,
+        pitch: 0.45,
+        fov_y: 0.7,
+    };
+    let pic = render(&mut scene, &camera, W, H, true).expect("a headless GL context (Mesa EGL)");
+    let (d, y, p) = (3.2f64, 0.6f64, 0.45f64);
+    let eye = [d * p.cos() * y.cos(), d * p.cos() * y.sin(), d * p.sin()];
+    let at = |q: [f64; 3]| {
+        let (col, row) = pixel_of(eye, [0.0; 3], 0.7, q);
+        pic.at(col as u32, row as u32)
+    };
+    let bg = PALETTE.background.map(|c| (c * 255.0).round() as i32);
+    let is_bg = |px: [u8; 4], tol: i32| (0..3).all(|i| (i32::from(px[i]) - bg[i]).abs() <= tol);
+    // Along the shaft: y from -0.5 + 0.1 to -0.5 + 0.8.
+    for y in [-0.3, -0.1, 0.1, 0.25] {
+        let px = at([0.0, y, 0.0]);
+        let [r, g, b] = [px[0], px[1], px[2]].map(i32::from);
+        // PALETTE.tool is blue over green over red; the light only scales it.
+        assert!(
+            b > g + 20 && g > r + 10 && !is_bg(px, 6),
+            "the shaft at y = {y}: {px:?}"
+        );
+    }
+    // Past the handle, and beside the shaft (0.15 off its axis, five radii).
+    for q in [
+        [0.0, 0.5, 0.0],
+        [0.0, 0.7, 0.0],
+        [0.0, 0.0, 0.15],
+        [0.0, 0.0, -0.15],
+    ] {
+        let px = at(q);
+        assert!(is_bg(px, 2), "no shaft at {q:?}: {px:?}");
+    }
 }
