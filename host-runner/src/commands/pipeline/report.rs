@@ -171,7 +171,8 @@ pub struct RunSafety {
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct RunContact {
     /// The deepest penetration of the tool's contact point (the burr's depth below the
-    /// contact plane), metres; 0 for a mesh tool.
+    /// contact plane), metres; 0 for a mesh tool; for a drill, over the ticks no passive point
+    /// of its shaft pushed.
     pub max_depth_m: f64,
 }
 
