@@ -633,3 +633,42 @@ pub fn tick_tool(
     world.set_pressing(on_burr.length(), PERIOD_S as f32);
     (f, rep)
 }
+
+/// The shaft's half of [`World::simulate_drill`], for a step that drilled the burr some other
+/// way (the real-time simulation task's swept spheres, [`World::simulate_spheres`]): the
+/// candidate list refilled with the tets near the passive points of `tool` (burr at `centre`,
+/// shaft along the unit `axis`) and their proxies ([`World::shaft_candidates`]), then the
+/// points tracked ([`World::track_passive`]). Returns the tracking's report and whether the
+/// candidate list saturated. Passive points never erode.
+///
+/// # Bounded work
+/// One zone query (at most [`World::max_cells`] cells and the candidate list) and
+/// [`World::track_passive`]'s bound for at most [`tetradrill_core::force::MAX_PASSIVE`]
+/// points.
+pub fn track_shaft(
+    world: &mut World<'_>,
+    tool: &DrillTool,
+    centre: Vec3,
+    axis: Vec3,
+    reach: f32,
+    state: &mut DrillState,
+) -> (PassiveReport, bool) {
+    let mut pos = [Vec3::ZERO; tetradrill_core::force::MAX_PASSIVE];
+    let n = tool.passive_positions(centre, axis, &mut pos);
+    let grow = tool.shaft_radius + reach;
+    let mut zone: Option<Aabb> = None;
+    for (p, pt) in pos.iter().zip(&state.points).take(n) {
+        let mut b = Aabb::point(*p).grown(grow);
+        if let Some(q) = pt.proxy.filter(|q| q.is_finite()) {
+            b = b.union(Aabb::point(q).grown(grow));
+        }
+        zone = Some(zone.map_or(b, |e| e.union(b)));
+    }
+    state.count = n;
+    state.positions = pos;
+    let saturated = zone
+        .filter(|b| b.min.is_finite() && b.max.is_finite())
+        .is_some_and(|z| world.shaft_candidates(&z));
+    let rep = world.track_passive(&pos[..n], tool.shaft_radius, reach, &mut state.points);
+    (rep, saturated)
+}

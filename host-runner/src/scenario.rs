@@ -48,7 +48,7 @@ pub struct Scenario {
     pub trace: String,
     /// `sphere:R` (a spherical burr of radius R), `drill:BURR_R:SHAFT_LEN:SHAFT_R` (a burr on
     /// a shaft from its centre along the tool's axis, +z rotated by the pose, whose passive
-    /// points collide but never erode; replay only) or `mesh:FILE` (a tet-mesh tool, tip at
+    /// points collide but never erode) or `mesh:FILE` (a tet-mesh tool, tip at
     /// the origin, axis +z).
     pub tool: String,
     /// Factor applied to a mesh tool's coordinates.

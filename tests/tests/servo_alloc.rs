@@ -4,7 +4,8 @@
 //! and the contact triple buffer), in contact with a surface and out of it; nor does the way
 //! back from a stall the watchdog caught ([`tetradrill::tasks::recover_from_stall`]); nor does
 //! a mesh tool's tick ([`tetradrill::tasks::servo_io`] with
-//! [`tetradrill::pen_tasks::PenLaw`]), nor its contact task. The burr's ticks also push every
+//! [`tetradrill::pen_tasks::PenLaw`]), nor its contact task, nor a drill's tick (with
+//! [`tetradrill::tasks::DrillLaw`]: the burr's and the shaft's springs). The burr's ticks also push every
 //! sample to a `--record` ring (full half of the time), record the timing histograms, look at
 //! a stop request and end with the zero-force write of a clean stop.
 
@@ -17,8 +18,8 @@ use tetradrill::pen::{PenRig, PenSizes};
 use tetradrill::pen_tasks::{held_handoff, pen_contact_task, PenLaw, PenTaskReport};
 use tetradrill::scenario::Scenario;
 use tetradrill::tasks::{
-    recover_from_stall, servo_io, servo_tick, BurrLaw, RecordRing, ServoCounters, ServoState,
-    Shared, SimStatus, ToolSample, Workspace,
+    recover_from_stall, servo_io, servo_tick, BurrLaw, DrillContact, DrillLaw, RecordRing,
+    ServoCounters, ServoState, Shared, SimStatus, ToolSample, Workspace,
 };
 use tetradrill::watchdog::{zero_force, ServoWatch, StopRequest};
 use tetradrill_core::force::{pen_pass, PenState};
@@ -365,5 +366,78 @@ fn the_pen_contact_task_allocates_nothing() {
     assert_eq!(
         calls, 0,
         "the contact task allocated or freed {calls} times"
+    );
+}
+
+#[test]
+fn a_drill_servo_tick_allocates_nothing_after_warm_up() {
+    let sc = Scenario {
+        tool: "drill:0.1:0.6:0.03".into(),
+        ..Scenario::default()
+    };
+    let params = TickParams::of(&sc).expect("a drill scenario");
+    let tool = params.shaft.expect("a drill");
+    // The tool lying along +x (a quarter turn about y), going down through z = 0.5 and back
+    // up: the burr and every passive point spring from the top face's plane.
+    let q = tetradrill_core::Quat::from_rotation_y(std::f32::consts::FRAC_PI_2);
+    let path = Scripted(move |t: f64| PathPoint {
+        position: [0.0, 0.0, 0.8 - 0.5 * (t * 3.0).sin().abs()],
+        rotation: [q.w as f64, q.x as f64, q.y as f64, q.z as f64],
+        buttons: 0,
+    });
+    let mut device = SimDevice::new(path, SimConfig::default());
+    let ring = ArrayQueue::new(64);
+    let top = (Vec3::new(0.0, 0.0, 0.5), Vec3::Z);
+    let mut planes = DrillContact {
+        burr: ContactState {
+            valid: true,
+            point: top.0,
+            normal: top.1,
+            depth: 0.0,
+            centre: Vec3::new(0.0, 0.0, 0.6),
+            triangles: 1,
+            stiffness: 0.0,
+        },
+        ..DrillContact::default()
+    };
+    planes.shaft.count = tool.passive_count();
+    for p in planes.shaft.points.iter_mut() {
+        p.plane = Some(top);
+    }
+    let (mut input, mut output) = triple_buffer::TripleBuffer::new(&planes).split();
+    input.write(planes);
+    let ws = Workspace {
+        scale: 1.0,
+        offset: Vec3::ZERO,
+    };
+    let mut st = ServoState::default();
+    let counters = ServoCounters::default();
+    let mut law = DrillLaw::new(params, tool, &mut output, &counters);
+    let mut run = |from: u64, to: u64, st: &mut ServoState, law: &mut DrillLaw<'_>| {
+        for tick in from..to {
+            servo_io(&mut device, &ws, law, &ring, st, tick).expect("tick");
+            if tick % 16 == 0 {
+                ARMED.with(|a| a.set(false));
+                while ring.pop().is_some() {}
+                ARMED.with(|a| a.set(true));
+            }
+        }
+    };
+    ARMED.with(|a| a.set(false));
+    run(0, 100, &mut st, &mut law);
+    CALLS.with(|c| c.set(0));
+    ARMED.with(|a| a.set(true));
+    run(100, 1100, &mut st, &mut law);
+    ARMED.with(|a| a.set(false));
+    let calls = CALLS.with(|c| c.get());
+    assert!(
+        law.counts.pushing_ticks > 0,
+        "the shaft pushed: {:?}",
+        law.counts
+    );
+    assert!(st.max_force > 0.0);
+    assert_eq!(
+        calls, 0,
+        "the drill's servo tick allocated or freed {calls} times"
     );
 }

@@ -257,10 +257,10 @@ fn bad_drill_tools_are_refused_with_the_reason() {
         &["replay", "--scenario", p.to_str().unwrap()],
         &["drill.toml:2:", "three numbers"],
     );
-    // The real-time pipeline does not take it (yet): said at once.
+    // The real-time pipeline refuses a bad one the same way.
     refused(
-        &["run", "--duration", "0.1", "--tool", "drill:0.1:0.6:0.03"],
-        &["replay"],
+        &["run", "--duration", "0.1", "--tool", "drill:0.1:0.6:0.2"],
+        &["drill:0.1:0.6:0.2", "at most the burr's radius"],
     );
 }
 

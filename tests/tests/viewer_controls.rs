@@ -189,6 +189,7 @@ fn the_controls_reach_the_simulation() {
             &shared.stop,
             &shared.counters,
             Some(&mut link),
+            None,
         );
         assert_eq!(end, SimEnd::Stopped);
         let bits = |a: &std::sync::atomic::AtomicU32| f32::from_bits(a.load(Ordering::Relaxed));
@@ -253,6 +254,7 @@ fn reset_ends_the_simulation_task_for_a_rebuild() {
                 &shared.stop,
                 &shared.counters,
                 Some(&mut link),
+                None,
             )
         });
         // Once the task took the first controls (it stores the radius for the servo), press

@@ -33,16 +33,31 @@ pub struct DemoArgs {
     /// Write a PNG of the view at the end of the run (no display needed).
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
+    /// The tool, as `run --tool` takes it (default: the demo's burr, `sphere:0.1`);
+    /// `drill:BURR_R:SHAFT_LEN:SHAFT_R` puts the burr on a shaft along the tool's axis (+z
+    /// on the scripted path, which plunges from above).
+    #[arg(long, value_name = "SPEC")]
+    pub tool: Option<String>,
 }
 
 /// Runs `demo`.
 pub fn run(args: &DemoArgs) -> Result<(), CliError> {
-    let sc = crate::scenario::builtin("demo").unwrap_or_default();
+    let mut sc = crate::scenario::builtin("demo").unwrap_or_default();
+    if let Some(tool) = &args.tool {
+        sc.tool = tool.clone();
+        // A bad spec: one line naming it and the reason, exit 2.
+        sc.tool_kind().map_err(CliError::input)?;
+    }
     let view = ViewOptions::of(args.headless, args.screenshot.clone())?;
     errln!(
-        "tetradrill demo: {} drilled by a {} burr on the simulated device ({} s scripted path)",
+        "tetradrill demo: {} drilled by a {} {} on the simulated device ({} s scripted path)",
         sc.mesh,
         sc.tool,
+        if sc.tool.starts_with("drill:") {
+            "drill (burr on a shaft)"
+        } else {
+            "burr"
+        },
         super::run::demo_ticks() as f64 / 1000.0
     );
     let (open, default_ticks, workspace) =

@@ -3,8 +3,8 @@
 //!
 //! | task       | priority                 | period              | reads                          | writes                          |
 //! |------------|--------------------------|---------------------|--------------------------------|---------------------------------|
-//! | servo      | SCHED_FIFO 80, last core | 1 ms, absolute      | device, `ContactState` or `HeldPen`, camera `C` (triple buffers) | force to device, `ToolSample` ring |
-//! | simulation | normal                   | as fast as it can   | `ToolSample` ring              | `ContactState` or `HeldPen`, `SimStatus` (triple buffers) |
+//! | servo      | SCHED_FIFO 80, last core | 1 ms, absolute      | device, `ContactState`, `DrillContact` or `HeldPen`, camera `C` (triple buffers) | force to device, `ToolSample` ring |
+//! | simulation | normal                   | as fast as it can   | `ToolSample` ring              | `ContactState`, `DrillContact` or `HeldPen`, `SimStatus` (triple buffers) |
 //! | status     | normal                   | 250 ms              | `SimStatus`, servo counters (atomics) | the status line          |
 //! | watchdog   | SCHED_FIFO 81, not the servo's core | 1 ms     | the servo's beat (atomic)      | the device's cutoff (force off) |
 //! | viewer     | normal, the main thread  | about 60 Hz         | `Snapshot` queue, servo counters | `Controls`, camera `C` (triple buffers) |
@@ -24,6 +24,13 @@
 //! and consistent depths) at the newest pose and publishes the pass's penetrations and pose
 //! ([`crate::pen_tasks::HeldPen`], a triple buffer); the servo carries them to the pose of each
 //! tick. The viewer draws the pen with its boundary triangles, clear of the object.
+//!
+//! With the drill tool (`--tool drill:BURR_R:SHAFT_LEN:SHAFT_R`) the simulation task also
+//! tracks the shaft's passive points at the newest pose and publishes their planes with the
+//! burr's, from the same step ([`DrillContact`], a triple buffer); the servo's law is
+//! [`DrillLaw`]: the burr's spring and the passive points' springs at the tool's current pose,
+//! summed into one force at the handle (O(32) a tick, no face looked at). The viewer draws the
+//! shaft along the tool's axis.
 //!
 //! With the live window, the viewer also publishes its camera rotation through a triple buffer
 //! the servo reads each tick ([`DeviceFrame`]): the device's positions turn with the view
@@ -54,11 +61,13 @@ use tetradrill_core::{Quat, Vec3};
 
 use crate::stats::Histogram;
 
+mod drill;
 mod frame;
 mod record;
 mod servo;
 mod simulation;
 
+pub use drill::*;
 pub use frame::*;
 pub use record::*;
 pub use servo::*;
@@ -85,7 +94,7 @@ pub const TASKS: [TaskDecl; 6] = [
         name: "servo",
         priority: "SCHED_FIFO 80, pinned to the last core, memory locked",
         period: "1 ms on absolute deadlines",
-        reads: "device sample; ContactState or HeldPen (mesh tool), camera C (triple buffers); the stop request (atomic)",
+        reads: "device sample; ContactState, DrillContact (drill) or HeldPen (mesh tool), camera C (triple buffers); the stop request (atomic)",
         writes: "force command to the device; ToolSample (SPSC rings: simulation, recorder); servo counters and timing histograms (atomics)",
     },
     TaskDecl {
@@ -93,7 +102,7 @@ pub const TASKS: [TaskDecl; 6] = [
         priority: "normal",
         period: "as fast as it can, at most once per servo tick",
         reads: "ToolSample (SPSC ring); Controls (triple buffer)",
-        writes: "ContactState or HeldPen (mesh tool), SimStatus (triple buffers); Snapshot queue",
+        writes: "ContactState, DrillContact (drill) or HeldPen (mesh tool), SimStatus (triple buffers); Snapshot queue",
     },
     TaskDecl {
         name: "status",
@@ -173,6 +182,9 @@ pub struct ServoCounters {
     pub radius_bits: AtomicU32,
     /// Stiffness the servo uses, f32 bits; 0 = the scenario's.
     pub stiffness_bits: AtomicU32,
+    /// A drill's burr force alone (without the shaft's push), f32 bits of its magnitude: what
+    /// presses the burr into the material ([`DrillLaw`] writes it each tick; unused otherwise).
+    pub burr_press_bits: AtomicU32,
     /// The servo's beat and the watchdog's trips ([`crate::watchdog`]).
     pub watch: crate::watchdog::ServoWatch,
 }

@@ -5,12 +5,36 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crossbeam::queue::ArrayQueue;
 use tetradrill_core::drill::Sphere;
-use tetradrill_core::servo::{ContactState, World};
+use tetradrill_core::force::DrillTool;
+use tetradrill_core::servo::{ContactState, DrillState, World};
 
 use crate::engine::TickParams;
 use crate::platform::now_ns;
 
-use super::{ServoCounters, SimStatus, ToolSample, MAX_SPHERES};
+use super::{DrillContact, ServoCounters, SimStatus, ToolSample, MAX_SPHERES};
+
+/// A drill's side of the simulation task: the tool's shape, its passive points' state, and
+/// where the step's planes go to the servo.
+#[derive(Debug)]
+pub struct ShaftLink<'a> {
+    /// The drill's shape (its burr radius follows the viewer's radius control).
+    pub tool: DrillTool,
+    /// The passive points, carried from step to step.
+    pub state: DrillState,
+    /// To the servo's [`super::DrillLaw`].
+    pub out: &'a mut triple_buffer::Input<DrillContact>,
+}
+
+impl<'a> ShaftLink<'a> {
+    /// A link for `tool` with no point tracked yet.
+    pub fn new(tool: DrillTool, out: &'a mut triple_buffer::Input<DrillContact>) -> Self {
+        Self {
+            tool,
+            state: DrillState::default(),
+            out,
+        }
+    }
+}
 
 /// How the simulation task ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -26,6 +50,11 @@ pub enum SimEnd {
 /// the newest position and publishes it, until `stop`. With a `viewer`, it applies the
 /// viewer's controls (radius and stiffness also go to the servo through `counters`) and
 /// publishes snapshots of the changed surface without ever waiting.
+///
+/// With a `shaft` (the drill tool), each step then tracks the shaft's passive points at the
+/// newest pose ([`crate::engine::track_shaft`]) and publishes the burr's plane with the
+/// points' planes ([`DrillContact`]); the burr is pressed by the burr's own force
+/// (`counters.burr_press_bits`), not the shaft's push, and the viewer gets the shaft.
 #[allow(clippy::too_many_arguments)]
 pub fn simulation_task(
     world: &mut World<'_>,
@@ -36,6 +65,7 @@ pub fn simulation_task(
     stop: &AtomicBool,
     counters: &ServoCounters,
     mut viewer: Option<&mut crate::viewer::publish::SimViewer<'_>>,
+    mut shaft: Option<ShaftLink<'_>>,
 ) -> SimEnd {
     let mut params = params;
     let mut st = SimStatus::default();
@@ -111,7 +141,11 @@ pub fn simulation_task(
         }
         // The servo's last force presses the burr into the material for the servo ticks
         // this step covers (one per sample drained).
-        let press = counters.force().length();
+        let press = if shaft.is_some() {
+            f32::from_bits(counters.burr_press_bits.load(Ordering::Relaxed))
+        } else {
+            counters.force().length()
+        };
         world.set_pressing(press, drained as f32 * crate::traces::PERIOD_S as f32);
         let rep = world.simulate_spheres(
             tool.position,
@@ -121,6 +155,27 @@ pub fn simulation_task(
             &params.drill,
         );
         contact.write(*world.contact());
+        if let Some(link) = shaft.as_mut() {
+            if link.tool.burr_radius != params.radius {
+                // The viewer changed the burr: the points move along the shaft, tracked anew.
+                link.tool.burr_radius = params.radius;
+                link.state = DrillState::default();
+            }
+            let axis = DrillTool::axis(tool.rotation);
+            // A full candidate list is counted in the world's saturations.
+            crate::engine::track_shaft(
+                world,
+                &link.tool,
+                tool.position,
+                axis,
+                params.reach,
+                &mut link.state,
+            );
+            link.out.write(DrillContact {
+                burr: *world.contact(),
+                shaft: link.state,
+            });
+        }
         let dt = now_ns() - t0;
         st.steps += 1;
         st.last_step_ns = dt;
@@ -138,13 +193,22 @@ pub fn simulation_task(
         status.write(st);
         if let Some(v) = viewer.as_deref_mut() {
             v.note_step(world, rep.drill.created + rep.drill.erased > 0);
-            let tv = crate::viewer::publish::tool_view(
+            let mut tv = crate::viewer::publish::tool_view(
                 world,
                 tool.position,
                 params.radius,
                 counters.force(),
                 on,
             );
+            if let Some(link) = shaft.as_ref() {
+                let q = tool.rotation;
+                tv = crate::viewer::publish::with_shaft(
+                    tv,
+                    Some(link.tool),
+                    [q.w, q.x, q.y, q.z],
+                    &link.state,
+                );
+            }
             if stopping {
                 // The last picture must get through: the servo has stopped, waiting is fine.
                 let until = now_ns() + 2_000_000_000;

@@ -119,14 +119,7 @@ pub fn run(
 ) -> Result<RunReport, CliError> {
     match sc.tool_kind().map_err(CliError::input)? {
         ToolKind::Mesh(pen) => return run_pen(sc, setup, json, &pen),
-        ToolKind::Drill { .. } => {
-            return Err(CliError::input(format!(
-                "tool `{}`: the drill with a shaft runs in `replay`; the real-time pipeline \
-                 takes sphere:R or mesh:FILE",
-                sc.tool
-            )))
-        }
-        ToolKind::Sphere(_) => {}
+        ToolKind::Sphere(_) | ToolKind::Drill { .. } => {}
     }
     let params = TickParams::of(sc)?;
     let loaded = engine::load_mesh(sc)?;
@@ -150,6 +143,9 @@ pub fn run(
         triple_buffer::TripleBuffer::new(&ContactState::default()).split();
     let (mut status_in, status_out) =
         triple_buffer::TripleBuffer::new(&SimStatus::default()).split();
+    // A drill's planes: the burr's and its passive points', from the same step.
+    let (mut drill_in, mut drill_out) =
+        triple_buffer::TripleBuffer::new(&tasks::DrillContact::default()).split();
     let shared = Shared::new();
     let PipelineSetup {
         kind,
@@ -178,7 +174,19 @@ pub fn run(
     let (camera_in, mut camera_out) = tasks::camera_handoff();
     let frame = tasks::DeviceFrame::new(centre);
 
-    let mut law = tasks::BurrLaw::new(params, &mut contact_out, &shared.counters);
+    let mut law = match params.shaft {
+        Some(tool) => tasks::DrillingLaw::Drill(tasks::DrillLaw::new(
+            params,
+            tool,
+            &mut drill_out,
+            &shared.counters,
+        )),
+        None => tasks::DrillingLaw::Burr(tasks::BurrLaw::new(
+            params,
+            &mut contact_out,
+            &shared.counters,
+        )),
+    };
     let (servo, sim_status, ending, scene) = std::thread::scope(|scope| -> Result<_, CliError> {
         let sh = &shared;
         let any_view = view.any();
@@ -197,8 +205,12 @@ pub fn run(
                     l
                 });
                 loop {
-                    // The world is rebuilt, untouched, when the viewer asks for a reset.
+                    // The world is rebuilt, untouched, when the viewer asks for a reset (the
+                    // shaft's points tracked anew).
                     let mut world = store.world()?;
+                    let shaft = params
+                        .shaft
+                        .map(|t| tasks::ShaftLink::new(t, &mut drill_in));
                     let end = tasks::simulation_task(
                         &mut world,
                         params,
@@ -208,6 +220,7 @@ pub fn run(
                         &sh.stop,
                         &sh.counters,
                         link.as_mut(),
+                        shaft,
                     );
                     match end {
                         tasks::SimEnd::Stopped => {
@@ -257,7 +270,15 @@ pub fn run(
     })?;
     let (mut scene, recorded) = scene;
     let (saturations, valid, removed_by_region) = ending;
+    let shaft = params.shaft.zip(law.shaft_counts()).map(|(t, c)| RunShaft {
+        passive_points: t.passive_count(),
+        near_ticks: c.near_ticks,
+        held_ticks: c.held_ticks,
+        held_max: c.held_max,
+        pushing_ticks: c.pushing_ticks,
+    });
     let ended = Ended {
+        shaft,
         removed_by_region,
         kind,
         elapsed: started.elapsed().as_secs_f64(),
@@ -277,6 +298,8 @@ pub fn run(
 
 /// How the tasks of a run ended.
 struct Ended {
+    /// A drill's shaft figures (`--tool drill:...` only).
+    shaft: Option<RunShaft>,
     /// The removed volume by region label, when the world had regions.
     removed_by_region: Option<std::collections::BTreeMap<String, f64>>,
     kind: DeviceKind,
@@ -374,6 +397,7 @@ impl Ended {
             },
             valid: false,
             pen,
+            shaft: self.shaft,
         };
         if self.summary {
             print_summary(&rep);

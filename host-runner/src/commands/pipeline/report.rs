@@ -83,6 +83,26 @@ pub struct RunReport {
     /// A mesh tool's contact (`--tool mesh:FILE` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pen: Option<PenRunSummary>,
+    /// A drill's shaft (`--tool drill:...` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shaft: Option<RunShaft>,
+}
+
+/// A drill's shaft over a real-time run: `replay`'s `shaft` figures, counted by the servo over
+/// its ticks from the planes the simulation handed it, and the ticks its springs pushed.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct RunShaft {
+    /// Passive points along the shaft.
+    pub passive_points: usize,
+    /// Servo ticks in which a passive point had a contact plane (a face within reach, or
+    /// held).
+    pub near_ticks: u64,
+    /// Servo ticks in which a passive point was held at a face it had crossed.
+    pub held_ticks: u64,
+    /// Most passive points held in one tick.
+    pub held_max: u32,
+    /// Servo ticks in which a passive point's spring pushed (the shaft touching).
+    pub pushing_ticks: u64,
 }
 
 /// A mesh tool's figures in a real-time run: the contact task's passes and what the servo
@@ -151,7 +171,8 @@ pub struct RunSafety {
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct RunContact {
     /// The deepest penetration of the tool's contact point (the burr's depth below the
-    /// contact plane), metres; 0 for a mesh tool.
+    /// contact plane), metres; 0 for a mesh tool; for a drill, over the ticks no passive point
+    /// of its shaft pushed.
     pub max_depth_m: f64,
 }
 
@@ -206,6 +227,12 @@ pub(super) fn print_summary(r: &RunReport) {
         r.safety.generated_j_max,
         r.contact.max_depth_m
     );
+    if let Some(s) = &r.shaft {
+        outln!(
+            "shaft: {} passive points; touching {} ticks, a point within reach {} ticks, held {} ticks (at most {} points)",
+            s.passive_points, s.pushing_ticks, s.near_ticks, s.held_ticks, s.held_max
+        );
+    }
     if r.servo_stalls > 0 {
         outln!(
             "servo stalls {} (longest {:.1} ms): the watchdog set the force to zero each time",
