@@ -120,6 +120,11 @@ typedef struct td_params {
   float dt;
   // Seconds over which the force moves from one contact plane to the next (at least 0).
   float switch_time;
+  // The release rule of `td_world_tick`, 0 or 1: 0 runs the step, then the servo force
+  // from its contact (`tetradrill replay`'s default); 1 runs the servo force from the
+  // previous tick's contact, then the step (the RTIC firmware, whose servo interrupt
+  // releases the step: the scenario key `servo_lag`, which `builtin:firmware` sets).
+  uint32_t servo_lag;
 } td_params;
 
 // A point or a force: three floats.
@@ -338,16 +343,18 @@ enum td_status td_world_servo_force(struct td_world *world,
                                     struct td_vec3 position,
                                     struct td_vec3 *force);
 
-// One whole tick as `tetradrill replay` runs it: `td_world_simulate` at `position` with
-// `buttons`, then `td_world_servo_force` at the same position, its force in `*force`; that
-// force's magnitude then presses the burr for one servo period (`dt`) at the next tick's
-// step (`td_world_set_pressing`), as the host's replay feeds the materials.
+// One whole tick as `tetradrill replay` runs it. With `td_params.servo_lag` 0:
+// `td_world_simulate` at `position` with `buttons`, then `td_world_servo_force` at the same
+// position; with 1: `td_world_servo_force` from the previous tick's contact, then
+// `td_world_simulate`. The force goes to `*force`, and its magnitude presses the burr for one
+// servo period (`dt`) at the next step (`td_world_set_pressing`), as the host's replay feeds
+// the materials.
 //
 // # Bounded work
 // `td_world_simulate`'s plus a constant.
 //
 // # Errors
-// As the two calls; on an error nothing is done and the force is not written.
+// As the two calls; on an error nothing more is done and the force is not written.
 //
 // # Safety
 // As `td_world_servo_force`.

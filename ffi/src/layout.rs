@@ -49,6 +49,8 @@ pub struct State {
     pub tool: ToolState,
     /// Digest of the forces returned so far.
     pub digest: ForceDigest,
+    /// `td_params.servo_lag` is 1: `td_world_tick` runs the servo force before the step.
+    pub servo_lag: bool,
     /// Burr radius.
     pub radius: f32,
     /// Contact reach beyond the burr.
@@ -206,6 +208,7 @@ impl Plan {
         check(positive(p.radius) && non_negative(p.reach) && non_negative(p.min_area))?;
         check(non_negative(p.stiffness) && non_negative(p.damping))?;
         check(positive(p.max_force) && positive(p.dt) && non_negative(p.switch_time))?;
+        check(p.servo_lag <= 1)?;
         let to_usize = |v: u32| usize::try_from(v).map_err(|_| TdStatus::TdErrParams);
         let nodes = to_usize(p.node_count)?;
         let tets = to_usize(p.tet_count)?;
@@ -300,6 +303,7 @@ mod tests {
             max_force: 1.0,
             dt: 1e-3,
             switch_time: 0.0,
+            servo_lag: 0,
         }
     }
 
@@ -361,7 +365,7 @@ mod tests {
     fn out_of_range_parameters_are_refused() {
         let ok = params(8, 6, 8, 1, 0);
         assert!(Plan::of(&ok).is_ok());
-        let bad: [fn(&mut TdParams); 14] = [
+        let bad: [fn(&mut TdParams); 15] = [
             |p| p.node_count = 0,
             |p| p.tet_count = TD_MAX_COUNT + 1,
             |p| p.hierarchy_capacity = 7,
@@ -374,6 +378,7 @@ mod tests {
             |p| p.max_force = f32::NAN,
             |p| p.dt = -1e-3,
             |p| p.switch_time = -1.0,
+            |p| p.servo_lag = 2,
             |p| p.region_capacity = 0,
             |p| p.region_capacity = TD_MAX_REGIONS + 1,
         ];

@@ -196,6 +196,7 @@ pub unsafe extern "C" fn td_params_default(
         max_force: 8.0,
         dt: force.dt,
         switch_time: force.switch_time,
+        servo_lag: 0,
     };
     // SAFETY: the caller's contract on `out`; `put` checks null and alignment.
     status(|| unsafe { put(out, p) })
@@ -488,6 +489,7 @@ pub unsafe extern "C" fn td_world_init(
                 dt: p.dt,
                 switch_time: p.switch_time,
             },
+            servo_lag: p.servo_lag == 1,
             servo_ticks: 0,
             steps: 0,
             contact_ticks: 0,
@@ -610,16 +612,18 @@ pub unsafe extern "C" fn td_world_servo_force(
     })
 }
 
-/// One whole tick as `tetradrill replay` runs it: `td_world_simulate` at `position` with
-/// `buttons`, then `td_world_servo_force` at the same position, its force in `*force`; that
-/// force's magnitude then presses the burr for one servo period (`dt`) at the next tick's
-/// step (`td_world_set_pressing`), as the host's replay feeds the materials.
+/// One whole tick as `tetradrill replay` runs it. With `td_params.servo_lag` 0:
+/// `td_world_simulate` at `position` with `buttons`, then `td_world_servo_force` at the same
+/// position; with 1: `td_world_servo_force` from the previous tick's contact, then
+/// `td_world_simulate`. The force goes to `*force`, and its magnitude presses the burr for one
+/// servo period (`dt`) at the next step (`td_world_set_pressing`), as the host's replay feeds
+/// the materials.
 ///
 /// # Bounded work
 /// `td_world_simulate`'s plus a constant.
 ///
 /// # Errors
-/// As the two calls; on an error nothing is done and the force is not written.
+/// As the two calls; on an error nothing more is done and the force is not written.
 ///
 /// # Safety
 /// As `td_world_servo_force`.
@@ -635,10 +639,14 @@ pub unsafe extern "C" fn td_world_tick(
         // SAFETY: the caller's contract on `world`; `state` checks it before the calls do.
         unsafe { state(world) }?;
         pose(position)?;
-        // SAFETY: as above; `force` checked.
-        match unsafe { td_world_simulate(world, position, buttons, ptr::null_mut()) } {
-            TdStatus::TdOk => {}
-            e => return Err(e),
+        // SAFETY: as above.
+        let lag = unsafe { state(world) }?.servo_lag;
+        if !lag {
+            // SAFETY: as above; `force` checked.
+            match unsafe { td_world_simulate(world, position, buttons, ptr::null_mut()) } {
+                TdStatus::TdOk => {}
+                e => return Err(e),
+            }
         }
         // SAFETY: as above.
         match unsafe { td_world_servo_force(world, position, force) } {
@@ -649,6 +657,13 @@ pub unsafe extern "C" fn td_world_tick(
         let (st, f) = unsafe { (state(world)?, force.read()) };
         let pressing = Vec3::new(f.x, f.y, f.z).length();
         st.world.set_pressing(pressing, st.force.dt);
+        if lag {
+            // SAFETY: as above.
+            match unsafe { td_world_simulate(world, position, buttons, ptr::null_mut()) } {
+                TdStatus::TdOk => {}
+                e => return Err(e),
+            }
+        }
         Ok(())
     })
 }

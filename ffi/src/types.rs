@@ -145,6 +145,11 @@ pub struct TdParams {
     pub dt: f32,
     /// Seconds over which the force moves from one contact plane to the next (at least 0).
     pub switch_time: f32,
+    /// The release rule of `td_world_tick`, 0 or 1: 0 runs the step, then the servo force
+    /// from its contact (`tetradrill replay`'s default); 1 runs the servo force from the
+    /// previous tick's contact, then the step (the RTIC firmware, whose servo interrupt
+    /// releases the step: the scenario key `servo_lag`, which `builtin:firmware` sets).
+    pub servo_lag: u32,
 }
 
 /// A point or a force: three floats.

@@ -87,6 +87,7 @@ fn params_of(sc: &Scenario, n: usize) -> TdParams {
         max_force: 0.0,
         dt: 0.0,
         switch_time: 0.0,
+        servo_lag: 0,
     };
     // SAFETY: `p` is a valid, aligned TdParams.
     assert_eq!(
@@ -109,6 +110,7 @@ fn params_of(sc: &Scenario, n: usize) -> TdParams {
     p.max_force = tick.force.max_force;
     p.dt = tick.force.dt;
     p.switch_time = tick.force.switch_time;
+    p.servo_lag = tick.servo_lag;
     p
 }
 

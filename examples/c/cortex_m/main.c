@@ -78,6 +78,7 @@ int main(void) {
     p.max_force = (float)8.0;
     p.dt = (float)1e-3;
     p.switch_time = (float)(16.0 / 1000.0);
+    p.servo_lag = 1; /* the RTIC release rule: the servo first, then the step it releases */
     p.min_area = (float)0.0;
     /* ... with its own limits: depth 4, 300 work units a tick, 64 contact nodes, separate
      * bounds, a 20,000-node arena and a 16,384-item deque; candidates and query cells at the
