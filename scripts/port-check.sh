@@ -5,9 +5,10 @@
 # then one `key=value` line each: force_digest, servo_latency_instructions_max,
 # sim_step_instructions_max, deadline_misses, flash_bytes, ram_bytes.
 #
-#   scripts/port-check.sh [--target m4|m7] [--scenario block|cow] [--ticks N] [--max-instructions M]
+#   scripts/port-check.sh [--target m4|m7] [--scenario block|cow|regions] [--ticks N] [--max-instructions M]
 #
-# --scenario block (default) is the host's builtin:firmware, cow is builtin:firmware-cow.
+# --scenario block (default) is the host's builtin:firmware, cow is builtin:firmware-cow, regions
+# is builtin:firmware-regions (the block with a hard shell and a soft core).
 # --max-instructions M also fails the check when the worst tick (simulation step + servo tick)
 # took more than M instructions.
 #
@@ -36,7 +37,7 @@ while [ $# -gt 0 ]; do
     --scenario) need "$1" $#; scenario="$2"; shift 2 ;;
     --scenario=*) scenario="${1#--scenario=}"; shift ;;
     -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
-    *) echo "port-check: unknown argument '$1' (expected --target m4|m7, --scenario block|cow, --ticks N, --max-instructions M)" >&2; exit 2 ;;
+    *) echo "port-check: unknown argument '$1' (expected --target m4|m7, --scenario block|cow|regions, --ticks N, --max-instructions M)" >&2; exit 2 ;;
   esac
 done
 if [ -n "$ticks" ] && ! [[ "$ticks" =~ ^[0-9]+$ ]]; then
@@ -54,7 +55,8 @@ esac
 case "$scenario" in
   block) host_scenario="builtin:firmware"; fw_scenario="" ;;
   cow) host_scenario="builtin:firmware-cow"; fw_scenario="cow" ;;
-  *) echo "port-check: --scenario takes block or cow, not '$scenario'" >&2; exit 2 ;;
+  regions) host_scenario="builtin:firmware-regions"; fw_scenario="regions" ;;
+  *) echo "port-check: --scenario takes block, cow or regions, not '$scenario'" >&2; exit 2 ;;
 esac
 command -v qemu-system-arm >/dev/null || { echo "port-check: qemu-system-arm not found (apt-get install qemu-system-arm)" >&2; exit 1; }
 

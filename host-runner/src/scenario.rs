@@ -525,6 +525,13 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             candidate_capacity: Some(4_096),
             ..builtin("firmware")?
         }),
+        // The firmware scenario with the demo's two materials on the block's shell and core
+        // (`scripts/port-check.sh --scenario regions`; ports/mps2-an386/src/scenario.rs holds
+        // the same numbers).
+        "firmware-regions" => Some(Scenario {
+            regions: demo_regions(),
+            ..builtin("firmware")?
+        }),
         _ => None,
     }
 }
@@ -553,7 +560,7 @@ impl Scenario {
         if let Some(name) = spec.strip_prefix("builtin:") {
             return builtin(name).ok_or_else(|| {
                 CliError::input(format!(
-                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow)"
+                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow, builtin:firmware-regions)"
                 ))
             });
         }

@@ -24,6 +24,10 @@ fn main() {
     println!("cargo:rerun-if-env-changed=TETRADRILL_SCENARIO");
     println!("cargo:rerun-if-env-changed=TETRADRILL_BLOB");
     println!("cargo::rustc-check-cfg=cfg(scenario_cow)");
+    println!("cargo::rustc-check-cfg=cfg(scenario_regions)");
+    if env::var("TETRADRILL_SCENARIO").is_ok_and(|s| s == "regions") {
+        println!("cargo:rustc-cfg=scenario_regions");
+    }
     let cow = env::var("TETRADRILL_SCENARIO").is_ok_and(|s| s == "cow");
     let (blob, nodes, tets) = if cow {
         let path = env::var("TETRADRILL_BLOB").expect(

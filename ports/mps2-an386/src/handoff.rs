@@ -25,6 +25,10 @@ pub enum Release {
         position: Vec3,
         /// The drill button.
         drill_on: bool,
+        /// The magnitude of the force this tick wrote, newtons: it presses the burr into the
+        /// material in the step it releases (`World::set_pressing`, as the host's replay with
+        /// `servo_lag` 1 feeds it).
+        pressing: f32,
         /// Instructions the servo tick took from the timer event to this release.
         servo_instructions: u32,
     },

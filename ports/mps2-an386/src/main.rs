@@ -128,6 +128,11 @@ fn build_world() -> World<'static> {
     let mesh = block_mesh(st.positions, st.mesh);
     let mut world = World::new(mesh, st.world).unwrap_or_else(|_| fail("world storage refused"));
     world.set_contact_max_nodes(scenario::contact_nodes());
+    if cfg!(scenario_regions) {
+        let regions = crate::storage::regions(st.regions, st.tet_region)
+            .unwrap_or_else(|| fail("region storage refused"));
+        world.set_regions(regions);
+    }
     world
 }
 

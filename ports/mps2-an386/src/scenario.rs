@@ -2,7 +2,7 @@
 //! `builtin:firmware`): the host parses f64 and converts to f32, so the firmware writes the
 //! same f64 literals and converts.
 
-use tetradrill_core::drill::DrillParams;
+use tetradrill_core::drill::{DrillParams, Material};
 use tetradrill_core::force::ForceParams;
 use tetradrill_core::script::{Script, DEMO, DRILL_ON};
 use tetradrill_core::Vec3;
@@ -40,8 +40,24 @@ pub const CANDIDATES: usize = if cfg!(scenario_cow) { 4_096 } else { 1_024 };
 /// The scenario's name in the output.
 pub const NAME: &str = if cfg!(scenario_cow) {
     "builtin:firmware-cow"
+} else if cfg!(scenario_regions) {
+    "builtin:firmware-regions"
 } else {
     "builtin:firmware"
+};
+
+/// The block's hard outer shell in `builtin:firmware-regions` (label 1): the host's
+/// `demo_regions` numbers, parsed as f64 and converted as the host converts them.
+pub const SHELL: Material = Material {
+    hardness: 300.0_f64 as f32,
+    threshold: 2.0_f64 as f32,
+    stiffness: 300.0_f64 as f32,
+};
+/// The block's soft core in `builtin:firmware-regions` (label 2).
+pub const CORE: Material = Material {
+    hardness: 120.0_f64 as f32,
+    threshold: 0.5_f64 as f32,
+    stiffness: 150.0_f64 as f32,
 };
 
 /// Scripted ticks to run: the whole path, or fewer when set at build time with

@@ -156,6 +156,7 @@ impl Servo {
             tick: i,
             position,
             drill_on,
+            pressing: f.length(),
             servo_instructions,
         };
         if self.release.enqueue(step).is_err() {

@@ -77,8 +77,12 @@ impl Sim {
                     tick,
                     position,
                     drill_on,
+                    pressing,
                     servo_instructions,
-                } => self.step(tick, position, drill_on, servo_instructions),
+                } => {
+                    self.world.set_pressing(pressing, scenario::DT);
+                    self.step(tick, position, drill_on, servo_instructions)
+                }
                 Release::Finish(summary) => self.finish(&summary),
             }
         }

@@ -14,7 +14,8 @@
 use static_cell::ConstStaticCell;
 
 use tetradrill_core::builtin::block_counts;
-use tetradrill_core::drill::Pending;
+use tetradrill_core::builtin::{block_labels, BLOCK_CORE, BLOCK_SHELL};
+use tetradrill_core::drill::{Pending, Region, Regions};
 use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{HNode, HierarchyStorage, SphereSlot, VEntry};
 use tetradrill_core::mesh::{MeshStorage, Node, Reverse, Tet};
@@ -94,6 +95,11 @@ static CANDIDATES: ConstStaticCell<[TetId; SIZES.candidates]> =
     ConstStaticCell::new([TetId(0); SIZES.candidates]);
 static SPHERE_MEMO: ConstStaticCell<[SphereSlot; SIZES.sphere_memo]> =
     ConstStaticCell::new([SphereSlot::EMPTY; SIZES.sphere_memo]);
+/// The materials of `builtin:firmware-regions`, in label order (the shell, then the core).
+static REGIONS: ConstStaticCell<[Region; 2]> =
+    ConstStaticCell::new([Region::new(scenario::SHELL), Region::new(scenario::CORE)]);
+/// Each tet's region index (0 the shell, 1 the core; used by the regions scenario only).
+static TET_REGION: ConstStaticCell<[u8; TETS]> = ConstStaticCell::new([0; TETS]);
 
 /// The storage, taken once.
 pub struct Storage {
@@ -103,6 +109,10 @@ pub struct Storage {
     pub mesh: MeshStorage<'static>,
     /// The world's hash, hierarchy, drill and candidate storage.
     pub world: WorldStorage<'static>,
+    /// The two regions' materials and what they have earned and lost.
+    pub regions: &'static mut [Region],
+    /// Each tet's region index.
+    pub tet_region: &'static mut [u8],
 }
 
 impl Storage {
@@ -141,6 +151,28 @@ impl Storage {
                 candidates,
                 sphere_memo: SPHERE_MEMO.take(),
             },
+            regions: REGIONS.take(),
+            tet_region: TET_REGION.take(),
         }
     }
+}
+
+/// The regions of `builtin:firmware-regions` over the block: each tet's index from its label
+/// (`builtin::block_labels`, the host's labels of `builtin:block:N`; one region per distinct
+/// label in label order, as the host's `region_table` numbers them). `None` if the block's
+/// labels do not fit or the core refuses the table.
+pub fn regions(
+    table: &'static mut [Region],
+    of_tet: &'static mut [u8],
+) -> Option<Regions<'static>> {
+    let mut labels = [0i32; TETS];
+    block_labels(BLOCK_N, &mut labels)?;
+    for (slot, &label) in of_tet.iter_mut().zip(labels.iter()) {
+        *slot = match label {
+            BLOCK_SHELL => 0,
+            BLOCK_CORE => 1,
+            _ => return None,
+        };
+    }
+    Regions::new(table, of_tet).ok()
 }
