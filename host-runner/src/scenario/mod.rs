@@ -9,6 +9,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::CliError;
 
+mod regions;
+pub use regions::{demo_regions, RegionSpec};
+
 /// Which way depth finds the surface intersections of border edges.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
@@ -134,52 +137,6 @@ pub struct Scenario {
     /// body's node count).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub queue_capacity: Option<usize>,
-}
-
-/// One region's material in a scenario's `[regions]` table.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RegionSpec {
-    /// Newton-seconds per cubic mesh unit (0: removed at once).
-    #[serde(default)]
-    pub hardness: f64,
-    /// Newtons the burr must press with before it removes anything.
-    #[serde(default)]
-    pub threshold: f64,
-    /// Contact stiffness, newtons per mesh unit of depth (absent: the scenario's `stiffness`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub stiffness: Option<f64>,
-    /// Display colour, `#rrggbb` (absent: the viewer's palette).
-    #[serde(default, alias = "color", skip_serializing_if = "Option::is_none")]
-    pub colour: Option<String>,
-}
-
-impl RegionSpec {
-    /// The core's material for this region.
-    pub fn material(&self) -> tetradrill_core::drill::Material {
-        tetradrill_core::drill::Material {
-            hardness: self.hardness as f32,
-            threshold: self.threshold as f32,
-            stiffness: self.stiffness.unwrap_or(0.0) as f32,
-        }
-    }
-
-    /// The colour as linear RGB in `0..=1`, if set.
-    ///
-    /// # Errors
-    /// A colour that is not `#rrggbb`.
-    pub fn rgb(&self) -> Result<Option<[f32; 3]>, String> {
-        let Some(c) = &self.colour else {
-            return Ok(None);
-        };
-        let hex = c.strip_prefix('#').unwrap_or(c);
-        if hex.len() != 6 || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
-            return Err(format!("colour `{c}` is not #rrggbb"));
-        }
-        let ch =
-            |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).map_or(0.0, |v| v as f32 / 255.0);
-        Ok(Some([ch(0), ch(2), ch(4)]))
-    }
 }
 
 /// Largest storage one buffer may take. A larger capacity is refused as absurd: a mistyped
@@ -468,27 +425,6 @@ fn non_negative(s: &str) -> Result<f64, String> {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
         _ => Err(format!("`{s}` is not a non-negative number")),
     }
-}
-
-/// The demo block's materials: its shell (label 1) hard, stiff and needing a firm push; its
-/// core (label 2) soft.
-pub fn demo_regions() -> BTreeMap<String, RegionSpec> {
-    let shell = RegionSpec {
-        hardness: 300.0,
-        threshold: 2.0,
-        stiffness: Some(300.0),
-        colour: Some("#e8dcc0".into()),
-    };
-    let core = RegionSpec {
-        hardness: 120.0,
-        threshold: 0.5,
-        stiffness: Some(150.0),
-        colour: Some("#f0c040".into()),
-    };
-    BTreeMap::from([
-        (tetradrill_core::builtin::BLOCK_SHELL.to_string(), shell),
-        (tetradrill_core::builtin::BLOCK_CORE.to_string(), core),
-    ])
 }
 
 /// A built-in scenario by name.
@@ -824,59 +760,4 @@ pub enum ToolKind {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn flags_override_the_scenario() {
-        let f = ScenarioFlags {
-            scenario: Some("builtin:firmware".into()),
-            stiffness: Some(50.0),
-            ..Default::default()
-        };
-        let s = Scenario::from_flags(&f).expect("valid");
-        assert_eq!(s.mesh, "builtin:block:4");
-        assert_eq!(s.stiffness, 50.0);
-    }
-
-    #[test]
-    fn bad_scenarios_name_the_file_and_line() {
-        let dir = std::env::temp_dir().join(format!("tdscn-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("temp dir");
-        let p = dir.join("bad.toml");
-        std::fs::write(&p, "mesh = \"builtin:cube12\"\nstiffnes = 3.0\n").expect("write");
-        let e = Scenario::load(p.to_str().expect("utf8")).expect_err("unknown key");
-        assert_eq!(e.code, 2);
-        assert!(e.message.contains("bad.toml:2:"), "{}", e.message);
-        std::fs::write(&p, "tool = \"sphere:-1\"\n").expect("write");
-        let e = Scenario::load(p.to_str().expect("utf8")).expect_err("negative radius");
-        assert!(e.message.contains("radius"), "{}", e.message);
-        assert!(Scenario::load("builtin:nope").is_err());
-        std::fs::write(
-            &p,
-            "mesh = \"builtin:cube12\"\n# zero\n  hash_capacity =0\n",
-        )
-        .expect("write");
-        let e = Scenario::load(p.to_str().expect("utf8")).expect_err("zero capacity");
-        assert!(e.message.contains("bad.toml:3:"), "{}", e.message);
-        assert!(e.message.contains("--hash-capacity"), "{}", e.message);
-    }
-
-    #[test]
-    fn capacities_refuse_zero_and_more_than_a_gibibyte() {
-        for c in CAPACITIES {
-            assert!(c.check(0).is_err(), "{}", c.key);
-            assert!(c.check(c.min).is_ok(), "{}", c.key);
-            assert!(c.check(c.max()).is_ok(), "{}", c.key);
-            assert!(c.check(c.max() + 1).is_err(), "{}", c.key);
-            assert!(c.max() * c.entry_bytes <= MAX_BUFFER_BYTES);
-            let s = Scenario::default();
-            assert!(
-                s.capacity_value(c.key).is_none_or(|v| c.check(v).is_ok()),
-                "the default {} is accepted",
-                c.key
-            );
-        }
-        assert!(capacity("hierarchy_capacity").is_some_and(|c| c.check(7).is_err()));
-    }
-}
+mod tests;

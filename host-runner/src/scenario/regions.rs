@@ -1,0 +1,72 @@
+//! The `[regions]` table of a scenario: one material per region label, and the demo's.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+/// One region's material in a scenario's `[regions]` table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegionSpec {
+    /// Newton-seconds per cubic mesh unit (0: removed at once).
+    #[serde(default)]
+    pub hardness: f64,
+    /// Newtons the burr must press with before it removes anything.
+    #[serde(default)]
+    pub threshold: f64,
+    /// Contact stiffness, newtons per mesh unit of depth (absent: the scenario's `stiffness`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiffness: Option<f64>,
+    /// Display colour, `#rrggbb` (absent: the viewer's palette).
+    #[serde(default, alias = "color", skip_serializing_if = "Option::is_none")]
+    pub colour: Option<String>,
+}
+
+impl RegionSpec {
+    /// The core's material for this region.
+    pub fn material(&self) -> tetradrill_core::drill::Material {
+        tetradrill_core::drill::Material {
+            hardness: self.hardness as f32,
+            threshold: self.threshold as f32,
+            stiffness: self.stiffness.unwrap_or(0.0) as f32,
+        }
+    }
+
+    /// The colour as linear RGB in `0..=1`, if set.
+    ///
+    /// # Errors
+    /// A colour that is not `#rrggbb`.
+    pub fn rgb(&self) -> Result<Option<[f32; 3]>, String> {
+        let Some(c) = &self.colour else {
+            return Ok(None);
+        };
+        let hex = c.strip_prefix('#').unwrap_or(c);
+        if hex.len() != 6 || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return Err(format!("colour `{c}` is not #rrggbb"));
+        }
+        let ch =
+            |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).map_or(0.0, |v| v as f32 / 255.0);
+        Ok(Some([ch(0), ch(2), ch(4)]))
+    }
+}
+
+/// The demo block's materials: its shell (label 1) hard, stiff and needing a firm push; its
+/// core (label 2) soft.
+pub fn demo_regions() -> BTreeMap<String, RegionSpec> {
+    let shell = RegionSpec {
+        hardness: 300.0,
+        threshold: 2.0,
+        stiffness: Some(300.0),
+        colour: Some("#e8dcc0".into()),
+    };
+    let core = RegionSpec {
+        hardness: 120.0,
+        threshold: 0.5,
+        stiffness: Some(150.0),
+        colour: Some("#f0c040".into()),
+    };
+    BTreeMap::from([
+        (tetradrill_core::builtin::BLOCK_SHELL.to_string(), shell),
+        (tetradrill_core::builtin::BLOCK_CORE.to_string(), core),
+    ])
+}

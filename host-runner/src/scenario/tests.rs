@@ -1,0 +1,56 @@
+//! Scenario files, built-ins and flags: what is read, what is refused.
+
+use super::*;
+
+#[test]
+fn flags_override_the_scenario() {
+    let f = ScenarioFlags {
+        scenario: Some("builtin:firmware".into()),
+        stiffness: Some(50.0),
+        ..Default::default()
+    };
+    let s = Scenario::from_flags(&f).expect("valid");
+    assert_eq!(s.mesh, "builtin:block:4");
+    assert_eq!(s.stiffness, 50.0);
+}
+
+#[test]
+fn bad_scenarios_name_the_file_and_line() {
+    let dir = std::env::temp_dir().join(format!("tdscn-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let p = dir.join("bad.toml");
+    std::fs::write(&p, "mesh = \"builtin:cube12\"\nstiffnes = 3.0\n").expect("write");
+    let e = Scenario::load(p.to_str().expect("utf8")).expect_err("unknown key");
+    assert_eq!(e.code, 2);
+    assert!(e.message.contains("bad.toml:2:"), "{}", e.message);
+    std::fs::write(&p, "tool = \"sphere:-1\"\n").expect("write");
+    let e = Scenario::load(p.to_str().expect("utf8")).expect_err("negative radius");
+    assert!(e.message.contains("radius"), "{}", e.message);
+    assert!(Scenario::load("builtin:nope").is_err());
+    std::fs::write(
+        &p,
+        "mesh = \"builtin:cube12\"\n# zero\n  hash_capacity =0\n",
+    )
+    .expect("write");
+    let e = Scenario::load(p.to_str().expect("utf8")).expect_err("zero capacity");
+    assert!(e.message.contains("bad.toml:3:"), "{}", e.message);
+    assert!(e.message.contains("--hash-capacity"), "{}", e.message);
+}
+
+#[test]
+fn capacities_refuse_zero_and_more_than_a_gibibyte() {
+    for c in CAPACITIES {
+        assert!(c.check(0).is_err(), "{}", c.key);
+        assert!(c.check(c.min).is_ok(), "{}", c.key);
+        assert!(c.check(c.max()).is_ok(), "{}", c.key);
+        assert!(c.check(c.max() + 1).is_err(), "{}", c.key);
+        assert!(c.max() * c.entry_bytes <= MAX_BUFFER_BYTES);
+        let s = Scenario::default();
+        assert!(
+            s.capacity_value(c.key).is_none_or(|v| c.check(v).is_ok()),
+            "the default {} is accepted",
+            c.key
+        );
+    }
+    assert!(capacity("hierarchy_capacity").is_some_and(|c| c.check(7).is_err()));
+}
