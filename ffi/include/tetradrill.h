@@ -159,22 +159,6 @@ typedef struct td_sim_report {
   uint32_t candidates_saturated;
 } td_sim_report;
 
-// One region of a world: its label, its material and the volume removed from it.
-typedef struct td_region {
-  // The region's label (the mesh's, from `td_world_init`'s `labels`; 0 without them).
-  int32_t label;
-  // Newton-seconds per cubic mesh unit: the burr pressing `F` newtons above the threshold
-  // removes `(F - threshold) / hardness` cubic mesh units a second; 0: removed at once.
-  float hardness;
-  // Newtons the burr must press with before it removes anything.
-  float threshold;
-  // Contact stiffness, newtons per mesh unit of depth; 0: `td_params.stiffness`.
-  float stiffness;
-  // Volume removed from the region so far, mesh units cubed (`removed_by_region` of
-  // `tetradrill replay`).
-  double removed_volume;
-} td_region;
-
 // A world's counters since `td_world_init`.
 typedef struct td_counters {
   // FNV-1a 64 digest of every force `td_world_servo_force` returned, in order: the
@@ -210,6 +194,22 @@ typedef struct td_counters {
   // `td_world_region` and `td_world_region_at` give each one's removed volume.
   uint32_t region_count;
 } td_counters;
+
+// One region of a world: its label, its material and the volume removed from it.
+typedef struct td_region {
+  // The region's label (the mesh's, from `td_world_init`'s `labels`; 0 without them).
+  int32_t label;
+  // Newton-seconds per cubic mesh unit: the burr pressing `F` newtons above the threshold
+  // removes `(F - threshold) / hardness` cubic mesh units a second; 0: removed at once.
+  float hardness;
+  // Newtons the burr must press with before it removes anything.
+  float threshold;
+  // Contact stiffness, newtons per mesh unit of depth; 0: `td_params.stiffness`.
+  float stiffness;
+  // Volume removed from the region so far, mesh units cubed (`removed_by_region` of
+  // `tetradrill replay`).
+  double removed_volume;
+} td_region;
 
 
 
@@ -363,6 +363,47 @@ enum td_status td_world_tick(struct td_world *world,
                              uint32_t buttons,
                              struct td_vec3 *force);
 
+// Writes the world's counters to `*out`: the force digest, ticks, volumes, hierarchy and
+// saturation counts.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_simulate` for the world; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's; `out` points
+// at a writable `td_counters`.
+enum td_status td_world_counters(struct td_world *world, struct td_counters *out);
+
+// Ticks of the host's scripted demo path (`builtin:demo`, 6,001 at 1 kHz).
+//
+// # Bounded work
+// Constant.
+uint32_t td_demo_ticks(void);
+
+// The demo path's tool position (`*position`) and buttons (`*buttons`, bit 0 = drill on) at
+// `tick`, bit for bit as the host's `replay` and the firmware compute them (held at the
+// ends). The path is over the unit block `[-0.5, 0.5]^3`.
+//
+// # Bounded work
+// O(key poses): seven.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer.
+//
+// # Safety
+// `position` points at a writable `td_vec3`, `buttons` at a writable `uint32_t`.
+enum td_status td_demo_pose(uint32_t tick, struct td_vec3 *position, uint32_t *buttons);
+
+// A static NUL-terminated line saying what status `code` means (`"unknown status"` for a
+// code no function returns).
+//
+// # Bounded work
+// Constant.
+const char *td_status_name(int32_t code);
+
 // Sets the force pressing the burr against the material, `newtons` (the magnitude of the
 // servo's latest force), held for `seconds` (the servo periods since the previous step): the
 // next `td_world_simulate` earns each region's erosion from them. `td_world_tick` sets it
@@ -430,47 +471,6 @@ enum td_status td_world_region(struct td_world *world, int32_t label, struct td_
 // # Safety
 // As `td_world_region`.
 enum td_status td_world_region_at(struct td_world *world, uint32_t index, struct td_region *out);
-
-// Writes the world's counters to `*out`: the force digest, ticks, volumes, hierarchy and
-// saturation counts.
-//
-// # Bounded work
-// Constant.
-//
-// # Errors
-// As `td_world_simulate` for the world; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
-//
-// # Safety
-// `world` is a handle from `td_world_init` whose memory is still the caller's; `out` points
-// at a writable `td_counters`.
-enum td_status td_world_counters(struct td_world *world, struct td_counters *out);
-
-// Ticks of the host's scripted demo path (`builtin:demo`, 6,001 at 1 kHz).
-//
-// # Bounded work
-// Constant.
-uint32_t td_demo_ticks(void);
-
-// The demo path's tool position (`*position`) and buttons (`*buttons`, bit 0 = drill on) at
-// `tick`, bit for bit as the host's `replay` and the firmware compute them (held at the
-// ends). The path is over the unit block `[-0.5, 0.5]^3`.
-//
-// # Bounded work
-// O(key poses): seven.
-//
-// # Errors
-// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer.
-//
-// # Safety
-// `position` points at a writable `td_vec3`, `buttons` at a writable `uint32_t`.
-enum td_status td_demo_pose(uint32_t tick, struct td_vec3 *position, uint32_t *buttons);
-
-// A static NUL-terminated line saying what status `code` means (`"unknown status"` for a
-// code no function returns).
-//
-// # Bounded work
-// Constant.
-const char *td_status_name(int32_t code);
 
 #ifdef __cplusplus
 }  // extern "C"
