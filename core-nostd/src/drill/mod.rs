@@ -13,6 +13,7 @@
 //! covers its volume (`material.rs`, docs/DRILLING.md "Materials").
 
 mod candidates;
+mod crumbs;
 mod material;
 mod spacing;
 mod sphere;

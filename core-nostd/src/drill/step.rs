@@ -7,7 +7,7 @@ use super::material::{Regions, Spend};
 use super::sphere::{classify_costed, Class, Sphere};
 use crate::geom::tri_area;
 use crate::hierarchy::{
-    child_of_refinement, child_of_ten, refinement_points, Hierarchy, HierarchyError, Path,
+    child_of_refinement, child_of_ten, refinement_points, Crumbs, Hierarchy, HierarchyError, Path,
     RootFrame, MAX_DEPTH,
 };
 use crate::ids::TetId;
@@ -165,6 +165,10 @@ pub struct DrillReport {
     /// 1 when the step ended on a leaf waiting for its region's credit
     /// ([`super::Regions::spend`]).
     pub waited: u32,
+    /// Erased leaves checked for debris cut off (`crumbs.rs`).
+    pub debris_checked: u32,
+    /// Leaves erased as debris (in `removed_volume`, not in `erased`).
+    pub debris_erased: u32,
 }
 
 /// [`super::classify`], charging the exact test when it runs ([`WorkCost::EXACT_TEST`]).
@@ -230,6 +234,8 @@ pub struct Drill<'a> {
     pub(super) regions: Option<Regions<'a>>,
     /// A leaf waits for its region's credit: the step stops.
     stalled: bool,
+    /// The erased leaves waiting for their debris check.
+    pub(super) crumbs: Crumbs,
 }
 
 impl<'a> Drill<'a> {
@@ -255,6 +261,7 @@ impl<'a> Drill<'a> {
             saturations: 0,
             regions: None,
             stalled: false,
+            crumbs: Crumbs::default(),
         }
     }
 
@@ -284,6 +291,7 @@ impl<'a> Drill<'a> {
         self.frame = None;
         self.parents = [None; MAX_DEPTH];
         self.stalled = false;
+        self.crumbs.clear();
     }
 
     /// Remembers `s` as part of the swept volume (the oldest of [`SWEPT`] is forgotten).
@@ -461,7 +469,10 @@ impl<'a> Drill<'a> {
     /// erasure 4 NTree visits, each O(depth) plus the instantiated nodes across one face. A
     /// leaf's swept test is at most [`SWEPT_AHEAD`] sphere tests, after a search of the
     /// [`SWEPT`] remembered spheres when the item's sphere is not the last one looked up
-    /// ([`WorkCost::LOCATE`]).
+    /// ([`WorkCost::LOCATE`]). Every leaf erased leaves a debris seed; the seeds are checked
+    /// after the items, while the budget lasts, and before the next item when their queue is
+    /// full ([`crate::hierarchy::Crumbs::check_one`], charged [`WorkCost::TAKEN`] plus its NTree
+    /// visits; the rest wait for the next step).
     ///
     /// # Capacity
     /// Arena full (no fresh block, and no wholly erased subtree to take one back from): the
@@ -513,11 +524,17 @@ impl<'a> Drill<'a> {
         }
         let max_depth = params.max_depth.min(crate::hierarchy::MAX_DEPTH as u8);
         while rep.work < params.budget && !self.stalled {
+            // A full seed queue is checked first, so no erasure goes unchecked.
+            if self.crumbs.is_full() {
+                self.check_crumbs(h, mesh, max_depth, params.budget, &mut rep);
+                continue;
+            }
             let Some(item) = self.pop_front() else { break };
             rep.work = rep.work.saturating_add(WorkCost::TAKEN);
             rep.taken += 1;
             self.process(h, mesh, item, max_depth, params.min_area, &mut rep);
         }
+        self.check_crumbs(h, mesh, max_depth, params.budget, &mut rep);
         rep.pending = self.len as u32;
         rep.removed_volume = h.removed_volume() - removed0;
         rep.saturations += h.saturations() - sat0;
@@ -649,6 +666,7 @@ impl<'a> Drill<'a> {
             rep.visits = rep.visits.saturating_add(r.work);
             rep.erased += 1;
             self.note_removed(item.tet, r.removed);
+            self.crumbs.note(item.tet, item.index);
         }
     }
 
