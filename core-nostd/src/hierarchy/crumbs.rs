@@ -7,10 +7,12 @@
 //! is not debris and stops there. Adjacency is the NTree visit [`Hierarchy::components`] joins
 //! leaves with (within a tree, across coarse faces, between levels).
 //!
-//! Storage is fixed: [`CRUMB_SEEDS`] seeds, [`CRUMB_STARTS`] leaves across one seed's faces,
-//! [`CRUMB_FILL`] leaves in the fills of one seed. A full buffer is never fatal: the piece is
-//! treated as "not debris" and counted in [`CrumbStats::saturations`] ([`Hierarchy::remove_debris`],
-//! a whole-object sweep, finds what was skipped).
+//! Storage is fixed (about 10 KB, inside the [`Crumbs`] its owner holds): [`CRUMB_SEEDS`]
+//! seeds, [`CRUMB_STARTS`] leaves across one seed's faces, [`CRUMB_FILL`] leaves in one fill,
+//! and a cache of [`CRUMB_KNOWN`] leaves known to be in big pieces. A full buffer is never
+//! fatal: the seed is dropped or the piece treated as "not debris", and counted in
+//! [`CrumbStats::saturations`] ([`Hierarchy::remove_debris`], a whole-object sweep, finds
+//! what was skipped).
 
 use super::geometry::node_volume;
 use super::store::Hierarchy;
@@ -20,17 +22,20 @@ use crate::ids::TetId;
 use crate::mesh::Mesh;
 
 /// Seeds (erased leaves) waiting for their check.
-pub const CRUMB_SEEDS: usize = 128;
+pub const CRUMB_SEEDS: usize = 1024;
 
 /// Leaves across one seed's four faces a check starts fills from (more: the seed is checked
 /// from the first ones and counted as a saturation).
-pub const CRUMB_STARTS: usize = 16;
+pub const CRUMB_STARTS: usize = 8;
 
-/// Leaves the fills of a batch of checks remember (a fill holds at most `max_leaves` of them
-/// before it stops: with [`super::DEBRIS_LEAVES`], sixteen fills; then the oldest are
-/// forgotten). A leaf remembered from a fill that reached the debris size is known to be in
-/// a big piece, and a later fill that meets it stops there.
-pub const CRUMB_FILL: usize = 128;
+/// Leaves one fill holds (a fill stops once it holds `max_leaves` max-depth leaves' worth, so
+/// at most `max_leaves` leaves; a larger `max_leaves` fills up: counted, not debris).
+pub const CRUMB_FILL: usize = 16;
+
+/// Slots of the cache of leaves known to be in big pieces (direct-mapped by node reference):
+/// the leaves of every fill that reached the debris size in a batch of checks; a later fill
+/// that meets one stops there. A slot overwritten only costs a longer fill.
+pub const CRUMB_KNOWN: usize = 256;
 
 /// What the checks of [`Crumbs`] did (cumulative).
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
@@ -43,6 +48,10 @@ pub struct CrumbStats {
     pub volume: f64,
     /// Seeds checked.
     pub checked: u32,
+    /// Leaves the checks started a fill from.
+    pub fills: u32,
+    /// NTree nodes the checks touched (their work; the erasures' included).
+    pub visits: u64,
     /// The size of the largest piece erased, in max-depth leaves (below the debris size).
     pub largest: u32,
     /// Seeds dropped for a full queue, seeds with more than [`CRUMB_STARTS`] leaves across,
@@ -86,8 +95,9 @@ pub struct Crumbs {
     head: usize,
     len: usize,
     fill: [FillLeaf; CRUMB_FILL],
-    /// `fill[..known]`: leaves of pieces found big in this batch.
-    known: usize,
+    /// Leaves found in big pieces: `(node, batch)`, valid when `batch` is the current one.
+    known: [(u32, u32); CRUMB_KNOWN],
+    batch: u32,
     max_leaves: u32,
     stats: CrumbStats,
 }
@@ -115,13 +125,16 @@ impl Crumbs {
                 node: 0,
                 depth: 0,
             }; CRUMB_FILL],
-            known: 0,
+            known: [(u32::MAX, 0); CRUMB_KNOWN],
+            batch: 0,
             max_leaves,
             stats: CrumbStats {
                 pieces: 0,
                 nodes: 0,
                 volume: 0.0,
                 checked: 0,
+                fills: 0,
+                visits: 0,
                 largest: 0,
                 saturations: 0,
             },
@@ -159,7 +172,17 @@ impl Crumbs {
     /// # Bounded work
     /// Constant.
     pub fn forget(&mut self) {
-        self.known = 0;
+        self.batch = self.batch.wrapping_add(1);
+        if self.batch == 0 {
+            // Wrapped: no old entry may look current.
+            self.known = [(u32::MAX, 0); CRUMB_KNOWN];
+            self.batch = 1;
+        }
+    }
+
+    /// `true` when leaf `node` is known to be in a big piece in this batch.
+    fn is_known(&self, node: u32) -> bool {
+        self.known.get(node as usize % CRUMB_KNOWN) == Some(&(node, self.batch))
     }
 
     /// Seeds waiting for their check.
@@ -213,8 +236,9 @@ impl Crumbs {
     /// # Bounded work
     /// O(depth) to find the seed, 4 NTree visits across its faces (stopped after
     /// [`CRUMB_STARTS`] leaves), then per start leaf a fill of at most `max_leaves` leaves
-    /// (and at most [`CRUMB_FILL`]), 4 NTree visits each, and for a closed fill one
-    /// [`Hierarchy::erase`] per leaf: O(`CRUMB_STARTS` + `CRUMB_FILL`) NTree visits in all.
+    /// (and at most [`CRUMB_FILL`]), 4 NTree visits each (and a scan of the fill per leaf
+    /// met), and for a closed fill one [`Hierarchy::erase`] per leaf: O(`CRUMB_STARTS` *
+    /// `CRUMB_FILL`) NTree visits in all.
     pub fn check_one<F: FnMut(TetId, f64)>(
         &mut self,
         h: &mut Hierarchy<'_>,
@@ -289,28 +313,27 @@ impl Crumbs {
         if over {
             self.stats.saturations = self.stats.saturations.saturating_add(1);
         }
-        let k = self.max_leaves;
-        let room = (k as usize).min(CRUMB_FILL);
-        let mut len = self.known.min(CRUMB_FILL);
         for s in starts.iter().take(ns) {
             // Part of a piece already found big (or erased just now as debris): nothing to do.
-            if self.fill.iter().take(len).any(|l| l.node == s.node)
-                || h.node(s.node).is_none_or(|n| n.erased() || !n.is_leaf())
-            {
+            if self.is_known(s.node) || h.node(s.node).is_none_or(|n| n.erased() || !n.is_leaf()) {
                 continue;
             }
-            if CRUMB_FILL - len < room {
-                len = 0;
-            }
-            let base = len;
-            let (end, outcome, size) = self.flood(h, mesh, *s, base, max_depth, &mut work.visits);
+            self.stats.fills = self.stats.fills.saturating_add(1);
+            let (end, outcome, size) = self.flood(h, mesh, *s, max_depth, &mut work.visits);
             match outcome {
-                Fill::Big => len = end,
+                Fill::Big => {
+                    let batch = self.batch;
+                    for l in self.fill.iter().take(end) {
+                        if let Some(slot) = self.known.get_mut(l.node as usize % CRUMB_KNOWN) {
+                            *slot = (l.node, batch);
+                        }
+                    }
+                }
                 Fill::Full => {
                     self.stats.saturations = self.stats.saturations.saturating_add(1);
                 }
                 Fill::Closed => {
-                    let piece = self.fill.get(base..end).unwrap_or(&[]);
+                    let piece = self.fill.get(..end).unwrap_or(&[]);
                     let volume: f64 = piece
                         .iter()
                         .map(|l| node_volume(mesh, l.tet, l.depth))
@@ -339,34 +362,33 @@ impl Crumbs {
                 }
             }
         }
-        self.known = len;
+        self.stats.visits = self.stats.visits.saturating_add(u64::from(work.visits));
         Some(work)
     }
 
-    /// Floods the non-erased leaves from `start`, writing them at `fill[base..]`; returns the
-    /// end of what it wrote, how it ended and the size met (max-depth leaves). A leaf met that is in `fill[..base]` belongs to
-    /// a piece an earlier fill found big.
+    /// Floods the non-erased leaves from `start`, writing them at `fill[..]`; returns the end
+    /// of what it wrote, how it ended and the size met (max-depth leaves). A leaf met that is
+    /// known to be in a big piece ends it.
     fn flood(
         &mut self,
         h: &Hierarchy<'_>,
         mesh: &Mesh<'_>,
         start: FillLeaf,
-        base: usize,
         max_depth: u8,
         visits: &mut u32,
     ) -> (usize, Fill, u32) {
         let k = self.max_leaves;
         let units = |depth: u8| 8u32.saturating_pow(u32::from(max_depth.saturating_sub(depth)));
-        let Some(slot) = self.fill.get_mut(base) else {
-            return (base, Fill::Full, 0);
+        let Some(slot) = self.fill.get_mut(0) else {
+            return (0, Fill::Full, 0);
         };
         *slot = start;
-        let mut end = base + 1;
+        let mut end = 1;
         let mut size = units(start.depth);
         if size >= k {
             return (end, Fill::Big, size);
         }
-        let mut i = base;
+        let mut i = 0;
         while i < end {
             let Some(leaf) = self.fill.get(i).copied() else {
                 break;
@@ -377,7 +399,7 @@ impl Crumbs {
             };
             for f in 0..4u8 {
                 let mut outcome = None;
-                let fill = &mut self.fill;
+                let (fill, known, batch) = (&mut self.fill, &self.known, self.batch);
                 let mut ctx = h;
                 visit_across_from(
                     &mut ctx,
@@ -390,11 +412,11 @@ impl Crumbs {
                         if met.record.erased() {
                             return true;
                         }
-                        if let Some(at) = fill.iter().take(end).position(|l| l.node == met.node) {
-                            if at < base {
-                                outcome = Some(Fill::Big);
-                                return false;
-                            }
+                        if known.get(met.node as usize % CRUMB_KNOWN) == Some(&(met.node, batch)) {
+                            outcome = Some(Fill::Big);
+                            return false;
+                        }
+                        if fill.iter().take(end).any(|l| l.node == met.node) {
                             return true;
                         }
                         let Some(slot) = fill.get_mut(end) else {

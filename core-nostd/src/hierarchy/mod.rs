@@ -45,7 +45,9 @@ pub mod table;
 mod validate;
 pub mod visit;
 
-pub use crumbs::{CrumbStats, CrumbWork, Crumbs, CRUMB_FILL, CRUMB_SEEDS, CRUMB_STARTS};
+pub use crumbs::{
+    CrumbStats, CrumbWork, Crumbs, CRUMB_FILL, CRUMB_KNOWN, CRUMB_SEEDS, CRUMB_STARTS,
+};
 pub use debris::{DebrisReport, DEBRIS_LEAVES};
 pub(crate) use geometry::{child_of_refinement, child_of_ten, refinement_points, RootFrame};
 pub use geometry::{node_positions, node_volume};
