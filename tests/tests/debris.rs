@@ -607,7 +607,7 @@ fn the_cow_after_a_wander_is_one_piece_with_the_drills_checks() {
     // off and a budget that lets them finish.
     let mut still = poses.at(3999);
     still.buttons = 0;
-    let mut drain = params.clone();
+    let mut drain = params;
     drain.drill.budget = 10_000_000;
     world.set_tick_budget(None);
     let mut extra = 0;
