@@ -261,7 +261,7 @@ fn drill_work_stays_within_budget_plus_one_operation() {
             // The work is exactly what was done, each kind at its weight.
             assert_eq!(
                 r.work,
-                WorkCost::TAKEN * r.taken
+                WorkCost::TAKEN * (r.taken + r.debris_checked)
                     + WorkCost::EXPANDED * r.expanded
                     + WorkCost::VISIT * r.visits
                     + WorkCost::CREATED * r.created

@@ -17,7 +17,7 @@ use tetradrill::engine::{self, EngineStorage, TickParams};
 use tetradrill::scenario::Scenario;
 use tetradrill::traces::PoseSource;
 use tetradrill_core::force::ToolState;
-use tetradrill_core::hierarchy::{Hierarchy, DEBRIS_LEAVES};
+use tetradrill_core::hierarchy::{Crumbs, Hierarchy, CRUMB_SEEDS, DEBRIS_LEAVES};
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::TetId;
 use tetradrill_tests::drill::{block_mesh, check_visible, contains, det, leaves, LeafG, Store};
@@ -152,6 +152,7 @@ fn groove(trace: &str, mesh: &str, radius: f64, max_depth: u8) -> Groove {
     let loaded = engine::load_mesh(&sc).expect("mesh");
     let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
     let mut world = store.world().expect("world");
+    world.set_debris_leaves(0);
     let mut tool = ToolState::default();
     for i in 0..poses.ticks() {
         engine::tick(&mut world, &mut tool, &params, &poses.at(i));
@@ -234,6 +235,16 @@ fn centroid(l: &LeafG) -> D3 {
 /// The unit block `[0, 1]^3` (48 tets) refined to depth 2, a slab `0.3 < x < 0.7` (by leaf
 /// centroid) erased but for the leaves nearest to `crumbs`: two halves and the crumbs.
 fn cut_with_crumbs<'a>(mesh: &Mesh<'_>, st: &'a mut Store, crumbs: &[D3]) -> Hierarchy<'a> {
+    cut_with_crumbs_then(mesh, st, crumbs, |_, _, _| {})
+}
+
+/// [`cut_with_crumbs`] calling `after(h, tet, index)` after each erasure.
+fn cut_with_crumbs_then<'a>(
+    mesh: &Mesh<'_>,
+    st: &'a mut Store,
+    crumbs: &[D3],
+    mut after: impl FnMut(&mut Hierarchy<'_>, TetId, u32),
+) -> Hierarchy<'a> {
     let mut h = st.hierarchy(mesh);
     for t in 0..mesh.tet_count() {
         let tet = TetId::from_idx(t);
@@ -256,6 +267,7 @@ fn cut_with_crumbs<'a>(mesh: &Mesh<'_>, st: &'a mut Store, crumbs: &[D3]) -> Hie
         let x = centroid(l)[0];
         if x > 0.3 && x < 0.7 && !keep.contains(&i) {
             h.erase(mesh, l.tet, l.index).unwrap();
+            after(&mut h, l.tet, l.index);
         }
     }
     h.validate(mesh).unwrap();
@@ -373,6 +385,8 @@ fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
     let loaded = engine::load_mesh(&sc).expect("mesh");
     let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
     let mut world = store.world().expect("world");
+    // The drill's own checks off: the crumbs stay for the sweep.
+    world.set_debris_leaves(0);
     let mut tool = ToolState::default();
     for i in 0..4000 {
         engine::tick(&mut world, &mut tool, &params, &poses.at(i));
@@ -390,7 +404,8 @@ fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
         "cow wander: {before} pieces, {} erased ({} leaves, volume {:.3e}), {} left",
         rep.pieces, rep.nodes, rep.volume, rep.components
     );
-    assert!(rep.pieces >= 5, "{}", rep.pieces);
+    // The drill leaves crumbs on this path (3 since the coarse and fine passes; 13 before).
+    assert!(rep.pieces >= 1, "{}", rep.pieces);
     assert!(rep.nodes < rep.pieces * DEBRIS_LEAVES);
     assert_eq!(before, rep.pieces + 1);
     assert_eq!(rep.components, 1);
@@ -401,4 +416,228 @@ fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
             .expect("scratch"),
         1
     );
+}
+
+/// The checks of [`Crumbs`], fed every erasure of the slab (checked as the queue fills, then
+/// to the end): the one-leaf crumbs go, the halves stay, the visible faces stay exact, and the
+/// erased volume is what the tests' own geometry lost.
+#[test]
+fn the_checks_after_each_erasure_erase_the_crumbs_and_nothing_else() {
+    let mut om = block_mesh(2, 0.5);
+    let mesh = om.view();
+    let mut st = Store::new(mesh.tet_count(), 8 * 48 * 9);
+    let crumbs = [[0.5, 0.5, 0.5], [0.5, 0.2, 0.8], [0.45, 0.8, 0.25]];
+    let mut c = Crumbs::new(DEBRIS_LEAVES);
+    let mut noted = Vec::new();
+    let mut h = cut_with_crumbs_then(&mesh, &mut st, &crumbs, |h, tet, index| {
+        c.note(tet, index);
+        if c.is_full() {
+            c.forget();
+            while c
+                .check_one(h, &mesh, 2, |t, v| noted.push((t, v)))
+                .is_some()
+            {}
+        }
+    });
+    let material_before = material(&mesh, &h);
+    let removed_before = h.removed_volume();
+    c.forget();
+    while c
+        .check_one(&mut h, &mesh, 2, |t, v| noted.push((t, v)))
+        .is_some()
+    {}
+    h.validate(&mesh).unwrap();
+    let s = c.stats();
+    assert_eq!((s.pieces, s.nodes, s.saturations), (3, 3, 0), "{s:?}");
+    assert_eq!(s.largest, 1);
+    assert_eq!(noted.len(), 3);
+    let mut scratch = vec![0u32; h.debris_scratch_needed()];
+    assert_eq!(h.components(&mesh, &mut scratch).unwrap(), 2);
+    let leaf_edge = 0.5f64 / 4.0;
+    let edge = leaf_edge / 4.0;
+    assert_eq!(
+        voxel_pieces(&mesh, &h, edge, 1),
+        2,
+        "only the halves are left"
+    );
+    // Erased at the end (all seeds were checked when the crumbs' last neighbour went).
+    let lost = material_before - material(&mesh, &h);
+    assert!(lost >= 0.0);
+    let total: f64 = noted.iter().map(|n| n.1).sum();
+    assert!((total - s.volume).abs() < 1e-12);
+    assert!((h.removed_volume() - removed_before - (s.volume - (total - lost))).abs() < 1e-9);
+    let check: HashSet<usize> = (0..mesh.tet_count()).collect();
+    check_visible(&mesh, &h, &check);
+    // The sweep finds nothing more.
+    let again = h
+        .remove_debris(&mesh, DEBRIS_LEAVES, 2, &mut scratch)
+        .unwrap();
+    assert_eq!((again.pieces, again.components), (0, 2));
+}
+
+/// The size decides: with a limit of one leaf a one-leaf crumb stays; with two it goes.
+#[test]
+fn the_checks_keep_a_piece_of_the_debris_size() {
+    let mut om = block_mesh(2, 0.5);
+    let mesh = om.view();
+    let crumbs = [[0.5, 0.5, 0.5]];
+    for (limit, erased) in [(1u32, 0u32), (2, 1)] {
+        let mut st = Store::new(mesh.tet_count(), 8 * 48 * 9);
+        let mut seeds = Vec::new();
+        let mut h = cut_with_crumbs_then(&mesh, &mut st, &crumbs, |_, t, i| seeds.push((t, i)));
+        let mut c = Crumbs::new(limit);
+        for chunk in seeds.chunks(CRUMB_SEEDS) {
+            for &(t, i) in chunk {
+                c.note(t, i);
+            }
+            c.forget();
+            while c.check_one(&mut h, &mesh, 2, |_, _| {}).is_some() {}
+        }
+        h.validate(&mesh).unwrap();
+        assert_eq!(c.stats().pieces, erased, "limit {limit}");
+        let mut scratch = vec![0u32; h.components_scratch_needed()];
+        assert_eq!(h.components(&mesh, &mut scratch).unwrap(), 3 - erased);
+    }
+}
+
+/// A drilling sequence with the drill's checks on (the default): every 1000 ticks the pieces
+/// the hierarchy counts are the voxel flood fill's pieces above the debris size, and every
+/// piece the checks erased was below it (per tick: its leaves, and the largest one).
+#[test]
+fn while_drilling_the_pieces_counted_are_the_pieces_a_user_sees() {
+    let sc = Scenario {
+        mesh: "builtin:block:4".into(),
+        trace: "wander:1".into(),
+        tool: "sphere:0.1".into(),
+        max_depth: 3,
+        ..Scenario::default()
+    };
+    let params = TickParams::of(&sc).expect("scenario");
+    let poses = PoseSource::for_scenario(&sc).expect("trace");
+    let loaded = engine::load_mesh(&sc).expect("mesh");
+    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let mut world = store.world().expect("world");
+    assert_eq!(world.debris().pieces, 0);
+    let mut tool = ToolState::default();
+    // The same drilling with the checks off: the crumbs it leaves show the scenario makes
+    // some (so the comparison above can fail).
+    let mut store_off =
+        EngineStorage::try_allocate(engine::load_mesh(&sc).expect("mesh").mesh, &sc)
+            .expect("storage");
+    let mut off = store_off.world().expect("world");
+    off.set_debris_leaves(0);
+    let mut tool_off = ToolState::default();
+    let mut off_more = 0;
+    // The block's tet edges are 0.25 and longer; a quarter of a depth-3 leaf's is the voxel.
+    let leaf_edge = 0.25f64 / 8.0;
+    let edge = leaf_edge / 4.0;
+    let per_leaf = (leaf_edge.powi(3) / 6.0 / edge.powi(3)) as usize;
+    let min_voxels = DEBRIS_LEAVES as usize * per_leaf;
+    let mut scratch = Vec::new();
+    let mut checkpoints = 0;
+    let mut last = world.debris();
+    for i in 0..12_000u64 {
+        let (_, rep) = engine::tick(&mut world, &mut tool, &params, &poses.at(i));
+        engine::tick(&mut off, &mut tool_off, &params, &poses.at(i));
+        let now = world.debris();
+        let (pieces, nodes) = (now.pieces - last.pieces, now.nodes - last.nodes);
+        assert_eq!(rep.drill.debris_erased, nodes);
+        assert!(
+            nodes <= pieces * (DEBRIS_LEAVES - 1),
+            "tick {i}: {pieces} pieces, {nodes} leaves"
+        );
+        last = now;
+        if i % 1000 == 999 {
+            engine::validate(&world).expect("valid");
+            scratch.resize(world.hierarchy().components_scratch_needed(), 0);
+            let counted = world
+                .hierarchy()
+                .components(world.mesh(), &mut scratch)
+                .expect("scratch");
+            let voxels = voxel_pieces(world.mesh(), world.hierarchy(), edge, min_voxels);
+            eprintln!(
+                "tick {i}: {counted} piece(s), {voxels} by voxels; {:?}, {} seeds waiting",
+                world.debris(),
+                world.debris_pending()
+            );
+            assert_eq!(counted as usize, voxels, "tick {i}");
+            checkpoints += 1;
+            scratch.resize(off.hierarchy().components_scratch_needed(), 0);
+            let raw = off
+                .hierarchy()
+                .components(off.mesh(), &mut scratch)
+                .expect("scratch");
+            let seen = voxel_pieces(off.mesh(), off.hierarchy(), edge, min_voxels);
+            eprintln!("tick {i}, checks off: {raw} piece(s), {seen} by voxels");
+            off_more += usize::from(raw as usize > seen);
+        }
+    }
+    assert_eq!(checkpoints, 12);
+    assert!(
+        off_more > 0,
+        "the checks off leave crumbs at some checkpoint"
+    );
+    let d = world.debris();
+    assert!(d.pieces >= 10, "{d:?}");
+    assert!(d.largest < DEBRIS_LEAVES, "{d:?}");
+    assert_eq!(d.saturations, 0, "{d:?}");
+}
+
+/// The cow after the wander of the sweep's test, with the drill's checks on: they erase
+/// crumbs (never a piece of the debris size) while the drill lags behind, and the sweep
+/// leaves one piece.
+#[test]
+fn the_cow_after_a_wander_is_one_piece_with_the_drills_checks() {
+    let sc = Scenario {
+        mesh: tetradrill_tests::mesh("models/spot_tetgen_q1.414.node")
+            .to_string_lossy()
+            .into_owned(),
+        trace: "wander:1".into(),
+        tool: "sphere:0.05".into(),
+        ..Scenario::default()
+    };
+    let params = TickParams::of(&sc).expect("scenario");
+    let poses = PoseSource::for_scenario(&sc).expect("trace");
+    let loaded = engine::load_mesh(&sc).expect("mesh");
+    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let mut world = store.world().expect("world");
+    let mut tool = ToolState::default();
+    for i in 0..4000 {
+        engine::tick(&mut world, &mut tool, &params, &poses.at(i));
+    }
+    // The drill's backlog and the checks its budget deferred, done in ticks with the drill
+    // off and a budget that lets them finish.
+    let mut still = poses.at(3999);
+    still.buttons = 0;
+    let mut drain = params;
+    drain.drill.budget = 10_000_000;
+    world.set_tick_budget(None);
+    let mut extra = 0;
+    while (world.debris_pending() > 0 || world.pending() > 0) && extra < 100 {
+        engine::tick(&mut world, &mut tool, &drain, &still);
+        extra += 1;
+    }
+    let d = world.debris();
+    eprintln!(
+        "cow wander, checks on: {d:?}, {} seeds waiting",
+        world.debris_pending()
+    );
+    assert_eq!(world.debris_pending(), 0);
+    assert!(d.pieces >= 1, "{d:?}");
+    assert!(d.largest < DEBRIS_LEAVES, "{d:?}");
+    // A drill far behind the burr gives the checks an eighth of its budget, so seeds are
+    // dropped (counted) and some crumbs wait for the sweep: the checks erase crumbs and
+    // nothing larger, and the sweep leaves one piece.
+    assert!(d.saturations > 0, "{d:?}");
+    let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
+    let before = world
+        .hierarchy()
+        .components(world.mesh(), &mut scratch)
+        .expect("scratch");
+    let rep = world
+        .remove_debris(DEBRIS_LEAVES, sc.max_depth, &mut scratch)
+        .expect("scratch");
+    assert_eq!(rep.components, 1);
+    assert_eq!(before, rep.pieces + 1);
+    engine::validate(&world).expect("valid");
 }

@@ -49,7 +49,9 @@ fn storage(sc: &Scenario, labels: Option<&[i32]>) -> (EngineStorage, Vec<i32>) {
 }
 
 /// Holds a burr of radius 0.3 centred on the block's top face, drill on, pressing with `force`
-/// newtons for `ticks` ticks; the removed volume after each tick.
+/// newtons for `ticks` ticks; the volume the burr cut after each tick (the removed volume
+/// less the debris the drill's checks erased: crumbs its flutes carry away, not cut at the
+/// material's rate).
 fn press(world: &mut World<'_>, force: f32, ticks: usize) -> Vec<f64> {
     press_at(world, Vec3::new(0.03, -0.02, 0.5), force, ticks)
 }
@@ -65,7 +67,7 @@ fn press_at(world: &mut World<'_>, centre: Vec3, force: f32, ticks: usize) -> Ve
         .map(|_| {
             world.set_pressing(force, DT);
             world.simulate(centre, 0.3, 0.15, true, &params);
-            world.hierarchy().removed_volume()
+            world.hierarchy().removed_volume() - world.debris().volume
         })
         .collect()
 }

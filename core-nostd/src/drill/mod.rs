@@ -14,6 +14,7 @@
 
 mod candidates;
 mod cost;
+mod crumbs;
 mod deque;
 mod material;
 mod spacing;
@@ -26,7 +27,7 @@ pub use deque::FINE_MIN_DEQUE;
 pub use material::{Material, Region, RegionError, Regions, Spend, CREDIT_STEPS};
 pub use spacing::{Spacing, DRILL_HOLD_STEPS, DRILL_SETTLE, DRILL_SPACING, MAX_STEP_SPHERES};
 pub use sphere::{classify, Class, Sphere};
-pub use step::{Drill, DrillReport, Pending, DEFER_LAG, SWEPT, SWEPT_AHEAD};
+pub use step::{Drill, DrillReport, Pending, CRUMB_SHARE, DEFER_LAG, SWEPT, SWEPT_AHEAD};
 
 #[cfg(test)]
 mod tests;

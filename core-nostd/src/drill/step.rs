@@ -9,7 +9,7 @@ use super::material::{Regions, Spend};
 use super::sphere::{classify_costed, Class, Sphere};
 use crate::geom::tri_area;
 use crate::hierarchy::{
-    child_of_refinement, child_of_ten, refinement_points, Hierarchy, HierarchyError, Path,
+    child_of_refinement, child_of_ten, refinement_points, Crumbs, Hierarchy, HierarchyError, Path,
     RootFrame, MAX_DEPTH,
 };
 use crate::ids::TetId;
@@ -110,6 +110,10 @@ pub struct DrillReport {
     /// 1 when the step ended on a leaf waiting for its region's credit
     /// ([`super::Regions::spend`]).
     pub waited: u32,
+    /// Erased leaves checked for debris cut off (`crumbs.rs`).
+    pub debris_checked: u32,
+    /// Leaves erased as debris (in `removed_volume`, not in `erased`).
+    pub debris_erased: u32,
 }
 
 /// [`super::classify`], charging the exact test when it runs ([`WorkCost::EXACT_TEST`]).
@@ -133,6 +137,11 @@ struct Parent {
 
 /// The ten points of a node's refinement: integer barycentric rows and positions.
 type Ten = ([u64; 10], [Vec3; 10]);
+
+/// A drill step whose debris seed queue is full checks a seed before each item until it has
+/// spent `budget / CRUMB_SHARE` on checks: a drill lagging behind the burr keeps seven eighths
+/// of its budget for material, and its crumbs are still found while it drills.
+pub const CRUMB_SHARE: u32 = 8;
 
 /// The coarse pass defers the last level's refinements only while at least this many spheres
 /// were queued after the item's own: a drill that keeps up with the burr refines at once (the
@@ -196,6 +205,8 @@ pub struct Drill<'a> {
     pub(super) regions: Option<Regions<'a>>,
     /// A leaf waits for its region's credit: the step stops.
     stalled: bool,
+    /// The erased leaves waiting for their debris check.
+    pub(super) crumbs: Crumbs,
 }
 
 impl<'a> Drill<'a> {
@@ -224,6 +235,7 @@ impl<'a> Drill<'a> {
             saturations: 0,
             regions: None,
             stalled: false,
+            crumbs: Crumbs::default(),
         }
     }
 
@@ -253,6 +265,7 @@ impl<'a> Drill<'a> {
         self.frame = None;
         self.parents = [None; MAX_DEPTH];
         self.stalled = false;
+        self.crumbs.clear();
     }
 
     /// Remembers `s` as part of the swept volume (the oldest of [`SWEPT`] is forgotten).
@@ -407,7 +420,10 @@ impl<'a> Drill<'a> {
     /// erasure 4 NTree visits, each O(depth) plus the instantiated nodes across one face. A
     /// leaf's swept test is at most [`SWEPT_AHEAD`] sphere tests, after a search of the
     /// [`SWEPT`] remembered spheres when the item's sphere is not the last one looked up
-    /// ([`WorkCost::LOCATE`]).
+    /// ([`WorkCost::LOCATE`]). Every leaf erased leaves a debris seed; the seeds are checked
+    /// after the items, while the budget lasts, and before the next item when their queue is
+    /// full ([`crate::hierarchy::Crumbs::check_one`], charged [`WorkCost::TAKEN`] plus its NTree
+    /// visits; the rest wait for the next step).
     ///
     /// # Capacity
     /// Arena full (no fresh block, and no wholly erased subtree to take one back from): the
@@ -458,7 +474,21 @@ impl<'a> Drill<'a> {
             }
         }
         let max_depth = params.max_depth.min(crate::hierarchy::MAX_DEPTH as u8);
+        // While the seed queue is full, a seed is checked before the next item, up to an
+        // eighth of the budget ([`CRUMB_SHARE`]); past that, new seeds are dropped (counted)
+        // and the items get the rest.
+        let share = params.budget / CRUMB_SHARE;
+        let mut checks = 0u32;
         while rep.work < params.budget && !self.stalled {
+            if self.crumbs.is_full() && checks < share {
+                // Items may have changed the hierarchy since the last check.
+                self.crumbs.forget();
+                let w0 = rep.work;
+                if self.check_crumb(h, mesh, max_depth, &mut rep) {
+                    checks = checks.saturating_add(rep.work - w0);
+                    continue;
+                }
+            }
             let (item, pass) = match self.coarse.pop_front() {
                 Some(item) => (item, Pass::Coarse),
                 None => match self.fine.pop_front() {
@@ -477,6 +507,10 @@ impl<'a> Drill<'a> {
                 break;
             }
         }
+        // Debris checks take what the drill's items leave of the budget: removing material
+        // comes first (a seed queue still full drops seeds, counted in
+        // `CrumbStats::saturations`).
+        self.check_crumbs(h, mesh, max_depth, params.budget, &mut rep);
         rep.pending = self.pending() as u32;
         rep.removed_volume = h.removed_volume() - removed0;
         rep.saturations += h.saturations() - sat0;
@@ -691,6 +725,7 @@ impl<'a> Drill<'a> {
             rep.visits = rep.visits.saturating_add(r.work);
             rep.erased += 1;
             self.note_removed(item.tet, r.removed);
+            self.crumbs.note(item.tet, item.index);
         }
     }
 

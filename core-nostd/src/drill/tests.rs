@@ -59,7 +59,7 @@ fn tiny_capacities_saturate_and_carry_over() {
         h.validate(&mesh).unwrap();
         assert_eq!(drill.saturations(), 0);
         ticks += 1;
-        if r.pending == 0 {
+        if r.pending == 0 && drill.debris_pending() == 0 {
             break;
         }
         assert!(ticks < 200);

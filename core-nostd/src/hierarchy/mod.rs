@@ -20,7 +20,8 @@
 //!   bound over the nodes whose *surface* bit says a v_list leaf lies below), for the contact;
 //!   [`SphereMemo`] remembers the nodes' bounding spheres across searches.
 //! - connected pieces of the remaining material: [`Hierarchy::components`]; the small
-//!   detached ones (debris) erased: [`Hierarchy::remove_debris`].
+//!   detached ones (debris) erased: [`Hierarchy::remove_debris`] over the whole object, or
+//!   [`Crumbs`] in bounded work after each erasure (the drill's).
 //! - giving back the blocks of wholly erased subtrees: `reclaim` ([`Hierarchy::arena_live`],
 //!   [`Hierarchy::arena_reclaimable`], [`Hierarchy::reclaimed`]).
 //! - invariants: [`Hierarchy::validate`].
@@ -30,6 +31,7 @@
 //! 8 + 12 bytes per coarse tet.
 
 mod components;
+mod crumbs;
 mod debris;
 mod geometry;
 mod memo;
@@ -43,6 +45,9 @@ pub mod table;
 mod validate;
 pub mod visit;
 
+pub use crumbs::{
+    CrumbStats, CrumbWork, Crumbs, CRUMB_FILL, CRUMB_KNOWN, CRUMB_SEEDS, CRUMB_STARTS,
+};
 pub use debris::{DebrisReport, DEBRIS_LEAVES};
 pub(crate) use geometry::{child_of_refinement, child_of_ten, refinement_points, RootFrame};
 pub use geometry::{node_positions, node_volume};

@@ -135,6 +135,8 @@ pub struct Hierarchy<'a> {
     /// Blocks whose 8 nodes are all wholly erased (erased leaves or hollow inner nodes).
     pub(super) hollow_blocks: u32,
     pub(super) stats: HierarchyStats,
+    /// The coarse tets' volume when the trees were last reset.
+    pub(super) volume0: f64,
 }
 
 /// Where the list of reclaimable blocks keeps its data in a block's erased leaves (their
@@ -187,6 +189,7 @@ impl<'a> Hierarchy<'a> {
             reclaim_head: 0,
             hollow_blocks: 0,
             stats: Default::default(),
+            volume0: 0.0,
         };
         me.reset(mesh);
         Ok(me)
@@ -202,6 +205,9 @@ impl<'a> Hierarchy<'a> {
         self.reclaim_head = 0;
         self.hollow_blocks = 0;
         self.stats = HierarchyStats::default();
+        self.volume0 = (0..self.roots.len().min(mesh.tet_count()))
+            .map(|t| super::geometry::node_volume(mesh, TetId::from_idx(t), 0))
+            .sum();
         for (i, root) in self.roots.iter_mut().enumerate() {
             *root = HNode::LEAF;
             let t = TetId::from_idx(i);
@@ -299,6 +305,13 @@ impl<'a> Hierarchy<'a> {
     #[inline]
     pub fn removed_volume(&self) -> f64 {
         self.stats.removed_volume
+    }
+
+    /// The coarse tets' volume when the trees were created or last reset (the material
+    /// left is this minus [`Hierarchy::removed_volume`]).
+    #[inline]
+    pub fn initial_volume(&self) -> f64 {
+        self.volume0
     }
 
     /// The v_list: non-erased leaves with at least one visible face.

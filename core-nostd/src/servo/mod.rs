@@ -483,6 +483,28 @@ impl<'a> World<'a> {
             })
     }
 
+    /// Sets the size below which a piece the drill cuts off is erased as debris while
+    /// drilling, in max-depth leaves ([`crate::hierarchy::DEBRIS_LEAVES`] by default; 0 turns
+    /// the checks off): each leaf the drill erases is checked within the drill's budget
+    /// ([`crate::hierarchy::Crumbs`]).
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn set_debris_leaves(&mut self, max_leaves: u32) {
+        self.drill.set_debris_leaves(max_leaves);
+    }
+
+    /// What the drill's debris checks erased so far (also in the removed volume and, with
+    /// regions, in each region's), and how often their storage was full.
+    pub fn debris(&self) -> crate::hierarchy::CrumbStats {
+        self.drill.debris()
+    }
+
+    /// Erased leaves whose debris check waits for the drill's budget.
+    pub fn debris_pending(&self) -> usize {
+        self.drill.debris_pending()
+    }
+
     /// Saturations so far, by kind.
     pub fn saturations(&self) -> Saturations {
         Saturations {

@@ -161,7 +161,7 @@ impl World<'_> {
             .drill
             .regions_mut()
             .map_or(0, |r| r.grant(force, seconds, cutting));
-        if !spheres.is_empty() || self.drill.pending() > 0 {
+        if !spheres.is_empty() || self.drill.pending() > 0 || self.drill.debris_pending() > 0 {
             let budget = self
                 .tick_budget
                 .map_or(params.budget, |t| t.min(params.budget));

@@ -74,9 +74,10 @@ pub struct ReplayReport {
     pub visible_faces: u32,
     /// Connected pieces of remaining material, after the debris is erased.
     pub components: u32,
-    /// Debris erased at the end of the run (detached pieces smaller than
+    /// Debris erased (detached pieces smaller than
     /// `tetradrill_core::hierarchy::DEBRIS_LEAVES` max-depth leaves; its volume is in
-    /// `removed_volume`).
+    /// `removed_volume`): by the drill's checks while drilling, and by the sweep over the
+    /// whole object at the end.
     pub debris_erased: DebrisSummary,
     /// Forces.
     pub force: ForceSummary,
@@ -196,7 +197,8 @@ pub struct ShaftSummary {
     pub held_max: u32,
 }
 
-/// The debris a replay erased ([`tetradrill_core::hierarchy::DebrisReport`]).
+/// The debris a replay erased ([`tetradrill_core::hierarchy::CrumbStats`] while drilling,
+/// [`tetradrill_core::hierarchy::DebrisReport`] at the end).
 #[derive(Debug, Default, Clone, Copy, Serialize)]
 pub struct DebrisSummary {
     /// Pieces erased.
@@ -205,6 +207,11 @@ pub struct DebrisSummary {
     pub nodes: u32,
     /// Volume erased.
     pub volume: f64,
+    /// Of the pieces, those the final sweep found (the drill's checks missed them: their
+    /// storage was full, or their seeds still waited for budget).
+    pub final_sweep: u32,
+    /// Debris checks whose storage was full (each treated as "not debris").
+    pub saturations: u32,
 }
 
 /// Mesh counts of a report.
@@ -483,6 +490,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let t: Summary = summarise_ns(&fastest);
     // The crumbs the drill's discretisation leaves along the swept boundary go, then the
     // pieces left are counted.
+    let during = world.debris();
     let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
     let debris = world
         .remove_debris(DEBRIS_LEAVES, sc.max_depth, &mut scratch)
@@ -504,9 +512,11 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         visible_faces: h.visible_face_count(),
         components,
         debris_erased: DebrisSummary {
-            pieces: debris.pieces,
-            nodes: debris.nodes,
-            volume: debris.volume,
+            pieces: during.pieces + debris.pieces,
+            nodes: during.nodes + debris.nodes,
+            volume: during.volume + debris.volume,
+            final_sweep: debris.pieces,
+            saturations: during.saturations,
         },
         force: ForceSummary {
             max_n,
@@ -795,8 +805,10 @@ fn print_summary(r: &ReplayReport) {
     );
     if r.debris_erased.pieces > 0 {
         outln!(
-            "debris erased: {} piece(s), {} leaves, volume {:.3e} (in the removed volume)",
+            "debris erased: {} piece(s) ({} by the final sweep), {} leaves, volume {:.3e} (in the \
+             removed volume)",
             r.debris_erased.pieces,
+            r.debris_erased.final_sweep,
             r.debris_erased.nodes,
             r.debris_erased.volume
         );
