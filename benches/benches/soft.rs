@@ -16,9 +16,8 @@ use std::time::{Duration, Instant};
 use criterion::{criterion_group, Criterion};
 use glam::Vec3;
 use tetradrill::owned::OwnedMesh;
-use tetradrill_core::soft::{
-    mesh_tets, Material, SoftBody, SoftMesh, SoftParams, SoftStorage, TetRest,
-};
+use tetradrill::soft::SoftOwned;
+use tetradrill_core::soft::{Material, SoftBody, SoftParams};
 
 fn meshes_dir() -> PathBuf {
     match std::env::var("TETRADRILL_MESHES") {
@@ -39,37 +38,12 @@ const MESHES: [(&str, &str); 2] = [
 ];
 
 /// Owned storage of one soft body.
-struct Scene {
-    rest: Vec<Vec3>,
-    tets: Vec<[u32; 4]>,
-    u: Vec<Vec3>,
-    v: Vec<Vec3>,
-    prev: Vec<Vec3>,
-    m: Vec<f32>,
-    w: Vec<f32>,
-    tr: Vec<TetRest>,
-    l: Vec<[f32; 2]>,
-}
+struct Scene(SoftOwned);
 
 impl Scene {
     fn new(rel: &str) -> Self {
         let mut owned = load(rel);
-        let mesh = owned.view();
-        let rest = mesh.positions().to_vec();
-        let mut tets = vec![[0u32; 4]; mesh.tet_count()];
-        mesh_tets(&mesh, &mut tets).expect("room for the tets");
-        let (n, t) = (rest.len(), tets.len());
-        Self {
-            rest,
-            tets,
-            u: vec![Vec3::ZERO; n],
-            v: vec![Vec3::ZERO; n],
-            prev: vec![Vec3::ZERO; n],
-            m: vec![0.0; n],
-            w: vec![0.0; n],
-            tr: vec![TetRest::default(); t],
-            l: vec![[0.0; 2]; t],
-        }
+        Self(SoftOwned::from_mesh(&owned.view()))
     }
 
     fn body(&mut self) -> SoftBody<'_> {
@@ -85,28 +59,14 @@ impl Scene {
             iterations: 1,
         };
         let (lo, hi) = self
+            .0
             .rest
             .iter()
             .fold((f32::MAX, f32::MIN), |(a, b), x| (a.min(x.z), b.max(x.z)));
-        let mut body = SoftBody::new(
-            SoftMesh {
-                rest: &self.rest,
-                tets: &self.tets,
-                tet_material: &[],
-            },
-            &[mat],
-            params,
-            SoftStorage {
-                displacement: &mut self.u,
-                velocity: &mut self.v,
-                previous: &mut self.prev,
-                mass: &mut self.m,
-                inv_mass: &mut self.w,
-                tet_rest: &mut self.tr,
-                lambdas: &mut self.l,
-            },
-        )
-        .expect("the mesh is a valid soft body");
+        let mut body = self
+            .0
+            .body(&[mat], params)
+            .expect("the mesh is a valid soft body");
         body.fix_below(Vec3::new(0.0, 0.0, lo + 0.1 * (hi - lo)), Vec3::Z);
         // Sag a little first: the bench times a moving body, not one at rest.
         for _ in 0..20 {

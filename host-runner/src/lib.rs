@@ -13,6 +13,7 @@
 //! | [`owned`]   | host-owned storage for one core mesh (from `tetradrill-meshio`) |
 //! | [`platform`]| clock, absolute sleeps, SCHED_FIFO, mlockall, pinning (`unsafe`, libc)       |
 //! | [`report`]  | the JSON reports the commands write                         |
+//! | [`soft`]    | host-owned storage for one soft body (`tetradrill_core::soft`) |
 //! | [`rt`]      | servo thread set-up and the absolute-deadline period        |
 //! | [`stats`]   | percentiles and histograms of timing samples                |
 //! | [`workload`]| the per-tick work of the built-in scenario                  |
@@ -68,6 +69,7 @@ pub mod platform;
 pub mod report;
 pub mod rt;
 pub mod scenario;
+pub mod soft;
 pub mod stats;
 pub mod tasks;
 pub mod traces;

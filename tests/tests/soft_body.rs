@@ -3,9 +3,8 @@
 //! state obeys Clapeyron's theorem of linear elasticity (elastic energy = half the work of
 //! the loads), and released it returns to rest.
 
-use tetradrill_core::soft::{
-    mesh_tets, Material, SoftBody, SoftMesh, SoftParams, SoftStorage, TetRest,
-};
+use tetradrill::soft::SoftOwned;
+use tetradrill_core::soft::{Material, SoftParams};
 use tetradrill_core::Vec3;
 use tetradrill_tests::load;
 
@@ -19,19 +18,10 @@ fn det(p: [Vec3; 4]) -> f64 {
 #[test]
 fn cow_sags_under_gravity_as_linear_elasticity_and_springs_back() {
     let mut owned = load("models/spot_tetgen_q1.414.node", 1.0);
-    let mesh = owned.view();
-    let rest = mesh.positions().to_vec();
-    let mut tets = vec![[0u32; 4]; mesh.tet_count()];
-    mesh_tets(&mesh, &mut tets).unwrap();
-    let (n, t) = (rest.len(), tets.len());
-    let (mut u, mut v, mut prev) = (
-        vec![Vec3::ZERO; n],
-        vec![Vec3::ZERO; n],
-        vec![Vec3::ZERO; n],
-    );
-    let (mut m, mut w) = (vec![0.0f32; n], vec![0.0f32; n]);
-    let mut tr = vec![TetRest::default(); t];
-    let mut l = vec![[0.0f32; 2]; t];
+    let mut st = SoftOwned::from_mesh(&owned.view());
+    let rest = st.rest.clone();
+    let tets = st.tets.clone();
+    let n = rest.len();
     // Gravity a tenth of earth's, so the strain stays small (the sag about 1 % of the
     // height); damping near critical for the sag mode (omega about sqrt(g / sag) at full
     // gravity, 11 rad/s): heavier damping makes it creep.
@@ -47,25 +37,7 @@ fn cow_sags_under_gravity_as_linear_elasticity_and_springs_back() {
         substeps: 20,
         iterations: 1,
     };
-    let mut body = SoftBody::new(
-        SoftMesh {
-            rest: &rest,
-            tets: &tets,
-            tet_material: &[],
-        },
-        &[mat],
-        params,
-        SoftStorage {
-            displacement: &mut u,
-            velocity: &mut v,
-            previous: &mut prev,
-            mass: &mut m,
-            inv_mass: &mut w,
-            tet_rest: &mut tr,
-            lambdas: &mut l,
-        },
-    )
-    .unwrap();
+    let mut body = st.body(&[mat], params).unwrap();
     let (lo, hi) = rest
         .iter()
         .fold((f32::MAX, f32::MIN), |(a, b), x| (a.min(x.z), b.max(x.z)));

@@ -540,6 +540,3 @@ impl<'a> SoftBody<'a> {
         Ok(())
     }
 }
-
-#[cfg(test)]
-mod tests;

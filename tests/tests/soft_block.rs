@@ -2,14 +2,10 @@
 //! pressure, return to rest, rigid-motion invariance, positive volumes under a large load,
 //! free fall, and the small-strain energy against linear elasticity.
 
-extern crate std;
-
-use std::vec;
-use std::vec::Vec;
-
-use glam::{Quat, Vec3};
-
-use super::*;
+use tetradrill::soft::SoftOwned;
+use tetradrill_core::geom::{barycentric, inside};
+use tetradrill_core::soft::*;
+use tetradrill_core::{Quat, Vec3};
 
 /// A grid of `nx x ny x nz` cubes of edge `h` from the origin, each cube split into six tets
 /// around its diagonal; written here independently of `builtin::block`.
@@ -59,58 +55,6 @@ fn det(p: [Vec3; 4]) -> f64 {
     let (a, b, c) = (d(p[1] - p[0]), d(p[2] - p[0]), d(p[3] - p[0]));
     a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
         + a[2] * (b[0] * c[1] - b[1] * c[0])
-}
-
-/// Owned storage for a test body.
-struct Store {
-    rest: Vec<Vec3>,
-    tets: Vec<[u32; 4]>,
-    u: Vec<Vec3>,
-    v: Vec<Vec3>,
-    prev: Vec<Vec3>,
-    m: Vec<f32>,
-    w: Vec<f32>,
-    tr: Vec<TetRest>,
-    l: Vec<[f32; 2]>,
-}
-
-impl Store {
-    fn new(rest: Vec<Vec3>, tets: Vec<[u32; 4]>) -> Self {
-        let (n, t) = (rest.len(), tets.len());
-        Self {
-            rest,
-            tets,
-            u: vec![Vec3::ZERO; n],
-            v: vec![Vec3::ZERO; n],
-            prev: vec![Vec3::ZERO; n],
-            m: vec![0.0; n],
-            w: vec![0.0; n],
-            tr: vec![TetRest::default(); t],
-            l: vec![[0.0; 2]; t],
-        }
-    }
-
-    fn body(&mut self, mat: Material, params: SoftParams) -> SoftBody<'_> {
-        SoftBody::new(
-            SoftMesh {
-                rest: &self.rest,
-                tets: &self.tets,
-                tet_material: &[],
-            },
-            &[mat],
-            params,
-            SoftStorage {
-                displacement: &mut self.u,
-                velocity: &mut self.v,
-                previous: &mut self.prev,
-                mass: &mut self.m,
-                inv_mass: &mut self.w,
-                tet_rest: &mut self.tr,
-                lambdas: &mut self.l,
-            },
-        )
-        .unwrap()
-    }
 }
 
 const E: f32 = 1e5;
@@ -174,13 +118,13 @@ fn block_under_pressure_compresses_as_hookes_law_and_returns_to_rest() {
     let p = 1e-3 * E;
     let mut load = vec![Vec3::ZERO; rest.len()];
     pressure(&rest, &tets, l, p, -Vec3::Z, &mut load);
-    let mut st = Store::new(rest, tets);
+    let mut st = SoftOwned::new(rest, tets);
     let mat = Material {
         young: E,
         poisson: 0.0,
         density: RHO,
     };
-    let mut body = st.body(mat, params(300.0));
+    let mut body = st.body(&[mat], params(300.0)).unwrap();
     assert_eq!(body.fix_below(Vec3::ZERO, Vec3::Z), (n + 1) * (n + 1));
     for _ in 0..500 {
         body.step(DT, &load).unwrap();
@@ -189,7 +133,7 @@ fn block_under_pressure_compresses_as_hookes_law_and_returns_to_rest() {
     let delta = -mean_where(&body, top, |u| u.z);
     let analytic = (p * l / E) as f64;
     let err = (delta - analytic).abs() / analytic;
-    std::println!("compression {delta:.4e} analytic {analytic:.4e} error {err:.4}");
+    println!("compression {delta:.4e} analytic {analytic:.4e} error {err:.4}");
     assert!(err < 0.10, "compression {delta} vs {analytic}");
     // The uniform state is exact for linear tets: far tighter than the 10 %.
     assert!(err < 0.01, "compression {delta} vs {analytic}");
@@ -199,7 +143,7 @@ fn block_under_pressure_compresses_as_hookes_law_and_returns_to_rest() {
         body.step(DT, &[]).unwrap();
     }
     let left = max_disp(&body) as f64;
-    std::println!("after release max displacement {left:.3e}");
+    println!("after release max displacement {left:.3e}");
     assert!(left < 1e-3 * analytic, "{left} left of {analytic}");
 }
 
@@ -215,13 +159,13 @@ fn free_column_squeezed_at_both_ends_matches_uniaxial_stress() {
     let mut load = vec![Vec3::ZERO; rest.len()];
     pressure(&rest, &tets, l, p, -Vec3::Z, &mut load);
     pressure(&rest, &tets, 0.0, p, Vec3::Z, &mut load);
-    let mut st = Store::new(rest, tets);
+    let mut st = SoftOwned::new(rest, tets);
     let mat = Material {
         young: E,
         poisson: nu,
         density: RHO,
     };
-    let mut body = st.body(mat, params(300.0));
+    let mut body = st.body(&[mat], params(300.0)).unwrap();
     for _ in 0..800 {
         body.step(DT, &load).unwrap();
     }
@@ -235,7 +179,7 @@ fn free_column_squeezed_at_both_ends_matches_uniaxial_stress() {
         (short - short_a).abs() / short_a,
         (wide - wide_a).abs() / wide_a,
     );
-    std::println!("shortening {short:.4e} vs {short_a:.4e} ({es:.4}); widening {wide:.4e} vs {wide_a:.4e} ({ew:.4})");
+    println!("shortening {short:.4e} vs {short_a:.4e} ({es:.4}); widening {wide:.4e} vs {wide_a:.4e} ({ew:.4})");
     assert!(es < 0.10 && ew < 0.10);
     // Measured well inside: 0.2 % and 0.3 %.
     assert!(es < 0.02 && ew < 0.02);
@@ -247,8 +191,8 @@ fn rigidly_moved_body_at_rest_does_not_move() {
     let r = Quat::from_axis_angle(Vec3::new(1.0, 2.0, -0.5).normalize(), 1.1);
     let t = Vec3::new(0.3, -0.2, 0.7);
     let moved: Vec<Vec3> = rest.iter().map(|&x| r * x + t).collect();
-    let mut st = Store::new(rest.clone(), tets);
-    for (u, (x, y)) in st.u.iter_mut().zip(rest.iter().zip(&moved)) {
+    let mut st = SoftOwned::new(rest.clone(), tets);
+    for (u, (x, y)) in st.displacement.iter_mut().zip(rest.iter().zip(&moved)) {
         *u = *y - *x;
     }
     let mat = Material {
@@ -256,7 +200,7 @@ fn rigidly_moved_body_at_rest_does_not_move() {
         poisson: 0.3,
         density: RHO,
     };
-    let mut body = st.body(mat, params(0.0));
+    let mut body = st.body(&[mat], params(0.0)).unwrap();
     let e = body.elastic_energy();
     // The energy of a rigid motion is zero up to f32 rounding of F (relative 1e-6 of the
     // energy density scale E * volume).
@@ -268,7 +212,7 @@ fn rigidly_moved_body_at_rest_does_not_move() {
     for (i, m) in moved.iter().enumerate() {
         worst = worst.max((body.position(i).unwrap() - *m).length());
     }
-    std::println!("rigid motion drift {worst:.3e}");
+    println!("rigid motion drift {worst:.3e}");
     assert!(worst < 1e-6, "drift {worst}");
 }
 
@@ -296,10 +240,10 @@ fn a_loaded_body_moves_the_same_in_a_rotated_frame() {
         poisson: 0.3,
         density: RHO,
     };
-    let mut a = Store::new(rest.clone(), tets.clone());
-    let mut b = Store::new(rest_r, tets);
-    let mut ba = a.body(mat, params(100.0));
-    let mut bb = b.body(mat, params(100.0));
+    let mut a = SoftOwned::new(rest.clone(), tets.clone());
+    let mut b = SoftOwned::new(rest_r, tets);
+    let mut ba = a.body(&[mat], params(100.0)).unwrap();
+    let mut bb = b.body(&[mat], params(100.0)).unwrap();
     for (i, x) in rest.iter().enumerate() {
         if x.z < 1e-6 {
             ba.set_fixed(i, true);
@@ -317,7 +261,7 @@ fn a_loaded_body_moves_the_same_in_a_rotated_frame() {
         let want = r * ba.position(i).unwrap() + t;
         worst = worst.max((bb.position(i).unwrap() - want).length());
     }
-    std::println!("rotated frame difference {worst:.3e} of displacement {scale:.3e}");
+    println!("rotated frame difference {worst:.3e} of displacement {scale:.3e}");
     assert!(worst < 1e-3 * scale, "{worst} vs {scale}");
 }
 
@@ -329,13 +273,13 @@ fn every_tet_keeps_a_positive_volume_under_a_large_load() {
     let l = n as f32 * H;
     let mut load = vec![Vec3::ZERO; rest.len()];
     pressure(&rest, &tets, l, 0.2 * E, -Vec3::Z, &mut load);
-    let mut st = Store::new(rest, tets);
+    let mut st = SoftOwned::new(rest, tets);
     let mat = Material {
         young: E,
         poisson: 0.3,
         density: RHO,
     };
-    let mut body = st.body(mat, params(300.0));
+    let mut body = st.body(&[mat], params(300.0)).unwrap();
     body.fix_below(Vec3::ZERO, Vec3::Z);
     let mut x = vec![Vec3::ZERO; body.node_count()];
     let mut smallest = f64::MAX;
@@ -349,7 +293,7 @@ fn every_tet_keeps_a_positive_volume_under_a_large_load() {
     let top = |x: Vec3| (x.z - l).abs() < 1e-6;
     let strain = -mean_where(&body, top, |u| u.z) / l as f64;
     let rest_volume = (H as f64).powi(3) / 6.0;
-    std::println!(
+    println!(
         "strain {strain:.3}, smallest volume {:.3} of rest",
         smallest / rest_volume
     );
@@ -360,20 +304,22 @@ fn every_tet_keeps_a_positive_volume_under_a_large_load() {
 #[test]
 fn free_body_falls_as_g_t_squared_over_two() {
     let (rest, tets) = grid(2, 2, 2, H);
-    let mut st = Store::new(rest, tets);
+    let mut st = SoftOwned::new(rest, tets);
     let mat = Material {
         young: E,
         poisson: 0.3,
         density: RHO,
     };
     let g = 9.81f64;
-    let mut body = st.body(
-        mat,
-        SoftParams {
-            gravity: Vec3::new(0.0, 0.0, -g as f32),
-            ..params(0.0)
-        },
-    );
+    let mut body = st
+        .body(
+            &[mat],
+            SoftParams {
+                gravity: Vec3::new(0.0, 0.0, -g as f32),
+                ..params(0.0)
+            },
+        )
+        .unwrap();
     let com = |b: &SoftBody<'_>| {
         let (mut s, mut m) = (0.0f64, 0.0f64);
         for (i, &mi) in b.masses().iter().enumerate() {
@@ -393,7 +339,7 @@ fn free_body_falls_as_g_t_squared_over_two() {
     // Symplectic Euler over substeps of h falls g t h / 2 further than the exact parabola.
     let h = DT as f64 / 10.0;
     let err = (fall - want).abs();
-    std::println!(
+    println!(
         "fall {fall:.6} vs {want:.6}, error {err:.2e}, integrator bound {:.2e}",
         g * t * h / 2.0
     );
@@ -437,34 +383,17 @@ fn bad_input_is_refused_at_construction() {
         density: RHO,
     };
     tets[2].swap(0, 1);
-    let mut st = Store::new(rest.clone(), tets);
-    let mk = |st: &mut Store, mats: &[Material], p: SoftParams, tm: &[u32]| {
-        SoftBody::new(
-            SoftMesh {
-                rest: &st.rest,
-                tets: &st.tets,
-                tet_material: tm,
-            },
-            mats,
-            p,
-            SoftStorage {
-                displacement: &mut st.u,
-                velocity: &mut st.v,
-                previous: &mut st.prev,
-                mass: &mut st.m,
-                inv_mass: &mut st.w,
-                tet_rest: &mut st.tr,
-                lambdas: &mut st.l,
-            },
-        )
-        .err()
+    let mut st = SoftOwned::new(rest.clone(), tets);
+    let mk = |st: &mut SoftOwned, mats: &[Material], p: SoftParams, tm: &[u32]| {
+        st.tet_material = tm.to_vec();
+        st.body(mats, p).err()
     };
     assert_eq!(
         mk(&mut st, &[mat], params(0.0), &[]),
         Some(SoftError::DegenerateTet { tet: 2 })
     );
     let (_, tets) = grid(1, 1, 1, H);
-    let mut st = Store::new(rest.clone(), tets.clone());
+    let mut st = SoftOwned::new(rest.clone(), tets.clone());
     let bad = SoftParams {
         substeps: 0,
         ..params(0.0)
@@ -494,15 +423,15 @@ fn bad_input_is_refused_at_construction() {
         mk(&mut st, &[mat], params(0.0), &[]),
         Some(SoftError::NodeOutOfRange { tet: 0 })
     );
-    let mut st = Store::new(rest, tets);
-    st.l.pop();
+    let mut st = SoftOwned::new(rest, tets);
+    st.lambdas.pop();
     assert_eq!(
         mk(&mut st, &[mat], params(0.0), &[]),
         Some(SoftError::Length("lambdas"))
     );
     // A bad time step changes nothing.
-    let mut st2 = Store::new(st.rest.clone(), st.tets.clone());
-    let mut body = st2.body(mat, params(0.0));
+    let mut st2 = SoftOwned::new(st.rest.clone(), st.tets.clone());
+    let mut body = st2.body(&[mat], params(0.0)).unwrap();
     assert_eq!(body.step(f32::NAN, &[]), Err(StepError::TimeStep));
     assert_eq!(body.step(0.0, &[]), Err(StepError::TimeStep));
 }
@@ -522,35 +451,16 @@ fn a_point_force_pushes_the_touched_nodes_and_a_region_material_is_softer() {
     };
     let mut dents = [0.0f32; 2];
     for (k, which) in [0u32, 1].into_iter().enumerate() {
-        let mut st = Store::new(rest.clone(), tets.clone());
-        let tm = vec![which; st.tets.len()];
-        let mut body = SoftBody::new(
-            SoftMesh {
-                rest: &st.rest,
-                tets: &st.tets,
-                tet_material: &tm,
-            },
-            &[hard, soft],
-            params(300.0),
-            SoftStorage {
-                displacement: &mut st.u,
-                velocity: &mut st.v,
-                previous: &mut st.prev,
-                mass: &mut st.m,
-                inv_mass: &mut st.w,
-                tet_rest: &mut st.tr,
-                lambdas: &mut st.l,
-            },
-        )
-        .unwrap();
+        let mut st = SoftOwned::new(rest.clone(), tets.clone());
+        st.tet_material = vec![which; st.tets.len()];
+        let mut body = st.body(&[hard, soft], params(300.0)).unwrap();
         body.fix_below(Vec3::ZERO, Vec3::Z);
         // The top tet under the centre of the top face.
         let centre = Vec3::new(H, H, 2.0 * H);
         let tet = (0..body.tet_count())
             .find(|&t| {
                 let p = body.tets()[t].map(|n| body.rest()[n as usize]);
-                crate::geom::barycentric(centre - Vec3::Z * 1e-4, p)
-                    .is_some_and(|b| crate::geom::inside(b, 0.0))
+                barycentric(centre - Vec3::Z * 1e-4, p).is_some_and(|b| inside(b, 0.0))
             })
             .unwrap();
         let mut f = vec![Vec3::ZERO; body.node_count()];
@@ -567,7 +477,7 @@ fn a_point_force_pushes_the_touched_nodes_and_a_region_material_is_softer() {
             .unwrap();
         dents[k] = -body.displacements()[centre_node].z;
     }
-    std::println!("dents {dents:?}");
+    println!("dents {dents:?}");
     assert!(dents[0] > 0.0);
     // Linear small strain: a quarter of the modulus, four times the dent.
     assert!((dents[1] / dents[0] - 4.0).abs() < 0.2, "{dents:?}");
@@ -576,13 +486,13 @@ fn a_point_force_pushes_the_touched_nodes_and_a_region_material_is_softer() {
 #[test]
 fn out_of_range_requests_are_refused_without_change() {
     let (rest, tets) = grid(1, 1, 1, H);
-    let mut st = Store::new(rest, tets);
+    let mut st = SoftOwned::new(rest, tets);
     let mat = Material {
         young: E,
         poisson: 0.3,
         density: RHO,
     };
-    let mut body = st.body(mat, params(0.0));
+    let mut body = st.body(&[mat], params(0.0)).unwrap();
     let n = body.node_count();
     let mut f = vec![Vec3::ZERO; n];
     assert!(!body.add_point_force(body.tet_count(), Vec3::ZERO, Vec3::X, &mut f));
