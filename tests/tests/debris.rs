@@ -19,6 +19,7 @@ use tetradrill::traces::PoseSource;
 use tetradrill_core::force::ToolState;
 use tetradrill_core::hierarchy::{Crumbs, Hierarchy, CRUMB_SEEDS, DEBRIS_LEAVES};
 use tetradrill_core::mesh::Mesh;
+use tetradrill_core::servo::World;
 use tetradrill_core::TetId;
 use tetradrill_tests::drill::{block_mesh, check_visible, contains, det, leaves, LeafG, Store};
 use tetradrill_tests::oracle::D3;
@@ -368,10 +369,12 @@ fn the_size_limit_and_the_largest_piece_decide() {
         .is_err());
 }
 
-/// The cow (18,098 tets) after 4 s of a seeded wander with the drill on: the crumbs the
-/// drill leaves are counted as pieces until they are erased, and then one piece is left.
-#[test]
-fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
+/// The cow (18,098 tets) and 4 s of a seeded wander with a 0.05 burr, the drill on, the
+/// drill's own debris checks on or off; `then` gets the world after the last tick.
+fn cow_wander(
+    checks: bool,
+    then: impl FnOnce(&Scenario, &mut World<'_>, &mut ToolState, &TickParams, &PoseSource),
+) {
     let sc = Scenario {
         mesh: tetradrill_tests::mesh("models/spot_tetgen_q1.414.node")
             .to_string_lossy()
@@ -385,37 +388,47 @@ fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
     let loaded = engine::load_mesh(&sc).expect("mesh");
     let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
     let mut world = store.world().expect("world");
-    // The drill's own checks off: the crumbs stay for the sweep.
-    world.set_debris_leaves(0);
+    if !checks {
+        world.set_debris_leaves(0);
+    }
     let mut tool = ToolState::default();
     for i in 0..4000 {
         engine::tick(&mut world, &mut tool, &params, &poses.at(i));
     }
-    let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
-    let before = world
-        .hierarchy()
-        .components(world.mesh(), &mut scratch)
-        .expect("scratch");
-    let rep = world
-        .remove_debris(DEBRIS_LEAVES, sc.max_depth, &mut scratch)
-        .expect("scratch");
-    engine::validate(&world).expect("valid");
-    eprintln!(
-        "cow wander: {before} pieces, {} erased ({} leaves, volume {:.3e}), {} left",
-        rep.pieces, rep.nodes, rep.volume, rep.components
-    );
-    // The drill leaves crumbs on this path (3 since the coarse and fine passes; 13 before).
-    assert!(rep.pieces >= 1, "{}", rep.pieces);
-    assert!(rep.nodes < rep.pieces * DEBRIS_LEAVES);
-    assert_eq!(before, rep.pieces + 1);
-    assert_eq!(rep.components, 1);
-    assert_eq!(
-        world
+    then(&sc, &mut world, &mut tool, &params, &poses);
+}
+
+/// The cow (18,098 tets) after 4 s of a seeded wander with the drill on: the crumbs the
+/// drill leaves are counted as pieces until they are erased, and then one piece is left.
+#[test]
+fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
+    cow_wander(false, |sc, world, _, _, _| {
+        let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
+        let before = world
             .hierarchy()
             .components(world.mesh(), &mut scratch)
-            .expect("scratch"),
-        1
-    );
+            .expect("scratch");
+        let rep = world
+            .remove_debris(DEBRIS_LEAVES, sc.max_depth, &mut scratch)
+            .expect("scratch");
+        engine::validate(world).expect("valid");
+        eprintln!(
+            "cow wander: {before} pieces, {} erased ({} leaves, volume {:.3e}), {} left",
+            rep.pieces, rep.nodes, rep.volume, rep.components
+        );
+        // The drill leaves crumbs on this path (3 since the coarse and fine passes; 13 before).
+        assert!(rep.pieces >= 1, "{}", rep.pieces);
+        assert!(rep.nodes < rep.pieces * DEBRIS_LEAVES);
+        assert_eq!(before, rep.pieces + 1);
+        assert_eq!(rep.components, 1);
+        assert_eq!(
+            world
+                .hierarchy()
+                .components(world.mesh(), &mut scratch)
+                .expect("scratch"),
+            1
+        );
+    });
 }
 
 /// The checks of [`Crumbs`], fed every erasure of the slab (checked as the queue fills, then
@@ -588,56 +601,41 @@ fn while_drilling_the_pieces_counted_are_the_pieces_a_user_sees() {
 /// leaves one piece.
 #[test]
 fn the_cow_after_a_wander_is_one_piece_with_the_drills_checks() {
-    let sc = Scenario {
-        mesh: tetradrill_tests::mesh("models/spot_tetgen_q1.414.node")
-            .to_string_lossy()
-            .into_owned(),
-        trace: "wander:1".into(),
-        tool: "sphere:0.05".into(),
-        ..Scenario::default()
-    };
-    let params = TickParams::of(&sc).expect("scenario");
-    let poses = PoseSource::for_scenario(&sc).expect("trace");
-    let loaded = engine::load_mesh(&sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
-    let mut world = store.world().expect("world");
-    let mut tool = ToolState::default();
-    for i in 0..4000 {
-        engine::tick(&mut world, &mut tool, &params, &poses.at(i));
-    }
-    // The drill's backlog and the checks its budget deferred, done in ticks with the drill
-    // off and a budget that lets them finish.
-    let mut still = poses.at(3999);
-    still.buttons = 0;
-    let mut drain = params;
-    drain.drill.budget = 10_000_000;
-    world.set_tick_budget(None);
-    let mut extra = 0;
-    while (world.debris_pending() > 0 || world.pending() > 0) && extra < 100 {
-        engine::tick(&mut world, &mut tool, &drain, &still);
-        extra += 1;
-    }
-    let d = world.debris();
-    eprintln!(
-        "cow wander, checks on: {d:?}, {} seeds waiting",
-        world.debris_pending()
-    );
-    assert_eq!(world.debris_pending(), 0);
-    assert!(d.pieces >= 1, "{d:?}");
-    assert!(d.largest < DEBRIS_LEAVES, "{d:?}");
-    // A drill far behind the burr gives the checks an eighth of its budget, so seeds are
-    // dropped (counted) and some crumbs wait for the sweep: the checks erase crumbs and
-    // nothing larger, and the sweep leaves one piece.
-    assert!(d.saturations > 0, "{d:?}");
-    let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
-    let before = world
-        .hierarchy()
-        .components(world.mesh(), &mut scratch)
-        .expect("scratch");
-    let rep = world
-        .remove_debris(DEBRIS_LEAVES, sc.max_depth, &mut scratch)
-        .expect("scratch");
-    assert_eq!(rep.components, 1);
-    assert_eq!(before, rep.pieces + 1);
-    engine::validate(&world).expect("valid");
+    cow_wander(true, |sc, world, tool, params, poses| {
+        // The drill's backlog and the checks its budget deferred, done in ticks with the drill
+        // off and a budget that lets them finish.
+        let mut still = poses.at(3999);
+        still.buttons = 0;
+        let mut drain = *params;
+        drain.drill.budget = 10_000_000;
+        world.set_tick_budget(None);
+        let mut extra = 0;
+        while (world.debris_pending() > 0 || world.pending() > 0) && extra < 100 {
+            engine::tick(world, tool, &drain, &still);
+            extra += 1;
+        }
+        let d = world.debris();
+        eprintln!(
+            "cow wander, checks on: {d:?}, {} seeds waiting",
+            world.debris_pending()
+        );
+        assert_eq!(world.debris_pending(), 0);
+        assert!(d.pieces >= 1, "{d:?}");
+        assert!(d.largest < DEBRIS_LEAVES, "{d:?}");
+        // A drill far behind the burr gives the checks an eighth of its budget, so seeds are
+        // dropped (counted) and some crumbs wait for the sweep: the checks erase crumbs and
+        // nothing larger, and the sweep leaves one piece.
+        assert!(d.saturations > 0, "{d:?}");
+        let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
+        let before = world
+            .hierarchy()
+            .components(world.mesh(), &mut scratch)
+            .expect("scratch");
+        let rep = world
+            .remove_debris(DEBRIS_LEAVES, sc.max_depth, &mut scratch)
+            .expect("scratch");
+        assert_eq!(rep.components, 1);
+        assert_eq!(before, rep.pieces + 1);
+        engine::validate(world).expect("valid");
+    });
 }
