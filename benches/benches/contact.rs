@@ -10,7 +10,6 @@
 //! worst case without the preemption of a shared machine).
 
 use std::hint::black_box;
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -21,7 +20,7 @@ use parry3d::partitioning::{Bvh, BvhBuildStrategy};
 use parry3d::query::PointQuery;
 use parry3d::shape::Tetrahedron;
 use tetradrill::owned::OwnedMesh;
-use tetradrill_benches::{impaled_poses, touch_poses, Lcg};
+use tetradrill_benches::{impaled_poses, load_mesh, touch_poses, Lcg};
 use tetradrill_core::collide::{
     hash_tets, points_in_tets, points_in_tets_occupied, points_in_tets_walked, walks_exact, Body,
     Collision, WalkStarts,
@@ -36,17 +35,8 @@ use tetradrill_core::force::{
 use tetradrill_core::hash::{average_edge_length, prime_at_most, HashEntry, SpatialHash};
 use tetradrill_core::ids::{NodeId, TetId};
 
-fn meshes_dir() -> PathBuf {
-    match std::env::var("TETRADRILL_MESHES") {
-        Ok(d) => PathBuf::from(d),
-        Err(_) => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/meshes"),
-    }
-}
-
 fn load(rel: &str, scale: f64) -> OwnedMesh {
-    tetradrill::meshio::load(&meshes_dir().join(rel), scale)
-        .expect("mesh loads")
-        .mesh
+    load_mesh(rel, scale).expect("mesh loads")
 }
 
 struct HashStore {

@@ -10,26 +10,17 @@
 //! `valgrind --tool=callgrind --toggle-collect='*SoftBody*step*'` counts those 40 steps.
 
 use std::hint::black_box;
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, Criterion};
 use glam::Vec3;
 use tetradrill::owned::OwnedMesh;
 use tetradrill::soft::SoftOwned;
+use tetradrill_benches::load_mesh;
 use tetradrill_core::soft::{Material, SoftBody, SoftParams};
 
-fn meshes_dir() -> PathBuf {
-    match std::env::var("TETRADRILL_MESHES") {
-        Ok(d) => PathBuf::from(d),
-        Err(_) => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/meshes"),
-    }
-}
-
 fn load(rel: &str) -> OwnedMesh {
-    tetradrill::meshio::load(&meshes_dir().join(rel), 1.0)
-        .expect("mesh loads")
-        .mesh
+    load_mesh(rel, 1.0).expect("mesh loads")
 }
 
 const MESHES: [(&str, &str); 2] = [

@@ -4,8 +4,57 @@
 
 pub mod swept;
 
+use std::path::PathBuf;
+
 use glam::{Quat, Vec3};
+use tetradrill::owned::OwnedMesh;
 use tetradrill_core::mesh::Mesh;
+
+/// Where the benches find their meshes: `TETRADRILL_MESHES`, else the project's test data.
+pub fn meshes_dir() -> PathBuf {
+    match std::env::var("TETRADRILL_MESHES") {
+        Ok(d) => PathBuf::from(d),
+        Err(_) => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/meshes"),
+    }
+}
+
+/// The mesh `rel` (a path under [`meshes_dir`]) scaled by `scale`.
+///
+/// # Errors
+/// The file's path and the reader's reason, in one line.
+pub fn load_mesh(rel: &str, scale: f64) -> Result<OwnedMesh, String> {
+    let path = meshes_dir().join(rel);
+    tetradrill::meshio::load(&path, scale)
+        .map(|l| l.mesh)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// The arguments of a profiling binary `bin`: `MESH touching|impaled [REPS]` (REPS default
+/// `default_reps`). `Err` is the one line to print before exiting with status 2.
+///
+/// # Errors
+/// A missing argument, an unknown pose set, a REPS that is not a positive whole number.
+pub fn profile_args(bin: &str, default_reps: usize) -> Result<(String, bool, usize), String> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (Some(mesh), Some(set)) = (args.first(), args.get(1)) else {
+        return Err(format!("usage: {bin} MESH touching|impaled [REPS]"));
+    };
+    let touching = match set.as_str() {
+        "touching" => true,
+        "impaled" => false,
+        other => {
+            return Err(format!(
+                "{bin}: pose set must be touching or impaled, not `{other}`"
+            ))
+        }
+    };
+    let reps = match args.get(2).map(|r| r.parse::<usize>()) {
+        None => default_reps,
+        Some(Ok(n)) if n > 0 => n,
+        Some(_) => return Err(format!("{bin}: REPS must be a positive whole number")),
+    };
+    Ok((mesh.clone(), touching, reps))
+}
 
 /// A tiny deterministic generator (the benches have no `rand`).
 #[derive(Debug, Clone)]

@@ -13,14 +13,12 @@
 
 use std::hint::black_box;
 use std::io::Write;
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
 use glam::{Quat, Vec3};
-use tetradrill::owned::OwnedMesh;
 use tetradrill::pen::PenRig;
-use tetradrill_benches::{impaled_poses, touch_poses};
+use tetradrill_benches::{impaled_poses, load_mesh, profile_args, touch_poses};
 use tetradrill_core::force::{
     force_digest, pen_contact, PenBuffers, PenContact, PenOptions, PenScene, PenState,
 };
@@ -43,41 +41,18 @@ fn run_pose(
     ))
 }
 
-fn load(rel: &str, scale: f64) -> Result<OwnedMesh, String> {
-    let dir = match std::env::var("TETRADRILL_MESHES") {
-        Ok(d) => PathBuf::from(d),
-        Err(_) => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/meshes"),
-    };
-    let path = dir.join(rel);
-    tetradrill::meshio::load(&path, scale)
-        .map(|l| l.mesh)
-        .map_err(|e| format!("{}: {e}", path.display()))
-}
-
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: pen_profile MESH touching|impaled [REPS]";
-    let (Some(mesh), Some(set)) = (args.first(), args.get(1)) else {
-        eprintln!("{usage}");
-        return ExitCode::from(2);
-    };
-    let touching = match set.as_str() {
-        "touching" => true,
-        "impaled" => false,
-        other => {
-            eprintln!("pen_profile: pose set must be touching or impaled, not `{other}`");
+    let (mesh, touching, reps) = match profile_args("pen_profile", 20) {
+        Ok(a) => a,
+        Err(line) => {
+            eprintln!("{line}");
             return ExitCode::from(2);
         }
     };
-    let reps: usize = match args.get(2).map(|r| r.parse()) {
-        None => 20,
-        Some(Ok(n)) if n > 0 => n,
-        Some(_) => {
-            eprintln!("pen_profile: REPS must be a positive whole number");
-            return ExitCode::from(2);
-        }
-    };
-    let (pen, mut obj) = match (load("models/pen_tool_gmsh.mesh", 10.0), load(mesh, 1.0)) {
+    let (pen, mut obj) = match (
+        load_mesh("models/pen_tool_gmsh.mesh", 10.0),
+        load_mesh(&mesh, 1.0),
+    ) {
         (Ok(p), Ok(o)) => (p, o),
         (Err(e), _) | (_, Err(e)) => {
             eprintln!("pen_profile: {e}");
@@ -131,7 +106,8 @@ fn main() -> ExitCode {
     // A closed pipe (`| head`) ends the output, not the program.
     let _ = writeln!(
         out,
-        "{mesh} {set}: {} poses, fastest of {reps}: mean {mean:.2} us, p99 {p99:.2} us, max {max:.2} us; raw force digest {:016x}",
+        "{mesh} {}: {} poses, fastest of {reps}: mean {mean:.2} us, p99 {p99:.2} us, max {max:.2} us; raw force digest {:016x}",
+        if touching { "touching" } else { "impaled" },
         poses.len(),
         force_digest(&raw)
     );

@@ -11,13 +11,11 @@
 //! arguments, an unreadable mesh or a saturated hash.
 
 use std::hint::black_box;
-use std::path::PathBuf;
 use std::process::ExitCode;
 
 use glam::{Quat, Vec3};
-use tetradrill::owned::OwnedMesh;
 use tetradrill::pen::ObjectCells;
-use tetradrill_benches::{impaled_poses, touch_poses};
+use tetradrill_benches::{impaled_poses, load_mesh, profile_args, touch_poses};
 use tetradrill_core::collide::{
     hash_tets, points_in_tets, points_in_tets_occupied, points_in_tets_walked, walks_exact, Body,
     CollideReport, Collision, Occupancy, WalkStarts,
@@ -107,41 +105,19 @@ fn run_walked(
     sum
 }
 
-fn load(rel: &str, scale: f64) -> Result<OwnedMesh, String> {
-    let dir = match std::env::var("TETRADRILL_MESHES") {
-        Ok(d) => PathBuf::from(d),
-        Err(_) => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/meshes"),
-    };
-    let path = dir.join(rel);
-    tetradrill::meshio::load(&path, scale)
-        .map(|l| l.mesh)
-        .map_err(|e| format!("{}: {e}", path.display()))
-}
-
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: query_profile MESH touching|impaled [REPS]";
-    let (Some(mesh), Some(set)) = (args.first(), args.get(1)) else {
-        eprintln!("{usage}");
-        return ExitCode::from(2);
-    };
-    let touching = match set.as_str() {
-        "touching" => true,
-        "impaled" => false,
-        other => {
-            eprintln!("query_profile: pose set must be touching or impaled, not `{other}`");
+    let (mesh, touching, reps) = match profile_args("query_profile", 1) {
+        Ok(a) => a,
+        Err(line) => {
+            eprintln!("{line}");
             return ExitCode::from(2);
         }
     };
-    let reps: usize = match args.get(2).map(|r| r.parse()) {
-        None => 1,
-        Some(Ok(n)) if n > 0 => n,
-        Some(_) => {
-            eprintln!("query_profile: REPS must be a positive whole number");
-            return ExitCode::from(2);
-        }
-    };
-    let (mut pen_m, mut obj_m) = match (load("models/pen_tool_gmsh.mesh", 10.0), load(mesh, 1.0)) {
+    let set = if touching { "touching" } else { "impaled" };
+    let (mut pen_m, mut obj_m) = match (
+        load_mesh("models/pen_tool_gmsh.mesh", 10.0),
+        load_mesh(&mesh, 1.0),
+    ) {
         (Ok(p), Ok(o)) => (p, o),
         (Err(e), _) | (_, Err(e)) => {
             eprintln!("query_profile: {e}");
