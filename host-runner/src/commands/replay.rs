@@ -214,6 +214,19 @@ pub struct DebrisSummary {
     pub saturations: u32,
 }
 
+impl DebrisSummary {
+    /// What the drill's checks erased while drilling (no final sweep).
+    pub fn during(c: tetradrill_core::hierarchy::CrumbStats) -> Self {
+        Self {
+            pieces: c.pieces,
+            nodes: c.nodes,
+            volume: c.volume,
+            final_sweep: 0,
+            saturations: c.saturations,
+        }
+    }
+}
+
 /// Mesh counts of a report.
 #[derive(Debug, Serialize)]
 pub struct MeshCounts {

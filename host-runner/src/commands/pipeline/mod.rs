@@ -19,7 +19,7 @@ use tetradrill_core::servo::ContactState;
 use tetradrill_core::Vec3;
 use tetradrill_device::{DeviceError, DeviceKind, HapticDevice};
 
-use crate::commands::replay::SaturationCounts;
+use crate::commands::replay::{DebrisSummary, SaturationCounts};
 use crate::engine::{self, EngineStorage, TickParams};
 use crate::error::CliError;
 use crate::rt::RtConfig;
@@ -103,11 +103,13 @@ impl std::fmt::Debug for PipelineSetup {
     }
 }
 
-/// What the simulation task leaves: saturations by kind and the final state's validity.
+/// What the simulation task leaves: saturations by kind, the final state's validity, the
+/// removed volume by region and the debris erased while drilling.
 type SimEnding = (
     SaturationCounts,
     Result<(), String>,
     Option<std::collections::BTreeMap<String, f64>>,
+    DebrisSummary,
 );
 
 /// Runs the pipeline on `sc` with `setup`; returns the report (the device error that ended the
@@ -227,7 +229,8 @@ pub fn run(
                             // The final state: saturations by kind, and the core's validate().
                             let sat = SaturationCounts::from(world.saturations());
                             let by_region = engine::removed_by_region(&world, &region_labels);
-                            return Ok((sat, engine::validate(&world), by_region));
+                            let debris = DebrisSummary::during(world.debris());
+                            return Ok((sat, engine::validate(&world), by_region, debris));
                         }
                         tasks::SimEnd::Reset => {
                             if let Some(l) = link.as_mut() {
@@ -269,7 +272,7 @@ pub fn run(
         Ok((servo, status, ending?, (scene, recorded)))
     })?;
     let (mut scene, recorded) = scene;
-    let (saturations, valid, removed_by_region) = ending;
+    let (saturations, valid, removed_by_region, debris_erased) = ending;
     let shaft = params.shaft.zip(law.shaft_counts()).map(|(t, c)| RunShaft {
         passive_points: t.passive_count(),
         near_ticks: c.near_ticks,
@@ -280,6 +283,7 @@ pub fn run(
     let ended = Ended {
         shaft,
         removed_by_region,
+        debris_erased,
         kind,
         elapsed: started.elapsed().as_secs_f64(),
         initial_volume,
@@ -302,6 +306,8 @@ struct Ended {
     shaft: Option<RunShaft>,
     /// The removed volume by region label, when the world had regions.
     removed_by_region: Option<std::collections::BTreeMap<String, f64>>,
+    /// The debris the drill's checks erased while the run drilled.
+    debris_erased: DebrisSummary,
     kind: DeviceKind,
     elapsed: f64,
     initial_volume: f64,
@@ -370,6 +376,7 @@ impl Ended {
             initial_volume: self.initial_volume,
             removed_volume: sim.removed_volume,
             removed_by_region: self.removed_by_region.clone(),
+            debris_erased: self.debris_erased,
             hierarchy_nodes: sim.hierarchy_nodes,
             visible_faces: sim.visible_faces,
             simulation_steps: sim.steps,

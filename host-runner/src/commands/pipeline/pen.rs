@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use crate::commands::replay::{SaturationCounts, TickTiming};
+use crate::commands::replay::{DebrisSummary, SaturationCounts, TickTiming};
 use crate::engine;
 use crate::error::CliError;
 use crate::pen::{PenRig, PenSizes};
@@ -164,6 +164,7 @@ pub(super) fn run_pen(
     let ended = Ended {
         shaft: None,
         removed_by_region: None,
+        debris_erased: DebrisSummary::default(),
         kind: setup.kind,
         elapsed,
         initial_volume,

@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use crate::commands::replay::{SaturationCounts, TickTiming};
+use crate::commands::replay::{DebrisSummary, SaturationCounts, TickTiming};
 use crate::stats::Summary;
 
 /// The summary of a real-time run (`--json`).
@@ -44,6 +44,11 @@ pub struct RunReport {
     /// values sum to `removed_volume`. Absent for a mesh tool.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub removed_by_region: Option<std::collections::BTreeMap<String, f64>>,
+    /// Debris (detached pieces smaller than `tetradrill_core::hierarchy::DEBRIS_LEAVES`
+    /// max-depth leaves) the drill's checks erased while the run drilled; its volume is in
+    /// `removed_volume`. A run ends as the user left it: no final sweep (`final_sweep` is 0;
+    /// `replay` sweeps).
+    pub debris_erased: DebrisSummary,
     /// Hierarchy nodes at the end.
     pub hierarchy_nodes: usize,
     /// Visible faces at the end.
