@@ -4,12 +4,12 @@
 //! Usage: `pen_profile MESH touching|impaled [REPS]` (MESH relative to the meshes folder:
 //! `TETRADRILL_MESHES` or the repository's `tests/data/meshes`). Every pose runs REPS times
 //! (default 20), each run from a fresh `PenState`; prints the mean, p99 and maximum over the
-//! poses of each pose's fastest run, the slowest poses with their counts, and a digest of the
-//! raw forces (the same on every run and every build that keeps the forces). Instruction
-//! counts: `valgrind --tool=callgrind --dump-instr=no --toggle-collect='*run_pose*'
-//! pen_profile MESH touching 1` (one call per pose); `POSE=i` in the environment runs only
-//! pose i. Exit status 2 for bad arguments or an
-//! unreadable mesh.
+//! poses of each pose's fastest run, the slowest poses with their counts (nodes inside, border
+//! points, border edges and walk work, each side), and a digest of the raw forces (the same on
+//! every run and every build that keeps the forces). Instruction counts: `valgrind
+//! --tool=callgrind --dump-instr=no --toggle-collect='*run_pose*' pen_profile MESH touching 1`
+//! (one call per pose); `POSE=i` in the environment runs only pose i. Exit status 2 for bad
+//! arguments or an unreadable mesh.
 
 use std::hint::black_box;
 use std::io::Write;
@@ -117,10 +117,12 @@ fn main() -> ExitCode {
         let c = &last[i];
         let _ = writeln!(
             out,
-            "  pose {i:3}: {:8.2} us; pen nodes in {:4}, object nodes in {:4}; border edges {:4} + {:4}, walk work {:6} + {:6}",
+            "  pose {i:3}: {:8.2} us; pen nodes in {:4}, object nodes in {:4}; border points {:4} + {:4}, edges {:4} + {:4}, walk work {:6} + {:6}",
             best[i],
             c.pen_collisions.count,
             c.object_collisions.count,
+            c.pen_depth.border_points,
+            c.object_depth.border_points,
             c.pen_depth.border_edges,
             c.object_depth.border_edges,
             c.pen_depth.work,
