@@ -340,7 +340,7 @@ impl<'a> Mesh<'a> {
             positions,
             normals,
             nodes,
-            tets,
+            tets: super::TetStore::Ram(tets),
             stats,
         };
         mesh.update_boundary();

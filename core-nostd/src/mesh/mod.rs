@@ -5,17 +5,26 @@
 //! normal per node, one [`Tet`] (36 bytes) per tet. Faces, edges and vertices are named by
 //! entity uses (`(tet, local index)`) through the const [`template`] tables; the neighbour
 //! across a face and the matching vertex in it are found in O(1) ([`Mesh::vertex_match`]).
+//!
+//! The tets live in RAM ([`Mesh::build`], [`Mesh::from_parts`]) or are read in place from a
+//! mesh blob's bytes ([`Mesh::in_place`], [`crate::blob::MeshBlob::mesh`]): a [`TetStore`]
+//! holds either, and every accessor returns records by value, so callers never see which.
+//! Positions, normals and node records stay in RAM either way: positions change whenever the
+//! mesh moves or deforms, and [`Mesh::update_boundary`] rewrites the normals and the nodes'
+//! boundary flags.
 
 mod build;
 mod record;
 pub mod template;
 mod traverse;
 mod validate;
+mod view;
 
 pub use build::{refinement_relabel, BuildError, BuildOptions, BuildStats, FaceKey, MeshStorage};
-pub use record::{EdgeUse, FaceUse, Node, Reverse, Tet, VertexUse, TET_BYTES};
+pub use record::{EdgeUse, FaceUse, Node, Reverse, Tet, VertexUse, TET_BYTES, TET_RECORD};
 pub use traverse::{EdgeIter, Full};
 pub use validate::ValidationError;
+pub use view::{TetIter, TetStore, TetView, TetViewError};
 
 use glam::Vec3;
 
@@ -29,7 +38,7 @@ pub struct Mesh<'a> {
     positions: &'a mut [Vec3],
     normals: &'a mut [Vec3],
     nodes: &'a mut [Node],
-    tets: &'a mut [Tet],
+    tets: TetStore<'a>,
     stats: BuildStats,
 }
 
@@ -64,9 +73,44 @@ impl<'a> Mesh<'a> {
             positions,
             normals,
             nodes,
-            tets,
+            tets: TetStore::Ram(tets),
             stats,
         }
+    }
+
+    /// A mesh whose tets are read in place through `tets` (checked when the view was made);
+    /// positions, normals and node records in RAM, as an earlier build left them (a blob's
+    /// copies: [`crate::blob::MeshBlob::mesh`]). Nothing else is checked here: call
+    /// [`Mesh::validate`] to check the node records and the orientation.
+    ///
+    /// `positions.len()` is the node count; `normals` and `nodes` are cut to it.
+    ///
+    /// # Bounded work
+    /// O(1).
+    ///
+    /// # Errors
+    /// `None` when `positions` does not hold the node count the view was checked against
+    /// ([`TetView::node_count`]) or `normals` or `nodes` is shorter.
+    pub fn in_place(
+        positions: &'a mut [Vec3],
+        normals: &'a mut [Vec3],
+        nodes: &'a mut [Node],
+        tets: TetView<'a>,
+        stats: BuildStats,
+    ) -> Option<Self> {
+        let n = positions.len();
+        if n != tets.node_count() || normals.len() < n || nodes.len() < n {
+            return None;
+        }
+        let (normals, _) = normals.split_at_mut(n);
+        let (nodes, _) = nodes.split_at_mut(n);
+        Some(Self {
+            positions,
+            normals,
+            nodes,
+            tets: TetStore::InPlace(tets),
+            stats,
+        })
     }
 
     /// Number of nodes.
@@ -79,6 +123,12 @@ impl<'a> Mesh<'a> {
     #[inline]
     pub fn tet_count(&self) -> usize {
         self.tets.len()
+    }
+
+    /// Where the tets live: RAM records or an in-place view.
+    #[inline]
+    pub fn tet_store(&self) -> TetStore<'a> {
+        self.tets
     }
 
     /// All node positions.
@@ -112,16 +162,63 @@ impl<'a> Mesh<'a> {
         self.nodes[n.idx()]
     }
 
-    /// All tets.
+    /// Every tet in id order, by value.
     #[inline]
-    pub fn tets(&self) -> &[Tet] {
-        self.tets
+    pub fn tets(&self) -> TetIter<'a> {
+        TetIter::new(self.tets)
     }
 
-    /// One tet.
+    /// One tet, by value. `t` must be a tet of the mesh: out of range it panics on RAM
+    /// storage and gives a record of `NONE` ids in place (an in-place view never panics).
     #[inline]
-    pub fn tet(&self, t: TetId) -> &Tet {
-        &self.tets[t.idx()]
+    pub fn tet(&self, t: TetId) -> Tet {
+        match self.tets {
+            TetStore::Ram(s) => s[t.idx()],
+            TetStore::InPlace(v) => v.get(t).unwrap_or_default(),
+        }
+    }
+
+    /// One tet, by value; `None` out of range.
+    #[inline]
+    pub fn get_tet(&self, t: TetId) -> Option<Tet> {
+        self.tets.get(t)
+    }
+
+    /// The four node ids of `t` (out of range: as [`Mesh::tet`]).
+    #[inline]
+    pub fn tet_nodes(&self, t: TetId) -> [NodeId; 4] {
+        match self.tets {
+            TetStore::Ram(s) => s[t.idx()].nodes,
+            TetStore::InPlace(v) => v.nodes(t).unwrap_or([NodeId::NONE; 4]),
+        }
+    }
+
+    /// The four node ids of `t`; `None` out of range.
+    #[inline]
+    pub fn get_tet_nodes(&self, t: TetId) -> Option<[NodeId; 4]> {
+        match self.tets {
+            TetStore::Ram(s) => s.get(t.idx()).map(|r| r.nodes),
+            TetStore::InPlace(v) => v.nodes(t),
+        }
+    }
+
+    /// The tet across face `f` of `t`, `NONE` on the boundary; `None` when `t` or `f` is
+    /// out of range.
+    #[inline]
+    pub fn get_neighbour(&self, t: TetId, f: u8) -> Option<TetId> {
+        match self.tets {
+            TetStore::Ram(s) => s.get(t.idx())?.neighbours.get(f as usize).copied(),
+            TetStore::InPlace(v) => v.neighbour(t, f),
+        }
+    }
+
+    /// The reverse index of face `f` of `t` (out of range: as [`Mesh::tet`]).
+    #[inline]
+    pub fn reverse(&self, t: TetId, f: u8) -> Reverse {
+        match self.tets {
+            TetStore::Ram(s) => s[t.idx()].reverse[f as usize],
+            TetStore::InPlace(v) => v.reverse(t, f).unwrap_or_default(),
+        }
     }
 
     /// Averaged outward unit normal of a boundary node (zero for inner nodes).
@@ -146,13 +243,17 @@ impl<'a> Mesh<'a> {
     /// The four corner positions of a tet.
     #[inline]
     pub fn tet_positions(&self, t: TetId) -> [Vec3; 4] {
-        self.tets[t.idx()].nodes.map(|n| self.positions[n.idx()])
+        self.tet_nodes(t).map(|n| self.positions[n.idx()])
     }
 
-    /// The tet across face `f` of `t`, or `NONE` on the boundary.
+    /// The tet across face `f` of `t`, or `NONE` on the boundary (out of range: as
+    /// [`Mesh::tet`]).
     #[inline]
     pub fn neighbour(&self, t: TetId, f: u8) -> TetId {
-        self.tets[t.idx()].neighbours[f as usize]
+        match self.tets {
+            TetStore::Ram(s) => s[t.idx()].neighbours[f as usize],
+            TetStore::InPlace(v) => v.neighbour(t, f).unwrap_or(TetId::NONE),
+        }
     }
 
     /// `true` when face `f` of `t` has no neighbour.
@@ -165,19 +266,18 @@ impl<'a> Mesh<'a> {
     /// boundary. O(1).
     #[inline]
     pub fn face_match(&self, face: FaceUse) -> Option<FaceUse> {
-        let tet = &self.tets[face.tet.idx()];
-        let nb = tet.neighbours[face.local as usize];
+        let nb = self.neighbour(face.tet, face.local);
         nb.is_some().then(|| FaceUse {
             tet: nb,
-            local: tet.reverse[face.local as usize].face(),
+            local: self.reverse(face.tet, face.local).face(),
         })
     }
 
     /// The three node ids of face `f` of `t`, clockwise seen from outside `t`.
     #[inline]
     pub fn face_nodes(&self, t: TetId, f: u8) -> [NodeId; 3] {
-        let tet = &self.tets[t.idx()];
-        FACE_VERTS[f as usize].map(|k| tet.nodes[k as usize])
+        let nodes = self.tet_nodes(t);
+        FACE_VERTS[f as usize].map(|k| nodes[k as usize])
     }
 
     /// The three corner positions of face `f` of `t`, clockwise seen from outside `t`.
@@ -202,13 +302,12 @@ impl<'a> Mesh<'a> {
     /// O(1): two table look-ups and one modulo.
     #[inline]
     pub fn vertex_match(&self, t: TetId, v: u8, f: u8) -> Option<VertexUse> {
-        let tet = &self.tets[t.idx()];
-        let nb = tet.neighbours[f as usize];
+        let nb = self.neighbour(t, f);
         let pos = FACE_VERTEX_NR[f as usize][v as usize];
         if nb.is_none() || pos == NOT_ON_FACE {
             return None;
         }
-        let r = tet.reverse[f as usize];
+        let r = self.reverse(t, f);
         let in_face = (3 - pos + r.offset()) % 3;
         let local = ELEM_VERTEX_NR[r.face() as usize][in_face as usize];
         Some(VertexUse { tet: nb, local })
