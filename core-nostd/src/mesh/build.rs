@@ -340,7 +340,8 @@ impl<'a> Mesh<'a> {
             positions,
             normals,
             nodes,
-            tets: super::TetStore::Ram(tets),
+            ram: tets,
+            view: super::TetView::EMPTY,
             stats,
         };
         mesh.update_boundary();

@@ -38,7 +38,12 @@ pub struct Mesh<'a> {
     positions: &'a mut [Vec3],
     normals: &'a mut [Vec3],
     nodes: &'a mut [Node],
-    tets: TetStore<'a>,
+    /// RAM records; empty when the tets are read in place.
+    ram: &'a [Tet],
+    /// The in-place records; empty when the tets are in RAM. Every accessor tries `ram`
+    /// first: on a RAM mesh that is the bounds check slice indexing does anyway, so the RAM
+    /// path pays nothing for the choice; an in-place mesh pays one failed comparison.
+    view: TetView<'a>,
     stats: BuildStats,
 }
 
@@ -73,7 +78,8 @@ impl<'a> Mesh<'a> {
             positions,
             normals,
             nodes,
-            tets: TetStore::Ram(tets),
+            ram: tets,
+            view: TetView::EMPTY,
             stats,
         }
     }
@@ -108,7 +114,8 @@ impl<'a> Mesh<'a> {
             positions,
             normals,
             nodes,
-            tets: TetStore::InPlace(tets),
+            ram: &[],
+            view: tets,
             stats,
         })
     }
@@ -122,13 +129,17 @@ impl<'a> Mesh<'a> {
     /// Number of tets.
     #[inline]
     pub fn tet_count(&self) -> usize {
-        self.tets.len()
+        self.ram.len() + self.view.len()
     }
 
     /// Where the tets live: RAM records or an in-place view.
     #[inline]
     pub fn tet_store(&self) -> TetStore<'a> {
-        self.tets
+        if self.view.is_empty() {
+            TetStore::Ram(self.ram)
+        } else {
+            TetStore::InPlace(self.view)
+        }
     }
 
     /// All node positions.
@@ -165,40 +176,45 @@ impl<'a> Mesh<'a> {
     /// Every tet in id order, by value.
     #[inline]
     pub fn tets(&self) -> TetIter<'a> {
-        TetIter::new(self.tets)
+        TetIter::new(self.tet_store())
     }
 
-    /// One tet, by value. `t` must be a tet of the mesh: out of range it panics on RAM
-    /// storage and gives a record of `NONE` ids in place (an in-place view never panics).
+    /// One tet, by value; a record of `NONE` ids when `t` is out of range (never a panic).
+    ///
+    /// # Bounded work
+    /// O(1).
     #[inline]
     pub fn tet(&self, t: TetId) -> Tet {
-        match self.tets {
-            TetStore::Ram(s) => s[t.idx()],
-            TetStore::InPlace(v) => v.get(t).unwrap_or_default(),
+        match self.ram.get(t.idx()) {
+            Some(r) => *r,
+            None => self.view.get(t).unwrap_or_default(),
         }
     }
 
     /// One tet, by value; `None` out of range.
     #[inline]
     pub fn get_tet(&self, t: TetId) -> Option<Tet> {
-        self.tets.get(t)
+        match self.ram.get(t.idx()) {
+            Some(r) => Some(*r),
+            None => self.view.get(t),
+        }
     }
 
-    /// The four node ids of `t` (out of range: as [`Mesh::tet`]).
+    /// The four node ids of `t`; `NONE` ids when `t` is out of range.
     #[inline]
     pub fn tet_nodes(&self, t: TetId) -> [NodeId; 4] {
-        match self.tets {
-            TetStore::Ram(s) => s[t.idx()].nodes,
-            TetStore::InPlace(v) => v.nodes(t).unwrap_or([NodeId::NONE; 4]),
+        match self.ram.get(t.idx()) {
+            Some(r) => r.nodes,
+            None => self.view.nodes(t).unwrap_or([NodeId::NONE; 4]),
         }
     }
 
     /// The four node ids of `t`; `None` out of range.
     #[inline]
     pub fn get_tet_nodes(&self, t: TetId) -> Option<[NodeId; 4]> {
-        match self.tets {
-            TetStore::Ram(s) => s.get(t.idx()).map(|r| r.nodes),
-            TetStore::InPlace(v) => v.nodes(t),
+        match self.ram.get(t.idx()) {
+            Some(r) => Some(r.nodes),
+            None => self.view.nodes(t),
         }
     }
 
@@ -206,18 +222,35 @@ impl<'a> Mesh<'a> {
     /// out of range.
     #[inline]
     pub fn get_neighbour(&self, t: TetId, f: u8) -> Option<TetId> {
-        match self.tets {
-            TetStore::Ram(s) => s.get(t.idx())?.neighbours.get(f as usize).copied(),
-            TetStore::InPlace(v) => v.neighbour(t, f),
+        match self.ram.get(t.idx()) {
+            Some(r) => r.neighbours.get(f as usize).copied(),
+            None => self.view.neighbour(t, f),
         }
     }
 
-    /// The reverse index of face `f` of `t` (out of range: as [`Mesh::tet`]).
+    /// The reverse index of face `f` of `t` (`Reverse(0)` when `t` is out of range).
+    ///
+    /// # Panics
+    /// When `f` is over 3.
     #[inline]
     pub fn reverse(&self, t: TetId, f: u8) -> Reverse {
-        match self.tets {
-            TetStore::Ram(s) => s[t.idx()].reverse[f as usize],
-            TetStore::InPlace(v) => v.reverse(t, f).unwrap_or_default(),
+        self.across(t, f).1
+    }
+
+    /// The neighbour across face `f` of `t` and the face's reverse index, from one record
+    /// look-up (`(NONE, Reverse(0))` when `t` is out of range).
+    ///
+    /// # Panics
+    /// When `f` is over 3.
+    #[inline]
+    fn across(&self, t: TetId, f: u8) -> (TetId, Reverse) {
+        match self.ram.get(t.idx()) {
+            Some(r) => (r.neighbours[f as usize], r.reverse[f as usize]),
+            None => {
+                assert!(f < 4, "face {f} of a tet");
+                let nb = self.view.neighbour(t, f).unwrap_or(TetId::NONE);
+                (nb, self.view.reverse(t, f).unwrap_or_default())
+            }
         }
     }
 
@@ -246,13 +279,19 @@ impl<'a> Mesh<'a> {
         self.tet_nodes(t).map(|n| self.positions[n.idx()])
     }
 
-    /// The tet across face `f` of `t`, or `NONE` on the boundary (out of range: as
-    /// [`Mesh::tet`]).
+    /// The tet across face `f` of `t`, or `NONE` on the boundary (and when `t` is out of
+    /// range).
+    ///
+    /// # Panics
+    /// When `f` is over 3.
     #[inline]
     pub fn neighbour(&self, t: TetId, f: u8) -> TetId {
-        match self.tets {
-            TetStore::Ram(s) => s[t.idx()].neighbours[f as usize],
-            TetStore::InPlace(v) => v.neighbour(t, f).unwrap_or(TetId::NONE),
+        match self.ram.get(t.idx()) {
+            Some(r) => r.neighbours[f as usize],
+            None => {
+                assert!(f < 4, "face {f} of a tet");
+                self.view.neighbour(t, f).unwrap_or(TetId::NONE)
+            }
         }
     }
 
@@ -266,10 +305,10 @@ impl<'a> Mesh<'a> {
     /// boundary. O(1).
     #[inline]
     pub fn face_match(&self, face: FaceUse) -> Option<FaceUse> {
-        let nb = self.neighbour(face.tet, face.local);
+        let (nb, r) = self.across(face.tet, face.local);
         nb.is_some().then(|| FaceUse {
             tet: nb,
-            local: self.reverse(face.tet, face.local).face(),
+            local: r.face(),
         })
     }
 
@@ -302,12 +341,11 @@ impl<'a> Mesh<'a> {
     /// O(1): two table look-ups and one modulo.
     #[inline]
     pub fn vertex_match(&self, t: TetId, v: u8, f: u8) -> Option<VertexUse> {
-        let nb = self.neighbour(t, f);
+        let (nb, r) = self.across(t, f);
         let pos = FACE_VERTEX_NR[f as usize][v as usize];
         if nb.is_none() || pos == NOT_ON_FACE {
             return None;
         }
-        let r = self.reverse(t, f);
         let in_face = (3 - pos + r.offset()) % 3;
         let local = ELEM_VERTEX_NR[r.face() as usize][in_face as usize];
         Some(VertexUse { tet: nb, local })
@@ -318,7 +356,7 @@ impl<'a> Mesh<'a> {
     /// # Bounded work
     /// O(T).
     pub fn volume(&self) -> f64 {
-        (0..self.tets.len())
+        (0..self.tet_count())
             .map(|t| geom::tet_volume(self.tet_positions(TetId::from_idx(t))) as f64)
             .sum()
     }
@@ -335,7 +373,7 @@ impl<'a> Mesh<'a> {
             *normal = Vec3::ZERO;
         }
         let mut faces = 0u32;
-        for ti in 0..self.tets.len() {
+        for ti in 0..self.tet_count() {
             let t = TetId::from_idx(ti);
             for f in 0..4u8 {
                 if self.neighbour(t, f).is_some() {

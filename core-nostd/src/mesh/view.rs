@@ -51,6 +51,14 @@ pub struct TetView<'a> {
     nodes: usize,
 }
 
+impl TetView<'static> {
+    /// No tets.
+    pub const EMPTY: Self = Self {
+        recs: &[],
+        nodes: 0,
+    };
+}
+
 impl<'a> TetView<'a> {
     /// Checks `bytes` as the records of a mesh with `node_count` nodes and gives the view.
     ///
