@@ -340,6 +340,7 @@ impl<'a> Mesh<'a> {
             positions,
             normals,
             nodes,
+            tet_count: tets.len(),
             ram: tets,
             view: super::TetView::EMPTY,
             stats,

@@ -44,6 +44,8 @@ pub struct Mesh<'a> {
     /// first: on a RAM mesh that is the bounds check slice indexing does anyway, so the RAM
     /// path pays nothing for the choice; an in-place mesh pays one failed comparison.
     view: TetView<'a>,
+    /// `ram.len()` or `view.len()`, whichever holds the tets.
+    tet_count: usize,
     stats: BuildStats,
 }
 
@@ -78,6 +80,7 @@ impl<'a> Mesh<'a> {
             positions,
             normals,
             nodes,
+            tet_count: tets.len(),
             ram: tets,
             view: TetView::EMPTY,
             stats,
@@ -115,6 +118,7 @@ impl<'a> Mesh<'a> {
             normals,
             nodes,
             ram: &[],
+            tet_count: tets.len(),
             view: tets,
             stats,
         })
@@ -129,7 +133,7 @@ impl<'a> Mesh<'a> {
     /// Number of tets.
     #[inline]
     pub fn tet_count(&self) -> usize {
-        self.ram.len() + self.view.len()
+        self.tet_count
     }
 
     /// Where the tets live: RAM records or an in-place view.
@@ -183,7 +187,7 @@ impl<'a> Mesh<'a> {
     ///
     /// # Bounded work
     /// O(1).
-    #[inline]
+    #[inline(always)]
     pub fn tet(&self, t: TetId) -> Tet {
         match self.ram.get(t.idx()) {
             Some(r) => *r,
@@ -192,7 +196,7 @@ impl<'a> Mesh<'a> {
     }
 
     /// One tet, by value; `None` out of range.
-    #[inline]
+    #[inline(always)]
     pub fn get_tet(&self, t: TetId) -> Option<Tet> {
         match self.ram.get(t.idx()) {
             Some(r) => Some(*r),
@@ -201,7 +205,7 @@ impl<'a> Mesh<'a> {
     }
 
     /// The four node ids of `t`; `NONE` ids when `t` is out of range.
-    #[inline]
+    #[inline(always)]
     pub fn tet_nodes(&self, t: TetId) -> [NodeId; 4] {
         match self.ram.get(t.idx()) {
             Some(r) => r.nodes,
@@ -210,7 +214,7 @@ impl<'a> Mesh<'a> {
     }
 
     /// The four node ids of `t`; `None` out of range.
-    #[inline]
+    #[inline(always)]
     pub fn get_tet_nodes(&self, t: TetId) -> Option<[NodeId; 4]> {
         match self.ram.get(t.idx()) {
             Some(r) => Some(r.nodes),
@@ -220,7 +224,7 @@ impl<'a> Mesh<'a> {
 
     /// The tet across face `f` of `t`, `NONE` on the boundary; `None` when `t` or `f` is
     /// out of range.
-    #[inline]
+    #[inline(always)]
     pub fn get_neighbour(&self, t: TetId, f: u8) -> Option<TetId> {
         match self.ram.get(t.idx()) {
             Some(r) => r.neighbours.get(f as usize).copied(),
@@ -232,7 +236,7 @@ impl<'a> Mesh<'a> {
     ///
     /// # Panics
     /// When `f` is over 3.
-    #[inline]
+    #[inline(always)]
     pub fn reverse(&self, t: TetId, f: u8) -> Reverse {
         self.across(t, f).1
     }
@@ -242,7 +246,7 @@ impl<'a> Mesh<'a> {
     ///
     /// # Panics
     /// When `f` is over 3.
-    #[inline]
+    #[inline(always)]
     fn across(&self, t: TetId, f: u8) -> (TetId, Reverse) {
         match self.ram.get(t.idx()) {
             Some(r) => (r.neighbours[f as usize], r.reverse[f as usize]),
@@ -274,7 +278,7 @@ impl<'a> Mesh<'a> {
     }
 
     /// The four corner positions of a tet.
-    #[inline]
+    #[inline(always)]
     pub fn tet_positions(&self, t: TetId) -> [Vec3; 4] {
         self.tet_nodes(t).map(|n| self.positions[n.idx()])
     }
@@ -284,7 +288,7 @@ impl<'a> Mesh<'a> {
     ///
     /// # Panics
     /// When `f` is over 3.
-    #[inline]
+    #[inline(always)]
     pub fn neighbour(&self, t: TetId, f: u8) -> TetId {
         match self.ram.get(t.idx()) {
             Some(r) => r.neighbours[f as usize],
@@ -303,7 +307,7 @@ impl<'a> Mesh<'a> {
 
     /// The same face seen from the other side: `(neighbour, its face id)`, or `None` on the
     /// boundary. O(1).
-    #[inline]
+    #[inline(always)]
     pub fn face_match(&self, face: FaceUse) -> Option<FaceUse> {
         let (nb, r) = self.across(face.tet, face.local);
         nb.is_some().then(|| FaceUse {
@@ -313,7 +317,7 @@ impl<'a> Mesh<'a> {
     }
 
     /// The three node ids of face `f` of `t`, clockwise seen from outside `t`.
-    #[inline]
+    #[inline(always)]
     pub fn face_nodes(&self, t: TetId, f: u8) -> [NodeId; 3] {
         let nodes = self.tet_nodes(t);
         FACE_VERTS[f as usize].map(|k| nodes[k as usize])
@@ -339,7 +343,7 @@ impl<'a> Mesh<'a> {
     ///
     /// # Bounded work
     /// O(1): two table look-ups and one modulo.
-    #[inline]
+    #[inline(always)]
     pub fn vertex_match(&self, t: TetId, v: u8, f: u8) -> Option<VertexUse> {
         let (nb, r) = self.across(t, f);
         let pos = FACE_VERTEX_NR[f as usize][v as usize];
