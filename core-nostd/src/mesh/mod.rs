@@ -7,8 +7,9 @@
 //! across a face and the matching vertex in it are found in O(1) ([`Mesh::vertex_match`]).
 //!
 //! The tets live in RAM ([`Mesh::build`], [`Mesh::from_parts`]) or are read in place from a
-//! mesh blob's bytes ([`Mesh::in_place`], [`crate::blob::MeshBlob::mesh`]): a [`TetStore`]
-//! holds either, and every accessor returns records by value, so callers never see which.
+//! mesh blob's bytes by a [`TetView`] ([`Mesh::in_place`], [`crate::blob::MeshBlob::mesh`]);
+//! every accessor returns records by value, so callers never see which ([`Mesh::tet_store`]
+//! says).
 //! Positions, normals and node records stay in RAM either way: positions change whenever the
 //! mesh moves or deforms, and [`Mesh::update_boundary`] rewrites the normals and the nodes'
 //! boundary flags.
