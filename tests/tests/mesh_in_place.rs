@@ -382,3 +382,32 @@ fn in_place_refuses_node_storage_of_the_wrong_length() {
         Some(BlobError::Buffer)
     );
 }
+
+/// The record layout, by hand: four node ids, four neighbour ids (`NONE` as `u32::MAX`), each
+/// little-endian, then the four reverse-index bytes.
+#[test]
+fn a_tet_record_has_the_documented_bytes() {
+    use tetradrill_core::mesh::{Reverse, Tet};
+    let tet = Tet {
+        nodes: [
+            NodeId(1),
+            NodeId(0x0203_0405),
+            NodeId(7),
+            NodeId(u32::MAX - 1),
+        ],
+        neighbours: [TetId::NONE, TetId(9), TetId(0x0a0b_0c0d), TetId(0)],
+        reverse: [
+            Reverse::new(3, 2),
+            Reverse(0),
+            Reverse::new(1, 1),
+            Reverse::new(2, 0),
+        ],
+    };
+    let golden: [u8; TET_RECORD] = [
+        1, 0, 0, 0, 5, 4, 3, 2, 7, 0, 0, 0, 0xfe, 0xff, 0xff, 0xff, // nodes
+        0xff, 0xff, 0xff, 0xff, 9, 0, 0, 0, 0x0d, 0x0c, 0x0b, 0x0a, 0, 0, 0, 0, // neighbours
+        0x0b, 0, 0x05, 0x02, // reverse: face | offset << 2
+    ];
+    assert_eq!(tet.to_le_bytes(), golden);
+    assert_eq!(Tet::from_le_bytes(&golden), tet);
+}
