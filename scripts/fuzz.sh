@@ -25,7 +25,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 fuzz="$root/fuzz"
 meshes=${TETRADRILL_MESHES:-$root/tests/data/meshes}
 sanitizer=${FUZZ_SANITIZER:-address}
-all=(mesh_tetgen mesh_medit mesh_meshb mesh_gmsh mesh_vtk mesh_vtu mesh_gz trace scenario falcon omni)
+all=(mesh_tetgen mesh_medit mesh_meshb mesh_gmsh mesh_vtk mesh_vtu mesh_gz mesh_blob trace scenario falcon omni)
 targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=("${all[@]}")
 

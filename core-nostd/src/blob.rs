@@ -2,6 +2,10 @@
 //! at build time (`include_bytes!`) and reads in place. [`write()`] lays it out from a built
 //! [`Mesh`] into a caller buffer; [`MeshBlob::parse`] checks one and gives a zero-copy view
 //! whose accessors decode fixed-width little-endian fields (no `unsafe`, no alignment needed).
+//! [`MeshBlob::mesh`] makes a [`Mesh`] whose tets (36 of the 40 bytes a tet) are read in place
+//! through a [`TetView`]; it copies the positions, normals and node records (32 bytes a node)
+//! into caller storage, because they change: positions whenever the mesh moves or deforms,
+//! normals and boundary flags with [`Mesh::update_boundary`].
 //!
 //! Layout, every field little-endian (`N` nodes, `T` tets):
 //!
@@ -24,13 +28,14 @@
 //!
 //! FNV-1a changes its state bijectively with every byte, so any one changed payload byte
 //! changes the checksum; a changed header byte breaks the magic, the version, the lengths or
-//! the checksum. [`MeshBlob::parse`] also checks every id is in range, so a view's accessors
-//! never index outside the blob.
+//! the checksum. [`MeshBlob::parse`] also checks every id is in range and every neighbour
+//! points back through its reverse index, so a view's accessors never index outside the blob
+//! and a mesh read in place never walks outside itself.
 
 use glam::Vec3;
 
 use crate::ids::{NodeId, TetId};
-use crate::mesh::{Mesh, Node, Reverse, Tet};
+use crate::mesh::{BuildStats, Mesh, Node, Tet, TetView, TetViewError, TET_RECORD};
 
 /// The blob's first four bytes.
 pub const MAGIC: [u8; 4] = *b"TDMB";
@@ -175,13 +180,7 @@ pub fn write(mesh: &Mesh<'_>, labels: &[i32], out: &mut [u8]) -> Result<usize, B
         w.bytes(&[node.local, node.boundary as u8, 0, 0]);
     }
     for tet in mesh.tets() {
-        for id in tet.nodes {
-            w.u32(id.0);
-        }
-        for id in tet.neighbours {
-            w.u32(id.0);
-        }
-        w.bytes(&tet.reverse.map(|r| r.0));
+        w.bytes(&tet.to_le_bytes());
     }
     for &l in labels {
         w.u32(l as u32);
@@ -227,6 +226,7 @@ pub struct MeshBlob<'a> {
     bytes: &'a [u8],
     nodes: usize,
     tets: usize,
+    view: TetView<'a>,
 }
 
 /// The little-endian `u32` at `at` (0 outside `b`; [`MeshBlob::parse`] keeps every read
@@ -296,40 +296,53 @@ impl<'a> MeshBlob<'a> {
                 got: sum,
             });
         }
-        let blob = Self { bytes, nodes, tets };
-        blob.check_records()?;
+        let tet_start = HEADER_LEN + 32 * nodes;
+        let tet_bytes = bytes
+            .get(tet_start..tet_start + TET_RECORD * tets)
+            .unwrap_or_default();
+        let view = TetView::new(tet_bytes, nodes).map_err(|e| match e {
+            TetViewError::BadRecord { what, offset } => BlobError::BadRecord {
+                what,
+                offset: tet_start + offset,
+            },
+            TetViewError::Length { .. } => BlobError::PayloadLength {
+                expected: payload,
+                got: payload,
+            },
+        })?;
+        let blob = Self {
+            bytes,
+            nodes,
+            tets,
+            view,
+        };
+        blob.check_nodes()?;
         Ok(blob)
     }
 
-    /// Every id in range, every small field within its values.
-    fn check_records(&self) -> Result<(), BlobError> {
+    /// Every node record's tet in range and pointing back at the node; every small field
+    /// within its values. The tets are checked by [`TetView::new`].
+    fn check_nodes(&self) -> Result<(), BlobError> {
         let bad = |what, offset| Err(BlobError::BadRecord { what, offset });
         for i in 0..self.nodes {
             let at = self.node_at(i);
             let tet = le32(self.bytes, at);
-            if tet != TetId::NONE.0 && tet as usize >= self.tets {
-                return bad("node record: tet id out of range", at);
-            }
-            if self.bytes[at + 4] > 3 {
+            let local = self.bytes[at + 4];
+            if local > 3 {
                 return bad("node record: local vertex over 3", at + 4);
             }
             if self.bytes[at + 5] > 1 {
                 return bad("node record: boundary flag not 0 or 1", at + 5);
             }
-        }
-        for i in 0..self.tets {
-            let at = self.tet_at(i);
-            for k in 0..4 {
-                if le32(self.bytes, at + 4 * k) as usize >= self.nodes {
-                    return bad("tet: node id out of range", at + 4 * k);
+            if tet == TetId::NONE.0 {
+                continue;
+            }
+            match self.view.nodes(TetId(tet)) {
+                None => return bad("node record: tet id out of range", at),
+                Some(ids) if ids[local as usize].idx() != i => {
+                    return bad("node record: its tet does not use the node", at)
                 }
-                let nb = le32(self.bytes, at + 16 + 4 * k);
-                if nb != TetId::NONE.0 && nb as usize >= self.tets {
-                    return bad("tet: neighbour id out of range", at + 16 + 4 * k);
-                }
-                if self.bytes[at + 32 + k] >= 16 {
-                    return bad("tet: reverse index over 15", at + 32 + k);
-                }
+                Some(_) => {}
             }
         }
         Ok(())
@@ -343,9 +356,6 @@ impl<'a> MeshBlob<'a> {
     }
     fn node_at(&self, i: usize) -> usize {
         HEADER_LEN + 24 * self.nodes + 8 * i
-    }
-    fn tet_at(&self, i: usize) -> usize {
-        HEADER_LEN + 32 * self.nodes + 36 * i
     }
     fn label_at(&self, i: usize) -> usize {
         HEADER_LEN + 32 * self.nodes + 36 * self.tets + 4 * i
@@ -406,15 +416,52 @@ impl<'a> MeshBlob<'a> {
     /// # Bounded work
     /// O(1).
     pub fn tet(&self, t: TetId) -> Option<Tet> {
-        (t.idx() < self.tets).then(|| {
-            let at = self.tet_at(t.idx());
-            let id = |k: usize| le32(self.bytes, at + 4 * k);
-            Tet {
-                nodes: [0, 1, 2, 3].map(|k| NodeId(id(k))),
-                neighbours: [4, 5, 6, 7].map(|k| TetId(id(k))),
-                reverse: [32, 33, 34, 35].map(|k| Reverse(self.bytes[at + k])),
+        self.view.get(t)
+    }
+
+    /// The tet records, checked, read in place.
+    pub fn tets(&self) -> TetView<'a> {
+        self.view
+    }
+
+    /// The mesh with its tets read in place ([`Mesh::in_place`]): the positions, normals and
+    /// node records copied into `positions`, `normals` and `nodes` (cut to the node count),
+    /// the build statistics recounted from the records (`orientation_fixes` and `relabelled`
+    /// are not stored and read 0).
+    ///
+    /// # Bounded work
+    /// O(N + T): one pass over the nodes, one over the tets to count boundary faces.
+    ///
+    /// # Errors
+    /// [`BlobError::Buffer`] when a slice is shorter than the node count.
+    pub fn mesh(
+        &self,
+        positions: &'a mut [Vec3],
+        normals: &'a mut [Vec3],
+        nodes: &'a mut [Node],
+    ) -> Result<Mesh<'a>, BlobError> {
+        let n = self.nodes;
+        if positions.len() < n || normals.len() < n || nodes.len() < n {
+            return Err(BlobError::Buffer);
+        }
+        let (positions, _) = positions.split_at_mut(n);
+        let mut stats = BuildStats::default();
+        for i in 0..n {
+            let id = NodeId::from_idx(i);
+            positions[i] = self.position(id).unwrap_or(Vec3::ZERO);
+            normals[i] = self.normal(id).unwrap_or(Vec3::ZERO);
+            let rec = self.node(id).unwrap_or_default();
+            stats.boundary_nodes += rec.boundary as u32;
+            stats.unreferenced_nodes += rec.tet.is_none() as u32;
+            nodes[i] = rec;
+        }
+        for t in 0..self.tets {
+            for f in 0..4 {
+                let nb = self.view.neighbour(TetId::from_idx(t), f);
+                stats.boundary_faces += (nb == Some(TetId::NONE)) as u32;
             }
-        })
+        }
+        Mesh::in_place(positions, normals, nodes, self.view, stats).ok_or(BlobError::Buffer)
     }
 
     /// Region label of tet `t`; `None` outside the mesh.

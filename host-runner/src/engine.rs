@@ -7,6 +7,7 @@ use tetradrill_core::drill::{DrillParams, Material, Pending, Region, Regions};
 use tetradrill_core::force::{DrillTool, ForceParams, ToolState};
 use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{HNode, HierarchyStorage, SphereSlot, VEntry};
+use tetradrill_core::mesh::Mesh;
 use tetradrill_core::servo::{
     drill_force, servo_force, DrillState, PassiveReport, SimReport, World, WorldSizes,
     WorldStorage, DEFAULT_MAX_CELLS, DEFAULT_PENDING,
@@ -405,13 +406,35 @@ impl EngineStorage {
 
     /// The world over this storage (hashes the mesh once).
     pub fn world(&mut self) -> Result<World<'_>, CliError> {
+        self.world_of(None)
+    }
+
+    /// The world over this storage with `mesh` in place of the storage's own: a mesh whose
+    /// tets are read in place from a blob ([`tetradrill_core::blob::MeshBlob::mesh`]), which
+    /// must have the storage's tet count.
+    pub fn world_with<'s>(&'s mut self, mesh: Mesh<'s>) -> Result<World<'s>, CliError> {
+        if mesh.tet_count() != self.mesh.tets().len() {
+            return Err(CliError::failure(format!(
+                "cannot set up the simulation: a mesh of {} tets over storage for {}",
+                mesh.tet_count(),
+                self.mesh.tets().len()
+            )));
+        }
+        self.world_of(Some(mesh))
+    }
+
+    fn world_of<'s>(&'s mut self, mesh: Option<Mesh<'s>>) -> Result<World<'s>, CliError> {
+        let mesh = match mesh {
+            Some(m) => m,
+            None => self.mesh.view(),
+        };
         // The zone query may visit as many cells as the burr's zone covers, and never fewer
         // than a list of this length can be filled from.
         let cells = self.sizing.map_or(DEFAULT_MAX_CELLS, |z| z.max_cells);
         let by_list = (self.candidates.len() / 2).min(u32::MAX as usize) as u32;
         let max_cells = cells.max(by_list).max(DEFAULT_MAX_CELLS);
         World::new(
-            self.mesh.view(),
+            mesh,
             WorldStorage {
                 hash_starts: &mut self.hash_starts,
                 hash_entries: &mut self.hash_entries,

@@ -127,7 +127,7 @@ fn check_mesh(mesh: &Mesh<'_>) {
 fn check_vertex_match(mesh: &Mesh<'_>) {
     for ti in 0..mesh.tet_count() {
         let t = TetId::from_idx(ti);
-        let tet = *mesh.tet(t);
+        let tet = mesh.tet(t);
         for f in 0..4u8 {
             for v in 0..4u8 {
                 let got = mesh.vertex_match(t, v, f);

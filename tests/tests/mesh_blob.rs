@@ -82,7 +82,7 @@ fn round_trip_of_the_cow_every_field() {
     for (i, &label) in labels.iter().enumerate() {
         let t = TetId(i as u32);
         let rec = view.tet(t).unwrap();
-        assert_eq!(&rec, mesh.tet(t), "tet {i}");
+        assert_eq!(rec, mesh.tet(t), "tet {i}");
         assert_eq!(view.label(t), Some(label), "label {i}");
         boundary_faces += rec.neighbours.iter().filter(|n| **n == TetId::NONE).count();
     }
@@ -267,7 +267,7 @@ fn export_command_writes_the_built_mesh() {
     );
     for i in (0..mesh.tet_count()).step_by(101) {
         let t = TetId(i as u32);
-        assert_eq!(view.tet(t).as_ref(), Some(mesh.tet(t)), "tet {i}");
+        assert_eq!(view.tet(t), Some(mesh.tet(t)), "tet {i}");
     }
     let bad_dir = dir.join("missing").join("x.tdb");
     refused(

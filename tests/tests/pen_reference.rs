@@ -103,7 +103,7 @@ struct RefBody {
 
 impl RefBody {
     fn new(mesh: &Mesh<'_>, pos: Vec<DVec3>, nrm: Vec<DVec3>, cell: f64) -> Self {
-        let tets: Vec<[u32; 4]> = mesh.tets().iter().map(|t| t.nodes.map(|n| n.0)).collect();
+        let tets: Vec<[u32; 4]> = mesh.tets().map(|t| t.nodes.map(|n| n.0)).collect();
         let mut adj: Vec<Vec<usize>> = vec![Vec::new(); pos.len()];
         let mut count: HashMap<[u32; 3], (usize, [u32; 3], u32)> = HashMap::new();
         let mut tet_grid = Grid::new(cell);

@@ -52,7 +52,7 @@ impl<'m, 'a> Body<'m, 'a> {
     /// Node ids of a tet (`None` out of range).
     #[inline]
     pub fn tet_nodes(&self, t: TetId) -> Option<[NodeId; 4]> {
-        self.mesh.tets().get(t.idx()).map(|t| t.nodes)
+        self.mesh.get_tet_nodes(t)
     }
 
     /// Current corner positions of a tet (`None` out of range).
@@ -80,13 +80,6 @@ impl<'m, 'a> Body<'m, 'a> {
     /// The tet across face `f` of `t`, `NONE` on the boundary or out of range.
     #[inline]
     pub fn neighbour(&self, t: TetId, f: u8) -> TetId {
-        match self.mesh.tets().get(t.idx()) {
-            Some(tet) => tet
-                .neighbours
-                .get(f as usize)
-                .copied()
-                .unwrap_or(TetId::NONE),
-            None => TetId::NONE,
-        }
+        self.mesh.get_neighbour(t, f).unwrap_or(TetId::NONE)
     }
 }

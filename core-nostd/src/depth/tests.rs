@@ -291,7 +291,7 @@ fn walk_testing_every_face(
         else {
             return (None, steps);
         };
-        let tet = b.mesh.tets()[t.idx()];
+        let tet = b.mesh.tet(t);
         if tet.neighbours[f as usize].is_none() {
             return (surface::hit_on_face(b, t, f, e, p, q), steps);
         }

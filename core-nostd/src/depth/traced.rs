@@ -48,9 +48,8 @@ pub(crate) fn trace_exit(
     max_steps: u32,
     steps: &mut u32,
 ) -> Option<SurfaceHit> {
-    let tets = body.mesh.tets();
     let mut t = start;
-    let mut tet = tets.get(t.idx())?;
+    let mut tet = body.mesh.get_tet(t)?;
     let d = q - p;
     let mut w = Walker::enter(body, tet.nodes, p, d)?;
     let mut entry = 4u8;
@@ -73,7 +72,7 @@ pub(crate) fn trace_exit(
             return hit_on_face(body, t, f, e, p, q);
         }
         entry = tet.reverse.get(f as usize)?.face();
-        let next = tets.get(nb.idx())?;
+        let next = body.mesh.get_tet(nb)?;
         w.step(body, f, next.nodes, entry, p, d)?;
         (t, tet) = (nb, next);
     }

@@ -340,7 +340,9 @@ impl<'a> Mesh<'a> {
             positions,
             normals,
             nodes,
-            tets,
+            tet_count: tets.len(),
+            ram: tets,
+            view: super::TetView::EMPTY,
             stats,
         };
         mesh.update_boundary();

@@ -5,17 +5,27 @@
 //! normal per node, one [`Tet`] (36 bytes) per tet. Faces, edges and vertices are named by
 //! entity uses (`(tet, local index)`) through the const [`template`] tables; the neighbour
 //! across a face and the matching vertex in it are found in O(1) ([`Mesh::vertex_match`]).
+//!
+//! The tets live in RAM ([`Mesh::build`], [`Mesh::from_parts`]) or are read in place from a
+//! mesh blob's bytes by a [`TetView`] ([`Mesh::in_place`], [`crate::blob::MeshBlob::mesh`]);
+//! every accessor returns records by value, so callers never see which ([`Mesh::tet_store`]
+//! says).
+//! Positions, normals and node records stay in RAM either way: positions change whenever the
+//! mesh moves or deforms, and [`Mesh::update_boundary`] rewrites the normals and the nodes'
+//! boundary flags.
 
 mod build;
 mod record;
 pub mod template;
 mod traverse;
 mod validate;
+mod view;
 
 pub use build::{refinement_relabel, BuildError, BuildOptions, BuildStats, FaceKey, MeshStorage};
-pub use record::{EdgeUse, FaceUse, Node, Reverse, Tet, VertexUse, TET_BYTES};
+pub use record::{EdgeUse, FaceUse, Node, Reverse, Tet, VertexUse, TET_BYTES, TET_RECORD};
 pub use traverse::{EdgeIter, Full};
 pub use validate::ValidationError;
+pub use view::{TetIter, TetStore, TetView, TetViewError};
 
 use glam::Vec3;
 
@@ -29,7 +39,14 @@ pub struct Mesh<'a> {
     positions: &'a mut [Vec3],
     normals: &'a mut [Vec3],
     nodes: &'a mut [Node],
-    tets: &'a mut [Tet],
+    /// RAM records; empty when the tets are read in place.
+    ram: &'a [Tet],
+    /// The in-place records; empty when the tets are in RAM. Every accessor tries `ram`
+    /// first: on a RAM mesh that is the bounds check slice indexing does anyway, so the RAM
+    /// path pays nothing for the choice; an in-place mesh pays one failed comparison.
+    view: TetView<'a>,
+    /// `ram.len()` or `view.len()`, whichever holds the tets.
+    tet_count: usize,
     stats: BuildStats,
 }
 
@@ -64,9 +81,48 @@ impl<'a> Mesh<'a> {
             positions,
             normals,
             nodes,
-            tets,
+            tet_count: tets.len(),
+            ram: tets,
+            view: TetView::EMPTY,
             stats,
         }
+    }
+
+    /// A mesh whose tets are read in place through `tets` (checked when the view was made);
+    /// positions, normals and node records in RAM, as an earlier build left them (a blob's
+    /// copies: [`crate::blob::MeshBlob::mesh`]). Nothing else is checked here: call
+    /// [`Mesh::validate`] to check the node records and the orientation.
+    ///
+    /// `positions.len()` is the node count; `normals` and `nodes` are cut to it.
+    ///
+    /// # Bounded work
+    /// O(1).
+    ///
+    /// # Errors
+    /// `None` when `positions` does not hold the node count the view was checked against
+    /// ([`TetView::node_count`]) or `normals` or `nodes` is shorter.
+    pub fn in_place(
+        positions: &'a mut [Vec3],
+        normals: &'a mut [Vec3],
+        nodes: &'a mut [Node],
+        tets: TetView<'a>,
+        stats: BuildStats,
+    ) -> Option<Self> {
+        let n = positions.len();
+        if n != tets.node_count() || normals.len() < n || nodes.len() < n {
+            return None;
+        }
+        let (normals, _) = normals.split_at_mut(n);
+        let (nodes, _) = nodes.split_at_mut(n);
+        Some(Self {
+            positions,
+            normals,
+            nodes,
+            ram: &[],
+            tet_count: tets.len(),
+            view: tets,
+            stats,
+        })
     }
 
     /// Number of nodes.
@@ -78,7 +134,17 @@ impl<'a> Mesh<'a> {
     /// Number of tets.
     #[inline]
     pub fn tet_count(&self) -> usize {
-        self.tets.len()
+        self.tet_count
+    }
+
+    /// Where the tets live: RAM records or an in-place view.
+    #[inline]
+    pub fn tet_store(&self) -> TetStore<'a> {
+        if self.view.is_empty() {
+            TetStore::Ram(self.ram)
+        } else {
+            TetStore::InPlace(self.view)
+        }
     }
 
     /// All node positions.
@@ -112,16 +178,85 @@ impl<'a> Mesh<'a> {
         self.nodes[n.idx()]
     }
 
-    /// All tets.
+    /// Every tet in id order, by value.
     #[inline]
-    pub fn tets(&self) -> &[Tet] {
-        self.tets
+    pub fn tets(&self) -> TetIter<'a> {
+        TetIter::new(self.tet_store())
     }
 
-    /// One tet.
-    #[inline]
-    pub fn tet(&self, t: TetId) -> &Tet {
-        &self.tets[t.idx()]
+    /// One tet, by value; a record of `NONE` ids when `t` is out of range (never a panic).
+    ///
+    /// # Bounded work
+    /// O(1).
+    #[inline(always)]
+    pub fn tet(&self, t: TetId) -> Tet {
+        match self.ram.get(t.idx()) {
+            Some(r) => *r,
+            None => self.view.get(t).unwrap_or_default(),
+        }
+    }
+
+    /// One tet, by value; `None` out of range.
+    #[inline(always)]
+    pub fn get_tet(&self, t: TetId) -> Option<Tet> {
+        match self.ram.get(t.idx()) {
+            Some(r) => Some(*r),
+            None => self.view.get(t),
+        }
+    }
+
+    /// The four node ids of `t`; `NONE` ids when `t` is out of range.
+    #[inline(always)]
+    pub fn tet_nodes(&self, t: TetId) -> [NodeId; 4] {
+        match self.ram.get(t.idx()) {
+            Some(r) => r.nodes,
+            None => self.view.nodes(t).unwrap_or([NodeId::NONE; 4]),
+        }
+    }
+
+    /// The four node ids of `t`; `None` out of range.
+    #[inline(always)]
+    pub fn get_tet_nodes(&self, t: TetId) -> Option<[NodeId; 4]> {
+        match self.ram.get(t.idx()) {
+            Some(r) => Some(r.nodes),
+            None => self.view.nodes(t),
+        }
+    }
+
+    /// The tet across face `f` of `t`, `NONE` on the boundary; `None` when `t` or `f` is
+    /// out of range.
+    #[inline(always)]
+    pub fn get_neighbour(&self, t: TetId, f: u8) -> Option<TetId> {
+        match self.ram.get(t.idx()) {
+            Some(r) => r.neighbours.get(f as usize).copied(),
+            None => self.view.neighbour(t, f),
+        }
+    }
+
+    /// The reverse index of face `f` of `t` (`Reverse(0)` when `t` is out of range).
+    ///
+    /// # Panics
+    /// When `f` is over 3.
+    #[inline(always)]
+    pub fn reverse(&self, t: TetId, f: u8) -> Reverse {
+        self.across(t, f).1
+    }
+
+    /// The neighbour across face `f` of `t` and the face's reverse index, from one record
+    /// look-up (`(NONE, Reverse(0))` when `t` is out of range).
+    ///
+    /// # Panics
+    /// When `f` is over 3.
+    #[inline(always)]
+    fn across(&self, t: TetId, f: u8) -> (TetId, Reverse) {
+        match self.ram.get(t.idx()) {
+            Some(r) => (r.neighbours[f as usize], r.reverse[f as usize]),
+            None => {
+                assert!(f < 4, "face {f} of a tet");
+                let nb = self.view.neighbour(t, f).unwrap_or(TetId::NONE);
+                (nb, self.view.reverse(t, f).unwrap_or_default())
+            }
+        }
     }
 
     /// Averaged outward unit normal of a boundary node (zero for inner nodes).
@@ -144,15 +279,25 @@ impl<'a> Mesh<'a> {
     }
 
     /// The four corner positions of a tet.
-    #[inline]
+    #[inline(always)]
     pub fn tet_positions(&self, t: TetId) -> [Vec3; 4] {
-        self.tets[t.idx()].nodes.map(|n| self.positions[n.idx()])
+        self.tet_nodes(t).map(|n| self.positions[n.idx()])
     }
 
-    /// The tet across face `f` of `t`, or `NONE` on the boundary.
-    #[inline]
+    /// The tet across face `f` of `t`, or `NONE` on the boundary (and when `t` is out of
+    /// range).
+    ///
+    /// # Panics
+    /// When `f` is over 3.
+    #[inline(always)]
     pub fn neighbour(&self, t: TetId, f: u8) -> TetId {
-        self.tets[t.idx()].neighbours[f as usize]
+        match self.ram.get(t.idx()) {
+            Some(r) => r.neighbours[f as usize],
+            None => {
+                assert!(f < 4, "face {f} of a tet");
+                self.view.neighbour(t, f).unwrap_or(TetId::NONE)
+            }
+        }
     }
 
     /// `true` when face `f` of `t` has no neighbour.
@@ -163,21 +308,20 @@ impl<'a> Mesh<'a> {
 
     /// The same face seen from the other side: `(neighbour, its face id)`, or `None` on the
     /// boundary. O(1).
-    #[inline]
+    #[inline(always)]
     pub fn face_match(&self, face: FaceUse) -> Option<FaceUse> {
-        let tet = &self.tets[face.tet.idx()];
-        let nb = tet.neighbours[face.local as usize];
+        let (nb, r) = self.across(face.tet, face.local);
         nb.is_some().then(|| FaceUse {
             tet: nb,
-            local: tet.reverse[face.local as usize].face(),
+            local: r.face(),
         })
     }
 
     /// The three node ids of face `f` of `t`, clockwise seen from outside `t`.
-    #[inline]
+    #[inline(always)]
     pub fn face_nodes(&self, t: TetId, f: u8) -> [NodeId; 3] {
-        let tet = &self.tets[t.idx()];
-        FACE_VERTS[f as usize].map(|k| tet.nodes[k as usize])
+        let nodes = self.tet_nodes(t);
+        FACE_VERTS[f as usize].map(|k| nodes[k as usize])
     }
 
     /// The three corner positions of face `f` of `t`, clockwise seen from outside `t`.
@@ -200,15 +344,13 @@ impl<'a> Mesh<'a> {
     ///
     /// # Bounded work
     /// O(1): two table look-ups and one modulo.
-    #[inline]
+    #[inline(always)]
     pub fn vertex_match(&self, t: TetId, v: u8, f: u8) -> Option<VertexUse> {
-        let tet = &self.tets[t.idx()];
-        let nb = tet.neighbours[f as usize];
+        let (nb, r) = self.across(t, f);
         let pos = FACE_VERTEX_NR[f as usize][v as usize];
         if nb.is_none() || pos == NOT_ON_FACE {
             return None;
         }
-        let r = tet.reverse[f as usize];
         let in_face = (3 - pos + r.offset()) % 3;
         let local = ELEM_VERTEX_NR[r.face() as usize][in_face as usize];
         Some(VertexUse { tet: nb, local })
@@ -219,7 +361,7 @@ impl<'a> Mesh<'a> {
     /// # Bounded work
     /// O(T).
     pub fn volume(&self) -> f64 {
-        (0..self.tets.len())
+        (0..self.tet_count())
             .map(|t| geom::tet_volume(self.tet_positions(TetId::from_idx(t))) as f64)
             .sum()
     }
@@ -236,7 +378,7 @@ impl<'a> Mesh<'a> {
             *normal = Vec3::ZERO;
         }
         let mut faces = 0u32;
-        for ti in 0..self.tets.len() {
+        for ti in 0..self.tet_count() {
             let t = TetId::from_idx(ti);
             for f in 0..4u8 {
                 if self.neighbour(t, f).is_some() {

@@ -53,6 +53,48 @@ impl Tet {
     }
 }
 
+impl Tet {
+    /// The record as the mesh blob stores it ([`crate::blob`]): the four node ids, the four
+    /// neighbour ids (`u32::MAX` for [`TetId::NONE`]), each a little-endian `u32`, then the
+    /// four reverse-index bytes.
+    ///
+    /// # Bounded work
+    /// O(1).
+    pub fn to_le_bytes(&self) -> [u8; TET_RECORD] {
+        let mut out = [0u8; TET_RECORD];
+        for k in 0..4 {
+            out[4 * k..4 * k + 4].copy_from_slice(&self.nodes[k].0.to_le_bytes());
+            out[16 + 4 * k..20 + 4 * k].copy_from_slice(&self.neighbours[k].0.to_le_bytes());
+            out[32 + k] = self.reverse[k].0;
+        }
+        out
+    }
+
+    /// The record [`Tet::to_le_bytes`] wrote (no field is checked here; a
+    /// [`super::TetView`] checks its records once when it is made).
+    ///
+    /// # Bounded work
+    /// O(1).
+    #[inline]
+    pub fn from_le_bytes(rec: &[u8; TET_RECORD]) -> Self {
+        Self {
+            nodes: [0, 1, 2, 3].map(|k| NodeId(le32(rec, 4 * k))),
+            neighbours: [4, 5, 6, 7].map(|k| TetId(le32(rec, 4 * k))),
+            reverse: [32, 33, 34, 35].map(|k| Reverse(rec[k])),
+        }
+    }
+}
+
+/// The little-endian `u32` at byte `at` of a tet record (0 past its end; callers pass
+/// constant or masked offsets that are inside).
+#[inline(always)]
+pub(crate) fn le32(rec: &[u8; TET_RECORD], at: usize) -> u32 {
+    match rec.get(at..at + 4) {
+        Some(&[a, b, c, d]) => u32::from_le_bytes([a, b, c, d]),
+        _ => 0,
+    }
+}
+
 impl Default for Tet {
     fn default() -> Self {
         Self::new([NodeId::NONE; 4])
@@ -62,6 +104,9 @@ impl Default for Tet {
 /// Bytes per tet; pinned at compile time (the bound is 36).
 pub const TET_BYTES: usize = core::mem::size_of::<Tet>();
 const _: () = assert!(TET_BYTES <= 36, "Tet must stay within 36 bytes");
+/// Bytes of one tet record in its little-endian encoding ([`Tet::to_le_bytes`]).
+pub const TET_RECORD: usize = 36;
+const _: () = assert!(TET_BYTES == TET_RECORD);
 const _: () = assert!(core::mem::size_of::<Reverse>() == 1);
 
 /// A node's topology record: one incident tet and the node's local index in it. Its position

@@ -51,8 +51,7 @@ impl Mesh<'_> {
     /// Local index of node `n` in tet `t`, if `t` uses it. O(1): four comparisons.
     #[inline]
     pub fn local_of(&self, t: TetId, n: NodeId) -> Option<u8> {
-        self.tet(t)
-            .nodes
+        self.tet_nodes(t)
             .iter()
             .position(|&m| m == n)
             .map(|i| i as u8)
@@ -193,8 +192,8 @@ impl Mesh<'_> {
     /// The two node ids of an edge use.
     #[inline]
     pub fn edge_nodes(&self, e: EdgeUse) -> [NodeId; 2] {
-        let tet = self.tet(e.tet);
-        EDGE_VERTS[e.local as usize].map(|k| tet.nodes[k as usize])
+        let nodes = self.tet_nodes(e.tet);
+        EDGE_VERTS[e.local as usize].map(|k| nodes[k as usize])
     }
 
     /// The node at the other end of edge `e` of `t` from local vertex `local`.
@@ -202,7 +201,7 @@ impl Mesh<'_> {
     fn edge_other(&self, t: TetId, e: u8, local: u8) -> NodeId {
         let [a, b] = EDGE_VERTS[e as usize];
         let other = if a == local { b } else { a };
-        self.tet(t).nodes[other as usize]
+        self.tet_nodes(t)[other as usize]
     }
 
     /// Walks around the edge `e` of `t` and returns the smallest tet id that uses it.
@@ -220,7 +219,7 @@ impl Mesh<'_> {
                 else {
                     break; // boundary: walk the other way round
                 };
-                let entered = self.tet(t).reverse[f as usize].face();
+                let entered = self.reverse(t, f).face();
                 t = ua.tet;
                 if t == e.tet {
                     return best; // closed ring: both directions see the same tets

@@ -177,14 +177,14 @@ impl SoftParams {
 /// # Bounded work
 /// O(T).
 pub fn mesh_tets(mesh: &Mesh<'_>, out: &mut [[u32; 4]]) -> Option<usize> {
-    let tets = mesh.tets();
-    if out.len() < tets.len() {
+    let count = mesh.tet_count();
+    if out.len() < count {
         return None;
     }
-    for (o, t) in out.iter_mut().zip(tets) {
+    for (o, t) in out.iter_mut().zip(mesh.tets()) {
         *o = t.nodes.map(|n| n.0);
     }
-    Some(tets.len())
+    Some(count)
 }
 
 /// A soft body over borrowed mesh and storage. See the module docs.

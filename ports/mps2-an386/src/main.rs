@@ -1,7 +1,7 @@
 //! tetradrill-core, unchanged, on a Cortex-M4F or a Cortex-M7 as an RTIC 2 application: a
 //! 1 kHz servo task at the highest priority and the simulation task below it, preempted by
 //! it, with lock-free hand-offs between them. It plays the host's `builtin:firmware` scenario
-//! (or `builtin:firmware-cow`, the mesh from a blob in flash) and prints the force digest the host's `replay` prints, the servo's latency and the
+//! (or `builtin:firmware-cow`, the mesh's tets read in place from a blob in flash) and prints the force digest the host's `replay` prints, the servo's latency and the
 //! simulation's steps in instructions, and the deadline misses.
 //!
 //! Runs on QEMU's `mps2-an386` machine (`mps2-an500` with the `m7` feature; see
@@ -36,9 +36,9 @@ use cortex_m_semihosting::{debug, hprintln};
 use tetradrill_core::blob::MeshBlob;
 use tetradrill_core::builtin;
 use tetradrill_core::force::closest_point_on_triangle;
-use tetradrill_core::mesh::{BuildOptions, BuildStats, FaceKey, Mesh, MeshStorage};
+use tetradrill_core::mesh::{BuildOptions, FaceKey, Mesh, MeshStorage, Node};
 use tetradrill_core::servo::World;
-use tetradrill_core::{NodeId, TetId, Vec3};
+use tetradrill_core::Vec3;
 
 use storage::{Storage, NODES, TETS};
 
@@ -119,7 +119,7 @@ mod app {
 fn build_world() -> World<'static> {
     let st = Storage::take();
     if cfg!(scenario_cow) {
-        let mesh = mesh_from_blob(st.positions, st.mesh);
+        let mesh = mesh_from_blob(st.positions, st.mesh.normals, st.mesh.nodes);
         let mut world =
             World::new(mesh, st.world).unwrap_or_else(|_| fail("world storage refused"));
         world.set_contact_max_nodes(scenario::contact_nodes());
@@ -137,30 +137,22 @@ fn build_world() -> World<'static> {
 }
 
 /// The mesh of the included blob: checked ([`MeshBlob::parse`]: version, checksum, ids in
-/// range), then its records decoded into the core's mesh storage.
-fn mesh_from_blob(positions: &'static mut [Vec3], storage: MeshStorage<'static>) -> Mesh<'static> {
+/// range, neighbours pointing back), its tets read in place from flash, its positions,
+/// normals and node records copied into RAM ([`MeshBlob::mesh`]).
+fn mesh_from_blob(
+    positions: &'static mut [Vec3],
+    normals: &'static mut [Vec3],
+    nodes: &'static mut [Node],
+) -> Mesh<'static> {
     let blob = MeshBlob::parse(MESH_BLOB).unwrap_or_else(|e| {
         hprintln!("error: mesh blob: {}", e);
         exit_failure()
     });
-    if blob.node_count() != positions.len() || blob.tet_count() != storage.tets.len() {
+    if blob.node_count() != positions.len() || blob.tet_count() != TETS {
         fail("mesh blob counts differ from the storage");
     }
-    let mut stats = BuildStats::default();
-    for (i, p) in positions.iter_mut().enumerate() {
-        let n = NodeId(i as u32);
-        *p = blob.position(n).unwrap_or(Vec3::ZERO);
-        storage.normals[i] = blob.normal(n).unwrap_or(Vec3::ZERO);
-        let rec = blob.node(n).unwrap_or_default();
-        stats.boundary_nodes += rec.boundary as u32;
-        storage.nodes[i] = rec;
-    }
-    for (i, t) in storage.tets.iter_mut().enumerate() {
-        *t = blob.tet(TetId(i as u32)).unwrap_or_default();
-        stats.boundary_faces += t.neighbours.iter().filter(|n| **n == TetId::NONE).count() as u32;
-    }
-    let tets = storage.tets.len();
-    Mesh::from_parts(positions, storage, tets, stats)
+    blob.mesh(positions, normals, nodes)
+        .unwrap_or_else(|_| fail("mesh blob storage refused"))
 }
 
 /// Instructions for a few primitives the core leans on (a diagnostic for docs/PORTING.md):

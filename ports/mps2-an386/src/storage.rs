@@ -39,6 +39,9 @@ pub const TETS: usize = if cfg!(scenario_cow) {
 } else {
     block_counts(BLOCK_N).1
 };
+/// Tet records in RAM: the block's; none for the cow, whose tets the mesh reads in place from
+/// the blob in flash.
+pub const RAM_TETS: usize = if cfg!(scenario_cow) { 0 } else { TETS };
 /// The world's storage sizes, as the host computes them, with the scenario's pending deque
 /// and candidate list.
 pub const SIZES: WorldSizes = {
@@ -73,7 +76,7 @@ const ZERO_PENDING: Pending = Pending::EMPTY;
 static POSITIONS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
 static NORMALS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
 static NODE_RECS: ConstStaticCell<[Node; NODES]> = ConstStaticCell::new([ZERO_NODE; NODES]);
-static TET_RECS: ConstStaticCell<[Tet; TETS]> = ConstStaticCell::new([ZERO_TET; TETS]);
+static TET_RECS: ConstStaticCell<[Tet; RAM_TETS]> = ConstStaticCell::new([ZERO_TET; RAM_TETS]);
 static HASH_STARTS: ConstStaticCell<[u32; SIZES.hash_starts]> =
     ConstStaticCell::new([0; SIZES.hash_starts]);
 // On the cow the hash (8 entries a tet, 2.3 MB) and the pending deque live in PSRAM.
