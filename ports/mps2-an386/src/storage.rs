@@ -28,13 +28,13 @@ use crate::BLOCK_N;
 include!(concat!(env!("OUT_DIR"), "/mesh_counts.rs"));
 
 /// Nodes of the mesh: the block's, or the included blob's.
-pub const NODES: usize = if cfg!(scenario_cow) {
+pub const NODES: usize = if cfg!(blob_mesh) {
     BLOB_NODES
 } else {
     block_counts(BLOCK_N).0
 };
 /// Tets of the mesh: the block's, or the included blob's.
-pub const TETS: usize = if cfg!(scenario_cow) {
+pub const TETS: usize = if cfg!(blob_mesh) {
     BLOB_TETS
 } else {
     block_counts(BLOCK_N).1
@@ -96,9 +96,18 @@ static CANDIDATES: ConstStaticCell<[TetId; SIZES.candidates]> =
 static SPHERE_MEMO: ConstStaticCell<[SphereSlot; SIZES.sphere_memo]> =
     ConstStaticCell::new([SphereSlot::EMPTY; SIZES.sphere_memo]);
 /// The materials of `builtin:firmware-regions`, in label order (the shell, then the core).
+#[cfg(not(scenario_tooth))]
 static REGIONS: ConstStaticCell<[Region; 2]> =
     ConstStaticCell::new([Region::new(scenario::SHELL), Region::new(scenario::CORE)]);
-/// Each tet's region index (0 the shell, 1 the core; used by the regions scenario only).
+/// The materials of `builtin:firmware-tooth`, in label order (enamel, dentin, pulp).
+#[cfg(scenario_tooth)]
+static REGIONS: ConstStaticCell<[Region; 3]> = ConstStaticCell::new([
+    Region::new(scenario::ENAMEL),
+    Region::new(scenario::DENTIN),
+    Region::new(scenario::PULP),
+]);
+/// Each tet's region index (0 the shell, 1 the core; on the tooth its label's place in
+/// `scenario::TOOTH_LABELS`; used by the regions and tooth scenarios only).
 static TET_REGION: ConstStaticCell<[u8; TETS]> = ConstStaticCell::new([0; TETS]);
 
 /// The storage, taken once.
