@@ -161,3 +161,68 @@ fn the_volume_of_each_label_matches_the_loader_the_core_and_the_model() {
     assert!(file[&1] > 0.25 * total && file[&1] < 0.40 * total);
     assert!(file[&3] > 0.02 * total && file[&3] < 0.06 * total);
 }
+
+/// Runs `tetradrill replay --scenario builtin:firmware-tooth --ticks TICKS` and returns the
+/// removed volume by label (mm^3) and in all (mm^3).
+fn access_cavity(ticks: u32) -> (BTreeMap<i32, f64>, f64) {
+    let dir = tetradrill_tests::scratch_dir("tooth", &ticks.to_string());
+    let json = dir.join("out.json");
+    let out = std::process::Command::new(tetradrill_tests::tetradrill_bin())
+        .args(["replay", "--scenario", "builtin:firmware-tooth", "--quiet"])
+        .args(["--ticks", &ticks.to_string(), "--json"])
+        .arg(&json)
+        .output()
+        .expect("run tetradrill");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("json");
+    let by_label = j["removed_by_region"]
+        .as_object()
+        .expect("removed_by_region")
+        .iter()
+        .map(|(k, v)| {
+            (
+                k.parse().expect("a label"),
+                v.as_f64().expect("a volume") * 1e9,
+            )
+        })
+        .collect();
+    (
+        by_label,
+        j["removed_volume"].as_f64().expect("removed_volume") * 1e9,
+    )
+}
+
+/// The access cavity meets the tissues in the order the model's geometry puts them, checked
+/// from where the burr is (`script::TOOTH_ACCESS`, a 0.7 mm sphere) against the model's
+/// surfaces: at tick 2,000 its centre is at z = 21.71 mm on the axis, so it reaches down to
+/// 21.01 mm and, 0.7 mm off the axis, no deeper than 21.01 mm either, all above the
+/// dentin-enamel junction (its top 20.5 mm, 20.33 mm at 0.7 mm off the axis): enamel only.
+/// At tick 14,000 the centre is at 19.6 mm, the burr 0.8 mm above the pulp chamber's roof
+/// (18.1 mm): no pulp. At the end the centre has been at 18.4 mm, 0.4 mm into the pulp: some
+/// pulp. Removed volumes by label sum to the removed volume, and the whole stays below the
+/// volume the burr sweeps with the drill on (13.2 mm of path, at most pi r^2 per mm plus one
+/// sphere: 21.8 mm^3).
+#[test]
+fn the_access_cavity_cuts_enamel_then_dentin_then_opens_the_pulp() {
+    let (early, _) = access_cavity(2_000);
+    assert!(early[&1] > 0.1, "{early:?}");
+    assert_eq!(early[&2], 0.0, "{early:?}");
+    assert_eq!(early[&3], 0.0, "{early:?}");
+
+    let (middle, _) = access_cavity(14_000);
+    assert!(middle[&2] > middle[&1], "{middle:?}");
+    assert_eq!(middle[&3], 0.0, "{middle:?}");
+
+    let (end, total) = access_cavity(17_601);
+    assert!(end[&3] > 0.0, "{end:?}");
+    let sum: f64 = end.values().sum();
+    assert!((sum - total).abs() < 1e-9 * total, "{sum} against {total}");
+    let r: f64 = 0.7;
+    let swept = std::f64::consts::PI * r * r * 13.2 + 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+    assert!(total < swept, "{total} mm^3 removed, {swept} swept");
+}
