@@ -179,7 +179,7 @@ mod tests {
         let (p, b) = TOOTH_ACCESS.at(10_000);
         assert!(p.abs_diff_eq(Vec3::new(0.0, 0.0, 0.0196), 1e-7), "{p}");
         assert_eq!(b, DRILL_ON);
-        assert_eq!(TOOTH_ACCESS.at(9000), (Vec3::new(0.0, 0.0, 0.0235), 0));
+        assert_eq!(TOOTH_ACCESS.at(20_000), (Vec3::new(0.0, 0.0, 0.0235), 0));
         assert!(TOOTH_ACCESS_KEYS.windows(2).all(|w| w[0].tick < w[1].tick));
     }
 }
