@@ -118,7 +118,8 @@ pub struct Storage {
     pub mesh: MeshStorage<'static>,
     /// The world's hash, hierarchy, drill and candidate storage.
     pub world: WorldStorage<'static>,
-    /// The two regions' materials and what they have earned and lost.
+    /// The regions' materials (two on the block, three on the tooth) and what they have
+    /// earned and lost.
     pub regions: &'static mut [Region],
     /// Each tet's region index.
     pub tet_region: &'static mut [u8],
