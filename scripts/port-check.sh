@@ -5,10 +5,11 @@
 # then one `key=value` line each: force_digest, servo_latency_instructions_max,
 # sim_step_instructions_max, deadline_misses, flash_bytes, ram_bytes.
 #
-#   scripts/port-check.sh [--target m4|m7] [--scenario block|cow|regions] [--ticks N] [--max-instructions M]
+#   scripts/port-check.sh [--target m4|m7] [--scenario block|cow|regions|tooth] [--ticks N] [--max-instructions M]
 #
 # --scenario block (default) is the host's builtin:firmware, cow is builtin:firmware-cow, regions
-# is builtin:firmware-regions (the block with a hard shell and a soft core).
+# is builtin:firmware-regions (the block with a hard shell and a soft core), tooth is
+# builtin:firmware-tooth (the premolar's access cavity through enamel and dentin into the pulp).
 # --max-instructions M also fails the check when the worst tick (simulation step + servo tick)
 # took more than M instructions.
 #
@@ -37,7 +38,7 @@ while [ $# -gt 0 ]; do
     --scenario) need "$1" $#; scenario="$2"; shift 2 ;;
     --scenario=*) scenario="${1#--scenario=}"; shift ;;
     -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
-    *) echo "port-check: unknown argument '$1' (expected --target m4|m7, --scenario block|cow|regions, --ticks N, --max-instructions M)" >&2; exit 2 ;;
+    *) echo "port-check: unknown argument '$1' (expected --target m4|m7, --scenario block|cow|regions|tooth, --ticks N, --max-instructions M)" >&2; exit 2 ;;
   esac
 done
 if [ -n "$ticks" ] && ! [[ "$ticks" =~ ^[0-9]+$ ]]; then
@@ -56,7 +57,8 @@ case "$scenario" in
   block) host_scenario="builtin:firmware"; fw_scenario="" ;;
   cow) host_scenario="builtin:firmware-cow"; fw_scenario="cow" ;;
   regions) host_scenario="builtin:firmware-regions"; fw_scenario="regions" ;;
-  *) echo "port-check: --scenario takes block, cow or regions, not '$scenario'" >&2; exit 2 ;;
+  tooth) host_scenario="builtin:firmware-tooth"; fw_scenario="tooth" ;;
+  *) echo "port-check: --scenario takes block, cow, regions or tooth, not '$scenario'" >&2; exit 2 ;;
 esac
 command -v qemu-system-arm >/dev/null || { echo "port-check: qemu-system-arm not found (apt-get install qemu-system-arm)" >&2; exit 1; }
 
@@ -74,6 +76,13 @@ if [ "$scenario" = cow ]; then
   mkdir -p "$port/target/blobs"
   "$host_bin" export --firmware "$port/target/blobs/cow.tdb" --mesh "$cow" --quiet
   export TETRADRILL_BLOB="$port/target/blobs/cow.tdb"
+fi
+if [ "$scenario" = tooth ]; then
+  tooth="${TETRADRILL_MESHES:-$root/tests/data/meshes}/models/tooth_premolar_gmsh.msh22.msh"
+  [ -f "$tooth" ] || tooth="$root/tests/data/meshes/models/tooth_premolar_gmsh.msh22.msh"
+  mkdir -p "$port/target/blobs"
+  "$host_bin" export --firmware "$port/target/blobs/tooth.tdb" --mesh "$tooth" --quiet
+  export TETRADRILL_BLOB="$port/target/blobs/tooth.tdb"
 fi
 
 echo "== firmware: build ($target, thumbv7em-none-eabihf, release, scenario $scenario)"

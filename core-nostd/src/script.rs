@@ -64,6 +64,60 @@ pub const DEMO_KEYS: [Key; 7] = [
     },
 ];
 
+/// An access cavity in the premolar of `tests/data/meshes/models/tooth_premolar_gmsh.msh22.msh`
+/// (metres, long axis +z, occlusal fissure at `z = 0.0216` along `x`): a 0.7 mm burr comes
+/// down on the fissure and plunges 2.9 mm at about 0.5 mm/s with the drill on (through the
+/// enamel, 1.1 mm here, into the dentin), sweeps 1 mm mesially and distally along the fissure
+/// and back, deepens 1.2 mm until it opens the pulp chamber's roof, and is withdrawn. 1 kHz
+/// ticks, 17.6 s.
+pub const TOOTH_ACCESS_KEYS: [Key; 9] = [
+    Key {
+        tick: 0,
+        position: Vec3::new(0.0, 0.0, 0.0235),
+        buttons: 0,
+    },
+    Key {
+        tick: 500,
+        position: Vec3::new(0.0, 0.0, 0.0225),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 6000,
+        position: Vec3::new(0.0, 0.0, 0.0196),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 8000,
+        position: Vec3::new(0.001, 0.0, 0.0196),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 12000,
+        position: Vec3::new(-0.001, 0.0, 0.0196),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 14000,
+        position: Vec3::new(0.0, 0.0, 0.0196),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 16400,
+        position: Vec3::new(0.0, 0.0, 0.0184),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 17400,
+        position: Vec3::new(0.0, 0.0, 0.0235),
+        buttons: 0,
+    },
+    Key {
+        tick: 17600,
+        position: Vec3::new(0.0, 0.0, 0.0235),
+        buttons: 0,
+    },
+];
+
 impl Script<'_> {
     /// Number of ticks the path lasts (the last key's tick + 1).
     pub fn ticks(&self) -> u32 {
@@ -97,6 +151,11 @@ impl Script<'_> {
 /// The demo script.
 pub const DEMO: Script<'static> = Script { keys: &DEMO_KEYS };
 
+/// The tooth's access cavity ([`TOOTH_ACCESS_KEYS`]).
+pub const TOOTH_ACCESS: Script<'static> = Script {
+    keys: &TOOTH_ACCESS_KEYS,
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -111,5 +170,16 @@ mod tests {
         assert_eq!(DEMO.at(1000).1, DRILL_ON);
         assert_eq!(DEMO.ticks(), 6001);
         assert_eq!(Script { keys: &[] }.at(5), (Vec3::ZERO, 0));
+    }
+
+    #[test]
+    fn the_tooth_path_plunges_with_the_drill_on_and_ends_withdrawn() {
+        assert_eq!(TOOTH_ACCESS.ticks(), 17_601);
+        assert_eq!(TOOTH_ACCESS.at(0), (Vec3::new(0.0, 0.0, 0.0235), 0));
+        let (p, b) = TOOTH_ACCESS.at(10_000);
+        assert!(p.abs_diff_eq(Vec3::new(0.0, 0.0, 0.0196), 1e-7), "{p}");
+        assert_eq!(b, DRILL_ON);
+        assert_eq!(TOOTH_ACCESS.at(20_000), (Vec3::new(0.0, 0.0, 0.0235), 0));
+        assert!(TOOTH_ACCESS_KEYS.windows(2).all(|w| w[0].tick < w[1].tick));
     }
 }

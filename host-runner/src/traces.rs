@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use tetradrill_core::script::{Script, DEMO, DRILL_ON};
+use tetradrill_core::script::{Script, DEMO, DRILL_ON, TOOTH_ACCESS};
 use tetradrill_core::Vec3;
 use tetradrill_device::{PathPoint, Trace};
 
@@ -64,14 +64,15 @@ fn mix(x: u64) -> u64 {
 }
 
 impl PoseSource {
-    /// `builtin:demo` or a trace CSV file (bad traces exit 2 naming the file and line); see
+    /// `builtin:demo`, `builtin:tooth-access` or a trace CSV file (bad traces exit 2 naming the file and line); see
     /// [`PoseSource::for_scenario`] for `wander:SEED`.
     pub fn load(spec: &str, scale: f64) -> Result<Self, CliError> {
         if let Some(name) = spec.strip_prefix("builtin:") {
             return match name {
                 "demo" => Ok(Self::Script(DEMO)),
+                "tooth-access" => Ok(Self::Script(TOOTH_ACCESS)),
                 _ => Err(CliError::input(format!(
-                    "unknown built-in trace `{spec}` (built-in: builtin:demo)"
+                    "unknown built-in trace `{spec}` (built-in: builtin:demo, builtin:tooth-access)"
                 ))),
             };
         }

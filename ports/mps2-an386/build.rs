@@ -1,9 +1,10 @@
 //! Puts `memory.x` where the linker finds it (cortex-m-rt's `link.x` includes it), with the
 //! target's PSRAM address written in, and picks
-//! the scenario: `TETRADRILL_SCENARIO=cow` with `TETRADRILL_BLOB=FILE` (a blob written by
-//! `tetradrill export --firmware`) copies the blob to `OUT_DIR/mesh.tdb` for `include_bytes!`
-//! and writes its counts to `OUT_DIR/mesh_counts.rs` so the statics are sized at build time;
-//! otherwise the firmware builds the built-in block and the blob is empty.
+//! the scenario: `TETRADRILL_SCENARIO=cow` or `tooth` with `TETRADRILL_BLOB=FILE` (a blob
+//! written by `tetradrill export --firmware`) copies the blob to `OUT_DIR/mesh.tdb` for
+//! `include_bytes!` and writes its counts to `OUT_DIR/mesh_counts.rs` so the statics are sized
+//! at build time (cfg `blob_mesh`, and `scenario_cow` or `scenario_tooth`); otherwise the
+//! firmware builds the built-in block and the blob is empty.
 
 use std::env;
 use std::fs;
@@ -25,14 +26,18 @@ fn main() {
     println!("cargo:rerun-if-env-changed=TETRADRILL_BLOB");
     println!("cargo::rustc-check-cfg=cfg(scenario_cow)");
     println!("cargo::rustc-check-cfg=cfg(scenario_regions)");
+    println!("cargo::rustc-check-cfg=cfg(scenario_tooth)");
+    println!("cargo::rustc-check-cfg=cfg(blob_mesh)");
     if env::var("TETRADRILL_SCENARIO").is_ok_and(|s| s == "regions") {
         println!("cargo:rustc-cfg=scenario_regions");
     }
-    let cow = env::var("TETRADRILL_SCENARIO").is_ok_and(|s| s == "cow");
-    let (blob, nodes, tets) = if cow {
-        let path = env::var("TETRADRILL_BLOB").expect(
-            "TETRADRILL_SCENARIO=cow needs TETRADRILL_BLOB=FILE (tetradrill export --firmware)",
-        );
+    let scenario = env::var("TETRADRILL_SCENARIO").unwrap_or_default();
+    let cow = scenario == "cow";
+    let tooth = scenario == "tooth";
+    let (blob, nodes, tets) = if cow || tooth {
+        let path = env::var("TETRADRILL_BLOB").unwrap_or_else(|_| {
+            panic!("TETRADRILL_SCENARIO={scenario} needs TETRADRILL_BLOB=FILE (tetradrill export --firmware)")
+        });
         println!("cargo:rerun-if-changed={path}");
         let blob = fs::read(&path).unwrap_or_else(|e| panic!("{path}: cannot read: {e}"));
         assert!(
@@ -40,7 +45,12 @@ fn main() {
             "{path}: not a tetradrill mesh blob"
         );
         let word = |at: usize| u32::from_le_bytes(blob[at..at + 4].try_into().unwrap());
-        println!("cargo:rustc-cfg=scenario_cow");
+        println!("cargo:rustc-cfg=blob_mesh");
+        if cow {
+            println!("cargo:rustc-cfg=scenario_cow");
+        } else {
+            println!("cargo:rustc-cfg=scenario_tooth");
+        }
         let (n, t) = (word(8), word(12));
         (blob, n, t)
     } else {

@@ -10,7 +10,9 @@ use serde::{Deserialize, Serialize};
 use crate::error::CliError;
 
 mod regions;
-pub use regions::{demo_regions, RegionSpec};
+pub use regions::{
+    demo_regions, tooth_regions, RegionSpec, TOOTH_DENTIN, TOOTH_ENAMEL, TOOTH_PULP,
+};
 
 /// Which way depth finds the surface intersections of border edges.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -46,7 +48,7 @@ pub struct Scenario {
     /// first of `tetradrill_meshio::REGION_ARRAYS` the file has).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub region_array: Option<String>,
-    /// Trace CSV file, `builtin:demo`, or `wander:SEED` (a seeded random wander over the
+    /// Trace CSV file, `builtin:demo`, `builtin:tooth-access`, or `wander:SEED` (a seeded random wander over the
     /// mesh's surface, drill on); positions in mesh units after `scale`.
     pub trace: String,
     /// `sphere:R` (a spherical burr of radius R), `drill:BURR_R:SHAFT_LEN:SHAFT_R` (a burr on
@@ -301,7 +303,8 @@ pub const DEFAULT_TICK_BUDGET: u32 = 16_500;
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct ScenarioFlags {
     /// A scenario file (TOML, keys as these flags with `_` for `-`) or `builtin:demo`,
-    /// `builtin:firmware`, `builtin:firmware-cow`.
+    /// `builtin:firmware`, `builtin:firmware-cow`, `builtin:firmware-regions`,
+    /// `builtin:firmware-tooth`.
     #[arg(long)]
     pub scenario: Option<String>,
     /// Mesh file or `builtin:cube12`, `builtin:block:N`.
@@ -313,7 +316,8 @@ pub struct ScenarioFlags {
     /// The integer cell array of a VTK/VTU mesh holding region labels.
     #[arg(long, value_name = "NAME")]
     pub region_array: Option<String>,
-    /// Trace CSV (`t,x,y,z,qw,qx,qy,qz,buttons`), `builtin:demo` or `wander:SEED`.
+    /// Trace CSV (`t,x,y,z,qw,qx,qy,qz,buttons`), `builtin:demo`, `builtin:tooth-access` or
+    /// `wander:SEED`.
     #[arg(long)]
     pub trace: Option<String>,
     /// `sphere:R`, `drill:BURR_R:SHAFT_LEN:SHAFT_R` or `mesh:FILE`.
@@ -468,25 +472,49 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             regions: demo_regions(),
             ..builtin("firmware")?
         }),
+        // The firmware scenario on the premolar (`scripts/port-check.sh --scenario tooth`):
+        // a 0.7 mm burr (an ISO 014 round burr) cuts an access cavity through the enamel into
+        // the dentin and opens the pulp chamber (`script::TOOTH_ACCESS`), with the tooth's
+        // three materials (`tooth_regions`); metres and newtons. The capacities hold the whole
+        // path (ports/mps2-an386/src/scenario.rs holds the same numbers).
+        "firmware-tooth" => Some(Scenario {
+            mesh: test_mesh(TOOTH),
+            trace: "builtin:tooth-access".into(),
+            tool: "sphere:0.0007".into(),
+            stiffness: 6_000.0,
+            regions: tooth_regions(),
+            hierarchy_capacity: Some(60_000),
+            pending_capacity: Some(16_384),
+            candidate_capacity: Some(1_024),
+            ..builtin("firmware")?
+        }),
         _ => None,
     }
 }
 
-/// The cow of `builtin:firmware-cow`: `models/spot_tetgen_q1.414.node` in the folder
-/// `TETRADRILL_MESHES` names when it has one, else in the project's test data.
-fn firmware_cow_mesh() -> String {
-    const COW: &str = "models/spot_tetgen_q1.414.node";
+/// The tooth of `builtin:firmware-tooth`, in the project's test data folder.
+pub const TOOTH: &str = "models/tooth_premolar_gmsh.msh22.msh";
+
+/// `NAME` (a path relative to the test data folder) in the folder `TETRADRILL_MESHES` names
+/// when it has one, else in the project's test data.
+fn test_mesh(name: &str) -> String {
     if let Some(dir) = std::env::var_os("TETRADRILL_MESHES") {
-        let p = Path::new(&dir).join(COW);
+        let p = Path::new(&dir).join(name);
         if p.is_file() {
             return p.to_string_lossy().into_owned();
         }
     }
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../tests/data/meshes")
-        .join(COW)
+        .join(name)
         .to_string_lossy()
         .into_owned()
+}
+
+/// The cow of `builtin:firmware-cow`: `models/spot_tetgen_q1.414.node` in the folder
+/// `TETRADRILL_MESHES` names when it has one, else in the project's test data.
+fn firmware_cow_mesh() -> String {
+    test_mesh("models/spot_tetgen_q1.414.node")
 }
 
 impl Scenario {
@@ -496,7 +524,7 @@ impl Scenario {
         if let Some(name) = spec.strip_prefix("builtin:") {
             return builtin(name).ok_or_else(|| {
                 CliError::input(format!(
-                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow, builtin:firmware-regions)"
+                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow, builtin:firmware-regions, builtin:firmware-tooth)"
                 ))
             });
         }

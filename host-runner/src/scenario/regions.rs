@@ -1,4 +1,5 @@
-//! The `[regions]` table of a scenario: one material per region label, and the demo's.
+//! The `[regions]` table of a scenario: one material per region label, the demo's and the
+//! tooth's.
 
 use std::collections::BTreeMap;
 
@@ -68,5 +69,46 @@ pub fn demo_regions() -> BTreeMap<String, RegionSpec> {
     BTreeMap::from([
         (tetradrill_core::builtin::BLOCK_SHELL.to_string(), shell),
         (tetradrill_core::builtin::BLOCK_CORE.to_string(), core),
+    ])
+}
+
+/// Region label of the tooth mesh's enamel (`tests/data/meshes/models/tooth_premolar.geo`).
+pub const TOOTH_ENAMEL: i32 = 1;
+/// Region label of the tooth mesh's dentin.
+pub const TOOTH_DENTIN: i32 = 2;
+/// Region label of the tooth mesh's pulp.
+pub const TOOTH_PULP: i32 = 3;
+
+/// The tooth's materials, in metres and newtons (docs/DRILLING.md, "The tooth"): the enamel
+/// five times as hard as the dentin (their Knoop hardness, 343 and 68 kg/mm^2, in Craig's
+/// Restorative Dental Materials, 13th ed., Sakaguchi and Powers 2012), the pulp, soft
+/// connective tissue, fifty times softer again. The contact stiffness is ordered as their
+/// elastic moduli (enamel 84 GPa, dentin 18 GPa, same source; the pulp a soft tissue) at what
+/// a haptic servo renders, not the tissues' own. The absolute hardness is chosen so the
+/// access cavity's plunge (a 0.7 mm burr at 1.2 mm/s) presses about 3 N on the enamel and
+/// about 1 N on the dentin, the range of hand forces of clinical cavity preparation.
+pub fn tooth_regions() -> BTreeMap<String, RegionSpec> {
+    let enamel = RegionSpec {
+        hardness: 1.0e9,
+        threshold: 1.0,
+        stiffness: Some(10_000.0),
+        colour: Some("#f4f1e6".into()),
+    };
+    let dentin = RegionSpec {
+        hardness: 2.0e8,
+        threshold: 0.5,
+        stiffness: Some(6_000.0),
+        colour: Some("#e6cf95".into()),
+    };
+    let pulp = RegionSpec {
+        hardness: 4.0e6,
+        threshold: 0.1,
+        stiffness: Some(1_000.0),
+        colour: Some("#c8505a".into()),
+    };
+    BTreeMap::from([
+        (TOOTH_ENAMEL.to_string(), enamel),
+        (TOOTH_DENTIN.to_string(), dentin),
+        (TOOTH_PULP.to_string(), pulp),
     ])
 }

@@ -54,3 +54,19 @@ fn capacities_refuse_zero_and_more_than_a_gibibyte() {
     }
     assert!(capacity("hierarchy_capacity").is_some_and(|c| c.check(7).is_err()));
 }
+
+#[test]
+fn firmware_tooth_names_the_tooth_its_path_and_three_materials() {
+    let s = Scenario::load("builtin:firmware-tooth").expect("built in");
+    assert!(s.mesh.ends_with(TOOTH), "{}", s.mesh);
+    assert!(Path::new(&s.mesh).is_file(), "{}", s.mesh);
+    assert_eq!(s.trace, "builtin:tooth-access");
+    assert!(s.check().is_ok());
+    let r = |l: i32| &s.regions[&l.to_string()];
+    let (e, d, p) = (r(TOOTH_ENAMEL), r(TOOTH_DENTIN), r(TOOTH_PULP));
+    assert_eq!(s.regions.len(), 3);
+    assert!(e.hardness > d.hardness && d.hardness > p.hardness);
+    assert!(e.threshold > d.threshold && d.threshold > p.threshold);
+    assert!(e.stiffness > d.stiffness && d.stiffness > p.stiffness);
+    assert!([e, d, p].iter().all(|m| m.rgb().is_ok_and(|c| c.is_some())));
+}

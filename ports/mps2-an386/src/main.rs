@@ -1,7 +1,8 @@
 //! tetradrill-core, unchanged, on a Cortex-M4F or a Cortex-M7 as an RTIC 2 application: a
 //! 1 kHz servo task at the highest priority and the simulation task below it, preempted by
 //! it, with lock-free hand-offs between them. It plays the host's `builtin:firmware` scenario
-//! (or `builtin:firmware-cow`, the mesh's tets read in place from a blob in flash) and prints the force digest the host's `replay` prints, the servo's latency and the
+//! (or `builtin:firmware-regions`; `builtin:firmware-cow` or `builtin:firmware-tooth`, the
+//! mesh's tets read in place from a blob in flash) and prints the force digest the host's `replay` prints, the servo's latency and the
 //! simulation's steps in instructions, and the deadline misses.
 //!
 //! Runs on QEMU's `mps2-an386` machine (`mps2-an500` with the `m7` feature; see
@@ -75,7 +76,7 @@ mod app {
         let world = crate::build_world();
         let (release_tx, release_rx) = cx.local.releases.split();
         let (done_tx, done_rx) = cx.local.dones.split();
-        let scenario = &crate::scenario::DEMO_PATH;
+        let scenario = crate::scenario::path();
         let ticks = scenario.ticks();
         crate::clock::start_servo_timer(&mut core.SYST);
         let a = crate::clock::now();
@@ -118,11 +119,16 @@ mod app {
 /// Builds the mesh (the block, or the blob's) and the world over the static storage.
 fn build_world() -> World<'static> {
     let st = Storage::take();
-    if cfg!(scenario_cow) {
+    if cfg!(blob_mesh) {
         let mesh = mesh_from_blob(st.positions, st.mesh.normals, st.mesh.nodes);
         let mut world =
             World::new(mesh, st.world).unwrap_or_else(|_| fail("world storage refused"));
         world.set_contact_max_nodes(scenario::contact_nodes());
+        if cfg!(scenario_tooth) {
+            let regions = blob_regions(st.regions, st.tet_region)
+                .unwrap_or_else(|| fail("region storage refused or a label not the tooth's"));
+            world.set_regions(regions);
+        }
         return world;
     }
     let mesh = block_mesh(st.positions, st.mesh);
@@ -153,6 +159,22 @@ fn mesh_from_blob(
     }
     blob.mesh(positions, normals, nodes)
         .unwrap_or_else(|_| fail("mesh blob storage refused"))
+}
+
+/// The tooth's regions: each tet's index is its blob label's place in
+/// [`scenario::TOOTH_LABELS`] (the host's numbering, one region per distinct label in label
+/// order). `None` for a label not among them or a table the core refuses.
+fn blob_regions(
+    table: &'static mut [tetradrill_core::drill::Region],
+    of_tet: &'static mut [u8],
+) -> Option<tetradrill_core::drill::Regions<'static>> {
+    let blob = MeshBlob::parse(MESH_BLOB).ok()?;
+    for (i, slot) in of_tet.iter_mut().enumerate() {
+        let label = blob.label(TetId(i as u32))?;
+        let at = scenario::TOOTH_LABELS.iter().position(|&l| l == label)?;
+        *slot = at as u8;
+    }
+    tetradrill_core::drill::Regions::new(table, of_tet).ok()
 }
 
 /// Instructions for a few primitives the core leans on (a diagnostic for docs/PORTING.md):

@@ -1,18 +1,26 @@
 //! The scenario's numbers exactly as the host derives them (`TickParams::of` of
-//! `builtin:firmware`): the host parses f64 and converts to f32, so the firmware writes the
-//! same f64 literals and converts.
+//! `builtin:firmware`, `-cow`, `-regions` and `-tooth`): the host parses f64 and converts to
+//! f32, so the firmware writes the same f64 literals and converts.
 
 use tetradrill_core::drill::{DrillParams, Material};
 use tetradrill_core::force::ForceParams;
-use tetradrill_core::script::{Script, DEMO, DRILL_ON};
+use tetradrill_core::script::{Script, DEMO, DRILL_ON, TOOTH_ACCESS};
 use tetradrill_core::Vec3;
 
-/// `tool = "sphere:0.1"`.
-pub const RADIUS: f32 = 0.1_f64 as f32;
+/// `tool = "sphere:0.1"` (the tooth, in metres: `sphere:0.0007`).
+pub const RADIUS: f32 = if cfg!(scenario_tooth) {
+    0.0007_f64 as f32
+} else {
+    0.1_f64 as f32
+};
 /// The servo's extrapolation range: half the radius.
 pub const REACH: f32 = 0.5 * RADIUS;
-/// N/m.
-pub const STIFFNESS: f32 = 200.0_f64 as f32;
+/// N per mesh unit (the tooth: N/m).
+pub const STIFFNESS: f32 = if cfg!(scenario_tooth) {
+    6_000.0_f64 as f32
+} else {
+    200.0_f64 as f32
+};
 /// N s/m.
 pub const DAMPING: f32 = 0.5_f64 as f32;
 /// N.
@@ -28,8 +36,15 @@ pub const BUDGET: u32 = 300;
 /// Hierarchy nodes one contact search may test (`contact_search_nodes`).
 pub const CONTACT_NODES: u32 = 64;
 
-/// Hierarchy arena nodes (`hierarchy_capacity`): 20,000 on the block, 40,000 on the cow.
-pub const ARENA: usize = if cfg!(scenario_cow) { 40_000 } else { 20_000 };
+/// Hierarchy arena nodes (`hierarchy_capacity`): 20,000 on the block, 40,000 on the cow,
+/// 60,000 on the tooth.
+pub const ARENA: usize = if cfg!(scenario_cow) {
+    40_000
+} else if cfg!(scenario_tooth) {
+    60_000
+} else {
+    20_000
+};
 /// Entries of the drill's pending deque (`pending_capacity`, 60 bytes each): 16,384 on the
 /// block (its peak is under 9,400), 8,192 on the cow (it fills there; the host's
 /// `builtin:firmware-cow` drops the same work).
@@ -40,6 +55,8 @@ pub const CANDIDATES: usize = if cfg!(scenario_cow) { 4_096 } else { 1_024 };
 /// The scenario's name in the output.
 pub const NAME: &str = if cfg!(scenario_cow) {
     "builtin:firmware-cow"
+} else if cfg!(scenario_tooth) {
+    "builtin:firmware-tooth"
 } else if cfg!(scenario_regions) {
     "builtin:firmware-regions"
 } else {
@@ -48,16 +65,44 @@ pub const NAME: &str = if cfg!(scenario_cow) {
 
 /// The block's hard outer shell in `builtin:firmware-regions` (label 1): the host's
 /// `demo_regions` numbers, parsed as f64 and converted as the host converts them.
+#[cfg_attr(scenario_tooth, allow(dead_code))]
 pub const SHELL: Material = Material {
     hardness: 300.0_f64 as f32,
     threshold: 2.0_f64 as f32,
     stiffness: 300.0_f64 as f32,
 };
 /// The block's soft core in `builtin:firmware-regions` (label 2).
+#[cfg_attr(scenario_tooth, allow(dead_code))]
 pub const CORE: Material = Material {
     hardness: 120.0_f64 as f32,
     threshold: 0.5_f64 as f32,
     stiffness: 150.0_f64 as f32,
+};
+
+/// The tooth's region labels in label order (enamel, dentin, pulp), as the host numbers its
+/// regions; a tet's region index is its label's place here.
+pub const TOOTH_LABELS: [i32; 3] = [1, 2, 3];
+/// The tooth's enamel in `builtin:firmware-tooth` (label 1): the host's `tooth_regions`
+/// numbers, parsed as f64 and converted as the host converts them.
+#[cfg_attr(not(scenario_tooth), allow(dead_code))]
+pub const ENAMEL: Material = Material {
+    hardness: 1.0e9_f64 as f32,
+    threshold: 1.0_f64 as f32,
+    stiffness: 10_000.0_f64 as f32,
+};
+/// The tooth's dentin (label 2).
+#[cfg_attr(not(scenario_tooth), allow(dead_code))]
+pub const DENTIN: Material = Material {
+    hardness: 2.0e8_f64 as f32,
+    threshold: 0.5_f64 as f32,
+    stiffness: 6_000.0_f64 as f32,
+};
+/// The tooth's pulp (label 3).
+#[cfg_attr(not(scenario_tooth), allow(dead_code))]
+pub const PULP: Material = Material {
+    hardness: 4.0e6_f64 as f32,
+    threshold: 0.1_f64 as f32,
+    stiffness: 1_000.0_f64 as f32,
 };
 
 /// Scripted ticks to run: the whole path, or fewer when set at build time with
@@ -111,6 +156,20 @@ pub struct Scenario {
 /// `builtin:firmware` and `builtin:firmware-cow`: the demo's path (over the unit block; on
 /// the cow it drills the back).
 pub static DEMO_PATH: Scenario = Scenario { script: DEMO };
+
+/// `builtin:firmware-tooth`: the access cavity in the premolar.
+pub static TOOTH_PATH: Scenario = Scenario {
+    script: TOOTH_ACCESS,
+};
+
+/// The path of this build's scenario.
+pub fn path() -> &'static Scenario {
+    if cfg!(scenario_tooth) {
+        &TOOTH_PATH
+    } else {
+        &DEMO_PATH
+    }
+}
 
 impl Scenario {
     /// The pose and the drill button at tick `i`.

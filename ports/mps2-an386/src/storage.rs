@@ -28,20 +28,20 @@ use crate::BLOCK_N;
 include!(concat!(env!("OUT_DIR"), "/mesh_counts.rs"));
 
 /// Nodes of the mesh: the block's, or the included blob's.
-pub const NODES: usize = if cfg!(scenario_cow) {
+pub const NODES: usize = if cfg!(blob_mesh) {
     BLOB_NODES
 } else {
     block_counts(BLOCK_N).0
 };
 /// Tets of the mesh: the block's, or the included blob's.
-pub const TETS: usize = if cfg!(scenario_cow) {
+pub const TETS: usize = if cfg!(blob_mesh) {
     BLOB_TETS
 } else {
     block_counts(BLOCK_N).1
 };
-/// Tet records in RAM: the block's; none for the cow, whose tets the mesh reads in place from
-/// the blob in flash.
-pub const RAM_TETS: usize = if cfg!(scenario_cow) { 0 } else { TETS };
+/// Tet records in RAM: the block's; none for a blob's mesh (the cow, the tooth), whose tets
+/// the mesh reads in place from the blob in flash.
+pub const RAM_TETS: usize = if cfg!(blob_mesh) { 0 } else { TETS };
 /// The world's storage sizes, as the host computes them, with the scenario's pending deque
 /// and candidate list.
 pub const SIZES: WorldSizes = {
@@ -99,9 +99,18 @@ static CANDIDATES: ConstStaticCell<[TetId; SIZES.candidates]> =
 static SPHERE_MEMO: ConstStaticCell<[SphereSlot; SIZES.sphere_memo]> =
     ConstStaticCell::new([SphereSlot::EMPTY; SIZES.sphere_memo]);
 /// The materials of `builtin:firmware-regions`, in label order (the shell, then the core).
+#[cfg(not(scenario_tooth))]
 static REGIONS: ConstStaticCell<[Region; 2]> =
     ConstStaticCell::new([Region::new(scenario::SHELL), Region::new(scenario::CORE)]);
-/// Each tet's region index (0 the shell, 1 the core; used by the regions scenario only).
+/// The materials of `builtin:firmware-tooth`, in label order (enamel, dentin, pulp).
+#[cfg(scenario_tooth)]
+static REGIONS: ConstStaticCell<[Region; 3]> = ConstStaticCell::new([
+    Region::new(scenario::ENAMEL),
+    Region::new(scenario::DENTIN),
+    Region::new(scenario::PULP),
+]);
+/// Each tet's region index (0 the shell, 1 the core; on the tooth its label's place in
+/// `scenario::TOOTH_LABELS`; used by the regions and tooth scenarios only).
 static TET_REGION: ConstStaticCell<[u8; TETS]> = ConstStaticCell::new([0; TETS]);
 
 /// The storage, taken once.
@@ -112,7 +121,8 @@ pub struct Storage {
     pub mesh: MeshStorage<'static>,
     /// The world's hash, hierarchy, drill and candidate storage.
     pub world: WorldStorage<'static>,
-    /// The two regions' materials and what they have earned and lost.
+    /// The regions' materials (two on the block, three on the tooth) and what they have
+    /// earned and lost.
     pub regions: &'static mut [Region],
     /// Each tet's region index.
     pub tet_region: &'static mut [u8],
