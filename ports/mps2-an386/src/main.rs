@@ -36,8 +36,8 @@ use cortex_m_semihosting::{debug, hprintln};
 
 use tetradrill_core::blob::MeshBlob;
 use tetradrill_core::builtin;
-use tetradrill_core::ids::TetId;
 use tetradrill_core::force::closest_point_on_triangle;
+use tetradrill_core::ids::TetId;
 use tetradrill_core::mesh::{BuildOptions, FaceKey, Mesh, MeshStorage, Node};
 use tetradrill_core::servo::World;
 use tetradrill_core::Vec3;
