@@ -272,3 +272,28 @@ mod tests {
         assert_eq!(hist_index(u64::MAX), HIST_BUCKETS - 1);
     }
 }
+
+/// A volume for a summary line: six decimals for an object of a unit's size or more, six
+/// significant digits (`1.23457e-7`) for a small one, whose decimals would all be zero (a
+/// tooth in metres is 4e-7 m^3).
+pub fn volume_text(v: f64, object_volume: f64) -> String {
+    if object_volume.abs() >= 1e-2 || v == 0.0 && object_volume == 0.0 {
+        format!("{v:.6}")
+    } else {
+        format!("{v:.5e}")
+    }
+}
+
+#[cfg(test)]
+mod volume_text_tests {
+    use super::volume_text;
+
+    #[test]
+    fn small_objects_keep_their_digits() {
+        assert_eq!(volume_text(0.031705, 1.0), "0.031705");
+        assert_eq!(volume_text(1.0, 1.0), "1.000000");
+        assert_eq!(volume_text(6.93e-9, 3.954e-7), "6.93000e-9");
+        assert_eq!(volume_text(3.954e-7, 3.954e-7), "3.95400e-7");
+        assert_eq!(volume_text(0.0, 0.0), "0.000000");
+    }
+}

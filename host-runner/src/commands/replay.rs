@@ -808,9 +808,9 @@ fn print_summary(r: &ReplayReport) {
         r.mesh.tets
     );
     outln!(
-        "removed volume {:.6} of {:.6} ({:.2}%), {} hierarchy nodes, {} visible faces, {} component(s)",
-        r.removed_volume,
-        r.initial_volume,
+        "removed volume {} of {} ({:.2}%), {} hierarchy nodes, {} visible faces, {} component(s)",
+        crate::stats::volume_text(r.removed_volume, r.initial_volume),
+        crate::stats::volume_text(r.initial_volume, r.initial_volume),
         100.0 * r.removed_volume / r.initial_volume.max(f64::MIN_POSITIVE),
         r.hierarchy_nodes,
         r.visible_faces,

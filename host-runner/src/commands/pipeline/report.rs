@@ -213,12 +213,12 @@ pub(super) fn print_summary(r: &RunReport) {
         r.wake_us.max
     );
     outln!(
-        "simulation: {} steps ({:.0} Hz), longest {:.0} us;  removed volume {:.6} of {:.6} ({:.2}%)",
+        "simulation: {} steps ({:.0} Hz), longest {:.0} us;  removed volume {} of {} ({:.2}%)",
         r.simulation_steps,
         r.simulation_hz,
         r.simulation_step_max_us,
-        r.removed_volume,
-        r.initial_volume,
+        crate::stats::volume_text(r.removed_volume, r.initial_volume),
+        crate::stats::volume_text(r.initial_volume, r.initial_volume),
         100.0 * r.removed_volume / r.initial_volume.max(f64::MIN_POSITIVE)
     );
     outln!(
