@@ -13,7 +13,7 @@ use tetradrill_core::drill::DrillParams;
 use tetradrill_core::force::{ForceParams, ToolState};
 use tetradrill_core::hash::Aabb;
 use tetradrill_core::mesh::{BuildOptions, Mesh};
-use tetradrill_core::servo::{servo_force, DeformError, World};
+use tetradrill_core::servo::{servo_force, DeformError};
 use tetradrill_core::soft::{Material, SoftParams};
 use tetradrill_core::TetId;
 use tetradrill_tests::drill::{bey, det, face_of};
@@ -262,4 +262,268 @@ fn hierarchy_faces_are_the_barycentric_map_of_their_rest_corners() {
         });
     }
     assert!(checked > 300, "{checked} faces checked");
+}
+
+/// The replay's tool path in the object frame (160 ticks) and whether the drill is on: down
+/// into the top face, across, and up again, off the block's grid (no leaf corner exactly on
+/// the burr's sphere, where rounding would decide).
+fn path(k: usize) -> (Vec3, bool) {
+    let c = if k < 40 {
+        Vec3::new(-0.2, 0.05, 0.62 - 0.006 * k as f32)
+    } else if k < 120 {
+        Vec3::new(-0.2 + 0.005 * (k - 40) as f32, 0.05, 0.38)
+    } else {
+        Vec3::new(0.2, 0.05, 0.38 + 0.006 * (k - 120) as f32)
+    };
+    (
+        c + Vec3::new(0.0123, 0.0371, 0.0049),
+        (30..130).contains(&k),
+    )
+}
+
+/// One step of a replay: the contact's point, normal and depth, and the servo's force.
+#[derive(Clone, Copy, Debug)]
+struct Tick {
+    valid: bool,
+    point: Vec3,
+    normal: Vec3,
+    depth: f32,
+    /// The servo's force (its state carried from tick to tick).
+    force: Vec3,
+    /// The force of this tick's contact alone (a fresh servo state).
+    spring: Vec3,
+    /// The drill finished its work within the step.
+    settled: bool,
+}
+
+/// A plunge-and-pass drilling replay on the unit block of 8 cubes a side, through `motion`
+/// (applied to every node and every tool position; `None`: the block as built, never moved).
+/// Returns each tick, the removed volume and the erased leaves.
+fn replay(motion: Option<&dyn Fn(Vec3) -> Vec3>) -> (Vec<Tick>, f64, BTreeSet<(u32, u32)>) {
+    let mut om = block_mesh(8);
+    let rest0 = om.positions().to_vec();
+    let mesh = om.view();
+    let mut st = Store::new(mesh.tet_count(), 1 << 18);
+    let mut world = st.world(mesh);
+    let mut rest = vec![Vec3::ZERO; rest0.len()];
+    // Exact contacts (no node bound reached), so the answers do not depend on the order the
+    // trees are walked in.
+    world.set_contact_max_nodes(1 << 22);
+    let map = |p: Vec3| motion.map_or(p, |m| m(p));
+    if motion.is_some() {
+        world.enable_deformation(&mut rest).unwrap();
+        let moved: Vec<Vec3> = rest0.iter().map(|&p| map(p)).collect();
+        world.set_positions(&moved).unwrap();
+    }
+    let params = DrillParams {
+        max_depth: 4,
+        min_area: 0.0,
+        budget: 1_000_000,
+    };
+    let fp = ForceParams::default();
+    let mut tool = ToolState::default();
+    let (radius, reach) = (radius_of_replay(), 0.05);
+    let mut ticks = Vec::new();
+    for k in 0..160 {
+        let (c, on) = path(k);
+        let c = map(c);
+        world.simulate(c, radius, reach, on, &params);
+        let force = servo_force(world.contact(), c, radius, &mut tool, &fp);
+        let spring = servo_force(world.contact(), c, radius, &mut ToolState::default(), &fp);
+        let ct = world.contact();
+        ticks.push(Tick {
+            valid: ct.valid,
+            point: ct.point,
+            normal: ct.normal,
+            depth: ct.depth,
+            force,
+            spring,
+            settled: world.pending() == 0,
+        });
+    }
+    assert_eq!(world.pending(), 0);
+    assert_eq!(world.saturations().total(), 0, "{:?}", world.saturations());
+    let h = world.hierarchy();
+    let mut erased = BTreeSet::new();
+    for t in 0..world.mesh().tet_count() {
+        h.for_each_leaf(TetId::from_idx(t), |l| {
+            if l.record.erased() {
+                erased.insert((t as u32, l.index));
+            }
+        });
+    }
+    (ticks, h.removed_volume(), erased)
+}
+
+/// Drilling a soft block sagging under gravity (clamped at its base, small strain) along the
+/// replay's path in the object frame (each path point carried by the body's deformation, here)
+/// removes within 5 % of the volume the rigid block loses along the same path.
+#[test]
+fn drilling_a_slightly_deformed_soft_block_removes_the_rigid_volume() {
+    let (_, rigid, _) = replay(None);
+    let mut om = block_mesh(8);
+    let mut soft = SoftOwned::from_mesh(&om.view());
+    let rest0 = soft.rest.clone();
+    let tets = soft.tets.clone();
+    let mut body = soft
+        .body(
+            &[Material {
+                young: 5e5,
+                poisson: 0.3,
+                density: 1000.0,
+            }],
+            SoftParams {
+                gravity: Vec3::new(0.0, 0.0, -9.81),
+                damping: 20.0,
+                substeps: 10,
+                iterations: 1,
+            },
+        )
+        .unwrap();
+    assert!(body.fix_below(Vec3::new(0.0, 0.0, -0.49), Vec3::Z) > 0);
+    let dt = 1e-3;
+    let none = vec![Vec3::ZERO; rest0.len()];
+    for _ in 0..400 {
+        body.step(dt, &none).unwrap();
+    }
+    let mesh = om.view();
+    let mut st = Store::new(mesh.tet_count(), 1 << 18);
+    let mut world = st.world(mesh);
+    world.set_contact_max_nodes(1 << 22);
+    let mut rest = vec![Vec3::ZERO; rest0.len()];
+    world.enable_deformation(&mut rest).unwrap();
+    let params = DrillParams {
+        max_depth: 4,
+        min_area: 0.0,
+        budget: 1_000_000,
+    };
+    let mut now = vec![Vec3::ZERO; rest0.len()];
+    let mut max_disp = 0.0f32;
+    for k in 0..160 {
+        body.step(dt, &none).unwrap();
+        body.write_positions(&mut now);
+        max_disp = max_disp.max(world.set_positions(&now).unwrap().max_displacement);
+        // The path point carried by the deformation: its rest tet's corners, barycentric (f64).
+        let (x, on) = path(k);
+        let c = tets
+            .iter()
+            .find_map(|t| {
+                let p = t.map(|n| d3(rest0[n as usize]));
+                let b = bary(&p, d3(x));
+                b.iter().all(|&w| w >= -1e-12).then(|| {
+                    let mut y = [0.0f64; 3];
+                    for (w, &n) in b.iter().zip(t) {
+                        let q = d3(now[n as usize]);
+                        for a in 0..3 {
+                            y[a] += w * q[a];
+                        }
+                    }
+                    Vec3::new(y[0] as f32, y[1] as f32, y[2] as f32)
+                })
+            })
+            .unwrap_or(x);
+        world.simulate(c, radius_of_replay(), 0.05, on, &params);
+    }
+    while world.pending() > 0 {
+        world.simulate(Vec3::splat(9.0), radius_of_replay(), 0.0, false, &params);
+    }
+    assert_eq!(world.saturations().total(), 0, "{:?}", world.saturations());
+    let soft_v = world.hierarchy().removed_volume();
+    let rel = (soft_v - rigid).abs() / rigid;
+    eprintln!("soft block: sag {max_disp}, removed {soft_v} vs rigid {rigid} ({rel:e})");
+    // Small strain, but a real deformation.
+    assert!(max_disp > 2e-3 && max_disp < 0.03, "sag {max_disp}");
+    assert!(rel <= 0.05, "removed {soft_v} vs rigid {rigid}");
+}
+
+/// A quarter turn about z (exact in f32 on the block's coordinates, multiples of 1/8) gives
+/// the same replay bit for bit: every force and normal turned, every depth and the removed
+/// volume equal, the same leaves erased.
+#[test]
+fn a_quarter_turn_gives_the_same_replay_bit_for_bit() {
+    let (a, va, ea) = replay(None);
+    // The exact quarter turn of a vector: (x, y, z) -> (-y, x, z).
+    let turn = |v: Vec3| Vec3::new(-v.y, v.x, v.z);
+    let (b, vb, eb) = replay(Some(&turn));
+    assert!(va > 1e-3, "removed {va}");
+    assert_eq!(ea, eb);
+    assert_eq!(va, vb);
+    let mut touching = 0;
+    for (k, (x, y)) in a.iter().zip(&b).enumerate() {
+        assert_eq!(x.valid, y.valid, "tick {k}");
+        assert_eq!(x.depth.to_bits(), y.depth.to_bits(), "tick {k}");
+        assert_eq!(turn(x.normal), y.normal, "tick {k}");
+        assert_eq!(turn(x.point), y.point, "tick {k}");
+        assert_eq!(turn(x.force), y.force, "tick {k}");
+        touching += usize::from(x.force != Vec3::ZERO);
+    }
+    assert!(touching > 100, "{touching} ticks with a force");
+}
+
+/// `v` turned by unit quaternion `q`, in f64: `v + 2w (u x v) + 2 u x (u x v)`.
+fn rotate(q: Quat, v: D3) -> D3 {
+    let (u, w) = ([q.x as f64, q.y as f64, q.z as f64], q.w as f64);
+    let cr = |a: D3, b: D3| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let t = cr(u, v);
+    let tt = cr(u, t);
+    [0, 1, 2].map(|i| v[i] + 2.0 * w * t[i] + 2.0 * tt[i])
+}
+
+/// A general rotation and a translation: at every tick where both runs' drill finished its
+/// work within the step (the drilled state is then the same; a step cut short leaves a part
+/// that depends on the order the hash lists the tets in), the contact's force turned within
+/// 1e-4 of the largest force (f32 rounding of the turned positions; 5.1e-5 measured) and the
+/// depth within 1e-5 of the radius; the same leaves erased and the same removed volume (within 1e-5
+/// relative).
+#[test]
+fn a_rigid_motion_gives_the_same_forces_turned_and_the_same_removed_volume() {
+    let (a, va, ea) = replay(None);
+    let q = Quat::from_axis_angle(Vec3::new(1.0, 2.0, 3.0).normalize(), 0.7);
+    let t = Vec3::new(0.03, -0.12, 0.21);
+    let (b, vb, eb) = replay(Some(&|p| q * p + t));
+    let fmax = a.iter().map(|x| x.spring.length()).fold(0.0f32, f32::max);
+    assert!(fmax > 0.0);
+    let (mut worst, mut compared) = (0.0f32, 0);
+    for (k, (x, y)) in a.iter().zip(&b).enumerate() {
+        if !(x.settled && y.settled) {
+            continue;
+        }
+        compared += 1;
+        // (f64 rotation of the unmoved run's force, here.)
+        let turned = rotate(q, d3(x.spring));
+        let f = d3(y.spring);
+        let err = (0..3)
+            .map(|i| (turned[i] - f[i]).powi(2))
+            .sum::<f64>()
+            .sqrt() as f32;
+        worst = worst.max(err / fmax);
+        assert_eq!(x.valid, y.valid, "tick {k}");
+        assert!(
+            (x.depth - y.depth).abs() <= 1e-5 * radius_of_replay(),
+            "tick {k}: depth {} vs {}",
+            x.depth,
+            y.depth
+        );
+    }
+    let rel = ((va - vb) / va).abs();
+    eprintln!(
+        "rigid motion: {compared} ticks, force error {worst:e} of the largest, volume {rel:e}"
+    );
+    assert!(compared >= 150, "{compared} ticks compared");
+    // The positions turned in f32 carry a rounding of about 6e-8 of their size; a leaf
+    // triangle of edge 1/128 turns that into its normal's direction, so 1e-4 (measured: 5.1e-5).
+    assert!(worst <= 1e-4, "force error {worst:e} of the largest force");
+    assert_eq!(ea, eb);
+    assert!(rel <= 1e-5, "removed volume {va} vs {vb}");
+}
+
+/// The burr radius of [`replay`].
+fn radius_of_replay() -> f32 {
+    0.1013
 }
