@@ -527,3 +527,51 @@ fn a_rigid_motion_gives_the_same_forces_turned_and_the_same_removed_volume() {
 fn radius_of_replay() -> f32 {
     0.1013
 }
+
+/// A hash with entries for the rest shape only: stretching the block three times in x runs it
+/// out (reported and counted, the first tets that fit kept and found), and the rest shape
+/// fits again.
+#[test]
+fn a_stretched_mesh_that_overflows_the_hash_is_counted_and_recovers() {
+    let mut om = block_mesh(4);
+    let rest0 = om.positions().to_vec();
+    let mesh = om.view();
+    let mut st = Store::new(mesh.tet_count(), 1 << 12);
+    let mut world = st.world(mesh);
+    let at_rest = world.hash().len();
+    drop(world);
+    st.hash_entries.truncate(at_rest + at_rest / 4);
+    let mesh = om.view();
+    let mut world = st.world(mesh);
+    assert_eq!(world.saturations().hash, 0);
+    let mut rest = vec![Vec3::ZERO; rest0.len()];
+    world.enable_deformation(&mut rest).unwrap();
+    let stretched: Vec<Vec3> = rest0
+        .iter()
+        .map(|&p| p * Vec3::new(3.0, 1.0, 1.0))
+        .collect();
+    let rep = world.set_positions(&stretched).unwrap();
+    assert!(rep.hash_saturated);
+    assert_eq!(world.saturations().hash, 1);
+    // The tets kept are found where they are.
+    let own = boxes(world.mesh());
+    let whole = (Vec3::splat(-9.0), Vec3::splat(9.0));
+    let mut found = BTreeSet::new();
+    world
+        .hash()
+        .query_box_once(&Aabb::point(Vec3::ZERO).grown(9.0), u32::MAX, |i| {
+            if overlaps(own[i as usize], whole) {
+                found.insert(i);
+            }
+        });
+    assert!(!found.is_empty() && found.len() < own.len());
+    assert!(
+        found.iter().all(|&t| (t as usize) < found.len()),
+        "the first tets kept"
+    );
+    let rep = world.set_positions(&rest0).unwrap();
+    assert!(!rep.hash_saturated);
+    assert_eq!(rep.max_displacement, 0.0);
+    assert_eq!(world.hash().len(), at_rest);
+    assert_eq!(world.saturations().hash, 1);
+}
