@@ -13,7 +13,9 @@
 //! soft step the body's positions are handed to a world over the same mesh
 //! (`World::set_positions`: boundary normals, tet boxes, the tet hash rebuilt, the contact
 //! caches), and, apart, the tet boxes and the hash rebuild alone on storage of the world's
-//! sizes. `SOFT_WORLD_ONLY=1` stops after these two passes (no criterion).
+//! sizes. `SOFT_WORLD_ONLY=1` stops after these two passes (no criterion); `SOFT_PROFILE=world`
+//! (or `world-cow`, `world-teddy`)
+//! runs 10 `set_positions` per mesh for callgrind (`--toggle-collect='*World*set_positions*'`).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -177,6 +179,30 @@ fn world_pass() {
     }
 }
 
+/// `SOFT_PROFILE=world` (or `world-cow`, `world-teddy` for one mesh): per mesh, 10 `World::set_positions` alternating between the rest
+/// shape and the body's sagged one (after the set-up's 20 steps), for instruction counts:
+/// `valgrind --tool=callgrind --toggle-collect='*World*set_positions*'` counts those 20 calls.
+fn world_profile(only: &str) {
+    for (_, rel) in MESHES
+        .iter()
+        .filter(|(name, _)| only.is_empty() || only == *name)
+    {
+        let mut scene = Scene::new(rel);
+        let body = scene.body();
+        let mut storage = EngineStorage::allocate(load(rel), &Scenario::default());
+        let mut rest = vec![Vec3::ZERO; body.node_count()];
+        let mut world = storage.world().expect("world");
+        world.enable_deformation(&mut rest).expect("rest storage");
+        let mut sagged = vec![Vec3::ZERO; body.node_count()];
+        body.write_positions(&mut sagged);
+        let at_rest = body.rest().to_vec();
+        for k in 0..10 {
+            let p = if k % 2 == 0 { &sagged } else { &at_rest };
+            black_box(world.set_positions(black_box(p)).expect("positions"));
+        }
+    }
+}
+
 fn bench_soft(c: &mut Criterion) {
     for (name, rel) in MESHES {
         let mut scene = Scene::new(rel);
@@ -196,6 +222,13 @@ criterion_group! {
 }
 
 fn main() {
+    if let Some(only) = std::env::var("SOFT_PROFILE")
+        .ok()
+        .and_then(|v| v.strip_prefix("world").map(str::to_owned))
+    {
+        world_profile(only.trim_start_matches('-'));
+        return;
+    }
     if let Ok(only) = std::env::var("SOFT_PROFILE") {
         for (_, rel) in MESHES
             .iter()
