@@ -537,7 +537,7 @@ fn a_stretched_mesh_that_overflows_the_hash_is_counted_and_recovers() {
     let rest0 = om.positions().to_vec();
     let mesh = om.view();
     let mut st = Store::new(mesh.tet_count(), 1 << 12);
-    let mut world = st.world(mesh);
+    let world = st.world(mesh);
     let at_rest = world.hash().len();
     drop(world);
     st.hash_entries.truncate(at_rest + at_rest / 4);
