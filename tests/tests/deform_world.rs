@@ -575,3 +575,106 @@ fn a_stretched_mesh_that_overflows_the_hash_is_counted_and_recovers() {
     assert_eq!(world.hash().len(), at_rest);
     assert_eq!(world.saturations().hash, 1);
 }
+
+/// Two-way coupling: a burr held pressing into the top of a soft block, its reaction spread
+/// over the touched tet's nodes (`SoftBody::add_point_force`) and the body's positions handed
+/// to the world every step: the top dents under the burr, the contact gets shallower than on the
+/// rigid block (the body gives, the force drops), and the block returns to rest when released.
+#[test]
+fn a_pressed_soft_block_dents_gives_and_returns_to_rest() {
+    let mut om = block_mesh(8);
+    let mut soft = SoftOwned::from_mesh(&om.view());
+    let rest0 = soft.rest.clone();
+    let mut body = soft
+        .body(
+            &[Material {
+                young: 1e4,
+                poisson: 0.3,
+                density: 1000.0,
+            }],
+            SoftParams {
+                gravity: Vec3::ZERO,
+                damping: 10.0,
+                substeps: 10,
+                iterations: 1,
+            },
+        )
+        .unwrap();
+    assert!(body.fix_below(Vec3::new(0.0, 0.0, -0.49), Vec3::Z) > 0);
+    let mesh = om.view();
+    let mut st = Store::new(mesh.tet_count(), 1 << 14);
+    let mut world = st.world(mesh);
+    let mut rest = vec![Vec3::ZERO; rest0.len()];
+    world.enable_deformation(&mut rest).unwrap();
+    let params = DrillParams {
+        max_depth: 2,
+        min_area: 0.0,
+        budget: 100_000,
+    };
+    // A spring below the clamp at this press, so the force follows the depth.
+    let fp = ForceParams {
+        stiffness: 500.0,
+        max_force: 100.0,
+        ..ForceParams::default()
+    };
+    let (radius, press) = (0.15, 0.03);
+    let centre = Vec3::new(0.0123, 0.0371, 0.5 + radius - press);
+    // The rigid block's contact at that pose.
+    world.simulate(centre, radius, 0.05, false, &params);
+    let rigid = *world.contact();
+    assert!(rigid.valid && (rigid.depth - press).abs() < 1e-5);
+    let rigid_force = fp.stiffness * rigid.depth;
+    let top = (0..rest0.len())
+        .filter(|&i| rest0[i].z > 0.49)
+        .min_by(|&a, &b| {
+            let d = |i: usize| (rest0[i] - centre).truncate().length();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
+    let mut now = vec![Vec3::ZERO; rest0.len()];
+    let mut external = vec![Vec3::ZERO; rest0.len()];
+    let mut tool = ToolState::default();
+    let mut force = Vec3::ZERO;
+    for _ in 0..1500 {
+        world.simulate(centre, radius, 0.05, false, &params);
+        force = servo_force(world.contact(), centre, radius, &mut tool, &fp);
+        external.fill(Vec3::ZERO);
+        if let Some(t) = world.contact_tet() {
+            // The material feels the opposite of the tool's force, at the contact point.
+            assert!(body.add_point_force(t.idx(), world.contact().point, -force, &mut external));
+        }
+        body.step(1e-3, &external).unwrap();
+        body.write_positions(&mut now);
+        world.set_positions(&now).unwrap();
+    }
+    let dent = rest0[top].z - now[top].z;
+    let depth = world.contact().depth;
+    eprintln!(
+        "pressed: dent {dent}, depth {depth} (rigid {}), force {} (rigid {})",
+        rigid.depth,
+        force.length(),
+        rigid_force
+    );
+    assert!(dent > 0.1 * press, "dent {dent}");
+    assert!(depth > 0.0 && depth < 0.9 * rigid.depth, "depth {depth}");
+    // At rest the force is the spring's at the shallower depth: the user feels the body give.
+    assert!((force.length() - fp.stiffness * depth).abs() < 0.02 * rigid_force);
+    assert!(force.length() < 0.9 * rigid_force);
+    // Settled: the body's dent and the burr's depth add up to the press (the surface under the
+    // burr moved down by what the burr no longer penetrates), within a tenth.
+    assert!(
+        ((dent + depth) - press).abs() < 0.1 * press,
+        "{dent} + {depth}"
+    );
+    // Released: back to rest.
+    for _ in 0..4000 {
+        body.step(1e-3, &[]).unwrap();
+    }
+    body.write_positions(&mut now);
+    let rep = world.set_positions(&now).unwrap();
+    assert!(
+        rep.max_displacement < 0.01 * dent,
+        "{} left",
+        rep.max_displacement
+    );
+}

@@ -372,6 +372,13 @@ impl<'a> World<'a> {
         self.contact_tet.map(|t| r.material_of(t))
     }
 
+    /// The coarse tet under the last contact (the root of the closest visible face), if any:
+    /// where a two-way coupling applies the tool's reaction to a deforming body (for example
+    /// [`crate::soft::SoftBody::add_point_force`] at the contact point).
+    pub fn contact_tet(&self) -> Option<TetId> {
+        self.contact_tet
+    }
+
     /// The mesh.
     pub fn mesh(&self) -> &Mesh<'a> {
         &self.mesh
