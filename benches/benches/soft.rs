@@ -8,16 +8,29 @@
 //! projection. `SOFT_PROFILE=1` (or `=cow`, `=teddy` for one mesh) skips criterion and runs
 //! 20 steps per mesh after the 20 of the set-up, for instruction counts under callgrind:
 //! `valgrind --tool=callgrind --toggle-collect='*SoftBody*step*'` counts those 40 steps.
+//!
+//! The world's side of a deforming mesh is timed in the same pass (`WORLD` lines): after each
+//! soft step the body's positions are handed to a world over the same mesh
+//! (`World::set_positions`: boundary normals, tet boxes, the tet hash rebuilt, the contact
+//! caches), and, apart, the tet boxes and the hash rebuild alone on storage of the world's
+//! sizes. `SOFT_WORLD_ONLY=1` stops after these two passes (no criterion); `SOFT_PROFILE=world`
+//! (or `world-cow`, `world-teddy`)
+//! runs 10 `set_positions` per mesh for callgrind (`--toggle-collect='*World*set_positions*'`).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, Criterion};
 use glam::Vec3;
+use tetradrill::engine::EngineStorage;
 use tetradrill::owned::OwnedMesh;
+use tetradrill::scenario::Scenario;
 use tetradrill::soft::SoftOwned;
 use tetradrill_benches::load_mesh;
+use tetradrill_core::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, SpatialHash};
+use tetradrill_core::servo::WorldSizes;
 use tetradrill_core::soft::{Material, SoftBody, SoftParams};
+use tetradrill_core::TetId;
 
 fn load(rel: &str) -> OwnedMesh {
     load_mesh(rel, 1.0).expect("mesh loads")
@@ -105,6 +118,91 @@ fn steps_pass() {
     }
 }
 
+/// Mean, minimum and maximum of `times`, in ms.
+fn spread(times: &[Duration]) -> (f64, f64, f64) {
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    let mean = times.iter().sum::<Duration>() / times.len().max(1) as u32;
+    let min = times.iter().min().copied().unwrap_or_default();
+    let max = times.iter().max().copied().unwrap_or_default();
+    (ms(mean), ms(min), ms(max))
+}
+
+/// `World::set_positions` after each soft step, and the boxes and hash rebuild alone.
+fn world_pass() {
+    for (name, rel) in MESHES {
+        let mut scene = Scene::new(rel);
+        let mut body = scene.body();
+        let mut storage = EngineStorage::allocate(load(rel), &Scenario::default());
+        let mut rest = vec![Vec3::ZERO; body.node_count()];
+        let mut world = storage.world().expect("world");
+        world.enable_deformation(&mut rest).expect("rest storage");
+        let mut now = vec![Vec3::ZERO; body.node_count()];
+        let runs = 50;
+        let mut times = Vec::with_capacity(runs);
+        let mut entries = 0;
+        for _ in 0..runs {
+            body.step(DT, &[]).expect("valid step");
+            body.write_positions(&mut now);
+            let t0 = Instant::now();
+            let rep = world.set_positions(black_box(&now)).expect("positions");
+            times.push(t0.elapsed());
+            assert!(!rep.hash_saturated, "the {name}'s hash fits");
+            entries = rep.hash_entries;
+        }
+        let (mean, min, max) = spread(&times);
+        // The boxes and the hash alone, on storage of the world's sizes.
+        let mesh = world.mesh();
+        let sizes = WorldSizes::new(mesh.tet_count(), 0);
+        let buckets = prime_at_most((sizes.hash_starts - 1) as u32) as usize;
+        let mut starts = vec![0u32; buckets + 1];
+        let mut slots = vec![HashEntry::default(); sizes.hash_entries];
+        let mut boxes = vec![Aabb::point(Vec3::ZERO); mesh.tet_count()];
+        let mut hash = SpatialHash::new(&mut starts, &mut slots, average_edge_length(mesh))
+            .expect("hash storage");
+        let mut alone = Vec::with_capacity(runs);
+        for _ in 0..runs {
+            let t0 = Instant::now();
+            for (t, b) in boxes.iter_mut().enumerate() {
+                *b = Aabb::of(mesh.tet_positions(TetId::from_idx(t)));
+            }
+            let built = hash.rebuild(boxes.len(), |t| boxes.get(t).copied());
+            black_box(built);
+            alone.push(t0.elapsed());
+        }
+        let (hmean, hmin, hmax) = spread(&alone);
+        println!(
+            "WORLD soft {name}: {} nodes, {} tets, {} buckets, {entries} hash entries: set_positions mean {mean:.3} ms, min {min:.3} ms, max {max:.3} ms; boxes and hash rebuild alone mean {hmean:.3} ms, min {hmin:.3} ms, max {hmax:.3} ms",
+            mesh.node_count(),
+            mesh.tet_count(),
+            buckets,
+        );
+    }
+}
+
+/// `SOFT_PROFILE=world` (or `world-cow`, `world-teddy` for one mesh): per mesh, 10 `World::set_positions` alternating between the rest
+/// shape and the body's sagged one (after the set-up's 20 steps), for instruction counts:
+/// `valgrind --tool=callgrind --toggle-collect='*World*set_positions*'` counts those 20 calls.
+fn world_profile(only: &str) {
+    for (_, rel) in MESHES
+        .iter()
+        .filter(|(name, _)| only.is_empty() || only == *name)
+    {
+        let mut scene = Scene::new(rel);
+        let body = scene.body();
+        let mut storage = EngineStorage::allocate(load(rel), &Scenario::default());
+        let mut rest = vec![Vec3::ZERO; body.node_count()];
+        let mut world = storage.world().expect("world");
+        world.enable_deformation(&mut rest).expect("rest storage");
+        let mut sagged = vec![Vec3::ZERO; body.node_count()];
+        body.write_positions(&mut sagged);
+        let at_rest = body.rest().to_vec();
+        for k in 0..10 {
+            let p = if k % 2 == 0 { &sagged } else { &at_rest };
+            black_box(world.set_positions(black_box(p)).expect("positions"));
+        }
+    }
+}
+
 fn bench_soft(c: &mut Criterion) {
     for (name, rel) in MESHES {
         let mut scene = Scene::new(rel);
@@ -124,6 +222,13 @@ criterion_group! {
 }
 
 fn main() {
+    if let Some(only) = std::env::var("SOFT_PROFILE")
+        .ok()
+        .and_then(|v| v.strip_prefix("world").map(str::to_owned))
+    {
+        world_profile(only.trim_start_matches('-'));
+        return;
+    }
     if let Ok(only) = std::env::var("SOFT_PROFILE") {
         for (_, rel) in MESHES
             .iter()
@@ -138,6 +243,10 @@ fn main() {
         return;
     }
     steps_pass();
+    world_pass();
+    if std::env::var("SOFT_WORLD_ONLY").is_ok() {
+        return;
+    }
     benches();
     Criterion::default().configure_from_args().final_summary();
 }

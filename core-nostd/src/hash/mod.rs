@@ -10,9 +10,10 @@
 //! remembers its cell, so a query only returns items of the cell it asked for (different cells
 //! share buckets).
 //!
-//! Two uses: a static object's tets are hashed once (each tet into every cell its bounding box
-//! overlaps) and moving points are queried each tick; or points are hashed (again each step if
-//! they move) and tets walk the cells of their bounding boxes (Teschner's original order).
+//! Two uses: an object's tets are hashed (each tet into every cell its bounding box overlaps;
+//! once for a static object, again each step for a deforming one) and moving points are queried
+//! each tick; or points are hashed (again each step if they move) and tets walk the cells of
+//! their bounding boxes (Teschner's original order).
 
 mod cell;
 mod table;

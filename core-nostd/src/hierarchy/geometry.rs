@@ -295,7 +295,8 @@ pub(crate) fn child_of_ten<T: Copy>(ten: &[T; 10], c: u8) -> [T; 4] {
 }
 
 /// Volume of node `path` of tet `tet`: the root's volume over `8^depth` (Bey's eight children
-/// have equal volumes).
+/// have equal volumes), measured in the rest state ([`Mesh::rest_tet_positions`]), so the
+/// volume a deforming mesh loses is the material's, not its current shape's.
 ///
 /// # Bounded work
 /// O(depth).
@@ -303,7 +304,7 @@ pub fn node_volume(mesh: &Mesh<'_>, tet: TetId, depth: u8) -> f64 {
     if tet.idx() >= mesh.tet_count() {
         return 0.0;
     }
-    let mut v = crate::geom::tet_volume(mesh.tet_positions(tet)) as f64;
+    let mut v = crate::geom::tet_volume(mesh.rest_tet_positions(tet)) as f64;
     for _ in 0..depth {
         v *= 0.125;
     }

@@ -1,8 +1,8 @@
 //! [`SphereMemo`]: the bounding spheres of hierarchy nodes, remembered across contact searches.
 //!
-//! A node's bounding sphere is a function of its coarse tet and its tree index only (the mesh
-//! does not move), so a remembered sphere never goes stale, whatever the drill erases,
-//! refines or takes back. The contact search of a slowly moving burr tests the same nodes step
+//! A node's bounding sphere is a function of its coarse tet and its tree index only while the
+//! mesh does not move, so a remembered sphere never goes stale, whatever the drill erases,
+//! refines or takes back; a world whose nodes move empties the memo ([`SphereMemo::clear`]). The contact search of a slowly moving burr tests the same nodes step
 //! after step; on a Cortex-M4 evaluating a node's corners and sphere is about half of a node
 //! test (a software square root among it). The memo is direct mapped over caller storage: one
 //! slot per key, a newer sphere takes the slot of an older one. Whether a sphere comes from the
@@ -61,6 +61,15 @@ impl<'a> SphereMemo<'a> {
             hits: 0,
             misses: 0,
         }
+    }
+
+    /// Forgets every sphere (the hit and miss counts stay): for a mesh whose nodes moved, as
+    /// the spheres are measured on the positions.
+    ///
+    /// # Bounded work
+    /// O(slots).
+    pub fn clear(&mut self) {
+        self.slots.fill(SphereSlot::EMPTY);
     }
 
     /// Slots in the memo.

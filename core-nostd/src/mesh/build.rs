@@ -338,6 +338,7 @@ impl<'a> Mesh<'a> {
 
         let mut mesh = Mesh {
             positions,
+            rest: &mut [],
             normals,
             nodes,
             tet_count: tets.len(),

@@ -37,6 +37,8 @@ use template::{ELEM_VERTEX_NR, FACE_VERTEX_NR, FACE_VERTS, NOT_ON_FACE};
 #[derive(Debug)]
 pub struct Mesh<'a> {
     positions: &'a mut [Vec3],
+    /// Rest positions of a deforming mesh (empty: the positions are the rest state).
+    rest: &'a mut [Vec3],
     normals: &'a mut [Vec3],
     nodes: &'a mut [Node],
     /// RAM records; empty when the tets are read in place.
@@ -79,6 +81,7 @@ impl<'a> Mesh<'a> {
         let (tets, _) = tets.split_at_mut(t);
         Self {
             positions,
+            rest: &mut [],
             normals,
             nodes,
             tet_count: tets.len(),
@@ -158,6 +161,50 @@ impl<'a> Mesh<'a> {
     #[inline]
     pub fn positions_mut(&mut self) -> &mut [Vec3] {
         self.positions
+    }
+
+    /// Keeps the current positions as the rest state in `rest` (at least one entry per node):
+    /// volumes ([`Mesh::rest_tet_positions`], the hierarchy's leaf volumes) are then measured
+    /// there whatever [`Mesh::positions_mut`] does afterwards. Without it the positions are
+    /// their own rest state.
+    ///
+    /// # Bounded work
+    /// O(N).
+    ///
+    /// # Errors
+    /// `rest` back, unchanged, when it is shorter than the node count.
+    pub fn set_rest(&mut self, rest: &'a mut [Vec3]) -> Result<(), &'a mut [Vec3]> {
+        let n = self.positions.len();
+        if rest.len() < n {
+            return Err(rest);
+        }
+        let (rest, _) = rest.split_at_mut(n);
+        rest.copy_from_slice(self.positions);
+        self.rest = rest;
+        Ok(())
+    }
+
+    /// The rest positions: the ones kept by [`Mesh::set_rest`], else the positions.
+    #[inline]
+    pub fn rest_positions(&self) -> &[Vec3] {
+        if self.rest.is_empty() {
+            self.positions
+        } else {
+            self.rest
+        }
+    }
+
+    /// `true` when [`Mesh::set_rest`] kept a rest state apart from the positions.
+    #[inline]
+    pub fn has_rest(&self) -> bool {
+        !self.rest.is_empty()
+    }
+
+    /// The four corner positions of a tet in the rest state ([`Mesh::rest_positions`]).
+    #[inline]
+    pub fn rest_tet_positions(&self, t: TetId) -> [Vec3; 4] {
+        let rest = self.rest_positions();
+        self.tets[t.idx()].nodes.map(|n| rest[n.idx()])
     }
 
     /// Position of one node.

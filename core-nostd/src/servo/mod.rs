@@ -1,7 +1,7 @@
 //! The servo step for a spherical burr on a drilled mesh, in two halves that a host runs in
 //! two tasks and a replay or a firmware runs one after the other, tick by tick:
 //!
-//! - [`World::simulate`]: the coarse tets near the tool through the static spatial hash, the
+//! - [`World::simulate`]: the coarse tets near the tool through the tet spatial hash, the
 //!   budgeted drill step when the drill is on, and the contact with the *drilled* surface
 //!   (the hierarchy's visible faces, not the original boundary) as one contact plane;
 //! - [`servo_force`]: the force from the last contact plane at the tool's current position:
@@ -11,6 +11,9 @@
 //!
 //! A replay calls both with the same pose every tick, so its forces equal the exact contact
 //! with the drilled surface at that pose.
+//!
+//! The mesh may move and deform between simulation steps: [`World::set_positions`]
+//! (`deform.rs`) takes new node positions and updates what depends on them.
 //!
 //! Files: this one holds the [`World`], its storage, sizes, errors and accessors;
 //! `simulate.rs` the simulation step ([`World::simulate`], [`World::simulate_spheres`] and the
@@ -29,24 +32,27 @@ use crate::hierarchy::{
 use crate::ids::TetId;
 use crate::mesh::Mesh;
 
+mod deform;
 mod force;
 mod passive;
 mod simulate;
 #[cfg(test)]
 mod tests;
 
+pub use deform::{DeformError, DeformReport};
 pub use force::servo_force;
 pub use passive::{drill_force, DrillState, PassiveReport};
 
 /// Storage for a [`World`], handed in by the caller; [`WorldSizes`] says how much.
 #[derive(Debug)]
 pub struct WorldStorage<'a> {
-    /// Bucket offsets of the static tet hash (`buckets + 1`, the bucket count prime).
+    /// Bucket offsets of the tet hash (`buckets + 1`, the bucket count prime).
     pub hash_starts: &'a mut [u32],
-    /// Entries of the static tet hash (one per tet and overlapped cell).
+    /// Entries of the tet hash (one per tet and overlapped cell).
     pub hash_entries: &'a mut [HashEntry],
-    /// Each tet's bounding box, filled once by [`World::new`] (one per tet; a tet beyond the
-    /// slice has its box made from its corners each time it is needed, the same box).
+    /// Each tet's bounding box, filled by [`World::new`] and [`World::set_positions`] (one per
+    /// tet; a tet beyond the slice has its box made from its corners each time it is needed,
+    /// the same box).
     pub tet_boxes: &'a mut [Aabb],
     /// The hierarchy's roots, arena and v_list.
     pub hierarchy: HierarchyStorage<'a>,
@@ -199,7 +205,7 @@ pub struct SimReport {
 /// Saturation counters of a [`World`], by kind.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 pub struct Saturations {
-    /// Static hash builds that ran out of entries.
+    /// Tet hash builds ([`World::new`], [`World::set_positions`]) that ran out of entries.
     pub hash: u32,
     /// Simulation steps whose candidate list filled up or whose zone was too many cells
     /// wide ([`World::set_max_cells`]).
@@ -220,7 +226,7 @@ impl Saturations {
     }
 }
 
-/// The object being touched and drilled: its mesh, the static hash of its tets, its
+/// The object being touched and drilled: its mesh, the spatial hash of its tets, its
 /// subdivision hierarchy and the drill, all over caller storage.
 #[derive(Debug)]
 pub struct World<'a> {
@@ -366,6 +372,13 @@ impl<'a> World<'a> {
         self.contact_tet.map(|t| r.material_of(t))
     }
 
+    /// The coarse tet under the last contact (the root of the closest visible face), if any:
+    /// where a two-way coupling applies the tool's reaction to a deforming body (for example
+    /// [`crate::soft::SoftBody::add_point_force`] at the contact point).
+    pub fn contact_tet(&self) -> Option<TetId> {
+        self.contact_tet
+    }
+
     /// The mesh.
     pub fn mesh(&self) -> &Mesh<'a> {
         &self.mesh
@@ -376,7 +389,7 @@ impl<'a> World<'a> {
         &self.hier
     }
 
-    /// The static tet hash.
+    /// The tet hash (rebuilt by [`World::set_positions`]).
     pub fn hash(&self) -> &SpatialHash<'a> {
         &self.hash
     }

@@ -198,6 +198,16 @@ impl NearestCursor {
         self.tet
     }
 
+    /// Forgets the nodes waiting in its tree but keeps the tree and the round: the next search
+    /// goes on with that tree from its root. For a mesh whose nodes moved (the waiting nodes'
+    /// bounding spheres were measured on the old positions).
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn restart_tree(&mut self) {
+        self.stack.clear();
+    }
+
     /// Forgets the place (the next search starts afresh).
     pub fn clear(&mut self) {
         self.tet = None;
