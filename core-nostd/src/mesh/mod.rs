@@ -121,6 +121,7 @@ impl<'a> Mesh<'a> {
             positions,
             normals,
             nodes,
+            rest: &mut [],
             ram: &[],
             tet_count: tets.len(),
             view: tets,
@@ -204,7 +205,7 @@ impl<'a> Mesh<'a> {
     #[inline]
     pub fn rest_tet_positions(&self, t: TetId) -> [Vec3; 4] {
         let rest = self.rest_positions();
-        self.tets[t.idx()].nodes.map(|n| rest[n.idx()])
+        self.tet_nodes(t).map(|n| rest[n.idx()])
     }
 
     /// Position of one node.
