@@ -32,6 +32,7 @@ pub(crate) mod test_support;
 mod tests;
 #[cfg(test)]
 mod walk_tests;
+mod zone;
 
 pub use body::Body;
 pub use occupancy::{Occupancy, OccupancyError, OccupancyStorage};
@@ -44,6 +45,7 @@ pub use rigid::{
     MAX_NEAR_CLUSTERS,
 };
 pub use teschner::{tets_over_points, tets_over_points_coherent, MAX_CELLS_PER_TET};
+pub use zone::{ZoneGather, ZoneList, ZONE_MARGIN_RADII};
 
 use crate::ids::{NodeId, TetId};
 
