@@ -35,6 +35,7 @@ use cortex_m_semihosting::{debug, hprintln};
 
 use tetradrill_core::blob::MeshBlob;
 use tetradrill_core::builtin;
+use tetradrill_core::collide::{ZoneGather, ZONE_MARGIN_RADII};
 use tetradrill_core::force::closest_point_on_triangle;
 use tetradrill_core::mesh::{BuildOptions, BuildStats, FaceKey, Mesh, MeshStorage};
 use tetradrill_core::servo::World;
@@ -123,6 +124,11 @@ fn build_world() -> World<'static> {
         let mut world =
             World::new(mesh, st.world).unwrap_or_else(|_| fail("world storage refused"));
         world.set_contact_max_nodes(scenario::contact_nodes());
+        world.set_max_cells(scenario::COW_MAX_CELLS);
+        world.set_zone_gather(Some(ZoneGather::new(
+            scenario::ZONE_WORK,
+            ZONE_MARGIN_RADII,
+        )));
         return world;
     }
     let mesh = block_mesh(st.positions, st.mesh);
