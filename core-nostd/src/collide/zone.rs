@@ -93,14 +93,15 @@ impl ZoneGather {
 
     /// One step's list for `zone` (a tool of `radius`): starts a gather when the zone comes
     /// within half the margin of the gathered box's edge (or has none), advances it by at most
-    /// the step's work, and returns the list to use. `cands` is the candidate storage (the
+    /// the step's work (a quarter of it when `busy`, the caller filtering the list this step,
+    /// unless the zone has left the gathered box), and returns the list to use. `cands` is the candidate storage (the
     /// same slice every step), `boxes` each tet's stored box (a tet beyond it has its box made
     /// from its corners), `max_cells` the most cells a gathered box may cover (a larger one is
     /// not gathered: the old list serves, not covered).
     ///
     /// # Bounded work
-    /// At most the step's work units of hash cells and entries (plus one bucket), one box test
-    /// per tet found, O(1) otherwise.
+    /// At most the step's work units of hash cells and entries (plus one bucket; the first
+    /// cell of a part is always scanned), one box test per tet found, O(1) otherwise.
     ///
     /// # Capacity
     /// A third of `cands` holds a list; a gather that finds more tets keeps the first ones and
@@ -115,6 +116,7 @@ impl ZoneGather {
         mesh: &Mesh<'_>,
         cands: &mut [TetId],
         max_cells: u32,
+        busy: bool,
     ) -> ZoneList {
         let third = cands.len() / 3;
         let margin = (self.margin_radii * radius).max(0.0);
@@ -133,6 +135,12 @@ impl ZoneGather {
                     full: false,
                 });
         }
+        let covered = self.active.is_some_and(|(b, ..)| holds(&b, zone));
+        let work = if busy && covered {
+            self.work / 4
+        } else {
+            self.work
+        };
         if let Some(mut g) = self.gathering {
             // Into the third the list in use does not hold.
             let into = match self.active {
@@ -142,7 +150,7 @@ impl ZoneGather {
             let (lo, hi) = (into * third, (into + 1) * third);
             let out = cands.get_mut(lo..hi).unwrap_or(&mut []);
             let total = crate::hash::cells_in(g.range.0, g.range.1);
-            g.next = hash.query_cells_once_from(g.range, g.next, self.work, |item| {
+            g.next = hash.query_cells_once_from(g.range, g.next, work, |item| {
                 let t = TetId(item);
                 if t.idx() >= mesh.tet_count() {
                     return;

@@ -103,6 +103,7 @@ impl World<'_> {
                     &self.mesh,
                     self.candidates,
                     self.max_cells,
+                    !spheres.is_empty(),
                 );
                 self.cand_at = list.at;
                 self.ncand = list.len;
