@@ -151,6 +151,7 @@ impl World<'_> {
 
     /// The one-shot candidate query of [`World::simulate_spheres`]: the tets whose boxes meet
     /// `zone`, those meeting `tight` first; returns how many meet `tight`.
+    #[inline(always)]
     fn query_zone(&mut self, zone: &Aabb, tight: &Aabb, rep: &mut SimReport) -> usize {
         let zone = *zone;
         let tight = *tight;
