@@ -433,7 +433,9 @@ impl<'a> World<'a> {
 
     /// The coarse tets the last [`World::simulate`] found near the tool, each once: those
     /// whose box meets the burr's positions first, then the others, each part in the order
-    /// the hash query met them (cell by cell, tet order within a cell).
+    /// the hash query met them (cell by cell, tet order within a cell). With a candidate
+    /// gather ([`World::set_zone_gather`]), the gathered list the step used (in the order it
+    /// was gathered).
     pub fn candidates(&self) -> &[TetId] {
         self.candidates
             .get(self.cand_at..self.cand_at + self.ncand)
