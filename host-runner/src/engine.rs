@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 
+use tetradrill_core::collide::{ZoneGather, ZONE_MARGIN_RADII};
 use tetradrill_core::drill::{DrillParams, Material, Pending, Region, Regions};
 use tetradrill_core::force::{DrillTool, ForceParams, ToolState};
 use tetradrill_core::hash::{Aabb, HashEntry};
@@ -139,6 +140,7 @@ pub struct EngineStorage {
     sphere_memo: Vec<SphereSlot>,
     contact_search_nodes: u32,
     tick_budget: u32,
+    zone_gather_work: u32,
     sizing: Option<ToolSizing>,
     /// The materials per region ([`EngineStorage::set_labels`]; empty: none).
     regions: Vec<Region>,
@@ -359,6 +361,7 @@ impl EngineStorage {
             sphere_memo: vec![SphereSlot::EMPTY; s.sphere_memo],
             contact_search_nodes: sc.contact_search_nodes,
             tick_budget: sc.tick_budget,
+            zone_gather_work: sc.zone_gather_work,
             sizing,
             regions: Vec::new(),
             tet_region: Vec::new(),
@@ -466,6 +469,10 @@ impl EngineStorage {
             w.set_contact_max_nodes(self.contact_search_nodes);
             w.set_max_cells(max_cells);
             w.set_tick_budget((self.tick_budget > 0).then_some(self.tick_budget));
+            w.set_zone_gather(
+                (self.zone_gather_work > 0)
+                    .then(|| ZoneGather::new(self.zone_gather_work, ZONE_MARGIN_RADII)),
+            );
             w
         })
         .map_err(|e| CliError::failure(format!("cannot set up the simulation: {e}")))

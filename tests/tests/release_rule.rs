@@ -79,7 +79,7 @@ fn servo_lag_above_one_is_refused() {
 }
 
 /// `builtin:firmware-cow` finds the shared cow (in `TETRADRILL_MESHES` or the project's test
-/// data) and keeps the firmware's release rule and sizes.
+/// data) and keeps the firmware's release rule, sizes and candidate gather.
 #[test]
 fn firmware_cow_scenario_names_the_cow() {
     let sc = scenario::builtin("firmware-cow").expect("builtin:firmware-cow");
@@ -92,6 +92,7 @@ fn firmware_cow_scenario_names_the_cow() {
             sc.pending_capacity,
             sc.candidate_capacity
         ),
-        (Some(40_000), Some(8_192), Some(4_096))
+        (Some(40_000), Some(8_192), Some(12_288))
     );
+    assert_eq!(sc.zone_gather_work, 2_000);
 }

@@ -8,8 +8,12 @@
 //!   again each step if they move) and every tet walks the cells of its bounding box
 //!   (Teschner's order). Used for the nodes of a static object against a moving tool's tets.
 //!
-//! Both report each point at most once, with the smallest tet id that contains it, sorted by
-//! node id, so the two directions and a brute-force oracle give the same sets. Their
+//! - [`ZoneGather`]: the coarse tets near a moving tool, gathered through the tet hash in
+//!   parts of bounded work over several steps around a box wider than the tool's zone, and
+//!   kept while the zone stays inside it (the simulation step's candidates on a fine mesh).
+//!
+//! The first two report each point at most once, with the smallest tet id that contains it,
+//! sorted by node id, so the two directions and a brute-force oracle give the same sets. Their
 //! `_coherent` forms take the previous call's result, still in the output, and keep those
 //! points first when the output cannot hold every hit (temporal coherence): with a full
 //! output a point leaves the list only when it leaves the tets. Candidates are
@@ -32,6 +36,7 @@ pub(crate) mod test_support;
 mod tests;
 #[cfg(test)]
 mod walk_tests;
+mod zone;
 
 pub use body::Body;
 pub use occupancy::{Occupancy, OccupancyError, OccupancyStorage};
@@ -44,6 +49,7 @@ pub use rigid::{
     MAX_NEAR_CLUSTERS,
 };
 pub use teschner::{tets_over_points, tets_over_points_coherent, MAX_CELLS_PER_TET};
+pub use zone::{ZoneGather, ZoneList, ZONE_MARGIN_RADII};
 
 use crate::ids::{NodeId, TetId};
 

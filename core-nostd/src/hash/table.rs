@@ -361,6 +361,64 @@ impl<'a> SpatialHash<'a> {
         true
     }
 
+    /// [`SpatialHash::query_box_once`] over the cells `lo..=hi` (a [`SpatialHash::cell_range`])
+    /// in parts: starts at the `from`-th cell of the range (x fastest) and stops before the
+    /// cell that would take the work past `max_work` (one unit per cell and per entry
+    /// scanned; the first cell is always scanned). Returns the index of the next cell to
+    /// scan, the range's cell count when it is done. The parts of one range, run in turn,
+    /// report every item exactly as one [`SpatialHash::query_box_once`] of the range does,
+    /// in the same order.
+    ///
+    /// # Bounded work
+    /// At most `max_work` units plus the entries of one bucket.
+    pub fn query_cells_once_from<F: FnMut(u32)>(
+        &self,
+        (lo, hi): (Cell, Cell),
+        from: u64,
+        max_work: u32,
+        mut f: F,
+    ) -> u64 {
+        let total = cells_in(lo, hi);
+        let nb = self.buckets();
+        let dx = (hi[0] as i64 - lo[0] as i64 + 1).max(1) as u64;
+        let dy = (hi[1] as i64 - lo[1] as i64 + 1).max(1) as u64;
+        let mut k = from;
+        let mut work = 0u32;
+        // The cell of index `from`, then stepped x fastest (one division per call).
+        let mut at = [
+            lo[0] as i64 + (k % dx) as i64,
+            lo[1] as i64 + ((k / dx) % dy) as i64,
+            lo[2] as i64 + (k / (dx * dy)) as i64,
+        ];
+        while k < total && (work < max_work || k == from) {
+            let c = [at[0] as i32, at[1] as i32, at[2] as i32];
+            let b = bucket_of(c, nb) as usize;
+            let start = self.starts.get(b).copied().unwrap_or(0) as usize;
+            let end = self.starts.get(b + 1).copied().unwrap_or(0) as usize;
+            let need = (0..3)
+                .filter(|&a| c[a] != lo[a])
+                .fold(0u32, |m, a| m | 1 << (ITEM_BITS as usize + a));
+            let entries = self.entries.get(start..end.min(self.used)).unwrap_or(&[]);
+            for e in entries {
+                if e.packed & need == need && same_cell(&e.cell, &c) {
+                    f(e.item());
+                }
+            }
+            work = work.saturating_add(1 + entries.len() as u32);
+            k += 1;
+            at[0] += 1;
+            if at[0] > hi[0] as i64 {
+                at[0] = lo[0] as i64;
+                at[1] += 1;
+                if at[1] > hi[1] as i64 {
+                    at[1] = lo[1] as i64;
+                    at[2] += 1;
+                }
+            }
+        }
+        k
+    }
+
     fn visit_box<F: FnMut(Cell, u32)>(&self, lo: Cell, hi: Cell, mut f: F) {
         for_cells(lo, hi, |c| {
             for item in self.items_in_cell(c) {
@@ -456,6 +514,25 @@ mod tests {
                 }
             });
             assert_eq!(&order[..n], &first[..m], "order of first sightings");
+            // The same query in parts of a few cells' work each: the same items, same order.
+            let range = h.cell_range(&q);
+            for budget in [1u32, 3, 17] {
+                let mut parts = [0u32; 60];
+                let mut np = 0;
+                let mut at = 0u64;
+                let mut calls = 0;
+                while at < cells_in(range.0, range.1) {
+                    let next = h.query_cells_once_from(range, at, budget, |item| {
+                        parts[np] = item;
+                        np += 1;
+                    });
+                    assert!(next > at, "every part scans a cell");
+                    at = next;
+                    calls += 1;
+                }
+                assert_eq!(&parts[..np], &order[..n], "parts of {budget} units");
+                assert!(budget > 1 || calls as u64 == cells_in(range.0, range.1));
+            }
             for (i, b) in boxes.iter().enumerate() {
                 let (lo, hi) = cells(b);
                 let meets = (0..3).all(|a| lo[a] <= qhi[a] && qlo[a] <= hi[a]);

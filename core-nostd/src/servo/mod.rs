@@ -23,6 +23,7 @@
 
 use glam::Vec3;
 
+use crate::collide::ZoneGather;
 use crate::drill::{Drill, DrillReport, Material, Pending, Regions, Spacing};
 pub use crate::drill::{DRILL_HOLD_STEPS, DRILL_SETTLE, DRILL_SPACING, MAX_STEP_SPHERES};
 use crate::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, HashError, SpatialHash};
@@ -237,6 +238,11 @@ pub struct World<'a> {
     drill: Drill<'a>,
     candidates: &'a mut [TetId],
     ncand: usize,
+    /// Where the list of [`World::candidates`] starts in `candidates` (not 0 with a
+    /// [`ZoneGather`]).
+    cand_at: usize,
+    /// The candidate gather spread over steps, if set ([`World::set_zone_gather`]).
+    zone: Option<ZoneGather>,
     memo: SphereMemo<'a>,
     max_cells: u32,
     contact: ContactState,
@@ -322,6 +328,8 @@ impl<'a> World<'a> {
             drill: Drill::new(pending),
             candidates,
             ncand: 0,
+            cand_at: 0,
+            zone: None,
             memo: SphereMemo::new(sphere_memo),
             max_cells: DEFAULT_MAX_CELLS,
             contact: ContactState::default(),
@@ -438,9 +446,35 @@ impl<'a> World<'a> {
 
     /// The coarse tets the last [`World::simulate`] found near the tool, each once: those
     /// whose box meets the burr's positions first, then the others, each part in the order
-    /// the hash query met them (cell by cell, tet order within a cell).
+    /// the hash query met them (cell by cell, tet order within a cell). With a candidate
+    /// gather ([`World::set_zone_gather`]), the gathered list the step used (in the order it
+    /// was gathered).
     pub fn candidates(&self) -> &[TetId] {
-        &self.candidates[..self.ncand]
+        self.candidates
+            .get(self.cand_at..self.cand_at + self.ncand)
+            .unwrap_or(&[])
+    }
+
+    /// Gathers the candidates of [`World::simulate`] in parts over several steps instead of
+    /// one zone query a step ([`ZoneGather`]: `Some` with its work a step and margin), or
+    /// with the one-shot query (`None`, the default). The candidate storage is then used in
+    /// thirds (the tets near the burr, the list in use, the list being gathered), and
+    /// [`World::candidates`] is the list in use: the tets whose boxes meet a box around the
+    /// zone, a superset of the one-shot query's (the contact search walks all of them; the
+    /// drill gets those that meet the burr's positions). A step whose zone is not inside the
+    /// gathered box, or whose list filled up, counts `saturations().candidates`.
+    ///
+    /// # Bounded work
+    /// O(1); a step's gathering then costs at most the gather's work a step.
+    pub fn set_zone_gather(&mut self, zone: Option<ZoneGather>) {
+        self.zone = zone;
+        self.cand_at = 0;
+        self.ncand = 0;
+    }
+
+    /// The candidate gather, if set ([`World::set_zone_gather`]).
+    pub fn zone_gather(&self) -> Option<&ZoneGather> {
+        self.zone.as_ref()
     }
 
     /// The most hash cells one step's zone query visits ([`World::set_max_cells`]).

@@ -109,6 +109,11 @@ impl World<'_> {
     /// # Bounded work
     /// O(max cells + hash entries met).
     pub fn shaft_candidates(&mut self, zone: &Aabb) -> bool {
+        // The storage is refilled from the front: a candidate gather starts afresh.
+        if let Some(z) = self.zone.as_mut() {
+            z.forget();
+        }
+        self.cand_at = 0;
         let (cands, mesh, hash, boxes) =
             (&mut *self.candidates, &self.mesh, &self.hash, &self.boxes);
         let mut k = 0usize;

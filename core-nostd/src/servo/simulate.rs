@@ -4,6 +4,7 @@
 use glam::Vec3;
 
 use super::{ContactState, SimReport, World, CONTACT_NODE_UNITS};
+use crate::collide::ZoneGather;
 use crate::drill::{DrillParams, Sphere, MAX_STEP_SPHERES};
 use crate::force::sphere_contact;
 use crate::hash::Aabb;
@@ -89,6 +90,72 @@ impl World<'_> {
             tight = tight.union(Aabb::point(s.center).grown(s.radius));
         }
         let zone = tight.union(Aabb::point(centre).grown(radius + reach));
+        let m = match self.zone.as_mut() {
+            Some(z) => {
+                // The list gathered over the last steps around the zone; the tets near the
+                // burr filtered from it only when a position is queued (the drill reads
+                // them for new positions only).
+                let list = z.step(
+                    &zone,
+                    radius,
+                    &self.hash,
+                    self.boxes,
+                    &self.mesh,
+                    self.candidates,
+                    self.max_cells,
+                    !spheres.is_empty(),
+                );
+                self.cand_at = list.at;
+                self.ncand = list.len;
+                let (m, full) = if spheres.is_empty() {
+                    (0, false)
+                } else {
+                    ZoneGather::tight(list, &tight, self.boxes, &self.mesh, self.candidates)
+                };
+                if full || !list.covered {
+                    self.sat.candidates += 1;
+                    rep.candidates_saturated = true;
+                }
+                rep.candidates = list.len as u32;
+                m
+            }
+            None => self.query_zone(&zone, &tight, &mut rep),
+        };
+        // The regions earn their erosion credit from the servo's force (one unit of work
+        // per rate-limited region, charged to the drill).
+        let (force, seconds) = self.press;
+        let granted = self
+            .drill
+            .regions_mut()
+            .map_or(0, |r| r.grant(force, seconds, cutting));
+        if !spheres.is_empty() || self.drill.pending() > 0 || self.drill.debris_pending() > 0 {
+            let budget = self
+                .tick_budget
+                .map_or(params.budget, |t| t.min(params.budget));
+            let params = DrillParams {
+                budget: budget.saturating_sub(granted),
+                ..*params
+            };
+            rep.drill = self.drill.step(
+                &mut self.hier,
+                &self.mesh,
+                &self.candidates[..m],
+                spheres,
+                &params,
+            );
+        }
+        rep.drill.work = rep.drill.work.saturating_add(granted);
+        self.update_contact(centre, radius, radius + reach, cutting, &mut rep);
+        rep
+    }
+
+    /// The one-shot candidate query of [`World::simulate_spheres`]: the tets whose boxes meet
+    /// `zone`, those meeting `tight` first; returns how many meet `tight`.
+    #[inline(always)]
+    fn query_zone(&mut self, zone: &Aabb, tight: &Aabb, rep: &mut SimReport) -> usize {
+        let zone = *zone;
+        let tight = *tight;
+        self.cand_at = 0;
         let (cands, mesh, hash, boxes) =
             (&mut *self.candidates, &self.mesh, &self.hash, &self.boxes);
         // Each tet once (in the first cell of the query that holds it), and only when its box
@@ -154,32 +221,7 @@ impl World<'_> {
             rep.candidates_saturated = true;
         }
         rep.candidates = k as u32;
-        // The regions earn their erosion credit from the servo's force (one unit of work
-        // per rate-limited region, charged to the drill).
-        let (force, seconds) = self.press;
-        let granted = self
-            .drill
-            .regions_mut()
-            .map_or(0, |r| r.grant(force, seconds, cutting));
-        if !spheres.is_empty() || self.drill.pending() > 0 || self.drill.debris_pending() > 0 {
-            let budget = self
-                .tick_budget
-                .map_or(params.budget, |t| t.min(params.budget));
-            let params = DrillParams {
-                budget: budget.saturating_sub(granted),
-                ..*params
-            };
-            rep.drill = self.drill.step(
-                &mut self.hier,
-                &self.mesh,
-                &self.candidates[..m],
-                spheres,
-                &params,
-            );
-        }
-        rep.drill.work = rep.drill.work.saturating_add(granted);
-        self.update_contact(centre, radius, radius + reach, cutting, &mut rep);
-        rep
+        m
     }
 
     /// The closest visible triangle of the candidate trees within `reach` of `centre`, turned
@@ -208,7 +250,10 @@ impl World<'_> {
         cutting: bool,
         rep: &mut SimReport,
     ) {
-        let cands = &self.candidates[..self.ncand];
+        let cands = self
+            .candidates
+            .get(self.cand_at..self.cand_at + self.ncand)
+            .unwrap_or(&[]);
         let mut hints: heapless::Vec<VisibleTri, KEEP> = heapless::Vec::new();
         for &(_, t) in &self.kept {
             let _ = hints.push(t);

@@ -125,6 +125,12 @@ pub struct Scenario {
     /// Hierarchy nodes one contact search may test (then the closest face met, or the last
     /// step's, answers).
     pub contact_search_nodes: u32,
+    /// A sphere tool's candidate tets gathered through the hash in parts of at most this many
+    /// work units a step (cells and entries scanned) around a box a fifth of the radius wider
+    /// than the zone, kept while the zone stays inside it
+    /// (`tetradrill_core::collide::ZoneGather`); 0: one zone query every step.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub zone_gather_work: u32,
     /// When a sphere tool's servo uses a simulation step's contact: 0, the step and the force
     /// in the same tick (step first); 1, the RTIC firmware's release rule: the servo computes
     /// tick `i`'s force from the contact of the step released at tick `i - 1`, then releases
@@ -279,6 +285,7 @@ impl Default for Scenario {
             vlist_capacity: None,
             pending_capacity: None,
             contact_search_nodes: tetradrill_core::servo::CONTACT_MAX_NODES,
+            zone_gather_work: 0,
             servo_lag: 0,
             contact_capacity: None,
             queue_capacity: None,
@@ -462,7 +469,8 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             mesh: firmware_cow_mesh(),
             hierarchy_capacity: Some(40_000),
             pending_capacity: Some(8_192),
-            candidate_capacity: Some(4_096),
+            candidate_capacity: Some(12_288),
+            zone_gather_work: 2_000,
             ..builtin("firmware")?
         }),
         // The firmware scenario with the demo's two materials on the block's shell and core

@@ -36,6 +36,7 @@ use cortex_m_semihosting::{debug, hprintln};
 
 use tetradrill_core::blob::MeshBlob;
 use tetradrill_core::builtin;
+use tetradrill_core::collide::{ZoneGather, ZONE_MARGIN_RADII};
 use tetradrill_core::force::closest_point_on_triangle;
 use tetradrill_core::ids::TetId;
 use tetradrill_core::mesh::{BuildOptions, FaceKey, Mesh, MeshStorage, Node};
@@ -129,6 +130,13 @@ fn build_world() -> World<'static> {
             let regions = blob_regions(st.regions, st.tet_region)
                 .unwrap_or_else(|| fail("region storage refused or a label not the tooth's"));
             world.set_regions(regions);
+        }
+        if cfg!(scenario_cow) {
+            world.set_max_cells(scenario::COW_MAX_CELLS);
+            world.set_zone_gather(Some(ZoneGather::new(
+                scenario::ZONE_WORK,
+                ZONE_MARGIN_RADII,
+            )));
         }
         return world;
     }

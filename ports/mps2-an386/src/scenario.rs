@@ -50,8 +50,16 @@ pub const ARENA: usize = if cfg!(scenario_cow) {
 /// `builtin:firmware-cow` drops the same work).
 pub const PENDING_ITEMS: usize = if cfg!(scenario_cow) { 8_192 } else { 16_384 };
 /// Coarse tets one step takes near the tool (`candidate_capacity`): the core's default 1,024
-/// on the block, 4,096 on the cow's finer tets.
-pub const CANDIDATES: usize = if cfg!(scenario_cow) { 4_096 } else { 1_024 };
+/// on the block; on the cow's finer tets 12,288, in thirds for its candidate gather (the tets
+/// near the burr, the list in use, the list being gathered: `ZoneGather`).
+pub const CANDIDATES: usize = if cfg!(scenario_cow) { 12_288 } else { 1_024 };
+/// The cow's candidate gather (`zone_gather_work`): hash cells and entries scanned a step,
+/// around a box a fifth of the radius wider than the zone, instead of one zone query a step
+/// (which takes up to 270,000 instructions there).
+pub const ZONE_WORK: u32 = 2_000;
+/// The most hash cells a zone (or a gathered box) may cover on the cow: the host's choice for
+/// its candidate list (half its length), so both give up on the same boxes.
+pub const COW_MAX_CELLS: u32 = 6_144;
 /// The scenario's name in the output.
 pub const NAME: &str = if cfg!(scenario_cow) {
     "builtin:firmware-cow"

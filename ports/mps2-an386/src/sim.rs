@@ -182,11 +182,12 @@ impl Sim {
             crate::target::PERIOD_INSTRUCTIONS
         );
         hprintln!(
-            "settings: scenario {} budget {} contact_nodes {} servo_lag {}",
+            "settings: scenario {} budget {} contact_nodes {} servo_lag {} zone_gather_work {}",
             scenario::NAME,
             scenario::budget(),
             scenario::contact_nodes(),
-            crate::servo::LAG
+            crate::servo::LAG,
+            self.world.zone_gather().map_or(0, |z| z.work())
         );
         hprintln!("force_digest={:016x}", s.digest);
         hprintln!("ticks={}", s.ticks);
