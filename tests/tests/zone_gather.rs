@@ -168,3 +168,51 @@ fn drilling_with_gathered_candidates_removes_what_the_one_shot_query_does() {
     assert!(drilled >= 40, "{drilled} positions queued");
     assert!(one.hierarchy().removed_volume() > 1e-3);
 }
+
+/// A moving cow with the gather on: every 40 ticks the mesh jumps by more than the gather's
+/// margin (`World::set_positions`), and the gathered list, whenever the step says it covers
+/// the zone, still holds exactly the brute force's tets near the tool on the moved mesh (the
+/// lists gathered on the old positions are forgotten, not served).
+#[test]
+fn a_moving_mesh_gathers_afresh() {
+    let mut om = tetradrill_tests::load(COW, 1.0);
+    let rest0 = om.view().positions().to_vec();
+    let mut st = store(om.view().tet_count());
+    let mut world = st.world(om.view());
+    sizes(&mut world, true);
+    let mut rest = vec![tetradrill_core::Vec3::ZERO; rest0.len()];
+    world.enable_deformation(&mut rest).expect("rest storage");
+    let params = DrillParams {
+        max_depth: 4,
+        min_area: 0.0,
+        budget: 300,
+    };
+    let (mut covered, mut moves) = (0u32, 0u32);
+    for tick in 0..DEMO.ticks().min(2_000) {
+        if tick % 40 == 39 {
+            // Half a burr radius along x and back: five times the gather's margin.
+            let dx = if moves % 2 == 0 { 0.5 * R } else { 0.0 };
+            let moved: Vec<_> = rest0
+                .iter()
+                .map(|&p| p + tetradrill_core::Vec3::X * dx)
+                .collect();
+            world.set_positions(&moved).expect("positions");
+            moves += 1;
+        }
+        let (c, _) = DEMO.at(tick);
+        let r = world.simulate(c, R, REACH, false, &params);
+        if r.candidates_saturated {
+            continue;
+        }
+        covered += 1;
+        let zone = Aabb::point(c).grown(R + REACH);
+        let mesh = world.mesh();
+        assert_eq!(
+            meeting(mesh, world.candidates(), &zone),
+            brute_force(mesh, &zone),
+            "tick {tick}: the gathered list after {moves} moves"
+        );
+    }
+    assert!(moves >= 40, "{moves} moves");
+    assert!(covered > 1_000, "{covered} steps covered");
+}

@@ -10,7 +10,8 @@
 //!   evaluated at the current positions whenever they are needed;
 //! - the contact search's caches: the sphere memo is emptied, the resume place forgets the
 //!   nodes it measured (its tree starts again from the root), the kept faces are measured
-//!   again at the new positions (those no longer visible are dropped);
+//!   again at the new positions (those no longer visible are dropped); a candidate gather
+//!   spread over steps ([`World::set_zone_gather`]) forgets its lists and gathers afresh;
 //! - the contact plane and the candidate list stay the last step's until the next
 //!   [`World::simulate`], which finds both again on the new positions;
 //! - removed volumes are measured in the rest state ([`Mesh::set_rest`]): a leaf's volume is
@@ -104,7 +105,8 @@ impl<'a> World<'a> {
     /// brings up to date what depends on positions: the boundary normals, each tet's box, the
     /// tet hash (rebuilt with the cell size of [`World::new`]), the contact search's sphere
     /// memo (emptied), its resume place (its tree from the root) and its kept faces (measured
-    /// again from the last contact's centre). The hierarchy follows by itself (barycentric
+    /// again from the last contact's centre), a candidate gather's lists (forgotten). The
+    /// hierarchy follows by itself (barycentric
     /// in its roots). The contact plane stays the last step's until the next
     /// [`World::simulate`].
     ///
@@ -148,6 +150,10 @@ impl<'a> World<'a> {
         rep.hash_saturated = built.saturated;
         self.memo.clear();
         self.cursor.restart_tree();
+        // A gathered candidate list holds the tets whose old boxes met its box: gather afresh.
+        if let Some(z) = self.zone.as_mut() {
+            z.forget();
+        }
         let centre = self.contact.centre;
         let mut kept = Kept::new();
         for &(_, t) in &self.kept {
