@@ -9,7 +9,9 @@
 #   scripts/c-example.sh --cortex-m   the bare-metal program: the library for
 #                                     thumbv7em-none-eabihf, examples/c/cortex_m linked with
 #                                     arm-none-eabi-gcc, run under QEMU (mps2-an386), compared
-#                                     with `replay --scenario builtin:firmware`'s digest
+#                                     with `replay --scenario builtin:firmware`'s digest;
+#                                     before the run, the calls into core's panic entry
+#                                     points in the linked program are counted: above 0 fails
 #
 # Prints `force_digest=HEX` (the C program's) and both digests; where the C program prints
 # `removed_by_region.LABEL=V` lines (the host program), they are compared too with the host's
@@ -23,7 +25,7 @@ mode=host
 while [ $# -gt 0 ]; do
   case "$1" in
     --cortex-m) mode=cortex-m; shift ;;
-    -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
     *) echo "c-example: unknown argument '$1' (expected --cortex-m)" >&2; exit 2 ;;
   esac
 done
@@ -108,12 +110,23 @@ echo "== arm-none-eabi-gcc examples/c/cortex_m"
 make --quiet -C examples/c/cortex_m LIB="$lib" OUT="$work"
 elf="$work/replay_firmware.elf"
 arm-none-eabi-size "$elf"
-# Where a panic could still come from in the linked program: calls into core::panicking (the
-# handler faults, see docs/FFI.md), by the function that makes them.
-arm-none-eabi-objdump -d --no-show-raw-insn -C "$elf" | awk '
-  /^[0-9a-f]+ <.*>:$/ { fn = $2; sub(/^</, "", fn); sub(/::.*/, "", fn); sub(/>:$/, "", fn) }
-  /core::panicking/ && !/^[0-9a-f]+ </ && fn !~ /^core$/ { n[fn]++ }
-  END { printf "panic call sites:"; for (f in n) printf " %s %d", f, n[f]; print "" }'
+# Where a panic could still come from in the linked program (the handler faults, see
+# docs/FFI.md): calls from outside `core` into its panic entry points (core::panicking, the
+# slice and str index failures, unwrap and expect, RefCell borrows), by the function that
+# makes them. More than $panic_max fails the check.
+panic_max=0
+sites="$(arm-none-eabi-objdump -d --no-show-raw-insn -C "$elf" | awk '
+  /^[0-9a-f]+ <.*>:$/ { fn = $0; sub(/^[0-9a-f]+ </, "", fn); sub(/>:$/, "", fn) }
+  !/^[0-9a-f]+ </ && fn !~ /^<?core::/ &&
+    /<core::(panicking::|slice::index::[a-z_]*fail|str::slice_error_fail|option::(unwrap|expect)_failed|result::unwrap_failed|cell::panic_)/ { n[fn]++; total++ }
+  END { print total + 0; for (f in n) printf "  %d %s\n", n[f], f }')"
+count="$(echo "$sites" | head -n1)"
+echo "panic call sites: $count (bound $panic_max)"
+echo "$sites" | tail -n +2
+if [ "$count" -gt "$panic_max" ]; then
+  echo "c-example: FAIL: $count panic call sites in the linked program, over the bound of $panic_max" >&2
+  exit 1
+fi
 echo "== run under QEMU (mps2-an386, cortex-m4)"
 set +e
 timeout "${C_EXAMPLE_TIMEOUT:-900}" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 \

@@ -52,6 +52,42 @@ fn check_mesh(path: &Path) -> Result<(), CliError> {
     }
 }
 
+/// A mesh blob input as the `mesh_blob` target sees it: the first byte picks a whole blob
+/// (even) or a node count (two bytes) and bare tet records (odd). No panic; a refusal is one
+/// line; an accepted view's records stay in range.
+fn blob_input(data: &[u8]) {
+    use tetradrill_core::blob::MeshBlob;
+    use tetradrill_core::mesh::TetView;
+    let Some((&mode, rest)) = data.split_first() else {
+        return;
+    };
+    let view = if mode % 2 == 0 {
+        MeshBlob::parse(rest)
+            .map(|b| b.tets())
+            .map_err(|e| e.to_string())
+    } else {
+        let Some((n, recs)) = rest.split_first_chunk::<2>() else {
+            return;
+        };
+        TetView::new(recs, usize::from(u16::from_le_bytes(*n))).map_err(|e| e.to_string())
+    };
+    match view {
+        Ok(v) => {
+            for i in 0..v.len() {
+                let t = v
+                    .get(tetradrill_core::TetId::from_idx(i))
+                    .expect("in range");
+                assert!(t.nodes.iter().all(|n| n.idx() < v.node_count()));
+                assert!(t
+                    .neighbours
+                    .iter()
+                    .all(|n| n.is_none() || n.idx() < v.len()));
+            }
+        }
+        Err(e) => assert!(!e.is_empty() && !e.contains(['\n', '\r']), "{e:?}"),
+    }
+}
+
 /// A mesh input as the fuzz target sees it: one file, or for TetGen `.node`, NUL, `.ele`.
 fn mesh_input(target: &str, name: &str, data: &[u8]) -> Result<(), CliError> {
     let ext = match target {
@@ -100,6 +136,7 @@ fn hand_written_seeds_go_through_their_entry_points() {
             let name = format!("seed-{target}-{n}");
             n += 1;
             match target.as_str() {
+                "mesh_blob" => blob_input(&data),
                 t if t.starts_with("mesh_") => {
                     mesh_input(t, &name, &data).unwrap_or_else(|e| panic!("{f:?}: {e}"));
                 }

@@ -147,7 +147,6 @@ impl Field {
         }
         let tets: Vec<[u32; 4]> = mesh
             .tets()
-            .iter()
             .map(|t| t.nodes.map(|n| n.idx() as u32))
             .collect();
         Self {

@@ -49,7 +49,7 @@ impl<'a> Ring<'a> {
         if self.len == 0 {
             return None;
         }
-        self.slots.get((self.head + self.len - 1) % cap)
+        self.slots.get((self.head + self.len - 1).checked_rem(cap)?)
     }
 
     /// Appends `p`; `false` when the ring is full.

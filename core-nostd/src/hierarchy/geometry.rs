@@ -10,7 +10,8 @@ use crate::ids::TetId;
 use crate::mesh::Mesh;
 
 /// The four vertex positions of node `path` in the tree of coarse tet `tet` (in the node's own
-/// vertex order; see [`Path::inverted`] for its orientation). Zero when `tet` is out of range.
+/// vertex order; see [`Path::inverted`] for its orientation). Zero when `tet` or one of its
+/// node ids is out of range.
 ///
 /// # Bounded work
 /// O(depth) <= [`super::MAX_DEPTH`] steps.
@@ -34,13 +35,11 @@ pub(crate) struct RootFrame {
 }
 
 impl RootFrame {
-    /// The frame of coarse tet `tet`, `None` when it is out of range.
+    /// The frame of coarse tet `tet`, `None` when it or one of its node ids is out of range.
     pub(crate) fn of(mesh: &Mesh<'_>, tet: TetId) -> Option<Self> {
-        if tet.idx() >= mesh.tet_count() {
-            return None;
-        }
-        let ids = mesh.tet(tet).nodes;
-        let corners = mesh.tet_positions(tet);
+        let ids = mesh.get_tet_nodes(tet)?;
+        let [a, b, c, d] = ids.map(|n| mesh.positions().get(n.idx()));
+        let corners = [*a?, *b?, *c?, *d?];
         // Canonical order of the four corners by global node id (a 4-element insertion sort).
         let mut order = [0u8, 1, 2, 3];
         for i in 1..4 {

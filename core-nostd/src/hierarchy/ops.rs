@@ -108,7 +108,7 @@ impl<'a> Hierarchy<'a> {
                     !exposed
                 });
                 if side == Side::Boundary || exposed {
-                    child_bits[c as usize] |= 1 << g;
+                    child_bits[(c & 7) as usize] |= 1 << g;
                 }
             }
         }

@@ -179,7 +179,7 @@ impl<'a> Hierarchy<'a> {
             });
         }
         let (roots, _) = roots.split_at_mut(t);
-        let (arena, _) = arena.split_at_mut(blocks * 8);
+        let (arena, _) = arena.split_at_mut((blocks * 8).min(arena.len()));
         let mut me = Self {
             roots,
             arena,

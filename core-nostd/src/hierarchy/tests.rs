@@ -692,3 +692,27 @@ fn keep_face_holds_the_nearest_distinct_faces_in_order() {
         assert_eq!(kept.as_slice(), want, "round {round}");
     }
 }
+
+#[test]
+fn a_path_deeper_than_the_table_has_no_neighbour() {
+    let (mut c, t) = cube();
+    let mesh = build(&mut c, &t);
+    let tet = TetId(0);
+    // The deepest path there is still has its neighbours (an interior face of a corner child
+    // is a sibling's), so `None` below is the depth, not the face.
+    let mut path = Path::ROOT;
+    for _ in 0..MAX_DEPTH {
+        path = path.child(0).unwrap();
+    }
+    assert!((0..4u8).any(|f| neighbour(&mesh, tet, &path, f).is_some()));
+    for depth in [MAX_DEPTH as u8 + 1, 12, u8::MAX] {
+        let deeper = Path { depth, ..path };
+        for f in 0..4u8 {
+            assert_eq!(
+                neighbour(&mesh, tet, &deeper, f),
+                None,
+                "depth {depth} face {f}"
+            );
+        }
+    }
+}

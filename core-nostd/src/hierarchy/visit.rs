@@ -35,12 +35,16 @@ pub struct Neighbour {
 }
 
 /// The same-level neighbour of node `path` of coarse tet `tet` across face `face`, or `None`
-/// when that face lies on the mesh boundary (or `tet` is out of range).
+/// when that face lies on the mesh boundary (or `tet` is out of range, or `path` is deeper
+/// than [`MAX_DEPTH`]).
 ///
 /// # Bounded work
 /// O(depth) <= 2 * [`MAX_DEPTH`] table steps, one mesh look-up.
 pub fn neighbour(mesh: &Mesh<'_>, tet: TetId, path: &Path, face: u8) -> Option<Neighbour> {
     let d = path.depth as usize;
+    if d > MAX_DEPTH {
+        return None;
+    }
     let mut pos = [0u8; MAX_DEPTH + 1];
     let mut sig = [[0u8, 1, 2]; MAX_DEPTH + 1];
     let mut k = d;
@@ -67,7 +71,7 @@ pub fn neighbour(mesh: &Mesh<'_>, tet: TetId, path: &Path, face: u8) -> Option<N
             break;
         }
         let c = path.digit(k);
-        match CHILD_ADJ[c as usize][phi as usize] {
+        match CHILD_ADJ[c as usize][(phi & 3) as usize] {
             Across::Sibling(c2, f2, p) => {
                 let mut q = *path;
                 q.depth = (k - 1) as u8;
@@ -195,7 +199,11 @@ pub(crate) fn visit_across<C: TreeRead, F: FnMut(&mut C, Met) -> bool>(
                 tet: nb.tet,
                 index,
                 node: r,
-                face: nb.faces[m.max(nb.split as usize)],
+                face: nb
+                    .faces
+                    .get(m.max(nb.split as usize))
+                    .copied()
+                    .unwrap_or(nb.face),
                 depth: m as u8,
                 record: node,
             };

@@ -261,7 +261,7 @@ impl<'a> Mesh<'a> {
                 stats.orientation_fixes += 1;
             }
             if options.relabel_for_refinement {
-                let q = ids.map(|v| positions[v as usize]);
+                let q = ids.map(|v| positions.get(v as usize).copied().unwrap_or_default());
                 let perm = refinement_relabel(q);
                 if perm != [0, 1, 2, 3] {
                     ids = perm.map(|k| ids[k as usize]);
@@ -285,10 +285,15 @@ impl<'a> Mesh<'a> {
                 verts.sort_unstable();
                 let key = FaceKey::new(verts, (ti * 4 + f) as u32);
                 // Face f is opposite local node f.
+                // In range: `far` has `t` entries and `near` `3 * t` (checked above).
                 if f == first {
-                    far[ti] = key;
+                    if let Some(at) = far.get_mut(ti) {
+                        *at = key;
+                    }
                 } else {
-                    near[ti * 3 + slot] = key;
+                    if let Some(at) = near.get_mut(ti * 3 + slot) {
+                        *at = key;
+                    }
                     slot += 1;
                 }
             }
@@ -327,7 +332,10 @@ impl<'a> Mesh<'a> {
         }
         for (ti, tet) in tets.iter().enumerate() {
             for (local, id) in tet.nodes.iter().enumerate() {
-                let node = &mut nodes[id.idx()];
+                // In range: every id was checked against the node count above.
+                let Some(node) = nodes.get_mut(id.idx()) else {
+                    continue;
+                };
                 if node.tet.is_none() {
                     node.tet = TetId::from_idx(ti);
                     node.local = local as u8;
@@ -419,8 +427,12 @@ fn link(tets: &mut [Tet], a: u32, b: u32) -> Result<(), BuildError> {
     if t1 == t2 {
         return Err(BuildError::NonManifoldFace { tet: t1 as u32 });
     }
-    let l1 = FACE_VERTS[f1].map(|k| tets[t1].nodes[k as usize]);
-    let l2 = FACE_VERTS[f2].map(|k| tets[t2].nodes[k as usize]);
+    let (Some(n1), Some(n2)) = (tets.get(t1).map(|r| r.nodes), tets.get(t2).map(|r| r.nodes))
+    else {
+        return Err(BuildError::NonManifoldFace { tet: t1 as u32 });
+    };
+    let l1 = FACE_VERTS[f1].map(|k| n1[k as usize]);
+    let l2 = FACE_VERTS[f2].map(|k| n2[k as usize]);
     // Position in l2 of l1[0] gives the offset; the rest must follow in reverse order.
     let Some(q) = l2.iter().position(|&v| v == l1[0]) else {
         return Err(BuildError::NonManifoldFace { tet: t1 as u32 });

@@ -17,6 +17,8 @@
 mod build;
 mod record;
 pub mod template;
+#[cfg(test)]
+mod tests;
 mod traverse;
 mod validate;
 mod view;
@@ -281,26 +283,22 @@ impl<'a> Mesh<'a> {
         }
     }
 
-    /// The reverse index of face `f` of `t` (`Reverse(0)` when `t` is out of range).
-    ///
-    /// # Panics
-    /// When `f` is over 3.
+    /// The reverse index of face `f` of `t` (`Reverse(0)` when `t` or `f` is out of range).
     #[inline(always)]
     pub fn reverse(&self, t: TetId, f: u8) -> Reverse {
         self.across(t, f).1
     }
 
     /// The neighbour across face `f` of `t` and the face's reverse index, from one record
-    /// look-up (`(NONE, Reverse(0))` when `t` is out of range).
-    ///
-    /// # Panics
-    /// When `f` is over 3.
+    /// look-up (`(NONE, Reverse(0))` when `t` or `f` is out of range).
     #[inline(always)]
     fn across(&self, t: TetId, f: u8) -> (TetId, Reverse) {
         match self.ram.get(t.idx()) {
-            Some(r) => (r.neighbours[f as usize], r.reverse[f as usize]),
+            Some(r) => (
+                r.neighbours.get(f as usize).copied().unwrap_or(TetId::NONE),
+                r.reverse.get(f as usize).copied().unwrap_or_default(),
+            ),
             None => {
-                assert!(f < 4, "face {f} of a tet");
                 let nb = self.view.neighbour(t, f).unwrap_or(TetId::NONE);
                 (nb, self.view.reverse(t, f).unwrap_or_default())
             }
@@ -326,25 +324,23 @@ impl<'a> Mesh<'a> {
         self.stats
     }
 
-    /// The four corner positions of a tet.
+    /// The four corner positions of a tet; all four zero when `t` or one of its node ids is
+    /// out of range (a mesh [`Mesh::validate`] accepts has no such id).
     #[inline(always)]
     pub fn tet_positions(&self, t: TetId) -> [Vec3; 4] {
-        self.tet_nodes(t).map(|n| self.positions[n.idx()])
+        match self.tet_nodes(t).map(|n| self.positions.get(n.idx())) {
+            [Some(&a), Some(&b), Some(&c), Some(&d)] => [a, b, c, d],
+            _ => [Vec3::ZERO; 4],
+        }
     }
 
-    /// The tet across face `f` of `t`, or `NONE` on the boundary (and when `t` is out of
-    /// range).
-    ///
-    /// # Panics
-    /// When `f` is over 3.
+    /// The tet across face `f` of `t`, or `NONE` on the boundary (and when `t` or `f` is out
+    /// of range).
     #[inline(always)]
     pub fn neighbour(&self, t: TetId, f: u8) -> TetId {
         match self.ram.get(t.idx()) {
-            Some(r) => r.neighbours[f as usize],
-            None => {
-                assert!(f < 4, "face {f} of a tet");
-                self.view.neighbour(t, f).unwrap_or(TetId::NONE)
-            }
+            Some(r) => r.neighbours.get(f as usize).copied().unwrap_or(TetId::NONE),
+            None => self.view.neighbour(t, f).unwrap_or(TetId::NONE),
         }
     }
 
@@ -416,7 +412,8 @@ impl<'a> Mesh<'a> {
 
     /// Marks boundary nodes and recomputes their averaged outward normals (seed
     /// `determineBoundary()`): each boundary face adds its area-weighted outward normal to its
-    /// three nodes; the sums are normalised. Call after moving nodes.
+    /// three nodes; the sums are normalised. Call after moving nodes. A node id out of range
+    /// (none in a mesh [`Mesh::validate`] accepts) counts as the origin and is not marked.
     ///
     /// # Bounded work
     /// O(T + N).
@@ -434,12 +431,17 @@ impl<'a> Mesh<'a> {
                 }
                 faces += 1;
                 let ids = self.face_nodes(t, f);
-                let [a, b, c] = ids.map(|n| self.positions[n.idx()]);
+                let [a, b, c] =
+                    ids.map(|n| self.positions.get(n.idx()).copied().unwrap_or_default());
                 // Inward right-hand normal, twice the area: negate for outward.
                 let w = -(b - a).cross(c - a);
                 for n in ids {
-                    self.nodes[n.idx()].boundary = true;
-                    self.normals[n.idx()] += w;
+                    if let Some(node) = self.nodes.get_mut(n.idx()) {
+                        node.boundary = true;
+                    }
+                    if let Some(normal) = self.normals.get_mut(n.idx()) {
+                        *normal += w;
+                    }
                 }
             }
         }

@@ -83,7 +83,7 @@ impl World<'_> {
         // drill work; the rest is covered by the spheres already queued.
         let mut kept = [Sphere::default(); MAX_STEP_SPHERES];
         let nk = self.spacing.admit(centre, radius, spheres, &mut kept);
-        let spheres = &kept[..nk];
+        let spheres = kept.get(..nk).unwrap_or_default();
         rep.queued = nk as u32;
         let mut tight = Aabb::of::<0>([]);
         for s in spheres {
@@ -139,7 +139,7 @@ impl World<'_> {
             rep.drill = self.drill.step(
                 &mut self.hier,
                 &self.mesh,
-                &self.candidates[..m],
+                self.candidates.get(..m).unwrap_or_default(),
                 spheres,
                 &params,
             );

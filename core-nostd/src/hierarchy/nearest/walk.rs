@@ -486,7 +486,7 @@ impl Hierarchy<'_> {
                         while at > 0 && order.get(at - 1).is_some_and(|o| o.0 < d2) {
                             at -= 1;
                         }
-                        if let Some(o) = order.get_mut(at..=kept) {
+                        if let Some(o @ [_, ..]) = order.get_mut(at..=kept) {
                             o.rotate_right(1);
                             o[0] = (d2, c);
                         }
