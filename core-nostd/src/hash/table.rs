@@ -388,7 +388,7 @@ impl<'a> SpatialHash<'a> {
         let mut at = [
             lo[0] as i64 + (k % dx) as i64,
             lo[1] as i64 + ((k / dx) % dy) as i64,
-            lo[2] as i64 + (k / (dx * dy)) as i64,
+            lo[2] as i64 + k.checked_div(dx.saturating_mul(dy)).unwrap_or(0) as i64,
         ];
         while k < total && (work < max_work || k == from) {
             let c = [at[0] as i32, at[1] as i32, at[2] as i32];

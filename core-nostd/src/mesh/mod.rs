@@ -203,11 +203,15 @@ impl<'a> Mesh<'a> {
         !self.rest.is_empty()
     }
 
-    /// The four corner positions of a tet in the rest state ([`Mesh::rest_positions`]).
+    /// The four corner positions of a tet in the rest state ([`Mesh::rest_positions`]); zeros
+    /// for a tet or node id out of range (as [`Mesh::tet_positions`]).
     #[inline]
     pub fn rest_tet_positions(&self, t: TetId) -> [Vec3; 4] {
         let rest = self.rest_positions();
-        self.tet_nodes(t).map(|n| rest[n.idx()])
+        match self.tet_nodes(t).map(|n| rest.get(n.idx())) {
+            [Some(&a), Some(&b), Some(&c), Some(&d)] => [a, b, c, d],
+            _ => [Vec3::ZERO; 4],
+        }
     }
 
     /// Position of one node.
