@@ -146,6 +146,9 @@ pub struct EngineStorage {
     tet_region: Vec<u8>,
     /// The mesh label of each region.
     region_labels: Vec<i32>,
+    /// The rest positions of a deforming world ([`EngineStorage::enable_deformation`]; empty:
+    /// the world is rigid).
+    deform_rest: Vec<Vec3>,
 }
 
 /// The regions of a scenario's world: one per distinct label of the mesh, in label order.
@@ -363,7 +366,19 @@ impl EngineStorage {
             regions: Vec::new(),
             tet_region: Vec::new(),
             region_labels: Vec::new(),
+            deform_rest: Vec::new(),
         }
+    }
+
+    /// Makes the worlds over this storage deforming ([`World::enable_deformation`], the rest
+    /// state kept here): a soft body then hands them its positions every physics step.
+    pub fn enable_deformation(&mut self) {
+        self.deform_rest = vec![Vec3::ZERO; self.mesh.positions().len()];
+    }
+
+    /// Storage for a soft body over the mesh at rest (node and tet order the world's).
+    pub fn soft_owned(&mut self) -> crate::soft::SoftOwned {
+        crate::soft::SoftOwned::from_mesh(&self.mesh.view())
     }
 
     /// Gives the world regions from the mesh's `labels` (one per tet) and the scenario's
@@ -469,6 +484,13 @@ impl EngineStorage {
             w
         })
         .map_err(|e| CliError::failure(format!("cannot set up the simulation: {e}")))
+        .and_then(|mut w| {
+            if !self.deform_rest.is_empty() {
+                w.enable_deformation(&mut self.deform_rest)
+                    .map_err(|e| CliError::failure(format!("cannot set up the soft body: {e}")))?;
+            }
+            Ok(w)
+        })
     }
 }
 

@@ -1,11 +1,21 @@
 //! Host-owned storage for one soft body (`tetradrill_core::soft`): the caller slices the core
-//! borrows, sized from a rest mesh, so a host, a test or a bench builds a body in one call.
+//! borrows, sized from a rest mesh, so a host, a test or a bench builds a body in one call;
+//! and the simulation loop's side of `--body soft` ([`SoftSpec`], [`SoftDriver`]).
 
 use tetradrill_core::mesh::Mesh;
+use tetradrill_core::servo::World;
 use tetradrill_core::soft::{
     mesh_tets, Material, SoftBody, SoftError, SoftMesh, SoftParams, SoftStorage, TetRest,
 };
 use tetradrill_core::Vec3;
+
+use serde::Serialize;
+
+use crate::error::CliError;
+use crate::platform::now_ns;
+use crate::scenario::{parse_fix_below, Body, Scenario};
+use crate::stats::summarise_ns;
+use crate::traces::PERIOD_S;
 
 /// Every slice a [`SoftBody`] borrows, owned: the rest mesh and the per-node and per-tet state.
 #[derive(Debug, Clone)]
@@ -86,5 +96,265 @@ impl SoftOwned {
                 lambdas: &mut self.lambdas,
             },
         )
+    }
+}
+
+/// Young's modulus of `--body soft` without `--young`, pascal: soft tissue's order, and a
+/// dent of about a centimetre under the demo's few newtons on its block of 1 m.
+pub const DEFAULT_YOUNG: f64 = 5_000.0;
+/// Poisson ratio of `--body soft` without `--poisson`.
+pub const DEFAULT_POISSON: f64 = 0.3;
+/// Density of the soft body, kilogram per cubic metre (water, as soft tissue).
+pub const DENSITY: f32 = 1000.0;
+/// Velocity damping rate of the soft body, per second: about critical for the demo block's
+/// slowest mode at the default modulus, so a dent settles within a second.
+pub const DAMPING: f32 = 10.0;
+/// XPBD substeps per physics step (one iteration each).
+pub const SUBSTEPS: u32 = 10;
+/// Physics steps a second without `--soft-rate`: four servo ticks a step.
+pub const DEFAULT_RATE_HZ: f64 = 250.0;
+
+/// Which nodes of a soft body are fixed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Fix {
+    /// Rest coordinate on the axis (0, 1, 2: x, y, z) at or below the value.
+    Below(usize, f64),
+    /// The lowest tenth of the body's rest extent in z.
+    LowestTenth,
+}
+
+/// A scenario's soft body, its values checked: material, fixed nodes, rate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SoftSpec {
+    /// Young's modulus, pascal.
+    pub young: f64,
+    /// Poisson ratio.
+    pub poisson: f64,
+    /// Fixed nodes.
+    pub fix: Fix,
+    /// Servo ticks (1 ms) per physics step.
+    pub ticks_per_step: u32,
+}
+
+impl SoftSpec {
+    /// The soft body of `sc`, or `None` for `body = "rigid"`.
+    ///
+    /// # Errors
+    /// Exit status 2 for a value out of range, naming the key and the flag, and for a
+    /// tet-mesh tool (the soft body is pushed by a burr's contact).
+    pub fn of(sc: &Scenario) -> Result<Option<Self>, CliError> {
+        if sc.body == Body::Rigid {
+            return Ok(None);
+        }
+        sc.check().map_err(CliError::input)?;
+        if matches!(sc.tool_kind(), Ok(crate::scenario::ToolKind::Mesh(_))) {
+            return Err(CliError::input(
+                "--body soft (key body): a soft body is pushed by a burr's contact; use \
+                 --tool sphere:R or drill:..., not a mesh tool",
+            ));
+        }
+        let fix = match &sc.fix_below {
+            Some(f) => {
+                let (axis, v) = parse_fix_below(f).map_err(CliError::input)?;
+                Fix::Below(axis, v)
+            }
+            None => Fix::LowestTenth,
+        };
+        let hz = sc.soft_rate.unwrap_or(DEFAULT_RATE_HZ);
+        Ok(Some(Self {
+            young: sc.young.unwrap_or(DEFAULT_YOUNG),
+            poisson: sc.poisson.unwrap_or(DEFAULT_POISSON),
+            fix,
+            ticks_per_step: (1000.0 / hz).round().max(1.0) as u32,
+        }))
+    }
+
+    /// Physics steps a second.
+    pub fn rate_hz(&self) -> f64 {
+        1000.0 / f64::from(self.ticks_per_step)
+    }
+
+    /// The material.
+    pub fn material(&self) -> Material {
+        Material {
+            young: self.young as f32,
+            poisson: self.poisson as f32,
+            density: DENSITY,
+        }
+    }
+}
+
+/// The `deform` object of a soft run's JSON.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct DeformSummary {
+    /// The largest distance of a node from its rest position over the run, metres (mesh
+    /// units).
+    pub max_displacement: f64,
+    /// The physics step with the world's update (`World::set_positions`), microseconds.
+    pub step_us: StepTiming,
+    /// Physics steps a second (simulated time).
+    pub rate_hz: f64,
+    /// Physics steps run.
+    pub steps: u64,
+    /// Nodes fixed.
+    pub fixed_nodes: usize,
+    /// Young's modulus, pascal.
+    pub young: f64,
+    /// Poisson ratio.
+    pub poisson: f64,
+}
+
+/// Step timing of a soft run, microseconds.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct StepTiming {
+    /// Mean.
+    pub mean: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+impl DeformSummary {
+    /// One line for a summary.
+    pub fn line(&self) -> String {
+        format!(
+            "soft body (E {} Pa, nu {}, {} nodes fixed): {} steps at {} Hz, max displacement {:.4e} m, step + world update us: mean {:.1}  p99 {:.1}  max {:.1}",
+            self.young,
+            self.poisson,
+            self.fixed_nodes,
+            self.steps,
+            self.rate_hz,
+            self.max_displacement,
+            self.step_us.mean,
+            self.step_us.p99,
+            self.step_us.max
+        )
+    }
+}
+
+/// A soft body driven by the simulation loop: the tool's reaction gathered tick by tick,
+/// a physics step every [`SoftSpec::ticks_per_step`] ticks, its positions handed to the world.
+#[derive(Debug)]
+pub struct SoftDriver<'a> {
+    body: SoftBody<'a>,
+    external: Vec<Vec3>,
+    now: Vec<Vec3>,
+    ticks_per_step: u32,
+    tick: u32,
+    step_ns: Vec<u64>,
+    max_displacement: f32,
+    fixed: usize,
+    spec: SoftSpec,
+}
+
+impl<'a> SoftDriver<'a> {
+    /// A body at rest over `owned` (built from the world's mesh at rest, [`SoftOwned::from_mesh`])
+    /// with the spec's material and fixed nodes; warns in one line when no node is fixed.
+    ///
+    /// # Errors
+    /// Exit status 2 when the core refuses the body (a flat or inverted tet, a material out
+    /// of range).
+    pub fn new(owned: &'a mut SoftOwned, spec: &SoftSpec) -> Result<Self, CliError> {
+        let n = owned.rest.len();
+        let (lo, hi) = owned
+            .rest
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p.z), hi.max(p.z))
+            });
+        let mut body = owned
+            .body(
+                &[spec.material()],
+                SoftParams {
+                    gravity: Vec3::ZERO,
+                    damping: DAMPING,
+                    substeps: SUBSTEPS,
+                    iterations: 1,
+                },
+            )
+            .map_err(|e| CliError::input(format!("--body soft: {e}")))?;
+        let fixed = match spec.fix {
+            Fix::Below(axis, v) => {
+                let up = [Vec3::X, Vec3::Y, Vec3::Z][axis];
+                body.fix_below(up * v as f32, up)
+            }
+            Fix::LowestTenth => body.fix_below(Vec3::new(0.0, 0.0, lo + 0.1 * (hi - lo)), Vec3::Z),
+        };
+        if fixed == 0 {
+            errln!(
+                "tetradrill: warning: --fix-below fixes no node of the soft body: it drifts \
+                 away under the tool"
+            );
+        }
+        Ok(Self {
+            body,
+            external: vec![Vec3::ZERO; n],
+            now: vec![Vec3::ZERO; n],
+            ticks_per_step: spec.ticks_per_step.max(1),
+            tick: 0,
+            step_ns: Vec::new(),
+            max_displacement: 0.0,
+            fixed,
+            spec: *spec,
+        })
+    }
+
+    /// After one servo tick whose force on the user was `force`: the material's share of the
+    /// reaction (`-force / ticks_per_step`, so a step gets the mean over its ticks) spread over
+    /// the corners of the world's contact tet at the contact point; at every
+    /// `ticks_per_step`-th tick, a physics step of `ticks_per_step` ms and
+    /// [`World::set_positions`]. Returns whether a step ran.
+    ///
+    /// # Errors
+    /// A refused step or update (a failure: it does not happen on a body [`SoftDriver::new`]
+    /// accepted, with positions the physics keeps finite).
+    pub fn after_tick(&mut self, world: &mut World<'_>, force: Vec3) -> Result<bool, CliError> {
+        if let Some(t) = world.contact_tet() {
+            if force != Vec3::ZERO {
+                let share = -force / self.ticks_per_step as f32;
+                self.body.add_point_force(
+                    t.idx(),
+                    world.contact().point,
+                    share,
+                    &mut self.external,
+                );
+            }
+        }
+        self.tick += 1;
+        if self.tick < self.ticks_per_step {
+            return Ok(false);
+        }
+        self.tick = 0;
+        let t0 = now_ns();
+        self.body
+            .step(self.ticks_per_step as f32 * PERIOD_S as f32, &self.external)
+            .map_err(|e| CliError::failure(format!("soft body step: {e}")))?;
+        self.body.write_positions(&mut self.now);
+        let rep = world
+            .set_positions(&self.now)
+            .map_err(|e| CliError::failure(format!("soft body positions: {e}")))?;
+        self.step_ns.push(now_ns() - t0);
+        self.external.fill(Vec3::ZERO);
+        self.max_displacement = self.max_displacement.max(rep.max_displacement);
+        Ok(true)
+    }
+
+    /// The run's figures so far.
+    pub fn summary(&self) -> DeformSummary {
+        let t = summarise_ns(&self.step_ns);
+        DeformSummary {
+            max_displacement: f64::from(self.max_displacement),
+            step_us: StepTiming {
+                mean: t.mean,
+                p99: t.p99,
+                max: t.max,
+            },
+            rate_hz: self.spec.rate_hz(),
+            steps: self.step_ns.len() as u64,
+            fixed_nodes: self.fixed,
+            young: self.spec.young,
+            poisson: self.spec.poisson,
+        }
     }
 }
