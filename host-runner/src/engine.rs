@@ -149,6 +149,9 @@ pub struct EngineStorage {
     /// The rest positions of a deforming world ([`EngineStorage::enable_deformation`]; empty:
     /// the world is rigid).
     deform_rest: Vec<Vec3>,
+    /// The mesh's positions when deformation was enabled: each world over this storage (a
+    /// viewer's reset too) starts from them, whatever the last world left.
+    rest_copy: Vec<Vec3>,
 }
 
 /// The regions of a scenario's world: one per distinct label of the mesh, in label order.
@@ -367,6 +370,7 @@ impl EngineStorage {
             tet_region: Vec::new(),
             region_labels: Vec::new(),
             deform_rest: Vec::new(),
+            rest_copy: Vec::new(),
         }
     }
 
@@ -374,6 +378,7 @@ impl EngineStorage {
     /// state kept here): a soft body then hands them its positions every physics step.
     pub fn enable_deformation(&mut self) {
         self.deform_rest = vec![Vec3::ZERO; self.mesh.positions().len()];
+        self.rest_copy = self.mesh.positions().to_vec();
     }
 
     /// Storage for a soft body over the mesh at rest (node and tet order the world's).
@@ -441,7 +446,14 @@ impl EngineStorage {
     fn world_of<'s>(&'s mut self, mesh: Option<Mesh<'s>>) -> Result<World<'s>, CliError> {
         let mesh = match mesh {
             Some(m) => m,
-            None => self.mesh.view(),
+            None => {
+                let mut m = self.mesh.view();
+                if !self.rest_copy.is_empty() {
+                    // A deforming world left the nodes where its body had moved them.
+                    m.positions_mut().copy_from_slice(&self.rest_copy);
+                }
+                m
+            }
         };
         // The zone query may visit as many cells as the burr's zone covers, and never fewer
         // than a list of this length can be filled from.

@@ -219,7 +219,7 @@ impl DeformSummary {
     /// One line for a summary.
     pub fn line(&self) -> String {
         format!(
-            "soft body (E {} Pa, nu {}, {} nodes fixed): {} steps at {} Hz, max displacement {:.4e} m, step + world update us: mean {:.1}  p99 {:.1}  max {:.1}",
+            "soft body (E {} Pa, nu {}, {} nodes fixed): {} steps at {:.0} Hz, max displacement {:.4e} m, step + world update us: mean {:.1}  p99 {:.1}  max {:.1}",
             self.young,
             self.poisson,
             self.fixed_nodes,
@@ -310,9 +310,26 @@ impl<'a> SoftDriver<'a> {
     /// A refused step or update (a failure: it does not happen on a body [`SoftDriver::new`]
     /// accepted, with positions the physics keeps finite).
     pub fn after_tick(&mut self, world: &mut World<'_>, force: Vec3) -> Result<bool, CliError> {
+        self.after_ticks(world, force, 1)
+    }
+
+    /// [`SoftDriver::after_tick`] for a simulation step that covered `ticks` servo ticks of
+    /// the same `force` (the real-time simulation task): their reaction is gathered, and at
+    /// most one physics step (of the fixed `ticks_per_step` ms) runs; ticks past it wait for
+    /// the next call, so a physics slower than real time falls behind instead of piling up
+    /// steps.
+    ///
+    /// # Errors
+    /// As [`SoftDriver::after_tick`].
+    pub fn after_ticks(
+        &mut self,
+        world: &mut World<'_>,
+        force: Vec3,
+        ticks: u32,
+    ) -> Result<bool, CliError> {
         if let Some(t) = world.contact_tet() {
-            if force != Vec3::ZERO {
-                let share = -force / self.ticks_per_step as f32;
+            if force != Vec3::ZERO && ticks > 0 {
+                let share = -force * (ticks as f32 / self.ticks_per_step as f32);
                 self.body.add_point_force(
                     t.idx(),
                     world.contact().point,
@@ -321,11 +338,11 @@ impl<'a> SoftDriver<'a> {
                 );
             }
         }
-        self.tick += 1;
+        self.tick = self.tick.saturating_add(ticks);
         if self.tick < self.ticks_per_step {
             return Ok(false);
         }
-        self.tick = 0;
+        self.tick -= self.ticks_per_step;
         let t0 = now_ns();
         self.body
             .step(self.ticks_per_step as f32 * PERIOD_S as f32, &self.external)

@@ -108,7 +108,11 @@ fn a_pressed_soft_block_gives_and_dents_within_closed_form_bounds() {
         "--fix-below",
         "z:-0.49",
     ]);
-    let soft = replay_json(&dir, "soft", &soft_args);
+    let obj = dir.join("surface.obj");
+    let obj_s = obj.to_string_lossy().into_owned();
+    let mut with_surface = soft_args.clone();
+    with_surface.extend_from_slice(&["--surface", &obj_s]);
+    let soft = replay_json(&dir, "soft", &with_surface);
     assert!(rigid.get("deform").is_none());
     let fz = |r: &serde_json::Value| r["force"]["final"][2].as_f64().unwrap();
     let (f_rigid, f_soft) = (fz(&rigid), fz(&soft));
@@ -137,6 +141,17 @@ fn a_pressed_soft_block_gives_and_dents_within_closed_form_bounds() {
         assert!(d["step_us"][k].as_f64().unwrap() > 0.0, "{k}");
     }
     assert_eq!(soft["scenario"]["body"].as_str(), Some("soft"));
+    // The drilled-surface export writes the deformed positions: the top face (z = 0.5 at
+    // rest) is pressed down under the burr by the dent.
+    let text = std::fs::read_to_string(&obj).expect("read the surface");
+    let top_min = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .filter_map(|l| l.split_whitespace().nth(2)?.parse::<f64>().ok())
+        .filter(|&z| z > 0.4)
+        .fold(f64::INFINITY, f64::min);
+    assert!(top_min < 0.5 - 0.5 * kinematic, "top {top_min}");
+    assert!(top_min > 0.5 - PRESS, "top {top_min}");
     // The same soft replay again: the same forces bit for bit.
     let again = replay_json(&dir, "again", &soft_args);
     assert_eq!(again["force_digest"], soft["force_digest"]);
@@ -175,6 +190,49 @@ fn a_stiff_soft_block_loses_the_rigid_volume() {
     assert_eq!(d["steps"].as_u64(), Some(300));
     let m = d["max_displacement"].as_f64().unwrap();
     assert!(m > 0.0 && m < 1e-3, "{m}");
+}
+
+/// `demo --soft` headless through the real-time pipeline: the JSON's `deform` has steps, a
+/// displacement (the burr presses the block) and its timing; the same run rigid has none.
+#[test]
+fn demo_soft_reports_the_deformation() {
+    let dir = scratch_dir("softcli", "demo");
+    let json = dir.join("demo.json");
+    let json_s = json.to_string_lossy().into_owned();
+    let out = run(&[
+        "demo",
+        "--soft",
+        "--headless",
+        "--no-rt",
+        "--duration",
+        "2",
+        "--json",
+        &json_s,
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("soft body (E 2000 Pa"), "{stdout}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("read JSON")).expect("JSON");
+    let d = &r["deform"];
+    assert!(d["steps"].as_u64().unwrap() > 0, "{d}");
+    assert!(d["rate_hz"].as_f64().unwrap() > 0.0, "{d}");
+    // The path presses the block within its first 2 s (force up to the 8 N clamp).
+    assert!(d["max_displacement"].as_f64().unwrap() > 1e-4, "{d}");
+    assert!(d["step_us"]["max"].as_f64().unwrap() > 0.0, "{d}");
+    refused(
+        &[
+            "run",
+            "--device",
+            "sim",
+            "--body",
+            "soft",
+            "--tool",
+            "mesh:x.node",
+        ],
+        &["--body soft", "mesh tool"],
+    );
 }
 
 #[test]
