@@ -242,6 +242,8 @@ pub struct SoftDriver<'a> {
     now: Vec<Vec3>,
     ticks_per_step: u32,
     tick: u32,
+    /// Servo ticks whose reaction `external` holds (their sum, unscaled).
+    gathered: u32,
     step_ns: Vec<u64>,
     max_displacement: f32,
     fixed: usize,
@@ -293,6 +295,7 @@ impl<'a> SoftDriver<'a> {
             now: vec![Vec3::ZERO; n],
             ticks_per_step: spec.ticks_per_step.max(1),
             tick: 0,
+            gathered: 0,
             step_ns: Vec::new(),
             max_displacement: 0.0,
             fixed,
@@ -300,8 +303,8 @@ impl<'a> SoftDriver<'a> {
         })
     }
 
-    /// After one servo tick whose force on the user was `force`: the material's share of the
-    /// reaction (`-force / ticks_per_step`, so a step gets the mean over its ticks) spread over
+    /// After one servo tick whose force on the user was `force`: the reaction (`-force`; a
+    /// step's load is the mean over the ticks since the last step) spread over
     /// the corners of the world's contact tet at the contact point; at every
     /// `ticks_per_step`-th tick, a physics step of `ticks_per_step` ms and
     /// [`World::set_positions`]. Returns whether a step ran.
@@ -314,10 +317,16 @@ impl<'a> SoftDriver<'a> {
     }
 
     /// [`SoftDriver::after_tick`] for a simulation step that covered `ticks` servo ticks of
-    /// the same `force` (the real-time simulation task): their reaction is gathered, and at
-    /// most one physics step (of the fixed `ticks_per_step` ms) runs; ticks past it wait for
-    /// the next call, so a physics slower than real time falls behind instead of piling up
-    /// steps.
+    /// the same `force` (the real-time simulation task): their reaction is gathered (weighted
+    /// by `ticks`), and at most one physics step (of the fixed `ticks_per_step` ms, loaded with
+    /// the mean reaction since the last step) runs; at most a step's worth of ticks past it
+    /// carry to the next call, so a physics slower than real time falls behind (a lower
+    /// reached rate) instead of piling up steps or loads.
+    ///
+    /// # Bounded work
+    /// Constant between steps; a step call adds one `SoftBody::step` (O(substeps x (N + T)))
+    /// and `World::set_positions` (O(N + T + hash)) and two O(N) passes, allocating only the
+    /// timing sample.
     ///
     /// # Errors
     /// As [`SoftDriver::after_tick`].
@@ -329,21 +338,28 @@ impl<'a> SoftDriver<'a> {
     ) -> Result<bool, CliError> {
         if let Some(t) = world.contact_tet() {
             if force != Vec3::ZERO && ticks > 0 {
-                let share = -force * (ticks as f32 / self.ticks_per_step as f32);
                 self.body.add_point_force(
                     t.idx(),
                     world.contact().point,
-                    share,
+                    -force * ticks as f32,
                     &mut self.external,
                 );
             }
         }
+        self.gathered = self.gathered.saturating_add(ticks);
         self.tick = self.tick.saturating_add(ticks);
         if self.tick < self.ticks_per_step {
             return Ok(false);
         }
-        self.tick -= self.ticks_per_step;
+        // Ticks past this step count towards the next one, at most a step's worth.
+        self.tick = (self.tick - self.ticks_per_step).min(self.ticks_per_step - 1);
         let t0 = now_ns();
+        // The step's load: the mean reaction over the ticks gathered since the last step.
+        let mean = 1.0 / self.gathered.max(1) as f32;
+        self.gathered = 0;
+        for f in self.external.iter_mut() {
+            *f *= mean;
+        }
         self.body
             .step(self.ticks_per_step as f32 * PERIOD_S as f32, &self.external)
             .map_err(|e| CliError::failure(format!("soft body step: {e}")))?;
