@@ -68,7 +68,8 @@ impl SoftOwned {
         Self::new(mesh.positions().to_vec(), tets)
     }
 
-    /// A body at rest over this storage, each tet of the material [`SoftOwned::tet_material`]
+    /// A body over this storage's state (at rest when fresh from [`SoftOwned::new`];
+    /// [`SoftDriver::new`] puts it back at rest first), each tet of the material [`SoftOwned::tet_material`]
     /// names in `materials` (all of `materials[0]` when that is empty).
     ///
     /// # Errors
@@ -259,6 +260,10 @@ impl<'a> SoftDriver<'a> {
     /// of range).
     pub fn new(owned: &'a mut SoftOwned, spec: &SoftSpec) -> Result<Self, CliError> {
         let n = owned.rest.len();
+        // At rest, whatever an earlier body over this storage left (a viewer's reset).
+        owned.displacement.fill(Vec3::ZERO);
+        owned.velocity.fill(Vec3::ZERO);
+        owned.previous.fill(Vec3::ZERO);
         let (lo, hi) = owned
             .rest
             .iter()

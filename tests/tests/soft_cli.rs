@@ -6,6 +6,10 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use glam::Vec3;
+use tetradrill::soft::{Fix, SoftDriver, SoftOwned, SoftSpec};
+use tetradrill_core::drill::DrillParams;
+use tetradrill_tests::search::{block_mesh, Store};
 use tetradrill_tests::{scratch_dir, tetradrill_bin};
 
 fn run(args: &[&str]) -> Output {
@@ -295,4 +299,52 @@ fn bad_soft_flags_exit_2_naming_the_flag() {
         let p = write(&dir, name, text);
         refused(&["replay", "--scenario", &p.to_string_lossy()], &[key]);
     }
+}
+
+/// A driver over storage an earlier body left pushed in (a viewer's reset) starts at rest: with
+/// no load its steps leave every node where it was at rest.
+#[test]
+fn a_new_driver_starts_at_rest_over_used_storage() {
+    let mut om = block_mesh(4);
+    let mut owned = SoftOwned::from_mesh(&om.view());
+    let n = owned.rest.len();
+    let mesh = om.view();
+    let mut st = Store::new(mesh.tet_count(), 1 << 14);
+    let mut world = st.world(mesh);
+    let mut rest = vec![Vec3::ZERO; n];
+    world.enable_deformation(&mut rest).unwrap();
+    let spec = SoftSpec {
+        young: YOUNG,
+        poisson: 0.3,
+        fix: Fix::Below(2, -0.49),
+        ticks_per_step: 1,
+    };
+    let params = DrillParams {
+        max_depth: 2,
+        min_area: 0.0,
+        budget: 100_000,
+    };
+    let centre = Vec3::new(0.0123, 0.0371, 0.57);
+    world.simulate(centre, 0.1, 0.05, false, &params);
+    assert!(world.contact_tet().is_some());
+    {
+        let mut d = SoftDriver::new(&mut owned, &spec).unwrap();
+        for _ in 0..50 {
+            d.after_tick(&mut world, Vec3::new(0.0, 0.0, 5.0)).unwrap();
+        }
+        assert!(d.summary().max_displacement > 1e-4);
+    }
+    assert!(owned.displacement.iter().any(|u| u.length() > 1e-4));
+    world.simulate(Vec3::new(0.0, 0.0, 2.0), 0.1, 0.05, false, &params);
+    let mut d = SoftDriver::new(&mut owned, &spec).unwrap();
+    for _ in 0..5 {
+        assert!(d.after_tick(&mut world, Vec3::ZERO).unwrap());
+    }
+    // Rounding only (rest plus a zero displacement), against the 1e-4 left by the first body.
+    assert!(
+        d.summary().max_displacement < 1e-9,
+        "{}",
+        d.summary().max_displacement
+    );
+    assert_eq!(d.summary().steps, 5);
 }
