@@ -107,8 +107,9 @@ pub const DEFAULT_YOUNG: f64 = 5_000.0;
 pub const DEFAULT_POISSON: f64 = 0.3;
 /// Density of the soft body, kilogram per cubic metre (water, as soft tissue).
 pub const DENSITY: f32 = 1000.0;
-/// Velocity damping rate of the soft body, per second: about critical for the demo block's
-/// slowest mode at the default modulus, so a dent settles within a second.
+/// Velocity damping rate of the soft body, per second: above critical (`2 omega`) for the
+/// demo block's slowest modes at the default modulus (`omega` a few rad/s), so a dent does
+/// not ring; it settles in a second or two.
 pub const DAMPING: f32 = 10.0;
 /// XPBD substeps per physics step (one iteration each).
 pub const SUBSTEPS: u32 = 10;
@@ -145,6 +146,22 @@ impl SoftSpec {
     /// tet-mesh tool (the soft body is pushed by a burr's contact).
     pub fn of(sc: &Scenario) -> Result<Option<Self>, CliError> {
         if sc.body == Body::Rigid {
+            let set: Vec<&str> = [
+                ("--young", sc.young.is_some()),
+                ("--poisson", sc.poisson.is_some()),
+                ("--fix-below", sc.fix_below.is_some()),
+                ("--soft-rate", sc.soft_rate.is_some()),
+            ]
+            .iter()
+            .filter(|(_, on)| *on)
+            .map(|(flag, _)| *flag)
+            .collect();
+            if !set.is_empty() {
+                errln!(
+                    "tetradrill: warning: {} set for a rigid body: no effect without --body soft",
+                    set.join(", ")
+                );
+            }
             return Ok(None);
         }
         sc.check().map_err(CliError::input)?;
@@ -193,7 +210,8 @@ pub struct DeformSummary {
     pub max_displacement: f64,
     /// The physics step with the world's update (`World::set_positions`), microseconds.
     pub step_us: StepTiming,
-    /// Physics steps a second (simulated time).
+    /// Physics steps a second: `replay`, the rate set; `run` and `demo`, the rate reached
+    /// (steps over the run's seconds).
     pub rate_hz: f64,
     /// Physics steps run.
     pub steps: u64,
