@@ -148,6 +148,12 @@ pub struct EngineStorage {
     tet_region: Vec<u8>,
     /// The mesh label of each region.
     region_labels: Vec<i32>,
+    /// The rest positions of a deforming world ([`EngineStorage::enable_deformation`]; empty:
+    /// the world is rigid).
+    deform_rest: Vec<Vec3>,
+    /// The mesh's positions when deformation was enabled: each world over this storage (a
+    /// viewer's reset too) starts from them, whatever the last world left.
+    rest_copy: Vec<Vec3>,
 }
 
 /// The regions of a scenario's world: one per distinct label of the mesh, in label order.
@@ -366,7 +372,21 @@ impl EngineStorage {
             regions: Vec::new(),
             tet_region: Vec::new(),
             region_labels: Vec::new(),
+            deform_rest: Vec::new(),
+            rest_copy: Vec::new(),
         }
+    }
+
+    /// Makes the worlds over this storage deforming ([`World::enable_deformation`], the rest
+    /// state kept here): a soft body then hands them its positions every physics step.
+    pub fn enable_deformation(&mut self) {
+        self.deform_rest = vec![Vec3::ZERO; self.mesh.positions().len()];
+        self.rest_copy = self.mesh.positions().to_vec();
+    }
+
+    /// Storage for a soft body over the mesh at rest (node and tet order the world's).
+    pub fn soft_owned(&mut self) -> crate::soft::SoftOwned {
+        crate::soft::SoftOwned::from_mesh(&self.mesh.view())
     }
 
     /// Gives the world regions from the mesh's `labels` (one per tet) and the scenario's
@@ -429,7 +449,14 @@ impl EngineStorage {
     fn world_of<'s>(&'s mut self, mesh: Option<Mesh<'s>>) -> Result<World<'s>, CliError> {
         let mesh = match mesh {
             Some(m) => m,
-            None => self.mesh.view(),
+            None => {
+                let mut m = self.mesh.view();
+                if !self.rest_copy.is_empty() {
+                    // A deforming world left the nodes where its body had moved them.
+                    m.positions_mut().copy_from_slice(&self.rest_copy);
+                }
+                m
+            }
         };
         // The zone query may visit as many cells as the burr's zone covers, and never fewer
         // than a list of this length can be filled from.
@@ -476,6 +503,13 @@ impl EngineStorage {
             w
         })
         .map_err(|e| CliError::failure(format!("cannot set up the simulation: {e}")))
+        .and_then(|mut w| {
+            if !self.deform_rest.is_empty() {
+                w.enable_deformation(&mut self.deform_rest)
+                    .map_err(|e| CliError::failure(format!("cannot set up the soft body: {e}")))?;
+            }
+            Ok(w)
+        })
     }
 }
 

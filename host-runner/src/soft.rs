@@ -1,11 +1,21 @@
 //! Host-owned storage for one soft body (`tetradrill_core::soft`): the caller slices the core
-//! borrows, sized from a rest mesh, so a host, a test or a bench builds a body in one call.
+//! borrows, sized from a rest mesh, so a host, a test or a bench builds a body in one call;
+//! and the simulation loop's side of `--body soft` ([`SoftSpec`], [`SoftDriver`]).
 
 use tetradrill_core::mesh::Mesh;
+use tetradrill_core::servo::World;
 use tetradrill_core::soft::{
     mesh_tets, Material, SoftBody, SoftError, SoftMesh, SoftParams, SoftStorage, TetRest,
 };
 use tetradrill_core::Vec3;
+
+use serde::Serialize;
+
+use crate::error::CliError;
+use crate::platform::now_ns;
+use crate::scenario::{parse_fix_below, Body, Scenario};
+use crate::stats::summarise_ns;
+use crate::traces::PERIOD_S;
 
 /// Every slice a [`SoftBody`] borrows, owned: the rest mesh and the per-node and per-tet state.
 #[derive(Debug, Clone)]
@@ -58,7 +68,8 @@ impl SoftOwned {
         Self::new(mesh.positions().to_vec(), tets)
     }
 
-    /// A body at rest over this storage, each tet of the material [`SoftOwned::tet_material`]
+    /// A body over this storage's state (at rest when fresh from [`SoftOwned::new`];
+    /// [`SoftDriver::new`] puts it back at rest first), each tet of the material [`SoftOwned::tet_material`]
     /// names in `materials` (all of `materials[0]` when that is empty).
     ///
     /// # Errors
@@ -86,5 +97,320 @@ impl SoftOwned {
                 lambdas: &mut self.lambdas,
             },
         )
+    }
+}
+
+/// Young's modulus of `--body soft` without `--young`, pascal: soft tissue's order, and a
+/// dent of about a centimetre under the demo's few newtons on its block of 1 m.
+pub const DEFAULT_YOUNG: f64 = 5_000.0;
+/// Poisson ratio of `--body soft` without `--poisson`.
+pub const DEFAULT_POISSON: f64 = 0.3;
+/// Density of the soft body, kilogram per cubic metre (water, as soft tissue).
+pub const DENSITY: f32 = 1000.0;
+/// Velocity damping rate of the soft body, per second: above critical (`2 omega`) for the
+/// demo block's slowest modes at the default modulus (`omega` a few rad/s), so a dent does
+/// not ring; it settles in a second or two.
+pub const DAMPING: f32 = 10.0;
+/// XPBD substeps per physics step (one iteration each).
+pub const SUBSTEPS: u32 = 10;
+/// Physics steps a second without `--soft-rate`: four servo ticks a step.
+pub const DEFAULT_RATE_HZ: f64 = 250.0;
+
+/// Which nodes of a soft body are fixed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Fix {
+    /// Rest coordinate on the axis (0, 1, 2: x, y, z) at or below the value.
+    Below(usize, f64),
+    /// The lowest tenth of the body's rest extent in z.
+    LowestTenth,
+}
+
+/// A scenario's soft body, its values checked: material, fixed nodes, rate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SoftSpec {
+    /// Young's modulus, pascal.
+    pub young: f64,
+    /// Poisson ratio.
+    pub poisson: f64,
+    /// Fixed nodes.
+    pub fix: Fix,
+    /// Servo ticks (1 ms) per physics step.
+    pub ticks_per_step: u32,
+}
+
+impl SoftSpec {
+    /// The soft body of `sc`, or `None` for `body = "rigid"`.
+    ///
+    /// # Errors
+    /// Exit status 2 for a value out of range, naming the key and the flag, and for a
+    /// tet-mesh tool (the soft body is pushed by a burr's contact).
+    pub fn of(sc: &Scenario) -> Result<Option<Self>, CliError> {
+        if sc.body == Body::Rigid {
+            let set: Vec<&str> = [
+                ("--young", sc.young.is_some()),
+                ("--poisson", sc.poisson.is_some()),
+                ("--fix-below", sc.fix_below.is_some()),
+                ("--soft-rate", sc.soft_rate.is_some()),
+            ]
+            .iter()
+            .filter(|(_, on)| *on)
+            .map(|(flag, _)| *flag)
+            .collect();
+            if !set.is_empty() {
+                errln!(
+                    "tetradrill: warning: {} set for a rigid body: no effect without --body soft",
+                    set.join(", ")
+                );
+            }
+            return Ok(None);
+        }
+        sc.check().map_err(CliError::input)?;
+        if matches!(sc.tool_kind(), Ok(crate::scenario::ToolKind::Mesh(_))) {
+            return Err(CliError::input(
+                "--body soft (key body): a soft body is pushed by a burr's contact; use \
+                 --tool sphere:R or drill:..., not a mesh tool",
+            ));
+        }
+        let fix = match &sc.fix_below {
+            Some(f) => {
+                let (axis, v) = parse_fix_below(f).map_err(CliError::input)?;
+                Fix::Below(axis, v)
+            }
+            None => Fix::LowestTenth,
+        };
+        let hz = sc.soft_rate.unwrap_or(DEFAULT_RATE_HZ);
+        Ok(Some(Self {
+            young: sc.young.unwrap_or(DEFAULT_YOUNG),
+            poisson: sc.poisson.unwrap_or(DEFAULT_POISSON),
+            fix,
+            ticks_per_step: (1000.0 / hz).round().max(1.0) as u32,
+        }))
+    }
+
+    /// Physics steps a second.
+    pub fn rate_hz(&self) -> f64 {
+        1000.0 / f64::from(self.ticks_per_step)
+    }
+
+    /// The material.
+    pub fn material(&self) -> Material {
+        Material {
+            young: self.young as f32,
+            poisson: self.poisson as f32,
+            density: DENSITY,
+        }
+    }
+}
+
+/// The `deform` object of a soft run's JSON.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct DeformSummary {
+    /// The largest distance of a node from its rest position over the run, metres (mesh
+    /// units).
+    pub max_displacement: f64,
+    /// The physics step with the world's update (`World::set_positions`), microseconds.
+    pub step_us: StepTiming,
+    /// Physics steps a second: `replay`, the rate set; `run` and `demo`, the rate reached
+    /// (steps over the run's seconds).
+    pub rate_hz: f64,
+    /// Physics steps run.
+    pub steps: u64,
+    /// Nodes fixed.
+    pub fixed_nodes: usize,
+    /// Young's modulus, pascal.
+    pub young: f64,
+    /// Poisson ratio.
+    pub poisson: f64,
+}
+
+/// Step timing of a soft run, microseconds.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct StepTiming {
+    /// Mean.
+    pub mean: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+impl DeformSummary {
+    /// One line for a summary.
+    pub fn line(&self) -> String {
+        format!(
+            "soft body (E {} Pa, nu {}, {} nodes fixed): {} steps at {:.0} Hz, max displacement {:.4e} m, step + world update us: mean {:.1}  p99 {:.1}  max {:.1}",
+            self.young,
+            self.poisson,
+            self.fixed_nodes,
+            self.steps,
+            self.rate_hz,
+            self.max_displacement,
+            self.step_us.mean,
+            self.step_us.p99,
+            self.step_us.max
+        )
+    }
+}
+
+/// A soft body driven by the simulation loop: the tool's reaction gathered tick by tick,
+/// a physics step every [`SoftSpec::ticks_per_step`] ticks, its positions handed to the world.
+#[derive(Debug)]
+pub struct SoftDriver<'a> {
+    body: SoftBody<'a>,
+    external: Vec<Vec3>,
+    now: Vec<Vec3>,
+    ticks_per_step: u32,
+    tick: u32,
+    /// Servo ticks whose reaction `external` holds (their sum, unscaled).
+    gathered: u32,
+    step_ns: Vec<u64>,
+    max_displacement: f32,
+    fixed: usize,
+    spec: SoftSpec,
+}
+
+impl<'a> SoftDriver<'a> {
+    /// A body at rest over `owned` (built from the world's mesh at rest, [`SoftOwned::from_mesh`])
+    /// with the spec's material and fixed nodes; warns in one line when no node is fixed.
+    ///
+    /// # Errors
+    /// Exit status 2 when the core refuses the body (a flat or inverted tet, a material out
+    /// of range).
+    pub fn new(owned: &'a mut SoftOwned, spec: &SoftSpec) -> Result<Self, CliError> {
+        let n = owned.rest.len();
+        // At rest, whatever an earlier body over this storage left (a viewer's reset).
+        owned.displacement.fill(Vec3::ZERO);
+        owned.velocity.fill(Vec3::ZERO);
+        owned.previous.fill(Vec3::ZERO);
+        let (lo, hi) = owned
+            .rest
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p.z), hi.max(p.z))
+            });
+        let mut body = owned
+            .body(
+                &[spec.material()],
+                SoftParams {
+                    gravity: Vec3::ZERO,
+                    damping: DAMPING,
+                    substeps: SUBSTEPS,
+                    iterations: 1,
+                },
+            )
+            .map_err(|e| CliError::input(format!("--body soft: {e}")))?;
+        let fixed = match spec.fix {
+            Fix::Below(axis, v) => {
+                let up = [Vec3::X, Vec3::Y, Vec3::Z][axis];
+                body.fix_below(up * v as f32, up)
+            }
+            Fix::LowestTenth => body.fix_below(Vec3::new(0.0, 0.0, lo + 0.1 * (hi - lo)), Vec3::Z),
+        };
+        if fixed == 0 {
+            errln!(
+                "tetradrill: warning: --fix-below fixes no node of the soft body: it drifts \
+                 away under the tool"
+            );
+        }
+        Ok(Self {
+            body,
+            external: vec![Vec3::ZERO; n],
+            now: vec![Vec3::ZERO; n],
+            ticks_per_step: spec.ticks_per_step.max(1),
+            tick: 0,
+            gathered: 0,
+            step_ns: Vec::new(),
+            max_displacement: 0.0,
+            fixed,
+            spec: *spec,
+        })
+    }
+
+    /// After one servo tick whose force on the user was `force`: the reaction (`-force`; a
+    /// step's load is the mean over the ticks since the last step) spread over
+    /// the corners of the world's contact tet at the contact point; at every
+    /// `ticks_per_step`-th tick, a physics step of `ticks_per_step` ms and
+    /// [`World::set_positions`]. Returns whether a step ran.
+    ///
+    /// # Errors
+    /// A refused step or update (a failure: it does not happen on a body [`SoftDriver::new`]
+    /// accepted, with positions the physics keeps finite).
+    pub fn after_tick(&mut self, world: &mut World<'_>, force: Vec3) -> Result<bool, CliError> {
+        self.after_ticks(world, force, 1)
+    }
+
+    /// [`SoftDriver::after_tick`] for a simulation step that covered `ticks` servo ticks of
+    /// the same `force` (the real-time simulation task): their reaction is gathered (weighted
+    /// by `ticks`), and at most one physics step (of the fixed `ticks_per_step` ms, loaded with
+    /// the mean reaction since the last step) runs; at most a step's worth of ticks past it
+    /// carry to the next call, so a physics slower than real time falls behind (a lower
+    /// reached rate) instead of piling up steps or loads.
+    ///
+    /// # Bounded work
+    /// Constant between steps; a step call adds one `SoftBody::step` (O(substeps x (N + T)))
+    /// and `World::set_positions` (O(N + T + hash)) and two O(N) passes, allocating only the
+    /// timing sample.
+    ///
+    /// # Errors
+    /// As [`SoftDriver::after_tick`].
+    pub fn after_ticks(
+        &mut self,
+        world: &mut World<'_>,
+        force: Vec3,
+        ticks: u32,
+    ) -> Result<bool, CliError> {
+        if let Some(t) = world.contact_tet() {
+            if force != Vec3::ZERO && ticks > 0 {
+                self.body.add_point_force(
+                    t.idx(),
+                    world.contact().point,
+                    -force * ticks as f32,
+                    &mut self.external,
+                );
+            }
+        }
+        self.gathered = self.gathered.saturating_add(ticks);
+        self.tick = self.tick.saturating_add(ticks);
+        if self.tick < self.ticks_per_step {
+            return Ok(false);
+        }
+        // Ticks past this step count towards the next one, at most a step's worth.
+        self.tick = (self.tick - self.ticks_per_step).min(self.ticks_per_step - 1);
+        let t0 = now_ns();
+        // The step's load: the mean reaction over the ticks gathered since the last step.
+        let mean = 1.0 / self.gathered.max(1) as f32;
+        self.gathered = 0;
+        for f in self.external.iter_mut() {
+            *f *= mean;
+        }
+        self.body
+            .step(self.ticks_per_step as f32 * PERIOD_S as f32, &self.external)
+            .map_err(|e| CliError::failure(format!("soft body step: {e}")))?;
+        self.body.write_positions(&mut self.now);
+        let rep = world
+            .set_positions(&self.now)
+            .map_err(|e| CliError::failure(format!("soft body positions: {e}")))?;
+        self.step_ns.push(now_ns() - t0);
+        self.external.fill(Vec3::ZERO);
+        self.max_displacement = self.max_displacement.max(rep.max_displacement);
+        Ok(true)
+    }
+
+    /// The run's figures so far.
+    pub fn summary(&self) -> DeformSummary {
+        let t = summarise_ns(&self.step_ns);
+        DeformSummary {
+            max_displacement: f64::from(self.max_displacement),
+            step_us: StepTiming {
+                mean: t.mean,
+                p99: t.p99,
+                max: t.max,
+            },
+            rate_hz: self.spec.rate_hz(),
+            steps: self.step_ns.len() as u64,
+            fixed_nodes: self.fixed,
+            young: self.spec.young,
+            poisson: self.spec.poisson,
+        }
     }
 }

@@ -18,6 +18,7 @@ use crate::error::CliError;
 use crate::pen::{PenRig, PenSizes};
 use crate::platform::now_ns;
 use crate::scenario::{Scenario, ScenarioFlags, ToolKind};
+use crate::soft::{DeformSummary, SoftDriver, SoftSpec};
 use crate::stats::{summarise_ns, Summary};
 use crate::traces::PoseSource;
 
@@ -102,6 +103,9 @@ pub struct ReplayReport {
     /// Contact of a tet-mesh tool (`--tool mesh:FILE` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pen: Option<PenSummary>,
+    /// The soft body (`--body soft` only): its largest displacement, step time and rate.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub deform: Option<DeformSummary>,
 }
 
 /// The buffers a burr run chose from the tool and the mesh ([`engine::ToolSizing`]).
@@ -403,6 +407,7 @@ impl From<Saturations> for SaturationCounts {
 /// Runs `replay`.
 pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let sc = Scenario::from_flags(&args.scenario)?;
+    let soft = SoftSpec::of(&sc)?;
     if let ToolKind::Mesh(pen) = sc.tool_kind().map_err(CliError::input)? {
         if args.repeat > 1 {
             return Err(CliError::input(
@@ -431,7 +436,12 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         }
         let mut store = EngineStorage::try_allocate(loaded.mesh.clone(), &sc)?;
         store.set_labels(&loaded.labels, &sc)?;
+        let mut owned = soft.map(|_| {
+            store.enable_deformation();
+            store.soft_owned()
+        });
         let mut world = store.world()?;
+        let mut driver = soft_driver(soft.as_ref(), owned.as_mut())?;
         let mut tool = ToolState::default();
         let mut shaft = ShaftState::default();
         let mut digest = ForceDigest::new();
@@ -440,6 +450,9 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
             let (f, ns) = timed_tick(&mut world, &mut tool, &mut shaft, &params, &poses.at(i));
             times[i as usize] = ns;
             digest.push(f);
+            if let Some(d) = driver.as_mut() {
+                d.after_tick(&mut world, f)?;
+            }
         }
         keep_fastest(&mut fastest, &times);
         digests.push(digest.value());
@@ -448,7 +461,12 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     store.set_labels(&loaded.labels, &sc)?;
     let region_labels = store.region_labels().to_vec();
     let sizing = SizingSummary::of(&store, &sc);
+    let mut owned = soft.map(|_| {
+        store.enable_deformation();
+        store.soft_owned()
+    });
     let mut world = store.world()?;
+    let mut driver = soft_driver(soft.as_ref(), owned.as_mut())?;
     let sizing = SizingSummary {
         max_cells: world.max_cells(),
         ..sizing
@@ -476,6 +494,9 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         }
         times[i as usize] = ns;
         digest.push(f);
+        if let Some(d) = driver.as_mut() {
+            d.after_tick(&mut world, f)?;
+        }
         max_n = max_n.max(f.length());
         if f != Vec3::ZERO {
             contact_ticks += 1;
@@ -545,6 +566,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         scenario: sc,
         shaft: shaft_sum,
         pen: None,
+        deform: driver.as_ref().map(SoftDriver::summary),
     };
     if let Some(path) = &args.surface {
         write_surface_obj(&world, path)?;
@@ -571,6 +593,17 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         crate::viewer::screenshot(&mut scene, path)?;
     }
     valid.map_err(|e| CliError::failure(format!("the final state is invalid: {e}")))
+}
+
+/// The soft body's driver over `owned` when the scenario has one.
+fn soft_driver<'a>(
+    spec: Option<&SoftSpec>,
+    owned: Option<&'a mut crate::soft::SoftOwned>,
+) -> Result<Option<SoftDriver<'a>>, CliError> {
+    match (spec, owned) {
+        (Some(s), Some(o)) => SoftDriver::new(o, s).map(Some),
+        _ => Ok(None),
+    }
 }
 
 /// One [`engine::tick_tool`] at `pose`: the force and the tick's duration in nanoseconds.
@@ -764,6 +797,7 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
         sizing: None,
         shaft: None,
         pen: Some(pen_info),
+        deform: None,
     };
     print_summary(&rep);
     if let Some(p) = &rep.pen {
@@ -849,6 +883,9 @@ fn print_summary(r: &ReplayReport) {
     );
     if let Some(z) = &r.sizing {
         outln!("{}", z.line());
+    }
+    if let Some(d) = &r.deform {
+        outln!("{}", d.line());
     }
     for w in r.saturations.warnings(r.ticks) {
         errln!("tetradrill: warning: {w}");

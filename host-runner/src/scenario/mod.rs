@@ -36,6 +36,25 @@ pub enum Crossings {
     Reuse,
 }
 
+/// What the object is: rigid (its nodes never move) or a soft body whose nodes the simulation
+/// loop moves with the core's XPBD physics (docs/SOFT.md, "On the command line").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Body {
+    /// The mesh stays where it was loaded.
+    #[default]
+    Rigid,
+    /// An elastic body (`young`, `poisson`, `fix_below`, `soft_rate`) pushed by the tool.
+    Soft,
+}
+
+impl Body {
+    /// `true` for [`Body::Rigid`] (the key is left out of a rigid scenario's JSON).
+    pub fn is_rigid(&self) -> bool {
+        *self == Body::Rigid
+    }
+}
+
 /// A complete scenario. Field names are the TOML keys and match the flags.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -145,6 +164,57 @@ pub struct Scenario {
     /// body's node count).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub queue_capacity: Option<usize>,
+    /// `rigid` (default) or `soft`: an elastic body the tool dents (docs/SOFT.md).
+    #[serde(skip_serializing_if = "Body::is_rigid")]
+    pub body: Body,
+    /// Soft body: Young's modulus, pascal (mesh units taken as metres; absent:
+    /// `crate::soft::DEFAULT_YOUNG`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub young: Option<f64>,
+    /// Soft body: Poisson ratio, `0..=0.49` (absent: `crate::soft::DEFAULT_POISSON`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub poisson: Option<f64>,
+    /// Soft body: `AXIS:VALUE` (`x`, `y` or `z`): the nodes whose rest coordinate on that axis
+    /// is at or below the value are fixed (absent: the lowest tenth of the body's z extent).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fix_below: Option<String>,
+    /// Soft body: physics steps a second; a whole number of 1 ms ticks per step, so a divisor
+    /// of 1000 (absent: `crate::soft::DEFAULT_RATE_HZ`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub soft_rate: Option<f64>,
+}
+
+/// A parsed `fix_below`: the axis (0, 1, 2 for x, y, z) and the value.
+pub fn parse_fix_below(s: &str) -> Result<(usize, f64), String> {
+    let bad = |why: &str| format!("fix_below `{s}`: {why}");
+    let Some((axis, value)) = s.split_once(':') else {
+        return Err(bad("expected AXIS:VALUE, for example z:-0.45"));
+    };
+    let axis = match axis.trim() {
+        "x" | "X" => 0,
+        "y" | "Y" => 1,
+        "z" | "Z" => 2,
+        _ => return Err(bad("the axis must be x, y or z")),
+    };
+    match value.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok((axis, v)),
+        _ => Err(bad("the value must be a finite number")),
+    }
+}
+
+/// Checks a soft body's rate: positive, at most 1000 Hz, a whole number of 1 ms ticks a step.
+pub fn check_soft_rate(hz: f64) -> Result<(), String> {
+    let ticks = 1000.0 / hz;
+    if !(hz.is_finite() && hz > 0.0 && hz <= 1000.0) {
+        return Err(format!("soft_rate must be in (0, 1000] Hz, got {hz}"));
+    }
+    if (ticks - ticks.round()).abs() > 1e-9 * ticks {
+        return Err(format!(
+            "soft_rate {hz} Hz is not a whole number of 1 ms ticks a step (1000 / {hz} = {ticks}); \
+             use a divisor of 1000 such as 1000, 500, 250, 200, 100"
+        ));
+    }
+    Ok(())
 }
 
 /// Largest storage one buffer may take. A larger capacity is refused as absurd: a mistyped
@@ -289,6 +359,11 @@ impl Default for Scenario {
             servo_lag: 0,
             contact_capacity: None,
             queue_capacity: None,
+            body: Body::Rigid,
+            young: None,
+            poisson: None,
+            fix_below: None,
+            soft_rate: None,
         }
     }
 }
@@ -409,6 +484,40 @@ pub struct ScenarioFlags {
     /// Depth propagation queue entries per body of a mesh tool (default: its node count).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
     pub queue_capacity: Option<usize>,
+    /// `rigid` (default) or `soft`: an elastic body the tool dents.
+    #[arg(long, value_enum)]
+    pub body: Option<Body>,
+    /// Soft body: Young's modulus, pascal (mesh units as metres).
+    #[arg(long, allow_negative_numbers = true, value_parser = positive, value_name = "PA")]
+    pub young: Option<f64>,
+    /// Soft body: Poisson ratio, 0..=0.49.
+    #[arg(long, allow_negative_numbers = true, value_parser = poisson, value_name = "NU")]
+    pub poisson: Option<f64>,
+    /// Soft body: fix the nodes whose rest coordinate on AXIS is at or below VALUE
+    /// (`z:-0.45`; default: the lowest tenth in z).
+    #[arg(long, allow_negative_numbers = true, value_parser = fix_below, value_name = "AXIS:VALUE")]
+    pub fix_below: Option<String>,
+    /// Soft body: physics steps a second, a divisor of 1000 (default 250).
+    #[arg(long, allow_negative_numbers = true, value_parser = soft_rate, value_name = "HZ")]
+    pub soft_rate: Option<f64>,
+}
+
+fn poisson(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if (0.0..=0.49).contains(&v) => Ok(v),
+        _ => Err(format!("`{s}` is not a Poisson ratio in 0..=0.49")),
+    }
+}
+
+fn fix_below(s: &str) -> Result<String, String> {
+    parse_fix_below(s).map(|_| s.to_string())
+}
+
+fn soft_rate(s: &str) -> Result<f64, String> {
+    let v = s
+        .parse::<f64>()
+        .map_err(|_| format!("`{s}` is not a number of hertz"))?;
+    check_soft_rate(v).map(|()| v)
 }
 
 /// `serde`'s `skip_serializing_if` for a key whose default is 0.
@@ -571,7 +680,10 @@ impl Scenario {
             budget_per_tick,
             tick_budget
         );
-        take!(contact_search_nodes, servo_lag);
+        take!(contact_search_nodes, servo_lag, body);
+        if let Some(v) = &f.fix_below {
+            s.fix_below = Some(v.clone());
+        }
         macro_rules! take_some {
             ($($field:ident),*) => { $( if let Some(v) = f.$field { s.$field = Some(v); } )* };
         }
@@ -585,7 +697,10 @@ impl Scenario {
             hash_capacity,
             vlist_capacity,
             contact_capacity,
-            queue_capacity
+            queue_capacity,
+            young,
+            poisson,
+            soft_rate
         );
         s.check().map_err(CliError::input)?;
         Ok(s)
@@ -699,6 +814,22 @@ impl Scenario {
             }
         }
         self.tool_kind().map_err(|m| ("tool", m))?;
+        if let Some(e) = self.young {
+            if !(e.is_finite() && e > 0.0 && e < f32::MAX as f64) {
+                return Err(("young", format!("young must be a positive number, got {e}")));
+            }
+        }
+        if let Some(nu) = self.poisson {
+            if !(0.0..=0.49).contains(&nu) {
+                return Err(("poisson", format!("poisson must be in 0..=0.49, got {nu}")));
+            }
+        }
+        if let Some(f) = &self.fix_below {
+            parse_fix_below(f).map_err(|m| ("fix_below", m))?;
+        }
+        if let Some(hz) = self.soft_rate {
+            check_soft_rate(hz).map_err(|m| ("soft_rate", m))?;
+        }
         Ok(())
     }
 

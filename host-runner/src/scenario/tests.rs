@@ -70,3 +70,30 @@ fn firmware_tooth_names_the_tooth_its_path_and_three_materials() {
     assert!(e.stiffness > d.stiffness && d.stiffness > p.stiffness);
     assert!([e, d, p].iter().all(|m| m.rgb().is_ok_and(|c| c.is_some())));
 }
+
+#[test]
+fn soft_keys_read_back_and_a_rigid_scenario_leaves_them_out() {
+    let text = "body = \"soft\"\nyoung = 2000.0\npoisson = 0.25\nfix_below = \"y:-0.4\"\nsoft_rate = 500.0\n";
+    let s: Scenario = toml::from_str(text).expect("soft keys");
+    assert!(s.check().is_ok());
+    assert_eq!(s.body, Body::Soft);
+    assert_eq!((s.young, s.poisson), (Some(2000.0), Some(0.25)));
+    assert_eq!(
+        parse_fix_below(s.fix_below.as_deref().expect("set")),
+        Ok((1, -0.4))
+    );
+    let back: Scenario = toml::from_str(&toml::to_string(&s).expect("to TOML")).expect("back");
+    assert_eq!(back, s);
+    let rigid = toml::to_string(&Scenario::default()).expect("to TOML");
+    for key in ["body", "young", "poisson", "fix_below", "soft_rate"] {
+        assert!(!rigid.contains(key), "{key} in {rigid}");
+    }
+    // The rate is a whole number of 1 ms ticks a step.
+    assert!(check_soft_rate(250.0).is_ok() && check_soft_rate(1000.0).is_ok());
+    for bad in [0.0, -5.0, 300.0, 1500.0, f64::NAN] {
+        assert!(check_soft_rate(bad).is_err(), "{bad}");
+    }
+    for bad in ["z", "w:1", "z:nan", "z:", ":1"] {
+        assert!(parse_fix_below(bad).is_err(), "{bad}");
+    }
+}

@@ -10,6 +10,7 @@ use tetradrill_core::servo::{ContactState, DrillState, World};
 
 use crate::engine::TickParams;
 use crate::platform::now_ns;
+use crate::soft::SoftDriver;
 
 use super::{DrillContact, ServoCounters, SimStatus, ToolSample, MAX_SPHERES};
 
@@ -64,8 +65,32 @@ pub fn simulation_task(
     status: &mut triple_buffer::Input<SimStatus>,
     stop: &AtomicBool,
     counters: &ServoCounters,
+    viewer: Option<&mut crate::viewer::publish::SimViewer<'_>>,
+    shaft: Option<ShaftLink<'_>>,
+) -> SimEnd {
+    simulation_task_soft(
+        world, params, ring, contact, status, stop, counters, viewer, shaft, None,
+    )
+}
+
+/// [`simulation_task`] over a deforming world with a soft body (`--body soft`): after each
+/// step, the servo's last force over the ticks the step covered goes to the body
+/// ([`SoftDriver::after_ticks`]), which steps at its own rate and hands its positions to the
+/// world; the new contact plane is published, and the viewer gets the whole deformed surface.
+/// A refused soft step (it does not happen on a body the driver accepted) prints one line and
+/// leaves the body where it was for the rest of the run.
+#[allow(clippy::too_many_arguments)]
+pub fn simulation_task_soft(
+    world: &mut World<'_>,
+    params: TickParams,
+    ring: &ArrayQueue<ToolSample>,
+    contact: &mut triple_buffer::Input<ContactState>,
+    status: &mut triple_buffer::Input<SimStatus>,
+    stop: &AtomicBool,
+    counters: &ServoCounters,
     mut viewer: Option<&mut crate::viewer::publish::SimViewer<'_>>,
     mut shaft: Option<ShaftLink<'_>>,
+    mut soft: Option<&mut SoftDriver<'_>>,
 ) -> SimEnd {
     let mut params = params;
     let mut st = SimStatus::default();
@@ -176,6 +201,16 @@ pub fn simulation_task(
                 shaft: link.state,
             });
         }
+        let mut deformed = false;
+        if let Some(body) = soft.as_deref_mut() {
+            match body.after_ticks(world, counters.force(), drained) {
+                Ok(stepped) => deformed = stepped,
+                Err(e) => {
+                    errln!("tetradrill: {e}; the soft body stays where it is");
+                    soft = None;
+                }
+            }
+        }
         let dt = now_ns() - t0;
         st.steps += 1;
         st.last_step_ns = dt;
@@ -193,6 +228,9 @@ pub fn simulation_task(
         status.write(st);
         if let Some(v) = viewer.as_deref_mut() {
             v.note_step(world, rep.drill.created + rep.drill.erased > 0);
+            if deformed {
+                v.note_deformed();
+            }
             let mut tv = crate::viewer::publish::tool_view(
                 world,
                 tool.position,

@@ -110,6 +110,12 @@ impl<'q> SimViewer<'q> {
         self.full = true;
     }
 
+    /// Notes that the world's nodes moved (a soft body's step): the next snapshot is a full
+    /// one, every visible triangle at the new positions.
+    pub fn note_deformed(&mut self) {
+        self.full = true;
+    }
+
     /// Notes what the last step of `world` may have changed (`changed`: it created or erased
     /// nodes).
     ///

@@ -110,6 +110,7 @@ type SimEnding = (
     Result<(), String>,
     Option<std::collections::BTreeMap<String, f64>>,
     DebrisSummary,
+    Option<crate::soft::DeformSummary>,
 );
 
 /// Runs the pipeline on `sc` with `setup`; returns the report (the device error that ended the
@@ -119,6 +120,7 @@ pub fn run(
     setup: PipelineSetup,
     json: Option<&PathBuf>,
 ) -> Result<RunReport, CliError> {
+    let soft = crate::soft::SoftSpec::of(sc)?;
     match sc.tool_kind().map_err(CliError::input)? {
         ToolKind::Mesh(pen) => return run_pen(sc, setup, json, &pen),
         ToolKind::Sphere(_) | ToolKind::Drill { .. } => {}
@@ -128,6 +130,10 @@ pub fn run(
     let regions = crate::viewer::handoff::region_slots(&loaded.labels);
     let mut store = EngineStorage::try_allocate(loaded.mesh, sc)?;
     store.set_labels(&loaded.labels, sc)?;
+    let mut soft_owned = soft.map(|_| {
+        store.enable_deformation();
+        store.soft_owned()
+    });
     let region_labels = store.region_labels().to_vec();
     let region_colours = engine::region_table(&loaded.labels, sc)
         .ok()
@@ -213,7 +219,13 @@ pub fn run(
                     let shaft = params
                         .shaft
                         .map(|t| tasks::ShaftLink::new(t, &mut drill_in));
-                    let end = tasks::simulation_task(
+                    // A reset starts the soft body at rest too.
+                    let mut body = match (soft.as_ref(), soft_owned.as_mut()) {
+                        (Some(s), Some(o)) => Some(crate::soft::SoftDriver::new(o, s)?),
+                        _ => None,
+                    };
+                    let begun = std::time::Instant::now();
+                    let end = tasks::simulation_task_soft(
                         &mut world,
                         params,
                         &sh.ring,
@@ -223,6 +235,7 @@ pub fn run(
                         &sh.counters,
                         link.as_mut(),
                         shaft,
+                        body.as_mut(),
                     );
                     match end {
                         tasks::SimEnd::Stopped => {
@@ -230,7 +243,16 @@ pub fn run(
                             let sat = SaturationCounts::from(world.saturations());
                             let by_region = engine::removed_by_region(&world, &region_labels);
                             let debris = DebrisSummary::during(world.debris());
-                            return Ok((sat, engine::validate(&world), by_region, debris));
+                            // In real time: the rate the body reached.
+                            let deform = body.as_ref().map(|b| {
+                                let d = b.summary();
+                                crate::soft::DeformSummary {
+                                    rate_hz: d.steps as f64
+                                        / begun.elapsed().as_secs_f64().max(1e-9),
+                                    ..d
+                                }
+                            });
+                            return Ok((sat, engine::validate(&world), by_region, debris, deform));
                         }
                         tasks::SimEnd::Reset => {
                             if let Some(l) = link.as_mut() {
@@ -272,7 +294,7 @@ pub fn run(
         Ok((servo, status, ending?, (scene, recorded)))
     })?;
     let (mut scene, recorded) = scene;
-    let (saturations, valid, removed_by_region, debris_erased) = ending;
+    let (saturations, valid, removed_by_region, debris_erased, deform) = ending;
     let shaft = params.shaft.zip(law.shaft_counts()).map(|(t, c)| RunShaft {
         passive_points: t.passive_count(),
         near_ticks: c.near_ticks,
@@ -281,6 +303,7 @@ pub fn run(
         pushing_ticks: c.pushing_ticks,
     });
     let ended = Ended {
+        deform,
         shaft,
         removed_by_region,
         debris_erased,
@@ -302,6 +325,8 @@ pub fn run(
 
 /// How the tasks of a run ended.
 struct Ended {
+    /// The soft body's figures (`--body soft` only).
+    deform: Option<crate::soft::DeformSummary>,
     /// A drill's shaft figures (`--tool drill:...` only).
     shaft: Option<RunShaft>,
     /// The removed volume by region label, when the world had regions.
@@ -405,6 +430,7 @@ impl Ended {
             valid: false,
             pen,
             shaft: self.shaft,
+            deform: self.deform,
         };
         if self.summary {
             print_summary(&rep);

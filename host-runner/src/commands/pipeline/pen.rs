@@ -162,6 +162,7 @@ pub(super) fn run_pen(
     summary.servo_short_ticks = stats.short_ticks;
     summary.nonfinite_ticks = stats.nonfinite_ticks;
     let ended = Ended {
+        deform: None,
         shaft: None,
         removed_by_region: None,
         debris_erased: DebrisSummary::default(),

@@ -91,6 +91,10 @@ pub struct RunReport {
     /// A drill's shaft (`--tool drill:...` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shaft: Option<RunShaft>,
+    /// The soft body (`--body soft` only): its largest displacement, step time (the physics
+    /// step with the world's update) and the rate it reached in real time.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub deform: Option<crate::soft::DeformSummary>,
 }
 
 /// A drill's shaft over a real-time run: `replay`'s `shaft` figures, counted by the servo over
@@ -237,6 +241,9 @@ pub(super) fn print_summary(r: &RunReport) {
             "shaft: {} passive points; touching {} ticks, a point within reach {} ticks, held {} ticks (at most {} points)",
             s.passive_points, s.pushing_ticks, s.near_ticks, s.held_ticks, s.held_max
         );
+    }
+    if let Some(d) = &r.deform {
+        outln!("{}", d.line());
     }
     if r.servo_stalls > 0 {
         outln!(

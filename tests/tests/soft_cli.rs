@@ -1,0 +1,350 @@
+//! `--body soft` on the command line, end to end: a soft block pressed by the burr gives a
+//! smaller force than the rigid block at the same press and dents within closed-form bounds;
+//! `--body rigid` is the default run bit for bit; drilling a stiff soft block removes the rigid
+//! block's volume; bad soft flags and keys exit 2 naming the flag or the file and line.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use glam::Vec3;
+use tetradrill::soft::{Fix, SoftDriver, SoftOwned, SoftSpec};
+use tetradrill_core::drill::DrillParams;
+use tetradrill_tests::search::{block_mesh, Store};
+use tetradrill_tests::{scratch_dir, tetradrill_bin};
+
+fn run(args: &[&str]) -> Output {
+    Command::new(tetradrill_bin())
+        .args(args)
+        .output()
+        .expect("run tetradrill")
+}
+
+/// Runs a replay that must succeed and returns its JSON.
+fn replay_json(dir: &Path, name: &str, args: &[&str]) -> serde_json::Value {
+    let out_path = dir.join(format!("{name}.json"));
+    let out_s = out_path.to_string_lossy().into_owned();
+    let mut all = vec!["replay", "--quiet", "--json", &out_s];
+    all.extend_from_slice(args);
+    let out = run(&all);
+    assert!(
+        out.status.success(),
+        "{all:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_str(&std::fs::read_to_string(&out_path).expect("read JSON"))
+        .expect("parse JSON")
+}
+
+/// Asserts exit status 2 and a first stderr line containing every `needle`.
+fn refused(args: &[&str], needles: &[&str]) {
+    let out = run(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    let first = err.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
+    for n in needles {
+        assert!(
+            first.contains(n),
+            "{args:?}: first line {first:?} lacks {n:?}"
+        );
+    }
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).expect("write a scratch file");
+    p
+}
+
+const RADIUS: f64 = 0.1;
+const PRESS: f64 = 0.03;
+const STIFFNESS: f64 = 200.0;
+const YOUNG: f64 = 5000.0;
+
+/// A burr of radius 0.1 lowered 0.03 into the top (z = 0.5) of the unit block over 0.2 s and
+/// held there until 1.5 s, drill off.
+fn press_trace(dir: &Path) -> PathBuf {
+    let mut text = String::from("t,x,y,z,qw,qx,qy,qz,buttons\n");
+    for i in 0..=1500 {
+        let t = i as f64 / 1000.0;
+        let d = PRESS * (t / 0.2).min(1.0);
+        text.push_str(&format!(
+            "{t:.3},0.0123,0.0371,{:.6},1,0,0,0,0\n",
+            0.5 + RADIUS - d
+        ));
+    }
+    write(dir, "press.csv", &text)
+}
+
+/// The soft block (E = 5 kPa, nu = 0, fixed at its base z = -0.5) held 0.03 under the burr:
+/// - the force is smaller than the rigid block's spring force `k * press` (the body gives);
+/// - the kinematics: settled, the surface under the burr moved down by what the burr no
+///   longer penetrates, `press - F / k`, so the largest displacement is at least that;
+/// - a closed-form lower bound (p L / E): by Betti's reciprocal theorem between this load
+///   (the final force `F` spread over the touched tet's top corners) and a uniform pressure
+///   `F / A` over the whole top face (A = 1 m^2), whose solution with nu = 0 and a clamped
+///   base is the uniform compression `F L / (E A)` (L = 1 m; exact in linear tets), the
+///   load-weighted mean of the top's displacement under the press equals `F L / (E A)`, so
+///   the largest displacement is at least that;
+/// - an upper bound: the burr is the only load, and at rest it cannot have pushed the surface
+///   further than it went in (the press).
+#[test]
+fn a_pressed_soft_block_gives_and_dents_within_closed_form_bounds() {
+    let dir = scratch_dir("softcli", "press");
+    let trace = press_trace(&dir);
+    let trace = trace.to_string_lossy().into_owned();
+    let common = [
+        "--mesh",
+        "builtin:block:4",
+        "--trace",
+        &trace,
+        "--tool",
+        "sphere:0.1",
+    ];
+    let rigid = replay_json(&dir, "rigid", &common);
+    let mut soft_args = common.to_vec();
+    soft_args.extend_from_slice(&[
+        "--body",
+        "soft",
+        "--young",
+        "5000",
+        "--poisson",
+        "0",
+        "--fix-below",
+        "z:-0.49",
+    ]);
+    let obj = dir.join("surface.obj");
+    let obj_s = obj.to_string_lossy().into_owned();
+    let mut with_surface = soft_args.clone();
+    with_surface.extend_from_slice(&["--surface", &obj_s]);
+    let soft = replay_json(&dir, "soft", &with_surface);
+    assert!(rigid.get("deform").is_none());
+    let fz = |r: &serde_json::Value| r["force"]["final"][2].as_f64().unwrap();
+    let (f_rigid, f_soft) = (fz(&rigid), fz(&soft));
+    assert!(
+        (f_rigid - STIFFNESS * PRESS).abs() < 1e-3 * f_rigid,
+        "{f_rigid}"
+    );
+    let d = &soft["deform"];
+    let max_disp = d["max_displacement"].as_f64().unwrap();
+    let lower = f_soft * 1.0 / (YOUNG * 1.0);
+    let kinematic = PRESS - f_soft / STIFFNESS;
+    eprintln!(
+        "force rigid {f_rigid} soft {f_soft}; max displacement {max_disp}, p L / E {lower}, \
+         press - F/k {kinematic}"
+    );
+    assert!(f_soft < 0.95 * f_rigid, "{f_soft} against {f_rigid}");
+    assert!(f_soft > 0.0);
+    assert!(max_disp >= lower, "{max_disp} < p L / E = {lower}");
+    assert!(max_disp >= 0.95 * kinematic, "{max_disp} < {kinematic}");
+    assert!(max_disp < PRESS, "{max_disp}");
+    assert_eq!(d["rate_hz"].as_f64(), Some(250.0));
+    assert_eq!(d["steps"].as_u64(), Some(375));
+    // Only the base layer of the 5 x 5 x 5 nodes is fixed.
+    assert_eq!(d["fixed_nodes"].as_u64(), Some(25));
+    for k in ["mean", "p99", "max"] {
+        assert!(d["step_us"][k].as_f64().unwrap() > 0.0, "{k}");
+    }
+    assert_eq!(soft["scenario"]["body"].as_str(), Some("soft"));
+    // The drilled-surface export writes the deformed positions: the top face (z = 0.5 at
+    // rest) is pressed down under the burr by the dent.
+    let text = std::fs::read_to_string(&obj).expect("read the surface");
+    let top_min = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .filter_map(|l| l.split_whitespace().nth(2)?.parse::<f64>().ok())
+        .filter(|&z| z > 0.4)
+        .fold(f64::INFINITY, f64::min);
+    assert!(top_min < 0.5 - 0.5 * kinematic, "top {top_min}");
+    assert!(top_min > 0.5 - PRESS, "top {top_min}");
+    // The same soft replay again: the same forces bit for bit.
+    let again = replay_json(&dir, "again", &soft_args);
+    assert_eq!(again["force_digest"], soft["force_digest"]);
+    assert_ne!(soft["force_digest"], rigid["force_digest"]);
+}
+
+/// `--body rigid` is the default: the same force digest and no `deform` object or `body` key.
+#[test]
+fn body_rigid_is_the_default_bit_for_bit() {
+    let dir = scratch_dir("softcli", "rigid");
+    let a = replay_json(&dir, "default", &["--ticks", "1500"]);
+    let b = replay_json(&dir, "rigid", &["--ticks", "1500", "--body", "rigid"]);
+    assert_eq!(a["force_digest"], b["force_digest"]);
+    assert!(a.get("deform").is_none() && b.get("deform").is_none());
+    assert!(b["scenario"].get("body").is_none());
+}
+
+/// The demo's path drilled into a stiff soft block (E = 10 MPa: the burr's few newtons move
+/// it by micrometres) removes within 5 % of the rigid block's volume (removed volumes are
+/// measured in the rest state).
+#[test]
+fn a_stiff_soft_block_loses_the_rigid_volume() {
+    let dir = scratch_dir("softcli", "volume");
+    let common = ["--ticks", "3000", "--max-depth", "3"];
+    let rigid = replay_json(&dir, "rigid", &common);
+    let mut soft_args = common.to_vec();
+    soft_args.extend_from_slice(&["--body", "soft", "--young", "1e7", "--soft-rate", "100"]);
+    let soft = replay_json(&dir, "soft", &soft_args);
+    let v = |r: &serde_json::Value| r["removed_volume"].as_f64().unwrap();
+    let (vr, vs) = (v(&rigid), v(&soft));
+    eprintln!("removed: rigid {vr}, soft {vs}");
+    assert!(vr > 1e-3, "{vr}");
+    assert!((vs - vr).abs() < 0.05 * vr, "{vs} against {vr}");
+    let d = &soft["deform"];
+    assert_eq!(d["rate_hz"].as_f64(), Some(100.0));
+    assert_eq!(d["steps"].as_u64(), Some(300));
+    let m = d["max_displacement"].as_f64().unwrap();
+    assert!(m > 0.0 && m < 1e-3, "{m}");
+}
+
+/// `demo --soft` headless through the real-time pipeline: the JSON's `deform` has steps, a
+/// displacement (the burr presses the block) and its timing; the same run rigid has none.
+#[test]
+fn demo_soft_reports_the_deformation() {
+    let dir = scratch_dir("softcli", "demo");
+    let json = dir.join("demo.json");
+    let json_s = json.to_string_lossy().into_owned();
+    let out = run(&[
+        "demo",
+        "--soft",
+        "--headless",
+        "--no-rt",
+        "--duration",
+        "2",
+        "--json",
+        &json_s,
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("soft body (E 2000 Pa"), "{stdout}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("read JSON")).expect("JSON");
+    let d = &r["deform"];
+    assert!(d["steps"].as_u64().unwrap() > 0, "{d}");
+    assert!(d["rate_hz"].as_f64().unwrap() > 0.0, "{d}");
+    // The path presses the block within its first 2 s (force up to the 8 N clamp).
+    assert!(d["max_displacement"].as_f64().unwrap() > 1e-4, "{d}");
+    assert!(d["step_us"]["max"].as_f64().unwrap() > 0.0, "{d}");
+    refused(
+        &[
+            "run",
+            "--device",
+            "sim",
+            "--body",
+            "soft",
+            "--tool",
+            "mesh:x.node",
+        ],
+        &["--body soft", "mesh tool"],
+    );
+}
+
+#[test]
+fn bad_soft_flags_exit_2_naming_the_flag() {
+    refused(&["replay", "--body", "jelly"], &["--body"]);
+    refused(&["replay", "--body", "soft", "--young", "0"], &["--young"]);
+    refused(&["replay", "--body", "soft", "--young", "-5"], &["--young"]);
+    refused(
+        &["replay", "--body", "soft", "--young", "nan"],
+        &["--young"],
+    );
+    refused(
+        &["replay", "--body", "soft", "--poisson", "0.5"],
+        &["--poisson"],
+    );
+    refused(
+        &["replay", "--body", "soft", "--poisson", "-0.1"],
+        &["--poisson"],
+    );
+    refused(
+        &["replay", "--body", "soft", "--fix-below", "w:1"],
+        &["--fix-below", "axis"],
+    );
+    refused(
+        &["replay", "--body", "soft", "--fix-below", "z"],
+        &["--fix-below", "AXIS:VALUE"],
+    );
+    refused(
+        &["replay", "--body", "soft", "--fix-below", "z:abc"],
+        &["--fix-below"],
+    );
+    refused(
+        &["replay", "--body", "soft", "--soft-rate", "0"],
+        &["--soft-rate"],
+    );
+    refused(
+        &["replay", "--body", "soft", "--soft-rate", "300"],
+        &["--soft-rate", "1 ms"],
+    );
+    refused(
+        &["replay", "--body", "soft", "--soft-rate", "2000"],
+        &["--soft-rate"],
+    );
+    refused(
+        &["replay", "--body", "soft", "--tool", "mesh:whatever.node"],
+        &["--body soft", "mesh tool"],
+    );
+    let dir = scratch_dir("softcli", "keys");
+    for (name, text, key) in [
+        (
+            "young.toml",
+            "body = \"soft\"\nyoung = -1.0\n",
+            "young.toml:2:",
+        ),
+        ("nu.toml", "poisson = 0.7\n", "nu.toml:1:"),
+        ("fix.toml", "\nfix_below = \"q:1\"\n", "fix.toml:2:"),
+        ("rate.toml", "soft_rate = 3.0\n", "rate.toml:1:"),
+        ("body.toml", "body = \"jelly\"\n", "body.toml:1:"),
+    ] {
+        let p = write(&dir, name, text);
+        refused(&["replay", "--scenario", &p.to_string_lossy()], &[key]);
+    }
+}
+
+/// A driver over storage an earlier body left pushed in (a viewer's reset) starts at rest: with
+/// no load its steps leave every node where it was at rest.
+#[test]
+fn a_new_driver_starts_at_rest_over_used_storage() {
+    let mut om = block_mesh(4);
+    let mut owned = SoftOwned::from_mesh(&om.view());
+    let n = owned.rest.len();
+    let mesh = om.view();
+    let mut st = Store::new(mesh.tet_count(), 1 << 14);
+    let mut world = st.world(mesh);
+    let mut rest = vec![Vec3::ZERO; n];
+    world.enable_deformation(&mut rest).unwrap();
+    let spec = SoftSpec {
+        young: YOUNG,
+        poisson: 0.3,
+        fix: Fix::Below(2, -0.49),
+        ticks_per_step: 1,
+    };
+    let params = DrillParams {
+        max_depth: 2,
+        min_area: 0.0,
+        budget: 100_000,
+    };
+    let centre = Vec3::new(0.0123, 0.0371, 0.57);
+    world.simulate(centre, 0.1, 0.05, false, &params);
+    assert!(world.contact_tet().is_some());
+    {
+        let mut d = SoftDriver::new(&mut owned, &spec).unwrap();
+        for _ in 0..50 {
+            d.after_tick(&mut world, Vec3::new(0.0, 0.0, 5.0)).unwrap();
+        }
+        assert!(d.summary().max_displacement > 1e-4);
+    }
+    assert!(owned.displacement.iter().any(|u| u.length() > 1e-4));
+    world.simulate(Vec3::new(0.0, 0.0, 2.0), 0.1, 0.05, false, &params);
+    let mut d = SoftDriver::new(&mut owned, &spec).unwrap();
+    for _ in 0..5 {
+        assert!(d.after_tick(&mut world, Vec3::ZERO).unwrap());
+    }
+    // Rounding only (rest plus a zero displacement), against the 1e-4 left by the first body.
+    assert!(
+        d.summary().max_displacement < 1e-9,
+        "{}",
+        d.summary().max_displacement
+    );
+    assert_eq!(d.summary().steps, 5);
+}
