@@ -130,6 +130,10 @@ fn build_world() -> World<'static> {
             let regions = blob_regions(st.regions, st.tet_region)
                 .unwrap_or_else(|| fail("region storage refused or a label not the tooth's"));
             world.set_regions(regions);
+            world.set_zone_gather(Some(ZoneGather::new(
+                scenario::ZONE_WORK,
+                ZONE_MARGIN_RADII,
+            )));
         }
         if cfg!(scenario_cow) {
             world.set_max_cells(scenario::COW_MAX_CELLS);

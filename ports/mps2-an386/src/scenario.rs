@@ -52,7 +52,13 @@ pub const PENDING_ITEMS: usize = if cfg!(scenario_cow) { 8_192 } else { 16_384 }
 /// Coarse tets one step takes near the tool (`candidate_capacity`): the core's default 1,024
 /// on the block; on the cow's finer tets 12,288, in thirds for its candidate gather (the tets
 /// near the burr, the list in use, the list being gathered: `ZoneGather`).
-pub const CANDIDATES: usize = if cfg!(scenario_cow) { 12_288 } else { 1_024 };
+pub const CANDIDATES: usize = if cfg!(scenario_cow) {
+    12_288
+} else if cfg!(scenario_tooth) {
+    3_072
+} else {
+    1_024
+};
 /// The cow's candidate gather (`zone_gather_work`): hash cells and entries scanned a step,
 /// around a box a fifth of the radius wider than the zone, instead of one zone query a step
 /// (which takes up to 270,000 instructions there).
