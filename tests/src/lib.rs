@@ -138,3 +138,22 @@ pub fn refused(args: &[&str], needles: &[&str]) {
         assert!(first.contains(n), "{args:?}: {first:?} lacks {n:?}");
     }
 }
+
+/// Runs the binary with `args` and `--json FILE` (a scratch file under `scratch_dir(prefix,
+/// name)`), asserts that it succeeded (with its stderr on failure), and returns the JSON.
+pub fn json_of(args: &[&str], prefix: &str, name: &str) -> serde_json::Value {
+    let json = scratch_dir(prefix, name).join("out.json");
+    let out = Command::new(tetradrill_bin())
+        .args(args)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .expect("run tetradrill");
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&json).expect("read the JSON");
+    serde_json::from_str(&text).expect("parse the JSON")
+}

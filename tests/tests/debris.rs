@@ -644,20 +644,11 @@ fn the_cow_after_a_wander_is_one_piece_with_the_drills_checks() {
 /// erased: part of the removed volume, at least one leaf a piece, and no final sweep.
 #[test]
 fn the_demo_json_reports_the_debris_erased_while_drilling() {
-    let dir = tetradrill_tests::scratch_dir("debris", "demo");
-    let json = dir.join("demo.json");
-    let out = std::process::Command::new(tetradrill_tests::tetradrill_bin())
-        .args(["demo", "--headless", "--no-rt", "--duration", "3", "--json"])
-        .arg(&json)
-        .output()
-        .expect("run tetradrill");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let j = tetradrill_tests::json_of(
+        &["demo", "--headless", "--no-rt", "--duration", "3"],
+        "debris",
+        "demo",
     );
-    let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("valid");
     let d = &j["debris_erased"];
     let removed = j["removed_volume"].as_f64().expect("removed");
     let (pieces, nodes) = (

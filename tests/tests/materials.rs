@@ -428,27 +428,11 @@ fn a_new_world_over_the_same_storage_starts_from_nothing() {
 /// its JSON, summing to its removed volume.
 #[test]
 fn the_demo_json_has_the_removed_volume_by_region() {
-    let dir = tetradrill_tests::scratch_dir("materials", "demo");
-    let json = dir.join("demo.json");
-    let out = std::process::Command::new(tetradrill_tests::tetradrill_bin())
-        .args([
-            "demo",
-            "--headless",
-            "--no-rt",
-            "--duration",
-            "2.5",
-            "--json",
-        ])
-        .arg(&json)
-        .output()
-        .expect("run tetradrill");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let j = tetradrill_tests::json_of(
+        &["demo", "--headless", "--no-rt", "--duration", "2.5"],
+        "materials",
+        "demo",
     );
-    let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("valid");
     let removed = j["removed_volume"].as_f64().expect("removed");
     let by = j["removed_by_region"].as_object().expect("by region");
     assert_eq!(by.keys().collect::<Vec<_>>(), ["1", "2"]);

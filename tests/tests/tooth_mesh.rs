@@ -165,21 +165,19 @@ fn the_volume_of_each_label_matches_the_loader_the_core_and_the_model() {
 /// Runs `tetradrill replay --scenario builtin:firmware-tooth --ticks TICKS` and returns the
 /// removed volume by label (mm^3) and in all (mm^3).
 fn access_cavity(ticks: u32) -> (BTreeMap<i32, f64>, f64) {
-    let dir = tetradrill_tests::scratch_dir("tooth", &ticks.to_string());
-    let json = dir.join("out.json");
-    let out = std::process::Command::new(tetradrill_tests::tetradrill_bin())
-        .args(["replay", "--scenario", "builtin:firmware-tooth", "--quiet"])
-        .args(["--ticks", &ticks.to_string(), "--json"])
-        .arg(&json)
-        .output()
-        .expect("run tetradrill");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let ticks = ticks.to_string();
+    let j = tetradrill_tests::json_of(
+        &[
+            "replay",
+            "--scenario",
+            "builtin:firmware-tooth",
+            "--quiet",
+            "--ticks",
+            &ticks,
+        ],
+        "tooth",
+        &ticks,
     );
-    let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("json");
     let by_label = j["removed_by_region"]
         .as_object()
         .expect("removed_by_region")
