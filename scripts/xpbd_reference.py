@@ -3,7 +3,7 @@
 
 Written from Macklin, Mueller and Chentanez 2016 (XPBD), Macklin and Mueller 2021 (the stable
 neo-Hookean energy as a deviatoric and a hydrostatic constraint per tet, projected together as
-one 2x2 system) and docs/SOFT.md's step, in float64. The tets are split into colours (no two
+one 2x2 system) and docs/SOFT.md's step, in float64 (or float32 with --float32). The tets are split into colours (no two
 tets of a colour share a node) and each colour is projected at once, vectorised: that is a
 Gauss-Seidel sweep in colour order, a different order from the core's (tets in file order), so
 the two agree to a tolerance, not bit for bit.
@@ -13,7 +13,7 @@ The scenario is the soft bench's (benches/benches/soft.rs): E = 100 kPa, nu = 0.
 extent fixed, steps of 1 ms with 10 substeps of one iteration, from rest.
 
 Usage:
-  xpbd_reference.py NODE_FILE STEPS [OURS] [--reverse] [--save OUT] [--iterations N]
+  xpbd_reference.py NODE_FILE STEPS [OURS] [--reverse] [--save OUT] [--iterations N] [--float32]
 
 NODE_FILE is a TetGen .node file with its .ele beside it. Prints the colours, the seconds per
 step (the mean over STEPS, the colouring and reading excluded) and the largest displacement.
@@ -23,7 +23,8 @@ rest position (the core's loader renumbers them), checks the fixed nodes agree a
 difference of the displacement field. --reverse sweeps the colours in reverse order (the
 spread between the two orders is the size of an ordering difference alone); --save OUT writes
 this side's result in the same format, so a run with --reverse can take it as OURS;
---iterations N (default 1) sets the sweeps per substep.
+--iterations N (default 1) sets the sweeps per substep; --float32 keeps the state and the
+per-tet data in float32, as the core does (the rest data computed in float64, then rounded).
 Exit status 1 when the fields differ by more than TOLERANCE (relative L2), 2 with one line
 for a bad argument or an unreadable or malformed file.
 """
@@ -147,7 +148,7 @@ def columns(p):
 class Body:
     """The XPBD body: rest data per tet, masses, state (displacements u, velocities v)."""
 
-    def __init__(self, x, tets, reverse=False):
+    def __init__(self, x, tets, reverse=False, dtype=np.float64):
         dm = columns(x[tets])
         vol = np.linalg.det(dm) / 6.0
         flip = vol < 0.0
@@ -176,14 +177,24 @@ class Body:
         self.colours = colour(tets, n)
         if reverse:
             self.colours.reverse()
-        self.u = np.zeros((n, 3))
-        self.v = np.zeros((n, 3))
+        # The state and the per-tet data in `dtype` (float32 computes as the core does).
+        self.dtype = dtype
+        self.dm_inv = self.dm_inv.astype(dtype)
+        self.dm_inv_t = self.dm_inv_t.astype(dtype)
+        self.alpha_d = self.alpha_d.astype(dtype)
+        self.alpha_h = self.alpha_h.astype(dtype)
+        self.gamma = dtype(self.gamma)
+        self.w = self.w.astype(dtype)
+        self.eye = np.eye(3, dtype=dtype)
+        self.gravity = GRAVITY.astype(dtype)
+        self.u = np.zeros((n, 3), dtype=dtype)
+        self.v = np.zeros((n, 3), dtype=dtype)
 
     def project(self, c, lam, inv_h2):
         """One coupled projection of every tet of colour c (index array) at once."""
         t = self.tets[c]
         w = self.w[t]  # (k, 4)
-        f = np.eye(3) + columns(self.u[t]) @ self.dm_inv[c]
+        f = self.eye + columns(self.u[t]) @ self.dm_inv[c]
         c_d = np.sqrt(np.einsum("kij,kij->k", f, f))
         p_d = f / np.where(c_d > 0.0, c_d, 1.0)[:, None, None]
         f0, f1, f2 = f[:, :, 0], f[:, :, 1], f[:, :, 2]
@@ -216,12 +227,12 @@ class Body:
 
     def step(self):
         """One step of DT in SUBSTEPS substeps of ITERATIONS colour sweeps each."""
-        h = DT / SUBSTEPS
-        inv_h2 = 1.0 / (h * h)
+        h = self.dtype(DT / SUBSTEPS)
+        inv_h2 = self.dtype(1.0) / (h * h)
         free = ~self.fixed
-        lam = np.zeros((len(self.tets), 2))
+        lam = np.zeros((len(self.tets), 2), dtype=self.dtype)
         for _ in range(SUBSTEPS):
-            self.v[free] = self.v[free] / (1.0 + DAMPING * h) + h * GRAVITY
+            self.v[free] = self.v[free] / (1.0 + DAMPING * h) + h * self.gravity
             prev = self.u.copy()
             self.u[free] += h * self.v[free]
             lam[:] = 0.0
@@ -250,6 +261,8 @@ def read_ours(path, n):
 def main(argv):
     args = [a for a in argv if a != "--reverse"]
     reverse = len(args) != len(argv)
+    dtype = np.float32 if "--float32" in args else np.float64
+    args = [a for a in args if a != "--float32"]
     global ITERATIONS
     if "--iterations" in args:
         i = args.index("--iterations")
@@ -268,6 +281,7 @@ def main(argv):
     if len(args) not in (2, 3) or any(a.startswith("--") for a in args):
         raise InputError(
             "usage: xpbd_reference.py NODE_FILE STEPS [OURS] [--reverse] [--save OUT] [--iterations N]"
+            " [--float32]"
         )
     try:
         steps = int(args[1])
@@ -277,7 +291,7 @@ def main(argv):
         raise InputError(f"STEPS must be a positive whole number, not `{args[1]}`")
     x, tets = read_tetgen(args[0])
     try:
-        body = Body(x, tets, reverse)
+        body = Body(x, tets, reverse, dtype)
     except InputError as e:
         raise InputError(f"{args[0][: -len('.node')]}.ele: {e}") from None
     theirs = read_ours(args[2], len(x)) if len(args) == 3 else None
@@ -286,6 +300,7 @@ def main(argv):
         f"{args[0]}: {len(x)} nodes ({int(body.fixed.sum())} fixed), {len(tets)} tets, "
         f"{len(sizes)} colours ({min(sizes)}..{max(sizes)} tets)"
         + (", colours reversed" if reverse else "")
+        + (", float32" if dtype is np.float32 else "")
     )
     t0 = time.perf_counter()
     for _ in range(steps):
