@@ -79,6 +79,29 @@ impl World<'_> {
         state: &mut DrillState,
     ) -> (SimReport, PassiveReport) {
         let mut rep = self.simulate(centre, tool.burr_radius, reach, drill_on, params);
+        let (prep, saturated) = self.track_shaft(tool, centre, axis, reach, state);
+        rep.candidates_saturated |= saturated;
+        (rep, prep)
+    }
+
+    /// The shaft's half of [`World::simulate_drill`], also for a step that drilled the burr
+    /// some other way (a real-time task's swept spheres, [`World::simulate_spheres`]): the
+    /// candidate list refilled with the tets near the passive points of `tool` (burr at
+    /// `centre`, shaft along the unit `axis`) and their proxies ([`World::shaft_candidates`]),
+    /// then the points tracked ([`World::track_passive`]). Returns the tracking's report and
+    /// whether the candidate list saturated. Passive points never erode.
+    ///
+    /// # Bounded work
+    /// One zone query (at most [`World::max_cells`] cells and the candidate list) and
+    /// [`World::track_passive`]'s bound for at most [`MAX_PASSIVE`] points.
+    pub fn track_shaft(
+        &mut self,
+        tool: &DrillTool,
+        centre: Vec3,
+        axis: Vec3,
+        reach: f32,
+        state: &mut DrillState,
+    ) -> (PassiveReport, bool) {
         let mut pos = [Vec3::ZERO; MAX_PASSIVE];
         let n = tool.passive_positions(centre, axis, &mut pos);
         let grow = tool.shaft_radius + reach;
@@ -92,13 +115,16 @@ impl World<'_> {
         }
         state.count = n;
         state.positions = pos;
-        if let Some(z) = zone.filter(|b| b.min.is_finite() && b.max.is_finite()) {
-            if self.shaft_candidates(&z) {
-                rep.candidates_saturated = true;
-            }
-        }
-        let prep = self.track_passive(&pos[..n], tool.shaft_radius, reach, &mut state.points);
-        (rep, prep)
+        let saturated = zone
+            .filter(|b| b.min.is_finite() && b.max.is_finite())
+            .is_some_and(|z| self.shaft_candidates(&z));
+        let prep = self.track_passive(
+            pos.get(..n).unwrap_or_default(),
+            tool.shaft_radius,
+            reach,
+            &mut state.points,
+        );
+        (prep, saturated)
     }
 
     /// Refills the candidate list ([`World::candidates`]) with the tets whose boxes meet

@@ -5,7 +5,7 @@
 //!
 //! What runs where: the simulation task erodes with the burr along the swept path, then
 //! tracks the passive points at the newest pose against the visible faces
-//! ([`crate::engine::track_shaft`]: a zone query and the face walk, unbounded by the tick
+//! ([`tetradrill_core::servo::World::track_shaft`]: a zone query and the face walk, unbounded by the tick
 //! budget but bounded per point) and publishes the planes. The servo only springs from those
 //! planes at the points' current positions: O([`MAX_PASSIVE`]) a tick, no face is looked at,
 //! nothing allocates, locks or waits.

@@ -53,7 +53,7 @@ pub enum SimEnd {
 /// publishes snapshots of the changed surface without ever waiting.
 ///
 /// With a `shaft` (the drill tool), each step then tracks the shaft's passive points at the
-/// newest pose ([`crate::engine::track_shaft`]) and publishes the burr's plane with the
+/// newest pose ([`World::track_shaft`]) and publishes the burr's plane with the
 /// points' planes ([`DrillContact`]); the burr is pressed by the burr's own force
 /// (`counters.burr_press_bits`), not the shaft's push, and the viewer gets the shaft.
 #[allow(clippy::too_many_arguments)]
@@ -188,8 +188,7 @@ pub fn simulation_task_soft(
             }
             let axis = DrillTool::axis(tool.rotation);
             // A full candidate list is counted in the world's saturations.
-            crate::engine::track_shaft(
-                world,
+            world.track_shaft(
                 &link.tool,
                 tool.position,
                 axis,
