@@ -286,21 +286,10 @@ fn the_force_uses_the_stiffness_of_the_region_under_the_contact() {
 
 /// Runs `tetradrill replay` with `args` and returns its JSON.
 fn replay_json(args: &[&str], name: &str) -> serde_json::Value {
-    let dir = tetradrill_tests::scratch_dir("materials", name);
-    let json = dir.join("out.json");
-    let out = std::process::Command::new(tetradrill_tests::tetradrill_bin())
-        .arg("replay")
-        .args(args)
-        .args(["--quiet", "--json"])
-        .arg(&json)
-        .output()
-        .expect("run tetradrill");
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("valid json")
+    let mut all = vec!["replay"];
+    all.extend_from_slice(args);
+    all.push("--quiet");
+    tetradrill_tests::json_of(&all, "materials", name)
 }
 
 /// The sum of `removed_by_region`'s values.
