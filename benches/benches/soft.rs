@@ -26,10 +26,10 @@ use tetradrill::engine::EngineStorage;
 use tetradrill::owned::OwnedMesh;
 use tetradrill::scenario::Scenario;
 use tetradrill::soft::SoftOwned;
-use tetradrill_benches::load_mesh;
+use tetradrill_benches::{load_mesh, soft_bench_body};
 use tetradrill_core::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, SpatialHash};
 use tetradrill_core::servo::WorldSizes;
-use tetradrill_core::soft::{Material, SoftBody, SoftParams};
+use tetradrill_core::soft::SoftBody;
 use tetradrill_core::TetId;
 
 fn load(rel: &str) -> OwnedMesh {
@@ -51,27 +51,7 @@ impl Scene {
     }
 
     fn body(&mut self) -> SoftBody<'_> {
-        let mat = Material {
-            young: 1e5,
-            poisson: 0.3,
-            density: 1000.0,
-        };
-        let params = SoftParams {
-            gravity: Vec3::new(0.0, 0.0, -9.81),
-            damping: 20.0,
-            substeps: 10,
-            iterations: 1,
-        };
-        let (lo, hi) = self
-            .0
-            .rest
-            .iter()
-            .fold((f32::MAX, f32::MIN), |(a, b), x| (a.min(x.z), b.max(x.z)));
-        let mut body = self
-            .0
-            .body(&[mat], params)
-            .expect("the mesh is a valid soft body");
-        body.fix_below(Vec3::new(0.0, 0.0, lo + 0.1 * (hi - lo)), Vec3::Z);
+        let (mut body, _) = soft_bench_body(&mut self.0, 1).expect("the mesh is a valid soft body");
         // Sag a little first: the bench times a moving body, not one at rest.
         for _ in 0..20 {
             body.step(1e-3, &[]).expect("valid step");

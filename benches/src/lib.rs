@@ -118,3 +118,35 @@ pub fn impaled_poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Ve
         })
         .collect()
 }
+
+/// The soft-body benches' scene on `soft` (the soft bench and `soft_positions`, which the
+/// numpy reference `scripts/xpbd_reference.py` reproduces): E 100 kPa, nu 0.3, density 1000,
+/// gravity, damping 20 /s, 10 substeps of `iterations` iterations, the lowest tenth of the
+/// body in z fixed. Returns the body at rest and the fixed node count.
+///
+/// # Errors
+/// The core's refusal of the mesh or the parameters.
+pub fn soft_bench_body(
+    soft: &mut tetradrill::soft::SoftOwned,
+    iterations: u32,
+) -> Result<(tetradrill_core::soft::SoftBody<'_>, usize), tetradrill_core::soft::SoftError> {
+    use tetradrill_core::soft::{Material, SoftParams};
+    let (lo, hi) = soft
+        .rest
+        .iter()
+        .fold((f32::MAX, f32::MIN), |(a, b), x| (a.min(x.z), b.max(x.z)));
+    let mat = Material {
+        young: 1e5,
+        poisson: 0.3,
+        density: 1000.0,
+    };
+    let params = SoftParams {
+        gravity: Vec3::new(0.0, 0.0, -9.81),
+        damping: 20.0,
+        substeps: 10,
+        iterations,
+    };
+    let mut body = soft.body(&[mat], params)?;
+    let fixed = body.fix_below(Vec3::new(0.0, 0.0, lo + 0.1 * (hi - lo)), Vec3::Z);
+    Ok((body, fixed))
+}

@@ -15,11 +15,10 @@ use std::io::Write;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use glam::Vec3;
 use tetradrill::meshio::{self, ReadOptions};
 use tetradrill::soft::SoftOwned;
-use tetradrill_benches::meshes_dir;
-use tetradrill_core::soft::{Material, SoftParams, MAX_ITERATIONS};
+use tetradrill_benches::{meshes_dir, soft_bench_body};
+use tetradrill_core::soft::MAX_ITERATIONS;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -67,29 +66,13 @@ fn main() -> ExitCode {
         }
     };
     let mut soft = SoftOwned::from_mesh(&owned.view());
-    let (lo, hi) = soft
-        .rest
-        .iter()
-        .fold((f32::MAX, f32::MIN), |(a, b), x| (a.min(x.z), b.max(x.z)));
-    let mat = Material {
-        young: 1e5,
-        poisson: 0.3,
-        density: 1000.0,
-    };
-    let params = SoftParams {
-        gravity: Vec3::new(0.0, 0.0, -9.81),
-        damping: 20.0,
-        substeps: 10,
-        iterations,
-    };
-    let mut body = match soft.body(&[mat], params) {
+    let (mut body, fixed) = match soft_bench_body(&mut soft, iterations) {
         Ok(b) => b,
         Err(e) => {
             eprintln!("soft_positions: {mesh}: {e}");
             return ExitCode::from(2);
         }
     };
-    let fixed = body.fix_below(Vec3::new(0.0, 0.0, lo + 0.1 * (hi - lo)), Vec3::Z);
     let t0 = Instant::now();
     for _ in 0..steps {
         if let Err(e) = body.step(1e-3, &[]) {
