@@ -1,6 +1,7 @@
 //! Host-owned storage for one soft body (`tetradrill_core::soft`): the caller slices the core
 //! borrows, sized from a rest mesh, so a host, a test or a bench builds a body in one call;
-//! and the simulation loop's side of `--body soft` ([`SoftSpec`], [`SoftDriver`]).
+//! and the simulation loop's side of `--body soft` ([`SoftSpec`], [`SoftDriver`]), with a
+//! material per region of the mesh where the scenario's `[regions]` table gives one.
 
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::servo::World;
@@ -58,6 +59,59 @@ impl SoftOwned {
             tet_rest: vec![TetRest::default(); t],
             lambdas: vec![[0.0; 2]; t],
         }
+    }
+
+    /// Fills [`SoftOwned::tet_material`] from the mesh's region `labels` (one per tet, the
+    /// world's order): a tet whose label is one of `spec`'s regions takes that region's
+    /// material (index `1 + ` its place in [`SoftSpec::regions`], the order of
+    /// [`SoftSpec::materials`]), every other tet the global one (index 0). Left empty when no
+    /// tet takes a region's material, so such a body is the single-material one. Warns in one
+    /// line when `--young` or `--poisson` was given but every tet's region sets its own.
+    ///
+    /// # Errors
+    /// Exit status 1 when `labels` does not have one label per tet (a failure of the caller).
+    pub fn set_regions(&mut self, labels: &[i32], spec: &SoftSpec) -> Result<(), CliError> {
+        self.tet_material.clear();
+        if spec.regions.is_empty() {
+            return Ok(());
+        }
+        if labels.len() != self.tets.len() {
+            return Err(CliError::failure(format!(
+                "soft body: {} region labels for {} tets",
+                labels.len(),
+                self.tets.len()
+            )));
+        }
+        let index = |l: &i32| {
+            spec.regions
+                .binary_search_by_key(l, |r| r.label)
+                .map_or(0, |i| i as u32 + 1)
+        };
+        self.tet_material = labels.iter().map(index).collect();
+        let global = |pick: fn(&SoftRegion) -> Option<f64>| {
+            self.tet_material
+                .iter()
+                .any(|&m| m == 0 || pick(&spec.regions[m as usize - 1]).is_none())
+        };
+        let unused: Vec<&str> = [
+            ("--young", spec.young_given && !global(|r| r.young)),
+            ("--poisson", spec.poisson_given && !global(|r| r.poisson)),
+        ]
+        .iter()
+        .filter(|(_, unused)| *unused)
+        .map(|(flag, _)| *flag)
+        .collect();
+        if !unused.is_empty() {
+            errln!(
+                "tetradrill: warning: {} set, but every tet's region sets its own \
+                 ([regions]): no effect",
+                unused.join(", ")
+            );
+        }
+        if self.tet_material.iter().all(|&m| m == 0) {
+            self.tet_material.clear();
+        }
+        Ok(())
     }
 
     /// Storage for a body over a built core mesh at its current positions.
@@ -125,13 +179,36 @@ pub enum Fix {
     LowestTenth,
 }
 
-/// A scenario's soft body, its values checked: material, fixed nodes, rate.
+/// One region's soft values (a scenario's `[regions.LABEL]` `young`, `poisson`, `density`);
+/// each absent one is the body's global value.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SoftSpec {
+pub struct SoftRegion {
+    /// The mesh's region label.
+    pub label: i32,
     /// Young's modulus, pascal.
-    pub young: f64,
+    pub young: Option<f64>,
     /// Poisson ratio.
+    pub poisson: Option<f64>,
+    /// Density, kilogram per cubic metre.
+    pub density: Option<f64>,
+}
+
+/// A scenario's soft body, its values checked: materials, fixed nodes, rate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SoftSpec {
+    /// Young's modulus of every tet no region gives its own, pascal.
+    pub young: f64,
+    /// Poisson ratio of every tet no region gives its own.
     pub poisson: f64,
+    /// Density of every tet no region gives its own, kilogram per cubic metre.
+    pub density: f64,
+    /// Whether `young` was given (`--young` or the key), not the default.
+    pub young_given: bool,
+    /// Whether `poisson` was given (`--poisson` or the key), not the default.
+    pub poisson_given: bool,
+    /// The scenario's regions in label order (every `[regions]` entry, with or without soft
+    /// values); [`SoftSpec::materials`] lists their materials after the global one.
+    pub regions: Vec<SoftRegion>,
     /// Fixed nodes.
     pub fix: Fix,
     /// Servo ticks (1 ms) per physics step.
@@ -179,12 +256,45 @@ impl SoftSpec {
             None => Fix::LowestTenth,
         };
         let hz = sc.soft_rate.unwrap_or(DEFAULT_RATE_HZ);
+        // Labels are integers (checked above); in label order for a binary search.
+        let mut regions: Vec<SoftRegion> = sc
+            .regions
+            .iter()
+            .filter_map(|(k, r)| {
+                Some(SoftRegion {
+                    label: k.trim().parse().ok()?,
+                    young: r.young,
+                    poisson: r.poisson,
+                    density: r.density,
+                })
+            })
+            .collect();
+        regions.sort_by_key(|r| r.label);
+        regions.dedup_by_key(|r| r.label);
         Ok(Some(Self {
             young: sc.young.unwrap_or(DEFAULT_YOUNG),
             poisson: sc.poisson.unwrap_or(DEFAULT_POISSON),
+            density: f64::from(DENSITY),
+            young_given: sc.young.is_some(),
+            poisson_given: sc.poisson.is_some(),
+            regions,
             fix,
             ticks_per_step: (1000.0 / hz).round().max(1.0) as u32,
         }))
+    }
+
+    /// A single-material body: every tet of `young`, `poisson` and [`DENSITY`], no regions.
+    pub fn uniform(young: f64, poisson: f64, fix: Fix, ticks_per_step: u32) -> Self {
+        Self {
+            young,
+            poisson,
+            density: f64::from(DENSITY),
+            young_given: true,
+            poisson_given: true,
+            regions: Vec::new(),
+            fix,
+            ticks_per_step,
+        }
     }
 
     /// Physics steps a second.
@@ -192,18 +302,96 @@ impl SoftSpec {
         1000.0 / f64::from(self.ticks_per_step)
     }
 
-    /// The material.
+    /// The global material: every tet no region gives its own values.
     pub fn material(&self) -> Material {
         Material {
             young: self.young as f32,
             poisson: self.poisson as f32,
-            density: DENSITY,
+            density: self.density as f32,
         }
+    }
+
+    /// The values of `region` (Young's modulus, Poisson ratio, density): its own, the global
+    /// ones where it has none.
+    pub fn region_values(&self, region: &SoftRegion) -> [f64; 3] {
+        [
+            region.young.unwrap_or(self.young),
+            region.poisson.unwrap_or(self.poisson),
+            region.density.unwrap_or(self.density),
+        ]
+    }
+
+    /// The material of `region` ([`SoftSpec::region_values`]).
+    pub fn region_material(&self, region: &SoftRegion) -> Material {
+        let [young, poisson, density] = self.region_values(region);
+        Material {
+            young: young as f32,
+            poisson: poisson as f32,
+            density: density as f32,
+        }
+    }
+
+    /// The materials list of a body ([`SoftMesh::tet_material`] indexes it): the global
+    /// material, then each region's in [`SoftSpec::regions`] order.
+    pub fn materials(&self) -> Vec<Material> {
+        std::iter::once(self.material())
+            .chain(self.regions.iter().map(|r| self.region_material(r)))
+            .collect()
     }
 }
 
+/// One material of a soft run and the tets that have it (the JSON's `deform.materials`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MaterialUse {
+    /// The region label (`null`: every tet whose label no `[regions]` entry names, the
+    /// global material).
+    pub label: Option<i32>,
+    /// Young's modulus, pascal.
+    pub young: f64,
+    /// Poisson ratio.
+    pub poisson: f64,
+    /// Density, kilogram per cubic metre.
+    pub density: f64,
+    /// Tets of this material.
+    pub tets: usize,
+}
+
+/// The materials `spec` gives the tets of `tet_material` (empty: all global; `tets` in all),
+/// the ones with at least one tet, the global first.
+///
+/// # Bounded work
+/// O(T + regions).
+pub fn material_uses(spec: &SoftSpec, tet_material: &[u32], tets: usize) -> Vec<MaterialUse> {
+    let mut count = vec![0usize; spec.regions.len() + 1];
+    if tet_material.is_empty() {
+        count[0] = tets;
+    }
+    for &m in tet_material {
+        if let Some(c) = count.get_mut(m as usize) {
+            *c += 1;
+        }
+    }
+    let of = |label: Option<i32>, [young, poisson, density]: [f64; 3], tets: usize| MaterialUse {
+        label,
+        young,
+        poisson,
+        density,
+        tets,
+    };
+    let global = [spec.young, spec.poisson, spec.density];
+    std::iter::once(of(None, global, count[0]))
+        .chain(
+            spec.regions
+                .iter()
+                .zip(&count[1..])
+                .map(|(r, &c)| of(Some(r.label), spec.region_values(r), c)),
+        )
+        .filter(|u| u.tets > 0)
+        .collect()
+}
+
 /// The `deform` object of a soft run's JSON.
-#[derive(Debug, Clone, Copy, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize)]
 pub struct DeformSummary {
     /// The largest distance of a node from its rest position over the run, metres (mesh
     /// units).
@@ -217,10 +405,13 @@ pub struct DeformSummary {
     pub steps: u64,
     /// Nodes fixed.
     pub fixed_nodes: usize,
-    /// Young's modulus, pascal.
+    /// Young's modulus of the tets no region gives its own, pascal.
     pub young: f64,
-    /// Poisson ratio.
+    /// Poisson ratio of the tets no region gives its own.
     pub poisson: f64,
+    /// The materials used, the global one (`label` null) first, then by region label, each
+    /// with its tet count ([`MaterialUse`]).
+    pub materials: Vec<MaterialUse>,
 }
 
 /// Step timing of a soft run, microseconds.
@@ -238,9 +429,8 @@ impl DeformSummary {
     /// One line for a summary.
     pub fn line(&self) -> String {
         format!(
-            "soft body (E {} Pa, nu {}, {} nodes fixed): {} steps at {:.0} Hz, max displacement {:.4e} m, step + world update us: mean {:.1}  p99 {:.1}  max {:.1}",
-            self.young,
-            self.poisson,
+            "soft body ({}{} nodes fixed): {} steps at {:.0} Hz, max displacement {:.4e} m, step + world update us: mean {:.1}  p99 {:.1}  max {:.1}",
+            self.materials_text(),
             self.fixed_nodes,
             self.steps,
             self.rate_hz,
@@ -249,6 +439,26 @@ impl DeformSummary {
             self.step_us.p99,
             self.step_us.max
         )
+    }
+
+    /// The materials as text, ending in a separator: `E 5000 Pa, nu 0.3, ` for one global
+    /// material, else each one's values and tets (`region 1: E 3000 Pa, nu 0.3, 336 tets; ...; `).
+    pub fn materials_text(&self) -> String {
+        match &self.materials[..] {
+            [] => return format!("E {} Pa, nu {}, ", self.young, self.poisson),
+            [m] if m.label.is_none() => return format!("E {} Pa, nu {}, ", m.young, m.poisson),
+            _ => {}
+        }
+        self.materials
+            .iter()
+            .map(|m| {
+                let who = m
+                    .label
+                    .map_or("other tets".to_string(), |l| format!("region {l}"));
+                format!("{who}: E {} Pa, nu {}, {} tets", m.young, m.poisson, m.tets)
+            })
+            .map(|t| t + "; ")
+            .collect()
     }
 }
 
@@ -267,11 +477,13 @@ pub struct SoftDriver<'a> {
     max_displacement: f32,
     fixed: usize,
     spec: SoftSpec,
+    materials: Vec<MaterialUse>,
 }
 
 impl<'a> SoftDriver<'a> {
-    /// A body at rest over `owned` (built from the world's mesh at rest, [`SoftOwned::from_mesh`])
-    /// with the spec's material and fixed nodes; warns in one line when no node is fixed.
+    /// A body at rest over `owned` (built from the world's mesh at rest, [`SoftOwned::from_mesh`],
+    /// its regions set by [`SoftOwned::set_regions`]) with the spec's materials
+    /// ([`SoftSpec::materials`]) and fixed nodes; warns in one line when no node is fixed.
     ///
     /// # Errors
     /// Exit status 2 when the core refuses the body (a flat or inverted tet, a material out
@@ -288,9 +500,10 @@ impl<'a> SoftDriver<'a> {
             .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
                 (lo.min(p.z), hi.max(p.z))
             });
+        let materials = material_uses(spec, &owned.tet_material, owned.tets.len());
         let mut body = owned
             .body(
-                &[spec.material()],
+                &spec.materials(),
                 SoftParams {
                     gravity: Vec3::ZERO,
                     damping: DAMPING,
@@ -298,7 +511,14 @@ impl<'a> SoftDriver<'a> {
                     iterations: 1,
                 },
             )
-            .map_err(|e| CliError::input(format!("--body soft: {e}")))?;
+            .map_err(|e| match e {
+                // A region's material: name it (the scenario checks the values first).
+                SoftError::Material { index, error } if index > 0 => {
+                    let label = spec.regions.get(index as usize - 1).map_or(0, |r| r.label);
+                    CliError::input(format!("--body soft: regions.{label}: {error}"))
+                }
+                e => CliError::input(format!("--body soft: {e}")),
+            })?;
         let fixed = match spec.fix {
             Fix::Below(axis, v) => {
                 let up = [Vec3::X, Vec3::Y, Vec3::Z][axis];
@@ -322,7 +542,8 @@ impl<'a> SoftDriver<'a> {
             step_ns: Vec::new(),
             max_displacement: 0.0,
             fixed,
-            spec: *spec,
+            spec: spec.clone(),
+            materials,
         })
     }
 
@@ -411,6 +632,7 @@ impl<'a> SoftDriver<'a> {
             fixed_nodes: self.fixed,
             young: self.spec.young,
             poisson: self.spec.poisson,
+            materials: self.materials.clone(),
         }
     }
 }

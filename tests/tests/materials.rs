@@ -203,6 +203,7 @@ fn the_force_uses_the_stiffness_of_the_region_under_the_contact() {
         threshold: 0.0,
         stiffness: Some(k),
         colour: None,
+        ..RegionSpec::default()
     };
     let sc = Scenario {
         mesh: "builtin:block:8".into(),

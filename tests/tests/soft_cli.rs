@@ -216,11 +216,23 @@ fn demo_soft_reports_the_deformation() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(stdout.contains("soft body (E 2000 Pa"), "{stdout}");
+    // The demo's regions' moduli: the shell (label 1) and the core (label 2).
+    assert!(
+        stdout.contains("soft body (region 1: E 3000 Pa, nu 0.3")
+            && stdout.contains("region 2: E 1000 Pa, nu 0.3"),
+        "{stdout}"
+    );
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).expect("read JSON")).expect("JSON");
     let d = &r["deform"];
     assert!(d["steps"].as_u64().unwrap() > 0, "{d}");
+    let labels: Vec<_> = d["materials"]
+        .as_array()
+        .expect("materials")
+        .iter()
+        .map(|m| m["label"].as_i64())
+        .collect();
+    assert_eq!(labels, [Some(1), Some(2)], "{d}");
     assert!(d["rate_hz"].as_f64().unwrap() > 0.0, "{d}");
     // The path presses the block within its first 2 s (force up to the 8 N clamp).
     assert!(d["max_displacement"].as_f64().unwrap() > 1e-4, "{d}");
@@ -313,12 +325,7 @@ fn a_new_driver_starts_at_rest_over_used_storage() {
     let mut world = st.world(mesh);
     let mut rest = vec![Vec3::ZERO; n];
     world.enable_deformation(&mut rest).unwrap();
-    let spec = SoftSpec {
-        young: YOUNG,
-        poisson: 0.3,
-        fix: Fix::Below(2, -0.49),
-        ticks_per_step: 1,
-    };
+    let spec = SoftSpec::uniform(YOUNG, 0.3, Fix::Below(2, -0.49), 1);
     let params = DrillParams {
         max_depth: 2,
         min_area: 0.0,

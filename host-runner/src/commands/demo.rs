@@ -38,16 +38,12 @@ pub struct DemoArgs {
     /// on the scripted path, which plunges from above).
     #[arg(long, value_name = "SPEC")]
     pub tool: Option<String>,
-    /// The block as a soft body (E = 2 kPa, nu = 0.3, its base below z = -0.45 fixed, 250
-    /// physics steps a second): it dents under the burr while it is drilled.
+    /// The block as a soft body (its shell E = 3 kPa over a core of 1 kPa, nu = 0.3, the
+    /// demo's regions; its base below z = -0.45 fixed, 250 physics steps a second): it dents
+    /// under the burr while it is drilled.
     #[arg(long)]
     pub soft: bool,
 }
-
-/// Young's modulus of `demo --soft`, pascal: the burr's few newtons dent the 1 m block by
-/// one to two centimetres, a fifth of the burr's radius, so the dent shows and the drilling
-/// goes on.
-pub const DEMO_SOFT_YOUNG: f64 = 2_000.0;
 
 /// Runs `demo`.
 pub fn run(args: &DemoArgs) -> Result<(), CliError> {
@@ -59,7 +55,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     }
     if args.soft {
         sc.body = crate::scenario::Body::Soft;
-        sc.young = Some(DEMO_SOFT_YOUNG);
+        // The moduli are the demo's regions' (`scenario::demo_regions`).
         sc.fix_below = Some("z:-0.45".into());
     }
     let view = ViewOptions::of(args.headless, args.screenshot.clone())?;

@@ -436,10 +436,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         }
         let mut store = EngineStorage::try_allocate(loaded.mesh.clone(), &sc)?;
         store.set_labels(&loaded.labels, &sc)?;
-        let mut owned = soft.map(|_| {
-            store.enable_deformation();
-            store.soft_owned()
-        });
+        let mut owned = soft_owned(&mut store, soft.as_ref(), &loaded.labels)?;
         let mut world = store.world()?;
         let mut driver = soft_driver(soft.as_ref(), owned.as_mut())?;
         let mut tool = ToolState::default();
@@ -461,10 +458,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     store.set_labels(&loaded.labels, &sc)?;
     let region_labels = store.region_labels().to_vec();
     let sizing = SizingSummary::of(&store, &sc);
-    let mut owned = soft.map(|_| {
-        store.enable_deformation();
-        store.soft_owned()
-    });
+    let mut owned = soft_owned(&mut store, soft.as_ref(), &loaded.labels)?;
     let mut world = store.world()?;
     let mut driver = soft_driver(soft.as_ref(), owned.as_mut())?;
     let sizing = SizingSummary {
@@ -593,6 +587,22 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         crate::viewer::screenshot(&mut scene, path)?;
     }
     valid.map_err(|e| CliError::failure(format!("the final state is invalid: {e}")))
+}
+
+/// A deforming world over `store` and the soft body's storage, its materials set from the
+/// mesh's region `labels`, when the scenario has a soft body.
+fn soft_owned(
+    store: &mut EngineStorage,
+    spec: Option<&SoftSpec>,
+    labels: &[i32],
+) -> Result<Option<crate::soft::SoftOwned>, CliError> {
+    let Some(spec) = spec else {
+        return Ok(None);
+    };
+    store.enable_deformation();
+    let mut owned = store.soft_owned();
+    owned.set_regions(labels, spec)?;
+    Ok(Some(owned))
 }
 
 /// The soft body's driver over `owned` when the scenario has one.

@@ -11,7 +11,8 @@ use crate::error::CliError;
 
 mod regions;
 pub use regions::{
-    demo_regions, tooth_regions, RegionSpec, TOOTH_DENTIN, TOOTH_ENAMEL, TOOTH_PULP,
+    demo_regions, tooth_regions, RegionSpec, DEMO_CORE_YOUNG, DEMO_SHELL_YOUNG, TOOTH_DENTIN,
+    TOOTH_ENAMEL, TOOTH_PULP,
 };
 
 /// Which way depth finds the surface intersections of border edges.
@@ -94,7 +95,8 @@ pub struct Scenario {
     /// Pressure threshold of the default region, newtons: below it the burr removes nothing.
     pub pressure_threshold: f64,
     /// Materials by region label (the mesh file's labels; the built-in block's shell is 1 and
-    /// its core 2): `[regions.LABEL]` with `hardness`, `threshold`, `stiffness`, `colour`.
+    /// its core 2): `[regions.LABEL]` with `hardness`, `threshold`, `stiffness`, `colour`, and
+    /// for a soft body `young`, `poisson`, `density`.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub regions: BTreeMap<String, RegionSpec>,
     /// Depth method for a mesh tool.
@@ -657,8 +659,14 @@ impl Scenario {
                 .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
             CliError::at(path, line, e.message().replace('\n', " "))
         })?;
-        sc.problem()
-            .map_err(|(key, m)| CliError::at(path, key_line(&text, key), m))?;
+        sc.problem().map_err(|(key, m)| {
+            // A bad region: the line of its own table when it has one.
+            let region = (key == "regions")
+                .then(|| sc.region_problem().err())
+                .flatten()
+                .and_then(|(label, _)| key_line(&text, &format!("regions.{label}")));
+            CliError::at(path, region.or_else(|| key_line(&text, key)), m)
+        })?;
         Ok(sc)
     }
 
@@ -747,37 +755,7 @@ impl Scenario {
                 return Err((key, format!("{key} must be non-negative, got {v}")));
             }
         }
-        for (label, r) in &self.regions {
-            if label.trim().parse::<i32>().is_err() {
-                return Err((
-                    "regions",
-                    format!("regions: `{label}` is not a region label (an integer)"),
-                ));
-            }
-            for (what, v, ok) in [
-                ("hardness", r.hardness, r.hardness >= 0.0),
-                ("threshold", r.threshold, r.threshold >= 0.0),
-                (
-                    "stiffness",
-                    r.stiffness.unwrap_or(1.0),
-                    r.stiffness.is_none_or(|k| k > 0.0),
-                ),
-            ] {
-                if !(v.is_finite() && ok) {
-                    let sign = if what == "stiffness" {
-                        "positive"
-                    } else {
-                        "non-negative"
-                    };
-                    return Err((
-                        "regions",
-                        format!("regions.{label}.{what} must be a {sign} number, got {v}"),
-                    ));
-                }
-            }
-            r.rgb()
-                .map_err(|m| ("regions", format!("regions.{label}: {m}")))?;
-        }
+        self.region_problem().map_err(|(_, m)| ("regions", m))?;
         if !(self.min_area.is_finite() && self.min_area >= 0.0) {
             return Err((
                 "min_area",
@@ -832,6 +810,44 @@ impl Scenario {
         }
         if let Some(hz) = self.soft_rate {
             check_soft_rate(hz).map_err(|m| ("soft_rate", m))?;
+        }
+        Ok(())
+    }
+
+    /// The first bad `[regions]` entry: its label and one line saying why.
+    pub fn region_problem(&self) -> Result<(), (String, String)> {
+        for (label, r) in &self.regions {
+            if label.trim().parse::<i32>().is_err() {
+                return Err((
+                    label.clone(),
+                    format!("regions: `{label}` is not a region label (an integer)"),
+                ));
+            }
+            for (what, v, ok) in [
+                ("hardness", r.hardness, r.hardness >= 0.0),
+                ("threshold", r.threshold, r.threshold >= 0.0),
+                (
+                    "stiffness",
+                    r.stiffness.unwrap_or(1.0),
+                    r.stiffness.is_none_or(|k| k > 0.0),
+                ),
+            ] {
+                if !(v.is_finite() && ok) {
+                    let sign = if what == "stiffness" {
+                        "positive"
+                    } else {
+                        "non-negative"
+                    };
+                    return Err((
+                        label.clone(),
+                        format!("regions.{label}.{what} must be a {sign} number, got {v}"),
+                    ));
+                }
+            }
+            r.rgb()
+                .map_err(|m| (label.clone(), format!("regions.{label}: {m}")))?;
+            r.soft_problem()
+                .map_err(|(key, m)| (label.clone(), format!("regions.{label}.{key} {m}")))?;
         }
         Ok(())
     }
@@ -897,7 +913,7 @@ impl Scenario {
 }
 
 /// The 1-based line of a TOML text where `key` is set (`key = ...` at the start of a line),
-/// or where its table starts (`[key` at the start of a line).
+/// or where its table starts (`[key]` or `[key.` at the start of a line).
 fn key_line(text: &str, key: &str) -> Option<usize> {
     text.lines()
         .position(|l| {
@@ -905,7 +921,8 @@ fn key_line(text: &str, key: &str) -> Option<usize> {
             l.strip_prefix(key)
                 .is_some_and(|rest| rest.trim_start().starts_with('='))
                 || l.strip_prefix('[')
-                    .is_some_and(|rest| rest.trim_start().starts_with(key))
+                    .and_then(|rest| rest.trim_start().strip_prefix(key))
+                    .is_some_and(|rest| rest.trim_start().starts_with(']') || rest.starts_with('.'))
         })
         .map(|i| i + 1)
 }

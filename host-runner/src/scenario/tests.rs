@@ -97,3 +97,59 @@ fn soft_keys_read_back_and_a_rigid_scenario_leaves_them_out() {
         assert!(parse_fix_below(bad).is_err(), "{bad}");
     }
 }
+
+#[test]
+fn region_soft_keys_read_back_and_bad_ones_name_the_region_and_its_line() {
+    let text = "body = \"soft\"\n[regions.1]\nyoung = 3000.0\npoisson = 0.2\ndensity = 1100.0\n\
+                [regions.12]\nhardness = 1.0\n";
+    let s: Scenario = toml::from_str(text).expect("region soft keys");
+    assert!(s.check().is_ok());
+    let r = &s.regions["1"];
+    assert_eq!(
+        (r.young, r.poisson, r.density),
+        (Some(3000.0), Some(0.2), Some(1100.0))
+    );
+    assert_eq!(s.regions["12"].young, None);
+    let back: Scenario = toml::from_str(&toml::to_string(&s).expect("to TOML")).expect("back");
+    assert_eq!(back, s);
+    let dir = std::env::temp_dir().join(format!("tdscn-soft-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let p = dir.join("bad.toml");
+    for (text, line, what) in [
+        (
+            "[regions.1]\nyoung = 1.0\n[regions.12]\nyoung = -5.0\n",
+            3,
+            "regions.12.young",
+        ),
+        (
+            "[regions.12]\nhardness = 1.0\n[regions.1]\npoisson = 0.5\n",
+            3,
+            "regions.1.poisson",
+        ),
+        ("\n[regions.2]\ndensity = 0.0\n", 2, "regions.2.density"),
+        ("[regions.2]\nyoung = 1e300\n", 1, "regions.2.young"),
+    ] {
+        std::fs::write(&p, text).expect("write");
+        let e = Scenario::load(p.to_str().expect("utf8")).expect_err(what);
+        assert_eq!(e.code, 2);
+        assert!(
+            e.message.contains(&format!("bad.toml:{line}:")),
+            "{}",
+            e.message
+        );
+        assert!(e.message.contains(what), "{}", e.message);
+    }
+}
+
+#[test]
+fn builtin_regions_carry_checked_soft_values() {
+    let tooth = tooth_regions();
+    let e = |l: i32| tooth[&l.to_string()].young.expect("a modulus");
+    assert!(e(TOOTH_ENAMEL) > e(TOOTH_DENTIN) && e(TOOTH_DENTIN) > e(TOOTH_PULP));
+    let demo = demo_regions();
+    assert_eq!(demo["1"].young, Some(DEMO_SHELL_YOUNG));
+    assert_eq!(demo["2"].young, Some(DEMO_CORE_YOUNG));
+    for r in tooth.values().chain(demo.values()) {
+        assert!(r.soft_problem().is_ok());
+    }
+}

@@ -130,10 +130,15 @@ pub fn run(
     let regions = crate::viewer::handoff::region_slots(&loaded.labels);
     let mut store = EngineStorage::try_allocate(loaded.mesh, sc)?;
     store.set_labels(&loaded.labels, sc)?;
-    let mut soft_owned = soft.map(|_| {
-        store.enable_deformation();
-        store.soft_owned()
-    });
+    let mut soft_owned = match soft.as_ref() {
+        Some(spec) => {
+            store.enable_deformation();
+            let mut owned = store.soft_owned();
+            owned.set_regions(&loaded.labels, spec)?;
+            Some(owned)
+        }
+        None => None,
+    };
     let region_labels = store.region_labels().to_vec();
     let region_colours = engine::region_table(&loaded.labels, sc)
         .ok()
@@ -430,7 +435,7 @@ impl Ended {
             valid: false,
             pen,
             shaft: self.shaft,
-            deform: self.deform,
+            deform: self.deform.clone(),
         };
         if self.summary {
             print_summary(&rep);
