@@ -283,14 +283,16 @@ impl SoftSpec {
         }))
     }
 
-    /// A single-material body: every tet of `young`, `poisson` and [`DENSITY`], no regions.
+    /// A single-material body: every tet of `young`, `poisson` and [`DENSITY`], no regions
+    /// (its values not counted as given on the command line: no warning when regions added
+    /// later cover every tet).
     pub fn uniform(young: f64, poisson: f64, fix: Fix, ticks_per_step: u32) -> Self {
         Self {
             young,
             poisson,
             density: f64::from(DENSITY),
-            young_given: true,
-            poisson_given: true,
+            young_given: false,
+            poisson_given: false,
             regions: Vec::new(),
             fix,
             ticks_per_step,
