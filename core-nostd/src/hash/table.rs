@@ -75,6 +75,44 @@ pub struct Rebuilt {
     pub saturated: bool,
 }
 
+/// Units of one item in each item pass of [`SpatialHash::rebuild_part`] (the box's cell
+/// range and, per cell, its bucket: about four soft-body node updates' worth on a Cortex-M4).
+pub const REBUILD_ITEM_UNITS: u32 = 4;
+/// Buckets cleared or summed per unit in [`SpatialHash::rebuild_part`].
+pub const REBUILD_BUCKETS_PER_UNIT: usize = 16;
+
+/// The passes of a spread rebuild.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+enum RebuildPhase {
+    /// Clearing the bucket counts.
+    #[default]
+    Clear,
+    /// Counting each item's cells per bucket.
+    Count,
+    /// The prefix sum over the buckets.
+    Prefix,
+    /// Writing the entries.
+    Fill,
+}
+
+/// Where a rebuild spread over calls stands ([`SpatialHash::rebuild_part`]); the default is
+/// a build not started.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct RebuildCursor {
+    phase: RebuildPhase,
+    at: usize,
+    total: usize,
+    kept: usize,
+    run: u32,
+}
+
+impl RebuildCursor {
+    /// `true` before the first call of a build (or after its last).
+    pub fn is_fresh(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
 /// A spatial hash over caller storage: `starts` (bucket count + 1 offsets, the bucket count
 /// should be prime) and `entries` (one per item and cell; its length is the capacity).
 #[derive(Debug)]
@@ -250,6 +288,180 @@ impl<'a> SpatialHash<'a> {
             entries: total,
             saturated,
         }
+    }
+
+    /// [`SpatialHash::rebuild`] spread over calls, into this table while another one
+    /// answers the queries: each call goes on from `cursor` (a fresh
+    /// [`RebuildCursor::default`] starts a build) and does at most `max_units` units
+    /// ([`REBUILD_ITEM_UNITS`] per item in each of the two item passes, one per
+    /// [`REBUILD_BUCKETS_PER_UNIT`] buckets in each of the two bucket passes; a step is
+    /// taken only while it fits). Returns the units done and, once the build is complete,
+    /// what it stored. `count` and `bounds` must be the same for every call of one build.
+    /// The finished table holds the same entries in the same places as one
+    /// [`SpatialHash::rebuild`]; the counters are not touched here:
+    /// [`SpatialHash::adopt`] counts the build when the table is taken into use.
+    ///
+    /// # Bounded work
+    /// At most `max_units` units plus the cells of one item's box (at most the capacity).
+    pub fn rebuild_part<F>(
+        &mut self,
+        cursor: &mut RebuildCursor,
+        count: usize,
+        bounds: F,
+        max_units: u32,
+    ) -> (u32, Option<Rebuilt>)
+    where
+        F: Fn(usize) -> Option<Aabb>,
+    {
+        let nb = self.buckets();
+        let cap = self.entries.len();
+        let mut left = max_units;
+        let c = cursor;
+        loop {
+            match c.phase {
+                RebuildPhase::Clear => {
+                    if c.at == 0 {
+                        self.bounds = Aabb::of::<0>([]);
+                        c.total = 0;
+                        c.kept = count.min(MAX_ITEMS);
+                        c.run = 0;
+                    }
+                    if c.at >= self.starts.len() {
+                        c.phase = RebuildPhase::Count;
+                        c.at = 0;
+                        continue;
+                    }
+                    if left < 1 {
+                        break;
+                    }
+                    left -= 1;
+                    let end = (c.at + REBUILD_BUCKETS_PER_UNIT).min(self.starts.len());
+                    if let Some(part) = self.starts.get_mut(c.at..end) {
+                        part.fill(0);
+                    }
+                    c.at = end;
+                }
+                RebuildPhase::Count => {
+                    if c.at >= c.kept {
+                        c.phase = RebuildPhase::Prefix;
+                        c.at = 0;
+                        continue;
+                    }
+                    if left < REBUILD_ITEM_UNITS {
+                        break;
+                    }
+                    left -= REBUILD_ITEM_UNITS;
+                    let i = c.at;
+                    c.at += 1;
+                    let Some(b) = bounds(i) else { continue };
+                    let (lo, hi) = self.cell_range(&b);
+                    let n = cells_in(lo, hi);
+                    if n > (cap - c.total) as u64 {
+                        c.kept = i;
+                        continue;
+                    }
+                    c.total += n as usize;
+                    self.bounds = self.bounds.union(b);
+                    for_cells(lo, hi, |cell| {
+                        let k = bucket_of(cell, nb) as usize;
+                        if let Some(s) = self.starts.get_mut(k) {
+                            *s += 1;
+                        }
+                    });
+                }
+                RebuildPhase::Prefix => {
+                    if c.at >= self.starts.len() {
+                        c.phase = RebuildPhase::Fill;
+                        c.at = 0;
+                        continue;
+                    }
+                    if left < 1 {
+                        break;
+                    }
+                    left -= 1;
+                    let end = (c.at + REBUILD_BUCKETS_PER_UNIT).min(self.starts.len());
+                    for s in self.starts.get_mut(c.at..end).unwrap_or(&mut []) {
+                        c.run += *s;
+                        *s = c.run;
+                    }
+                    c.at = end;
+                }
+                RebuildPhase::Fill => {
+                    if c.at >= c.kept {
+                        self.used = c.total;
+                        let built = Rebuilt {
+                            items: c.kept,
+                            entries: c.total,
+                            saturated: c.kept < count,
+                        };
+                        *c = RebuildCursor::default();
+                        return (max_units - left, Some(built));
+                    }
+                    if left < REBUILD_ITEM_UNITS {
+                        break;
+                    }
+                    left -= REBUILD_ITEM_UNITS;
+                    let i = c.at;
+                    c.at += 1;
+                    let Some(b) = bounds(i) else { continue };
+                    self.fill_item(i, &b, nb);
+                }
+            }
+        }
+        (max_units - left, None)
+    }
+
+    /// Units of a whole [`SpatialHash::rebuild_part`] build of `count` items (fewer when the
+    /// entries run out: the items left out are not filled).
+    pub fn rebuild_units(&self, count: usize) -> u64 {
+        let chunks = self.starts.len().div_ceil(REBUILD_BUCKETS_PER_UNIT) as u64;
+        2 * chunks + 2 * count.min(MAX_ITEMS) as u64 * u64::from(REBUILD_ITEM_UNITS)
+    }
+
+    /// Takes the table `other` built ([`SpatialHash::rebuild_part`], reporting `built`) into
+    /// use: the two tables' storage and contents are swapped (`other` gets this one's old
+    /// table, to build the next one in), and this table's counters count the build as
+    /// [`SpatialHash::rebuild`] does. Refused (`false`, nothing changed) when the two
+    /// tables differ in bucket count, capacity or cell size.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn adopt(&mut self, other: &mut SpatialHash<'a>, built: Rebuilt) -> bool {
+        if other.buckets() != self.buckets()
+            || other.capacity() != self.capacity()
+            || other.cell.to_bits() != self.cell.to_bits()
+        {
+            return false;
+        }
+        core::mem::swap(&mut self.starts, &mut other.starts);
+        core::mem::swap(&mut self.entries, &mut other.entries);
+        core::mem::swap(&mut self.used, &mut other.used);
+        core::mem::swap(&mut self.bounds, &mut other.bounds);
+        self.stats.builds = self.stats.builds.wrapping_add(1);
+        if built.saturated {
+            self.stats.saturations = self.stats.saturations.wrapping_add(1);
+        }
+        true
+    }
+
+    /// The filling pass's work for item `i` with box `b`.
+    #[inline]
+    fn fill_item(&mut self, i: usize, b: &Aabb, nb: u32) {
+        let (lo, hi) = self.cell_range(b);
+        let (starts, entries) = (&mut *self.starts, &mut *self.entries);
+        for_cells(lo, hi, |c| {
+            let k = bucket_of(c, nb) as usize;
+            if let Some(s) = starts.get_mut(k) {
+                *s = s.saturating_sub(1);
+                if let Some(e) = entries.get_mut(*s as usize) {
+                    let mut packed = i as u32;
+                    for a in 0..3 {
+                        packed |= u32::from(c[a] == lo[a]) << (ITEM_BITS as usize + a);
+                    }
+                    *e = HashEntry { cell: c, packed };
+                }
+            }
+        });
     }
 
     /// Hashes points: item `i` is `points[i]`, in one cell each.

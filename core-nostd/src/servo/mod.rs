@@ -40,7 +40,10 @@ mod simulate;
 #[cfg(test)]
 mod tests;
 
-pub use deform::{DeformError, DeformReport};
+pub use deform::{
+    DeformError, DeformReport, Prepared, SpareStorage, PREP_BOX_UNITS, PREP_FACE_UNITS,
+    PREP_NODE_UNITS, PREP_NORMALISE_UNITS,
+};
 pub use force::servo_force;
 pub use passive::{drill_force, DrillState, PassiveReport};
 
@@ -263,6 +266,8 @@ pub struct World<'a> {
     press: (f32, f32),
     /// The coarse tet under the last contact, if any.
     contact_tet: Option<TetId>,
+    /// The spare storage of a spread position update ([`World::set_spare`]).
+    spare: Option<deform::Spare<'a>>,
 }
 
 /// Default bound on the hash cells one step's zone query visits ([`World::set_max_cells`]):
@@ -341,6 +346,7 @@ impl<'a> World<'a> {
             spacing: Spacing::new(),
             press: (0.0, 0.0),
             contact_tet: None,
+            spare: None,
         })
     }
 
