@@ -318,6 +318,8 @@ fn a_new_driver_starts_at_rest_over_used_storage() {
         poisson: 0.3,
         fix: Fix::Below(2, -0.49),
         ticks_per_step: 1,
+        substeps: tetradrill::soft::SUBSTEPS,
+        spread: false,
     };
     let params = DrillParams {
         max_depth: 2,

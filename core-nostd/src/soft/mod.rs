@@ -8,11 +8,13 @@
 //! as displacements from rest, so small strains stay exact in f32 whatever the mesh's
 //! offset. docs/SOFT.md has the formulation, its small-strain limit and the measured times.
 
+mod link;
 mod load;
 mod material;
 mod resume;
 mod tet;
 
+pub use link::{Link, LinkBuffers, LinkError, LinkTick, LINK_NODE_UNITS};
 pub use load::{below_plane, spread_point_force};
 pub use material::{Lame, Material, MaterialError, MAX_POISSON};
 pub use resume::{Advance, NODE_UNITS, TET_UNITS};
