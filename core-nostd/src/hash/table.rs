@@ -76,8 +76,9 @@ pub struct Rebuilt {
 }
 
 /// Units of one item in each item pass of [`SpatialHash::rebuild_part`] (the box's cell
-/// range and, per cell, its bucket: about four soft-body node updates' worth on a Cortex-M4).
-pub const REBUILD_ITEM_UNITS: u32 = 4;
+/// range and, per cell, its bucket: about 480 Cortex-M4 instructions for a tet about a cell
+/// wide, the units of `soft::Link` being about 37 instructions each).
+pub const REBUILD_ITEM_UNITS: u32 = 13;
 /// Buckets cleared or summed per unit in [`SpatialHash::rebuild_part`].
 pub const REBUILD_BUCKETS_PER_UNIT: usize = 16;
 

@@ -235,14 +235,14 @@ pub struct SpareStorage<'a> {
 
 /// Units of one node in the first pass of [`World::prepare_positions`] (its check, its
 /// distance from rest, its spare normal cleared).
-pub const PREP_NODE_UNITS: u32 = 1;
+pub const PREP_NODE_UNITS: u32 = 2;
 /// Units of one tet's new box.
-pub const PREP_BOX_UNITS: u32 = 2;
+pub const PREP_BOX_UNITS: u32 = 4;
 /// Units of one tet's boundary faces added to the normals (four neighbour looks, a cross
 /// product per boundary face).
-pub const PREP_FACE_UNITS: u32 = 3;
+pub const PREP_FACE_UNITS: u32 = 4;
 /// Units of one node's normal normalised.
-pub const PREP_NORMALISE_UNITS: u32 = 2;
+pub const PREP_NORMALISE_UNITS: u32 = 6;
 
 /// The passes of [`World::prepare_positions`].
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]

@@ -20,10 +20,15 @@ use glam::Vec3;
 
 use super::{spread_point_force, SoftBody, StepError, NODE_UNITS, TET_UNITS};
 use crate::hash::REBUILD_ITEM_UNITS;
-use crate::servo::{DeformError, DeformReport, World, PREP_FACE_UNITS};
+use crate::servo::{
+    DeformError, DeformReport, World, PREP_BOX_UNITS, PREP_FACE_UNITS, PREP_NODE_UNITS,
+    PREP_NORMALISE_UNITS,
+};
 
 /// Units of one node in the link's own passes (the load scaled to its mean; the new position
-/// written and the load cleared).
+/// written and the load cleared). All the spread step's units are sized from Cortex-M4
+/// instruction counts, one unit about 37 instructions (docs/SOFT.md, "A step spread over
+/// ticks").
 pub const LINK_NODE_UNITS: u32 = 1;
 
 /// The caller's buffers, one entry per node each: two loads (one gathers the reaction of the
@@ -120,8 +125,18 @@ const MOST_UNITS: u32 = {
     if REBUILD_ITEM_UNITS > m {
         m = REBUILD_ITEM_UNITS;
     }
-    if PREP_FACE_UNITS > m {
-        m = PREP_FACE_UNITS;
+    let prep = [
+        PREP_NODE_UNITS,
+        PREP_BOX_UNITS,
+        PREP_FACE_UNITS,
+        PREP_NORMALISE_UNITS,
+    ];
+    let mut i = 0;
+    while i < prep.len() {
+        if prep[i] > m {
+            m = prep[i];
+        }
+        i += 1;
     }
     m
 };

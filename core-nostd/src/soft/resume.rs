@@ -16,8 +16,9 @@ use super::{project, SoftBody, StepError};
 /// Work units of one node's update (integration or velocity).
 pub const NODE_UNITS: u32 = 1;
 /// Work units of one tet's constraint solve: on a Cortex-M4 a solve takes about as many
-/// instructions as this many node updates (docs/SOFT.md, "A step spread over ticks").
-pub const TET_UNITS: u32 = 24;
+/// instructions as this many node updates, about 660 (docs/SOFT.md, "A step spread over
+/// ticks").
+pub const TET_UNITS: u32 = 18;
 
 /// Where a spread step is.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -114,8 +115,8 @@ impl SoftBody<'_> {
     /// for every call of one step. Without a step under way it does nothing (`done`).
     ///
     /// # Bounded work
-    /// At most `max_units` units (about [`TET_UNITS`] / 24 of a Cortex-M4 tet solve each,
-    /// docs/SOFT.md), plus the constant cost of the call.
+    /// At most `max_units` units (a unit is about 37 Cortex-M4 instructions, docs/SOFT.md),
+    /// plus the constant cost of the call.
     pub fn advance(&mut self, external: &[Vec3], max_units: u32) -> Advance {
         let Some(mut r) = self.run else {
             return Advance {

@@ -638,6 +638,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
         // Cortex-M4"; ports/mps2-an386/src/scenario.rs holds the same numbers).
         "firmware-soft" => Some(Scenario {
             body: Body::Soft,
+            young: Some(FIRMWARE_SOFT_YOUNG),
             soft_rate: Some(FIRMWARE_SOFT_RATE),
             soft_substeps: Some(FIRMWARE_SOFT_SUBSTEPS),
             soft_spread: true,
@@ -647,6 +648,9 @@ pub fn builtin(name: &str) -> Option<Scenario> {
     }
 }
 
+/// Young's modulus of `builtin:firmware-soft`, pascal: the demo's `--soft` block's, a dent
+/// of several millimetres under the firmware path's force.
+pub const FIRMWARE_SOFT_YOUNG: f64 = 2_000.0;
 /// Physics steps a second of `builtin:firmware-soft`.
 pub const FIRMWARE_SOFT_RATE: f64 = 20.0;
 /// XPBD substeps a step of `builtin:firmware-soft`.
