@@ -224,3 +224,46 @@ fn replay_of_firmware_soft_is_deterministic_and_dents() {
     }
     assert_eq!(digests[0], digests[1]);
 }
+
+/// Runs `tetradrill` and asserts exit status 2 with a first stderr line holding every needle.
+fn refused(args: &[&str], needles: &[&str]) {
+    let o = std::process::Command::new(tetradrill_bin())
+        .args(args)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    let first = err.lines().next().unwrap_or("");
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    for n in needles {
+        assert!(first.contains(n), "{args:?}: `{first}` lacks `{n}`");
+    }
+}
+
+#[test]
+fn bad_spread_flags_and_keys_exit_2() {
+    refused(
+        &["replay", "--body", "soft", "--soft-substeps", "0"],
+        &["--soft-substeps"],
+    );
+    refused(
+        &["replay", "--body", "soft", "--soft-spread", "maybe"],
+        &["--soft-spread"],
+    );
+    let dir = scratch_dir("soft_link", "keys");
+    for (name, text, needle) in [
+        (
+            "substeps.toml",
+            "body = \"soft\"\nsoft_substeps = 5000\n",
+            "substeps.toml:2:",
+        ),
+        (
+            "spread.toml",
+            "body = \"soft\"\nsoft_spread = 3\n",
+            "spread.toml:2",
+        ),
+    ] {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        refused(&["replay", "--scenario", &p.to_string_lossy()], &[needle]);
+    }
+}

@@ -837,6 +837,77 @@ mod tests {
         assert_eq!(h.items_in_cell([7, 7, 7]).count(), 0);
     }
 
+    /// A rebuild spread over calls of every size, into a second table, gives the entries,
+    /// starts, bounds and report of one `rebuild`, full tables and missing items included;
+    /// `adopt` then counts it as `rebuild` does.
+    #[test]
+    fn a_spread_rebuild_is_the_whole_rebuild() {
+        // Boxes of one to eight cells, one missing, some far apart (buckets shared).
+        let boxes = |i: usize| -> Option<Aabb> {
+            if i == 5 {
+                return None;
+            }
+            let x = (i * 37 % 11) as f32 * 0.7 - 3.0;
+            let y = (i * 13 % 7) as f32 * 0.9 - 2.0;
+            let z = (i * 5 % 3) as f32 * 1.3;
+            let w = 0.3 + (i % 3) as f32 * 0.5;
+            Some(Aabb {
+                min: Vec3::new(x, y, z),
+                max: Vec3::new(x + w, y + w * 0.5, z + 0.2),
+            })
+        };
+        let mut saturated = 0;
+        for cap in [4usize, 20, 200] {
+            for units in [REBUILD_ITEM_UNITS, REBUILD_ITEM_UNITS + 5, 40, u32::MAX] {
+                let (mut s1, mut e1) = ([0u32; 8], [HashEntry::default(); 200]);
+                let (mut s2, mut e2) = ([0u32; 8], [HashEntry::default(); 200]);
+                let mut whole = SpatialHash::new(&mut s1, &mut e1[..cap], 1.0).unwrap();
+                let mut spare = SpatialHash::new(&mut s2, &mut e2[..cap], 1.0).unwrap();
+                let want = whole.rebuild(30, boxes);
+                let mut cursor = RebuildCursor::default();
+                let mut calls = 0;
+                let got = loop {
+                    let (done, built) = spare.rebuild_part(&mut cursor, 30, boxes, units);
+                    assert!(done <= units);
+                    calls += 1;
+                    if let Some(b) = built {
+                        break b;
+                    }
+                    assert!(calls < 10_000);
+                };
+                assert!(cursor.is_fresh());
+                assert_eq!(got, want, "capacity {cap}, {units} units");
+                assert_eq!(spare.starts, whole.starts);
+                assert_eq!(spare.entries[..spare.used], whole.entries[..whole.used]);
+                assert_eq!(spare.bounds, whole.bounds);
+                assert_eq!(spare.stats, HashStats::default());
+                // Taken into use by a third table that was built once before.
+                let (mut s3, mut e3) = ([0u32; 8], [HashEntry::default(); 200]);
+                let mut main = SpatialHash::new(&mut s3, &mut e3[..cap], 1.0).unwrap();
+                main.rebuild(0, |_| None);
+                assert!(main.adopt(&mut spare, got));
+                let counted = HashStats {
+                    builds: 2,
+                    saturations: u32::from(got.saturated),
+                    clipped_queries: 0,
+                };
+                assert_eq!(main.stats(), counted);
+                saturated += u32::from(got.saturated);
+                assert_eq!(main.len(), whole.len());
+                for c in [[0, 0, 0], [-3, -2, 0], [1, 0, 1]] {
+                    assert!(main.items_in_cell(c).eq(whole.items_in_cell(c)));
+                }
+            }
+        }
+        assert!(saturated > 0 && saturated < 12, "{saturated} full builds");
+        // Tables of other sizes are not adopted.
+        let (mut s1, mut e1) = ([0u32; 8], [HashEntry::default(); 4]);
+        let (mut s2, mut e2) = ([0u32; 6], [HashEntry::default(); 4]);
+        let mut a = SpatialHash::new(&mut s1, &mut e1, 1.0).unwrap();
+        let mut b = SpatialHash::new(&mut s2, &mut e2, 1.0).unwrap();
+        assert!(!a.adopt(&mut b, Rebuilt::default()));
+    }
+
     #[test]
     fn full_table_saturates_and_counts() {
         let mut starts = [0u32; 6];
