@@ -414,6 +414,9 @@ impl<'a> SpatialHash<'a> {
 
     /// Units of a whole [`SpatialHash::rebuild_part`] build of `count` items (fewer when the
     /// entries run out: the items left out are not filled).
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn rebuild_units(&self, count: usize) -> u64 {
         let chunks = self.starts.len().div_ceil(REBUILD_BUCKETS_PER_UNIT) as u64;
         2 * chunks + 2 * count.min(MAX_ITEMS) as u64 * u64::from(REBUILD_ITEM_UNITS)

@@ -347,6 +347,9 @@ impl<'a> World<'a> {
     /// set (fewer when the hash fills up: the tets left out are not hashed): nodes x ([`PREP_NODE_UNITS`] + [`PREP_NORMALISE_UNITS`]) + tets x
     /// ([`PREP_BOX_UNITS`] + [`PREP_FACE_UNITS`]) + the hash build's
     /// ([`SpatialHash::rebuild_units`]). `None` without spare storage.
+    ///
+    /// # Bounded work
+    /// Constant.
     pub fn prepare_units(&self) -> Option<u64> {
         let spare = self.spare.as_ref()?;
         let n = self.mesh.node_count() as u64;

@@ -13,7 +13,9 @@
 //! with the drilled surface at that pose.
 //!
 //! The mesh may move and deform between simulation steps: [`World::set_positions`]
-//! (`deform.rs`) takes new node positions and updates what depends on them.
+//! (`deform.rs`) takes new node positions and updates what depends on them, or
+//! [`World::prepare_positions`] prepares that update over several calls in spare storage and
+//! [`World::commit_positions`] takes it at once.
 //!
 //! Files: this one holds the [`World`], its storage, sizes, errors and accessors;
 //! `simulate.rs` the simulation step ([`World::simulate`], [`World::simulate_spheres`] and the
