@@ -5,13 +5,15 @@
 # then one `key=value` line each: force_digest, servo_latency_instructions_max,
 # sim_step_instructions_max, deadline_misses, flash_bytes, ram_bytes.
 #
-#   scripts/port-check.sh [--target m4|m7] [--scenario block|cow|regions|tooth] [--ticks N] [--max-instructions M]
+#   scripts/port-check.sh [--target m4|m7] [--scenario block|cow|regions|soft|tooth] [--ticks N] [--max-instructions M]
 #
 # --scenario block (default) is the host's builtin:firmware, cow is builtin:firmware-cow, regions
-# is builtin:firmware-regions (the block with a hard shell and a soft core), tooth is
-# builtin:firmware-tooth (the premolar's access cavity through enamel and dentin into the pulp).
-# --max-instructions M also fails the check when the worst tick (simulation step + servo tick)
-# took more than M instructions.
+# is builtin:firmware-regions (the block with a hard shell and a soft core), soft is
+# builtin:firmware-soft (the block as a soft body, its step spread over the ticks of each cycle),
+# tooth is builtin:firmware-tooth (the premolar's access cavity through enamel and dentin into
+# the pulp).
+# --max-instructions M also fails the check when the worst tick (simulation step, the soft
+# body's share on soft, and the servo tick) took more than M instructions.
 #
 # Exit status: 0 when the digests match, no deadline was missed (and the worst tick is within
 # M); 1 when they differ, a deadline was missed, the worst tick is over M, the firmware fails
@@ -37,8 +39,8 @@ while [ $# -gt 0 ]; do
     --target=*) target="${1#--target=}"; shift ;;
     --scenario) need "$1" $#; scenario="$2"; shift 2 ;;
     --scenario=*) scenario="${1#--scenario=}"; shift ;;
-    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
-    *) echo "port-check: unknown argument '$1' (expected --target m4|m7, --scenario block|cow|regions|tooth, --ticks N, --max-instructions M)" >&2; exit 2 ;;
+    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
+    *) echo "port-check: unknown argument '$1' (expected --target m4|m7, --scenario block|cow|regions|soft|tooth, --ticks N, --max-instructions M)" >&2; exit 2 ;;
   esac
 done
 if [ -n "$ticks" ] && ! [[ "$ticks" =~ ^[0-9]+$ ]]; then
@@ -57,8 +59,9 @@ case "$scenario" in
   block) host_scenario="builtin:firmware"; fw_scenario="" ;;
   cow) host_scenario="builtin:firmware-cow"; fw_scenario="cow" ;;
   regions) host_scenario="builtin:firmware-regions"; fw_scenario="regions" ;;
+  soft) host_scenario="builtin:firmware-soft"; fw_scenario="soft" ;;
   tooth) host_scenario="builtin:firmware-tooth"; fw_scenario="tooth" ;;
-  *) echo "port-check: --scenario takes block, cow, regions or tooth, not '$scenario'" >&2; exit 2 ;;
+  *) echo "port-check: --scenario takes block, cow, regions, soft or tooth, not '$scenario'" >&2; exit 2 ;;
 esac
 command -v qemu-system-arm >/dev/null || { echo "port-check: qemu-system-arm not found (apt-get install qemu-system-arm)" >&2; exit 1; }
 

@@ -10,8 +10,8 @@ use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{HNode, HierarchyStorage, SphereSlot, VEntry};
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::servo::{
-    drill_force, servo_force, DrillState, PassiveReport, SimReport, World, WorldSizes,
-    WorldStorage, DEFAULT_MAX_CELLS, DEFAULT_PENDING,
+    drill_force, servo_force, DrillState, PassiveReport, SimReport, SpareStorage, World,
+    WorldSizes, WorldStorage, DEFAULT_MAX_CELLS, DEFAULT_PENDING,
 };
 use tetradrill_core::{TetId, Vec3};
 
@@ -154,6 +154,9 @@ pub struct EngineStorage {
     /// The mesh's positions when deformation was enabled: each world over this storage (a
     /// viewer's reset too) starts from them, whatever the last world left.
     rest_copy: Vec<Vec3>,
+    /// The spare hash, boxes and normals of a deforming world's spread update
+    /// ([`World::set_spare`]; empty: the world is rigid).
+    spare: (Vec<u32>, Vec<HashEntry>, Vec<Aabb>, Vec<Vec3>),
 }
 
 /// The regions of a scenario's world: one per distinct label of the mesh, in label order.
@@ -374,6 +377,7 @@ impl EngineStorage {
             region_labels: Vec::new(),
             deform_rest: Vec::new(),
             rest_copy: Vec::new(),
+            spare: (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
         }
     }
 
@@ -382,6 +386,13 @@ impl EngineStorage {
     pub fn enable_deformation(&mut self) {
         self.deform_rest = vec![Vec3::ZERO; self.mesh.positions().len()];
         self.rest_copy = self.mesh.positions().to_vec();
+        // The spare storage of a spread update (`--soft-spread`), the world's sizes.
+        self.spare = (
+            vec![0; self.hash_starts.len()],
+            vec![HashEntry::default(); self.hash_entries.len()],
+            vec![Aabb::point(Vec3::ZERO); self.tet_boxes.len()],
+            vec![Vec3::ZERO; self.deform_rest.len()],
+        );
     }
 
     /// Storage for a soft body over the mesh at rest (node and tet order the world's).
@@ -505,8 +516,16 @@ impl EngineStorage {
         .map_err(|e| CliError::failure(format!("cannot set up the simulation: {e}")))
         .and_then(|mut w| {
             if !self.deform_rest.is_empty() {
-                w.enable_deformation(&mut self.deform_rest)
-                    .map_err(|e| CliError::failure(format!("cannot set up the soft body: {e}")))?;
+                let fail = |e| CliError::failure(format!("cannot set up the soft body: {e}"));
+                w.enable_deformation(&mut self.deform_rest).map_err(fail)?;
+                let (starts, entries, boxes, normals) = &mut self.spare;
+                w.set_spare(SpareStorage {
+                    hash_starts: starts,
+                    hash_entries: entries,
+                    tet_boxes: boxes,
+                    normals,
+                })
+                .map_err(fail)?;
             }
             Ok(w)
         })

@@ -6,7 +6,8 @@
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::servo::World;
 use tetradrill_core::soft::{
-    mesh_tets, Material, SoftBody, SoftError, SoftMesh, SoftParams, SoftStorage, TetRest,
+    mesh_tets, Link, LinkBuffers, Material, SoftBody, SoftError, SoftMesh, SoftParams, SoftStorage,
+    TetRest,
 };
 use tetradrill_core::Vec3;
 
@@ -165,7 +166,7 @@ pub const DENSITY: f32 = 1000.0;
 /// demo block's slowest modes at the default modulus (`omega` a few rad/s), so a dent does
 /// not ring; it settles in a second or two.
 pub const DAMPING: f32 = 10.0;
-/// XPBD substeps per physics step (one iteration each).
+/// XPBD substeps per physics step (one iteration each) without `--soft-substeps`.
 pub const SUBSTEPS: u32 = 10;
 /// Physics steps a second without `--soft-rate`: four servo ticks a step.
 pub const DEFAULT_RATE_HZ: f64 = 250.0;
@@ -213,6 +214,11 @@ pub struct SoftSpec {
     pub fix: Fix,
     /// Servo ticks (1 ms) per physics step.
     pub ticks_per_step: u32,
+    /// XPBD substeps per physics step.
+    pub substeps: u32,
+    /// The step and the world's update spread over the ticks of each cycle
+    /// ([`tetradrill_core::soft::Link`]).
+    pub spread: bool,
 }
 
 impl SoftSpec {
@@ -228,6 +234,8 @@ impl SoftSpec {
                 ("--poisson", sc.poisson.is_some()),
                 ("--fix-below", sc.fix_below.is_some()),
                 ("--soft-rate", sc.soft_rate.is_some()),
+                ("--soft-substeps", sc.soft_substeps.is_some()),
+                ("--soft-spread", sc.soft_spread),
             ]
             .iter()
             .filter(|(_, on)| *on)
@@ -280,6 +288,8 @@ impl SoftSpec {
             regions,
             fix,
             ticks_per_step: (1000.0 / hz).round().max(1.0) as u32,
+            substeps: sc.soft_substeps.unwrap_or(SUBSTEPS),
+            spread: sc.soft_spread,
         }))
     }
 
@@ -296,6 +306,8 @@ impl SoftSpec {
             regions: Vec::new(),
             fix,
             ticks_per_step,
+            substeps: SUBSTEPS,
+            spread: false,
         }
     }
 
@@ -414,6 +426,27 @@ pub struct DeformSummary {
     /// The materials used, the global one (`label` null) first, then by region label, each
     /// with its tet count ([`MaterialUse`]).
     pub materials: Vec<MaterialUse>,
+    /// The spread step's work (`--soft-spread`; absent: whole steps).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spread: Option<SpreadSummary>,
+}
+
+/// The work of a step spread over ticks ([`tetradrill_core::soft::Link`]), in its units (one
+/// is about a soft-body node update).
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct SpreadSummary {
+    /// Ticks a cycle (one step).
+    pub ticks: u32,
+    /// Units a cycle's work takes (the commit aside).
+    pub cycle_units: u64,
+    /// Units each tick is given.
+    pub units_per_tick: u32,
+    /// The most units one tick did.
+    pub units_max: u32,
+    /// Units a tick, on average.
+    pub units_mean: f64,
+    /// Cycles whose work was not done by their last tick (0: a check).
+    pub late: u32,
 }
 
 /// Step timing of a soft run, microseconds.
@@ -430,6 +463,12 @@ pub struct StepTiming {
 impl DeformSummary {
     /// One line for a summary.
     pub fn line(&self) -> String {
+        let spread = self.spread.map_or(String::new(), |s| {
+            format!(
+                "; spread over {} ticks: {} units a tick (most {}, mean {:.0}, {} late)",
+                s.ticks, s.units_per_tick, s.units_max, s.units_mean, s.late
+            )
+        });
         format!(
             "soft body ({}{} nodes fixed): {} steps at {:.0} Hz, max displacement {:.4e} m, step + world update us: mean {:.1}  p99 {:.1}  max {:.1}",
             self.materials_text(),
@@ -440,7 +479,7 @@ impl DeformSummary {
             self.step_us.mean,
             self.step_us.p99,
             self.step_us.max
-        )
+        ) + &spread
     }
 
     /// The materials as text, ending in a separator: `E 5000 Pa, nu 0.3, ` for one global
@@ -480,6 +519,23 @@ pub struct SoftDriver<'a> {
     fixed: usize,
     spec: SoftSpec,
     materials: Vec<MaterialUse>,
+    /// The spread step, when the spec asks for it.
+    spread: Option<Spread>,
+}
+
+/// A [`SoftDriver`]'s spread step: the link (made at the first tick, from the world) and its
+/// buffers, and what its ticks did.
+#[derive(Debug, Default)]
+struct Spread {
+    link: Option<Link>,
+    a: Vec<Vec3>,
+    b: Vec<Vec3>,
+    next: Vec<Vec3>,
+    /// Nanoseconds of the cycle under way so far.
+    cycle_ns: u64,
+    units_max: u32,
+    units_sum: u64,
+    ticks: u64,
 }
 
 impl<'a> SoftDriver<'a> {
@@ -509,7 +565,7 @@ impl<'a> SoftDriver<'a> {
                 SoftParams {
                     gravity: Vec3::ZERO,
                     damping: DAMPING,
-                    substeps: SUBSTEPS,
+                    substeps: spec.substeps,
                     iterations: 1,
                 },
             )
@@ -546,6 +602,12 @@ impl<'a> SoftDriver<'a> {
             fixed,
             spec: spec.clone(),
             materials,
+            spread: spec.spread.then(|| Spread {
+                a: vec![Vec3::ZERO; n],
+                b: vec![Vec3::ZERO; n],
+                next: vec![Vec3::ZERO; n],
+                ..Spread::default()
+            }),
         })
     }
 
@@ -582,6 +644,13 @@ impl<'a> SoftDriver<'a> {
         force: Vec3,
         ticks: u32,
     ) -> Result<bool, CliError> {
+        if self.spread.is_some() {
+            let mut stepped = false;
+            for _ in 0..ticks {
+                stepped |= self.spread_tick(world, force)?;
+            }
+            return Ok(stepped);
+        }
         if let Some(t) = world.contact_tet() {
             if force != Vec3::ZERO && ticks > 0 {
                 self.body.add_point_force(
@@ -619,6 +688,46 @@ impl<'a> SoftDriver<'a> {
         Ok(true)
     }
 
+    /// One tick of the spread step ([`Link::tick`]): returns whether a step was committed
+    /// (its cycle's time is then one timing sample).
+    fn spread_tick(&mut self, world: &mut World<'_>, force: Vec3) -> Result<bool, CliError> {
+        let Some(sp) = self.spread.as_mut() else {
+            return Ok(false);
+        };
+        let t0 = now_ns();
+        if sp.link.is_none() {
+            let dt = PERIOD_S as f32;
+            let link = Link::new(&self.body, world, self.ticks_per_step, dt)
+                .map_err(|e| CliError::failure(format!("--soft-spread: {e}")))?;
+            sp.link = Some(link);
+        }
+        let Some(link) = sp.link.as_mut() else {
+            return Ok(false);
+        };
+        let out = link
+            .tick(
+                &mut self.body,
+                world,
+                LinkBuffers {
+                    a: &mut sp.a,
+                    b: &mut sp.b,
+                    next: &mut sp.next,
+                },
+                force,
+            )
+            .map_err(|e| CliError::failure(format!("soft body: {e}")))?;
+        sp.units_max = sp.units_max.max(out.units);
+        sp.units_sum += u64::from(out.units);
+        sp.ticks += 1;
+        sp.cycle_ns += now_ns() - t0;
+        let Some(rep) = out.committed else {
+            return Ok(false);
+        };
+        self.step_ns.push(std::mem::take(&mut sp.cycle_ns));
+        self.max_displacement = self.max_displacement.max(rep.max_displacement);
+        Ok(true)
+    }
+
     /// The run's figures so far.
     pub fn summary(&self) -> DeformSummary {
         let t = summarise_ns(&self.step_ns);
@@ -635,6 +744,17 @@ impl<'a> SoftDriver<'a> {
             young: self.spec.young,
             poisson: self.spec.poisson,
             materials: self.materials.clone(),
+            spread: self.spread.as_ref().and_then(|sp| {
+                let link = sp.link.as_ref()?;
+                Some(SpreadSummary {
+                    ticks: link.ticks(),
+                    cycle_units: link.cycle_units(),
+                    units_per_tick: link.units_per_tick(),
+                    units_max: sp.units_max,
+                    units_mean: sp.units_sum as f64 / sp.ticks.max(1) as f64,
+                    late: link.late(),
+                })
+            }),
         }
     }
 }

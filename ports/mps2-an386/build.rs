@@ -4,7 +4,8 @@
 //! written by `tetradrill export --firmware`) copies the blob to `OUT_DIR/mesh.tdb` for
 //! `include_bytes!` and writes its counts to `OUT_DIR/mesh_counts.rs` so the statics are sized
 //! at build time (cfg `blob_mesh`, and `scenario_cow` or `scenario_tooth`); otherwise the
-//! firmware builds the built-in block and the blob is empty.
+//! firmware builds the built-in block and the blob is empty (`TETRADRILL_SCENARIO=regions` or
+//! `soft`: cfg `scenario_regions` or `scenario_soft` on the block).
 
 use std::env;
 use std::fs;
@@ -27,9 +28,13 @@ fn main() {
     println!("cargo::rustc-check-cfg=cfg(scenario_cow)");
     println!("cargo::rustc-check-cfg=cfg(scenario_regions)");
     println!("cargo::rustc-check-cfg=cfg(scenario_tooth)");
+    println!("cargo::rustc-check-cfg=cfg(scenario_soft)");
     println!("cargo::rustc-check-cfg=cfg(blob_mesh)");
     if env::var("TETRADRILL_SCENARIO").is_ok_and(|s| s == "regions") {
         println!("cargo:rustc-cfg=scenario_regions");
+    }
+    if env::var("TETRADRILL_SCENARIO").is_ok_and(|s| s == "soft") {
+        println!("cargo:rustc-cfg=scenario_soft");
     }
     let scenario = env::var("TETRADRILL_SCENARIO").unwrap_or_default();
     let cow = scenario == "cow";

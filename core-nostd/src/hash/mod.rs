@@ -20,4 +20,7 @@ mod table;
 
 pub use cell::{average_edge_length, bucket_of, cell_of, prime_at_most, Aabb, Cell};
 pub(crate) use table::cells_in;
-pub use table::{HashEntry, HashError, HashStats, Rebuilt, SpatialHash, ITEM_BITS, MAX_ITEMS};
+pub use table::{
+    HashEntry, HashError, HashStats, RebuildCursor, Rebuilt, SpatialHash, ITEM_BITS, MAX_ITEMS,
+    REBUILD_BUCKETS_PER_UNIT, REBUILD_ITEM_UNITS,
+};

@@ -321,6 +321,21 @@ impl<'a> Mesh<'a> {
         self.normals
     }
 
+    /// Swaps the node normals with `other` (the same length, one per node): a caller that
+    /// computed the normals of new positions elsewhere, as [`Mesh::update_boundary`] would,
+    /// takes them into use at once (the deforming world's spread update). Refused (`false`,
+    /// nothing changed) for another length.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn swap_normals(&mut self, other: &mut &'a mut [Vec3]) -> bool {
+        if other.len() != self.normals.len() {
+            return false;
+        }
+        core::mem::swap(&mut self.normals, other);
+        true
+    }
+
     /// Counts gathered at build time, with boundary counts kept current by
     /// [`Mesh::update_boundary`].
     #[inline]

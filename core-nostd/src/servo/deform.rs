@@ -17,15 +17,22 @@
 //! - removed volumes are measured in the rest state ([`Mesh::set_rest`]): a leaf's volume is
 //!   its root's rest volume over `8^depth`, whatever the current shape.
 //!
+//! The same update spread over calls, for a board whose tick cannot hold it
+//! ([`World::set_spare`], [`World::prepare_positions`], [`World::commit_positions`]): the new
+//! boxes, normals and hash are built in spare storage a bounded amount a call while the world
+//! keeps answering on the old positions, then one commit swaps them in and does the rest
+//! (positions, sphere memo, resume place, kept faces, candidate gather). The committed world
+//! is the one [`World::set_positions`] leaves, bit for bit.
+//!
 //! [`Mesh::update_boundary`]: crate::mesh::Mesh::update_boundary
 //! [`Mesh::set_rest`]: crate::mesh::Mesh::set_rest
 
 use glam::Vec3;
 
 use super::World;
-use crate::hash::{Aabb, Rebuilt};
+use crate::hash::{prime_at_most, Aabb, HashEntry, RebuildCursor, Rebuilt, SpatialHash};
 use crate::hierarchy::{keep_face, Kept};
-use crate::ids::TetId;
+use crate::ids::{NodeId, TetId};
 
 /// Why [`World::set_positions`] or [`World::enable_deformation`] refused (nothing changed).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -52,6 +59,13 @@ pub enum DeformError {
         /// The node.
         node: usize,
     },
+    /// A spread update without spare storage ([`World::set_spare`]).
+    NoSpare,
+    /// The spare storage (named part) does not match the world's: the hash's bucket count
+    /// and capacity, one box per stored box, one normal per node.
+    SpareSize(&'static str),
+    /// [`World::commit_positions`] before [`World::prepare_positions`] finished.
+    NotPrepared,
 }
 
 impl core::fmt::Display for DeformError {
@@ -63,6 +77,9 @@ impl core::fmt::Display for DeformError {
             }
             Self::Count { nodes, got } => write!(f, "{got} positions for {nodes} nodes"),
             Self::NotFinite { node } => write!(f, "position of node {node} is not finite"),
+            Self::NoSpare => write!(f, "a spread position update needs spare storage"),
+            Self::SpareSize(what) => write!(f, "spare {what} does not match the world's"),
+            Self::NotPrepared => write!(f, "the positions' preparation is not finished"),
         }
     }
 }
@@ -148,6 +165,17 @@ impl<'a> World<'a> {
         let built = self.rehash();
         rep.hash_entries = built.entries as u32;
         rep.hash_saturated = built.saturated;
+        rep.kept = self.after_move();
+        Ok(rep)
+    }
+
+    /// What follows a move once positions, normals, boxes and hash are new: the sphere memo
+    /// emptied, the resume place's tree restarted, a candidate gather's lists forgotten, the
+    /// kept faces measured again. Returns the kept faces.
+    ///
+    /// # Bounded work
+    /// O(memo slots) plus O([`crate::hierarchy::KEEP`] x depth).
+    fn after_move(&mut self) -> u32 {
         self.memo.clear();
         self.cursor.restart_tree();
         // A gathered candidate list holds the tets whose old boxes met its box: gather afresh.
@@ -164,9 +192,9 @@ impl<'a> World<'a> {
                 keep_face(&mut kept, d2, vt);
             }
         }
-        rep.kept = kept.len() as u32;
+        let n = kept.len() as u32;
         self.kept = kept;
-        Ok(rep)
+        n
     }
 
     /// Each tet's box from its corners and the hash rebuilt from them; counts a saturation.
@@ -187,5 +215,357 @@ impl<'a> World<'a> {
             self.sat.hash += 1;
         }
         built
+    }
+}
+
+/// Spare storage for the spread position update ([`World::set_spare`]): a second tet hash
+/// (the same sizes as the world's), a second box per stored tet box, a second normal per
+/// node. About the size of the world's own hash and boxes.
+#[derive(Debug)]
+pub struct SpareStorage<'a> {
+    /// Bucket offsets, as `WorldStorage::hash_starts` (same length).
+    pub hash_starts: &'a mut [u32],
+    /// Entries, as `WorldStorage::hash_entries` (same length).
+    pub hash_entries: &'a mut [HashEntry],
+    /// One box per box of `WorldStorage::tet_boxes`.
+    pub tet_boxes: &'a mut [Aabb],
+    /// One normal per node.
+    pub normals: &'a mut [Vec3],
+}
+
+/// Units of one node in the first pass of [`World::prepare_positions`] (its check, its
+/// distance from rest, its spare normal cleared).
+pub const PREP_NODE_UNITS: u32 = 2;
+/// Units of one tet's new box.
+pub const PREP_BOX_UNITS: u32 = 4;
+/// Units of one tet's boundary faces added to the normals (four neighbour looks, a cross
+/// product per boundary face).
+pub const PREP_FACE_UNITS: u32 = 4;
+/// Units of one node's normal normalised.
+pub const PREP_NORMALISE_UNITS: u32 = 6;
+
+/// The passes of [`World::prepare_positions`].
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+enum PrepPhase {
+    /// Nodes: finite, distance from rest, spare normal cleared.
+    #[default]
+    Nodes,
+    /// Tets: new boxes.
+    Boxes,
+    /// Tets: boundary faces into the spare normals.
+    Faces,
+    /// Nodes: boundary normals normalised.
+    Normalise,
+    /// The spare hash ([`SpatialHash::rebuild_part`]).
+    Hash,
+    /// Done: ready to commit.
+    Ready,
+}
+
+/// Where a preparation stands.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+struct Prep {
+    phase: PrepPhase,
+    at: usize,
+    max2: f32,
+    cursor: RebuildCursor,
+    built: Rebuilt,
+}
+
+/// The spare tables and where their preparation stands.
+#[derive(Debug)]
+pub(super) struct Spare<'a> {
+    hash: SpatialHash<'a>,
+    boxes: &'a mut [Aabb],
+    normals: &'a mut [Vec3],
+    prep: Prep,
+}
+
+/// What one [`World::prepare_positions`] did.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct Prepared {
+    /// Units done in this call.
+    pub units: u32,
+    /// `true` when the preparation is complete: [`World::commit_positions`] may follow.
+    pub ready: bool,
+}
+
+/// The four positions in `new` of the nodes `ids`, all zero for an id out of range (as
+/// [`crate::mesh::Mesh::tet_positions`] does).
+#[inline]
+fn corners(new: &[Vec3], ids: [NodeId; 4]) -> [Vec3; 4] {
+    match ids.map(|n| new.get(n.idx())) {
+        [Some(&a), Some(&b), Some(&c), Some(&d)] => [a, b, c, d],
+        _ => [Vec3::ZERO; 4],
+    }
+}
+
+impl<'a> World<'a> {
+    /// Hands the world the spare storage of the spread position update
+    /// ([`World::prepare_positions`]); any preparation under way is dropped.
+    ///
+    /// # Bounded work
+    /// O(buckets) to clear the spare bucket offsets.
+    ///
+    /// # Errors
+    /// [`DeformError::SpareSize`] when a part does not match the world's (nothing changed).
+    pub fn set_spare(&mut self, spare: SpareStorage<'a>) -> Result<(), DeformError> {
+        let SpareStorage {
+            hash_starts,
+            hash_entries,
+            tet_boxes,
+            normals,
+        } = spare;
+        if tet_boxes.len() != self.boxes.len() {
+            return Err(DeformError::SpareSize("tet_boxes"));
+        }
+        if normals.len() != self.mesh.node_count() {
+            return Err(DeformError::SpareSize("normals"));
+        }
+        if hash_entries.len() != self.hash.capacity() {
+            return Err(DeformError::SpareSize("hash_entries"));
+        }
+        // The bucket count as `World::new` derives it.
+        let buckets =
+            prime_at_most((hash_starts.len().saturating_sub(1)).min(u32::MAX as usize) as u32);
+        if buckets != self.hash.buckets() {
+            return Err(DeformError::SpareSize("hash_starts"));
+        }
+        let (hash_starts, _) = hash_starts.split_at_mut(buckets as usize + 1);
+        let hash = SpatialHash::new(hash_starts, hash_entries, self.hash.cell_size())
+            .map_err(|_| DeformError::SpareSize("hash_starts"))?;
+        self.spare = Some(Spare {
+            hash,
+            boxes: tet_boxes,
+            normals,
+            prep: Prep::default(),
+        });
+        Ok(())
+    }
+
+    /// Units of one whole preparation ([`World::prepare_positions`]) with the spare storage
+    /// set (fewer when the hash fills up: the tets left out are not hashed): nodes x ([`PREP_NODE_UNITS`] + [`PREP_NORMALISE_UNITS`]) + tets x
+    /// ([`PREP_BOX_UNITS`] + [`PREP_FACE_UNITS`]) + the hash build's
+    /// ([`SpatialHash::rebuild_units`]). `None` without spare storage.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn prepare_units(&self) -> Option<u64> {
+        let spare = self.spare.as_ref()?;
+        let n = self.mesh.node_count() as u64;
+        let t = self.mesh.tet_count() as u64;
+        Some(
+            n * u64::from(PREP_NODE_UNITS + PREP_NORMALISE_UNITS)
+                + t * u64::from(PREP_BOX_UNITS + PREP_FACE_UNITS)
+                + spare.hash.rebuild_units(self.mesh.tet_count()),
+        )
+    }
+
+    /// Prepares the move of every node to `new` in the spare storage, at most `max_units`
+    /// units a call (a step is taken only while it fits; give at least the largest step,
+    /// [`crate::hash::REBUILD_ITEM_UNITS`], to be sure of progress): checks the positions and
+    /// measures the largest distance from rest, builds each tet's new box, the new boundary
+    /// normals (as [`crate::mesh::Mesh::update_boundary`] does) and the new tet hash. The
+    /// world is not changed: it answers on the old positions until
+    /// [`World::commit_positions`]. `new` must hold the same positions for every call of one
+    /// preparation; once ready, further calls do nothing.
+    ///
+    /// # Bounded work
+    /// At most `max_units` units plus the cells of one tet's box in the hash (one unit is
+    /// about a soft-body node update: docs/SOFT.md has the instructions); a whole
+    /// preparation is [`World::prepare_units`].
+    ///
+    /// # Errors
+    /// [`DeformError::NoRest`], [`DeformError::NoSpare`], [`DeformError::Count`] (nothing
+    /// done); [`DeformError::NotFinite`] for a non-finite position (the preparation starts
+    /// again at the next call).
+    pub fn prepare_positions(
+        &mut self,
+        new: &[Vec3],
+        max_units: u32,
+    ) -> Result<Prepared, DeformError> {
+        if !self.mesh.has_rest() {
+            return Err(DeformError::NoRest);
+        }
+        let nodes = self.mesh.node_count();
+        if new.len() != nodes {
+            return Err(DeformError::Count {
+                nodes,
+                got: new.len(),
+            });
+        }
+        let mesh = &self.mesh;
+        let Some(spare) = self.spare.as_mut() else {
+            return Err(DeformError::NoSpare);
+        };
+        let tets = mesh.tet_count();
+        let Spare {
+            hash,
+            boxes,
+            normals,
+            prep: p,
+        } = spare;
+        let mut left = max_units;
+        loop {
+            match p.phase {
+                PrepPhase::Nodes => {
+                    if p.at >= nodes {
+                        p.phase = PrepPhase::Boxes;
+                        p.at = 0;
+                        continue;
+                    }
+                    if left < PREP_NODE_UNITS {
+                        break;
+                    }
+                    left -= PREP_NODE_UNITS;
+                    let i = p.at;
+                    if !new[i].is_finite() {
+                        *p = Prep::default();
+                        return Err(DeformError::NotFinite { node: i });
+                    }
+                    let r = mesh.rest_positions().get(i).copied().unwrap_or_default();
+                    p.max2 = p.max2.max(new[i].distance_squared(r));
+                    normals[i] = Vec3::ZERO;
+                    p.at += 1;
+                }
+                PrepPhase::Boxes => {
+                    if p.at >= tets {
+                        p.phase = PrepPhase::Faces;
+                        p.at = 0;
+                        continue;
+                    }
+                    if left < PREP_BOX_UNITS {
+                        break;
+                    }
+                    left -= PREP_BOX_UNITS;
+                    let t = p.at;
+                    if let Some(b) = boxes.get_mut(t) {
+                        *b = Aabb::of(corners(new, mesh.tet_nodes(TetId::from_idx(t))));
+                    }
+                    p.at += 1;
+                }
+                PrepPhase::Faces => {
+                    if p.at >= tets {
+                        p.phase = PrepPhase::Normalise;
+                        p.at = 0;
+                        continue;
+                    }
+                    if left < PREP_FACE_UNITS {
+                        break;
+                    }
+                    left -= PREP_FACE_UNITS;
+                    let t = TetId::from_idx(p.at);
+                    // `Mesh::update_boundary`'s sums, in its order.
+                    for f in 0..4u8 {
+                        if mesh.neighbour(t, f).is_some() {
+                            continue;
+                        }
+                        let ids = mesh.face_nodes(t, f);
+                        let [a, b, c] = ids.map(|n| new.get(n.idx()).copied().unwrap_or_default());
+                        let w = -(b - a).cross(c - a);
+                        for n in ids {
+                            if let Some(normal) = normals.get_mut(n.idx()) {
+                                *normal += w;
+                            }
+                        }
+                    }
+                    p.at += 1;
+                }
+                PrepPhase::Normalise => {
+                    if p.at >= nodes {
+                        p.phase = PrepPhase::Hash;
+                        p.at = 0;
+                        continue;
+                    }
+                    if left < PREP_NORMALISE_UNITS {
+                        break;
+                    }
+                    left -= PREP_NORMALISE_UNITS;
+                    let i = p.at;
+                    if mesh.node(NodeId::from_idx(i)).boundary {
+                        normals[i] = normals[i].normalize_or_zero();
+                    }
+                    p.at += 1;
+                }
+                PrepPhase::Hash => {
+                    let stored = &**boxes;
+                    let bounds = |t: usize| {
+                        Some(stored.get(t).copied().unwrap_or_else(|| {
+                            Aabb::of(corners(new, mesh.tet_nodes(TetId::from_idx(t))))
+                        }))
+                    };
+                    let (done, built) = hash.rebuild_part(&mut p.cursor, tets, bounds, left);
+                    left -= done;
+                    match built {
+                        Some(b) => {
+                            p.built = b;
+                            p.phase = PrepPhase::Ready;
+                        }
+                        None => break,
+                    }
+                }
+                PrepPhase::Ready => {
+                    return Ok(Prepared {
+                        units: max_units - left,
+                        ready: true,
+                    })
+                }
+            }
+        }
+        Ok(Prepared {
+            units: max_units - left,
+            ready: false,
+        })
+    }
+
+    /// Moves every node to `new`, whose update [`World::prepare_positions`] prepared: copies
+    /// the positions, swaps in the new normals, boxes and hash (the old ones become the
+    /// spare storage), and does the rest of [`World::set_positions`] (sphere memo emptied,
+    /// resume place restarted, candidate gather forgotten, kept faces measured again). The
+    /// world is then the one [`World::set_positions`] with `new` leaves, bit for bit.
+    ///
+    /// # Bounded work
+    /// O(N + memo slots) plus O([`crate::hierarchy::KEEP`] x depth).
+    ///
+    /// # Errors
+    /// [`DeformError::NoSpare`], [`DeformError::NotPrepared`], [`DeformError::Count`]
+    /// (nothing changed).
+    pub fn commit_positions(&mut self, new: &[Vec3]) -> Result<DeformReport, DeformError> {
+        let nodes = self.mesh.node_count();
+        let Some(spare) = self.spare.as_mut() else {
+            return Err(DeformError::NoSpare);
+        };
+        if spare.prep.phase != PrepPhase::Ready {
+            return Err(DeformError::NotPrepared);
+        }
+        if new.len() != nodes {
+            return Err(DeformError::Count {
+                nodes,
+                got: new.len(),
+            });
+        }
+        let p = core::mem::take(&mut spare.prep);
+        self.mesh.positions_mut().copy_from_slice(new);
+        // Lengths were checked by `set_spare`: neither can refuse.
+        self.mesh.swap_normals(&mut spare.normals);
+        self.hash.adopt(&mut spare.hash, p.built);
+        core::mem::swap(&mut self.boxes, &mut spare.boxes);
+        if p.built.saturated {
+            self.sat.hash += 1;
+        }
+        let kept = self.after_move();
+        Ok(DeformReport {
+            max_displacement: libm::sqrtf(p.max2),
+            hash_entries: p.built.entries as u32,
+            hash_saturated: p.built.saturated,
+            kept,
+        })
+    }
+
+    /// `true` while a spread update is prepared and not committed.
+    pub fn preparing(&self) -> bool {
+        self.spare
+            .as_ref()
+            .is_some_and(|s| s.prep != Prep::default())
     }
 }

@@ -13,7 +13,9 @@
 //! with the drilled surface at that pose.
 //!
 //! The mesh may move and deform between simulation steps: [`World::set_positions`]
-//! (`deform.rs`) takes new node positions and updates what depends on them.
+//! (`deform.rs`) takes new node positions and updates what depends on them, or
+//! [`World::prepare_positions`] prepares that update over several calls in spare storage and
+//! [`World::commit_positions`] takes it at once.
 //!
 //! Files: this one holds the [`World`], its storage, sizes, errors and accessors;
 //! `simulate.rs` the simulation step ([`World::simulate`], [`World::simulate_spheres`] and the
@@ -40,7 +42,10 @@ mod simulate;
 #[cfg(test)]
 mod tests;
 
-pub use deform::{DeformError, DeformReport};
+pub use deform::{
+    DeformError, DeformReport, Prepared, SpareStorage, PREP_BOX_UNITS, PREP_FACE_UNITS,
+    PREP_NODE_UNITS, PREP_NORMALISE_UNITS,
+};
 pub use force::servo_force;
 pub use passive::{drill_force, DrillState, PassiveReport};
 
@@ -263,6 +268,8 @@ pub struct World<'a> {
     press: (f32, f32),
     /// The coarse tet under the last contact, if any.
     contact_tet: Option<TetId>,
+    /// The spare storage of a spread position update ([`World::set_spare`]).
+    spare: Option<deform::Spare<'a>>,
 }
 
 /// Default bound on the hash cells one step's zone query visits ([`World::set_max_cells`]):
@@ -341,6 +348,7 @@ impl<'a> World<'a> {
             spacing: Spacing::new(),
             press: (0.0, 0.0),
             contact_tet: None,
+            spare: None,
         })
     }
 

@@ -8,12 +8,16 @@
 //! as displacements from rest, so small strains stay exact in f32 whatever the mesh's
 //! offset. docs/SOFT.md has the formulation, its small-strain limit and the measured times.
 
+mod link;
 mod load;
 mod material;
+mod resume;
 mod tet;
 
+pub use link::{Link, LinkBuffers, LinkError, LinkTick, LINK_NODE_UNITS};
 pub use load::{below_plane, spread_point_force};
 pub use material::{Lame, Material, MaterialError, MAX_POISSON};
+pub use resume::{Advance, NODE_UNITS, TET_UNITS};
 pub use tet::{project, TetRest};
 
 use core::fmt;
@@ -141,11 +145,16 @@ impl fmt::Display for SoftError {
 pub enum StepError {
     /// `dt` is not finite and positive.
     TimeStep,
+    /// A step spread over calls ([`SoftBody::begin_step`]) is under way: finish it first.
+    InProgress,
 }
 
 impl fmt::Display for StepError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("soft body: time step must be finite and positive")
+        match self {
+            Self::TimeStep => f.write_str("soft body: time step must be finite and positive"),
+            Self::InProgress => f.write_str("soft body: a spread step is under way"),
+        }
     }
 }
 
@@ -194,6 +203,8 @@ pub struct SoftBody<'a> {
     tets: &'a [[u32; 4]],
     s: SoftStorage<'a>,
     params: SoftParams,
+    /// The step spread over calls, when one is under way ([`SoftBody::begin_step`]).
+    run: Option<resume::Run>,
 }
 
 impl<'a> SoftBody<'a> {
@@ -279,6 +290,7 @@ impl<'a> SoftBody<'a> {
             tets: mesh.tets,
             s: storage,
             params,
+            run: None,
         })
     }
 
@@ -474,6 +486,9 @@ impl<'a> SoftBody<'a> {
     pub fn step(&mut self, dt: f32, external: &[Vec3]) -> Result<(), StepError> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(StepError::TimeStep);
+        }
+        if self.run.is_some() {
+            return Err(StepError::InProgress);
         }
         let h = dt / self.params.substeps as f32;
         let inv_h = 1.0 / h;

@@ -37,6 +37,15 @@ impl Default for TetRest {
 }
 
 impl TetRest {
+    /// All zero (for initialising static storage; [`crate::soft::SoftBody::new`] fills it).
+    pub const ZERO: Self = Self {
+        inv_dm: Mat3::ZERO,
+        volume: 0.0,
+        alpha_dev: 0.0,
+        alpha_hydro: 0.0,
+        gamma: 0.0,
+    };
+
     /// Rest data for the tet with corners `x` (positively oriented) and material `lame`, or
     /// `None` when the tet is inverted, degenerate (volume not above `1e-7` times the cube of
     /// its longest edge) or its inverse shape matrix is not finite.

@@ -184,6 +184,20 @@ pub struct Scenario {
     /// of 1000 (absent: `crate::soft::DEFAULT_RATE_HZ`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub soft_rate: Option<f64>,
+    /// Soft body: XPBD substeps a physics step, `1..=1000` (absent: `crate::soft::SUBSTEPS`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub soft_substeps: Option<u32>,
+    /// Soft body: each physics step and the world's update spread over the ticks of its
+    /// cycle, a bounded amount a tick, the positions a cycle later
+    /// (`tetradrill_core::soft::Link`; docs/SOFT.md); false (default): the whole step at the
+    /// cycle's last tick.
+    #[serde(skip_serializing_if = "is_false")]
+    pub soft_spread: bool,
+}
+
+/// `serde`'s `skip_serializing_if` for a flag whose default is false.
+fn is_false(v: &bool) -> bool {
+    !*v
 }
 
 /// A parsed `fix_below`: the axis (0, 1, 2 for x, y, z) and the value.
@@ -366,6 +380,8 @@ impl Default for Scenario {
             poisson: None,
             fix_below: None,
             soft_rate: None,
+            soft_substeps: None,
+            soft_spread: false,
         }
     }
 }
@@ -388,7 +404,7 @@ pub const DEFAULT_TICK_BUDGET: u32 = 16_500;
 pub struct ScenarioFlags {
     /// A scenario file (TOML, keys as these flags with `_` for `-`) or `builtin:demo`,
     /// `builtin:firmware`, `builtin:firmware-cow`, `builtin:firmware-regions`,
-    /// `builtin:firmware-tooth`.
+    /// `builtin:firmware-soft`, `builtin:firmware-tooth`.
     #[arg(long)]
     pub scenario: Option<String>,
     /// Mesh file or `builtin:cube12`, `builtin:block:N`.
@@ -502,6 +518,14 @@ pub struct ScenarioFlags {
     /// Soft body: physics steps a second, a divisor of 1000 (default 250).
     #[arg(long, allow_negative_numbers = true, value_parser = soft_rate, value_name = "HZ")]
     pub soft_rate: Option<f64>,
+    /// Soft body: XPBD substeps a physics step, 1..=1000 (default 10).
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=1000), value_name = "N")]
+    pub soft_substeps: Option<u32>,
+    /// Soft body: spread each physics step and the world's update over the ticks of its
+    /// cycle (bounded work a tick, positions a cycle later): `--soft-spread` or
+    /// `--soft-spread true|false` (default false).
+    #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
+    pub soft_spread: Option<bool>,
 }
 
 fn poisson(s: &str) -> Result<f64, String> {
@@ -610,9 +634,29 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             zone_gather_work: 2_000,
             ..builtin("firmware")?
         }),
+        // The firmware block soft (`scripts/port-check.sh --scenario soft`): its step and the
+        // world's update spread over the ticks of each cycle, sized so that a tick's share
+        // fits the Cortex-M4's period beside the simulation step (docs/SOFT.md, "On the
+        // Cortex-M4"; ports/mps2-an386/src/scenario.rs holds the same numbers).
+        "firmware-soft" => Some(Scenario {
+            body: Body::Soft,
+            young: Some(FIRMWARE_SOFT_YOUNG),
+            soft_rate: Some(FIRMWARE_SOFT_RATE),
+            soft_substeps: Some(FIRMWARE_SOFT_SUBSTEPS),
+            soft_spread: true,
+            ..builtin("firmware")?
+        }),
         _ => None,
     }
 }
+
+/// Young's modulus of `builtin:firmware-soft`, pascal: the demo's `--soft` block's, a dent
+/// of several millimetres under the firmware path's force.
+pub const FIRMWARE_SOFT_YOUNG: f64 = 2_000.0;
+/// Physics steps a second of `builtin:firmware-soft`.
+pub const FIRMWARE_SOFT_RATE: f64 = 20.0;
+/// XPBD substeps a step of `builtin:firmware-soft`.
+pub const FIRMWARE_SOFT_SUBSTEPS: u32 = 4;
 
 /// The tooth of `builtin:firmware-tooth`, in the project's test data folder.
 pub const TOOTH: &str = "models/tooth_premolar_gmsh.msh22.msh";
@@ -646,7 +690,7 @@ impl Scenario {
         if let Some(name) = spec.strip_prefix("builtin:") {
             return builtin(name).ok_or_else(|| {
                 CliError::input(format!(
-                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow, builtin:firmware-regions, builtin:firmware-tooth)"
+                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow, builtin:firmware-regions, builtin:firmware-soft, builtin:firmware-tooth)"
                 ))
             });
         }
@@ -711,8 +755,12 @@ impl Scenario {
             queue_capacity,
             young,
             poisson,
-            soft_rate
+            soft_rate,
+            soft_substeps
         );
+        if let Some(v) = f.soft_spread {
+            s.soft_spread = v;
+        }
         s.check().map_err(CliError::input)?;
         Ok(s)
     }
@@ -810,6 +858,14 @@ impl Scenario {
         }
         if let Some(hz) = self.soft_rate {
             check_soft_rate(hz).map_err(|m| ("soft_rate", m))?;
+        }
+        if let Some(n) = self.soft_substeps {
+            if !(1..=tetradrill_core::soft::MAX_SUBSTEPS).contains(&n) {
+                return Err((
+                    "soft_substeps",
+                    format!("soft_substeps must be 1..=1000, got {n}"),
+                ));
+            }
         }
         Ok(())
     }

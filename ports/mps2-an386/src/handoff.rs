@@ -29,6 +29,10 @@ pub enum Release {
         /// material in the step it releases (`World::set_pressing`, as the host's replay with
         /// `servo_lag` 1 feeds it).
         pressing: f32,
+        /// The force this tick wrote: its reaction pushes the soft body (the host's
+        /// `SoftDriver` takes the same force after the same step).
+        #[cfg(scenario_soft)]
+        force: Vec3,
         /// Instructions the servo tick took from the timer event to this release.
         servo_instructions: u32,
     },

@@ -17,6 +17,7 @@
 //! | [`handoff`]    | the two SPSC queues (poses down, contacts up): no lock, no masking        |
 //! | [`clock`]      | SysTick as the servo timer and the instruction counter under `-icount`    |
 //! | [`storage`]    | every slice the core borrows, in statics sized by `WorldSizes`            |
+//! | `soft`         | `builtin:firmware-soft`: the soft body, its step spread by `soft::Link`   |
 //! | [`target`]     | the M4 / M7 differences: board and the clock the period assumes           |
 
 #![no_std]
@@ -28,6 +29,8 @@ mod handoff;
 mod scenario;
 mod servo;
 mod sim;
+#[cfg(scenario_soft)]
+mod soft;
 mod storage;
 mod target;
 
@@ -75,7 +78,10 @@ mod app {
         let cal = crate::clock::calibrate(&mut core.SYST);
         let costs = crate::unit_costs(cal.overhead);
         hprintln_costs(costs);
-        let world = crate::build_world();
+        #[allow(unused_mut)]
+        let mut world = crate::build_world();
+        #[cfg(scenario_soft)]
+        let soft = crate::soft::SoftSim::new(&mut world);
         let (release_tx, release_rx) = cx.local.releases.split();
         let (done_tx, done_rx) = cx.local.dones.split();
         let scenario = crate::scenario::path();
@@ -84,7 +90,10 @@ mod app {
         let a = crate::clock::now();
         let b = crate::clock::now();
         let now_overhead = crate::clock::instructions(b - a);
-        let sim = Sim::new(world, release_rx, done_tx, cal, now_overhead);
+        #[allow(unused_mut)]
+        let mut sim = Sim::new(world, release_rx, done_tx, cal, now_overhead);
+        #[cfg(scenario_soft)]
+        sim.set_soft(soft);
         let servo = Servo::new(core.SYST, scenario, ticks, release_tx, done_rx);
         (Shared {}, Local { servo, sim })
     }
@@ -254,7 +263,7 @@ pub fn exit_success() -> ! {
 }
 
 /// Prints `reason` and exits QEMU with a failure status.
-fn fail(reason: &str) -> ! {
+pub fn fail(reason: &str) -> ! {
     hprintln!("error: {}", reason);
     exit_failure()
 }

@@ -1,5 +1,5 @@
 //! The scenario's numbers exactly as the host derives them (`TickParams::of` of
-//! `builtin:firmware`, `-cow`, `-regions` and `-tooth`): the host parses f64 and converts to
+//! `builtin:firmware`, `-cow`, `-regions`, `-soft` and `-tooth`): the host parses f64 and converts to
 //! f32, so the firmware writes the same f64 literals and converts.
 
 use tetradrill_core::drill::{DrillParams, Material};
@@ -66,6 +66,30 @@ pub const ZONE_WORK: u32 = 2_000;
 /// The most hash cells a zone (or a gathered box) may cover on the cow: the host's choice for
 /// its candidate list (half its length), so both give up on the same boxes.
 pub const COW_MAX_CELLS: u32 = 6_144;
+/// `builtin:firmware-soft`: physics steps a second (`soft_rate`), so ticks a step.
+#[cfg(scenario_soft)]
+pub const SOFT_RATE_HZ: f64 = 20.0;
+/// Servo ticks a soft step: the host's `(1000 / soft_rate).round()`.
+#[cfg(scenario_soft)]
+pub const SOFT_TICKS: u32 = 50;
+/// XPBD substeps a soft step (`soft_substeps`).
+#[cfg(scenario_soft)]
+pub const SOFT_SUBSTEPS: u32 = 4;
+/// The soft body's material: the scenario's Young's modulus and the host's default Poisson
+/// ratio (f64, converted as the host converts them) and its density (`soft::DENSITY`, an
+/// f32).
+#[cfg(scenario_soft)]
+pub const SOFT_MATERIAL: tetradrill_core::soft::Material = tetradrill_core::soft::Material {
+    young: 2_000.0_f64 as f32,
+    poisson: 0.3_f64 as f32,
+    density: 1000.0,
+};
+/// Sphere memo slots of `builtin:firmware-soft` (`World::commit_positions` empties the memo
+/// each step; the results do not depend on its size).
+pub const SOFT_SPHERE_MEMO: usize = 256;
+/// The soft body's damping rate (the host's `soft::DAMPING`, an f32).
+#[cfg(scenario_soft)]
+pub const SOFT_DAMPING: f32 = 10.0;
 /// The scenario's name in the output.
 pub const NAME: &str = if cfg!(scenario_cow) {
     "builtin:firmware-cow"
@@ -73,6 +97,8 @@ pub const NAME: &str = if cfg!(scenario_cow) {
     "builtin:firmware-tooth"
 } else if cfg!(scenario_regions) {
     "builtin:firmware-regions"
+} else if cfg!(scenario_soft) {
+    "builtin:firmware-soft"
 } else {
     "builtin:firmware"
 };

@@ -157,6 +157,8 @@ impl Servo {
             position,
             drill_on,
             pressing: f.length(),
+            #[cfg(scenario_soft)]
+            force: f,
             servo_instructions,
         };
         if self.release.enqueue(step).is_err() {

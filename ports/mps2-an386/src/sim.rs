@@ -40,6 +40,12 @@ pub struct Sim {
     worst: SimReport,
     refused: u32,
     profile_from: Option<u32>,
+    /// The soft body and its link (`builtin:firmware-soft`).
+    #[cfg(scenario_soft)]
+    soft: Option<crate::soft::SoftSim>,
+    /// The force of the step being run (its reaction pushes the soft body).
+    #[cfg(scenario_soft)]
+    force: Vec3,
 }
 
 impl Sim {
@@ -63,7 +69,17 @@ impl Sim {
             worst: SimReport::default(),
             refused: 0,
             profile_from: scenario::build_number(PROFILE_FROM),
+            #[cfg(scenario_soft)]
+            soft: None,
+            #[cfg(scenario_soft)]
+            force: Vec3::ZERO,
         }
+    }
+
+    /// Gives the simulation its soft body (`builtin:firmware-soft`).
+    #[cfg(scenario_soft)]
+    pub fn set_soft(&mut self, soft: crate::soft::SoftSim) {
+        self.soft = Some(soft);
     }
 
     /// Runs every released step, in order (the PendSV handler's body).
@@ -78,8 +94,14 @@ impl Sim {
                     position,
                     drill_on,
                     pressing,
+                    #[cfg(scenario_soft)]
+                    force,
                     servo_instructions,
                 } => {
+                    #[cfg(scenario_soft)]
+                    {
+                        self.force = force;
+                    }
                     self.world.set_pressing(pressing, scenario::DT);
                     self.step(tick, position, drill_on, servo_instructions)
                 }
@@ -118,6 +140,11 @@ impl Sim {
         let counts = (t1 - t0).saturating_sub(busy as u64);
         let n = clock::instructions(counts).saturating_sub(self.now_overhead);
         self.step.add(tick, n);
+        // The soft body's share of the tick, after the contact is handed over.
+        #[cfg(scenario_soft)]
+        let n = n + self.soft.as_mut().map_or(0, |s| {
+            s.tick(&mut self.world, tick, self.force, self.now_overhead)
+        });
         self.whole.add(tick, n + servo_instructions as u64);
         if self.whole.max_at == tick {
             self.worst = rep;
@@ -233,6 +260,10 @@ impl Sim {
             sat.contact
         );
         hprintln!("hierarchy_nodes={}", self.world.hierarchy().node_count());
+        #[cfg(scenario_soft)]
+        if let Some(soft) = self.soft.as_ref() {
+            soft.report();
+        }
         crate::exit_success()
     }
 }

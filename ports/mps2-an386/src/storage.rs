@@ -47,6 +47,11 @@ pub const RAM_TETS: usize = if cfg!(blob_mesh) { 0 } else { TETS };
 pub const SIZES: WorldSizes = {
     let mut s = WorldSizes::new(TETS, ARENA).with_pending(PENDING_ITEMS);
     s.candidates = scenario::CANDIDATES;
+    if cfg!(scenario_soft) {
+        // Each step's commit empties the memo: 256 slots (6 KB) instead of the host's 4,096
+        // (96 KB). Any size gives the same results.
+        s = s.with_sphere_memo(scenario::SOFT_SPHERE_MEMO);
+    }
     s
 };
 
@@ -188,4 +193,107 @@ pub fn regions(
         };
     }
     Regions::new(table, of_tet).ok()
+}
+
+/// The soft body's storage in `builtin:firmware-soft` (cfg `scenario_soft`): the body's rest
+/// mesh and state (`SoftStorage`), the world's rest positions and spare tables
+/// (`World::enable_deformation`, `World::set_spare`), and the link's buffers
+/// (`soft::LinkBuffers`); all zero, so all in `.bss`.
+#[cfg(scenario_soft)]
+pub mod soft {
+    use static_cell::ConstStaticCell;
+
+    use tetradrill_core::hash::{Aabb, HashEntry};
+    use tetradrill_core::soft::TetRest;
+    use tetradrill_core::Vec3;
+
+    use super::{NODES, SIZES, TETS, ZERO_BOX, ZERO_ENTRY};
+
+    const ZERO_REST: TetRest = TetRest::ZERO;
+
+    static REST: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
+    static TET_NODES: ConstStaticCell<[[u32; 4]; TETS]> = ConstStaticCell::new([[0; 4]; TETS]);
+    static DISPLACEMENT: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
+    static VELOCITY: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
+    static PREVIOUS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
+    static MASS: ConstStaticCell<[f32; NODES]> = ConstStaticCell::new([0.0; NODES]);
+    static INV_MASS: ConstStaticCell<[f32; NODES]> = ConstStaticCell::new([0.0; NODES]);
+    static TET_REST: ConstStaticCell<[TetRest; TETS]> = ConstStaticCell::new([ZERO_REST; TETS]);
+    static LAMBDAS: ConstStaticCell<[[f32; 2]; TETS]> = ConstStaticCell::new([[0.0; 2]; TETS]);
+    static WORLD_REST: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
+    static SPARE_STARTS: ConstStaticCell<[u32; SIZES.hash_starts]> =
+        ConstStaticCell::new([0; SIZES.hash_starts]);
+    static SPARE_ENTRIES: ConstStaticCell<[HashEntry; SIZES.hash_entries]> =
+        ConstStaticCell::new([ZERO_ENTRY; SIZES.hash_entries]);
+    static SPARE_BOXES: ConstStaticCell<[Aabb; SIZES.tet_boxes]> =
+        ConstStaticCell::new([ZERO_BOX; SIZES.tet_boxes]);
+    static SPARE_NORMALS: ConstStaticCell<[Vec3; NODES]> =
+        ConstStaticCell::new([Vec3::ZERO; NODES]);
+    static LOAD_A: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
+    static LOAD_B: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
+    static NEXT: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
+
+    /// The soft body's slices, taken once.
+    pub struct SoftStatics {
+        /// Rest positions (`SoftMesh::rest`).
+        pub rest: &'static mut [Vec3],
+        /// Tets as node indices (`SoftMesh::tets`).
+        pub tets: &'static mut [[u32; 4]],
+        /// `SoftStorage::displacement`.
+        pub displacement: &'static mut [Vec3],
+        /// `SoftStorage::velocity`.
+        pub velocity: &'static mut [Vec3],
+        /// `SoftStorage::previous`.
+        pub previous: &'static mut [Vec3],
+        /// `SoftStorage::mass`.
+        pub mass: &'static mut [f32],
+        /// `SoftStorage::inv_mass`.
+        pub inv_mass: &'static mut [f32],
+        /// `SoftStorage::tet_rest`.
+        pub tet_rest: &'static mut [TetRest],
+        /// `SoftStorage::lambdas`.
+        pub lambdas: &'static mut [[f32; 2]],
+        /// The world's rest state (`World::enable_deformation`).
+        pub world_rest: &'static mut [Vec3],
+        /// `SpareStorage::hash_starts`.
+        pub spare_starts: &'static mut [u32],
+        /// `SpareStorage::hash_entries`.
+        pub spare_entries: &'static mut [HashEntry],
+        /// `SpareStorage::tet_boxes`.
+        pub spare_boxes: &'static mut [Aabb],
+        /// `SpareStorage::normals`.
+        pub spare_normals: &'static mut [Vec3],
+        /// `LinkBuffers::a`.
+        pub load_a: &'static mut [Vec3],
+        /// `LinkBuffers::b`.
+        pub load_b: &'static mut [Vec3],
+        /// `LinkBuffers::next`.
+        pub next: &'static mut [Vec3],
+    }
+
+    /// Takes every soft static (panics, exit status 1, if called twice). The hash entries are
+    /// refilled with the core's `Default`, as the host's spare starts.
+    pub fn take() -> SoftStatics {
+        let spare_entries = SPARE_ENTRIES.take();
+        spare_entries.fill(HashEntry::default());
+        SoftStatics {
+            rest: REST.take(),
+            tets: TET_NODES.take(),
+            displacement: DISPLACEMENT.take(),
+            velocity: VELOCITY.take(),
+            previous: PREVIOUS.take(),
+            mass: MASS.take(),
+            inv_mass: INV_MASS.take(),
+            tet_rest: TET_REST.take(),
+            lambdas: LAMBDAS.take(),
+            world_rest: WORLD_REST.take(),
+            spare_starts: SPARE_STARTS.take(),
+            spare_entries,
+            spare_boxes: SPARE_BOXES.take(),
+            spare_normals: SPARE_NORMALS.take(),
+            load_a: LOAD_A.take(),
+            load_b: LOAD_B.take(),
+            next: NEXT.take(),
+        }
+    }
 }

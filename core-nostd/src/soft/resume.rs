@@ -1,0 +1,294 @@
+//! A [`SoftBody`] step spread over calls: [`SoftBody::begin_step`] fixes the step's length,
+//! [`SoftBody::advance`] does at most a given amount of its work a call, in the order
+//! [`SoftBody::step`] does it, so the state after the last call is bit for bit the state one
+//! [`SoftBody::step`] leaves, however the work is sliced.
+//!
+//! Work is counted in units: one node's update (the integration at the start of a substep,
+//! or the velocity at its end) is [`NODE_UNITS`], one tet's constraint solve
+//! ([`super::project`]) is [`TET_UNITS`]. A step costs
+//! `substeps x (2 N x NODE_UNITS + iterations x T x TET_UNITS)` units
+//! ([`SoftBody::step_units`]).
+
+use glam::Vec3;
+
+use super::{project, SoftBody, StepError};
+
+/// Work units of one node's update (integration or velocity).
+pub const NODE_UNITS: u32 = 1;
+/// Work units of one tet's constraint solve: on a Cortex-M4 a solve takes about as many
+/// instructions as this many node updates, about 660 (docs/SOFT.md, "A step spread over
+/// ticks").
+pub const TET_UNITS: u32 = 18;
+
+/// Where a spread step is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    /// Damping, integrating and predicting node `at`.
+    Integrate,
+    /// Solving tet `at` in sweep `iteration`.
+    Solve,
+    /// The velocity of node `at` from its displacement change.
+    Velocity,
+}
+
+/// A step under way: its constants and where it is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Run {
+    h: f32,
+    inv_h: f32,
+    inv_h2: f32,
+    keep: f32,
+    gravity: Vec3,
+    substeps: u32,
+    iterations: u32,
+    substep: u32,
+    iteration: u32,
+    phase: Phase,
+    at: usize,
+}
+
+/// What one [`SoftBody::advance`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Advance {
+    /// Work units done in this call.
+    pub units: u32,
+    /// `true` when the step is complete (no step is under way any more).
+    pub done: bool,
+}
+
+impl SoftBody<'_> {
+    /// Starts a step of `dt` spread over calls of [`SoftBody::advance`], with the step
+    /// parameters of now (a later [`SoftBody::set_params`] applies to the next step).
+    /// Refused, nothing changed, when `dt` is not finite and positive or a step is under way.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn begin_step(&mut self, dt: f32) -> Result<(), StepError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(StepError::TimeStep);
+        }
+        if self.run.is_some() {
+            return Err(StepError::InProgress);
+        }
+        // The same arithmetic as `step`, so the same constants.
+        let h = dt / self.params.substeps as f32;
+        let inv_h = 1.0 / h;
+        self.run = Some(Run {
+            h,
+            inv_h,
+            inv_h2: inv_h * inv_h,
+            keep: 1.0 / (1.0 + self.params.damping * h),
+            gravity: self.params.gravity,
+            substeps: self.params.substeps,
+            iterations: self.params.iterations,
+            substep: 0,
+            iteration: 0,
+            phase: Phase::Integrate,
+            at: 0,
+        });
+        Ok(())
+    }
+
+    /// `true` while a step begun by [`SoftBody::begin_step`] is not complete.
+    #[inline]
+    pub fn stepping(&self) -> bool {
+        self.run.is_some()
+    }
+
+    /// Work units of one whole step with the current parameters:
+    /// `substeps x (2 N x NODE_UNITS + iterations x T x TET_UNITS)`.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn step_units(&self) -> u64 {
+        let p = self.params;
+        let nodes = 2 * self.rest.len() as u64 * u64::from(NODE_UNITS);
+        let tets = u64::from(p.iterations) * self.tets.len() as u64 * u64::from(TET_UNITS);
+        u64::from(p.substeps) * (nodes + tets)
+    }
+
+    /// Goes on with the step under way: node updates and tet solves in the order of
+    /// [`SoftBody::step`], each taken only while its units fit in what is left of
+    /// `max_units` (so a call does at most `max_units` units, and nothing when the next
+    /// item does not fit: give at least [`TET_UNITS`] to be sure of progress). `external`
+    /// is the force per node as in [`SoftBody::step`] and must be the same slice contents
+    /// for every call of one step. Without a step under way it does nothing (`done`).
+    ///
+    /// # Bounded work
+    /// At most `max_units` units (a unit is about 37 Cortex-M4 instructions, docs/SOFT.md),
+    /// plus the constant cost of the call.
+    pub fn advance(&mut self, external: &[Vec3], max_units: u32) -> Advance {
+        let Some(mut r) = self.run else {
+            return Advance {
+                units: 0,
+                done: true,
+            };
+        };
+        let n = self.rest.len();
+        let t = self.tets.len();
+        let s = &mut self.s;
+        let mut left = max_units;
+        loop {
+            match r.phase {
+                Phase::Integrate => {
+                    if r.at >= n {
+                        r.phase = Phase::Solve;
+                        r.at = 0;
+                        r.iteration = 0;
+                        continue;
+                    }
+                    if left < NODE_UNITS {
+                        break;
+                    }
+                    left -= NODE_UNITS;
+                    let i = r.at;
+                    let u = &mut s.displacement[i];
+                    s.previous[i] = *u;
+                    let w = s.inv_mass[i];
+                    if w > 0.0 {
+                        let f = external.get(i).copied().unwrap_or(Vec3::ZERO);
+                        let v = &mut s.velocity[i];
+                        *v = *v * r.keep + (r.gravity + f * w) * r.h;
+                        *u += *v * r.h;
+                    }
+                    r.at += 1;
+                }
+                Phase::Solve => {
+                    if r.at >= t {
+                        r.iteration += 1;
+                        r.at = 0;
+                        if r.iteration >= r.iterations {
+                            r.phase = Phase::Velocity;
+                        }
+                        continue;
+                    }
+                    if left < TET_UNITS {
+                        break;
+                    }
+                    left -= TET_UNITS;
+                    let k = r.at;
+                    let lambda = &mut s.lambdas[k];
+                    if r.iteration == 0 {
+                        // What `step` clears before its sweeps, tet by tet.
+                        *lambda = [0.0; 2];
+                    }
+                    // Indices were checked at construction.
+                    let [a, b, c, d] = self.tets[k].map(|x| x as usize);
+                    let u = [
+                        s.displacement[a],
+                        s.displacement[b],
+                        s.displacement[c],
+                        s.displacement[d],
+                    ];
+                    let w = [s.inv_mass[a], s.inv_mass[b], s.inv_mass[c], s.inv_mass[d]];
+                    let du = project(&s.tet_rest[k], u, w, lambda, r.inv_h2);
+                    s.displacement[a] += du[0];
+                    s.displacement[b] += du[1];
+                    s.displacement[c] += du[2];
+                    s.displacement[d] += du[3];
+                    r.at += 1;
+                }
+                Phase::Velocity => {
+                    if r.at >= n {
+                        r.substep += 1;
+                        r.at = 0;
+                        r.phase = Phase::Integrate;
+                        if r.substep >= r.substeps {
+                            self.run = None;
+                            return Advance {
+                                units: max_units - left,
+                                done: true,
+                            };
+                        }
+                        continue;
+                    }
+                    if left < NODE_UNITS {
+                        break;
+                    }
+                    left -= NODE_UNITS;
+                    let i = r.at;
+                    if s.inv_mass[i] > 0.0 {
+                        s.velocity[i] = (s.displacement[i] - s.previous[i]) * r.inv_h;
+                    }
+                    r.at += 1;
+                }
+            }
+        }
+        self.run = Some(r);
+        Advance {
+            units: max_units - left,
+            done: false,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::soft::{Material, SoftMesh, SoftParams, SoftStorage, TetRest};
+
+    #[test]
+    fn advance_without_a_step_is_done_and_begin_refuses_twice() {
+        // Two tets sharing a face.
+        let rest = [
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Y,
+            Vec3::Z,
+            Vec3::new(1.0, 1.0, 1.0),
+        ];
+        let tets = [[0, 1, 2, 3], [1, 4, 2, 3]];
+        let (mut u, mut v, mut p) = ([Vec3::ZERO; 5], [Vec3::ZERO; 5], [Vec3::ZERO; 5]);
+        let (mut m, mut w) = ([0.0; 5], [0.0; 5]);
+        let (mut tr, mut l) = ([TetRest::default(); 2], [[0.0; 2]; 2]);
+        let mut b = SoftBody::new(
+            SoftMesh {
+                rest: &rest,
+                tets: &tets,
+                tet_material: &[],
+            },
+            &[Material {
+                young: 1e3,
+                poisson: 0.3,
+                density: 1.0,
+            }],
+            SoftParams::default(),
+            SoftStorage {
+                displacement: &mut u,
+                velocity: &mut v,
+                previous: &mut p,
+                mass: &mut m,
+                inv_mass: &mut w,
+                tet_rest: &mut tr,
+                lambdas: &mut l,
+            },
+        )
+        .unwrap();
+        assert_eq!(
+            b.advance(&[], 100),
+            Advance {
+                units: 0,
+                done: true
+            }
+        );
+        assert_eq!(b.begin_step(0.0), Err(StepError::TimeStep));
+        b.begin_step(1e-3).unwrap();
+        assert_eq!(b.begin_step(1e-3), Err(StepError::InProgress));
+        assert_eq!(b.step(1e-3, &[]), Err(StepError::InProgress));
+        // Too little for a tet solve once the nodes are integrated: no progress, no overrun.
+        let a = b.advance(&[], TET_UNITS - 1);
+        assert_eq!(a.units, 5 * NODE_UNITS);
+        assert_eq!(b.advance(&[], TET_UNITS - 1).units, 0);
+        let mut total = u64::from(a.units);
+        loop {
+            let a = b.advance(&[], TET_UNITS);
+            total += u64::from(a.units);
+            assert!(a.units <= TET_UNITS);
+            if a.done {
+                break;
+            }
+        }
+        assert_eq!(total, b.step_units());
+        assert!(!b.stepping());
+    }
+}

@@ -1,0 +1,229 @@
+//! The world's position update spread over calls (`World::set_spare`,
+//! `World::prepare_positions`, `World::commit_positions`) against the whole update
+//! (`World::set_positions`): while a preparation runs the world still answers on the old
+//! positions; once committed, the two worlds hold the same positions, normals, boundary marks
+//! and hash (the same answers, in the same order, and the brute-force answer over boxes
+//! computed here), and `simulate` gives the same bits on a drilling path, move after move,
+//! through a move that overflows the hash.
+
+use std::collections::BTreeSet;
+
+use glam::Vec3;
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use tetradrill_core::drill::DrillParams;
+use tetradrill_core::hash::{Aabb, HashEntry, REBUILD_ITEM_UNITS};
+use tetradrill_core::mesh::Mesh;
+use tetradrill_core::servo::{DeformError, SpareStorage, World, WorldSizes};
+use tetradrill_core::TetId;
+use tetradrill_tests::search::{block_mesh, Store};
+
+/// A smooth, non-affine deformation of the unit block at phase `s`, stretched by `grow`.
+fn bend(p: Vec3, s: f32, grow: f32) -> Vec3 {
+    let a = 0.15 * s.sin();
+    let x = p.x + 0.5;
+    Vec3::new(
+        p.x + 0.05 * s.cos() * (3.0 * p.y).sin(),
+        p.y + 0.5 * a * (3.0 * p.z).sin(),
+        p.z + a * x * x,
+    ) * grow
+}
+
+/// Each tet's box from its corners, written here.
+fn boxes(mesh: &Mesh<'_>) -> Vec<(Vec3, Vec3)> {
+    (0..mesh.tet_count())
+        .map(|t| {
+            let p = mesh
+                .tet(TetId::from_idx(t))
+                .nodes
+                .map(|n| mesh.positions()[n.idx()]);
+            let lo = p.iter().fold(Vec3::splat(f32::INFINITY), |a, &b| a.min(b));
+            let hi = p
+                .iter()
+                .fold(Vec3::splat(f32::NEG_INFINITY), |a, &b| a.max(b));
+            (lo, hi)
+        })
+        .collect()
+}
+
+fn overlaps(a: (Vec3, Vec3), b: (Vec3, Vec3)) -> bool {
+    a.0.cmple(b.1).all() && b.0.cmple(a.1).all()
+}
+
+/// The hash's answer for a box around `c`: items in the order met, and the brute-force set
+/// over the mesh's own boxes (only when the hash is not saturated: a full table leaves tets
+/// out).
+fn answer(world: &World<'_>, c: Vec3, r: f32) -> (Vec<u32>, BTreeSet<u32>) {
+    let own = boxes(world.mesh());
+    let qb = (c - Vec3::splat(r), c + Vec3::splat(r));
+    let mut met = Vec::new();
+    assert!(world
+        .hash()
+        .query_box_once(&Aabb::point(c).grown(r), u32::MAX, |item| met.push(item)));
+    let found: BTreeSet<u32> = met
+        .iter()
+        .copied()
+        .filter(|&t| overlaps(own[t as usize], qb))
+        .collect();
+    let brute: BTreeSet<u32> = (0..own.len() as u32)
+        .filter(|&t| overlaps(own[t as usize], qb))
+        .collect();
+    (met, if found == brute { brute } else { found })
+}
+
+fn bits(v: &[Vec3]) -> Vec<u32> {
+    v.iter()
+        .flat_map(|x| x.to_array().map(f32::to_bits))
+        .collect()
+}
+
+#[test]
+fn a_spread_update_commits_the_world_set_positions_makes() {
+    let mut om_a = block_mesh(5);
+    let mut om_b = block_mesh(5);
+    let rest0 = om_a.positions().to_vec();
+    let n = rest0.len();
+    let (mesh_a, mesh_b) = (om_a.view(), om_b.view());
+    let tets = mesh_a.tet_count();
+    let mut st_a = Store::new(tets, 1 << 15);
+    let mut st_b = Store::new(tets, 1 << 15);
+    let sizes = WorldSizes::new(tets, 0);
+    let mut starts = vec![0u32; sizes.hash_starts];
+    let mut entries = vec![HashEntry::default(); sizes.hash_entries];
+    let mut spare_boxes = vec![Aabb::point(Vec3::ZERO); sizes.tet_boxes];
+    let mut normals = vec![Vec3::ZERO; n];
+    let mut a = st_a.world(mesh_a);
+    let mut b = st_b.world(mesh_b);
+    let (mut rest_a, mut rest_b) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+    a.enable_deformation(&mut rest_a).unwrap();
+    b.enable_deformation(&mut rest_b).unwrap();
+    // Refusals first: no spare, a short spare.
+    assert_eq!(b.prepare_positions(&rest0, 100), Err(DeformError::NoSpare));
+    assert_eq!(b.commit_positions(&rest0), Err(DeformError::NoSpare));
+    let mut short = vec![Vec3::ZERO; n - 1];
+    let (mut s2, mut e2, mut b2) = (starts.clone(), entries.clone(), spare_boxes.clone());
+    assert_eq!(
+        b.set_spare(SpareStorage {
+            hash_starts: &mut s2,
+            hash_entries: &mut e2,
+            tet_boxes: &mut b2,
+            normals: &mut short,
+        }),
+        Err(DeformError::SpareSize("normals"))
+    );
+    b.set_spare(SpareStorage {
+        hash_starts: &mut starts,
+        hash_entries: &mut entries,
+        tet_boxes: &mut spare_boxes,
+        normals: &mut normals,
+    })
+    .unwrap();
+    assert_eq!(b.commit_positions(&rest0), Err(DeformError::NotPrepared));
+    let whole = b.prepare_units().unwrap();
+    let params = DrillParams {
+        max_depth: 3,
+        min_area: 0.0,
+        budget: 2_000,
+    };
+    let mut rng = StdRng::seed_from_u64(5);
+    let (mut compared, mut saturated, mut drilled) = (0usize, 0u32, 0u32);
+    for k in 0..14 {
+        let s = k as f32 * 0.45;
+        // Move 9 stretches the block so far that its hash overflows.
+        let grow = if k == 9 { 3.0 } else { 1.0 };
+        let new: Vec<Vec3> = rest0.iter().map(|&p| bend(p, s, grow)).collect();
+        let old = b.mesh().positions().to_vec();
+        let probe = Vec3::new(0.1, -0.2, 0.3);
+        let before = answer(&b, probe, 0.2);
+        let rep_a = a.set_positions(&new).unwrap();
+        let (mut units, mut calls) = (0u64, 0);
+        loop {
+            let w = rng.gen_range(REBUILD_ITEM_UNITS..=[REBUILD_ITEM_UNITS, 50, 400, 5000][k % 4]);
+            let p = b.prepare_positions(&new, w).unwrap();
+            assert!(p.units <= w);
+            units += u64::from(p.units);
+            calls += 1;
+            if p.ready {
+                break;
+            }
+            // Still the old world.
+            if calls % 7 == 0 {
+                assert_eq!(bits(b.mesh().positions()), bits(&old));
+                assert_eq!(answer(&b, probe, 0.2), before, "move {k}");
+            }
+        }
+        assert!(b.preparing());
+        let rep_b = b.commit_positions(&new).unwrap();
+        // The whole count; less when the hash fills up (the later tets are not hashed).
+        if rep_b.hash_saturated {
+            assert!(units < whole, "move {k}");
+        } else {
+            assert_eq!(units, whole, "move {k}");
+        }
+        assert!(!b.preparing());
+        assert_eq!(rep_a, rep_b, "move {k}");
+        saturated += u32::from(rep_b.hash_saturated);
+        assert_eq!(bits(a.mesh().positions()), bits(b.mesh().positions()));
+        assert_eq!(
+            bits(a.mesh().normals()),
+            bits(b.mesh().normals()),
+            "move {k}"
+        );
+        for i in 0..n {
+            let id = tetradrill_core::NodeId::from_idx(i);
+            assert_eq!(a.mesh().node(id).boundary, b.mesh().node(id).boundary);
+        }
+        assert_eq!(a.hash().len(), b.hash().len());
+        assert_eq!(a.hash().stats(), b.hash().stats());
+        assert_eq!(a.saturations(), b.saturations());
+        for q in 0..20 {
+            let c = Vec3::new(
+                rng.gen_range(-0.6..0.6),
+                rng.gen_range(-0.6..0.6),
+                rng.gen_range(-0.6..0.6),
+            ) * grow;
+            let r = rng.gen_range(0.02..0.25);
+            let (ha, sa) = answer(&a, c, r);
+            let (hb, sb) = answer(&b, c, r);
+            assert_eq!(ha, hb, "move {k} query {q}");
+            assert_eq!(sa, sb);
+            compared += sa.len();
+        }
+        // A drilling stroke over the top between moves: the same bits from both worlds.
+        for i in 0..40 {
+            let t = (k * 40 + i) as f32 * 0.01;
+            let centre = Vec3::new(
+                0.3 * t.sin(),
+                0.25 * (1.3 * t).cos(),
+                0.52 - 0.002 * i as f32,
+            );
+            let ra = a.simulate(centre, 0.1, 0.05, true, &params);
+            let rb = b.simulate(centre, 0.1, 0.05, true, &params);
+            assert_eq!(ra, rb, "move {k} tick {i}");
+            assert_eq!(a.contact(), b.contact(), "move {k} tick {i}");
+            assert_eq!(a.candidates(), b.candidates());
+            drilled += ra.drill.erased;
+        }
+        assert_eq!(
+            a.hierarchy().removed_volume().to_bits(),
+            b.hierarchy().removed_volume().to_bits()
+        );
+    }
+    assert_eq!(saturated, 1, "the stretched move overflows the hash");
+    assert!(compared > 500, "{compared} hits compared");
+    assert!(drilled > 0, "the path drills");
+    // A non-finite position is refused and the next preparation starts afresh.
+    let mut bad = rest0.clone();
+    bad[7].x = f32::NAN;
+    assert!(b.prepare_positions(&rest0, u32::MAX).unwrap().ready);
+    b.commit_positions(&rest0).unwrap();
+    assert!(matches!(
+        b.prepare_positions(&bad[1..], 30),
+        Err(DeformError::Count { .. })
+    ));
+    assert_eq!(
+        b.prepare_positions(&bad, u32::MAX),
+        Err(DeformError::NotFinite { node: 7 })
+    );
+    assert!(!b.preparing());
+}
