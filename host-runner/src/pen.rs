@@ -233,7 +233,7 @@ impl PenRig {
             object_faces: Some(&fh),
             // Walks give the hash's contacts only over well-shaped tets that are all hashed.
             object_walks: tets_hashed && walks_exact(&ob),
-            // `pen_rest` holds every pen tet (a full rest hash fails its build).
+            // `pen_rest` holds every pen tet (a full rest grid fails its build).
             pen_walks: walks_exact(&Body::fixed(&pen)),
         };
         let (np, no) = (pen.node_count(), obj.node_count());
@@ -273,6 +273,10 @@ pub const OCCUPANCY_MARGIN: f32 = 1e-3;
 /// Margin of the pen's rest-frame boxes, in pen edges (rounding of the moved positions and
 /// of the barycentric test).
 pub const REST_MARGIN: f32 = 1e-2;
+
+/// Edge of the pen's rest grid (where a point's tets are looked up), in pen edges: half an
+/// edge keeps about 24 tets a cell (51 at a whole edge) for the pen's lookups.
+pub const REST_GRID_EDGE: f32 = 0.5;
 
 /// Edge of the pen's rest-frame clusters, in cells of the object's node hash.
 pub const CLUSTER_EDGE: f32 = 2.5;
@@ -322,42 +326,56 @@ impl ObjectCells {
 /// Storage of the pen's tets prepared at rest ([`RigidTets`]).
 #[derive(Debug, Clone)]
 pub struct PenRest {
-    hash: HashStore,
+    grid_starts: Vec<u32>,
+    grid_tets: Vec<u32>,
     tet_boxes: Vec<Aabb>,
     clusters: Vec<Aabb>,
     node_clusters: Vec<u32>,
 }
 
 impl PenRest {
-    /// Storage for `pen`: 32 hash entries and 16 buckets per tet, up to
-    /// [`MAX_NEAR_CLUSTERS`] clusters, a cluster index per node.
+    /// Storage for `pen`: its rest grid ([`RigidTets::grid_sizes`] with cells of
+    /// [`REST_GRID_EDGE`] pen edges), up to [`MAX_NEAR_CLUSTERS`] clusters, a cluster index per
+    /// node.
     pub fn new(pen: &tetradrill_core::mesh::Mesh<'_>) -> Self {
         let empty = Aabb::of::<0>([]);
+        let mut tet_boxes = vec![empty; pen.tet_count()];
+        let edge = average_edge_length(pen);
+        let (cells, tets) = RigidTets::grid_sizes(
+            &Body::fixed(pen),
+            REST_GRID_EDGE * edge,
+            REST_MARGIN * edge,
+            &mut tet_boxes,
+        )
+        .unwrap_or((2, 0));
         Self {
-            hash: HashStore::with_buckets(pen.tet_count(), 32, 16),
-            tet_boxes: vec![empty; pen.tet_count()],
+            grid_starts: vec![0; cells],
+            grid_tets: vec![0; tets],
+            tet_boxes,
             clusters: vec![empty; MAX_NEAR_CLUSTERS],
             node_clusters: vec![0; pen.node_count()],
         }
     }
 
-    /// Hashes and clusters `pen` at rest: the rest hash's cells are the pen's average edge,
-    /// the clusters [`CLUSTER_EDGE`] cells of `object_cell` (the object's node hash cell).
+    /// Grids and clusters `pen` at rest: the rest grid's cells are [`REST_GRID_EDGE`] of the
+    /// pen's average edge, the clusters [`CLUSTER_EDGE`] cells of `object_cell` (the object's
+    /// node hash cell).
     pub fn build(
         &mut self,
         pen: &tetradrill_core::mesh::Mesh<'_>,
         object_cell: f32,
     ) -> Result<RigidTets<'_>, RigError> {
         let edge = average_edge_length(pen);
-        let hash = self.hash.hash(edge).ok_or(RigError::Hash)?;
         RigidTets::build(
             &Body::fixed(pen),
             RigidTetsStorage {
-                hash,
+                grid_starts: &mut self.grid_starts,
+                grid_tets: &mut self.grid_tets,
                 tet_boxes: &mut self.tet_boxes,
                 clusters: &mut self.clusters,
                 node_clusters: &mut self.node_clusters,
             },
+            REST_GRID_EDGE * edge,
             CLUSTER_EDGE * object_cell,
             REST_MARGIN * edge,
         )
