@@ -270,6 +270,11 @@ impl PenRig {
 /// Margin of the object's occupancy grid, in cells (rounding of the barycentric test).
 pub const OCCUPANCY_MARGIN: f32 = 1e-3;
 
+/// The object's per-cell tet lists split each occupancy cell this many times along each axis
+/// ([`Occupancy::with_tet_lists`]): half-edge cells list about a third of the tets a whole
+/// cell does.
+pub const OCCUPANCY_LIST_SPLIT: u32 = 2;
+
 /// Margin of the pen's rest-frame boxes, in pen edges (rounding of the moved positions and
 /// of the barycentric test).
 pub const REST_MARGIN: f32 = 1e-2;
@@ -301,6 +306,8 @@ pub fn occupancy_words(mesh: &tetradrill_core::mesh::Mesh<'_>, cell: f32) -> usi
 pub struct ObjectCells {
     words: Vec<u32>,
     boxes: Vec<Aabb>,
+    starts: Vec<u32>,
+    tets: Vec<u32>,
 }
 
 impl ObjectCells {
@@ -309,17 +316,31 @@ impl ObjectCells {
         Self {
             words: vec![0; occupancy_words(obj, cell)],
             boxes: vec![Aabb::of::<0>([]); obj.tet_count()],
+            starts: Vec::new(),
+            tets: Vec::new(),
         }
     }
 
     /// The occupancy of `obj` with cells of `cell`, tet boxes grown by [`OCCUPANCY_MARGIN`]
-    /// cells.
+    /// cells, and each cell's list of tets ([`Occupancy::with_tet_lists`]: the pen's nodes
+    /// are looked up there, not in the tet hash).
     pub fn build(&mut self, obj: &Body<'_, '_>, cell: f32) -> Result<Occupancy<'_>, RigError> {
-        let storage = OccupancyStorage {
-            words: &mut self.words,
-            boxes: &mut self.boxes,
-        };
-        Occupancy::build(obj, cell, OCCUPANCY_MARGIN * cell, storage).map_err(RigError::Occupancy)
+        let Self {
+            words,
+            boxes,
+            starts,
+            tets,
+        } = self;
+        let storage = OccupancyStorage { words, boxes };
+        let grid = Occupancy::build(obj, cell, OCCUPANCY_MARGIN * cell, storage)
+            .map_err(RigError::Occupancy)?;
+        let (n_starts, n_tets) = grid
+            .tet_list_sizes(OCCUPANCY_LIST_SPLIT)
+            .ok_or(RigError::Occupancy(OccupancyError::ListStorage))?;
+        starts.resize(n_starts, 0);
+        tets.resize(n_tets, 0);
+        grid.with_tet_lists(obj, OCCUPANCY_LIST_SPLIT, starts, tets)
+            .map_err(RigError::Occupancy)
     }
 }
 
