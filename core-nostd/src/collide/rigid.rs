@@ -1,18 +1,18 @@
-//! Points inside the tets of a rigid body (a tool), with the body's tets hashed once at rest.
+//! Points inside the tets of a rigid body (a tool), with the body's tets listed once at rest.
 //!
 //! [`tets_over_points`](super::tets_over_points) walks the cells of every tet's box each tick.
-//! For a rigid body that is wasted work: its tets never change shape. [`RigidTets`] hashes
-//! them once in the body's own frame and groups them into clusters (the cells of a coarse
-//! rest-frame grid); per tick [`rigid_tets_over_points_coherent`] queries the points' hash
-//! only over each cluster's moved box, moves each point met into the body's frame, lets only
-//! the cluster whose cell holds it go on (so no point is handled twice), and looks it up in
-//! the rest grid (a dense grid over the body's rest bounds listing, per cell, the tets whose
-//! grown box meets it, in increasing id order). [`RigidTets::near`] tells, once a tick, which clusters' moved boxes meet
-//! cells another body occupies: the search skips the others, and so can a lookup of the
-//! body's own nodes in the other body ([`RigidTets::node_near`]). Rest-frame data only
-//! culls, with a margin; the test that decides is the
-//! same barycentric test on the moved corners as everywhere else, so the contacts are the
-//! ones [`tets_over_points`](super::tets_over_points) and a brute force find.
+//! For a rigid body that is wasted work: its tets never change shape. [`RigidTets`] lists
+//! them once in the body's own frame, in a dense rest grid (per cell, the tets whose grown
+//! box meets it, in increasing id order), and groups them into clusters (the cells of a
+//! coarse rest-frame grid); per tick [`rigid_tets_over_points_coherent`] queries the points'
+//! hash only over each cluster's moved box, moves each point met into the body's frame, lets
+//! only the cluster whose cell holds it go on (so no point is handled twice), and looks it up
+//! in its rest grid cell. [`RigidTets::near`] tells, once a tick, which clusters' moved boxes
+//! meet cells another body occupies: the search skips the others, and so can a lookup of the
+//! body's own nodes in the other body ([`RigidTets::node_near`]). Rest-frame data only culls,
+//! with a margin; the test that decides is the same barycentric test on the moved corners as
+//! everywhere else, so the contacts are the ones [`tets_over_points`](super::tets_over_points)
+//! and a brute force find.
 
 use glam::{Affine3A, Vec3};
 
@@ -109,9 +109,9 @@ pub struct RigidTetsStorage<'s> {
     pub node_clusters: &'s mut [u32],
 }
 
-/// A rigid body's tets at rest: hashed in its frame (each tet's box grown by a margin), the
-/// grown boxes, and a coarse grid of clusters, each with the rest-frame box of what its cell
-/// holds. Built once at set-up; read-only afterwards.
+/// A rigid body's tets at rest: listed in a dense grid in its frame (each tet's box grown by
+/// a margin), the grown boxes, and a coarse grid of clusters, each with the rest-frame box of
+/// what its cell holds. Built once at set-up; read-only afterwards.
 #[derive(Debug)]
 pub struct RigidTets<'s> {
     /// Rest grid: cell `i`'s tets are `grid_tets[grid_starts[i]..grid_starts[i + 1]]`.
