@@ -233,7 +233,7 @@ impl PenRig {
             object_faces: Some(&fh),
             // Walks give the hash's contacts only over well-shaped tets that are all hashed.
             object_walks: tets_hashed && walks_exact(&ob),
-            // `pen_rest` holds every pen tet (a full rest hash fails its build).
+            // `pen_rest` holds every pen tet (a full rest grid fails its build).
             pen_walks: walks_exact(&Body::fixed(&pen)),
         };
         let (np, no) = (pen.node_count(), obj.node_count());
@@ -270,9 +270,18 @@ impl PenRig {
 /// Margin of the object's occupancy grid, in cells (rounding of the barycentric test).
 pub const OCCUPANCY_MARGIN: f32 = 1e-3;
 
+/// The object's per-cell tet lists split each occupancy cell this many times along each axis
+/// ([`Occupancy::with_tet_lists`]): half-edge cells list about a third of the tets a whole
+/// cell does.
+pub const OCCUPANCY_LIST_SPLIT: u32 = 2;
+
 /// Margin of the pen's rest-frame boxes, in pen edges (rounding of the moved positions and
 /// of the barycentric test).
 pub const REST_MARGIN: f32 = 1e-2;
+
+/// Edge of the pen's rest grid (where a point's tets are looked up), in pen edges: half an
+/// edge keeps about 24 tets a cell (51 at a whole edge) for the pen's lookups.
+pub const REST_GRID_EDGE: f32 = 0.5;
 
 /// Edge of the pen's rest-frame clusters, in cells of the object's node hash.
 pub const CLUSTER_EDGE: f32 = 2.5;
@@ -297,6 +306,8 @@ pub fn occupancy_words(mesh: &tetradrill_core::mesh::Mesh<'_>, cell: f32) -> usi
 pub struct ObjectCells {
     words: Vec<u32>,
     boxes: Vec<Aabb>,
+    starts: Vec<u32>,
+    tets: Vec<u32>,
 }
 
 impl ObjectCells {
@@ -305,59 +316,87 @@ impl ObjectCells {
         Self {
             words: vec![0; occupancy_words(obj, cell)],
             boxes: vec![Aabb::of::<0>([]); obj.tet_count()],
+            starts: Vec::new(),
+            tets: Vec::new(),
         }
     }
 
     /// The occupancy of `obj` with cells of `cell`, tet boxes grown by [`OCCUPANCY_MARGIN`]
-    /// cells.
+    /// cells, and each cell's list of tets ([`Occupancy::with_tet_lists`]: the pen's nodes
+    /// are looked up there, not in the tet hash).
     pub fn build(&mut self, obj: &Body<'_, '_>, cell: f32) -> Result<Occupancy<'_>, RigError> {
-        let storage = OccupancyStorage {
-            words: &mut self.words,
-            boxes: &mut self.boxes,
-        };
-        Occupancy::build(obj, cell, OCCUPANCY_MARGIN * cell, storage).map_err(RigError::Occupancy)
+        let Self {
+            words,
+            boxes,
+            starts,
+            tets,
+        } = self;
+        let storage = OccupancyStorage { words, boxes };
+        let grid = Occupancy::build(obj, cell, OCCUPANCY_MARGIN * cell, storage)
+            .map_err(RigError::Occupancy)?;
+        let (n_starts, n_tets) = grid
+            .tet_list_sizes(OCCUPANCY_LIST_SPLIT)
+            .ok_or(RigError::Occupancy(OccupancyError::ListStorage))?;
+        starts.resize(n_starts, 0);
+        tets.resize(n_tets, 0);
+        grid.with_tet_lists(obj, OCCUPANCY_LIST_SPLIT, starts, tets)
+            .map_err(RigError::Occupancy)
     }
 }
 
 /// Storage of the pen's tets prepared at rest ([`RigidTets`]).
 #[derive(Debug, Clone)]
 pub struct PenRest {
-    hash: HashStore,
+    grid_starts: Vec<u32>,
+    grid_tets: Vec<u32>,
     tet_boxes: Vec<Aabb>,
     clusters: Vec<Aabb>,
     node_clusters: Vec<u32>,
 }
 
 impl PenRest {
-    /// Storage for `pen`: 32 hash entries and 16 buckets per tet, up to
-    /// [`MAX_NEAR_CLUSTERS`] clusters, a cluster index per node.
+    /// Storage for `pen`: its rest grid ([`RigidTets::grid_sizes`] with cells of
+    /// [`REST_GRID_EDGE`] pen edges), up to [`MAX_NEAR_CLUSTERS`] clusters, a cluster index per
+    /// node.
     pub fn new(pen: &tetradrill_core::mesh::Mesh<'_>) -> Self {
         let empty = Aabb::of::<0>([]);
+        let mut tet_boxes = vec![empty; pen.tet_count()];
+        let edge = average_edge_length(pen);
+        let (cells, tets) = RigidTets::grid_sizes(
+            &Body::fixed(pen),
+            REST_GRID_EDGE * edge,
+            REST_MARGIN * edge,
+            &mut tet_boxes,
+        )
+        .unwrap_or((2, 0));
         Self {
-            hash: HashStore::with_buckets(pen.tet_count(), 32, 16),
-            tet_boxes: vec![empty; pen.tet_count()],
+            grid_starts: vec![0; cells],
+            grid_tets: vec![0; tets],
+            tet_boxes,
             clusters: vec![empty; MAX_NEAR_CLUSTERS],
             node_clusters: vec![0; pen.node_count()],
         }
     }
 
-    /// Hashes and clusters `pen` at rest: the rest hash's cells are the pen's average edge,
-    /// the clusters [`CLUSTER_EDGE`] cells of `object_cell` (the object's node hash cell).
+    /// Grids and clusters `pen` at rest: the rest grid's cells are [`REST_GRID_EDGE`] of the
+    /// pen's average edge, the clusters [`CLUSTER_EDGE`] cells of `object_cell` (the object's
+    /// node hash cell).
     pub fn build(
         &mut self,
         pen: &tetradrill_core::mesh::Mesh<'_>,
         object_cell: f32,
     ) -> Result<RigidTets<'_>, RigError> {
         let edge = average_edge_length(pen);
-        let hash = self.hash.hash(edge).ok_or(RigError::Hash)?;
         RigidTets::build(
             &Body::fixed(pen),
             RigidTetsStorage {
-                hash,
+                grid_starts: &mut self.grid_starts,
+                grid_tets: &mut self.grid_tets,
                 tet_boxes: &mut self.tet_boxes,
                 clusters: &mut self.clusters,
                 node_clusters: &mut self.node_clusters,
             },
+            REST_GRID_EDGE * edge,
             CLUSTER_EDGE * object_cell,
             REST_MARGIN * edge,
         )

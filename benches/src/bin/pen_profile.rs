@@ -3,7 +3,8 @@
 //!
 //! Usage: `pen_profile MESH touching|impaled [REPS]` (MESH relative to the meshes folder:
 //! `TETRADRILL_MESHES` or the repository's `tests/data/meshes`). Every pose runs REPS times
-//! (default 20), each run from a fresh `PenState`; prints the mean, p99 and maximum over the
+//! (default 20), each run from a fresh `PenState` (`SHARED=1`: one state for all, as the
+//! contact bench keeps it); prints the mean, p99 and maximum over the
 //! poses of each pose's fastest run, the slowest poses with their counts (nodes inside, border
 //! points, border edges and walk work, each side), and a digest of the raw forces (the same on
 //! every run and every build that keeps the forces). Instruction counts: `valgrind
@@ -30,15 +31,9 @@ fn run_pose(
     bufs: &mut PenBuffers<'_>,
     pose: (Vec3, Quat),
     opts: &PenOptions,
+    state: &mut PenState,
 ) -> PenContact {
-    black_box(pen_contact(
-        scene,
-        bufs,
-        pose.0,
-        pose.1,
-        opts,
-        &mut PenState::default(),
-    ))
+    black_box(pen_contact(scene, bufs, pose.0, pose.1, opts, state))
 }
 
 fn main() -> ExitCode {
@@ -74,15 +69,22 @@ fn main() -> ExitCode {
         }
         poses = vec![poses[i]];
     }
+    // `SHARED=1`: one `PenState` for every call, as the contact bench does (each pose then
+    // starts from the previous pose's lists), instead of a fresh one per call.
+    let shared = std::env::var("SHARED").is_ok_and(|v| v == "1");
     let opts = PenOptions::default();
     let mut rig = PenRig { pen, obj };
     let run = rig.with(|scene, bufs| {
+        let mut state = PenState::default();
         let mut best = vec![f64::INFINITY; poses.len()];
         let mut last = vec![PenContact::default(); poses.len()];
         for _ in 0..reps {
             for (i, &pose) in poses.iter().enumerate() {
                 let s = Instant::now();
-                let c = run_pose(scene, bufs, pose, &opts);
+                if !shared {
+                    state = PenState::default();
+                }
+                let c = run_pose(scene, bufs, pose, &opts, &mut state);
                 best[i] = best[i].min(s.elapsed().as_secs_f64() * 1e6);
                 last[i] = c;
             }

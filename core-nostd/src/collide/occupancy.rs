@@ -16,6 +16,9 @@ pub enum OccupancyError {
     BadCellSize,
     /// The body has no tet with finite corners.
     Empty,
+    /// Tet lists ([`Occupancy::with_tet_lists`]) need a box per tet, one start per cell plus
+    /// one, and an entry per tet and cell its box meets ([`Occupancy::tet_list_sizes`]).
+    ListStorage,
 }
 
 impl core::fmt::Display for OccupancyError {
@@ -24,6 +27,7 @@ impl core::fmt::Display for OccupancyError {
             Self::NoStorage => f.write_str("occupancy grid needs at least one storage word"),
             Self::BadCellSize => f.write_str("occupancy cell size must be finite and positive"),
             Self::Empty => f.write_str("occupancy grid over a body without finite tets"),
+            Self::ListStorage => f.write_str("occupancy tet lists: storage too short"),
         }
     }
 }
@@ -41,12 +45,21 @@ pub struct OccupancyStorage<'a> {
 /// A grid over a static body's bounds with one bit per cell, set when the cell meets the box
 /// of one of its tets grown by a margin: a point in a clear cell (or outside the grid) is in
 /// no tet, and a box that meets no set cell holds no point of the body's tets. It also keeps
-/// each tet's grown box, a cheap test before a barycentric one. Built once at set-up over
-/// caller storage; the queries are read-only.
+/// each tet's grown box, a cheap test before a barycentric one, and optionally, per cell, the
+/// tets whose grown box meets it in increasing id order ([`Occupancy::with_tet_lists`]: a
+/// point's candidate tets without a hash). Built once at set-up over caller storage; the
+/// queries are read-only.
 #[derive(Clone, Copy, Debug)]
 pub struct Occupancy<'a> {
     words: &'a [u32],
     boxes: &'a [Aabb],
+    /// Cell `i`'s tets are `cell_tets[cell_starts[i]..cell_starts[i + 1]]` (both empty
+    /// without lists).
+    cell_starts: &'a [u32],
+    cell_tets: &'a [u32],
+    /// The lists' grid: the bits' cells split `split` times along each axis.
+    list_inv: f32,
+    list_dims: [i32; 3],
     origin: Vec3,
     inv_cell: f32,
     cell: f32,
@@ -125,6 +138,10 @@ impl<'a> Occupancy<'a> {
         let mut grid = Self {
             words: &[],
             boxes: &[],
+            cell_starts: &[],
+            cell_tets: &[],
+            list_inv: 1.0 / cell,
+            list_dims: dims,
             origin: bounds.min,
             inv_cell: 1.0 / cell,
             cell,
@@ -162,31 +179,144 @@ impl<'a> Occupancy<'a> {
         self.dims.map(|d| d as u32)
     }
 
+    /// Storage [`Occupancy::with_tet_lists`] needs for lists over the cells split `split`
+    /// times along each axis: `(starts, tets)` lengths, one more than the list cells and one
+    /// entry per stored box and list cell it meets (`None` when `split` is 0 or the cells
+    /// overflow).
+    ///
+    /// # Bounded work
+    /// O(cells each stored box meets). Call it at set-up.
+    pub fn tet_list_sizes(&self, split: u32) -> Option<(usize, usize)> {
+        let (inv, dims) = self.split_grid(split)?;
+        let cells = dims.iter().map(|&d| d as usize).product::<usize>();
+        let mut total = 0usize;
+        for b in self.boxes {
+            if let Some((lo, hi)) = range(self.origin, inv, dims, b) {
+                total += (0..3)
+                    .map(|a| (hi[a] - lo[a] + 1) as usize)
+                    .product::<usize>();
+            }
+        }
+        Some((cells + 1, total))
+    }
+
+    /// The list grid's inverse cell size and cells per axis for `split`.
+    fn split_grid(&self, split: u32) -> Option<(f32, [i32; 3])> {
+        let k = i32::try_from(split).ok().filter(|&k| k > 0)?;
+        let mut dims = [0i32; 3];
+        for (d, &g) in dims.iter_mut().zip(self.dims.iter()) {
+            *d = g.checked_mul(k)?;
+        }
+        dims.iter()
+            .try_fold(1usize, |a, &d| a.checked_mul(d as usize))?;
+        Some((self.inv_cell * split as f32, dims))
+    }
+
+    /// This grid with, per cell of the grid's cells split `split` times along each axis, the
+    /// tets whose grown box meets it, in increasing id order ([`Occupancy::tets_at`]): a
+    /// point's candidates are then its cell's list, read in order, with no hash bucket shared
+    /// with other cells (a split of 2 lists about a third of the tets a whole cell would).
+    /// Every one of `body`'s tets needs its box (the boxes storage at least as long as the
+    /// tets).
+    ///
+    /// # Bounded work
+    /// O(cells + cells each box meets). Call it at set-up.
+    ///
+    /// # Errors
+    /// [`OccupancyError::ListStorage`] when a tet has no stored box or the storage is shorter
+    /// than [`Occupancy::tet_list_sizes`].
+    pub fn with_tet_lists(
+        self,
+        body: &Body<'_, '_>,
+        split: u32,
+        starts: &'a mut [u32],
+        tets: &'a mut [u32],
+    ) -> Result<Self, OccupancyError> {
+        let (inv, dims) = self.split_grid(split).ok_or(OccupancyError::ListStorage)?;
+        let (n_starts, n_tets) = self
+            .tet_list_sizes(split)
+            .ok_or(OccupancyError::ListStorage)?;
+        let short = self.boxes.len() < body.tet_count()
+            || starts.len() < n_starts
+            || tets.len() < n_tets
+            || n_tets > u32::MAX as usize;
+        if short {
+            return Err(OccupancyError::ListStorage);
+        }
+        let starts = &mut starts[..n_starts];
+        starts.fill(0);
+        let each_cell = |f: &mut dyn FnMut(usize, usize)| {
+            for (t, b) in self.boxes.iter().enumerate() {
+                let Some((lo, hi)) = range(self.origin, inv, dims, b) else {
+                    continue;
+                };
+                for k in lo[2]..=hi[2] {
+                    for j in lo[1]..=hi[1] {
+                        for i in lo[0]..=hi[0] {
+                            f(t, index(dims, [i, j, k]));
+                        }
+                    }
+                }
+            }
+        };
+        // Count per cell, prefix sums, fill in increasing tet order with each cell's start
+        // as its cursor, then shift the starts back by one cell.
+        each_cell(&mut |_, c| {
+            if let Some(s) = starts.get_mut(c + 1) {
+                *s += 1;
+            }
+        });
+        for i in 1..n_starts {
+            starts[i] += starts[i - 1];
+        }
+        each_cell(&mut |t, c| {
+            if let Some(s) = starts.get_mut(c) {
+                if let Some(e) = tets.get_mut(*s as usize) {
+                    *e = t as u32;
+                }
+                *s += 1;
+            }
+        });
+        for i in (1..n_starts).rev() {
+            starts[i] = starts[i - 1];
+        }
+        starts[0] = 0;
+        Ok(Self {
+            cell_starts: starts,
+            cell_tets: &tets[..n_tets],
+            list_inv: inv,
+            list_dims: dims,
+            ..self
+        })
+    }
+
+    /// The tets listed in `p`'s cell, in increasing id order (empty outside the grid), or
+    /// `None` when the grid has no lists ([`Occupancy::with_tet_lists`]). Every tet whose
+    /// grown box holds `p` is in it.
+    ///
+    /// # Bounded work
+    /// Constant.
+    #[inline]
+    pub fn tets_at(&self, p: Vec3) -> Option<&'a [u32]> {
+        if self.cell_starts.is_empty() {
+            return None;
+        }
+        let Some(c) = cell(self.origin, self.list_inv, self.list_dims, p) else {
+            return Some(&[]);
+        };
+        let i = index(self.list_dims, c);
+        let lo = self.cell_starts.get(i).copied().unwrap_or(0) as usize;
+        let hi = self.cell_starts.get(i + 1).copied().unwrap_or(0) as usize;
+        Some(self.cell_tets.get(lo..hi).unwrap_or(&[]))
+    }
+
     /// `false` when no tet of the body can hold `p` (its cell is clear or outside the grid).
     ///
     /// # Bounded work
     /// Constant.
     #[inline]
     pub fn may_hold(&self, p: Vec3) -> bool {
-        // The floor of `range` without its saturating conversions: inside the grid the
-        // scaled coordinates are in [0, dims), where truncation is the floor (NaN fails the
-        // comparisons).
-        let f = (p - self.origin) * self.inv_cell;
-        let d = self.dims;
-        let inside = f.x >= 0.0
-            && f.y >= 0.0
-            && f.z >= 0.0
-            && f.x < d[0] as f32
-            && f.y < d[1] as f32
-            && f.z < d[2] as f32;
-        if !inside {
-            return false;
-        }
-        let c = [f.x as i32, f.y as i32, f.z as i32].map(|v| v.min(i32::MAX - 1));
-        if (0..3).any(|a| c[a] >= d[a]) {
-            return false; // `d as f32` rounded up (grids beyond 2^24 cells a side)
-        }
-        self.bit(self.index(c))
+        cell(self.origin, self.inv_cell, self.dims, p).is_some_and(|c| self.bit(self.index(c)))
     }
 
     /// `false` when tet `t` cannot hold `p` (outside its grown box; a tet with non-finite
@@ -224,29 +354,14 @@ impl<'a> Occupancy<'a> {
     }
 
     /// The cells of the grid box `b` covers, clamped to the grid (`None` when it misses the
-    /// grid or is inverted). The same floor as [`Occupancy::may_hold`], so a point in `b` is in
-    /// a cell of the range.
+    /// grid or is inverted).
     fn range(&self, b: &Aabb) -> Option<([i32; 3], [i32; 3])> {
-        let lo = cell_of(b.min - self.origin, self.inv_cell);
-        let hi = cell_of(b.max - self.origin, self.inv_cell);
-        let mut l = [0; 3];
-        let mut h = [0; 3];
-        for a in 0..3 {
-            // NaN corners give cell 0 from `cell_of`; `ordered` is false for them.
-            let ordered = b.min[a] <= b.max[a];
-            if !ordered || hi[a] < 0 || lo[a] >= self.dims[a] || lo[a] > hi[a] {
-                return None;
-            }
-            l[a] = lo[a].max(0);
-            h[a] = hi[a].min(self.dims[a] - 1);
-        }
-        Some((l, h))
+        range(self.origin, self.inv_cell, self.dims, b)
     }
 
     #[inline]
     fn index(&self, c: [i32; 3]) -> usize {
-        (c[0] as usize)
-            + self.dims[0] as usize * (c[1] as usize + self.dims[1] as usize * c[2] as usize)
+        index(self.dims, c)
     }
 
     #[inline]
@@ -255,4 +370,55 @@ impl<'a> Occupancy<'a> {
             .get(n / 32)
             .is_some_and(|w| w & (1 << (n % 32)) != 0)
     }
+}
+
+/// `p`'s cell in the grid from `origin` with `inv` cells a unit and `dims` cells, `None`
+/// outside it.
+#[inline]
+fn cell(origin: Vec3, inv: f32, dims: [i32; 3], p: Vec3) -> Option<[i32; 3]> {
+    // The floor of `range` without its saturating conversions: inside the grid the
+    // scaled coordinates are in [0, dims), where truncation is the floor (NaN fails the
+    // comparisons).
+    let f = (p - origin) * inv;
+    let d = dims;
+    let inside = f.x >= 0.0
+        && f.y >= 0.0
+        && f.z >= 0.0
+        && f.x < d[0] as f32
+        && f.y < d[1] as f32
+        && f.z < d[2] as f32;
+    if !inside {
+        return None;
+    }
+    let c = [f.x as i32, f.y as i32, f.z as i32].map(|v| v.min(i32::MAX - 1));
+    if (0..3).any(|a| c[a] >= d[a]) {
+        return None; // `d as f32` rounded up (grids beyond 2^24 cells a side)
+    }
+    Some(c)
+}
+
+/// The cells of the grid box `b` covers, clamped to the grid (`None` when it misses the
+/// grid or is inverted). The same floor as [`cell`], so a point in `b` is in
+/// a cell of the range.
+fn range(origin: Vec3, inv: f32, dims: [i32; 3], b: &Aabb) -> Option<([i32; 3], [i32; 3])> {
+    let lo = cell_of(b.min - origin, inv);
+    let hi = cell_of(b.max - origin, inv);
+    let mut l = [0; 3];
+    let mut h = [0; 3];
+    for a in 0..3 {
+        // NaN corners give cell 0 from `cell_of`; `ordered` is false for them.
+        let ordered = b.min[a] <= b.max[a];
+        if !ordered || hi[a] < 0 || lo[a] >= dims[a] || lo[a] > hi[a] {
+            return None;
+        }
+        l[a] = lo[a].max(0);
+        h[a] = hi[a].min(dims[a] - 1);
+    }
+    Some((l, h))
+}
+
+/// Row-major index of cell `c` in a grid of `dims` cells.
+#[inline]
+fn index(dims: [i32; 3], c: [i32; 3]) -> usize {
+    (c[0] as usize) + dims[0] as usize * (c[1] as usize + dims[1] as usize * c[2] as usize)
 }

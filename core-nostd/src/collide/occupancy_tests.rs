@@ -10,7 +10,8 @@ use crate::hash::{HashEntry, SpatialHash};
 /// `Occupancy`: every point that brute force puts inside a tet is in a set cell, and every
 /// box around such a point meets one; far points and boxes are culled; a grid too big for its
 /// storage coarsens and stays conservative; the tet boxes hold their tets' inside points.
-/// `points_in_tets_occupied` gives the brute-force lists.
+/// `points_in_tets_occupied` gives the brute-force lists, with and without the grid's tet lists
+/// (each ascending and holding every tet whose grown box holds the point).
 #[test]
 fn occupancy_is_conservative_and_culls() {
     let mut obj_store = Store::<125, 384>::block(4, 0.25, Vec3::splat(-0.5));
@@ -37,6 +38,32 @@ fn occupancy_is_conservative_and_culls() {
             (d[0] * d[1] * d[2]) as usize <= 32 * words,
             "coarsened to fit"
         );
+        let split = match words {
+            1 => 2,
+            8 => 3,
+            _ => 1,
+        };
+        assert_eq!(cells.tet_list_sizes(0), None);
+        let (n_starts, n_tets) = cells.tet_list_sizes(split).unwrap();
+        let (mut ls, mut lt) = ([0u32; 8192], [0u32; 65536]);
+        assert!(
+            n_starts <= ls.len() && n_tets <= lt.len(),
+            "{n_starts} {n_tets}"
+        );
+        assert_eq!(
+            cells
+                .with_tet_lists(&ob, split, &mut ls[..n_starts - 1], &mut lt)
+                .unwrap_err(),
+            OccupancyError::ListStorage
+        );
+        assert_eq!(
+            cells
+                .with_tet_lists(&ob, split, &mut ls, &mut lt[..n_tets - 1])
+                .unwrap_err(),
+            OccupancyError::ListStorage
+        );
+        assert_eq!(cells.tets_at(Vec3::ZERO), None, "no lists yet");
+        let listed = cells.with_tet_lists(&ob, split, &mut ls, &mut lt).unwrap();
         let mut rng = Rng(0xdead_beef_cafe_f00d ^ words as u64);
         let mut pts = [Vec3::ZERO; 64];
         let (mut inside, mut culled) = (0, 0);
@@ -68,6 +95,26 @@ fn occupancy_is_conservative_and_culls() {
             let r = points_in_tets_occupied(&th, &cells, &ob, &pts, false, &mut out, 0, |_| true);
             assert!(!r.saturated);
             assert_eq!(&out[..r.count], &want[..n], "words {words} round {round}");
+            // The cell lists: ascending, holding every tet whose grown box (computed here)
+            // holds the point; the query over them gives the brute-force lists too.
+            for &p in &pts {
+                let list = listed.tets_at(p).unwrap();
+                assert!(list.windows(2).all(|w| w[0] < w[1]), "{list:?}");
+                for t in 0..ob.tet_count() {
+                    let tb = crate::hash::Aabb::of(ob.tet_positions(TetId::from_idx(t)).unwrap())
+                        .grown(1e-4);
+                    if tb.contains(p) {
+                        assert!(list.contains(&(t as u32)), "tet {t} at {p:?}");
+                    }
+                }
+            }
+            let mut out = [Collision::default(); 64];
+            let r = points_in_tets_occupied(&th, &listed, &ob, &pts, false, &mut out, 0, |_| true);
+            assert_eq!(
+                &out[..r.count],
+                &want[..n],
+                "lists, words {words} round {round}"
+            );
         }
         assert!(
             inside > 500 && culled > 200,

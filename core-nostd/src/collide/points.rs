@@ -69,7 +69,12 @@ pub fn points_in_tets_coherent(
 /// coordinates only when its grown box holds the point ([`Occupancy::tet_may_hold`]);
 /// `cells` must be built over `body`'s tets ([`Occupancy::build`]). Same result, bit for
 /// bit: a point outside every occupied cell, or outside a tet's grown box, is not inside it.
-/// Cheaper when most points are away from the body (a tool mostly outside the object).
+/// Cheaper when most points are away from the body (a tool mostly outside the object). When
+/// `cells` has tet lists ([`Occupancy::with_tet_lists`]), a point's candidates are its grid
+/// cell's list instead of the hash's cell: every tet whose grown box holds the point, in
+/// increasing id order, so the answer is again the smallest tet that holds it (the hash's,
+/// unless the f32 test puts the point in a tet whose ungrown box misses the point's hash
+/// cell, where the list, like a brute force, still finds it).
 ///
 /// Point `i` is examined only when `may_hit(i)` holds: it must hold for every point that may
 /// be inside a tet (`|_| true`, or e.g. [`super::RigidTets::node_near`] for the nodes of a
@@ -341,9 +346,9 @@ fn coherent<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> bool>(
     r
 }
 
-/// The smallest-id tet of `body` in `tets` holding `p` (`NONE` when none), counting the
-/// candidates and degenerate tets met in `r`: the cell's tets in increasing id order, the
-/// first that holds `p` ends the search.
+/// The smallest-id tet of `body` in `tets` (or in `cells`' list of `p`'s cell, when it has
+/// lists) holding `p` (`NONE` when none), counting the candidates and degenerate tets met in
+/// `r`: the cell's tets in increasing id order, the first that holds `p` ends the search.
 fn smallest_tet(
     tets: &SpatialHash<'_>,
     body: &Body<'_, '_>,
@@ -353,26 +358,32 @@ fn smallest_tet(
     own: bool,
     r: &mut CollideReport,
 ) -> TetId {
+    let mut holds = |t: TetId| {
+        if cells.is_some_and(|c| !c.tet_may_hold(t, p)) {
+            return false;
+        }
+        let Some(ids) = body.tet_nodes(t) else {
+            return false;
+        };
+        if own && ids.contains(&node) {
+            return false;
+        }
+        body.tet_positions(t)
+            .is_some_and(|corners| candidate_holds(p, corners, r))
+    };
+    // The grid's own list of the cell's tets when it has one, else the hash's cell.
+    if let Some(list) = cells.and_then(|c| c.tets_at(p)) {
+        return list
+            .iter()
+            .map(|&item| TetId(item))
+            .find(|&t| holds(t))
+            .unwrap_or(TetId::NONE);
+    }
     if !tets.bounds().contains(p) {
         return TetId::NONE;
     }
-    for item in tets.items_in_cell_ascending(tets.cell_of(p)) {
-        let t = TetId(item);
-        if cells.is_some_and(|c| !c.tet_may_hold(t, p)) {
-            continue;
-        }
-        let Some(ids) = body.tet_nodes(t) else {
-            continue;
-        };
-        if own && ids.contains(&node) {
-            continue;
-        }
-        if body
-            .tet_positions(t)
-            .is_some_and(|corners| candidate_holds(p, corners, r))
-        {
-            return t;
-        }
-    }
-    TetId::NONE
+    tets.items_in_cell_ascending(tets.cell_of(p))
+        .map(TetId)
+        .find(|&t| holds(t))
+        .unwrap_or(TetId::NONE)
 }

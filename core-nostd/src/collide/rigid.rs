@@ -1,23 +1,71 @@
-//! Points inside the tets of a rigid body (a tool), with the body's tets hashed once at rest.
+//! Points inside the tets of a rigid body (a tool), with the body's tets listed once at rest.
 //!
 //! [`tets_over_points`](super::tets_over_points) walks the cells of every tet's box each tick.
-//! For a rigid body that is wasted work: its tets never change shape. [`RigidTets`] hashes
-//! them once in the body's own frame and groups them into clusters (the cells of a coarse
-//! rest-frame grid); per tick [`rigid_tets_over_points_coherent`] queries the points' hash
-//! only over each cluster's moved box, moves each point met into the body's frame, lets only
-//! the cluster whose cell holds it go on (so no point is handled twice), and looks it up in
-//! the rest hash. [`RigidTets::near`] tells, once a tick, which clusters' moved boxes meet
-//! cells another body occupies: the search skips the others, and so can a lookup of the
-//! body's own nodes in the other body ([`RigidTets::node_near`]). Rest-frame data only
-//! culls, with a margin; the test that decides is the
-//! same barycentric test on the moved corners as everywhere else, so the contacts are the
-//! ones [`tets_over_points`](super::tets_over_points) and a brute force find.
+//! For a rigid body that is wasted work: its tets never change shape. [`RigidTets`] lists
+//! them once in the body's own frame, in a dense rest grid (per cell, the tets whose grown
+//! box meets it, in increasing id order), and groups them into clusters (the cells of a
+//! coarse rest-frame grid); per tick [`rigid_tets_over_points_coherent`] queries the points'
+//! hash only over each cluster's moved box, moves each point met into the body's frame, lets
+//! only the cluster whose cell holds it go on (so no point is handled twice), and looks it up
+//! in its rest grid cell. [`RigidTets::near`] tells, once a tick, which clusters' moved boxes
+//! meet cells another body occupies: the search skips the others, and so can a lookup of the
+//! body's own nodes in the other body ([`RigidTets::node_near`]). Rest-frame data only culls,
+//! with a margin; the test that decides is the same barycentric test on the moved corners as
+//! everywhere else, so the contacts are the ones [`tets_over_points`](super::tets_over_points)
+//! and a brute force find.
 
 use glam::{Affine3A, Vec3};
 
 use super::teschner::{tets_over_points_coherent, MAX_CELLS_PER_TET};
 use super::{candidate_holds, Body, CollideReport, Collision, Occupancy};
 use crate::hash::{Aabb, SpatialHash};
+
+/// Cell index of rest point `q` in a dense grid from `min` with `inv` cells per unit, clamped
+/// to `dims` (monotonic in `q`, so a point in a box lies in the box's corners' cell range).
+#[inline]
+fn dense_cell(min: Vec3, inv: Vec3, dims: [i32; 3], q: Vec3) -> [i32; 3] {
+    let f = (q - min) * inv;
+    let c = crate::hash::cell_of(f, 1.0);
+    [0, 1, 2].map(|a| c[a].clamp(0, dims[a] - 1))
+}
+
+/// Row-major index of grid cell `c`.
+#[inline]
+fn dense_index(dims: [i32; 3], c: [i32; 3]) -> usize {
+    c[0] as usize + dims[0] as usize * (c[1] as usize + dims[1] as usize * c[2] as usize)
+}
+
+/// Cells per axis and their inverse sizes for a grid of cells of about `edge` over
+/// `extent`, the edge grown by half until the cells number at most `max_cells`; `None` when
+/// the edge is not a finite positive number or grows past finite.
+fn dense_dims(extent: Vec3, mut edge: f32, max_cells: usize) -> Option<([i32; 3], Vec3)> {
+    if !(edge.is_finite() && edge > 0.0) {
+        return None;
+    }
+    let dims = loop {
+        let d = [extent.x, extent.y, extent.z]
+            .map(|e| (libm::ceilf(e / edge) as i64).clamp(1, i32::MAX as i64));
+        let n = d.iter().fold(1u64, |a, &v| a.saturating_mul(v as u64));
+        if n <= max_cells as u64 {
+            break d.map(|v| v as i32);
+        }
+        edge *= 1.5;
+        if !edge.is_finite() {
+            return None;
+        }
+    };
+    let size = Vec3::new(
+        extent.x / dims[0] as f32,
+        extent.y / dims[1] as f32,
+        extent.z / dims[2] as f32,
+    );
+    let inv = Vec3::new(
+        if size.x > 0.0 { 1.0 / size.x } else { 0.0 },
+        if size.y > 0.0 { 1.0 / size.y } else { 0.0 },
+        if size.z > 0.0 { 1.0 / size.z } else { 0.0 },
+    );
+    Some((dims, inv))
+}
 use crate::ids::{NodeId, TetId};
 
 /// Why [`RigidTets::build`] refused.
@@ -25,8 +73,8 @@ use crate::ids::{NodeId, TetId};
 pub enum RigidError {
     /// Fewer tet boxes than tets, or no cluster storage.
     Storage,
-    /// The rest hash ran out of entries (some tets would never be found).
-    HashFull,
+    /// The rest grid ran out of tet entries (some tets would never be found).
+    GridFull,
     /// The cluster edge or the margin is not a finite positive number.
     BadSize,
     /// The body has no tet with finite corners.
@@ -37,7 +85,7 @@ impl core::fmt::Display for RigidError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Self::Storage => f.write_str("rigid tets: a box per tet and one cluster at least"),
-            Self::HashFull => f.write_str("rigid tets: the rest hash ran out of entries"),
+            Self::GridFull => f.write_str("rigid tets: the rest grid ran out of tet entries"),
             Self::BadSize => f.write_str("rigid tets: cluster edge and margin must be positive"),
             Self::Empty => f.write_str("rigid tets: no tet with finite corners"),
         }
@@ -47,9 +95,12 @@ impl core::fmt::Display for RigidError {
 /// Caller storage of a [`RigidTets`].
 #[derive(Debug)]
 pub struct RigidTetsStorage<'s> {
-    /// The rest hash (empty; its cell size is the lookup's, about the body's average edge).
-    /// It needs an entry per tet and cell its box covers.
-    pub hash: SpatialHash<'s>,
+    /// Per cell of the rest grid, where its tets start in `grid_tets`, plus one end: its
+    /// length caps the cells (one more than the cells; [`RigidTets::grid_sizes`]).
+    pub grid_starts: &'s mut [u32],
+    /// The tets of each rest grid cell: one entry per tet and cell its grown box meets
+    /// ([`RigidTets::grid_sizes`]).
+    pub grid_tets: &'s mut [u32],
     /// One box per tet.
     pub tet_boxes: &'s mut [Aabb],
     /// One box per cluster cell: its length caps the number of clusters.
@@ -58,12 +109,17 @@ pub struct RigidTetsStorage<'s> {
     pub node_clusters: &'s mut [u32],
 }
 
-/// A rigid body's tets at rest: hashed in its frame (each tet's box grown by a margin), the
-/// grown boxes, and a coarse grid of clusters, each with the rest-frame box of what its cell
-/// holds. Built once at set-up; read-only afterwards.
+/// A rigid body's tets at rest: listed in a dense grid in its frame (each tet's box grown by
+/// a margin), the grown boxes, and a coarse grid of clusters, each with the rest-frame box of
+/// what its cell holds. Built once at set-up; read-only afterwards.
 #[derive(Debug)]
 pub struct RigidTets<'s> {
-    hash: SpatialHash<'s>,
+    /// Rest grid: cell `i`'s tets are `grid_tets[grid_starts[i]..grid_starts[i + 1]]`.
+    grid_starts: &'s [u32],
+    grid_tets: &'s [u32],
+    /// Rest grid cells per axis and their inverse sizes (from `bounds.min`).
+    grid_dims: [i32; 3],
+    grid_inv: Vec3,
     tet_boxes: &'s [Aabb],
     clusters: &'s [Aabb],
     node_clusters: &'s [u32],
@@ -81,90 +137,109 @@ pub struct RigidTets<'s> {
 }
 
 impl<'s> RigidTets<'s> {
-    /// Prepares `body` (at rest: its positions are the rest frame) with clusters of about
-    /// `cluster_edge` (the grid over the tets' bounds has `ceil(extent / cluster_edge)` cells
-    /// per axis; when `storage.clusters` cannot hold them the edge grows by half until it
-    /// can). Every tet box is grown by `margin`: rest-frame data only culls, and the margin
-    /// covers rounding of the moved positions and of the barycentric test (about a hundredth
-    /// of an edge; [`rigid_tets_over_points_coherent`] falls back to the plain walk for poses so
-    /// far from the origin that rounding could exceed it).
+    /// Prepares `body` (at rest: its positions are the rest frame) with a rest grid of cells
+    /// of about `grid_edge` and clusters of about `cluster_edge` (each grid over the tets'
+    /// bounds has `ceil(extent / edge)` cells per axis; when the storage cannot hold them the
+    /// edge grows by half until it can). Every tet box is grown by `margin`: rest-frame data
+    /// only culls, and the margin covers rounding of the moved positions and of the
+    /// barycentric test (about a hundredth of an edge; [`rigid_tets_over_points_coherent`]
+    /// falls back to the plain walk for poses so far from the origin that rounding could
+    /// exceed it).
     ///
     /// # Bounded work
-    /// O(T) for the boxes, the hash's rebuild (O(buckets + T + capacity)), O(T x clusters each
-    /// box meets) for the cluster boxes, O(`node_clusters.len()`) for the nodes' clusters, O(N)
-    /// to check that the bounds hold every node ([`RigidTets::moved_bounds`]).
-    /// Call it at set-up.
+    /// O(T) for the boxes, O(cells + T x cells each box meets) for each grid,
+    /// O(`node_clusters.len()`) for the nodes' clusters, O(N) to check that the bounds hold
+    /// every node ([`RigidTets::moved_bounds`]). Call it at set-up.
     ///
     /// # Errors
-    /// [`RigidError`]: short storage, a full rest hash, a bad size, or no finite tet.
+    /// [`RigidError`]: short storage, a full rest grid, a bad size, or no finite tet.
     pub fn build(
         body: &Body<'_, '_>,
         storage: RigidTetsStorage<'s>,
+        grid_edge: f32,
         cluster_edge: f32,
         margin: f32,
     ) -> Result<Self, RigidError> {
         let RigidTetsStorage {
-            mut hash,
+            grid_starts,
+            grid_tets,
             tet_boxes,
             clusters,
             node_clusters,
         } = storage;
         let nt = body.tet_count();
-        if tet_boxes.len() < nt || clusters.is_empty() {
+        if tet_boxes.len() < nt || clusters.is_empty() || grid_starts.len() < 2 {
             return Err(RigidError::Storage);
         }
-        let sizes_ok =
-            cluster_edge.is_finite() && cluster_edge > 0.0 && margin.is_finite() && margin > 0.0;
-        if !sizes_ok {
+        if !(margin.is_finite() && margin > 0.0) {
             return Err(RigidError::BadSize);
         }
-        let mut bounds = Aabb::of::<0>([]);
-        for (t, slot) in tet_boxes.iter_mut().enumerate().take(nt) {
-            *slot = match body.tet_positions(TetId::from_idx(t)) {
-                Some(c) if c.iter().all(|p| p.is_finite()) => {
-                    let b = Aabb::of(c).grown(margin);
-                    bounds = bounds.union(b);
-                    b
-                }
-                _ => Aabb::of::<0>([]),
-            };
-        }
-        if !(bounds.min.is_finite() && bounds.max.is_finite()) {
-            return Err(RigidError::Empty);
-        }
+        let bounds = grown_boxes(body, margin, tet_boxes)?;
         let boxes = &*tet_boxes;
         let usable = |t: usize| boxes.get(t).copied().filter(|b| b.min.x <= b.max.x);
-        if hash.rebuild(nt, usable).saturated {
-            return Err(RigidError::HashFull);
-        }
-
-        // The cluster grid: cells per axis from the edge, grown until they fit.
         let extent = bounds.max - bounds.min;
-        let mut edge = cluster_edge;
-        let dims = loop {
-            let d = [extent.x, extent.y, extent.z]
-                .map(|e| (libm::ceilf(e / edge) as i64).clamp(1, i32::MAX as i64));
-            let n = d.iter().fold(1u64, |a, &v| a.saturating_mul(v as u64));
-            if n <= clusters.len() as u64 {
-                break d.map(|v| v as i32);
-            }
-            edge *= 1.5;
-            if !edge.is_finite() {
-                return Err(RigidError::BadSize);
-            }
+
+        // The rest grid: count each cell's tets, prefix sums, fill in increasing tet order.
+        let (grid_dims, grid_inv) =
+            dense_dims(extent, grid_edge, grid_starts.len() - 1).ok_or(RigidError::BadSize)?;
+        let cells = grid_dims.iter().map(|&d| d as usize).product::<usize>();
+        let cell_range = |b: Aabb| {
+            (
+                dense_cell(bounds.min, grid_inv, grid_dims, b.min),
+                dense_cell(bounds.min, grid_inv, grid_dims, b.max),
+            )
         };
+        grid_starts.fill(0);
+        let mut total = 0usize;
+        for t in 0..nt {
+            let Some(b) = usable(t) else { continue };
+            let (lo, hi) = cell_range(b);
+            for_cells(lo, hi, |c| {
+                if let Some(s) = grid_starts.get_mut(dense_index(grid_dims, c) + 1) {
+                    *s += 1;
+                    total += 1;
+                }
+            });
+        }
+        if total > grid_tets.len() || total > u32::MAX as usize {
+            return Err(RigidError::GridFull);
+        }
+        for i in 0..cells {
+            grid_starts[i + 1] += grid_starts[i];
+        }
+        // Fill: `grid_starts[i]` is cell i's cursor, ending at cell i + 1's start...
+        for t in 0..nt {
+            let Some(b) = usable(t) else { continue };
+            let (lo, hi) = cell_range(b);
+            for_cells(lo, hi, |c| {
+                let i = dense_index(grid_dims, c);
+                if let Some(s) = grid_starts.get_mut(i) {
+                    if let Some(e) = grid_tets.get_mut(*s as usize) {
+                        *e = t as u32;
+                    }
+                    *s += 1;
+                }
+            });
+        }
+        // ...then shifted back by one cell.
+        for i in (1..=cells).rev() {
+            grid_starts[i] = grid_starts[i - 1];
+        }
+        grid_starts[0] = 0;
+
+        // The cluster grid.
+        let (dims, inv) =
+            dense_dims(extent, cluster_edge, clusters.len()).ok_or(RigidError::BadSize)?;
         let size = Vec3::new(
             extent.x / dims[0] as f32,
             extent.y / dims[1] as f32,
             extent.z / dims[2] as f32,
         );
-        let inv = Vec3::new(
-            if size.x > 0.0 { 1.0 / size.x } else { 0.0 },
-            if size.y > 0.0 { 1.0 / size.y } else { 0.0 },
-            if size.z > 0.0 { 1.0 / size.z } else { 0.0 },
-        );
         let mut rt = Self {
-            hash,
+            grid_starts: &[],
+            grid_tets: &[],
+            grid_dims,
+            grid_inv,
             tet_boxes: &[],
             clusters: &[],
             node_clusters: &[],
@@ -234,6 +309,8 @@ impl<'s> RigidTets<'s> {
                 }
             }
         }
+        rt.grid_starts = grid_starts;
+        rt.grid_tets = grid_tets;
         rt.tet_boxes = tet_boxes;
         rt.clusters = clusters;
         rt.node_clusters = node_clusters;
@@ -265,15 +342,40 @@ impl<'s> RigidTets<'s> {
     /// The cluster grid cell of a rest-frame point, clamped to the grid.
     #[inline]
     fn grid_cell(&self, q: Vec3) -> [i32; 3] {
-        let f = (q - self.bounds.min) * self.inv;
-        let c = crate::hash::cell_of(f, 1.0);
-        [0, 1, 2].map(|a| c[a].clamp(0, self.dims[a] - 1))
+        dense_cell(self.bounds.min, self.inv, self.dims, q)
     }
 
     #[inline]
     fn index(&self, c: [i32; 3]) -> usize {
-        c[0] as usize
-            + self.dims[0] as usize * (c[1] as usize + self.dims[1] as usize * c[2] as usize)
+        dense_index(self.dims, c)
+    }
+
+    /// Storage a rest grid of cells of about `grid_edge` needs for `body` with tet boxes grown
+    /// by `margin`: `(grid_starts, grid_tets)` lengths for [`RigidTetsStorage`] (`None` for a
+    /// bad size or no finite tet). `tet_boxes` is scratch of one box per tet.
+    ///
+    /// # Bounded work
+    /// O(T x cells each box meets). Call it at set-up.
+    pub fn grid_sizes(
+        body: &Body<'_, '_>,
+        grid_edge: f32,
+        margin: f32,
+        tet_boxes: &mut [Aabb],
+    ) -> Option<(usize, usize)> {
+        let bounds = grown_boxes(body, margin, tet_boxes).ok()?;
+        let extent = bounds.max - bounds.min;
+        let (dims, inv) = dense_dims(extent, grid_edge, i32::MAX as usize)?;
+        let cells = dims.iter().map(|&d| d as usize).product::<usize>();
+        let mut total = 0usize;
+        for b in tet_boxes.iter().take(body.tet_count()) {
+            if b.min.x > b.max.x {
+                continue;
+            }
+            let lo = dense_cell(bounds.min, inv, dims, b.min);
+            let hi = dense_cell(bounds.min, inv, dims, b.max);
+            for_cells(lo, hi, |_| total += 1);
+        }
+        Some((cells + 1, total))
     }
 
     /// The cluster whose cell holds rest-frame point `q` (`None` outside the tets' bounds:
@@ -285,13 +387,20 @@ impl<'s> RigidTets<'s> {
             .then(|| self.index(self.grid_cell(q)))
     }
 
-    /// The smallest tet holding world point `p` (rest-frame `q`): rest hash cell, grown box,
-    /// then the barycentric test on the moved corners of `body`.
+    /// The smallest tet holding world point `p` (rest-frame `q`): rest grid cell (its tets in
+    /// increasing id order), grown box, then the barycentric test on the moved corners of
+    /// `body`.
     fn locate(&self, q: Vec3, p: Vec3, body: &Body<'_, '_>, r: &mut CollideReport) -> TetId {
-        if !self.hash.bounds().contains(q) {
+        if !self.bounds.contains(q) {
             return TetId::NONE;
         }
-        for item in self.hash.items_in_cell_ascending(self.hash.cell_of(q)) {
+        let i = dense_index(
+            self.grid_dims,
+            dense_cell(self.bounds.min, self.grid_inv, self.grid_dims, q),
+        );
+        let lo = self.grid_starts.get(i).copied().unwrap_or(0) as usize;
+        let hi = self.grid_starts.get(i + 1).copied().unwrap_or(0) as usize;
+        for &item in self.grid_tets.get(lo..hi).unwrap_or(&[]) {
             if !self
                 .tet_boxes
                 .get(item as usize)
@@ -308,6 +417,48 @@ impl<'s> RigidTets<'s> {
             }
         }
         TetId::NONE
+    }
+}
+
+/// Writes each tet's box grown by `margin` (an inverted box for a tet without finite
+/// corners) and returns their union.
+fn grown_boxes(
+    body: &Body<'_, '_>,
+    margin: f32,
+    tet_boxes: &mut [Aabb],
+) -> Result<Aabb, RigidError> {
+    if tet_boxes.len() < body.tet_count() {
+        return Err(RigidError::Storage);
+    }
+    if !(margin.is_finite() && margin > 0.0) {
+        return Err(RigidError::BadSize);
+    }
+    let mut bounds = Aabb::of::<0>([]);
+    for (t, slot) in tet_boxes.iter_mut().enumerate().take(body.tet_count()) {
+        *slot = match body.tet_positions(TetId::from_idx(t)) {
+            Some(c) if c.iter().all(|p| p.is_finite()) => {
+                let b = Aabb::of(c).grown(margin);
+                bounds = bounds.union(b);
+                b
+            }
+            _ => Aabb::of::<0>([]),
+        };
+    }
+    if !(bounds.min.is_finite() && bounds.max.is_finite()) {
+        return Err(RigidError::Empty);
+    }
+    Ok(bounds)
+}
+
+/// Calls `f` on every cell from `lo` to `hi` (inclusive), x fastest.
+#[inline]
+fn for_cells<F: FnMut([i32; 3])>(lo: [i32; 3], hi: [i32; 3], mut f: F) {
+    for k in lo[2]..=hi[2] {
+        for j in lo[1]..=hi[1] {
+            for i in lo[0]..=hi[0] {
+                f([i, j, k]);
+            }
+        }
     }
 }
 
@@ -471,7 +622,7 @@ impl RigidTets<'_> {
 /// of at most
 /// [`MAX_CELLS_PER_TET`] cells of `points_hash`; per point met one transform and, for the
 /// points in the cluster's own cell, at most `b` candidate tets, for `b` the fullest cell of
-/// the rest hash; a binary search over `kept` entries and, once `out` is full, a heap step
+/// the rest grid; a binary search over `kept` entries and, once `out` is full, a heap step
 /// (O(log out.len())) per new hit; one sort of at most `out.len()` entries.
 #[allow(clippy::too_many_arguments)]
 pub fn rigid_tets_over_points_coherent(

@@ -16,17 +16,19 @@ macro_rules! rigid_scene {
         let $tool = tool_store.mesh();
         let mut obj_store = Store::<125, 384>::block(4, 0.25, $obj_origin);
         let $obj = obj_store.mesh();
-        let (mut rs, mut re) = ([0u32; 128], [HashEntry::default(); 4096]);
+        let (mut rs, mut re) = ([0u32; 128], [0u32; 4096]);
         let empty = crate::hash::Aabb::of::<0>([]);
         let (mut rb, mut rc, mut nc) = ([empty; 48], [empty; 64], [0u32; 27]);
         let $rest = RigidTets::build(
             &Body::fixed(&$tool),
             RigidTetsStorage {
-                hash: SpatialHash::new(&mut rs, &mut re, 0.1).unwrap(),
+                grid_starts: &mut rs,
+                grid_tets: &mut re,
                 tet_boxes: &mut rb,
                 clusters: &mut rc,
                 node_clusters: &mut nc,
             },
+            0.1,
             0.08,
             1e-4,
         )

@@ -1,14 +1,14 @@
 //! The tet-mesh tool (the pen): from the pen's pose to its force, in two halves.
 //!
 //! The contact pass ([`pen_pass`]): move the pen's nodes to the pose; pen nodes inside the
-//! object (object tets hashed once, only pen nodes in cells the object occupies looked up);
-//! object nodes inside the pen (object nodes hashed once, queried over the moved boxes of the
-//! pen's rest-frame clusters and looked up in the pen's tets hashed at rest); the consistent
-//! depth of both sets. The force: stiffness x (sum of the pen nodes' depth x direction - sum
-//! of the object nodes' depth x direction), optionally through the entry-plane remedy;
-//! damping; clamping; the displayed offset. [`pen_contact`] does both at one pose; a servo
-//! that runs faster than the pass takes the force from the last pass instead
-//! ([`super::pen_servo_force`]).
+//! object (object tets hashed or listed per grid cell once, only pen nodes in cells the object
+//! occupies looked up); object nodes inside the pen (object nodes hashed once, queried over
+//! the moved boxes of the pen's rest-frame clusters and looked up in the pen's rest grid of
+//! tets); the consistent depth of both sets. The force: stiffness x (sum of the pen nodes'
+//! depth x direction - sum of the object nodes' depth x direction), optionally through the
+//! entry-plane remedy; damping; clamping; the displayed offset. [`pen_contact`] does both at
+//! one pose; a servo that runs faster than the pass takes the force from the last pass
+//! instead ([`super::pen_servo_force`]).
 
 use glam::{Affine3A, Quat, Vec3};
 
@@ -33,7 +33,7 @@ pub struct PenScene<'s, 'm, 'a> {
     pub pen: &'m Mesh<'a>,
     /// The pen's node graph.
     pub pen_graph: NodeGraph<'s>,
-    /// The pen's tets hashed and clustered at rest ([`RigidTets::build`] over the pen at
+    /// The pen's tets gridded and clustered at rest ([`RigidTets::build`] over the pen at
     /// rest): object nodes are looked up in it.
     pub pen_rest: &'s RigidTets<'s>,
     /// The pen's boundary faces hashed at rest (only for [`DepthMethod::Hashed`]).
@@ -47,7 +47,8 @@ pub struct PenScene<'s, 'm, 'a> {
     /// The object's nodes hashed ([`SpatialHash::rebuild_points`]).
     pub object_nodes: &'s SpatialHash<'s>,
     /// Where the object's tets are ([`Occupancy::build`] over the object): pen nodes and pen
-    /// clusters away from it are not looked up.
+    /// clusters away from it are not looked up. With tet lists ([`Occupancy::with_tet_lists`])
+    /// pen nodes are looked up in them instead of `object_tets`.
     pub object_cells: &'s Occupancy<'s>,
     /// The object's boundary faces hashed (only for [`DepthMethod::Hashed`]).
     pub object_faces: Option<&'s SpatialHash<'s>>,

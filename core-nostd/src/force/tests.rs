@@ -157,17 +157,19 @@ fn pen_tick(
     let (mut ps, mut pe) = ([0u32; 32], [HashEntry::default(); 2048]);
     let mut ph = SpatialHash::new(&mut ps, &mut pe, 0.1).unwrap();
     hash_boundary_faces(&mut ph, &Body::fixed(&pen));
-    let (mut rs, mut re) = ([0u32; 64], [HashEntry::default(); 2048]);
+    let (mut rs, mut re) = ([0u32; 64], [0u32; 2048]);
     let (mut rb, mut rc) = ([Aabb::of::<0>([]); 48], [Aabb::of::<0>([]); 64]);
     let mut nc = [0u32; 27];
     let rest = RigidTets::build(
         &Body::fixed(&pen),
         RigidTetsStorage {
-            hash: SpatialHash::new(&mut rs, &mut re, 0.05).unwrap(),
+            grid_starts: &mut rs,
+            grid_tets: &mut re,
             tet_boxes: &mut rb,
             clusters: &mut rc,
             node_clusters: &mut nc,
         },
+        0.05,
         0.04,
         1e-4,
     )
