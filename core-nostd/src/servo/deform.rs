@@ -186,6 +186,7 @@ impl<'a> World<'a> {
         if built.saturated {
             self.sat.hash += 1;
         }
+        self.zone_memo.forget();
         built
     }
 }

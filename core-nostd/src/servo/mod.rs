@@ -17,7 +17,8 @@
 //!
 //! Files: this one holds the [`World`], its storage, sizes, errors and accessors;
 //! `simulate.rs` the simulation step ([`World::simulate`], [`World::simulate_spheres`] and the
-//! contact update), `force.rs` [`servo_force`], `passive.rs` a drill's shaft (its passive
+//! contact update), `zone_memo.rs` the step's candidate tets on a small mesh without a hash
+//! scan, `force.rs` [`servo_force`], `passive.rs` a drill's shaft (its passive
 //! points tracked by [`World::simulate_drill`], the force at the handle [`drill_force`]); the
 //! unit tests of [`servo_force`] are in `tests.rs`.
 
@@ -39,6 +40,7 @@ mod passive;
 mod simulate;
 #[cfg(test)]
 mod tests;
+mod zone_memo;
 
 pub use deform::{DeformError, DeformReport};
 pub use force::servo_force;
@@ -201,6 +203,9 @@ pub struct SimReport {
     /// The candidate list filled up, or the zone covered more than [`World::max_cells`]
     /// cells (tets were left out of this step; counted).
     pub candidates_saturated: bool,
+    /// The candidates came from the zone memo (a small mesh's tets gathered near the burr
+    /// over steps, `zone_memo.rs`) rather than from a hash scan: the same list either way.
+    pub candidates_memo: bool,
 }
 
 /// Saturation counters of a [`World`], by kind.
@@ -263,6 +268,8 @@ pub struct World<'a> {
     press: (f32, f32),
     /// The coarse tet under the last contact, if any.
     contact_tet: Option<TetId>,
+    /// The last one-shot zone query's hash scan, kept while the zone stays in its cells.
+    zone_memo: zone_memo::ZoneMemo,
 }
 
 /// Default bound on the hash cells one step's zone query visits ([`World::set_max_cells`]):
@@ -341,6 +348,7 @@ impl<'a> World<'a> {
             spacing: Spacing::new(),
             press: (0.0, 0.0),
             contact_tet: None,
+            zone_memo: zone_memo::ZoneMemo::new(),
         })
     }
 
