@@ -69,10 +69,10 @@ impl Side {
 #[derive(Clone, Debug)]
 pub(super) struct ZoneMemo {
     sides: [Side; 2],
-    /// Per side, the tets gathered, in the order the hash reported them.
+    /// Per side, the tets gathered, in descending order.
     tets: [[u32; MEMO_TETS]; 2],
-    /// Per side, each tet's reporting cell clamped to the side's lowest cell, relative to it:
-    /// one byte an axis (x lowest).
+    /// Per side, the lowest cell of each tet's box clamped to the side's lowest cell,
+    /// relative to it: one byte an axis (x lowest).
     cells: [[u32; MEMO_TETS]; 2],
     /// The side that serves, if any.
     serve: Option<usize>,
