@@ -355,6 +355,13 @@ fn candidates_are_the_tets_whose_box_meets_the_zone_with_or_without_stored_boxes
         let b = twin.simulate(c, radius, reach, on, &params);
         assert_eq!(world.candidates(), twin.candidates(), "step {step}");
         assert_eq!(world.contact(), twin.contact(), "step {step}");
+        // The same report, but for where the candidates came from (the twin has no stored
+        // boxes, so no zone memo).
+        assert!(!b.candidates_memo);
+        let a = tetradrill_core::servo::SimReport {
+            candidates_memo: false,
+            ..a
+        };
         assert_eq!(a, b, "step {step}");
         if !on {
             let zone = Aabb::point(c).grown(radius + reach);

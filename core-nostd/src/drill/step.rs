@@ -9,8 +9,8 @@ use super::material::{Regions, Spend};
 use super::sphere::{classify_costed, Class, Sphere};
 use crate::geom::tri_area;
 use crate::hierarchy::{
-    child_of_refinement, child_of_ten, refinement_points, Crumbs, Hierarchy, HierarchyError, Path,
-    RootFrame, MAX_DEPTH,
+    child_of_refinement, child_of_ten, refinement_points, refinement_points_masked, Crumbs,
+    Hierarchy, HierarchyError, Path, RootFrame, ALL_POINTS, MAX_DEPTH,
 };
 use crate::ids::TetId;
 use crate::mesh::template::FACE_VERTS;
@@ -135,6 +135,15 @@ struct Parent {
     pts: [Vec3; 10],
 }
 
+impl Parent {
+    /// No node ([`TetId::NONE`] matches no item).
+    const EMPTY: Self = Self {
+        tet: TetId::NONE,
+        index: 0,
+        pts: [Vec3::ZERO; 10],
+    };
+}
+
 /// The ten points of a node's refinement: integer barycentric rows and positions.
 type Ten = ([u64; 10], [Vec3; 10]);
 
@@ -197,8 +206,10 @@ pub struct Drill<'a> {
     /// The root frame of the last tet processed (items come tree by tree).
     frame: Option<(TetId, RootFrame)>,
     /// Per depth, the last node whose children were queued and the ten points of its
-    /// refinement (see [`Drill::corners`]).
-    parents: [Option<Parent>; MAX_DEPTH],
+    /// refinement (see [`Drill::corners`]); [`Parent::EMPTY`] for none. Written in place:
+    /// the ten points are evaluated into their entry, not copied there (on the Cortex-M4 a
+    /// copy of the 120 bytes is a call to `memcpy`).
+    parents: [Parent; MAX_DEPTH],
     retry: bool,
     saturations: u32,
     /// The materials per region, if set ([`Drill::set_regions`]).
@@ -230,7 +241,7 @@ impl<'a> Drill<'a> {
             swept_count: 0,
             swept_lag: 0,
             frame: None,
-            parents: [None; MAX_DEPTH],
+            parents: [Parent::EMPTY; MAX_DEPTH],
             retry: false,
             saturations: 0,
             regions: None,
@@ -263,7 +274,7 @@ impl<'a> Drill<'a> {
         self.swept_len = 0;
         self.swept_next = 0;
         self.frame = None;
-        self.parents = [None; MAX_DEPTH];
+        self.parents = [Parent::EMPTY; MAX_DEPTH];
         self.stalled = false;
         self.crumbs.clear();
     }
@@ -302,7 +313,7 @@ impl<'a> Drill<'a> {
     fn corners(&self, frame: &RootFrame, item: &Pending, depth: u8) -> [Vec3; 4] {
         if depth > 0 {
             let parent = (item.index - 1) / 8;
-            if let Some(Some(q)) = self.parents.get(depth as usize - 1) {
+            if let Some(q) = self.parents.get(depth as usize - 1) {
                 if q.tet == item.tet && q.index == parent {
                     let c = ((item.index - 1) % 8) as u8;
                     return child_of_ten(&q.pts, c);
@@ -754,38 +765,77 @@ impl<'a> Drill<'a> {
         };
         let epoch = epoch_of(h);
         // Points from the last level's child test were counted there.
-        let (rows, pts) = ten.unwrap_or_else(|| {
+        if ten.is_none() {
             rep.expanded += 1;
             rep.work = rep.work.saturating_add(WorkCost::EXPANDED);
-            refinement_points(frame, &item.bary, depth)
-        });
-        if let Some(slot) = self.parents.get_mut(depth as usize) {
-            *slot = Some(Parent {
-                tet: item.tet,
-                index: item.index,
-                pts,
-            });
         }
-        for c in (0..8u8).rev() {
-            // A child wholly outside the sphere, or with nothing left to erase, would be
-            // dropped when taken: it is not queued.
-            let gone = h.node(first + c as u32).is_none_or(|n| n.all_erased());
-            if gone || classify_charged(child_of_ten(&pts, c), &item.sphere, rep) == Class::Outside
-            {
-                continue;
+        let ring = match pass {
+            Pass::Coarse => &mut self.coarse,
+            Pass::Fine => &mut self.fine,
+        };
+        match self.parents.get_mut(depth as usize) {
+            Some(slot) => {
+                slot.tet = item.tet;
+                slot.index = item.index;
+                let rows = match ten {
+                    Some((rows, pts)) => {
+                        slot.pts = pts;
+                        rows
+                    }
+                    None => {
+                        let mut rows = [0; 10];
+                        refinement_points_masked(
+                            frame,
+                            &item.bary,
+                            depth,
+                            ALL_POINTS,
+                            &mut rows,
+                            &mut slot.pts,
+                        );
+                        rows
+                    }
+                };
+                queue_eight(ring, h, &item, first, epoch, (&rows, &slot.pts), rep);
             }
-            let next = Pending {
-                tet: item.tet,
-                index: item.index * 8 + 1 + c as u32,
-                node: first + c as u32,
-                bary: child_of_refinement(&rows, &pts, c).0,
-                epoch,
-                ..item
-            };
-            let _ = match pass {
-                Pass::Coarse => self.coarse.push_front(next),
-                Pass::Fine => self.fine.push_front(next),
-            };
+            None => {
+                let (rows, pts) =
+                    ten.unwrap_or_else(|| refinement_points(frame, &item.bary, depth));
+                queue_eight(ring, h, &item, first, epoch, (&rows, &pts), rep);
+            }
         }
+    }
+}
+
+/// Queues the children of `item` (the eight nodes from `first`) that are not erased and
+/// not wholly outside its sphere, at the front of `ring`, the last child first; `ten`: the
+/// rows and points of `item`'s refinement.
+///
+/// # Bounded work
+/// Constant: eight node look-ups and up to eight classifications.
+fn queue_eight(
+    ring: &mut Ring<'_>,
+    h: &Hierarchy<'_>,
+    item: &Pending,
+    first: u32,
+    epoch: u32,
+    (rows, pts): (&[u64; 10], &[Vec3; 10]),
+    rep: &mut DrillReport,
+) {
+    for c in (0..8u8).rev() {
+        // A child wholly outside the sphere, or with nothing left to erase, would be
+        // dropped when taken: it is not queued.
+        let gone = h.node(first + c as u32).is_none_or(|n| n.all_erased());
+        if gone || classify_charged(child_of_ten(pts, c), &item.sphere, rep) == Class::Outside {
+            continue;
+        }
+        let next = Pending {
+            tet: item.tet,
+            index: item.index * 8 + 1 + c as u32,
+            node: first + c as u32,
+            bary: child_of_refinement(rows, pts, c).0,
+            epoch,
+            ..*item
+        };
+        let _ = ring.push_front(next);
     }
 }

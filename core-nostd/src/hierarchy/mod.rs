@@ -49,7 +49,10 @@ pub use crumbs::{
     CrumbStats, CrumbWork, Crumbs, CRUMB_FILL, CRUMB_KNOWN, CRUMB_SEEDS, CRUMB_STARTS,
 };
 pub use debris::{DebrisReport, DEBRIS_LEAVES};
-pub(crate) use geometry::{child_of_refinement, child_of_ten, refinement_points, RootFrame};
+pub(crate) use geometry::{
+    child_of_refinement, child_of_ten, refinement_points, refinement_points_masked, RootFrame,
+    ALL_POINTS,
+};
 pub use geometry::{node_positions, node_volume};
 pub use memo::{SphereMemo, SphereSlot};
 pub use nearest::{keep_face, FaceRef, Kept, Nearest, NearestCursor, NearestQuery, KEEP};

@@ -269,14 +269,11 @@ fn visit_face_subtree<C: TreeRead, F: FnMut(&mut C, Met) -> bool>(
     work: &mut u32,
     f: &mut F,
 ) -> Side {
-    let mut stack = [(0u32, 0u32, 0u8, 0u8); STACK];
-    stack[0] = start;
-    let mut top = 1usize;
-    while top > 0 {
-        top -= 1;
-        let Some(&(r, index, g, depth)) = stack.get(top) else {
-            break;
-        };
+    // A heapless stack, left uninitialised: an initialised array of `STACK` entries was a
+    // 384-byte clear on every call of an erasure's or a crumb check's visits.
+    let mut stack: heapless::Vec<(u32, u32, u8, u8), STACK> = heapless::Vec::new();
+    let _ = stack.push(start);
+    while let Some((r, index, g, depth)) = stack.pop() {
         *work = work.saturating_add(1);
         let Some(node) = ctx.tree_node(r) else {
             continue;
@@ -296,9 +293,9 @@ fn visit_face_subtree<C: TreeRead, F: FnMut(&mut C, Met) -> bool>(
             continue;
         }
         for (c, g2, _) in FACE_SUB[(g & 3) as usize] {
-            if let (Some(ch), Some(slot)) = (ctx.tree_child(r, c), stack.get_mut(top)) {
-                *slot = (ch, index * 8 + 1 + c as u32, g2, depth + 1);
-                top += 1;
+            if let Some(ch) = ctx.tree_child(r, c) {
+                // A full stack drops the child, as the bound above says it never is.
+                let _ = stack.push((ch, index * 8 + 1 + c as u32, g2, depth + 1));
             }
         }
     }

@@ -11,7 +11,7 @@
 //! - the contact search's caches: the sphere memo is emptied, the resume place forgets the
 //!   nodes it measured (its tree starts again from the root), the kept faces are measured
 //!   again at the new positions (those no longer visible are dropped); a candidate gather
-//!   spread over steps ([`World::set_zone_gather`]) forgets its lists and gathers afresh;
+//!   spread over steps ([`World::set_zone_gather`]) and the zone memo forget their lists and gather afresh;
 //! - the contact plane and the candidate list stay the last step's until the next
 //!   [`World::simulate`], which finds both again on the new positions;
 //! - removed volumes are measured in the rest state ([`Mesh::set_rest`]): a leaf's volume is
@@ -170,8 +170,8 @@ impl<'a> World<'a> {
     }
 
     /// What follows a move once positions, normals, boxes and hash are new: the sphere memo
-    /// emptied, the resume place's tree restarted, a candidate gather's lists forgotten, the
-    /// kept faces measured again. Returns the kept faces.
+    /// emptied, the resume place's tree restarted, a candidate gather's lists and the zone
+    /// memo forgotten, the kept faces measured again. Returns the kept faces.
     ///
     /// # Bounded work
     /// O(memo slots) plus O([`crate::hierarchy::KEEP`] x depth).
@@ -182,6 +182,8 @@ impl<'a> World<'a> {
         if let Some(z) = self.zone.as_mut() {
             z.forget();
         }
+        // So does the zone memo's: its lists were cut from the old boxes.
+        self.zone_memo.forget();
         let centre = self.contact.centre;
         let mut kept = Kept::new();
         for &(_, t) in &self.kept {

@@ -19,7 +19,8 @@
 //!
 //! Files: this one holds the [`World`], its storage, sizes, errors and accessors;
 //! `simulate.rs` the simulation step ([`World::simulate`], [`World::simulate_spheres`] and the
-//! contact update), `force.rs` [`servo_force`], `passive.rs` a drill's shaft (its passive
+//! contact update), `zone_memo.rs` the step's candidate tets on a small mesh without a hash
+//! scan, `force.rs` [`servo_force`], `passive.rs` a drill's shaft (its passive
 //! points tracked by [`World::simulate_drill`], the force at the handle [`drill_force`]); the
 //! unit tests of [`servo_force`] are in `tests.rs`.
 
@@ -41,6 +42,7 @@ mod passive;
 mod simulate;
 #[cfg(test)]
 mod tests;
+mod zone_memo;
 
 pub use deform::{
     DeformError, DeformReport, Prepared, SpareStorage, PREP_BOX_UNITS, PREP_FACE_UNITS,
@@ -206,6 +208,9 @@ pub struct SimReport {
     /// The candidate list filled up, or the zone covered more than [`World::max_cells`]
     /// cells (tets were left out of this step; counted).
     pub candidates_saturated: bool,
+    /// The candidates came from the zone memo (a small mesh's tets gathered near the burr
+    /// over steps, `zone_memo.rs`) rather than from a hash scan: the same list either way.
+    pub candidates_memo: bool,
 }
 
 /// Saturation counters of a [`World`], by kind.
@@ -270,6 +275,8 @@ pub struct World<'a> {
     contact_tet: Option<TetId>,
     /// The spare storage of a spread position update ([`World::set_spare`]).
     spare: Option<deform::Spare<'a>>,
+    /// The last one-shot zone query's hash scan, kept while the zone stays in its cells.
+    zone_memo: zone_memo::ZoneMemo,
 }
 
 /// Default bound on the hash cells one step's zone query visits ([`World::set_max_cells`]):
@@ -349,6 +356,7 @@ impl<'a> World<'a> {
             press: (0.0, 0.0),
             contact_tet: None,
             spare: None,
+            zone_memo: zone_memo::ZoneMemo::new(),
         })
     }
 

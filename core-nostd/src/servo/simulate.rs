@@ -3,6 +3,7 @@
 
 use glam::Vec3;
 
+use super::zone_memo::MEMO_MAX_TETS;
 use super::{ContactState, SimReport, World, CONTACT_NODE_UNITS};
 use crate::collide::ZoneGather;
 use crate::drill::{DrillParams, Sphere, MAX_STEP_SPHERES};
@@ -119,7 +120,7 @@ impl World<'_> {
                 rep.candidates = list.len as u32;
                 m
             }
-            None => self.query_zone(&zone, &tight, &mut rep),
+            None => self.query_zone(&zone, &tight, radius, &mut rep),
         };
         // The regions earn their erosion credit from the servo's force (one unit of work
         // per rate-limited region, charged to the drill).
@@ -150,14 +151,23 @@ impl World<'_> {
     }
 
     /// The one-shot candidate query of [`World::simulate_spheres`]: the tets whose boxes meet
-    /// `zone`, those meeting `tight` first; returns how many meet `tight`.
+    /// `zone`, those meeting `tight` first; returns how many meet `tight`. The tets come from
+    /// the zone memo (`zone_memo.rs`, gathered around the zone over steps, a box `radius / 2`
+    /// wider) in the hash query's order when it serves the zone, from the hash otherwise.
     #[inline(always)]
-    fn query_zone(&mut self, zone: &Aabb, tight: &Aabb, rep: &mut SimReport) -> usize {
+    fn query_zone(&mut self, zone: &Aabb, tight: &Aabb, radius: f32, rep: &mut SimReport) -> usize {
         let zone = *zone;
         let tight = *tight;
         self.cand_at = 0;
-        let (cands, mesh, hash, boxes) =
-            (&mut *self.candidates, &self.mesh, &self.hash, &self.boxes);
+        let max_cells = self.max_cells;
+        let hash_complete = self.sat.hash == 0;
+        let (cands, mesh, hash, boxes, memo) = (
+            &mut *self.candidates,
+            &self.mesh,
+            &self.hash,
+            &*self.boxes,
+            &mut self.zone_memo,
+        );
         // Each tet once (in the first cell of the query that holds it), and only when its box
         // meets the zone. The tets that meet the burr itself (`tight`: the drill works on
         // those only) fill the list from the front, the others from the back; both keep the
@@ -165,21 +175,8 @@ impl World<'_> {
         let cap = cands.len();
         let (mut m, mut back) = (0usize, 0usize);
         let mut full = false;
-        let visited = hash.query_box_once(&zone, self.max_cells, |item| {
-            let t = TetId(item);
-            if full || t.idx() >= mesh.tet_count() {
-                return;
-            }
-            // The stored box, or the same box from the corners (the mesh's positions are
-            // finite, so both tests agree).
-            let (in_zone, near) = match boxes.get(t.idx()) {
-                Some(b) => (b.overlaps(&zone), b.overlaps(&tight)),
-                None => {
-                    let p = mesh.tet_positions(t);
-                    (zone.overlaps_points(&p), tight.overlaps_points(&p))
-                }
-            };
-            if !in_zone {
+        let mut place = |t: TetId, near: bool| {
+            if full {
                 return;
             }
             if m + back == cap {
@@ -196,7 +193,53 @@ impl World<'_> {
             if let Some(c) = cands.get_mut(slot) {
                 *c = t;
             }
-        });
+        };
+        // The memo needs every tet hashed, with its stored box, and a small mesh.
+        let tets = mesh.tet_count();
+        let served = if boxes.len() >= tets && tets <= MEMO_MAX_TETS && hash_complete {
+            memo.prepare(&zone, 0.5 * radius, hash, boxes, tets, max_cells)
+                .and_then(|s| memo.ordered(s, &zone, hash, boxes, max_cells))
+        } else {
+            None
+        };
+        let visited = match served {
+            Some(keys) => {
+                rep.candidates_memo = true;
+                for &item in keys {
+                    let t = TetId(item);
+                    let near = boxes.get(t.idx()).is_some_and(|b| b.overlaps(&tight));
+                    place(t, near);
+                }
+                true
+            }
+            None => {
+                hash.query_box_once(&zone, max_cells, |item| {
+                    let t = TetId(item);
+                    if t.idx() >= mesh.tet_count() {
+                        return;
+                    }
+                    // The stored box, or the same box from the corners (the mesh's positions
+                    // are finite, so both tests agree); the burr's box only for a tet in the
+                    // zone.
+                    let near = match boxes.get(t.idx()) {
+                        Some(b) => {
+                            if !b.overlaps(&zone) {
+                                return;
+                            }
+                            b.overlaps(&tight)
+                        }
+                        None => {
+                            let p = mesh.tet_positions(t);
+                            if !zone.overlaps_points(&p) {
+                                return;
+                            }
+                            tight.overlaps_points(&p)
+                        }
+                    };
+                    place(t, near);
+                })
+            }
+        };
         // The others next to the burr's, moved down from the back (`m + back <= cap`) and put
         // back in the order found. No sort: the query reports the tets cell by cell (x
         // fastest) and in tet order within a cell, an order that depends on the mesh and the
