@@ -1,9 +1,12 @@
 #!/usr/bin/env python3
 """An independent XPBD step in numpy, as a check on the core's soft body (docs/SOFT.md).
 
-Written from Macklin, Mueller and Chentanez 2016 (XPBD), Macklin and Mueller 2021 (the stable
-neo-Hookean energy as a deviatoric and a hydrostatic constraint per tet, projected together as
-one 2x2 system) and docs/SOFT.md's step, in float64 (or float32 with --float32). The tets are split into colours (no two
+Written from Macklin, Mueller and Chentanez 2016 (XPBD), docs/SOFT.md's energy (per tet
+V (mu |dev E|^2 + K/2 (det F - 1)^2), E the Green strain, K the bulk modulus) as a deviatoric
+constraint |dev E| and a volumetric one det F - 1, projected together as one 2x2 system (as
+Macklin and Mueller 2021 do for theirs), and docs/SOFT.md's step, in float64 (or float32 with
+--float32). Both constraints are evaluated from the displacement gradient H = F - I: the Green
+strain as (H + H^T + H^T H) / 2 and det F - 1 from the invariants of H, I1 + I2 + I3. The tets are split into colours (no two
 tets of a colour share a node) and each colour is projected at once, vectorised: that is a
 Gauss-Seidel sweep in colour order, a different order from the core's (tets in file order), so
 the two agree to a tolerance, not bit for bit.
@@ -163,10 +166,10 @@ class Body:
         self.dm_inv_t = self.dm_inv.transpose(0, 2, 1)
         mu = YOUNG / (2.0 * (1.0 + POISSON))
         lam = YOUNG * POISSON / ((1.0 + POISSON) * (1.0 - 2.0 * POISSON))
-        kappa = lam + mu
-        self.alpha_d = 1.0 / (mu * vol)
-        self.alpha_h = 1.0 / (kappa * vol)
-        self.gamma = 1.0 + mu / kappa
+        bulk = lam + 2.0 * mu / 3.0
+        # Energy C^2 / (2 alpha): mu |dev E|^2 and K/2 (det F - 1)^2, per rest volume.
+        self.alpha_d = 1.0 / (2.0 * mu * vol)
+        self.alpha_h = 1.0 / (bulk * vol)
         n = len(x)
         mass = np.zeros(n)
         np.add.at(mass, tets.ravel(), np.repeat(DENSITY * vol / 4.0, 4))
@@ -183,7 +186,6 @@ class Body:
         self.dm_inv_t = self.dm_inv_t.astype(dtype)
         self.alpha_d = self.alpha_d.astype(dtype)
         self.alpha_h = self.alpha_h.astype(dtype)
-        self.gamma = dtype(self.gamma)
         self.w = self.w.astype(dtype)
         self.eye = np.eye(3, dtype=dtype)
         self.gravity = GRAVITY.astype(dtype)
@@ -194,12 +196,23 @@ class Body:
         """One coupled projection of every tet of colour c (index array) at once."""
         t = self.tets[c]
         w = self.w[t]  # (k, 4)
-        f = self.eye + columns(self.u[t]) @ self.dm_inv[c]
-        c_d = np.sqrt(np.einsum("kij,kij->k", f, f))
-        p_d = f / np.where(c_d > 0.0, c_d, 1.0)[:, None, None]
+        h = columns(self.u[t]) @ self.dm_inv[c]  # displacement gradient, F = I + H
+        ht = h.transpose(0, 2, 1)
+        strain = 0.5 * (h + ht + ht @ h)  # Green strain (F^T F - I) / 2
+        mean = np.trace(strain, axis1=1, axis2=2) / 3.0
+        dev = strain - mean[:, None, None] * self.eye
+        c_d = np.sqrt(np.einsum("kij,kij->k", dev, dev))
+        f = self.eye + h
+        # d|dev E|/dF = F dev E / |dev E| (dev E symmetric and traceless).
+        p_d = (f @ dev) / np.where(c_d > 0.0, c_d, 1.0)[:, None, None]
+        # det(I + H) - 1 = I1 + I2 + I3, the invariants of H.
+        i1 = np.trace(h, axis1=1, axis2=2)
+        i2 = 0.5 * (i1 * i1 - np.trace(h @ h, axis1=1, axis2=2))
+        i3 = np.linalg.det(h)
+        c_h = i1 + i2 + i3
+        # d det F / dF = cof F: its columns are the cross products of F's other columns.
         f0, f1, f2 = f[:, :, 0], f[:, :, 1], f[:, :, 2]
         p_h = np.stack([np.cross(f1, f2), np.cross(f2, f0), np.cross(f0, f1)], axis=2)
-        c_h = np.einsum("ki,ki->k", f0, np.cross(f1, f2)) - self.gamma
 
         def grads(p):
             g = (p @ self.dm_inv_t[c]).transpose(0, 2, 1)  # rows: corners 1..3

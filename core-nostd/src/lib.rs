@@ -19,7 +19,7 @@
 //! | [`drill`]     | budgeted erosion by tool sample spheres, materials per region         |
 //! | [`force`]     | tool forces, damping, clamping, displayed pose, passivity (energy)   |
 //! | [`servo`]     | the per-tick servo step that ties the above together                 |
-//! | [`soft`]      | reference soft-body physics (XPBD stable Neo-Hookean), fixed nodes, loads |
+//! | [`soft`]      | reference soft-body physics (XPBD, Green strain), fixed nodes, loads |
 //! | [`script`]    | scripted tool paths shared bit for bit by the host and the firmware  |
 //!
 //! Rules that hold everywhere: no heap, no `unsafe`, no panics on the servo path; every

@@ -1,5 +1,5 @@
-//! Materials: Young's modulus, Poisson ratio and density, and the XPBD compliances of the
-//! stable Neo-Hookean constraints derived from them.
+//! Materials: Young's modulus, Poisson ratio and density, and the elastic constants the
+//! XPBD constraints' compliances are derived from.
 
 use core::fmt;
 
@@ -42,18 +42,19 @@ pub const MAX_POISSON: f32 = 0.49;
 
 /// The per-volume constants the solver uses for one material.
 ///
-/// The stable Neo-Hookean energy density (Macklin and Mueller 2021, after Smith, de Goes and
-/// Kim 2018) is `psi = mu/2 tr(F^T F) + lam/2 (det F - gamma)^2` with `gamma = 1 + mu/lam`.
-/// Linearised at `F = I` it is linear elasticity with Lamé constants `(mu, lam - mu)`, so
-/// `lam` here is the Lamé `lambda` plus `mu`: that choice makes small strains match
-/// Hooke's law for the given `E` and `nu` (docs/SOFT.md has the derivation).
+/// The tets' energy density is `mu |dev E|^2 + K/2 (det F - 1)^2` (`E` the Green strain),
+/// with the bulk modulus `K = lambda + 2 mu / 3 = hydro - mu / 3`; linearised at `F = I` it
+/// is linear elasticity with Lamé constants `(mu, lambda)` (docs/SOFT.md has the
+/// derivation). `hydro` and `gamma` are the constants of the stable neo-Hookean form
+/// `mu/2 tr(F^T F) + hydro/2 (det F - gamma)^2` (Macklin and Mueller 2021), whose
+/// linearisation is the same.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Lame {
     /// Shear modulus `mu = E / (2 (1 + nu))`.
     pub mu: f32,
     /// The hydrostatic stiffness `lambda + mu`, with Lamé `lambda = E nu / ((1 + nu)(1 - 2 nu))`.
     pub hydro: f32,
-    /// Rest value of `det F` in the hydrostatic constraint: `1 + mu / hydro`.
+    /// Rest value of `det F` in the stable neo-Hookean form: `1 + mu / hydro`.
     pub gamma: f32,
 }
 

@@ -1,6 +1,6 @@
-//! Reference soft-body physics on a tet mesh: XPBD with the stable Neo-Hookean energy split
-//! into a deviatoric and a hydrostatic constraint per tet (Macklin and Mueller 2021), solved
-//! as one 2x2 system per tet, with fixed nodes, gravity, damping and external node forces.
+//! Reference soft-body physics on a tet mesh: XPBD with a deviatoric constraint on the Green
+//! strain and a volumetric one on `det F - 1` per tet, both zero at rest, solved as one 2x2
+//! system per tet, with fixed nodes, gravity, damping and external node forces.
 //!
 //! A [`SoftBody`] borrows the rest positions and tets ([`SoftMesh`]) and the caller's
 //! storage ([`SoftStorage`]); [`SoftBody::step`] advances it by `dt` in a fixed number of

@@ -1,5 +1,6 @@
-//! Per-tet rest data and the coupled projection of a tet's two stable Neo-Hookean constraints
-//! (deviatoric and hydrostatic), solved together as one 2x2 system.
+//! Per-tet rest data and the coupled projection of a tet's two constraints, a deviatoric one
+//! on the Green strain and a volumetric one on `det F - 1`, both zero at rest and formed from
+//! the displacement gradient, solved together as one 2x2 system.
 
 use glam::{Mat3, Vec3};
 
@@ -14,11 +15,12 @@ pub struct TetRest {
     pub inv_dm: Mat3,
     /// Rest volume.
     pub volume: f32,
-    /// Compliance of the deviatoric constraint: `1 / (mu V)`.
+    /// Compliance of the deviatoric constraint `|dev E|`: `1 / (2 mu V)`.
     pub alpha_dev: f32,
-    /// Compliance of the hydrostatic constraint: `1 / ((lambda + mu) V)`.
+    /// Compliance of the volumetric constraint `det F - gamma`: `1 / (K V)`, `K = lambda +
+    /// 2 mu / 3` the bulk modulus.
     pub alpha_hydro: f32,
-    /// Rest value of `det F` in the hydrostatic constraint ([`Lame::gamma`]).
+    /// Rest value of `det F` in the volumetric constraint: 1 (the rest shape).
     pub gamma: f32,
 }
 
@@ -71,60 +73,83 @@ impl TetRest {
         }
         let volume = (det / 6.0) as f32;
         let v = volume as f64;
+        let mu = lame.mu as f64;
+        // `hydro` is Lamé lambda + mu, so the bulk modulus lambda + 2 mu / 3 is hydro - mu / 3.
+        let bulk = lame.hydro as f64 - mu / 3.0;
         Some(Self {
             inv_dm,
             volume,
-            alpha_dev: (1.0 / (lame.mu as f64 * v)) as f32,
-            alpha_hydro: (1.0 / (lame.hydro as f64 * v)) as f32,
-            gamma: lame.gamma,
+            alpha_dev: (1.0 / (2.0 * mu * v)) as f32,
+            alpha_hydro: (1.0 / (bulk * v)) as f32,
+            gamma: 1.0,
         })
     }
 
-    /// The deformation gradient `F = I + [u1 - u0, u2 - u0, u3 - u0] Dm^-1` from the corner
-    /// displacements `u` (displacements rather than positions keep small strains exact in
-    /// f32 far from the origin).
+    /// The displacement gradient `H = F - I = [u1 - u0, u2 - u0, u3 - u0] Dm^-1` from the
+    /// corner displacements `u` (formed without the identity, so small strains keep their
+    /// f32 precision whatever their size).
+    #[inline]
+    pub fn displacement_gradient(&self, u: [Vec3; 4]) -> Mat3 {
+        let us = Mat3::from_cols(u[1] - u[0], u[2] - u[0], u[3] - u[0]);
+        us * self.inv_dm
+    }
+
+    /// The deformation gradient `F = I + H` ([`Self::displacement_gradient`]).
     #[inline]
     pub fn deformation(&self, u: [Vec3; 4]) -> Mat3 {
-        let us = Mat3::from_cols(u[1] - u[0], u[2] - u[0], u[3] - u[0]);
-        Mat3::IDENTITY + us * self.inv_dm
+        Mat3::IDENTITY + self.displacement_gradient(u)
     }
 
     /// Elastic energy of the tet at corner displacements `u`, zero at rest:
-    /// `V (mu/2 (tr F^T F - 3) + (lambda + mu)/2 ((det F - gamma)^2 - (1 - gamma)^2))`, in f64.
+    /// `V (mu |dev E|^2 + K/2 (det F - 1)^2)` with `E = (F^T F - I) / 2` the Green strain,
+    /// that is `C_D^2 / (2 alpha_dev) + C_H^2 / (2 alpha_hydro)`, in f64.
     ///
     /// # Bounded work
     /// Constant.
     pub fn energy(&self, u: [Vec3; 4]) -> f64 {
-        let f = self.deformation(u);
-        let [a, b, c] =
-            [f.x_axis, f.y_axis, f.z_axis].map(|v| [v.x as f64, v.y as f64, v.z as f64]);
-        let d = |p: [f64; 3], q: [f64; 3]| p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
-        let frob = d(a, a) + d(b, b) + d(c, c);
-        let cross = [
-            b[1] * c[2] - b[2] * c[1],
-            b[2] * c[0] - b[0] * c[2],
-            b[0] * c[1] - b[1] * c[0],
-        ];
-        let det = d(a, cross);
-        let v = self.volume as f64;
-        let mu = 1.0 / (self.alpha_dev as f64 * v);
-        let hydro = 1.0 / (self.alpha_hydro as f64 * v);
-        let g = self.gamma as f64;
-        v * (0.5 * mu * (frob - 3.0)
-            + 0.5 * hydro * ((det - g) * (det - g) - (1.0 - g) * (1.0 - g)))
+        let h = self.displacement_gradient(u);
+        let h = [h.x_axis, h.y_axis, h.z_axis].map(|c| [c.x as f64, c.y as f64, c.z as f64]);
+        // h[j][i] is row i, column j.
+        let at = |i: usize, j: usize| h[j][i];
+        let mut e = [[0.0f64; 3]; 3];
+        for (i, row) in e.iter_mut().enumerate() {
+            for (j, x) in row.iter_mut().enumerate() {
+                let hth: f64 = (0..3).map(|k| at(k, i) * at(k, j)).sum();
+                *x = 0.5 * (at(i, j) + at(j, i) + hth);
+            }
+        }
+        let tr = (e[0][0] + e[1][1] + e[2][2]) / 3.0;
+        let mut dev2 = 0.0;
+        for (i, row) in e.iter().enumerate() {
+            for (j, x) in row.iter().enumerate() {
+                let d = if i == j { x - tr } else { *x };
+                dev2 += d * d;
+            }
+        }
+        let f = |i: usize, j: usize| at(i, j) + if i == j { 1.0 } else { 0.0 };
+        let det = f(0, 0) * (f(1, 1) * f(2, 2) - f(1, 2) * f(2, 1))
+            - f(0, 1) * (f(1, 0) * f(2, 2) - f(1, 2) * f(2, 0))
+            + f(0, 2) * (f(1, 0) * f(2, 1) - f(1, 1) * f(2, 0));
+        let ch = det - self.gamma as f64;
+        dev2 / (2.0 * self.alpha_dev as f64) + ch * ch / (2.0 * self.alpha_hydro as f64)
     }
 }
 
-/// One XPBD projection of a tet's deviatoric constraint `C_D = |F|` (compliance
-/// `alpha_dev`) and hydrostatic constraint `C_H = det F - gamma` (compliance `alpha_hydro`),
-/// solved as one 2x2 system so that the rest shape is an exact fixed point (at `F = I` the
-/// two gradients are parallel and their pushes cancel). `u` are the corner displacements,
-/// `w` their inverse masses, `lambda` the multipliers accumulated in this substep,
-/// `inv_h2` one over the squared substep. Returns the corner corrections (zero when every
-/// corner is fixed or the system is singular).
+/// One XPBD projection of a tet's deviatoric constraint `C_D = |dev E|` (compliance
+/// `alpha_dev`; `E = (F^T F - I) / 2 = (H + H^T + H^T H) / 2` the Green strain, `dev E = E -
+/// tr E / 3 I`) and volumetric constraint `C_H = det F - gamma` (compliance `alpha_hydro`,
+/// `gamma = 1`; `det F - 1 = tr H + (tr^2 H - tr H^2) / 2 + det H`), solved as one 2x2 system.
+/// Both constraints and both gradients (`dC_D/dF = F dev E / |dev E|`, `dC_H/dF = cof F =
+/// (1 + tr H) I - H^T + cof H`) are formed from the displacement gradient `H`, so the rest
+/// shape gives exactly zero and a small strain its own pushes, with no large opposing terms
+/// whatever the stiffness or the mesh's scale. The 2x2 system is solved in a basis where its
+/// determinant is a sum of non-negative terms. `u` are the corner displacements, `w` their
+/// inverse masses, `lambda` the multipliers accumulated in this substep, `inv_h2` one over
+/// the squared substep. Returns the corner corrections (zero when every corner is fixed or
+/// the system is singular).
 ///
 /// # Bounded work
-/// Constant: about 250 floating-point operations.
+/// Constant: about 400 floating-point operations.
 #[inline]
 pub fn project(
     rest: &TetRest,
@@ -137,39 +162,59 @@ pub fn project(
     if w[0] + w[1] + w[2] + w[3] <= 0.0 {
         return zero;
     }
-    let f = rest.deformation(u);
-    let inv_dm_t = rest.inv_dm.transpose();
+    let h = rest.displacement_gradient(u);
+    let ht = h.transpose();
+    let tr_h = h.x_axis.x + h.y_axis.y + h.z_axis.z;
 
-    // Deviatoric: dC/dF = F / |F|.
-    let frob = libm::sqrtf(
-        f.x_axis.length_squared() + f.y_axis.length_squared() + f.z_axis.length_squared(),
+    // Green strain and its deviator.
+    let e = (h + ht + ht * h) * 0.5;
+    let tr_e = (e.x_axis.x + e.y_axis.y + e.z_axis.z) * (1.0 / 3.0);
+    let dev = e - Mat3::from_diagonal(Vec3::splat(tr_e));
+    let c_dev = libm::sqrtf(
+        dev.x_axis.length_squared() + dev.y_axis.length_squared() + dev.z_axis.length_squared(),
     );
-    let p_dev = if frob > 0.0 {
-        f * (1.0 / frob)
+    // dC_D/dF = F dev / |dev| = (dev + H dev) / |dev|; undefined (taken as zero) at dev = 0,
+    // where C_D is zero too.
+    let p_dev = if c_dev > 0.0 {
+        (dev + h * dev) * (1.0 / c_dev)
     } else {
         Mat3::ZERO
     };
-    // Hydrostatic: dC/dF = cof(F), columns f1 x f2, f2 x f0, f0 x f1.
-    let (f0, f1, f2) = (f.x_axis, f.y_axis, f.z_axis);
-    let p_hyd = Mat3::from_cols(f1.cross(f2), f2.cross(f0), f0.cross(f1));
-    let det = f0.dot(f1.cross(f2));
 
+    // det F - 1 and cof F from H: the cofactor of H has the columns h1 x h2, h2 x h0, h0 x h1.
+    let (h0, h1, h2) = (h.x_axis, h.y_axis, h.z_axis);
+    let cof_h = Mat3::from_cols(h1.cross(h2), h2.cross(h0), h0.cross(h1));
+    let tr_h2 =
+        h0.x * h0.x + h1.y * h1.y + h2.z * h2.z + 2.0 * (h1.x * h0.y + h2.x * h0.z + h2.y * h1.z);
+    let minors = 0.5 * (tr_h * tr_h - tr_h2);
+    let det_h = h0.dot(cof_h.x_axis);
+    let c_hyd = tr_h + minors + det_h - (rest.gamma - 1.0);
+    let p_hyd = Mat3::from_diagonal(Vec3::splat(1.0 + tr_h)) - ht + cof_h;
+
+    let inv_dm_t = rest.inv_dm.transpose();
     let g_dev = grads(p_dev * inv_dm_t);
     let g_hyd = grads(p_hyd * inv_dm_t);
 
-    let (mut a00, mut a01, mut a11) = (0.0f32, 0.0f32, 0.0f32);
+    let (mut a01, mut a11) = (0.0f32, 0.0f32);
     for i in 0..4 {
-        a00 += w[i] * g_dev[i].length_squared();
         a01 += w[i] * g_dev[i].dot(g_hyd[i]);
         a11 += w[i] * g_hyd[i].length_squared();
     }
+    // W-orthogonal basis: e = g_dev - k g_hyd, so |g_dev|_W^2 = |e|_W^2 + k^2 a11 and the
+    // determinant below has no cancelling terms.
+    let k = if a11 > 0.0 { a01 / a11 } else { 0.0 };
+    let mut ee = 0.0f32;
+    for i in 0..4 {
+        ee += w[i] * (g_dev[i] - g_hyd[i] * k).length_squared();
+    }
+    let a01 = k * a11;
     let ad = rest.alpha_dev * inv_h2;
     let ah = rest.alpha_hydro * inv_h2;
-    let r0 = -(frob + ad * lambda[0]);
-    let r1 = -(det - rest.gamma + ah * lambda[1]);
-    let m00 = a00 + ad;
+    let r0 = -(c_dev + ad * lambda[0]);
+    let r1 = -(c_hyd + ah * lambda[1]);
+    let m00 = ee + k * k * a11 + ad;
     let m11 = a11 + ah;
-    let d = m00 * m11 - a01 * a01;
+    let d = (ee + ad) * m11 + k * k * a11 * ah;
     // Positive for any positive compliance; NaN or zero means nothing sensible to do.
     if !(d > 0.0 && d.is_finite()) {
         return zero;
@@ -253,6 +298,81 @@ mod tests {
         assert!(sum.length() < 1e-6, "{sum:?}");
         assert!(r.energy(u) > 0.0);
         assert!(r.energy([Vec3::ZERO; 4]).abs() < 1e-9);
+    }
+
+    #[test]
+    fn rest_is_an_exact_fixed_point_at_any_stiffness_and_scale() {
+        let tet = [
+            Vec3::new(0.1, -0.2, 0.3),
+            Vec3::new(1.2, 0.1, 0.2),
+            Vec3::new(0.3, 0.9, 0.1),
+            Vec3::new(0.2, 0.3, 1.4),
+        ];
+        for scale in [1e-4f32, 1e-2, 1.0, 1e3] {
+            for young in [1e3f32, 1e7, 84e9] {
+                let m = Material {
+                    young,
+                    poisson: 0.33,
+                    density: 2900.0,
+                };
+                let x = tet.map(|p| p * scale);
+                let r = TetRest::new(x, m.lame()).unwrap();
+                let mass = 2900.0 * r.volume / 4.0;
+                let w = [1.0 / mass; 4];
+                let mut l = [0.0; 2];
+                let out = project(&r, [Vec3::ZERO; 4], w, &mut l, 1e8);
+                assert_eq!(out, [Vec3::ZERO; 4], "scale {scale}, E {young}");
+                // A rigid turn: only rounding, a small fraction of the tet's size.
+                let rot = glam::Quat::from_axis_angle(Vec3::new(1.0, 2.0, 3.0).normalize(), 0.7);
+                let u = x.map(|p| rot * p - p);
+                let mut l = [0.0; 2];
+                let out = project(&r, u, w, &mut l, 1e8);
+                for c in out {
+                    assert!(
+                        c.length() < 1e-6 * scale,
+                        "{c:?} at scale {scale}, E {young}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_soft_projection_is_the_energy_gradient_step() {
+        // With compliance far above |grad C|_W^2 h^2 the correction is -h^2 W grad(energy);
+        // the gradient by central differences of the f64 energy.
+        let x = [
+            Vec3::ZERO,
+            Vec3::new(1.0, 0.1, 0.0),
+            Vec3::new(0.2, 1.0, 0.1),
+            Vec3::new(0.1, 0.2, 1.0),
+        ];
+        let r = TetRest::new(x, lame()).unwrap();
+        let u = [
+            Vec3::new(0.01, -0.02, 0.0),
+            Vec3::new(0.03, 0.01, -0.02),
+            Vec3::new(-0.01, 0.02, 0.01),
+            Vec3::new(0.0, -0.01, 0.04),
+        ];
+        let inv_h2 = 1e6;
+        let mut l = [0.0; 2];
+        let out = project(&r, u, [1.0; 4], &mut l, inv_h2);
+        let step = 1e-3f32;
+        let mut worst = 0.0f64;
+        let mut size = 0.0f64;
+        for i in 0..4 {
+            for a in 0..3 {
+                let mut up = u;
+                let mut dn = u;
+                up[i][a] += step;
+                dn[i][a] -= step;
+                let grad = (r.energy(up) - r.energy(dn)) / (2.0 * step as f64);
+                let want = -grad / inv_h2 as f64;
+                worst = worst.max((out[i][a] as f64 - want).abs());
+                size = size.max(want.abs());
+            }
+        }
+        assert!(size > 0.0 && worst < 0.01 * size, "{worst} of {size}");
     }
 
     #[test]
