@@ -429,6 +429,62 @@ pub struct DeformSummary {
     /// The spread step's work (`--soft-spread`; absent: whole steps).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spread: Option<SpreadSummary>,
+    /// How stiff the body is for its substep ([`Stiffness`]).
+    pub stiffness: Stiffness,
+}
+
+/// The largest substep stiffness ratio of a soft body's tets: `s = h^2 (lambda + 2 mu) /
+/// (rho l^2)`, the square of the substep's Courant number (`h` the substep, `l` the tet's
+/// shortest edge), an estimate of docs/SOFT.md's `s = |grad C|_W^2 h^2 / alpha` ("Static
+/// accuracy"): a steady state is about `1 + s` times softer than the material, so above 1 the
+/// body does not hold its material's stiffness and under a tool's load it may not settle.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Stiffness {
+    /// The largest `s` over the tets.
+    pub s_max: f64,
+    /// The region label of the tet with the largest `s` (`null`: a tet of the global
+    /// material).
+    pub label: Option<i32>,
+}
+
+impl Stiffness {
+    /// The largest ratio over `owned`'s tets, with the materials of `spec` and its substep.
+    pub fn of(owned: &SoftOwned, spec: &SoftSpec) -> Self {
+        let materials = spec.materials();
+        let h = f64::from(spec.ticks_per_step) * PERIOD_S / f64::from(spec.substeps.max(1));
+        let mut worst = Self::default();
+        for (t, tet) in owned.tets.iter().enumerate() {
+            let m = owned.tet_material.get(t).map_or(0, |&m| m as usize);
+            let Some(mat) = materials.get(m) else {
+                continue;
+            };
+            let (e, nu, rho) = (
+                f64::from(mat.young),
+                f64::from(mat.poisson),
+                f64::from(mat.density),
+            );
+            // P-wave modulus lambda + 2 mu.
+            let modulus = e * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu));
+            let mut l2 = f64::INFINITY;
+            for i in 0..4 {
+                for j in i + 1..4 {
+                    let (a, b) = (owned.rest[tet[i] as usize], owned.rest[tet[j] as usize]);
+                    l2 = l2.min(f64::from(a.distance_squared(b)));
+                }
+            }
+            let s = h * h * modulus / (rho * l2);
+            if s > worst.s_max {
+                worst = Self {
+                    s_max: s,
+                    label: m
+                        .checked_sub(1)
+                        .and_then(|r| spec.regions.get(r))
+                        .map(|r| r.label),
+                };
+            }
+        }
+        worst
+    }
 }
 
 /// The work of a step spread over ticks ([`tetradrill_core::soft::Link`]), in its units (one
@@ -519,6 +575,7 @@ pub struct SoftDriver<'a> {
     fixed: usize,
     spec: SoftSpec,
     materials: Vec<MaterialUse>,
+    stiffness: Stiffness,
     /// The spread step, when the spec asks for it.
     spread: Option<Spread>,
 }
@@ -559,6 +616,21 @@ impl<'a> SoftDriver<'a> {
                 (lo.min(p.z), hi.max(p.z))
             });
         let materials = material_uses(spec, &owned.tet_material, owned.tets.len());
+        let stiffness = Stiffness::of(owned, spec);
+        if stiffness.s_max > 1.0 {
+            let who = stiffness
+                .label
+                .map_or("the body's material".to_string(), |l| format!("region {l}"));
+            errln!(
+                "tetradrill: warning: --body soft: {who} is too stiff for its substep of {:.3} ms \
+                 (s = {:.3e} > 1, docs/SOFT.md \"Static accuracy\"): the body is about 1 + s \
+                 times softer than its material and may not settle under the tool; raise \
+                 --soft-substeps or --soft-rate, or use --body rigid",
+                f64::from(spec.ticks_per_step) * 1000.0 * PERIOD_S
+                    / f64::from(spec.substeps.max(1)),
+                stiffness.s_max
+            );
+        }
         let mut body = owned
             .body(
                 &spec.materials(),
@@ -602,6 +674,7 @@ impl<'a> SoftDriver<'a> {
             fixed,
             spec: spec.clone(),
             materials,
+            stiffness,
             spread: spec.spread.then(|| Spread {
                 a: vec![Vec3::ZERO; n],
                 b: vec![Vec3::ZERO; n],
@@ -744,6 +817,7 @@ impl<'a> SoftDriver<'a> {
             young: self.spec.young,
             poisson: self.spec.poisson,
             materials: self.materials.clone(),
+            stiffness: self.stiffness,
             spread: self.spread.as_ref().and_then(|sp| {
                 let link = sp.link.as_ref()?;
                 Some(SpreadSummary {

@@ -355,3 +355,54 @@ fn a_new_driver_starts_at_rest_over_used_storage() {
     );
     assert_eq!(d.summary().steps, 5);
 }
+
+/// The substep stiffness ratio in `deform.stiffness` is `h^2 (lambda + 2 mu) / (rho l^2)` on
+/// the block of 4 cubes a side (shortest edge l = 0.25, the cubes' edges; h = 4 ms / 10
+/// substeps; rho 1000), computed here from the Lame constants; a block a million times
+/// stiffer is over 1 and the run warns in one line, naming `--soft-substeps`, and still runs.
+#[test]
+fn the_stiffness_ratio_is_the_courant_number_squared_and_warns_above_one() {
+    let dir = scratch_dir("soft-cli", "stiffness");
+    let ratio = |young: f64| {
+        let nu: f64 = 0.3;
+        let (lambda, mu) = (
+            young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
+            young / (2.0 * (1.0 + nu)),
+        );
+        let h: f64 = 4e-3 / 10.0;
+        h * h * (lambda + 2.0 * mu) / (1000.0 * 0.25 * 0.25)
+    };
+    for (young, warned) in [("5000", false), ("5e9", true)] {
+        let args = [
+            "--mesh",
+            "builtin:block:4",
+            "--body",
+            "soft",
+            "--young",
+            young,
+            "--poisson",
+            "0.3",
+            "--ticks",
+            "8",
+        ];
+        let json = replay_json(&dir, young, &args);
+        let s = json["deform"]["stiffness"]["s_max"]
+            .as_f64()
+            .expect("s_max");
+        let want = ratio(young.parse().unwrap());
+        assert!(
+            (s - want).abs() <= 1e-6 * want,
+            "E {young}: s {s} against {want}"
+        );
+        assert!(json["deform"]["stiffness"]["label"].is_null());
+        let out = run(&[&["replay"][..], &args[..]].concat());
+        assert!(out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        let lines: Vec<&str> = err.lines().filter(|l| l.contains("too stiff")).collect();
+        assert_eq!(lines.len(), usize::from(warned), "E {young}: {err}");
+        if warned {
+            assert!(lines[0].contains("--soft-substeps"), "{}", lines[0]);
+            assert!(want > 1.0);
+        }
+    }
+}

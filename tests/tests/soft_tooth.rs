@@ -385,4 +385,9 @@ fn replay_of_the_soft_tooth_reports_no_drift() {
     let extent = size(mesh.view().positions());
     let moved = deform["max_displacement"].as_f64().expect("a number");
     assert!(moved <= 1e-9 * extent, "{moved} m of {extent} m");
+    // Enamel and dentin at GPa on tets of a tenth of a millimetre: far past the substep's
+    // stiffness (docs/SOFT.md, "Static accuracy"), named by region.
+    let stiff = &deform["stiffness"];
+    assert!(stiff["s_max"].as_f64().expect("s_max") > 1e6, "{stiff}");
+    assert!(matches!(stiff["label"].as_i64(), Some(1 | 2)), "{stiff}");
 }
