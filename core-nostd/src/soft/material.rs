@@ -45,16 +45,19 @@ pub const MAX_POISSON: f32 = 0.49;
 /// The tets' energy density is `mu |dev E|^2 + K/2 (det F - 1)^2` (`E` the Green strain),
 /// with the bulk modulus `K = lambda + 2 mu / 3 = hydro - mu / 3`; linearised at `F = I` it
 /// is linear elasticity with Lamé constants `(mu, lambda)` (docs/SOFT.md has the
-/// derivation). `hydro` and `gamma` are the constants of the stable neo-Hookean form
-/// `mu/2 tr(F^T F) + hydro/2 (det F - gamma)^2` (Macklin and Mueller 2021), whose
-/// linearisation is the same.
+/// derivation). The tet projection takes `mu` and `hydro`: [`super::TetRest::new`] derives
+/// the two compliances `1 / (2 mu V)` and `1 / (K V)` from them. It does not use `gamma`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Lame {
     /// Shear modulus `mu = E / (2 (1 + nu))`.
     pub mu: f32,
-    /// The hydrostatic stiffness `lambda + mu`, with Lamé `lambda = E nu / ((1 + nu)(1 - 2 nu))`.
+    /// `lambda + mu`, with Lamé `lambda = E nu / ((1 + nu)(1 - 2 nu))`; the tet's bulk
+    /// modulus is `hydro - mu / 3`.
     pub hydro: f32,
-    /// Rest value of `det F` in the stable neo-Hookean form: `1 + mu / hydro`.
+    /// `1 + mu / hydro`, the rest value of `det F` in the stable neo-Hookean form
+    /// `mu/2 tr(F^T F) + hydro/2 (det F - gamma)^2` (Macklin and Mueller 2021). The present
+    /// volumetric constraint is `det F - 1` (the rest data's `gamma` is 1, a field kept in
+    /// its 52-byte layout), so the projection does not read this value.
     pub gamma: f32,
 }
 
