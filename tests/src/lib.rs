@@ -3,6 +3,7 @@
 //! The oracles are written here, apart from the crates they check (the exhaustive search of
 //! [`search`] takes the core's closest point on a triangle); the rest sets up scenes through the
 //! crates' public API:
+//! - [`brute`]: Kuhn-tet blocks, f64 signed volumes, tet boxes and their overlap;
 //! - [`oracle`]: f64 vector math for the reference computations;
 //! - [`contact`]: the pen-contact scene (meshes, rig, random poses, one fresh tick);
 //! - [`drill`]: the brute-force visible-face oracle and hierarchy storage;
@@ -11,6 +12,7 @@
 //! - [`tetgen_reader`]: a minimal TetGen reader, independent of the host's readers;
 //! - [`viewer`]: the render size, engine storage and the f64 pinhole model.
 
+pub mod brute;
 pub mod contact;
 pub mod drill;
 pub mod faults;

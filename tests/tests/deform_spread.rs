@@ -13,9 +13,8 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use tetradrill_core::drill::DrillParams;
 use tetradrill_core::hash::{Aabb, HashEntry, REBUILD_ITEM_UNITS};
-use tetradrill_core::mesh::Mesh;
 use tetradrill_core::servo::{DeformError, SpareStorage, World, WorldSizes};
-use tetradrill_core::TetId;
+use tetradrill_tests::brute::{overlaps, tet_boxes};
 use tetradrill_tests::search::{block_mesh, Store};
 
 /// A smooth, non-affine deformation of the unit block at phase `s`, stretched by `grow`.
@@ -29,32 +28,11 @@ fn bend(p: Vec3, s: f32, grow: f32) -> Vec3 {
     ) * grow
 }
 
-/// Each tet's box from its corners, written here.
-fn boxes(mesh: &Mesh<'_>) -> Vec<(Vec3, Vec3)> {
-    (0..mesh.tet_count())
-        .map(|t| {
-            let p = mesh
-                .tet(TetId::from_idx(t))
-                .nodes
-                .map(|n| mesh.positions()[n.idx()]);
-            let lo = p.iter().fold(Vec3::splat(f32::INFINITY), |a, &b| a.min(b));
-            let hi = p
-                .iter()
-                .fold(Vec3::splat(f32::NEG_INFINITY), |a, &b| a.max(b));
-            (lo, hi)
-        })
-        .collect()
-}
-
-fn overlaps(a: (Vec3, Vec3), b: (Vec3, Vec3)) -> bool {
-    a.0.cmple(b.1).all() && b.0.cmple(a.1).all()
-}
-
 /// The hash's answer for a box around `c`: items in the order met, and the brute-force set
 /// over the mesh's own boxes (only when the hash is not saturated: a full table leaves tets
 /// out).
 fn answer(world: &World<'_>, c: Vec3, r: f32) -> (Vec<u32>, BTreeSet<u32>) {
-    let own = boxes(world.mesh());
+    let own = tet_boxes(world.mesh());
     let qb = (c - Vec3::splat(r), c + Vec3::splat(r));
     let mut met = Vec::new();
     assert!(world

@@ -12,10 +12,11 @@ use tetradrill::soft::SoftOwned;
 use tetradrill_core::drill::DrillParams;
 use tetradrill_core::force::{ForceParams, ToolState};
 use tetradrill_core::hash::Aabb;
-use tetradrill_core::mesh::{BuildOptions, Mesh};
+use tetradrill_core::mesh::BuildOptions;
 use tetradrill_core::servo::{servo_force, DeformError};
 use tetradrill_core::soft::{Material, SoftParams};
 use tetradrill_core::TetId;
+use tetradrill_tests::brute::{overlaps, tet_boxes};
 use tetradrill_tests::drill::{bey, det, face_of};
 use tetradrill_tests::oracle::D3;
 use tetradrill_tests::search::{block_mesh, Store};
@@ -30,27 +31,6 @@ fn bend(p: Vec3, s: f32) -> Vec3 {
         p.y + 0.5 * a * (3.0 * p.z).sin(),
         p.z + a * x * x,
     )
-}
-
-/// Each tet's box from its corners, written here (min and max of four points).
-fn boxes(mesh: &Mesh<'_>) -> Vec<(Vec3, Vec3)> {
-    (0..mesh.tet_count())
-        .map(|t| {
-            let p = mesh
-                .tet(TetId::from_idx(t))
-                .nodes
-                .map(|n| mesh.positions()[n.idx()]);
-            let lo = p.iter().fold(Vec3::splat(f32::INFINITY), |a, &b| a.min(b));
-            let hi = p
-                .iter()
-                .fold(Vec3::splat(f32::NEG_INFINITY), |a, &b| a.max(b));
-            (lo, hi)
-        })
-        .collect()
-}
-
-fn overlaps(a: (Vec3, Vec3), b: (Vec3, Vec3)) -> bool {
-    a.0.cmple(b.1).all() && b.0.cmple(a.1).all()
 }
 
 #[test]
@@ -118,7 +98,7 @@ fn hash_and_normals_follow_a_bending_block() {
         let new: Vec<Vec3> = rest0.iter().map(|&p| bend(p, s)).collect();
         let rep = world.set_positions(&new).unwrap();
         assert!(!rep.hash_saturated);
-        let own = boxes(world.mesh());
+        let own = tet_boxes(world.mesh());
         for q in 0..27 {
             let c = Vec3::new((q % 3) as f32, (q / 3 % 3) as f32, (q / 9) as f32) * 0.45
                 - Vec3::splat(0.45)
@@ -554,7 +534,7 @@ fn a_stretched_mesh_that_overflows_the_hash_is_counted_and_recovers() {
     assert!(rep.hash_saturated);
     assert_eq!(world.saturations().hash, 1);
     // The tets kept are found where they are.
-    let own = boxes(world.mesh());
+    let own = tet_boxes(world.mesh());
     let whole = (Vec3::splat(-9.0), Vec3::splat(9.0));
     let mut found = BTreeSet::new();
     world

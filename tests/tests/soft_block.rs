@@ -6,56 +6,7 @@ use tetradrill::soft::SoftOwned;
 use tetradrill_core::geom::{barycentric, inside};
 use tetradrill_core::soft::*;
 use tetradrill_core::{Quat, Vec3};
-
-/// A grid of `nx x ny x nz` cubes of edge `h` from the origin, each cube split into six tets
-/// around its diagonal; written here independently of `builtin::block`.
-fn grid(nx: usize, ny: usize, nz: usize, h: f32) -> (Vec<Vec3>, Vec<[u32; 4]>) {
-    let id = |i: usize, j: usize, k: usize| (i + (nx + 1) * (j + (ny + 1) * k)) as u32;
-    let mut x = vec![Vec3::ZERO; (nx + 1) * (ny + 1) * (nz + 1)];
-    for k in 0..=nz {
-        for j in 0..=ny {
-            for i in 0..=nx {
-                x[id(i, j, k) as usize] = Vec3::new(i as f32, j as f32, k as f32) * h;
-            }
-        }
-    }
-    let mut tets = Vec::new();
-    let perms = [
-        [0, 1, 2],
-        [0, 2, 1],
-        [1, 0, 2],
-        [1, 2, 0],
-        [2, 0, 1],
-        [2, 1, 0],
-    ];
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                for p in perms {
-                    let mut c = [i, j, k];
-                    let mut t = [id(i, j, k); 4];
-                    for (s, axis) in p.iter().enumerate() {
-                        c[*axis] += 1;
-                        t[s + 1] = id(c[0], c[1], c[2]);
-                    }
-                    if det(t.map(|n| x[n as usize])) < 0.0 {
-                        t.swap(2, 3);
-                    }
-                    tets.push(t);
-                }
-            }
-        }
-    }
-    (x, tets)
-}
-
-/// Six times the signed volume, in f64.
-fn det(p: [Vec3; 4]) -> f64 {
-    let d = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
-    let (a, b, c) = (d(p[1] - p[0]), d(p[2] - p[0]), d(p[3] - p[0]));
-    a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-        + a[2] * (b[0] * c[1] - b[1] * c[0])
-}
+use tetradrill_tests::brute::{grid, six_volume};
 
 const E: f32 = 1e5;
 const RHO: f32 = 1000.0;
@@ -287,7 +238,7 @@ fn every_tet_keeps_a_positive_volume_under_a_large_load() {
         body.step(DT, &load).unwrap();
         body.write_positions(&mut x);
         for t in body.tets() {
-            smallest = smallest.min(det(t.map(|k| x[k as usize])) / 6.0);
+            smallest = smallest.min(six_volume(t.map(|k| x[k as usize])) / 6.0);
         }
     }
     let top = |x: Vec3| (x.z - l).abs() < 1e-6;

@@ -9,58 +9,8 @@ use std::process::{Command, Output};
 use tetradrill::soft::{material_uses, Fix, SoftOwned, SoftRegion, SoftSpec};
 use tetradrill_core::soft::{SoftBody, SoftParams};
 use tetradrill_core::Vec3;
+use tetradrill_tests::brute::grid;
 use tetradrill_tests::{scratch_dir, tetradrill_bin};
-
-/// A grid of `nx x ny x nz` cubes of edge `h` from the origin, each cube split into six tets
-/// around its diagonal (x, then y, then z: every tet positively oriented by construction is
-/// checked below), written here on its own.
-fn grid(nx: usize, ny: usize, nz: usize, h: f32) -> (Vec<Vec3>, Vec<[u32; 4]>) {
-    let id = |i: usize, j: usize, k: usize| (i + (nx + 1) * (j + (ny + 1) * k)) as u32;
-    let mut x = Vec::with_capacity((nx + 1) * (ny + 1) * (nz + 1));
-    for k in 0..=nz {
-        for j in 0..=ny {
-            for i in 0..=nx {
-                x.push(Vec3::new(i as f32, j as f32, k as f32) * h);
-            }
-        }
-    }
-    let mut tets = Vec::new();
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                // The six monotone paths from corner (0,0,0) to (1,1,1) of the cube.
-                for order in [
-                    [0, 1, 2],
-                    [0, 2, 1],
-                    [1, 0, 2],
-                    [1, 2, 0],
-                    [2, 0, 1],
-                    [2, 1, 0],
-                ] {
-                    let mut c = [i, j, k];
-                    let mut t = [id(i, j, k); 4];
-                    for (s, axis) in order.iter().enumerate() {
-                        c[*axis] += 1;
-                        t[s + 1] = id(c[0], c[1], c[2]);
-                    }
-                    if six_volume(t.map(|n| x[n as usize])) < 0.0 {
-                        t.swap(2, 3);
-                    }
-                    tets.push(t);
-                }
-            }
-        }
-    }
-    (x, tets)
-}
-
-/// Six times the signed volume, in f64.
-fn six_volume(p: [Vec3; 4]) -> f64 {
-    let d = |v: Vec3| [v.x as f64, v.y as f64, v.z as f64];
-    let (a, b, c) = (d(p[1] - p[0]), d(p[2] - p[0]), d(p[3] - p[0]));
-    a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-        + a[2] * (b[0] * c[1] - b[1] * c[0])
-}
 
 /// Consistent nodal loads of a uniform pressure `p` pushing down on the faces lying in the
 /// plane `z = top` (each triangle gives a third of `p` times its area to each corner).
