@@ -468,8 +468,11 @@ impl Stiffness {
             let mut l2 = f64::INFINITY;
             for i in 0..4 {
                 for j in i + 1..4 {
-                    let (a, b) = (owned.rest[tet[i] as usize], owned.rest[tet[j] as usize]);
-                    l2 = l2.min(f64::from(a.distance_squared(b)));
+                    // Node numbers were checked with the mesh; a missing one is skipped.
+                    let node = |k: u32| owned.rest.get(k as usize).copied();
+                    if let (Some(a), Some(b)) = (node(tet[i]), node(tet[j])) {
+                        l2 = l2.min(f64::from(a.distance_squared(b)));
+                    }
                 }
             }
             let s = h * h * modulus / (rho * l2);

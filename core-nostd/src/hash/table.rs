@@ -239,20 +239,13 @@ impl<'a> SpatialHash<'a> {
         let mut kept = count.min(MAX_ITEMS);
         for i in 0..kept {
             let Some(b) = bounds(i) else { continue };
-            let (lo, hi) = self.cell_range(&b);
-            let n = cells_in(lo, hi);
-            if n > (cap - total) as u64 {
-                kept = i;
-                break;
-            }
-            total += n as usize;
-            self.bounds = self.bounds.union(b);
-            for_cells(lo, hi, |c| {
-                let k = bucket_of(c, nb) as usize;
-                if let Some(s) = self.starts.get_mut(k) {
-                    *s += 1;
+            match self.count_item(&b, cap - total, nb) {
+                Some(n) => total += n,
+                None => {
+                    kept = i;
+                    break;
                 }
-            });
+            }
         }
         // Prefix sum: starts[k] = end of bucket k; starts[nb] = total.
         let mut run = 0u32;
@@ -263,21 +256,7 @@ impl<'a> SpatialHash<'a> {
         // Pass 2: fill from the back of each bucket.
         for i in 0..kept {
             let Some(b) = bounds(i) else { continue };
-            let (lo, hi) = self.cell_range(&b);
-            let (starts, entries) = (&mut *self.starts, &mut *self.entries);
-            for_cells(lo, hi, |c| {
-                let k = bucket_of(c, nb) as usize;
-                if let Some(s) = starts.get_mut(k) {
-                    *s = s.saturating_sub(1);
-                    if let Some(e) = entries.get_mut(*s as usize) {
-                        let mut packed = i as u32;
-                        for a in 0..3 {
-                            packed |= u32::from(c[a] == lo[a]) << (ITEM_BITS as usize + a);
-                        }
-                        *e = HashEntry { cell: c, packed };
-                    }
-                }
-            });
+            self.fill_item(i, &b, nb);
         }
         self.used = total;
         let saturated = kept < count;
@@ -355,20 +334,10 @@ impl<'a> SpatialHash<'a> {
                     let i = c.at;
                     c.at += 1;
                     let Some(b) = bounds(i) else { continue };
-                    let (lo, hi) = self.cell_range(&b);
-                    let n = cells_in(lo, hi);
-                    if n > (cap - c.total) as u64 {
-                        c.kept = i;
-                        continue;
+                    match self.count_item(&b, cap - c.total, nb) {
+                        Some(n) => c.total += n,
+                        None => c.kept = i,
                     }
-                    c.total += n as usize;
-                    self.bounds = self.bounds.union(b);
-                    for_cells(lo, hi, |cell| {
-                        let k = bucket_of(cell, nb) as usize;
-                        if let Some(s) = self.starts.get_mut(k) {
-                            *s += 1;
-                        }
-                    });
                 }
                 RebuildPhase::Prefix => {
                     if c.at >= self.starts.len() {
@@ -446,6 +415,26 @@ impl<'a> SpatialHash<'a> {
             self.stats.saturations = self.stats.saturations.wrapping_add(1);
         }
         true
+    }
+
+    /// The counting pass's work for an item with box `b`: when its cells fit in the `room`
+    /// entries left, counts them in their buckets, grows the stored bounds and returns how
+    /// many; `None` (nothing changed) when they do not fit.
+    #[inline]
+    fn count_item(&mut self, b: &Aabb, room: usize, nb: u32) -> Option<usize> {
+        let (lo, hi) = self.cell_range(b);
+        let n = cells_in(lo, hi);
+        if n > room as u64 {
+            return None;
+        }
+        self.bounds = self.bounds.union(*b);
+        for_cells(lo, hi, |c| {
+            let k = bucket_of(c, nb) as usize;
+            if let Some(s) = self.starts.get_mut(k) {
+                *s += 1;
+            }
+        });
+        Some(n as usize)
     }
 
     /// The filling pass's work for item `i` with box `b`.
