@@ -251,6 +251,42 @@ fn demo_soft_reports_the_deformation() {
     );
 }
 
+/// `demo --soft --soft-spread`: each step spread over its cycle's ticks through the real-time
+/// pipeline; every cycle done by its last tick, the block dented; without `--soft` refused.
+#[test]
+fn demo_soft_spread_spreads_the_steps() {
+    let dir = scratch_dir("softcli", "demo-spread");
+    let json = dir.join("demo.json");
+    let json_s = json.to_string_lossy().into_owned();
+    let out = run(&[
+        "demo",
+        "--soft",
+        "--soft-spread",
+        "--headless",
+        "--no-rt",
+        "--duration",
+        "2",
+        "--json",
+        &json_s,
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("read JSON")).expect("JSON");
+    let d = &r["deform"];
+    let s = &d["spread"];
+    // 250 steps a second at 1 kHz: four ticks a cycle.
+    assert_eq!(s["ticks"].as_u64(), Some(4), "{d}");
+    assert_eq!(s["late"].as_u64(), Some(0), "{d}");
+    assert!(s["units_max"].as_u64().unwrap() > 0, "{d}");
+    assert!(d["steps"].as_u64().unwrap() > 100, "{d}");
+    assert!(d["max_displacement"].as_f64().unwrap() > 1e-4, "{d}");
+    refused(
+        &["demo", "--soft-spread", "--headless"],
+        &["--soft-spread", "--soft"],
+    );
+}
+
 #[test]
 fn bad_soft_flags_exit_2_naming_the_flag() {
     refused(&["replay", "--body", "jelly"], &["--body"]);

@@ -43,6 +43,10 @@ pub struct DemoArgs {
     /// under the burr while it is drilled.
     #[arg(long)]
     pub soft: bool,
+    /// With `--soft`: each physics step and the world's update spread over the ticks of its
+    /// cycle (bounded work a tick, the dent shown a cycle later), as `run --soft-spread`.
+    #[arg(long)]
+    pub soft_spread: bool,
 }
 
 /// Runs `demo`.
@@ -53,16 +57,26 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         // A bad spec: one line naming it and the reason, exit 2.
         sc.tool_kind().map_err(CliError::input)?;
     }
+    if args.soft_spread && !args.soft {
+        return Err(CliError::input(
+            "--soft-spread: spreads a soft body's steps; add --soft",
+        ));
+    }
     if args.soft {
         sc.body = crate::scenario::Body::Soft;
         // The moduli are the demo's regions' (`scenario::demo_regions`).
         sc.fix_below = Some("z:-0.45".into());
+        sc.soft_spread = args.soft_spread;
     }
     let view = ViewOptions::of(args.headless, args.screenshot.clone())?;
     errln!(
         "tetradrill demo: {}{} drilled by a {} {} on the simulated device ({} s scripted path)",
         sc.mesh,
-        if args.soft { " (soft)" } else { "" },
+        match (args.soft, args.soft_spread) {
+            (true, true) => " (soft, its steps spread over ticks)",
+            (true, false) => " (soft)",
+            _ => "",
+        },
         sc.tool,
         if sc.tool.starts_with("drill:") {
             "drill (burr on a shaft)"
