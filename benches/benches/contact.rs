@@ -7,7 +7,9 @@
 //! meshes are not the repository's `tests/data/meshes`). Besides criterion's means, a worst-case pass
 //! prints, per scenario, the mean, the 99th percentile and the maximum of single ticks
 //! (`WORST`), and the same over the poses with each pose's fastest call (`POSES`: the work's
-//! worst case without the preemption of a shared machine).
+//! worst case without the preemption of a shared machine, each call after the other poses', so
+//! with the caches full of other data), and for the pen each pose's fastest of its calls in a
+//! row (`WARM`: its data in the caches, as successive passes of a session find it).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -90,6 +92,29 @@ fn worst<F: FnMut(usize)>(n: usize, reps: usize, mut f: F) -> Timings {
         calls: summary(&mut t),
         poses: summary(&mut best),
     }
+}
+
+/// Each pose's fastest of `reps` calls in a row (mean, p99, max over the poses): the cost with
+/// the pose's data in the caches, as in a session where successive passes see nearly the same
+/// pose. [`worst`] interleaves the poses instead, so each call finds the caches full of other
+/// poses' data (the cold case).
+fn warm<F: FnMut(usize)>(n: usize, reps: usize, mut f: F) -> (f64, f64, f64) {
+    let mut best: Vec<f64> = (0..n)
+        .map(|i| {
+            (0..reps)
+                .map(|_| {
+                    let s = Instant::now();
+                    f(i);
+                    s.elapsed().as_secs_f64() * 1e6
+                })
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    summary(&mut best)
+}
+
+fn report_warm(name: &str, (mean, p99, max): (f64, f64, f64)) {
+    println!("WARM  {name:<34} mean {mean:8.2} us  p99 {p99:8.2} us  max {max:8.2} us (fastest of each pose, calls in a row)");
 }
 
 fn report(name: &str, t: Timings) {
@@ -203,6 +228,13 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
                 black_box(pen_contact(&scene, &mut bufs, p, q, opts, &mut st));
             }),
         );
+        report_warm(
+            &format!("pen_tick_impaled/{label}/{name}"),
+            warm(deep_list.len(), 5, |i| {
+                let (p, q) = deep_list[i];
+                black_box(pen_contact(&scene, &mut bufs, p, q, opts, &mut st));
+            }),
+        );
     }
 
     // Worst case over the poses (single ticks).
@@ -211,6 +243,13 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
         report(
             &format!("pen_tick/{label}/{name}"),
             worst(ps_list.len(), 20, |i| {
+                let (p, q) = ps_list[i];
+                black_box(pen_contact(&scene, &mut bufs, p, q, opts, &mut st));
+            }),
+        );
+        report_warm(
+            &format!("pen_tick/{label}/{name}"),
+            warm(ps_list.len(), 20, |i| {
                 let (p, q) = ps_list[i];
                 black_box(pen_contact(&scene, &mut bufs, p, q, opts, &mut st));
             }),
