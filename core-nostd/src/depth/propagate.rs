@@ -17,7 +17,7 @@ const MIN_DIST2: f32 = 1e-30;
 /// Per-node working state, stamped so nothing is cleared between calls.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct NodeSlot {
-    /// The call's stamp (a multiple of [`STATES`]) plus the node's state: one word tells
+    /// The call's stamp (a multiple of `STATES`) plus the node's state: one word tells
     /// whether the node belongs to this call and in which state, read before anything else.
     mark: u32,
     layer: u32,
@@ -59,7 +59,9 @@ impl Default for Crossing {
 /// ids handled) and a queue for the propagation. The queue holds the first nodes of the
 /// breadth-first order; the rest are chained through their slots (one link per slot), so a
 /// short queue changes neither the depths nor their order, and is only counted
-/// ([`DepthReport::queue_full`]).
+/// ([`DepthReport::queue_full`]). Each call stamps the slots it uses, so nothing is cleared
+/// between calls; once every 2^29 calls on one scratch the stamp wraps and every slot is
+/// cleared.
 #[derive(Debug)]
 pub struct DepthScratch<'a> {
     slots: &'a mut [NodeSlot],
@@ -239,7 +241,8 @@ impl<'c> Listed<'c> {
 /// the faces met), plus O(C * v) for the propagation. Every node of A reached from a depth
 /// source gets its depth whatever the queue's length: the breadth-first order goes on in a
 /// chain through the slots when the queue is full (`queue_full` tells). At most `out.len()`
-/// penetrations are written (`out_full`).
+/// penetrations are written (`out_full`). Once every 2^29 calls on one scratch, O(slots) more
+/// to clear them when the stamp wraps ([`DepthScratch`]).
 pub fn penetration_depth(
     a_positions: &[Vec3],
     graph: &NodeGraph<'_>,
@@ -379,9 +382,20 @@ fn mark_colliding(slots: &mut [NodeSlot], collisions: &[Collision], colliding: u
 /// How many of `nbs`, from the first, carry this call's mark (`stamp`).
 #[inline(never)]
 fn marked_run(slots: &[NodeSlot], nbs: &[NodeId], stamp: u32) -> usize {
-    nbs.iter()
-        .position(|q| slots.get(q.idx()).is_none_or(|s| s.mark ^ stamp >= STATES))
-        .unwrap_or(nbs.len())
+    let marked = |q: &NodeId| slots.get(q.idx()).is_some_and(|s| s.mark ^ stamp < STATES);
+    // Four at a time while all four are marked (rows are mostly marked), then one by one.
+    let mut quads = nbs.chunks_exact(4);
+    let mut k = 0;
+    for c in &mut quads {
+        for (i, q) in c.iter().enumerate() {
+            if !marked(q) {
+                return k + i;
+            }
+        }
+        k += 4;
+    }
+    let rest = quads.remainder();
+    k + rest.iter().position(|q| !marked(q)).unwrap_or(rest.len())
 }
 
 /// Gives every colliding node with a border edge that found B's surface its depth and
@@ -535,40 +549,32 @@ fn propagate(
         let nbs = graph.neighbours(u);
         if su_mark != queued {
             for &j in nbs {
-                let Some(sj) = slots.get_mut(j.idx()) else {
-                    continue;
-                };
-                if sj.mark == colliding {
-                    sj.mark = queued;
-                    sj.layer = layer;
-                    fifo.push(queue, slots, j, r);
+                if slots.get(j.idx()).is_some_and(|sj| sj.mark == colliding) {
+                    enqueue(&mut fifo, queue, slots, j, queued, layer, r);
                 }
             }
             continue;
         }
         let (mut sm, mut sd, mut sr) = (0.0f32, 0.0f32, Vec3::ZERO);
         for &j in nbs {
-            let Some(sj) = slots.get_mut(j.idx()) else {
+            let Some(sj) = slots.get(j.idx()) else {
                 continue;
             };
-            if sj.mark == colliding {
-                sj.mark = queued;
-                sj.layer = layer;
-                fifo.push(queue, slots, j, r);
-                continue;
+            if sj.mark == known {
+                if sj.layer < su_layer {
+                    let (dj, rj) = (sj.depth, sj.dir);
+                    // A known node has a position (it was a border point or popped).
+                    if let Some(&pj) = a_positions.get(j.idx()) {
+                        let v = pj - pu;
+                        let mu = 1.0 / v.length_squared().max(MIN_DIST2);
+                        sm += mu;
+                        sd += mu * (v.dot(rj) + dj);
+                        sr += rj * mu;
+                    }
+                }
+            } else if sj.mark == colliding {
+                enqueue(&mut fifo, queue, slots, j, queued, layer, r);
             }
-            if sj.mark != known || sj.layer >= su_layer {
-                continue;
-            }
-            let (dj, rj) = (sj.depth, sj.dir);
-            let Some(&pj) = a_positions.get(j.idx()) else {
-                continue;
-            };
-            let v = pj - pu;
-            let mu = 1.0 / v.length_squared().max(MIN_DIST2);
-            sm += mu;
-            sd += mu * (v.dot(rj) + dj);
-            sr += rj * mu;
         }
         let Some(slot) = slots.get_mut(u.idx()) else {
             continue;
@@ -584,6 +590,25 @@ fn propagate(
             slot.mark = stamp + STRANDED;
         }
     }
+}
+
+/// Queues the colliding node `j` at `layer` (its mark becomes `queued`).
+#[inline(never)]
+fn enqueue(
+    fifo: &mut Fifo,
+    queue: &mut [NodeId],
+    slots: &mut [NodeSlot],
+    j: NodeId,
+    queued: u32,
+    layer: u32,
+    r: &mut DepthReport,
+) {
+    let Some(s) = slots.get_mut(j.idx()) else {
+        return; // cannot happen: only nodes with a slot are queued
+    };
+    s.mark = queued;
+    s.layer = layer;
+    fifo.push(queue, slots, j, r);
 }
 
 /// The remembered face's crossing when the edge `p -> q` still leaves B through it, on the
