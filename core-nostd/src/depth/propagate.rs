@@ -311,7 +311,7 @@ pub fn penetration_depth_of(
                 b,
                 reuse: reuse_on,
                 crossings,
-                search: |tet, p, q, r: &mut DepthReport| {
+                search: move |tet, p, q, r: &mut DepthReport| {
                     traced_crossing(b, tet, p, q, max_steps, past, r)
                 },
             };
@@ -325,7 +325,9 @@ pub fn penetration_depth_of(
                 b,
                 reuse: reuse_on,
                 crossings,
-                search: |tet, p, q, r: &mut DepthReport| crossing(b, tet, p, q, method, past, r),
+                search: move |tet, p, q, r: &mut DepthReport| {
+                    crossing(b, tet, p, q, method, past, r)
+                },
             };
             border_points(
                 &mut edges, graph, collisions, slots, queue, &mut fifo, stamp, &mut r,
@@ -380,7 +382,7 @@ fn mark_colliding(slots: &mut [NodeSlot], collisions: &[Collision], colliding: u
 }
 
 /// How many of `nbs`, from the first, carry this call's mark (`stamp`).
-#[inline(never)]
+#[inline(always)]
 fn marked_run(slots: &[NodeSlot], nbs: &[NodeId], stamp: u32) -> usize {
     let marked = |q: &NodeId| slots.get(q.idx()).is_some_and(|s| s.mark ^ stamp < STATES);
     // Four at a time while all four are marked (rows are mostly marked), then one by one.
@@ -399,7 +401,8 @@ fn marked_run(slots: &[NodeSlot], nbs: &[NodeId], stamp: u32) -> usize {
 }
 
 /// Gives every colliding node with a border edge that found B's surface its depth and
-/// direction (known, layer 0) and queues it, in the order of `collisions`.
+/// direction (known, layer 0) and queues it, in the order of `collisions`. Nodes whose
+/// neighbours all collide are passed over in one scan of their row.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn border_points<S>(
@@ -415,45 +418,68 @@ fn border_points<S>(
     S: FnMut(TetId, Vec3, Vec3, &mut DepthReport) -> Option<SurfaceHit>,
 {
     for c in collisions {
-        let i = c.node.idx();
-        // Every collision in range carries this call's mark since the marking.
-        let Some(&p) = edges.a_positions.get(i) else {
-            continue;
-        };
-        if i >= slots.len() {
-            continue;
-        }
-        let (mut sw, mut sd, mut sn) = (0.0f32, 0.0f32, Vec3::ZERO);
-        let mut border = false;
         let (row, nbs) = graph.row(c.node);
         // Edges whose both ends collide are no border edges.
-        let mut k = marked_run(slots, nbs, stamp);
-        while let Some(&qn) = nbs.get(k) {
-            match edges.weigh(c.tet, p, qn, row + k, r) {
-                Edge::Unplaced => {}
-                Edge::Missed => border = true,
-                Edge::Hit(w, wd, wn) => {
-                    border = true;
-                    sw += w;
-                    sd += wd;
-                    sn += wn;
-                }
+        let k = marked_run(slots, nbs, stamp);
+        if k < nbs.len() {
+            border_point(edges, c, row, nbs, k, slots, queue, fifo, stamp, r);
+        }
+    }
+}
+
+/// [`border_points`] for the collision `c`, whose row `nbs` (adjacency entries from `row`)
+/// has its first neighbour that does not collide at `k`.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn border_point<S>(
+    edges: &mut BorderEdges<'_, '_, '_, S>,
+    c: &Collision,
+    row: usize,
+    nbs: &[NodeId],
+    mut k: usize,
+    slots: &mut [NodeSlot],
+    queue: &mut [NodeId],
+    fifo: &mut Fifo,
+    stamp: u32,
+    r: &mut DepthReport,
+) where
+    S: FnMut(TetId, Vec3, Vec3, &mut DepthReport) -> Option<SurfaceHit>,
+{
+    let i = c.node.idx();
+    // Every collision in range carries this call's mark since the marking.
+    let Some(&p) = edges.a_positions.get(i) else {
+        return;
+    };
+    if i >= slots.len() {
+        return;
+    }
+    let (mut sw, mut sd, mut sn) = (0.0f32, 0.0f32, Vec3::ZERO);
+    let mut border = false;
+    while let Some(&qn) = nbs.get(k) {
+        match edges.weigh(c.tet, p, qn, row + k, r) {
+            Edge::Unplaced => {}
+            Edge::Missed => border = true,
+            Edge::Hit(w, wd, wn) => {
+                border = true;
+                sw += w;
+                sd += wd;
+                sn += wn;
             }
-            k += 1;
-            k += marked_run(slots, nbs.get(k..).unwrap_or(&[]), stamp);
         }
-        if border {
-            r.border_points += 1;
-        }
-        if sw > 0.0 {
-            let Some(slot) = slots.get_mut(i) else {
-                continue;
-            };
-            slot.mark = stamp + KNOWN;
-            slot.depth = sd / sw;
-            slot.dir = sn.normalize_or_zero();
-            fifo.push(queue, slots, c.node, r);
-        }
+        k += 1;
+        k += marked_run(slots, nbs.get(k..).unwrap_or(&[]), stamp);
+    }
+    if border {
+        r.border_points += 1;
+    }
+    if sw > 0.0 {
+        let Some(slot) = slots.get_mut(i) else {
+            return;
+        };
+        slot.mark = stamp + KNOWN;
+        slot.depth = sd / sw;
+        slot.dir = sn.normalize_or_zero();
+        fifo.push(queue, slots, c.node, r);
     }
 }
 
@@ -549,31 +575,40 @@ fn propagate(
         let nbs = graph.neighbours(u);
         if su_mark != queued {
             for &j in nbs {
-                if slots.get(j.idx()).is_some_and(|sj| sj.mark == colliding) {
-                    enqueue(&mut fifo, queue, slots, j, queued, layer, r);
+                let Some(sj) = slots.get_mut(j.idx()) else {
+                    continue;
+                };
+                if sj.mark == colliding {
+                    sj.mark = queued;
+                    sj.layer = layer;
+                    fifo.push(queue, slots, j, r);
                 }
             }
             continue;
         }
         let (mut sm, mut sd, mut sr) = (0.0f32, 0.0f32, Vec3::ZERO);
         for &j in nbs {
-            let Some(sj) = slots.get(j.idx()) else {
+            let Some(sj) = slots.get_mut(j.idx()) else {
                 continue;
             };
             if sj.mark == known {
                 if sj.layer < su_layer {
                     let (dj, rj) = (sj.depth, sj.dir);
                     // A known node has a position (it was a border point or popped).
-                    if let Some(&pj) = a_positions.get(j.idx()) {
-                        let v = pj - pu;
-                        let mu = 1.0 / v.length_squared().max(MIN_DIST2);
-                        sm += mu;
-                        sd += mu * (v.dot(rj) + dj);
-                        sr += rj * mu;
-                    }
+                    let Some(&pj) = a_positions.get(j.idx()) else {
+                        unplaced();
+                        continue;
+                    };
+                    let v = pj - pu;
+                    let mu = 1.0 / v.length_squared().max(MIN_DIST2);
+                    sm += mu;
+                    sd += mu * (v.dot(rj) + dj);
+                    sr += rj * mu;
                 }
             } else if sj.mark == colliding {
-                enqueue(&mut fifo, queue, slots, j, queued, layer, r);
+                sj.mark = queued;
+                sj.layer = layer;
+                fifo.push(queue, slots, j, r);
             }
         }
         let Some(slot) = slots.get_mut(u.idx()) else {
@@ -592,24 +627,12 @@ fn propagate(
     }
 }
 
-/// Queues the colliding node `j` at `layer` (its mark becomes `queued`).
+/// Marks the path of a known node without a position, which cannot be taken (a known node
+/// was a border point or popped, both with a position): kept out of line so the layer test
+/// before it stays one branch.
+#[cold]
 #[inline(never)]
-fn enqueue(
-    fifo: &mut Fifo,
-    queue: &mut [NodeId],
-    slots: &mut [NodeSlot],
-    j: NodeId,
-    queued: u32,
-    layer: u32,
-    r: &mut DepthReport,
-) {
-    let Some(s) = slots.get_mut(j.idx()) else {
-        return; // cannot happen: only nodes with a slot are queued
-    };
-    s.mark = queued;
-    s.layer = layer;
-    fifo.push(queue, slots, j, r);
-}
+fn unplaced() {}
 
 /// The remembered face's crossing when the edge `p -> q` still leaves B through it, on the
 /// edge.
@@ -712,6 +735,7 @@ impl Fifo {
     }
 
     /// Appends `v` (a node with a slot).
+    #[inline(always)]
     fn push(
         &mut self,
         queue: &mut [NodeId],
@@ -721,19 +745,26 @@ impl Fifo {
     ) {
         if let Some(e) = queue.get_mut(self.pushed) {
             *e = v;
+            self.pushed += 1;
         } else {
-            r.queue_full = true;
-            let Some(s) = slots.get_mut(v.idx()) else {
-                return; // cannot happen: only nodes with a slot are pushed
-            };
-            s.next = NodeId::NONE;
-            if self.cursor.is_none() {
-                self.cursor = v;
-            } else if let Some(t) = slots.get_mut(self.tail.idx()) {
-                t.next = v;
-            }
-            self.tail = v;
+            self.chain(slots, v, r);
         }
+    }
+
+    /// Appends `v` (a node with a slot) to the chain: the queue is full.
+    #[inline(never)]
+    fn chain(&mut self, slots: &mut [NodeSlot], v: NodeId, r: &mut DepthReport) {
+        r.queue_full = true;
+        let Some(s) = slots.get_mut(v.idx()) else {
+            return; // cannot happen: only nodes with a slot are pushed
+        };
+        s.next = NodeId::NONE;
+        if self.cursor.is_none() {
+            self.cursor = v;
+        } else if let Some(t) = slots.get_mut(self.tail.idx()) {
+            t.next = v;
+        }
+        self.tail = v;
         self.pushed += 1;
     }
 
