@@ -104,15 +104,19 @@ impl<'a> NodeGraph<'a> {
     /// Constant.
     #[inline]
     pub fn row(&self, n: NodeId) -> (usize, &'a [NodeId]) {
-        let lo = self.offsets.get(n.idx()).copied().unwrap_or(0) as usize;
-        (lo, self.neighbours(n))
+        let i = n.idx();
+        match self.offsets.get(i..i.saturating_add(2)) {
+            Some(&[lo, hi]) => (
+                lo as usize,
+                self.adj.get(lo as usize..hi as usize).unwrap_or(&[]),
+            ),
+            _ => (0, &[]),
+        }
     }
 
     /// The neighbours of `n` (empty for an id out of range).
     #[inline]
     pub fn neighbours(&self, n: NodeId) -> &'a [NodeId] {
-        let lo = self.offsets.get(n.idx()).copied().unwrap_or(0) as usize;
-        let hi = self.offsets.get(n.idx() + 1).copied().unwrap_or(0) as usize;
-        self.adj.get(lo..hi).unwrap_or(&[])
+        self.row(n).1
     }
 }

@@ -17,8 +17,9 @@ const MIN_DIST2: f32 = 1e-30;
 /// Per-node working state, stamped so nothing is cleared between calls.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct NodeSlot {
-    stamp: u32,
-    state: u8,
+    /// The call's stamp (a multiple of `STATES`) plus the node's state: one word tells
+    /// whether the node belongs to this call and in which state, read before anything else.
+    mark: u32,
     layer: u32,
     tet: TetId,
     depth: f32,
@@ -27,11 +28,14 @@ pub struct NodeSlot {
     next: NodeId,
 }
 
-const COLLIDING: u8 = 1;
-const QUEUED: u8 = 2;
-const KNOWN: u8 = 3;
+const COLLIDING: u32 = 1;
+const QUEUED: u32 = 2;
+const KNOWN: u32 = 3;
 /// Queued, but every weight from its known neighbours underflowed: no depth.
-const STRANDED: u8 = 4;
+const STRANDED: u32 = 4;
+/// Stamps advance by this much a call, so a mark `stamp + state` keeps the state in its low
+/// bits; `mark ^ stamp < STATES` tells a mark of this call.
+const STATES: u32 = 8;
 
 /// The boundary face of B where one directed edge of A's graph last left B (see
 /// [`DepthScratch::with_crossings`]).
@@ -55,7 +59,9 @@ impl Default for Crossing {
 /// ids handled) and a queue for the propagation. The queue holds the first nodes of the
 /// breadth-first order; the rest are chained through their slots (one link per slot), so a
 /// short queue changes neither the depths nor their order, and is only counted
-/// ([`DepthReport::queue_full`]).
+/// ([`DepthReport::queue_full`]). Each call stamps the slots it uses, so nothing is cleared
+/// between calls; once every 2^29 calls on one scratch the stamp wraps and every slot is
+/// cleared.
 #[derive(Debug)]
 pub struct DepthScratch<'a> {
     slots: &'a mut [NodeSlot],
@@ -123,17 +129,20 @@ impl<'a> DepthScratch<'a> {
         self.crossings.fill(Crossing::default());
     }
 
+    /// Starts a call: a stamp no slot holds.
     fn next_stamp(&mut self) {
-        self.stamp = self.stamp.wrapping_add(1);
+        self.stamp = self.stamp.wrapping_add(STATES);
         if self.stamp == 0 {
-            // Once every 2^32 calls: forget every old stamp.
+            // Once every 2^29 calls: forget every old stamp.
             self.slots.fill(NodeSlot::default());
-            self.stamp = 1;
+            self.stamp = STATES;
         }
     }
 
-    fn slot(&self, n: NodeId) -> Option<&NodeSlot> {
-        self.slots.get(n.idx()).filter(|s| s.stamp == self.stamp)
+    /// Sets the stamp of the last call (tests of the stamp's wrap).
+    #[cfg(test)]
+    pub(super) fn set_stamp(&mut self, stamp: u32) {
+        self.stamp = stamp & !(STATES - 1);
     }
 }
 
@@ -232,7 +241,8 @@ impl<'c> Listed<'c> {
 /// the faces met), plus O(C * v) for the propagation. Every node of A reached from a depth
 /// source gets its depth whatever the queue's length: the breadth-first order goes on in a
 /// chain through the slots when the queue is full (`queue_full` tells). At most `out.len()`
-/// penetrations are written (`out_full`).
+/// penetrations are written (`out_full`). Once every 2^29 calls on one scratch, O(slots) more
+/// to clear them when the stamp wraps ([`DepthScratch`]).
 pub fn penetration_depth(
     a_positions: &[Vec3],
     graph: &NodeGraph<'_>,
@@ -278,137 +288,62 @@ pub fn penetration_depth_of(
     let mut r = DepthReport::default();
     scratch.next_stamp();
     let stamp = scratch.stamp;
+    let reuse_on = scratch.reuse;
+    let DepthScratch {
+        slots,
+        queue,
+        crossings,
+        ..
+    } = scratch;
+    let (slots, queue, crossings) = (&mut **slots, &mut **queue, &mut **crossings);
 
     // Mark colliding nodes (depth, direction and link are written before they are read: when
     // the node becomes known, when it is chained).
-    for c in collisions {
-        match scratch.slots.get_mut(c.node.idx()) {
-            Some(s) => {
-                s.stamp = stamp;
-                s.state = COLLIDING;
-                s.layer = 0;
-                s.tet = c.tet;
-            }
-            None => r.out_of_range += 1,
-        }
-    }
+    r.out_of_range = mark_colliding(slots, collisions, stamp + COLLIDING);
 
-    // Border points: weighted surface crossings of their border edges.
+    // Border points: weighted surface crossings of their border edges (one copy of the loop
+    // a method, so neither pays for the other's set-up).
     let mut fifo = Fifo::new();
-    for c in collisions {
-        let Some(&p) = a_positions.get(c.node.idx()) else {
-            continue;
-        };
-        if scratch.slot(c.node).is_none() {
-            continue;
+    match *method {
+        Method::Traced { max_steps } => {
+            let mut edges = BorderEdges {
+                a_positions,
+                b,
+                reuse: reuse_on,
+                crossings,
+                search: move |tet, p, q, r: &mut DepthReport| {
+                    traced_crossing(b, tet, p, q, max_steps, past, r)
+                },
+            };
+            border_points(
+                &mut edges, graph, collisions, slots, queue, &mut fifo, stamp, &mut r,
+            );
         }
-        let (mut sw, mut sd, mut sn) = (0.0f32, 0.0f32, Vec3::ZERO);
-        let mut border = false;
-        let (row, nbs) = graph.row(c.node);
-        for (k, &qn) in (row..).zip(nbs) {
-            if scratch.slot(qn).is_some() {
-                continue; // both ends collide: not a border edge
-            }
-            let Some(&q) = a_positions.get(qn.idx()) else {
-                continue;
+        Method::Hashed { .. } => {
+            let mut edges = BorderEdges {
+                a_positions,
+                b,
+                reuse: reuse_on,
+                crossings,
+                search: move |tet, p, q, r: &mut DepthReport| {
+                    crossing(b, tet, p, q, method, past, r)
+                },
             };
-            border = true;
-            r.border_edges += 1;
-            let memo = scratch.crossings.get_mut(k);
-            let again = match (&memo, scratch.reuse) {
-                (Some(m), true) => reuse(b, m.face, p, q, &mut r),
-                _ => None,
-            };
-            let found = again.or_else(|| crossing(b, c.tet, p, q, method, past, &mut r));
-            if let Some(m) = memo {
-                m.face = found.map_or(Crossing::default().face, |h| h.face);
-            }
-            let Some(h) = found else {
-                r.missed_edges += 1;
-                continue;
-            };
-            r.hits += 1;
-            let v = h.point - p;
-            let w = 1.0 / v.length_squared().max(MIN_DIST2);
-            sw += w;
-            sd += w * v.dot(h.normal);
-            sn += h.normal * w;
-        }
-        if border {
-            r.border_points += 1;
-        }
-        if sw > 0.0 {
-            let Some(slot) = scratch.slots.get_mut(c.node.idx()) else {
-                continue;
-            };
-            slot.state = KNOWN;
-            slot.depth = sd / sw;
-            slot.dir = sn.normalize_or_zero();
-            fifo.push(scratch.queue, scratch.slots, c.node, &mut r);
+            border_points(
+                &mut edges, graph, collisions, slots, queue, &mut fifo, stamp, &mut r,
+            );
         }
     }
 
-    // Breadth-first propagation, layer by layer. A queued node takes its value from its known
-    // neighbours of lower layers and queues its colliding neighbours in the same pass over its
-    // neighbours (a neighbour is either known or colliding, never both, so the sums and the
-    // queue order are those of two separate passes).
-    while let Some(u) = fifo.pop(scratch.queue, scratch.slots) {
-        let Some(&pu) = a_positions.get(u.idx()) else {
-            continue;
-        };
-        let Some(su) = scratch.slot(u) else { continue };
-        let (queued, su_layer) = (su.state == QUEUED, su.layer);
-        let layer = su_layer + 1;
-        let (mut sm, mut sd, mut sr) = (0.0f32, 0.0f32, Vec3::ZERO);
-        for &j in graph.neighbours(u) {
-            let Some(sj) = scratch.slots.get_mut(j.idx()) else {
-                continue;
-            };
-            if sj.stamp != stamp {
-                continue;
-            }
-            if sj.state == COLLIDING {
-                sj.state = QUEUED;
-                sj.layer = layer;
-                fifo.push(scratch.queue, scratch.slots, j, &mut r);
-                continue;
-            }
-            if !queued || sj.state != KNOWN || sj.layer >= su_layer {
-                continue;
-            }
-            let (dj, rj) = (sj.depth, sj.dir);
-            let Some(&pj) = a_positions.get(j.idx()) else {
-                continue;
-            };
-            let v = pj - pu;
-            let mu = 1.0 / v.length_squared().max(MIN_DIST2);
-            sm += mu;
-            sd += mu * (v.dot(rj) + dj);
-            sr += rj * mu;
-        }
-        if queued {
-            let Some(slot) = scratch.slots.get_mut(u.idx()) else {
-                continue;
-            };
-            if sm > 0.0 {
-                slot.state = KNOWN;
-                slot.depth = sd / sm;
-                slot.dir = sr.normalize_or_zero();
-            } else {
-                // Only for positions so far apart that every weight underflows (it was queued
-                // by a known neighbour): no depth, as for an unreached node, and never queued
-                // again (each node is queued at most once, so the work stays bounded).
-                slot.state = STRANDED;
-            }
-        }
-    }
+    propagate(a_positions, graph, slots, queue, fifo, stamp, &mut r);
 
-    // Output in collision order.
+    // Output in collision order (every collision in range carries this call's mark).
+    let known = stamp + KNOWN;
     for c in collisions {
-        let Some(s) = scratch.slot(c.node) else {
+        let Some(s) = slots.get(c.node.idx()) else {
             continue;
         };
-        if s.state != KNOWN {
+        if s.mark != known {
             r.unreached += 1;
             continue;
         }
@@ -427,6 +362,277 @@ pub fn penetration_depth_of(
     }
     r
 }
+
+/// Marks the collisions' nodes colliding (layer 0, their tet); returns how many are beyond
+/// the slots.
+#[inline(never)]
+fn mark_colliding(slots: &mut [NodeSlot], collisions: &[Collision], colliding: u32) -> u32 {
+    let mut out_of_range = 0;
+    for c in collisions {
+        match slots.get_mut(c.node.idx()) {
+            Some(s) => {
+                s.mark = colliding;
+                s.layer = 0;
+                s.tet = c.tet;
+            }
+            None => out_of_range += 1,
+        }
+    }
+    out_of_range
+}
+
+/// How many of `nbs`, from the first, carry this call's mark (`stamp`).
+#[inline(always)]
+fn marked_run(slots: &[NodeSlot], nbs: &[NodeId], stamp: u32) -> usize {
+    let marked = |q: &NodeId| slots.get(q.idx()).is_some_and(|s| s.mark ^ stamp < STATES);
+    // Four at a time while all four are marked (rows are mostly marked), then one by one.
+    let mut quads = nbs.chunks_exact(4);
+    let mut k = 0;
+    for c in &mut quads {
+        for (i, q) in c.iter().enumerate() {
+            if !marked(q) {
+                return k + i;
+            }
+        }
+        k += 4;
+    }
+    let rest = quads.remainder();
+    k + rest.iter().position(|q| !marked(q)).unwrap_or(rest.len())
+}
+
+/// Gives every colliding node with a border edge that found B's surface its depth and
+/// direction (known, layer 0) and queues it, in the order of `collisions`. Nodes whose
+/// neighbours all collide are passed over in one scan of their row.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn border_points<S>(
+    edges: &mut BorderEdges<'_, '_, '_, S>,
+    graph: &NodeGraph<'_>,
+    collisions: &[Collision],
+    slots: &mut [NodeSlot],
+    queue: &mut [NodeId],
+    fifo: &mut Fifo,
+    stamp: u32,
+    r: &mut DepthReport,
+) where
+    S: FnMut(TetId, Vec3, Vec3, &mut DepthReport) -> Option<SurfaceHit>,
+{
+    for c in collisions {
+        let (row, nbs) = graph.row(c.node);
+        // Edges whose both ends collide are no border edges.
+        let k = marked_run(slots, nbs, stamp);
+        if k < nbs.len() {
+            border_point(edges, c, row, nbs, k, slots, queue, fifo, stamp, r);
+        }
+    }
+}
+
+/// [`border_points`] for the collision `c`, whose row `nbs` (adjacency entries from `row`)
+/// has its first neighbour that does not collide at `k`.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn border_point<S>(
+    edges: &mut BorderEdges<'_, '_, '_, S>,
+    c: &Collision,
+    row: usize,
+    nbs: &[NodeId],
+    mut k: usize,
+    slots: &mut [NodeSlot],
+    queue: &mut [NodeId],
+    fifo: &mut Fifo,
+    stamp: u32,
+    r: &mut DepthReport,
+) where
+    S: FnMut(TetId, Vec3, Vec3, &mut DepthReport) -> Option<SurfaceHit>,
+{
+    let i = c.node.idx();
+    // Every collision in range carries this call's mark since the marking.
+    let Some(&p) = edges.a_positions.get(i) else {
+        return;
+    };
+    if i >= slots.len() {
+        return;
+    }
+    let (mut sw, mut sd, mut sn) = (0.0f32, 0.0f32, Vec3::ZERO);
+    let mut border = false;
+    while let Some(&qn) = nbs.get(k) {
+        match edges.weigh(c.tet, p, qn, row + k, r) {
+            Edge::Unplaced => {}
+            Edge::Missed => border = true,
+            Edge::Hit(w, wd, wn) => {
+                border = true;
+                sw += w;
+                sd += wd;
+                sn += wn;
+            }
+        }
+        k += 1;
+        k += marked_run(slots, nbs.get(k..).unwrap_or(&[]), stamp);
+    }
+    if border {
+        r.border_points += 1;
+    }
+    if sw > 0.0 {
+        let Some(slot) = slots.get_mut(i) else {
+            return;
+        };
+        slot.mark = stamp + KNOWN;
+        slot.depth = sd / sw;
+        slot.dir = sn.normalize_or_zero();
+        fifo.push(queue, slots, c.node, r);
+    }
+}
+
+/// What a border edge found: its node outside has no position, no crossing was found, or the
+/// crossing's weight `w` with `w * (x - p).n` and `n * w`.
+enum Edge {
+    Unplaced,
+    Missed,
+    Hit(f32, f32, Vec3),
+}
+
+/// What the border edges of body A need to find their crossings with B's surface; `search`
+/// is the method's search.
+struct BorderEdges<'s, 'm, 'a, S> {
+    a_positions: &'s [Vec3],
+    b: &'s Body<'m, 'a>,
+    reuse: bool,
+    crossings: &'s mut [Crossing],
+    search: S,
+}
+
+impl<S> BorderEdges<'_, '_, '_, S>
+where
+    S: FnMut(TetId, Vec3, Vec3, &mut DepthReport) -> Option<SurfaceHit>,
+{
+    /// The border edge from `p` (in tet `tet` of B) to the node `qn` that does not collide,
+    /// adjacency entry `entry`: its crossing, first through the remembered face when reuse is
+    /// on, else searched; the entry then remembers the crossing's face.
+    #[inline(always)]
+    fn weigh(
+        &mut self,
+        tet: TetId,
+        p: Vec3,
+        qn: NodeId,
+        entry: usize,
+        r: &mut DepthReport,
+    ) -> Edge {
+        let Some(&q) = self.a_positions.get(qn.idx()) else {
+            return Edge::Unplaced;
+        };
+        r.border_edges += 1;
+        let memo = self.crossings.get_mut(entry);
+        let again = match (&memo, self.reuse) {
+            (Some(m), true) => reuse(self.b, m.face, p, q, r),
+            _ => None,
+        };
+        let found = match again {
+            Some(h) => Some(h),
+            None => (self.search)(tet, p, q, r),
+        };
+        if let Some(m) = memo {
+            m.face = found.map_or(Crossing::default().face, |h| h.face);
+        }
+        let Some(h) = found else {
+            r.missed_edges += 1;
+            return Edge::Missed;
+        };
+        r.hits += 1;
+        let v = h.point - p;
+        let w = 1.0 / v.length_squared().max(MIN_DIST2);
+        Edge::Hit(w, w * v.dot(h.normal), h.normal * w)
+    }
+}
+
+/// Breadth-first propagation, layer by layer, from the known border points in `fifo`. A border
+/// point queues its colliding neighbours; a queued node takes its value from its known
+/// neighbours of lower layers and queues its colliding neighbours in the same pass over its
+/// neighbours (a neighbour is either known or colliding, never both, so the sums and the
+/// queue order are those of two separate passes).
+#[inline(never)]
+fn propagate(
+    a_positions: &[Vec3],
+    graph: &NodeGraph<'_>,
+    slots: &mut [NodeSlot],
+    queue: &mut [NodeId],
+    mut fifo: Fifo,
+    stamp: u32,
+    r: &mut DepthReport,
+) {
+    let (colliding, queued, known) = (stamp + COLLIDING, stamp + QUEUED, stamp + KNOWN);
+    while let Some(u) = fifo.pop(queue, slots) {
+        let Some(&pu) = a_positions.get(u.idx()) else {
+            continue;
+        };
+        let Some(su) = slots.get(u.idx()) else {
+            continue;
+        };
+        let (su_mark, su_layer) = (su.mark, su.layer);
+        if su_mark ^ stamp >= STATES {
+            continue; // cannot happen: only marked nodes are queued
+        }
+        let layer = su_layer + 1;
+        let nbs = graph.neighbours(u);
+        if su_mark != queued {
+            for &j in nbs {
+                let Some(sj) = slots.get_mut(j.idx()) else {
+                    continue;
+                };
+                if sj.mark == colliding {
+                    sj.mark = queued;
+                    sj.layer = layer;
+                    fifo.push(queue, slots, j, r);
+                }
+            }
+            continue;
+        }
+        let (mut sm, mut sd, mut sr) = (0.0f32, 0.0f32, Vec3::ZERO);
+        for &j in nbs {
+            let Some(sj) = slots.get_mut(j.idx()) else {
+                continue;
+            };
+            if sj.mark == known {
+                if sj.layer < su_layer {
+                    let (dj, rj) = (sj.depth, sj.dir);
+                    // A known node has a position (it was a border point or popped).
+                    let Some(&pj) = a_positions.get(j.idx()) else {
+                        unplaced();
+                        continue;
+                    };
+                    let v = pj - pu;
+                    let mu = 1.0 / v.length_squared().max(MIN_DIST2);
+                    sm += mu;
+                    sd += mu * (v.dot(rj) + dj);
+                    sr += rj * mu;
+                }
+            } else if sj.mark == colliding {
+                sj.mark = queued;
+                sj.layer = layer;
+                fifo.push(queue, slots, j, r);
+            }
+        }
+        let Some(slot) = slots.get_mut(u.idx()) else {
+            continue;
+        };
+        if sm > 0.0 {
+            slot.mark = known;
+            slot.depth = sd / sm;
+            slot.dir = sr.normalize_or_zero();
+        } else {
+            // Only for positions so far apart that every weight underflows (it was queued by
+            // a known neighbour): no depth, as for an unreached node, and never queued again
+            // (each node is queued at most once, so the work stays bounded).
+            slot.mark = stamp + STRANDED;
+        }
+    }
+}
+
+/// Marks the path of a known node without a position, which cannot be taken (a known node
+/// was a border point or popped, both with a position): kept out of line so the layer test
+/// before it stays one branch.
+#[cold]
+#[inline(never)]
+fn unplaced() {}
 
 /// The remembered face's crossing when the edge `p -> q` still leaves B through it, on the
 /// edge.
@@ -458,24 +664,8 @@ fn crossing(
     past: Option<u32>,
     r: &mut DepthReport,
 ) -> Option<SurfaceHit> {
-    let beyond = |h: SurfaceHit, r: &mut DepthReport| {
-        (h.s > 1.0 + S_SLACK).then(|| {
-            r.beyond += 1;
-            h
-        })
-    };
     match method {
-        Method::Traced { max_steps } => {
-            // The walk stops at the first boundary face, on the edge or past its end.
-            let h = trace_exit(b, tet, p, q, *max_steps, &mut r.work)?;
-            if on_edge(&h) {
-                Some(h)
-            } else if past.is_some() {
-                beyond(h, r)
-            } else {
-                None
-            }
-        }
+        Method::Traced { max_steps } => traced_crossing(b, tet, p, q, *max_steps, past, r),
         Method::Hashed {
             faces,
             world_to_hash,
@@ -489,6 +679,36 @@ fn crossing(
             beyond(h, r)
         }
     }
+}
+
+/// [`crossing`] with [`Method::Traced`]: the walk stops at the first boundary face, on the
+/// edge or past its end.
+#[inline(always)]
+fn traced_crossing(
+    b: &Body<'_, '_>,
+    tet: TetId,
+    p: Vec3,
+    q: Vec3,
+    max_steps: u32,
+    past: Option<u32>,
+    r: &mut DepthReport,
+) -> Option<SurfaceHit> {
+    let h = trace_exit(b, tet, p, q, max_steps, &mut r.work)?;
+    if on_edge(&h) {
+        Some(h)
+    } else if past.is_some() {
+        beyond(h, r)
+    } else {
+        None
+    }
+}
+
+/// A crossing past the edge's end (`s` beyond 1), counted in [`DepthReport::beyond`].
+fn beyond(h: SurfaceHit, r: &mut DepthReport) -> Option<SurfaceHit> {
+    (h.s > 1.0 + S_SLACK).then(|| {
+        r.beyond += 1;
+        h
+    })
 }
 
 /// The breadth-first order: the caller's queue holds its first `queue.len()` nodes, the rest
@@ -515,6 +735,7 @@ impl Fifo {
     }
 
     /// Appends `v` (a node with a slot).
+    #[inline(always)]
     fn push(
         &mut self,
         queue: &mut [NodeId],
@@ -524,19 +745,26 @@ impl Fifo {
     ) {
         if let Some(e) = queue.get_mut(self.pushed) {
             *e = v;
+            self.pushed += 1;
         } else {
-            r.queue_full = true;
-            let Some(s) = slots.get_mut(v.idx()) else {
-                return; // cannot happen: only nodes with a slot are pushed
-            };
-            s.next = NodeId::NONE;
-            if self.cursor.is_none() {
-                self.cursor = v;
-            } else if let Some(t) = slots.get_mut(self.tail.idx()) {
-                t.next = v;
-            }
-            self.tail = v;
+            self.chain(slots, v, r);
         }
+    }
+
+    /// Appends `v` (a node with a slot) to the chain: the queue is full.
+    #[inline(never)]
+    fn chain(&mut self, slots: &mut [NodeSlot], v: NodeId, r: &mut DepthReport) {
+        r.queue_full = true;
+        let Some(s) = slots.get_mut(v.idx()) else {
+            return; // cannot happen: only nodes with a slot are pushed
+        };
+        s.next = NodeId::NONE;
+        if self.cursor.is_none() {
+            self.cursor = v;
+        } else if let Some(t) = slots.get_mut(self.tail.idx()) {
+            t.next = v;
+        }
+        self.tail = v;
         self.pushed += 1;
     }
 

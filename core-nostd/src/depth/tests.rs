@@ -560,3 +560,81 @@ fn reuse_keeps_a_face_past_a_fold_only_when_the_edge_still_crosses_it() {
         "reuse: the right wall's outer face, 0.9 away: {r:?}"
     );
 }
+
+/// One scratch through calls with different collision lists gives every call the result of a
+/// fresh scratch (report and penetrations, bit for bit): no mark of an earlier call counts,
+/// also when the stamp wraps and comes back to the value of an earlier call whose marks are
+/// still in the slots (the wrap clears them). Lists: all 100 nodes inside B; the lowest two
+/// levels (their upward edges end inside B: no depth); the highest two; all, with one
+/// collision repeated and one beyond the slots.
+#[test]
+fn marks_of_earlier_calls_never_count() {
+    let z0 = TOP - 0.17;
+    let mut f = fixture(z0);
+    let mut out = [Penetration::default(); 125];
+    let (_, cols, n) = run(&mut f, false, 125, &mut out);
+    assert_eq!(n, 100);
+    let a = f.a.mesh();
+    let b = f.b.mesh();
+    let bb = Body::fixed(&b);
+    let mut go = [0u32; 126];
+    let mut ga = [NodeId::NONE; 1208];
+    let g = NodeGraph::build(&a, &mut go, &mut ga).unwrap();
+    let mut lists = [[Collision::default(); 102]; 4];
+    let mut lens = [0usize; 4];
+    for c in &cols[..n] {
+        let low = a.positions()[c.node.idx()].z < z0 + 0.075;
+        for (l, keep) in [true, low, !low, true].into_iter().enumerate() {
+            if keep {
+                lists[l][lens[l]] = *c;
+                lens[l] += 1;
+            }
+        }
+    }
+    lists[3][lens[3]] = cols[7];
+    lists[3][lens[3] + 1] = Collision {
+        node: NodeId(500),
+        tet: cols[0].tet,
+    };
+    lens[3] += 2;
+    assert_eq!(lens, [100, 50, 50, 102]);
+    let m = Method::Traced { max_steps: 64 };
+    let (mut s, mut q) = ([NodeSlot::default(); 125], [NodeId::NONE; 125]);
+    let mut kept = DepthScratch::new(&mut s, &mut q);
+    for (call, l) in [0, 1, 1, 2, 0, 3, 1, 0].into_iter().enumerate() {
+        if call == 2 {
+            // The next call wraps to the first call's stamp; that call marked the upper
+            // levels, which the calls since have not touched.
+            kept.set_stamp(u32::MAX);
+        }
+        let list = &lists[l][..lens[l]];
+        let mut o1 = [Penetration::default(); 125];
+        let r1 = penetration_depth(a.positions(), &g, &bb, list, &m, &mut kept, &mut o1);
+        let (mut s2, mut q2) = ([NodeSlot::default(); 125], [NodeId::NONE; 125]);
+        let mut fresh = DepthScratch::new(&mut s2, &mut q2);
+        let mut o2 = [Penetration::default(); 125];
+        let r2 = penetration_depth(a.positions(), &g, &bb, list, &m, &mut fresh, &mut o2);
+        assert_eq!(r1, r2, "call {call}");
+        let expect = [(100, 0, 0), (0, 50, 0), (50, 0, 0), (101, 0, 1)][l];
+        assert_eq!(
+            (r1.written, r1.unreached, r1.out_of_range),
+            expect,
+            "call {call}"
+        );
+        for (x, y) in o1[..r1.written].iter().zip(&o2[..r2.written]) {
+            assert_eq!(
+                (x.node, x.tet, x.layer),
+                (y.node, y.tet, y.layer),
+                "call {call}"
+            );
+            assert_eq!(x.depth.to_bits(), y.depth.to_bits(), "call {call}");
+            assert_eq!(
+                x.dir.to_array().map(f32::to_bits),
+                y.dir.to_array().map(f32::to_bits),
+                "call {call}"
+            );
+            let z = a.positions()[x.node.idx()].z;
+            assert!((x.depth - (TOP - z)).abs() < 1e-5, "call {call}: {x:?}");
+        }
+    }
+}
