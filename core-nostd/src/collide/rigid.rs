@@ -675,6 +675,11 @@ pub fn rigid_tets_over_points_coherent(
             let Some(&p) = points.get(item as usize) else {
                 return;
             };
+            // A point outside the cluster's moved box is in none of its tets (the box holds
+            // their moved parts with the margin): only the points in it are moved back.
+            if !wb.contains(p) {
+                return;
+            }
             let q = inv.transform_point3(p);
             if rigid.cluster_of(q) != Some(ci) {
                 return;
