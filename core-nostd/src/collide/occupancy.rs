@@ -375,7 +375,7 @@ impl<'a> Occupancy<'a> {
 /// `p`'s cell in the grid from `origin` with `inv` cells a unit and `dims` cells, `None`
 /// outside it.
 #[inline]
-fn cell(origin: Vec3, inv: f32, dims: [i32; 3], p: Vec3) -> Option<[i32; 3]> {
+pub(super) fn cell(origin: Vec3, inv: f32, dims: [i32; 3], p: Vec3) -> Option<[i32; 3]> {
     // The floor of `range` without its saturating conversions: inside the grid the
     // scaled coordinates are in [0, dims), where truncation is the floor (NaN fails the
     // comparisons).
