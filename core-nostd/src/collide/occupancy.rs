@@ -375,7 +375,7 @@ impl<'a> Occupancy<'a> {
 /// `p`'s cell in the grid from `origin` with `inv` cells a unit and `dims` cells, `None`
 /// outside it.
 #[inline]
-fn cell(origin: Vec3, inv: f32, dims: [i32; 3], p: Vec3) -> Option<[i32; 3]> {
+pub(super) fn cell(origin: Vec3, inv: f32, dims: [i32; 3], p: Vec3) -> Option<[i32; 3]> {
     // The floor of `range` without its saturating conversions: inside the grid the
     // scaled coordinates are in [0, dims), where truncation is the floor (NaN fails the
     // comparisons).
@@ -390,11 +390,9 @@ fn cell(origin: Vec3, inv: f32, dims: [i32; 3], p: Vec3) -> Option<[i32; 3]> {
     if !inside {
         return None;
     }
-    let c = [f.x as i32, f.y as i32, f.z as i32].map(|v| v.min(i32::MAX - 1));
-    if (0..3).any(|a| c[a] >= d[a]) {
-        return None; // `d as f32` rounded up (grids beyond 2^24 cells a side)
-    }
-    Some(c)
+    // Below `d as f32`, the truncation is below `d` even where `d as f32` rounded up
+    // (grids beyond 2^24 cells a side): no float lies between `d` and the float above it.
+    Some([f.x as i32, f.y as i32, f.z as i32])
 }
 
 /// The cells of the grid box `b` covers, clamped to the grid (`None` when it misses the

@@ -142,3 +142,45 @@ fn occupancy_is_conservative_and_culls() {
     assert_eq!(err(&mut w, 0.0), OccupancyError::BadCellSize);
     assert_eq!(err(&mut w, f32::NAN), OccupancyError::BadCellSize);
 }
+
+/// A point's cell in a grid of up to `i32::MAX` cells a side is its coordinate's floor when
+/// the coordinate is in `[0, cells as f32)`, else none, and that floor is below the cell
+/// count (checked in i64): also where the count is not a float (beyond 2^24) and `cells as
+/// f32` rounds up or down, for the floats on both sides of the count.
+#[test]
+fn cells_of_huge_grids_stay_below_the_count() {
+    let up = |x: f32| f32::from_bits(x.to_bits() + 1);
+    let down = |x: f32| f32::from_bits(x.to_bits() - 1);
+    let mut checked = 0;
+    for d in [
+        1,
+        7,
+        (1 << 24) - 1,
+        1 << 24,
+        (1 << 24) + 1,
+        (1 << 24) + 3,
+        (1 << 25) + 1,
+        (1 << 25) + 3,
+        (1 << 30) + 7,
+        (1 << 30) + 64,
+        i32::MAX - 64,
+        i32::MAX,
+    ] {
+        let r = d as f32;
+        let near = [r, up(r), down(r), down(down(r)), up(up(r))];
+        let far = [0.0f32, -0.0, -1e-30, 0.5, f32::NAN, f32::INFINITY];
+        for x in near.into_iter().chain(far) {
+            let want = (x >= 0.0 && x < d as f32).then(|| [x.floor() as i32, 0, 0]);
+            let got = super::occupancy::cell(Vec3::ZERO, 1.0, [d, 1, 1], Vec3::new(x, 0.0, 0.0));
+            assert_eq!(got, want, "{x} in {d} cells");
+            if let Some(c) = got {
+                assert!(
+                    (x.floor() as i64) < d as i64 && c[0] < d,
+                    "{x} in {d} cells"
+                );
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 100);
+}

@@ -61,7 +61,7 @@ pub fn points_in_tets_coherent(
     out: &mut [Collision],
     kept: usize,
 ) -> CollideReport {
-    coherent(tets, body, points, own, out, kept, None, |_| true, NO_WALKS)
+    coherent(tets, body, points, own, out, kept, None, |_| true)
 }
 
 /// [`points_in_tets_coherent`] that looks a point up only when `cells` says a tet box of
@@ -94,17 +94,7 @@ pub fn points_in_tets_occupied<F: Fn(usize) -> bool>(
     kept: usize,
     may_hit: F,
 ) -> CollideReport {
-    coherent(
-        tets,
-        body,
-        points,
-        own,
-        out,
-        kept,
-        Some(cells),
-        may_hit,
-        NO_WALKS,
-    )
+    coherent(tets, body, points, own, out, kept, Some(cells), may_hit)
 }
 
 /// Where the walks of [`points_in_tets_walked`] start.
@@ -153,17 +143,46 @@ pub fn points_in_tets_walked<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> b
     starts: WalkStarts<'_, N>,
     may_hit: F,
 ) -> CollideReport {
-    starts.found.fill(TetId::NONE);
-    coherent(
-        tets,
-        body,
+    let WalkStarts {
+        found,
+        near,
+        max_steps,
+    } = starts;
+    found.fill(TetId::NONE);
+    let tet_count = body.tet_count();
+    // A walk starts in the tet the point was in last call, else in a near point's.
+    let locate = |node: NodeId, p: Vec3, was: TetId, r: &mut CollideReport| {
+        let mut t = TetId::NONE;
+        if max_steps > 0 {
+            let mut start = was;
+            if start.is_none() {
+                for j in near(node.idx()) {
+                    if let Some(&f) = found.get(j.idx()) {
+                        if f.is_some() {
+                            start = f;
+                            break;
+                        }
+                    }
+                }
+            }
+            if start.idx() < tet_count {
+                t = walk_to_holder(body, start, p, max_steps, &mut r.candidates);
+            }
+        }
+        if t.is_none() {
+            t = smallest_tet(tets, body, Some(cells), p, node, false, r);
+        }
+        if let Some(f) = found.get_mut(node.idx()) {
+            *f = t;
+        }
+        t
+    };
+    scan(
         points,
-        false,
         out,
         kept,
-        Some(cells),
-        may_hit,
-        Some(starts),
+        |i, p| may_hit(i) && cells.may_hold(p),
+        locate,
     )
 }
 
@@ -255,16 +274,9 @@ pub fn walk_to_holder(
     TetId::NONE
 }
 
-/// No point has near points.
-type NoNear = fn(usize) -> &'static [NodeId];
-
-/// No walks: every point looked up in the hash.
-const NO_WALKS: Option<WalkStarts<'static, NoNear>> = None;
-
-/// [`points_in_tets_coherent`], culled by `cells` when given and by `filter`, with a walk
-/// before each hash look-up when `starts` is given (`starts.found` cleared).
+/// [`points_in_tets_coherent`], culled by `cells` when given and by `filter`.
 #[allow(clippy::too_many_arguments)]
-fn coherent<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> bool>(
+fn coherent<F: Fn(usize) -> bool>(
     tets: &SpatialHash<'_>,
     body: &Body<'_, '_>,
     points: &[Vec3],
@@ -273,38 +285,33 @@ fn coherent<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> bool>(
     kept: usize,
     cells: Option<&Occupancy<'_>>,
     filter: F,
-    mut starts: Option<WalkStarts<'_, N>>,
 ) -> CollideReport {
-    let may_hit = |i: usize, p: Vec3| filter(i) && cells.is_none_or(|c| c.may_hold(p));
+    scan(
+        points,
+        out,
+        kept,
+        |i, p| filter(i) && cells.is_none_or(|c| c.may_hold(p)),
+        |node, p, _, r| smallest_tet(tets, body, cells, p, node, own, r),
+    )
+}
+
+/// The `_coherent` searches' two passes: the previous entries `out[..kept]` whose point
+/// `locate` still finds in a tet (given its old tet), compacted in place, then every other
+/// point in index order into what is left; only points `may_hit` lets through are looked
+/// up. Sorts the entries when both passes wrote some.
+#[inline(always)]
+fn scan<M, L>(
+    points: &[Vec3],
+    out: &mut [Collision],
+    kept: usize,
+    may_hit: M,
+    mut locate: L,
+) -> CollideReport
+where
+    M: Fn(usize, Vec3) -> bool,
+    L: FnMut(NodeId, Vec3, TetId, &mut CollideReport) -> TetId,
+{
     let mut r = CollideReport::default();
-    // A walk starts in the tet the point was in last call, else in a near point's.
-    let mut locate = |node: NodeId, p: Vec3, was: TetId, r: &mut CollideReport| {
-        let Some(w) = starts.as_mut() else {
-            return smallest_tet(tets, body, cells, p, node, own, r);
-        };
-        let mut t = TetId::NONE;
-        if w.max_steps > 0 {
-            let start = if was.is_some() {
-                was
-            } else {
-                (w.near)(node.idx())
-                    .iter()
-                    .map(|j| w.found.get(j.idx()).copied().unwrap_or(TetId::NONE))
-                    .find(|t| t.is_some())
-                    .unwrap_or(TetId::NONE)
-            };
-            if start.idx() < body.tet_count() {
-                t = walk_to_holder(body, start, p, w.max_steps, &mut r.candidates);
-            }
-        }
-        if t.is_none() {
-            t = smallest_tet(tets, body, cells, p, node, own, r);
-        }
-        if let Some(f) = w.found.get_mut(node.idx()) {
-            *f = t;
-        }
-        t
-    };
     // The previous entries still inside, compacted in place (in node order).
     let m = super::keep_previous(out, kept, points, |node, p, was| {
         if may_hit(node.idx(), p) {
@@ -318,11 +325,13 @@ fn coherent<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> bool>(
     let mut j = 0usize;
     for (i, &p) in points.iter().enumerate() {
         let node = NodeId::from_idx(i);
-        while j < m && out[j].node < node {
-            j += 1;
-        }
-        if j < m && out[j].node == node {
-            continue; // tested above
+        if j < m {
+            while out.get(j).is_some_and(|c| j < m && c.node < node) {
+                j += 1;
+            }
+            if j < m && out.get(j).is_some_and(|c| c.node == node) {
+                continue; // tested above
+            }
         }
         if !may_hit(i, p) {
             continue;

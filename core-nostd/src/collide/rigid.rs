@@ -5,9 +5,9 @@
 //! them once in the body's own frame, in a dense rest grid (per cell, the tets whose grown
 //! box meets it, in increasing id order), and groups them into clusters (the cells of a
 //! coarse rest-frame grid); per tick [`rigid_tets_over_points_coherent`] queries the points'
-//! hash only over each cluster's moved box, moves each point met into the body's frame, lets
-//! only the cluster whose cell holds it go on (so no point is handled twice), and looks it up
-//! in its rest grid cell. [`RigidTets::near`] tells, once a tick, which clusters' moved boxes
+//! hash only over each cluster's moved box, moves each point met that the box holds into the
+//! body's frame, lets only the cluster whose cell holds it go on (so no point is handled
+//! twice), and looks it up in its rest grid cell. [`RigidTets::near`] tells, once a tick, which clusters' moved boxes
 //! meet cells another body occupies: the search skips the others, and so can a lookup of the
 //! body's own nodes in the other body ([`RigidTets::node_near`]). Rest-frame data only culls,
 //! with a margin; the test that decides is the same barycentric test on the moved corners as
@@ -620,8 +620,9 @@ impl RigidTets<'_> {
 /// # Bounded work
 /// O(kept x (max_walk + b)) for the previous points, then per near cluster one box transform and a query
 /// of at most
-/// [`MAX_CELLS_PER_TET`] cells of `points_hash`; per point met one transform and, for the
-/// points in the cluster's own cell, at most `b` candidate tets, for `b` the fullest cell of
+/// [`MAX_CELLS_PER_TET`] cells of `points_hash`; per point met one box test, for those in the
+/// cluster's moved box one transform and, for the points in the cluster's own cell, at most
+/// `b` candidate tets, for `b` the fullest cell of
 /// the rest grid; a binary search over `kept` entries and, once `out` is full, a heap step
 /// (O(log out.len())) per new hit; one sort of at most `out.len()` entries.
 #[allow(clippy::too_many_arguments)]
@@ -675,6 +676,11 @@ pub fn rigid_tets_over_points_coherent(
             let Some(&p) = points.get(item as usize) else {
                 return;
             };
+            // A point outside the cluster's moved box is in none of its tets (the box holds
+            // their moved parts with the margin): only the points in it are moved back.
+            if !wb.contains(p) {
+                return;
+            }
             let q = inv.transform_point3(p);
             if rigid.cluster_of(q) != Some(ci) {
                 return;
