@@ -92,6 +92,22 @@ pub fn hit_on_face(
     let nodes = body.tet_nodes(t)?;
     let lv = FACE_VERTS.get(f as usize)?;
     let ids = lv.map(|k| nodes[k as usize]);
+    hit_at(body, FaceUse { tet: t, local: f }, ids, e, p, q)
+}
+
+/// [`hit_on_face`] for a caller that holds the face's node ids `ids` in its listing order.
+///
+/// # Bounded work
+/// Constant.
+#[inline]
+pub(crate) fn hit_at(
+    body: &Body<'_, '_>,
+    face: FaceUse,
+    ids: [NodeId; 3],
+    e: [f32; 3],
+    p: Vec3,
+    q: Vec3,
+) -> Option<SurfaceHit> {
     let pos = [body.pos(ids[0])?, body.pos(ids[1])?, body.pos(ids[2])?];
     let sum = e[0] + e[1] + e[2];
     if sum.is_nan() || sum >= 0.0 {
@@ -113,7 +129,7 @@ pub fn hit_on_face(
         0.0
     };
     Some(SurfaceHit {
-        face: FaceUse { tet: t, local: f },
+        face,
         point,
         normal,
         s,
