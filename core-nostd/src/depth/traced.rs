@@ -129,32 +129,44 @@ fn walk(
 }
 
 /// The exit face of the walk's first tet `nodes` (faces tested in order) and that face as
-/// the next tet's entry, slot `k` its listing position `k`.
+/// the next tet's entry, slot `k` its listing position `k`. Face 0 needs neither corner 0
+/// nor its edges, and face 1 not the edge 0-1: each is computed only when the faces before
+/// did not leave.
 #[inline(always)]
 fn first_exit(body: &Body<'_, '_>, nodes: [NodeId; 4], p: Vec3, d: Vec3) -> Option<(u8, Tri)> {
-    let c = [
-        Corner::new(body.pos(nodes[0])?, p, d),
-        Corner::new(body.pos(nodes[1])?, p, d),
-        Corner::new(body.pos(nodes[2])?, p, d),
-        Corner::new(body.pos(nodes[3])?, p, d),
-    ];
-    let e = |a: usize, b: usize| edge(nodes[a], c[a], nodes[b], c[b]);
-    let (e01, e02, e03) = (e(0, 1), e(0, 2), e(0, 3));
-    let (e12, e13, e23) = (e(1, 2), e(1, 3), e(2, 3));
+    let x0 = body.pos(nodes[0])?;
+    let c1 = Corner::new(body.pos(nodes[1])?, p, d);
+    let c2 = Corner::new(body.pos(nodes[2])?, p, d);
+    let c3 = Corner::new(body.pos(nodes[3])?, p, d);
+    let [n0, n1, n2, n3] = nodes;
+    let (e12, e13, e23) = (
+        edge(n1, c1, n2, c2),
+        edge(n1, c1, n3, c3),
+        edge(n2, c2, n3, c3),
+    );
     // Each face as `FACE_VERTS` lists it, with `[e_ab, e_bc, e_ca]`.
-    let face = |f: u8, [a, b, k]: [usize; 3], value: [f32; 3]| {
-        let [va, vb, vc] = value;
-        let tri = Tri {
-            node: [nodes[a], nodes[b], nodes[k], nodes[f as usize & 3]],
-            corner: [c[a], c[b], c[k], c[f as usize & 3]],
-            value: [va, vb, vc, 0.0],
-        };
-        leaves(value).then_some((f, tri))
+    let tri = |node: [NodeId; 3], corner: [Corner; 3], value: [f32; 3]| Tri {
+        node: [node[0], node[1], node[2], NodeId::NONE],
+        corner: [corner[0], corner[1], corner[2], corner[0]],
+        value: [value[0], value[1], value[2], 0.0],
     };
-    face(0, [1, 3, 2], [e13, -e23, -e12])
-        .or_else(|| face(1, [0, 2, 3], [e02, e23, -e03]))
-        .or_else(|| face(2, [0, 3, 1], [e03, -e13, -e01]))
-        .or_else(|| face(3, [0, 1, 2], [e01, e12, -e02]))
+    let v0 = [e13, -e23, -e12];
+    if leaves(v0) {
+        return Some((0, tri([n1, n3, n2], [c1, c3, c2], v0)));
+    }
+    let c0 = Corner::new(x0, p, d);
+    let (e02, e03) = (edge(n0, c0, n2, c2), edge(n0, c0, n3, c3));
+    let v1 = [e02, e23, -e03];
+    if leaves(v1) {
+        return Some((1, tri([n0, n2, n3], [c0, c2, c3], v1)));
+    }
+    let e01 = edge(n0, c0, n1, c1);
+    let v2 = [e03, -e13, -e01];
+    if leaves(v2) {
+        return Some((2, tri([n0, n3, n1], [c0, c3, c1], v2)));
+    }
+    let v3 = [e01, e12, -e02];
+    leaves(v3).then(|| (3, tri([n0, n1, n2], [c0, c1, c2], v3)))
 }
 
 /// The line against the edge `u -> v`: [`super::surface`]'s canonical value (the
