@@ -13,8 +13,9 @@ use crate::mesh::FaceUse;
 /// `steps` receives the tets crossed.
 ///
 /// # Bounded work
-/// At most `max_steps` tets, four face tests each. A walk that needs more, or that finds no
-/// exit face (rounding on a degenerate configuration), returns `None`.
+/// At most `max_steps` tets: the first with up to four face tests, each further one with
+/// three dot products and one table lookup. A walk that needs more, or that finds no exit
+/// face (rounding on a degenerate configuration), returns `None`.
 pub fn trace_to_surface(
     body: &Body<'_, '_>,
     start: TetId,
@@ -102,29 +103,52 @@ fn walk(
         ];
         // Side `s` of the entry face with the new corner, `(slot s, slot s+1, n)`, has the
         // values `[value_s, m_s+1, -m_s]`, the first `<= 0` already: it leaves when
-        // `m_s+1 <= 0 <= m_s` and the three are not all zero.
-        let le =
-            (m[0] <= 0.0) as usize | ((m[1] <= 0.0) as usize) << 1 | ((m[2] <= 0.0) as usize) << 2;
-        let ge =
-            (m[0] >= 0.0) as usize | ((m[1] >= 0.0) as usize) << 1 | ((m[2] >= 0.0) as usize) << 2;
-        let mut mask = ge & (le >> 1 | (le & 1) << 2);
-        let code = loop {
-            let code = EXITS[(g << 5 | sigma << 3 | mask) & 127];
-            let s = code as usize & 3;
-            let s1 = NEXT[s] as usize & 3;
-            // The sum of values `<= 0` is `< 0` unless all are zero, in any order.
-            if code == NO_EXIT || tri.value[s] + m[s1] - m[s] < 0.0 {
-                break code;
+        // `m_s+1 <= 0 <= m_s` and the three are not all zero. With `m_s+1 < 0 < m_s` it is
+        // the only side that leaves (the others would need `m_s+1 >= 0` or `m_s <= 0`); the
+        // tests are branches, so that the next tet is looked up while they resolve.
+        // Each branch updates the slots with its own constant side.
+        let row = g << 5 | sigma << 3;
+        let code = if m[0] > 0.0 && m[1] < 0.0 {
+            tri.stepped(0, n, cn, m);
+            EXITS[(row | 1) & 127]
+        } else if m[1] > 0.0 && m[2] < 0.0 {
+            tri.stepped(1, n, cn, m);
+            EXITS[(row | 2) & 127]
+        } else if m[2] > 0.0 && m[0] < 0.0 {
+            tri.stepped(2, n, cn, m);
+            EXITS[(row | 4) & 127]
+        } else {
+            let code = exit_with_zeros(row, &tri.value, &m);
+            if code == NO_EXIT {
+                return None;
             }
-            mask &= !(1 << s);
+            tri.stepped(code as usize & 3, n, cn, m);
+            code
         };
-        if code == NO_EXIT {
-            return None;
-        }
-        let s = code as usize & 3;
         f = (code >> 2) & 3;
         rot = (code >> 4) & 3;
-        tri.stepped(s, n, cn, m);
+    }
+}
+
+/// The exit code of a step ([`EXITS`] at `row`) when no side of the entry face leaves
+/// with strict signs (some of the new edges' values `m` are zero or NaN, or none leaves):
+/// the first side in face order whose values are `<= 0` and not all zero, `value` being
+/// the entry face's.
+#[inline(never)]
+fn exit_with_zeros(row: usize, value: &[f32; 4], m: &[f32; 4]) -> u8 {
+    let bits = |x: [bool; 3]| x[0] as usize | (x[1] as usize) << 1 | (x[2] as usize) << 2;
+    let le = bits([m[0] <= 0.0, m[1] <= 0.0, m[2] <= 0.0]);
+    let ge = bits([m[0] >= 0.0, m[1] >= 0.0, m[2] >= 0.0]);
+    let mut mask = ge & (le >> 1 | (le & 1) << 2);
+    loop {
+        let code = EXITS[(row | mask) & 127];
+        let s = code as usize & 3;
+        let s1 = NEXT[s] as usize & 3;
+        // The sum of values `<= 0` is `< 0` unless all are zero, in any order.
+        if code == NO_EXIT || value[s] + m[s1] - m[s] < 0.0 {
+            return code;
+        }
+        mask &= !(1 << s);
     }
 }
 
