@@ -36,12 +36,13 @@ pub fn trace_to_surface(
 /// so a step computes that corner and the three edges to it (three dot products, where
 /// testing each face afresh took up to nine 3x3 determinants), and which faces the line
 /// leaves through follows from the signs of those values (the entry face's own are `<= 0`:
-/// the line left the last tet through it). Of those faces the first in the tet's face order
-/// is taken ([`EXITS`]), and the exit face's values are handed on in its listing order, so
-/// the walk crosses the same faces with the same numbers, bit for bit, as testing each face
-/// with [`super::surface::exit_values`] on a mesh that passes
-/// [`crate::mesh::Mesh::validate`] (a step places the corners of the face it enters through
-/// by the reverse index's ring offset; a missing position ends the walk with `None`).
+/// the line left the last tet through it). With strict signs one face only leaves, found by
+/// branches; with zeros the first in the tet's face order is taken ([`EXITS`]). The exit
+/// face's values are handed on in its listing order, so the walk crosses the same faces
+/// with the same numbers, bit for bit, as testing each face with
+/// [`super::surface::exit_values`] on a mesh that passes [`crate::mesh::Mesh::validate`] (a
+/// step places the corners of the face it enters through by the reverse index's ring
+/// offset; a missing position ends the walk with `None`).
 ///
 /// # Bounded work
 /// As [`trace_to_surface`].
