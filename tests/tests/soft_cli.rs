@@ -196,34 +196,33 @@ fn a_stiff_soft_block_loses_the_rigid_volume() {
     assert!(m > 0.0 && m < 1e-3, "{m}");
 }
 
+/// Runs `demo --soft` headless for 2 s with `extra` flags (must succeed); its standard output
+/// and its JSON.
+fn demo_soft(name: &str, extra: &[&str]) -> (String, serde_json::Value) {
+    let json = scratch_dir("softcli", name).join("demo.json");
+    let json_s = json.to_string_lossy().into_owned();
+    let mut args = vec!["demo", "--soft", "--headless", "--no-rt", "--duration", "2"];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--json", &json_s]);
+    let out = run(&args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{args:?}: {err}");
+    let r =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("read JSON")).expect("JSON");
+    (String::from_utf8_lossy(&out.stdout).into_owned(), r)
+}
+
 /// `demo --soft` headless through the real-time pipeline: the JSON's `deform` has steps, a
 /// displacement (the burr presses the block) and its timing; the same run rigid has none.
 #[test]
 fn demo_soft_reports_the_deformation() {
-    let dir = scratch_dir("softcli", "demo");
-    let json = dir.join("demo.json");
-    let json_s = json.to_string_lossy().into_owned();
-    let out = run(&[
-        "demo",
-        "--soft",
-        "--headless",
-        "--no-rt",
-        "--duration",
-        "2",
-        "--json",
-        &json_s,
-    ]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
-    let stdout = String::from_utf8_lossy(&out.stdout);
+    let (stdout, r) = demo_soft("demo", &[]);
     // The demo's regions' moduli: the shell (label 1) and the core (label 2).
     assert!(
         stdout.contains("soft body (region 1: E 3000 Pa, nu 0.3")
             && stdout.contains("region 2: E 1000 Pa, nu 0.3"),
         "{stdout}"
     );
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).expect("read JSON")).expect("JSON");
     let d = &r["deform"];
     assert!(d["steps"].as_u64().unwrap() > 0, "{d}");
     let labels: Vec<_> = d["materials"]
@@ -255,24 +254,7 @@ fn demo_soft_reports_the_deformation() {
 /// pipeline; every cycle done by its last tick, the block dented; without `--soft` refused.
 #[test]
 fn demo_soft_spread_spreads_the_steps() {
-    let dir = scratch_dir("softcli", "demo-spread");
-    let json = dir.join("demo.json");
-    let json_s = json.to_string_lossy().into_owned();
-    let out = run(&[
-        "demo",
-        "--soft",
-        "--soft-spread",
-        "--headless",
-        "--no-rt",
-        "--duration",
-        "2",
-        "--json",
-        &json_s,
-    ]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).expect("read JSON")).expect("JSON");
+    let (_, r) = demo_soft("demo-spread", &["--soft-spread"]);
     let d = &r["deform"];
     let s = &d["spread"];
     // 250 steps a second at 1 kHz: four ticks a cycle.

@@ -332,7 +332,8 @@ mod tests {
 
     use super::*;
     use crate::collide::test_support::{Rng, Store};
-    use crate::depth::surface::exit_values;
+    // The oracle: the seed's walk, each face tested afresh.
+    use crate::depth::tests::walk_testing_every_face as every_face_walk;
     use crate::mesh::template::FACE_VERTS;
 
     /// Every entry of [`EXITS`] against a search over the sides of the mask: the slots hold
@@ -366,33 +367,6 @@ mod tests {
                 }
             }
         }
-    }
-
-    /// The walk testing each face afresh with [`exit_values`] (the seed's walk): the oracle.
-    fn every_face_walk(
-        b: &Body<'_, '_>,
-        start: TetId,
-        p: Vec3,
-        q: Vec3,
-        max_steps: u32,
-    ) -> (Option<SurfaceHit>, u32) {
-        let (mut t, mut entry, mut steps) = (start, 4u8, 0u32);
-        while steps < max_steps {
-            steps += 1;
-            let Some((f, e)) = (0..4u8)
-                .filter(|&f| f != entry)
-                .find_map(|f| exit_values(b, t, f, p, q).map(|e| (f, e)))
-            else {
-                return (None, steps);
-            };
-            let tet = b.mesh.tet(t);
-            if tet.neighbours[f as usize].is_none() {
-                return (super::super::surface::hit_on_face(b, t, f, e, p, q), steps);
-            }
-            entry = tet.reverse[f as usize].face();
-            t = tet.neighbours[f as usize];
-        }
-        (None, steps)
     }
 
     /// On a block whose nodes are jittered and renumbered and whose tets list their corners
