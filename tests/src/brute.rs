@@ -61,15 +61,11 @@ pub fn six_volume(p: [Vec3; 4]) -> f64 {
 pub fn tet_boxes(mesh: &Mesh<'_>) -> Vec<(Vec3, Vec3)> {
     (0..mesh.tet_count())
         .map(|t| {
-            let p = mesh
-                .tet(TetId::from_idx(t))
-                .nodes
-                .map(|n| mesh.positions()[n.idx()]);
-            let lo = p.iter().fold(Vec3::splat(f32::INFINITY), |a, &b| a.min(b));
-            let hi = p
-                .iter()
-                .fold(Vec3::splat(f32::NEG_INFINITY), |a, &b| a.max(b));
-            (lo, hi)
+            crate::oracle::tet_box(
+                mesh.tet(TetId::from_idx(t))
+                    .nodes
+                    .map(|n| mesh.positions()[n.idx()]),
+            )
         })
         .collect()
 }

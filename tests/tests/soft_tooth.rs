@@ -9,6 +9,7 @@ use tetradrill::scenario::{tooth_regions, TOOTH};
 use tetradrill::soft::{Fix, SoftOwned, SoftRegion, SoftSpec};
 use tetradrill_core::soft::{SoftBody, SoftParams};
 use tetradrill_core::Vec3;
+use tetradrill_tests::oracle::{cross, d3, dot, sub};
 use tetradrill_tests::{json_of, load};
 
 /// The tooth at `scale`: storage for a soft body and one region label a tet.
@@ -161,19 +162,7 @@ struct Linear {
 
 impl Linear {
     fn new(rest: &[Vec3], tets: &[[u32; 4]], young: f64, nu: f64, fixed: Vec<bool>) -> Self {
-        let p = |i: u32| {
-            let v = rest[i as usize];
-            [v.x as f64, v.y as f64, v.z as f64]
-        };
-        let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-        let cross = |a: [f64; 3], b: [f64; 3]| {
-            [
-                a[1] * b[2] - a[2] * b[1],
-                a[2] * b[0] - a[0] * b[2],
-                a[0] * b[1] - a[1] * b[0],
-            ]
-        };
-        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let p = |i: u32| d3(rest[i as usize]);
         let t = tets
             .iter()
             .map(|t| {
