@@ -596,7 +596,6 @@ fn propagate(
                     let (dj, rj) = (sj.depth, sj.dir);
                     // A known node has a position (it was a border point or popped).
                     let Some(&pj) = a_positions.get(j.idx()) else {
-                        unplaced();
                         continue;
                     };
                     let v = pj - pu;
@@ -626,13 +625,6 @@ fn propagate(
         }
     }
 }
-
-/// Marks the path of a known node without a position, which cannot be taken (a known node
-/// was a border point or popped, both with a position): kept out of line so the layer test
-/// before it stays one branch.
-#[cold]
-#[inline(never)]
-fn unplaced() {}
 
 /// The remembered face's crossing when the edge `p -> q` still leaves B through it, on the
 /// edge.
