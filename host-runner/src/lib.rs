@@ -64,6 +64,7 @@ pub mod device_config;
 pub mod engine;
 pub mod error;
 pub mod pen;
+pub mod pen_pair;
 pub mod pen_tasks;
 pub mod platform;
 pub mod report;

@@ -9,7 +9,9 @@
 //! points, border edges and walk work, each side), and a digest of the raw forces (the same on
 //! every run and every build that keeps the forces). Instruction counts: `valgrind
 //! --tool=callgrind --dump-instr=no --toggle-collect='*run_pose*' pen_profile MESH touching 1`
-//! (one call per pose); `POSE=i` in the environment runs only pose i. Exit status 2 for bad
+//! (one call per pose); `POSE=i` in the environment runs only pose i; `THREADS=2` runs the
+//! pass's object side on a second thread (`tetradrill::pen_pair`, callgrind then counts only
+//! the calling thread: `--toggle-collect='*run_pair*'`). Exit status 2 for bad
 //! arguments or an unreadable mesh.
 
 use std::hint::black_box;
@@ -19,6 +21,7 @@ use std::time::Instant;
 
 use glam::{Quat, Vec3};
 use tetradrill::pen::PenRig;
+use tetradrill::pen_pair::{with_pen_pair, PenPair};
 use tetradrill_benches::{impaled_poses, load_mesh, profile_args, touch_poses};
 use tetradrill_core::force::{
     force_digest, pen_contact, PenBuffers, PenContact, PenOptions, PenScene, PenState,
@@ -34,6 +37,17 @@ fn run_pose(
     state: &mut PenState,
 ) -> PenContact {
     black_box(pen_contact(scene, bufs, pose.0, pose.1, opts, state))
+}
+
+/// [`run_pose`] on two threads.
+#[inline(never)]
+fn run_pair(
+    pair: &mut PenPair<'_, '_>,
+    pose: (Vec3, Quat),
+    opts: &PenOptions,
+    state: &mut PenState,
+) -> PenContact {
+    black_box(pair.contact(pose.0, pose.1, opts, state)).unwrap_or_default()
 }
 
 fn main() -> ExitCode {
@@ -74,20 +88,31 @@ fn main() -> ExitCode {
     let shared = std::env::var("SHARED").is_ok_and(|v| v == "1");
     let opts = PenOptions::default();
     let mut rig = PenRig { pen, obj };
+    // `THREADS=2`: the pass's object side on a second thread (`PenPair`).
+    let pair = std::env::var("THREADS").is_ok_and(|v| v == "2");
     let run = rig.with(|scene, bufs| {
         let mut state = PenState::default();
         let mut best = vec![f64::INFINITY; poses.len()];
         let mut last = vec![PenContact::default(); poses.len()];
-        for _ in 0..reps {
-            for (i, &pose) in poses.iter().enumerate() {
-                let s = Instant::now();
-                if !shared {
-                    state = PenState::default();
+        let mut sweep = |call: &mut dyn FnMut((Vec3, Quat), &mut PenState) -> PenContact| {
+            for _ in 0..reps {
+                for (i, &pose) in poses.iter().enumerate() {
+                    let s = Instant::now();
+                    if !shared {
+                        state = PenState::default();
+                    }
+                    let c = call(pose, &mut state);
+                    best[i] = best[i].min(s.elapsed().as_secs_f64() * 1e6);
+                    last[i] = c;
                 }
-                let c = run_pose(scene, bufs, pose, &opts, &mut state);
-                best[i] = best[i].min(s.elapsed().as_secs_f64() * 1e6);
-                last[i] = c;
             }
+        };
+        if pair {
+            with_pen_pair(scene, bufs, |pair| {
+                sweep(&mut |pose, st| run_pair(pair, pose, &opts, st))
+            });
+        } else {
+            sweep(&mut |pose, st| run_pose(scene, bufs, pose, &opts, st));
         }
         (best, last)
     });

@@ -38,8 +38,8 @@ pub use passivity::{
     penalty_storage, PassivityObserver, PassivityParams, Storage, DEFAULT_SLACK_J, DEFAULT_TRIP_J,
 };
 pub use pen::{
-    pen_contact, pen_pass, DepthMethod, PenBuffers, PenContact, PenForce, PenOptions, PenPass,
-    PenScene, PenState,
+    object_side, pen_contact, pen_pass, pen_place, pen_side, DepthMethod, PenBuffers, PenContact,
+    PenForce, PenOptions, PenPass, PenPlacement, PenScene, PenState, SideBuffers, SideReport,
 };
 pub use response::{clamp_force, damping_force, display_offset, ForceParams, ToolState};
 pub use segment::{segment_first_hit, SegmentHit};

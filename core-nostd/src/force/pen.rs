@@ -16,7 +16,7 @@ use super::entry::EntryPlane;
 use super::response::{clamp_force, damping_force, display_offset, ForceParams, ToolState};
 use crate::collide::{
     points_in_tets_walked, rigid_tets_over_points_coherent, Body, CollideReport, Collision,
-    Occupancy, RigidTets, WalkStarts,
+    NearClusters, Occupancy, RigidTets, WalkStarts,
 };
 use crate::depth::{
     penetration_depth_of, DepthReport, DepthScratch, Listed, Method, NodeGraph, Penetration,
@@ -285,25 +285,54 @@ pub fn pen_contact(
     state: &mut PenState,
 ) -> PenContact {
     let pass = pen_pass(scene, bufs, position, rotation, opts, state);
-    let (p, o) = pass.penetrations;
-    let pens = bufs.pen_pens.get(..p).unwrap_or(&[]);
-    let objs = bufs.object_pens.get(..o).unwrap_or(&[]);
-    let world = &*bufs.world;
-    let force = respond(
-        |n| world.get(n.idx()).copied(),
-        pens,
-        objs,
+    pass.contact(
+        bufs.world,
+        bufs.pen_pens,
+        bufs.object_pens,
         position,
         opts,
         state,
-    );
-    PenContact::of(pass, force)
+    )
+}
+
+impl PenPass {
+    /// The tick from this pass at the pose it was made at (`position`): the force from its
+    /// penetrations, `pen_pens` and `object_pens` the buffers the pass wrote them to and
+    /// `world` the pen's nodes at the pose. [`pen_contact`] is [`pen_pass`] then this.
+    ///
+    /// # Bounded work
+    /// O(penetrations).
+    pub fn contact(
+        self,
+        world: &[Vec3],
+        pen_pens: &[Penetration],
+        object_pens: &[Penetration],
+        position: Vec3,
+        opts: &PenOptions,
+        state: &mut PenState,
+    ) -> PenContact {
+        let (p, o) = self.penetrations;
+        let pens = pen_pens.get(..p).unwrap_or(&[]);
+        let objs = object_pens.get(..o).unwrap_or(&[]);
+        let force = respond(
+            |n| world.get(n.idx()).copied(),
+            pens,
+            objs,
+            position,
+            opts,
+            state,
+        );
+        PenContact::of(self, force)
+    }
 }
 
 /// The contact half of a tick: the pen's nodes at the pose ([`PenBuffers::world`]), the
 /// collisions both ways and their consistent depths ([`PenBuffers::pen_pens`],
 /// [`PenBuffers::object_pens`]; [`PenPass::penetrations`] says how many). Updates only
 /// [`PenState::pen_listed`] and [`PenState::object_listed`].
+///
+/// It is [`pen_place`], then [`pen_side`] and [`object_side`], which share nothing they write:
+/// a host with two cores may run the sides at once (the same results, bit for bit).
 ///
 /// When a collision list is full, it keeps last tick's nodes that still collide first
 /// ([`PenState::pen_listed`], [`points_in_tets_walked`], [`rigid_tets_over_points_coherent`]) and
@@ -312,15 +341,8 @@ pub fn pen_contact(
 /// body, where its depth is near zero, so the force stays continuous.
 ///
 /// # Bounded work
-/// O(N_pen) to place the pen; collision: O(N_pen * (w + b + g)) for w = `max_walk`, b the
-/// largest bucket of the object's tet hash and g the pen graph's largest node degree
-/// ([`points_in_tets_walked`]) and, per pen cluster, one query of at most
-/// [`crate::collide::MAX_CELLS_PER_TET`] cells of the object's node hash with a rest-hash
-/// lookup per node met ([`rigid_tets_over_points_coherent`]; for poses far from the origin the
-/// walk over every pen tet, O(T_pen * cells * b), twice at most); depth: see
-/// [`penetration_depth_of`], bounded by the collision buffers and `max_steps` / `max_cells`.
-/// Every buffer saturates as documented on the functions it is handed to;
-/// [`PenContact::saturated`] tells.
+/// [`pen_place`]'s, [`pen_side`]'s and [`object_side`]'s. Every buffer saturates as documented
+/// on the functions it is handed to; [`PenContact::saturated`] tells.
 pub fn pen_pass(
     scene: &PenScene<'_, '_, '_>,
     bufs: &mut PenBuffers<'_>,
@@ -329,15 +351,106 @@ pub fn pen_pass(
     opts: &PenOptions,
     state: &mut PenState,
 ) -> PenPass {
-    let mut out = PenPass::default();
+    let at = pen_place(scene, bufs.world, position, rotation);
+    let (world, found, pen, object) = bufs.sides();
+    let pen = pen_side(scene, &at, world, found, pen, opts, state.pen_listed);
+    let object = object_side(scene, &at, world, object, opts, state.object_listed);
+    at.pass(pen, object, opts, state)
+}
+
+/// The pen placed at a pose ([`pen_place`]): what both sides of a pass read.
+#[derive(Clone, Copy, Debug)]
+pub struct PenPlacement {
+    pose: Affine3A,
+    rotation: Quat,
+    /// Pen nodes placed: the pen's, or the world buffer's length when that is shorter.
+    placed: usize,
+    world_short: bool,
+    /// Both bodies' boundary faces hashed ([`DepthMethod::Hashed`] possible).
+    faces: bool,
+    /// The pen's clusters near the object; `None` when the pen's bounds miss the object's.
+    near: Option<NearClusters>,
+}
+
+/// What one side of a pass found ([`pen_side`], [`object_side`]).
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct SideReport {
+    /// Nodes of this side inside the other body.
+    pub collisions: CollideReport,
+    /// Their depths.
+    pub depth: DepthReport,
+}
+
+/// One side's storage: its collision list, its depths and its depth scratch (a view of
+/// [`PenBuffers`], [`PenBuffers::sides`]).
+#[derive(Debug)]
+pub struct SideBuffers<'s, 'b> {
+    /// Nodes of this side inside the other body.
+    pub hits: &'s mut [Collision],
+    /// Their depths.
+    pub pens: &'s mut [Penetration],
+    /// Depth scratch over this side's nodes.
+    pub depth: &'s mut DepthScratch<'b>,
+}
+
+impl<'b> SideBuffers<'_, 'b> {
+    /// The same storage, borrowed again (to hand it to a side and keep it).
+    pub fn reborrow(&mut self) -> SideBuffers<'_, 'b> {
+        SideBuffers {
+            hits: &mut *self.hits,
+            pens: &mut *self.pens,
+            depth: &mut *self.depth,
+        }
+    }
+}
+
+impl<'b> PenBuffers<'b> {
+    /// The buffers as the two sides of a pass use them: the pen's nodes at the pose, the pen
+    /// nodes' found tets, the pen side's storage and the object side's.
+    pub fn sides(
+        &mut self,
+    ) -> (
+        &[Vec3],
+        &mut [TetId],
+        SideBuffers<'_, 'b>,
+        SideBuffers<'_, 'b>,
+    ) {
+        (
+            &*self.world,
+            &mut *self.pen_found,
+            SideBuffers {
+                hits: &mut *self.pen_hits,
+                pens: &mut *self.pen_pens,
+                depth: &mut self.pen_depth,
+            },
+            SideBuffers {
+                hits: &mut *self.object_hits,
+                pens: &mut *self.object_pens,
+                depth: &mut self.object_depth,
+            },
+        )
+    }
+}
+
+/// Places the pen at `position` (its tip) and `rotation`: its nodes into `world` (as many as
+/// it holds), and the clusters of its rest frame near the object.
+///
+/// # Bounded work
+/// O(N_pen) to place the pen, and [`RigidTets::near`]'s (per pen cluster, one box transform
+/// and at most [`crate::collide::MAX_CELLS_PER_TET`] cells of the object's occupancy).
+pub fn pen_place(
+    scene: &PenScene<'_, '_, '_>,
+    world: &mut [Vec3],
+    position: Vec3,
+    rotation: Quat,
+) -> PenPlacement {
     let pose = Affine3A::from_rotation_translation(rotation, position);
     let rest = scene.pen.positions();
-    let n = rest.len().min(bufs.world.len());
-    out.world_short = n < rest.len();
-    for (w, &r) in bufs.world.iter_mut().zip(rest.iter()) {
+    let placed = rest.len().min(world.len());
+    for (w, &r) in world.iter_mut().zip(rest.iter()) {
         *w = pose.transform_point3(r);
     }
-    let world = bufs.world.get(..n).unwrap_or(&[]);
+    let world = world.get(..placed).unwrap_or(&[]);
     // The pen's rest bounds moved (constant work); the moved nodes' own box only where those
     // cannot be trusted to hold them.
     let bounds = scene.pen_rest.moved_bounds(&pose).unwrap_or_else(|| {
@@ -345,99 +458,179 @@ pub fn pen_pass(
             .iter()
             .fold(Aabb::of::<0>([]), |b, &w| b.union(Aabb::point(w)))
     });
-    let pen_body = Body::moved(scene.pen, world, rotation);
-    bufs.pen_depth.set_reuse(opts.reuse_crossings);
-    bufs.object_depth.set_reuse(opts.reuse_crossings);
-
-    let mut pen_count = 0;
-    let mut obj_count = 0;
-    if bounds.overlaps(&scene.object_tets.bounds()) {
-        // The pen's clusters whose moved boxes meet cells the object occupies: the others'
-        // nodes are in no object tet, and no object node is in their tets.
-        let near = scene.pen_rest.near(pose, scene.object_cells);
-        out.pen_collisions = points_in_tets_walked(
-            scene.object_tets,
-            scene.object_cells,
-            &scene.object,
-            world,
-            bufs.pen_hits,
-            state.pen_listed,
-            WalkStarts {
-                found: bufs.pen_found,
-                near: |i| scene.pen_graph.neighbours(NodeId::from_idx(i)),
-                max_steps: if scene.object_walks { opts.max_walk } else { 0 },
-            },
-            |i| scene.pen_rest.node_near(i, &near),
-        );
-        out.object_collisions = rigid_tets_over_points_coherent(
-            scene.object_nodes,
-            scene.object.positions,
-            scene.pen_rest,
-            &pen_body,
-            pose,
-            &near,
-            bufs.object_hits,
-            state.object_listed,
-            if scene.pen_walks { opts.max_walk } else { 0 },
-        );
-        let (m_obj, m_pen) = match (opts.method, scene.object_faces, scene.pen_faces) {
-            (DepthMethod::Hashed, Some(of), Some(pf)) => (
-                Method::Hashed {
-                    faces: of,
-                    world_to_hash: Affine3A::IDENTITY,
-                    max_cells: opts.max_cells,
-                },
-                Method::Hashed {
-                    faces: pf,
-                    world_to_hash: pose.inverse(),
-                    max_cells: opts.max_cells,
-                },
-            ),
-            (method, _, _) => {
-                out.hashed_unavailable = method == DepthMethod::Hashed;
-                let t = Method::Traced {
-                    max_steps: opts.max_steps,
-                };
-                (t, t)
-            }
-        };
-        let listed = |list, r: &CollideReport| match r.saturated {
-            false => Listed::All(list),
-            true => Listed::Partial {
-                list,
-                max_steps: opts.max_steps,
-            },
-        };
-        let pen_hits = bufs.pen_hits.get(..out.pen_collisions.count).unwrap_or(&[]);
-        out.pen_depth = penetration_depth_of(
-            world,
-            &scene.pen_graph,
-            &scene.object,
-            listed(pen_hits, &out.pen_collisions),
-            &m_obj,
-            &mut bufs.pen_depth,
-            bufs.pen_pens,
-        );
-        let obj_hits = bufs
-            .object_hits
-            .get(..out.object_collisions.count)
-            .unwrap_or(&[]);
-        out.object_depth = penetration_depth_of(
-            scene.object.positions,
-            &scene.object_graph,
-            &pen_body,
-            listed(obj_hits, &out.object_collisions),
-            &m_pen,
-            &mut bufs.object_depth,
-            bufs.object_pens,
-        );
-        pen_count = out.pen_depth.written;
-        obj_count = out.object_depth.written;
+    // The pen's clusters whose moved boxes meet cells the object occupies: the others' nodes
+    // are in no object tet, and no object node is in their tets.
+    let near = bounds
+        .overlaps(&scene.object_tets.bounds())
+        .then(|| scene.pen_rest.near(pose, scene.object_cells));
+    PenPlacement {
+        pose,
+        rotation,
+        placed,
+        world_short: placed < rest.len(),
+        faces: scene.object_faces.is_some() && scene.pen_faces.is_some(),
+        near,
     }
-    state.pen_listed = out.pen_collisions.count;
-    state.object_listed = out.object_collisions.count;
-    out.penetrations = (pen_count, obj_count);
-    out
+}
+
+impl PenPlacement {
+    /// The pass from its two sides; updates [`PenState::pen_listed`] and
+    /// [`PenState::object_listed`].
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn pass(
+        &self,
+        pen: SideReport,
+        object: SideReport,
+        opts: &PenOptions,
+        state: &mut PenState,
+    ) -> PenPass {
+        state.pen_listed = pen.collisions.count;
+        state.object_listed = object.collisions.count;
+        PenPass {
+            pen_collisions: pen.collisions,
+            object_collisions: object.collisions,
+            pen_depth: pen.depth,
+            object_depth: object.depth,
+            penetrations: (pen.depth.written, object.depth.written),
+            world_short: self.world_short,
+            hashed_unavailable: self.near.is_some()
+                && opts.method == DepthMethod::Hashed
+                && !self.faces,
+        }
+    }
+}
+/// The pen side of a pass: the pen's nodes inside object tets ([`points_in_tets_walked`],
+/// `found` the pen nodes' found tets, [`PenBuffers::pen_found`]) and their consistent depths
+/// against the object. `world` is the buffer [`pen_place`] filled for `at`; `listed` is
+/// [`PenState::pen_listed`].
+///
+/// # Bounded work
+/// Collision: O(N_pen * (w + b + g)) for w = `max_walk`, b the largest bucket of the object's
+/// tet hash and g the pen graph's largest node degree ([`points_in_tets_walked`]); depth: see
+/// [`penetration_depth_of`], bounded by `side`'s buffers and `max_steps` / `max_cells`. Nothing
+/// when the pen is away from the object.
+pub fn pen_side(
+    scene: &PenScene<'_, '_, '_>,
+    at: &PenPlacement,
+    world: &[Vec3],
+    found: &mut [TetId],
+    side: SideBuffers<'_, '_>,
+    opts: &PenOptions,
+    listed: usize,
+) -> SideReport {
+    side.depth.set_reuse(opts.reuse_crossings);
+    let Some(near) = &at.near else {
+        return SideReport::default();
+    };
+    let world = world.get(..at.placed).unwrap_or(&[]);
+    let collisions = points_in_tets_walked(
+        scene.object_tets,
+        scene.object_cells,
+        &scene.object,
+        world,
+        side.hits,
+        listed,
+        WalkStarts {
+            found,
+            near: |i| scene.pen_graph.neighbours(NodeId::from_idx(i)),
+            max_steps: if scene.object_walks { opts.max_walk } else { 0 },
+        },
+        |i| scene.pen_rest.node_near(i, near),
+    );
+    let method = match (opts.method, scene.object_faces, scene.pen_faces) {
+        (DepthMethod::Hashed, Some(faces), Some(_)) => Method::Hashed {
+            faces,
+            world_to_hash: Affine3A::IDENTITY,
+            max_cells: opts.max_cells,
+        },
+        _ => Method::Traced {
+            max_steps: opts.max_steps,
+        },
+    };
+    let hits = side.hits.get(..collisions.count).unwrap_or(&[]);
+    let depth = penetration_depth_of(
+        world,
+        &scene.pen_graph,
+        &scene.object,
+        listed_of(hits, &collisions, opts),
+        &method,
+        side.depth,
+        side.pens,
+    );
+    SideReport { collisions, depth }
+}
+
+/// The object side of a pass: the object's nodes inside pen tets
+/// ([`rigid_tets_over_points_coherent`]) and their consistent depths against the pen. `world`
+/// is the buffer [`pen_place`] filled for `at`; `listed` is [`PenState::object_listed`].
+///
+/// # Bounded work
+/// Collision: per pen cluster, one query of at most [`crate::collide::MAX_CELLS_PER_TET`]
+/// cells of the object's node hash with a rest-hash lookup per node met
+/// ([`rigid_tets_over_points_coherent`]; for poses far from the origin the walk over every pen
+/// tet, O(T_pen * cells * b), twice at most); depth: see [`penetration_depth_of`], bounded by
+/// `side`'s buffers and `max_steps` / `max_cells`. Nothing when the pen is away from the
+/// object.
+pub fn object_side(
+    scene: &PenScene<'_, '_, '_>,
+    at: &PenPlacement,
+    world: &[Vec3],
+    side: SideBuffers<'_, '_>,
+    opts: &PenOptions,
+    listed: usize,
+) -> SideReport {
+    side.depth.set_reuse(opts.reuse_crossings);
+    let Some(near) = &at.near else {
+        return SideReport::default();
+    };
+    let world = world.get(..at.placed).unwrap_or(&[]);
+    let pen_body = Body::moved(scene.pen, world, at.rotation);
+    let collisions = rigid_tets_over_points_coherent(
+        scene.object_nodes,
+        scene.object.positions,
+        scene.pen_rest,
+        &pen_body,
+        at.pose,
+        near,
+        side.hits,
+        listed,
+        if scene.pen_walks { opts.max_walk } else { 0 },
+    );
+    let method = match (opts.method, scene.object_faces, scene.pen_faces) {
+        (DepthMethod::Hashed, Some(_), Some(faces)) => Method::Hashed {
+            faces,
+            world_to_hash: at.pose.inverse(),
+            max_cells: opts.max_cells,
+        },
+        _ => Method::Traced {
+            max_steps: opts.max_steps,
+        },
+    };
+    let hits = side.hits.get(..collisions.count).unwrap_or(&[]);
+    let depth = penetration_depth_of(
+        scene.object.positions,
+        &scene.object_graph,
+        &pen_body,
+        listed_of(hits, &collisions, opts),
+        &method,
+        side.depth,
+        side.pens,
+    );
+    SideReport { collisions, depth }
+}
+
+/// A side's collisions as its depth lists them: all of them, or (the list full) a partial
+/// list whose depths follow edges to unlisted nodes.
+fn listed_of<'l>(list: &'l [Collision], r: &CollideReport, opts: &PenOptions) -> Listed<'l> {
+    match r.saturated {
+        false => Listed::All(list),
+        true => Listed::Partial {
+            list,
+            max_steps: opts.max_steps,
+        },
+    }
 }
 
 /// The force from penetrations (`at` gives a pen node's position, for the entry plane):

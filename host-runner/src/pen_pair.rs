@@ -1,0 +1,236 @@
+//! The pen's contact pass on two threads ([`with_pen_pair`], [`PenPair`]).
+//!
+//! A pass is [`pen_place`], then [`pen_side`] and [`object_side`], which write disjoint
+//! storage. Here the calling thread places the pen and runs the pen side while a worker thread
+//! places its own copy of the pen (the same function, the same bits) and runs the object side:
+//! the pass takes about as long as its longer side instead of both. The forces are those of
+//! [`tetradrill_core::force::pen_contact`], bit for bit (`tests/tests/pen_pair.rs`).
+//!
+//! The object side's storage goes to the worker with each job and comes back with its
+//! result, so the calling thread owns every buffer between passes. A waiting thread spins for
+//! up to [`SPIN`] before it sleeps: back-to-back passes hand over in well under a microsecond,
+//! and an idle pair costs no CPU. The spinning worker takes a core while passes run: give the
+//! pair two cores (the servo thread, at real-time priority, preempts it when it shares one).
+
+use std::time::{Duration, Instant};
+
+use crossbeam::channel::{bounded, Receiver, Sender, TryRecvError};
+use tetradrill_core::force::{
+    object_side, pen_place, pen_side, PenBuffers, PenContact, PenOptions, PenPass, PenScene,
+    PenState, SideBuffers, SideReport,
+};
+use tetradrill_core::ids::TetId;
+use tetradrill_core::{Quat, Vec3};
+
+/// How long a thread of the pair spins on the other before it sleeps.
+pub const SPIN: Duration = Duration::from_millis(2);
+
+/// One object side to run: the pose, the options, last pass's count and the storage.
+struct Job<'p, 'b> {
+    position: Vec3,
+    rotation: Quat,
+    opts: PenOptions,
+    listed: usize,
+    side: SideBuffers<'p, 'b>,
+}
+
+/// A finished object side, with its storage back.
+struct Done<'p, 'b> {
+    report: SideReport,
+    side: SideBuffers<'p, 'b>,
+}
+
+/// The worker thread ended (it panicked): its side's storage went with it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WorkerGone;
+
+impl std::fmt::Display for WorkerGone {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("the pen pass's object-side worker thread ended")
+    }
+}
+
+impl std::error::Error for WorkerGone {}
+
+/// The pen's contact pass with its object side on a worker thread ([`with_pen_pair`]).
+pub struct PenPair<'p, 'b> {
+    scene: PenScene<'p, 'p, 'p>,
+    world: &'p mut [Vec3],
+    found: &'p mut [TetId],
+    pen: SideBuffers<'p, 'b>,
+    /// `None` only while the worker holds it, inside [`PenPair::pass`].
+    object: Option<SideBuffers<'p, 'b>>,
+    jobs: Sender<Job<'p, 'b>>,
+    done: Receiver<Done<'p, 'b>>,
+}
+
+impl std::fmt::Debug for PenPair<'_, '_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PenPair")
+            .field("pen_nodes", &self.world.len())
+            .field("worker_busy", &self.object.is_none())
+            .finish_non_exhaustive()
+    }
+}
+
+/// Runs `f` with a [`PenPair`] over `scene` and `bufs` (and a worker thread, which ends when
+/// `f` returns). The worker places the pen into its own buffer, allocated here, as long as
+/// [`PenBuffers::world`].
+pub fn with_pen_pair<'p, 'b, R>(
+    scene: &PenScene<'p, 'p, 'p>,
+    bufs: &'p mut PenBuffers<'b>,
+    f: impl FnOnce(&mut PenPair<'p, 'b>) -> R,
+) -> R {
+    let scene = *scene;
+    let mut world2 = vec![Vec3::ZERO; bufs.world.len()];
+    let PenBuffers {
+        world,
+        pen_hits,
+        pen_found,
+        object_hits,
+        pen_pens,
+        object_pens,
+        pen_depth,
+        object_depth,
+    } = bufs;
+    let (jobs, job_rx) = bounded::<Job<'p, 'b>>(1);
+    let (done_tx, done) = bounded::<Done<'p, 'b>>(1);
+    std::thread::scope(|sc| {
+        let worker_world = &mut world2;
+        sc.spawn(move || {
+            while let Some(mut job) = wait(&job_rx) {
+                let at = pen_place(&scene, worker_world, job.position, job.rotation);
+                let report = object_side(
+                    &scene,
+                    &at,
+                    worker_world,
+                    job.side.reborrow(),
+                    &job.opts,
+                    job.listed,
+                );
+                if done_tx
+                    .send(Done {
+                        report,
+                        side: job.side,
+                    })
+                    .is_err()
+                {
+                    return;
+                }
+            }
+        });
+        let mut pair = PenPair {
+            scene,
+            world,
+            found: pen_found,
+            pen: SideBuffers {
+                hits: pen_hits,
+                pens: pen_pens,
+                depth: pen_depth,
+            },
+            object: Some(SideBuffers {
+                hits: object_hits,
+                pens: object_pens,
+                depth: object_depth,
+            }),
+            jobs,
+            done,
+        };
+        // Dropping the pair closes the job channel: the worker's wait returns `None`.
+        f(&mut pair)
+    })
+}
+
+/// The next message of `rx`: spinning for up to [`SPIN`], then asleep; `None` once the
+/// sender is gone.
+fn wait<T>(rx: &Receiver<T>) -> Option<T> {
+    let start = Instant::now();
+    let mut spins = 0u32;
+    loop {
+        match rx.try_recv() {
+            Ok(v) => return Some(v),
+            Err(TryRecvError::Disconnected) => return None,
+            Err(TryRecvError::Empty) => {}
+        }
+        std::hint::spin_loop();
+        spins = spins.wrapping_add(1);
+        if spins.is_multiple_of(1024) && start.elapsed() > SPIN {
+            return rx.recv().ok();
+        }
+    }
+}
+
+impl<'b> PenPair<'_, 'b> {
+    /// [`tetradrill_core::force::pen_pass`] with the object side on the worker: the same
+    /// result and the same buffers written, bit for bit. Updates [`PenState::pen_listed`] and
+    /// [`PenState::object_listed`]. [`WorkerGone`] when the worker has ended (it cannot
+    /// while the core does not panic); the pair is then unusable.
+    pub fn pass(
+        &mut self,
+        position: Vec3,
+        rotation: Quat,
+        opts: &PenOptions,
+        state: &mut PenState,
+    ) -> Result<PenPass, WorkerGone> {
+        let side = self.object.take().ok_or(WorkerGone)?;
+        let job = Job {
+            position,
+            rotation,
+            opts: *opts,
+            listed: state.object_listed,
+            side,
+        };
+        if let Err(e) = self.jobs.send(job) {
+            self.object = Some(e.into_inner().side);
+            return Err(WorkerGone);
+        }
+        let at = pen_place(&self.scene, self.world, position, rotation);
+        let pen = pen_side(
+            &self.scene,
+            &at,
+            self.world,
+            self.found,
+            self.pen.reborrow(),
+            opts,
+            state.pen_listed,
+        );
+        let Done { report, side } = wait(&self.done).ok_or(WorkerGone)?;
+        self.object = Some(side);
+        Ok(at.pass(pen, report, opts, state))
+    }
+
+    /// [`tetradrill_core::force::pen_contact`] with the object side on the worker: the same
+    /// force, bit for bit.
+    pub fn contact(
+        &mut self,
+        position: Vec3,
+        rotation: Quat,
+        opts: &PenOptions,
+        state: &mut PenState,
+    ) -> Result<PenContact, WorkerGone> {
+        let pass = self.pass(position, rotation, opts, state)?;
+        Ok(pass.contact(
+            self.world,
+            self.pen.pens,
+            self.object_pens(),
+            position,
+            opts,
+            state,
+        ))
+    }
+
+    /// The pen's nodes at the last pass's pose.
+    pub fn world(&self) -> &[Vec3] {
+        self.world
+    }
+
+    /// The pen nodes' depths of the last pass (the first [`PenPass::penetrations`]`.0`).
+    pub fn pen_pens(&self) -> &[tetradrill_core::depth::Penetration] {
+        self.pen.pens
+    }
+
+    /// The object nodes' depths of the last pass (the first [`PenPass::penetrations`]`.1`).
+    pub fn object_pens(&self) -> &[tetradrill_core::depth::Penetration] {
+        self.object.as_ref().map_or(&[], |s| &*s.pens)
+    }
+}
