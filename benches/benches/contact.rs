@@ -9,7 +9,9 @@
 //! (`WORST`), and the same over the poses with each pose's fastest call (`POSES`: the work's
 //! worst case without the preemption of a shared machine, each call after the other poses', so
 //! with the caches full of other data), and for the pen each pose's fastest of its calls in a
-//! row (`WARM`: its data in the caches, as successive passes of a session find it).
+//! row (`WARM`: its data in the caches, as successive passes of a session find it). The pen's
+//! lines marked "two threads" run the pass's object side on a second thread
+//! (`tetradrill::pen_pair`).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -22,6 +24,7 @@ use parry3d::partitioning::{Bvh, BvhBuildStrategy};
 use parry3d::query::PointQuery;
 use parry3d::shape::Tetrahedron;
 use tetradrill::owned::OwnedMesh;
+use tetradrill::pen_pair::with_pen_pair;
 use tetradrill_benches::{impaled_poses, load_mesh, touch_poses, Lcg};
 use tetradrill_core::collide::{
     hash_tets, points_in_tets, points_in_tets_occupied, points_in_tets_walked, walks_exact, Body,
@@ -255,6 +258,25 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
             }),
         );
     }
+
+    // The same, the object side on a second thread (`PenPair`): the same forces, about the
+    // longer side's time.
+    with_pen_pair(&scene, &mut bufs, |pair| {
+        let opts = &traced;
+        for (kind, list, reps) in [
+            ("pen_tick", &ps_list, 20),
+            ("pen_tick_impaled", &deep_list, 5),
+        ] {
+            let name = format!("{kind}/{label}/traced, two threads");
+            let mut st = PenState::default();
+            let mut call = |i: usize| {
+                let (p, q) = list[i];
+                black_box(pair.contact(p, q, opts, &mut st).expect("worker runs"));
+            };
+            report(&name, worst(list.len(), reps, &mut call));
+            report_warm(&name, warm(list.len(), reps, &mut call));
+        }
+    });
 
     let mut g = c.benchmark_group(format!("pen_tick/{label}"));
     for (name, opts) in [("traced", &traced), ("hashed", &hashed)] {

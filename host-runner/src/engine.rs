@@ -609,6 +609,12 @@ impl TickParams {
                  every tick",
             ));
         }
+        if sc.pass_threads != 1 {
+            return Err(CliError::input(
+                "--pass-threads splits a mesh tool's contact pass over two threads; a sphere \
+                 tool has no such pass",
+            ));
+        }
         if sc.entry_remedy {
             return Err(CliError::input(
                 "--entry-remedy is a mesh tool's remedy (seed 000 section 6); a sphere tool has \

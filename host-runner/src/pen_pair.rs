@@ -8,22 +8,27 @@
 //!
 //! The object side's storage goes to the worker with each job and comes back with its
 //! result, so the calling thread owns every buffer between passes. A waiting thread spins for
-//! up to [`SPIN`] before it sleeps: back-to-back passes hand over in well under a microsecond,
-//! and an idle pair costs no CPU. The spinning worker takes a core while passes run: give the
+//! up to [`SPIN_HOT`], then yields its core between tries up to [`SPIN`], then sleeps:
+//! back-to-back passes hand over in well under a microsecond, a pair that shares its cores
+//! with other work lets the other thread run, and an idle pair costs no CPU. The spinning worker takes a core while passes run: give the
 //! pair two cores (the servo thread, at real-time priority, preempts it when it shares one).
 
 use std::time::{Duration, Instant};
 
 use crossbeam::channel::{bounded, Receiver, Sender, TryRecvError};
+use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
-    object_side, pen_place, pen_side, PenBuffers, PenContact, PenOptions, PenPass, PenScene,
-    PenState, SideBuffers, SideReport,
+    object_side, pen_pass, pen_place, pen_side, PenBuffers, PenContact, PenOptions, PenPass,
+    PenScene, PenState, SideBuffers, SideReport,
 };
 use tetradrill_core::ids::TetId;
 use tetradrill_core::{Quat, Vec3};
 
-/// How long a thread of the pair spins on the other before it sleeps.
+/// How long a thread of the pair waits for the other before it sleeps.
 pub const SPIN: Duration = Duration::from_millis(2);
+
+/// How long of that it spins without yielding its core.
+pub const SPIN_HOT: Duration = Duration::from_micros(50);
 
 /// One object side to run: the pose, the options, last pass's count and the storage.
 struct Job<'p, 'b> {
@@ -141,21 +146,31 @@ pub fn with_pen_pair<'p, 'b, R>(
     })
 }
 
-/// The next message of `rx`: spinning for up to [`SPIN`], then asleep; `None` once the
-/// sender is gone.
+/// The next message of `rx`: spinning for up to [`SPIN_HOT`], then yielding the core
+/// between tries (the other thread of the pair may be waiting for it) up to [`SPIN`], then
+/// asleep; `None` once the sender is gone.
 fn wait<T>(rx: &Receiver<T>) -> Option<T> {
     let start = Instant::now();
-    let mut spins = 0u32;
+    let mut tries = 0u32;
     loop {
         match rx.try_recv() {
             Ok(v) => return Some(v),
             Err(TryRecvError::Disconnected) => return None,
             Err(TryRecvError::Empty) => {}
         }
-        std::hint::spin_loop();
-        spins = spins.wrapping_add(1);
-        if spins.is_multiple_of(1024) && start.elapsed() > SPIN {
+        tries = tries.wrapping_add(1);
+        if tries < 64 {
+            std::hint::spin_loop();
+            continue;
+        }
+        let waited = start.elapsed();
+        if waited > SPIN {
             return rx.recv().ok();
+        }
+        if waited > SPIN_HOT {
+            std::thread::yield_now();
+        } else {
+            std::hint::spin_loop();
         }
     }
 }
@@ -225,12 +240,86 @@ impl<'b> PenPair<'_, 'b> {
     }
 
     /// The pen nodes' depths of the last pass (the first [`PenPass::penetrations`]`.0`).
-    pub fn pen_pens(&self) -> &[tetradrill_core::depth::Penetration] {
+    pub fn pen_pens(&self) -> &[Penetration] {
         self.pen.pens
     }
 
     /// The object nodes' depths of the last pass (the first [`PenPass::penetrations`]`.1`).
-    pub fn object_pens(&self) -> &[tetradrill_core::depth::Penetration] {
+    pub fn object_pens(&self) -> &[Penetration] {
         self.object.as_ref().map_or(&[], |s| &*s.pens)
+    }
+}
+
+/// Where a pen pass runs: on the calling thread ([`pen_pass`] over the buffers) or with its
+/// object side on a worker ([`PenPair`]); the same results either way
+/// ([`with_pass_runner`]).
+pub trait PassRunner {
+    /// One contact pass at the pose ([`pen_pass`]).
+    fn pass(
+        &mut self,
+        position: Vec3,
+        rotation: Quat,
+        opts: &PenOptions,
+        state: &mut PenState,
+    ) -> Result<PenPass, WorkerGone>;
+
+    /// The depth buffers the passes write (pen nodes, object nodes), whole: the first
+    /// [`PenPass::penetrations`] of each are the last pass's.
+    fn pens(&self) -> (&[Penetration], &[Penetration]);
+}
+
+/// [`PassRunner`] on the calling thread.
+#[derive(Debug)]
+pub struct OneThread<'r, 'p, 'b> {
+    scene: &'r PenScene<'p, 'p, 'p>,
+    bufs: &'r mut PenBuffers<'b>,
+}
+
+impl PassRunner for OneThread<'_, '_, '_> {
+    fn pass(
+        &mut self,
+        position: Vec3,
+        rotation: Quat,
+        opts: &PenOptions,
+        state: &mut PenState,
+    ) -> Result<PenPass, WorkerGone> {
+        Ok(pen_pass(
+            self.scene, self.bufs, position, rotation, opts, state,
+        ))
+    }
+
+    fn pens(&self) -> (&[Penetration], &[Penetration]) {
+        (self.bufs.pen_pens, self.bufs.object_pens)
+    }
+}
+
+impl PassRunner for PenPair<'_, '_> {
+    fn pass(
+        &mut self,
+        position: Vec3,
+        rotation: Quat,
+        opts: &PenOptions,
+        state: &mut PenState,
+    ) -> Result<PenPass, WorkerGone> {
+        PenPair::pass(self, position, rotation, opts, state)
+    }
+
+    fn pens(&self) -> (&[Penetration], &[Penetration]) {
+        (self.pen_pens(), self.object_pens())
+    }
+}
+
+/// Runs `f` with the passes on `threads` threads: 1 on the calling thread, 2 with the object
+/// side on a worker ([`with_pen_pair`]; any other count is taken as 2).
+pub fn with_pass_runner<'p, 'b, R>(
+    scene: &PenScene<'p, 'p, 'p>,
+    bufs: &'p mut PenBuffers<'b>,
+    threads: u32,
+    f: impl FnOnce(&mut dyn PassRunner) -> R,
+) -> R {
+    if threads <= 1 {
+        f(&mut OneThread { scene, bufs })
+    } else {
+        with_pen_pair(scene, bufs, |pair| f(pair))
     }
 }

@@ -1,5 +1,6 @@
 //! A tet-mesh tool (the pen) in the real-time pipeline: the contact task runs the core's
-//! [`pen_pass`] (collisions and consistent depths) as often as it can at the newest tool pose
+//! [`tetradrill_core::force::pen_pass`] (collisions and consistent depths; on one thread or,
+//! `--pass-threads 2`, two: [`crate::pen_pair`]) as often as it can at the newest tool pose
 //! and publishes what it found; the servo's [`PenLaw`] carries that contact to the tool's pose
 //! of every tick with [`pen_servo_force`] (seed 001 section 3.3's split, applied to the pen).
 //!
@@ -11,12 +12,12 @@ use std::sync::atomic::Ordering;
 
 use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
-    display_offset, pen_pass, pen_servo_force, HeldContact, PenBuffers, PenOptions, PenScene,
-    PenState, ServoScratch,
+    display_offset, pen_servo_force, HeldContact, PenOptions, PenScene, PenState, ServoScratch,
 };
 use tetradrill_core::servo::World;
 use tetradrill_core::{Quat, Vec3};
 
+use crate::pen_pair::{PassRunner, WorkerGone};
 use crate::platform::now_ns;
 use crate::tasks::{ForceLaw, ServoCounters, Shared, SimStatus, ToolSample};
 use crate::viewer::handoff::ToolView;
@@ -222,6 +223,8 @@ pub struct PenTaskReport {
     pub pen_collisions_max: usize,
     /// Most object nodes inside the pen in one pass.
     pub object_collisions_max: usize,
+    /// Set when a two-thread pass lost its worker (the task then stopped the run).
+    pub worker_gone: Option<WorkerGone>,
 }
 
 impl PenTaskReport {
@@ -250,7 +253,8 @@ impl std::fmt::Debug for PenViewer<'_, '_, '_> {
 }
 
 /// The pen's contact task: until `shared.stop`, takes the newest tool sample from the ring
-/// (older ones are passed over: a pass depends on the pose only), runs [`pen_pass`] there and
+/// (older ones are passed over: a pass depends on the pose only), runs a pass there on
+/// `runner` ([`tetradrill_core::force::pen_pass`], on one or two threads) and
 /// publishes it through `held`, and its time and saturations through `status` (starting from
 /// the status the hand-off was made with: the object's counts). Sleeps 200 us when no sample
 /// came. Allocation-free after start-up (`report.pass` has its buckets already) but for the
@@ -259,8 +263,7 @@ impl std::fmt::Debug for PenViewer<'_, '_, '_> {
 /// servo's force.
 #[allow(clippy::too_many_arguments)]
 pub fn pen_contact_task(
-    scene: &PenScene<'_, '_, '_>,
-    bufs: &mut PenBuffers<'_>,
+    runner: &mut dyn PassRunner,
     opts: &PenOptions,
     shared: &Shared,
     held: &mut HeldIn,
@@ -288,10 +291,19 @@ pub fn pen_contact_task(
             continue;
         };
         let t0 = now_ns();
-        let pass = pen_pass(scene, bufs, tool.position, tool.rotation, opts, &mut state);
+        let pass = match runner.pass(tool.position, tool.rotation, opts, &mut state) {
+            Ok(p) => p,
+            Err(e) => {
+                // No pass can run any more: the servo keeps the last one, and the run stops.
+                report.worker_gone = Some(e);
+                shared.stop.store(true, Ordering::Relaxed);
+                break;
+            }
+        };
         let (np, no) = pass.penetrations;
-        let pen = bufs.pen_pens.get(..np).unwrap_or(&[]);
-        let object = bufs.object_pens.get(..no).unwrap_or(&[]);
+        let (pens, objs) = runner.pens();
+        let pen = pens.get(..np).unwrap_or(&[]);
+        let object = objs.get(..no).unwrap_or(&[]);
         report.passes += 1;
         held.input_buffer_mut()
             .set(report.passes, &tool, pen, object);

@@ -288,9 +288,9 @@ fn real_time_run_keeps_1khz_and_removes_what_the_replay_removes() {
 }
 
 /// `replay` of the mesh tool `tool` (x10) on `builtin:block:8` along `wander:3` for `ticks`
-/// ticks (forces clamped at 10 kN), JSON to `json`, plus the flag and value in `extra` unless
-/// the value is empty.
-fn pen_on_block(tool: &str, ticks: u32, json: &Path, extra: &[&str; 2]) -> Output {
+/// ticks (forces clamped at 10 kN), JSON to `json`, plus each flag and value pair in `extra`
+/// whose value is not empty.
+fn pen_on_block(tool: &str, ticks: u32, json: &Path, extra: &[&str]) -> Output {
     let ticks = ticks.to_string();
     let mut args = vec![
         "replay",
@@ -310,8 +310,10 @@ fn pen_on_block(tool: &str, ticks: u32, json: &Path, extra: &[&str; 2]) -> Outpu
         "--json",
         json.to_str().expect("a UTF-8 scratch path"),
     ];
-    if !extra[1].is_empty() {
-        args.extend(extra);
+    for flag in extra.chunks(2) {
+        if flag.get(1).is_some_and(|v| !v.is_empty()) {
+            args.extend(flag);
+        }
     }
     run(&args)
 }
@@ -416,6 +418,85 @@ fn mesh_tool_contact_period_spaces_the_passes() {
     refused(
         &["replay", "--scenario", bad.to_str().unwrap()],
         &["period.toml:1:", "contact_period"],
+    );
+}
+
+/// `--pass-threads 2`: a mesh tool's contact pass with its object side on a second thread
+/// gives the forces of one thread bit for bit (the default, and with passes spaced by
+/// `--contact-period`), and says so in the JSON; a `run` with it keeps 1 kHz and reports its
+/// passes. A count out of range, or one with a sphere tool, exits 2 naming the flag; a
+/// scenario file's value is checked the same way.
+#[test]
+fn mesh_tool_pass_threads_keep_the_forces() {
+    let dir = scratch_dir("runner", "pass-threads");
+    let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
+    let tool = format!("mesh:{}", pen.display());
+    let mut runs = Vec::new();
+    for (threads, period) in [("1", "1"), ("2", "1"), ("1", "3"), ("2", "3")] {
+        let out_json = dir.join(format!("threads-{threads}-{period}.json"));
+        let out = pen_on_block(
+            &tool,
+            901,
+            &out_json,
+            &["--pass-threads", threads, "--contact-period", period],
+        );
+        assert!(
+            out.status.success(),
+            "{threads} {period}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let j = json(&out_json);
+        runs.push((
+            j["force_digest"].as_str().expect("digest").to_string(),
+            j["pen"]["pass_threads"].as_u64().expect("threads"),
+            j["pen"]["passes"].as_u64().expect("passes"),
+            j["force"]["contact_ticks"].as_u64().expect("contact ticks"),
+        ));
+    }
+    assert_eq!((runs[0].1, runs[1].1), (1, 2));
+    assert!(runs[0].3 > 100, "the pen must touch: {:?}", runs[0]);
+    for (one, two) in [(&runs[0], &runs[1]), (&runs[2], &runs[3])] {
+        assert_eq!((&one.0, one.2, one.3), (&two.0, two.2, two.3));
+    }
+    assert_ne!(runs[0].0, runs[2].0, "carried forces are not the passes'");
+
+    let out_json = dir.join("run.json");
+    let j = out_json.to_str().expect("a UTF-8 scratch path");
+    let out = pen_run(&tool, "1.0", &["--pass-threads", "2", "--json", j]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j = json(&out_json);
+    assert_eq!(j["pen"]["pass_threads"].as_u64(), Some(2), "{j}");
+    let passes = j["pen"]["passes"].as_u64().expect("passes");
+    assert!(passes > 0 && passes <= 1000, "{j}");
+
+    refused(
+        &["replay", "--tool", &tool, "--pass-threads", "3"],
+        &["--pass-threads"],
+    );
+    refused(
+        &["replay", "--tool", "sphere:0.1", "--pass-threads", "2"],
+        &["--pass-threads"],
+    );
+    refused(
+        &[
+            "run",
+            "--device",
+            "sim",
+            "--tool",
+            "sphere:0.1",
+            "--pass-threads",
+            "2",
+        ],
+        &["--pass-threads"],
+    );
+    let bad = write(&dir, "threads.toml", "pass_threads = 4\n");
+    refused(
+        &["replay", "--scenario", bad.to_str().unwrap()],
+        &["threads.toml:1:", "pass_threads"],
     );
 }
 

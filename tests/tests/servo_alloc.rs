@@ -15,6 +15,7 @@ use std::cell::Cell;
 use crossbeam::queue::ArrayQueue;
 use tetradrill::engine::TickParams;
 use tetradrill::pen::{PenRig, PenSizes};
+use tetradrill::pen_pair::with_pass_runner;
 use tetradrill::pen_tasks::{held_handoff, pen_contact_task, PenLaw, PenTaskReport};
 use tetradrill::scenario::Scenario;
 use tetradrill::tasks::{
@@ -294,9 +295,17 @@ fn the_pen_servo_tick_allocates_nothing_after_warm_up() {
 /// The pen's contact task ([`pen_contact_task`], headless) allocates nothing after start-up:
 /// armed on the task's own thread while another thread feeds it tool samples pressing the
 /// tip into the block and lifting it, it runs its passes and publishes them with no
-/// allocator call (its pass-time vector has its room beforehand).
+/// allocator call (its pass-time vector has its room beforehand); on one thread and with the
+/// passes' object side on a second ([`with_pass_runner`]: the hand-overs allocate nothing
+/// either, on the task's thread).
 #[test]
 fn the_pen_contact_task_allocates_nothing() {
+    for threads in [1, 2] {
+        contact_task_allocates_nothing(threads);
+    }
+}
+
+fn contact_task_allocates_nothing(threads: u32) {
     let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
     let sc = Scenario {
         tool: format!("mesh:{}", pen.display()),
@@ -320,20 +329,21 @@ fn the_pen_contact_task_allocates_nothing() {
             let calls = std::thread::scope(|s| {
                 let sh = &shared;
                 let task = s.spawn(|| {
-                    CALLS.with(|c| c.set(0));
-                    ARMED.with(|a| a.set(true));
-                    pen_contact_task(
-                        scene,
-                        bufs,
-                        &opts,
-                        sh,
-                        &mut held_in,
-                        &mut status_in,
-                        &mut report,
-                        None,
-                    );
-                    ARMED.with(|a| a.set(false));
-                    CALLS.with(|c| c.get())
+                    with_pass_runner(scene, bufs, threads, |runner| {
+                        CALLS.with(|c| c.set(0));
+                        ARMED.with(|a| a.set(true));
+                        pen_contact_task(
+                            runner,
+                            &opts,
+                            sh,
+                            &mut held_in,
+                            &mut status_in,
+                            &mut report,
+                            None,
+                        );
+                        ARMED.with(|a| a.set(false));
+                        CALLS.with(|c| c.get())
+                    })
                 });
                 for tick in 0..2000u64 {
                     let t = tick as f32 / 1000.0;
@@ -361,11 +371,18 @@ fn the_pen_contact_task_allocates_nothing() {
             (calls, report)
         })
         .expect("the rig");
-    assert!(report.passes > 10, "{} passes", report.passes);
-    assert!(report.pen_collisions_max > 0, "the pen went in");
+    assert!(
+        report.passes > 10,
+        "{threads} threads: {} passes",
+        report.passes
+    );
+    assert!(
+        report.pen_collisions_max > 0,
+        "{threads} threads: the pen went in"
+    );
     assert_eq!(
         calls, 0,
-        "the contact task allocated or freed {calls} times"
+        "{threads} threads: the contact task allocated or freed {calls} times"
     );
 }
 

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use serde::Serialize;
 use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
-    pen_pass, pen_servo_force, ForceDigest, HeldContact, PenState, ServoScratch, ToolState,
+    pen_servo_force, ForceDigest, HeldContact, PenState, ServoScratch, ToolState,
 };
 use tetradrill_core::hierarchy::DEBRIS_LEAVES;
 use tetradrill_core::servo::Saturations;
@@ -16,6 +16,7 @@ use tetradrill_core::Vec3;
 use crate::engine::{self, EngineStorage, ShaftState, TickParams};
 use crate::error::CliError;
 use crate::pen::{PenRig, PenSizes};
+use crate::pen_pair::with_pass_runner;
 use crate::platform::now_ns;
 use crate::scenario::{Scenario, ScenarioFlags, ToolKind};
 use crate::soft::{DeformSummary, SoftDriver, SoftSpec};
@@ -178,6 +179,8 @@ pub struct PenSummary {
     pub reused_crossings: u64,
     /// Servo ticks per contact pass (`contact_period`).
     pub contact_period: u32,
+    /// Threads of a contact pass (`pass_threads`).
+    pub pass_threads: u32,
     /// Contact passes run.
     pub passes: u64,
     /// Time of the servo half alone (the force carried from the last pass), every tick.
@@ -420,6 +423,12 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         return Err(CliError::input(
             "--contact-period spaces a mesh tool's contact passes; a sphere tool's replay \
              simulates every tick",
+        ));
+    }
+    if sc.pass_threads != 1 {
+        return Err(CliError::input(
+            "--pass-threads splits a mesh tool's contact pass over two threads; a sphere tool \
+             has no such pass",
         ));
     }
     let view = crate::viewer::ViewOptions::of(true, args.screenshot.clone())?;
@@ -701,9 +710,10 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
     let sizes = PenSizes::of(&sc);
     let period = u64::from(sc.contact_period.max(1));
     pen_info.contact_period = sc.contact_period;
+    pen_info.pass_threads = sc.pass_threads;
     let mut servo_times = vec![0u64; ticks as usize];
     let mut pass_times = Vec::with_capacity(ticks.div_ceil(period) as usize);
-    let ((), setup) = rig
+    let (ran, setup) = rig
         .with_sizes(sizes, |scene, bufs| {
             let mut state = PenState::default();
             // The servo's scratch: as many penetrations as the pass may write.
@@ -714,65 +724,72 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
                 object: &mut now_obj,
             };
             let mut held = (Vec3::ZERO, Quat::IDENTITY, (0usize, 0usize));
-            for i in 0..ticks {
-                let pose = poses.at(i);
-                let [w, x, y, z] = pose.rotation;
-                let rot = Quat::from_xyzw(x, y, z, w).normalize();
-                let t0 = now_ns();
-                let pass = (i % period == 0)
-                    .then(|| pen_pass(scene, bufs, pose.position, rot, &opts, &mut state));
-                let t1 = now_ns();
-                if let Some(c) = &pass {
-                    held = (pose.position, rot, c.penetrations);
-                }
-                let contact = HeldContact {
-                    position: held.0,
-                    rotation: held.1,
-                    pen: bufs.pen_pens.get(..held.2 .0).unwrap_or(&[]),
-                    object: bufs.object_pens.get(..held.2 .1).unwrap_or(&[]),
-                };
-                let f = pen_servo_force(
-                    scene,
-                    &contact,
-                    &mut now,
-                    pose.position,
-                    rot,
-                    &opts,
-                    &mut state,
-                );
-                let t2 = now_ns();
-                times[i as usize] = t2 - t0;
-                servo_times[i as usize] = t2 - t1;
-                digest.push(f.force.force);
-                max_n = max_n.max(f.force.force.length());
-                contact_ticks += (f.force.force != Vec3::ZERO) as u64;
-                last = f.force.force;
-                pen_info.clamped_ticks += f.force.clamped as u64;
-                pen_info.servo_short_ticks += f.short as u64;
-                let Some(c) = pass else { continue };
-                pass_times.push(t1 - t0);
-                pen_info.passes += 1;
-                pen_info.pen_collisions_max =
-                    pen_info.pen_collisions_max.max(c.pen_collisions.count);
-                pen_info.object_collisions_max = pen_info
-                    .object_collisions_max
-                    .max(c.object_collisions.count);
-                pen_info.unreached += (c.pen_depth.unreached + c.object_depth.unreached) as u64;
-                pen_info.border_edges +=
-                    (c.pen_depth.border_edges + c.object_depth.border_edges) as u64;
-                pen_info.reused_crossings += (c.pen_depth.reused + c.object_depth.reused) as u64;
-                pen_info.saturated_ticks += c.saturated() as u64;
-                sat.contacts += c.contacts_full() as u32;
-                sat.queue += c.queue_full() as u32;
-                if progress && i % 5000 == 0 {
-                    err!(
-                        "\rreplay: {:>3}% ({i}/{ticks} ticks)",
-                        i * 100 / ticks.max(1)
+            with_pass_runner(scene, bufs, sc.pass_threads, |runner| {
+                for i in 0..ticks {
+                    let pose = poses.at(i);
+                    let [w, x, y, z] = pose.rotation;
+                    let rot = Quat::from_xyzw(x, y, z, w).normalize();
+                    let t0 = now_ns();
+                    let pass = (i % period == 0)
+                        .then(|| runner.pass(pose.position, rot, &opts, &mut state))
+                        .transpose()?;
+                    let t1 = now_ns();
+                    if let Some(c) = &pass {
+                        held = (pose.position, rot, c.penetrations);
+                    }
+                    let (pens, objs) = runner.pens();
+                    let contact = HeldContact {
+                        position: held.0,
+                        rotation: held.1,
+                        pen: pens.get(..held.2 .0).unwrap_or(&[]),
+                        object: objs.get(..held.2 .1).unwrap_or(&[]),
+                    };
+                    let f = pen_servo_force(
+                        scene,
+                        &contact,
+                        &mut now,
+                        pose.position,
+                        rot,
+                        &opts,
+                        &mut state,
                     );
+                    let t2 = now_ns();
+                    times[i as usize] = t2 - t0;
+                    servo_times[i as usize] = t2 - t1;
+                    digest.push(f.force.force);
+                    max_n = max_n.max(f.force.force.length());
+                    contact_ticks += (f.force.force != Vec3::ZERO) as u64;
+                    last = f.force.force;
+                    pen_info.clamped_ticks += f.force.clamped as u64;
+                    pen_info.servo_short_ticks += f.short as u64;
+                    let Some(c) = pass else { continue };
+                    pass_times.push(t1 - t0);
+                    pen_info.passes += 1;
+                    pen_info.pen_collisions_max =
+                        pen_info.pen_collisions_max.max(c.pen_collisions.count);
+                    pen_info.object_collisions_max = pen_info
+                        .object_collisions_max
+                        .max(c.object_collisions.count);
+                    pen_info.unreached += (c.pen_depth.unreached + c.object_depth.unreached) as u64;
+                    pen_info.border_edges +=
+                        (c.pen_depth.border_edges + c.object_depth.border_edges) as u64;
+                    pen_info.reused_crossings +=
+                        (c.pen_depth.reused + c.object_depth.reused) as u64;
+                    pen_info.saturated_ticks += c.saturated() as u64;
+                    sat.contacts += c.contacts_full() as u32;
+                    sat.queue += c.queue_full() as u32;
+                    if progress && i % 5000 == 0 {
+                        err!(
+                            "\rreplay: {:>3}% ({i}/{ticks} ticks)",
+                            i * 100 / ticks.max(1)
+                        );
+                    }
                 }
-            }
+                Ok(())
+            })
         })
         .map_err(|e| CliError::failure(format!("cannot set up the tool contact: {e}")))?;
+    ran.map_err(|e: crate::pen_pair::WorkerGone| CliError::failure(e.to_string()))?;
     if progress {
         errln!("\rreplay: 100% ({ticks}/{ticks} ticks)");
     }
@@ -826,12 +843,14 @@ fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Re
         );
         outln!(
             "servo half us: mean {:.1}  p99 {:.1}  max {:.1};  {} contact passes (every {} \
-             ticks) us: mean {:.1}  p99 {:.1}  max {:.1}",
+             ticks, {} thread{}) us: mean {:.1}  p99 {:.1}  max {:.1}",
             p.servo_us.tick_mean,
             p.servo_us.tick_p99,
             p.servo_us.tick_max,
             p.passes,
             p.contact_period,
+            p.pass_threads,
+            if p.pass_threads == 1 { "" } else { "s" },
             p.pass_us.tick_mean,
             p.pass_us.tick_p99,
             p.pass_us.tick_max

@@ -107,6 +107,10 @@ pub struct Scenario {
     /// `contact_period`-th tick and the servo carries its penetrations to the pose of the
     /// ticks between (`tetradrill_core::force::pen_servo_force`); 1 passes every tick (exact).
     pub contact_period: u32,
+    /// Mesh tool: threads of a contact pass, 1 or 2. With 2 the pass's object side runs on a
+    /// second thread (`crate::pen_pair`): the same forces, bit for bit, in about the longer
+    /// side's time; the second thread spins between passes while they come back to back.
+    pub pass_threads: u32,
     /// Mesh tool: measure the pen's depths against the plane where it entered the object
     /// while a contact lasts (seed 000 section 6's remedy for a thin pen pushed sideways,
     /// `tetradrill_core::force::EntryPlane`; docs/CONTACT.md).
@@ -360,6 +364,7 @@ impl Default for Scenario {
             depth_method: DepthMethod::Traced,
             crossings: Crossings::Reuse,
             contact_period: 1,
+            pass_threads: 1,
             entry_remedy: false,
             max_depth: 5,
             min_area: 0.0,
@@ -457,6 +462,10 @@ pub struct ScenarioFlags {
     /// the last pass's penetrations to the current pose. 1 (default): a pass every tick.
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub contact_period: Option<u32>,
+    /// Mesh tool: threads of a contact pass, 1 (default) or 2 (the object side on a second
+    /// thread: the same forces, about half the pass's time on two free cores).
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=2))]
+    pub pass_threads: Option<u32>,
     /// Mesh tool: the entry-plane remedy for a thin pen pushed sideways (seed 000 section 6):
     /// `--entry-remedy` or `--entry-remedy true|false` (default false).
     #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
@@ -729,6 +738,7 @@ impl Scenario {
             depth_method,
             crossings,
             contact_period,
+            pass_threads,
             entry_remedy,
             max_depth,
             min_area,
@@ -823,6 +833,12 @@ impl Scenario {
                     "contact_period must be 1..=1000, got {}",
                     self.contact_period
                 ),
+            ));
+        }
+        if !(1..=2).contains(&self.pass_threads) {
+            return Err((
+                "pass_threads",
+                format!("pass_threads must be 1 or 2, got {}", self.pass_threads),
             ));
         }
         if self.servo_lag > 1 {

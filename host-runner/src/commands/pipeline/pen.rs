@@ -25,6 +25,7 @@ pub(super) fn run_pen(
     json: Option<&PathBuf>,
     pen_path: &std::path::Path,
 ) -> Result<RunReport, CliError> {
+    use crate::pen_pair::with_pass_runner;
     use crate::pen_tasks::{held_handoff, pen_contact_task, PenLaw, PenTaskReport, PenViewer};
     if sc.contact_period != 1 {
         return Err(CliError::input(format!(
@@ -53,6 +54,7 @@ pub(super) fn run_pen(
     );
     let tets = world.mesh().tet_count();
     let opts = crate::pen::options(sc);
+    let pass_threads = sc.pass_threads;
     let shape = crate::viewer::publish::tool_shape(&pen.mesh.view());
     let mut summary = PenRunSummary {
         tool_nodes: pen.mesh.positions().len(),
@@ -114,16 +116,17 @@ pub(super) fn run_pen(
                             world,
                             last_picture: !setup.view.window,
                         });
-                        pen_contact_task(
-                            scene,
-                            bufs,
-                            &opts,
-                            sh,
-                            &mut held_in,
-                            &mut status_in,
-                            task,
-                            viewer,
-                        );
+                        with_pass_runner(scene, bufs, pass_threads, |runner| {
+                            pen_contact_task(
+                                runner,
+                                &opts,
+                                sh,
+                                &mut held_in,
+                                &mut status_in,
+                                task,
+                                viewer,
+                            )
+                        });
                     })
                     .map_err(|e| {
                         CliError::failure(format!("cannot start the contact task: {e}"))
@@ -149,6 +152,10 @@ pub(super) fn run_pen(
         })
         .map_err(|e| CliError::failure(format!("cannot set up the tool contact: {e}")))
         .and_then(|(r, built)| r.map(|r| (r, built)))?;
+    if let Some(e) = task.worker_gone {
+        return Err(CliError::failure(format!("{e}; the run stopped")));
+    }
+    summary.pass_threads = sc.pass_threads;
     summary.passes = task.passes;
     summary.pass_us = TickTiming::from(task.pass.summary());
     summary.carried_ticks = stats.carried_ticks;

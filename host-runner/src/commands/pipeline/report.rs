@@ -126,6 +126,8 @@ pub struct PenRunSummary {
     pub depth_method: String,
     /// The entry-plane remedy was on (`--entry-remedy`).
     pub entry_remedy: bool,
+    /// Threads of a contact pass (`--pass-threads`).
+    pub pass_threads: u32,
     /// Contact passes run (the simulation task's steps).
     pub passes: u64,
     /// Time of the contact passes, microseconds.
