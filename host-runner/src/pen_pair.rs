@@ -8,11 +8,13 @@
 //!
 //! The object side's storage goes to the worker with each job and comes back with its
 //! result, so the calling thread owns every buffer between passes. A waiting thread spins for
-//! up to [`SPIN_HOT`], then yields its core between tries up to [`SPIN`], then sleeps:
+//! up to [`SPIN_HOT`], then yields its core between tries up to [`SPIN`], then parks until
+//! the other unparks it (nothing on either side allocates or takes a lock):
 //! back-to-back passes hand over in well under a microsecond, a pair that shares its cores
 //! with other work lets the other thread run, and an idle pair costs no CPU. The spinning worker takes a core while passes run: give the
 //! pair two cores (the servo thread, at real-time priority, preempts it when it shares one).
 
+use std::thread::Thread;
 use std::time::{Duration, Instant};
 
 use crossbeam::channel::{bounded, Receiver, Sender, TryRecvError};
@@ -37,6 +39,8 @@ struct Job<'p, 'b> {
     opts: PenOptions,
     listed: usize,
     side: SideBuffers<'p, 'b>,
+    /// The thread waiting for the result (woken when it is sent).
+    caller: Thread,
 }
 
 /// A finished object side, with its storage back.
@@ -60,6 +64,11 @@ impl std::error::Error for WorkerGone {}
 /// The pen's contact pass with its object side on a worker thread ([`with_pen_pair`]).
 pub struct PenPair<'p, 'b> {
     scene: PenScene<'p, 'p, 'p>,
+    /// The worker, woken when a job is sent.
+    worker: Thread,
+    /// The thread that made the pair, woken when a result is sent (a pair used from another
+    /// thread still works: its waits time out every millisecond).
+    caller: Thread,
     world: &'p mut [Vec3],
     found: &'p mut [TetId],
     pen: SideBuffers<'p, 'b>,
@@ -102,7 +111,7 @@ pub fn with_pen_pair<'p, 'b, R>(
     let (done_tx, done) = bounded::<Done<'p, 'b>>(1);
     std::thread::scope(|sc| {
         let worker_world = &mut world2;
-        sc.spawn(move || {
+        let worker = sc.spawn(move || {
             while let Some(mut job) = wait(&job_rx) {
                 let at = pen_place(&scene, worker_world, job.position, job.rotation);
                 let report = object_side(
@@ -113,19 +122,22 @@ pub fn with_pen_pair<'p, 'b, R>(
                     &job.opts,
                     job.listed,
                 );
-                if done_tx
-                    .send(Done {
-                        report,
-                        side: job.side,
-                    })
-                    .is_err()
-                {
+                let caller = job.caller;
+                let sent = done_tx.try_send(Done {
+                    report,
+                    side: job.side,
+                });
+                caller.unpark();
+                if sent.is_err() {
                     return;
                 }
             }
         });
+        let worker = worker.thread().clone();
         let mut pair = PenPair {
             scene,
+            worker,
+            caller: std::thread::current(),
             world,
             found: pen_found,
             pen: SideBuffers {
@@ -141,14 +153,19 @@ pub fn with_pen_pair<'p, 'b, R>(
             jobs,
             done,
         };
+        let r = f(&mut pair);
         // Dropping the pair closes the job channel: the worker's wait returns `None`.
-        f(&mut pair)
+        let PenPair { worker, jobs, .. } = pair;
+        drop(jobs);
+        worker.unpark();
+        r
     })
 }
 
 /// The next message of `rx`: spinning for up to [`SPIN_HOT`], then yielding the core
 /// between tries (the other thread of the pair may be waiting for it) up to [`SPIN`], then
-/// asleep; `None` once the sender is gone.
+/// parked (the sender unparks this thread after each message; a millisecond's timeout
+/// covers any wake-up missed); `None` once the sender is gone. Allocates nothing.
 fn wait<T>(rx: &Receiver<T>) -> Option<T> {
     let start = Instant::now();
     let mut tries = 0u32;
@@ -165,9 +182,8 @@ fn wait<T>(rx: &Receiver<T>) -> Option<T> {
         }
         let waited = start.elapsed();
         if waited > SPIN {
-            return rx.recv().ok();
-        }
-        if waited > SPIN_HOT {
+            std::thread::park_timeout(Duration::from_millis(1));
+        } else if waited > SPIN_HOT {
             std::thread::yield_now();
         } else {
             std::hint::spin_loop();
@@ -194,11 +210,14 @@ impl<'b> PenPair<'_, 'b> {
             opts: *opts,
             listed: state.object_listed,
             side,
+            caller: self.caller.clone(),
         };
-        if let Err(e) = self.jobs.send(job) {
+        // The channel is empty here (each job's result is taken before the next is sent).
+        if let Err(e) = self.jobs.try_send(job) {
             self.object = Some(e.into_inner().side);
             return Err(WorkerGone);
         }
+        self.worker.unpark();
         let at = pen_place(&self.scene, self.world, position, rotation);
         let pen = pen_side(
             &self.scene,
