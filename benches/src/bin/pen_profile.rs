@@ -11,7 +11,9 @@
 //! --tool=callgrind --dump-instr=no --toggle-collect='*run_pose*' pen_profile MESH touching 1`
 //! (one call per pose); `POSE=i` in the environment runs only pose i; `THREADS=2` runs the
 //! pass's object side on a second thread (`tetradrill::pen_pair`, callgrind then counts only
-//! the calling thread: `--toggle-collect='*run_pair*'`). Exit status 2 for bad
+//! the calling thread: `--toggle-collect='*run_pair*'`); `SIDES=1` times the pass's three
+//! calls apart (`pen_place`, `pen_side`, `object_side`) and prints each one's fastest for the
+//! slowest poses. Exit status 2 for bad
 //! arguments or an unreadable mesh.
 
 use std::hint::black_box;
@@ -24,7 +26,8 @@ use tetradrill::pen::PenRig;
 use tetradrill::pen_pair::{with_pen_pair, PenPair};
 use tetradrill_benches::{impaled_poses, load_mesh, profile_args, touch_poses};
 use tetradrill_core::force::{
-    force_digest, pen_contact, PenBuffers, PenContact, PenOptions, PenScene, PenState,
+    force_digest, object_side, pen_contact, pen_place, pen_side, PenBuffers, PenContact,
+    PenOptions, PenScene, PenState,
 };
 
 /// One pen contact call at one pose, on its own so callgrind can count it alone.
@@ -48,6 +51,36 @@ fn run_pair(
     state: &mut PenState,
 ) -> PenContact {
     black_box(pair.contact(pose.0, pose.1, opts, state)).unwrap_or_default()
+}
+
+/// [`run_pose`] call by call, each timed: the contact and the microseconds of
+/// `pen_place`, `pen_side` and `object_side`.
+fn run_sides(
+    scene: &PenScene<'_, '_, '_>,
+    bufs: &mut PenBuffers<'_>,
+    pose: (Vec3, Quat),
+    opts: &PenOptions,
+    state: &mut PenState,
+) -> (PenContact, [f64; 3]) {
+    let t0 = Instant::now();
+    let at = pen_place(scene, bufs.world, pose.0, pose.1);
+    let t1 = Instant::now();
+    let (world, found, pen, object) = bufs.sides();
+    let pen = pen_side(scene, &at, world, found, pen, opts, state.pen_listed);
+    let t2 = Instant::now();
+    let object = object_side(scene, &at, world, object, opts, state.object_listed);
+    let t3 = Instant::now();
+    let pass = at.pass(pen, object, opts, state);
+    let c = pass.contact(
+        bufs.world,
+        bufs.pen_pens,
+        bufs.object_pens,
+        pose.0,
+        opts,
+        state,
+    );
+    let us = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e6;
+    (black_box(c), [us(t0, t1), us(t1, t2), us(t2, t3)])
 }
 
 fn main() -> ExitCode {
@@ -88,6 +121,9 @@ fn main() -> ExitCode {
     let shared = std::env::var("SHARED").is_ok_and(|v| v == "1");
     let opts = PenOptions::default();
     let mut rig = PenRig { pen, obj };
+    // `SIDES=1`: each pose's pass also timed call by call (`pen_place`, `pen_side`,
+    // `object_side`, untimed between), the fastest of each printed for the slowest poses.
+    let sides = std::env::var("SIDES").is_ok_and(|v| v == "1");
     // `THREADS=2`: the pass's object side on a second thread (`PenPair`).
     let pair = std::env::var("THREADS").is_ok_and(|v| v == "2");
     let run = rig.with(|scene, bufs| {
@@ -107,16 +143,28 @@ fn main() -> ExitCode {
                 }
             }
         };
+        let mut parts = vec![[f64::INFINITY; 3]; poses.len()];
         if pair {
             with_pen_pair(scene, bufs, |pair| {
                 sweep(&mut |pose, st| run_pair(pair, pose, &opts, st))
             });
+        } else if sides {
+            let mut i = 0;
+            sweep(&mut |pose, st| {
+                let k = i % poses.len();
+                i += 1;
+                let (c, t) = run_sides(scene, bufs, pose, &opts, st);
+                for (b, t) in parts[k].iter_mut().zip(t) {
+                    *b = b.min(t);
+                }
+                c
+            });
         } else {
             sweep(&mut |pose, st| run_pose(scene, bufs, pose, &opts, st));
         }
-        (best, last)
+        (best, last, parts)
     });
-    let (best, last) = match run {
+    let (best, last, parts) = match run {
         Ok(r) => r,
         Err(e) => {
             eprintln!("pen_profile: {mesh}: {e}");
@@ -155,6 +203,13 @@ fn main() -> ExitCode {
             c.pen_depth.work,
             c.object_depth.work,
         );
+        if sides {
+            let [a, b, o] = parts[i];
+            let _ = writeln!(
+                out,
+                "            place {a:.2} us, pen side {b:.2} us, object side {o:.2} us (each its fastest)"
+            );
+        }
     }
     ExitCode::SUCCESS
 }
