@@ -39,7 +39,7 @@ mod walk_tests;
 mod zone;
 
 pub use body::Body;
-pub use occupancy::{Occupancy, OccupancyError, OccupancyStorage};
+pub use occupancy::{ListedNode, Occupancy, OccupancyError, OccupancyStorage};
 pub use points::{
     hash_tets, points_in_tets, points_in_tets_coherent, points_in_tets_occupied,
     points_in_tets_walked, walk_to_holder, walks_exact, WalkStarts, WALK_MARGIN, WALK_MAX_SHAPE,
