@@ -45,8 +45,8 @@ pub use points::{
     points_in_tets_walked, walk_to_holder, walks_exact, WalkStarts, WALK_MARGIN, WALK_MAX_SHAPE,
 };
 pub use rigid::{
-    rigid_tets_over_points_coherent, NearClusters, RigidError, RigidTets, RigidTetsStorage,
-    MAX_NEAR_CLUSTERS,
+    rigid_tets_over_points_coherent, GridEntry, NearClusters, RigidError, RigidTets,
+    RigidTetsStorage, MAX_NEAR_CLUSTERS,
 };
 pub use teschner::{tets_over_points, tets_over_points_coherent, MAX_CELLS_PER_TET};
 pub use zone::{ZoneGather, ZoneList, ZONE_MARGIN_RADII};
