@@ -899,8 +899,20 @@ pub fn rigid_tets_over_points_coherent(
         // a box over too many of their cells) from the hash, one bucket per cell.
         let listed = lists.is_some_and(|cells| {
             cells.nodes_in(&wb, MAX_CELLS_PER_TET, |run| {
-                for e in run {
-                    look.consider(&search, &wb, ci, e.node, e.pos, &mut r);
+                // The box test on a run's nodes without a branch each, then the rest of
+                // `consider` for those in the box.
+                for chunk in run.chunks(64) {
+                    let mut inside = 0u64;
+                    for (j, e) in chunk.iter().enumerate() {
+                        inside |= (holds_point(&wb, e.pos) as u64) << j;
+                    }
+                    while inside != 0 {
+                        let j = inside.trailing_zeros() as usize;
+                        inside &= inside - 1;
+                        if let Some(e) = chunk.get(j) {
+                            look.admit(&search, ci, e.node, e.pos, &mut r);
+                        }
+                    }
                 }
             })
         });
@@ -945,9 +957,7 @@ struct Lookups<'o> {
 impl Lookups<'_> {
     /// Point `item` at `p`, met in cluster `ci`'s moved box `wb`: a point outside the box is
     /// in none of the cluster's tets (the box holds their moved parts with the margin); one
-    /// in it is moved back, and waits for its lookup when the cluster's cell holds it (so no
-    /// point is looked up twice) and it is not among the points kept. A full batch is looked
-    /// up.
+    /// in it goes on ([`Lookups::admit`]).
     #[inline(always)]
     fn consider(
         &mut self,
@@ -958,9 +968,16 @@ impl Lookups<'_> {
         p: Vec3,
         r: &mut CollideReport,
     ) {
-        if !holds_point(wb, p) {
-            return;
+        if holds_point(wb, p) {
+            self.admit(s, ci, item, p, r);
         }
+    }
+
+    /// Point `item` at `p`, in cluster `ci`'s moved box: moved back, it waits for its lookup
+    /// when the cluster's cell holds it (so no point is looked up twice) and it is not among
+    /// the points kept. A full batch is looked up.
+    #[inline(always)]
+    fn admit(&mut self, s: &Search<'_>, ci: usize, item: u32, p: Vec3, r: &mut CollideReport) {
         let q = s.inv.transform_point3(p);
         if !s.rigid.in_cluster(q, ci) {
             return;

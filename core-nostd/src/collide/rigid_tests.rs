@@ -407,8 +407,9 @@ fn grid_entries_admit_every_point_of_their_box() {
 
 /// Many points inside at once (hundreds of object nodes in the tool, more than a batch of
 /// lookups holds), some exactly on the tool's corners and faces: the lists from the object's
-/// node hash and from its occupancy's node lists are the brute-force ones, and a short output
-/// keeps the smallest nodes. Oracle: brute force over every tool tet.
+/// node hash and from its occupancy's node lists (small cells, and cells whose rows hold more
+/// than 64 nodes) are the brute-force ones, and a short output keeps the smallest nodes.
+/// Oracle: brute force over every tool tet.
 #[test]
 fn rigid_batches_match_brute_force() {
     let mut tool_store = Store::<27, 48>::block(2, 0.25, Vec3::new(-0.25, -0.25, 0.0));
@@ -452,6 +453,22 @@ fn rigid_batches_match_brute_force() {
     let listed = cells
         .with_node_lists(&ob, &mut lns[..n_starts], &mut lnn[..n_nodes])
         .unwrap();
+    // Cells of 0.3: rows of about 180 nodes (more than one mask of 64 each).
+    let (mut cw, mut cbx) = ([0u32; 64], [empty; 3072]);
+    let (mut cns, mut cnn) = ([0u32; 64], [ListedNode::default(); 729]);
+    let coarse = Occupancy::build(
+        &ob,
+        0.3,
+        1e-4,
+        OccupancyStorage {
+            words: &mut cw,
+            boxes: &mut cbx,
+        },
+    )
+    .unwrap()
+    .with_node_lists(&ob, &mut cns, &mut cnn)
+    .unwrap();
+    assert!(coarse.dims().iter().all(|&d| d <= 3));
     let mut rng = Rng(0xba7c_4e5b_a7c4_e5b1);
     let mut most = 0;
     for i in 0..60 {
@@ -488,8 +505,10 @@ fn rigid_batches_match_brute_force() {
         for (near, cap) in [
             (NearClusters::ALL, 729),
             (rest.near(pose, &listed), 729),
+            (rest.near(pose, &coarse), 729),
             (NearClusters::ALL, 50),
             (rest.near(pose, &listed), 50),
+            (rest.near(pose, &coarse), 50),
         ] {
             let mut out = [Collision::default(); 729];
             let r = rigid_tets_over_points_coherent(
