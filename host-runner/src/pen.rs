@@ -3,8 +3,8 @@
 //! built over it. Used by `replay --tool mesh:FILE`, the contact tests and the benches.
 
 use tetradrill_core::collide::{
-    hash_tets, walks_exact, Body, Collision, Occupancy, OccupancyError, OccupancyStorage,
-    RigidError, RigidTets, RigidTetsStorage, MAX_NEAR_CLUSTERS,
+    hash_tets, walks_exact, Body, Collision, GridEntry, ListedNode, Occupancy, OccupancyError,
+    OccupancyStorage, RigidError, RigidTets, RigidTetsStorage, MAX_NEAR_CLUSTERS,
 };
 use tetradrill_core::depth::{
     graph_sizes, hash_boundary_faces, Crossing, DepthScratch, GraphError, NodeGraph, NodeSlot,
@@ -301,13 +301,16 @@ pub fn occupancy_words(mesh: &tetradrill_core::mesh::Mesh<'_>, cell: f32) -> usi
     (cells / 32.0).ceil().min(1e9) as usize + 1
 }
 
-/// Storage of the object's [`Occupancy`]: the grid's words and a box per tet.
+/// Storage of the object's [`Occupancy`]: the grid's words, a box per tet, the cells' tet
+/// lists and node lists.
 #[derive(Debug, Clone)]
 pub struct ObjectCells {
     words: Vec<u32>,
     boxes: Vec<Aabb>,
     starts: Vec<u32>,
     tets: Vec<u32>,
+    node_starts: Vec<u32>,
+    nodes: Vec<ListedNode>,
 }
 
 impl ObjectCells {
@@ -318,18 +321,23 @@ impl ObjectCells {
             boxes: vec![Aabb::of::<0>([]); obj.tet_count()],
             starts: Vec::new(),
             tets: Vec::new(),
+            node_starts: Vec::new(),
+            nodes: Vec::new(),
         }
     }
 
     /// The occupancy of `obj` with cells of `cell`, tet boxes grown by [`OCCUPANCY_MARGIN`]
-    /// cells, and each cell's list of tets ([`Occupancy::with_tet_lists`]: the pen's nodes
-    /// are looked up there, not in the tet hash).
+    /// cells, each cell's list of tets ([`Occupancy::with_tet_lists`]: the pen's nodes are
+    /// looked up there, not in the tet hash) and of nodes ([`Occupancy::with_node_lists`]: the
+    /// object's nodes in the pen's clusters are read there, not in the node hash).
     pub fn build(&mut self, obj: &Body<'_, '_>, cell: f32) -> Result<Occupancy<'_>, RigError> {
         let Self {
             words,
             boxes,
             starts,
             tets,
+            node_starts,
+            nodes,
         } = self;
         let storage = OccupancyStorage { words, boxes };
         let grid = Occupancy::build(obj, cell, OCCUPANCY_MARGIN * cell, storage)
@@ -339,7 +347,13 @@ impl ObjectCells {
             .ok_or(RigError::Occupancy(OccupancyError::ListStorage))?;
         starts.resize(n_starts, 0);
         tets.resize(n_tets, 0);
-        grid.with_tet_lists(obj, OCCUPANCY_LIST_SPLIT, starts, tets)
+        let grid = grid
+            .with_tet_lists(obj, OCCUPANCY_LIST_SPLIT, starts, tets)
+            .map_err(RigError::Occupancy)?;
+        let (n_starts, n_nodes) = grid.node_list_sizes(obj.positions.len());
+        node_starts.resize(n_starts, 0);
+        nodes.resize(n_nodes, ListedNode::default());
+        grid.with_node_lists(obj, node_starts, nodes)
             .map_err(RigError::Occupancy)
     }
 }
@@ -348,7 +362,7 @@ impl ObjectCells {
 #[derive(Debug, Clone)]
 pub struct PenRest {
     grid_starts: Vec<u32>,
-    grid_tets: Vec<u32>,
+    grid_tets: Vec<GridEntry>,
     tet_boxes: Vec<Aabb>,
     clusters: Vec<Aabb>,
     node_clusters: Vec<u32>,
@@ -371,7 +385,7 @@ impl PenRest {
         .unwrap_or((2, 0));
         Self {
             grid_starts: vec![0; cells],
-            grid_tets: vec![0; tets],
+            grid_tets: vec![GridEntry::default(); tets],
             tet_boxes,
             clusters: vec![empty; MAX_NEAR_CLUSTERS],
             node_clusters: vec![0; pen.node_count()],

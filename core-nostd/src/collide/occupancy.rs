@@ -17,7 +17,9 @@ pub enum OccupancyError {
     /// The body has no tet with finite corners.
     Empty,
     /// Tet lists ([`Occupancy::with_tet_lists`]) need a box per tet, one start per cell plus
-    /// one, and an entry per tet and cell its box meets ([`Occupancy::tet_list_sizes`]).
+    /// one, and an entry per tet and cell its box meets ([`Occupancy::tet_list_sizes`]); node
+    /// lists ([`Occupancy::with_node_lists`]) two starts more than the cells and an entry per
+    /// node ([`Occupancy::node_list_sizes`]).
     ListStorage,
 }
 
@@ -42,12 +44,24 @@ pub struct OccupancyStorage<'a> {
     pub boxes: &'a mut [Aabb],
 }
 
+/// One node of a body listed in its [`Occupancy`] cell ([`Occupancy::with_node_lists`]): its
+/// id and its position when the lists were built.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct ListedNode {
+    /// Where the node is.
+    pub pos: Vec3,
+    /// The node's index among the body's nodes.
+    pub node: u32,
+}
+
 /// A grid over a static body's bounds with one bit per cell, set when the cell meets the box
 /// of one of its tets grown by a margin: a point in a clear cell (or outside the grid) is in
 /// no tet, and a box that meets no set cell holds no point of the body's tets. It also keeps
 /// each tet's grown box, a cheap test before a barycentric one, and optionally, per cell, the
 /// tets whose grown box meets it in increasing id order ([`Occupancy::with_tet_lists`]: a
-/// point's candidate tets without a hash). Built once at set-up over caller storage; the
+/// point's candidate tets without a hash) and the body's nodes in it in increasing id order
+/// with their positions ([`Occupancy::with_node_lists`]: the nodes in a box as one contiguous
+/// run per row of cells, without a hash). Built once at set-up over caller storage; the
 /// queries are read-only.
 #[derive(Clone, Copy, Debug)]
 pub struct Occupancy<'a> {
@@ -57,6 +71,10 @@ pub struct Occupancy<'a> {
     /// without lists).
     cell_starts: &'a [u32],
     cell_tets: &'a [u32],
+    /// Cell `i`'s nodes are `nodes[node_starts[i]..node_starts[i + 1]]`, those outside the
+    /// grid after the last cell's (both empty without node lists).
+    node_starts: &'a [u32],
+    nodes: &'a [ListedNode],
     /// The lists' grid: the bits' cells split `split` times along each axis.
     list_inv: f32,
     list_dims: [i32; 3],
@@ -140,6 +158,8 @@ impl<'a> Occupancy<'a> {
             boxes: &[],
             cell_starts: &[],
             cell_tets: &[],
+            node_starts: &[],
+            nodes: &[],
             list_inv: 1.0 / cell,
             list_dims: dims,
             origin: bounds.min,
@@ -288,6 +308,120 @@ impl<'a> Occupancy<'a> {
             list_dims: dims,
             ..self
         })
+    }
+
+    /// Storage [`Occupancy::with_node_lists`] needs for a body of `nodes` nodes: `(starts,
+    /// nodes)` lengths, two more than the grid's cells and one entry per node.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn node_list_sizes(&self, nodes: usize) -> (usize, usize) {
+        let cells = self.dims.iter().map(|&d| d as usize).product::<usize>();
+        (cells + 2, nodes)
+    }
+
+    /// This grid with, per cell, the nodes of `body` (the body it was built over) in it, in
+    /// increasing id order with their positions, and after the last cell's the nodes outside
+    /// the grid ([`Occupancy::nodes_in`]).
+    ///
+    /// # Bounded work
+    /// O(cells + N). Call it at set-up.
+    ///
+    /// # Errors
+    /// [`OccupancyError::ListStorage`] when the storage is shorter than
+    /// [`Occupancy::node_list_sizes`] or the body has more than `u32::MAX` nodes.
+    pub fn with_node_lists(
+        self,
+        body: &Body<'_, '_>,
+        starts: &'a mut [u32],
+        nodes: &'a mut [ListedNode],
+    ) -> Result<Self, OccupancyError> {
+        let (n_starts, n_nodes) = self.node_list_sizes(body.positions.len());
+        if starts.len() < n_starts || nodes.len() < n_nodes || n_nodes > u32::MAX as usize {
+            return Err(OccupancyError::ListStorage);
+        }
+        let starts = &mut starts[..n_starts];
+        starts.fill(0);
+        // The nodes outside the grid (or not finite) go in the slot after the last cell.
+        let outside = n_starts - 2;
+        let slot = |p: Vec3| {
+            cell(self.origin, self.inv_cell, self.dims, p).map_or(outside, |c| self.index(c))
+        };
+        // Count per slot, prefix sums, fill in increasing node order with each slot's start
+        // as its cursor, then shift the starts back by one slot.
+        for &p in body.positions {
+            if let Some(s) = starts.get_mut(slot(p) + 1) {
+                *s += 1;
+            }
+        }
+        for i in 1..n_starts {
+            starts[i] += starts[i - 1];
+        }
+        for (n, &p) in body.positions.iter().enumerate() {
+            if let Some(s) = starts.get_mut(slot(p)) {
+                if let Some(e) = nodes.get_mut(*s as usize) {
+                    *e = ListedNode {
+                        pos: p,
+                        node: n as u32,
+                    };
+                }
+                *s += 1;
+            }
+        }
+        for i in (1..n_starts).rev() {
+            starts[i] = starts[i - 1];
+        }
+        starts[0] = 0;
+        Ok(Self {
+            node_starts: starts,
+            nodes: &nodes[..n_nodes],
+            ..self
+        })
+    }
+
+    /// The number of nodes listed ([`Occupancy::with_node_lists`]), `None` without node lists.
+    #[inline]
+    pub fn listed_nodes(&self) -> Option<usize> {
+        (!self.node_starts.is_empty()).then_some(self.nodes.len())
+    }
+
+    /// Calls `f` on runs of listed nodes that together hold every listed node inside box `b`,
+    /// each node once: per row of cells the box covers, the row's nodes (one contiguous run,
+    /// x fastest), then the nodes outside the grid. Returns `false` and visits nothing when
+    /// the grid has no node lists ([`Occupancy::with_node_lists`]) or the box covers more than
+    /// `max_cells` cells.
+    ///
+    /// # Bounded work
+    /// O(rows of cells the box covers + nodes in them + nodes outside the grid), at most
+    /// `max_cells` cells.
+    pub fn nodes_in<F: FnMut(&'a [ListedNode])>(&self, b: &Aabb, max_cells: u32, mut f: F) -> bool {
+        if self.node_starts.is_empty() {
+            return false;
+        }
+        let run = |i: usize, j: usize| {
+            let lo = self.node_starts.get(i).copied().unwrap_or(0) as usize;
+            let hi = self.node_starts.get(j).copied().unwrap_or(0) as usize;
+            self.nodes.get(lo..hi).unwrap_or(&[])
+        };
+        if let Some((lo, hi)) = self.range(b) {
+            let cells = (0..3).fold(1u64, |a, k| a * (hi[k] - lo[k] + 1) as u64);
+            if cells > max_cells as u64 {
+                return false;
+            }
+            for k in lo[2]..=hi[2] {
+                for j in lo[1]..=hi[1] {
+                    let first = self.index([lo[0], j, k]);
+                    let last = self.index([hi[0], j, k]);
+                    f(run(first, last + 1));
+                }
+            }
+        }
+        let outside = self.node_starts.len() - 2;
+        let tail = run(outside, outside + 1);
+        if !tail.is_empty() {
+            f(tail);
+        }
+        true
     }
 
     /// The tets listed in `p`'s cell, in increasing id order (empty outside the grid), or

@@ -3,16 +3,19 @@
 //! [`tets_over_points`](super::tets_over_points) walks the cells of every tet's box each tick.
 //! For a rigid body that is wasted work: its tets never change shape. [`RigidTets`] lists
 //! them once in the body's own frame, in a dense rest grid (per cell, the tets whose grown
-//! box meets it, in increasing id order), and groups them into clusters (the cells of a
-//! coarse rest-frame grid); per tick [`rigid_tets_over_points_coherent`] queries the points'
-//! hash only over each cluster's moved box, moves each point met that the box holds into the
-//! body's frame, lets only the cluster whose cell holds it go on (so no point is handled
-//! twice), and looks it up in its rest grid cell. [`RigidTets::near`] tells, once a tick, which clusters' moved boxes
-//! meet cells another body occupies: the search skips the others, and so can a lookup of the
-//! body's own nodes in the other body ([`RigidTets::node_near`]). Rest-frame data only culls,
-//! with a margin; the test that decides is the same barycentric test on the moved corners as
-//! everywhere else, so the contacts are the ones [`tets_over_points`](super::tets_over_points)
-//! and a brute force find.
+//! box meets it, in increasing id order, each with its box in the cell quantised outward:
+//! [`GridEntry`]), and groups them into clusters (the cells of a coarse rest-frame grid); per
+//! tick [`rigid_tets_over_points_coherent`] reads the points only over each cluster's moved
+//! box (from the other body's per-cell node lists, [`Occupancy::with_node_lists`], or its
+//! points' hash), moves each point met that the box holds into the body's frame, lets only
+//! the cluster whose cell holds it go on (so no point is handled twice), and looks the
+//! points up in their rest grid cells a batch at a time. [`RigidTets::near`] tells, once a
+//! tick, which clusters' moved boxes meet cells another body occupies: the search skips the
+//! others, and so can a lookup of the body's own nodes in the other body
+//! ([`RigidTets::node_near`]). Rest-frame data only culls, with a margin; the test that
+//! decides is the same barycentric test on the moved corners as everywhere else, so the
+//! contacts are the ones [`tets_over_points`](super::tets_over_points) and a brute force
+//! find.
 
 use glam::{Affine3A, Vec3};
 
@@ -68,6 +71,57 @@ fn dense_dims(extent: Vec3, mut edge: f32, max_cells: usize) -> Option<([i32; 3]
 }
 use crate::ids::{NodeId, TetId};
 
+/// Levels per axis of a [`GridEntry`]'s box inside its cell.
+const LEVELS: f32 = 16.0;
+/// Bits of one level field with its guard bit above.
+const FIELD: u32 = 5;
+/// The guard bits of three level fields (bits 4, 9 and 14).
+const GUARDS: u32 = 0x10 | (0x10 << FIELD) | (0x10 << (2 * FIELD));
+
+/// The level (0 to 15) of grid coordinate `f` (a point's offset from the grid's origin in
+/// cells) within cell `c` along one axis, clamped: monotonic in `f`, so a point in a box has
+/// a level between the box's corners' levels in every cell the box meets.
+#[inline]
+fn level(f: f32, c: i32) -> u32 {
+    crate::hash::floor_i32((f - c as f32) * LEVELS).clamp(0, LEVELS as i32 - 1) as u32
+}
+
+/// The three levels of grid coordinates `f` in cell `c`, packed five bits a field.
+#[inline]
+fn levels(f: Vec3, c: [i32; 3]) -> u32 {
+    level(f.x, c[0]) | level(f.y, c[1]) << FIELD | level(f.z, c[2]) << (2 * FIELD)
+}
+
+/// One entry of a [`RigidTets`] rest grid cell: a tet id and the tet's grown box clipped to
+/// the cell, quantised outward to 16 levels per axis. A point of the cell whose levels lie
+/// outside the entry's is outside the tet's box, so most candidates are ruled out by the
+/// entries of the cell's contiguous list alone; those left face the box itself and the
+/// barycentric test.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct GridEntry {
+    tet: u32,
+    /// Lowest levels in bits 0-14, highest in bits 15-29 (five bits a field, guard bits 0).
+    levels: u32,
+}
+
+impl GridEntry {
+    /// The tet listed.
+    #[inline]
+    pub fn tet(&self) -> TetId {
+        TetId(self.tet)
+    }
+
+    /// `true` unless a point with packed levels `at` ([`levels`], in this entry's cell) is
+    /// outside the entry's box: per field `lo <= at <= hi`, all three at once (each field's
+    /// guard bit survives the subtraction exactly when it holds).
+    #[inline]
+    fn admits(&self, at: u32) -> bool {
+        let lo = self.levels & 0x7fff;
+        let hi = self.levels >> 15;
+        ((at | GUARDS).wrapping_sub(lo) & (hi | GUARDS).wrapping_sub(at) & GUARDS) == GUARDS
+    }
+}
+
 /// Why [`RigidTets::build`] refused.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum RigidError {
@@ -98,9 +152,9 @@ pub struct RigidTetsStorage<'s> {
     /// Per cell of the rest grid, where its tets start in `grid_tets`, plus one end: its
     /// length caps the cells (one more than the cells; [`RigidTets::grid_sizes`]).
     pub grid_starts: &'s mut [u32],
-    /// The tets of each rest grid cell: one entry per tet and cell its grown box meets
-    /// ([`RigidTets::grid_sizes`]).
-    pub grid_tets: &'s mut [u32],
+    /// The tets of each rest grid cell, each with its box in the cell ([`GridEntry`]): one
+    /// entry per tet and cell its grown box meets ([`RigidTets::grid_sizes`]).
+    pub grid_tets: &'s mut [GridEntry],
     /// One box per tet.
     pub tet_boxes: &'s mut [Aabb],
     /// One box per cluster cell: its length caps the number of clusters.
@@ -110,13 +164,14 @@ pub struct RigidTetsStorage<'s> {
 }
 
 /// A rigid body's tets at rest: listed in a dense grid in its frame (each tet's box grown by
-/// a margin), the grown boxes, and a coarse grid of clusters, each with the rest-frame box of
-/// what its cell holds. Built once at set-up; read-only afterwards.
+/// a margin, each entry with that box in its cell quantised outward: [`GridEntry`]), the
+/// grown boxes, and a coarse grid of clusters, each with the rest-frame box of what its cell
+/// holds. Built once at set-up; read-only afterwards.
 #[derive(Debug)]
 pub struct RigidTets<'s> {
     /// Rest grid: cell `i`'s tets are `grid_tets[grid_starts[i]..grid_starts[i + 1]]`.
     grid_starts: &'s [u32],
-    grid_tets: &'s [u32],
+    grid_tets: &'s [GridEntry],
     /// Rest grid cells per axis and their inverse sizes (from `bounds.min`).
     grid_dims: [i32; 3],
     grid_inv: Vec3,
@@ -207,15 +262,22 @@ impl<'s> RigidTets<'s> {
         for i in 0..cells {
             grid_starts[i + 1] += grid_starts[i];
         }
-        // Fill: `grid_starts[i]` is cell i's cursor, ending at cell i + 1's start...
+        // Fill: `grid_starts[i]` is cell i's cursor, ending at cell i + 1's start; each entry
+        // with the levels of the box's corners in the cell (grid coordinates computed as a
+        // point's are in `locate_batch`, so a point in the box has levels between them)...
         for t in 0..nt {
             let Some(b) = usable(t) else { continue };
             let (lo, hi) = cell_range(b);
+            let f_lo = (b.min - bounds.min) * grid_inv;
+            let f_hi = (b.max - bounds.min) * grid_inv;
             for_cells(lo, hi, |c| {
                 let i = dense_index(grid_dims, c);
                 if let Some(s) = grid_starts.get_mut(i) {
                     if let Some(e) = grid_tets.get_mut(*s as usize) {
-                        *e = t as u32;
+                        *e = GridEntry {
+                            tet: t as u32,
+                            levels: levels(f_lo, c) | levels(f_hi, c) << 15,
+                        };
                     }
                     *s += 1;
                 }
@@ -351,8 +413,9 @@ impl<'s> RigidTets<'s> {
     }
 
     /// Storage a rest grid of cells of about `grid_edge` needs for `body` with tet boxes grown
-    /// by `margin`: `(grid_starts, grid_tets)` lengths for [`RigidTetsStorage`] (`None` for a
-    /// bad size or no finite tet). `tet_boxes` is scratch of one box per tet.
+    /// by `margin`: `(grid_starts, grid_tets)` lengths for [`RigidTetsStorage`] (`grid_tets`
+    /// entries are [`GridEntry`]s of 8 bytes; `None` for a bad size or no finite tet).
+    /// `tet_boxes` is scratch of one box per tet.
     ///
     /// # Bounded work
     /// O(T x cells each box meets). Call it at set-up.
@@ -387,37 +450,163 @@ impl<'s> RigidTets<'s> {
             .then(|| self.index(self.grid_cell(q)))
     }
 
-    /// The smallest tet holding world point `p` (rest-frame `q`): rest grid cell (its tets in
-    /// increasing id order), grown box, then the barycentric test on the moved corners of
-    /// `body`.
-    fn locate(&self, q: Vec3, p: Vec3, body: &Body<'_, '_>, r: &mut CollideReport) -> TetId {
+    /// `true` when cluster `ci`'s cell holds rest-frame point `q` ([`RigidTets::cluster_of`]
+    /// is `Some(ci)`), without a branch.
+    #[inline]
+    fn in_cluster(&self, q: Vec3, ci: usize) -> bool {
+        holds_point(&self.bounds, q) & (self.index(self.grid_cell(q)) == ci)
+    }
+
+    /// Rest-frame point `q`'s rest grid cell: where its entries start and end in `grid_tets`
+    /// and `q`'s levels in it ([`GridEntry`]); an empty range outside the tets' bounds.
+    #[inline]
+    fn rest_cell(&self, q: Vec3) -> (usize, usize, u32) {
         if !self.bounds.contains(q) {
-            return TetId::NONE;
+            return (0, 0, 0); // no tet holds it
         }
-        let i = dense_index(
-            self.grid_dims,
-            dense_cell(self.bounds.min, self.grid_inv, self.grid_dims, q),
-        );
+        // `dense_cell`, keeping the grid coordinates for the levels.
+        let g = (q - self.bounds.min) * self.grid_inv;
+        let c = crate::hash::cell_of(g, 1.0);
+        let c = [0, 1, 2].map(|a| c[a].clamp(0, self.grid_dims[a] - 1));
+        let i = dense_index(self.grid_dims, c);
         let lo = self.grid_starts.get(i).copied().unwrap_or(0) as usize;
         let hi = self.grid_starts.get(i + 1).copied().unwrap_or(0) as usize;
-        for &item in self.grid_tets.get(lo..hi).unwrap_or(&[]) {
-            if !self
-                .tet_boxes
-                .get(item as usize)
-                .is_some_and(|b| b.contains(q))
-            {
-                continue;
+        (lo, hi.max(lo), levels(g, c))
+    }
+
+    /// The tets of rest-frame point `q`'s rest grid cell whose entry admits it, in list
+    /// order, then how many the cell lists (for the tests of the filter).
+    #[cfg(test)]
+    pub(super) fn admitted(&self, q: Vec3, mut f: impl FnMut(TetId)) -> usize {
+        let (lo, hi, at) = self.rest_cell(q);
+        let list = self.grid_tets.get(lo..hi).unwrap_or(&[]);
+        for e in list.iter().filter(|e| e.admits(at)) {
+            f(e.tet());
+        }
+        list.len()
+    }
+
+    /// The rest grid's origin, cells per unit and cells per axis (for the tests of the
+    /// filter).
+    #[cfg(test)]
+    pub(super) fn rest_grid(&self) -> (Vec3, Vec3, [i32; 3]) {
+        (self.bounds.min, self.grid_inv, self.grid_dims)
+    }
+
+    /// The smallest tet holding world point `p` (rest-frame `q`): [`RigidTets::locate_batch`]
+    /// of one point.
+    fn locate(&self, q: Vec3, p: Vec3, body: &Body<'_, '_>, r: &mut CollideReport) -> TetId {
+        let mut found = [TetId::NONE];
+        self.locate_batch(&[Pending { node: 0, p, q }], body, r, &mut found);
+        found[0]
+    }
+
+    /// For each pending point (world `p`, rest-frame `q`), the smallest tet holding it, in
+    /// `found` (`NONE`: none): of its rest grid cell's tets in increasing id order, the first
+    /// whose grown box holds `q` and whose moved corners in `body` hold `p` (the barycentric
+    /// test); the entries' quantised boxes ([`GridEntry`]) skip tets whose box cannot hold
+    /// `q`. Stage by stage over the batch, so that what each point's stage reads is requested
+    /// for every point before any is waited for: every point's cell range, then every point's
+    /// entry tests on its cell's first [`MASKED`] entries (one bit each, no branch per
+    /// entry), then round by round each point's next admitted tet (box and barycentric test),
+    /// until each point is found or out of admitted tets; last, for the points not found,
+    /// the cell's entries beyond the first [`MASKED`] one by one. Each point meets the same
+    /// box and barycentric tests, in the same order, as alone.
+    ///
+    /// # Bounded work
+    /// Per point at most `b` entry tests, `b` box tests and `b` barycentric tests, for `b`
+    /// the fullest cell of the rest grid.
+    fn locate_batch(
+        &self,
+        batch: &[Pending],
+        body: &Body<'_, '_>,
+        r: &mut CollideReport,
+        found: &mut [TetId],
+    ) {
+        let mut ranges = [(0usize, 0usize, 0u32); BATCH];
+        for (range, pt) in ranges.iter_mut().zip(batch) {
+            *range = self.rest_cell(pt.q);
+        }
+        let mut masks = [0u64; BATCH];
+        for (k, &(lo, hi, at)) in ranges.iter().take(batch.len()).enumerate() {
+            let head = self.grid_tets.get(lo..hi.min(lo + MASKED)).unwrap_or(&[]);
+            let mut mask = 0u64;
+            for (j, e) in head.iter().enumerate() {
+                mask |= (e.admits(at) as u64) << j;
             }
-            let t = TetId(item);
-            if body
-                .tet_positions(t)
-                .is_some_and(|corners| candidate_holds(p, corners, r))
-            {
-                return t;
+            masks[k] = mask;
+        }
+        // The exact test: the tet's grown box, then its moved corners (both read before
+        // either is tested, so that their loads overlap).
+        let holds = |pt: &Pending, e: &GridEntry, r: &mut CollideReport| {
+            let b = self.tet_boxes.get(e.tet as usize);
+            let corners = body.tet_positions(e.tet());
+            b.is_some_and(|b| b.contains(pt.q))
+                && corners.is_some_and(|corners| candidate_holds(pt.p, corners, r))
+        };
+        let n = batch.len().min(BATCH).min(found.len());
+        for slot in found.iter_mut().take(n) {
+            *slot = TetId::NONE;
+        }
+        // Round by round, each point's next admitted tet (its first holder in list order
+        // ends its search): the points' tests of a round are independent.
+        let mut open = masks.iter().take(n).any(|&m| m != 0);
+        while open {
+            open = false;
+            for k in 0..n {
+                let mask = masks[k];
+                if mask == 0 {
+                    continue;
+                }
+                let j = mask.trailing_zeros() as usize;
+                masks[k] = mask & (mask - 1);
+                let (lo, _, _) = ranges[k];
+                let e = self.grid_tets.get(lo + j).copied().unwrap_or_default();
+                if holds(&batch[k], &e, r) {
+                    found[k] = e.tet();
+                    masks[k] = 0;
+                } else {
+                    open |= masks[k] != 0;
+                }
             }
         }
-        TetId::NONE
+        // The tets beyond each cell's first `MASKED`, in order, for the points not found.
+        for k in 0..n {
+            let (lo, hi, at) = ranges[k];
+            if found[k].is_some() || hi - lo <= MASKED {
+                continue;
+            }
+            let rest = self.grid_tets.get(lo + MASKED..hi).unwrap_or(&[]);
+            for e in rest {
+                if e.admits(at) && holds(&batch[k], e, r) {
+                    found[k] = e.tet();
+                    break;
+                }
+            }
+        }
     }
+}
+
+/// Points a cluster gathers before their lookups ([`RigidTets::locate_batch`]).
+const BATCH: usize = 32;
+
+/// A rest grid cell's first entries whose tests [`RigidTets::locate_batch`] gathers into one
+/// mask (the bits of a `u64`).
+const MASKED: usize = 64;
+
+/// A point waiting for its lookup: its index, world position and rest-frame position.
+#[derive(Clone, Copy, Default)]
+struct Pending {
+    node: u32,
+    p: Vec3,
+    q: Vec3,
+}
+
+/// `true` when box `b` holds `q` (its faces included): [`Aabb::contains`] with the six
+/// comparisons combined without a branch.
+#[inline]
+fn holds_point(b: &Aabb, q: Vec3) -> bool {
+    (q.cmpge(b.min) & q.cmple(b.max)).all()
 }
 
 /// Writes each tet's box grown by `margin` (an inverted box for a tet without finite
@@ -469,16 +658,20 @@ const NO_CLUSTER: u32 = u32::MAX;
 pub const MAX_NEAR_CLUSTERS: usize = 4096;
 
 /// Which clusters of a [`RigidTets`] are near another body this tick
-/// ([`RigidTets::near`]): one bit per cluster, on the stack (512 bytes).
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub struct NearClusters {
+/// ([`RigidTets::near`]): one bit per cluster, on the stack (512 bytes), and the other body's
+/// [`Occupancy`] when it lists its nodes per cell ([`Occupancy::with_node_lists`]: then
+/// [`rigid_tets_over_points_coherent`] reads the nodes in a cluster's box from those lists).
+#[derive(Clone, Copy, Debug)]
+pub struct NearClusters<'c> {
     bits: [u64; MAX_NEAR_CLUSTERS / 64],
+    cells: Option<Occupancy<'c>>,
 }
 
-impl NearClusters {
-    /// Every cluster near (culls nothing).
+impl NearClusters<'_> {
+    /// Every cluster near (culls nothing), no node lists.
     pub const ALL: Self = Self {
         bits: [u64::MAX; MAX_NEAR_CLUSTERS / 64],
+        cells: None,
     };
 
     /// `true` when cluster `c` is near (or beyond [`MAX_NEAR_CLUSTERS`]).
@@ -556,16 +749,25 @@ impl RigidTets<'_> {
     /// by `pose` whose cluster is not near is in no marked cell, so in no tet of the body
     /// `cells` was built over ([`RigidTets::node_near`]); neither is a point of a tet of this
     /// body in such a cluster. Every cluster counts as near when the pose is too far from the
-    /// origin for the margin (see [`rigid_tets_over_points_coherent`]).
+    /// origin for the margin (see [`rigid_tets_over_points_coherent`]). When `cells` lists
+    /// its body's nodes ([`Occupancy::with_node_lists`]) the result carries it, for
+    /// [`rigid_tets_over_points_coherent`].
     ///
     /// # Bounded work
     /// Per cluster one box transform and [`Occupancy::may_meet`]; at most
     /// [`MAX_NEAR_CLUSTERS`] clusters are tested (the others count as near).
-    pub fn near(&self, pose: Affine3A, cells: &Occupancy<'_>) -> NearClusters {
+    pub fn near<'c>(&self, pose: Affine3A, cells: &Occupancy<'c>) -> NearClusters<'c> {
+        let lists = cells.listed_nodes().map(|_| *cells);
         if !self.pose_in_margin(&pose) {
-            return NearClusters::ALL;
+            return NearClusters {
+                cells: lists,
+                ..NearClusters::ALL
+            };
         }
-        let mut n = NearClusters::ALL;
+        let mut n = NearClusters {
+            cells: lists,
+            ..NearClusters::ALL
+        };
         for ci in 0..self.clusters().min(MAX_NEAR_CLUSTERS) {
             let near = self
                 .moved_box(ci, &pose)
@@ -585,7 +787,7 @@ impl RigidTets<'_> {
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn node_near(&self, n: usize, near: &NearClusters) -> bool {
+    pub fn node_near(&self, n: usize, near: &NearClusters<'_>) -> bool {
         match self.node_clusters.get(n) {
             Some(&c) if c != NO_CLUSTER => near.is_near(c as usize),
             _ => true,
@@ -604,7 +806,10 @@ impl RigidTets<'_> {
 ///
 /// Only the clusters `near` names are searched: it must hold every cluster whose moved box
 /// may hold one of the points ([`RigidTets::near`] over an [`Occupancy`] of the body whose
-/// nodes the points are, or [`NearClusters::ALL`]).
+/// nodes the points are, or [`NearClusters::ALL`]). When that occupancy lists as many nodes
+/// as `points` ([`Occupancy::with_node_lists`]), the points in a cluster's moved box are
+/// read from its lists, positions included, instead of `points_hash`: they must be the
+/// nodes of the static body the lists were built over, at the same positions.
 ///
 /// With `max_walk` above 0 each previous point first walks from its previous tet through
 /// `body` ([`super::walk_to_holder`], at most `max_walk` tets) and keeps the tet it ends in
@@ -614,17 +819,19 @@ impl RigidTets<'_> {
 /// Falls back to [`tets_over_points_coherent`] (same result) when the pose is not a rotation
 /// (a quaternion far from unit length), or so far from the origin that rounding could exceed
 /// `rigid`'s margin (`64 x f32::EPSILON x (|translation| + rest radius) > margin`), or when a
-/// cluster's moved box could cover more than
-/// [`MAX_CELLS_PER_TET`] cells of `points_hash`.
+/// cluster's moved box could cover more than [`MAX_CELLS_PER_TET`] cells of `points_hash`. A
+/// cluster whose moved box covers more than [`MAX_CELLS_PER_TET`] cells of the node lists
+/// reads `points_hash` instead.
 ///
 /// # Bounded work
-/// O(kept x (max_walk + b)) for the previous points, then per near cluster one box transform and a query
-/// of at most
-/// [`MAX_CELLS_PER_TET`] cells of `points_hash`; per point met one box test, for those in the
-/// cluster's moved box one transform and, for the points in the cluster's own cell, at most
-/// `b` candidate tets, for `b` the fullest cell of
-/// the rest grid; a binary search over `kept` entries and, once `out` is full, a heap step
-/// (O(log out.len())) per new hit; one sort of at most `out.len()` entries.
+/// O(kept x (max_walk + b)) for the previous points, then per near cluster one box transform
+/// and a read of at most [`MAX_CELLS_PER_TET`] cells (one run per row of cells of the node
+/// lists, with the nodes outside their grid, or one bucket per cell of `points_hash`); per
+/// point met one box test, for those in the cluster's moved box one transform and, for the
+/// points in the cluster's own cell, at most `b` entry tests and `b` candidate tets
+/// ([`RigidTets::locate_batch`]), for `b` the fullest cell of the rest grid; a binary search
+/// over `kept` entries and, once `out` is full, a heap step (O(log out.len())) per new hit;
+/// one sort of at most `out.len()` entries.
 #[allow(clippy::too_many_arguments)]
 pub fn rigid_tets_over_points_coherent(
     points_hash: &SpatialHash<'_>,
@@ -632,7 +839,7 @@ pub fn rigid_tets_over_points_coherent(
     rigid: &RigidTets<'_>,
     body: &Body<'_, '_>,
     pose: Affine3A,
-    near: &NearClusters,
+    near: &NearClusters<'_>,
     out: &mut [Collision],
     kept: usize,
     max_walk: u32,
@@ -657,11 +864,27 @@ pub fn rigid_tets_over_points_coherent(
         rigid.locate(inv.transform_point3(p), p, body, &mut r)
     });
 
-    // New points, cluster by cluster.
+    // New points, cluster by cluster: those a cluster keeps wait in a batch for their
+    // lookups (the order they are found in does not change the result: it is sorted, and a
+    // full list keeps the smallest nodes whatever the order).
     let (kept_part, new_part) = out.split_at_mut(m);
-    let mut n = 0usize; // entries of new_part in use
-    let mut heap = false; // new_part is a max-heap by node (it is full)
+    let search = Search {
+        rigid,
+        body,
+        inv,
+        kept: kept_part,
+    };
+    let mut look = Lookups {
+        part: new_part,
+        n: 0,
+        heap: false,
+        batch: [Pending::default(); BATCH],
+        waiting: 0,
+    };
     let bounds = points_hash.bounds();
+    let lists = near
+        .cells
+        .filter(|c| c.listed_nodes() == Some(points.len()));
     for ci in 0..rigid.clusters() {
         if !near.is_near(ci) {
             continue;
@@ -672,54 +895,149 @@ pub fn rigid_tets_over_points_coherent(
         if !wb.overlaps(&bounds) {
             continue;
         }
-        let visited = points_hash.query_box_ro(&wb, MAX_CELLS_PER_TET, |_, item| {
-            let Some(&p) = points.get(item as usize) else {
-                return;
-            };
-            // A point outside the cluster's moved box is in none of its tets (the box holds
-            // their moved parts with the margin): only the points in it are moved back.
-            if !wb.contains(p) {
-                return;
-            }
-            let q = inv.transform_point3(p);
-            if rigid.cluster_of(q) != Some(ci) {
-                return;
-            }
-            let node = NodeId(item);
-            if m > 0 && kept_part.binary_search_by_key(&node, |c| c.node).is_ok() {
-                return; // tested above
-            }
-            let tet = rigid.locate(q, p, body, &mut r);
-            if tet.is_none() {
-                return;
-            }
-            let c = Collision { node, tet };
-            if n < new_part.len() {
-                new_part[n] = c;
-                n += 1;
-                return;
-            }
-            r.saturated = true;
-            if n == 0 {
-                return;
-            }
-            if !heap {
-                heapify(new_part);
-                heap = true;
-            }
-            if c.node < new_part[0].node {
-                new_part[0] = c;
-                sift_down(new_part, 0);
-            }
+        // The nodes in the box from the lists, one run per row of cells; else (no lists, or
+        // a box over too many of their cells) from the hash, one bucket per cell.
+        let listed = lists.is_some_and(|cells| {
+            cells.nodes_in(&wb, MAX_CELLS_PER_TET, |run| {
+                // The box test on a run's nodes without a branch each, then the rest of
+                // `consider` for those in the box.
+                for chunk in run.chunks(64) {
+                    let mut inside = 0u64;
+                    for (j, e) in chunk.iter().enumerate() {
+                        inside |= (holds_point(&wb, e.pos) as u64) << j;
+                    }
+                    while inside != 0 {
+                        let j = inside.trailing_zeros() as usize;
+                        inside &= inside - 1;
+                        if let Some(e) = chunk.get(j) {
+                            look.admit(&search, ci, e.node, e.pos, &mut r);
+                        }
+                    }
+                }
+            })
         });
+        let visited = listed
+            || points_hash.query_box_ro(&wb, MAX_CELLS_PER_TET, |_, item| {
+                if let Some(&p) = points.get(item as usize) {
+                    look.consider(&search, &wb, ci, item, p, &mut r);
+                }
+            });
         if !visited {
             r.clipped = r.clipped.wrapping_add(1);
         }
     }
+    look.flush(&search, &mut r);
+    let n = look.n;
     let all = out.get_mut(..m + n).unwrap_or(&mut []);
     all.sort_unstable();
-    r.count = m + n;
+    r.count = all.len();
     r
+}
+
+/// What a call of [`rigid_tets_over_points_coherent`] searches with: the body at rest and
+/// moved, the pose's inverse and the previous points kept.
+struct Search<'a> {
+    rigid: &'a RigidTets<'a>,
+    body: &'a Body<'a, 'a>,
+    inv: Affine3A,
+    kept: &'a [Collision],
+}
+
+/// The new points of [`rigid_tets_over_points_coherent`]: those waiting for their lookups,
+/// and the hits, `part[..n]` in use; once full, a max-heap by node that keeps the smallest
+/// nodes.
+struct Lookups<'o> {
+    part: &'o mut [Collision],
+    n: usize,
+    heap: bool,
+    batch: [Pending; BATCH],
+    waiting: usize,
+}
+
+impl Lookups<'_> {
+    /// Point `item` at `p`, met in cluster `ci`'s moved box `wb`: a point outside the box is
+    /// in none of the cluster's tets (the box holds their moved parts with the margin); one
+    /// in it goes on ([`Lookups::admit`]).
+    #[inline(always)]
+    fn consider(
+        &mut self,
+        s: &Search<'_>,
+        wb: &Aabb,
+        ci: usize,
+        item: u32,
+        p: Vec3,
+        r: &mut CollideReport,
+    ) {
+        if holds_point(wb, p) {
+            self.admit(s, ci, item, p, r);
+        }
+    }
+
+    /// Point `item` at `p`, in cluster `ci`'s moved box: moved back, it waits for its lookup
+    /// when the cluster's cell holds it (so no point is looked up twice) and it is not among
+    /// the points kept. A full batch is looked up.
+    #[inline(always)]
+    fn admit(&mut self, s: &Search<'_>, ci: usize, item: u32, p: Vec3, r: &mut CollideReport) {
+        let q = s.inv.transform_point3(p);
+        if !s.rigid.in_cluster(q, ci) {
+            return;
+        }
+        if !s.kept.is_empty()
+            && s.kept
+                .binary_search_by_key(&NodeId(item), |c| c.node)
+                .is_ok()
+        {
+            return; // tested above
+        }
+        if let Some(slot) = self.batch.get_mut(self.waiting) {
+            *slot = Pending { node: item, p, q };
+            self.waiting += 1;
+        }
+        if self.waiting == BATCH {
+            self.flush(s, r);
+        }
+    }
+
+    /// Looks the waiting points up ([`RigidTets::locate_batch`]) and lists those found.
+    fn flush(&mut self, s: &Search<'_>, r: &mut CollideReport) {
+        let mut found = [TetId::NONE; BATCH];
+        let batch = self.batch;
+        let waiting = batch.get(..self.waiting).unwrap_or(&[]);
+        s.rigid.locate_batch(waiting, s.body, r, &mut found);
+        self.waiting = 0;
+        for (pt, &tet) in waiting.iter().zip(found.iter()) {
+            if tet.is_some()
+                && !self.push(Collision {
+                    node: NodeId(pt.node),
+                    tet,
+                })
+            {
+                r.saturated = true;
+            }
+        }
+    }
+
+    /// Lists `c` (`true`); once full (`false`), keeps it instead of the largest node when its
+    /// node is smaller.
+    fn push(&mut self, c: Collision) -> bool {
+        if self.n < self.part.len() {
+            self.part[self.n] = c;
+            self.n += 1;
+            return true;
+        }
+        if self.n == 0 {
+            return false;
+        }
+        if !self.heap {
+            heapify(self.part);
+            self.heap = true;
+        }
+        if c.node < self.part[0].node {
+            self.part[0] = c;
+            sift_down(self.part, 0);
+        }
+        false
+    }
 }
 
 /// Makes `h` a max-heap by node.

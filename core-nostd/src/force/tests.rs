@@ -157,7 +157,7 @@ fn pen_tick(
     let (mut ps, mut pe) = ([0u32; 32], [HashEntry::default(); 2048]);
     let mut ph = SpatialHash::new(&mut ps, &mut pe, 0.1).unwrap();
     hash_boundary_faces(&mut ph, &Body::fixed(&pen));
-    let (mut rs, mut re) = ([0u32; 64], [0u32; 2048]);
+    let (mut rs, mut re) = ([0u32; 64], [crate::collide::GridEntry::default(); 2048]);
     let (mut rb, mut rc) = ([Aabb::of::<0>([]); 48], [Aabb::of::<0>([]); 64]);
     let mut nc = [0u32; 27];
     let rest = RigidTets::build(

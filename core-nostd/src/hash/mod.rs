@@ -18,6 +18,7 @@
 mod cell;
 mod table;
 
+pub(crate) use cell::floor_i32;
 pub use cell::{average_edge_length, bucket_of, cell_of, prime_at_most, Aabb, Cell};
 pub(crate) use table::cells_in;
 pub use table::{
