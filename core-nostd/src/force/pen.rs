@@ -360,7 +360,7 @@ pub fn pen_pass(
 
 /// The pen placed at a pose ([`pen_place`]): what both sides of a pass read.
 #[derive(Clone, Copy, Debug)]
-pub struct PenPlacement {
+pub struct PenPlacement<'c> {
     pose: Affine3A,
     rotation: Quat,
     /// Pen nodes placed: the pen's, or the world buffer's length when that is shorter.
@@ -369,7 +369,7 @@ pub struct PenPlacement {
     /// Both bodies' boundary faces hashed ([`DepthMethod::Hashed`] possible).
     faces: bool,
     /// The pen's clusters near the object; `None` when the pen's bounds miss the object's.
-    near: Option<NearClusters>,
+    near: Option<NearClusters<'c>>,
 }
 
 /// What one side of a pass found ([`pen_side`], [`object_side`]).
@@ -438,12 +438,12 @@ impl<'b> PenBuffers<'b> {
 /// # Bounded work
 /// O(N_pen) to place the pen, and [`RigidTets::near`]'s (per pen cluster, one box transform
 /// and at most [`crate::collide::MAX_CELLS_PER_TET`] cells of the object's occupancy).
-pub fn pen_place(
-    scene: &PenScene<'_, '_, '_>,
+pub fn pen_place<'s>(
+    scene: &PenScene<'s, '_, '_>,
     world: &mut [Vec3],
     position: Vec3,
     rotation: Quat,
-) -> PenPlacement {
+) -> PenPlacement<'s> {
     let pose = Affine3A::from_rotation_translation(rotation, position);
     let rest = scene.pen.positions();
     let placed = rest.len().min(world.len());
@@ -473,7 +473,7 @@ pub fn pen_place(
     }
 }
 
-impl PenPlacement {
+impl PenPlacement<'_> {
     /// The pass from its two sides; updates [`PenState::pen_listed`] and
     /// [`PenState::object_listed`].
     ///
@@ -513,7 +513,7 @@ impl PenPlacement {
 /// when the pen is away from the object.
 pub fn pen_side(
     scene: &PenScene<'_, '_, '_>,
-    at: &PenPlacement,
+    at: &PenPlacement<'_>,
     world: &[Vec3],
     found: &mut [TetId],
     side: SideBuffers<'_, '_>,
@@ -567,15 +567,16 @@ pub fn pen_side(
 /// is the buffer [`pen_place`] filled for `at`; `listed` is [`PenState::object_listed`].
 ///
 /// # Bounded work
-/// Collision: per pen cluster, one query of at most [`crate::collide::MAX_CELLS_PER_TET`]
-/// cells of the object's node hash with a rest-hash lookup per node met
-/// ([`rigid_tets_over_points_coherent`]; for poses far from the origin the walk over every pen
-/// tet, O(T_pen * cells * b), twice at most); depth: see [`penetration_depth_of`], bounded by
+/// Collision: per near pen cluster, a read of at most [`crate::collide::MAX_CELLS_PER_TET`]
+/// cells of the object's node lists (or of its node hash when the occupancy has none) with a
+/// rest-grid lookup per node met in the cluster's cell ([`rigid_tets_over_points_coherent`];
+/// for poses far from the origin the walk over every pen tet, O(T_pen * cells * b), twice at
+/// most); depth: see [`penetration_depth_of`], bounded by
 /// `side`'s buffers and `max_steps` / `max_cells`. Nothing when the pen is away from the
 /// object.
 pub fn object_side(
     scene: &PenScene<'_, '_, '_>,
-    at: &PenPlacement,
+    at: &PenPlacement<'_>,
     world: &[Vec3],
     side: SideBuffers<'_, '_>,
     opts: &PenOptions,
