@@ -193,12 +193,14 @@ pub(super) fn run_pen(
     }
     if let Some(p) = rep.pen.as_ref().filter(|_| setup.summary) {
         outln!(
-            "tool {} nodes / {} tets, depth {}: {} contact passes, us: mean {:.1}  p99 {:.1}  \
-             max {:.1}; pass age ticks: mean {:.2}  max {}",
+            "tool {} nodes / {} tets, depth {}: {} contact passes ({} thread{}), us: mean {:.1}  \
+             p99 {:.1}  max {:.1}; pass age ticks: mean {:.2}  max {}",
             p.tool_nodes,
             p.tool_tets,
             p.depth_method,
             p.passes,
+            p.pass_threads,
+            if p.pass_threads == 1 { "" } else { "s" },
             p.pass_us.tick_mean,
             p.pass_us.tick_p99,
             p.pass_us.tick_max,
