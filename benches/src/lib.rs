@@ -56,6 +56,62 @@ pub fn profile_args(bin: &str, default_reps: usize) -> Result<(String, bool, usi
     Ok((mesh.clone(), touching, reps))
 }
 
+/// What a pen profiling binary runs over ([`pen_profile_setup`]).
+#[derive(Debug)]
+pub struct PenProfile {
+    /// The object mesh's path as given (relative to the meshes folder).
+    pub mesh: String,
+    /// The pen x10.
+    pub pen: OwnedMesh,
+    /// The object.
+    pub obj: OwnedMesh,
+    /// `true` for the touching poses, `false` for the impaled ones.
+    pub touching: bool,
+    /// The poses: the whole set, or only pose `POSE` when the environment sets it.
+    pub poses: Vec<(Vec3, Quat)>,
+    /// The set's index of `poses[0]` (`POSE`, else 0).
+    pub first: usize,
+    /// Calls per pose.
+    pub reps: usize,
+}
+
+/// The set-up of a pen profiling binary `bin`: [`profile_args`], the pen x10 and the object
+/// loaded, the bench's 200 touching or impaled poses, only pose `POSE` when the environment
+/// sets it. `Err` is the one line to print before exiting with status 2.
+///
+/// # Errors
+/// [`profile_args`]'s, a mesh that does not load, a `POSE` past the set.
+pub fn pen_profile_setup(bin: &str, default_reps: usize) -> Result<PenProfile, String> {
+    let (mesh, touching, reps) = profile_args(bin, default_reps)?;
+    let pen = load_mesh("models/pen_tool_gmsh.mesh", 10.0).map_err(|e| format!("{bin}: {e}"))?;
+    let mut obj = load_mesh(&mesh, 1.0).map_err(|e| format!("{bin}: {e}"))?;
+    let mut poses = if touching {
+        touch_poses(&obj.view(), 200, 0.05, 7)
+    } else {
+        impaled_poses(&obj.view(), 200, 0.25, 7)
+    };
+    let mut first = 0;
+    if let Some(i) = std::env::var("POSE")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+    {
+        if i >= poses.len() {
+            return Err(format!("{bin}: POSE must be below {}", poses.len()));
+        }
+        poses = vec![poses[i]];
+        first = i;
+    }
+    Ok(PenProfile {
+        mesh,
+        pen,
+        obj,
+        touching,
+        poses,
+        first,
+        reps,
+    })
+}
+
 /// A tiny deterministic generator (the benches have no `rand`).
 #[derive(Debug, Clone)]
 pub struct Lcg(pub u64);

@@ -17,7 +17,7 @@ use std::time::Instant;
 
 use glam::{Affine3A, Quat, Vec3};
 use tetradrill::pen::PenRig;
-use tetradrill_benches::{impaled_poses, load_mesh, profile_args, touch_poses};
+use tetradrill_benches::{pen_profile_setup, PenProfile};
 use tetradrill_core::collide::{rigid_tets_over_points_coherent, Body, CollideReport};
 use tetradrill_core::force::{pen_contact, PenBuffers, PenOptions, PenScene, PenState};
 
@@ -60,40 +60,21 @@ fn fnv(h: &mut u64, w: u32) {
 }
 
 fn main() -> ExitCode {
-    let (mesh, touching, reps) = match profile_args("objloc_profile", 20) {
-        Ok(a) => a,
+    let PenProfile {
+        mesh,
+        pen,
+        obj,
+        touching,
+        poses,
+        first,
+        reps,
+    } = match pen_profile_setup("objloc_profile", 20) {
+        Ok(p) => p,
         Err(line) => {
             eprintln!("{line}");
             return ExitCode::from(2);
         }
     };
-    let (pen, mut obj) = match (
-        load_mesh("models/pen_tool_gmsh.mesh", 10.0),
-        load_mesh(&mesh, 1.0),
-    ) {
-        (Ok(p), Ok(o)) => (p, o),
-        (Err(e), _) | (_, Err(e)) => {
-            eprintln!("objloc_profile: {e}");
-            return ExitCode::from(2);
-        }
-    };
-    let mut poses = if touching {
-        touch_poses(&obj.view(), 200, 0.05, 7)
-    } else {
-        impaled_poses(&obj.view(), 200, 0.25, 7)
-    };
-    let mut first = 0;
-    if let Some(i) = std::env::var("POSE")
-        .ok()
-        .and_then(|v| v.parse::<usize>().ok())
-    {
-        if i >= poses.len() {
-            eprintln!("objloc_profile: POSE must be below {}", poses.len());
-            return ExitCode::from(2);
-        }
-        poses = vec![poses[i]];
-        first = i;
-    }
     let opts = PenOptions::default();
     let mut rig = PenRig { pen, obj };
     let run = rig.with(|scene, bufs| {

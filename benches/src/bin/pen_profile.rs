@@ -24,7 +24,7 @@ use std::time::Instant;
 use glam::{Quat, Vec3};
 use tetradrill::pen::PenRig;
 use tetradrill::pen_pair::{with_pen_pair, PenPair};
-use tetradrill_benches::{impaled_poses, load_mesh, profile_args, touch_poses};
+use tetradrill_benches::{pen_profile_setup, PenProfile};
 use tetradrill_core::force::{
     force_digest, object_side, pen_contact, pen_place, pen_side, PenBuffers, PenContact,
     PenOptions, PenScene, PenState,
@@ -84,38 +84,21 @@ fn run_sides(
 }
 
 fn main() -> ExitCode {
-    let (mesh, touching, reps) = match profile_args("pen_profile", 20) {
-        Ok(a) => a,
+    let PenProfile {
+        mesh,
+        pen,
+        obj,
+        touching,
+        poses,
+        first,
+        reps,
+    } = match pen_profile_setup("pen_profile", 20) {
+        Ok(p) => p,
         Err(line) => {
             eprintln!("{line}");
             return ExitCode::from(2);
         }
     };
-    let (pen, mut obj) = match (
-        load_mesh("models/pen_tool_gmsh.mesh", 10.0),
-        load_mesh(&mesh, 1.0),
-    ) {
-        (Ok(p), Ok(o)) => (p, o),
-        (Err(e), _) | (_, Err(e)) => {
-            eprintln!("pen_profile: {e}");
-            return ExitCode::from(2);
-        }
-    };
-    let mut poses = if touching {
-        touch_poses(&obj.view(), 200, 0.05, 7)
-    } else {
-        impaled_poses(&obj.view(), 200, 0.25, 7)
-    };
-    if let Some(i) = std::env::var("POSE")
-        .ok()
-        .and_then(|v| v.parse::<usize>().ok())
-    {
-        if i >= poses.len() {
-            eprintln!("pen_profile: POSE must be below {}", poses.len());
-            return ExitCode::from(2);
-        }
-        poses = vec![poses[i]];
-    }
     // `SHARED=1`: one `PenState` for every call, as the contact bench does (each pose then
     // starts from the previous pose's lists), instead of a fresh one per call.
     let shared = std::env::var("SHARED").is_ok_and(|v| v == "1");
@@ -192,7 +175,8 @@ fn main() -> ExitCode {
         let c = &last[i];
         let _ = writeln!(
             out,
-            "  pose {i:3}: {:8.2} us; pen nodes in {:4}, object nodes in {:4}; border points {:4} + {:4}, edges {:4} + {:4}, walk work {:6} + {:6}",
+            "  pose {:3}: {:8.2} us; pen nodes in {:4}, object nodes in {:4}; border points {:4} + {:4}, edges {:4} + {:4}, walk work {:6} + {:6}",
+            first + i,
             best[i],
             c.pen_collisions.count,
             c.object_collisions.count,
