@@ -72,7 +72,8 @@ pub fn points_in_tets_coherent(
 /// Cheaper when most points are away from the body (a tool mostly outside the object). When
 /// `cells` has tet lists ([`Occupancy::with_tet_lists`]), a point's candidates are its grid
 /// cell's list instead of the hash's cell: every tet whose grown box holds the point, in
-/// increasing id order, so the answer is again the smallest tet that holds it (the hash's,
+/// increasing id order (the entries whose quantised box rules the point out skipped before
+/// their tet's box is read: [`super::GridEntry`]), so the answer is again the smallest tet that holds it (the hash's,
 /// unless the f32 test puts the point in a tet whose ungrown box misses the point's hash
 /// cell, where the list, like a brute force, still finds it).
 ///
@@ -82,7 +83,7 @@ pub fn points_in_tets_coherent(
 ///
 /// # Bounded work
 /// As [`points_in_tets_coherent`], plus one `may_hit` call and one bit test per point
-/// examined and one box test per candidate.
+/// examined and one entry test and one box test per candidate.
 #[allow(clippy::too_many_arguments)]
 pub fn points_in_tets_occupied<F: Fn(usize) -> bool>(
     tets: &SpatialHash<'_>,
@@ -381,10 +382,14 @@ fn smallest_tet(
             .is_some_and(|corners| candidate_holds(p, corners, r))
     };
     // The grid's own list of the cell's tets when it has one, else the hash's cell.
+    // Entries that do not admit `p` are tets whose grown box misses it: skipped as
+    // `tet_may_hold` would, without loading the box.
     if let Some(list) = cells.and_then(|c| c.tets_at(p)) {
         return list
+            .entries
             .iter()
-            .map(|&item| TetId(item))
+            .filter(|e| list.admits(e))
+            .map(|e| e.tet())
             .find(|&t| holds(t))
             .unwrap_or(TetId::NONE);
     }
