@@ -246,10 +246,21 @@ pub fn walk_to_holder(
     let mut t = from;
     for _ in 0..max_steps {
         *tests = tests.wrapping_add(1);
-        let Some(b) = body
-            .tet_positions(t)
-            .and_then(|corners| crate::geom::barycentric(p, corners))
-        else {
+        // The whole record at once: its neighbours are read with its nodes, not after the
+        // barycentric test that picks one.
+        let Some(tet) = body.mesh.get_tet(t) else {
+            return TetId::NONE;
+        };
+        let n = tet.nodes;
+        let corners = (|| {
+            Some([
+                body.pos(n[0])?,
+                body.pos(n[1])?,
+                body.pos(n[2])?,
+                body.pos(n[3])?,
+            ])
+        })();
+        let Some(b) = corners.and_then(|corners| crate::geom::barycentric(p, corners)) else {
             return TetId::NONE;
         };
         if b.iter().any(|c| c.is_nan()) {
@@ -267,7 +278,7 @@ pub fn walk_to_holder(
         if b[low] >= 0.0 {
             return TetId::NONE; // inside, near a face: the hash decides
         }
-        t = body.neighbour(t, low as u8);
+        t = tet.neighbours.get(low).copied().unwrap_or(TetId::NONE);
         if t.is_none() {
             return TetId::NONE;
         }
