@@ -72,10 +72,12 @@ pub fn points_in_tets_coherent(
 /// Cheaper when most points are away from the body (a tool mostly outside the object). When
 /// `cells` has tet lists ([`Occupancy::with_tet_lists`]), a point's candidates are its grid
 /// cell's list instead of the hash's cell: every tet whose grown box holds the point, in
-/// increasing id order (the entries whose quantised box rules the point out skipped before
-/// their tet's box is read: [`super::GridEntry`]), so the answer is again the smallest tet that holds it (the hash's,
-/// unless the f32 test puts the point in a tet whose ungrown box misses the point's hash
-/// cell, where the list, like a brute force, still finds it).
+/// increasing id order, each entry with that box in the cell quantised outward
+/// ([`super::GridEntry`]): the tets whose entry rules the point out are skipped, and those
+/// it admits face the barycentric test without the box's (the entry holds the box), so the
+/// answer is again the smallest tet that holds the point (the hash's, unless the f32 test
+/// puts the point in a tet whose ungrown box misses the point's hash cell, where the list,
+/// like a brute force, still finds it).
 ///
 /// Point `i` is examined only when `may_hit(i)` holds: it must hold for every point that may
 /// be inside a tet (`|_| true`, or e.g. [`super::RigidTets::node_near`] for the nodes of a
@@ -83,7 +85,7 @@ pub fn points_in_tets_coherent(
 ///
 /// # Bounded work
 /// As [`points_in_tets_coherent`], plus one `may_hit` call and one bit test per point
-/// examined and one entry test and one box test per candidate.
+/// examined and one box test (or, with tet lists, one entry test) per candidate.
 #[allow(clippy::too_many_arguments)]
 pub fn points_in_tets_occupied<F: Fn(usize) -> bool>(
     tets: &SpatialHash<'_>,
@@ -379,8 +381,11 @@ fn smallest_tet(
     own: bool,
     r: &mut CollideReport,
 ) -> TetId {
-    let mut holds = |t: TetId| {
-        if cells.is_some_and(|c| !c.tet_may_hold(t, p)) {
+    // The barycentric test, after the grown box's when `boxed` (a list entry that admits
+    // `p` stands for the box: it is the box, quantised outward, and a point the f32 test
+    // puts in a tet is in its grown box).
+    let mut holds = |t: TetId, boxed: bool| {
+        if boxed && cells.is_some_and(|c| !c.tet_may_hold(t, p)) {
             return false;
         }
         let Some(ids) = body.tet_nodes(t) else {
@@ -393,15 +398,15 @@ fn smallest_tet(
             .is_some_and(|corners| candidate_holds(p, corners, r))
     };
     // The grid's own list of the cell's tets when it has one, else the hash's cell.
-    // Entries that do not admit `p` are tets whose grown box misses it: skipped as
-    // `tet_may_hold` would, without loading the box.
+    // Entries that do not admit `p` are tets whose grown box misses it: skipped without
+    // loading the box, and those that do go straight to the barycentric test.
     if let Some(list) = cells.and_then(|c| c.tets_at(p)) {
         return list
             .entries
             .iter()
             .filter(|e| list.admits(e))
             .map(|e| e.tet())
-            .find(|&t| holds(t))
+            .find(|&t| holds(t, false))
             .unwrap_or(TetId::NONE);
     }
     if !tets.bounds().contains(p) {
@@ -409,6 +414,6 @@ fn smallest_tet(
     }
     tets.items_in_cell_ascending(tets.cell_of(p))
         .map(TetId)
-        .find(|&t| holds(t))
+        .find(|&t| holds(t, true))
         .unwrap_or(TetId::NONE)
 }
