@@ -308,7 +308,7 @@ pub struct ObjectCells {
     words: Vec<u32>,
     boxes: Vec<Aabb>,
     starts: Vec<u32>,
-    tets: Vec<u32>,
+    tets: Vec<GridEntry>,
     node_starts: Vec<u32>,
     nodes: Vec<ListedNode>,
 }
@@ -346,7 +346,7 @@ impl ObjectCells {
             .tet_list_sizes(OCCUPANCY_LIST_SPLIT)
             .ok_or(RigError::Occupancy(OccupancyError::ListStorage))?;
         starts.resize(n_starts, 0);
-        tets.resize(n_tets, 0);
+        tets.resize(n_tets, GridEntry::default());
         let grid = grid
             .with_tet_lists(obj, OCCUPANCY_LIST_SPLIT, starts, tets)
             .map_err(RigError::Occupancy)?;

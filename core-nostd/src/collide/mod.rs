@@ -22,6 +22,7 @@
 //! excluded by index when `own` is set (self-collision).
 
 mod body;
+mod entry;
 mod occupancy;
 #[cfg(test)]
 mod occupancy_tests;
@@ -39,14 +40,15 @@ mod walk_tests;
 mod zone;
 
 pub use body::Body;
-pub use occupancy::{ListedNode, Occupancy, OccupancyError, OccupancyStorage};
+pub use entry::GridEntry;
+pub use occupancy::{CellTets, ListedNode, Occupancy, OccupancyError, OccupancyStorage};
 pub use points::{
     hash_tets, points_in_tets, points_in_tets_coherent, points_in_tets_occupied,
     points_in_tets_walked, walk_to_holder, walks_exact, WalkStarts, WALK_MARGIN, WALK_MAX_SHAPE,
 };
 pub use rigid::{
-    rigid_tets_over_points_coherent, GridEntry, NearClusters, RigidError, RigidTets,
-    RigidTetsStorage, MAX_NEAR_CLUSTERS,
+    rigid_tets_over_points_coherent, NearClusters, RigidError, RigidTets, RigidTetsStorage,
+    MAX_NEAR_CLUSTERS,
 };
 pub use teschner::{tets_over_points, tets_over_points_coherent, MAX_CELLS_PER_TET};
 pub use zone::{ZoneGather, ZoneList, ZONE_MARGIN_RADII};

@@ -3,6 +3,7 @@
 
 use glam::Vec3;
 
+use super::entry::{levels, GridEntry};
 use super::Body;
 use crate::hash::{cell_of, Aabb};
 use crate::ids::TetId;
@@ -58,8 +59,9 @@ pub struct ListedNode {
 /// of one of its tets grown by a margin: a point in a clear cell (or outside the grid) is in
 /// no tet, and a box that meets no set cell holds no point of the body's tets. It also keeps
 /// each tet's grown box, a cheap test before a barycentric one, and optionally, per cell, the
-/// tets whose grown box meets it in increasing id order ([`Occupancy::with_tet_lists`]: a
-/// point's candidate tets without a hash) and the body's nodes in it in increasing id order
+/// tets whose grown box meets it in increasing id order, each with that box in the cell
+/// quantised outward ([`Occupancy::with_tet_lists`]: a point's candidate tets without a
+/// hash, most ruled out by the list's entries alone) and the body's nodes in it in increasing id order
 /// with their positions ([`Occupancy::with_node_lists`]: the nodes in a box as one contiguous
 /// run per row of cells, without a hash). Built once at set-up over caller storage; the
 /// queries are read-only.
@@ -67,10 +69,10 @@ pub struct ListedNode {
 pub struct Occupancy<'a> {
     words: &'a [u32],
     boxes: &'a [Aabb],
-    /// Cell `i`'s tets are `cell_tets[cell_starts[i]..cell_starts[i + 1]]` (both empty
-    /// without lists).
+    /// Cell `i`'s tets are `cell_tets[cell_starts[i]..cell_starts[i + 1]]`, each with its
+    /// box in the cell (both empty without lists).
     cell_starts: &'a [u32],
-    cell_tets: &'a [u32],
+    cell_tets: &'a [GridEntry],
     /// Cell `i`'s nodes are `nodes[node_starts[i]..node_starts[i + 1]]`, those outside the
     /// grid after the last cell's (both empty without node lists).
     node_starts: &'a [u32],
@@ -201,8 +203,8 @@ impl<'a> Occupancy<'a> {
 
     /// Storage [`Occupancy::with_tet_lists`] needs for lists over the cells split `split`
     /// times along each axis: `(starts, tets)` lengths, one more than the list cells and one
-    /// entry per stored box and list cell it meets (`None` when `split` is 0 or the cells
-    /// overflow).
+    /// entry ([`GridEntry`], 8 bytes) per stored box and list cell it meets (`None` when
+    /// `split` is 0 or the cells overflow).
     ///
     /// # Bounded work
     /// O(cells each stored box meets). Call it at set-up.
@@ -233,9 +235,12 @@ impl<'a> Occupancy<'a> {
     }
 
     /// This grid with, per cell of the grid's cells split `split` times along each axis, the
-    /// tets whose grown box meets it, in increasing id order ([`Occupancy::tets_at`]): a
-    /// point's candidates are then its cell's list, read in order, with no hash bucket shared
-    /// with other cells (a split of 2 lists about a third of the tets a whole cell would).
+    /// tets whose grown box meets it, in increasing id order, each entry with the box clipped
+    /// to the cell and quantised outward ([`GridEntry`], [`Occupancy::tets_at`]): a point's
+    /// candidates are then its cell's list, read in order, with no hash bucket shared with
+    /// other cells (a split of 2 lists about a third of the tets a whole cell would), and the
+    /// entries alone rule out most of the tets whose box misses the point, without loading
+    /// the box.
     /// Every one of `body`'s tets needs its box (the boxes storage at least as long as the
     /// tets).
     ///
@@ -250,7 +255,7 @@ impl<'a> Occupancy<'a> {
         body: &Body<'_, '_>,
         split: u32,
         starts: &'a mut [u32],
-        tets: &'a mut [u32],
+        tets: &'a mut [GridEntry],
     ) -> Result<Self, OccupancyError> {
         let (inv, dims) = self.split_grid(split).ok_or(OccupancyError::ListStorage)?;
         let (n_starts, n_tets) = self
@@ -265,15 +270,22 @@ impl<'a> Occupancy<'a> {
         }
         let starts = &mut starts[..n_starts];
         starts.fill(0);
-        let each_cell = |f: &mut dyn FnMut(usize, usize)| {
+        // Each tet, cell its box meets, and the entry there: the box corners' grid
+        // coordinates computed as a point's are in `tets_at`, so a point in the box has
+        // levels between theirs.
+        let origin = self.origin;
+        let each_cell = |f: &mut dyn FnMut(usize, GridEntry)| {
             for (t, b) in self.boxes.iter().enumerate() {
-                let Some((lo, hi)) = range(self.origin, inv, dims, b) else {
+                let Some((lo, hi)) = range(origin, inv, dims, b) else {
                     continue;
                 };
+                let f_lo = (b.min - origin) * inv;
+                let f_hi = (b.max - origin) * inv;
                 for k in lo[2]..=hi[2] {
                     for j in lo[1]..=hi[1] {
                         for i in lo[0]..=hi[0] {
-                            f(t, index(dims, [i, j, k]));
+                            let c = [i, j, k];
+                            f(index(dims, c), GridEntry::new(t as u32, f_lo, f_hi, c));
                         }
                     }
                 }
@@ -281,7 +293,7 @@ impl<'a> Occupancy<'a> {
         };
         // Count per cell, prefix sums, fill in increasing tet order with each cell's start
         // as its cursor, then shift the starts back by one cell.
-        each_cell(&mut |_, c| {
+        each_cell(&mut |c, _| {
             if let Some(s) = starts.get_mut(c + 1) {
                 *s += 1;
             }
@@ -289,10 +301,10 @@ impl<'a> Occupancy<'a> {
         for i in 1..n_starts {
             starts[i] += starts[i - 1];
         }
-        each_cell(&mut |t, c| {
+        each_cell(&mut |c, entry| {
             if let Some(s) = starts.get_mut(c) {
                 if let Some(e) = tets.get_mut(*s as usize) {
-                    *e = t as u32;
+                    *e = entry;
                 }
                 *s += 1;
             }
@@ -424,24 +436,34 @@ impl<'a> Occupancy<'a> {
         true
     }
 
-    /// The tets listed in `p`'s cell, in increasing id order (empty outside the grid), or
-    /// `None` when the grid has no lists ([`Occupancy::with_tet_lists`]). Every tet whose
-    /// grown box holds `p` is in it.
+    /// The entries listed in `p`'s cell, in increasing tet id order (empty outside the
+    /// grid), with `p`'s levels in the cell, or `None` when the grid has no lists
+    /// ([`Occupancy::with_tet_lists`]). Every tet whose grown box holds `p` is in the list
+    /// with an entry that admits `p`'s levels ([`CellTets::admits`]).
     ///
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn tets_at(&self, p: Vec3) -> Option<&'a [u32]> {
+    pub fn tets_at(&self, p: Vec3) -> Option<CellTets<'a>> {
         if self.cell_starts.is_empty() {
             return None;
         }
+        let empty = CellTets {
+            entries: &[],
+            at: 0,
+        };
+        // `cell`, keeping the grid coordinates for the levels.
+        let f = (p - self.origin) * self.list_inv;
         let Some(c) = cell(self.origin, self.list_inv, self.list_dims, p) else {
-            return Some(&[]);
+            return Some(empty);
         };
         let i = index(self.list_dims, c);
         let lo = self.cell_starts.get(i).copied().unwrap_or(0) as usize;
         let hi = self.cell_starts.get(i + 1).copied().unwrap_or(0) as usize;
-        Some(self.cell_tets.get(lo..hi).unwrap_or(&[]))
+        Some(CellTets {
+            entries: self.cell_tets.get(lo..hi).unwrap_or(&[]),
+            at: levels(f, c),
+        })
     }
 
     /// `false` when no tet of the body can hold `p` (its cell is clear or outside the grid).
@@ -503,6 +525,29 @@ impl<'a> Occupancy<'a> {
         self.words
             .get(n / 32)
             .is_some_and(|w| w & (1 << (n % 32)) != 0)
+    }
+}
+
+/// A point's cell's list of tets ([`Occupancy::tets_at`]): the cell's entries in increasing
+/// tet id order and the point's levels in the cell.
+#[derive(Clone, Copy, Debug)]
+pub struct CellTets<'a> {
+    /// The cell's entries, in increasing tet id order.
+    pub entries: &'a [GridEntry],
+    /// The point's packed levels in the cell.
+    at: u32,
+}
+
+impl CellTets<'_> {
+    /// `false` when `e`'s box (clipped to the cell, quantised outward) does not hold the
+    /// point, so neither does the tet's grown box; `true` for every tet whose grown box holds
+    /// it, and for some whose box is near it.
+    ///
+    /// # Bounded work
+    /// Constant.
+    #[inline]
+    pub fn admits(&self, e: &GridEntry) -> bool {
+        e.admits(self.at)
     }
 }
 

@@ -4,7 +4,7 @@ use glam::Vec3;
 
 use super::test_support::{brute_list, Rng, Store};
 use super::*;
-use crate::collide::{ListedNode, OccupancyError, OccupancyStorage};
+use crate::collide::{GridEntry, ListedNode, OccupancyError, OccupancyStorage};
 use crate::hash::{HashEntry, SpatialHash};
 
 /// `Occupancy`: every point that brute force puts inside a tet is in a set cell, and every
@@ -45,7 +45,7 @@ fn occupancy_is_conservative_and_culls() {
         };
         assert_eq!(cells.tet_list_sizes(0), None);
         let (n_starts, n_tets) = cells.tet_list_sizes(split).unwrap();
-        let (mut ls, mut lt) = ([0u32; 8192], [0u32; 65536]);
+        let (mut ls, mut lt) = ([0u32; 8192], [GridEntry::default(); 65536]);
         assert!(
             n_starts <= ls.len() && n_tets <= lt.len(),
             "{n_starts} {n_tets}"
@@ -62,7 +62,7 @@ fn occupancy_is_conservative_and_culls() {
                 .unwrap_err(),
             OccupancyError::ListStorage
         );
-        assert_eq!(cells.tets_at(Vec3::ZERO), None, "no lists yet");
+        assert!(cells.tets_at(Vec3::ZERO).is_none(), "no lists yet");
         let listed = cells.with_tet_lists(&ob, split, &mut ls, &mut lt).unwrap();
         let mut rng = Rng(0xdead_beef_cafe_f00d ^ words as u64);
         let mut pts = [Vec3::ZERO; 64];
@@ -99,12 +99,14 @@ fn occupancy_is_conservative_and_culls() {
             // holds the point; the query over them gives the brute-force lists too.
             for &p in &pts {
                 let list = listed.tets_at(p).unwrap();
-                assert!(list.windows(2).all(|w| w[0] < w[1]), "{list:?}");
+                let ids = list.entries;
+                assert!(ids.windows(2).all(|w| w[0].tet() < w[1].tet()), "{ids:?}");
                 for t in 0..ob.tet_count() {
                     let tb = crate::hash::Aabb::of(ob.tet_positions(TetId::from_idx(t)).unwrap())
                         .grown(1e-4);
                     if tb.contains(p) {
-                        assert!(list.contains(&(t as u32)), "tet {t} at {p:?}");
+                        let e = ids.iter().find(|e| e.tet().idx() == t);
+                        assert!(e.is_some_and(|e| list.admits(e)), "tet {t} at {p:?}");
                     }
                 }
             }
@@ -292,5 +294,163 @@ fn node_lists_hand_out_every_node_in_a_box_once() {
         assert!(visits < 400 * 40, "{visits} nodes handed out");
         let wide = crate::hash::Aabb::of([Vec3::splat(-0.6), Vec3::splat(0.6)]);
         assert!(!listed.nodes_in(&wide, 3, |_| panic!("too many cells")));
+    }
+}
+
+/// The tet lists' compact entries ([`GridEntry`]): every tet whose grown box holds a point is
+/// in the point's cell's list with an entry that admits it, for points on the boxes' corners
+/// and faces, inside them, at the list cells' corners and the floats on either side of them,
+/// over lists whose cells are much smaller than a tet (a box over many cells), about its
+/// size, and larger than the body (one cell); the lists stay in increasing id order, the
+/// levels rule out a share of the entries, and the lookups over them
+/// (`points_in_tets_occupied`) give the brute-force lists, in order with the same tets.
+/// Oracles: each tet's box recomputed from its corners, tested with `contains`; brute force
+/// over every tet.
+#[test]
+fn tet_list_entries_admit_every_point_of_their_box() {
+    let mut obj_store = Store::<27, 48>::block(2, 0.25, Vec3::new(-0.23, -0.27, 0.01));
+    let obj = obj_store.mesh();
+    let ob = Body::fixed(&obj);
+    let empty = crate::hash::Aabb::of::<0>([]);
+    let (mut th_s, mut th_e) = ([0u32; 64], [HashEntry::default(); 4096]);
+    let mut th = SpatialHash::new(&mut th_s, &mut th_e, 0.25).unwrap();
+    assert!(!hash_tets(&mut th, &ob).saturated);
+    let mut rng = Rng(0x0cc0_1157_e57a_b1e5);
+    for (cell, split, margin) in [
+        (0.06f32, 2u32, 1e-4f32),
+        (0.1, 1, 1e-4),
+        (0.13, 2, 0.02),
+        (0.3, 1, 1e-4),
+        (2.0, 1, 1e-4),
+    ] {
+        let (mut w, mut bx) = ([0u32; 64], [empty; 48]);
+        let cells = Occupancy::build(
+            &ob,
+            cell,
+            margin,
+            OccupancyStorage {
+                words: &mut w,
+                boxes: &mut bx,
+            },
+        )
+        .unwrap();
+        let (n_starts, n_tets) = cells.tet_list_sizes(split).unwrap();
+        let (mut ls, mut lt) = ([0u32; 8192], [GridEntry::default(); 65536]);
+        assert!(
+            n_starts <= ls.len() && n_tets <= lt.len(),
+            "{n_starts} {n_tets}"
+        );
+        let listed = cells
+            .with_tet_lists(&ob, split, &mut ls[..n_starts], &mut lt[..n_tets])
+            .unwrap();
+        // The list grid, recomputed: from the union of the grown boxes, cells of the
+        // occupancy's edge over `split`.
+        let grown = |t: usize| {
+            crate::hash::Aabb::of(ob.tet_positions(TetId::from_idx(t)).unwrap()).grown(margin)
+        };
+        let origin = (0..ob.tet_count())
+            .fold(empty, |b, t| b.union(grown(t)))
+            .min;
+        let edge = listed.cell_size() / split as f32;
+        let dims = listed.dims().map(|d| (d * split) as i32);
+        if cell < 0.1 {
+            assert!(n_tets > 48 * 27, "tets over many cells: {n_tets} entries");
+        }
+        if cell > 1.0 {
+            assert_eq!(dims, [1, 1, 1]);
+        }
+        let (mut seen, mut admitted) = (0usize, 0usize);
+        let mut pts = [Vec3::ZERO; 64];
+        let mut n_pts = 0usize;
+        let flush = |pts: &[Vec3]| {
+            let mut want = [Collision::default(); 64];
+            let n = brute_list(&ob, pts, &mut want);
+            let mut out = [Collision::default(); 64];
+            let r = points_in_tets_occupied(&th, &listed, &ob, pts, false, &mut out, 0, |_| true);
+            assert_eq!(&out[..r.count], &want[..n], "cell {cell} split {split}");
+        };
+        let mut check = |q: Vec3| {
+            let list = listed.tets_at(q).unwrap();
+            let ids = list.entries;
+            assert!(ids.windows(2).all(|w| w[0].tet() < w[1].tet()), "{ids:?}");
+            for t in 0..ob.tet_count() {
+                if grown(t).contains(q) {
+                    let e = ids.iter().find(|e| e.tet().idx() == t);
+                    assert!(
+                        e.is_some_and(|e| list.admits(e)),
+                        "cell {cell} split {split}: tet {t} not admitted at {q:?}"
+                    );
+                }
+            }
+            seen += ids.len();
+            admitted += ids.iter().filter(|e| list.admits(e)).count();
+            pts[n_pts] = q;
+            n_pts += 1;
+            if n_pts == pts.len() {
+                flush(&pts);
+                n_pts = 0;
+            }
+        };
+        for t in 0..ob.tet_count() {
+            let b = grown(t);
+            let pick = |k: usize, a: usize| if k >> a & 1 == 0 { b.min[a] } else { b.max[a] };
+            let mid = (b.min + b.max) * 0.5;
+            for k in 0..8 {
+                check(Vec3::new(pick(k, 0), pick(k, 1), pick(k, 2)));
+            }
+            for a in 0..3 {
+                for side in [b.min[a], b.max[a]] {
+                    let mut q = mid;
+                    q[a] = side;
+                    check(q);
+                    for _ in 0..4 {
+                        let mut q = Vec3::new(
+                            rng.range(b.min.x, b.max.x),
+                            rng.range(b.min.y, b.max.y),
+                            rng.range(b.min.z, b.max.z),
+                        );
+                        q[a] = side;
+                        check(q);
+                    }
+                }
+            }
+            for _ in 0..8 {
+                check(Vec3::new(
+                    rng.range(b.min.x, b.max.x),
+                    rng.range(b.min.y, b.max.y),
+                    rng.range(b.min.z, b.max.z),
+                ));
+            }
+            // The list cells' corners inside the box, and the floats on either side of them.
+            let lo = ((b.min - origin) / edge).floor();
+            let hi = ((b.max - origin) / edge).ceil();
+            for k in lo.z as i32..=(hi.z as i32).min(dims[2]) {
+                for j in lo.y as i32..=(hi.y as i32).min(dims[1]) {
+                    for i in lo.x as i32..=(hi.x as i32).min(dims[0]) {
+                        let corner = origin + Vec3::new(i as f32, j as f32, k as f32) * edge;
+                        for nudge in 0..27 {
+                            let step = |v: f32, d: usize| match d {
+                                0 => v.next_down(),
+                                1 => v,
+                                _ => v.next_up(),
+                            };
+                            let q = Vec3::new(
+                                step(corner.x, nudge % 3),
+                                step(corner.y, nudge / 3 % 3),
+                                step(corner.z, nudge / 9),
+                            );
+                            if b.contains(q) {
+                                check(q);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        flush(&pts[..n_pts]);
+        assert!(
+            cell > 1.0 || admitted * 10 < seen * 9,
+            "cell {cell}: the levels rule out little: {admitted} of {seen}"
+        );
     }
 }

@@ -72,9 +72,12 @@ pub fn points_in_tets_coherent(
 /// Cheaper when most points are away from the body (a tool mostly outside the object). When
 /// `cells` has tet lists ([`Occupancy::with_tet_lists`]), a point's candidates are its grid
 /// cell's list instead of the hash's cell: every tet whose grown box holds the point, in
-/// increasing id order, so the answer is again the smallest tet that holds it (the hash's,
-/// unless the f32 test puts the point in a tet whose ungrown box misses the point's hash
-/// cell, where the list, like a brute force, still finds it).
+/// increasing id order, each entry with that box in the cell quantised outward
+/// ([`super::GridEntry`]): the tets whose entry rules the point out are skipped, and those
+/// it admits face the barycentric test without the box's (the entry holds the box), so the
+/// answer is again the smallest tet that holds the point (the hash's, unless the f32 test
+/// puts the point in a tet whose ungrown box misses the point's hash cell, where the list,
+/// like a brute force, still finds it).
 ///
 /// Point `i` is examined only when `may_hit(i)` holds: it must hold for every point that may
 /// be inside a tet (`|_| true`, or e.g. [`super::RigidTets::node_near`] for the nodes of a
@@ -82,7 +85,7 @@ pub fn points_in_tets_coherent(
 ///
 /// # Bounded work
 /// As [`points_in_tets_coherent`], plus one `may_hit` call and one bit test per point
-/// examined and one box test per candidate.
+/// examined and one box test (or, with tet lists, one entry test) per candidate.
 #[allow(clippy::too_many_arguments)]
 pub fn points_in_tets_occupied<F: Fn(usize) -> bool>(
     tets: &SpatialHash<'_>,
@@ -245,10 +248,21 @@ pub fn walk_to_holder(
     let mut t = from;
     for _ in 0..max_steps {
         *tests = tests.wrapping_add(1);
-        let Some(b) = body
-            .tet_positions(t)
-            .and_then(|corners| crate::geom::barycentric(p, corners))
-        else {
+        // The whole record at once: its neighbours are read with its nodes, not after the
+        // barycentric test that picks one.
+        let Some(tet) = body.mesh.get_tet(t) else {
+            return TetId::NONE;
+        };
+        let n = tet.nodes;
+        let corners = (|| {
+            Some([
+                body.pos(n[0])?,
+                body.pos(n[1])?,
+                body.pos(n[2])?,
+                body.pos(n[3])?,
+            ])
+        })();
+        let Some(b) = corners.and_then(|corners| crate::geom::barycentric(p, corners)) else {
             return TetId::NONE;
         };
         if b.iter().any(|c| c.is_nan()) {
@@ -266,7 +280,7 @@ pub fn walk_to_holder(
         if b[low] >= 0.0 {
             return TetId::NONE; // inside, near a face: the hash decides
         }
-        t = body.neighbour(t, low as u8);
+        t = tet.neighbours.get(low).copied().unwrap_or(TetId::NONE);
         if t.is_none() {
             return TetId::NONE;
         }
@@ -367,8 +381,11 @@ fn smallest_tet(
     own: bool,
     r: &mut CollideReport,
 ) -> TetId {
-    let mut holds = |t: TetId| {
-        if cells.is_some_and(|c| !c.tet_may_hold(t, p)) {
+    // The barycentric test, after the grown box's when `boxed` (a list entry that admits
+    // `p` stands for the box: it is the box, quantised outward, and a point the f32 test
+    // puts in a tet is in its grown box).
+    let mut holds = |t: TetId, boxed: bool| {
+        if boxed && cells.is_some_and(|c| !c.tet_may_hold(t, p)) {
             return false;
         }
         let Some(ids) = body.tet_nodes(t) else {
@@ -381,11 +398,15 @@ fn smallest_tet(
             .is_some_and(|corners| candidate_holds(p, corners, r))
     };
     // The grid's own list of the cell's tets when it has one, else the hash's cell.
+    // Entries that do not admit `p` are tets whose grown box misses it: skipped without
+    // loading the box, and those that do go straight to the barycentric test.
     if let Some(list) = cells.and_then(|c| c.tets_at(p)) {
         return list
+            .entries
             .iter()
-            .map(|&item| TetId(item))
-            .find(|&t| holds(t))
+            .filter(|e| list.admits(e))
+            .map(|e| e.tet())
+            .find(|&t| holds(t, false))
             .unwrap_or(TetId::NONE);
     }
     if !tets.bounds().contains(p) {
@@ -393,6 +414,6 @@ fn smallest_tet(
     }
     tets.items_in_cell_ascending(tets.cell_of(p))
         .map(TetId)
-        .find(|&t| holds(t))
+        .find(|&t| holds(t, true))
         .unwrap_or(TetId::NONE)
 }

@@ -19,6 +19,7 @@
 
 use glam::{Affine3A, Vec3};
 
+use super::entry::{levels, GridEntry};
 use super::teschner::{tets_over_points_coherent, MAX_CELLS_PER_TET};
 use super::{candidate_holds, Body, CollideReport, Collision, Occupancy};
 use crate::hash::{Aabb, SpatialHash};
@@ -70,57 +71,6 @@ fn dense_dims(extent: Vec3, mut edge: f32, max_cells: usize) -> Option<([i32; 3]
     Some((dims, inv))
 }
 use crate::ids::{NodeId, TetId};
-
-/// Levels per axis of a [`GridEntry`]'s box inside its cell.
-const LEVELS: f32 = 16.0;
-/// Bits of one level field with its guard bit above.
-const FIELD: u32 = 5;
-/// The guard bits of three level fields (bits 4, 9 and 14).
-const GUARDS: u32 = 0x10 | (0x10 << FIELD) | (0x10 << (2 * FIELD));
-
-/// The level (0 to 15) of grid coordinate `f` (a point's offset from the grid's origin in
-/// cells) within cell `c` along one axis, clamped: monotonic in `f`, so a point in a box has
-/// a level between the box's corners' levels in every cell the box meets.
-#[inline]
-fn level(f: f32, c: i32) -> u32 {
-    crate::hash::floor_i32((f - c as f32) * LEVELS).clamp(0, LEVELS as i32 - 1) as u32
-}
-
-/// The three levels of grid coordinates `f` in cell `c`, packed five bits a field.
-#[inline]
-fn levels(f: Vec3, c: [i32; 3]) -> u32 {
-    level(f.x, c[0]) | level(f.y, c[1]) << FIELD | level(f.z, c[2]) << (2 * FIELD)
-}
-
-/// One entry of a [`RigidTets`] rest grid cell: a tet id and the tet's grown box clipped to
-/// the cell, quantised outward to 16 levels per axis. A point of the cell whose levels lie
-/// outside the entry's is outside the tet's box, so most candidates are ruled out by the
-/// entries of the cell's contiguous list alone; those left face the box itself and the
-/// barycentric test.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
-pub struct GridEntry {
-    tet: u32,
-    /// Lowest levels in bits 0-14, highest in bits 15-29 (five bits a field, guard bits 0).
-    levels: u32,
-}
-
-impl GridEntry {
-    /// The tet listed.
-    #[inline]
-    pub fn tet(&self) -> TetId {
-        TetId(self.tet)
-    }
-
-    /// `true` unless a point with packed levels `at` ([`levels`], in this entry's cell) is
-    /// outside the entry's box: per field `lo <= at <= hi`, all three at once (each field's
-    /// guard bit survives the subtraction exactly when it holds).
-    #[inline]
-    fn admits(&self, at: u32) -> bool {
-        let lo = self.levels & 0x7fff;
-        let hi = self.levels >> 15;
-        ((at | GUARDS).wrapping_sub(lo) & (hi | GUARDS).wrapping_sub(at) & GUARDS) == GUARDS
-    }
-}
 
 /// Why [`RigidTets::build`] refused.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -274,10 +224,7 @@ impl<'s> RigidTets<'s> {
                 let i = dense_index(grid_dims, c);
                 if let Some(s) = grid_starts.get_mut(i) {
                     if let Some(e) = grid_tets.get_mut(*s as usize) {
-                        *e = GridEntry {
-                            tet: t as u32,
-                            levels: levels(f_lo, c) | levels(f_hi, c) << 15,
-                        };
+                        *e = GridEntry::new(t as u32, f_lo, f_hi, c);
                     }
                     *s += 1;
                 }
@@ -539,7 +486,7 @@ impl<'s> RigidTets<'s> {
         // The exact test: the tet's grown box, then its moved corners (both read before
         // either is tested, so that their loads overlap).
         let holds = |pt: &Pending, e: &GridEntry, r: &mut CollideReport| {
-            let b = self.tet_boxes.get(e.tet as usize);
+            let b = self.tet_boxes.get(e.tet().idx());
             let corners = body.tet_positions(e.tet());
             b.is_some_and(|b| b.contains(pt.q))
                 && corners.is_some_and(|corners| candidate_holds(pt.p, corners, r))
