@@ -3,7 +3,7 @@
 
 use glam::{Quat, Vec3};
 
-use super::test_support::{brute_list, Rng, Store};
+use super::test_support::{brute_list, nudged_corners, Rng, Store};
 use super::*;
 use crate::collide::{ListedNode, OccupancyStorage, RigidTetsStorage};
 use crate::hash::{HashEntry, SpatialHash};
@@ -375,28 +375,17 @@ fn grid_entries_admit_every_point_of_their_box() {
             // The cell corners inside the box, and the floats on either side of them.
             let lo = ((b.min - origin) * inv).floor();
             let hi = ((b.max - origin) * inv).ceil();
-            for k in lo.z as i32..=(hi.z as i32).min(dims[2]) {
-                for j in lo.y as i32..=(hi.y as i32).min(dims[1]) {
-                    for i in lo.x as i32..=(hi.x as i32).min(dims[0]) {
-                        let corner = origin + Vec3::new(i as f32, j as f32, k as f32) / inv;
-                        for nudge in 0..27 {
-                            let step = |v: f32, d: usize| match d {
-                                0 => v.next_down(),
-                                1 => v,
-                                _ => v.next_up(),
-                            };
-                            let q = Vec3::new(
-                                step(corner.x, nudge % 3),
-                                step(corner.y, nudge / 3 % 3),
-                                step(corner.z, nudge / 9),
-                            );
-                            if b.contains(q) {
-                                check(t, q);
-                            }
-                        }
-                    }
-                }
-            }
+            nudged_corners(
+                &b,
+                [lo.x as i32, lo.y as i32, lo.z as i32],
+                [
+                    (hi.x as i32).min(dims[0]),
+                    (hi.y as i32).min(dims[1]),
+                    (hi.z as i32).min(dims[2]),
+                ],
+                |i, j, k| origin + Vec3::new(i as f32, j as f32, k as f32) / inv,
+                |q| check(t, q),
+            );
         }
         assert!(
             edge > 1.0 || admitted * 10 < listed * 9,

@@ -184,3 +184,37 @@ pub(crate) fn brute_list<const N: usize>(
     }
     n
 }
+
+/// Calls `f` with every corner of the grid cells `lo..=hi` (cell `[i, j, k]`'s low corner at
+/// `corner(i, j, k)`) and each of the 26 floats around it, when the box `b` holds them: the
+/// points where a quantised cell box is most likely to be off by one level.
+pub(crate) fn nudged_corners(
+    b: &crate::hash::Aabb,
+    lo: [i32; 3],
+    hi: [i32; 3],
+    corner: impl Fn(i32, i32, i32) -> Vec3,
+    mut f: impl FnMut(Vec3),
+) {
+    let step = |v: f32, d: usize| match d {
+        0 => v.next_down(),
+        1 => v,
+        _ => v.next_up(),
+    };
+    for k in lo[2]..=hi[2] {
+        for j in lo[1]..=hi[1] {
+            for i in lo[0]..=hi[0] {
+                let c = corner(i, j, k);
+                for nudge in 0..27 {
+                    let q = Vec3::new(
+                        step(c.x, nudge % 3),
+                        step(c.y, nudge / 3 % 3),
+                        step(c.z, nudge / 9),
+                    );
+                    if b.contains(q) {
+                        f(q);
+                    }
+                }
+            }
+        }
+    }
+}
