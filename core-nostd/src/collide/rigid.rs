@@ -534,7 +534,7 @@ impl<'s> RigidTets<'s> {
     }
 }
 
-/// Points a cluster gathers before their lookups ([`RigidTets::locate_batch`]).
+/// Points a cluster gathers before their lookups (`RigidTets::locate_batch`).
 const BATCH: usize = 32;
 
 /// A rest grid cell's first entries whose tests [`RigidTets::locate_batch`] gathers into one
@@ -776,7 +776,7 @@ impl RigidTets<'_> {
 /// lists, with the nodes outside their grid, or one bucket per cell of `points_hash`); per
 /// point met one box test, for those in the cluster's moved box one transform and, for the
 /// points in the cluster's own cell, at most `b` entry tests and `b` candidate tets
-/// ([`RigidTets::locate_batch`]), for `b` the fullest cell of the rest grid; a binary search
+/// (`RigidTets::locate_batch`), for `b` the fullest cell of the rest grid; a binary search
 /// over `kept` entries and, once `out` is full, a heap step (O(log out.len())) per new hit;
 /// one sort of at most `out.len()` entries.
 #[allow(clippy::too_many_arguments)]
@@ -945,7 +945,7 @@ impl Lookups<'_> {
         }
     }
 
-    /// Looks the waiting points up ([`RigidTets::locate_batch`]) and lists those found.
+    /// Looks the waiting points up (`RigidTets::locate_batch`) and lists those found.
     fn flush(&mut self, s: &Search<'_>, r: &mut CollideReport) {
         let mut found = [TetId::NONE; BATCH];
         let batch = self.batch;
