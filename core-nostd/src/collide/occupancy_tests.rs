@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use super::test_support::{brute_list, nudged_corners, Rng, Store};
+use super::test_support::{box_probes, brute_list, nudged_corners, Rng, Store};
 use super::*;
 use crate::collide::{GridEntry, ListedNode, OccupancyError, OccupancyStorage};
 use crate::hash::{HashEntry, SpatialHash};
@@ -393,34 +393,7 @@ fn tet_list_entries_admit_every_point_of_their_box() {
         };
         for t in 0..ob.tet_count() {
             let b = grown(t);
-            let pick = |k: usize, a: usize| if k >> a & 1 == 0 { b.min[a] } else { b.max[a] };
-            let mid = (b.min + b.max) * 0.5;
-            for k in 0..8 {
-                check(Vec3::new(pick(k, 0), pick(k, 1), pick(k, 2)));
-            }
-            for a in 0..3 {
-                for side in [b.min[a], b.max[a]] {
-                    let mut q = mid;
-                    q[a] = side;
-                    check(q);
-                    for _ in 0..4 {
-                        let mut q = Vec3::new(
-                            rng.range(b.min.x, b.max.x),
-                            rng.range(b.min.y, b.max.y),
-                            rng.range(b.min.z, b.max.z),
-                        );
-                        q[a] = side;
-                        check(q);
-                    }
-                }
-            }
-            for _ in 0..8 {
-                check(Vec3::new(
-                    rng.range(b.min.x, b.max.x),
-                    rng.range(b.min.y, b.max.y),
-                    rng.range(b.min.z, b.max.z),
-                ));
-            }
+            box_probes(&b, &mut rng, 4, 8, &mut check);
             // The list cells' corners inside the box, and the floats on either side of them.
             let lo = ((b.min - origin) / edge).floor();
             let hi = ((b.max - origin) / edge).ceil();

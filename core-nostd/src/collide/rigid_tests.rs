@@ -3,7 +3,7 @@
 
 use glam::{Quat, Vec3};
 
-use super::test_support::{brute_list, nudged_corners, Rng, Store};
+use super::test_support::{box_probes, brute_list, nudged_corners, Rng, Store};
 use super::*;
 use crate::collide::{ListedNode, OccupancyStorage, RigidTetsStorage};
 use crate::hash::{HashEntry, SpatialHash};
@@ -341,37 +341,7 @@ fn grid_entries_admit_every_point_of_their_box() {
         for t in 0..tool.tet_count() {
             let b =
                 crate::hash::Aabb::of(tb.tet_positions(TetId::from_idx(t)).unwrap()).grown(margin);
-            let pick = |k: usize, a: usize| if k >> a & 1 == 0 { b.min[a] } else { b.max[a] };
-            let mid = (b.min + b.max) * 0.5;
-            for k in 0..8 {
-                check(t, Vec3::new(pick(k, 0), pick(k, 1), pick(k, 2)));
-            }
-            for a in 0..3 {
-                for side in [b.min[a], b.max[a]] {
-                    let mut q = mid;
-                    q[a] = side;
-                    check(t, q);
-                    for _ in 0..8 {
-                        let mut q = Vec3::new(
-                            rng.range(b.min.x, b.max.x),
-                            rng.range(b.min.y, b.max.y),
-                            rng.range(b.min.z, b.max.z),
-                        );
-                        q[a] = side;
-                        check(t, q);
-                    }
-                }
-            }
-            for _ in 0..16 {
-                check(
-                    t,
-                    Vec3::new(
-                        rng.range(b.min.x, b.max.x),
-                        rng.range(b.min.y, b.max.y),
-                        rng.range(b.min.z, b.max.z),
-                    ),
-                );
-            }
+            box_probes(&b, &mut rng, 8, 16, |q| check(t, q));
             // The cell corners inside the box, and the floats on either side of them.
             let lo = ((b.min - origin) * inv).floor();
             let hi = ((b.max - origin) * inv).ceil();

@@ -218,3 +218,42 @@ pub(crate) fn nudged_corners(
         }
     }
 }
+
+/// Calls `f` with points of the box `b` where a conservative filter is tested hardest: its 8
+/// corners, the centre of each face with `per_face` random points on that face, then `inside`
+/// random points of the box (drawn from `rng` in that order).
+pub(crate) fn box_probes(
+    b: &crate::hash::Aabb,
+    rng: &mut Rng,
+    per_face: usize,
+    inside: usize,
+    mut f: impl FnMut(Vec3),
+) {
+    let pick = |k: usize, a: usize| if k >> a & 1 == 0 { b.min[a] } else { b.max[a] };
+    for k in 0..8 {
+        f(Vec3::new(pick(k, 0), pick(k, 1), pick(k, 2)));
+    }
+    let mid = (b.min + b.max) * 0.5;
+    let any = |rng: &mut Rng| {
+        Vec3::new(
+            rng.range(b.min.x, b.max.x),
+            rng.range(b.min.y, b.max.y),
+            rng.range(b.min.z, b.max.z),
+        )
+    };
+    for a in 0..3 {
+        for side in [b.min[a], b.max[a]] {
+            let mut q = mid;
+            q[a] = side;
+            f(q);
+            for _ in 0..per_face {
+                let mut q = any(rng);
+                q[a] = side;
+                f(q);
+            }
+        }
+    }
+    for _ in 0..inside {
+        f(any(rng));
+    }
+}
