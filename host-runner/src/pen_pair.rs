@@ -39,8 +39,6 @@ struct Job<'p, 'b> {
     opts: PenOptions,
     listed: usize,
     side: SideBuffers<'p, 'b>,
-    /// The thread waiting for the result (woken when it is sent).
-    caller: Thread,
 }
 
 /// A finished object side, with its storage back.
@@ -66,9 +64,6 @@ pub struct PenPair<'p, 'b> {
     scene: PenScene<'p, 'p, 'p>,
     /// The worker, woken when a job is sent.
     worker: Thread,
-    /// The thread that made the pair, woken when a result is sent (a pair used from another
-    /// thread still works: its waits time out every millisecond).
-    caller: Thread,
     world: &'p mut [Vec3],
     found: &'p mut [TetId],
     pen: SideBuffers<'p, 'b>,
@@ -111,6 +106,9 @@ pub fn with_pen_pair<'p, 'b, R>(
     let (done_tx, done) = bounded::<Done<'p, 'b>>(1);
     std::thread::scope(|sc| {
         let worker_world = &mut world2;
+        // The thread that made the pair, woken when a result is sent (a pair used from another
+        // thread still works: its waits time out every millisecond).
+        let caller = std::thread::current();
         let worker = sc.spawn(move || {
             while let Some(mut job) = wait(&job_rx) {
                 let at = pen_place(&scene, worker_world, job.position, job.rotation);
@@ -122,7 +120,6 @@ pub fn with_pen_pair<'p, 'b, R>(
                     &job.opts,
                     job.listed,
                 );
-                let caller = job.caller;
                 let sent = done_tx.try_send(Done {
                     report,
                     side: job.side,
@@ -137,7 +134,6 @@ pub fn with_pen_pair<'p, 'b, R>(
         let mut pair = PenPair {
             scene,
             worker,
-            caller: std::thread::current(),
             world,
             found: pen_found,
             pen: SideBuffers {
@@ -210,7 +206,6 @@ impl<'b> PenPair<'_, 'b> {
             opts: *opts,
             listed: state.object_listed,
             side,
-            caller: self.caller.clone(),
         };
         // The channel is empty here (each job's result is taken before the next is sent).
         if let Err(e) = self.jobs.try_send(job) {
