@@ -28,8 +28,9 @@ use tetradrill_core::drill::{
     candidates_brute_force, Drill, DrillParams, Pending, Spacing, Sphere, DRILL_HOLD_STEPS,
     MAX_STEP_SPHERES,
 };
-use tetradrill_core::hierarchy::{HNode, Hierarchy, HierarchyStorage, VEntry, NODE_BYTES};
+use tetradrill_core::hierarchy::{HierarchySizes, VEntry, NODE_BYTES};
 use tetradrill_core::mesh::{BuildOptions, Mesh};
+use tetradrill_core::storage::owned::HierarchyBuffers;
 use tetradrill_core::TetId;
 
 const ARENA: usize = 8 << 20;
@@ -136,18 +137,8 @@ struct Run {
 
 fn run(mesh: &Mesh<'_>, params: &DrillParams, queue_rule: Queue, speed: usize) -> Run {
     let t = mesh.tet_count();
-    let mut roots = vec![HNode::LEAF; t];
-    let mut arena = vec![HNode::LEAF; ARENA];
-    let mut vlist = vec![VEntry::default(); HierarchyStorage::vlist_needed(t, ARENA)];
-    let mut h = Hierarchy::new(
-        mesh,
-        HierarchyStorage {
-            roots: &mut roots,
-            arena: &mut arena,
-            vlist: &mut vlist,
-        },
-    )
-    .unwrap();
+    let mut store = HierarchyBuffers::new(HierarchySizes::new(t, ARENA)).unwrap();
+    let mut h = store.hierarchy(mesh).unwrap();
     let mut queue = vec![Pending::default(); QUEUE];
     let mut drill = Drill::new(&mut queue);
     let (path, r, moving) = trace(mesh, speed);
@@ -254,18 +245,8 @@ fn hold_report(name: &str, mesh: &Mesh<'_>, max_depth: u8) {
     let path = hold_path(mesh, r, 500);
     let (reference, se) = swept_volume(mesh, &path, r, 1_000_000);
     let t = mesh.tet_count();
-    let mut roots = vec![HNode::LEAF; t];
-    let mut arena = vec![HNode::LEAF; ARENA];
-    let mut vlist = vec![VEntry::default(); HierarchyStorage::vlist_needed(t, ARENA)];
-    let mut h = Hierarchy::new(
-        mesh,
-        HierarchyStorage {
-            roots: &mut roots,
-            arena: &mut arena,
-            vlist: &mut vlist,
-        },
-    )
-    .unwrap();
+    let mut store = HierarchyBuffers::new(HierarchySizes::new(t, ARENA)).unwrap();
+    let mut h = store.hierarchy(mesh).unwrap();
     let mut queue = vec![Pending::default(); QUEUE];
     let mut drill = Drill::new(&mut queue);
     let params = DrillParams {
@@ -351,18 +332,8 @@ fn bench(c: &mut Criterion) {
         }
         // Criterion: one tick of a sphere moving through fresh material each iteration.
         let t = mesh.tet_count();
-        let mut roots = vec![HNode::LEAF; t];
-        let mut arena = vec![HNode::LEAF; ARENA];
-        let mut vlist = vec![VEntry::default(); HierarchyStorage::vlist_needed(t, ARENA)];
-        let mut h = Hierarchy::new(
-            &mesh,
-            HierarchyStorage {
-                roots: &mut roots,
-                arena: &mut arena,
-                vlist: &mut vlist,
-            },
-        )
-        .unwrap();
+        let mut store = HierarchyBuffers::new(HierarchySizes::new(t, ARENA)).unwrap();
+        let mut h = store.hierarchy(&mesh).unwrap();
         let mut queue = vec![Pending::default(); QUEUE];
         let mut drill = Drill::new(&mut queue);
         let (path, _, _) = trace(&mesh, 1);

@@ -50,6 +50,7 @@ pub const TET_BYTES: usize = 40;
 
 /// Why a blob was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum BlobError {
     /// Shorter than the header, or than the header says.
     Truncated {
@@ -121,6 +122,8 @@ impl core::fmt::Display for BlobError {
         }
     }
 }
+
+impl core::error::Error for BlobError {}
 
 /// FNV-1a 32 over `bytes`.
 ///

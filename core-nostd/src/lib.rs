@@ -21,12 +21,16 @@
 //! | [`servo`]     | the per-tick servo step that ties the above together                 |
 //! | [`soft`]      | reference soft-body physics (XPBD, Green strain), fixed nodes, loads |
 //! | [`script`]    | scripted tool paths shared bit for bit by the host and the firmware  |
+//! | [`storage`]   | sizes turned into each structure's slices, from a block or the heap  |
 //!
 //! Rules that hold everywhere: no heap, no `unsafe`, no panics on the servo path; every
 //! structure borrows caller slices whose lengths are its capacities; every public function
 //! documents its `# Bounded work` and what happens when a capacity is reached.
 #![no_std]
 #![forbid(unsafe_code)]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
 
 pub mod blob;
 pub mod builtin;
@@ -42,6 +46,7 @@ pub mod mesh;
 pub mod script;
 pub mod servo;
 pub mod soft;
+pub mod storage;
 
 pub use glam::{Quat, Vec3};
 pub use ids::{NodeId, TetId};

@@ -6,13 +6,12 @@
 use core::alloc::Layout;
 use core::mem::size_of;
 
-use tetradrill_core::drill::{DrillParams, Pending, Region};
+use tetradrill_core::drill::{DrillParams, Region};
 use tetradrill_core::force::{ForceDigest, ForceParams, ToolState};
-use tetradrill_core::hash::{Aabb, HashEntry};
-use tetradrill_core::hierarchy::{HNode, SphereSlot, VEntry};
 use tetradrill_core::mesh::{FaceKey, Node, Tet};
 use tetradrill_core::servo::{World, WorldSizes};
-use tetradrill_core::{TetId, Vec3};
+use tetradrill_core::storage::Line;
+use tetradrill_core::Vec3;
 
 use crate::types::{TdParams, TdStatus};
 
@@ -114,24 +113,11 @@ pub struct Plan {
     pub tet_recs: usize,
     /// `FaceKey` per tet face: the mesh build's scratch.
     pub scratch: usize,
-    /// Hash bucket starts.
-    pub hash_starts: usize,
-    /// Hash entries.
-    pub hash_entries: usize,
-    /// Tet boxes.
-    pub tet_boxes: usize,
-    /// Hierarchy roots.
-    pub roots: usize,
-    /// Hierarchy arena.
-    pub arena: usize,
-    /// v_list.
-    pub vlist: usize,
-    /// Pending drill work.
-    pub pending: usize,
-    /// Candidate tets.
-    pub candidates: usize,
-    /// Sphere memo.
-    pub memo: usize,
+    /// The world's storage: [`WorldSizes::lines`] lines, carved by `WorldStorage::carve`
+    /// (the core's one layout of a world's storage).
+    pub world: usize,
+    /// Lines of the world's storage.
+    pub world_lines: usize,
     /// Region slots (`Region` each).
     pub regions: usize,
     /// Region labels (`i32` each).
@@ -230,15 +216,8 @@ impl Plan {
         let node_recs = b.put::<Node>(nodes)?;
         let tet_recs = b.put::<Tet>(tets)?;
         let scratch = b.put::<FaceKey>(faces)?;
-        let hash_starts = b.put::<u32>(sizes.hash_starts)?;
-        let hash_entries = b.put::<HashEntry>(sizes.hash_entries)?;
-        let tet_boxes = b.put::<Aabb>(sizes.tet_boxes)?;
-        let roots = b.put::<HNode>(sizes.roots)?;
-        let arena_at = b.put::<HNode>(sizes.arena)?;
-        let vlist = b.put::<VEntry>(sizes.vlist)?;
-        let pending = b.put::<Pending>(sizes.pending)?;
-        let candidates = b.put::<TetId>(sizes.candidates)?;
-        let memo = b.put::<SphereSlot>(sizes.sphere_memo)?;
+        let world_lines = sizes.lines().ok_or(TdStatus::TdErrParams)?;
+        let world = b.put::<Line>(world_lines)?;
         let region_slots = to_usize(p.region_capacity)?;
         let regions = b.put::<Region>(region_slots)?;
         let region_labels = b.put::<i32>(region_slots)?;
@@ -253,15 +232,8 @@ impl Plan {
             node_recs,
             tet_recs,
             scratch,
-            hash_starts,
-            hash_entries,
-            tet_boxes,
-            roots,
-            arena: arena_at,
-            vlist,
-            pending,
-            candidates,
-            memo,
+            world,
+            world_lines,
             regions,
             region_labels,
             tet_region,
@@ -279,6 +251,8 @@ pub const STATE_BYTES: usize = size_of::<State>();
 mod tests {
     use super::*;
     use core::mem::align_of;
+    use tetradrill_core::drill::Pending;
+    use tetradrill_core::hierarchy::HNode;
 
     fn params(nodes: u32, tets: u32, arena: u32, pending: u32, memo: u32) -> TdParams {
         TdParams {
@@ -308,8 +282,7 @@ mod tests {
     }
 
     /// Each region as (offset, bytes, alignment of its type), in plan order.
-    fn regions(p: &Plan) -> [(usize, usize, usize); 17] {
-        let s = p.sizes;
+    fn regions(p: &Plan) -> [(usize, usize, usize); 9] {
         fn r<T>(at: usize, n: usize) -> (usize, usize, usize) {
             (at, n * size_of::<T>(), align_of::<T>())
         }
@@ -319,15 +292,7 @@ mod tests {
             r::<Node>(p.node_recs, p.nodes),
             r::<Tet>(p.tet_recs, p.tets),
             r::<FaceKey>(p.scratch, 4 * p.tets),
-            r::<u32>(p.hash_starts, s.hash_starts),
-            r::<HashEntry>(p.hash_entries, s.hash_entries),
-            r::<Aabb>(p.tet_boxes, s.tet_boxes),
-            r::<HNode>(p.roots, s.roots),
-            r::<HNode>(p.arena, s.arena),
-            r::<VEntry>(p.vlist, s.vlist),
-            r::<Pending>(p.pending, s.pending),
-            r::<TetId>(p.candidates, s.candidates),
-            r::<SphereSlot>(p.memo, s.sphere_memo),
+            r::<Line>(p.world, p.world_lines),
             r::<Region>(p.regions, p.region_slots),
             r::<i32>(p.region_labels, p.region_slots),
             r::<u8>(p.tet_region, p.tets),
@@ -358,6 +323,7 @@ mod tests {
             }
             assert!(end <= plan.size, "the last region passes the size");
             assert_eq!(plan.sizes.arena, arena as usize / 8 * 8);
+            assert_eq!(Some(plan.world_lines), plan.sizes.lines());
         }
     }
 

@@ -46,17 +46,16 @@ mod types;
 use core::ffi::{c_char, c_void};
 use core::ptr;
 
-use tetradrill_core::drill::{DrillParams, Material, Pending, Region, Regions};
+use tetradrill_core::drill::{DrillParams, Material, Region, Regions};
 use tetradrill_core::force::{ForceDigest, ForceParams, ToolState};
-use tetradrill_core::hash::{Aabb, HashEntry};
-use tetradrill_core::hierarchy::{HNode, HierarchyStorage, SphereSlot, VEntry};
 use tetradrill_core::mesh::{BuildError, BuildOptions, FaceKey, Mesh, MeshStorage, Node, Tet};
 use tetradrill_core::script::DEMO;
 use tetradrill_core::servo::{
     servo_force, World, WorldStorage, CONTACT_MAX_NODES, DEFAULT_MAX_CELLS, DEFAULT_PENDING,
     DEFAULT_SPHERE_MEMO,
 };
-use tetradrill_core::{TetId, Vec3};
+use tetradrill_core::storage::{Block, Line};
+use tetradrill_core::Vec3;
 
 pub use layout::{Plan, STATE_BYTES, TD_MAX_COUNT, TD_MAX_REGIONS};
 pub use types::{TdCounters, TdParams, TdRegion, TdSimReport, TdStatus, TdVec3, TdWorld};
@@ -389,37 +388,22 @@ pub unsafe extern "C" fn td_world_init(
                 (!labels.is_null()).then(|| core::slice::from_raw_parts(labels, plan.tets)),
             )
         };
-        let s = plan.sizes;
         // SAFETY: every offset comes from the plan, which places each region after the
         // header at its type's alignment, apart from the others, inside `plan.size <= len`
         // bytes of `mem`; the caller keeps `mem` for as long as the world is used.
-        let (pos, normals, nodes, tet_recs, scratch, storage) = unsafe {
+        let (pos, normals, nodes, tet_recs, scratch, world_lines) = unsafe {
             (
                 carve(base, plan.positions, plan.nodes, Vec3::ZERO),
                 carve(base, plan.normals, plan.nodes, Vec3::ZERO),
                 carve(base, plan.node_recs, plan.nodes, Node::default()),
                 carve(base, plan.tet_recs, plan.tets, Tet::default()),
                 carve(base, plan.scratch, 4 * plan.tets, FaceKey::default()),
-                WorldStorage {
-                    hash_starts: carve(base, plan.hash_starts, s.hash_starts, 0u32),
-                    hash_entries: carve(
-                        base,
-                        plan.hash_entries,
-                        s.hash_entries,
-                        HashEntry::default(),
-                    ),
-                    tet_boxes: carve(base, plan.tet_boxes, s.tet_boxes, Aabb::point(Vec3::ZERO)),
-                    hierarchy: HierarchyStorage {
-                        roots: carve(base, plan.roots, s.roots, HNode::default()),
-                        arena: carve(base, plan.arena, s.arena, HNode::default()),
-                        vlist: carve(base, plan.vlist, s.vlist, VEntry::default()),
-                    },
-                    pending: carve(base, plan.pending, s.pending, Pending::default()),
-                    candidates: carve(base, plan.candidates, s.candidates, TetId::NONE),
-                    sphere_memo: carve(base, plan.memo, s.sphere_memo, SphereSlot::EMPTY),
-                },
+                carve(base, plan.world, plan.world_lines, Line::ZERO),
             )
         };
+        // The world's parts, from its lines by the core's one layout (the plan sized them).
+        let storage = WorldStorage::carve(&plan.sizes, &mut Block::from_lines(world_lines))
+            .map_err(|_| TdStatus::TdErrTooSmall)?;
         for (p, c) in pos.iter_mut().zip(xyz.chunks_exact(3)) {
             *p = Vec3::new(c[0], c[1], c[2]);
         }

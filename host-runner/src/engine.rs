@@ -4,15 +4,15 @@
 use std::collections::BTreeMap;
 
 use tetradrill_core::collide::{ZoneGather, ZONE_MARGIN_RADII};
-use tetradrill_core::drill::{DrillParams, Material, Pending, Region, Regions};
+use tetradrill_core::drill::{DrillParams, Material};
 use tetradrill_core::force::{DrillTool, ForceParams, ToolState};
-use tetradrill_core::hash::{Aabb, HashEntry};
-use tetradrill_core::hierarchy::{HNode, HierarchyStorage, SphereSlot, VEntry};
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::servo::{
-    drill_force, servo_force, DrillState, PassiveReport, SimReport, SpareStorage, World,
-    WorldSizes, WorldStorage, DEFAULT_MAX_CELLS, DEFAULT_PENDING,
+    drill_force, servo_force, DrillState, PassiveReport, SimReport, World, WorldSizes,
+    DEFAULT_MAX_CELLS, DEFAULT_PENDING,
 };
+use tetradrill_core::storage::owned::WorldBuffers;
+use tetradrill_core::storage::StorageError;
 use tetradrill_core::{TetId, Vec3};
 
 use crate::error::CliError;
@@ -125,38 +125,23 @@ impl ToolSizing {
     }
 }
 
-/// Storage for one [`World`], allocated once before the run.
+/// Storage for one [`World`], allocated once before the run: the mesh, the world's buffers
+/// ([`WorldBuffers`]: the core's one layout of a world's storage) and the scenario's settings
+/// of each world made over them.
 #[derive(Debug)]
 pub struct EngineStorage {
     mesh: OwnedMesh,
-    hash_starts: Vec<u32>,
-    hash_entries: Vec<HashEntry>,
-    tet_boxes: Vec<Aabb>,
-    roots: Vec<HNode>,
-    arena: Vec<HNode>,
-    vlist: Vec<VEntry>,
-    pending: Vec<Pending>,
-    candidates: Vec<TetId>,
-    sphere_memo: Vec<SphereSlot>,
+    buffers: WorldBuffers,
     contact_search_nodes: u32,
     tick_budget: u32,
     zone_gather_work: u32,
     sizing: Option<ToolSizing>,
-    /// The materials per region ([`EngineStorage::set_labels`]; empty: none).
-    regions: Vec<Region>,
-    /// Each coarse tet's region index.
-    tet_region: Vec<u8>,
-    /// The mesh label of each region.
+    /// The mesh label of each region (empty: no regions).
     region_labels: Vec<i32>,
-    /// The rest positions of a deforming world ([`EngineStorage::enable_deformation`]; empty:
-    /// the world is rigid).
-    deform_rest: Vec<Vec3>,
     /// The mesh's positions when deformation was enabled: each world over this storage (a
-    /// viewer's reset too) starts from them, whatever the last world left.
+    /// viewer's reset too) starts from them, whatever the last world left (empty: the world
+    /// is rigid).
     rest_copy: Vec<Vec3>,
-    /// The spare hash, boxes and normals of a deforming world's spread update
-    /// ([`World::set_spare`]; empty: the world is rigid).
-    spare: (Vec<u32>, Vec<HashEntry>, Vec<Aabb>, Vec<Vec3>),
 }
 
 /// The regions of a scenario's world: one per distinct label of the mesh, in label order.
@@ -305,6 +290,7 @@ impl EngineStorage {
             WorldSizes::new(tets, sc.hierarchy_capacity.unwrap_or(arena))
         });
         Self::with_sizes(mesh, s, sc, sizing)
+            .unwrap_or_else(|e| panic!("cannot allocate the world's storage: {e}"))
     }
 
     /// The burr's sizes on `mesh` ([`ToolSizing`]) when the scenario's tool is a sphere.
@@ -335,12 +321,12 @@ impl EngineStorage {
 
     /// The candidate list's length.
     pub fn candidate_capacity(&self) -> usize {
-        self.candidates.len()
+        self.buffers.sizes().candidates
     }
 
     /// The hierarchy arena's nodes.
     pub fn hierarchy_capacity(&self) -> usize {
-        self.arena.len()
+        self.buffers.sizes().arena
     }
 
     /// [`EngineStorage::allocate`] refusing, with exit status 2, a capacity the mesh cannot
@@ -348,7 +334,8 @@ impl EngineStorage {
     pub fn try_allocate(mesh: OwnedMesh, sc: &Scenario) -> Result<Self, CliError> {
         let sizing = Self::sizing(&mesh, sc);
         let s = world_sizes_for(mesh.tets().len(), sc, sizing.as_ref()).map_err(CliError::input)?;
-        Ok(Self::with_sizes(mesh, s, sc, sizing))
+        Self::with_sizes(mesh, s, sc, sizing)
+            .map_err(|e| CliError::failure(format!("cannot set up the simulation: {e}")))
     }
 
     fn with_sizes(
@@ -356,43 +343,32 @@ impl EngineStorage {
         s: WorldSizes,
         sc: &Scenario,
         sizing: Option<ToolSizing>,
-    ) -> Self {
-        Self {
+    ) -> Result<Self, StorageError> {
+        Ok(Self {
             mesh,
-            hash_starts: vec![0; s.hash_starts],
-            hash_entries: vec![HashEntry::default(); s.hash_entries],
-            tet_boxes: vec![Aabb::point(Vec3::ZERO); s.tet_boxes],
-            roots: vec![HNode::default(); s.roots],
-            arena: vec![HNode::default(); s.arena],
-            vlist: vec![VEntry::default(); s.vlist],
-            pending: vec![Pending::default(); s.pending],
-            candidates: vec![TetId::NONE; s.candidates],
-            sphere_memo: vec![SphereSlot::EMPTY; s.sphere_memo],
+            buffers: WorldBuffers::new(s)?,
             contact_search_nodes: sc.contact_search_nodes,
             tick_budget: sc.tick_budget,
             zone_gather_work: sc.zone_gather_work,
             sizing,
-            regions: Vec::new(),
-            tet_region: Vec::new(),
             region_labels: Vec::new(),
-            deform_rest: Vec::new(),
             rest_copy: Vec::new(),
-            spare: (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
-        }
+        })
     }
 
     /// Makes the worlds over this storage deforming ([`World::enable_deformation`], the rest
-    /// state kept here): a soft body then hands them its positions every physics step.
-    pub fn enable_deformation(&mut self) {
-        self.deform_rest = vec![Vec3::ZERO; self.mesh.positions().len()];
+    /// state kept here), with the spare tables of a spread update (`--soft-spread`): a soft
+    /// body then hands them its positions every physics step.
+    ///
+    /// # Errors
+    /// The heap refused the deformation storage.
+    pub fn enable_deformation(&mut self) -> Result<(), CliError> {
+        let nodes = self.mesh.positions().len();
+        self.buffers
+            .enable_deformation(nodes)
+            .map_err(storage_failure)?;
         self.rest_copy = self.mesh.positions().to_vec();
-        // The spare storage of a spread update (`--soft-spread`), the world's sizes.
-        self.spare = (
-            vec![0; self.hash_starts.len()],
-            vec![HashEntry::default(); self.hash_entries.len()],
-            vec![Aabb::point(Vec3::ZERO); self.tet_boxes.len()],
-            vec![Vec3::ZERO; self.deform_rest.len()],
-        );
+        Ok(())
     }
 
     /// Storage for a soft body over the mesh at rest (node and tet order the world's).
@@ -427,8 +403,7 @@ impl EngineStorage {
                 missing.join(", ")
             );
         }
-        self.regions = t.materials.iter().map(|&m| Region::new(m)).collect();
-        self.tet_region = t.of_tet;
+        self.buffers.set_regions(&t.materials, t.of_tet);
         self.region_labels = t.labels;
         Ok(())
     }
@@ -472,64 +447,26 @@ impl EngineStorage {
         // The zone query may visit as many cells as the burr's zone covers, and never fewer
         // than a list of this length can be filled from.
         let cells = self.sizing.map_or(DEFAULT_MAX_CELLS, |z| z.max_cells);
-        let by_list = (self.candidates.len() / 2).min(u32::MAX as usize) as u32;
+        let by_list = (self.buffers.sizes().candidates / 2).min(u32::MAX as usize) as u32;
         let max_cells = cells.max(by_list).max(DEFAULT_MAX_CELLS);
-        World::new(
-            mesh,
-            WorldStorage {
-                hash_starts: &mut self.hash_starts,
-                hash_entries: &mut self.hash_entries,
-                tet_boxes: &mut self.tet_boxes,
-                hierarchy: HierarchyStorage {
-                    roots: &mut self.roots,
-                    arena: &mut self.arena,
-                    vlist: &mut self.vlist,
-                },
-                pending: &mut self.pending,
-                candidates: &mut self.candidates,
-                sphere_memo: &mut self.sphere_memo,
-            },
-        )
-        .and_then(|mut w| {
-            if !self.regions.is_empty() {
-                // A fresh world (a viewer's reset too) starts with no credit and nothing
-                // removed.
-                for r in self.regions.iter_mut() {
-                    *r = Region::new(r.material);
-                }
-                let r = Regions::new(&mut self.regions, &self.tet_region)
-                    .map_err(tetradrill_core::servo::WorldError::Regions)?;
-                w.set_regions(r);
-            }
-            Ok(w)
-        })
-        .map(|mut w| {
-            w.set_contact_max_nodes(self.contact_search_nodes);
-            w.set_max_cells(max_cells);
-            w.set_tick_budget((self.tick_budget > 0).then_some(self.tick_budget));
-            w.set_zone_gather(
-                (self.zone_gather_work > 0)
-                    .then(|| ZoneGather::new(self.zone_gather_work, ZONE_MARGIN_RADII)),
-            );
-            w
-        })
-        .map_err(|e| CliError::failure(format!("cannot set up the simulation: {e}")))
-        .and_then(|mut w| {
-            if !self.deform_rest.is_empty() {
-                let fail = |e| CliError::failure(format!("cannot set up the soft body: {e}"));
-                w.enable_deformation(&mut self.deform_rest).map_err(fail)?;
-                let (starts, entries, boxes, normals) = &mut self.spare;
-                w.set_spare(SpareStorage {
-                    hash_starts: starts,
-                    hash_entries: entries,
-                    tet_boxes: boxes,
-                    normals,
-                })
-                .map_err(fail)?;
-            }
-            Ok(w)
-        })
+        let mut w = self
+            .buffers
+            .world(mesh)
+            .map_err(|e| CliError::failure(format!("cannot set up the simulation: {e}")))?;
+        w.set_contact_max_nodes(self.contact_search_nodes);
+        w.set_max_cells(max_cells);
+        w.set_tick_budget((self.tick_budget > 0).then_some(self.tick_budget));
+        w.set_zone_gather(
+            (self.zone_gather_work > 0)
+                .then(|| ZoneGather::new(self.zone_gather_work, ZONE_MARGIN_RADII)),
+        );
+        Ok(w)
     }
+}
+
+/// A storage refusal as a run's failure.
+fn storage_failure(e: StorageError) -> CliError {
+    CliError::failure(format!("cannot set up the simulation: {e}"))
 }
 
 /// Checks a world's invariants: the mesh ([`tetradrill_core::mesh::Mesh::validate`]) and the

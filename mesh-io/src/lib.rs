@@ -371,6 +371,7 @@ pub fn load_with(path: &Path, scale: f64, options: &ReadOptions) -> Result<Loade
             BuildError::StorageTooSmall { .. } => {
                 return MeshError::failure(format!("internal error building the mesh: {e}"))
             }
+            _ => (None, e.to_string()),
         };
         match tet {
             Some(t) => MeshError::at(&tet_path, line_of(t as usize), reason),

@@ -10,8 +10,9 @@ use std::collections::{HashMap, HashSet};
 use glam::Vec3;
 use tetradrill::owned::OwnedMesh;
 use tetradrill_core::builtin::{block, block_counts};
-use tetradrill_core::hierarchy::{HNode, Hierarchy, HierarchyStorage, VEntry};
+use tetradrill_core::hierarchy::{Hierarchy, HierarchySizes};
 use tetradrill_core::mesh::{BuildOptions, Mesh};
+use tetradrill_core::storage::owned::HierarchyBuffers;
 use tetradrill_core::TetId;
 
 use crate::oracle::{add, cross, dot, scale, sub, D3};
@@ -198,34 +199,19 @@ pub fn material_volume(mesh: &Mesh<'_>, h: &Hierarchy<'_>) -> f64 {
         .sum()
 }
 
-/// Storage for one hierarchy: roots, arena and visible-face list.
+/// Storage for one hierarchy: the core's owned-storage layer.
 #[derive(Debug)]
-pub struct Store {
-    roots: Vec<HNode>,
-    arena: Vec<HNode>,
-    vlist: Vec<VEntry>,
-}
+pub struct Store(HierarchyBuffers);
 
 impl Store {
     /// Storage for `tets` roots and an arena of `arena` nodes.
     pub fn new(tets: usize, arena: usize) -> Self {
-        Self {
-            roots: vec![HNode::LEAF; tets],
-            arena: vec![HNode::LEAF; arena],
-            vlist: vec![VEntry::default(); HierarchyStorage::vlist_needed(tets, arena)],
-        }
+        Self(HierarchyBuffers::new(HierarchySizes::new(tets, arena)).expect("storage"))
     }
+
     /// A hierarchy over `mesh` in this storage.
     pub fn hierarchy<'a>(&'a mut self, mesh: &Mesh<'_>) -> Hierarchy<'a> {
-        Hierarchy::new(
-            mesh,
-            HierarchyStorage {
-                roots: &mut self.roots,
-                arena: &mut self.arena,
-                vlist: &mut self.vlist,
-            },
-        )
-        .unwrap()
+        self.0.hierarchy(mesh).expect("hierarchy")
     }
 }
 

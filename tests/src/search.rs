@@ -5,73 +5,32 @@
 use glam::Vec3;
 use tetradrill::owned::OwnedMesh;
 use tetradrill_core::builtin::{block, block_counts};
-use tetradrill_core::drill::{DrillParams, Pending};
+use tetradrill_core::drill::DrillParams;
 use tetradrill_core::force::closest_point_on_triangle;
-use tetradrill_core::hash::{Aabb, HashEntry};
-use tetradrill_core::hierarchy::{FaceRef, HNode, Hierarchy, HierarchyStorage, SphereSlot, VEntry};
+use tetradrill_core::hierarchy::{FaceRef, Hierarchy};
 use tetradrill_core::mesh::{BuildOptions, Mesh};
-use tetradrill_core::servo::{World, WorldSizes, WorldStorage};
+use tetradrill_core::servo::{World, WorldSizes};
+use tetradrill_core::storage::owned::WorldBuffers;
 use tetradrill_core::TetId;
 
-/// Storage for one world.
+/// Storage for one world: the core's owned-storage layer, sized for `tets` tets.
 #[derive(Debug)]
-pub struct Store {
-    /// The spatial hash's cell starts.
-    pub hash_starts: Vec<u32>,
-    /// The spatial hash's entries.
-    pub hash_entries: Vec<HashEntry>,
-    /// The stored tet boxes.
-    pub tet_boxes: Vec<Aabb>,
-    /// The hierarchy's roots.
-    pub roots: Vec<HNode>,
-    /// The hierarchy's arena.
-    pub arena: Vec<HNode>,
-    /// The visible-face list.
-    pub vlist: Vec<VEntry>,
-    /// The drill's pending deque.
-    pub pending: Vec<Pending>,
-    /// The candidate tets.
-    pub candidates: Vec<TetId>,
-    /// The sphere memo.
-    pub sphere_memo: Vec<SphereSlot>,
-}
+pub struct Store(WorldBuffers);
 
 impl Store {
     /// Storage for a world of `tets` tets and an arena of `arena` hierarchy nodes.
     pub fn new(tets: usize, arena: usize) -> Self {
-        let s = WorldSizes::new(tets, arena);
-        Self {
-            hash_starts: vec![0; s.hash_starts],
-            hash_entries: vec![HashEntry::default(); s.hash_entries],
-            tet_boxes: vec![Aabb::point(Vec3::ZERO); s.tet_boxes],
-            roots: vec![HNode::default(); s.roots],
-            arena: vec![HNode::default(); s.arena],
-            vlist: vec![VEntry::default(); s.vlist],
-            pending: vec![Pending::default(); s.pending],
-            candidates: vec![TetId::NONE; s.candidates],
-            sphere_memo: vec![SphereSlot::EMPTY; s.sphere_memo],
-        }
+        Self::sized(WorldSizes::new(tets, arena))
+    }
+
+    /// Storage of `sizes`.
+    pub fn sized(sizes: WorldSizes) -> Self {
+        Self(WorldBuffers::new(sizes).expect("storage"))
     }
 
     /// A world over `mesh` in this storage.
     pub fn world<'a>(&'a mut self, mesh: Mesh<'a>) -> World<'a> {
-        World::new(
-            mesh,
-            WorldStorage {
-                hash_starts: &mut self.hash_starts,
-                hash_entries: &mut self.hash_entries,
-                tet_boxes: &mut self.tet_boxes,
-                hierarchy: HierarchyStorage {
-                    roots: &mut self.roots,
-                    arena: &mut self.arena,
-                    vlist: &mut self.vlist,
-                },
-                pending: &mut self.pending,
-                candidates: &mut self.candidates,
-                sphere_memo: &mut self.sphere_memo,
-            },
-        )
-        .unwrap()
+        self.0.world(mesh).expect("world")
     }
 }
 

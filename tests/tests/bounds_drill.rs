@@ -11,12 +11,12 @@
 
 use tetradrill_core::drill::{Drill, DrillParams, Pending, Sphere, WorkCost};
 use tetradrill_core::force::{ForceParams, ToolState};
-use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::hierarchy::{
-    HNode, Hierarchy, HierarchyError, HierarchyStorage, SphereSlot, VEntry, MAX_DEPTH,
+    Hierarchy, HierarchyError, HierarchySizes, HierarchyStorage, MAX_DEPTH,
 };
 use tetradrill_core::mesh::Mesh;
-use tetradrill_core::servo::{servo_force, ContactState, World, WorldSizes, WorldStorage};
+use tetradrill_core::servo::{servo_force, ContactState, World, WorldSizes};
+use tetradrill_core::storage::owned::{HierarchyBuffers, WorldBuffers};
 use tetradrill_core::{TetId, Vec3};
 use tetradrill_tests::load;
 use tetradrill_tests::oracle::{add, cross, d3, dot, scale, sub, tet_box, D3};
@@ -59,27 +59,16 @@ fn dist_to_triangle(x: Vec3, t: [Vec3; 3]) -> f64 {
 // Refine and erase
 // ------------------------------------------------------------------------------------------
 
-struct HierStore {
-    roots: Vec<HNode>,
-    arena: Vec<HNode>,
-    vlist: Vec<VEntry>,
-}
+/// A hierarchy's storage from the core's owned-storage layer.
+struct HierStore(HierarchyBuffers);
 
 impl HierStore {
     fn new(tets: usize, arena: usize) -> Self {
-        Self {
-            roots: vec![HNode::LEAF; tets],
-            arena: vec![HNode::LEAF; arena],
-            vlist: vec![VEntry::default(); HierarchyStorage::vlist_needed(tets, arena)],
-        }
+        Self(HierarchyBuffers::new(HierarchySizes::new(tets, arena)).expect("storage"))
     }
 
     fn storage(&mut self) -> HierarchyStorage<'_> {
-        HierarchyStorage {
-            roots: &mut self.roots,
-            arena: &mut self.arena,
-            vlist: &mut self.vlist,
-        }
+        self.0.storage().expect("storage")
     }
 }
 
@@ -302,45 +291,16 @@ fn drill_work_stays_within_budget_plus_one_operation() {
 // World::simulate, nearest_visible and servo_force
 // ------------------------------------------------------------------------------------------
 
-struct WorldStore {
-    hash_starts: Vec<u32>,
-    hash_entries: Vec<HashEntry>,
-    tet_boxes: Vec<Aabb>,
-    hier: HierStore,
-    pending: Vec<Pending>,
-    candidates: Vec<TetId>,
-    sphere_memo: Vec<SphereSlot>,
-}
+/// A world's storage from the core's owned-storage layer.
+struct WorldStore(WorldBuffers);
 
 impl WorldStore {
     fn new(s: WorldSizes) -> Self {
-        let mut hier = HierStore::new(s.roots, s.arena);
-        hier.vlist = vec![VEntry::default(); s.vlist];
-        Self {
-            hash_starts: vec![0; s.hash_starts],
-            hash_entries: vec![HashEntry::default(); s.hash_entries],
-            tet_boxes: vec![Aabb::point(Vec3::ZERO); s.tet_boxes],
-            hier,
-            pending: vec![Pending::default(); s.pending],
-            candidates: vec![TetId::NONE; s.candidates],
-            sphere_memo: vec![SphereSlot::EMPTY; s.sphere_memo],
-        }
+        Self(WorldBuffers::new(s).expect("storage"))
     }
 
     fn world<'a>(&'a mut self, mesh: Mesh<'a>) -> World<'a> {
-        World::new(
-            mesh,
-            WorldStorage {
-                hash_starts: &mut self.hash_starts,
-                hash_entries: &mut self.hash_entries,
-                tet_boxes: &mut self.tet_boxes,
-                hierarchy: self.hier.storage(),
-                pending: &mut self.pending,
-                candidates: &mut self.candidates,
-                sphere_memo: &mut self.sphere_memo,
-            },
-        )
-        .expect("world")
+        self.0.world(mesh).expect("world")
     }
 }
 

@@ -13,7 +13,7 @@ use tetradrill_core::force::{closest_point_on_triangle, sphere_contact};
 use tetradrill_core::hash::Aabb;
 use tetradrill_core::hierarchy::{FaceRef, Hierarchy, NearestQuery, SphereMemo, SphereSlot};
 use tetradrill_core::mesh::Mesh;
-use tetradrill_core::servo::World;
+use tetradrill_core::servo::{World, WorldSizes};
 use tetradrill_core::TetId;
 use tetradrill_tests::search::{
     block_mesh, exhaustive, exhaustive_uncut, on_block4, skipped, Store,
@@ -331,10 +331,11 @@ fn candidates_are_the_tets_whose_box_meets_the_zone_with_or_without_stored_boxes
     let mut twin_mesh = block_mesh(5);
     let mesh = om.view();
     let mut st = Store::new(mesh.tet_count(), 1 << 16);
-    let mut bare = Store::new(mesh.tet_count(), 1 << 16);
-    bare.tet_boxes.clear();
-    bare.hash_starts.truncate(bare.hash_starts.len() / 3);
-    bare.sphere_memo.truncate(5);
+    let mut bare_sizes = WorldSizes::new(mesh.tet_count(), 1 << 16);
+    bare_sizes.tet_boxes = 0;
+    bare_sizes.hash_starts /= 3;
+    bare_sizes.sphere_memo = 5;
+    let mut bare = Store::sized(bare_sizes);
     let positions: Vec<[Vec3; 4]> = (0..mesh.tet_count())
         .map(|t| mesh.tet_positions(TetId::from_idx(t)))
         .collect();

@@ -9,7 +9,7 @@ use tetradrill_core::drill::DrillParams;
 use tetradrill_core::hash::Aabb;
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::script::{DEMO, DRILL_ON};
-use tetradrill_core::servo::World;
+use tetradrill_core::servo::{World, WorldSizes};
 use tetradrill_core::TetId;
 use tetradrill_tests::search::Store;
 
@@ -20,9 +20,9 @@ const REACH: f32 = 0.05;
 
 /// Storage with the firmware-cow scenario's candidate list and cell bound.
 fn store(tets: usize) -> Store {
-    let mut st = Store::new(tets, 1 << 17);
-    st.candidates = vec![TetId::NONE; 12_288];
-    st
+    let mut sizes = WorldSizes::new(tets, 1 << 17);
+    sizes.candidates = 12_288;
+    Store::sized(sizes)
 }
 
 fn sizes(w: &mut World<'_>, gather: bool) {

@@ -13,6 +13,7 @@ pub struct NodeGraph<'a> {
 
 /// Why a graph cannot be built.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
 pub enum GraphError {
     /// `offsets` needs `nodes + 1` entries and `adj` twice the edge count ([`graph_sizes`]).
     StorageTooSmall {
@@ -32,6 +33,8 @@ impl core::fmt::Display for GraphError {
         )
     }
 }
+
+impl core::error::Error for GraphError {}
 
 /// `(offsets, adjacency)` lengths [`NodeGraph::build`] needs for `mesh`.
 ///

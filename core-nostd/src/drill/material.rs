@@ -129,6 +129,7 @@ pub const CREDIT_STEPS: f64 = 2.0 * super::DRILL_HOLD_STEPS as f64;
 
 /// Why [`Regions::new`] refused its storage.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
 pub enum RegionError {
     /// No region at all (region 0 is every tet's that names none).
     Empty,
@@ -166,6 +167,8 @@ impl core::fmt::Display for RegionError {
         }
     }
 }
+
+impl core::error::Error for RegionError {}
 
 /// The regions of an object, over caller storage: each region's [`Region`] and each coarse
 /// tet's region index (a leaf takes the region of its root tet). A tet beyond `of_tet` is in

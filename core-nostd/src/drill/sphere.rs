@@ -5,7 +5,8 @@ use glam::Vec3;
 use crate::geom::closest_point_on_triangle;
 
 /// An active sample sphere of the tool (a spherical burr is one sphere at its centre).
-#[derive(Clone, Copy, PartialEq, Debug, Default)]
+#[derive(Clone, Copy, PartialEq, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub struct Sphere {
     /// Centre.
     pub center: Vec3,

@@ -19,7 +19,8 @@ use crate::mesh::Mesh;
 /// One unit of pending work: a node of a tree, against the sphere it was queued for, with the
 /// node's integer barycentric coordinates in its root (so processing it costs no walk from the
 /// root). 64 bytes (pinned at compile time).
-#[derive(Clone, Copy, PartialEq, Debug, Default)]
+#[derive(Clone, Copy, PartialEq, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub struct Pending {
     /// The coarse tet.
     pub tet: TetId,
@@ -31,14 +32,15 @@ pub struct Pending {
     /// The sphere, as it was when the work was queued (so the removed shape converges to the
     /// swept volume even when the work finishes ticks later).
     pub sphere: Sphere,
+    /// [`epoch_of`] the hierarchy when the item was queued: while [`Hierarchy::reclaimed`]
+    /// still equals it, no block has been taken back since and `node` is still the node it
+    /// was; otherwise the node is looked up again by `(tet, index)`. Placed before `bary`,
+    /// it fills what would be padding.
+    epoch: u32,
     /// The node's corners as integer barycentric coordinates of its root's, scaled by
     /// `2^depth`: one `u64` per corner holding four 16-bit weights (each at most
     /// `2^MAX_DEPTH` = 1024, so a child's row is one `u64` addition of two parent rows).
     bary: [u64; 4],
-    /// [`epoch_of`] the hierarchy when the item was queued: while [`Hierarchy::reclaimed`]
-    /// still equals it, no block has been taken back since and `node` is still the node it
-    /// was; otherwise the node is looked up again by `(tet, index)`. Fills what was padding.
-    epoch: u32,
 }
 
 /// The epoch an item queued now records: [`Hierarchy::reclaimed`], but never `u32::MAX`,

@@ -99,7 +99,8 @@ fn is_prime(n: u32) -> bool {
 }
 
 /// An axis-aligned box.
-#[derive(Clone, Copy, PartialEq, Debug)]
+#[derive(Clone, Copy, PartialEq, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub struct Aabb {
     /// Smallest corner.
     pub min: Vec3,

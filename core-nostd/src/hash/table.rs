@@ -5,7 +5,8 @@ use glam::Vec3;
 use super::cell::{bucket_of, cell_of, same_cell, Aabb, Cell};
 
 /// One stored item in one cell.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub struct HashEntry {
     /// The cell the item was put in (checked on every query).
     pub cell: Cell,

@@ -15,7 +15,8 @@ use crate::ids::TetId;
 
 /// One remembered sphere (24 bytes; all zero bytes when empty, so a static array of them
 /// needs no initial data).
-#[derive(Clone, Copy, PartialEq, Debug)]
+#[derive(Clone, Copy, PartialEq, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub struct SphereSlot {
     /// The tet's number plus one (0: empty).
     tet1: u32,

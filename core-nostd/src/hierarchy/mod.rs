@@ -58,7 +58,7 @@ pub use memo::{SphereMemo, SphereSlot};
 pub use nearest::{keep_face, FaceRef, Kept, Nearest, NearestCursor, NearestQuery, KEEP};
 pub use node::{HNode, VEntry, MAX_BLOCKS, NODE_BYTES, NO_BLOCK, NO_SLOT};
 pub use ops::OpReport;
-pub use store::{Hierarchy, HierarchyError, HierarchyStats, HierarchyStorage};
+pub use store::{Hierarchy, HierarchyError, HierarchySizes, HierarchyStats, HierarchyStorage};
 pub use surface::{Leaf, VisibleTri};
 pub use table::{Path, MAX_DEPTH};
 

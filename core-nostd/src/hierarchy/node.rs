@@ -30,7 +30,7 @@ const HOLLOW: u32 = 1 << 31;
 /// non-erased leaves with a visible face plus one, 0 when not there; an erased leaf is never
 /// on the v_list, so its `slot` word is spare: the arena's list of reclaimable blocks is
 /// threaded through the spare words of the blocks' own erased leaves.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub struct HNode {
     word: u32,
@@ -186,7 +186,7 @@ impl HNode {
 }
 
 /// One v_list entry: a non-erased leaf with at least one visible face. 12 bytes.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub struct VEntry {
     /// The coarse tet whose tree holds the leaf.

@@ -4,6 +4,7 @@ use super::node::{HNode, VEntry, MAX_BLOCKS, NO_SLOT};
 use super::table::{Path, MAX_DEPTH};
 use crate::ids::TetId;
 use crate::mesh::Mesh;
+use crate::storage::{carve, lines_of, Memory, Part, PartSet, Slots, StorageError};
 
 /// Storage for a [`Hierarchy`], handed in by the caller. Lengths are capacities.
 #[derive(Debug)]
@@ -19,16 +20,72 @@ pub struct HierarchyStorage<'a> {
     pub vlist: &'a mut [VEntry],
 }
 
-impl HierarchyStorage<'_> {
+impl<'a> HierarchyStorage<'a> {
     /// v_list entries needed for `tets` coarse tets and an arena of `arena` nodes: the most
     /// non-erased leaves there can be (each block of 8 turns one leaf into eight).
     pub const fn vlist_needed(tets: usize, arena: usize) -> usize {
         tets + 7 * (arena / 8)
     }
+
+    /// Carves the roots, arena and v_list of `sizes` from `mem`, every node a fresh leaf:
+    /// the one way a hierarchy's storage is made (inside a world's too).
+    ///
+    /// # Bounded work
+    /// O(bytes of `sizes`): every slot is written.
+    ///
+    /// # Errors
+    /// [`StorageError`] naming the first part the memory could not hold.
+    pub fn carve(sizes: &HierarchySizes, mem: &mut impl Memory<'a>) -> Result<Self, StorageError> {
+        Ok(Self {
+            roots: carve(mem, Part::Roots, sizes.roots, HNode::default())?,
+            arena: carve(mem, Part::Arena, sizes.arena, HNode::default())?,
+            vlist: carve(mem, Part::VList, sizes.vlist, VEntry::default())?,
+        })
+    }
+}
+
+/// Storage sizes of a [`Hierarchy`]: root slots, arena nodes, v_list entries.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct HierarchySizes {
+    /// Root slots (one per coarse tet).
+    pub roots: usize,
+    /// Arena nodes (a multiple of 8).
+    pub arena: usize,
+    /// v_list entries ([`HierarchyStorage::vlist_needed`]).
+    pub vlist: usize,
+}
+
+impl HierarchySizes {
+    /// Sizes for `tets` coarse tets and an arena of about `arena` nodes (rounded down to a
+    /// block of 8), with the v_list they need.
+    pub const fn new(tets: usize, arena: usize) -> Self {
+        let arena = arena / 8 * 8;
+        Self {
+            roots: tets,
+            arena,
+            vlist: HierarchyStorage::vlist_needed(tets, arena),
+        }
+    }
+
+    /// The slices of a [`HierarchyStorage`], in the order [`HierarchyStorage::carve`] takes
+    /// them.
+    pub const fn parts(&self) -> [Slots; 3] {
+        [
+            Slots::of::<HNode>(Part::Roots, self.roots),
+            Slots::of::<HNode>(Part::Arena, self.arena),
+            Slots::of::<VEntry>(Part::VList, self.vlist),
+        ]
+    }
+
+    /// The [`crate::storage::Line`]s a block starting on a line needs for these sizes.
+    pub const fn lines(&self) -> Option<usize> {
+        lines_of(&self.parts(), PartSet::EMPTY, false)
+    }
 }
 
 /// Why a hierarchy could not be created, or an operation was refused.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
 pub enum HierarchyError {
     /// A storage slice is too short: `what` names it.
     StorageTooSmall {
@@ -49,6 +106,8 @@ pub enum HierarchyError {
     Full,
     /// [`Hierarchy::validate`] found a broken invariant (named).
     Invalid(&'static str),
+    /// The memory could not hold the hierarchy's storage ([`HierarchyStorage::carve`]).
+    Storage(StorageError),
 }
 
 impl core::fmt::Display for HierarchyError {
@@ -66,9 +125,12 @@ impl core::fmt::Display for HierarchyError {
             Self::TooDeep => write!(f, "the node is at the deepest level"),
             Self::Full => write!(f, "the hierarchy arena is full"),
             Self::Invalid(what) => write!(f, "hierarchy invariant broken: {what}"),
+            Self::Storage(e) => write!(f, "{e}"),
         }
     }
 }
+
+impl core::error::Error for HierarchyError {}
 
 /// Counters kept by a [`Hierarchy`].
 #[derive(Clone, Copy, PartialEq, Debug, Default)]

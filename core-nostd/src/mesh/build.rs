@@ -69,6 +69,7 @@ pub struct BuildStats {
 /// Why a tet list could not become a mesh. Each names the first offending tet or node, by its
 /// index in the input.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
 pub enum BuildError {
     /// A storage slice is shorter than the counts need: `what` names it.
     StorageTooSmall {
@@ -138,6 +139,8 @@ impl core::fmt::Display for BuildError {
         }
     }
 }
+
+impl core::error::Error for BuildError {}
 
 /// Storage for one mesh, handed in by the caller. Lengths are capacities: `nodes` and
 /// `normals` need at least one entry per node, `tets` one per tet.

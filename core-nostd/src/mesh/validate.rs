@@ -8,6 +8,7 @@ use crate::ids::{NodeId, TetId};
 
 /// The first broken invariant [`Mesh::validate`] found.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
 pub enum ValidationError {
     /// A tet names a node that does not exist.
     NodeOutOfRange(TetId),
@@ -45,6 +46,8 @@ impl core::fmt::Display for ValidationError {
         }
     }
 }
+
+impl core::error::Error for ValidationError {}
 
 impl Mesh<'_> {
     /// Checks every invariant: node ids in range and distinct per tet, positive volumes,

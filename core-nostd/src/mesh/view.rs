@@ -15,6 +15,7 @@ use crate::ids::{NodeId, TetId};
 
 /// Why bytes were refused as tet records.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum TetViewError {
     /// The length is not a whole number of records, or the tets or nodes do not fit `u32`
     /// ids.
@@ -42,6 +43,8 @@ impl core::fmt::Display for TetViewError {
         }
     }
 }
+
+impl core::error::Error for TetViewError {}
 
 /// Checked tet records read in place: record `t` is bytes `36 t .. 36 t + 36`, laid out as
 /// [`Tet::to_le_bytes`] writes it.

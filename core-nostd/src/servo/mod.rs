@@ -27,12 +27,10 @@
 use glam::Vec3;
 
 use crate::collide::ZoneGather;
-use crate::drill::{Drill, DrillReport, Material, Pending, Regions, Spacing};
+use crate::drill::{Drill, DrillReport, Material, Regions, Spacing};
 pub use crate::drill::{DRILL_HOLD_STEPS, DRILL_SETTLE, DRILL_SPACING, MAX_STEP_SPHERES};
-use crate::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, HashError, SpatialHash};
-use crate::hierarchy::{
-    Hierarchy, HierarchyError, HierarchyStorage, Kept, NearestCursor, SphereMemo, SphereSlot,
-};
+use crate::hash::{average_edge_length, prime_at_most, Aabb, HashError, SpatialHash};
+use crate::hierarchy::{Hierarchy, HierarchyError, Kept, NearestCursor, SphereMemo};
 use crate::ids::TetId;
 use crate::mesh::Mesh;
 
@@ -40,6 +38,7 @@ mod deform;
 mod force;
 mod passive;
 mod simulate;
+mod sizes;
 #[cfg(test)]
 mod tests;
 mod zone_memo;
@@ -50,100 +49,11 @@ pub use deform::{
 };
 pub use force::servo_force;
 pub use passive::{drill_force, DrillState, PassiveReport};
-
-/// Storage for a [`World`], handed in by the caller; [`WorldSizes`] says how much.
-#[derive(Debug)]
-pub struct WorldStorage<'a> {
-    /// Bucket offsets of the tet hash (`buckets + 1`, the bucket count prime).
-    pub hash_starts: &'a mut [u32],
-    /// Entries of the tet hash (one per tet and overlapped cell).
-    pub hash_entries: &'a mut [HashEntry],
-    /// Each tet's bounding box, filled by [`World::new`] and [`World::set_positions`] (one per
-    /// tet; a tet beyond the slice has its box made from its corners each time it is needed,
-    /// the same box).
-    pub tet_boxes: &'a mut [Aabb],
-    /// The hierarchy's roots, arena and v_list.
-    pub hierarchy: HierarchyStorage<'a>,
-    /// The drill's pending-work deque.
-    pub pending: &'a mut [Pending],
-    /// Candidate coarse tets near the tool, refilled each simulation step.
-    pub candidates: &'a mut [TetId],
-    /// The contact search's memo of node bounding spheres ([`SphereMemo`], 24 bytes a slot;
-    /// empty: none). It saves work, never changes a result.
-    pub sphere_memo: &'a mut [SphereSlot],
-}
-
-/// Storage sizes for a [`World`] over a mesh of `tets` tets.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub struct WorldSizes {
-    /// `hash_starts` length.
-    pub hash_starts: usize,
-    /// `hash_entries` length.
-    pub hash_entries: usize,
-    /// `tet_boxes` length (24 bytes each).
-    pub tet_boxes: usize,
-    /// Hierarchy root slots.
-    pub roots: usize,
-    /// Hierarchy arena nodes.
-    pub arena: usize,
-    /// v_list entries.
-    pub vlist: usize,
-    /// Pending drill work items.
-    pub pending: usize,
-    /// Candidate tets near the tool.
-    pub candidates: usize,
-    /// `sphere_memo` slots.
-    pub sphere_memo: usize,
-}
-
-/// Default capacity of the drill's pending deque: the demo path (`builtin:demo`, burr 0.1 on
-/// `builtin:block:8`, max depth 5) peaked at about 22,400 items with the budget of the time
-/// (docs/DRILLING.md), and runs free of saturations at today's default and at every budget
-/// from 4,000 to 32,000 units, so 32,768 (64 bytes each, 2.0 MB). A board with little RAM
-/// sizes it with [`WorldSizes::with_pending`] (the firmware's scenario peaks under 2,000).
-pub const DEFAULT_PENDING: usize = 1 << 15;
-
-/// Default size of the contact search's [`SphereMemo`]: 4,096 slots (96 KB).
-pub const DEFAULT_SPHERE_MEMO: usize = 1 << 12;
-
-impl WorldSizes {
-    /// Sizes for `tets` coarse tets and an arena of `arena` hierarchy nodes. The hash gets about
-    /// two buckets per tet and eight entries per tet (a tet's box covers one to eight cells of
-    /// an average edge length; slivers more, and a full table is counted, not fatal); the
-    /// pending deque gets [`DEFAULT_PENDING`] entries.
-    pub const fn new(tets: usize, arena: usize) -> Self {
-        let arena = arena / 8 * 8;
-        Self {
-            hash_starts: 2 * tets + 2,
-            hash_entries: 8 * tets,
-            tet_boxes: tets,
-            roots: tets,
-            arena,
-            vlist: HierarchyStorage::vlist_needed(tets, arena),
-            pending: DEFAULT_PENDING,
-            candidates: 1024,
-            sphere_memo: DEFAULT_SPHERE_MEMO,
-        }
-    }
-
-    /// The same sizes with a pending deque of `pending` entries. A deque that never fills
-    /// gives the same results whatever its capacity.
-    pub const fn with_pending(self, pending: usize) -> Self {
-        Self { pending, ..self }
-    }
-
-    /// The same sizes with a sphere memo of `slots` slots (any size, zero included, gives the
-    /// same results).
-    pub const fn with_sphere_memo(self, slots: usize) -> Self {
-        Self {
-            sphere_memo: slots,
-            ..self
-        }
-    }
-}
+pub use sizes::{carve_rest, WorldSizes, WorldStorage, DEFAULT_PENDING, DEFAULT_SPHERE_MEMO};
 
 /// Why a [`World`] could not be made.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
 pub enum WorldError {
     /// The spatial hash refused its storage or cell size.
     Hash(HashError),
@@ -151,6 +61,11 @@ pub enum WorldError {
     Hierarchy(HierarchyError),
     /// The region table refused its storage ([`Regions::new`]).
     Regions(crate::drill::RegionError),
+    /// The memory could not hold the world's storage ([`WorldStorage::carve`]).
+    Storage(crate::storage::StorageError),
+    /// The deformation storage was refused ([`World::enable_deformation`],
+    /// [`World::set_spare`]).
+    Deform(DeformError),
 }
 
 impl core::fmt::Display for WorldError {
@@ -159,9 +74,13 @@ impl core::fmt::Display for WorldError {
             Self::Hash(e) => write!(f, "{e}"),
             Self::Hierarchy(e) => write!(f, "{e}"),
             Self::Regions(e) => write!(f, "{e}"),
+            Self::Storage(e) => write!(f, "{e}"),
+            Self::Deform(e) => write!(f, "{e}"),
         }
     }
 }
+
+impl core::error::Error for WorldError {}
 
 /// The contact of the tool with the drilled surface, as the last simulation step saw it: the
 /// closest surface point and the outward normal there (a plane the servo extrapolates with).
@@ -306,15 +225,11 @@ impl<'a> World<'a> {
     /// every tet is not an error: the first tets that fit are kept and `saturations().hash`
     /// says so.
     pub fn new(mesh: Mesh<'a>, storage: WorldStorage<'a>) -> Result<Self, WorldError> {
-        let WorldStorage {
-            hash_starts,
-            hash_entries,
-            tet_boxes,
-            hierarchy,
-            pending,
-            candidates,
-            sphere_memo,
-        } = storage;
+        let hash_starts = storage.hash_starts;
+        let hash_entries = storage.hash_entries;
+        let tet_boxes = storage.tet_boxes;
+        let (hierarchy, pending) = (storage.hierarchy, storage.pending);
+        let (candidates, sphere_memo) = (storage.candidates, storage.sphere_memo);
         let buckets =
             prime_at_most((hash_starts.len().saturating_sub(1)).min(u32::MAX as usize) as u32);
         let starts_len = (buckets as usize + 1).min(hash_starts.len());

@@ -21,7 +21,7 @@
 
 static float positions[3 * NODES];
 static uint32_t tet_nodes[4 * TETS];
-static uint8_t world_mem[WORLD_BYTES] __attribute__((aligned(16)));
+static uint8_t world_mem[WORLD_BYTES] __attribute__((aligned(64)));
 
 /* Prints `name=`, `v` in decimal and a newline. */
 static void put_u32(const char *name, uint32_t v) {
@@ -98,7 +98,7 @@ int main(void) {
     if (failed(td_world_size(&p, &size, &align), "td_world_size"))
         return 1;
     put_u32("world_bytes", (uint32_t)size);
-    if (size > sizeof world_mem || align > 16) {
+    if (size > sizeof world_mem || align > 64) {
         sh_puts("error: the static world buffer is too small for this scenario\n");
         return 1;
     }

@@ -608,7 +608,7 @@ fn soft_owned(
     let Some(spec) = spec else {
         return Ok(None);
     };
-    store.enable_deformation();
+    store.enable_deformation()?;
     let mut owned = store.soft_owned();
     owned.set_regions(labels, spec)?;
     Ok(Some(owned))

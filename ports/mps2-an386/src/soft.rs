@@ -7,7 +7,7 @@ use core::sync::atomic::Ordering;
 
 use cortex_m_semihosting::hprintln;
 
-use tetradrill_core::servo::{SpareStorage, World};
+use tetradrill_core::servo::World;
 use tetradrill_core::soft::SoftStorage;
 use tetradrill_core::soft::{mesh_tets, Link, LinkBuffers, SoftBody, SoftMesh, SoftParams};
 use tetradrill_core::Vec3;
@@ -56,12 +56,7 @@ impl SoftSim {
         let tets: &'static [[u32; 4]] = st.tets;
         if world.enable_deformation(st.world_rest).is_err()
             || world
-                .set_spare(SpareStorage {
-                    hash_starts: st.spare_starts,
-                    hash_entries: st.spare_entries,
-                    tet_boxes: st.spare_boxes,
-                    normals: st.spare_normals,
-                })
+                .set_spare(st.spare)
                 .is_err()
         {
             crate::fail("the world refused its soft storage");

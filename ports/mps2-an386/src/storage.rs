@@ -5,21 +5,22 @@
 //! deque peaks at 9,358 items and never fills; the results are the same bits either way.
 //!
 //! Each array is a `static_cell::ConstStaticCell`: const-initialised, handed out once as
-//! `&'static mut` with no `unsafe` here. Arrays whose const initial value is all zero bytes
-//! land in `.bss` (no flash); the ones whose initial value the host sets to something else
-//! are refilled with the core's `Default` at start-up, so both sides start from the same
-//! bits. The hierarchy nodes start as `HNode::LEAF` and the sphere memo as `SphereSlot::EMPTY`,
-//! both all zero bytes: `.bss` too.
+//! `&'static mut` with no `unsafe` here. The world's storage is one array of 64-byte lines
+//! (two on the cow: the hash entries and the pending deque in PSRAM), carved at start-up by
+//! the core's `WorldStorage::carve`, the one layout every host, test and C program shares,
+//! which writes every slot's starting value (the memory may hold anything before). The mesh's
+//! arrays whose const initial value is all zero bytes land in `.bss` (no flash); the ones whose
+//! initial value the host sets to something else are refilled with the core's `Default` at
+//! start-up, so both sides start from the same bits.
 
 use static_cell::ConstStaticCell;
 
 use tetradrill_core::builtin::block_counts;
 use tetradrill_core::builtin::{block_labels, BLOCK_CORE, BLOCK_SHELL};
-use tetradrill_core::drill::{Pending, Region, Regions};
-use tetradrill_core::hash::{Aabb, HashEntry};
-use tetradrill_core::hierarchy::{HNode, HierarchyStorage, SphereSlot, VEntry};
+use tetradrill_core::drill::{Region, Regions};
 use tetradrill_core::mesh::{MeshStorage, Node, Reverse, Tet};
 use tetradrill_core::servo::{WorldSizes, WorldStorage};
+use tetradrill_core::storage::{Block, Line, Part, PartSet, Split};
 use tetradrill_core::{NodeId, TetId, Vec3};
 
 use crate::scenario::{self, ARENA, PENDING_ITEMS};
@@ -55,6 +56,24 @@ pub const SIZES: WorldSizes = {
     s
 };
 
+/// The parts in PSRAM: on the cow the hash (8 entries a tet, 2.3 MB) and the pending deque;
+/// none elsewhere.
+pub const PSRAM_PARTS: PartSet = if cfg!(scenario_cow) {
+    PartSet::EMPTY.with(Part::HashEntries).with(Part::Pending)
+} else {
+    PartSet::EMPTY
+};
+
+/// Lines of the world's storage in RAM and in PSRAM.
+const WORLD_LINES: usize = match SIZES.lines_in(PSRAM_PARTS, false) {
+    Some(n) => n,
+    None => panic!("the world's sizes overflow"),
+};
+const PSRAM_LINES: usize = match SIZES.lines_in(PSRAM_PARTS, true) {
+    Some(n) => n,
+    None => panic!("the world's sizes overflow"),
+};
+
 // All-zero placeholders (so the statics go to .bss); see `Storage::take`.
 const ZERO_NODE: Node = Node {
     tet: TetId(0),
@@ -66,43 +85,16 @@ const ZERO_TET: Tet = Tet {
     neighbours: [TetId(0); 4],
     reverse: [Reverse(0); 4],
 };
-const ZERO_ENTRY: HashEntry = HashEntry::EMPTY;
-const ZERO_BOX: Aabb = Aabb {
-    min: Vec3::ZERO,
-    max: Vec3::ZERO,
-};
-const ZERO_VENTRY: VEntry = VEntry {
-    tet: TetId(0),
-    index: 0,
-    node: 0,
-};
-const ZERO_PENDING: Pending = Pending::EMPTY;
-
 static POSITIONS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
 static NORMALS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
 static NODE_RECS: ConstStaticCell<[Node; NODES]> = ConstStaticCell::new([ZERO_NODE; NODES]);
 static TET_RECS: ConstStaticCell<[Tet; RAM_TETS]> = ConstStaticCell::new([ZERO_TET; RAM_TETS]);
-static HASH_STARTS: ConstStaticCell<[u32; SIZES.hash_starts]> =
-    ConstStaticCell::new([0; SIZES.hash_starts]);
-// On the cow the hash (8 entries a tet, 2.3 MB) and the pending deque live in PSRAM.
-#[cfg_attr(scenario_cow, link_section = ".psram.hash_entries")]
-static HASH_ENTRIES: ConstStaticCell<[HashEntry; SIZES.hash_entries]> =
-    ConstStaticCell::new([ZERO_ENTRY; SIZES.hash_entries]);
-static TET_BOXES: ConstStaticCell<[Aabb; SIZES.tet_boxes]> =
-    ConstStaticCell::new([ZERO_BOX; SIZES.tet_boxes]);
-static ROOTS: ConstStaticCell<[HNode; SIZES.roots]> =
-    ConstStaticCell::new([HNode::LEAF; SIZES.roots]);
-static ARENA_NODES: ConstStaticCell<[HNode; SIZES.arena]> =
-    ConstStaticCell::new([HNode::LEAF; SIZES.arena]);
-static VLIST: ConstStaticCell<[VEntry; SIZES.vlist]> =
-    ConstStaticCell::new([ZERO_VENTRY; SIZES.vlist]);
-#[cfg_attr(scenario_cow, link_section = ".psram.pending")]
-static PENDING: ConstStaticCell<[Pending; SIZES.pending]> =
-    ConstStaticCell::new([ZERO_PENDING; SIZES.pending]);
-static CANDIDATES: ConstStaticCell<[TetId; SIZES.candidates]> =
-    ConstStaticCell::new([TetId(0); SIZES.candidates]);
-static SPHERE_MEMO: ConstStaticCell<[SphereSlot; SIZES.sphere_memo]> =
-    ConstStaticCell::new([SphereSlot::EMPTY; SIZES.sphere_memo]);
+static WORLD: ConstStaticCell<[Line; WORLD_LINES]> =
+    ConstStaticCell::new([Line::ZERO; WORLD_LINES]);
+// NOLOAD: its contents at reset do not matter, every slot is written by the carve.
+#[cfg_attr(scenario_cow, link_section = ".psram.world")]
+static WORLD_PSRAM: ConstStaticCell<[Line; PSRAM_LINES]> =
+    ConstStaticCell::new([Line::ZERO; PSRAM_LINES]);
 /// The materials of `builtin:firmware-regions`, in label order (the shell, then the core).
 #[cfg(not(scenario_tooth))]
 static REGIONS: ConstStaticCell<[Region; 2]> =
@@ -141,14 +133,14 @@ impl Storage {
         nodes.fill(Node::default());
         let tets = TET_RECS.take();
         tets.fill(Tet::default());
-        let vlist = VLIST.take();
-        vlist.fill(VEntry::default());
-        let candidates = CANDIDATES.take();
-        candidates.fill(TetId::NONE);
-        let entries = HASH_ENTRIES.take();
-        entries.fill(HashEntry::default());
-        let pending = PENDING.take();
-        pending.fill(Pending::default());
+        let mut world = Split {
+            a: Block::from_lines(WORLD.take()),
+            b: Block::from_lines(WORLD_PSRAM.take()),
+            second: PSRAM_PARTS,
+        };
+        let Ok(world) = WorldStorage::carve(&SIZES, &mut world) else {
+            panic!("the world's statics do not hold its sizes");
+        };
         Self {
             positions: POSITIONS.take(),
             mesh: MeshStorage {
@@ -156,19 +148,7 @@ impl Storage {
                 normals: NORMALS.take(),
                 tets,
             },
-            world: WorldStorage {
-                hash_starts: HASH_STARTS.take(),
-                hash_entries: entries,
-                tet_boxes: TET_BOXES.take(),
-                hierarchy: HierarchyStorage {
-                    roots: ROOTS.take(),
-                    arena: ARENA_NODES.take(),
-                    vlist,
-                },
-                pending,
-                candidates,
-                sphere_memo: SPHERE_MEMO.take(),
-            },
+            world,
             regions: REGIONS.take(),
             tet_region: TET_REGION.take(),
         }
@@ -203,11 +183,18 @@ pub fn regions(
 pub mod soft {
     use static_cell::ConstStaticCell;
 
-    use tetradrill_core::hash::{Aabb, HashEntry};
+    use tetradrill_core::servo::{carve_rest, SpareStorage};
     use tetradrill_core::soft::TetRest;
+    use tetradrill_core::storage::{Block, Line};
     use tetradrill_core::Vec3;
 
-    use super::{NODES, SIZES, TETS, ZERO_BOX, ZERO_ENTRY};
+    use super::{NODES, SIZES, TETS};
+
+    /// Lines of the world's spare tables and rest positions.
+    const DEFORM_LINES: usize = match SIZES.deform_lines(NODES) {
+        Some(n) => n,
+        None => panic!("the spare tables' sizes overflow"),
+    };
 
     const ZERO_REST: TetRest = TetRest::ZERO;
 
@@ -220,15 +207,9 @@ pub mod soft {
     static INV_MASS: ConstStaticCell<[f32; NODES]> = ConstStaticCell::new([0.0; NODES]);
     static TET_REST: ConstStaticCell<[TetRest; TETS]> = ConstStaticCell::new([ZERO_REST; TETS]);
     static LAMBDAS: ConstStaticCell<[[f32; 2]; TETS]> = ConstStaticCell::new([[0.0; 2]; TETS]);
-    static WORLD_REST: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
-    static SPARE_STARTS: ConstStaticCell<[u32; SIZES.hash_starts]> =
-        ConstStaticCell::new([0; SIZES.hash_starts]);
-    static SPARE_ENTRIES: ConstStaticCell<[HashEntry; SIZES.hash_entries]> =
-        ConstStaticCell::new([ZERO_ENTRY; SIZES.hash_entries]);
-    static SPARE_BOXES: ConstStaticCell<[Aabb; SIZES.tet_boxes]> =
-        ConstStaticCell::new([ZERO_BOX; SIZES.tet_boxes]);
-    static SPARE_NORMALS: ConstStaticCell<[Vec3; NODES]> =
-        ConstStaticCell::new([Vec3::ZERO; NODES]);
+    /// The world's spare tables and rest positions, carved by the core's layout.
+    static DEFORM: ConstStaticCell<[Line; DEFORM_LINES]> =
+        ConstStaticCell::new([Line::ZERO; DEFORM_LINES]);
     static LOAD_A: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
     static LOAD_B: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
     static NEXT: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
@@ -255,14 +236,8 @@ pub mod soft {
         pub lambdas: &'static mut [[f32; 2]],
         /// The world's rest state (`World::enable_deformation`).
         pub world_rest: &'static mut [Vec3],
-        /// `SpareStorage::hash_starts`.
-        pub spare_starts: &'static mut [u32],
-        /// `SpareStorage::hash_entries`.
-        pub spare_entries: &'static mut [HashEntry],
-        /// `SpareStorage::tet_boxes`.
-        pub spare_boxes: &'static mut [Aabb],
-        /// `SpareStorage::normals`.
-        pub spare_normals: &'static mut [Vec3],
+        /// The world's spare tables (`World::set_spare`).
+        pub spare: SpareStorage<'static>,
         /// `LinkBuffers::a`.
         pub load_a: &'static mut [Vec3],
         /// `LinkBuffers::b`.
@@ -271,11 +246,17 @@ pub mod soft {
         pub next: &'static mut [Vec3],
     }
 
-    /// Takes every soft static (panics, exit status 1, if called twice). The hash entries are
-    /// refilled with the core's `Default`, as the host's spare starts.
+    /// Takes every soft static (panics, exit status 1, if called twice). The spare tables and
+    /// rest positions are carved by the core's layout, every slot at its starting value, as
+    /// the host's.
     pub fn take() -> SoftStatics {
-        let spare_entries = SPARE_ENTRIES.take();
-        spare_entries.fill(HashEntry::default());
+        let mut deform = Block::from_lines(DEFORM.take());
+        let (Ok(spare), Ok(world_rest)) = (
+            SpareStorage::carve(&SIZES, NODES, &mut deform),
+            carve_rest(NODES, &mut deform),
+        ) else {
+            panic!("the spare statics do not hold the world's sizes");
+        };
         SoftStatics {
             rest: REST.take(),
             tets: TET_NODES.take(),
@@ -286,11 +267,8 @@ pub mod soft {
             inv_mass: INV_MASS.take(),
             tet_rest: TET_REST.take(),
             lambdas: LAMBDAS.take(),
-            world_rest: WORLD_REST.take(),
-            spare_starts: SPARE_STARTS.take(),
-            spare_entries,
-            spare_boxes: SPARE_BOXES.take(),
-            spare_normals: SPARE_NORMALS.take(),
+            world_rest,
+            spare,
             load_a: LOAD_A.take(),
             load_b: LOAD_B.take(),
             next: NEXT.take(),

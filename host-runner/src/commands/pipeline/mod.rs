@@ -132,7 +132,7 @@ pub fn run(
     store.set_labels(&loaded.labels, sc)?;
     let mut soft_owned = match soft.as_ref() {
         Some(spec) => {
-            store.enable_deformation();
+            store.enable_deformation()?;
             let mut owned = store.soft_owned();
             owned.set_regions(&loaded.labels, spec)?;
             Some(owned)
