@@ -28,6 +28,9 @@ mod occupancy;
 mod occupancy_tests;
 mod points;
 mod rigid;
+mod rigid_locate;
+mod rigid_near;
+mod rigid_search;
 #[cfg(test)]
 mod rigid_tests;
 pub mod teschner;
@@ -46,10 +49,9 @@ pub use points::{
     hash_tets, points_in_tets, points_in_tets_coherent, points_in_tets_occupied,
     points_in_tets_walked, walk_to_holder, walks_exact, WalkStarts, WALK_MARGIN, WALK_MAX_SHAPE,
 };
-pub use rigid::{
-    rigid_tets_over_points_coherent, NearClusters, RigidError, RigidTets, RigidTetsStorage,
-    MAX_NEAR_CLUSTERS,
-};
+pub use rigid::{RigidError, RigidTets, RigidTetsStorage};
+pub use rigid_near::{NearClusters, MAX_NEAR_CLUSTERS};
+pub use rigid_search::rigid_tets_over_points_coherent;
 pub use teschner::{tets_over_points, tets_over_points_coherent, MAX_CELLS_PER_TET};
 pub use zone::{ZoneGather, ZoneList, ZONE_MARGIN_RADII};
 

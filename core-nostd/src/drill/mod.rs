@@ -16,10 +16,12 @@ mod candidates;
 mod cost;
 mod crumbs;
 mod deque;
+mod item;
 mod material;
 mod spacing;
 mod sphere;
 mod step;
+mod swept;
 
 pub use candidates::candidates_brute_force;
 pub use cost::{DrillParams, WorkCost};
@@ -27,7 +29,8 @@ pub use deque::FINE_MIN_DEQUE;
 pub use material::{Material, Region, RegionError, Regions, Spend, CREDIT_STEPS};
 pub use spacing::{Spacing, DRILL_HOLD_STEPS, DRILL_SETTLE, DRILL_SPACING, MAX_STEP_SPHERES};
 pub use sphere::{classify, Class, Sphere};
-pub use step::{Drill, DrillReport, Pending, CRUMB_SHARE, DEFER_LAG, SWEPT, SWEPT_AHEAD};
+pub use step::{Drill, DrillReport, Pending, CRUMB_SHARE, DEFER_LAG};
+pub use swept::{SWEPT, SWEPT_AHEAD};
 
 #[cfg(test)]
 mod tests;

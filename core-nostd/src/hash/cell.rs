@@ -1,4 +1,4 @@
-//! Cells, the hash function, bounding boxes and the cell-size helper.
+//! Cells and cell ranges, the hash function, bounding boxes and the cell-size helper.
 
 use glam::Vec3;
 
@@ -53,6 +53,38 @@ pub fn floor_i32(v: f32) -> i32 {
         i.saturating_sub(1)
     } else {
         i
+    }
+}
+
+/// Number of cells in an inclusive range (0 for an inverted one).
+#[inline]
+pub(crate) fn cells_in(lo: Cell, hi: Cell) -> u64 {
+    let mut n = 1u64;
+    for a in 0..3 {
+        let d = hi[a] as i64 - lo[a] as i64 + 1;
+        if d <= 0 {
+            return 0;
+        }
+        n = n.saturating_mul(d as u64);
+    }
+    n
+}
+
+/// Visits every cell of an inclusive range, x fastest.
+#[inline]
+pub(crate) fn for_cells<F: FnMut(Cell)>(lo: Cell, hi: Cell, mut f: F) {
+    let mut k = lo[2] as i64;
+    while k <= hi[2] as i64 {
+        let mut j = lo[1] as i64;
+        while j <= hi[1] as i64 {
+            let mut i = lo[0] as i64;
+            while i <= hi[0] as i64 {
+                f([i as i32, j as i32, k as i32]);
+                i += 1;
+            }
+            j += 1;
+        }
+        k += 1;
     }
 }
 

@@ -16,12 +16,12 @@
 //! their bounding boxes (Teschner's original order).
 
 mod cell;
+mod query;
+mod rebuild;
 mod table;
 
+pub(crate) use cell::cells_in;
 pub(crate) use cell::floor_i32;
 pub use cell::{average_edge_length, bucket_of, cell_of, prime_at_most, Aabb, Cell};
-pub(crate) use table::cells_in;
-pub use table::{
-    HashEntry, HashError, HashStats, RebuildCursor, Rebuilt, SpatialHash, ITEM_BITS, MAX_ITEMS,
-    REBUILD_BUCKETS_PER_UNIT, REBUILD_ITEM_UNITS,
-};
+pub use rebuild::{RebuildCursor, Rebuilt, REBUILD_BUCKETS_PER_UNIT, REBUILD_ITEM_UNITS};
+pub use table::{HashEntry, HashError, HashStats, SpatialHash, ITEM_BITS, MAX_ITEMS};
