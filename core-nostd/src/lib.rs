@@ -3,12 +3,13 @@
 //! The `no_std`, allocation-free core of tetradrill: everything a 1 kHz haptic servo and a
 //! drilling simulation need, computed from plain values and storage the caller hands in.
 //!
-//! Layer map (each module is one concept; lower layers never use higher ones):
+//! Layer map, lowest first (each module is one concept; lower layers never use higher ones: a
+//! module uses only the modules listed before it):
 //!
 //! | module        | what                                                                 |
 //! |---------------|----------------------------------------------------------------------|
 //! | [`ids`]       | `u32` newtype ids with one `NONE` value                               |
-//! | [`geom`]      | small exact-enough geometry kernels (volumes, barycentric coordinates)|
+//! | [`geom`]      | small geometry kernels: volumes, barycentric coordinates, closest points |
 //! | [`mesh`]      | compact tetrahedral mesh: templates, reverse indices, traversals     |
 //! | [`blob`]      | a built mesh as a checksummed byte blob, read in place (flash)        |
 //! | [`builtin`]   | the paper's 12-tet cube and generated blocks, written into caller slices |

@@ -63,4 +63,6 @@ pub use surface::{Leaf, VisibleTri};
 pub use table::{Path, MAX_DEPTH};
 
 #[cfg(test)]
+pub(crate) mod test_support;
+#[cfg(test)]
 mod tests;
