@@ -12,7 +12,7 @@
 //! | [`geom`]      | small geometry kernels: volumes, barycentric coordinates, closest points |
 //! | [`mesh`]      | compact tetrahedral mesh: templates, reverse indices, traversals     |
 //! | [`blob`]      | a built mesh as a checksummed byte blob, read in place (flash)        |
-//! | [`builtin`]   | the paper's 12-tet cube and generated blocks, written into caller slices |
+//! | [`builtin`]   | the drilling paper's 12-tet cube and generated blocks, in caller slices |
 //! | [`hash`]      | Teschner's spatial hash, counting-sort layout, caller storage        |
 //! | [`collide`]   | vertices and sample points inside tets                               |
 //! | [`depth`]     | consistent penetration depth (hashed and traced intersections)       |

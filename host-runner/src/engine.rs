@@ -617,8 +617,8 @@ impl TickParams {
         }
         if sc.entry_remedy {
             return Err(CliError::input(
-                "--entry-remedy is a mesh tool's remedy (seed 000 section 6); a sphere tool has \
-                 none",
+                "--entry-remedy is a mesh tool's remedy (Praktikum report, section 6); a sphere \
+                 tool has none",
             ));
         }
         Ok(Self {
