@@ -30,7 +30,7 @@ use tetradrill_core::drill::{
 };
 use tetradrill_core::hierarchy::{HierarchySizes, VEntry, NODE_BYTES};
 use tetradrill_core::mesh::{BuildOptions, Mesh};
-use tetradrill_core::storage::owned::HierarchyBuffers;
+use tetradrill_core::owned::HierarchyBuffers;
 use tetradrill_core::TetId;
 
 const ARENA: usize = 8 << 20;

@@ -2,7 +2,7 @@
 //! command and the firmware run with nothing beside the project.
 //!
 //! - [`cube12`]: the drilling paper's test object, the cube `[-0.5, 0.5]^3` split into 12 tets
-//!   by a centre vertex (seed 001, section 4).
+//!   by a centre vertex (Turini et al. 2006, section 4).
 //! - [`block`]: an `n x n x n` block of cubes, each split into 6 tets around its main diagonal
 //!   (Kuhn/Freudenthal), which is conforming across cubes; [`block_labels`] gives it two
 //!   regions, an outer shell one cube thick ([`BLOCK_SHELL`]) and the core inside it

@@ -3,15 +3,17 @@
 //! The `no_std`, allocation-free core of tetradrill: everything a 1 kHz haptic servo and a
 //! drilling simulation need, computed from plain values and storage the caller hands in.
 //!
-//! Layer map (each module is one concept; lower layers never use higher ones):
+//! Layer map, lowest first (each module is one concept; lower layers never use higher ones: a
+//! module uses only the modules listed before it):
 //!
 //! | module        | what                                                                 |
 //! |---------------|----------------------------------------------------------------------|
 //! | [`ids`]       | `u32` newtype ids with one `NONE` value                               |
-//! | [`geom`]      | small exact-enough geometry kernels (volumes, barycentric coordinates)|
+//! | [`storage`]   | sizes turned into each structure's slices, from any memory           |
+//! | [`geom`]      | small geometry kernels: volumes, barycentric coordinates, closest points |
 //! | [`mesh`]      | compact tetrahedral mesh: templates, reverse indices, traversals     |
 //! | [`blob`]      | a built mesh as a checksummed byte blob, read in place (flash)        |
-//! | [`builtin`]   | the paper's 12-tet cube and generated blocks, written into caller slices |
+//! | [`builtin`]   | the drilling paper's 12-tet cube and generated blocks, in caller slices |
 //! | [`hash`]      | Teschner's spatial hash, counting-sort layout, caller storage        |
 //! | [`collide`]   | vertices and sample points inside tets                               |
 //! | [`depth`]     | consistent penetration depth (hashed and traced intersections)       |
@@ -21,11 +23,13 @@
 //! | [`servo`]     | the per-tick servo step that ties the above together                 |
 //! | [`soft`]      | reference soft-body physics (XPBD, Green strain), fixed nodes, loads |
 //! | [`script`]    | scripted tool paths shared bit for bit by the host and the firmware  |
-//! | [`storage`]   | sizes turned into each structure's slices, from a block or the heap  |
+//! | [`owned`]     | heap storage for each structure (feature `alloc`, off by default)      |
 //!
-//! Rules that hold everywhere: no heap, no `unsafe`, no panics on the servo path; every
-//! structure borrows caller slices whose lengths are its capacities; every public function
-//! documents its `# Bounded work` and what happens when a capacity is reached.
+//! Rules that hold everywhere: no heap (the opt-in [`owned`] module only allocates a
+//! structure's storage, once, for programs that have a heap), no `unsafe`, no panics on the
+//! servo path; every structure borrows caller slices whose lengths are its capacities; every
+//! public function documents its `# Bounded work` and what happens when a capacity is
+//! reached.
 #![no_std]
 #![forbid(unsafe_code)]
 
@@ -47,6 +51,9 @@ pub mod script;
 pub mod servo;
 pub mod soft;
 pub mod storage;
+
+#[cfg(feature = "alloc")]
+pub mod owned;
 
 pub use glam::{Quat, Vec3};
 pub use ids::{NodeId, TetId};

@@ -1,5 +1,4 @@
-//! tetradrill-device: the haptic device layer (see `../shared/DESIGN.md` section 3 and
-//! `docs/DEVICES.md`).
+//! tetradrill-device: the haptic device layer (see `docs/DEVICES.md`).
 //!
 //! Layer map:
 //! - [`device`]: the [`HapticDevice`] trait, [`DeviceSpec`], [`DeviceState`], [`ForceCommand`],

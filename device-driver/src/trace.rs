@@ -1,4 +1,4 @@
-//! Device traces: recording and playback of device samples as CSV (DESIGN section 4).
+//! Device traces: recording and playback of device samples as CSV (docs/DEVICES.md, "Traces").
 //!
 //! The header is exactly `t,x,y,z,qw,qx,qy,qz,buttons`: seconds, metres (or mesh units), a unit
 //! quaternion, and a button bit mask (bit 0 = drill on). Parse errors are data

@@ -1,4 +1,4 @@
-//! The command line (DESIGN section 4: a stable contract scripts depend on).
+//! The command line (README.md, "Commands": a stable contract scripts depend on).
 
 use clap::{Parser, Subcommand};
 

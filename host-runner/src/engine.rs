@@ -7,11 +7,11 @@ use tetradrill_core::collide::{ZoneGather, ZONE_MARGIN_RADII};
 use tetradrill_core::drill::{DrillParams, Material};
 use tetradrill_core::force::{DrillTool, ForceParams, ToolState};
 use tetradrill_core::mesh::Mesh;
+use tetradrill_core::owned::WorldBuffers;
 use tetradrill_core::servo::{
     drill_force, servo_force, DrillState, PassiveReport, SimReport, World, WorldSizes,
     DEFAULT_MAX_CELLS, DEFAULT_PENDING,
 };
-use tetradrill_core::storage::owned::WorldBuffers;
 use tetradrill_core::storage::StorageError;
 use tetradrill_core::{TetId, Vec3};
 
@@ -554,8 +554,8 @@ impl TickParams {
         }
         if sc.entry_remedy {
             return Err(CliError::input(
-                "--entry-remedy is a mesh tool's remedy (seed 000 section 6); a sphere tool has \
-                 none",
+                "--entry-remedy is a mesh tool's remedy (Praktikum report, section 6); a sphere \
+                 tool has none",
             ));
         }
         Ok(Self {

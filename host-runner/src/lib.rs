@@ -4,21 +4,29 @@
 //! cdev, the HD library loader) are `tetradrill-device`'s; `commands::run` builds the device
 //! factories from them.
 //!
-//! | module      | what                                                        |
-//! |-------------|-------------------------------------------------------------|
-//! | [`cli`]     | the command line: `demo`, `run`, `replay`, `info`, `timing` |
-//! | [`device_config`] | `--device-config FILE`: the device constants from TOML |
-//! | [`error`]   | one-line errors with exit status 2 for bad input            |
-//! | [`meshio`]  | mesh files: the `tetradrill-meshio` crate, re-exported      |
-//! | [`owned`]   | host-owned storage for one core mesh (from `tetradrill-meshio`) |
-//! | [`platform`]| clock, absolute sleeps, SCHED_FIFO, mlockall, pinning (`unsafe`, libc)       |
-//! | [`report`]  | the JSON reports the commands write                         |
-//! | [`soft`]    | host-owned storage for one soft body (`tetradrill_core::soft`) |
-//! | [`rt`]      | servo thread set-up and the absolute-deadline period        |
-//! | [`stats`]   | percentiles and histograms of timing samples                |
-//! | [`workload`]| the per-tick work of the built-in scenario                  |
-//! | [`viewer`]  | the live 3D view and headless screenshots (feature `viewer`) |
-//! | [`watchdog`]| the servo's supervisor (stalls) and its panic guard          |
+//! | module            | what                                                                 |
+//! |-------------------|----------------------------------------------------------------------|
+//! | [`cli`]           | the command line: `demo`, `run`, `replay`, `info`, `timing`, `devices`, `export` |
+//! | [`commands`]      | one file per command, and the real-time pipeline `run` and `demo` share |
+//! | [`device_config`] | `--device-config FILE`: the device constants from TOML               |
+//! | [`engine`]        | storage for a scenario's core world, allocated once, and the per-tick step |
+//! | [`error`]         | one-line errors with exit status 2 for bad input, 1 for a failed run  |
+//! | [`meshio`]        | mesh files: the `tetradrill-meshio` crate, re-exported               |
+//! | [`owned`]         | host-owned storage for one core mesh (from `tetradrill-meshio`)      |
+//! | [`pen`]           | a tet-mesh tool (the pen) against an object: its storage and scene   |
+//! | [`pen_pair`]      | the pen's contact pass on two threads (`--pass-threads 2`)           |
+//! | [`pen_tasks`]     | the pen in the real-time run: the contact task and the servo's law   |
+//! | [`platform`]      | clock, absolute sleeps, SCHED_FIFO, mlockall, pinning, signals (`unsafe`, libc) |
+//! | [`report`]        | the JSON reports the commands write                                  |
+//! | [`rt`]            | servo thread set-up and the absolute-deadline period                 |
+//! | [`scenario`]      | what a run needs (mesh, tool, trace, forces, capacities): defaults, file, flags |
+//! | [`soft`]          | host-owned storage for one soft body (`tetradrill_core::soft`)       |
+//! | [`stats`]         | percentiles and histograms of timing samples                         |
+//! | [`tasks`]         | the task table (`TASKS`) and the tasks of a real-time run            |
+//! | [`traces`]        | where a run's tool poses come from: trace file, scripted path, wander |
+//! | [`viewer`]        | the live 3D view and headless screenshots (feature `viewer`)         |
+//! | [`watchdog`]      | the servo's supervisor (stalls) and its panic guard                  |
+//! | [`workload`]      | the per-tick work `timing` measures                                  |
 
 #![deny(unsafe_code)]
 

@@ -2,7 +2,8 @@
 //! [`tetradrill_core::force::pen_pass`] (collisions and consistent depths; on one thread or,
 //! `--pass-threads 2`, two: [`crate::pen_pair`]) as often as it can at the newest tool pose
 //! and publishes what it found; the servo's [`PenLaw`] carries that contact to the tool's pose
-//! of every tick with [`pen_servo_force`] (seed 001 section 3.3's split, applied to the pen).
+//! of every tick with [`pen_servo_force`] (the split of Turini et al. 2006, section 3.3, applied to
+//! the pen).
 //!
 //! The hand-off is a triple buffer of [`HeldPen`]: three copies allocated before the run, each
 //! with room for every penetration a pass can write, so publishing is a copy into the back
@@ -259,7 +260,7 @@ impl std::fmt::Debug for PenViewer<'_, '_, '_> {
 /// the status the hand-off was made with: the object's counts). Sleeps 200 us when no sample
 /// came. Allocation-free after start-up (`report.pass` has its buckets already) but for the
 /// viewer's snapshots, at most about 60 a second: the pen at the pass's pose moved back along
-/// the pass's force by its deepest penetration along it (seed 000 section 5), with the
+/// the pass's force by its deepest penetration along it (Praktikum report, section 5), with the
 /// servo's force.
 #[allow(clippy::too_many_arguments)]
 pub fn pen_contact_task(

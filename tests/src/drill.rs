@@ -12,7 +12,7 @@ use tetradrill::owned::OwnedMesh;
 use tetradrill_core::builtin::{block, block_counts};
 use tetradrill_core::hierarchy::{Hierarchy, HierarchySizes};
 use tetradrill_core::mesh::{BuildOptions, Mesh};
-use tetradrill_core::storage::owned::HierarchyBuffers;
+use tetradrill_core::owned::HierarchyBuffers;
 use tetradrill_core::TetId;
 
 use crate::oracle::{add, cross, dot, scale, sub, D3};

@@ -9,8 +9,8 @@ use tetradrill_core::drill::DrillParams;
 use tetradrill_core::force::closest_point_on_triangle;
 use tetradrill_core::hierarchy::{FaceRef, Hierarchy};
 use tetradrill_core::mesh::{BuildOptions, Mesh};
+use tetradrill_core::owned::WorldBuffers;
 use tetradrill_core::servo::{World, WorldSizes};
-use tetradrill_core::storage::owned::WorldBuffers;
 use tetradrill_core::TetId;
 
 /// Storage for one world: the core's owned-storage layer, sized for `tets` tets.

@@ -15,8 +15,8 @@ use tetradrill_core::hierarchy::{
     Hierarchy, HierarchyError, HierarchySizes, HierarchyStorage, MAX_DEPTH,
 };
 use tetradrill_core::mesh::Mesh;
+use tetradrill_core::owned::{HierarchyBuffers, WorldBuffers};
 use tetradrill_core::servo::{servo_force, ContactState, World, WorldSizes};
-use tetradrill_core::storage::owned::{HierarchyBuffers, WorldBuffers};
 use tetradrill_core::{TetId, Vec3};
 use tetradrill_tests::load;
 use tetradrill_tests::oracle::{add, cross, d3, dot, scale, sub, tet_box, D3};

@@ -1,7 +1,7 @@
 //! Pen contact on real meshes, the depth: the consistent penetration depth against an
 //! independent f64 reference (full and partial lists), traced = hashed bit for bit, zero force
-//! outside, the thin-pen failure of seed 000 section 6 with its remedy, and the node graph
-//! against the tet edges.
+//! outside, the thin-pen failure of the Praktikum report, section 6, with its remedy, and the node
+//! graph against the tet edges.
 //!
 //! Meshes: the pen (`pen_tool_gmsh.mesh`, metres) scaled x10 so it is 1.15 units long with a
 //! 0.04 radius, next to the cow (about 1.5 units) and the teddy.
@@ -338,7 +338,7 @@ fn pen_outside_gives_zero_force() {
     .expect("pen scene");
 }
 
-/// Seed 000 section 6: the thin pen lying across the top of a block (tip and top outside)
+/// Praktikum report, section 6: the thin pen lying across the top of a block (tip and top outside)
 /// is pushed sideways (down) into it. Without the remedy the force jumps to a large one
 /// along the pen once the whole cross-section is inside; with the entry plane it stays along
 /// the face normal and grows smoothly.

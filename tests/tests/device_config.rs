@@ -55,13 +55,7 @@ fn names_every_constant_with_a_source(file: &str, keys: &[&str], sources: &[&str
 
 #[test]
 fn the_omni_file_names_every_constant_with_a_source() {
-    let sources = [
-        "[ROS]",
-        "[PD]",
-        "No public source",
-        "seed 000",
-        "Project choice",
-    ];
+    let sources = ["[ROS]", "[PD]", "No public source", "Project choice"];
     names_every_constant_with_a_source("omni.toml", OMNI_KEYS, &sources);
 }
 

@@ -1,6 +1,6 @@
-//! Collision detection with the spatial hash (seed 000 section 3; DESIGN 2.2): which points
-//! (the nodes of another mesh, tool sample points, or the mesh's own nodes) lie inside which
-//! tets.
+//! Collision detection with the spatial hash (Praktikum report, section 3; Teschner et al. 2003):
+//! which points (the nodes of another mesh, tool sample points, or the mesh's own nodes) lie inside
+//! which tets.
 //!
 //! - [`points_in_tets`]: the tets of a [`Body`] are hashed once ([`hash_tets`]); each point
 //!   looks in its one cell. Used for a static object and points that move every tick.

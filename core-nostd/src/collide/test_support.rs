@@ -87,27 +87,6 @@ impl<const N: usize, const T: usize> Store<N, T> {
     }
 }
 
-/// `cube_hierarchy!(h, &mesh, A)`: `let mut h` = a hierarchy over the 12-tet cube's roots, an
-/// arena of `A` nodes and the v_list that arena needs, all on the stack.
-macro_rules! cube_hierarchy {
-    ($h:ident, $mesh:expr, $arena:expr) => {
-        let mut roots = [$crate::hierarchy::HNode::LEAF; $crate::builtin::CUBE12_TETS];
-        let mut arena = [$crate::hierarchy::HNode::LEAF; $arena];
-        let mut vlist =
-            [$crate::hierarchy::VEntry::default(); $crate::builtin::CUBE12_TETS + 7 * ($arena / 8)];
-        let mut $h = $crate::hierarchy::Hierarchy::new(
-            $mesh,
-            $crate::hierarchy::HierarchyStorage {
-                roots: &mut roots,
-                arena: &mut arena,
-                vlist: &mut vlist,
-            },
-        )
-        .expect("test hierarchy");
-    };
-}
-pub(crate) use cube_hierarchy;
-
 /// Brute force over every tet of `body`: per point (at most 64) the smallest tet that holds it
 /// (`geom::barycentric`, `geom::inside`), skipping the point's own tets when `own`.
 pub(crate) fn brute(body: &Body<'_, '_>, points: &[Vec3], own: bool) -> [Option<TetId>; 64] {

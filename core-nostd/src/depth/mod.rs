@@ -1,4 +1,4 @@
-//! Consistent penetration depth (Heidelberger et al. 2004; seed 000 section 4; DESIGN 2.3).
+//! Consistent penetration depth (Heidelberger et al. 2004; Praktikum report, section 4).
 //!
 //! Input: collisions `(node of body A, tet of body B)`. An edge of A that joins a colliding
 //! and a non-colliding node is a *border edge*; its colliding end is a *border point* `p`.
@@ -22,9 +22,9 @@
 //! crossing: the depth stays continuous).
 //!
 //! Two ways to find `x_i`, selected by [`Method`]:
-//! - [`Method::Traced`] (seed 000): walk the line from `p` through the tet that holds `p`, face
-//!   by face through neighbours, until it leaves through a boundary face. Work proportional to
-//!   the tets crossed.
+//! - [`Method::Traced`] (Praktikum report, section 4): walk the line from `p` through the tet that
+//!   holds `p`, face by face through neighbours, until it leaves through a boundary face. Work
+//!   proportional to the tets crossed.
 //! - [`Method::Hashed`] (Heidelberger 2004): B's boundary faces are hashed
 //!   ([`hash_boundary_faces`]); the cells of the border edge's box give candidate faces; the
 //!   outward crossing nearest to `p` along the edge wins (ties: smaller `(tet, face)`).
@@ -60,7 +60,7 @@ use crate::hash::SpatialHash;
 /// How border edges find B's surface.
 #[derive(Clone, Copy, Debug)]
 pub enum Method<'h> {
-    /// Walk through B's tets from the tet holding the border point (seed 000).
+    /// Walk through B's tets from the tet holding the border point (Praktikum report, section 4).
     Traced {
         /// Tets a walk may cross before the edge is given up (counted as missed).
         max_steps: u32,

@@ -273,8 +273,9 @@ fn traced_walk_gives_up_after_max_steps() {
     assert_eq!(s2, 2);
 }
 
-/// The walk as seed 000 describes it, each face tested afresh with [`surface::exit_values`]:
-/// the oracle for the walk that keeps its edge values from tet to tet (also in `traced`'s tests).
+/// The walk as the Praktikum report (section 4) describes it, each face tested afresh with
+/// [`surface::exit_values`]: the oracle for the walk that keeps its edge values from tet to tet
+/// (also in `traced`'s tests).
 pub(super) fn walk_testing_every_face(
     b: &Body<'_, '_>,
     start: crate::ids::TetId,

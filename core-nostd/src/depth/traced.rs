@@ -1,4 +1,4 @@
-//! The traced intersection (seed 000 section 4): walk the line through B's tets.
+//! The traced intersection (Praktikum report, section 4): walk the line through B's tets.
 
 use glam::Vec3;
 
@@ -332,7 +332,7 @@ mod tests {
 
     use super::*;
     use crate::collide::test_support::{Rng, Store};
-    // The oracle: the seed's walk, each face tested afresh.
+    // The oracle: the Praktikum report's walk, each face tested afresh.
     use crate::depth::tests::walk_testing_every_face as every_face_walk;
     use crate::mesh::template::FACE_VERTS;
 

@@ -1,4 +1,4 @@
-//! Budgeted erosion by tool sample spheres (seed 001 section 3.2; DESIGN 2.5).
+//! Budgeted erosion by tool sample spheres (Turini et al. 2006, section 3.2).
 //!
 //! [`Drill::step`] takes the candidate coarse tets near the tool (from the spatial hash) and
 //! the active sample spheres, refines the hierarchy nodes that cross a sphere until

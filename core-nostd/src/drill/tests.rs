@@ -5,7 +5,8 @@ use glam::Vec3;
 
 use super::*;
 use crate::builtin::{CUBE12_NODES, CUBE12_TETS};
-use crate::collide::test_support::{cube_hierarchy, Store};
+use crate::collide::test_support::Store;
+use crate::hierarchy::test_support::cube_hierarchy;
 use crate::ids::TetId;
 
 #[test]

@@ -1,4 +1,4 @@
-//! The thin-pen remedy (seed 000 section 6): remember where contact began.
+//! The thin-pen remedy (Praktikum report, section 6): remember where contact began.
 //!
 //! The consistent depth of a node is measured along the border edges that leave the object.
 //! A thin pen pushed sideways has short border edges across its thickness while part of its

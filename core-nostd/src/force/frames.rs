@@ -1,7 +1,7 @@
-//! Camera frames (seed 000 section 5): the camera `C = M . T` (model-view times trackball);
-//! the device reports the pen in egocentric (camera) coordinates `P_e`; the scene pose is the
-//! allocentric `P_a`, the paper's row-vector `P_e . C`, which is `C * P_e` with glam's column
-//! vectors. Forces computed in the scene go back to the device through `C`'s inverse.
+//! Camera frames (Praktikum report, section 5): the camera `C = M . T` (model-view times
+//! trackball); the device reports the pen in egocentric (camera) coordinates `P_e`; the scene pose
+//! is the allocentric `P_a`, the report's row-vector `P_e . C`, which is `C * P_e` with glam's
+//! column vectors. Forces computed in the scene go back to the device through `C`'s inverse.
 
 use glam::{Mat4, Vec3};
 

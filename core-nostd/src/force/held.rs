@@ -1,10 +1,10 @@
 //! The servo half of the pen: the force at the pen's current pose from the last contact pass.
 //!
 //! A contact pass ([`pen_pass`](super::pen_pass): collisions both ways and their consistent
-//! depths) may take longer than a servo tick; DESIGN section 4 runs it in the simulation task
+//! depths) may take longer than a servo tick; the host runs it in its simulation task
 //! and leaves the servo only the force. [`pen_servo_force`] holds the pass's penetrations and
 //! carries each one to the current pose to first order, as the sphere burr's servo carries its
-//! contact plane (seed 001 section 3.3):
+//! contact plane (Turini et al. 2006, section 3.3):
 //!
 //! - a pen node inside the object moved by `m` along its direction since the pass (the pen
 //!   moved, the object did not): its depth is `d - m`;

@@ -1,4 +1,4 @@
-//! Haptic forces (seed 001 section 3; seed 000 sections 4-6; DESIGN 2.5).
+//! Haptic forces (Turini et al. 2006, section 3; Praktikum report, sections 4-6).
 //!
 //! | file          | what                                                                  |
 //! |---------------|-----------------------------------------------------------------------|

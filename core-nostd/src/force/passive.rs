@@ -1,9 +1,9 @@
-//! Passive sample points (seed 001 section 3.2): points of the tool that collide and push
-//! back but never erode, such as the samples along a drill's shaft. Each is tracked from
-//! tick to tick: the segment from where it was last seen outside the material (its *proxy*)
-//! to where the device puts it now is tested against the visible faces near it, so a point
-//! that crosses the surface, however fast, is caught at the face it entered and held there
-//! (a god-object) until it comes back out in front of that face. It cannot tunnel.
+//! Passive sample points (Turini et al. 2006, section 3.2): points of the tool that collide and
+//! push back but never erode, such as the samples along a drill's shaft. Each is tracked from tick
+//! to tick: the segment from where it was last seen outside the material (its *proxy*) to where the
+//! device puts it now is tested against the visible faces near it, so a point that crosses the
+//! surface, however fast, is caught at the face it entered and held there (a god-object) until it
+//! comes back out in front of that face. It cannot tunnel.
 //!
 //! [`PassiveProbe`] takes the triangles near one point, one at a time (from any source: a
 //! slice, the hierarchy's visible faces near the point), and [`PassiveProbe::finish`] updates

@@ -1,6 +1,6 @@
 //! Time-domain passivity: an observer of the energy the servo loop exchanges with the user
 //! and a controller that dissipates what the rendered environment generates (Hannaford and
-//! Ryu 2002, IEEE T-RO 18(1); Ryu, Kwon and Hannaford 2004 for the position-based variant).
+//! Ryu 2002; Ryu, Kwon and Hannaford 2004 for the position-based variant).
 //!
 //! Sign convention: `f` is the force the environment puts on the tool (what the device
 //! renders), `p` the tool's position. Over one servo tick the force is held (zero-order hold),

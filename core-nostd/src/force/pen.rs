@@ -88,7 +88,7 @@ pub struct PenBuffers<'b> {
 /// Which surface search the depth uses.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 pub enum DepthMethod {
-    /// Walk through tets (seed 000).
+    /// Walk through tets (Praktikum report, section 4).
     #[default]
     Traced,
     /// Hashed boundary faces (Heidelberger 2004); falls back to traced when the scene has no

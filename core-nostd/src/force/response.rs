@@ -93,10 +93,10 @@ pub fn clamp_force(f: Vec3, max: f32) -> Vec3 {
 }
 
 /// How far to draw the tool moved along the force so none of its colliding nodes stays
-/// inside (seed 000 section 5): the largest depth projected on the force direction, over the
-/// tool's nodes in the object (`tool_in_object`, directions out of the object) and the
-/// object's nodes in the tool (`object_in_tool`, directions out of the tool, which the tool
-/// relieves by moving the other way).
+/// inside (Praktikum report, section 5): the largest depth projected on the force direction, over
+/// the tool's nodes in the object (`tool_in_object`, directions out of the object) and the object's
+/// nodes in the tool (`object_in_tool`, directions out of the tool, which the tool relieves by
+/// moving the other way).
 ///
 /// # Bounded work
 /// O(penetrations).

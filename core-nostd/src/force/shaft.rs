@@ -1,4 +1,4 @@
-//! A drill: the burr (one active sample point at its centre, seed 001 section 3.2) on a
+//! A drill: the burr (one active sample point at its centre, Turini et al. 2006, section 3.2) on a
 //! shaft sampled by passive points ([`super::passive`]) along the tool's axis, from the burr
 //! to the handle.
 

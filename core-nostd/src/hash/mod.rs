@@ -1,4 +1,4 @@
-//! Teschner's spatial hash (Teschner et al. 2003; seed 000 section 3; DESIGN 2.2).
+//! Teschner's spatial hash (Teschner et al. 2003; Praktikum report, section 3).
 //!
 //! Space is cut into cubic cells of edge `g`; a point `x` lies in cell
 //! `(floor(x/g), floor(y/g), floor(z/g))` (a true floor, so `-0.5` is in cell `-1`). A cell

@@ -1,6 +1,6 @@
-//! Connected pieces of the remaining material (the seed's future work): union-find over the
-//! non-erased leaves, joined across every face to the leaves met by the NTree visit (within a
-//! tree, across coarse faces, and between different levels).
+//! Connected pieces of the remaining material (the future work of Turini et al. 2006, section 5):
+//! union-find over the non-erased leaves, joined across every face to the leaves met by the NTree
+//! visit (within a tree, across coarse faces, and between different levels).
 
 use super::store::{Hierarchy, HierarchyError};
 use super::table::Path;

@@ -1,4 +1,4 @@
-//! 1:8 subdivision hierarchies with exact visible faces (seed 001 section 2; DESIGN 2.4).
+//! 1:8 subdivision hierarchies with exact visible faces (Turini et al. 2006, section 2).
 //!
 //! Every coarse tet is the root of a tree of Bey red refinements (diagonal `x02-x13`, which
 //! [`crate::mesh::Mesh::build`] makes the shortest one). Only the part from each root to its
@@ -13,8 +13,8 @@
 //!
 //! - [`table`]: the tree table (const, one level) and digit walks for deeper levels.
 //! - [`visit`]: same-level adjacency through the digits and the NTree visit.
-//! - [`Hierarchy::erase`], [`Hierarchy::refine`]: seed 001 section 2.1, across coarse faces
-//!   through the mesh's reverse indices.
+//! - [`Hierarchy::erase`], [`Hierarchy::refine`]: Turini et al. 2006, section 2.1, across coarse
+//!   faces through the mesh's reverse indices.
 //! - [`Hierarchy::for_each_visible`], [`Hierarchy::for_each_visible_in`]: the drilled surface.
 //! - [`Hierarchy::nearest_visible`]: the closest visible triangle to a point (branch and
 //!   bound over the nodes whose *surface* bit says a v_list leaf lies below), for the contact;
@@ -62,5 +62,7 @@ pub use store::{Hierarchy, HierarchyError, HierarchySizes, HierarchyStats, Hiera
 pub use surface::{Leaf, VisibleTri};
 pub use table::{Path, MAX_DEPTH};
 
+#[cfg(test)]
+pub(crate) mod test_support;
 #[cfg(test)]
 mod tests;

@@ -1,4 +1,4 @@
-//! Erase and Refine (seed 001 section 2.1), keeping the visible faces exact.
+//! Erase and Refine (Turini et al. 2006, section 2.1), keeping the visible faces exact.
 
 use super::geometry::node_volume;
 use super::node::{HNode, NO_SLOT};

@@ -153,7 +153,8 @@ pub struct HierarchyStats {
 }
 
 /// The forest of 1:8 subdivision trees, one per coarse tet, instantiated from each root to its
-/// frontier, with the visible faces kept exact by Erase and Refine (seed 001 section 2.1).
+/// frontier, with the visible faces kept exact by Erase and Refine (Turini et al. 2006,
+/// section 2.1).
 ///
 /// A node is named two ways: by `(tet, tree index)` (stable, geometric), and by a node
 /// reference `r` (`r < tets`: the root of tet `r`; otherwise arena node `r - tets`).

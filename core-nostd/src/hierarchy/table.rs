@@ -1,5 +1,5 @@
-//! The tree table (seed 001 section 2.1), as const data for one level of Bey's red refinement
-//! plus digit walks for the deeper levels.
+//! The tree table (Turini et al. 2006, section 2.1), as const data for one level of Bey's red
+//! refinement plus digit walks for the deeper levels.
 //!
 //! With `xij` the midpoint of edge `(xi, xj)` the children (0-based, `c = 0..8` is Bey's
 //! `T1..T8`) are

@@ -9,7 +9,7 @@ use super::table::{invert, then, Across, Path, CHILD_ADJ, CHILD_INVERTED, CHILD_
 use super::visit::neighbour;
 use super::*;
 use crate::builtin::{cube12, CUBE12_NODES, CUBE12_TETS};
-use crate::collide::test_support::cube_hierarchy;
+use crate::hierarchy::test_support::cube_hierarchy;
 use crate::ids::TetId;
 use crate::mesh::template::FACE_VERTS;
 use crate::mesh::{BuildOptions, FaceKey, Mesh, MeshStorage, Node, Tet};

@@ -1,4 +1,5 @@
-//! Same-level adjacency through the index digits, and the seed's NTree visit (never built).
+//! Same-level adjacency through the index digits, and the NTree visit of Turini et al. 2006,
+//! section 2.1 (never built).
 //!
 //! [`neighbour`] walks up from a node while its face lies on its parent's face (recording the
 //! sub-triangle position at each level), takes the sibling step from [`CHILD_ADJ`] at the first

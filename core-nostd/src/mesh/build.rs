@@ -38,8 +38,8 @@ impl FaceKey {
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct BuildOptions {
     /// Relabel every tet (by an even permutation, so orientation is kept) so that the
-    /// octahedron diagonal `x02-x13` used by red refinement is its shortest one (seed 001,
-    /// DESIGN 2.4). On by default; switch it off to keep the file's vertex order.
+    /// octahedron diagonal `x02-x13` used by red refinement is its shortest one (Bey 1995;
+    /// docs/DRILLING.md). On by default; switch it off to keep the file's vertex order.
     pub relabel_for_refinement: bool,
 }
 

@@ -1,5 +1,5 @@
-//! Compact tetrahedral mesh with templates and reverse indices (seed 000 section 2, after
-//! Celes, Paulino and Espinha 2005).
+//! Compact tetrahedral mesh with templates and reverse indices (Praktikum report, section 2,
+//! after Celes, Paulino and Espinha 2005).
 //!
 //! A [`Mesh`] borrows caller storage: node positions, one [`Node`] (8 bytes) and one boundary
 //! normal per node, one [`Tet`] (36 bytes) per tet. Faces, edges and vertices are named by
@@ -401,8 +401,8 @@ impl<'a> Mesh<'a> {
         -geom::tri_normal(a, b, c)
     }
 
-    /// `getVertexMatch` of seed 000 Figure 2: the use of local vertex `v` of `t` in the
-    /// neighbour across face `f`. `None` when `f` is a boundary face or `v` is the vertex
+    /// `getVertexMatch` of the Praktikum report's Figure 2: the use of local vertex `v` of `t` in
+    /// the neighbour across face `f`. `None` when `f` is a boundary face or `v` is the vertex
     /// opposite `f`.
     ///
     /// # Bounded work

@@ -1,4 +1,4 @@
-//! The tetrahedron template (seed 000, section 2.1): fixed numberings of a tet's vertices,
+//! The tetrahedron template (Praktikum report, section 2.1): fixed numberings of a tet's vertices,
 //! faces and edges, so that an entity is named by `(tet, small number)` at no storage cost.
 //!
 //! Conventions, chosen once for the whole crate:
@@ -21,7 +21,7 @@ pub const NOT_ON_FACE: u8 = 3;
 pub const FACE_VERTEX_NR: [[u8; 4]; 4] = [[3, 0, 2, 1], [0, 3, 1, 2], [0, 2, 3, 1], [0, 1, 2, 3]];
 
 /// `elemVertexNr`: (face, position in the face listing) -> element vertex. Same as
-/// [`FACE_VERTS`]; named for the seed's Figure 2.
+/// [`FACE_VERTS`]; named for the Praktikum report's Figure 2.
 pub const ELEM_VERTEX_NR: [[u8; 3]; 4] = FACE_VERTS;
 
 /// Edge -> its two vertices.

@@ -1,5 +1,5 @@
-//! Bounded traversals over the compact mesh, writing into caller scratch (seed 000 section 2.2):
-//! the tets, vertex uses, faces and edges around a vertex, and every edge exactly once.
+//! Bounded traversals over the compact mesh, writing into caller scratch (Praktikum report,
+//! section 2.2): the tets, vertex uses, faces and edges around a vertex, and every edge exactly once.
 //!
 //! Each vertex traversal is a breadth-first walk from the node's one incident tet through the
 //! three faces that contain the vertex, using [`Mesh::vertex_match`] to step across a face.

@@ -11,8 +11,8 @@ use crate::force::{clamp_force, damping_force, ForceParams, ToolState};
 /// The spring of a plane `(point, normal)` is `s = clamp(stiffness * depth * normal)` with
 /// `depth = radius - (centre - point) . normal` (zero when not positive): first order in
 /// the position, so a plane kept from an older simulation step extrapolates the surface
-/// (seed 001 section 3.3). The force is `clamp(E + damping)`, damping only while the plane's
-/// depth is positive, with the elastic part `E = clamp(s + residual)`.
+/// (Turini et al. 2006, section 3.3). The force is `clamp(E + damping)`, damping only while the
+/// plane's depth is positive, with the elastic part `E = clamp(s + residual)`.
 ///
 /// Plane switches. When the contact plane changes (another face became the closest, the
 /// drill removed the one under the burr), `s` jumps; a burr buried in half-eroded material,

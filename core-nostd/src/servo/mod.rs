@@ -6,8 +6,9 @@
 //!   (the hierarchy's visible faces, not the original boundary) as one contact plane;
 //! - [`servo_force`]: the force from the last contact plane at the tool's current position:
 //!   stiffness x depth along the plane normal, damping, clamping. When the simulation runs
-//!   slower than the servo, this is the extrapolation of seed 001 section 3.3: the plane is a
-//!   first-order model of the surface near the tool, so the force stays continuous at 1 kHz.
+//!   slower than the servo, this is the extrapolation of Turini et al. 2006, section 3.3: the
+//!   plane is a first-order model of the surface near the tool, so the force stays continuous
+//!   at 1 kHz.
 //!
 //! A replay calls both with the same pose every tick, so its forces equal the exact contact
 //! with the drilled surface at that pose.
@@ -39,6 +40,8 @@ mod force;
 mod passive;
 mod simulate;
 mod sizes;
+#[cfg(test)]
+mod sizes_tests;
 #[cfg(test)]
 mod tests;
 mod zone_memo;

@@ -170,7 +170,7 @@ impl WorldSizes {
 impl<'a> WorldStorage<'a> {
     /// Carves every slice of `sizes` from `mem`, each slot at its starting value: the one
     /// way a world's storage is made, whatever the memory (a [`crate::storage::Block`], a
-    /// board's [`crate::storage::Split`], the heap's `storage::owned::WorldBuffers`).
+    /// board's [`crate::storage::Split`], the heap's `owned::WorldBuffers`).
     ///
     /// # Bounded work
     /// O(bytes of `sizes`): every slot is written.

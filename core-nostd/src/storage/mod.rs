@@ -9,7 +9,7 @@
 //!   memory, a firmware's `static`);
 //! - [`Split`]: two runs, the parts of a [`PartSet`] in the second (a board's fast and slow
 //!   RAM regions);
-//! - with the `alloc` feature, [`owned`]: the heap, for a desktop program or a test
+//! - with the `alloc` feature, `crate::owned`: the heap, for a desktop program or a test
 //!   (`WorldBuffers::new(sizes)`, then `.world(mesh)`).
 //!
 //! Every part starts on a [`LINE`] (64 bytes): no two parts share a cache line, and a block
@@ -45,9 +45,6 @@ use core::fmt;
 use core::mem::{align_of, size_of};
 
 use bytemuck::{AnyBitPattern, NoUninit};
-
-#[cfg(feature = "alloc")]
-pub mod owned;
 
 /// The alignment of every part and of a block's start: one cache line.
 pub const LINE: usize = 64;
@@ -356,6 +353,3 @@ pub fn carve<'m, T: NoUninit + AnyBitPattern>(
     slice.fill(init);
     Ok(slice)
 }
-
-#[cfg(test)]
-mod tests;

@@ -52,7 +52,7 @@ pub struct ReplayArgs {
     pub repeat: u32,
 }
 
-/// The summary of a replay (DESIGN section 4's fields and more).
+/// The summary of a replay (the JSON `replay --json` writes).
 #[derive(Debug, Serialize)]
 pub struct ReplayReport {
     /// The scenario as run.
@@ -660,8 +660,8 @@ fn replay_ticks(args: &ReplayArgs, poses: &PoseSource) -> u64 {
 }
 
 /// `replay --tool mesh:FILE`: the tet-mesh tool (the pen) against the object, contact only
-/// (consistent penetration depth, seed 000): the tool sits at the trace's pose each tick (tip
-/// at the position, identity rotation = axis along +z).
+/// (consistent penetration depth, Praktikum report, section 4): the tool sits at the trace's pose
+/// each tick (tip at the position, identity rotation = axis along +z).
 fn replay_pen(args: &ReplayArgs, sc: Scenario, pen_path: &std::path::Path) -> Result<(), CliError> {
     if args.surface.is_some() || args.screenshot.is_some() {
         return Err(CliError::input(

@@ -94,7 +94,7 @@ pub fn run(args: &TimingArgs) -> Result<(), CliError> {
     let seen = Arc::clone(&progress);
     let work = args.work;
     let handle = std::thread::Builder::new()
-        .name("servo".into())
+        .name(crate::tasks::SERVO.name.into())
         .spawn(move || {
             with_work(work, |step| {
                 let status = cfg.apply();

@@ -19,7 +19,7 @@ pub use regions::{
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum DepthMethod {
-    /// Walk the border edge through the tets to a boundary face (seed 000).
+    /// Walk the border edge through the tets to a boundary face (Praktikum report, section 4).
     Traced,
     /// Hash the boundary faces and query them with the edge (Heidelberger 2004).
     Hashed,
@@ -112,8 +112,8 @@ pub struct Scenario {
     /// side's time; the second thread spins between passes while they come back to back.
     pub pass_threads: u32,
     /// Mesh tool: measure the pen's depths against the plane where it entered the object
-    /// while a contact lasts (seed 000 section 6's remedy for a thin pen pushed sideways,
-    /// `tetradrill_core::force::EntryPlane`; docs/CONTACT.md).
+    /// while a contact lasts (the Praktikum report's remedy, section 6, for a thin pen pushed
+    /// sideways, `tetradrill_core::force::EntryPlane`; docs/CONTACT.md).
     pub entry_remedy: bool,
     /// Deepest subdivision level of a drilled tet.
     pub max_depth: u8,
@@ -466,8 +466,8 @@ pub struct ScenarioFlags {
     /// thread: the same forces, about half the pass's time on two free cores).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=2))]
     pub pass_threads: Option<u32>,
-    /// Mesh tool: the entry-plane remedy for a thin pen pushed sideways (seed 000 section 6):
-    /// `--entry-remedy` or `--entry-remedy true|false` (default false).
+    /// Mesh tool: the entry-plane remedy for a thin pen pushed sideways (Praktikum report,
+    /// section 6): `--entry-remedy` or `--entry-remedy true|false` (default false).
     #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
     pub entry_remedy: Option<bool>,
     /// Deepest subdivision level (1..=9).

@@ -46,7 +46,7 @@ pub struct ShaftCounts {
 
 /// The drill's force law: [`drill_force`] from the latest [`DrillContact`] the simulation
 /// published, at the tool's current position and axis (the servo extrapolates the burr's and
-/// every passive point's plane, seed 001 section 3.3), with the viewer's radius and
+/// every passive point's plane, Turini et al. 2006, section 3.3), with the viewer's radius and
 /// stiffness when it set them (`counters`). The burr's own part of the force goes to
 /// `counters.burr_press_bits`: it, not the shaft's push, presses the burr into the material.
 #[derive(Debug)]

@@ -20,7 +20,7 @@ pub(crate) fn frame_mat<M: Default + AsMut<[f32; 16]>>(cols: &[f32; 16]) -> M {
     m
 }
 
-/// The egocentric frame of the device (seed 000 section 5; DESIGN 2.5): the device reports the
+/// The egocentric frame of the device (Praktikum report, section 5): the device reports the
 /// pen in egocentric coordinates, the scene pose is `P_a = C * P_e` (core's
 /// [`allocentric`](tetradrill_core::force::frames::allocentric)), and a scene force goes back
 /// through `C`'s inverse ([`force_to_device`](tetradrill_core::force::frames::force_to_device)).

@@ -1,14 +1,12 @@
 //! The tasks of a real-time run, declared in one place (RTIC style), and the pipeline that runs
 //! them.
 //!
-//! | task       | priority                 | period              | reads                          | writes                          |
-//! |------------|--------------------------|---------------------|--------------------------------|---------------------------------|
-//! | servo      | SCHED_FIFO 80, last core | 1 ms, absolute      | device, `ContactState`, `DrillContact` or `HeldPen`, camera `C` (triple buffers) | force to device, `ToolSample` ring |
-//! | simulation | normal                   | as fast as it can   | `ToolSample` ring              | `ContactState`, `DrillContact` or `HeldPen`, `SimStatus` (triple buffers) |
-//! | status     | normal                   | 250 ms              | `SimStatus`, servo counters (atomics) | the status line          |
-//! | watchdog   | SCHED_FIFO 81, not the servo's core | 1 ms     | the servo's beat (atomic)      | the device's cutoff (force off) |
-//! | viewer     | normal, the main thread  | about 60 Hz         | `Snapshot` queue, servo counters | `Controls`, camera `C` (triple buffers) |
-//! | recorder   | normal (`--record` only) | 10 ms               | `RecordRing` (SPSC ring)       | the trace CSV file              |
+//! [`TASKS`] is the task table: one [`TaskDecl`] per task ([`SERVO`], [`SIMULATION`],
+//! [`STATUS`], [`VIEWER`], [`WATCHDOG`], [`RECORDER`], [`PASS_WORKER`]) with its priority, its
+//! period, what it does and what it reads and writes. The servo, simulation, status, watchdog
+//! and recorder threads take their names from it. docs/ARCHITECTURE.md ("Tasks and
+//! hand-offs") shows the first four fields, one line per task, and `tests/tests/docs_tables.rs`
+//! checks that line against this table.
 //!
 //! Hand-offs are lock-free and allocation-free after start-up: the servo pushes every tick's
 //! tool sample into a bounded SPSC ring (crossbeam `ArrayQueue`; a full ring drops the sample
@@ -16,7 +14,7 @@
 //! simulation publishes its latest contact plane and status through triple buffers, which the
 //! servo and the status task read without ever waiting. When the simulation is slower than the
 //! servo, the servo keeps computing the force from the last contact plane at the tool's current
-//! position: the extrapolation of seed 001 section 3.3.
+//! position: the extrapolation of Turini et al. 2006, section 3.3.
 //!
 //! With a tet-mesh tool (`--tool mesh:FILE`) the same servo, watchdog and status tasks run, the
 //! servo's force law is [`crate::pen_tasks::PenLaw`] and the simulation task is the pen's
@@ -34,8 +32,8 @@
 //!
 //! With the live window, the viewer also publishes its camera rotation through a triple buffer
 //! the servo reads each tick ([`DeviceFrame`]): the device's positions turn with the view
-//! (egocentric pen coordinates, seed 000 section 5) and forces turn back before they reach the
-//! device. Without a window the frame is the identity and nothing changes.
+//! (egocentric pen coordinates, Praktikum report, section 5) and forces turn back before they reach
+//! the device. Without a window the frame is the identity and nothing changes.
 //!
 //! The watchdog task ([`crate::watchdog`]) supervises the servo: the servo bumps an atomic beat
 //! each tick; when it stops for [`crate::watchdog::SERVO_WATCHDOG_NS`], the watchdog zeroes the
@@ -73,65 +71,107 @@ pub use record::*;
 pub use servo::*;
 pub use simulation::*;
 
-/// One task's declaration: what it is, how urgent, how often, what it shares.
-#[derive(Debug, Clone, Copy)]
+/// One task's declaration: what it is, how urgent, how often, what it does and what it shares.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TaskDecl {
-    /// Name (also the thread name).
+    /// Name, and the name of the task's thread when it has one of its own (the viewer runs on
+    /// the main thread, the status task on the main thread or its own, the pass worker on an
+    /// unnamed scoped thread).
     pub name: &'static str,
-    /// Scheduling.
+    /// Scheduling: priority, core, memory.
     pub priority: &'static str,
     /// Period.
     pub period: &'static str,
-    /// What it reads.
+    /// What it does.
+    pub does: &'static str,
+    /// What it reads from the other tasks.
     pub reads: &'static str,
-    /// What it writes.
+    /// What it writes: to the other tasks, the device or a file.
     pub writes: &'static str,
 }
 
+/// The servo ([`servo_task`], one tick [`servo_io`]): the 1 kHz loop from the device to the
+/// force law and back; nothing in it allocates, locks or waits.
+pub const SERVO: TaskDecl = TaskDecl {
+    name: "servo",
+    priority: "SCHED_FIFO 80, pinned to the last core, memory locked (each when allowed)",
+    period: "1 ms on absolute deadlines",
+    does: "device read; the servo half of the force (`tasks::ForceLaw`); the passivity observer and controller (`force::passivity`); the device's `ForceSafety` (clamp, ramp, NaN filter); device write; pushes the tool sample to the simulation's ring (and the recorder's)",
+    reads: "device sample; ContactState, DrillContact (drill) or HeldPen (mesh tool), camera C (triple buffers); the stop request (atomic)",
+    writes: "force command to the device; ToolSample (SPSC rings: simulation, recorder); servo counters and timing histograms (atomics)",
+};
+
+/// The simulation ([`simulation_task`]; with a tet-mesh tool the pen's contact task,
+/// [`crate::pen_tasks::pen_contact_task`]): the work that may take longer than a servo tick.
+pub const SIMULATION: TaskDecl = TaskDecl {
+    name: "simulation",
+    priority: "normal",
+    period: "as fast as it can, at most once per servo tick",
+    does: "`World::simulate`: candidates through the hash, budgeted drilling, the contact search; publishes the contact plane (a tet-mesh tool: the pen's contact pass, `pen_tasks::pen_contact_task`)",
+    reads: "ToolSample (SPSC ring); Controls (triple buffer)",
+    writes: "ContactState, DrillContact (drill) or HeldPen (mesh tool), SimStatus (triple buffers); Snapshot queue",
+};
+
+/// The status line (`status_loop` of the run's pipeline).
+pub const STATUS: TaskDecl = TaskDecl {
+    name: "status",
+    priority: "normal (the main thread; its own thread while the viewer has the main thread)",
+    period: "250 ms",
+    does: "the status line (one line a second when stderr is not a terminal)",
+    reads: "SimStatus (triple buffer); servo counters (atomics)",
+    writes: "the status line on stderr",
+};
+
+/// The live window ([`crate::viewer`]).
+pub const VIEWER: TaskDecl = TaskDecl {
+    name: "viewer",
+    priority: "normal, the main thread (with a window)",
+    period: "about 60 Hz",
+    does: "the live window: drains snapshots, writes the controls and the camera frame",
+    reads: "Snapshot queue (drained, never waited on); servo counters (atomics)",
+    writes: "Controls, camera C (triple buffers)",
+};
+
+/// The servo's supervisor ([`crate::watchdog::supervisor_task`]).
+pub const WATCHDOG: TaskDecl = TaskDecl {
+    name: "watchdog",
+    priority: "SCHED_FIFO one above the servo, on another core (when the servo has SCHED_FIFO); else normal",
+    period: "1 ms",
+    does: "cuts the motors through a second path (`MotorCutoff`) when the servo's heartbeat stops for 10 ms (docs/SAFETY.md)",
+    reads: "the servo's beat (atomic)",
+    writes: "the device's cutoff (force off, latch)",
+};
+
+/// The trace writer of `--record` ([`recorder_task`]).
+pub const RECORDER: TaskDecl = TaskDecl {
+    name: "recorder",
+    priority: "normal (`--record`)",
+    period: "10 ms",
+    does: "the run's tool poses as a trace CSV",
+    reads: "RecordRing (SPSC ring; a full ring drops the row and counts it)",
+    writes: "the trace CSV file",
+};
+
+/// The object side of a tet-mesh tool's contact pass on a thread of its own
+/// ([`crate::pen_pair::PenPair`]), beside the simulation task that runs the pen side.
+pub const PASS_WORKER: TaskDecl = TaskDecl {
+    name: "pass worker",
+    priority: "normal (a tet-mesh tool, `--pass-threads 2`)",
+    period: "with each contact pass",
+    does: "the object side of the pen's contact pass (`pen_pair`)",
+    reads: "each pass's job: the pose, the options and the object side's storage (bounded channel)",
+    writes: "the side's report, with its storage back (bounded channel)",
+};
+
 /// Every task of a real-time run.
-pub const TASKS: [TaskDecl; 6] = [
-    TaskDecl {
-        name: "servo",
-        priority: "SCHED_FIFO 80, pinned to the last core, memory locked",
-        period: "1 ms on absolute deadlines",
-        reads: "device sample; ContactState, DrillContact (drill) or HeldPen (mesh tool), camera C (triple buffers); the stop request (atomic)",
-        writes: "force command to the device; ToolSample (SPSC rings: simulation, recorder); servo counters and timing histograms (atomics)",
-    },
-    TaskDecl {
-        name: "simulation",
-        priority: "normal",
-        period: "as fast as it can, at most once per servo tick",
-        reads: "ToolSample (SPSC ring); Controls (triple buffer)",
-        writes: "ContactState, DrillContact (drill) or HeldPen (mesh tool), SimStatus (triple buffers); Snapshot queue",
-    },
-    TaskDecl {
-        name: "status",
-        priority: "normal (the main thread)",
-        period: "250 ms",
-        reads: "SimStatus (triple buffer); servo counters (atomics)",
-        writes: "the status line on stderr",
-    },
-    TaskDecl {
-        name: "viewer",
-        priority: "normal (the main thread; status moves to its own thread)",
-        period: "about 60 Hz",
-        reads: "Snapshot queue (drained, never waited on); servo counters (atomics)",
-        writes: "Controls, camera C (triple buffers)",
-    },
-    TaskDecl {
-        name: "watchdog",
-        priority: "SCHED_FIFO one above the servo when permitted, on another core; else normal",
-        period: "1 ms",
-        reads: "the servo's beat (atomic)",
-        writes: "the device's cutoff (force off, latch) when the servo misses 10 ms of ticks",
-    },
-    TaskDecl {
-        name: "recorder",
-        priority: "normal (only with --record)",
-        period: "10 ms",
-        reads: "RecordRing (SPSC ring; a full ring drops the row and counts it)",
-        writes: "the trace CSV file",
-    },
+pub const TASKS: [TaskDecl; 7] = [
+    SERVO,
+    SIMULATION,
+    STATUS,
+    VIEWER,
+    WATCHDOG,
+    RECORDER,
+    PASS_WORKER,
 ];
 
 pub use crate::rt::SERVO_PERIOD_NS;

@@ -49,7 +49,7 @@ impl RecordRing {
     }
 }
 
-/// The header of a trace CSV (DESIGN section 4).
+/// The header of a trace CSV (docs/DEVICES.md, "Traces").
 pub const TRACE_HEADER: &str = "t,x,y,z,qw,qx,qy,qz,buttons";
 
 /// The recorder task (`--record FILE`, normal priority): until `stop` is set and the ring is

@@ -343,8 +343,8 @@ pub fn burr_contact(
 }
 
 /// The burr's force law: the latest contact plane the simulation published, at the burr's
-/// current position (seed 001 section 3.3), with the viewer's radius and stiffness when it set
-/// them (`counters`).
+/// current position (Turini et al. 2006, section 3.3), with the viewer's radius and stiffness when
+/// it set them (`counters`).
 #[derive(Debug)]
 pub struct BurrLaw<'a> {
     /// The scenario's parameters.

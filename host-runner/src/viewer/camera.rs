@@ -131,7 +131,7 @@ impl Camera {
         ]
     }
 
-    /// The egocentric camera `C` of this view relative to `home` (seed 000 section 5, with
+    /// The egocentric camera `C` of this view relative to `home` (Praktikum report, section 5, with
     /// core's [`frames::camera`](tetradrill_core::force::frames::camera)): the rotation taking a
     /// device displacement, in the scene frame as `home` shows it, to the scene displacement
     /// that this view shows the same way on screen. `C = E * H^T` with `E` this view's

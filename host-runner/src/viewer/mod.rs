@@ -1,5 +1,5 @@
-//! The viewer task (DESIGN section 4): a live 3D view of the drilled surface, the tool and the
-//! force, about 60 Hz, fed by snapshots the simulation publishes; and headless screenshots.
+//! The viewer task ([`crate::tasks::VIEWER`]): a live 3D view of the drilled surface, the tool and
+//! the force, about 60 Hz, fed by snapshots the simulation publishes; and headless screenshots.
 //!
 //! | file          | what                                                          | feature  |
 //! |---------------|---------------------------------------------------------------|----------|

@@ -5,7 +5,7 @@
 use glam::Vec3;
 
 use super::{cut_skips, FaceRef};
-use crate::force::closest_point_on_triangle;
+use crate::geom::closest_point_on_triangle;
 use crate::hierarchy::geometry::node_positions;
 use crate::hierarchy::node::HNode;
 use crate::hierarchy::store::Hierarchy;

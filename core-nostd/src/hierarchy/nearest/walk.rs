@@ -9,7 +9,7 @@ use super::{
     beats, closer, cut_skips, Entry, FaceRef, Kept, Nearest, NearestCursor, NearestQuery, Search,
     Walk, STACK,
 };
-use crate::force::closest_point_on_triangle;
+use crate::geom::closest_point_on_triangle;
 use crate::hierarchy::geometry::{
     child_of_ten, child_packed, refinement_points_masked, RootFrame, CHILD_POINTS,
 };

@@ -204,7 +204,7 @@ pub fn run(
         let sh = &shared;
         let any_view = view.any();
         let sim = std::thread::Builder::new()
-            .name("simulation".into())
+            .name(tasks::SIMULATION.name.into())
             .spawn_scoped(scope, move || -> Result<SimEnding, CliError> {
                 let mut link = any_view.then(|| {
                     let mut l = crate::viewer::publish::SimViewer::new(

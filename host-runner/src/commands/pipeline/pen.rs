@@ -109,7 +109,7 @@ pub(super) fn run_pen(
                 let task = &mut task;
                 let (world, link) = (&world, link.as_mut());
                 let sim = std::thread::Builder::new()
-                    .name("simulation".into())
+                    .name(tasks::SIMULATION.name.into())
                     .spawn_scoped(scope, move || {
                         let viewer = link.map(|link| PenViewer {
                             link,

@@ -62,7 +62,7 @@ pub(super) fn spawn_servo<'scope, 'env: 'scope, L: tasks::ForceLaw + Send>(
         record,
     } = run;
     std::thread::Builder::new()
-        .name("servo".into())
+        .name(tasks::SERVO.name.into())
         .spawn_scoped(scope, move || {
             let watch = &sh.counters.watch;
             let opened = watchdog::quiet_unwind(open);
@@ -162,7 +162,7 @@ impl Recorder {
             return Ok(None);
         };
         let h = std::thread::Builder::new()
-            .name("recorder".into())
+            .name(tasks::RECORDER.name.into())
             .spawn_scoped(scope, move || tasks::recorder_task(ring, file, &sh.stop))
             .map_err(|e| {
                 sh.stop.store(true, Ordering::Relaxed);
@@ -202,7 +202,7 @@ pub(super) fn spawn_watchdog<'scope, 'env: 'scope>(
     kind: DeviceKind,
 ) -> Result<std::thread::ScopedJoinHandle<'scope, ()>, CliError> {
     std::thread::Builder::new()
-        .name("watchdog".into())
+        .name(tasks::WATCHDOG.name.into())
         .spawn_scoped(scope, move || {
             watchdog::supervisor_rt(&rt);
             watchdog::supervisor_task(
@@ -269,7 +269,7 @@ pub(super) fn main_thread_tasks<'scope, 'env: 'scope, S>(
     if view.window {
         // The viewer on the main thread, the status task on its own.
         let status = std::thread::Builder::new()
-            .name("status".into())
+            .name(tasks::STATUS.name.into())
             .spawn_scoped(scope, move || {
                 status_loop(sh, &mut status_out, status_line, initial_volume, || {});
                 status_out

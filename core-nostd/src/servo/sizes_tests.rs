@@ -1,13 +1,14 @@
-//! The carving of storage: sizes, lines, placement, starting values, refusals.
+//! The carving of a world's storage (`sizes.rs`, `crate::storage`): sizes, lines,
+//! placement, starting values, refusals.
 
 use glam::Vec3;
 
-use super::*;
 use crate::drill::Pending;
 use crate::hash::{Aabb, HashEntry};
 use crate::hierarchy::{HNode, HierarchySizes, HierarchyStorage, SphereSlot, VEntry};
 use crate::ids::TetId;
 use crate::servo::{SpareStorage, WorldSizes, WorldStorage};
+use crate::storage::*;
 
 /// Small sizes with every part of a different, odd length (so a wrong order or a wrong
 /// length shows).

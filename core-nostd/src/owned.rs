@@ -5,7 +5,7 @@
 //! [`crate::hierarchy::HierarchyStorage::carve`]), so there is one layout for all of them.
 //!
 //! ```
-//! use tetradrill_core::storage::owned::{OwnedMesh, WorldBuffers};
+//! use tetradrill_core::owned::{OwnedMesh, WorldBuffers};
 //! use tetradrill_core::servo::WorldSizes;
 //! use tetradrill_core::builtin;
 //!
@@ -22,11 +22,11 @@ use alloc::vec::Vec;
 
 use glam::Vec3;
 
-use super::{Block, Line, StorageError, LINE};
 use crate::drill::{Material, Region, Regions};
 use crate::hierarchy::{Hierarchy, HierarchyError, HierarchySizes, HierarchyStorage};
 use crate::mesh::{BuildError, BuildOptions, BuildStats, FaceKey, Mesh, MeshStorage, Node, Tet};
 use crate::servo::{carve_rest, SpareStorage, World, WorldError, WorldSizes, WorldStorage};
+use crate::storage::{Block, Line, Part, StorageError, LINE};
 
 /// A run of lines on the heap, allocated once.
 #[derive(Debug, Clone)]
@@ -40,7 +40,7 @@ impl Heap {
     /// # Errors
     /// [`StorageError::Alloc`] when the heap refuses the bytes (a mistyped capacity is an
     /// error, not an abort), [`StorageError::Overflow`] when `lines` is `None`.
-    pub fn new(lines: Option<usize>, part: super::Part) -> Result<Self, StorageError> {
+    pub fn new(lines: Option<usize>, part: Part) -> Result<Self, StorageError> {
         let n = lines.ok_or(StorageError::Overflow { part })?;
         let bytes = n.saturating_mul(LINE);
         let mut v = Vec::new();
@@ -92,7 +92,7 @@ impl WorldBuffers {
     /// [`StorageError`] when the sizes overflow or the heap refuses them.
     pub fn new(sizes: WorldSizes) -> Result<Self, StorageError> {
         Ok(Self {
-            heap: Heap::new(sizes.lines(), super::Part::HashStarts)?,
+            heap: Heap::new(sizes.lines(), Part::HashStarts)?,
             sizes,
             regions: None,
             deform: None,
@@ -116,7 +116,7 @@ impl WorldBuffers {
     /// # Errors
     /// [`StorageError`] when the sizes overflow or the heap refuses them (nothing changed).
     pub fn enable_deformation(&mut self, nodes: usize) -> Result<(), StorageError> {
-        let heap = Heap::new(self.sizes.deform_lines(nodes), super::Part::SpareHashStarts)?;
+        let heap = Heap::new(self.sizes.deform_lines(nodes), Part::SpareHashStarts)?;
         self.deform = Some(DeformBuffers { nodes, heap });
         Ok(())
     }
@@ -186,7 +186,7 @@ impl HierarchyBuffers {
     /// [`StorageError`] when the sizes overflow or the heap refuses them.
     pub fn new(sizes: HierarchySizes) -> Result<Self, StorageError> {
         Ok(Self {
-            heap: Heap::new(sizes.lines(), super::Part::Roots)?,
+            heap: Heap::new(sizes.lines(), Part::Roots)?,
             sizes,
         })
     }
