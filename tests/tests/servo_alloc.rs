@@ -8,6 +8,9 @@
 //! [`tetradrill::tasks::DrillLaw`]: the burr's and the shaft's springs). The burr's ticks also push every
 //! sample to a `--record` ring (full half of the time), record the timing histograms, look at
 //! a stop request and end with the zero-force write of a clean stop.
+//!
+//! A test binary of its own: a global allocator is the whole process's, so the other tests
+//! neither run under the counting one nor beside these.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

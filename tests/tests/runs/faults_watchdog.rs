@@ -305,13 +305,14 @@ fn a_panicking_servo_zeroes_the_force_and_ends_with_one_line() {
     assert_eq!(motors.output(), ForceCommand::OFF);
     // The same run in a child process: stderr holds that one line and no panic report (the
     // watchdog may add its warning on a loaded machine; nothing else).
+    // This test's name as the harness lists it: its module path without the crate's name.
+    let path = concat!(
+        module_path!(),
+        "::a_panicking_servo_zeroes_the_force_and_ends_with_one_line"
+    );
+    let name = path.split_once("::").map_or(path, |(_, name)| name);
     let out = std::process::Command::new(std::env::current_exe().expect("test binary"))
-        .args([
-            "--exact",
-            "a_panicking_servo_zeroes_the_force_and_ends_with_one_line",
-            "--nocapture",
-            "--test-threads=1",
-        ])
+        .args(["--exact", name, "--nocapture", "--test-threads=1"])
         .env("TETRADRILL_PANIC_CHILD", "1")
         .output()
         .expect("run the child");
