@@ -4,7 +4,7 @@
 //! storage. Here the calling thread places the pen and runs the pen side while a worker thread
 //! places its own copy of the pen (the same function, the same bits) and runs the object side:
 //! the pass takes about as long as its longer side instead of both. The forces are those of
-//! [`tetradrill_core::force::pen_contact`], bit for bit (`tests/tests/pen_pair.rs`).
+//! [`tetradrill_core::force::pen_contact`], bit for bit (`tests/tests/contact/pen_pair.rs`).
 //!
 //! The object side's storage goes to the worker with each job and comes back with its
 //! result, so the calling thread owns every buffer between passes. A waiting thread spins for

@@ -6,7 +6,7 @@
 
 use tetradrill_tests::refused;
 
-/// Bad input that `tests/runner.rs` does not cover yet: negative and non-finite flag values
+/// Bad input that `runner.rs` does not cover yet: negative and non-finite flag values
 /// (a negative number used to be taken for an unknown flag), impossible values in a scenario
 /// file (named with their line), and a bad trace given to `run` rather than `replay`.
 #[test]

@@ -523,8 +523,8 @@ fn pen_run(tool: &str, secs: &str, extra: &[&str]) -> Output {
 
 /// `run --tool mesh:FILE`: the pen in the real-time pipeline (the contact task's passes, the
 /// servo carrying them) keeps 1 kHz, reports its passes and takes a screenshot; a contact
-/// period (replay's) exits 2 naming the flag. (`tests/pen_pipeline.rs` checks its forces tick
-/// by tick, `tests/viewer_render.rs` how the pen is drawn.)
+/// period (replay's) exits 2 naming the flag. (`tests/tests/contact/pen_pipeline.rs` checks its
+/// forces tick by tick, `tests/tests/viewer/viewer_render.rs` how the pen is drawn.)
 #[test]
 fn mesh_tool_runs_in_real_time() {
     let dir = scratch_dir("runner", "pen-run");
