@@ -24,7 +24,7 @@ use criterion::{criterion_group, Criterion};
 use glam::Vec3;
 use tetradrill::engine::EngineStorage;
 use tetradrill::owned::OwnedMesh;
-use tetradrill::scenario::Scenario;
+use tetradrill::setup::Setup;
 use tetradrill::soft::SoftOwned;
 use tetradrill_benches::{load_mesh, soft_bench_body};
 use tetradrill_core::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, SpatialHash};
@@ -112,7 +112,7 @@ fn world_pass() {
     for (name, rel) in MESHES {
         let mut scene = Scene::new(rel);
         let mut body = scene.body();
-        let mut storage = EngineStorage::allocate(load(rel), &Scenario::default());
+        let mut storage = EngineStorage::new(load(rel), &Setup::default()).expect("storage");
         let mut rest = vec![Vec3::ZERO; body.node_count()];
         let mut world = storage.world().expect("world");
         world.enable_deformation(&mut rest).expect("rest storage");
@@ -169,7 +169,7 @@ fn world_profile(only: &str) {
     {
         let mut scene = Scene::new(rel);
         let body = scene.body();
-        let mut storage = EngineStorage::allocate(load(rel), &Scenario::default());
+        let mut storage = EngineStorage::new(load(rel), &Setup::default()).expect("storage");
         let mut rest = vec![Vec3::ZERO; body.node_count()];
         let mut world = storage.world().expect("world");
         world.enable_deformation(&mut rest).expect("rest storage");

@@ -281,6 +281,11 @@ impl OwnedMesh {
         &self.positions
     }
 
+    /// Node records (with each node's boundary flag).
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
     /// Tets.
     pub fn tets(&self) -> &[Tet] {
         &self.tets

@@ -178,6 +178,9 @@ pub enum DeviceKind {
     Omni,
     /// Geomagic / 3D Systems Touch through the vendor HD library.
     Touch,
+    /// A device of the program's own, driven through [`HapticDevice`] (not a command-line
+    /// choice).
+    Custom,
 }
 
 impl DeviceKind {
@@ -196,6 +199,7 @@ impl DeviceKind {
             DeviceKind::Falcon => "falcon",
             DeviceKind::Omni => "omni",
             DeviceKind::Touch => "touch",
+            DeviceKind::Custom => "custom",
         }
     }
 
@@ -216,6 +220,7 @@ impl DeviceKind {
             DeviceKind::Touch => {
                 "USB 0301:2988, 2988:0302 or 2988:0304 and the vendor HD library (libHD.so) at run time"
             }
+            DeviceKind::Custom => "the program's own device",
         }
     }
 }

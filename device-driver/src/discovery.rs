@@ -123,7 +123,7 @@ pub struct OpenOptions {
 /// [`crate::touch::TouchDevice`]).
 pub fn open(kind: DeviceKind, options: &OpenOptions) -> Result<Box<dyn HapticDevice>, DeviceError> {
     match kind {
-        DeviceKind::Sim => Err(DeviceError::Unsupported(DeviceKind::Sim)),
+        DeviceKind::Sim | DeviceKind::Custom => Err(DeviceError::Unsupported(kind)),
         DeviceKind::Falcon => {
             let mut dev = FalconDevice::open_usb(options.falcon)?;
             dev.start_with_file(options.falcon_firmware.as_deref())?;

@@ -8,7 +8,8 @@ use std::ffi::CStr;
 use std::ptr;
 
 use tetradrill::engine::{self, EngineStorage, TickParams, ToolSizing};
-use tetradrill::scenario::{self, Scenario};
+use tetradrill::scenario;
+use tetradrill::setup::Setup;
 use tetradrill::traces::PoseSource;
 use tetradrill_core::drill::Material;
 use tetradrill_core::force::{ForceDigest, ToolState};
@@ -55,12 +56,12 @@ fn block_arrays(n: usize) -> (Vec<f32>, Vec<u32>) {
 
 /// The C parameters that mirror the host's scenario `sc` (what `replay` prints as sizing
 /// included), for a block of `n`.
-fn params_of(sc: &Scenario, n: usize) -> TdParams {
+fn params_of(sc: &Setup, n: usize) -> TdParams {
     let loaded = engine::load_mesh(sc).expect("scenario mesh");
     let tick = TickParams::of(sc).expect("tick params");
     let mesh = loaded.mesh;
-    let sizing = ToolSizing::of(&mesh, f64::from(tick.radius), sc.max_depth);
-    let mut store = EngineStorage::try_allocate(mesh.clone(), sc).expect("storage");
+    let sizing = ToolSizing::of(&mesh, f64::from(tick.radius), sc.drilling.max_depth);
+    let mut store = EngineStorage::new(mesh.clone(), sc).expect("storage");
     let candidates = store.candidate_capacity();
     let arena = store.hierarchy_capacity();
     let max_cells = store.world().expect("world").max_cells();
@@ -95,11 +96,11 @@ fn params_of(sc: &Scenario, n: usize) -> TdParams {
         TdStatus::TdOk
     );
     p.hierarchy_capacity = arena as u32;
-    p.pending_capacity = sc.pending_capacity.unwrap_or(sizing.pending) as u32;
+    p.pending_capacity = sc.capacities.pending.unwrap_or(sizing.pending) as u32;
     p.candidate_capacity = candidates as u32;
     p.max_cells = max_cells;
-    p.contact_search_nodes = sc.contact_search_nodes;
-    p.tick_budget = sc.tick_budget;
+    p.contact_search_nodes = sc.drilling.contact_search_nodes;
+    p.tick_budget = sc.drilling.tick_budget;
     p.max_depth = u32::from(tick.drill.max_depth);
     p.budget_per_tick = tick.drill.budget;
     p.radius = tick.radius;
@@ -124,11 +125,11 @@ struct Outcome {
 }
 
 /// The host's replay of `sc`, its mesh's labels and materials set as `replay` sets them.
-fn host_replay(sc: &Scenario) -> Outcome {
+fn host_replay(sc: &Setup) -> Outcome {
     let loaded = engine::load_mesh(sc).expect("scenario mesh");
     let params = TickParams::of(sc).expect("tick params");
-    let poses = PoseSource::for_scenario(sc).expect("poses");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, sc).expect("storage");
+    let poses = PoseSource::new(&sc.poses, Some(&loaded.mesh)).expect("poses");
+    let mut store = EngineStorage::new(loaded.mesh, sc).expect("storage");
     store.set_labels(&loaded.labels, sc).expect("labels");
     let labels = store.region_labels().to_vec();
     let mut world = store.world().expect("world");
@@ -151,12 +152,21 @@ fn host_replay(sc: &Scenario) -> Outcome {
     }
 }
 
-/// The materials of `sc`'s `[regions]` table, by label.
-fn materials(sc: &Scenario) -> Vec<(i32, Material)> {
-    sc.regions
+/// The materials of `sc`'s regions, by label.
+fn materials(sc: &Setup) -> Vec<(i32, Material)> {
+    sc.materials
+        .regions
         .iter()
-        .map(|(l, r)| (l.parse().expect("integer label"), r.material()))
+        .map(|(&l, r)| (l, r.material()))
         .collect()
+}
+
+/// The built-in scenario `name`'s set-up.
+fn builtin(name: &str) -> Setup {
+    scenario::builtin(name)
+        .expect("a built-in scenario")
+        .setup()
+        .expect("a valid set-up")
 }
 
 /// The labels of the `n`-block: the rule of `builtin::block_labels`.
@@ -271,8 +281,8 @@ fn c_replay(
 
 #[test]
 fn demo_digest_equals_the_hosts_replay() {
-    let sc = scenario::builtin("demo").expect("builtin:demo");
-    assert_eq!(sc.mesh, "builtin:block:8");
+    let sc = builtin("demo");
+    assert_eq!(sc.mesh.to_string(), "builtin:block:8");
     let host = host_replay(&sc);
     let labels = block_labels(8);
     let (c, by_region) = c_replay(
@@ -304,7 +314,7 @@ fn demo_digest_equals_the_hosts_replay() {
 
 #[test]
 fn the_demo_in_two_halves_needs_the_pressing_force() {
-    let sc = scenario::builtin("demo").expect("builtin:demo");
+    let sc = builtin("demo");
     let host = host_replay(&sc);
     let labels = block_labels(8);
     let p = params_of(&sc, 8);
@@ -327,10 +337,10 @@ fn the_demo_in_two_halves_needs_the_pressing_force() {
 
 #[test]
 fn firmware_digest_equals_the_hosts_replay() {
-    let sc = scenario::builtin("firmware").expect("builtin:firmware");
-    assert_eq!(sc.mesh, "builtin:block:4");
+    let sc = builtin("firmware");
+    assert_eq!(sc.mesh.to_string(), "builtin:block:4");
     assert!(
-        sc.regions.is_empty(),
+        sc.materials.regions.is_empty(),
         "no materials in the firmware scenario"
     );
     let host = host_replay(&sc);

@@ -47,9 +47,10 @@ pub fn check_line(code: i32, message: &str) {
     );
 }
 
-/// [`check_line`] for a mesh reader's error.
+/// [`check_line`] for a mesh reader's error: bad input, not an internal failure.
 pub fn check_error(e: &MeshError) {
-    check_line(e.code, &e.message);
+    let code = if e.is_input() { 2 } else { 1 };
+    check_line(code, &e.message);
 }
 
 /// Reads and loads a mesh file: neither may panic; a refusal is a one-line exit-2 error; a

@@ -1,8 +1,33 @@
-//! tetradrill host runner: reads mesh files, runs the servo and simulation tasks, serves the
-//! command line. The core (`tetradrill-core`) never sees a file, a thread or a clock; this crate
-//! does all of that around it. The devices, their codecs and their OS transports (FireWire
-//! cdev, the HD library loader) are `tetradrill-device`'s; `commands::run` builds the device
-//! factories from them.
+//! tetradrill: touch and drill tetrahedral meshes with a haptic device, in real time.
+//!
+//! This crate is the host side of tetradrill: mesh files, the typed set-up of a session, the
+//! 1 kHz servo and its tasks, the viewer and the `tetradrill` command line. The computing
+//! happens in `tetradrill-core` (`no_std`, allocation-free), which never sees a file, a
+//! thread or a clock; the devices are `tetradrill-device`'s.
+//!
+//! Drill the built-in block with a burr and see what came out:
+//!
+//! ```
+//! use tetradrill::prelude::*;
+//!
+//! let setup = Setup::drilling("builtin:block:4", Tool::sphere(0.1));
+//! let mut drilling = Drilling::new(&setup)?;
+//! let mut run = drilling.start()?;
+//! for i in 0..300 {
+//!     // In through the top face, 0.25 deep, the drill on.
+//!     let depth = 0.25 * i as f32 / 300.0;
+//!     run.tick(&Pose::drilling(Vec3::new(0.0, 0.0, 0.55 - depth)));
+//! }
+//! for (label, volume) in run.removed_by_region() {
+//!     println!("region {label}: {volume:.5} removed");
+//! }
+//! assert!(run.removed_volume() > 0.0 && run.surface().triangles() > 0);
+//! # Ok::<(), tetradrill::Error>(())
+//! ```
+//!
+//! The same set-up drives a touch with a tet-mesh tool ([`pen`]), a soft body ([`soft`]),
+//! and the real-time servo with a device of one's own ([`servo`]); `examples/` in the
+//! repository has a program for each.
 //!
 //! | module            | what                                                                 |
 //! |-------------------|----------------------------------------------------------------------|
@@ -10,16 +35,20 @@
 //! | [`commands`]      | one file per command, and the real-time pipeline `run` and `demo` share |
 //! | [`device_config`] | `--device-config FILE`: the device constants from TOML               |
 //! | [`engine`]        | storage for a scenario's core world, allocated once, and the per-tick step |
-//! | [`error`]         | one-line errors with exit status 2 for bad input, 1 for a failed run  |
+//! | [`error`]         | the library's typed [`Error`], and the command line's one line and exit status |
 //! | [`meshio`]        | mesh files: the `tetradrill-meshio` crate, re-exported               |
 //! | [`owned`]         | host-owned storage for one core mesh (from `tetradrill-meshio`)      |
 //! | [`pen`]           | a tet-mesh tool (the pen) against an object: its storage and scene   |
 //! | [`pen_pair`]      | the pen's contact pass on two threads (`--pass-threads 2`)           |
 //! | [`pen_tasks`]     | the pen in the real-time run: the contact task and the servo's law   |
+//! | [`prelude`]         | what a program using tetradrill needs most, in one `use`             |
 //! | [`platform`]      | clock, absolute sleeps, SCHED_FIFO, mlockall, pinning, signals (`unsafe`, libc) |
 //! | [`report`]        | the JSON reports the commands write                                  |
 //! | [`rt`]            | servo thread set-up and the absolute-deadline period                 |
-//! | [`scenario`]      | what a run needs (mesh, tool, trace, forces, capacities): defaults, file, flags |
+//! | [`servo`]         | the 1 kHz servo with a device of one's own, for a program             |
+//! | [`session`]       | the front door for drilling: `Drilling`, `DrillRun`, `Surface`       |
+//! | [`scenario`]      | the set-up as flags and scenario files write it: file, built-ins, flags |
+//! | [`setup`]         | the typed set-up (mesh, tool, poses, forces, materials, sizes, body), checked once |
 //! | [`soft`]          | host-owned storage for one soft body (`tetradrill_core::soft`)       |
 //! | [`stats`]         | percentiles and histograms of timing samples                         |
 //! | [`tasks`]         | the task table (`TASKS`) and the tasks of a real-time run            |
@@ -78,6 +107,9 @@ pub mod platform;
 pub mod report;
 pub mod rt;
 pub mod scenario;
+pub mod servo;
+pub mod session;
+pub mod setup;
 pub mod soft;
 pub mod stats;
 pub mod tasks;
@@ -86,5 +118,18 @@ pub mod viewer;
 pub mod watchdog;
 pub mod workload;
 
+pub use error::Error;
+pub use session::{DrillRun, Drilling, Surface};
+pub use setup::{MeshSpec, Poses, Setup, Tool};
 pub use tetradrill_meshio as meshio;
 pub use tetradrill_meshio::owned;
+pub use traces::Pose;
+
+/// What a program using tetradrill needs most, in one `use`.
+pub mod prelude {
+    pub use crate::error::Error;
+    pub use crate::session::{DrillRun, Drilling, Surface};
+    pub use crate::setup::{Body, MeshSpec, Poses, Setup, SoftSettings, Tool};
+    pub use crate::traces::{Pose, PoseSource};
+    pub use tetradrill_core::{Quat, Vec3};
+}

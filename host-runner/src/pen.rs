@@ -102,35 +102,36 @@ pub struct PenSizes {
 }
 
 impl PenSizes {
-    /// The capacities a scenario asks for (`hash_capacity`, `contact_capacity`,
+    /// The capacities a set-up asks for (`hash_capacity`, `contact_capacity`,
     /// `queue_capacity`).
-    pub fn of(sc: &crate::scenario::Scenario) -> Self {
+    pub fn of(c: &crate::setup::Capacities) -> Self {
         Self {
-            hash: sc.hash_capacity,
-            contacts: sc.contact_capacity,
-            queue: sc.queue_capacity,
+            hash: c.hash,
+            contacts: c.contacts,
+            queue: c.queue,
         }
     }
 }
 
-/// The pen options a scenario asks for: its stiffness, damping and force clamp at the servo's
+/// The pen options a set-up asks for: its stiffness, damping and force clamp at the servo's
 /// period, its depth method, crossing rule and entry-plane remedy.
-pub fn options(sc: &crate::scenario::Scenario) -> PenOptions {
-    use crate::scenario::{Crossings, DepthMethod};
+pub fn options(setup: &crate::setup::Setup) -> PenOptions {
+    use crate::setup::{Crossings, DepthMethod};
+    let f = &setup.forces;
     PenOptions {
         params: ForceParams {
-            stiffness: sc.stiffness as f32,
-            damping: sc.damping as f32,
-            max_force: sc.max_force as f32,
+            stiffness: f.stiffness as f32,
+            damping: f.damping as f32,
+            max_force: f.max_force as f32,
             dt: crate::traces::PERIOD_S as f32,
             ..ForceParams::default()
         },
-        method: match sc.depth_method {
+        method: match setup.pen.depth_method {
             DepthMethod::Traced => PenMethod::Traced,
             DepthMethod::Hashed => PenMethod::Hashed,
         },
-        reuse_crossings: sc.crossings == Crossings::Reuse,
-        entry_remedy: sc.entry_remedy,
+        reuse_crossings: setup.pen.crossings == Crossings::Reuse,
+        entry_remedy: setup.pen.entry_remedy,
         ..PenOptions::default()
     }
 }
@@ -140,16 +141,14 @@ pub fn options(sc: &crate::scenario::Scenario) -> PenOptions {
 /// scenario's other capacities allow.
 ///
 /// # Errors
-/// Storage the scenario's sizes cannot give (exit 2, naming the capacity).
+/// Storage the set-up's sizes cannot give (naming the capacity).
 pub fn object_store(
     obj: OwnedMesh,
-    sc: &crate::scenario::Scenario,
-) -> Result<crate::engine::EngineStorage, crate::error::CliError> {
-    let untouched = crate::scenario::Scenario {
-        hierarchy_capacity: Some(8),
-        ..sc.clone()
-    };
-    crate::engine::EngineStorage::try_allocate(obj, &untouched)
+    setup: &crate::setup::Setup,
+) -> Result<crate::engine::EngineStorage, crate::error::Error> {
+    let mut untouched = setup.clone();
+    untouched.capacities.hierarchy = Some(8);
+    crate::engine::EngineStorage::new(obj, &untouched)
 }
 
 /// What setting up a pen rig counted.
@@ -415,5 +414,119 @@ impl PenRest {
             REST_MARGIN * edge,
         )
         .map_err(RigError::Rigid)
+    }
+}
+
+/// The front door for touching: an object and a tet-mesh tool (the set-up's
+/// `Tool::Mesh`), read once; [`Touching::run`] builds the contact scene and hands a
+/// [`Touch`] to the caller, whose [`Touch::tick`] gives the force of the pen at each pose.
+///
+/// ```
+/// use tetradrill::pen::Touching;
+/// use tetradrill::prelude::*;
+///
+/// let pen = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/data/meshes/models/pen_tool_gmsh.mesh");
+/// let setup = Setup::drilling("builtin:block:4", Tool::mesh(pen));
+/// let mut touching = Touching::new(&setup)?;
+/// let force = touching.run(|touch| {
+///     // The pen's tip 0.02 into the block's top face (z = 0.5), its axis up.
+///     touch.tick(&Pose::at(Vec3::new(0.0, 0.0, 0.48))).force
+/// })?;
+/// assert!(force.z > 0.0, "the block pushes the pen back up: {force}");
+/// # Ok::<(), tetradrill::Error>(())
+/// ```
+#[derive(Debug)]
+pub struct Touching {
+    rig: PenRig,
+    sizes: PenSizes,
+    opts: PenOptions,
+}
+
+impl Touching {
+    /// Reads the set-up's object and its tet-mesh tool.
+    ///
+    /// # Errors
+    /// [`crate::Error::Unsupported`] when the tool is a burr; a mesh that cannot be read.
+    pub fn new(setup: &crate::setup::Setup) -> Result<Self, crate::error::Error> {
+        let crate::setup::Tool::Mesh { path, scale } = &setup.tool else {
+            return Err(crate::error::Error::Unsupported(format!(
+                "tool {}: touching takes a tet-mesh tool (mesh:FILE)",
+                setup.tool
+            )));
+        };
+        setup.check()?;
+        let obj = setup.mesh.load()?;
+        let pen = crate::meshio::load(path, *scale)?;
+        Ok(Self {
+            rig: PenRig {
+                pen: pen.mesh,
+                obj: obj.mesh,
+            },
+            sizes: PenSizes::of(&setup.capacities),
+            opts: options(setup),
+        })
+    }
+
+    /// The tool and the object.
+    pub fn rig(&self) -> &PenRig {
+        &self.rig
+    }
+
+    /// Builds the contact scene (the object's hashes and grids, the pen's rest frame) and runs
+    /// `f` with it.
+    ///
+    /// # Errors
+    /// [`crate::Error::Rig`] when the scene cannot be built from these meshes and sizes.
+    pub fn run<R>(
+        &mut self,
+        f: impl FnOnce(&mut Touch<'_, '_>) -> R,
+    ) -> Result<R, crate::error::Error> {
+        let opts = self.opts;
+        self.rig
+            .with_sizes(self.sizes, |scene, bufs| {
+                let mut touch = Touch {
+                    scene,
+                    bufs,
+                    opts,
+                    state: tetradrill_core::force::PenState::default(),
+                };
+                f(&mut touch)
+            })
+            .map(|(r, _)| r)
+            .map_err(|e| crate::error::Error::Rig(format!("the pen's contact scene: {e}")))
+    }
+}
+
+/// A pen touching an object, tick by tick (from [`Touching::run`]).
+pub struct Touch<'s, 'b> {
+    scene: &'s PenScene<'s, 's, 's>,
+    bufs: &'s mut PenBuffers<'b>,
+    opts: PenOptions,
+    state: tetradrill_core::force::PenState,
+}
+
+impl std::fmt::Debug for Touch<'_, '_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Touch").finish_non_exhaustive()
+    }
+}
+
+impl Touch<'_, '_> {
+    /// The pen at `pose` (tip at the position, axis +z turned by the rotation): its
+    /// collisions with the object, their consistent penetration depths, and the force on the
+    /// hand (damped, clamped), with where to draw the pen so it does not visibly penetrate.
+    ///
+    /// # Bounded work
+    /// The core's `pen_contact`: the buffers' capacities bound every list.
+    pub fn tick(&mut self, pose: &crate::traces::Pose) -> tetradrill_core::force::PenContact {
+        let [w, x, y, z] = pose.rotation;
+        tetradrill_core::force::pen_contact(
+            self.scene,
+            self.bufs,
+            pose.position,
+            tetradrill_core::Quat::from_xyzw(x, y, z, w),
+            &self.opts,
+            &mut self.state,
+        )
     }
 }

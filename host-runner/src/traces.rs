@@ -8,8 +8,9 @@ use tetradrill_core::script::{Script, DEMO, DRILL_ON, TOOTH_ACCESS};
 use tetradrill_core::Vec3;
 use tetradrill_device::{PathPoint, Trace};
 
-use crate::error::CliError;
-use crate::scenario::Scenario;
+use crate::error::Error;
+use crate::owned::OwnedMesh;
+use crate::setup::Poses;
 
 /// Servo period of replays and scripted paths, seconds.
 pub const PERIOD_S: f64 = 1e-3;
@@ -29,6 +30,25 @@ pub struct Pose {
     pub rotation: [f32; 4],
     /// Button mask (bit 0 = drill on).
     pub buttons: u32,
+}
+
+impl Pose {
+    /// The tool at `position`, unrotated, the drill off.
+    pub fn at(position: Vec3) -> Self {
+        Self {
+            position,
+            rotation: [1.0, 0.0, 0.0, 0.0],
+            buttons: 0,
+        }
+    }
+
+    /// The tool at `position`, unrotated, the drill on.
+    pub fn drilling(position: Vec3) -> Self {
+        Self {
+            buttons: DRILL_ON,
+            ..Self::at(position)
+        }
+    }
 }
 
 /// A source of poses, one per tick.
@@ -64,61 +84,56 @@ fn mix(x: u64) -> u64 {
 }
 
 impl PoseSource {
-    /// `builtin:demo`, `builtin:tooth-access` or a trace CSV file (bad traces exit 2 naming the file and line); see
-    /// [`PoseSource::for_scenario`] for `wander:SEED`.
-    pub fn load(spec: &str, scale: f64) -> Result<Self, CliError> {
-        if let Some(name) = spec.strip_prefix("builtin:") {
-            return match name {
-                "demo" => Ok(Self::Script(DEMO)),
-                "tooth-access" => Ok(Self::Script(TOOTH_ACCESS)),
-                _ => Err(CliError::input(format!(
-                    "unknown built-in trace `{spec}` (built-in: builtin:demo, builtin:tooth-access)"
-                ))),
-            };
+    /// The poses of `poses`: the scripted path, the trace file read (bad traces name the file
+    /// and line), or a wander over the boundary nodes of `mesh` (which it needs).
+    ///
+    /// # Errors
+    /// [`Error::Input`] for an unreadable or bad trace file, a wander without a mesh or over a
+    /// mesh with no boundary node.
+    pub fn new(poses: &Poses, mesh: Option<&OwnedMesh>) -> Result<Self, Error> {
+        match poses {
+            Poses::Demo => Ok(Self::Script(DEMO)),
+            Poses::ToothAccess => Ok(Self::Script(TOOTH_ACCESS)),
+            Poses::Trace(path) => Self::trace_file(path, 1.0),
+            Poses::Wander { seed } => {
+                let Some(mesh) = mesh else {
+                    return Err(Error::Unsupported(format!(
+                        "trace `{poses}`: a wander takes its waypoints from the mesh (run and \
+                         replay only)"
+                    )));
+                };
+                let anchors: Vec<Vec3> = mesh
+                    .nodes()
+                    .iter()
+                    .zip(mesh.positions())
+                    .filter(|(n, _)| n.boundary)
+                    .map(|(_, p)| *p)
+                    .collect();
+                if anchors.is_empty() {
+                    return Err(Error::Unsupported(format!(
+                        "trace `{poses}`: the mesh has no boundary node to wander over"
+                    )));
+                }
+                Ok(Self::Wander {
+                    seed: *seed,
+                    anchors,
+                })
+            }
         }
-        if spec.starts_with("wander:") {
-            return Err(CliError::input(format!(
-                "trace `{spec}`: a wander takes its waypoints from the mesh (run and replay only)"
-            )));
-        }
-        let path = Path::new(spec);
-        let bytes = std::fs::read(path)
-            .map_err(|e| CliError::at(path, None, format!("cannot read trace: {e}")))?;
-        let text = String::from_utf8(bytes)
-            .map_err(|_| CliError::at(path, None, "not a text file (binary trace?)"))?;
-        let trace =
-            Trace::parse(&text, spec).map_err(|e| CliError::at(path, Some(e.line), e.kind))?;
-        Ok(Self::Trace { trace, scale })
     }
 
-    /// The source a scenario names: its `trace` (`wander:SEED` takes its waypoints from the
-    /// scenario's mesh).
-    pub fn for_scenario(sc: &Scenario) -> Result<Self, CliError> {
-        let Some(seed) = sc.trace.strip_prefix("wander:") else {
-            return Self::load(&sc.trace, 1.0);
-        };
-        let seed = seed.parse::<u64>().map_err(|_| {
-            CliError::input(format!(
-                "trace `{}`: expected wander:SEED with SEED a whole number",
-                sc.trace
-            ))
-        })?;
-        let mut loaded = crate::meshio::load(Path::new(&sc.mesh), sc.scale)?;
-        let mesh = loaded.mesh.view();
-        let anchors: Vec<Vec3> = mesh
-            .nodes()
-            .iter()
-            .zip(mesh.positions())
-            .filter(|(n, _)| n.boundary)
-            .map(|(_, p)| *p)
-            .collect();
-        if anchors.is_empty() {
-            return Err(CliError::input(format!(
-                "trace `{}`: the mesh {} has no boundary node to wander over",
-                sc.trace, sc.mesh
-            )));
-        }
-        Ok(Self::Wander { seed, anchors })
+    /// A trace CSV file, positions times `scale` (bad traces name the file and line).
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the file, the line and the reason.
+    pub fn trace_file(path: &Path, scale: f64) -> Result<Self, Error> {
+        let bytes = std::fs::read(path)
+            .map_err(|e| Error::at(path, None, format!("cannot read trace: {e}")))?;
+        let text = String::from_utf8(bytes)
+            .map_err(|_| Error::at(path, None, "not a text file (binary trace?)"))?;
+        let trace = Trace::parse(&text, &path.to_string_lossy())
+            .map_err(|e| Error::at(path, Some(e.line), e.kind))?;
+        Ok(Self::Trace { trace, scale })
     }
 
     /// The pose at device time `t` seconds, for the simulated device's hand.
@@ -201,18 +216,14 @@ impl PoseSource {
 mod tests {
     use super::*;
 
-    fn wander(seed: &str) -> PoseSource {
-        let sc = Scenario {
-            mesh: "builtin:block:2".into(),
-            trace: format!("wander:{seed}"),
-            ..Scenario::default()
-        };
-        PoseSource::for_scenario(&sc).expect("a wander")
+    fn wander(seed: u64) -> PoseSource {
+        let mesh = crate::meshio::load(Path::new("builtin:block:2"), 1.0).expect("block");
+        PoseSource::new(&Poses::Wander { seed }, Some(&mesh.mesh)).expect("a wander")
     }
 
     #[test]
     fn a_wander_is_seeded_visits_the_surface_and_drills() {
-        let (a, b, c) = (wander("5"), wander("5"), wander("6"));
+        let (a, b, c) = (wander(5), wander(5), wander(6));
         assert_eq!(a.ticks(), WANDER_TICKS);
         let mut differs = false;
         for i in (0..20_000).step_by(7) {
@@ -235,14 +246,7 @@ mod tests {
                 "waypoint {k} at {p:?}"
             );
         }
-        let bad = Scenario {
-            trace: "wander:-1".into(),
-            ..Scenario::default()
-        };
-        assert_eq!(
-            PoseSource::for_scenario(&bad).map(|_| ()).unwrap_err().code,
-            2
-        );
-        assert!(PoseSource::load("wander:1", 1.0).is_err());
+        assert!(Poses::parse("wander:-1").is_err());
+        assert!(PoseSource::new(&Poses::Wander { seed: 1 }, None).is_err());
     }
 }

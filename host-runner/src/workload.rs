@@ -9,7 +9,7 @@ use tetradrill_device::{PathPoint, Scripted, SimConfig, SimDevice, QUAT_IDENTITY
 
 use crate::engine::{self, EngineStorage, TickParams};
 use crate::error::CliError;
-use crate::scenario::Scenario;
+use crate::setup::Setup;
 use crate::tasks::{servo_tick, ServoState, Workspace};
 use crate::traces::PoseSource;
 
@@ -38,9 +38,9 @@ impl Work {
 /// Runs `f` with a per-tick closure doing `work` (set up here, before any tick: the closure
 /// itself does not allocate for `Servo`).
 pub fn with_work<R>(work: Work, f: impl FnOnce(&mut dyn FnMut(u64)) -> R) -> Result<R, CliError> {
-    let sc = Scenario::default();
+    let sc = Setup::default();
     let params = TickParams::of(&sc)?;
-    let poses = PoseSource::load(&sc.trace, 1.0)?;
+    let poses = PoseSource::new(&sc.poses, None)?;
     let n = poses.ticks().max(1);
     match work {
         Work::None => Ok(f(&mut |_| {})),
@@ -76,7 +76,7 @@ pub fn with_work<R>(work: Work, f: impl FnOnce(&mut dyn FnMut(u64)) -> R) -> Res
         }
         Work::Full => {
             let loaded = engine::load_mesh(&sc)?;
-            let mut store = EngineStorage::allocate(loaded.mesh, &sc);
+            let mut store = EngineStorage::new(loaded.mesh, &sc)?;
             let mut world = store.world()?;
             let mut tool = ToolState::default();
             Ok(f(&mut |i| {

@@ -1,28 +1,36 @@
-//! The readers' one error type: a single line for the user, naming the file and the line (or
-//! byte offset) where there is one, and the exit status a command line should give it.
+//! The readers' one error type: what went wrong (the input, or the reader itself) and a single
+//! line for the user naming the file and the line (or byte offset) where there is one. Exit
+//! statuses belong to a command line, not here: `tetradrill` gives bad input status 2.
 
 use std::fmt;
 use std::path::Path;
 
-/// Exit status for bad input (a mesh file that cannot be read as what it says it is).
-pub const EXIT_BAD_INPUT: i32 = 2;
-/// Exit status for a failure that is not the input's fault (an internal error).
-pub const EXIT_FAILURE: i32 = 1;
+/// Whose fault a [`MeshError`] is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum MeshErrorKind {
+    /// The input: a file that cannot be read as what it says it is, a missing file, a bad
+    /// option for it.
+    Input,
+    /// The reader: an internal error, not the input's fault.
+    Internal,
+}
 
-/// One line for the user and the exit status that goes with it.
+/// A mesh that could not be read or built.
 #[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct MeshError {
-    /// Exit status: [`EXIT_BAD_INPUT`] for bad input, [`EXIT_FAILURE`] otherwise.
-    pub code: i32,
-    /// One line, naming the file and line where there is one, and the reason.
+    /// Whose fault it is.
+    pub kind: MeshErrorKind,
+    /// One line, naming the file and line (or byte offset) where there is one, and the reason.
     pub message: String,
 }
 
 impl MeshError {
-    /// Bad input (exit 2).
+    /// Bad input.
     pub fn input(message: impl Into<String>) -> Self {
         Self {
-            code: EXIT_BAD_INPUT,
+            kind: MeshErrorKind::Input,
             message: message.into(),
         }
     }
@@ -40,12 +48,17 @@ impl MeshError {
         Self::input(format!("{}: byte {offset}: {reason}", path.display()))
     }
 
-    /// A failure that is not the input's fault (exit 1).
+    /// A failure that is not the input's fault.
     pub fn failure(message: impl Into<String>) -> Self {
         Self {
-            code: EXIT_FAILURE,
+            kind: MeshErrorKind::Internal,
             message: message.into(),
         }
+    }
+
+    /// `true` when the input is at fault.
+    pub fn is_input(&self) -> bool {
+        self.kind == MeshErrorKind::Input
     }
 }
 

@@ -120,7 +120,7 @@ impl State {
 /// Reads a Gmsh `.msh` file (ASCII 2.x or 4.1).
 ///
 /// # Errors
-/// Exit status 2, `FILE:LINE: reason`: binary files, unsupported versions, truncated sections,
+/// Bad input ([`crate::MeshErrorKind::Input`]), `FILE:LINE: reason`: binary files, unsupported versions, truncated sections,
 /// counts larger than the file, bad numbers, unknown or duplicated node tags, no tets.
 pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
     let bytes = crate::source::read_file(path)?;

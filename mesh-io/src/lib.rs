@@ -15,9 +15,9 @@
 //! [`read`] gives the file's nodes, tets and region labels as they are ([`RawMesh`]); [`load`]
 //! scales them, drops unreferenced nodes and builds the core mesh ([`LoadedMesh`]). Both also
 //! take the built-in names `builtin:cube12` and `builtin:block:N`. Every bad input is a
-//! [`MeshError`] with exit status 2 and one line `FILE:LINE: reason` (`FILE: byte N: reason` in
-//! binary data); nothing here panics on input, and declared counts are checked against the
-//! bytes left before anything is allocated.
+//! [`MeshError`] of kind [`MeshErrorKind::Input`] with one line `FILE:LINE: reason` (`FILE:
+//! byte N: reason` in binary data); nothing here panics on input, and declared counts are
+//! checked against the bytes left before anything is allocated.
 
 #![forbid(unsafe_code)]
 
@@ -40,7 +40,7 @@ use std::path::{Path, PathBuf};
 use tetradrill_core::mesh::{BuildError, BuildOptions};
 use tetradrill_core::Vec3;
 
-pub use crate::error::{MeshError, EXIT_BAD_INPUT, EXIT_FAILURE};
+pub use crate::error::{MeshError, MeshErrorKind};
 use crate::owned::OwnedMesh;
 
 /// The largest `N` accepted in `builtin:block:N` (6 N^3 tets).
@@ -122,7 +122,7 @@ pub const EXTENSIONS: &str = ".node/.ele, .mesh, .meshb, .msh, .vtk, .vtu, each 
 /// Reads a mesh file (format from the extension) or a built-in name, without building it.
 ///
 /// # Errors
-/// Exit status 2 and one line `FILE:LINE: reason` for unreadable, unknown or bad files.
+/// Bad input ([`MeshErrorKind::Input`]): one line `FILE:LINE: reason` for unreadable, unknown or bad files.
 pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
     read_with(path, &ReadOptions::default())
 }
@@ -235,7 +235,7 @@ fn builtin(name: &str) -> Result<RawMesh, MeshError> {
 /// builds the core mesh with [`BuildOptions::default`] (negative tets flipped and counted).
 ///
 /// # Errors
-/// Exit status 2: everything [`read`] refuses, a scale that is not positive and finite,
+/// Bad input ([`MeshErrorKind::Input`]): everything [`read`] refuses, a scale that is not positive and finite,
 /// coordinates too large for f32 after scaling, and what the build refuses (zero-volume tets,
 /// a face shared by more than two tets, overlapping tets), as `FILE:LINE: reason` with the
 /// line of the offending tet.

@@ -39,7 +39,7 @@ const SKIPPED: &[(&str, usize)] = &[
 /// Reads a MEDIT `.mesh` file.
 ///
 /// # Errors
-/// Exit status 2, `FILE:LINE: reason`: 2-D meshes, missing `Vertices` or `Tetrahedra`,
+/// Bad input ([`crate::MeshErrorKind::Input`]), `FILE:LINE: reason`: 2-D meshes, missing `Vertices` or `Tetrahedra`,
 /// truncated sections, counts larger than the file, bad numbers, node indices out of range.
 pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
     let text = read_text(path, "MEDIT")?;

@@ -17,7 +17,7 @@ use crate::MeshError;
 /// Reads a TetGen pair named by either of its files; returns the mesh and the `.ele` path.
 ///
 /// # Errors
-/// Exit status 2, `FILE:LINE: reason`, for a missing partner file and every bad record.
+/// Bad input ([`crate::MeshErrorKind::Input`]), `FILE:LINE: reason`, for a missing partner file and every bad record.
 pub fn read(path: &Path) -> Result<(RawMesh, PathBuf), MeshError> {
     let (stem, _) = crate::source::strip_gz(path);
     let partner = |ext: &str| {

@@ -278,7 +278,7 @@ pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
 /// Reads a VTK legacy file (decompressed first when its name ends in `.gz`).
 ///
 /// # Errors
-/// Exit status 2, `FILE:LINE: reason` (`FILE: byte N: reason` in a binary file): other
+/// Bad input ([`crate::MeshErrorKind::Input`]), `FILE:LINE: reason` (`FILE: byte N: reason` in a binary file): other
 /// datasets, truncated sections, counts larger than the file, bad numbers, node indices out of
 /// range, tets whose cell does not have 4 points, CELLS and CELL_TYPES disagreeing, a region
 /// array that is missing or not integer.

@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use tetradrill::commands::pipeline::{self, PipelineSetup};
-use tetradrill::scenario::Scenario;
+use tetradrill::setup::{MeshSpec, Setup};
 use tetradrill_device::falcon::frame::FalconReport;
 use tetradrill_device::falcon::mock::MockTransport;
 use tetradrill_device::falcon::{FalconConfig, FalconDevice};
@@ -225,11 +225,12 @@ pub fn pipeline_with(
     kind: DeviceKind,
     ticks: u64,
 ) -> Result<pipeline::RunReport, tetradrill::error::CliError> {
-    let sc = Scenario {
-        mesh: "builtin:block:4".into(),
-        ..Scenario::default()
+    let sc = Setup {
+        mesh: MeshSpec::new("builtin:block:4"),
+        ..Setup::default()
     };
-    pipeline::run(&sc, PipelineSetup::plain(kind, open, ticks), None)
+    let loaded = tetradrill::engine::load_mesh(&sc)?;
+    pipeline::run(&sc, loaded, PipelineSetup::plain(kind, open, ticks), None)
 }
 
 /// The simulated device (default ramp, 500 ticks) with its hand held still at `at`, the motors

@@ -3,7 +3,7 @@
 //! and the device workspace in mesh units.
 
 use tetradrill::engine::{self, EngineStorage};
-use tetradrill::scenario::Scenario;
+use tetradrill::setup::{MeshSpec, Setup};
 use tetradrill::tasks::Workspace;
 use tetradrill_core::Vec3;
 
@@ -13,15 +13,16 @@ pub const W: u32 = 240;
 /// The height of the test renders, in pixels.
 pub const H: u32 = 180;
 
-/// Engine storage for the scenario that loads `mesh` (a file or a `builtin:` name), and that
-/// scenario.
-pub fn storage(mesh: &str) -> (EngineStorage, Scenario) {
-    let sc = Scenario {
-        mesh: mesh.into(),
-        ..Scenario::default()
+/// Engine storage for the set-up that loads `mesh` (a file or a `builtin:` name), and that
+/// set-up.
+pub fn storage(mesh: &str) -> (EngineStorage, Setup) {
+    let sc = Setup {
+        mesh: MeshSpec::new(mesh),
+        ..Setup::default()
     };
     let loaded = engine::load_mesh(&sc).expect("built-in mesh");
-    (EngineStorage::allocate(loaded.mesh, &sc), sc)
+    let store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
+    (store, sc)
 }
 
 /// The pixel (column, row from the top) where `p` lands for a camera at `eye` looking at

@@ -128,12 +128,15 @@ fn the_host_module_table_lists_every_module() {
     let mut modules = BTreeSet::new();
     for line in lib.lines() {
         if let Some(m) = line.strip_prefix("pub mod ") {
-            modules.insert(m.trim_end_matches(';').to_string());
+            modules.insert(m.trim_end_matches([';', '{', ' ']).to_string());
         } else if let Some(u) = line.strip_prefix("pub use ") {
-            // A re-exported crate or module: the last name, or the `as` name.
+            // A re-exported crate or module (`pub use X as NAME;`, `pub use a::NAME;` of a
+            // lower-case name); re-exported items (`Error`, `{Drilling, ..}`) are not modules.
             let u = u.trim_end_matches(';');
             let name = u.rsplit([' ', ':']).next().unwrap_or(u);
-            modules.insert(name.to_string());
+            if name.starts_with(|c: char| c.is_ascii_lowercase()) && !u.contains('{') {
+                modules.insert(name.to_string());
+            }
         }
     }
     let mut listed = Vec::new();

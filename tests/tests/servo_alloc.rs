@@ -21,6 +21,7 @@ use tetradrill::pen::{PenRig, PenSizes};
 use tetradrill::pen_pair::with_pass_runner;
 use tetradrill::pen_tasks::{held_handoff, pen_contact_task, PenLaw, PenTaskReport};
 use tetradrill::scenario::Scenario;
+use tetradrill::setup::Setup;
 use tetradrill::tasks::{
     recover_from_stall, servo_io, servo_tick, BurrLaw, DrillContact, DrillLaw, RecordRing,
     ServoCounters, ServoState, Shared, SimStatus, ToolSample, Workspace,
@@ -73,7 +74,7 @@ static ALLOC: Counting = Counting;
 
 #[test]
 fn servo_tick_allocates_nothing_after_warm_up() {
-    let params = TickParams::of(&Scenario::default()).expect("default scenario");
+    let params = TickParams::of(&Setup::default()).expect("default scenario");
     // The stylus goes down through z = 0.5 and back up: out of contact, in it, out again.
     let path = Scripted(|t: f64| PathPoint {
         position: [0.0, 0.0, 0.8 - 0.5 * (t * 3.0).sin().abs()],
@@ -159,7 +160,7 @@ fn servo_tick_allocates_nothing_after_warm_up() {
 
 #[test]
 fn coming_back_from_a_stall_allocates_nothing() {
-    let params = TickParams::of(&Scenario::default()).expect("default scenario");
+    let params = TickParams::of(&Setup::default()).expect("default scenario");
     let mut device = SimDevice::new(Still([0.0, 0.0, 0.55]), SimConfig::default());
     let cutoff = device.cutoff().expect("the simulated device has a cutoff");
     let watch = ServoWatch::default();
@@ -221,9 +222,11 @@ fn the_pen_servo_tick_allocates_nothing_after_warm_up() {
         tool_scale: 5.0,
         stiffness: 20.0,
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let obj = tetradrill::engine::load_mesh(&sc).expect("block").mesh;
-    let tool = tetradrill::meshio::load(&pen, sc.tool_scale).expect("pen");
+    let tool = tetradrill::meshio::load(&pen, sc.tool.scale()).expect("pen");
     let opts = tetradrill::pen::options(&sc);
     let path = Scripted(|t: f64| {
         let a = 0.4 * (t * 2.0).sin();
@@ -243,7 +246,7 @@ fn the_pen_servo_tick_allocates_nothing_after_warm_up() {
         obj,
     };
     let ((calls, max_force), _) = rig
-        .with_sizes(PenSizes::of(&sc), |scene, bufs| {
+        .with_sizes(PenSizes::of(&sc.capacities), |scene, bufs| {
             let ring = ArrayQueue::new(64);
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let counters = ServoCounters::default();
@@ -314,16 +317,18 @@ fn contact_task_allocates_nothing(threads: u32) {
         tool: format!("mesh:{}", pen.display()),
         tool_scale: 5.0,
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let obj = tetradrill::engine::load_mesh(&sc).expect("block").mesh;
-    let tool = tetradrill::meshio::load(&pen, sc.tool_scale).expect("pen");
+    let tool = tetradrill::meshio::load(&pen, sc.tool.scale()).expect("pen");
     let opts = tetradrill::pen::options(&sc);
     let mut rig = PenRig {
         pen: tool.mesh,
         obj,
     };
     let ((calls, report), _) = rig
-        .with_sizes(PenSizes::of(&sc), |scene, bufs| {
+        .with_sizes(PenSizes::of(&sc.capacities), |scene, bufs| {
             let shared = Shared::new();
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let (mut status_in, mut status_out) =
@@ -399,7 +404,9 @@ fn a_drill_servo_tick_allocates_nothing_after_warm_up() {
     let sc = Scenario {
         tool: "drill:0.1:0.6:0.03".into(),
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let params = TickParams::of(&sc).expect("a drill scenario");
     let tool = params.shaft.expect("a drill");
     // The tool lying along +x (a quarter turn about y), going down through z = 0.5 and back

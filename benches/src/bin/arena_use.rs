@@ -123,19 +123,23 @@ fn main() -> ExitCode {
         eprintln!("arena_use: {e}");
         ExitCode::from(2)
     };
-    let params = match TickParams::of(&a.sc) {
+    let setup = match a.sc.setup() {
+        Ok(s) => s,
+        Err(e) => return fail(&e),
+    };
+    let params = match TickParams::of(&setup) {
         Ok(p) => p,
         Err(e) => return fail(&e),
     };
-    let poses = match PoseSource::for_scenario(&a.sc) {
-        Ok(p) => p,
-        Err(e) => return fail(&e),
-    };
-    let loaded = match engine::load_mesh(&a.sc) {
+    let loaded = match engine::load_mesh(&setup) {
         Ok(l) => l,
         Err(e) => return fail(&e),
     };
-    let mut store = match EngineStorage::try_allocate(loaded.mesh, &a.sc) {
+    let poses = match PoseSource::new(&setup.poses, Some(&loaded.mesh)) {
+        Ok(p) => p,
+        Err(e) => return fail(&e),
+    };
+    let mut store = match EngineStorage::new(loaded.mesh, &setup) {
         Ok(s) => s,
         Err(e) => return fail(&e),
     };

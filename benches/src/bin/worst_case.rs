@@ -29,7 +29,7 @@ use std::time::Instant;
 use tetradrill::engine::{self, EngineStorage, TickParams};
 use tetradrill::owned::OwnedMesh;
 use tetradrill::pen::PenRig;
-use tetradrill::scenario::Scenario;
+use tetradrill::setup::{Setup, Tool};
 use tetradrill::traces::Pose;
 use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
@@ -285,20 +285,19 @@ struct DrillMax {
 }
 
 fn drill_scenario(name: &str, mesh_path: &Path, budget: u32, ticks: u64) -> Result<(), ExitCode> {
-    let sc = Scenario {
-        mesh: mesh_path.display().to_string(),
-        tool: format!("sphere:{RADIUS}"),
-        max_depth: 5,
-        budget_per_tick: budget,
-        ..Scenario::default()
-    };
+    let mut sc = Setup::drilling(mesh_path, Tool::sphere(f64::from(RADIUS)));
+    sc.drilling.max_depth = 5;
+    sc.drilling.budget_per_tick = budget;
     let mut owned = load(mesh_path, 1.0)?;
     let path = {
         let m = owned.view();
         let length = ticks as f32 * SPEED + 1.0;
         SurfaceWalk::new(&m, RADIUS, length, 0x9e37_79b9_7f4a_7c15).ticks(ticks, SPEED)
     };
-    let mut store = EngineStorage::allocate(owned, &sc);
+    let mut store = EngineStorage::new(owned, &sc).map_err(|e| {
+        eprintln!("worst_case: {e}");
+        ExitCode::from(2)
+    })?;
     let mut world = store.world().map_err(|e| {
         eprintln!("worst_case: {e}");
         ExitCode::from(2)
@@ -558,7 +557,7 @@ fn run() -> Result<(), ExitCode> {
         drill_scenario(
             "burr-cow",
             &a.meshes.join(COW_COARSE),
-            Scenario::default().budget_per_tick,
+            Setup::default().drilling.budget_per_tick,
             a.ticks,
         )?;
     }
@@ -571,7 +570,10 @@ fn run() -> Result<(), ExitCode> {
     let teddy = a.meshes.join(TEDDY);
     for (name, budget) in [
         ("drill-teddy-b1", 1u32),
-        ("drill-teddy-bdefault", Scenario::default().budget_per_tick),
+        (
+            "drill-teddy-bdefault",
+            Setup::default().drilling.budget_per_tick,
+        ),
         ("drill-teddy-bmax", u32::MAX),
     ] {
         if want(name) {

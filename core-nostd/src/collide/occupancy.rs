@@ -10,6 +10,7 @@ use crate::ids::TetId;
 
 /// Why an [`Occupancy`] cannot be built.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
 pub enum OccupancyError {
     /// No storage words.
     NoStorage,
@@ -34,6 +35,8 @@ impl core::fmt::Display for OccupancyError {
         }
     }
 }
+
+impl core::error::Error for OccupancyError {}
 
 /// Caller storage of an [`Occupancy`].
 #[derive(Debug)]

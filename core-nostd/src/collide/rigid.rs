@@ -83,6 +83,7 @@ fn dense_dims(extent: Vec3, mut edge: f32, max_cells: usize) -> Option<([i32; 3]
 
 /// Why [`RigidTets::build`] refused.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
 pub enum RigidError {
     /// Fewer tet boxes than tets, or no cluster storage.
     Storage,
@@ -104,6 +105,8 @@ impl core::fmt::Display for RigidError {
         }
     }
 }
+
+impl core::error::Error for RigidError {}
 
 /// Caller storage of a [`RigidTets`].
 #[derive(Debug)]

@@ -43,6 +43,7 @@ impl HashEntry {
 
 /// Why a [`SpatialHash`] cannot be made.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
 pub enum HashError {
     /// `starts` needs at least two entries (one bucket and its end).
     NoBuckets,
@@ -58,6 +59,8 @@ impl core::fmt::Display for HashError {
         }
     }
 }
+
+impl core::error::Error for HashError {}
 
 /// Counters kept across builds and queries.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]

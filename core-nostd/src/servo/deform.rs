@@ -36,6 +36,7 @@ use crate::ids::{NodeId, TetId};
 
 /// Why [`World::set_positions`] or [`World::enable_deformation`] refused (nothing changed).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
 pub enum DeformError {
     /// [`World::enable_deformation`] was not called: there is no rest state to measure
     /// removed volumes in.
@@ -83,6 +84,8 @@ impl core::fmt::Display for DeformError {
         }
     }
 }
+
+impl core::error::Error for DeformError {}
 
 /// What one [`World::set_positions`] did.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]

@@ -47,6 +47,7 @@ pub struct LinkBuffers<'b> {
 
 /// Why a [`Link`] was refused or a tick failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum LinkError {
     /// `ticks` is zero or the step length not finite and positive.
     Cycle,
@@ -72,6 +73,8 @@ impl fmt::Display for LinkError {
         }
     }
 }
+
+impl core::error::Error for LinkError {}
 
 /// The passes of a cycle.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

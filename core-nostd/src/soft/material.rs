@@ -17,6 +17,7 @@ pub struct Material {
 
 /// Why a [`Material`] is refused.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum MaterialError {
     /// Young's modulus is not finite and positive.
     Young,
@@ -35,6 +36,8 @@ impl fmt::Display for MaterialError {
         })
     }
 }
+
+impl core::error::Error for MaterialError {}
 
 /// Largest Poisson ratio accepted: nearer 0.5 the hydrostatic compliance goes to zero and a
 /// fixed number of iterations no longer reaches the incompressible limit.

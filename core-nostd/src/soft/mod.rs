@@ -90,6 +90,7 @@ pub struct SoftStorage<'a> {
 
 /// Why a soft body is refused at construction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum SoftError {
     /// A storage slice (named) does not have the node or tet count as its length.
     Length(&'static str),
@@ -140,8 +141,11 @@ impl fmt::Display for SoftError {
     }
 }
 
+impl core::error::Error for SoftError {}
+
 /// Why a step was not taken (nothing changed).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum StepError {
     /// `dt` is not finite and positive.
     TimeStep,
@@ -157,6 +161,8 @@ impl fmt::Display for StepError {
         }
     }
 }
+
+impl core::error::Error for StepError {}
 
 impl SoftParams {
     /// Checks the ranges of the parameters.

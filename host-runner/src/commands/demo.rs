@@ -12,6 +12,7 @@ use super::pipeline::{PipelineSetup, UNTIL_STOPPED};
 use super::run::{device_factory, run_ticks, run_until_signal, viewer_note};
 use crate::error::CliError;
 use crate::rt::RtConfig;
+use crate::setup::{Body, FixBelow, SoftSettings, Tool};
 use crate::viewer::ViewOptions;
 
 /// Arguments of `demo`.
@@ -51,11 +52,12 @@ pub struct DemoArgs {
 
 /// Runs `demo`.
 pub fn run(args: &DemoArgs) -> Result<(), CliError> {
-    let mut sc = crate::scenario::builtin("demo").unwrap_or_default();
+    let mut sc = crate::scenario::builtin("demo")
+        .unwrap_or_default()
+        .setup()?;
     if let Some(tool) = &args.tool {
-        sc.tool = tool.clone();
         // A bad spec: one line naming it and the reason, exit 2.
-        sc.tool_kind().map_err(CliError::input)?;
+        sc.tool = Tool::parse(tool, 1.0)?;
     }
     if args.soft_spread && !args.soft {
         return Err(CliError::input(
@@ -63,12 +65,18 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         ));
     }
     if args.soft {
-        sc.body = crate::scenario::Body::Soft;
-        // The moduli are the demo's regions' (`scenario::demo_regions`).
-        sc.fix_below = Some("z:-0.45".into());
-        sc.soft_spread = args.soft_spread;
+        // The moduli are the demo's regions' (`setup::demo_regions`).
+        sc.body = Body::Soft(SoftSettings {
+            fix_below: Some(FixBelow {
+                axis: 2,
+                value: -0.45,
+            }),
+            spread: args.soft_spread,
+            ..SoftSettings::default()
+        });
     }
     let view = ViewOptions::of(args.headless, args.screenshot.clone())?;
+    let loaded = crate::engine::load_mesh(&sc)?;
     errln!(
         "tetradrill demo: {}{} drilled by a {} {} on the simulated device ({} s scripted path)",
         sc.mesh,
@@ -78,7 +86,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
             _ => "",
         },
         sc.tool,
-        if sc.tool.starts_with("drill:") {
+        if matches!(sc.tool, Tool::Drill { .. }) {
             "drill (burr on a shaft)"
         } else {
             "burr"
@@ -86,7 +94,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         super::run::demo_ticks() as f64 / 1000.0
     );
     let (open, default_ticks, workspace) =
-        device_factory(DeviceKind::Sim, &sc, OpenOptions::default())?;
+        device_factory(DeviceKind::Sim, &sc, &loaded, OpenOptions::default())?;
     // With a window the demo is a session: it runs until the window closes (or a signal, or
     // `--duration`); the device holds the path's last pose after it. Scripted runs under Xvfb
     // that ask the window to close by itself (`TETRADRILL_VIEWER_CLOSE=1`) keep the path's
@@ -119,5 +127,5 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         stop: crate::watchdog::StopRequest::new(),
         record: None,
     };
-    run_until_signal(&sc, setup, args.json.as_ref())
+    run_until_signal(&sc, loaded, setup, args.json.as_ref())
 }

@@ -23,8 +23,10 @@ use tetradrill_device::{
 use super::pipeline::{self, DeviceFactory, PipelineSetup, MESH_UNITS, UNTIL_STOPPED};
 use crate::device_config::DeviceConfig;
 use crate::error::CliError;
+use crate::meshio::LoadedMesh;
 use crate::rt::RtConfig;
 use crate::scenario::{Scenario, ScenarioFlags};
+use crate::setup::Setup;
 use crate::tasks::Workspace;
 use crate::traces::PoseSource;
 use crate::watchdog::StopRequest;
@@ -84,8 +86,10 @@ fn parse_device(s: &str) -> Result<DeviceKind, String> {
 
 /// Runs `run`.
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
-    let sc = Scenario::from_flags(&args.scenario)?;
+    let sc = Scenario::from_flags(&args.scenario)?.setup()?;
     let view = crate::viewer::ViewOptions::of(args.headless, args.screenshot.clone())?;
+    // The mesh, read once: the world's, the wander's waypoints, the device's workspace.
+    let loaded = crate::engine::load_mesh(&sc)?;
     let devices = DeviceConfig::from_flag(args.device_config.as_deref())?;
     let mut options = OpenOptions {
         falcon_firmware: args.falcon_firmware.clone(),
@@ -103,7 +107,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     }
     let stop = StopRequest::new();
     let (open, default_ticks, workspace) =
-        device_factory_with(args.device, &sc, options, &devices, &stop)?;
+        device_factory_with(args.device, &sc, &loaded, options, &devices, &stop)?;
     let ticks = run_ticks(args.duration, default_ticks);
     let rt = if args.no_rt {
         RtConfig {
@@ -127,7 +131,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         stop,
         record: args.record.clone(),
     };
-    run_until_signal(&sc, setup, args.json.as_ref())
+    run_until_signal(&sc, loaded, setup, args.json.as_ref())
 }
 
 /// The ticks of a run: `--duration` (seconds), else the device's own length
@@ -141,7 +145,8 @@ pub fn run_ticks(duration: Option<f64>, default_ticks: u64) -> u64 {
 /// [`pipeline::run`] with the stop signals (SIGINT, SIGTERM, SIGHUP) raising the setup's stop
 /// request while it runs; after it, a signal ends the process at once.
 pub fn run_until_signal(
-    sc: &Scenario,
+    sc: &Setup,
+    loaded: LoadedMesh,
     setup: PipelineSetup,
     json: Option<&PathBuf>,
 ) -> Result<(), CliError> {
@@ -150,7 +155,7 @@ pub fn run_until_signal(
         CliError::failure(format!("cannot install the stop signals' handlers: {e}"))
     })?;
     let request = setup.stop.clone();
-    let r = pipeline::run(sc, setup, json).map(|_| ());
+    let r = pipeline::run(sc, loaded, setup, json).map(|_| ());
     // The device is released: a signal from now on ends the process at once.
     request.run_over();
     r
@@ -168,15 +173,17 @@ pub fn viewer_note(headless: bool) {
 
 /// The device factory, the default number of ticks (the simulated device's script or trace
 /// length; [`UNTIL_STOPPED`] for a wander and the real devices), and the device-to-mesh map
-/// for `kind`.
+/// for `kind`, over the set-up's mesh `loaded`.
 pub fn device_factory(
     kind: DeviceKind,
-    sc: &Scenario,
+    sc: &Setup,
+    loaded: &LoadedMesh,
     options: OpenOptions,
 ) -> Result<(DeviceFactory, u64, Workspace), CliError> {
     device_factory_with(
         kind,
         sc,
+        loaded,
         options,
         &DeviceConfig::default(),
         &StopRequest::new(),
@@ -187,14 +194,15 @@ pub fn device_factory(
 /// stylus in the dock.
 pub fn device_factory_with(
     kind: DeviceKind,
-    sc: &Scenario,
+    sc: &Setup,
+    loaded: &LoadedMesh,
     options: OpenOptions,
     devices: &DeviceConfig,
     stop: &StopRequest,
 ) -> Result<(DeviceFactory, u64, Workspace), CliError> {
     match kind {
         DeviceKind::Sim => {
-            let source = PoseSource::for_scenario(sc)?;
+            let source = PoseSource::new(&sc.poses, Some(&loaded.mesh))?;
             let ticks = match source {
                 PoseSource::Wander { .. } => UNTIL_STOPPED,
                 _ => source.ticks(),
@@ -230,7 +238,6 @@ pub fn device_factory_with(
             };
             // Map the device's workspace onto the mesh: its radius onto the mesh's half
             // diagonal, its origin onto the mesh's centre.
-            let loaded = crate::meshio::load(std::path::Path::new(&sc.mesh), sc.scale)?;
             let p = loaded.mesh.positions();
             let (mut lo, mut hi) = (p[0], p[0]);
             for q in p {

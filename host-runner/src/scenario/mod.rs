@@ -1,47 +1,25 @@
-//! Scenarios: everything a run needs to know (mesh, tool, trace, stiffness, drilling limits,
-//! capacities), with defaults in one place. A scenario comes from the defaults, then a TOML
-//! file or a `builtin:NAME`, then the command-line flags, each overriding the one before.
+//! Scenarios: a session's set-up as the command line and scenario files write it, flat, one
+//! key per value, with defaults from [`Setup::default`]. A scenario comes from the defaults,
+//! then a TOML file or a `builtin:NAME`, then the command-line flags, each overriding the one
+//! before; [`Scenario::setup`] turns it into the typed [`Setup`] once, and everything below
+//! the command line takes that.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::CliError;
-
-mod regions;
-pub use regions::{
-    demo_regions, tooth_regions, RegionSpec, DEMO_CORE_YOUNG, DEMO_SHELL_YOUNG, TOOTH_DENTIN,
-    TOOTH_ENAMEL, TOOTH_PULP,
+use crate::setup::{
+    demo_regions, tooth_regions, Body, Capacities, Crossings, DepthMethod, Drilling, FixBelow,
+    Forces, Materials, MeshSpec, PenContact, Poses, RegionSpec, Setup, SetupError, SoftSettings,
+    Tool,
 };
 
-/// Which way depth finds the surface intersections of border edges.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum DepthMethod {
-    /// Walk the border edge through the tets to a boundary face (Praktikum report, section 4).
-    Traced,
-    /// Hash the boundary faces and query them with the edge (Heidelberger 2004).
-    Hashed,
-}
-
-/// Where a mesh tool's border edges take their surface crossings from, tick after tick.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum Crossings {
-    /// Every border edge searches (`depth_method`) every tick: the exact first crossing.
-    Search,
-    /// A border edge first tries the face it crossed last tick (one face test) and searches
-    /// only when the edge no longer crosses it (`tetradrill_core::depth::DepthScratch::
-    /// with_crossings`): not exact where a fold of the surface comes between.
-    Reuse,
-}
-
-/// What the object is: rigid (its nodes never move) or a soft body whose nodes the simulation
-/// loop moves with the core's XPBD physics (docs/SOFT.md, "On the command line").
+/// What the object is, as a flag or key: rigid or soft (the soft values are their own keys).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
-pub enum Body {
+pub enum BodyKind {
     /// The mesh stays where it was loaded.
     #[default]
     Rigid,
@@ -49,10 +27,10 @@ pub enum Body {
     Soft,
 }
 
-impl Body {
-    /// `true` for [`Body::Rigid`] (the key is left out of a rigid scenario's JSON).
+impl BodyKind {
+    /// `true` for [`BodyKind::Rigid`] (the key is left out of a rigid scenario's JSON).
     pub fn is_rigid(&self) -> bool {
-        *self == Body::Rigid
+        *self == BodyKind::Rigid
     }
 }
 
@@ -121,7 +99,7 @@ pub struct Scenario {
     pub min_area: f64,
     /// Hierarchy nodes available for drilling (absent: sized from the burr's radius against
     /// the mesh's boundary tets, `crate::engine::ToolSizing`, at least
-    /// [`DEFAULT_HIERARCHY_CAPACITY`]).
+    /// [`crate::setup::DEFAULT_HIERARCHY_CAPACITY`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hierarchy_capacity: Option<usize>,
     /// Work units of erosion per servo tick (about 100 Cortex-M4 instructions each:
@@ -171,8 +149,8 @@ pub struct Scenario {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub queue_capacity: Option<usize>,
     /// `rigid` (default) or `soft`: an elastic body the tool dents (docs/SOFT.md).
-    #[serde(skip_serializing_if = "Body::is_rigid")]
-    pub body: Body,
+    #[serde(skip_serializing_if = "BodyKind::is_rigid")]
+    pub body: BodyKind,
     /// Soft body: Young's modulus, pascal (mesh units taken as metres; absent:
     /// `crate::soft::DEFAULT_YOUNG`).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -204,205 +182,12 @@ fn is_false(v: &bool) -> bool {
     !*v
 }
 
-/// A parsed `fix_below`: the axis (0, 1, 2 for x, y, z) and the value.
-pub fn parse_fix_below(s: &str) -> Result<(usize, f64), String> {
-    let bad = |why: &str| format!("fix_below `{s}`: {why}");
-    let Some((axis, value)) = s.split_once(':') else {
-        return Err(bad("expected AXIS:VALUE, for example z:-0.45"));
-    };
-    let axis = match axis.trim() {
-        "x" | "X" => 0,
-        "y" | "Y" => 1,
-        "z" | "Z" => 2,
-        _ => return Err(bad("the axis must be x, y or z")),
-    };
-    match value.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok((axis, v)),
-        _ => Err(bad("the value must be a finite number")),
-    }
-}
-
-/// Checks a soft body's rate: positive, at most 1000 Hz, a whole number of 1 ms ticks a step.
-pub fn check_soft_rate(hz: f64) -> Result<(), String> {
-    let ticks = 1000.0 / hz;
-    if !(hz.is_finite() && hz > 0.0 && hz <= 1000.0) {
-        return Err(format!("soft_rate must be in (0, 1000] Hz, got {hz}"));
-    }
-    if (ticks - ticks.round()).abs() > 1e-9 * ticks {
-        return Err(format!(
-            "soft_rate {hz} Hz is not a whole number of 1 ms ticks a step (1000 / {hz} = {ticks}); \
-             use a divisor of 1000 such as 1000, 500, 250, 200, 100"
-        ));
-    }
-    Ok(())
-}
-
-/// Largest storage one buffer may take. A larger capacity is refused as absurd: a mistyped
-/// value would otherwise abort the allocation or push the machine into swap.
-pub const MAX_BUFFER_BYTES: usize = 1 << 30;
-
-/// One capacity of a scenario: its key (the TOML key, and the flag with `-` for `_`), the
-/// bytes of one entry (0: a bound on work, not storage) and the smallest value that works.
-#[derive(Debug, Clone, Copy)]
-pub struct Capacity {
-    /// TOML key.
-    pub key: &'static str,
-    /// Bytes per entry.
-    pub entry_bytes: usize,
-    /// Smallest value accepted.
-    pub min: usize,
-}
-
-impl Capacity {
-    /// The command-line flag.
-    pub fn flag(&self) -> String {
-        format!("--{}", self.key.replace('_', "-"))
-    }
-
-    /// Largest value accepted: [`MAX_BUFFER_BYTES`] of entries, and ids fit in `u32`.
-    pub fn max(&self) -> usize {
-        let by_bytes = MAX_BUFFER_BYTES
-            .checked_div(self.entry_bytes)
-            .unwrap_or(usize::MAX);
-        by_bytes.min(u32::MAX as usize)
-    }
-
-    /// `Ok` when `v` is within `min..=max`, else one line naming the key and the flag.
-    pub fn check(&self, v: usize) -> Result<(), String> {
-        if (self.min..=self.max()).contains(&v) {
-            return Ok(());
-        }
-        let unit = if self.entry_bytes == 0 {
-            String::new()
-        } else {
-            format!(" ({} MiB at most)", MAX_BUFFER_BYTES >> 20)
-        };
-        Err(format!(
-            "{} ({}) must be {}..={}{unit}, got {v}",
-            self.key,
-            self.flag(),
-            self.min,
-            self.max()
-        ))
-    }
-}
-
-/// Every capacity a scenario sets, in one place (docs/SAFETY.md lists what each does when full).
-pub const CAPACITIES: [Capacity; 8] = {
-    use std::mem::size_of;
-    use tetradrill_core::collide::Collision;
-    use tetradrill_core::depth::Penetration;
-    use tetradrill_core::drill::Pending;
-    use tetradrill_core::hash::HashEntry;
-    use tetradrill_core::hierarchy::{HNode, VEntry};
-    [
-        // One block of eight children at least: a smaller arena holds no block at all.
-        Capacity {
-            key: "hierarchy_capacity",
-            entry_bytes: size_of::<HNode>(),
-            min: 8,
-        },
-        Capacity {
-            key: "hash_capacity",
-            entry_bytes: size_of::<HashEntry>(),
-            min: 1,
-        },
-        Capacity {
-            key: "candidate_capacity",
-            entry_bytes: size_of::<tetradrill_core::TetId>(),
-            min: 1,
-        },
-        Capacity {
-            key: "vlist_capacity",
-            entry_bytes: size_of::<VEntry>(),
-            min: 1,
-        },
-        Capacity {
-            key: "pending_capacity",
-            entry_bytes: size_of::<Pending>(),
-            min: 1,
-        },
-        Capacity {
-            key: "contact_search_nodes",
-            entry_bytes: 0,
-            min: 1,
-        },
-        Capacity {
-            key: "contact_capacity",
-            entry_bytes: size_of::<Collision>() + size_of::<Penetration>(),
-            min: 1,
-        },
-        Capacity {
-            key: "queue_capacity",
-            entry_bytes: size_of::<tetradrill_core::NodeId>(),
-            min: 1,
-        },
-    ]
-};
-
-/// The capacity named `key` (one of [`CAPACITIES`]).
-pub fn capacity(key: &str) -> Option<Capacity> {
-    CAPACITIES.iter().copied().find(|c| c.key == key)
-}
-
 impl Default for Scenario {
+    /// [`Setup::default`], written flat.
     fn default() -> Self {
-        Self {
-            mesh: "builtin:block:8".into(),
-            scale: 1.0,
-            region_array: None,
-            trace: "builtin:demo".into(),
-            tool: "sphere:0.1".into(),
-            tool_scale: 1.0,
-            stiffness: 200.0,
-            damping: 0.5,
-            max_force: 8.0,
-            switch_ms: 16.0,
-            hardness: 0.0,
-            pressure_threshold: 0.0,
-            regions: BTreeMap::new(),
-            depth_method: DepthMethod::Traced,
-            crossings: Crossings::Reuse,
-            contact_period: 1,
-            pass_threads: 1,
-            entry_remedy: false,
-            max_depth: 5,
-            min_area: 0.0,
-            hierarchy_capacity: None,
-            budget_per_tick: 11_000,
-            tick_budget: DEFAULT_TICK_BUDGET,
-            hash_capacity: None,
-            candidate_capacity: None,
-            vlist_capacity: None,
-            pending_capacity: None,
-            contact_search_nodes: tetradrill_core::servo::CONTACT_MAX_NODES,
-            zone_gather_work: 0,
-            servo_lag: 0,
-            contact_capacity: None,
-            queue_capacity: None,
-            body: Body::Rigid,
-            young: None,
-            poisson: None,
-            fix_below: None,
-            soft_rate: None,
-            soft_substeps: None,
-            soft_spread: false,
-        }
+        Self::from(&Setup::default())
     }
 }
-
-/// The least hierarchy arena a burr gets when the scenario does not size it: 2^20 nodes
-/// (16 MiB), what a burr about one boundary tet wide needs over long sessions
-/// (docs/DRILLING.md).
-pub const DEFAULT_HIERARCHY_CAPACITY: usize = 1 << 20;
-
-/// Default work units of a whole simulation step, drill and contact search together
-/// (`--tick-budget`): the drill's 11,000 plus about 900 contact-node tests of 6 units. On this
-/// machine it keeps the demo's whole tick under 200 us (max 184 us, each tick's fastest of 3,
-/// against 438 us with separate bounds), removing the same material, at the price of contact
-/// searches cut short on busy drilling ticks: force errors above 1 N against the exhaustive
-/// contact on 75 of 6,001 ticks (docs/DRILLING.md, "One budget for the whole tick").
-pub const DEFAULT_TICK_BUDGET: u32 = 16_500;
 
 /// The scenario flags shared by `demo`, `run` and `replay`; each overrides the scenario.
 #[derive(Debug, Clone, Default, clap::Args)]
@@ -513,7 +298,7 @@ pub struct ScenarioFlags {
     pub queue_capacity: Option<usize>,
     /// `rigid` (default) or `soft`: an elastic body the tool dents.
     #[arg(long, value_enum)]
-    pub body: Option<Body>,
+    pub body: Option<BodyKind>,
     /// Soft body: Young's modulus, pascal (mesh units as metres).
     #[arg(long, allow_negative_numbers = true, value_parser = positive, value_name = "PA")]
     pub young: Option<f64>,
@@ -545,14 +330,14 @@ fn poisson(s: &str) -> Result<f64, String> {
 }
 
 fn fix_below(s: &str) -> Result<String, String> {
-    parse_fix_below(s).map(|_| s.to_string())
+    FixBelow::parse(s).map(|_| s.to_string())
 }
 
 fn soft_rate(s: &str) -> Result<f64, String> {
     let v = s
         .parse::<f64>()
         .map_err(|_| format!("`{s}` is not a number of hertz"))?;
-    check_soft_rate(v).map(|()| v)
+    crate::setup::check_soft_rate(v).map(|()| v)
 }
 
 /// `serde`'s `skip_serializing_if` for a key whose default is 0.
@@ -588,7 +373,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
         // The demo's block has two regions (`tetradrill_core::builtin::block_labels`): a hard
         // outer shell and a soft core (docs/DRILLING.md, "Materials").
         "demo" => Some(Scenario {
-            regions: demo_regions(),
+            regions: labelled(demo_regions()),
             ..Scenario::default()
         }),
         // Small enough for the Cortex-M4 firmware's static storage; same path as the demo.
@@ -621,7 +406,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
         // (`scripts/port-check.sh --scenario regions`; ports/mps2-an386/src/scenario.rs holds
         // the same numbers).
         "firmware-regions" => Some(Scenario {
-            regions: demo_regions(),
+            regions: labelled(demo_regions()),
             ..builtin("firmware")?
         }),
         // The firmware scenario on the premolar (`scripts/port-check.sh --scenario tooth`):
@@ -634,7 +419,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             trace: "builtin:tooth-access".into(),
             tool: "sphere:0.0007".into(),
             stiffness: 6_000.0,
-            regions: tooth_regions(),
+            regions: labelled(tooth_regions()),
             hierarchy_capacity: Some(60_000),
             pending_capacity: Some(16_384),
             // The candidates gathered over steps, as on the cow (in thirds of 3,072): a zone
@@ -648,7 +433,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
         // fits the Cortex-M4's period beside the simulation step (docs/SOFT.md, "On the
         // Cortex-M4"; ports/mps2-an386/src/scenario.rs holds the same numbers).
         "firmware-soft" => Some(Scenario {
-            body: Body::Soft,
+            body: BodyKind::Soft,
             young: Some(FIRMWARE_SOFT_YOUNG),
             soft_rate: Some(FIRMWARE_SOFT_RATE),
             soft_substeps: Some(FIRMWARE_SOFT_SUBSTEPS),
@@ -712,13 +497,10 @@ impl Scenario {
                 .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
             CliError::at(path, line, e.message().replace('\n', " "))
         })?;
-        sc.problem().map_err(|(key, m)| {
+        sc.setup().map_err(|e| {
             // A bad region: the line of its own table when it has one.
-            let region = (key == "regions")
-                .then(|| sc.region_problem().err())
-                .flatten()
-                .and_then(|(label, _)| key_line(&text, &format!("regions.{label}")));
-            CliError::at(path, region.or_else(|| key_line(&text, key)), m)
+            let table = e.table.as_deref().and_then(|t| key_line(&text, t));
+            CliError::at(path, table.or_else(|| key_line(&text, e.key)), e.message)
         })?;
         Ok(sc)
     }
@@ -772,216 +554,194 @@ impl Scenario {
             s.soft_spread = v;
         }
         s.check().map_err(CliError::input)?;
+        let unused = s.unused_soft_flags();
+        if !unused.is_empty() {
+            errln!(
+                "tetradrill: warning: {} set for a rigid body: no effect without --body soft",
+                unused.join(", ")
+            );
+        }
         Ok(s)
     }
 
     /// Values no flag parser can refuse on its own (a scenario file sets them directly).
+    ///
+    /// # Errors
+    /// The first bad value, in one line.
     pub fn check(&self) -> Result<(), String> {
-        self.problem().map_err(|(_, m)| m)
+        self.setup().map(|_| ()).map_err(|e| e.message)
     }
 
-    /// The first bad value: its key and one line saying why.
-    pub fn problem(&self) -> Result<(), (&'static str, String)> {
-        let pos = |name: &'static str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err((name, format!("{name} must be a positive number, got {v}")))
-            }
-        };
-        pos("scale", self.scale)?;
-        pos("tool_scale", self.tool_scale)?;
-        pos("stiffness", self.stiffness)?;
-        pos("max_force", self.max_force)?;
-        if !(self.damping.is_finite() && self.damping >= 0.0) {
-            return Err((
-                "damping",
-                format!("damping must be non-negative, got {}", self.damping),
-            ));
-        }
-        if !(self.switch_ms.is_finite() && self.switch_ms >= 0.0) {
-            return Err((
-                "switch_ms",
-                format!("switch_ms must be non-negative, got {}", self.switch_ms),
-            ));
-        }
-        for (key, v) in [
-            ("hardness", self.hardness),
-            ("pressure_threshold", self.pressure_threshold),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err((key, format!("{key} must be non-negative, got {v}")));
-            }
-        }
-        self.region_problem().map_err(|(_, m)| ("regions", m))?;
-        if !(self.min_area.is_finite() && self.min_area >= 0.0) {
-            return Err((
-                "min_area",
-                format!("min_area must be non-negative, got {}", self.min_area),
-            ));
-        }
-        if !(1..=9).contains(&self.max_depth) {
-            return Err((
-                "max_depth",
-                format!("max_depth must be 1..=9, got {}", self.max_depth),
-            ));
-        }
-        if !(1..=1000).contains(&self.contact_period) {
-            return Err((
-                "contact_period",
-                format!(
-                    "contact_period must be 1..=1000, got {}",
-                    self.contact_period
-                ),
-            ));
-        }
-        if !(1..=2).contains(&self.pass_threads) {
-            return Err((
-                "pass_threads",
-                format!("pass_threads must be 1 or 2, got {}", self.pass_threads),
-            ));
-        }
-        if self.servo_lag > 1 {
-            return Err((
-                "servo_lag",
-                format!("servo_lag must be 0 or 1, got {}", self.servo_lag),
-            ));
-        }
-        if self.budget_per_tick == 0 {
-            return Err((
-                "budget_per_tick",
-                "budget_per_tick must be at least 1".into(),
-            ));
-        }
-        for c in CAPACITIES {
-            if let Some(v) = self.capacity_value(c.key) {
-                c.check(v).map_err(|m| (c.key, m))?;
-            }
-        }
-        self.tool_kind().map_err(|m| ("tool", m))?;
-        if let Some(e) = self.young {
-            if !(e.is_finite() && e > 0.0 && e < f32::MAX as f64) {
-                return Err(("young", format!("young must be a positive number, got {e}")));
-            }
-        }
-        if let Some(nu) = self.poisson {
-            if !(0.0..=0.49).contains(&nu) {
-                return Err(("poisson", format!("poisson must be in 0..=0.49, got {nu}")));
-            }
-        }
-        if let Some(f) = &self.fix_below {
-            parse_fix_below(f).map_err(|m| ("fix_below", m))?;
-        }
-        if let Some(hz) = self.soft_rate {
-            check_soft_rate(hz).map_err(|m| ("soft_rate", m))?;
-        }
-        if let Some(n) = self.soft_substeps {
-            if !(1..=tetradrill_core::soft::MAX_SUBSTEPS).contains(&n) {
-                return Err((
-                    "soft_substeps",
-                    format!("soft_substeps must be 1..=1000, got {n}"),
-                ));
-            }
-        }
-        Ok(())
-    }
-
-    /// The first bad `[regions]` entry: its label and one line saying why.
-    pub fn region_problem(&self) -> Result<(), (String, String)> {
+    /// The typed set-up: every string parsed (the tool, the trace, the fixed nodes, the
+    /// region labels) and every value checked, once.
+    ///
+    /// # Errors
+    /// The first bad value: its key (and, for a region, the region's table) and one line.
+    pub fn setup(&self) -> Result<Setup, SetupError> {
+        let mut regions = BTreeMap::new();
         for (label, r) in &self.regions {
-            if label.trim().parse::<i32>().is_err() {
-                return Err((
-                    label.clone(),
+            let Ok(l) = label.trim().parse::<i32>() else {
+                return Err(SetupError::new(
+                    "regions",
                     format!("regions: `{label}` is not a region label (an integer)"),
-                ));
-            }
-            for (what, v, ok) in [
-                ("hardness", r.hardness, r.hardness >= 0.0),
-                ("threshold", r.threshold, r.threshold >= 0.0),
-                (
-                    "stiffness",
-                    r.stiffness.unwrap_or(1.0),
-                    r.stiffness.is_none_or(|k| k > 0.0),
-                ),
-            ] {
-                if !(v.is_finite() && ok) {
-                    let sign = if what == "stiffness" {
-                        "positive"
-                    } else {
-                        "non-negative"
-                    };
-                    return Err((
-                        label.clone(),
-                        format!("regions.{label}.{what} must be a {sign} number, got {v}"),
-                    ));
-                }
-            }
-            r.rgb()
-                .map_err(|m| (label.clone(), format!("regions.{label}: {m}")))?;
-            r.soft_problem()
-                .map_err(|(key, m)| (label.clone(), format!("regions.{label}.{key} {m}")))?;
-        }
-        Ok(())
-    }
-
-    /// The value of the capacity `key` when the scenario sets one.
-    pub fn capacity_value(&self, key: &str) -> Option<usize> {
-        match key {
-            "hierarchy_capacity" => self.hierarchy_capacity,
-            "hash_capacity" => self.hash_capacity,
-            "candidate_capacity" => self.candidate_capacity,
-            "vlist_capacity" => self.vlist_capacity,
-            "pending_capacity" => self.pending_capacity,
-            "contact_search_nodes" => Some(self.contact_search_nodes as usize),
-            "contact_capacity" => self.contact_capacity,
-            "queue_capacity" => self.queue_capacity,
-            _ => None,
-        }
-    }
-
-    /// The tool as parsed from `tool`.
-    pub fn tool_kind(&self) -> Result<ToolKind, String> {
-        if let Some(r) = self.tool.strip_prefix("sphere:") {
-            match r.parse::<f64>() {
-                Ok(r) if r.is_finite() && r > 0.0 => Ok(ToolKind::Sphere(r)),
-                _ => Err(format!(
-                    "tool `{}`: the radius must be a positive number",
-                    self.tool
-                )),
-            }
-        } else if let Some(rest) = self.tool.strip_prefix("drill:") {
-            let v: Vec<Option<f64>> = rest.split(':').map(|x| x.parse::<f64>().ok()).collect();
-            let bad = |why: &str| Err(format!("tool `{}`: {why}", self.tool));
-            let [Some(burr), Some(len), Some(shaft)] = v[..] else {
-                return bad("expected drill:BURR_R:SHAFT_LEN:SHAFT_R (three numbers)");
+                )
+                .in_table(format!("regions.{label}")));
             };
-            if ![burr, len, shaft].iter().all(|x| x.is_finite() && *x > 0.0) {
-                return bad("the radii and the length must be positive numbers");
+            if let Err(m) = r.check() {
+                return Err(SetupError::new("regions", format!("regions.{label}{m}"))
+                    .in_table(format!("regions.{label}")));
             }
-            if shaft > burr {
-                return bad("the shaft's radius must be at most the burr's radius");
-            }
-            if len <= burr {
-                return bad("the shaft must be longer than the burr's radius");
-            }
-            Ok(ToolKind::Drill {
-                burr,
-                shaft_length: len,
-                shaft_radius: shaft,
-            })
-        } else if let Some(file) = self.tool.strip_prefix("mesh:") {
-            if file.is_empty() {
-                Err("tool `mesh:` needs a file".into())
-            } else {
-                Ok(ToolKind::Mesh(PathBuf::from(file)))
-            }
-        } else {
-            Err(format!(
-                "tool `{}`: expected sphere:R or mesh:FILE, or drill:BURR_R:SHAFT_LEN:SHAFT_R",
-                self.tool
-            ))
+            regions.insert(l, r.clone());
+        }
+        let soft = SoftSettings {
+            young: self.young,
+            poisson: self.poisson,
+            fix_below: self
+                .fix_below
+                .as_deref()
+                .map(FixBelow::parse)
+                .transpose()
+                .map_err(|m| SetupError::new("fix_below", m))?,
+            rate_hz: self.soft_rate,
+            substeps: self.soft_substeps,
+            spread: self.soft_spread,
+        };
+        let setup = Setup {
+            mesh: MeshSpec {
+                path: self.mesh.clone().into(),
+                scale: self.scale,
+                region_array: self.region_array.clone(),
+            },
+            tool: Tool::parse(&self.tool, self.tool_scale)?,
+            poses: Poses::parse(&self.trace)?,
+            forces: Forces {
+                stiffness: self.stiffness,
+                damping: self.damping,
+                max_force: self.max_force,
+                switch_ms: self.switch_ms,
+            },
+            drilling: Drilling {
+                max_depth: self.max_depth,
+                min_area: self.min_area,
+                budget_per_tick: self.budget_per_tick,
+                tick_budget: self.tick_budget,
+                contact_search_nodes: self.contact_search_nodes,
+                zone_gather_work: self.zone_gather_work,
+                servo_lag: self.servo_lag,
+            },
+            materials: Materials {
+                hardness: self.hardness,
+                pressure_threshold: self.pressure_threshold,
+                regions,
+            },
+            capacities: Capacities {
+                hierarchy: self.hierarchy_capacity,
+                hash: self.hash_capacity,
+                candidates: self.candidate_capacity,
+                vlist: self.vlist_capacity,
+                pending: self.pending_capacity,
+                contacts: self.contact_capacity,
+                queue: self.queue_capacity,
+            },
+            pen: PenContact {
+                depth_method: self.depth_method,
+                crossings: self.crossings,
+                contact_period: self.contact_period,
+                pass_threads: self.pass_threads,
+                entry_remedy: self.entry_remedy,
+            },
+            body: match self.body {
+                BodyKind::Rigid => Body::Rigid,
+                BodyKind::Soft => Body::Soft(soft),
+            },
+        };
+        // Soft values are checked whatever the body: a bad one is refused, not ignored.
+        soft.check()?;
+        setup.check()?;
+        Ok(setup)
+    }
+
+    /// The soft-body keys set on a rigid body (their flags), which then have no effect.
+    pub fn unused_soft_flags(&self) -> Vec<&'static str> {
+        if self.body == BodyKind::Soft {
+            return Vec::new();
+        }
+        [
+            ("--young", self.young.is_some()),
+            ("--poisson", self.poisson.is_some()),
+            ("--fix-below", self.fix_below.is_some()),
+            ("--soft-rate", self.soft_rate.is_some()),
+            ("--soft-substeps", self.soft_substeps.is_some()),
+            ("--soft-spread", self.soft_spread),
+        ]
+        .iter()
+        .filter(|(_, on)| *on)
+        .map(|(flag, _)| *flag)
+        .collect()
+    }
+}
+
+impl From<&Setup> for Scenario {
+    /// The set-up written flat, as a scenario file holds it.
+    fn from(s: &Setup) -> Self {
+        let soft = s.soft().copied().unwrap_or_default();
+        let tool_scale = match &s.tool {
+            Tool::Mesh { scale, .. } => *scale,
+            _ => 1.0,
+        };
+        Self {
+            mesh: s.mesh.to_string(),
+            scale: s.mesh.scale,
+            region_array: s.mesh.region_array.clone(),
+            trace: s.poses.to_string(),
+            tool: s.tool.to_string(),
+            tool_scale,
+            stiffness: s.forces.stiffness,
+            damping: s.forces.damping,
+            max_force: s.forces.max_force,
+            switch_ms: s.forces.switch_ms,
+            hardness: s.materials.hardness,
+            pressure_threshold: s.materials.pressure_threshold,
+            regions: labelled(s.materials.regions.clone()),
+            depth_method: s.pen.depth_method,
+            crossings: s.pen.crossings,
+            contact_period: s.pen.contact_period,
+            pass_threads: s.pen.pass_threads,
+            entry_remedy: s.pen.entry_remedy,
+            max_depth: s.drilling.max_depth,
+            min_area: s.drilling.min_area,
+            hierarchy_capacity: s.capacities.hierarchy,
+            budget_per_tick: s.drilling.budget_per_tick,
+            tick_budget: s.drilling.tick_budget,
+            hash_capacity: s.capacities.hash,
+            candidate_capacity: s.capacities.candidates,
+            vlist_capacity: s.capacities.vlist,
+            pending_capacity: s.capacities.pending,
+            contact_search_nodes: s.drilling.contact_search_nodes,
+            zone_gather_work: s.drilling.zone_gather_work,
+            servo_lag: s.drilling.servo_lag,
+            contact_capacity: s.capacities.contacts,
+            queue_capacity: s.capacities.queue,
+            body: match s.body {
+                Body::Rigid => BodyKind::Rigid,
+                Body::Soft(_) => BodyKind::Soft,
+            },
+            young: soft.young,
+            poisson: soft.poisson,
+            fix_below: soft.fix_below.map(|f| f.to_string()),
+            soft_rate: soft.rate_hz,
+            soft_substeps: soft.substeps,
+            soft_spread: soft.spread,
         }
     }
+}
+
+/// Materials by label, keyed by the label's text as a TOML table names it.
+fn labelled(regions: BTreeMap<i32, RegionSpec>) -> BTreeMap<String, RegionSpec> {
+    regions
+        .into_iter()
+        .map(|(l, r)| (l.to_string(), r))
+        .collect()
 }
 
 /// The 1-based line of a TOML text where `key` is set (`key = ...` at the start of a line),
@@ -997,25 +757,6 @@ fn key_line(text: &str, key: &str) -> Option<usize> {
                     .is_some_and(|rest| rest.trim_start().starts_with(']') || rest.starts_with('.'))
         })
         .map(|i| i + 1)
-}
-
-/// The tool of a scenario.
-#[derive(Debug, Clone, PartialEq)]
-pub enum ToolKind {
-    /// A spherical burr of this radius (mesh units).
-    Sphere(f64),
-    /// A burr on a shaft (mesh units): the burr's radius, the shaft's length from the burr's
-    /// centre to the handle and its radius.
-    Drill {
-        /// Burr radius.
-        burr: f64,
-        /// Shaft length, burr centre to handle.
-        shaft_length: f64,
-        /// Shaft radius.
-        shaft_radius: f64,
-    },
-    /// A tet-mesh tool from this file.
-    Mesh(PathBuf),
 }
 
 #[cfg(test)]

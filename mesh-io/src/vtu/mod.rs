@@ -53,7 +53,7 @@ pub fn read(path: &Path) -> Result<RawMesh, MeshError> {
 /// Reads a VTK XML `.vtu` file (decompressed first when its name ends in `.gz`).
 ///
 /// # Errors
-/// Exit status 2, `FILE:LINE: reason` (`FILE: byte N: reason` inside raw appended data):
+/// Bad input ([`crate::MeshErrorKind::Input`]), `FILE:LINE: reason` (`FILE: byte N: reason` inside raw appended data):
 /// malformed XML, another file type, missing arrays, bad base64, corrupt or truncated
 /// compressed blocks, sizes larger than the data, array lengths that disagree with the
 /// declared counts, bad numbers, node indices out of range, tet cells without 4 points, a

@@ -54,11 +54,7 @@ impl SoftSim {
             crate::fail("soft tet storage too small");
         }
         let tets: &'static [[u32; 4]] = st.tets;
-        if world.enable_deformation(st.world_rest).is_err()
-            || world
-                .set_spare(st.spare)
-                .is_err()
-        {
+        if world.enable_deformation(st.world_rest).is_err() || world.set_spare(st.spare).is_err() {
             crate::fail("the world refused its soft storage");
         }
         let mut body = SoftBody::new(

@@ -16,7 +16,9 @@ use tetradrill::commands::pipeline::{self, PipelineSetup, MESH_UNITS};
 
 use tetradrill::pen::{options, PenRig, PenSizes};
 use tetradrill::pen_tasks::{held_handoff, PenLaw};
-use tetradrill::scenario::{Crossings, Scenario};
+use tetradrill::scenario::Scenario;
+use tetradrill::setup::Crossings;
+use tetradrill::setup::Setup;
 use tetradrill::tasks::{DeviceFrame, ForceLaw, ServoCounters, ToolSample};
 use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
@@ -85,7 +87,7 @@ impl HapticDevice for Kinematic {
 /// The pen (x5) on `builtin:block:8`: stiffness 20, no damping, clamp far away (1 kN), every
 /// pass searching its crossings (a pass then depends on its pose only). Returns the scenario
 /// and the pen's file.
-fn pen_on_block() -> (Scenario, std::path::PathBuf) {
+fn pen_on_block() -> (Setup, std::path::PathBuf) {
     let pen = tetradrill_tests::mesh("models/pen_tool_gmsh.mesh");
     let sc = Scenario {
         mesh: "builtin:block:8".into(),
@@ -96,7 +98,9 @@ fn pen_on_block() -> (Scenario, std::path::PathBuf) {
         max_force: 1000.0,
         crossings: Crossings::Search,
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     (sc, pen)
 }
 
@@ -112,7 +116,13 @@ fn every_real_time_force_is_a_recent_pass_carried_to_its_tick() {
         }) as Box<dyn HapticDevice>)
     });
     let setup = PipelineSetup::plain(DeviceKind::Sim, open, TICKS);
-    let rep = pipeline::run(&sc, setup, None).expect("the pen's real-time run");
+    let rep = pipeline::run(
+        &sc,
+        tetradrill::engine::load_mesh(&sc).expect("the mesh"),
+        setup,
+        None,
+    )
+    .expect("the pen's real-time run");
     let p = rep.pen.as_ref().expect("a mesh tool's summary");
     assert_eq!(rep.ticks, TICKS);
     assert!(rep.valid);
@@ -129,7 +139,7 @@ fn every_real_time_force_is_a_recent_pass_carried_to_its_tick() {
 
     // Offline: the scene again, each tick's pose, the pass at each recent pose carried to it.
     let obj = tetradrill::engine::load_mesh(&sc).expect("block").mesh;
-    let tool = tetradrill::meshio::load(&pen, sc.tool_scale).expect("pen");
+    let tool = tetradrill::meshio::load(&pen, sc.tool.scale()).expect("pen");
     let opts = options(&sc);
     let frame = DeviceFrame::default();
     let at = |i: u64| {
@@ -144,7 +154,7 @@ fn every_real_time_force_is_a_recent_pass_carried_to_its_tick() {
         obj,
     };
     let ((errors, in_contact), _) = rig
-        .with_sizes(PenSizes::of(&sc), |scene, bufs| {
+        .with_sizes(PenSizes::of(&sc.capacities), |scene, bufs| {
             let mut now_pen = vec![Penetration::default(); bufs.pen_pens.len()];
             let mut now_obj = vec![Penetration::default(); bufs.object_pens.len()];
             let (mut errors, mut in_contact) = (Vec::new(), 0u64);
@@ -216,14 +226,14 @@ fn every_real_time_force_is_a_recent_pass_carried_to_its_tick() {
 fn the_stiffness_control_scales_the_pens_force() {
     let (sc, pen) = pen_on_block();
     let obj = tetradrill::engine::load_mesh(&sc).expect("block").mesh;
-    let tool = tetradrill::meshio::load(&pen, sc.tool_scale).expect("pen");
+    let tool = tetradrill::meshio::load(&pen, sc.tool.scale()).expect("pen");
     let opts = options(&sc);
     let mut rig = PenRig {
         pen: tool.mesh,
         obj,
     };
     let ((exact, single, double), _) = rig
-        .with_sizes(PenSizes::of(&sc), |scene, bufs| {
+        .with_sizes(PenSizes::of(&sc.capacities), |scene, bufs| {
             let counters = ServoCounters::default();
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let mut law = PenLaw::new(scene, &counters, held_out, opts);
@@ -259,9 +269,10 @@ fn the_stiffness_control_scales_the_pens_force() {
             );
             held_in.publish();
             let single = law.force(1, sample.position, sample.rotation);
-            counters
-                .stiffness_bits
-                .store((2.0 * sc.stiffness as f32).to_bits(), Ordering::Relaxed);
+            counters.stiffness_bits.store(
+                (2.0 * sc.forces.stiffness as f32).to_bits(),
+                Ordering::Relaxed,
+            );
             let double = law.force(2, sample.position, sample.rotation);
             (exact, single, double)
         })

@@ -11,6 +11,7 @@ use crossbeam::queue::ArrayQueue;
 use tetradrill::commands::pipeline::{self, MESH_UNITS};
 use tetradrill::engine::{self, EngineStorage, TickParams};
 use tetradrill::scenario::Scenario;
+use tetradrill::setup::Setup;
 use tetradrill::tasks::{servo_tick, ServoState, ToolSample};
 use tetradrill::traces::Pose;
 use tetradrill_core::force::ToolState;
@@ -29,11 +30,9 @@ use tetradrill_tests::faults::{falcon, falcon_report, pipeline_with, sim, FaultD
 
 /// Stiffness 100 N per unit, damping 0.5 N s per unit, clamp 8 N, burr radius 0.1.
 fn params() -> TickParams {
-    TickParams::of(&Scenario {
-        stiffness: 100.0,
-        ..Scenario::default()
-    })
-    .expect("valid scenario")
+    let mut setup = Setup::default();
+    setup.forces.stiffness = 100.0;
+    TickParams::of(&setup).expect("valid scenario")
 }
 
 /// A contact plane through `point` facing +z: a burr centred at `point` is `radius` deep.
@@ -292,10 +291,12 @@ fn nan_positions_give_zero_force_and_the_servo_recovers() {
     let sc = Scenario {
         mesh: "builtin:block:4".into(),
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let tp = TickParams::of(&sc).expect("scenario");
-    let mut store = EngineStorage::try_allocate(engine::load_mesh(&sc).expect("mesh").mesh, &sc)
-        .expect("storage");
+    let mut store =
+        EngineStorage::new(engine::load_mesh(&sc).expect("mesh").mesh, &sc).expect("storage");
     let mut world = store.world().expect("world");
     let mut tool = ToolState::default();
     for p in [

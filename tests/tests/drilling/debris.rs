@@ -15,6 +15,7 @@ use std::path::Path;
 
 use tetradrill::engine::{self, EngineStorage, TickParams};
 use tetradrill::scenario::Scenario;
+use tetradrill::setup::Setup;
 use tetradrill::traces::PoseSource;
 use tetradrill_core::force::ToolState;
 use tetradrill_core::hierarchy::{Crumbs, Hierarchy, CRUMB_SEEDS, DEBRIS_LEAVES};
@@ -147,11 +148,13 @@ fn groove(trace: &str, mesh: &str, radius: f64, max_depth: u8) -> Groove {
         tool: format!("sphere:{radius}"),
         max_depth,
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let params = TickParams::of(&sc).expect("scenario");
-    let poses = PoseSource::for_scenario(&sc).expect("trace");
     let loaded = engine::load_mesh(&sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let poses = PoseSource::new(&sc.poses, Some(&loaded.mesh)).expect("trace");
+    let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
     let mut world = store.world().expect("world");
     world.set_debris_leaves(0);
     let mut tool = ToolState::default();
@@ -373,7 +376,7 @@ fn the_size_limit_and_the_largest_piece_decide() {
 /// drill's own debris checks on or off; `then` gets the world after the last tick.
 fn cow_wander(
     checks: bool,
-    then: impl FnOnce(&Scenario, &mut World<'_>, &mut ToolState, &TickParams, &PoseSource),
+    then: impl FnOnce(&Setup, &mut World<'_>, &mut ToolState, &TickParams, &PoseSource),
 ) {
     let sc = Scenario {
         mesh: tetradrill_tests::mesh("models/spot_tetgen_q1.414.node")
@@ -382,11 +385,13 @@ fn cow_wander(
         trace: "wander:1".into(),
         tool: "sphere:0.05".into(),
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let params = TickParams::of(&sc).expect("scenario");
-    let poses = PoseSource::for_scenario(&sc).expect("trace");
     let loaded = engine::load_mesh(&sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let poses = PoseSource::new(&sc.poses, Some(&loaded.mesh)).expect("trace");
+    let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
     let mut world = store.world().expect("world");
     if !checks {
         world.set_debris_leaves(0);
@@ -409,7 +414,7 @@ fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
             .components(world.mesh(), &mut scratch)
             .expect("scratch");
         let rep = world
-            .remove_debris(DEBRIS_LEAVES, sc.max_depth, &mut scratch)
+            .remove_debris(DEBRIS_LEAVES, sc.drilling.max_depth, &mut scratch)
             .expect("scratch");
         engine::validate(world).expect("valid");
         eprintln!(
@@ -524,19 +529,20 @@ fn while_drilling_the_pieces_counted_are_the_pieces_a_user_sees() {
         tool: "sphere:0.1".into(),
         max_depth: 3,
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let params = TickParams::of(&sc).expect("scenario");
-    let poses = PoseSource::for_scenario(&sc).expect("trace");
     let loaded = engine::load_mesh(&sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let poses = PoseSource::new(&sc.poses, Some(&loaded.mesh)).expect("trace");
+    let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
     let mut world = store.world().expect("world");
     assert_eq!(world.debris().pieces, 0);
     let mut tool = ToolState::default();
     // The same drilling with the checks off: the crumbs it leaves show the scenario makes
     // some (so the comparison above can fail).
     let mut store_off =
-        EngineStorage::try_allocate(engine::load_mesh(&sc).expect("mesh").mesh, &sc)
-            .expect("storage");
+        EngineStorage::new(engine::load_mesh(&sc).expect("mesh").mesh, &sc).expect("storage");
     let mut off = store_off.world().expect("world");
     off.set_debris_leaves(0);
     let mut tool_off = ToolState::default();
@@ -632,7 +638,7 @@ fn the_cow_after_a_wander_is_one_piece_with_the_drills_checks() {
             .components(world.mesh(), &mut scratch)
             .expect("scratch");
         let rep = world
-            .remove_debris(DEBRIS_LEAVES, sc.max_depth, &mut scratch)
+            .remove_debris(DEBRIS_LEAVES, sc.drilling.max_depth, &mut scratch)
             .expect("scratch");
         assert_eq!(rep.components, 1);
         assert_eq!(before, rep.pieces + 1);

@@ -177,10 +177,12 @@ fn drill(mesh: &str, r: f64, max_depth: u8, centres: &[D3]) -> f64 {
         tool: format!("sphere:{r}"),
         max_depth,
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let params = TickParams::of(&sc).expect("scenario");
     let loaded = engine::load_mesh(&sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
     let mut world = store.world().expect("world");
     let mut tool = ToolState::default();
     for c in centres {

@@ -5,16 +5,16 @@
 
 use glam::Vec3;
 use tetradrill::engine::{self, EngineStorage};
-use tetradrill::scenario::Scenario;
+use tetradrill::setup::Setup;
 use tetradrill_core::drill::DrillParams;
 use tetradrill_core::servo::{DRILL_HOLD_STEPS, DRILL_SETTLE, DRILL_SPACING};
 
 const R: f32 = 0.1;
 
 fn storage() -> EngineStorage {
-    let sc = Scenario::default();
+    let sc = Setup::default();
     let loaded = engine::load_mesh(&sc).expect("built-in mesh");
-    EngineStorage::allocate(loaded.mesh, &sc)
+    EngineStorage::new(loaded.mesh, &sc).expect("storage")
 }
 
 /// A steady drag at the demo's speed (a 384th of the radius a step, so 16 steps move less

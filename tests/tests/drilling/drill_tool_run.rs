@@ -233,12 +233,13 @@ fn the_simulation_task_publishes_the_shaft_to_the_viewer_and_the_servo() {
         tool: "drill:0.1:0.6:0.03".into(),
         max_depth: 3,
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let params = TickParams::of(&sc).expect("params");
     let tool = params.shaft.expect("a drill");
     let loaded = tetradrill::engine::load_mesh(&sc).expect("mesh");
-    let mut store =
-        tetradrill::engine::EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let mut store = tetradrill::engine::EngineStorage::new(loaded.mesh, &sc).expect("storage");
     let mut world = store.world().expect("world");
     let shared = Shared::new();
     let rotation = Quat::from_rotation_y(std::f32::consts::FRAC_PI_2);

@@ -38,10 +38,12 @@ fn hold(n: usize, radius: f64, max_depth: u8, max_ticks: u64) -> Held {
         tool: format!("sphere:{radius}"),
         max_depth,
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let params = TickParams::of(&sc).expect("scenario");
     let loaded = engine::load_mesh(&sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
     let candidates = store.candidate_capacity();
     let arena = store.hierarchy_capacity();
     let mut world = store.world().expect("world");
@@ -107,10 +109,12 @@ fn a_zone_wider_than_the_query_may_visit_is_counted_never_silent() {
         max_depth: 1,
         candidate_capacity: Some(1024),
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let params = TickParams::of(&sc).expect("scenario");
     let loaded = engine::load_mesh(&sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
     let mut world = store.world().expect("world");
     world.set_max_cells(tetradrill_core::servo::DEFAULT_MAX_CELLS);
     let mut tool = ToolState::default();

@@ -59,11 +59,13 @@ fn replay(trace: &str, capacity: usize) -> Run {
         max_depth: 4,
         hierarchy_capacity: Some(capacity),
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let params = TickParams::of(&sc).expect("scenario");
-    let poses = PoseSource::for_scenario(&sc).expect("trace");
+    let poses = PoseSource::new(&sc.poses, None).expect("trace");
     let loaded = engine::load_mesh(&sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
     let mut world = store.world().expect("world");
     let mut tool = ToolState::default();
     let mut live_max = 0;
@@ -71,7 +73,7 @@ fn replay(trace: &str, capacity: usize) -> Run {
     for i in 0..ticks {
         let (f, _) = engine::tick(&mut world, &mut tool, &params, &poses.at(i));
         assert!(
-            f.is_finite() && f.length() <= sc.max_force as f32 * 1.0001,
+            f.is_finite() && f.length() <= sc.forces.max_force as f32 * 1.0001,
             "tick {i}: {f}"
         );
         live_max = live_max.max(world.hierarchy().arena_live());

@@ -13,7 +13,9 @@ use std::collections::BTreeMap;
 
 use glam::Vec3;
 use tetradrill::engine::{self, EngineStorage, TickParams};
-use tetradrill::scenario::{RegionSpec, Scenario};
+use tetradrill::scenario::Scenario;
+use tetradrill::setup::Setup;
+use tetradrill::setup::{RegionSpec, Tool};
 use tetradrill::traces::PoseSource;
 use tetradrill_core::drill::DrillParams;
 use tetradrill_core::force::{ForceParams, ToolState};
@@ -25,25 +27,22 @@ use tetradrill_tests::oracle::{cross, dot, sub};
 const DT: f32 = 0.001;
 
 /// A block of 8^3 cubes drilled to depth 3; the default region of `hardness` and `threshold`.
-fn block_scenario(hardness: f64, threshold: f64) -> Scenario {
-    Scenario {
-        mesh: "builtin:block:8".into(),
-        tool: "sphere:0.3".into(),
-        max_depth: 3,
-        hardness,
-        pressure_threshold: threshold,
-        budget_per_tick: 1 << 30,
-        tick_budget: 0,
-        hierarchy_capacity: Some(1 << 20),
-        ..Scenario::default()
-    }
+fn block_scenario(hardness: f64, threshold: f64) -> Setup {
+    let mut sc = Setup::drilling("builtin:block:8", Tool::sphere(0.3));
+    sc.drilling.max_depth = 3;
+    sc.materials.hardness = hardness;
+    sc.materials.pressure_threshold = threshold;
+    sc.drilling.budget_per_tick = 1 << 30;
+    sc.drilling.tick_budget = 0;
+    sc.capacities.hierarchy = Some(1 << 20);
+    sc
 }
 
 /// Storage for `sc`'s world with every tet labelled `labels` (or the mesh's own labels).
-fn storage(sc: &Scenario, labels: Option<&[i32]>) -> (EngineStorage, Vec<i32>) {
+fn storage(sc: &Setup, labels: Option<&[i32]>) -> (EngineStorage, Vec<i32>) {
     let loaded = engine::load_mesh(sc).expect("built-in mesh");
     let labels = labels.map_or(loaded.labels.clone(), <[i32]>::to_vec);
-    let mut store = EngineStorage::try_allocate(loaded.mesh, sc).expect("storage");
+    let mut store = EngineStorage::new(loaded.mesh, sc).expect("storage");
     store.set_labels(&labels, sc).expect("regions");
     (store, labels)
 }
@@ -153,10 +152,13 @@ fn volume(p: &[[f64; 3]; 4]) -> f64 {
 /// removed volume by label sums to the removed volume and equals each label's erased leaves.
 #[test]
 fn removed_by_region_is_each_labels_erased_leaves() {
-    let sc = tetradrill::scenario::builtin("demo").expect("demo");
-    assert_eq!(sc.regions.len(), 2);
+    let sc = tetradrill::scenario::builtin("demo")
+        .expect("demo")
+        .setup()
+        .expect("a valid set-up");
+    assert_eq!(sc.materials.regions.len(), 2);
     let params = TickParams::of(&sc).expect("params");
-    let poses = PoseSource::for_scenario(&sc).expect("demo path");
+    let poses = PoseSource::new(&sc.poses, None).expect("demo path");
     let (mut store, labels) = storage(&sc, None);
     let region_labels = store.region_labels().to_vec();
     assert_eq!(region_labels, vec![1, 2]);
@@ -209,7 +211,9 @@ fn the_force_uses_the_stiffness_of_the_region_under_the_contact() {
         mesh: "builtin:block:8".into(),
         regions: BTreeMap::from([("1".into(), spec(100.0)), ("2".into(), spec(400.0))]),
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let loaded = engine::load_mesh(&sc).expect("block");
     let labels: Vec<i32> = (0..loaded.mesh.tets().len())
         .map(|t| {
@@ -269,10 +273,8 @@ fn the_force_uses_the_stiffness_of_the_region_under_the_contact() {
         "stiff side: {last:?}"
     );
     // The same probe without regions feels the force parameters' stiffness on both sides.
-    let plain = Scenario {
-        regions: BTreeMap::new(),
-        ..sc.clone()
-    };
+    let mut plain = sc.clone();
+    plain.materials.regions.clear();
     let (mut store, _) = storage(&plain, Some(&vec![0; labels.len()]));
     let mut world = store.world().expect("world");
     let mut tool = ToolState::default();
@@ -359,7 +361,7 @@ fn bad_region_tables_name_the_file_and_line() {
         (
             "colour.toml",
             "[regions.1]\ncolour = \"red\"\n",
-            "colour.toml:1:",
+            "colour.toml:2:",
             "#rrggbb",
         ),
         (

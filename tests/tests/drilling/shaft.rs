@@ -57,18 +57,20 @@ fn replay(trace: &str, tool: &str) -> Run {
         tool: tool.into(),
         max_depth: 3,
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     let params = TickParams::of(&sc).expect("scenario");
-    let poses = PoseSource::for_scenario(&sc).expect("trace");
+    let poses = PoseSource::new(&sc.poses, None).expect("trace");
     let loaded = engine::load_mesh(&sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
     let mut world = store.world().expect("world");
     let (mut tool, mut shaft) = (ToolState::default(), ShaftState::default());
     let (mut forces, mut points, mut path) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..poses.ticks() {
         let pose = poses.at(i);
         let (f, _) = engine::tick_tool(&mut world, &mut tool, &mut shaft, &params, &pose);
-        assert!(f.is_finite() && f.length() <= sc.max_force as f32 * 1.0001);
+        assert!(f.is_finite() && f.length() <= sc.forces.max_force as f32 * 1.0001);
         forces.push(f);
         path.push(pose.position);
         points.push((

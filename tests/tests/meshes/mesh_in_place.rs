@@ -105,7 +105,10 @@ fn in_place_cow_has_the_counts_info_prints_for_the_file() {
 #[test]
 fn in_place_cow_replays_to_the_digest_of_the_file() {
     const TICKS: u64 = 1_500;
-    let sc = scenario::builtin("firmware-cow").expect("built-in");
+    let sc = scenario::builtin("firmware-cow")
+        .expect("built-in")
+        .setup()
+        .expect("a valid set-up");
     let host = run_json(
         &[
             "replay",
@@ -120,13 +123,13 @@ fn in_place_cow_replays_to_the_digest_of_the_file() {
     let want = host["force_digest"].as_str().expect("digest").to_string();
 
     let params = TickParams::of(&sc).expect("scenario");
-    let poses = PoseSource::for_scenario(&sc).expect("poses");
     let mut loaded = engine::load_mesh(&sc).expect("the cow");
+    let poses = PoseSource::new(&sc.poses, None).expect("poses");
     let bytes = blob_of(&mut loaded);
     let blob = MeshBlob::parse(&bytes).expect("parses");
     let mut ram = NodeRam::new(blob.node_count());
     let mesh = ram.mesh(&blob);
-    let mut store = EngineStorage::try_allocate(loaded.mesh, &sc).expect("storage");
+    let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
     store.set_labels(&loaded.labels, &sc).expect("labels");
     let mut world = store.world_with(mesh).expect("world");
     assert!(matches!(world.mesh().tet_store(), TetStore::InPlace(_)));

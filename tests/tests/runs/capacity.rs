@@ -21,6 +21,7 @@ use std::process::Command;
 use tetradrill::engine::{self, EngineStorage, TickParams};
 use tetradrill::pen::{PenRig, PenSizes};
 use tetradrill::scenario::Scenario;
+use tetradrill::setup::Setup;
 use tetradrill::traces::PoseSource;
 use tetradrill_core::force::{pen_contact, ForceParams, PenOptions, PenState, ToolState};
 use tetradrill_core::servo::Saturations;
@@ -45,10 +46,13 @@ fn base() -> Scenario {
 
 /// One small capacity of the sphere-burr world: its name, the scenario, and the saturation
 /// kind that must count.
-type Case = (&'static str, Scenario, fn(&Saturations) -> u32);
+type Case = (&'static str, Setup, fn(&Saturations) -> u32);
+
+/// A case as its scenario writes it.
+type ScenarioCase = (&'static str, Scenario, fn(&Saturations) -> u32);
 
 fn world_cases() -> Vec<Case> {
-    vec![
+    let cases: Vec<ScenarioCase> = vec![
         (
             "hierarchy_capacity",
             Scenario {
@@ -99,7 +103,11 @@ fn world_cases() -> Vec<Case> {
             },
             |s| s.contact,
         ),
-    ]
+    ];
+    cases
+        .into_iter()
+        .map(|(name, sc, kind)| (name, sc.setup().expect("a valid set-up"), kind))
+        .collect()
 }
 
 /// One tick of a run: the force and the tool centre.
@@ -111,11 +119,11 @@ struct Tick {
 
 /// Replays `sc` in-process for [`TICKS`] ticks, checking the mesh and the hierarchy with the
 /// core's `validate()` after every tick when `validate_each`.
-fn replay(sc: &Scenario, validate_each: bool) -> (Vec<Tick>, Saturations) {
+fn replay(sc: &Setup, validate_each: bool) -> (Vec<Tick>, Saturations) {
     let params = TickParams::of(sc).expect("scenario");
-    let poses = PoseSource::for_scenario(sc).expect("poses");
+    let poses = PoseSource::new(&sc.poses, None).expect("poses");
     let loaded = engine::load_mesh(sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, sc).expect("storage");
+    let mut store = EngineStorage::new(loaded.mesh, sc).expect("storage");
     let mut world = store.world().expect("world");
     let mut tool = ToolState::default();
     let mut out = Vec::with_capacity(TICKS as usize);
@@ -139,8 +147,8 @@ fn replay(sc: &Scenario, validate_each: bool) -> (Vec<Tick>, Saturations) {
 }
 
 /// `|F_i - F_{i-1}|` allowed (see the module docs), with 1 mN for rounding.
-fn smooth_bound(ticks: &[Tick], i: usize, sc: &Scenario) -> f64 {
-    let (k, b, dt) = (sc.stiffness, sc.damping, 1e-3);
+fn smooth_bound(ticks: &[Tick], i: usize, sc: &Setup) -> f64 {
+    let (k, b, dt) = (sc.forces.stiffness, sc.forces.damping, 1e-3);
     let d = |j: usize| {
         if j == 0 {
             0.0
@@ -148,8 +156,8 @@ fn smooth_bound(ticks: &[Tick], i: usize, sc: &Scenario) -> f64 {
             f64::from(ticks[j].centre.distance(ticks[j - 1].centre))
         }
     };
-    let ramp = if sc.switch_ms > 0.0 {
-        2.0 * sc.max_force * dt / (sc.switch_ms * 1e-3)
+    let ramp = if sc.forces.switch_ms > 0.0 {
+        2.0 * sc.forces.max_force * dt / (sc.forces.switch_ms * 1e-3)
     } else {
         0.0
     };
@@ -157,7 +165,7 @@ fn smooth_bound(ticks: &[Tick], i: usize, sc: &Scenario) -> f64 {
 }
 
 /// Ticks whose force changed by more than [`smooth_bound`].
-fn jumps(ticks: &[Tick], sc: &Scenario) -> Vec<usize> {
+fn jumps(ticks: &[Tick], sc: &Setup) -> Vec<usize> {
     (1..ticks.len())
         .filter(|&i| {
             f64::from(ticks[i].force.distance(ticks[i - 1].force)) > smooth_bound(ticks, i, sc)
@@ -177,7 +185,7 @@ fn saturated_run(name: &str, validate_each: bool) {
     assert!(kind(&sat) > 0, "{name}: not counted: {sat:?}");
     for (i, t) in ticks.iter().enumerate() {
         assert!(
-            t.force.is_finite() && t.force.length() <= sc.max_force as f32 * (1.0 + 1e-6),
+            t.force.is_finite() && t.force.length() <= sc.forces.max_force as f32 * (1.0 + 1e-6),
             "{name}: tick {i}: force {:?}",
             t.force
         );
@@ -212,17 +220,17 @@ fn every_small_world_capacity_saturates_validly_with_continuous_forces() {
 /// With the ramp, the largest change of every run is about 1 N.
 #[test]
 fn without_the_switch_ramp_plane_changes_make_the_force_jump() {
-    let sc = base();
+    let sc = base().setup().expect("a valid set-up");
     let (ticks, sat) = replay(&sc, false);
     assert_eq!(sat, Saturations::default(), "the reference run saturates");
     assert!(ticks.iter().any(|t| t.force != Vec3::ZERO), "no contact");
     let j = jumps(&ticks, &sc);
     assert!(j.is_empty(), "reference: the force jumps at ticks {j:?}");
-    let instant = |sc: Scenario| Scenario {
-        switch_ms: 0.0,
-        ..sc
+    let instant = |mut sc: Setup| {
+        sc.forces.switch_ms = 0.0;
+        sc
     };
-    let mut runs = vec![("reference", instant(base()))];
+    let mut runs = vec![("reference", instant(base().setup().expect("a set-up")))];
     for (name, sc, _) in world_cases() {
         if name == "hash_capacity" {
             runs.push((name, instant(sc)));
@@ -236,11 +244,11 @@ fn without_the_switch_ramp_plane_changes_make_the_force_jump() {
 }
 
 /// Ticks of the demo replay `sc` whose force points against the last tick's, both over 1 N.
-fn reversals(sc: &Scenario) -> Vec<u64> {
+fn reversals(sc: &Setup) -> Vec<u64> {
     let params = TickParams::of(sc).expect("scenario");
-    let poses = PoseSource::for_scenario(sc).expect("poses");
+    let poses = PoseSource::new(&sc.poses, None).expect("poses");
     let loaded = engine::load_mesh(sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, sc).expect("storage");
+    let mut store = EngineStorage::new(loaded.mesh, sc).expect("storage");
     let mut world = store.world().expect("world");
     let mut tool = ToolState::default();
     let mut last = Vec3::ZERO;
@@ -262,12 +270,14 @@ fn reversals(sc: &Scenario) -> Vec<u64> {
 /// the other's the next (before the cutting rule of `Hierarchy::nearest_uncut`: 44 times).
 #[test]
 fn unsaturated_drilling_never_reverses_the_force() {
-    let r = reversals(&Scenario::default());
+    let r = reversals(&Setup::default());
     assert!(r.is_empty(), "force reversed at ticks {r:?}");
     let sc = Scenario {
         switch_ms: 0.0,
         ..Scenario::default()
-    };
+    }
+    .setup()
+    .expect("a valid set-up");
     assert!(!reversals(&sc).is_empty(), "no reversal without the ramp");
 }
 
@@ -626,7 +636,7 @@ fn the_tick_budget_is_shared_by_default_and_zero_turns_it_off() {
     let tight = with(&["--tick-budget", "300"], "tight");
     assert_eq!(
         shared["scenario"]["tick_budget"].as_u64(),
-        Some(u64::from(tetradrill::scenario::DEFAULT_TICK_BUDGET))
+        Some(u64::from(tetradrill::setup::DEFAULT_TICK_BUDGET))
     );
     assert_eq!(separate["scenario"]["tick_budget"].as_u64(), Some(0));
     for k in [

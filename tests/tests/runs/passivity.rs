@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex};
 use crossbeam::queue::ArrayQueue;
 use tetradrill::commands::pipeline::{self, PipelineSetup, RunReport, MESH_UNITS};
 use tetradrill::engine::TickParams;
-use tetradrill::scenario::Scenario;
+use tetradrill::setup::{Setup, Tool};
 use tetradrill::tasks::{passivity_params, servo_tick, ServoState, SERVO_PERIOD_NS};
 use tetradrill_core::force::PassivityParams;
 use tetradrill_core::servo::ContactState;
@@ -69,12 +69,8 @@ impl HapticDevice for Logged {
     }
 }
 
-fn cube() -> Scenario {
-    Scenario {
-        mesh: "builtin:cube12".into(),
-        tool: "sphere:0.1".into(),
-        ..Scenario::default()
-    }
+fn cube() -> Setup {
+    Setup::drilling("builtin:cube12", Tool::sphere(0.1))
 }
 
 /// Runs of the wall-clock pipeline a loaded machine may disturb: a run whose servo stalled past
@@ -115,8 +111,10 @@ fn press_run_once(fault: SimFault) -> (RunReport, serde_json::Value, Vec<f64>) {
     });
     let dir = scratch_dir("passivity", fault.name());
     let json = dir.join("run.json");
+    let cube = cube();
     let rep = pipeline::run(
-        &cube(),
+        &cube,
+        tetradrill::engine::load_mesh(&cube).expect("the cube"),
         PipelineSetup::plain(DeviceKind::Sim, open, PRESS_TICKS),
         Some(&json),
     )
@@ -188,7 +186,7 @@ const WALL: ContactState = ContactState {
 /// observer with `observer` settings; `each` sees the state after every tick.
 fn against_the_wall(
     device: &mut dyn HapticDevice,
-    sc: &Scenario,
+    sc: &Setup,
     observer: PassivityParams,
     ticks: u64,
     mut each: impl FnMut(&ServoState),
@@ -209,10 +207,8 @@ fn against_the_wall(
 /// stylus (hand damping 0.3 N s/m, the stylus a continuous-time mass: 10 integration steps per
 /// tick), the wall `stiffness`: the z force of every tick.
 fn hold(stiffness: f64, dissipate: bool) -> (Vec<f32>, ServoState) {
-    let sc = Scenario {
-        stiffness,
-        ..cube()
-    };
+    let mut sc = cube();
+    sc.forces.stiffness = stiffness;
     // The hand from 5 cm above contact to 2 cm into the wall in 0.5 s, then held.
     let path = |t: f64| PathPoint {
         position: [0.0, 0.0, 0.65 - 0.07 * (t / 0.5).min(1.0)],

@@ -7,6 +7,7 @@
 
 use tetradrill::engine::{self, EngineStorage, TickParams};
 use tetradrill::scenario::{self, Scenario};
+use tetradrill::setup::Setup;
 use tetradrill::traces::PoseSource;
 use tetradrill_core::force::ToolState;
 use tetradrill_core::servo::{servo_force, ContactState};
@@ -16,11 +17,11 @@ use tetradrill_core::Vec3;
 const TICKS: u32 = 2_500;
 
 /// Runs `sc` for [`TICKS`], returning each tick's force and the contact after its step.
-fn run(sc: &Scenario) -> (Vec<Vec3>, Vec<ContactState>) {
+fn run(sc: &Setup) -> (Vec<Vec3>, Vec<ContactState>) {
     let params = TickParams::of(sc).expect("scenario");
-    let poses = PoseSource::for_scenario(sc).expect("trace");
+    let poses = PoseSource::new(&sc.poses, None).expect("trace");
     let loaded = engine::load_mesh(sc).expect("mesh");
-    let mut store = EngineStorage::try_allocate(loaded.mesh, sc).expect("storage");
+    let mut store = EngineStorage::new(loaded.mesh, sc).expect("storage");
     let mut world = store.world().expect("world");
     let mut tool = ToolState::default();
     let (mut forces, mut contacts) = (Vec::new(), Vec::new());
@@ -34,22 +35,25 @@ fn run(sc: &Scenario) -> (Vec<Vec3>, Vec<ContactState>) {
 
 #[test]
 fn firmware_scenario_uses_the_previous_steps_contact() {
-    let lagged = scenario::builtin("firmware").expect("builtin:firmware");
+    let lagged_scenario = scenario::builtin("firmware").expect("builtin:firmware");
+    let lagged = lagged_scenario.setup().expect("a valid set-up");
     assert_eq!(
-        lagged.servo_lag, 1,
+        lagged.drilling.servo_lag, 1,
         "builtin:firmware models the RTIC release rule"
     );
     let same_tick = Scenario {
         servo_lag: 0,
-        ..lagged.clone()
-    };
+        ..lagged_scenario.clone()
+    }
+    .setup()
+    .expect("a valid set-up");
     let (lag_forces, lag_contacts) = run(&lagged);
     let (same_forces, same_contacts) = run(&same_tick);
     // The world goes through the same states whatever the servo does.
     assert_eq!(lag_contacts, same_contacts);
 
     let params = TickParams::of(&lagged).expect("scenario");
-    let poses = PoseSource::for_scenario(&lagged).expect("trace");
+    let poses = PoseSource::new(&lagged.poses, None).expect("trace");
     let mut tool = ToolState::default();
     let mut contact_ticks = 0;
     for i in 0..TICKS as usize {

@@ -12,6 +12,7 @@ use std::sync::{Arc, Mutex};
 use rand::{Rng, SeedableRng};
 use tetradrill::commands::pipeline::{self, PipelineSetup, UNTIL_STOPPED};
 use tetradrill::scenario::Scenario;
+use tetradrill::setup::{Setup, Tool};
 use tetradrill::stats::{Histogram, HIST_UNIT_NS};
 use tetradrill::tasks::{recorder_task, RecordRing, ToolSample, TRACE_HEADER};
 use tetradrill::watchdog::StopRequest;
@@ -66,11 +67,18 @@ impl HapticDevice for Logged {
     }
 }
 
-fn small_block() -> Scenario {
-    Scenario {
-        mesh: "builtin:block:4".into(),
-        ..Scenario::default()
-    }
+fn small_block() -> Setup {
+    Setup::drilling("builtin:block:4", Tool::sphere(0.1))
+}
+
+/// `pipeline::run` over the small block.
+fn run_small_block(
+    setup: PipelineSetup,
+    json: Option<&std::path::PathBuf>,
+) -> Result<tetradrill::commands::pipeline::RunReport, tetradrill::error::CliError> {
+    let sc = small_block();
+    let mesh = tetradrill::engine::load_mesh(&sc).expect("the block");
+    pipeline::run(&sc, mesh, setup, json)
 }
 
 #[test]
@@ -101,7 +109,7 @@ fn a_stop_request_zeroes_the_force_within_a_tick_and_ends_the_run_cleanly() {
             }
             request.request();
         });
-        pipeline::run(&small_block(), setup, Some(&json)).expect("a clean stop")
+        run_small_block(setup, Some(&json)).expect("a clean stop")
     });
     assert_eq!(rep.stop_reason, "signal");
     assert_eq!(rep.stop_signal, None, "a call, not a signal");
@@ -143,12 +151,8 @@ fn each_end_of_a_run_has_its_stop_reason_and_leaves_zero_force() {
             SimConfig::default(),
         )) as Box<dyn HapticDevice>)
     });
-    let rep = pipeline::run(
-        &small_block(),
-        PipelineSetup::plain(DeviceKind::Sim, open, 200),
-        None,
-    )
-    .expect("a run");
+    let rep =
+        run_small_block(PipelineSetup::plain(DeviceKind::Sim, open, 200), None).expect("a run");
     assert_eq!((rep.stop_reason, rep.ticks), ("duration", 200));
     assert!(rep.force_max_n > 0.1);
     assert_eq!(rep.force.last_written_n, 0.0);
@@ -162,8 +166,7 @@ fn each_end_of_a_run_has_its_stop_reason_and_leaves_zero_force() {
         Ok(Box::new(SimDevice::new(Still([0.0, 0.0, 0.55]), c)) as Box<dyn HapticDevice>)
     });
     let json = dir.join("lost.json");
-    let e = pipeline::run(
-        &small_block(),
+    let e = run_small_block(
         PipelineSetup::plain(DeviceKind::Sim, open, UNTIL_STOPPED),
         Some(&json),
     )
@@ -405,8 +408,16 @@ fn only_scripts_and_traces_give_a_run_its_own_end() {
             mesh: "builtin:block:2".into(),
             trace: trace.into(),
             ..Scenario::default()
-        };
-        let (_, t, _) = device_factory(kind, &sc, OpenOptions::default()).expect("a factory");
+        }
+        .setup()
+        .expect("a valid set-up");
+        let (_, t, _) = device_factory(
+            kind,
+            &sc,
+            &tetradrill::engine::load_mesh(&sc).expect("the block"),
+            OpenOptions::default(),
+        )
+        .expect("a factory");
         t
     };
     assert_eq!(
@@ -420,8 +431,15 @@ fn only_scripts_and_traces_give_a_run_its_own_end() {
         mesh: "builtin:block:2".into(),
         trace: "builtin:demo".into(),
         ..Scenario::default()
-    };
-    match device_factory(DeviceKind::Falcon, &sc, OpenOptions::default()) {
+    }
+    .setup()
+    .expect("a valid set-up");
+    match device_factory(
+        DeviceKind::Falcon,
+        &sc,
+        &tetradrill::engine::load_mesh(&sc).expect("the block"),
+        OpenOptions::default(),
+    ) {
         Ok((_, t, _)) => assert_eq!(t, UNTIL_STOPPED),
         Err(e) => {
             assert_eq!(e.code, 2, "{}", e.message);

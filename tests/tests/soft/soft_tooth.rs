@@ -5,7 +5,8 @@
 //! builtin:firmware-tooth --body soft` runs and reports no displacement before the burr
 //! touches.
 
-use tetradrill::scenario::{tooth_regions, TOOTH};
+use tetradrill::scenario::TOOTH;
+use tetradrill::setup::tooth_regions;
 use tetradrill::soft::{Fix, SoftOwned, SoftRegion, SoftSpec};
 use tetradrill_core::soft::{SoftBody, SoftParams};
 use tetradrill_core::Vec3;
@@ -27,7 +28,7 @@ fn tissues() -> SoftSpec {
     let regions = tooth_regions()
         .into_iter()
         .map(|(label, r)| SoftRegion {
-            label: label.parse().expect("a numeric label"),
+            label,
             young: r.young,
             poisson: r.poisson,
             density: r.density,

@@ -6,7 +6,7 @@ use std::sync::atomic::Ordering;
 
 use tetradrill::engine::TickParams;
 use tetradrill::rt::RtConfig;
-use tetradrill::scenario::Scenario;
+use tetradrill::setup::Setup;
 use tetradrill::tasks::{
     camera_handoff, servo_task, simulation_task, BurrLaw, DeviceFrame, Shared, SimEnd, SimStatus,
     ToolSample,
@@ -49,7 +49,7 @@ impl HapticDevice for HeldDevice {
 
 #[test]
 fn the_servo_takes_the_published_camera_and_the_stiffness_control_each_tick() {
-    let params = TickParams::of(&Scenario::default()).expect("params");
+    let params = TickParams::of(&Setup::default()).expect("params");
     let plane = ContactState {
         valid: true,
         point: Vec3::new(0.0, 0.0, 0.5),

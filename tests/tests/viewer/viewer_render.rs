@@ -4,7 +4,7 @@
 //! hand-off that refuses instead of blocking and loses nothing when it does.
 
 use tetradrill::engine::{self, TickParams};
-use tetradrill::scenario::Scenario;
+use tetradrill::setup::Setup;
 use tetradrill::tasks::SimStatus;
 use tetradrill::traces::PoseSource;
 use tetradrill::viewer::camera::Camera;
@@ -124,9 +124,9 @@ fn the_cube_renders_with_the_silhouette_of_its_projected_corners() {
 }
 
 /// Plunges the demo burr into the default block for `ticks` ticks.
-fn plunge(world: &mut tetradrill_core::servo::World<'_>, sc: &Scenario, ticks: u64) -> Vec3 {
+fn plunge(world: &mut tetradrill_core::servo::World<'_>, sc: &Setup, ticks: u64) -> Vec3 {
     let params = TickParams::of(sc).expect("params");
-    let poses = PoseSource::load("builtin:demo", 1.0).expect("demo path");
+    let poses = PoseSource::new(&tetradrill::setup::Poses::Demo, None).expect("demo path");
     let mut tool = ToolState::default();
     let mut last = Vec3::ZERO;
     for i in 0..ticks {
@@ -233,7 +233,7 @@ fn a_full_queue_refuses_without_blocking_and_later_snapshots_carry_the_changes()
     let mut world = store.world().expect("world");
     let queue = SnapshotQueue::with_capacity(2);
     let mut link = SimViewer::new(&queue, None, world.mesh().tet_count());
-    let poses = PoseSource::load("builtin:demo", 1.0).expect("demo path");
+    let poses = PoseSource::new(&tetradrill::setup::Poses::Demo, None).expect("demo path");
     let mut tool = ToolState::default();
     let mut scene = Scene::new();
     let (mut published, mut refused) = (0, 0);
@@ -301,7 +301,7 @@ fn partial_buffer_updates_draw_what_a_full_upload_draws() {
     r.sync(gl, &mut scene);
     let whole = r.last_upload_bytes;
     assert_eq!(whole, 4 * scene.data().len());
-    let poses = PoseSource::load("builtin:demo", 1.0).expect("demo path");
+    let poses = PoseSource::new(&tetradrill::setup::Poses::Demo, None).expect("demo path");
     let mut tool = ToolState::default();
     let mut partial = 0;
     for i in 0..2500u64 {

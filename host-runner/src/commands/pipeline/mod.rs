@@ -22,8 +22,9 @@ use tetradrill_device::{DeviceError, DeviceKind, HapticDevice};
 use crate::commands::replay::{DebrisSummary, SaturationCounts};
 use crate::engine::{self, EngineStorage, TickParams};
 use crate::error::CliError;
+use crate::meshio::LoadedMesh;
 use crate::rt::RtConfig;
-use crate::scenario::{Scenario, ToolKind};
+use crate::setup::{Setup, Tool};
 use crate::tasks::{self, Shared, SimStatus, Workspace};
 use crate::watchdog::StopRequest;
 
@@ -113,22 +114,22 @@ type SimEnding = (
     Option<crate::soft::DeformSummary>,
 );
 
-/// Runs the pipeline on `sc` with `setup`; returns the report (the device error that ended the
-/// run, if any, as an error: exit 2 when the device was not found, 1 when it failed mid-run).
+/// Runs the pipeline of `sc` on its mesh, `loaded` (read once by the caller), with `setup`;
+/// returns the report (the device error that ended the run, if any, as an error: exit 2 when
+/// the device was not found, 1 when it failed mid-run).
 pub fn run(
-    sc: &Scenario,
+    sc: &Setup,
+    loaded: LoadedMesh,
     setup: PipelineSetup,
     json: Option<&PathBuf>,
 ) -> Result<RunReport, CliError> {
     let soft = crate::soft::SoftSpec::of(sc)?;
-    match sc.tool_kind().map_err(CliError::input)? {
-        ToolKind::Mesh(pen) => return run_pen(sc, setup, json, &pen),
-        ToolKind::Sphere(_) | ToolKind::Drill { .. } => {}
+    if let Tool::Mesh { path, scale } = &sc.tool {
+        return run_pen(sc, loaded, setup, json, path, *scale);
     }
     let params = TickParams::of(sc)?;
-    let loaded = engine::load_mesh(sc)?;
     let regions = crate::viewer::handoff::region_slots(&loaded.labels);
-    let mut store = EngineStorage::try_allocate(loaded.mesh, sc)?;
+    let mut store = EngineStorage::new(loaded.mesh, sc)?;
     store.set_labels(&loaded.labels, sc)?;
     let mut soft_owned = match soft.as_ref() {
         Some(spec) => {
@@ -140,7 +141,7 @@ pub fn run(
         None => None,
     };
     let region_labels = store.region_labels().to_vec();
-    let region_colours = engine::region_table(&loaded.labels, sc)
+    let region_colours = engine::region_table(&loaded.labels, &sc.materials)
         .ok()
         .flatten()
         .map(|t| t.colours);

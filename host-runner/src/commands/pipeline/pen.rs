@@ -6,8 +6,9 @@ use std::path::PathBuf;
 use crate::commands::replay::{DebrisSummary, SaturationCounts, TickTiming};
 use crate::engine;
 use crate::error::CliError;
+use crate::meshio::LoadedMesh;
 use crate::pen::{PenRig, PenSizes};
-use crate::scenario::Scenario;
+use crate::setup::Setup;
 use crate::tasks::{self, Shared, SimStatus};
 
 use super::threads::{main_thread_tasks, spawn_servo, spawn_watchdog, Front, Recorder, ServoRun};
@@ -20,22 +21,24 @@ use super::{conclude, mesh_centre, Ended, PenRunSummary, PipelineSetup, RunRepor
 /// `--screenshot` show the object and the pen where it is drawn clear of it; the window's
 /// stiffness slider sets the pen's stiffness (its drilling controls are hidden).
 pub(super) fn run_pen(
-    sc: &Scenario,
+    sc: &Setup,
+    loaded: LoadedMesh,
     setup: PipelineSetup,
     json: Option<&PathBuf>,
     pen_path: &std::path::Path,
+    pen_scale: f64,
 ) -> Result<RunReport, CliError> {
     use crate::pen_pair::with_pass_runner;
     use crate::pen_tasks::{held_handoff, pen_contact_task, PenLaw, PenTaskReport, PenViewer};
-    if sc.contact_period != 1 {
+    if sc.pen.contact_period != 1 {
         return Err(CliError::input(format!(
             "--contact-period {}: a real-time run's contact pass runs as often as it can; the \
              period is for replay",
-            sc.contact_period
+            sc.pen.contact_period
         )));
     }
-    let obj = engine::load_mesh(sc)?.mesh;
-    let mut pen = crate::meshio::load(pen_path, sc.tool_scale)?;
+    let obj = loaded.mesh;
+    let mut pen = crate::meshio::load(pen_path, pen_scale)?;
     for w in &pen.warnings {
         errln!("tetradrill: warning: {w}");
     }
@@ -54,13 +57,13 @@ pub(super) fn run_pen(
     );
     let tets = world.mesh().tet_count();
     let opts = crate::pen::options(sc);
-    let pass_threads = sc.pass_threads;
+    let pass_threads = sc.pen.pass_threads;
     let shape = crate::viewer::publish::tool_shape(&pen.mesh.view());
     let mut summary = PenRunSummary {
         tool_nodes: pen.mesh.positions().len(),
         tool_tets: pen.mesh.tets().len(),
-        depth_method: format!("{:?}", sc.depth_method).to_lowercase(),
-        entry_remedy: sc.entry_remedy,
+        depth_method: format!("{:?}", sc.pen.depth_method).to_lowercase(),
+        entry_remedy: sc.pen.entry_remedy,
         ..PenRunSummary::default()
     };
     let shared = Shared::new();
@@ -69,12 +72,12 @@ pub(super) fn run_pen(
     let initial_controls = crate::viewer::handoff::Controls {
         radius: 0.0,
         stiffness: opts.params.stiffness,
-        max_depth: sc.max_depth,
+        max_depth: sc.drilling.max_depth,
         paused: false,
         reset: 0,
     };
     let ((servo, sim_status, task, stats, elapsed, (mut shown, recorded)), built) = rig
-        .with_sizes(PenSizes::of(sc), |scene, bufs| {
+        .with_sizes(PenSizes::of(&sc.capacities), |scene, bufs| {
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let (mut status_in, status_out) = triple_buffer::TripleBuffer::new(&base).split();
             let mut law = PenLaw::new(scene, &shared.counters, held_out, opts);
@@ -155,7 +158,7 @@ pub(super) fn run_pen(
     if let Some(e) = task.worker_gone {
         return Err(CliError::failure(format!("{e}; the run stopped")));
     }
-    summary.pass_threads = sc.pass_threads;
+    summary.pass_threads = sc.pen.pass_threads;
     summary.passes = task.passes;
     summary.pass_us = TickTiming::from(task.pass.summary());
     summary.carried_ticks = stats.carried_ticks;

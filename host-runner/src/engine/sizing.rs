@@ -1,0 +1,189 @@
+//! How big a world's buffers are: sized for the tool on the mesh ([`ToolSizing`]), or as
+//! the set-up's capacities ask ([`world_sizes`]).
+
+use tetradrill_core::servo::{WorldSizes, DEFAULT_MAX_CELLS, DEFAULT_PENDING};
+use tetradrill_core::TetId;
+
+use crate::error::Error;
+use crate::owned::OwnedMesh;
+use crate::setup::{Capacities, SetupError, Tool, DEFAULT_HIERARCHY_CAPACITY};
+
+/// What a burr needs on a mesh: the candidate list and the zone query's cells, sized from the
+/// tool's radius against the size of the tets at the mesh's boundary (where a burr works).
+///
+/// A step looks for tets in the box `radius + reach` around the burr (`reach` = half the
+/// radius, [`super::TickParams::reach`]), widened by one more radius for the several burr positions
+/// one step may queue. The tets whose boxes meet it number about `(L + 2 e)^3 / v` for a box
+/// side `L`, boundary tets of mean box side `e` and mean volume `v`; the list gets 1.5 times
+/// that (at least the core's 1,024). The query visits at most as many cells as that zone
+/// covers at the hash's cell size (the mesh's average edge), twice over (at least the core's
+/// 4,096). A burr of 4 mm on a mesh of 0.3 mm tets needs about a hundred times what the same
+/// burr needs on a mesh of 1.4 mm tets: fixed defaults would starve it (every step saturated,
+/// nothing drilled).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolSizing {
+    /// Burr radius the sizes are for, mesh units.
+    pub radius: f64,
+    /// Mean box side of the tets with a boundary face, mesh units.
+    pub boundary_edge: f64,
+    /// Candidate list entries.
+    pub candidates: usize,
+    /// Most hash cells one step's zone query visits ([`tetradrill_core::servo::World::set_max_cells`]).
+    pub max_cells: u32,
+    /// Pending drill work items: two for every tet whose box meets one burr position's box
+    /// (a new position queues one item per tet it touches; refining them queues more), at
+    /// least the core's [`DEFAULT_PENDING`].
+    pub pending: usize,
+    /// Hierarchy arena nodes: the drilled surface a burr leaves grows with its area in
+    /// boundary tets, `(radius / e)^2`, and with its leaves per tet face, four times for every
+    /// level of `--max-depth` past [`SIZED_FOR_DEPTH`]; so [`DEFAULT_HIERARCHY_CAPACITY`]
+    /// (enough for a burr about one tet wide at that depth) times both, between the default
+    /// and [`MAX_SIZED_ARENA`].
+    pub arena: usize,
+}
+
+/// The `--max-depth` [`DEFAULT_HIERARCHY_CAPACITY`] is meant for (the default depth).
+pub const SIZED_FOR_DEPTH: u8 = 5;
+
+/// The largest arena [`ToolSizing`] chooses on its own: 2^23 nodes (128 MiB). A burr
+/// wider than that is meant for a finer `--max-depth`'s leaves than the mesh needs; set
+/// `--hierarchy-capacity` to go further.
+pub const MAX_SIZED_ARENA: usize = 1 << 23;
+
+impl ToolSizing {
+    /// The sizes for a burr of `radius` on `mesh`, drilling down to `max_depth`.
+    ///
+    /// Work: O(T) over the mesh's tets, once at start-up.
+    pub fn of(mesh: &OwnedMesh, radius: f64, max_depth: u8) -> Self {
+        let positions = mesh.positions();
+        let (mut side, mut vol, mut n) = (0.0f64, 0.0f64, 0usize);
+        let (mut all_side, mut all_edge) = (0.0f64, 0.0f64);
+        for tet in mesh.tets() {
+            // f32 is plenty for a size estimate.
+            let p = tet.nodes.map(|v| positions[v.idx()]);
+            let lo = p[0].min(p[1]).min(p[2]).min(p[3]);
+            let hi = p[0].max(p[1]).max(p[2]).max(p[3]);
+            let s = (hi - lo).max_element() as f64;
+            all_side += s;
+            for a in 0..4 {
+                for b in a + 1..4 {
+                    all_edge += (p[a] - p[b]).length() as f64;
+                }
+            }
+            if tet.neighbours.contains(&TetId::NONE) {
+                side += s;
+                vol += (p[1] - p[0]).dot((p[2] - p[0]).cross(p[3] - p[0])).abs() as f64 / 6.0;
+                n += 1;
+            }
+        }
+        let tets = mesh.tets().len().max(1) as f64;
+        let (e, v) = if n > 0 && vol > 0.0 {
+            (side / n as f64, vol / n as f64)
+        } else {
+            (all_side / tets, 1.0)
+        };
+        let zone = 2.0 * (radius + 0.5 * radius) + radius;
+        let defaults = WorldSizes::new(0, 0);
+        let estimate = (zone + 2.0 * e).powi(3) / v;
+        let candidates = ((1.5 * estimate).ceil() as usize)
+            .max(defaults.candidates)
+            .min(mesh.tets().len().max(defaults.candidates));
+        let cell = all_edge / (6.0 * tets);
+        let per_axis = if cell > 0.0 {
+            (zone / cell).ceil() + 2.0
+        } else {
+            16.0
+        };
+        let max_cells = (2.0 * per_axis.powi(3)).min(u32::MAX as f64) as u32;
+        let sphere = (2.0 * radius + 2.0 * e).powi(3) / v;
+        let pending = ((2.0 * sphere).ceil() as usize).max(DEFAULT_PENDING);
+        let widths = if e > 0.0 { (radius / e).max(1.0) } else { 1.0 };
+        let deeper = 4f64.powi(i32::from(max_depth.saturating_sub(SIZED_FOR_DEPTH)));
+        let arena = ((DEFAULT_HIERARCHY_CAPACITY as f64) * widths * widths * deeper)
+            .min(MAX_SIZED_ARENA as f64) as usize;
+        Self {
+            radius,
+            boundary_edge: e,
+            arena,
+            pending,
+            candidates,
+            max_cells: max_cells.max(DEFAULT_MAX_CELLS),
+        }
+    }
+}
+
+/// The storage sizes of a world over a mesh of `tets` tets: the core's defaults
+/// ([`WorldSizes::new`]) with the set-up's capacities. A v_list smaller than the arena needs
+/// shrinks the arena to what it can list (every block of 8 adds 7 leaves).
+///
+/// # Errors
+/// A v_list shorter than the mesh's tet count (one entry per coarse tet is the least the
+/// hierarchy needs), naming the key and the flag.
+pub fn world_sizes(tets: usize, capacities: &Capacities) -> Result<WorldSizes, Error> {
+    world_sizes_for(tets, capacities, None)
+}
+
+/// [`world_sizes`] with the candidate list, pending deque and arena sized for the burr on the
+/// mesh (`sizing`) where the capacities leave them unset.
+pub(super) fn world_sizes_for(
+    tets: usize,
+    c: &Capacities,
+    sizing: Option<&ToolSizing>,
+) -> Result<WorldSizes, Error> {
+    let pending = match (c.pending, sizing) {
+        (Some(p), _) => p,
+        (None, Some(z)) => z.pending,
+        (None, None) => DEFAULT_PENDING,
+    };
+    let arena = match (c.hierarchy, sizing) {
+        (Some(a), _) => a,
+        (None, Some(z)) => z.arena,
+        (None, None) => DEFAULT_HIERARCHY_CAPACITY,
+    };
+    let mut s = WorldSizes::new(tets, arena).with_pending(pending);
+    s.candidates = match (c.candidates, sizing) {
+        (Some(c), _) => c,
+        (None, Some(z)) => z.candidates,
+        (None, None) => s.candidates,
+    };
+    if let Some(h) = c.hash {
+        s.hash_entries = h;
+    }
+    if let Some(v) = c.vlist {
+        if v < tets {
+            return Err(Error::Setup(SetupError::new(
+                "vlist_capacity",
+                format!(
+                    "vlist_capacity (--vlist-capacity) {v} is below the mesh's {tets} coarse tets \
+                 (the v_list needs one entry per tet)"
+                ),
+            )));
+        }
+        s.vlist = v;
+        s.arena = s.arena.min((v - tets) / 7 * 8);
+    }
+    Ok(s)
+}
+
+impl ToolSizing {
+    /// The sizes for `tool` on `mesh` drilling down to `max_depth`: a burr's own; a drill's
+    /// with the candidate list and the zone query grown to the shaft's reach (a burr as wide
+    /// as the whole tool, for those two only); `None` for a tet-mesh tool.
+    pub fn for_tool(mesh: &OwnedMesh, tool: &Tool, max_depth: u8) -> Option<Self> {
+        match *tool {
+            Tool::Sphere { radius } => Some(Self::of(mesh, radius, max_depth)),
+            Tool::Drill {
+                burr, shaft_length, ..
+            } => {
+                let z = Self::of(mesh, burr, max_depth);
+                let whole = Self::of(mesh, 0.5 * (shaft_length + burr), max_depth);
+                Some(Self {
+                    candidates: z.candidates.max(whole.candidates),
+                    max_cells: z.max_cells.max(whole.max_cells),
+                    ..z
+                })
+            }
+            Tool::Mesh { .. } => None,
+        }
+    }
+}

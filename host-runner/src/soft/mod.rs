@@ -1,0 +1,158 @@
+//! Host-owned storage for one soft body (`tetradrill_core::soft`): the caller slices the core
+//! borrows, sized from a rest mesh, so a host, a test or a bench builds a body in one call;
+//! and the simulation loop's side of `--body soft` ([`SoftSpec`], [`SoftDriver`]), with a
+//! material per region of the mesh where the set-up's materials give one.
+
+use tetradrill_core::mesh::Mesh;
+use tetradrill_core::soft::{
+    mesh_tets, Material, SoftBody, SoftError, SoftMesh, SoftParams, SoftStorage, TetRest,
+};
+use tetradrill_core::Vec3;
+
+use crate::error::Error;
+
+mod driver;
+mod spec;
+
+pub use driver::{DeformSummary, SoftDriver, SpreadSummary, StepTiming};
+pub use spec::{
+    material_uses, Fix, MaterialUse, SoftRegion, SoftSpec, Stiffness, DAMPING, DEFAULT_POISSON,
+    DEFAULT_RATE_HZ, DEFAULT_YOUNG, DENSITY, SUBSTEPS,
+};
+
+/// Every slice a [`SoftBody`] borrows, owned: the rest mesh and the per-node and per-tet state.
+#[derive(Debug, Clone)]
+pub struct SoftOwned {
+    /// Rest positions.
+    pub rest: Vec<Vec3>,
+    /// Tets as node indices.
+    pub tets: Vec<[u32; 4]>,
+    /// Each tet's material index ([`SoftMesh::tet_material`]; empty: all of material 0).
+    pub tet_material: Vec<u32>,
+    /// [`SoftStorage::displacement`].
+    pub displacement: Vec<Vec3>,
+    /// [`SoftStorage::velocity`].
+    pub velocity: Vec<Vec3>,
+    /// [`SoftStorage::previous`].
+    pub previous: Vec<Vec3>,
+    /// [`SoftStorage::mass`].
+    pub mass: Vec<f32>,
+    /// [`SoftStorage::inv_mass`].
+    pub inv_mass: Vec<f32>,
+    /// [`SoftStorage::tet_rest`].
+    pub tet_rest: Vec<TetRest>,
+    /// [`SoftStorage::lambdas`].
+    pub lambdas: Vec<[f32; 2]>,
+}
+
+impl SoftOwned {
+    /// Storage for a body over `rest` and `tets` (zeroed state; [`SoftOwned::body`] fills it).
+    pub fn new(rest: Vec<Vec3>, tets: Vec<[u32; 4]>) -> Self {
+        let (n, t) = (rest.len(), tets.len());
+        Self {
+            rest,
+            tets,
+            tet_material: Vec::new(),
+            displacement: vec![Vec3::ZERO; n],
+            velocity: vec![Vec3::ZERO; n],
+            previous: vec![Vec3::ZERO; n],
+            mass: vec![0.0; n],
+            inv_mass: vec![0.0; n],
+            tet_rest: vec![TetRest::default(); t],
+            lambdas: vec![[0.0; 2]; t],
+        }
+    }
+
+    /// Fills [`SoftOwned::tet_material`] from the mesh's region `labels` (one per tet, the
+    /// world's order): a tet whose label is one of `spec`'s regions takes that region's
+    /// material (index `1 + ` its place in [`SoftSpec::regions`], the order of
+    /// [`SoftSpec::materials`]), every other tet the global one (index 0). Left empty when no
+    /// tet takes a region's material, so such a body is the single-material one. Warns in one
+    /// line when `--young` or `--poisson` was given but every tet's region sets its own.
+    ///
+    /// # Errors
+    /// [`Error::Failure`] when `labels` does not have one label per tet (a failure of the
+    /// caller).
+    pub fn set_regions(&mut self, labels: &[i32], spec: &SoftSpec) -> Result<(), Error> {
+        self.tet_material.clear();
+        if spec.regions.is_empty() {
+            return Ok(());
+        }
+        if labels.len() != self.tets.len() {
+            return Err(Error::Failure(format!(
+                "soft body: {} region labels for {} tets",
+                labels.len(),
+                self.tets.len()
+            )));
+        }
+        let index = |l: &i32| {
+            spec.regions
+                .binary_search_by_key(l, |r| r.label)
+                .map_or(0, |i| i as u32 + 1)
+        };
+        self.tet_material = labels.iter().map(index).collect();
+        let global = |pick: fn(&SoftRegion) -> Option<f64>| {
+            self.tet_material
+                .iter()
+                .any(|&m| m == 0 || pick(&spec.regions[m as usize - 1]).is_none())
+        };
+        let unused: Vec<&str> = [
+            ("--young", spec.young_given && !global(|r| r.young)),
+            ("--poisson", spec.poisson_given && !global(|r| r.poisson)),
+        ]
+        .iter()
+        .filter(|(_, unused)| *unused)
+        .map(|(flag, _)| *flag)
+        .collect();
+        if !unused.is_empty() {
+            errln!(
+                "tetradrill: warning: {} set, but every tet's region sets its own \
+                 ([regions]): no effect",
+                unused.join(", ")
+            );
+        }
+        if self.tet_material.iter().all(|&m| m == 0) {
+            self.tet_material.clear();
+        }
+        Ok(())
+    }
+
+    /// Storage for a body over a built core mesh at its current positions.
+    pub fn from_mesh(mesh: &Mesh<'_>) -> Self {
+        let mut tets = vec![[0u32; 4]; mesh.tet_count()];
+        let n = mesh_tets(mesh, &mut tets).unwrap_or(0);
+        tets.truncate(n);
+        Self::new(mesh.positions().to_vec(), tets)
+    }
+
+    /// A body over this storage's state (at rest when fresh from [`SoftOwned::new`];
+    /// [`SoftDriver::new`] puts it back at rest first), each tet of the material [`SoftOwned::tet_material`]
+    /// names in `materials` (all of `materials[0]` when that is empty).
+    ///
+    /// # Errors
+    /// What [`SoftBody::new`] refuses (flat or inverted tets, bad materials or parameters).
+    pub fn body(
+        &mut self,
+        materials: &[Material],
+        params: SoftParams,
+    ) -> Result<SoftBody<'_>, SoftError> {
+        SoftBody::new(
+            SoftMesh {
+                rest: &self.rest,
+                tets: &self.tets,
+                tet_material: &self.tet_material,
+            },
+            materials,
+            params,
+            SoftStorage {
+                displacement: &mut self.displacement,
+                velocity: &mut self.velocity,
+                previous: &mut self.previous,
+                mass: &mut self.mass,
+                inv_mass: &mut self.inv_mass,
+                tet_rest: &mut self.tet_rest,
+                lambdas: &mut self.lambdas,
+            },
+        )
+    }
+}
