@@ -1,10 +1,14 @@
 //! Brute-force geometry for the soft-body and deforming-world tests, written here and not
 //! taken from the crates under test: a block of Kuhn tets, six times a tet's signed volume in
-//! f64, each tet's box and the overlap of two boxes.
+//! f64, each tet's box and the overlap of two boxes, the boundary nodes' averaged normals.
+
+use std::collections::HashMap;
 
 use glam::Vec3;
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::TetId;
+
+use crate::oracle::{add, cross, d3, dot, scale, sub, D3};
 
 /// A grid of `nx x ny x nz` cubes of edge `h` from the origin, each cube split into the six
 /// tets along the monotone paths from its corner (0,0,0) to (1,1,1), every tet turned to a
@@ -73,4 +77,40 @@ pub fn tet_boxes(mesh: &Mesh<'_>) -> Vec<(Vec3, Vec3)> {
 /// Whether two boxes (min, max) meet, boundaries included.
 pub fn overlaps(a: (Vec3, Vec3), b: (Vec3, Vec3)) -> bool {
     a.0.cmple(b.1).all() && b.0.cmple(a.1).all()
+}
+
+/// The boundary nodes' averaged outward normals in f64 (`None` for a node on no boundary
+/// face): a boundary face is a node triple that one tet alone has (found by sorting each
+/// face's nodes, not from the mesh's neighbours), its normal is the cross product of two edges
+/// turned away from its tet's fourth node (not from the mesh's face tables), weighted by its
+/// area; a node's normal is the normalised sum over its boundary faces.
+pub fn boundary_normals(positions: &[Vec3], tets: &[[u32; 4]]) -> Vec<Option<D3>> {
+    let mut faces: HashMap<[u32; 3], (u32, usize, usize)> = HashMap::new();
+    for (t, tet) in tets.iter().enumerate() {
+        for k in 0..4 {
+            let mut key: Vec<u32> = (0..4).filter(|&j| j != k).map(|j| tet[j]).collect();
+            key.sort_unstable();
+            let e = faces.entry([key[0], key[1], key[2]]).or_insert((0, t, k));
+            e.0 += 1;
+        }
+    }
+    let mut sums: Vec<Option<D3>> = vec![None; positions.len()];
+    for (key, &(count, t, k)) in &faces {
+        if count != 1 {
+            continue;
+        }
+        let [a, b, c] = key.map(|n| d3(positions[n as usize]));
+        let apex = d3(positions[tets[t][k] as usize]);
+        let mut n = cross(sub(b, a), sub(c, a));
+        if dot(n, sub(apex, a)) > 0.0 {
+            n = scale(n, -1.0);
+        }
+        for &node in key {
+            let s = sums[node as usize].get_or_insert([0.0; 3]);
+            *s = add(*s, n);
+        }
+    }
+    sums.into_iter()
+        .map(|s| s.map(|s| scale(s, 1.0 / dot(s, s).sqrt())))
+        .collect()
 }

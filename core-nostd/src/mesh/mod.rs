@@ -433,45 +433,93 @@ impl<'a> Mesh<'a> {
     /// `determineBoundary()`): each boundary face adds its area-weighted outward normal to its
     /// three nodes; the sums are normalised. Call after moving nodes. A node id out of range
     /// (none in a mesh [`Mesh::validate`] accepts) counts as the origin and is not marked.
+    /// The sums and the normalisation are [`Mesh::add_boundary_normals`] for every tet and
+    /// [`Mesh::finish_boundary_normal`] for every node, the pieces a caller that builds the
+    /// normals of new positions elsewhere runs too.
     ///
     /// # Bounded work
     /// O(T + N).
     pub fn update_boundary(&mut self) {
-        for (node, normal) in self.nodes.iter_mut().zip(self.normals.iter_mut()) {
+        // Out of the mesh while its pieces fill them; back below.
+        let nodes = core::mem::take(&mut self.nodes);
+        let normals = core::mem::take(&mut self.normals);
+        for node in nodes.iter_mut() {
             node.boundary = false;
-            *normal = Vec3::ZERO;
         }
+        normals.fill(Vec3::ZERO);
         let mut faces = 0u32;
         for ti in 0..self.tet_count() {
-            let t = TetId::from_idx(ti);
-            for f in 0..4u8 {
-                if self.neighbour(t, f).is_some() {
-                    continue;
+            faces += self.sum_boundary_faces(TetId::from_idx(ti), self.positions, normals, |n| {
+                if let Some(node) = nodes.get_mut(n.idx()) {
+                    node.boundary = true;
                 }
-                faces += 1;
-                let ids = self.face_nodes(t, f);
-                let [a, b, c] =
-                    ids.map(|n| self.positions.get(n.idx()).copied().unwrap_or_default());
-                // Inward right-hand normal, twice the area: negate for outward.
-                let w = -(b - a).cross(c - a);
-                for n in ids {
-                    if let Some(node) = self.nodes.get_mut(n.idx()) {
-                        node.boundary = true;
-                    }
-                    if let Some(normal) = self.normals.get_mut(n.idx()) {
-                        *normal += w;
-                    }
+            });
+        }
+        self.nodes = nodes;
+        let mut bnodes = 0u32;
+        for i in 0..normals.len() {
+            bnodes += u32::from(self.finish_boundary_normal(NodeId::from_idx(i), normals));
+        }
+        self.normals = normals;
+        self.stats.boundary_faces = faces;
+        self.stats.boundary_nodes = bnodes;
+    }
+
+    /// One tet's part of [`Mesh::update_boundary`]'s sums: adds the outward normal of each
+    /// boundary face of `t` (twice its area, at `positions`) to the entries of `normals` of its
+    /// three nodes, and returns how many faces of `t` are on the boundary. A node id or
+    /// position out of range counts as the origin and adds nowhere.
+    ///
+    /// # Bounded work
+    /// Constant.
+    #[inline]
+    pub fn add_boundary_normals(&self, t: TetId, positions: &[Vec3], normals: &mut [Vec3]) -> u32 {
+        self.sum_boundary_faces(t, positions, normals, |_| {})
+    }
+
+    /// [`Mesh::add_boundary_normals`], with `mark` called on each node of each boundary face.
+    #[inline(always)]
+    fn sum_boundary_faces(
+        &self,
+        t: TetId,
+        positions: &[Vec3],
+        normals: &mut [Vec3],
+        mut mark: impl FnMut(NodeId),
+    ) -> u32 {
+        let mut faces = 0u32;
+        for f in 0..4u8 {
+            if self.neighbour(t, f).is_some() {
+                continue;
+            }
+            faces += 1;
+            let ids = self.face_nodes(t, f);
+            let [a, b, c] = ids.map(|n| positions.get(n.idx()).copied().unwrap_or_default());
+            // Inward right-hand normal, twice the area: negate for outward.
+            let w = -(b - a).cross(c - a);
+            for n in ids {
+                mark(n);
+                if let Some(normal) = normals.get_mut(n.idx()) {
+                    *normal += w;
                 }
             }
         }
-        let mut bnodes = 0u32;
-        for (node, normal) in self.nodes.iter().zip(self.normals.iter_mut()) {
-            if node.boundary {
-                bnodes += 1;
+        faces
+    }
+
+    /// One node's part of [`Mesh::update_boundary`]'s normalisation: normalises node `n`'s
+    /// entry of `normals` (the sum of [`Mesh::add_boundary_normals`]) when `n` is a boundary
+    /// node (zero stays zero), and returns whether it is. Nothing for an id out of range.
+    ///
+    /// # Bounded work
+    /// Constant.
+    #[inline]
+    pub fn finish_boundary_normal(&self, n: NodeId, normals: &mut [Vec3]) -> bool {
+        let boundary = self.nodes.get(n.idx()).is_some_and(|node| node.boundary);
+        if boundary {
+            if let Some(normal) = normals.get_mut(n.idx()) {
                 *normal = normal.normalize_or_zero();
             }
         }
-        self.stats.boundary_faces = faces;
-        self.stats.boundary_nodes = bnodes;
+        boundary
     }
 }

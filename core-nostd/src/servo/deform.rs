@@ -21,11 +21,21 @@
 //! ([`World::set_spare`], [`World::prepare_positions`], [`World::commit_positions`]): the new
 //! boxes, normals and hash are built in spare storage a bounded amount a call while the world
 //! keeps answering on the old positions, then one commit swaps them in and does the rest
-//! (positions, sphere memo, resume place, kept faces, candidate gather). The committed world
-//! is the one [`World::set_positions`] leaves, bit for bit.
+//! (positions, sphere memo, resume place, kept faces, candidate gather). Both forms run the
+//! same pieces, each written once: a node's check and distance from rest
+//! (`node_distance2`), a tet's box (`tet_box`, and `stored_box` for the hash), the boundary
+//! normals' per-tet sums and per-node normalisation ([`Mesh::add_boundary_normals`],
+//! [`Mesh::finish_boundary_normal`], which [`Mesh::update_boundary`] runs on the live
+//! normals), the hash's counting sort ([`SpatialHash::rebuild`] in one call,
+//! [`SpatialHash::rebuild_part`] cut into calls: the hash module's two forms of it), and what
+//! follows the move (`finish_move`); the one form on the live storage in one call, the other
+//! on the spare storage a slice at a time.
+//! The committed world is the one [`World::set_positions`] leaves, bit for bit.
 //!
 //! [`Mesh::update_boundary`]: crate::mesh::Mesh::update_boundary
 //! [`Mesh::set_rest`]: crate::mesh::Mesh::set_rest
+//! [`Mesh::add_boundary_normals`]: crate::mesh::Mesh::add_boundary_normals
+//! [`Mesh::finish_boundary_normal`]: crate::mesh::Mesh::finish_boundary_normal
 
 use glam::Vec3;
 
@@ -33,6 +43,7 @@ use super::World;
 use crate::hash::{prime_at_most, Aabb, HashEntry, RebuildCursor, Rebuilt, SpatialHash};
 use crate::hierarchy::{keep_face, Kept};
 use crate::ids::{NodeId, TetId};
+use crate::mesh::Mesh;
 
 /// Why [`World::set_positions`] or [`World::enable_deformation`] refused (nothing changed).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -126,9 +137,10 @@ impl<'a> World<'a> {
     /// tet hash (rebuilt with the cell size of [`World::new`]), the contact search's sphere
     /// memo (emptied), its resume place (its tree from the root) and its kept faces (measured
     /// again from the last contact's centre), a candidate gather's lists (forgotten). The
-    /// hierarchy follows by itself (barycentric
-    /// in its roots). The contact plane stays the last step's until the next
-    /// [`World::simulate`].
+    /// hierarchy follows by itself (barycentric in its roots). The contact plane stays the
+    /// last step's until the next [`World::simulate`]. These are the pieces
+    /// [`World::prepare_positions`] and [`World::commit_positions`] run (module docs), here on
+    /// the live storage in one call.
     ///
     /// # Bounded work
     /// O(N + T + buckets + hash entries + memo slots) for N nodes and T tets, plus
@@ -144,6 +156,31 @@ impl<'a> World<'a> {
     /// when `new` is not one position per node, [`DeformError::NotFinite`] for a non-finite
     /// position; nothing changed.
     pub fn set_positions(&mut self, new: &[Vec3]) -> Result<DeformReport, DeformError> {
+        self.check_move(new)?;
+        let mut max2 = 0.0f32;
+        for i in 0..new.len() {
+            max2 = max2.max(node_distance2(&self.mesh, new, i)?);
+        }
+        // Every position checked: from here on nothing refuses.
+        self.mesh.positions_mut().copy_from_slice(new);
+        self.mesh.update_boundary();
+        let mesh = &self.mesh;
+        let tets = mesh.tet_count();
+        for (t, b) in self.boxes.iter_mut().enumerate().take(tets) {
+            *b = tet_box(mesh, new, t);
+        }
+        let boxes = &*self.boxes;
+        let built = self
+            .hash
+            .rebuild(tets, |t| Some(stored_box(boxes, mesh, new, t)));
+        Ok(self.finish_move(max2, built))
+    }
+
+    /// Refuses a move before [`World::enable_deformation`] or of the wrong node count.
+    ///
+    /// # Bounded work
+    /// Constant.
+    fn check_move(&self, new: &[Vec3]) -> Result<(), DeformError> {
         if !self.mesh.has_rest() {
             return Err(DeformError::NoRest);
         }
@@ -154,31 +191,20 @@ impl<'a> World<'a> {
                 got: new.len(),
             });
         }
-        if let Some(node) = new.iter().position(|p| !p.is_finite()) {
-            return Err(DeformError::NotFinite { node });
-        }
-        let mut rep = DeformReport::default();
-        let mut max2 = 0.0f32;
-        for (p, r) in new.iter().zip(self.mesh.rest_positions()) {
-            max2 = max2.max(p.distance_squared(*r));
-        }
-        rep.max_displacement = libm::sqrtf(max2);
-        self.mesh.positions_mut().copy_from_slice(new);
-        self.mesh.update_boundary();
-        let built = self.rehash();
-        rep.hash_entries = built.entries as u32;
-        rep.hash_saturated = built.saturated;
-        rep.kept = self.after_move();
-        Ok(rep)
+        Ok(())
     }
 
-    /// What follows a move once positions, normals, boxes and hash are new: the sphere memo
-    /// emptied, the resume place's tree restarted, a candidate gather's lists and the zone
-    /// memo forgotten, the kept faces measured again. Returns the kept faces.
+    /// What follows a move once positions, normals, boxes and hash are new: a hash that ran
+    /// out of entries counted, the sphere memo emptied, the resume place's tree restarted, a
+    /// candidate gather's lists and the zone memo forgotten, the kept faces measured again.
+    /// Returns the move's report (`max2`: the largest squared distance from rest).
     ///
     /// # Bounded work
     /// O(memo slots) plus O([`crate::hierarchy::KEEP`] x depth).
-    fn after_move(&mut self) -> u32 {
+    fn finish_move(&mut self, max2: f32, built: Rebuilt) -> DeformReport {
+        if built.saturated {
+            self.sat.hash += 1;
+        }
         self.memo.clear();
         self.cursor.restart_tree();
         // A gathered candidate list holds the tets whose old boxes met its box: gather afresh.
@@ -199,28 +225,50 @@ impl<'a> World<'a> {
         }
         let n = kept.len() as u32;
         self.kept = kept;
-        n
+        DeformReport {
+            max_displacement: libm::sqrtf(max2),
+            hash_entries: built.entries as u32,
+            hash_saturated: built.saturated,
+            kept: n,
+        }
     }
+}
 
-    /// Each tet's box from its corners and the hash rebuilt from them; counts a saturation.
-    ///
-    /// # Bounded work
-    /// O(T + buckets + hash entries).
-    fn rehash(&mut self) -> Rebuilt {
-        let mesh = &self.mesh;
-        let box_of = |t: usize| Aabb::of(mesh.tet_positions(TetId::from_idx(t)));
-        for (t, b) in self.boxes.iter_mut().enumerate().take(mesh.tet_count()) {
-            *b = box_of(t);
-        }
-        let boxes = &*self.boxes;
-        let built = self.hash.rebuild(mesh.tet_count(), |t| {
-            Some(boxes.get(t).copied().unwrap_or_else(|| box_of(t)))
-        });
-        if built.saturated {
-            self.sat.hash += 1;
-        }
-        built
+/// Node `i`'s squared distance from its rest position at `new[i]` (a missing entry counts as
+/// the origin). The check and measure of a node, in both forms of the update.
+///
+/// # Errors
+/// [`DeformError::NotFinite`] when `new[i]` is not finite.
+#[inline]
+fn node_distance2(mesh: &Mesh<'_>, new: &[Vec3], i: usize) -> Result<f32, DeformError> {
+    let p = new.get(i).copied().unwrap_or_default();
+    if !p.is_finite() {
+        return Err(DeformError::NotFinite { node: i });
     }
+    let r = mesh.rest_positions().get(i).copied().unwrap_or_default();
+    Ok(p.distance_squared(r))
+}
+
+/// Tet `t`'s box at the positions `new` (all corners at the origin for an id out of range,
+/// as [`Mesh::tet_positions`] does).
+#[inline]
+fn tet_box(mesh: &Mesh<'_>, new: &[Vec3], t: usize) -> Aabb {
+    let ids = mesh.tet_nodes(TetId::from_idx(t));
+    let corners = match ids.map(|n| new.get(n.idx())) {
+        [Some(&a), Some(&b), Some(&c), Some(&d)] => [a, b, c, d],
+        _ => [Vec3::ZERO; 4],
+    };
+    Aabb::of(corners)
+}
+
+/// Tet `t`'s box for the hash: the stored one, or for a tet beyond the stored boxes the same
+/// box made from its corners.
+#[inline]
+fn stored_box(boxes: &[Aabb], mesh: &Mesh<'_>, new: &[Vec3], t: usize) -> Aabb {
+    boxes
+        .get(t)
+        .copied()
+        .unwrap_or_else(|| tet_box(mesh, new, t))
 }
 
 /// Spare storage for the spread position update ([`World::set_spare`]): a second tet hash
@@ -295,16 +343,6 @@ pub struct Prepared {
     pub ready: bool,
 }
 
-/// The four positions in `new` of the nodes `ids`, all zero for an id out of range (as
-/// [`crate::mesh::Mesh::tet_positions`] does).
-#[inline]
-fn corners(new: &[Vec3], ids: [NodeId; 4]) -> [Vec3; 4] {
-    match ids.map(|n| new.get(n.idx())) {
-        [Some(&a), Some(&b), Some(&c), Some(&d)] => [a, b, c, d],
-        _ => [Vec3::ZERO; 4],
-    }
-}
-
 impl<'a> World<'a> {
     /// Hands the world the spare storage of the spread position update
     /// ([`World::prepare_positions`]); any preparation under way is dropped.
@@ -370,8 +408,8 @@ impl<'a> World<'a> {
     /// units a call (a step is taken only while it fits; give at least the largest step,
     /// [`crate::hash::REBUILD_ITEM_UNITS`], to be sure of progress): checks the positions and
     /// measures the largest distance from rest, builds each tet's new box, the new boundary
-    /// normals (as [`crate::mesh::Mesh::update_boundary`] does) and the new tet hash. The
-    /// world is not changed: it answers on the old positions until
+    /// normals and the new tet hash, with the pieces [`World::set_positions`] runs on the live
+    /// storage (module docs). The world is not changed: it answers on the old positions until
     /// [`World::commit_positions`]. `new` must hold the same positions for every call of one
     /// preparation; once ready, further calls do nothing.
     ///
@@ -389,17 +427,9 @@ impl<'a> World<'a> {
         new: &[Vec3],
         max_units: u32,
     ) -> Result<Prepared, DeformError> {
-        if !self.mesh.has_rest() {
-            return Err(DeformError::NoRest);
-        }
-        let nodes = self.mesh.node_count();
-        if new.len() != nodes {
-            return Err(DeformError::Count {
-                nodes,
-                got: new.len(),
-            });
-        }
+        self.check_move(new)?;
         let mesh = &self.mesh;
+        let nodes = mesh.node_count();
         let Some(spare) = self.spare.as_mut() else {
             return Err(DeformError::NoSpare);
         };
@@ -424,13 +454,16 @@ impl<'a> World<'a> {
                     }
                     left -= PREP_NODE_UNITS;
                     let i = p.at;
-                    if !new[i].is_finite() {
-                        *p = Prep::default();
-                        return Err(DeformError::NotFinite { node: i });
+                    match node_distance2(mesh, new, i) {
+                        Ok(d2) => p.max2 = p.max2.max(d2),
+                        Err(e) => {
+                            *p = Prep::default();
+                            return Err(e);
+                        }
                     }
-                    let r = mesh.rest_positions().get(i).copied().unwrap_or_default();
-                    p.max2 = p.max2.max(new[i].distance_squared(r));
-                    normals[i] = Vec3::ZERO;
+                    if let Some(normal) = normals.get_mut(i) {
+                        *normal = Vec3::ZERO;
+                    }
                     p.at += 1;
                 }
                 PrepPhase::Boxes => {
@@ -445,7 +478,7 @@ impl<'a> World<'a> {
                     left -= PREP_BOX_UNITS;
                     let t = p.at;
                     if let Some(b) = boxes.get_mut(t) {
-                        *b = Aabb::of(corners(new, mesh.tet_nodes(TetId::from_idx(t))));
+                        *b = tet_box(mesh, new, t);
                     }
                     p.at += 1;
                 }
@@ -459,21 +492,7 @@ impl<'a> World<'a> {
                         break;
                     }
                     left -= PREP_FACE_UNITS;
-                    let t = TetId::from_idx(p.at);
-                    // `Mesh::update_boundary`'s sums, in its order.
-                    for f in 0..4u8 {
-                        if mesh.neighbour(t, f).is_some() {
-                            continue;
-                        }
-                        let ids = mesh.face_nodes(t, f);
-                        let [a, b, c] = ids.map(|n| new.get(n.idx()).copied().unwrap_or_default());
-                        let w = -(b - a).cross(c - a);
-                        for n in ids {
-                            if let Some(normal) = normals.get_mut(n.idx()) {
-                                *normal += w;
-                            }
-                        }
-                    }
+                    mesh.add_boundary_normals(TetId::from_idx(p.at), new, normals);
                     p.at += 1;
                 }
                 PrepPhase::Normalise => {
@@ -486,19 +505,12 @@ impl<'a> World<'a> {
                         break;
                     }
                     left -= PREP_NORMALISE_UNITS;
-                    let i = p.at;
-                    if mesh.node(NodeId::from_idx(i)).boundary {
-                        normals[i] = normals[i].normalize_or_zero();
-                    }
+                    mesh.finish_boundary_normal(NodeId::from_idx(p.at), normals);
                     p.at += 1;
                 }
                 PrepPhase::Hash => {
                     let stored = &**boxes;
-                    let bounds = |t: usize| {
-                        Some(stored.get(t).copied().unwrap_or_else(|| {
-                            Aabb::of(corners(new, mesh.tet_nodes(TetId::from_idx(t))))
-                        }))
-                    };
+                    let bounds = |t: usize| Some(stored_box(stored, mesh, new, t));
                     let (done, built) = hash.rebuild_part(&mut p.cursor, tets, bounds, left);
                     left -= done;
                     match built {
@@ -526,8 +538,9 @@ impl<'a> World<'a> {
     /// Moves every node to `new`, whose update [`World::prepare_positions`] prepared: copies
     /// the positions, swaps in the new normals, boxes and hash (the old ones become the
     /// spare storage), and does the rest of [`World::set_positions`] (sphere memo emptied,
-    /// resume place restarted, candidate gather forgotten, kept faces measured again). The
-    /// world is then the one [`World::set_positions`] with `new` leaves, bit for bit.
+    /// resume place restarted, candidate gather forgotten, kept faces measured again: the same
+    /// code). The world is then the one [`World::set_positions`] with `new` leaves, bit for
+    /// bit.
     ///
     /// # Bounded work
     /// O(N + memo slots) plus O([`crate::hierarchy::KEEP`] x depth).
@@ -555,16 +568,7 @@ impl<'a> World<'a> {
         self.mesh.swap_normals(&mut spare.normals);
         self.hash.adopt(&mut spare.hash, p.built);
         core::mem::swap(&mut self.boxes, &mut spare.boxes);
-        if p.built.saturated {
-            self.sat.hash += 1;
-        }
-        let kept = self.after_move();
-        Ok(DeformReport {
-            max_displacement: libm::sqrtf(p.max2),
-            hash_entries: p.built.entries as u32,
-            hash_saturated: p.built.saturated,
-            kept,
-        })
+        Ok(self.finish_move(p.max2, p.built))
     }
 
     /// `true` while a spread update is prepared and not committed.

@@ -4,7 +4,10 @@
 //!
 //! A [`SoftBody`] borrows the rest positions and tets ([`SoftMesh`]) and the caller's
 //! storage ([`SoftStorage`]); [`SoftBody::step`] advances it by `dt` in a fixed number of
-//! substeps and iterations, so its work is bounded and it never allocates. Positions are kept
+//! substeps and iterations, so its work is bounded and it never allocates. The same step
+//! spread over calls, a bounded amount of work each ([`SoftBody::begin_step`],
+//! [`SoftBody::advance`], `resume.rs`), is its one implementation: [`SoftBody::step`] runs it
+//! with an unlimited amount, so a step gives the same bits however it is sliced. Positions are kept
 //! as displacements from rest, so small strains stay exact in f32 whatever the mesh's
 //! offset. docs/SOFT.md has the formulation, its small-strain limit and the measured times.
 
@@ -485,79 +488,19 @@ impl<'a> SoftBody<'a> {
     /// missing entries count as zero, fixed nodes ignore theirs), (2) predicting
     /// displacements, (3) `iterations` Gauss-Seidel sweeps of [`project`] over all tets,
     /// (4) taking velocities from the displacement change. Refused, nothing changed, when
-    /// `dt` is not finite and positive.
+    /// `dt` is not finite and positive or a step spread over calls is under way.
+    ///
+    /// It is [`SoftBody::begin_step`] and [`SoftBody::advance`] with all the units a call can
+    /// give (one call, or a few when the step's units, [`SoftBody::step_units`], pass
+    /// `u32::MAX`): the step is written once, in `resume.rs`.
     ///
     /// # Bounded work
     /// O(substeps * (N + iterations * T)): fixed counts, no allocation, no search.
     pub fn step(&mut self, dt: f32, external: &[Vec3]) -> Result<(), StepError> {
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(StepError::TimeStep);
-        }
-        if self.run.is_some() {
-            return Err(StepError::InProgress);
-        }
-        let h = dt / self.params.substeps as f32;
-        let inv_h = 1.0 / h;
-        let inv_h2 = inv_h * inv_h;
-        let keep = 1.0 / (1.0 + self.params.damping * h);
-        let g = self.params.gravity;
-        let s = &mut self.s;
-        for _ in 0..self.params.substeps {
-            let forces = external
-                .iter()
-                .copied()
-                .chain(core::iter::repeat(Vec3::ZERO));
-            for ((((u, p), v), &w), f) in s
-                .displacement
-                .iter_mut()
-                .zip(s.previous.iter_mut())
-                .zip(s.velocity.iter_mut())
-                .zip(s.inv_mass.iter())
-                .zip(forces)
-            {
-                *p = *u;
-                if w > 0.0 {
-                    // Damping first, so a body at rest under a load feels all of it.
-                    *v = *v * keep + (g + f * w) * h;
-                    *u += *v * h;
-                }
-            }
-            s.lambdas.fill([0.0; 2]);
-            for _ in 0..self.params.iterations {
-                for ((tet, rest), lambda) in self
-                    .tets
-                    .iter()
-                    .zip(s.tet_rest.iter())
-                    .zip(s.lambdas.iter_mut())
-                {
-                    // Indices were checked at construction.
-                    let [a, b, c, d] = tet.map(|k| k as usize);
-                    let u = [
-                        s.displacement[a],
-                        s.displacement[b],
-                        s.displacement[c],
-                        s.displacement[d],
-                    ];
-                    let w = [s.inv_mass[a], s.inv_mass[b], s.inv_mass[c], s.inv_mass[d]];
-                    let du = project(rest, u, w, lambda, inv_h2);
-                    s.displacement[a] += du[0];
-                    s.displacement[b] += du[1];
-                    s.displacement[c] += du[2];
-                    s.displacement[d] += du[3];
-                }
-            }
-            for (((u, p), v), &w) in s
-                .displacement
-                .iter()
-                .zip(s.previous.iter())
-                .zip(s.velocity.iter_mut())
-                .zip(s.inv_mass.iter())
-            {
-                if w > 0.0 {
-                    *v = (*u - *p) * inv_h;
-                }
-            }
-        }
+        self.begin_step(dt)?;
+        // A call stops short only when fewer than `TET_UNITS` of its u32::MAX units are
+        // left: at most `step_units / (u32::MAX - TET_UNITS) + 1` calls.
+        while !self.advance(external, u32::MAX).done {}
         Ok(())
     }
 }

@@ -1,17 +1,21 @@
-//! A [`SoftBody`] step spread over calls: [`SoftBody::begin_step`] fixes the step's length,
-//! [`SoftBody::advance`] does at most a given amount of its work a call, in the order
-//! [`SoftBody::step`] does it, so the state after the last call is bit for bit the state one
-//! [`SoftBody::step`] leaves, however the work is sliced.
+//! The soft step's one implementation, resumable: [`SoftBody::begin_step`] fixes the step's
+//! length, [`SoftBody::advance`] does at most a given amount of its work a call and goes on
+//! where the last call stopped. [`SoftBody::step`] is the same two with an unlimited amount, so
+//! the state after the last call is bit for bit the state one [`SoftBody::step`] leaves,
+//! however the work is sliced.
 //!
 //! Work is counted in units: one node's update (the integration at the start of a substep,
 //! or the velocity at its end) is [`NODE_UNITS`], one tet's constraint solve
 //! ([`super::project`]) is [`TET_UNITS`]. A step costs
 //! `substeps x (2 N x NODE_UNITS + iterations x T x TET_UNITS)` units
-//! ([`SoftBody::step_units`]).
+//! ([`SoftBody::step_units`]). A call takes as many items of the pass it is in as its units
+//! allow and runs them as one loop, so a call with units to spare runs each pass whole.
+
+use core::ops::Range;
 
 use glam::Vec3;
 
-use super::{project, SoftBody, StepError};
+use super::{project, SoftBody, SoftStorage, StepError};
 
 /// Work units of one node's update (integration or velocity).
 pub const NODE_UNITS: u32 = 1;
@@ -20,7 +24,7 @@ pub const NODE_UNITS: u32 = 1;
 /// ticks").
 pub const TET_UNITS: u32 = 18;
 
-/// Where a spread step is.
+/// Where a step is.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
     /// Damping, integrating and predicting node `at`.
@@ -56,6 +60,95 @@ pub struct Advance {
     pub done: bool,
 }
 
+/// How many of the `items` left of a pass fit in `left` units at `per` units each.
+#[inline]
+fn fitting(items: usize, left: u32, per: u32) -> usize {
+    items.min((left / per) as usize)
+}
+
+/// A run of nodes' integration (the start of a substep): each node's displacement kept in
+/// `previous`; a free node's velocity damped first (so a body at rest under a load feels all
+/// of it), then given gravity and its force (`external`, missing entries zero), and its
+/// displacement predicted.
+fn integrate(s: &mut SoftStorage<'_>, external: &[Vec3], r: &Run, nodes: Range<usize>) {
+    let forces = external
+        .get(nodes.start..)
+        .unwrap_or(&[])
+        .iter()
+        .copied()
+        .chain(core::iter::repeat(Vec3::ZERO));
+    let (Some(u), Some(p), Some(v), Some(w)) = (
+        s.displacement.get_mut(nodes.clone()),
+        s.previous.get_mut(nodes.clone()),
+        s.velocity.get_mut(nodes.clone()),
+        s.inv_mass.get(nodes),
+    ) else {
+        return;
+    };
+    for ((((u, p), v), &w), f) in u.iter_mut().zip(p).zip(v).zip(w).zip(forces) {
+        *p = *u;
+        if w > 0.0 {
+            *v = *v * r.keep + (r.gravity + f * w) * r.h;
+            *u += *v * r.h;
+        }
+    }
+}
+
+/// A run of tets' constraint solves ([`project`]) in sweep `r.iteration`; the first sweep of
+/// a substep clears each tet's multipliers before its solve.
+fn solve(
+    s: &mut SoftStorage<'_>,
+    tets: &[[u32; 4]],
+    first: bool,
+    inv_h2: f32,
+    range: Range<usize>,
+) {
+    let (Some(tets), Some(rests), Some(lambdas)) = (
+        tets.get(range.clone()),
+        s.tet_rest.get(range.clone()),
+        s.lambdas.get_mut(range),
+    ) else {
+        return;
+    };
+    for ((tet, rest), lambda) in tets.iter().zip(rests).zip(lambdas) {
+        if first {
+            *lambda = [0.0; 2];
+        }
+        // Indices were checked at construction.
+        let [a, b, c, d] = tet.map(|k| k as usize);
+        let u = [
+            s.displacement[a],
+            s.displacement[b],
+            s.displacement[c],
+            s.displacement[d],
+        ];
+        let w = [s.inv_mass[a], s.inv_mass[b], s.inv_mass[c], s.inv_mass[d]];
+        let du = project(rest, u, w, lambda, inv_h2);
+        s.displacement[a] += du[0];
+        s.displacement[b] += du[1];
+        s.displacement[c] += du[2];
+        s.displacement[d] += du[3];
+    }
+}
+
+/// A run of nodes' velocities (the end of a substep): a free node's from its displacement
+/// change over the substep.
+fn velocity(s: &mut SoftStorage<'_>, r: &Run, nodes: Range<usize>) {
+    let (Some(u), Some(p), Some(v), Some(w)) = (
+        s.displacement.get(nodes.clone()),
+        s.previous.get(nodes.clone()),
+        s.velocity.get_mut(nodes.clone()),
+        s.inv_mass.get(nodes),
+    ) else {
+        return;
+    };
+    for (((u, p), v), &w) in u.iter().zip(p).zip(v).zip(w) {
+        if w > 0.0 {
+            *v = (*u - *p) * r.inv_h;
+        }
+    }
+}
+
 impl SoftBody<'_> {
     /// Starts a step of `dt` spread over calls of [`SoftBody::advance`], with the step
     /// parameters of now (a later [`SoftBody::set_params`] applies to the next step).
@@ -70,7 +163,6 @@ impl SoftBody<'_> {
         if self.run.is_some() {
             return Err(StepError::InProgress);
         }
-        // The same arithmetic as `step`, so the same constants.
         let h = dt / self.params.substeps as f32;
         let inv_h = 1.0 / h;
         self.run = Some(Run {
@@ -107,8 +199,10 @@ impl SoftBody<'_> {
         u64::from(p.substeps) * (nodes + tets)
     }
 
-    /// Goes on with the step under way: node updates and tet solves in the order of
-    /// [`SoftBody::step`], each taken only while its units fit in what is left of
+    /// Goes on with the step under way: node updates and tet solves in the step's order (per
+    /// substep: every node's integration, `iterations` sweeps over the tets, every node's
+    /// velocity; [`SoftBody::step`] has the details), each taken only while its units fit in
+    /// what is left of
     /// `max_units` (so a call does at most `max_units` units, and nothing when the next
     /// item does not fit: give at least [`TET_UNITS`] to be sure of progress). `external`
     /// is the force per node as in [`SoftBody::step`] and must be the same slice contents
@@ -116,7 +210,7 @@ impl SoftBody<'_> {
     ///
     /// # Bounded work
     /// At most `max_units` units (a unit is about 37 Cortex-M4 instructions, docs/SOFT.md),
-    /// plus the constant cost of the call.
+    /// plus the constant cost of the call and of each pass it enters.
     pub fn advance(&mut self, external: &[Vec3], max_units: u32) -> Advance {
         let Some(mut r) = self.run else {
             return Advance {
@@ -137,21 +231,13 @@ impl SoftBody<'_> {
                         r.iteration = 0;
                         continue;
                     }
-                    if left < NODE_UNITS {
+                    let k = fitting(n - r.at, left, NODE_UNITS);
+                    if k == 0 {
                         break;
                     }
-                    left -= NODE_UNITS;
-                    let i = r.at;
-                    let u = &mut s.displacement[i];
-                    s.previous[i] = *u;
-                    let w = s.inv_mass[i];
-                    if w > 0.0 {
-                        let f = external.get(i).copied().unwrap_or(Vec3::ZERO);
-                        let v = &mut s.velocity[i];
-                        *v = *v * r.keep + (r.gravity + f * w) * r.h;
-                        *u += *v * r.h;
-                    }
-                    r.at += 1;
+                    left -= k as u32 * NODE_UNITS;
+                    integrate(s, external, &r, r.at..r.at + k);
+                    r.at += k;
                 }
                 Phase::Solve => {
                     if r.at >= t {
@@ -162,31 +248,13 @@ impl SoftBody<'_> {
                         }
                         continue;
                     }
-                    if left < TET_UNITS {
+                    let k = fitting(t - r.at, left, TET_UNITS);
+                    if k == 0 {
                         break;
                     }
-                    left -= TET_UNITS;
-                    let k = r.at;
-                    let lambda = &mut s.lambdas[k];
-                    if r.iteration == 0 {
-                        // What `step` clears before its sweeps, tet by tet.
-                        *lambda = [0.0; 2];
-                    }
-                    // Indices were checked at construction.
-                    let [a, b, c, d] = self.tets[k].map(|x| x as usize);
-                    let u = [
-                        s.displacement[a],
-                        s.displacement[b],
-                        s.displacement[c],
-                        s.displacement[d],
-                    ];
-                    let w = [s.inv_mass[a], s.inv_mass[b], s.inv_mass[c], s.inv_mass[d]];
-                    let du = project(&s.tet_rest[k], u, w, lambda, r.inv_h2);
-                    s.displacement[a] += du[0];
-                    s.displacement[b] += du[1];
-                    s.displacement[c] += du[2];
-                    s.displacement[d] += du[3];
-                    r.at += 1;
+                    left -= k as u32 * TET_UNITS;
+                    solve(s, self.tets, r.iteration == 0, r.inv_h2, r.at..r.at + k);
+                    r.at += k;
                 }
                 Phase::Velocity => {
                     if r.at >= n {
@@ -202,15 +270,13 @@ impl SoftBody<'_> {
                         }
                         continue;
                     }
-                    if left < NODE_UNITS {
+                    let k = fitting(n - r.at, left, NODE_UNITS);
+                    if k == 0 {
                         break;
                     }
-                    left -= NODE_UNITS;
-                    let i = r.at;
-                    if s.inv_mass[i] > 0.0 {
-                        s.velocity[i] = (s.displacement[i] - s.previous[i]) * r.inv_h;
-                    }
-                    r.at += 1;
+                    left -= k as u32 * NODE_UNITS;
+                    velocity(s, &r, r.at..r.at + k);
+                    r.at += k;
                 }
             }
         }

@@ -1,10 +1,12 @@
 //! The world's position update spread over calls (`World::set_spare`,
 //! `World::prepare_positions`, `World::commit_positions`) against the whole update
-//! (`World::set_positions`): while a preparation runs the world still answers on the old
-//! positions; once committed, the two worlds hold the same positions, normals, boundary marks
-//! and hash (the same answers, in the same order, and the brute-force answer over boxes
-//! computed here), and `simulate` gives the same bits on a drilling path, move after move,
-//! through a move that overflows the hash.
+//! (`World::set_positions`, the same pieces on the live storage in one call), so that the
+//! slicing and the swap of the spare storage change nothing: while a preparation runs the
+//! world still answers on the old positions; once committed, the two worlds hold the same
+//! positions, normals, boundary marks and hash (the same answers, in the same order, and the
+//! brute-force answer over boxes computed here), and `simulate` gives the same bits on a
+//! drilling path, move after move, through a move that overflows the hash. The update itself
+//! is checked against oracles in `deform_world` (the hash and the normals by brute force).
 
 use std::collections::BTreeSet;
 

@@ -1,6 +1,6 @@
 //! Oracle tests of a world whose mesh moves and deforms every step (`World::set_positions`):
 //! refused input; the tet hash against brute force after every step of a deforming sequence;
-//! the boundary normals against a mesh built afresh at the deformed positions; hierarchy faces
+//! the boundary normals against brute force in f64 at the deformed positions; hierarchy faces
 //! of a deformed mesh against the barycentric map of their rest positions (f64); a rigid motion
 //! of the nodes and the tool path giving the same forces rotated and the same removed volume;
 //! drilling a soft block sagging under gravity against drilling the rigid block.
@@ -12,13 +12,12 @@ use tetradrill::soft::SoftOwned;
 use tetradrill_core::drill::DrillParams;
 use tetradrill_core::force::{ForceParams, ToolState};
 use tetradrill_core::hash::Aabb;
-use tetradrill_core::mesh::BuildOptions;
 use tetradrill_core::servo::{servo_force, DeformError, WorldSizes};
 use tetradrill_core::soft::{Material, SoftParams};
 use tetradrill_core::TetId;
-use tetradrill_tests::brute::{overlaps, tet_boxes};
+use tetradrill_tests::brute::{boundary_normals, overlaps, tet_boxes};
 use tetradrill_tests::drill::{bey, det, face_of};
-use tetradrill_tests::oracle::D3;
+use tetradrill_tests::oracle::{dot, sub, D3};
 use tetradrill_tests::search::{block_mesh, Store};
 
 /// A smooth, non-affine deformation of the unit block at phase `s`: a bend in z growing with
@@ -75,8 +74,8 @@ fn refuses_bad_positions_and_a_world_without_rest() {
 
 /// After every step of a bending sequence: the hash finds, for query boxes around the block,
 /// exactly the tets whose box (made here) meets the query; the simulation step's candidates
-/// are the tets whose box meets its zone; the boundary normals equal those of a mesh built
-/// afresh at the deformed positions.
+/// are the tets whose box meets its zone; the boundary marks and normals are those found by
+/// brute force in f64 at the deformed positions.
 #[test]
 fn hash_and_normals_follow_a_bending_block() {
     let mut om = block_mesh(5);
@@ -92,7 +91,7 @@ fn hash_and_normals_follow_a_bending_block() {
         min_area: 0.0,
         budget: 100_000,
     };
-    let mut checked = 0usize;
+    let (mut checked, mut boundary) = (0usize, 0usize);
     for k in 0..24 {
         let s = k as f32 * 0.4;
         let new: Vec<Vec3> = rest0.iter().map(|&p| bend(p, s)).collect();
@@ -130,19 +129,25 @@ fn hash_and_normals_follow_a_bending_block() {
             assert_eq!(got.into_iter().collect::<BTreeSet<_>>(), want);
             checked += brute.len();
         }
-        // Normals: a mesh built afresh at the deformed positions.
-        let fresh =
-            tetradrill::owned::OwnedMesh::build(new.clone(), &tets, BuildOptions::default())
-                .unwrap();
-        let mut fresh = fresh;
-        let fm = fresh.view();
-        for i in 0..new.len() {
-            let (a, b) = (world.mesh().normals()[i], fm.normals()[i]);
-            assert!((a - b).length() < 1e-5, "step {k} node {i}: {a} vs {b}");
+        // Normals and boundary marks: brute force in f64 over the deformed positions.
+        let want = boundary_normals(&new, &tets);
+        for (i, want) in want.iter().enumerate() {
+            let got = world.mesh().normals()[i];
+            let node = world.mesh().node(tetradrill_core::NodeId::from_idx(i));
+            assert_eq!(node.boundary, want.is_some(), "step {k} node {i}");
+            let want = want.unwrap_or([0.0; 3]);
+            let err = sub(d3(got), want);
+            assert!(
+                dot(err, err).sqrt() < 1e-5,
+                "step {k} node {i}: {got} vs {want:?}"
+            );
+            boundary += usize::from(node.boundary);
         }
     }
     assert_eq!(world.saturations().hash, 0);
     assert!(checked > 1000, "{checked} hits checked");
+    // The 5^3 block's surface nodes, 6^3 - 4^3, at every step.
+    assert_eq!(boundary, 24 * 152, "boundary normals checked");
 }
 
 /// Barycentric coordinates of `x` in tet `p` (f64).
