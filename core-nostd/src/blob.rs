@@ -31,6 +31,35 @@
 //! the checksum. [`MeshBlob::parse`] also checks every id is in range and every neighbour
 //! points back through its reverse index, so a view's accessors never index outside the blob
 //! and a mesh read in place never walks outside itself.
+//!
+//! ```
+//! use tetradrill_core::blob::{self, BlobError, MeshBlob};
+//! use tetradrill_core::builtin;
+//! use tetradrill_core::prelude::*;
+//!
+//! let (mut pos, tets) = builtin::cube12();
+//! let (mut nodes, mut normals) = ([Node::default(); 9], [Vec3::ZERO; 9]);
+//! let (mut recs, mut scratch) = ([Tet::default(); 12], [FaceKey::default(); 48]);
+//! let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
+//! let mesh = Mesh::build(&mut pos, &tets, storage, &mut scratch, BuildOptions::default())?;
+//!
+//! // The blob's bytes (what a firmware includes), region label 0 for every tet.
+//! let mut bytes = vec![0u8; blob::blob_len(9, 12).unwrap()];
+//! blob::write(&mesh, &[0; 12], &mut bytes)?;
+//!
+//! // Read in place: the tets stay in the bytes, positions, normals and nodes are copied.
+//! let parsed = MeshBlob::parse(&bytes)?;
+//! let (mut p, mut n, mut nodes) = ([Vec3::ZERO; 9], [Vec3::ZERO; 9], [Node::default(); 9]);
+//! let read = parsed.mesh(&mut p, &mut n, &mut nodes)?;
+//! read.validate()?;
+//! assert_eq!(read.tet(TetId(5)), mesh.tet(TetId(5)));
+//! assert_eq!(read.stats().boundary_faces, 12);
+//!
+//! // One flipped payload bit is caught by the checksum.
+//! bytes[40] ^= 1;
+//! assert!(matches!(MeshBlob::parse(&bytes), Err(BlobError::Checksum { .. })));
+//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! ```
 
 use glam::Vec3;
 

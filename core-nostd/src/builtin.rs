@@ -7,6 +7,29 @@
 //!   (Kuhn/Freudenthal), which is conforming across cubes; [`block_labels`] gives it two
 //!   regions, an outer shell one cube thick ([`BLOCK_SHELL`]) and the core inside it
 //!   ([`BLOCK_CORE`]).
+//!
+//! ```
+//! use tetradrill_core::builtin::{self, BLOCK_CORE};
+//! use tetradrill_core::geom::tet_volume;
+//! use tetradrill_core::Vec3;
+//!
+//! let volume = |pos: &[Vec3], tets: &[[u32; 4]]| -> f32 {
+//!     tets.iter().map(|t| tet_volume(t.map(|i| pos[i as usize]))).sum()
+//! };
+//! let (pos, tets) = builtin::cube12();
+//! assert!((volume(&pos, &tets) - 1.0).abs() < 1e-6);
+//!
+//! // A 3 x 3 x 3 block of cubes of edge 0.5 from the origin: 64 nodes, 162 tets.
+//! assert_eq!(builtin::block_counts(3), (64, 162));
+//! let (mut pos, mut tets) = ([Vec3::ZERO; 64], [[0u32; 4]; 162]);
+//! builtin::block(3, 0.5, Vec3::ZERO, &mut pos, &mut tets).unwrap();
+//! assert!((volume(&pos, &tets) - 1.5f32.powi(3)).abs() < 1e-5);
+//!
+//! // Its middle cube (6 tets) is the core, the 26 cubes around it the shell.
+//! let mut labels = [0; 162];
+//! builtin::block_labels(3, &mut labels).unwrap();
+//! assert_eq!(labels.iter().filter(|&&l| l == BLOCK_CORE).count(), 6);
+//! ```
 
 use glam::Vec3;
 

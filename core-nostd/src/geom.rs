@@ -2,6 +2,26 @@
 //!
 //! All f32 kernels are plain multiply/add sequences (no fused multiply-add, no SIMD-dependent
 //! paths), so the host and a Cortex-M4F produce the same bits.
+//!
+//! ```
+//! use tetradrill_core::geom::{barycentric, closest_point_on_triangle, det6, inside, tet_volume};
+//! use tetradrill_core::Vec3;
+//!
+//! // The corner tet of the unit cube: positively oriented, volume 1/6.
+//! let p = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+//! assert_eq!(det6(p[0], p[1], p[2], p[3]), 1.0);
+//! assert_eq!(det6(p[0], p[2], p[1], p[3]), -1.0); // two corners swapped: negative
+//! assert!((tet_volume(p) - 1.0 / 6.0).abs() < 1e-7);
+//!
+//! // Its centroid has four equal barycentric coordinates; a point past a face has a negative one.
+//! let b = barycentric(Vec3::splat(0.25), p).unwrap();
+//! assert!(b.iter().all(|w| (w - 0.25).abs() < 1e-6));
+//! assert!(!inside(barycentric(Vec3::splat(0.4), p).unwrap(), 0.0));
+//!
+//! // The closest point of the floor triangle to a point above it is straight below.
+//! let q = closest_point_on_triangle(Vec3::new(0.2, 0.2, 1.0), [p[0], p[1], p[2]]);
+//! assert!((q - Vec3::new(0.2, 0.2, 0.0)).length() < 1e-6);
+//! ```
 
 use glam::Vec3;
 

@@ -1,5 +1,26 @@
 //! Scripted tool paths shared by the host and the firmware: a path is a list of key poses
 //! interpolated linearly in f32, so both sides compute the same positions bit for bit.
+//!
+//! ```
+//! use tetradrill_core::script::{Key, Script, DEMO, DRILL_ON};
+//! use tetradrill_core::Vec3;
+//!
+//! // The demo comes down from above the block's top face with the drill off ...
+//! assert_eq!(DEMO.at(0), (Vec3::new(0.0, 0.0, 0.9), 0));
+//! let (halfway, buttons) = DEMO.at(200);
+//! assert!((halfway.z - 0.76).abs() < 1e-6 && buttons & DRILL_ON == 0);
+//! // ... and plunges with it on from tick 400; 6,001 ticks in all (6 s at 1 kHz).
+//! assert_eq!(DEMO.at(400), (Vec3::new(0.0, 0.0, 0.62), DRILL_ON));
+//! assert_eq!(DEMO.ticks(), 6001);
+//!
+//! // A path of one's own: positions in between are interpolated, the ends held.
+//! let keys = [
+//!     Key { tick: 0, position: Vec3::ZERO, buttons: 0 },
+//!     Key { tick: 10, position: Vec3::X, buttons: 0 },
+//! ];
+//! let path = Script { keys: &keys };
+//! assert_eq!((path.at(5).0, path.at(99).0), (Vec3::new(0.5, 0.0, 0.0), Vec3::X));
+//! ```
 
 use glam::Vec3;
 

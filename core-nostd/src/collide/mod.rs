@@ -20,6 +20,33 @@
 //! checked to be in the queried cell (by the hash) and then by barycentric coordinates;
 //! degenerate tets are skipped and counted; a point that is a node of the tet itself is
 //! excluded by index when `own` is set (self-collision).
+//!
+//! ```
+//! use tetradrill_core::builtin;
+//! use tetradrill_core::collide::{hash_tets, points_in_tets, Body, Collision};
+//! use tetradrill_core::hash::{HashEntry, SpatialHash};
+//! use tetradrill_core::prelude::*;
+//!
+//! // The object: the 12-tet cube [-0.5, 0.5]^3, its tets hashed in cells of edge 0.5.
+//! let (mut pos, tets) = builtin::cube12();
+//! let (mut nodes, mut normals) = ([Node::default(); 9], [Vec3::ZERO; 9]);
+//! let (mut recs, mut scratch) = ([Tet::default(); 12], [FaceKey::default(); 48]);
+//! let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
+//! let mesh = Mesh::build(&mut pos, &tets, storage, &mut scratch, BuildOptions::default())?;
+//! let object = Body::fixed(&mesh);
+//! let (mut starts, mut entries) = ([0u32; 32], [HashEntry::EMPTY; 256]);
+//! let mut hashed = SpatialHash::new(&mut starts, &mut entries, 0.5).expect("valid sizes");
+//! assert!(!hash_tets(&mut hashed, &object).saturated);
+//!
+//! // The nodes of a half-size cube centred at x = 0.4: its four corners at x = 0.15 and its
+//! // centre are inside the object, its corners at x = 0.65 are not.
+//! let other = builtin::cube12().0.map(|p| p * 0.5 + Vec3::new(0.4, 0.0, 0.0));
+//! let mut out = [Collision::default(); 9];
+//! let found = points_in_tets(&hashed, &object, &other, false, &mut out);
+//! let inside: Vec<u32> = out[..found.count].iter().map(|c| c.node.0).collect();
+//! assert_eq!(inside, [0, 2, 4, 6, 8]);
+//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! ```
 
 mod body;
 mod entry;

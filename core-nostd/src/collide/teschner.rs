@@ -1,4 +1,28 @@
 //! Tets walking the cells of their bounding boxes over hashed points (Teschner's order).
+//!
+//! ```
+//! use tetradrill_core::builtin;
+//! use tetradrill_core::collide::{tets_over_points, Body, Collision};
+//! use tetradrill_core::hash::{HashEntry, SpatialHash};
+//! use tetradrill_core::prelude::*;
+//!
+//! let (mut pos, tets) = builtin::cube12();
+//! let (mut nodes, mut normals) = ([Node::default(); 9], [Vec3::ZERO; 9]);
+//! let (mut recs, mut scratch) = ([Tet::default(); 12], [FaceKey::default(); 48]);
+//! let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
+//! let mesh = Mesh::build(&mut pos, &tets, storage, &mut scratch, BuildOptions::default())?;
+//!
+//! // The points are hashed (one entry each); the cube's tets walk their cells.
+//! let points = [Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.9, 0.0, 0.0), Vec3::new(-0.4, 0.4, -0.1)];
+//! let (mut starts, mut entries) = ([0u32; 8], [HashEntry::EMPTY; 3]);
+//! let mut hashed = SpatialHash::new(&mut starts, &mut entries, 0.5).expect("valid sizes");
+//! hashed.rebuild_points(&points);
+//! let mut out = [Collision::default(); 3];
+//! let found = tets_over_points(&hashed, &points, &Body::fixed(&mesh), false, &mut out);
+//! let inside: Vec<u32> = out[..found.count].iter().map(|c| c.node.0).collect();
+//! assert_eq!(inside, [0, 2]);
+//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! ```
 
 use glam::Vec3;
 

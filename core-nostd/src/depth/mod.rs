@@ -37,6 +37,56 @@
 //! A colliding region whose nodes have no border edge (or whose border edges found no surface)
 //! gets no depth: its nodes are counted in [`DepthReport::unreached`] and left out of the
 //! output.
+//!
+//! ```
+//! use tetradrill_core::builtin;
+//! use tetradrill_core::collide::{Body, Collision};
+//! use tetradrill_core::depth::{penetration_depth, DepthScratch, Method, NodeGraph, NodeSlot};
+//! use tetradrill_core::depth::Penetration;
+//! use tetradrill_core::geom::{barycentric, inside};
+//! use tetradrill_core::prelude::*;
+//!
+//! // B: the cube [-0.5, 0.5]^3 as a 2 x 2 x 2 block (a node at the middle of each face).
+//! let (mut pos, mut tets) = ([Vec3::ZERO; 27], [[0u32; 4]; 48]);
+//! builtin::block(2, 0.5, Vec3::splat(-0.5), &mut pos, &mut tets).unwrap();
+//! let (mut nodes, mut normals) = ([Node::default(); 27], [Vec3::ZERO; 27]);
+//! let (mut recs, mut scratch) = ([Tet::default(); 48], [FaceKey::default(); 192]);
+//! let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
+//! let b = Mesh::build(&mut pos, &tets, storage, &mut scratch, BuildOptions::default())?;
+//!
+//! // A: a 0.2 cube (12 tets) whose four bottom corners are 0.05 below B's top face.
+//! let (a_pos, a_tets) = builtin::cube12();
+//! let mut a_pos = a_pos.map(|p| p * 0.2 + Vec3::new(0.0, 0.0, 0.55));
+//! let (mut nodes, mut normals) = ([Node::default(); 9], [Vec3::ZERO; 9]);
+//! let (mut recs, mut scratch) = ([Tet::default(); 12], [FaceKey::default(); 48]);
+//! let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
+//! let a = Mesh::build(&mut a_pos, &a_tets, storage, &mut scratch, BuildOptions::default())?;
+//! let (mut offsets, mut adjacency) = ([0u32; 10], [NodeId::NONE; 64]);
+//! let graph = NodeGraph::build(&a, &mut offsets, &mut adjacency)?;
+//!
+//! // A's nodes in B's tets (by brute force here; `collide` finds them with a hash).
+//! let mut hits = Vec::new();
+//! for (n, &p) in a.positions().iter().enumerate() {
+//!     let holds = |t: &TetId| inside(barycentric(p, b.tet_positions(*t)).unwrap(), 0.0);
+//!     if let Some(tet) = (0..48).map(TetId).find(holds) {
+//!         hits.push(Collision { node: NodeId(n as u32), tet });
+//!     }
+//! }
+//!
+//! // Each corner's border edges leave B through its top face: depth 0.05 up, within the
+//! // tilt of the vertex normals interpolated over the face.
+//! let (mut slots, mut queue) = ([NodeSlot::default(); 9], [NodeId::NONE; 9]);
+//! let mut scratch = DepthScratch::new(&mut slots, &mut queue);
+//! let (method, mut out) = (Method::Traced { max_steps: 64 }, [Penetration::default(); 9]);
+//! let report = penetration_depth(
+//!     a.positions(), &graph, &Body::fixed(&b), &hits, &method, &mut scratch, &mut out,
+//! );
+//! assert_eq!((hits.len(), report.written), (4, 4));
+//! for p in &out[..4] {
+//!     assert!((p.depth - 0.05).abs() < 0.005 && p.dir.z > 0.98);
+//! }
+//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! ```
 
 mod graph;
 mod hashed;

@@ -1,5 +1,21 @@
 //! A deterministic digest of a force series: FNV-1a 64 over the little-endian bit patterns of
 //! each force's x, y, z. Equal digests on host and firmware mean bit-identical forces.
+//!
+//! ```
+//! use tetradrill_core::force::{force_digest, ForceDigest};
+//! use tetradrill_core::Vec3;
+//!
+//! let forces = [Vec3::ZERO, Vec3::new(0.0, 0.0, 1.5), Vec3::new(0.1, -0.2, 3.3)];
+//! let mut running = ForceDigest::new();
+//! for f in forces {
+//!     running.push(f);
+//! }
+//! assert_eq!(running.value(), force_digest(&forces));
+//! assert_eq!(force_digest(&[]), 0xcbf2_9ce4_8422_2325); // FNV-1a 64 of nothing
+//!
+//! // Bit patterns, not values: -0.0 == 0.0, but their digests differ.
+//! assert_ne!(force_digest(&[Vec3::ZERO]), force_digest(&[-Vec3::ZERO]));
+//! ```
 
 use glam::Vec3;
 

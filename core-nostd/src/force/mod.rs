@@ -17,6 +17,22 @@
 //! Triangles handed to the force functions are `[Vec3; 3]` listed counter-clockwise seen
 //! from outside (right-hand normal pointing out of the object); [`boundary_triangle`] turns a
 //! mesh boundary face (listed clockwise) into one.
+//!
+//! ```
+//! use tetradrill_core::force::{clamp_force, sphere_contact, ForceParams};
+//! use tetradrill_core::Vec3;
+//!
+//! // A floor at z = 0 (counter-clockwise from above) and a burr of radius 0.1 sunk 0.02 into it.
+//! let floor = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+//! let contact = sphere_contact(Vec3::new(0.0, 0.0, 0.08), 0.1, [floor]);
+//! assert!(contact.touching() && (contact.depth - 0.02).abs() < 1e-6);
+//! assert_eq!(contact.normal, Vec3::Z);
+//!
+//! // Its spring force, 700 N per unit x 0.02 = 14 N, clamped to the device's 3.3 N.
+//! let params = ForceParams::default();
+//! let force = clamp_force(contact.normal * params.stiffness * contact.depth, params.max_force);
+//! assert!((force - Vec3::Z * 3.3).length() < 1e-5);
+//! ```
 
 pub mod digest;
 pub mod entry;

@@ -40,6 +40,26 @@
 //! pushing harder), but it drives the tool ever deeper into the wall, past the depth where the
 //! law's force reaches its limit: a passive wall holds no more than `F^2 / 2K` there, and the
 //! energy beyond it is what the faulty motors put into the user.
+//!
+//! ```
+//! use tetradrill_core::force::{penalty_storage, PassivityObserver};
+//! use tetradrill_core::Vec3;
+//!
+//! // A wall at z = 0 of 200 N/m clamped at 8 N (reached 4 cm deep), and a tool driven into it
+//! // 1 mm a tick, as a reversed motor would drive it.
+//! let mut observer = PassivityObserver::default();
+//! let mut out = Vec3::ZERO;
+//! for tick in 0..60 {
+//!     let depth = 0.001 * tick as f32;
+//!     let force = Vec3::Z * (200.0 * depth).min(8.0);
+//!     let stored = penalty_storage(depth, 200.0, 8.0);
+//!     out = observer.step(Vec3::new(0.0, 0.0, -depth), force, Some(stored));
+//! }
+//! // Driven about 2 cm past the depth of the force limit, the tool has stored some 8 N x 2 cm
+//! // = 0.16 J past it, over the 50 mJ trip: the observer tripped and its output is zero.
+//! assert!(observer.tripped() && observer.trips() == 1);
+//! assert_eq!(out, Vec3::ZERO);
+//! ```
 
 use glam::Vec3;
 

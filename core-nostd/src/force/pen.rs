@@ -9,6 +9,27 @@
 //! entry-plane remedy; damping; clamping; the displayed offset. [`pen_contact`] does both at
 //! one pose; a servo that runs faster than the pass takes the force from the last pass
 //! instead ([`super::pen_servo_force`]).
+//!
+//! ```
+//! use tetradrill_core::depth::Penetration;
+//! use tetradrill_core::force::{PenOptions, PenPass, PenState};
+//! use tetradrill_core::prelude::*;
+//!
+//! // The force half of a tick, from what a pass found: two pen nodes 0.01 inside the object
+//! // (directions out of it, +z) and one object node 0.02 inside the pen (out of the pen, -z).
+//! let at = |n, depth, dir| Penetration { node: NodeId(n), depth, dir, ..Default::default() };
+//! let pen = [at(0, 0.01, Vec3::Z), at(1, 0.01, Vec3::Z)];
+//! let object = [at(7, 0.02, -Vec3::Z)];
+//! let pass = PenPass { penetrations: (2, 1), ..Default::default() };
+//! let world = [Vec3::ZERO, Vec3::new(0.01, 0.0, 0.0)]; // the pen's nodes at the pose
+//!
+//! let params = ForceParams { stiffness: 50.0, ..Default::default() };
+//! let opts = PenOptions { params, ..Default::default() };
+//! let tick = pass.contact(&world, &pen, &object, Vec3::ZERO, &opts, &mut PenState::default());
+//! // 50 N per unit x (0.01 + 0.01 + 0.02) up; drawn 0.02 out so nothing shows inside.
+//! assert!((tick.force - Vec3::Z * 2.0).length() < 1e-5);
+//! assert!((tick.display_offset - Vec3::Z * 0.02).length() < 1e-6);
+//! ```
 
 use glam::{Affine3A, Quat, Vec3};
 

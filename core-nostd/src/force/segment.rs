@@ -1,4 +1,21 @@
 //! Passive points: the segment between two consecutive positions against the surface.
+//!
+//! ```
+//! use tetradrill_core::force::segment_first_hit;
+//! use tetradrill_core::Vec3;
+//!
+//! // Floors at z = 0 and z = -1 (outward +z) and a segment from above through both.
+//! let floor = |z| [Vec3::new(-1.0, -1.0, z), Vec3::new(1.0, -1.0, z), Vec3::new(0.0, 1.0, z)];
+//! let (from, to) = (Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, 0.0, -2.0));
+//! let hit = segment_first_hit(from, to, [floor(-1.0), floor(0.0)]).unwrap();
+//!
+//! // It enters the upper floor first, a third of the way; its end is 2 behind that floor.
+//! assert_eq!((hit.index, hit.normal), (1, Vec3::Z));
+//! assert!((hit.s - 1.0 / 3.0).abs() < 1e-6 && (hit.depth - 2.0).abs() < 1e-6);
+//!
+//! // Leaving through a face is no hit.
+//! assert!(segment_first_hit(Vec3::new(0.0, 0.0, -0.5), from, [floor(0.0)]).is_none());
+//! ```
 
 use glam::Vec3;
 

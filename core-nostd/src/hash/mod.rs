@@ -14,6 +14,30 @@
 //! once for a static object, again each step for a deforming one) and moving points are queried
 //! each tick; or points are hashed (again each step if they move) and tets walk the cells of
 //! their bounding boxes (Teschner's original order).
+//!
+//! ```
+//! use tetradrill_core::hash::{prime_at_most, HashEntry, HashError, SpatialHash};
+//! use tetradrill_core::Vec3;
+//!
+//! // 7 buckets (a prime) and one entry per point, cells of edge 0.5.
+//! assert_eq!(prime_at_most(8), 7);
+//! let (mut starts, mut entries) = ([0u32; 8], [HashEntry::EMPTY; 4]);
+//! let mut hash = SpatialHash::new(&mut starts, &mut entries, 0.5)?;
+//! let points = [
+//!     Vec3::new(0.1, 0.1, 0.1),
+//!     Vec3::new(0.3, 0.2, 0.4),
+//!     Vec3::new(-0.2, 0.1, 0.1),
+//!     Vec3::new(2.0, 0.0, 0.0),
+//! ];
+//! assert!(!hash.rebuild_points(&points).saturated);
+//!
+//! // Points 0 and 1 share the cell [0, 0.5)^3; -0.2 lies in cell -1 along x.
+//! let cell = hash.cell_of(Vec3::new(0.45, 0.0, 0.25));
+//! assert_eq!(cell, [0, 0, 0]);
+//! assert_eq!(hash.items_in_cell_ascending(cell).collect::<Vec<_>>(), [0, 1]);
+//! assert_eq!(hash.cell_of(points[2]), [-1, 0, 0]);
+//! # Ok::<(), HashError>(())
+//! ```
 
 mod cell;
 mod query;

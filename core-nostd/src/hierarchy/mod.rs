@@ -29,6 +29,38 @@
 //! Memory: 8 bytes per node in the arena plus 12 bytes per v_list entry (the v_list is sized
 //! for every possible leaf: `tets + 7/8 arena`), about 18.5 bytes per arena node in all, and
 //! 8 + 12 bytes per coarse tet.
+//!
+//! ```
+//! use tetradrill_core::builtin;
+//! use tetradrill_core::hierarchy::{Hierarchy, HierarchySizes, HierarchyStorage};
+//! use tetradrill_core::prelude::*;
+//!
+//! let (mut pos, tets) = builtin::cube12();
+//! let (mut nodes, mut normals) = ([Node::default(); 9], [Vec3::ZERO; 9]);
+//! let (mut recs, mut scratch) = ([Tet::default(); 12], [FaceKey::default(); 48]);
+//! let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
+//! let mesh = Mesh::build(&mut pos, &tets, storage, &mut scratch, BuildOptions::default())?;
+//! let sizes = HierarchySizes::new(12, 64);
+//! let mut lines = vec![Line::ZERO; sizes.lines().unwrap()];
+//! let storage = HierarchyStorage::carve(&sizes, &mut Block::from_lines(&mut lines))?;
+//! let mut h = Hierarchy::new(&mesh, storage)?;
+//! assert_eq!(h.stats().visible_faces, 12);
+//!
+//! // Refine tet 0's root (tree index 0) into its 8 children (indices 1 to 8): its face on
+//! // the cube's surface becomes four.
+//! let t = TetId(0);
+//! h.refine(&mesh, t, 0)?;
+//! assert_eq!(h.stats().visible_faces, 15);
+//!
+//! // Erase the child at the cube's centre (child c < 4 is the corner child at vertex c):
+//! // the 3 faces of the tets around it and 1 of its siblings' appear, 1/96 of the cube goes.
+//! let centre = mesh.local_of(t, NodeId(8)).unwrap() as u32;
+//! let erased = h.erase(&mesh, t, 1 + centre)?;
+//! assert_eq!(h.stats().visible_faces, 19);
+//! assert!((erased.removed - 1.0 / 96.0).abs() < 1e-9);
+//! h.validate(&mesh)?;
+//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! ```
 
 mod components;
 mod crumbs;

@@ -13,6 +13,31 @@
 //! Positions, normals and node records stay in RAM either way: positions change whenever the
 //! mesh moves or deforms, and [`Mesh::update_boundary`] rewrites the normals and the nodes'
 //! boundary flags.
+//!
+//! ```
+//! use tetradrill_core::builtin;
+//! use tetradrill_core::prelude::*;
+//!
+//! // The cube [-0.5, 0.5]^3 in 12 tets around its centre (node 8).
+//! let (mut pos, tets) = builtin::cube12();
+//! let (mut nodes, mut normals) = ([Node::default(); 9], [Vec3::ZERO; 9]);
+//! let (mut recs, mut scratch) = ([Tet::default(); 12], [FaceKey::default(); 48]);
+//! let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
+//! let mesh = Mesh::build(&mut pos, &tets, storage, &mut scratch, BuildOptions::default())?;
+//! mesh.validate()?;
+//!
+//! // Two triangles on each cube face; the centre node is the only one inside.
+//! assert_eq!((mesh.stats().boundary_faces, mesh.stats().boundary_nodes), (12, 8));
+//! assert!((mesh.volume() - 1.0).abs() < 1e-6);
+//! assert!(mesh.normal(NodeId(8)) == Vec3::ZERO && mesh.normal(NodeId(7)).z > 0.0);
+//!
+//! // Across an inner face and back again through the reverse index.
+//! let t = TetId(0);
+//! let f = (0..4).find(|&f| !mesh.is_boundary_face(t, f)).unwrap();
+//! let back = mesh.reverse(t, f).face();
+//! assert_eq!(mesh.neighbour(mesh.neighbour(t, f), back), t);
+//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! ```
 
 mod build;
 mod record;

@@ -9,6 +9,20 @@
 //!
 //! A tet is positively oriented when `det[x1-x0, x2-x0, x3-x0] > 0`; the mesh builder swaps two
 //! nodes of every negative tet so that the clockwise rule holds everywhere.
+//!
+//! ```
+//! use tetradrill_core::mesh::template::{EDGE_VERTS, FACE_VERTS};
+//! use tetradrill_core::Vec3;
+//!
+//! let x = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z]; // positively oriented
+//! for (i, &[a, b, c]) in FACE_VERTS.iter().enumerate() {
+//!     assert!(![a, b, c].contains(&(i as u8))); // face i is opposite vertex i
+//!     let [a, b, c] = [a, b, c].map(|k| x[k as usize]);
+//!     // Clockwise from outside: the listing's normal points into the tet, towards vertex i.
+//!     assert!((b - a).cross(c - a).dot(x[i] - a) > 0.0);
+//! }
+//! assert_eq!(EDGE_VERTS[5], [2, 3]);
+//! ```
 
 /// Face -> its three vertices, clockwise seen from outside (face `i` is opposite vertex `i`).
 pub const FACE_VERTS: [[u8; 3]; 4] = [[1, 3, 2], [0, 2, 3], [0, 3, 1], [0, 1, 2]];

@@ -161,6 +161,37 @@ impl Saturations {
 
 /// The object being touched and drilled: its mesh, the spatial hash of its tets, its
 /// subdivision hierarchy and the drill, all over caller storage.
+///
+/// ```
+/// use tetradrill_core::builtin;
+/// use tetradrill_core::prelude::*;
+///
+/// let (mut pos, tets) = builtin::cube12();
+/// let (mut nodes, mut normals) = ([Node::default(); 9], [Vec3::ZERO; 9]);
+/// let (mut recs, mut scratch) = ([Tet::default(); 12], [FaceKey::default(); 48]);
+/// let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
+/// let mesh = Mesh::build(&mut pos, &tets, storage, &mut scratch, BuildOptions::default())?;
+/// let sizes = WorldSizes::new(12, 4096);
+/// let mut lines = vec![Line::ZERO; sizes.lines().unwrap()];
+/// let storage = WorldStorage::carve(&sizes, &mut Block::from_lines(&mut lines))?;
+/// let mut world = World::new(mesh, storage)?;
+///
+/// // One simulation step sees a burr of radius 0.1 just above the top face (z = 0.5) ...
+/// world.simulate(Vec3::new(0.1, 0.2, 0.65), 0.1, 0.1, false, &DrillParams::default());
+/// let contact = world.contact();
+/// assert!(contact.valid && (contact.normal - Vec3::Z).length() < 1e-6);
+/// assert!((contact.depth + 0.05).abs() < 1e-6); // 0.05 short of touching
+///
+/// // ... and the servo's next ticks extrapolate its plane: 0.02 deep, 100 N per unit x 0.02.
+/// let params = ForceParams { stiffness: 100.0, damping: 0.0, ..ForceParams::default() };
+/// let mut tool = ToolState::default();
+/// let forces = [0.65, 0.6, 0.58].map(|z| {
+///     servo_force(contact, Vec3::new(0.1, 0.2, z), 0.1, &mut tool, &params)
+/// });
+/// assert_eq!(forces[..2], [Vec3::ZERO; 2]);
+/// assert!((forces[2] - Vec3::Z * 2.0).length() < 1e-4);
+/// # Ok::<(), Box<dyn core::error::Error>>(())
+/// ```
 #[derive(Debug)]
 pub struct World<'a> {
     mesh: Mesh<'a>,

@@ -206,6 +206,39 @@ pub fn mesh_tets(mesh: &Mesh<'_>, out: &mut [[u32; 4]]) -> Option<usize> {
 }
 
 /// A soft body over borrowed mesh and storage. See the module docs.
+///
+/// ```
+/// use tetradrill_core::builtin;
+/// use tetradrill_core::soft::{Material, SoftBody, SoftMesh, SoftParams, SoftStorage, TetRest};
+/// use tetradrill_core::Vec3;
+///
+/// // A unit cube in 6 tets, E = 1 kPa, 1 kg per unit volume.
+/// let (mut rest, mut tets) = ([Vec3::ZERO; 8], [[0u32; 4]; 6]);
+/// builtin::block(1, 1.0, Vec3::ZERO, &mut rest, &mut tets).unwrap();
+/// let mesh = SoftMesh { rest: &rest, tets: &tets, tet_material: &[] };
+/// let material = Material { young: 1000.0, poisson: 0.3, density: 1.0 };
+/// let (mut u, mut v, mut previous) = ([Vec3::ZERO; 8], [Vec3::ZERO; 8], [Vec3::ZERO; 8]);
+/// let (mut mass, mut inv_mass) = ([0.0; 8], [0.0; 8]);
+/// let (mut tet_rest, mut lambdas) = ([TetRest::default(); 6], [[0.0; 2]; 6]);
+/// let storage = SoftStorage {
+///     displacement: &mut u, velocity: &mut v, previous: &mut previous,
+///     mass: &mut mass, inv_mass: &mut inv_mass, tet_rest: &mut tet_rest, lambdas: &mut lambdas,
+/// };
+/// let params = SoftParams { damping: 20.0, ..SoftParams::default() };
+/// let mut body = SoftBody::new(mesh, &[material], params, storage).expect("a valid body");
+/// assert_eq!(body.fix_below(Vec3::ZERO, Vec3::Z), 4); // its bottom face held
+///
+/// // 10 N pull the top face up for 1 s: it stretches by a little under F / (E A) = 1 %
+/// // (its held bottom face and its six tets stiffen it).
+/// let load = rest.map(|p| if p.z > 0.5 { Vec3::Z * 2.5 } else { Vec3::ZERO });
+/// for _ in 0..100 {
+///     body.step(0.01, &load).expect("a valid time step");
+/// }
+/// let top = body.position(7).unwrap();
+/// assert!(top.z > 1.004 && top.z < 1.01, "{top}");
+/// assert_eq!(body.position(0), Some(Vec3::ZERO));
+/// assert!(body.elastic_energy() > 0.0);
+/// ```
 #[derive(Debug)]
 pub struct SoftBody<'a> {
     rest: &'a [Vec3],
