@@ -50,13 +50,13 @@ pub struct Done {
 }
 
 /// The servo's end of the pose queue.
-pub type ReleaseTx = Producer<'static, Release, SLOTS>;
+pub type ReleaseTx = Producer<'static, Release>;
 /// The simulation's end of the pose queue.
-pub type ReleaseRx = Consumer<'static, Release, SLOTS>;
+pub type ReleaseRx = Consumer<'static, Release>;
 /// The simulation's end of the contact queue.
-pub type DoneTx = Producer<'static, Done, SLOTS>;
+pub type DoneTx = Producer<'static, Done>;
 /// The servo's end of the contact queue.
-pub type DoneRx = Consumer<'static, Done, SLOTS>;
+pub type DoneRx = Consumer<'static, Done>;
 /// A queue of releases.
 pub type ReleaseQueue = Queue<Release, SLOTS>;
 /// A queue of finished steps.
