@@ -296,7 +296,10 @@ impl<'m> Memory<'m> for Block<'m> {
             return Err(too_small);
         }
         // The part's bytes, then the rest of its last line (the next part starts on a line).
-        let span = lines.saturating_mul(LINE).min(left.saturating_sub(pad)).max(bytes);
+        let span = lines
+            .saturating_mul(LINE)
+            .min(left.saturating_sub(pad))
+            .max(bytes);
         let rest = core::mem::take(&mut self.rest);
         // Checked splits: the sizes were checked above, and no split can panic.
         let Some((_, rest)) = rest.split_at_mut_checked(pad) else {
