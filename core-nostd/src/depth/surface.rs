@@ -9,35 +9,6 @@
 //! the exact same number: a line cannot slip between them, and the traced walk and the hashed
 //! search agree on every crossing. The crossing's barycentric coordinates on the face are the
 //! edge values opposite each corner, normalised.
-//!
-//! ```
-//! use tetradrill_core::builtin;
-//! use tetradrill_core::collide::Body;
-//! use tetradrill_core::depth::surface::{exit_values, hit_on_face};
-//! use tetradrill_core::prelude::*;
-//!
-//! let (mut pos, tets) = builtin::cube12();
-//! let (mut nodes, mut normals) = ([Node::default(); 9], [Vec3::ZERO; 9]);
-//! let (mut recs, mut scratch) = ([Tet::default(); 12], [FaceKey::default(); 48]);
-//! let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
-//! let mesh = Mesh::build(&mut pos, &tets, storage, &mut scratch, BuildOptions::default())?;
-//! let body = Body::fixed(&mesh);
-//!
-//! // The line from inside the cube straight up leaves it through one face of its top.
-//! let (p, q) = (Vec3::new(0.1, 0.2, 0.0), Vec3::new(0.1, 0.2, 1.0));
-//! let mut hits = Vec::new();
-//! for t in (0..12).map(TetId) {
-//!     for f in (0..4).filter(|&f| mesh.is_boundary_face(t, f)) {
-//!         if let Some(e) = exit_values(&body, t, f, p, q) {
-//!             hits.extend(hit_on_face(&body, t, f, e, p, q));
-//!         }
-//!     }
-//! }
-//! assert_eq!(hits.len(), 1);
-//! assert!((hits[0].point - Vec3::new(0.1, 0.2, 0.5)).length() < 1e-6);
-//! assert!((hits[0].s - 0.5).abs() < 1e-6 && hits[0].normal.z > 0.5);
-//! # Ok::<(), Box<dyn core::error::Error>>(())
-//! ```
 
 use glam::{Quat, Vec3};
 

@@ -8,28 +8,6 @@
 //! [`PassiveProbe`] takes the triangles near one point, one at a time (from any source: a
 //! slice, the hierarchy's visible faces near the point), and [`PassiveProbe::finish`] updates
 //! the point's [`PassivePoint`]; [`passive_force`] turns the points' planes into one force.
-//!
-//! ```
-//! use tetradrill_core::force::{passive_force, PassivePoint, PassiveProbe};
-//! use tetradrill_core::Vec3;
-//!
-//! // A floor at z = 0 (outward +z) and a passive point that jumps 0.3 through it in one tick.
-//! let floor = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
-//! let mut point = PassivePoint::default();
-//! let (above, below) = (Vec3::new(0.0, 0.0, 0.05), Vec3::new(0.0, 0.0, -0.3));
-//! for to in [above, below] {
-//!     let mut probe = PassiveProbe::new(&point, to, 0.1);
-//!     probe.offer(floor);
-//!     probe.finish(&mut point);
-//! }
-//!
-//! // It did not tunnel: it is held at the face it entered, which pushes it back out with
-//! // 100 N per unit x (radius 0.05 + 0.3 behind the face).
-//! assert!(point.is_held());
-//! let (force, pushing) = passive_force(&[point], &[below], 0.05, 100.0, 50.0);
-//! assert_eq!(pushing, 1);
-//! assert!((force - Vec3::Z * 35.0).length() < 1e-4);
-//! ```
 
 use glam::Vec3;
 

@@ -1,23 +1,5 @@
 //! From contact to the force a device may render: stiffness, damping, clamping, and where to
 //! draw the tool so it never visibly penetrates.
-//!
-//! ```
-//! use tetradrill_core::depth::Penetration;
-//! use tetradrill_core::force::{damping_force, display_offset, ForceParams, ToolState};
-//! use tetradrill_core::Vec3;
-//!
-//! // No velocity on the first tick; then 1 mm down in a 1 ms tick: 2 N s per unit x 1 unit/s, up.
-//! let params = ForceParams { damping: 2.0, ..ForceParams::default() };
-//! let mut tool = ToolState::default();
-//! assert_eq!(damping_force(&mut tool, Vec3::ZERO, true, &params), Vec3::ZERO);
-//! let damping = damping_force(&mut tool, Vec3::new(0.0, 0.0, -0.001), true, &params);
-//! assert!((damping - Vec3::Z * 2.0).length() < 1e-3);
-//!
-//! // The tool is drawn out along the force by its deepest node's depth.
-//! let at = |depth| Penetration { depth, dir: Vec3::Z, ..Default::default() };
-//! let offset = display_offset(Vec3::Z * 3.0, &[at(0.02), at(0.01)], &[]);
-//! assert!((offset - Vec3::Z * 0.02).length() < 1e-7);
-//! ```
 
 use glam::Vec3;
 

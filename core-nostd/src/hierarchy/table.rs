@@ -22,21 +22,6 @@
 //! [`FACE_SUB`] 16 entries of 5 B = 80 B; about 300 bytes in flash. Deeper levels cost nothing:
 //! they are walked through the index digits (O(depth) per query, see [`Path`]).
 //!
-//! ```
-//! use tetradrill_core::hierarchy::table::Path;
-//!
-//! // Tree indices: the root is 0, the children of `i` are `8i + 1 ..= 8i + 8`.
-//! let p = Path::ROOT.child(2).unwrap().child(5).unwrap();
-//! assert_eq!((p.index, p.depth, p.digits[..2].to_vec()), (30, 2, vec![2, 5]));
-//! assert_eq!(Path::of_index(30), Some(p));
-//!
-//! // Corners in integer barycentric coordinates of the root, scaled by 2^depth: T1 keeps
-//! // the root's vertex 0 and halves its edges from it, (x0, x01, x02, x03).
-//! let t1 = Path::ROOT.child(0).unwrap();
-//! assert_eq!(t1.bary(), [[2, 0, 0, 0], [1, 1, 0, 0], [1, 0, 1, 0], [1, 0, 0, 1]]);
-//! assert!(p.bary().iter().all(|row| row.iter().sum::<u32>() == 4));
-//! ```
-//!
 //! [`FACE_VERTS`]: crate::mesh::template::FACE_VERTS
 
 /// Deepest level a tree index can address in a `u32` (the largest index at depth 10 is

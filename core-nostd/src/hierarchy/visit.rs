@@ -9,32 +9,6 @@
 //! permutation. `visit_across` then follows that path in the instantiated hierarchy: it meets
 //! either one coarser leaf on the path, or the subtree of the neighbour restricted to the nodes
 //! with a face on the shared face.
-//!
-//! ```
-//! use tetradrill_core::builtin;
-//! use tetradrill_core::hierarchy::table::Path;
-//! use tetradrill_core::hierarchy::visit::neighbour;
-//! use tetradrill_core::prelude::*;
-//!
-//! let (mut pos, tets) = builtin::cube12();
-//! let (mut nodes, mut normals) = ([Node::default(); 9], [Vec3::ZERO; 9]);
-//! let (mut recs, mut scratch) = ([Tet::default(); 12], [FaceKey::default(); 48]);
-//! let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
-//! let mesh = Mesh::build(&mut pos, &tets, storage, &mut scratch, BuildOptions::default())?;
-//!
-//! // T1 = (x0, x01, x02, x03) meets T5 = (x01, x02, x03, x13) across its face 0.
-//! let t = TetId(0);
-//! let t1 = Path::ROOT.child(0).unwrap();
-//! let n = neighbour(&mesh, t, &t1, 0).unwrap();
-//! assert_eq!((n.tet, n.path.index), (t, 5));
-//!
-//! // A root's neighbours are the mesh's: the next tet's root, or none on the boundary.
-//! for f in 0..4 {
-//!     let across = neighbour(&mesh, t, &Path::ROOT, f).map(|n| n.tet);
-//!     assert_eq!(across, Some(mesh.neighbour(t, f)).filter(|n| n.is_some()));
-//! }
-//! # Ok::<(), Box<dyn core::error::Error>>(())
-//! ```
 
 use super::node::HNode;
 use super::table::{invert, then, Across, Path, Perm, CHILD_ADJ, FACE_SUB, MAX_DEPTH};
