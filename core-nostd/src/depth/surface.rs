@@ -20,16 +20,16 @@ use crate::mesh::FaceUse;
 
 /// Where a border edge leaves the other body's surface.
 #[derive(Clone, Copy, PartialEq, Debug)]
-pub struct SurfaceHit {
+pub(crate) struct SurfaceHit {
     /// The boundary face crossed.
-    pub face: FaceUse,
+    pub(crate) face: FaceUse,
     /// The crossing point `x_i`.
-    pub point: Vec3,
+    pub(crate) point: Vec3,
     /// Unit surface normal at `x_i`, interpolated from the face's vertex normals (the face
     /// normal when they cancel).
-    pub normal: Vec3,
+    pub(crate) normal: Vec3,
     /// Position along the edge: `x_i = p + s (q - p)` (up to rounding).
-    pub s: f32,
+    pub(crate) s: f32,
 }
 
 /// Canonical orientation of the line `p -> q` against the edge `u -> v`.
@@ -48,7 +48,13 @@ fn edge_value(pu: Vec3, pv: Vec3, u: NodeId, v: NodeId, p: Vec3, q: Vec3) -> f32
 /// # Bounded work
 /// Constant: three 3x3 determinants.
 #[inline]
-pub fn exit_values(body: &Body<'_, '_>, t: TetId, f: u8, p: Vec3, q: Vec3) -> Option<[f32; 3]> {
+pub(crate) fn exit_values(
+    body: &Body<'_, '_>,
+    t: TetId,
+    f: u8,
+    p: Vec3,
+    q: Vec3,
+) -> Option<[f32; 3]> {
     let nodes = body.tet_nodes(t)?;
     let lv = FACE_VERTS.get(f as usize)?;
     let ids = lv.map(|k| nodes[k as usize]);
@@ -81,7 +87,7 @@ pub(crate) fn leaves(e: [f32; 3]) -> bool {
 /// # Bounded work
 /// Constant.
 #[inline]
-pub fn hit_on_face(
+pub(crate) fn hit_on_face(
     body: &Body<'_, '_>,
     t: TetId,
     f: u8,
@@ -181,11 +187,11 @@ impl Rotor {
 }
 
 /// Slack on the edge parameter: crossings with `s` in `[-S_SLACK, 1 + S_SLACK]` count.
-pub const S_SLACK: f32 = 1e-4;
+pub(crate) const S_SLACK: f32 = 1e-4;
 
 /// `true` when a hit lies on the border edge (within [`S_SLACK`]).
 #[inline]
-pub fn on_edge(h: &SurfaceHit) -> bool {
+pub(crate) fn on_edge(h: &SurfaceHit) -> bool {
     h.s >= -S_SLACK && h.s <= 1.0 + S_SLACK
 }
 

@@ -1,5 +1,7 @@
 use glam::{Affine3A, Vec3};
 
+use super::surface::SurfaceHit;
+use super::traced::trace_to_surface;
 use super::*;
 use crate::collide::test_support::Store;
 use crate::collide::{hash_tets, points_in_tets, Body, Collision};

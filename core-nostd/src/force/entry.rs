@@ -17,19 +17,15 @@ use crate::ids::NodeId;
 
 /// The remembered entry plane.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
-pub struct EntryPlane {
+pub(crate) struct EntryPlane {
     plane: Option<(Vec3, Vec3)>,
 }
 
 impl EntryPlane {
     /// The remembered `(point, outward normal)`, if in contact.
-    pub fn plane(&self) -> Option<(Vec3, Vec3)> {
+    #[cfg(test)]
+    pub(crate) fn plane(&self) -> Option<(Vec3, Vec3)> {
         self.plane
-    }
-
-    /// Forgets the plane.
-    pub fn reset(&mut self) {
-        self.plane = None;
     }
 
     /// Updates the memory with this tick's penetrations of the tool's nodes and returns the
@@ -39,7 +35,13 @@ impl EntryPlane {
     ///
     /// # Bounded work
     /// O(penetrations).
-    pub fn force(&mut self, positions: &[Vec3], pens: &[Penetration], stiffness: f32) -> Vec3 {
+    #[cfg(test)]
+    pub(crate) fn force(
+        &mut self,
+        positions: &[Vec3],
+        pens: &[Penetration],
+        stiffness: f32,
+    ) -> Vec3 {
         self.force_at(|n| positions.get(n.idx()).copied(), pens, stiffness)
     }
 
@@ -48,7 +50,7 @@ impl EntryPlane {
     ///
     /// # Bounded work
     /// O(penetrations) calls of `at`.
-    pub fn force_at<P: Fn(NodeId) -> Option<Vec3>>(
+    pub(crate) fn force_at<P: Fn(NodeId) -> Option<Vec3>>(
         &mut self,
         at: P,
         pens: &[Penetration],

@@ -41,7 +41,7 @@ impl PassivePoint {
 /// The triangles near one passive point, offered one at a time: the first face the segment
 /// from the proxy to the new position enters, and the closest face to the new position.
 #[derive(Clone, Copy, Debug)]
-pub struct PassiveProbe {
+pub(crate) struct PassiveProbe {
     from: Vec3,
     to: Vec3,
     reach2: f32,
@@ -58,7 +58,7 @@ impl PassiveProbe {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn new(state: &PassivePoint, to: Vec3, reach: f32) -> Self {
+    pub(crate) fn new(state: &PassivePoint, to: Vec3, reach: f32) -> Self {
         Self {
             from: state.proxy.unwrap_or(to),
             to,
@@ -74,7 +74,7 @@ impl PassiveProbe {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn ball(&self, reach: f32) -> (Vec3, f32) {
+    pub(crate) fn ball(&self, reach: f32) -> (Vec3, f32) {
         let mid = (self.from + self.to) * 0.5;
         (mid, 0.5 * (self.to - self.from).length() + reach)
     }
@@ -83,7 +83,7 @@ impl PassiveProbe {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn triangles(&self) -> u32 {
+    pub(crate) fn triangles(&self) -> u32 {
         self.triangles
     }
 
@@ -92,12 +92,12 @@ impl PassiveProbe {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn offer(&mut self, [a, b, c]: [Vec3; 3]) {
+    pub(crate) fn offer(&mut self, [a, b, c]: [Vec3; 3]) {
         self.triangles = self.triangles.wrapping_add(1);
         let n = (b - a).cross(c - a);
         let d = self.to - self.from;
         let den = n.dot(d);
-        // Entering crossing (moving against the outward normal), as `segment_first_hit`.
+        // Entering crossing (moving against the outward normal).
         if den < 0.0 {
             let s = n.dot(a - self.from) / den;
             if (0.0..=1.0).contains(&s) && self.hit.is_none_or(|h| s < h.0) {
@@ -129,7 +129,7 @@ impl PassiveProbe {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn finish(self, state: &mut PassivePoint) {
+    pub(crate) fn finish(self, state: &mut PassivePoint) {
         let to = self.to;
         if !to.is_finite() {
             *state = PassivePoint::default();
@@ -170,7 +170,7 @@ impl PassiveProbe {
 ///
 /// # Bounded work
 /// O(points).
-pub fn passive_force(
+pub(crate) fn passive_force(
     points: &[PassivePoint],
     positions: &[Vec3],
     radius: f32,

@@ -37,21 +37,21 @@ impl Default for ForceParams {
 /// Default [`ForceParams::switch_time`]: 16 ms, so a full reversal of a clamped force is
 /// spread over 16 servo ticks at 1 kHz (an eighth of the clamp per tick), well under the
 /// time a hand notices (tens of milliseconds) and well over one tick.
-pub const DEFAULT_SWITCH_TIME: f32 = 0.016;
+pub(crate) const DEFAULT_SWITCH_TIME: f32 = 0.016;
 
 /// The tool's state carried from tick to tick.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct ToolState {
     /// Reference position at the previous tick (none before the first).
-    pub previous: Option<Vec3>,
+    pub(crate) previous: Option<Vec3>,
     /// The contact plane (point, unit normal) the last force came from, if any.
-    pub plane: Option<(Vec3, Vec3)>,
+    pub(crate) plane: Option<(Vec3, Vec3)>,
     /// What the force still owes the last plane switch: added to the spring force and
     /// shrunk to zero at a bounded rate (see [`crate::servo::servo_force`]).
-    pub residual: Vec3,
+    pub(crate) residual: Vec3,
     /// The stiffness `plane` was felt with, newtons per mesh unit (a change of the material
     /// under the contact is a switch, rendered as a ramp like a change of plane).
-    pub stiffness: f32,
+    pub(crate) stiffness: f32,
 }
 
 /// Damping force `-b v` with `v` from two consecutive positions; zero without a previous
@@ -59,7 +59,7 @@ pub struct ToolState {
 ///
 /// # Bounded work
 /// Constant.
-pub fn damping_force(
+pub(crate) fn damping_force(
     state: &mut ToolState,
     now: Vec3,
     in_contact: bool,

@@ -48,7 +48,7 @@ impl DrillTool {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn passive_offset(&self, i: usize) -> f32 {
+    pub(crate) fn passive_offset(&self, i: usize) -> f32 {
         let n = self.passive_count();
         if n <= 1 {
             return self.shaft_length;
@@ -94,7 +94,8 @@ impl DrillTool {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn handle(&self, centre: Vec3, axis: Vec3) -> Vec3 {
+    #[cfg(test)]
+    pub(crate) fn handle(&self, centre: Vec3, axis: Vec3) -> Vec3 {
         centre + axis * self.shaft_length
     }
 }

@@ -1,6 +1,7 @@
 use glam::{Affine3A, Mat4, Quat, Vec3};
 
 use super::frames::{allocentric, camera, force_to_device};
+use super::triangles::boundary_triangle;
 use super::*;
 use crate::collide::test_support::Store;
 use crate::collide::{
@@ -60,26 +61,6 @@ fn sphere_centre_inside_counts_the_full_distance() {
     // Closest point on a degenerate triangle does not divide by zero.
     let deg = [Vec3::ZERO; 3];
     assert_eq!(closest_point_on_triangle(Vec3::ONE, deg), Vec3::ZERO);
-}
-
-#[test]
-fn passive_segment_enters_first_face() {
-    let t0 = [
-        Vec3::new(-1.0, -1.0, 0.0),
-        Vec3::new(1.0, -1.0, 0.0),
-        Vec3::new(0.0, 1.0, 0.0),
-    ];
-    let t1 = t0.map(|p| p - Vec3::Z * 0.5);
-    let h = segment_first_hit(
-        Vec3::new(0.0, 0.0, 1.0),
-        Vec3::new(0.0, 0.0, -0.2),
-        [t1, t0],
-    )
-    .unwrap();
-    assert_eq!(h.index, 1);
-    assert!((h.depth - 0.2).abs() < 1e-6 && h.normal == Vec3::Z);
-    // Moving out is no entry.
-    assert!(segment_first_hit(Vec3::new(0.0, 0.0, -0.2), Vec3::Z, [t0]).is_none());
 }
 
 #[test]

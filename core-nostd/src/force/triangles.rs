@@ -83,7 +83,7 @@ where
 
 /// Boundary face `f` of `t` as an outward counter-clockwise triangle at `body`'s positions.
 #[inline]
-pub fn boundary_triangle(body: &Body<'_, '_>, t: TetId, f: u8) -> Option<[Vec3; 3]> {
+pub(crate) fn boundary_triangle(body: &Body<'_, '_>, t: TetId, f: u8) -> Option<[Vec3; 3]> {
     let n = body.tet_nodes(t)?;
     let lv = FACE_VERTS.get(f as usize)?;
     // Mesh listings are clockwise from outside: reverse them.
