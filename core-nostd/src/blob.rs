@@ -67,15 +67,15 @@ use crate::ids::{NodeId, TetId};
 use crate::mesh::{BuildStats, Mesh, Node, Tet, TetView, TetViewError, TET_RECORD};
 
 /// The blob's first four bytes.
-pub const MAGIC: [u8; 4] = *b"TDMB";
+pub(crate) const MAGIC: [u8; 4] = *b"TDMB";
 /// The layout version this module writes and reads.
 pub const VERSION: u16 = 1;
 /// Bytes before the payload.
 pub const HEADER_LEN: usize = 24;
 /// Payload bytes per node: position, normal, record.
-pub const NODE_BYTES: usize = 32;
+pub(crate) const NODE_BYTES: usize = 32;
 /// Payload bytes per tet: record and label.
-pub const TET_BYTES: usize = 40;
+pub(crate) const TET_BYTES: usize = 40;
 
 /// Why a blob was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -95,7 +95,7 @@ pub enum BlobError {
         /// Bytes there are.
         got: usize,
     },
-    /// The first four bytes are not [`MAGIC`].
+    /// The first four bytes are not `MAGIC`.
     BadMagic,
     /// A version this code does not read.
     Version(u16),
@@ -395,11 +395,6 @@ impl<'a> MeshBlob<'a> {
     fn vec3_at(&self, at: usize) -> Vec3 {
         let c = |k: usize| f32::from_bits(le32(self.bytes, at + 4 * k));
         Vec3::new(c(0), c(1), c(2))
-    }
-
-    /// The blob's bytes.
-    pub fn bytes(&self) -> &'a [u8] {
-        self.bytes
     }
 
     /// Number of nodes.

@@ -36,9 +36,9 @@ use glam::Vec3;
 use crate::geom::det6;
 
 /// Nodes of [`cube12`].
-pub const CUBE12_NODES: usize = 9;
+pub(crate) const CUBE12_NODES: usize = 9;
 /// Tets of [`cube12`].
-pub const CUBE12_TETS: usize = 12;
+pub(crate) const CUBE12_TETS: usize = 12;
 
 /// The cube `[-0.5, 0.5]^3` split into 12 positively oriented tets by its centre (node 8).
 pub fn cube12() -> ([Vec3; CUBE12_NODES], [[u32; 4]; CUBE12_TETS]) {

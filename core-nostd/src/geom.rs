@@ -35,7 +35,7 @@ pub fn det6(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> f32 {
 /// [`det6`] evaluated in f64 from f32 inputs: used where a sign must be trusted (orientation
 /// at load, validation), never on the servo path.
 #[inline]
-pub fn det6_f64(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> f64 {
+pub(crate) fn det6_f64(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> f64 {
     let (ax, ay, az) = (a.x as f64, a.y as f64, a.z as f64);
     let (ux, uy, uz) = (b.x as f64 - ax, b.y as f64 - ay, b.z as f64 - az);
     let (vx, vy, vz) = (c.x as f64 - ax, c.y as f64 - ay, c.z as f64 - az);
@@ -76,13 +76,13 @@ pub fn inside(b: [f32; 4], eps: f32) -> bool {
 
 /// Unit normal of triangle `(a, b, c)` by the right-hand rule, or zero for a degenerate one.
 #[inline]
-pub fn tri_normal(a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+pub(crate) fn tri_normal(a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
     (b - a).cross(c - a).normalize_or_zero()
 }
 
 /// Area of triangle `(a, b, c)`.
 #[inline]
-pub fn tri_area(a: Vec3, b: Vec3, c: Vec3) -> f32 {
+pub(crate) fn tri_area(a: Vec3, b: Vec3, c: Vec3) -> f32 {
     0.5 * (b - a).cross(c - a).length()
 }
 

@@ -47,7 +47,7 @@ pub const DRILL_ON: u32 = 1;
 
 /// The demo's path over the unit block `[-0.5, 0.5]^3` (top face `z = 0.5`): approach from
 /// above, plunge with the drill on, drag along x and back, retract. 1 kHz ticks, 6 s.
-pub const DEMO_KEYS: [Key; 7] = [
+pub(crate) const DEMO_KEYS: [Key; 7] = [
     Key {
         tick: 0,
         position: Vec3::new(0.0, 0.0, 0.9),
@@ -91,7 +91,7 @@ pub const DEMO_KEYS: [Key; 7] = [
 /// enamel, 1.1 mm here, into the dentin), sweeps 1 mm mesially and distally along the fissure
 /// and back, deepens 1.2 mm until it opens the pulp chamber's roof, and is withdrawn. 1 kHz
 /// ticks, 17.6 s.
-pub const TOOTH_ACCESS_KEYS: [Key; 9] = [
+pub(crate) const TOOTH_ACCESS_KEYS: [Key; 9] = [
     Key {
         tick: 0,
         position: Vec3::new(0.0, 0.0, 0.0235),
@@ -172,7 +172,7 @@ impl Script<'_> {
 /// The demo script.
 pub const DEMO: Script<'static> = Script { keys: &DEMO_KEYS };
 
-/// The tooth's access cavity ([`TOOTH_ACCESS_KEYS`]).
+/// The tooth's access cavity (`TOOTH_ACCESS_KEYS`).
 pub const TOOTH_ACCESS: Script<'static> = Script {
     keys: &TOOTH_ACCESS_KEYS,
 };

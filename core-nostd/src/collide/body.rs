@@ -45,13 +45,13 @@ impl<'m, 'a> Body<'m, 'a> {
 
     /// Current position of a node (`None` for an id out of range).
     #[inline]
-    pub fn pos(&self, n: NodeId) -> Option<Vec3> {
+    pub(crate) fn pos(&self, n: NodeId) -> Option<Vec3> {
         self.positions.get(n.idx()).copied()
     }
 
     /// Node ids of a tet (`None` out of range).
     #[inline]
-    pub fn tet_nodes(&self, t: TetId) -> Option<[NodeId; 4]> {
+    pub(crate) fn tet_nodes(&self, t: TetId) -> Option<[NodeId; 4]> {
         self.mesh.get_tet_nodes(t)
     }
 
@@ -69,7 +69,8 @@ impl<'m, 'a> Body<'m, 'a> {
 
     /// Current averaged outward normal of a boundary node (zero inside or out of range).
     #[inline]
-    pub fn normal(&self, n: NodeId) -> Vec3 {
+    #[cfg(test)]
+    pub(crate) fn normal(&self, n: NodeId) -> Vec3 {
         match self.mesh.normals().get(n.idx()) {
             Some(&v) if self.rotation == Quat::IDENTITY => v,
             Some(&v) => self.rotation * v,
@@ -79,7 +80,7 @@ impl<'m, 'a> Body<'m, 'a> {
 
     /// The tet across face `f` of `t`, `NONE` on the boundary or out of range.
     #[inline]
-    pub fn neighbour(&self, t: TetId, f: u8) -> TetId {
+    pub(crate) fn neighbour(&self, t: TetId, f: u8) -> TetId {
         self.mesh.get_neighbour(t, f).unwrap_or(TetId::NONE)
     }
 }

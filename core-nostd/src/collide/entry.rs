@@ -52,7 +52,7 @@ impl GridEntry {
 
     /// The tet listed.
     #[inline]
-    pub fn tet(&self) -> TetId {
+    pub(crate) fn tet(&self) -> TetId {
         TetId(self.tet)
     }
 

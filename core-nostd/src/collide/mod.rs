@@ -60,7 +60,7 @@ mod rigid_near;
 mod rigid_search;
 #[cfg(test)]
 mod rigid_tests;
-pub mod teschner;
+mod teschner;
 #[cfg(test)]
 pub(crate) mod test_support;
 #[cfg(test)]
@@ -71,16 +71,17 @@ mod zone;
 
 pub use body::Body;
 pub use entry::GridEntry;
-pub use occupancy::{CellTets, ListedNode, Occupancy, OccupancyError, OccupancyStorage};
+pub use occupancy::{ListedNode, Occupancy, OccupancyError, OccupancyStorage};
+pub(crate) use points::walk_to_holder;
 pub use points::{
-    hash_tets, points_in_tets, points_in_tets_coherent, points_in_tets_occupied,
-    points_in_tets_walked, walk_to_holder, walks_exact, WalkStarts, WALK_MARGIN, WALK_MAX_SHAPE,
+    hash_tets, points_in_tets, points_in_tets_occupied, points_in_tets_walked, walks_exact,
+    WalkStarts,
 };
 pub use rigid::{RigidError, RigidTets, RigidTetsStorage};
 pub use rigid_near::{NearClusters, MAX_NEAR_CLUSTERS};
 pub use rigid_search::rigid_tets_over_points_coherent;
-pub use teschner::{tets_over_points, tets_over_points_coherent, MAX_CELLS_PER_TET};
-pub use zone::{ZoneGather, ZoneList, ZONE_MARGIN_RADII};
+pub use teschner::{tets_over_points, MAX_CELLS_PER_TET};
+pub use zone::{ZoneGather, ZONE_MARGIN_RADII};
 
 use crate::ids::{NodeId, TetId};
 
@@ -147,7 +148,7 @@ pub struct CollideReport {
 
 /// Barycentric tolerance: a point counts as inside when every coordinate is `>= -INSIDE_EPS`.
 /// Zero: points exactly on a face are inside; nothing further out.
-pub const INSIDE_EPS: f32 = 0.0;
+pub(crate) const INSIDE_EPS: f32 = 0.0;
 
 /// `geom::inside(geom::barycentric(x, p)?, eps)` with the same arithmetic, stopping at the
 /// first coordinate below `-eps`: `None` for a degenerate tet, else whether `x` is inside.

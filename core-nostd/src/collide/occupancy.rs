@@ -44,7 +44,7 @@ pub struct OccupancyStorage<'a> {
     /// Grid bits, 32 cells a word (the grid coarsens until they fit).
     pub words: &'a mut [u32],
     /// One grown box per tet (tets beyond its length have none and always pass
-    /// [`Occupancy::tet_may_hold`]); may be empty.
+    /// `Occupancy::tet_may_hold`); may be empty.
     pub boxes: &'a mut [Aabb],
 }
 
@@ -85,6 +85,7 @@ pub struct Occupancy<'a> {
     list_dims: [i32; 3],
     origin: Vec3,
     inv_cell: f32,
+    #[cfg(test)]
     cell: f32,
     dims: [i32; 3],
 }
@@ -169,6 +170,7 @@ impl<'a> Occupancy<'a> {
             list_dims: dims,
             origin: bounds.min,
             inv_cell: 1.0 / cell,
+            #[cfg(test)]
             cell,
             dims,
         };
@@ -194,13 +196,15 @@ impl<'a> Occupancy<'a> {
 
     /// The cell edge used (at least the one asked for).
     #[inline]
-    pub fn cell_size(&self) -> f32 {
+    #[cfg(test)]
+    pub(crate) fn cell_size(&self) -> f32 {
         self.cell
     }
 
     /// Cells along x, y and z.
     #[inline]
-    pub fn dims(&self) -> [u32; 3] {
+    #[cfg(test)]
+    pub(crate) fn dims(&self) -> [u32; 3] {
         self.dims.map(|d| d as u32)
     }
 
@@ -239,7 +243,7 @@ impl<'a> Occupancy<'a> {
 
     /// This grid with, per cell of the grid's cells split `split` times along each axis, the
     /// tets whose grown box meets it, in increasing id order, each entry with the box clipped
-    /// to the cell and quantised outward ([`GridEntry`], [`Occupancy::tets_at`]): a point's
+    /// to the cell and quantised outward ([`GridEntry`], `Occupancy::tets_at`): a point's
     /// candidates are then its cell's list, read in order, with no hash bucket shared with
     /// other cells (a split of 2 lists about a third of the tets a whole cell would), and the
     /// entries alone rule out most of the tets whose box misses the point, without loading
@@ -337,7 +341,7 @@ impl<'a> Occupancy<'a> {
 
     /// This grid with, per cell, the nodes of `body` (the body it was built over) in it, in
     /// increasing id order with their positions, and after the last cell's the nodes outside
-    /// the grid ([`Occupancy::nodes_in`]).
+    /// the grid (`Occupancy::nodes_in`).
     ///
     /// # Bounded work
     /// O(cells + N). Call it at set-up.
@@ -396,7 +400,7 @@ impl<'a> Occupancy<'a> {
 
     /// The number of nodes listed ([`Occupancy::with_node_lists`]), `None` without node lists.
     #[inline]
-    pub fn listed_nodes(&self) -> Option<usize> {
+    pub(crate) fn listed_nodes(&self) -> Option<usize> {
         (!self.node_starts.is_empty()).then_some(self.nodes.len())
     }
 
@@ -409,7 +413,12 @@ impl<'a> Occupancy<'a> {
     /// # Bounded work
     /// O(rows of cells the box covers + nodes in them + nodes outside the grid), at most
     /// `max_cells` cells.
-    pub fn nodes_in<F: FnMut(&'a [ListedNode])>(&self, b: &Aabb, max_cells: u32, mut f: F) -> bool {
+    pub(crate) fn nodes_in<F: FnMut(&'a [ListedNode])>(
+        &self,
+        b: &Aabb,
+        max_cells: u32,
+        mut f: F,
+    ) -> bool {
         if self.node_starts.is_empty() {
             return false;
         }
@@ -447,7 +456,7 @@ impl<'a> Occupancy<'a> {
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn tets_at(&self, p: Vec3) -> Option<CellTets<'a>> {
+    pub(crate) fn tets_at(&self, p: Vec3) -> Option<CellTets<'a>> {
         if self.cell_starts.is_empty() {
             return None;
         }
@@ -474,7 +483,7 @@ impl<'a> Occupancy<'a> {
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn may_hold(&self, p: Vec3) -> bool {
+    pub(crate) fn may_hold(&self, p: Vec3) -> bool {
         cell(self.origin, self.inv_cell, self.dims, p).is_some_and(|c| self.bit(self.index(c)))
     }
 
@@ -484,7 +493,7 @@ impl<'a> Occupancy<'a> {
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn tet_may_hold(&self, t: TetId, p: Vec3) -> bool {
+    pub(crate) fn tet_may_hold(&self, t: TetId, p: Vec3) -> bool {
         match self.boxes.get(t.idx()) {
             Some(b) => b.contains(p),
             None => true,
@@ -496,7 +505,7 @@ impl<'a> Occupancy<'a> {
     /// # Bounded work
     /// O(cells of the grid the box covers), at most the grid's cells; stops at the first set
     /// cell.
-    pub fn may_meet(&self, b: &Aabb) -> bool {
+    pub(crate) fn may_meet(&self, b: &Aabb) -> bool {
         let Some((lo, hi)) = self.range(b) else {
             return false;
         };
@@ -534,9 +543,9 @@ impl<'a> Occupancy<'a> {
 /// A point's cell's list of tets ([`Occupancy::tets_at`]): the cell's entries in increasing
 /// tet id order and the point's levels in the cell.
 #[derive(Clone, Copy, Debug)]
-pub struct CellTets<'a> {
+pub(crate) struct CellTets<'a> {
     /// The cell's entries, in increasing tet id order.
-    pub entries: &'a [GridEntry],
+    pub(crate) entries: &'a [GridEntry],
     /// The point's packed levels in the cell.
     at: u32,
 }
@@ -549,7 +558,7 @@ impl CellTets<'_> {
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn admits(&self, e: &GridEntry) -> bool {
+    pub(crate) fn admits(&self, e: &GridEntry) -> bool {
         e.admits(self.at)
     }
 }

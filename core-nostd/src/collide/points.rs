@@ -24,7 +24,7 @@ pub fn hash_tets(hash: &mut SpatialHash<'_>, body: &Body<'_, '_>) -> Rebuilt {
 /// # Bounded work
 /// O(P * b) for P points and b the largest bucket; no more than `out.len()` writes.
 /// When `out` is full, the remaining points are not examined and `saturated` is set: the
-/// points with the smallest indices are kept ([`points_in_tets_coherent`] keeps the previous
+/// points with the smallest indices are kept (`points_in_tets_coherent` keeps the previous
 /// call's instead).
 pub fn points_in_tets(
     tets: &SpatialHash<'_>,
@@ -53,7 +53,7 @@ pub fn points_in_tets(
 /// O(P * b) as [`points_in_tets`] (each point is tested once), plus one sort of at most
 /// `out.len()` entries when the previous entries and new ones are merged. When `out` is full
 /// the remaining points are not examined and `saturated` is set.
-pub fn points_in_tets_coherent(
+pub(crate) fn points_in_tets_coherent(
     tets: &SpatialHash<'_>,
     body: &Body<'_, '_>,
     points: &[Vec3],
@@ -64,9 +64,9 @@ pub fn points_in_tets_coherent(
     coherent(tets, body, points, own, out, kept, None, |_| true)
 }
 
-/// [`points_in_tets_coherent`] that looks a point up only when `cells` says a tet box of
-/// `body` may hold it ([`Occupancy::may_hold`]), and tests a candidate tet's barycentric
-/// coordinates only when its grown box holds the point ([`Occupancy::tet_may_hold`]);
+/// `points_in_tets_coherent` that looks a point up only when `cells` says a tet box of
+/// `body` may hold it (`Occupancy::may_hold`), and tests a candidate tet's barycentric
+/// coordinates only when its grown box holds the point (`Occupancy::tet_may_hold`);
 /// `cells` must be built over `body`'s tets ([`Occupancy::build`]). Same result, bit for
 /// bit: a point outside every occupied cell, or outside a tet's grown box, is not inside it.
 /// Cheaper when most points are away from the body (a tool mostly outside the object). When
@@ -80,11 +80,11 @@ pub fn points_in_tets_coherent(
 /// like a brute force, still finds it).
 ///
 /// Point `i` is examined only when `may_hit(i)` holds: it must hold for every point that may
-/// be inside a tet (`|_| true`, or e.g. [`super::RigidTets::node_near`] for the nodes of a
+/// be inside a tet (`|_| true`, or e.g. `super::RigidTets::node_near` for the nodes of a
 /// rigid tool whose clusters [`super::RigidTets::near`] found near `cells`).
 ///
 /// # Bounded work
-/// As [`points_in_tets_coherent`], plus one `may_hit` call and one bit test per point
+/// As `points_in_tets_coherent`, plus one `may_hit` call and one bit test per point
 /// examined and one box test (or, with tet lists, one entry test) per candidate.
 #[allow(clippy::too_many_arguments)]
 pub fn points_in_tets_occupied<F: Fn(usize) -> bool>(
@@ -117,8 +117,8 @@ pub struct WalkStarts<'w, N> {
 /// [`points_in_tets_occupied`] (with `own` false) that first walks to each point from a tet
 /// near it: the tet the point was in last call (its entry in `out[..kept]`) or else the tet
 /// of a nearby point found earlier in this call ([`WalkStarts::near`]). The walk
-/// ([`walk_to_holder`]) is taken only when it ends in a tet that holds the point by at least
-/// [`WALK_MARGIN`] in every barycentric coordinate; otherwise the point is looked up in the
+/// (`walk_to_holder`) is taken only when it ends in a tet that holds the point by at least
+/// `WALK_MARGIN` in every barycentric coordinate; otherwise the point is looked up in the
 /// hash as [`points_in_tets_occupied`] does.
 ///
 /// A point that deep inside a tet is in no other tet when `body`'s tets do not overlap and
@@ -190,16 +190,16 @@ pub fn points_in_tets_walked<'g, N: Fn(usize) -> &'g [NodeId], F: Fn(usize) -> b
 }
 
 /// Barycentric margin for accepting a walk's tet ([`points_in_tets_walked`]).
-pub const WALK_MARGIN: f32 = 1.0e-3;
+pub(crate) const WALK_MARGIN: f32 = 1.0e-3;
 
 /// Largest tet shape measure `L^3 / (6 V)` (longest edge cubed over six times the volume;
 /// 8.5 for a regular tet) of a body whose walks give the hash's answers ([`walks_exact`]).
-pub const WALK_MAX_SHAPE: f64 = 100.0;
+pub(crate) const WALK_MAX_SHAPE: f64 = 100.0;
 
 /// `true` when every tet of `body` has a shape measure `L^3 / (6 V)` of at most
-/// [`WALK_MAX_SHAPE`] (computed in f64; degenerate or non-finite tets fail): then the f32
+/// `WALK_MAX_SHAPE` (computed in f64; degenerate or non-finite tets fail): then the f32
 /// rounding of a barycentric coordinate, below about `6e-6 L^3 / (6 V)` (at most 6e-4
-/// here), stays under [`WALK_MARGIN`], so a point that deep inside one tet is in no other
+/// here), stays under `WALK_MARGIN`, so a point that deep inside one tet is in no other
 /// tet of comparable size by the f32 test either, and a walk's tet is the smallest-id tet
 /// that holds the point ([`points_in_tets_walked`]). Sliver meshes fail it (the shared
 /// `spot_tetgen_coarse` reaches 6,206 and has points that the f32 test puts in two tets);
@@ -238,7 +238,7 @@ pub fn walks_exact(body: &Body<'_, '_>) -> bool {
 ///
 /// # Bounded work
 /// At most `max_steps` barycentric tests.
-pub fn walk_to_holder(
+pub(crate) fn walk_to_holder(
     body: &Body<'_, '_>,
     from: TetId,
     p: Vec3,

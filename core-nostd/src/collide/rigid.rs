@@ -166,7 +166,7 @@ impl<'s> RigidTets<'s> {
     /// # Bounded work
     /// O(T) for the boxes, O(cells + T x cells each box meets) for each grid,
     /// O(`node_clusters.len()`) for the nodes' clusters, O(N) to check that the bounds hold
-    /// every node ([`RigidTets::moved_bounds`]). Call it at set-up.
+    /// every node (`RigidTets::moved_bounds`). Call it at set-up.
     ///
     /// # Errors
     /// [`RigidError`]: short storage, a full rest grid, a bad size, or no finite tet.
@@ -342,24 +342,19 @@ impl<'s> RigidTets<'s> {
 
     /// Number of cluster cells (empty ones included).
     #[inline]
-    pub fn clusters(&self) -> usize {
+    pub(crate) fn clusters(&self) -> usize {
         self.dims.iter().map(|&d| d as usize).product()
     }
 
     /// Cluster cells that hold part of a tet.
-    pub fn occupied_clusters(&self) -> usize {
+    #[cfg(test)]
+    pub(crate) fn occupied_clusters(&self) -> usize {
         let n = self.clusters();
         self.clusters
             .iter()
             .take(n)
             .filter(|b| b.min.x <= b.max.x)
             .count()
-    }
-
-    /// The margin the rest data was grown by.
-    #[inline]
-    pub fn margin(&self) -> f32 {
-        self.margin
     }
 
     /// The cluster grid cell of a rest-frame point, clamped to the grid.

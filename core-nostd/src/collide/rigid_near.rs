@@ -24,14 +24,14 @@ pub struct NearClusters<'c> {
 
 impl NearClusters<'_> {
     /// Every cluster near (culls nothing), no node lists.
-    pub const ALL: Self = Self {
+    pub(crate) const ALL: Self = Self {
         bits: [u64::MAX; MAX_NEAR_CLUSTERS / 64],
         cells: None,
     };
 
     /// `true` when cluster `c` is near (or beyond [`MAX_NEAR_CLUSTERS`]).
     #[inline]
-    pub fn is_near(&self, c: usize) -> bool {
+    pub(crate) fn is_near(&self, c: usize) -> bool {
         self.bits
             .get(c / 64)
             .is_none_or(|w| w & (1 << (c % 64)) != 0)
@@ -82,7 +82,7 @@ impl RigidTets<'_> {
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn moved_bounds(&self, pose: &Affine3A) -> Option<Aabb> {
+    pub(crate) fn moved_bounds(&self, pose: &Affine3A) -> Option<Aabb> {
         if !self.nodes_bounded || !self.pose_in_margin(pose) {
             return None;
         }
@@ -102,14 +102,14 @@ impl RigidTets<'_> {
 
     /// The clusters whose box at `pose` meets a cell `cells` marks. A node of the body moved
     /// by `pose` whose cluster is not near is in no marked cell, so in no tet of the body
-    /// `cells` was built over ([`RigidTets::node_near`]); neither is a point of a tet of this
+    /// `cells` was built over (`RigidTets::node_near`); neither is a point of a tet of this
     /// body in such a cluster. Every cluster counts as near when the pose is too far from the
     /// origin for the margin (see [`rigid_tets_over_points_coherent`]). When `cells` lists
     /// its body's nodes ([`Occupancy::with_node_lists`]) the result carries it, for
     /// [`rigid_tets_over_points_coherent`].
     ///
     /// # Bounded work
-    /// Per cluster one box transform and [`Occupancy::may_meet`]; at most
+    /// Per cluster one box transform and `Occupancy::may_meet`; at most
     /// [`MAX_NEAR_CLUSTERS`] clusters are tested (the others count as near).
     ///
     /// [`rigid_tets_over_points_coherent`]: super::rigid_tets_over_points_coherent
@@ -144,7 +144,7 @@ impl RigidTets<'_> {
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn node_near(&self, n: usize, near: &NearClusters<'_>) -> bool {
+    pub(crate) fn node_near(&self, n: usize, near: &NearClusters<'_>) -> bool {
         match self.node_clusters.get(n) {
             Some(&c) if c != NO_CLUSTER => near.is_near(c as usize),
             _ => true,

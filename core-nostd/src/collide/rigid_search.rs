@@ -14,7 +14,7 @@ use crate::ids::{NodeId, TetId};
 /// The points (hashed in `points_hash`, item = index into `points`) inside the tets of
 /// `body`, a rigid body moved by `pose` from the rest frame `rigid` was built in
 /// (`body.positions` = `pose` applied to the rest positions). Same contract and result as
-/// [`tets_over_points_coherent`] with `own` unset: each point once, with the smallest tet
+/// `tets_over_points_coherent` with `own` unset: each point once, with the smallest tet
 /// that holds it, sorted by point; `out[..kept]` the previous call's result, whose points are
 /// tested first and keep their entries while inside. When `out` cannot hold every hit, the
 /// remaining room goes to the new points with the smallest indices (the walk's order is not
@@ -22,17 +22,17 @@ use crate::ids::{NodeId, TetId};
 ///
 /// Only the clusters `near` names are searched: it must hold every cluster whose moved box
 /// may hold one of the points ([`RigidTets::near`] over an [`Occupancy`] of the body whose
-/// nodes the points are, or [`NearClusters::ALL`]). When that occupancy lists as many nodes
+/// nodes the points are, or `NearClusters::ALL`). When that occupancy lists as many nodes
 /// as `points` ([`Occupancy::with_node_lists`]), the points in a cluster's moved box are
 /// read from its lists, positions included, instead of `points_hash`: they must be the
 /// nodes of the static body the lists were built over, at the same positions.
 ///
 /// With `max_walk` above 0 each previous point first walks from its previous tet through
-/// `body` ([`super::walk_to_holder`], at most `max_walk` tets) and keeps the tet it ends in
-/// when that holds it by [`super::WALK_MARGIN`]: the same tet when `body` passes
+/// `body` (`super::walk_to_holder`, at most `max_walk` tets) and keeps the tet it ends in
+/// when that holds it by `super::WALK_MARGIN`: the same tet when `body` passes
 /// [`super::walks_exact`] and `rigid` holds all its tets (pass 0 otherwise).
 ///
-/// Falls back to [`tets_over_points_coherent`] (same result) when the pose is not a rotation
+/// Falls back to `tets_over_points_coherent` (same result) when the pose is not a rotation
 /// (a quaternion far from unit length), or so far from the origin that rounding could exceed
 /// `rigid`'s margin (`64 x f32::EPSILON x (|translation| + rest radius) > margin`), or when a
 /// cluster's moved box could cover more than [`MAX_CELLS_PER_TET`] cells of `points_hash`. A

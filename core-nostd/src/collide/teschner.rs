@@ -43,7 +43,7 @@ pub const MAX_CELLS_PER_TET: u32 = 4096;
 /// [`MAX_CELLS_PER_TET`] (larger boxes are skipped and counted in `clipped`), plus one sort of
 /// at most `out.len()` entries. When `out` fills, further hits are dropped and `saturated`
 /// is set; the written pairs stay valid (the hits of the first tets walked are kept;
-/// [`tets_over_points_coherent`] keeps the previous call's points first).
+/// `tets_over_points_coherent` keeps the previous call's points first).
 pub fn tets_over_points(
     points_hash: &SpatialHash<'_>,
     points: &[Vec3],
@@ -71,7 +71,7 @@ pub fn tets_over_points(
 /// At most two walks as in [`tets_over_points`], a binary search over at most `kept` entries
 /// per hit, and one sort of at most `out.len()` entries. When `out` is full further new points
 /// are dropped and `saturated` is set.
-pub fn tets_over_points_coherent(
+pub(crate) fn tets_over_points_coherent(
     points_hash: &SpatialHash<'_>,
     points: &[Vec3],
     body: &Body<'_, '_>,

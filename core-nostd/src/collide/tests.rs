@@ -4,6 +4,8 @@
 
 use glam::{Quat, Vec3};
 
+use super::points::points_in_tets_coherent;
+use super::teschner::tets_over_points_coherent;
 use super::test_support::{brute, Store};
 use super::*;
 use crate::hash::{HashEntry, SpatialHash};

@@ -3,6 +3,7 @@
 
 use glam::Vec3;
 
+use super::points::WALK_MARGIN;
 use super::test_support::{brute, Rng, Store};
 use super::*;
 use crate::collide::OccupancyStorage;

@@ -33,20 +33,20 @@ struct Gathering {
 
 /// The list a step uses, from [`ZoneGather::step`].
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
-pub struct ZoneList {
+pub(crate) struct ZoneList {
     /// Where the list starts in the candidate storage.
-    pub at: usize,
+    pub(crate) at: usize,
     /// Its length.
-    pub len: usize,
+    pub(crate) len: usize,
     /// `true` when the list holds every tet whose box meets the zone (the zone lies in the
     /// gathered box and the list did not fill up); `false`: tets may be missing.
-    pub covered: bool,
+    pub(crate) covered: bool,
 }
 
 /// The gathered tets near a tool, kept across steps and refreshed in parts of bounded work.
 ///
-/// The candidate storage handed to [`ZoneGather::step`] is used in thirds: the first for the
-/// tets near the burr that a caller filters from the list ([`ZoneGather::tight`]), the
+/// The candidate storage handed to `ZoneGather::step` is used in thirds: the first for the
+/// tets near the burr that a caller filters from the list (`ZoneGather::tight`), the
 /// second and third for the list in use and the list being gathered.
 #[derive(Clone, Copy, Debug)]
 pub struct ZoneGather {
@@ -86,7 +86,7 @@ impl ZoneGather {
 
     /// Forgets the lists (the storage was used for something else): the next step gathers
     /// afresh.
-    pub fn forget(&mut self) {
+    pub(crate) fn forget(&mut self) {
         self.active = None;
         self.gathering = None;
     }
@@ -107,7 +107,7 @@ impl ZoneGather {
     /// A third of `cands` holds a list; a gather that finds more tets keeps the first ones and
     /// its list is never `covered`.
     #[allow(clippy::too_many_arguments)]
-    pub fn step(
+    pub(crate) fn step(
         &mut self,
         zone: &Aabb,
         radius: f32,
@@ -193,7 +193,7 @@ impl ZoneGather {
     ///
     /// # Bounded work
     /// One box test per tet of the list.
-    pub fn tight(
+    pub(crate) fn tight(
         list: ZoneList,
         near: &Aabb,
         boxes: &[Aabb],

@@ -93,12 +93,6 @@ impl<'a> NodeGraph<'a> {
         Ok(Self { offsets, adj })
     }
 
-    /// Number of nodes.
-    #[inline]
-    pub fn node_count(&self) -> usize {
-        self.offsets.len().saturating_sub(1)
-    }
-
     /// The index of `n`'s first adjacency entry and its neighbours: neighbour `i` of the row
     /// is adjacency entry `index + i`, one number per directed edge (empty for an id out of
     /// range).
@@ -106,7 +100,7 @@ impl<'a> NodeGraph<'a> {
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn row(&self, n: NodeId) -> (usize, &'a [NodeId]) {
+    pub(crate) fn row(&self, n: NodeId) -> (usize, &'a [NodeId]) {
         let i = n.idx();
         match self.offsets.get(i..i.saturating_add(2)) {
             Some(&[lo, hi]) => (

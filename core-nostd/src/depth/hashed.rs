@@ -39,7 +39,7 @@ pub fn hash_boundary_faces(hash: &mut SpatialHash<'_>, body: &Body<'_, '_>) -> R
 /// # Bounded work
 /// O(max_cells + entries met), each candidate face one constant-time face test, once per
 /// face ([`SpatialHash::query_box_once`]).
-pub fn hashed_hit(
+pub(crate) fn hashed_hit(
     faces: &SpatialHash<'_>,
     world_to_hash: &Affine3A,
     body: &Body<'_, '_>,

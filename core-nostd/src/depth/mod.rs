@@ -15,7 +15,7 @@
 //! The caller's queue holds the first nodes of the breadth-first order; the rest are chained
 //! through their scratch slots, so a short queue changes no depth (it is only counted).
 //!
-//! A collision list that filled up ([`Listed::Partial`]) may leave out nodes inside B. An edge
+//! A collision list that filled up (`Listed::Partial`) may leave out nodes inside B. An edge
 //! from a listed node to such a node ends inside B; its line is then followed on to where it
 //! leaves B, so the listed node keeps the depth its edges give it while its neighbours enter
 //! B unlisted (at the moment a neighbour crosses the surface both rules give the same
@@ -29,7 +29,7 @@
 //!   ([`hash_boundary_faces`]); the cells of the border edge's box give candidate faces; the
 //!   outward crossing nearest to `p` along the edge wins (ties: smaller `(tet, face)`).
 //!
-//! Both use one face test ([`surface`]): the line's orientation against each face edge,
+//! Both use one face test (`surface`): the line's orientation against each face edge,
 //! computed once per edge in a canonical node order, so a line crosses exactly one of the two
 //! faces beside an edge in both methods, and the hit point and normal are computed by the same
 //! function from the same face. They therefore return bit-identical depths.
@@ -91,17 +91,15 @@
 mod graph;
 mod hashed;
 mod propagate;
-pub mod surface;
+mod surface;
 mod traced;
 
 pub use graph::{graph_sizes, GraphError, NodeGraph};
 pub use hashed::hash_boundary_faces;
 pub use propagate::{
-    penetration_depth, penetration_depth_of, Crossing, DepthReport, DepthScratch, Listed, NodeSlot,
-    Penetration,
+    penetration_depth, Crossing, DepthReport, DepthScratch, NodeSlot, Penetration,
 };
-pub use surface::SurfaceHit;
-pub use traced::trace_to_surface;
+pub(crate) use propagate::{penetration_depth_of, Listed};
 
 use glam::Affine3A;
 

@@ -82,7 +82,7 @@ impl<'a> DepthScratch<'a> {
 
     /// Scratch that also remembers, per directed edge of A's graph (one [`Crossing`] per
     /// adjacency entry: [`super::graph_sizes`]'s second number), the boundary face of B where
-    /// the edge last left B. With [`DepthScratch::set_reuse`] on, a border edge first tries
+    /// the edge last left B. With `DepthScratch::set_reuse` on, a border edge first tries
     /// that face (one face test): when the edge still leaves B through it, that crossing is
     /// taken without a search ([`DepthReport::reused`]).
     ///
@@ -90,7 +90,7 @@ impl<'a> DepthScratch<'a> {
     /// proven the *first* place the line leaves B: where a fold of B's surface has come
     /// between the border point and the remembered face since the last call, the search
     /// would have found the fold. So reuse trades the exact first crossing for one face test
-    /// a border edge; it is off until [`DepthScratch::set_reuse`] turns it on, and the two
+    /// a border edge; it is off until `DepthScratch::set_reuse` turns it on, and the two
     /// methods agree bit for bit only without it. Edges beyond `crossings` never reuse.
     ///
     /// # Bounded work
@@ -117,7 +117,7 @@ impl<'a> DepthScratch<'a> {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn set_reuse(&mut self, on: bool) {
+    pub(crate) fn set_reuse(&mut self, on: bool) {
         self.reuse = on;
     }
 
@@ -125,7 +125,8 @@ impl<'a> DepthScratch<'a> {
     ///
     /// # Bounded work
     /// O(crossings).
-    pub fn forget_crossings(&mut self) {
+    #[cfg(test)]
+    pub(crate) fn forget_crossings(&mut self) {
         self.crossings.fill(Crossing::default());
     }
 
@@ -177,7 +178,7 @@ pub struct DepthReport {
     pub reused: u32,
     /// Border edges with no crossing found (walk too long or lost, box too large, no face).
     pub missed_edges: u32,
-    /// Of the `hits`, the edges to a node missing from a partial list ([`Listed::Partial`])
+    /// Of the `hits`, the edges to a node missing from a partial list (`Listed::Partial`)
     /// whose line left B only past that node, followed on to where it leaves B.
     pub beyond: u32,
     /// Colliding nodes left without a depth: no border edge connects them to a depth source
@@ -191,14 +192,14 @@ pub struct DepthReport {
     /// `true` when the output filled up (later penetrations not written).
     pub out_full: bool,
     /// Tets crossed by traced walks, or candidate faces tested by the hashed search (plus the
-    /// tets of its walks past unlisted nodes, [`Listed::Partial`]), plus one per remembered
+    /// tets of its walks past unlisted nodes, `Listed::Partial`), plus one per remembered
     /// face tested ([`DepthScratch::with_crossings`]).
     pub work: u32,
 }
 
 /// The collisions handed to [`penetration_depth_of`]: all of A's nodes inside B, or only some.
 #[derive(Clone, Copy, Debug)]
-pub enum Listed<'c> {
+pub(crate) enum Listed<'c> {
     /// Every node of A inside B is listed (the collision buffer did not fill).
     All(&'c [Collision]),
     /// The collision buffer was full, so nodes of A inside B may be missing from `list`.
@@ -221,7 +222,7 @@ pub enum Listed<'c> {
 
 impl<'c> Listed<'c> {
     /// The collisions.
-    pub fn list(&self) -> &'c [Collision] {
+    pub(crate) fn list(&self) -> &'c [Collision] {
         match *self {
             Self::All(l) | Self::Partial { list: l, .. } => l,
         }
@@ -232,7 +233,7 @@ impl<'c> Listed<'c> {
 ///
 /// `a_positions` and `graph` are body A (the penetrating nodes and their edges), `b` is the
 /// penetrated body, `collisions` the `(node of A, tet of B)` pairs (one per node; all of A's
-/// nodes inside B: see [`penetration_depth_of`] for a list that may be incomplete). Writes one
+/// nodes inside B: see `penetration_depth_of` for a list that may be incomplete). Writes one
 /// [`Penetration`] per colliding node that received a depth, in the order of `collisions`.
 ///
 /// # Bounded work
@@ -271,7 +272,7 @@ pub fn penetration_depth(
 /// border edge for [`Listed::Partial`] with [`Method::Hashed`], and, with reuse on
 /// ([`DepthScratch::with_crossings`]), one face test per border edge before its search (the
 /// search skipped when the test holds).
-pub fn penetration_depth_of(
+pub(crate) fn penetration_depth_of(
     a_positions: &[Vec3],
     graph: &NodeGraph<'_>,
     b: &Body<'_, '_>,

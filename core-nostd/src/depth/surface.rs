@@ -9,35 +9,6 @@
 //! the exact same number: a line cannot slip between them, and the traced walk and the hashed
 //! search agree on every crossing. The crossing's barycentric coordinates on the face are the
 //! edge values opposite each corner, normalised.
-//!
-//! ```
-//! use tetradrill_core::builtin;
-//! use tetradrill_core::collide::Body;
-//! use tetradrill_core::depth::surface::{exit_values, hit_on_face};
-//! use tetradrill_core::prelude::*;
-//!
-//! let (mut pos, tets) = builtin::cube12();
-//! let (mut nodes, mut normals) = ([Node::default(); 9], [Vec3::ZERO; 9]);
-//! let (mut recs, mut scratch) = ([Tet::default(); 12], [FaceKey::default(); 48]);
-//! let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
-//! let mesh = Mesh::build(&mut pos, &tets, storage, &mut scratch, BuildOptions::default())?;
-//! let body = Body::fixed(&mesh);
-//!
-//! // The line from inside the cube straight up leaves it through one face of its top.
-//! let (p, q) = (Vec3::new(0.1, 0.2, 0.0), Vec3::new(0.1, 0.2, 1.0));
-//! let mut hits = Vec::new();
-//! for t in (0..12).map(TetId) {
-//!     for f in (0..4).filter(|&f| mesh.is_boundary_face(t, f)) {
-//!         if let Some(e) = exit_values(&body, t, f, p, q) {
-//!             hits.extend(hit_on_face(&body, t, f, e, p, q));
-//!         }
-//!     }
-//! }
-//! assert_eq!(hits.len(), 1);
-//! assert!((hits[0].point - Vec3::new(0.1, 0.2, 0.5)).length() < 1e-6);
-//! assert!((hits[0].s - 0.5).abs() < 1e-6 && hits[0].normal.z > 0.5);
-//! # Ok::<(), Box<dyn core::error::Error>>(())
-//! ```
 
 use glam::{Quat, Vec3};
 
@@ -49,16 +20,16 @@ use crate::mesh::FaceUse;
 
 /// Where a border edge leaves the other body's surface.
 #[derive(Clone, Copy, PartialEq, Debug)]
-pub struct SurfaceHit {
+pub(crate) struct SurfaceHit {
     /// The boundary face crossed.
-    pub face: FaceUse,
+    pub(crate) face: FaceUse,
     /// The crossing point `x_i`.
-    pub point: Vec3,
+    pub(crate) point: Vec3,
     /// Unit surface normal at `x_i`, interpolated from the face's vertex normals (the face
     /// normal when they cancel).
-    pub normal: Vec3,
+    pub(crate) normal: Vec3,
     /// Position along the edge: `x_i = p + s (q - p)` (up to rounding).
-    pub s: f32,
+    pub(crate) s: f32,
 }
 
 /// Canonical orientation of the line `p -> q` against the edge `u -> v`.
@@ -77,7 +48,13 @@ fn edge_value(pu: Vec3, pv: Vec3, u: NodeId, v: NodeId, p: Vec3, q: Vec3) -> f32
 /// # Bounded work
 /// Constant: three 3x3 determinants.
 #[inline]
-pub fn exit_values(body: &Body<'_, '_>, t: TetId, f: u8, p: Vec3, q: Vec3) -> Option<[f32; 3]> {
+pub(crate) fn exit_values(
+    body: &Body<'_, '_>,
+    t: TetId,
+    f: u8,
+    p: Vec3,
+    q: Vec3,
+) -> Option<[f32; 3]> {
     let nodes = body.tet_nodes(t)?;
     let lv = FACE_VERTS.get(f as usize)?;
     let ids = lv.map(|k| nodes[k as usize]);
@@ -110,7 +87,7 @@ pub(crate) fn leaves(e: [f32; 3]) -> bool {
 /// # Bounded work
 /// Constant.
 #[inline]
-pub fn hit_on_face(
+pub(crate) fn hit_on_face(
     body: &Body<'_, '_>,
     t: TetId,
     f: u8,
@@ -210,11 +187,11 @@ impl Rotor {
 }
 
 /// Slack on the edge parameter: crossings with `s` in `[-S_SLACK, 1 + S_SLACK]` count.
-pub const S_SLACK: f32 = 1e-4;
+pub(crate) const S_SLACK: f32 = 1e-4;
 
 /// `true` when a hit lies on the border edge (within [`S_SLACK`]).
 #[inline]
-pub fn on_edge(h: &SurfaceHit) -> bool {
+pub(crate) fn on_edge(h: &SurfaceHit) -> bool {
     h.s >= -S_SLACK && h.s <= 1.0 + S_SLACK
 }
 

@@ -1,5 +1,7 @@
 use glam::{Affine3A, Vec3};
 
+use super::surface::SurfaceHit;
+use super::traced::trace_to_surface;
 use super::*;
 use crate::collide::test_support::Store;
 use crate::collide::{hash_tets, points_in_tets, Body, Collision};
@@ -638,4 +640,31 @@ fn marks_of_earlier_calls_never_count() {
             assert!((x.depth - (TOP - z)).abs() < 1e-5, "call {call}: {x:?}");
         }
     }
+}
+
+/// The line from inside the 12-tet cube straight up leaves it through one face of its top.
+#[test]
+fn line_up_through_the_cube_leaves_through_one_top_face() {
+    use super::surface::{exit_values, hit_on_face, SurfaceHit};
+    let mut store = Store::<9, 12>::cube12(1.0, Vec3::ZERO);
+    let mesh = store.refinable_mesh();
+    let body = Body::fixed(&mesh);
+
+    let (p, q) = (Vec3::new(0.1, 0.2, 0.0), Vec3::new(0.1, 0.2, 1.0));
+    let mut hits: [Option<SurfaceHit>; 12] = [None; 12];
+    let mut n = 0;
+    for t in (0..12).map(crate::ids::TetId) {
+        for f in (0..4).filter(|&f| mesh.is_boundary_face(t, f)) {
+            if let Some(e) = exit_values(&body, t, f, p, q) {
+                if let Some(hit) = hit_on_face(&body, t, f, e, p, q) {
+                    hits[n] = Some(hit);
+                    n += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(n, 1);
+    let hit = hits[0].unwrap();
+    assert!((hit.point - Vec3::new(0.1, 0.2, 0.5)).length() < 1e-6);
+    assert!((hit.s - 0.5).abs() < 1e-6 && hit.normal.z > 0.5);
 }

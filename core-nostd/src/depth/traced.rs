@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use super::surface::{hit_at, leaves, on_edge, SurfaceHit};
+use super::surface::{hit_at, leaves, SurfaceHit};
 use crate::collide::Body;
 use crate::ids::{NodeId, TetId};
 use crate::mesh::template::FACE_VERTS;
@@ -16,7 +16,8 @@ use crate::mesh::FaceUse;
 /// At most `max_steps` tets: the first with up to four face tests, each further one with
 /// three dot products and one table lookup. A walk that needs more, or that finds no exit
 /// face (rounding on a degenerate configuration), returns `None`.
-pub fn trace_to_surface(
+#[cfg(test)]
+pub(crate) fn trace_to_surface(
     body: &Body<'_, '_>,
     start: TetId,
     p: Vec3,
@@ -24,7 +25,7 @@ pub fn trace_to_surface(
     max_steps: u32,
     steps: &mut u32,
 ) -> Option<SurfaceHit> {
-    trace_exit(body, start, p, q, max_steps, steps).filter(on_edge)
+    trace_exit(body, start, p, q, max_steps, steps).filter(super::surface::on_edge)
 }
 
 /// Where the line from `p` towards `q` first leaves `body` through a boundary face, walking

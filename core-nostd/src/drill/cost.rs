@@ -53,7 +53,7 @@ impl WorkCost {
     pub const EXACT_TEST: u32 = 5;
     /// A node created by a refinement (eight a refinement, besides its visits).
     pub const CREATED: u32 = 13;
-    /// Finding an item's sphere among the remembered ones (up to [`super::SWEPT`] comparisons; once
+    /// Finding an item's sphere among the remembered ones (up to `super::SWEPT` comparisons; once
     /// per sphere whose items reach the swept test).
     pub const LOCATE: u32 = 4;
 }

@@ -12,22 +12,17 @@ impl Drill<'_> {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn set_debris_leaves(&mut self, max_leaves: u32) {
+    pub(crate) fn set_debris_leaves(&mut self, max_leaves: u32) {
         self.crumbs.set_max_leaves(max_leaves);
     }
 
-    /// The debris size of the drill's checks (0: off).
-    pub fn debris_leaves(&self) -> u32 {
-        self.crumbs.max_leaves()
-    }
-
     /// What the drill's debris checks erased and how often they saturated, since creation.
-    pub fn debris(&self) -> CrumbStats {
+    pub(crate) fn debris(&self) -> CrumbStats {
         self.crumbs.stats()
     }
 
     /// Erased leaves whose debris check waits for budget.
-    pub fn debris_pending(&self) -> usize {
+    pub(crate) fn debris_pending(&self) -> usize {
         self.crumbs.pending()
     }
 

@@ -37,12 +37,6 @@ impl<'a> Ring<'a> {
         self.slots.len() - self.len
     }
 
-    /// Drops every item.
-    pub(super) fn clear(&mut self) {
-        self.head = 0;
-        self.len = 0;
-    }
-
     /// The item at the back (the last one pushed there), if any.
     pub(super) fn back(&self) -> Option<&Pending> {
         let cap = self.slots.len();
@@ -100,7 +94,7 @@ impl<'a> Ring<'a> {
 /// Below this many entries the deque keeps no fine ring: every refinement is done in the
 /// coarse pass (a small deque is a test's or a tiny target's, where the pass order does not
 /// matter and every entry is wanted for the one pass).
-pub const FINE_MIN_DEQUE: usize = 1024;
+pub(crate) const FINE_MIN_DEQUE: usize = 1024;
 
 /// Free slots the fine ring keeps for a depth-first descent (at most 7 children waiting per
 /// level, plus the item itself): a root is deferred only while more than this many are free.

@@ -51,7 +51,7 @@ impl Material {
     /// threshold, or at least the threshold when the hardness is zero. A force that is not a
     /// number counts as zero.
     #[inline]
-    pub fn admits(&self, force: f32) -> bool {
+    pub(crate) fn admits(&self, force: f32) -> bool {
         let f = if force.is_nan() { 0.0 } else { force };
         if self.rate_limited() {
             f > self.threshold
@@ -69,7 +69,7 @@ impl Material {
     /// The volume removed per second, cubic mesh units, while pressed with `force` newtons:
     /// `(force - threshold) / hardness` above the threshold, zero below; infinite for a
     /// material removed at once that the force admits.
-    pub fn rate(&self, force: f32) -> f64 {
+    pub(crate) fn rate(&self, force: f32) -> f64 {
         if !self.admits(force) {
             0.0
         } else if self.rate_limited() {
@@ -125,7 +125,7 @@ impl Region {
 /// queues a held burr's position again every [`super::DRILL_HOLD_STEPS`] steps, so credit
 /// earned between two queued positions is not lost; work the burr does on nothing dissipates
 /// beyond that.
-pub const CREDIT_STEPS: f64 = 2.0 * super::DRILL_HOLD_STEPS as f64;
+pub(crate) const CREDIT_STEPS: f64 = 2.0 * super::DRILL_HOLD_STEPS as f64;
 
 /// Why [`Regions::new`] refused its storage.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -187,7 +187,7 @@ pub struct Regions<'a> {
 
 /// What [`Regions::spend`] decided for a leaf.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum Spend {
+pub(crate) enum Spend {
     /// The leaf's volume was taken from its region's credit (or its material is removed at
     /// once): erase it.
     Erase,
@@ -239,21 +239,16 @@ impl<'a> Regions<'a> {
 
     /// The region index of coarse tet `tet` (0 beyond the index slice).
     #[inline]
-    pub fn region_of(&self, tet: TetId) -> u8 {
+    pub(crate) fn region_of(&self, tet: TetId) -> u8 {
         self.of_tet.get(tet.idx()).copied().unwrap_or(0)
     }
 
     /// The material of coarse tet `tet`.
     #[inline]
-    pub fn material_of(&self, tet: TetId) -> Material {
+    pub(crate) fn material_of(&self, tet: TetId) -> Material {
         self.table
             .get(self.region_of(tet) as usize)
             .map_or(Material::DEFAULT, |r| r.material)
-    }
-
-    /// The pressing force of the last grant, newtons.
-    pub fn force(&self) -> f32 {
-        self.force
     }
 
     /// Earns each region its credit for `dt` seconds of the burr pressing with `force`
@@ -264,7 +259,7 @@ impl<'a> Regions<'a> {
     ///
     /// # Bounded work
     /// O(regions).
-    pub fn grant(&mut self, force: f32, dt: f32, cutting: bool) -> u32 {
+    pub(crate) fn grant(&mut self, force: f32, dt: f32, cutting: bool) -> u32 {
         let force = if force.is_finite() {
             force.max(0.0)
         } else {
@@ -304,7 +299,7 @@ impl<'a> Regions<'a> {
     /// `true` when the last grant's force removes the material of `tet` (its leaves are worth
     /// refining and erasing).
     #[inline]
-    pub fn admits(&self, tet: TetId) -> bool {
+    pub(crate) fn admits(&self, tet: TetId) -> bool {
         self.material_of(tet).admits(self.force)
     }
 
@@ -315,7 +310,7 @@ impl<'a> Regions<'a> {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn spend(&mut self, tet: TetId, volume: f64) -> Spend {
+    pub(crate) fn spend(&mut self, tet: TetId, volume: f64) -> Spend {
         let r = self.region_of(tet);
         let Some(reg) = self.table.get_mut(r as usize) else {
             return Spend::Erase;
@@ -339,24 +334,11 @@ impl<'a> Regions<'a> {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn note_removed(&mut self, tet: TetId, volume: f64) {
+    pub(crate) fn note_removed(&mut self, tet: TetId, volume: f64) {
         let r = self.region_of(tet) as usize;
         if let Some(reg) = self.table.get_mut(r) {
             reg.removed += volume;
         }
-    }
-
-    /// Forgets the credits, the waiting leaf and the removed volumes (after the hierarchy is
-    /// reset).
-    ///
-    /// # Bounded work
-    /// O(regions).
-    pub fn clear(&mut self) {
-        for r in self.table.iter_mut() {
-            r.credit = 0.0;
-            r.removed = 0.0;
-        }
-        self.waiting = None;
     }
 }
 
@@ -368,17 +350,17 @@ impl<'a> super::Drill<'a> {
     ///
     /// # Bounded work
     /// O(1).
-    pub fn set_regions(&mut self, regions: Regions<'a>) {
+    pub(crate) fn set_regions(&mut self, regions: Regions<'a>) {
         self.regions = Some(regions);
     }
 
     /// The materials per region, if set.
-    pub fn regions(&self) -> Option<&Regions<'a>> {
+    pub(crate) fn regions(&self) -> Option<&Regions<'a>> {
         self.regions.as_ref()
     }
 
     /// The materials per region, if set, to grant them credit.
-    pub fn regions_mut(&mut self) -> Option<&mut Regions<'a>> {
+    pub(crate) fn regions_mut(&mut self) -> Option<&mut Regions<'a>> {
         self.regions.as_mut()
     }
 

@@ -16,7 +16,7 @@ pub struct Sphere {
 
 /// Where a tet lies relative to a sphere.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum Class {
+pub(crate) enum Class {
     /// No point of the tet is inside the sphere.
     Outside,
     /// The tet crosses the sphere's surface.
@@ -31,7 +31,8 @@ pub enum Class {
 ///
 /// # Bounded work
 /// Constant: 4 distances, a box distance, at most 4 closest-point-on-triangle queries.
-pub fn classify(p: [Vec3; 4], s: &Sphere) -> Class {
+#[cfg(test)]
+pub(crate) fn classify(p: [Vec3; 4], s: &Sphere) -> Class {
     classify_costed(p, s).0
 }
 

@@ -111,10 +111,10 @@ pub struct DrillReport {
     /// Capacity saturations this step (arena full, pending queue full).
     pub saturations: u32,
     /// Items dropped because the pressing force does not remove their region's material
-    /// ([`super::Material::admits`]).
+    /// (`super::Material::admits`).
     pub held: u32,
     /// 1 when the step ended on a leaf waiting for its region's credit
-    /// ([`super::Regions::spend`]).
+    /// (`super::Regions::spend`).
     pub waited: u32,
     /// Erased leaves checked for debris cut off (`crumbs.rs`).
     pub debris_checked: u32,
@@ -125,12 +125,12 @@ pub struct DrillReport {
 /// A drill step whose debris seed queue is full checks a seed before each item until it has
 /// spent `budget / CRUMB_SHARE` on checks: a drill lagging behind the burr keeps seven eighths
 /// of its budget for material, and its crumbs are still found while it drills.
-pub const CRUMB_SHARE: u32 = 8;
+pub(crate) const CRUMB_SHARE: u32 = 8;
 
 /// The coarse pass defers the last level's refinements only while at least this many spheres
 /// were queued after the item's own: a drill that keeps up with the burr refines at once (the
 /// fine pass walks the trees down again, about 7 % more work).
-pub const DEFER_LAG: usize = 8;
+pub(crate) const DEFER_LAG: usize = 8;
 
 /// Which ring an item came from (its children go to the same one).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -183,7 +183,7 @@ pub struct Drill<'a> {
 
 impl<'a> Drill<'a> {
     /// A drill whose pending deque is `queue` (its length is the capacity). From
-    /// [`super::FINE_MIN_DEQUE`] entries up, the second half holds the fine pass's roots; a smaller
+    /// `super::FINE_MIN_DEQUE` entries up, the second half holds the fine pass's roots; a smaller
     /// deque is all coarse pass (every refinement done at once).
     ///
     /// # Bounded work
@@ -224,22 +224,6 @@ impl<'a> Drill<'a> {
         self.saturations
     }
 
-    /// Drops all pending work (e.g. after [`Hierarchy::reset`]).
-    ///
-    /// # Bounded work
-    /// O(1).
-    pub fn clear(&mut self) {
-        self.coarse.clear();
-        self.fine.clear();
-        self.memo = [None; MEMO];
-        self.swept_len = 0;
-        self.swept_next = 0;
-        self.frame = None;
-        self.parents = [Parent::EMPTY; MAX_DEPTH];
-        self.stalled = false;
-        self.crumbs.clear();
-    }
-
     pub(super) fn saturate(&mut self, rep: &mut DrillReport) {
         self.saturations += 1;
         rep.saturations += 1;
@@ -265,15 +249,15 @@ impl<'a> Drill<'a> {
     ///   and those that meet the sphere and still hold material are queued (the others would
     ///   only be dropped);
     /// - a leaf entirely inside the sphere (all four corners), or inside one of the
-    ///   [`SWEPT_AHEAD`] spheres queued after it (the swept path, which erases it anyway when
+    ///   `SWEPT_AHEAD` spheres queued after it (the swept path, which erases it anyway when
     ///   its own work arrives), is erased at once: only the boundary of the swept volume is
     ///   refined, not the shell of every sphere along it. The later spheres are known when
     ///   the drill lags behind the burr, which is when the work matters (before 2026-11-24 the
-    ///   last [`SWEPT_AHEAD`] spheres queued were tested instead: useless once the drill was
+    ///   last `SWEPT_AHEAD` spheres queued were tested instead: useless once the drill was
     ///   more than that many spheres behind, and the earlier ones never hold material);
     /// - a leaf crossing the sphere is refined when it is above `max_depth` and its smallest
     ///   face is at least `min_area`, and its children are queued. One level above
-    ///   `max_depth`, while the drill lags [`DEFER_LAG`] spheres or more behind the burr: in
+    ///   `max_depth`, while the drill lags `DEFER_LAG` spheres or more behind the burr: in
     ///   the coarse pass its tree's root goes to the fine ring instead (once for a run of such
     ///   leaves of one tree, while the fine ring has room for the root and a descent, else it
     ///   is refined now); the fine pass, or a coarse pass that keeps up, refines it only when
@@ -300,8 +284,8 @@ impl<'a> Drill<'a> {
     /// level above `max_depth`, after its children's centroid test, counted as the expansion
     /// that follows the refinement), an
     /// erasure 4 NTree visits, each O(depth) plus the instantiated nodes across one face. A
-    /// leaf's swept test is at most [`SWEPT_AHEAD`] sphere tests, after a search of the
-    /// [`SWEPT`] remembered spheres when the item's sphere is not the last one looked up
+    /// leaf's swept test is at most `SWEPT_AHEAD` sphere tests, after a search of the
+    /// `SWEPT` remembered spheres when the item's sphere is not the last one looked up
     /// ([`WorkCost::LOCATE`]). Every leaf erased leaves a debris seed; the seeds are checked
     /// after the items, while the budget lasts, and before the next item when their queue is
     /// full ([`crate::hierarchy::Crumbs::check_one`], charged [`WorkCost::TAKEN`] plus its NTree
@@ -315,8 +299,6 @@ impl<'a> Drill<'a> {
     /// up again by its tree index before it is used (O(depth) more for that item; stale
     /// items are dropped). Pending deque full: the new item or the children are dropped and
     /// counted; the hierarchy stays valid, only the erosion is coarser there.
-    ///
-    /// [`SWEPT_AHEAD`]: super::SWEPT_AHEAD
     pub fn step(
         &mut self,
         h: &mut Hierarchy<'_>,

@@ -13,13 +13,13 @@ use super::step::{Drill, DrillReport};
 /// swept volume (see [`Drill::step`]). The ring holds that many past a lag of
 /// `SWEPT - SWEPT_AHEAD` spheres; a drill further behind sees fewer, down to none once its
 /// sphere has been forgotten.
-pub const SWEPT: usize = 64;
+pub(crate) const SWEPT: usize = 64;
 
 /// How many spheres queued after an item's own count as the swept volume for it: a burr queued
 /// every eighth of the radius ([`crate::servo::DRILL_SPACING`]) meets the next sixteen
 /// positions, the only ones a node on its surface can lie inside. Spheres queued *before* an
 /// item's are not tested: their work came first, and it erased what lay inside them.
-pub const SWEPT_AHEAD: usize = 16;
+pub(crate) const SWEPT_AHEAD: usize = 16;
 
 impl Drill<'_> {
     /// Remembers `s` as part of the swept volume (the oldest of [`SWEPT`] is forgotten).

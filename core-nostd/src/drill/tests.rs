@@ -3,6 +3,7 @@
 
 use glam::Vec3;
 
+use super::sphere::{classify, Class};
 use super::*;
 use crate::builtin::{CUBE12_NODES, CUBE12_TETS};
 use crate::collide::test_support::Store;

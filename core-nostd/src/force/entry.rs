@@ -9,29 +9,6 @@
 //! direction of the consistent force), and while the contact lasts measures every colliding
 //! tool node's depth against that plane. The force stays along the entry normal and grows
 //! smoothly with the push. The plane is forgotten when contact ends.
-//!
-//! ```
-//! use tetradrill_core::depth::Penetration;
-//! use tetradrill_core::force::EntryPlane;
-//! use tetradrill_core::prelude::*;
-//!
-//! // A contact begins: one tool node 0.01 below a floor at z = 0 (direction out of it: +z).
-//! let mut entry = EntryPlane::default();
-//! let mut at = [Vec3::new(0.0, 0.0, -0.01)];
-//! let first = Penetration { node: NodeId(0), depth: 0.01, dir: Vec3::Z, ..Default::default() };
-//! assert!((entry.force(&at, &[first], 100.0) - Vec3::Z).length() < 1e-5);
-//! assert_eq!(entry.plane(), Some((Vec3::ZERO, Vec3::Z)));
-//!
-//! // Pushed sideways and deeper, the node's consistent depth turns sideways (a thin pen's
-//! // jump); the entry plane still measures it 0.03 deep, straight up.
-//! at[0] = Vec3::new(0.2, 0.0, -0.03);
-//! let sideways = Penetration { depth: 0.05, dir: Vec3::X, ..first };
-//! assert!((entry.force(&at, &[sideways], 100.0) - Vec3::Z * 3.0).length() < 1e-4);
-//!
-//! // The contact ends: the plane is forgotten.
-//! entry.force(&at, &[], 100.0);
-//! assert_eq!(entry.plane(), None);
-//! ```
 
 use glam::Vec3;
 
@@ -40,19 +17,15 @@ use crate::ids::NodeId;
 
 /// The remembered entry plane.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
-pub struct EntryPlane {
+pub(crate) struct EntryPlane {
     plane: Option<(Vec3, Vec3)>,
 }
 
 impl EntryPlane {
     /// The remembered `(point, outward normal)`, if in contact.
-    pub fn plane(&self) -> Option<(Vec3, Vec3)> {
+    #[cfg(test)]
+    pub(crate) fn plane(&self) -> Option<(Vec3, Vec3)> {
         self.plane
-    }
-
-    /// Forgets the plane.
-    pub fn reset(&mut self) {
-        self.plane = None;
     }
 
     /// Updates the memory with this tick's penetrations of the tool's nodes and returns the
@@ -62,7 +35,13 @@ impl EntryPlane {
     ///
     /// # Bounded work
     /// O(penetrations).
-    pub fn force(&mut self, positions: &[Vec3], pens: &[Penetration], stiffness: f32) -> Vec3 {
+    #[cfg(test)]
+    pub(crate) fn force(
+        &mut self,
+        positions: &[Vec3],
+        pens: &[Penetration],
+        stiffness: f32,
+    ) -> Vec3 {
         self.force_at(|n| positions.get(n.idx()).copied(), pens, stiffness)
     }
 
@@ -71,7 +50,7 @@ impl EntryPlane {
     ///
     /// # Bounded work
     /// O(penetrations) calls of `at`.
-    pub fn force_at<P: Fn(NodeId) -> Option<Vec3>>(
+    pub(crate) fn force_at<P: Fn(NodeId) -> Option<Vec3>>(
         &mut self,
         at: P,
         pens: &[Penetration],

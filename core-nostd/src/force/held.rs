@@ -72,8 +72,8 @@ pub struct PenServo {
 /// The pen's force at `position` and `rotation` from the held pass `held`: each penetration
 /// carried to this pose (module docs), then stiffness, the entry-plane remedy when
 /// `opts.entry_remedy`, damping, clamping and the displayed offset as
-/// [`pen_contact`](super::pen_contact) does. Uses only [`PenState::tool`] and
-/// [`PenState::entry`] of `state`.
+/// [`pen_contact`](super::pen_contact) does. Uses only `PenState::tool` and
+/// `PenState::entry` of `state`.
 ///
 /// # Bounded work
 /// O(held penetrations): per pen node one point transform, per object node one point

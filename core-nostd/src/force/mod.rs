@@ -2,20 +2,19 @@
 //!
 //! | file          | what                                                                  |
 //! |---------------|-----------------------------------------------------------------------|
-//! | [`triangles`] | sphere / active sample point: radius minus distance to the surface    |
-//! | [`segment`]   | passive point: the segment between two positions against the faces    |
-//! | [`passive`]   | passive points tracked tick to tick, held at a face they cross; force  |
-//! | [`shaft`]     | a drill: the burr and the passive points along its shaft               |
-//! | [`pen`]       | tet-mesh tool: collisions both ways, consistent depth, summed force   |
-//! | [`held`]      | the pen's servo half: force carried from the last contact pass        |
-//! | [`entry`]     | the thin-pen remedy: an entry plane remembered while in contact        |
-//! | [`response`]  | damping, clamping, the displayed (non-penetrating) tool offset        |
+//! | `triangles` | sphere / active sample point: radius minus distance to the surface    |
+//! | `passive`   | passive points tracked tick to tick, held at a face they cross; force  |
+//! | `shaft`     | a drill: the burr and the passive points along its shaft               |
+//! | `pen`       | tet-mesh tool: collisions both ways, consistent depth, summed force   |
+//! | `held`      | the pen's servo half: force carried from the last contact pass        |
+//! | `entry`     | the thin-pen remedy: an entry plane remembered while in contact        |
+//! | `response`  | damping, clamping, the displayed (non-penetrating) tool offset        |
 //! | [`frames`]    | camera `C = M . T`, allocentric pen `P_a = P_e . C`, forces mapped back |
-//! | [`digest`]    | FNV-1a 64 over the force series' bit patterns                          |
-//! | [`passivity`] | time-domain passivity observer and controller, the energy trip         |
+//! | `digest`    | FNV-1a 64 over the force series' bit patterns                          |
+//! | `passivity` | time-domain passivity observer and controller, the energy trip         |
 //!
 //! Triangles handed to the force functions are `[Vec3; 3]` listed counter-clockwise seen
-//! from outside (right-hand normal pointing out of the object); [`boundary_triangle`] turns a
+//! from outside (right-hand normal pointing out of the object); `boundary_triangle` turns a
 //! mesh boundary face (listed clockwise) into one.
 //!
 //! ```
@@ -34,35 +33,31 @@
 //! assert!((force - Vec3::Z * 3.3).length() < 1e-5);
 //! ```
 
-pub mod digest;
-pub mod entry;
+mod digest;
+mod entry;
 pub mod frames;
-pub mod held;
-pub mod passive;
-pub mod passivity;
-pub mod pen;
-pub mod response;
-pub mod segment;
-pub mod shaft;
-pub mod triangles;
+mod held;
+mod passive;
+mod passivity;
+mod pen;
+mod response;
+mod shaft;
+mod triangles;
 
 pub use digest::{force_digest, ForceDigest};
-pub use entry::EntryPlane;
 pub use held::{pen_servo_force, HeldContact, PenServo, ServoScratch};
-pub use passive::{passive_force, PassivePoint, PassiveProbe};
-pub use passivity::{
-    penalty_storage, PassivityObserver, PassivityParams, Storage, DEFAULT_SLACK_J, DEFAULT_TRIP_J,
-};
+pub use passive::PassivePoint;
+pub(crate) use passive::{passive_force, PassiveProbe};
+pub use passivity::{penalty_storage, PassivityObserver, PassivityParams, Storage};
 pub use pen::{
     object_side, pen_contact, pen_pass, pen_place, pen_side, DepthMethod, PenBuffers, PenContact,
     PenForce, PenOptions, PenPass, PenPlacement, PenScene, PenState, SideBuffers, SideReport,
 };
-pub use response::{clamp_force, damping_force, display_offset, ForceParams, ToolState};
-pub use segment::{segment_first_hit, SegmentHit};
+pub(crate) use response::damping_force;
+pub use response::{clamp_force, display_offset, ForceParams, ToolState};
 pub use shaft::{DrillTool, MAX_PASSIVE};
 pub use triangles::{
-    boundary_triangle, closest_point_on_triangle, mesh_sphere_contact, sphere_contact,
-    SphereContact,
+    closest_point_on_triangle, mesh_sphere_contact, sphere_contact, SphereContact,
 };
 
 #[cfg(test)]

@@ -8,28 +8,6 @@
 //! [`PassiveProbe`] takes the triangles near one point, one at a time (from any source: a
 //! slice, the hierarchy's visible faces near the point), and [`PassiveProbe::finish`] updates
 //! the point's [`PassivePoint`]; [`passive_force`] turns the points' planes into one force.
-//!
-//! ```
-//! use tetradrill_core::force::{passive_force, PassivePoint, PassiveProbe};
-//! use tetradrill_core::Vec3;
-//!
-//! // A floor at z = 0 (outward +z) and a passive point that jumps 0.3 through it in one tick.
-//! let floor = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
-//! let mut point = PassivePoint::default();
-//! let (above, below) = (Vec3::new(0.0, 0.0, 0.05), Vec3::new(0.0, 0.0, -0.3));
-//! for to in [above, below] {
-//!     let mut probe = PassiveProbe::new(&point, to, 0.1);
-//!     probe.offer(floor);
-//!     probe.finish(&mut point);
-//! }
-//!
-//! // It did not tunnel: it is held at the face it entered, which pushes it back out with
-//! // 100 N per unit x (radius 0.05 + 0.3 behind the face).
-//! assert!(point.is_held());
-//! let (force, pushing) = passive_force(&[point], &[below], 0.05, 100.0, 50.0);
-//! assert_eq!(pushing, 1);
-//! assert!((force - Vec3::Z * 35.0).length() < 1e-4);
-//! ```
 
 use glam::Vec3;
 
@@ -63,7 +41,7 @@ impl PassivePoint {
 /// The triangles near one passive point, offered one at a time: the first face the segment
 /// from the proxy to the new position enters, and the closest face to the new position.
 #[derive(Clone, Copy, Debug)]
-pub struct PassiveProbe {
+pub(crate) struct PassiveProbe {
     from: Vec3,
     to: Vec3,
     reach2: f32,
@@ -80,7 +58,7 @@ impl PassiveProbe {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn new(state: &PassivePoint, to: Vec3, reach: f32) -> Self {
+    pub(crate) fn new(state: &PassivePoint, to: Vec3, reach: f32) -> Self {
         Self {
             from: state.proxy.unwrap_or(to),
             to,
@@ -96,7 +74,7 @@ impl PassiveProbe {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn ball(&self, reach: f32) -> (Vec3, f32) {
+    pub(crate) fn ball(&self, reach: f32) -> (Vec3, f32) {
         let mid = (self.from + self.to) * 0.5;
         (mid, 0.5 * (self.to - self.from).length() + reach)
     }
@@ -105,7 +83,7 @@ impl PassiveProbe {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn triangles(&self) -> u32 {
+    pub(crate) fn triangles(&self) -> u32 {
         self.triangles
     }
 
@@ -114,12 +92,12 @@ impl PassiveProbe {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn offer(&mut self, [a, b, c]: [Vec3; 3]) {
+    pub(crate) fn offer(&mut self, [a, b, c]: [Vec3; 3]) {
         self.triangles = self.triangles.wrapping_add(1);
         let n = (b - a).cross(c - a);
         let d = self.to - self.from;
         let den = n.dot(d);
-        // Entering crossing (moving against the outward normal), as `segment_first_hit`.
+        // Entering crossing (moving against the outward normal).
         if den < 0.0 {
             let s = n.dot(a - self.from) / den;
             if (0.0..=1.0).contains(&s) && self.hit.is_none_or(|h| s < h.0) {
@@ -151,7 +129,7 @@ impl PassiveProbe {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn finish(self, state: &mut PassivePoint) {
+    pub(crate) fn finish(self, state: &mut PassivePoint) {
         let to = self.to;
         if !to.is_finite() {
             *state = PassivePoint::default();
@@ -192,7 +170,7 @@ impl PassiveProbe {
 ///
 /// # Bounded work
 /// O(points).
-pub fn passive_force(
+pub(crate) fn passive_force(
     points: &[PassivePoint],
     positions: &[Vec3],
     radius: f32,

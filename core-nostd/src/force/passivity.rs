@@ -97,7 +97,7 @@ pub struct PassivityParams {
 /// (200 N/m, damping 0.5 N s/m, 1 kHz) generates nothing (Colgate's bound holds), and the
 /// contact plane's updates and switches add a few microjoules at most; 0.1 mJ is the energy of
 /// a 0.1 kg stylus at 4.5 cm/s.
-pub const DEFAULT_SLACK_J: f32 = 1e-4;
+pub(crate) const DEFAULT_SLACK_J: f32 = 1e-4;
 
 /// Default [`PassivityParams::trip_j`]: 50 mJ. A healthy press at the force limit stores at
 /// most `F^2 / 2K` (0.16 J for 8 N at 200 N/m) and nothing past it; 50 mJ past the limit is
@@ -105,11 +105,11 @@ pub const DEFAULT_SLACK_J: f32 = 1e-4;
 /// mirrored axis reaches within a few hundred milliseconds of contact at the default
 /// stiffness (and within a few ticks at ten times it), while the controller keeps a healthy
 /// stiff wall's generated energy near the 0.1 mJ slack, 500 times lower.
-pub const DEFAULT_TRIP_J: f32 = 0.05;
+pub(crate) const DEFAULT_TRIP_J: f32 = 0.05;
 
 impl Default for PassivityParams {
     /// 1 kHz, 20 N s/m (the simulated device's and the Falcon's damping limit), no force
-    /// limit, [`DEFAULT_SLACK_J`], [`DEFAULT_TRIP_J`], controller on, 500 ticks to regrip, the
+    /// limit, `DEFAULT_SLACK_J`, `DEFAULT_TRIP_J`, controller on, 500 ticks to regrip, the
     /// classic form observing only.
     fn default() -> Self {
         Self {
@@ -207,7 +207,7 @@ impl Default for PassivityObserver {
 
 impl PassivityObserver {
     /// A fresh observer (no energy exchanged yet, not tripped).
-    pub const fn new(params: PassivityParams) -> Self {
+    pub(crate) const fn new(params: PassivityParams) -> Self {
         Self {
             params,
             history: [Vec3::ZERO; 2],
@@ -225,11 +225,6 @@ impl PassivityObserver {
             tripped: false,
             trips: 0,
         }
-    }
-
-    /// The settings.
-    pub fn params(&self) -> PassivityParams {
-        self.params
     }
 
     /// Replaces the settings (the energies and the trip stay).
@@ -369,13 +364,9 @@ impl PassivityObserver {
     }
 
     /// Net energy into the environment so far, `E`, joules.
-    pub fn energy_j(&self) -> f32 {
+    #[cfg(test)]
+    pub(crate) fn energy_j(&self) -> f32 {
         self.energy
-    }
-
-    /// The generated energy at the last tick, joules.
-    pub fn generated_j(&self) -> f32 {
-        self.generated
     }
 
     /// The largest generated energy seen up to the trip, joules.

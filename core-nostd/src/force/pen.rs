@@ -128,7 +128,7 @@ pub struct PenOptions {
     pub max_steps: u32,
     /// Most cells a hashed edge query may cover.
     pub max_cells: u32,
-    /// Use the entry-plane remedy for the pen's nodes ([`EntryPlane`]).
+    /// Use the entry-plane remedy for the pen's nodes (`EntryPlane`).
     pub entry_remedy: bool,
     /// Most object tets a pen node's walk may test before the node is looked up in the
     /// object's tet hash instead ([`points_in_tets_walked`]; 0: always the hash; no walks
@@ -162,9 +162,9 @@ impl Default for PenOptions {
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct PenState {
     /// For damping.
-    pub tool: ToolState,
+    pub(crate) tool: ToolState,
     /// For the remedy.
-    pub entry: EntryPlane,
+    pub(crate) entry: EntryPlane,
     /// Entries of [`PenBuffers::pen_hits`] written last tick: a full list keeps those nodes
     /// first ([`points_in_tets_walked`]).
     pub pen_listed: usize,
@@ -357,7 +357,7 @@ impl PenPass {
 ///
 /// When a collision list is full, it keeps last tick's nodes that still collide first
 /// ([`PenState::pen_listed`], [`points_in_tets_walked`], [`rigid_tets_over_points_coherent`]) and
-/// its depths follow edges to unlisted nodes on to the surface ([`Listed::Partial`], at most
+/// its depths follow edges to unlisted nodes on to the surface (`Listed::Partial`, at most
 /// `max_steps` tets): a node enters or leaves the list only as it enters or leaves the other
 /// body, where its depth is near zero, so the force stays continuous.
 ///
@@ -530,7 +530,7 @@ impl PenPlacement<'_> {
 /// # Bounded work
 /// Collision: O(N_pen * (w + b + g)) for w = `max_walk`, b the largest bucket of the object's
 /// tet hash and g the pen graph's largest node degree ([`points_in_tets_walked`]); depth: see
-/// [`penetration_depth_of`], bounded by `side`'s buffers and `max_steps` / `max_cells`. Nothing
+/// `penetration_depth_of`, bounded by `side`'s buffers and `max_steps` / `max_cells`. Nothing
 /// when the pen is away from the object.
 pub fn pen_side(
     scene: &PenScene<'_, '_, '_>,
@@ -592,7 +592,7 @@ pub fn pen_side(
 /// cells of the object's node lists (or of its node hash when the occupancy has none) with a
 /// rest-grid lookup per node met in the cluster's cell ([`rigid_tets_over_points_coherent`];
 /// for poses far from the origin the walk over every pen tet, O(T_pen * cells * b), twice at
-/// most); depth: see [`penetration_depth_of`], bounded by
+/// most); depth: see `penetration_depth_of`, bounded by
 /// `side`'s buffers and `max_steps` / `max_cells`. Nothing when the pen is away from the
 /// object.
 pub fn object_side(

@@ -1,23 +1,5 @@
 //! From contact to the force a device may render: stiffness, damping, clamping, and where to
 //! draw the tool so it never visibly penetrates.
-//!
-//! ```
-//! use tetradrill_core::depth::Penetration;
-//! use tetradrill_core::force::{damping_force, display_offset, ForceParams, ToolState};
-//! use tetradrill_core::Vec3;
-//!
-//! // No velocity on the first tick; then 1 mm down in a 1 ms tick: 2 N s per unit x 1 unit/s, up.
-//! let params = ForceParams { damping: 2.0, ..ForceParams::default() };
-//! let mut tool = ToolState::default();
-//! assert_eq!(damping_force(&mut tool, Vec3::ZERO, true, &params), Vec3::ZERO);
-//! let damping = damping_force(&mut tool, Vec3::new(0.0, 0.0, -0.001), true, &params);
-//! assert!((damping - Vec3::Z * 2.0).length() < 1e-3);
-//!
-//! // The tool is drawn out along the force by its deepest node's depth.
-//! let at = |depth| Penetration { depth, dir: Vec3::Z, ..Default::default() };
-//! let offset = display_offset(Vec3::Z * 3.0, &[at(0.02), at(0.01)], &[]);
-//! assert!((offset - Vec3::Z * 0.02).length() < 1e-7);
-//! ```
 
 use glam::Vec3;
 
@@ -55,21 +37,21 @@ impl Default for ForceParams {
 /// Default [`ForceParams::switch_time`]: 16 ms, so a full reversal of a clamped force is
 /// spread over 16 servo ticks at 1 kHz (an eighth of the clamp per tick), well under the
 /// time a hand notices (tens of milliseconds) and well over one tick.
-pub const DEFAULT_SWITCH_TIME: f32 = 0.016;
+pub(crate) const DEFAULT_SWITCH_TIME: f32 = 0.016;
 
 /// The tool's state carried from tick to tick.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct ToolState {
     /// Reference position at the previous tick (none before the first).
-    pub previous: Option<Vec3>,
+    pub(crate) previous: Option<Vec3>,
     /// The contact plane (point, unit normal) the last force came from, if any.
-    pub plane: Option<(Vec3, Vec3)>,
+    pub(crate) plane: Option<(Vec3, Vec3)>,
     /// What the force still owes the last plane switch: added to the spring force and
     /// shrunk to zero at a bounded rate (see [`crate::servo::servo_force`]).
-    pub residual: Vec3,
+    pub(crate) residual: Vec3,
     /// The stiffness `plane` was felt with, newtons per mesh unit (a change of the material
     /// under the contact is a switch, rendered as a ramp like a change of plane).
-    pub stiffness: f32,
+    pub(crate) stiffness: f32,
 }
 
 /// Damping force `-b v` with `v` from two consecutive positions; zero without a previous
@@ -77,7 +59,7 @@ pub struct ToolState {
 ///
 /// # Bounded work
 /// Constant.
-pub fn damping_force(
+pub(crate) fn damping_force(
     state: &mut ToolState,
     now: Vec3,
     in_contact: bool,

@@ -1,23 +1,6 @@
 //! A drill: the burr (one active sample point at its centre, Turini et al. 2006, section 3.2) on a
 //! shaft sampled by passive points ([`super::passive`]) along the tool's axis, from the burr
 //! to the handle.
-//!
-//! ```
-//! use tetradrill_core::force::{DrillTool, MAX_PASSIVE};
-//! use tetradrill_core::{Quat, Vec3};
-//!
-//! let tool = DrillTool { burr_radius: 0.1, shaft_length: 0.6, shaft_radius: 0.05 };
-//! // Passive points from the burr's surface to the handle, a shaft radius apart: 10 gaps.
-//! assert_eq!(tool.passive_count(), 11);
-//!
-//! // The tool turned a quarter about x: its axis (+z at rest) points along -y.
-//! let axis = DrillTool::axis(Quat::from_rotation_x(core::f32::consts::FRAC_PI_2));
-//! assert!((axis + Vec3::Y).length() < 1e-6);
-//! let mut at = [Vec3::ZERO; MAX_PASSIVE];
-//! let n = tool.passive_positions(Vec3::ZERO, axis, &mut at);
-//! assert!((at[0] - axis * 0.1).length() < 1e-6);
-//! assert!((at[n - 1] - tool.handle(Vec3::ZERO, axis)).length() < 1e-6);
-//! ```
 
 use glam::{Quat, Vec3};
 
@@ -65,7 +48,7 @@ impl DrillTool {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn passive_offset(&self, i: usize) -> f32 {
+    pub(crate) fn passive_offset(&self, i: usize) -> f32 {
         let n = self.passive_count();
         if n <= 1 {
             return self.shaft_length;
@@ -111,7 +94,8 @@ impl DrillTool {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn handle(&self, centre: Vec3, axis: Vec3) -> Vec3 {
+    #[cfg(test)]
+    pub(crate) fn handle(&self, centre: Vec3, axis: Vec3) -> Vec3 {
         centre + axis * self.shaft_length
     }
 }

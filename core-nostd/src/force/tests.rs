@@ -1,6 +1,7 @@
 use glam::{Affine3A, Mat4, Quat, Vec3};
 
 use super::frames::{allocentric, camera, force_to_device};
+use super::triangles::boundary_triangle;
 use super::*;
 use crate::collide::test_support::Store;
 use crate::collide::{
@@ -60,26 +61,6 @@ fn sphere_centre_inside_counts_the_full_distance() {
     // Closest point on a degenerate triangle does not divide by zero.
     let deg = [Vec3::ZERO; 3];
     assert_eq!(closest_point_on_triangle(Vec3::ONE, deg), Vec3::ZERO);
-}
-
-#[test]
-fn passive_segment_enters_first_face() {
-    let t0 = [
-        Vec3::new(-1.0, -1.0, 0.0),
-        Vec3::new(1.0, -1.0, 0.0),
-        Vec3::new(0.0, 1.0, 0.0),
-    ];
-    let t1 = t0.map(|p| p - Vec3::Z * 0.5);
-    let h = segment_first_hit(
-        Vec3::new(0.0, 0.0, 1.0),
-        Vec3::new(0.0, 0.0, -0.2),
-        [t1, t0],
-    )
-    .unwrap();
-    assert_eq!(h.index, 1);
-    assert!((h.depth - 0.2).abs() < 1e-6 && h.normal == Vec3::Z);
-    // Moving out is no entry.
-    assert!(segment_first_hit(Vec3::new(0.0, 0.0, -0.2), Vec3::Z, [t0]).is_none());
 }
 
 #[test]
@@ -303,4 +284,136 @@ fn pen_tiny_capacities_saturate_without_panic() {
         assert!(c.force.is_finite());
     }
     let _ = Affine3A::IDENTITY;
+}
+
+/// The thin-pen remedy: the entry plane measures a contact's depth from where it began.
+#[test]
+fn entry_plane_keeps_the_first_surface_plane() {
+    use super::entry::EntryPlane;
+    // A contact begins: one tool node 0.01 below a floor at z = 0 (direction out of it: +z).
+    let mut entry = EntryPlane::default();
+    let mut at = [Vec3::new(0.0, 0.0, -0.01)];
+    let first = Penetration {
+        node: NodeId(0),
+        depth: 0.01,
+        dir: Vec3::Z,
+        ..Default::default()
+    };
+    assert!((entry.force(&at, &[first], 100.0) - Vec3::Z).length() < 1e-5);
+    assert_eq!(entry.plane(), Some((Vec3::ZERO, Vec3::Z)));
+
+    // Pushed sideways and deeper, the node's consistent depth turns sideways (a thin pen's
+    // jump); the entry plane still measures it 0.03 deep, straight up.
+    at[0] = Vec3::new(0.2, 0.0, -0.03);
+    let sideways = Penetration {
+        depth: 0.05,
+        dir: Vec3::X,
+        ..first
+    };
+    assert!((entry.force(&at, &[sideways], 100.0) - Vec3::Z * 3.0).length() < 1e-4);
+
+    // The contact ends: the plane is forgotten.
+    entry.force(&at, &[], 100.0);
+    assert_eq!(entry.plane(), None);
+}
+
+/// A passive point that jumps through a floor in one tick is held at the face it entered.
+#[test]
+fn passive_point_cannot_tunnel_through_a_floor() {
+    use super::passive::{passive_force, PassivePoint, PassiveProbe};
+    // A floor at z = 0 (outward +z) and a passive point that jumps 0.3 through it in one tick.
+    let floor = [
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
+    let mut point = PassivePoint::default();
+    let (above, below) = (Vec3::new(0.0, 0.0, 0.05), Vec3::new(0.0, 0.0, -0.3));
+    for to in [above, below] {
+        let mut probe = PassiveProbe::new(&point, to, 0.1);
+        probe.offer(floor);
+        probe.finish(&mut point);
+    }
+
+    // It did not tunnel: it is held at the face it entered, which pushes it back out with
+    // 100 N per unit x (radius 0.05 + 0.3 behind the face).
+    assert!(point.is_held());
+    let (force, pushing) = passive_force(&[point], &[below], 0.05, 100.0, 50.0);
+    assert_eq!(pushing, 1);
+    assert!((force - Vec3::Z * 35.0).length() < 1e-4);
+}
+
+/// Damping from the tool's velocity, and the displayed tool drawn out by the deepest node.
+#[test]
+fn damping_and_display_offset() {
+    // No velocity on the first tick; then 1 mm down in a 1 ms tick: 2 N s per unit x 1 unit/s, up.
+    let params = ForceParams {
+        damping: 2.0,
+        ..ForceParams::default()
+    };
+    let mut tool = ToolState::default();
+    assert_eq!(
+        damping_force(&mut tool, Vec3::ZERO, true, &params),
+        Vec3::ZERO
+    );
+    let damping = damping_force(&mut tool, Vec3::new(0.0, 0.0, -0.001), true, &params);
+    assert!((damping - Vec3::Z * 2.0).length() < 1e-3);
+
+    // The tool is drawn out along the force by its deepest node's depth.
+    let at = |depth| Penetration {
+        depth,
+        dir: Vec3::Z,
+        ..Default::default()
+    };
+    let offset = display_offset(Vec3::Z * 3.0, &[at(0.02), at(0.01)], &[]);
+    assert!((offset - Vec3::Z * 0.02).length() < 1e-7);
+}
+
+/// The 12-tet cube's boundary faces as outward triangles, and a burr pressed into its top.
+#[test]
+fn cube_boundary_triangles_and_a_burr_on_top() {
+    let mut store = Store::<9, 12>::cube12(1.0, Vec3::ZERO);
+    let mesh = store.refinable_mesh();
+    let body = Body::fixed(&mesh);
+
+    // The cube's 12 boundary faces as outward counter-clockwise triangles.
+    let mut faces = [[Vec3::ZERO; 3]; 12];
+    let mut n = 0;
+    for t in (0..12).map(TetId) {
+        for f in (0..4).filter(|&f| mesh.is_boundary_face(t, f)) {
+            if let Some(tri) = boundary_triangle(&body, t, f) {
+                faces[n] = tri;
+                n += 1;
+            }
+        }
+    }
+    assert_eq!(n, 12);
+    assert!(faces
+        .iter()
+        .all(|&[a, b, c]| (b - a).cross(c - a).dot(a) > 0.0));
+
+    // A burr of radius 0.1 centred 0.05 above the top face is 0.05 into it, pushed up.
+    let contact = sphere_contact(Vec3::new(0.1, 0.2, 0.55), 0.1, faces.iter().copied());
+    assert!(contact.touching() && (contact.depth - 0.05).abs() < 1e-6);
+    assert!((contact.normal - Vec3::Z).length() < 1e-6);
+}
+
+/// A drill's passive points run along its axis from the burr's surface to the handle.
+#[test]
+fn drill_passive_points_from_burr_to_handle() {
+    let tool = DrillTool {
+        burr_radius: 0.1,
+        shaft_length: 0.6,
+        shaft_radius: 0.05,
+    };
+    // Passive points from the burr's surface to the handle, a shaft radius apart: 10 gaps.
+    assert_eq!(tool.passive_count(), 11);
+
+    // The tool turned a quarter about x: its axis (+z at rest) points along -y.
+    let axis = DrillTool::axis(Quat::from_rotation_x(core::f32::consts::FRAC_PI_2));
+    assert!((axis + Vec3::Y).length() < 1e-6);
+    let mut at = [Vec3::ZERO; MAX_PASSIVE];
+    let n = tool.passive_positions(Vec3::ZERO, axis, &mut at);
+    assert!((at[0] - axis * 0.1).length() < 1e-6);
+    assert!((at[n - 1] - tool.handle(Vec3::ZERO, axis)).length() < 1e-6);
 }

@@ -1,35 +1,5 @@
 //! Sphere tools and active sample points: penetration = radius - signed distance to the
 //! surface, from the triangles near the point.
-//!
-//! ```
-//! use tetradrill_core::builtin;
-//! use tetradrill_core::collide::Body;
-//! use tetradrill_core::force::{boundary_triangle, sphere_contact};
-//! use tetradrill_core::prelude::*;
-//!
-//! let (mut pos, tets) = builtin::cube12();
-//! let (mut nodes, mut normals) = ([Node::default(); 9], [Vec3::ZERO; 9]);
-//! let (mut recs, mut scratch) = ([Tet::default(); 12], [FaceKey::default(); 48]);
-//! let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
-//! let mesh = Mesh::build(&mut pos, &tets, storage, &mut scratch, BuildOptions::default())?;
-//! let body = Body::fixed(&mesh);
-//!
-//! // The cube's 12 boundary faces as outward counter-clockwise triangles.
-//! let mut faces = Vec::new();
-//! for t in (0..12).map(TetId) {
-//!     for f in (0..4).filter(|&f| mesh.is_boundary_face(t, f)) {
-//!         faces.extend(boundary_triangle(&body, t, f));
-//!     }
-//! }
-//! assert_eq!(faces.len(), 12);
-//! assert!(faces.iter().all(|&[a, b, c]| (b - a).cross(c - a).dot(a) > 0.0));
-//!
-//! // A burr of radius 0.1 centred 0.05 above the top face is 0.05 into it, pushed up.
-//! let contact = sphere_contact(Vec3::new(0.1, 0.2, 0.55), 0.1, faces.iter().copied());
-//! assert!(contact.touching() && (contact.depth - 0.05).abs() < 1e-6);
-//! assert!((contact.normal - Vec3::Z).length() < 1e-6);
-//! # Ok::<(), Box<dyn core::error::Error>>(())
-//! ```
 
 use glam::Vec3;
 
@@ -113,7 +83,7 @@ where
 
 /// Boundary face `f` of `t` as an outward counter-clockwise triangle at `body`'s positions.
 #[inline]
-pub fn boundary_triangle(body: &Body<'_, '_>, t: TetId, f: u8) -> Option<[Vec3; 3]> {
+pub(crate) fn boundary_triangle(body: &Body<'_, '_>, t: TetId, f: u8) -> Option<[Vec3; 3]> {
     let n = body.tet_nodes(t)?;
     let lv = FACE_VERTS.get(f as usize)?;
     // Mesh listings are clockwise from outside: reverse them.

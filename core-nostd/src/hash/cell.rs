@@ -6,7 +6,7 @@ use crate::ids::TetId;
 use crate::mesh::Mesh;
 
 /// A grid cell `(i, j, k)`.
-pub type Cell = [i32; 3];
+pub(crate) type Cell = [i32; 3];
 
 /// `a == b`, written so that it stays three register compares: LLVM merges the array
 /// comparison `a == b` into a call to `memcmp`, which the Cortex-M4 target does not expand
@@ -16,7 +16,7 @@ pub type Cell = [i32; 3];
 /// # Bounded work
 /// Constant.
 #[inline(always)]
-pub fn same_cell(a: &Cell, b: &Cell) -> bool {
+pub(crate) fn same_cell(a: &Cell, b: &Cell) -> bool {
     ((a[0] ^ b[0]) | (a[1] ^ b[1]) | (a[2] ^ b[2])) == 0
 }
 
@@ -31,7 +31,7 @@ const P3: i32 = 83_492_791;
 /// # Bounded work
 /// Constant.
 #[inline]
-pub fn cell_of(p: Vec3, inv_cell: f32) -> Cell {
+pub(crate) fn cell_of(p: Vec3, inv_cell: f32) -> Cell {
     [
         floor_i32(p.x * inv_cell),
         floor_i32(p.y * inv_cell),
@@ -47,7 +47,7 @@ pub fn cell_of(p: Vec3, inv_cell: f32) -> Cell {
 /// # Bounded work
 /// Constant.
 #[inline]
-pub fn floor_i32(v: f32) -> i32 {
+pub(crate) fn floor_i32(v: f32) -> i32 {
     let i = v as i32;
     if (i as f32) > v {
         i.saturating_sub(1)
@@ -93,7 +93,7 @@ pub(crate) fn for_cells<F: FnMut(Cell)>(lo: Cell, hi: Cell, mut f: F) {
 /// # Bounded work
 /// Constant.
 #[inline]
-pub fn bucket_of(c: Cell, buckets: u32) -> u32 {
+pub(crate) fn bucket_of(c: Cell, buckets: u32) -> u32 {
     let h = c[0].wrapping_mul(P1) ^ c[1].wrapping_mul(P2) ^ c[2].wrapping_mul(P3);
     (h as u32).checked_rem(buckets).unwrap_or(0)
 }

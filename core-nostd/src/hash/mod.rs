@@ -46,6 +46,8 @@ mod table;
 
 pub(crate) use cell::cells_in;
 pub(crate) use cell::floor_i32;
-pub use cell::{average_edge_length, bucket_of, cell_of, prime_at_most, Aabb, Cell};
-pub use rebuild::{RebuildCursor, Rebuilt, REBUILD_BUCKETS_PER_UNIT, REBUILD_ITEM_UNITS};
-pub use table::{HashEntry, HashError, HashStats, SpatialHash, ITEM_BITS, MAX_ITEMS};
+pub use cell::{average_edge_length, prime_at_most, Aabb};
+pub(crate) use cell::{cell_of, Cell};
+pub(crate) use rebuild::RebuildCursor;
+pub use rebuild::{Rebuilt, REBUILD_ITEM_UNITS};
+pub use table::{HashEntry, HashError, HashStats, SpatialHash};

@@ -10,7 +10,7 @@ impl SpatialHash<'_> {
     /// # Bounded work
     /// O(size of the bucket), at most the entry count.
     #[inline]
-    pub fn items_in_cell(&self, c: Cell) -> impl Iterator<Item = u32> + '_ {
+    pub(crate) fn items_in_cell(&self, c: Cell) -> impl Iterator<Item = u32> + '_ {
         let k = bucket_of(c, self.buckets()) as usize;
         let lo = self.starts.get(k).copied().unwrap_or(0) as usize;
         let hi = self.starts.get(k + 1).copied().unwrap_or(0) as usize;
@@ -21,7 +21,7 @@ impl SpatialHash<'_> {
             .map(|e| e.item())
     }
 
-    /// The items stored in cell `c` in increasing item order, as [`SpatialHash::items_in_cell`]
+    /// The items stored in cell `c` in increasing item order, as `SpatialHash::items_in_cell`
     /// (the filling pass writes each bucket from its back in item order, so this reads the
     /// bucket backwards). Lets a search for the smallest item that passes a test stop at the
     /// first one.
@@ -65,7 +65,7 @@ impl SpatialHash<'_> {
     ///
     /// # Bounded work
     /// O(max_cells + entries met).
-    pub fn query_box_ro<F: FnMut(Cell, u32)>(&self, b: &Aabb, max_cells: u32, f: F) -> bool {
+    pub(crate) fn query_box_ro<F: FnMut(Cell, u32)>(&self, b: &Aabb, max_cells: u32, f: F) -> bool {
         let (lo, hi) = self.cell_range(b);
         if cells_in(lo, hi) > max_cells as u64 {
             return false;
@@ -118,7 +118,7 @@ impl SpatialHash<'_> {
     ///
     /// # Bounded work
     /// At most `max_work` units plus the entries of one bucket.
-    pub fn query_cells_once_from<F: FnMut(u32)>(
+    pub(crate) fn query_cells_once_from<F: FnMut(u32)>(
         &self,
         (lo, hi): (Cell, Cell),
         from: u64,

@@ -18,12 +18,12 @@ pub struct Rebuilt {
     pub saturated: bool,
 }
 
-/// Units of one item in each item pass of [`SpatialHash::rebuild_part`] (the box's cell
+/// Units of one item in each item pass of `SpatialHash::rebuild_part` (the box's cell
 /// range and, per cell, its bucket: about 480 Cortex-M4 instructions for a tet about a cell
 /// wide, the units of `soft::Link` being about 37 instructions each).
 pub const REBUILD_ITEM_UNITS: u32 = 13;
 /// Buckets cleared or summed per unit in [`SpatialHash::rebuild_part`].
-pub const REBUILD_BUCKETS_PER_UNIT: usize = 16;
+pub(crate) const REBUILD_BUCKETS_PER_UNIT: usize = 16;
 
 /// The passes of a spread rebuild.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
@@ -42,7 +42,7 @@ enum RebuildPhase {
 /// Where a rebuild spread over calls stands ([`SpatialHash::rebuild_part`]); the default is
 /// a build not started.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
-pub struct RebuildCursor {
+pub(crate) struct RebuildCursor {
     phase: RebuildPhase,
     at: usize,
     total: usize,
@@ -52,7 +52,8 @@ pub struct RebuildCursor {
 
 impl RebuildCursor {
     /// `true` before the first call of a build (or after its last).
-    pub fn is_fresh(&self) -> bool {
+    #[cfg(test)]
+    pub(crate) fn is_fresh(&self) -> bool {
         *self == Self::default()
     }
 }
@@ -60,7 +61,7 @@ impl RebuildCursor {
 impl<'a> SpatialHash<'a> {
     /// Replaces the contents with items `0..count`, item `i` stored in every cell its box
     /// `bounds(i)` overlaps (`None`: item left out, e.g. a degenerate one). Counting sort: one
-    /// counting pass, one prefix sum, one filling pass. At most [`MAX_ITEMS`] items: the rest
+    /// counting pass, one prefix sum, one filling pass. At most `MAX_ITEMS` items: the rest
     /// are left out as if the storage were full.
     ///
     /// # Bounded work
@@ -103,7 +104,7 @@ impl<'a> SpatialHash<'a> {
     ///
     /// # Bounded work
     /// At most `max_units` units plus the cells of one item's box (at most the capacity).
-    pub fn rebuild_part<F>(
+    pub(crate) fn rebuild_part<F>(
         &mut self,
         cursor: &mut RebuildCursor,
         count: usize,
@@ -206,7 +207,7 @@ impl<'a> SpatialHash<'a> {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn rebuild_units(&self, count: usize) -> u64 {
+    pub(crate) fn rebuild_units(&self, count: usize) -> u64 {
         let chunks = self.starts.len().div_ceil(REBUILD_BUCKETS_PER_UNIT) as u64;
         2 * chunks + 2 * count.min(MAX_ITEMS) as u64 * u64::from(REBUILD_ITEM_UNITS)
     }
@@ -219,7 +220,7 @@ impl<'a> SpatialHash<'a> {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn adopt(&mut self, other: &mut SpatialHash<'a>, built: Rebuilt) -> bool {
+    pub(crate) fn adopt(&mut self, other: &mut SpatialHash<'a>, built: Rebuilt) -> bool {
         if other.buckets() != self.buckets()
             || other.capacity() != self.capacity()
             || other.cell.to_bits() != self.cell.to_bits()

@@ -22,10 +22,10 @@ pub struct HashEntry {
 }
 
 /// Bits of an item number: items `0..2^29` (a tet id, a node id, `tet * 4 + face`, ...).
-pub const ITEM_BITS: u32 = 29;
+pub(crate) const ITEM_BITS: u32 = 29;
 
 /// Largest number of items one table holds.
-pub const MAX_ITEMS: usize = 1 << ITEM_BITS;
+pub(crate) const MAX_ITEMS: usize = 1 << ITEM_BITS;
 
 impl HashEntry {
     /// An unused entry (for initialising static storage).
@@ -119,13 +119,13 @@ impl<'a> SpatialHash<'a> {
 
     /// Cell edge length.
     #[inline]
-    pub fn cell_size(&self) -> f32 {
+    pub(crate) fn cell_size(&self) -> f32 {
         self.cell
     }
 
     /// Number of buckets.
     #[inline]
-    pub fn buckets(&self) -> u32 {
+    pub(crate) fn buckets(&self) -> u32 {
         (self.starts.len() - 1) as u32
     }
 
@@ -149,7 +149,7 @@ impl<'a> SpatialHash<'a> {
 
     /// The box around everything stored by the last build.
     #[inline]
-    pub fn bounds(&self) -> Aabb {
+    pub(crate) fn bounds(&self) -> Aabb {
         self.bounds
     }
 
@@ -167,7 +167,7 @@ impl<'a> SpatialHash<'a> {
 
     /// The inclusive cell range a box covers.
     #[inline]
-    pub fn cell_range(&self, b: &Aabb) -> (Cell, Cell) {
+    pub(crate) fn cell_range(&self, b: &Aabb) -> (Cell, Cell) {
         (self.cell_of(b.min), self.cell_of(b.max))
     }
 }

@@ -26,16 +26,16 @@ pub const CRUMB_SEEDS: usize = 1024;
 
 /// Leaves across one seed's four faces a check starts fills from (more: the seed is checked
 /// from the first ones and counted as a saturation).
-pub const CRUMB_STARTS: usize = 8;
+pub(crate) const CRUMB_STARTS: usize = 8;
 
 /// Leaves one fill holds (a fill stops once it holds `max_leaves` max-depth leaves' worth, so
 /// at most `max_leaves` leaves; a larger `max_leaves` fills up: counted, not debris).
-pub const CRUMB_FILL: usize = 16;
+pub(crate) const CRUMB_FILL: usize = 16;
 
 /// Slots of the cache of leaves known to be in big pieces (direct-mapped by node reference):
 /// the leaves of every fill that reached the debris size in a batch of checks; a later fill
 /// that meets one stops there. A slot overwritten only costs a longer fill.
-pub const CRUMB_KNOWN: usize = 256;
+pub(crate) const CRUMB_KNOWN: usize = 256;
 
 /// What the checks of [`Crumbs`] did (cumulative).
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
@@ -54,7 +54,7 @@ pub struct CrumbStats {
     pub visits: u64,
     /// The size of the largest piece erased, in max-depth leaves (below the debris size).
     pub largest: u32,
-    /// Seeds dropped for a full queue, seeds with more than [`CRUMB_STARTS`] leaves across,
+    /// Seeds dropped for a full queue, seeds with more than `CRUMB_STARTS` leaves across,
     /// and fills that ran out of room (each treated as "not debris").
     pub saturations: u32,
 }
@@ -141,16 +141,11 @@ impl Crumbs {
         }
     }
 
-    /// The debris size in max-depth leaves (0: the checks are off).
-    pub fn max_leaves(&self) -> u32 {
-        self.max_leaves
-    }
-
     /// Sets the debris size in max-depth leaves; 0 turns the checks off and drops the seeds.
     ///
     /// # Bounded work
     /// Constant.
-    pub fn set_max_leaves(&mut self, max_leaves: u32) {
+    pub(crate) fn set_max_leaves(&mut self, max_leaves: u32) {
         self.max_leaves = max_leaves;
         if max_leaves == 0 {
             self.clear();
@@ -161,7 +156,7 @@ impl Crumbs {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn clear(&mut self) {
+    pub(crate) fn clear(&mut self) {
         self.head = 0;
         self.len = 0;
     }
@@ -186,7 +181,7 @@ impl Crumbs {
     }
 
     /// Seeds waiting for their check.
-    pub fn pending(&self) -> usize {
+    pub(crate) fn pending(&self) -> usize {
         self.len
     }
 
@@ -235,8 +230,8 @@ impl Crumbs {
     ///
     /// # Bounded work
     /// O(depth) to find the seed, 4 NTree visits across its faces (stopped after
-    /// [`CRUMB_STARTS`] leaves), then per start leaf a fill of at most `max_leaves` leaves
-    /// (and at most [`CRUMB_FILL`]), 4 NTree visits each (and a scan of the fill per leaf
+    /// `CRUMB_STARTS` leaves), then per start leaf a fill of at most `max_leaves` leaves
+    /// (and at most `CRUMB_FILL`), 4 NTree visits each (and a scan of the fill per leaf
     /// met), and for a closed fill one [`Hierarchy::erase`] per leaf: O(`CRUMB_STARTS` *
     /// `CRUMB_FILL`) NTree visits in all.
     pub fn check_one<F: FnMut(TetId, f64)>(

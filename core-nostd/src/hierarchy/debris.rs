@@ -78,7 +78,7 @@ impl Hierarchy<'_> {
     ///
     /// # Errors
     /// As [`Hierarchy::remove_debris`].
-    pub fn remove_debris_with<F: FnMut(TetId, f64)>(
+    pub(crate) fn remove_debris_with<F: FnMut(TetId, f64)>(
         &mut self,
         mesh: &Mesh<'_>,
         max_leaves: u32,

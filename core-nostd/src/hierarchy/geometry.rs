@@ -15,7 +15,7 @@ use crate::mesh::Mesh;
 ///
 /// # Bounded work
 /// O(depth) <= [`super::MAX_DEPTH`] steps.
-pub fn node_positions(mesh: &Mesh<'_>, tet: TetId, path: &Path) -> [Vec3; 4] {
+pub(crate) fn node_positions(mesh: &Mesh<'_>, tet: TetId, path: &Path) -> [Vec3; 4] {
     match RootFrame::of(mesh, tet) {
         Some(frame) => frame.positions(&path.bary(), path.depth),
         None => [Vec3::ZERO; 4],
@@ -299,7 +299,7 @@ pub(crate) fn child_of_ten<T: Copy>(ten: &[T; 10], c: u8) -> [T; 4] {
 ///
 /// # Bounded work
 /// O(depth).
-pub fn node_volume(mesh: &Mesh<'_>, tet: TetId, depth: u8) -> f64 {
+pub(crate) fn node_volume(mesh: &Mesh<'_>, tet: TetId, depth: u8) -> f64 {
     if tet.idx() >= mesh.tet_count() {
         return 0.0;
     }

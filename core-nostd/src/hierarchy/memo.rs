@@ -69,12 +69,13 @@ impl<'a> SphereMemo<'a> {
     ///
     /// # Bounded work
     /// O(slots).
-    pub fn clear(&mut self) {
+    pub(crate) fn clear(&mut self) {
         self.slots.fill(SphereSlot::EMPTY);
     }
 
     /// Slots in the memo.
-    pub fn capacity(&self) -> usize {
+    #[cfg(test)]
+    pub(crate) fn capacity(&self) -> usize {
         self.slots.len()
     }
 
@@ -104,7 +105,7 @@ impl<'a> SphereMemo<'a> {
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn get(&mut self, tet: TetId, index: u32) -> Option<(Vec3, f32)> {
+    pub(crate) fn get(&mut self, tet: TetId, index: u32) -> Option<(Vec3, f32)> {
         let k = self.slot(tet, index);
         match self.slots.get(k) {
             Some(s) if s.tet1 == tet.0.wrapping_add(1) && s.index == index && s.tet1 != 0 => {
@@ -124,7 +125,7 @@ impl<'a> SphereMemo<'a> {
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn put(&mut self, tet: TetId, index: u32, sphere: (Vec3, f32)) {
+    pub(crate) fn put(&mut self, tet: TetId, index: u32, sphere: (Vec3, f32)) {
         let k = self.slot(tet, index);
         if let Some(s) = self.slots.get_mut(k).filter(|_| tet != TetId::NONE) {
             *s = SphereSlot {

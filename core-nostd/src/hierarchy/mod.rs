@@ -11,8 +11,8 @@
 //! is none either is it refused and counted (see [`Hierarchy`] and `reclaim`). Material is
 //! never coarsened: only wholly erased subtrees give their nodes back.
 //!
-//! - [`table`]: the tree table (const, one level) and digit walks for deeper levels.
-//! - [`visit`]: same-level adjacency through the digits and the NTree visit.
+//! - `table`: the tree table (const, one level) and digit walks for deeper levels.
+//! - `visit`: same-level adjacency through the digits and the NTree visit.
 //! - [`Hierarchy::erase`], [`Hierarchy::refine`]: Turini et al. 2006, section 2.1, across coarse
 //!   faces through the mesh's reverse indices.
 //! - [`Hierarchy::for_each_visible`], [`Hierarchy::for_each_visible_in`]: the drilled surface.
@@ -73,26 +73,28 @@ mod ops;
 mod reclaim;
 mod store;
 mod surface;
-pub mod table;
+mod table;
 mod validate;
-pub mod visit;
+mod visit;
 
-pub use crumbs::{
-    CrumbStats, CrumbWork, Crumbs, CRUMB_FILL, CRUMB_KNOWN, CRUMB_SEEDS, CRUMB_STARTS,
-};
+pub use crumbs::{CrumbStats, CrumbWork, Crumbs, CRUMB_SEEDS};
 pub use debris::{DebrisReport, DEBRIS_LEAVES};
+#[cfg(test)]
+pub(crate) use geometry::node_positions;
+pub(crate) use geometry::node_volume;
 pub(crate) use geometry::{
     child_of_refinement, child_of_ten, refinement_points, refinement_points_masked, RootFrame,
     ALL_POINTS,
 };
-pub use geometry::{node_positions, node_volume};
 pub use memo::{SphereMemo, SphereSlot};
-pub use nearest::{keep_face, FaceRef, Kept, Nearest, NearestCursor, NearestQuery, KEEP};
-pub use node::{HNode, VEntry, MAX_BLOCKS, NODE_BYTES, NO_BLOCK, NO_SLOT};
+pub(crate) use nearest::keep_face;
+pub use nearest::{FaceRef, Kept, Nearest, NearestCursor, NearestQuery, KEEP};
+pub use node::{HNode, VEntry, NODE_BYTES};
 pub use ops::OpReport;
 pub use store::{Hierarchy, HierarchyError, HierarchySizes, HierarchyStats, HierarchyStorage};
 pub use surface::{Leaf, VisibleTri};
-pub use table::{Path, MAX_DEPTH};
+pub(crate) use table::Path;
+pub use table::MAX_DEPTH;
 
 #[cfg(test)]
 pub(crate) mod test_support;

@@ -3,12 +3,12 @@
 use crate::ids::TetId;
 
 /// "No child block": what [`HNode::block`] never returns (the largest 24-bit value).
-pub const NO_BLOCK: u32 = 0x00FF_FFFF;
+pub(crate) const NO_BLOCK: u32 = 0x00FF_FFFF;
 /// "Not on the v_list".
-pub const NO_SLOT: u32 = u32::MAX;
+pub(crate) const NO_SLOT: u32 = u32::MAX;
 /// Largest number of child blocks an arena can hold (24-bit field storing `block + 1`, zero
 /// for a leaf).
-pub const MAX_BLOCKS: usize = NO_BLOCK as usize;
+pub(crate) const MAX_BLOCKS: usize = NO_BLOCK as usize;
 
 const BLOCK_MASK: u32 = 0x00FF_FFFF;
 const VIS_SHIFT: u32 = 24;
@@ -168,7 +168,7 @@ impl HNode {
         }
     }
 
-    /// The node's v_list slot, or [`NO_SLOT`] (always for an erased node, whose slot word
+    /// The node's v_list slot, or `NO_SLOT` (always for an erased node, whose slot word
     /// is spare).
     #[inline]
     pub const fn slot(self) -> u32 {
@@ -193,7 +193,7 @@ pub struct VEntry {
     pub tet: TetId,
     /// Its tree index.
     pub index: u32,
-    /// Its node reference (see [`super::Hierarchy::node`]).
+    /// Its node reference (see `super::Hierarchy::node`).
     pub node: u32,
 }
 

@@ -139,7 +139,7 @@ impl<'a> Hierarchy<'a> {
     /// # Bounded work
     /// 4 NTree visits, each O(depth) plus the instantiated nodes across that face, plus 8
     /// node reads; when a block is completed, O(depth) plus 8 node reads per level climbed
-    /// (at most [`Hierarchy::MAX_DEPTH`] levels).
+    /// (at most `Hierarchy::MAX_DEPTH` levels).
     ///
     /// # Errors
     /// [`HierarchyError::NotFound`], `NotLeaf`, `Erased`: nothing changed. Never needs

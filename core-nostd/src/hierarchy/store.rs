@@ -179,7 +179,7 @@ pub struct HierarchyStats {
 /// back (the block then holds other nodes); root references never change. A holder of
 /// references across operations notes [`Hierarchy::reclaimed`] when it takes one: while the
 /// count is unchanged (and below `u32::MAX`, where it saturates) no block has been taken back
-/// and the reference is valid; otherwise it looks the node up again with [`Hierarchy::find`]
+/// and the reference is valid; otherwise it looks the node up again with `Hierarchy::find`
 /// (the drill's pending items do). `(tet, tree index)` names stay valid: the nodes of a
 /// collapsed subtree simply answer `None`. No result depends on reference values, so reused
 /// arena slots change nothing: ties are broken by `(tet, index, face)`, walks go in child
@@ -262,7 +262,7 @@ impl<'a> Hierarchy<'a> {
     ///
     /// # Bounded work
     /// O(T).
-    pub fn reset(&mut self, mesh: &Mesh<'_>) {
+    pub(crate) fn reset(&mut self, mesh: &Mesh<'_>) {
         self.blocks_used = 0;
         self.vlen = 0;
         self.reclaim_head = 0;
@@ -373,7 +373,7 @@ impl<'a> Hierarchy<'a> {
     /// The coarse tets' volume when the trees were created or last reset (the material
     /// left is this minus [`Hierarchy::removed_volume`]).
     #[inline]
-    pub fn initial_volume(&self) -> f64 {
+    pub(crate) fn initial_volume(&self) -> f64 {
         self.volume0
     }
 
@@ -385,7 +385,7 @@ impl<'a> Hierarchy<'a> {
 
     /// The node behind a reference, or `None` when out of range.
     #[inline]
-    pub fn node(&self, r: u32) -> Option<HNode> {
+    pub(crate) fn node(&self, r: u32) -> Option<HNode> {
         let t = self.roots.len();
         let r = r as usize;
         if r < t {
@@ -421,7 +421,7 @@ impl<'a> Hierarchy<'a> {
 
     /// The reference of child `c` of node `r`, or `None` for a leaf.
     #[inline]
-    pub fn child(&self, r: u32, c: u8) -> Option<u32> {
+    pub(crate) fn child(&self, r: u32, c: u8) -> Option<u32> {
         let b = self.node(r)?.block()?;
         Some(self.block_ref(b) + (c & 7) as u32)
     }
@@ -430,7 +430,7 @@ impl<'a> Hierarchy<'a> {
     ///
     /// # Bounded work
     /// O(depth) <= [`MAX_DEPTH`] steps.
-    pub fn find(&self, tet: TetId, index: u32) -> Option<u32> {
+    pub(crate) fn find(&self, tet: TetId, index: u32) -> Option<u32> {
         // The digits, deepest first, then the walk from the root.
         let mut digits = [0u8; MAX_DEPTH];
         let mut depth = 0usize;
@@ -569,5 +569,5 @@ impl<'a> Hierarchy<'a> {
     }
 
     /// Depth limit of the trees.
-    pub const MAX_DEPTH: usize = MAX_DEPTH;
+    pub(crate) const MAX_DEPTH: usize = MAX_DEPTH;
 }

@@ -237,13 +237,4 @@ impl Hierarchy<'_> {
             }
         }
     }
-
-    /// Volume of the remaining material: the mesh volume minus [`Hierarchy::removed_volume`]
-    /// (at current positions for the mesh, at erasure time for the removed part).
-    ///
-    /// # Bounded work
-    /// O(T).
-    pub fn current_volume(&self, mesh: &Mesh<'_>) -> f64 {
-        mesh.volume() - self.stats.removed_volume
-    }
 }

@@ -22,21 +22,6 @@
 //! [`FACE_SUB`] 16 entries of 5 B = 80 B; about 300 bytes in flash. Deeper levels cost nothing:
 //! they are walked through the index digits (O(depth) per query, see [`Path`]).
 //!
-//! ```
-//! use tetradrill_core::hierarchy::table::Path;
-//!
-//! // Tree indices: the root is 0, the children of `i` are `8i + 1 ..= 8i + 8`.
-//! let p = Path::ROOT.child(2).unwrap().child(5).unwrap();
-//! assert_eq!((p.index, p.depth, p.digits[..2].to_vec()), (30, 2, vec![2, 5]));
-//! assert_eq!(Path::of_index(30), Some(p));
-//!
-//! // Corners in integer barycentric coordinates of the root, scaled by 2^depth: T1 keeps
-//! // the root's vertex 0 and halves its edges from it, (x0, x01, x02, x03).
-//! let t1 = Path::ROOT.child(0).unwrap();
-//! assert_eq!(t1.bary(), [[2, 0, 0, 0], [1, 1, 0, 0], [1, 0, 1, 0], [1, 0, 0, 1]]);
-//! assert!(p.bary().iter().all(|row| row.iter().sum::<u32>() == 4));
-//! ```
-//!
 //! [`FACE_VERTS`]: crate::mesh::template::FACE_VERTS
 
 /// Deepest level a tree index can address in a `u32` (the largest index at depth 10 is
@@ -44,13 +29,13 @@
 pub const MAX_DEPTH: usize = 10;
 
 /// A permutation of the three listing positions of a face.
-pub type Perm = [u8; 3];
+pub(crate) type Perm = [u8; 3];
 
 /// The identity permutation.
-pub const ID_PERM: Perm = [0, 1, 2];
+pub(crate) const ID_PERM: Perm = [0, 1, 2];
 
 /// Child `c`'s vertex `k` is the midpoint of parent vertices `(a, b)` (`a == b`: the vertex).
-pub const CHILD_VERTS: [[(u8, u8); 4]; 8] = [
+pub(crate) const CHILD_VERTS: [[(u8, u8); 4]; 8] = [
     [(0, 0), (0, 1), (0, 2), (0, 3)],
     [(0, 1), (1, 1), (1, 2), (1, 3)],
     [(0, 2), (1, 2), (2, 2), (2, 3)],
@@ -62,11 +47,11 @@ pub const CHILD_VERTS: [[(u8, u8); 4]; 8] = [
 ];
 
 /// `true` for the children whose vertex order is inverted relative to the parent (T6, T8).
-pub const CHILD_INVERTED: [bool; 8] = [false, false, false, false, false, true, false, true];
+pub(crate) const CHILD_INVERTED: [bool; 8] = [false, false, false, false, false, true, false, true];
 
 /// What lies across face `f` of child `c`, within one refinement of the parent.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum Across {
+pub(crate) enum Across {
     /// A sibling: its child digit, its face, and `pi` from this face's listing to its listing.
     Sibling(u8, u8, Perm),
     /// The face lies on parent face `face` at sub-triangle position `pos` (0..=3) with the
@@ -89,7 +74,7 @@ const fn o(face: u8, pos: u8, sigma: Perm) -> Across {
 }
 
 /// Same-level adjacency of the children: `CHILD_ADJ[c][f]`.
-pub const CHILD_ADJ: [[Across; 4]; 8] = [
+pub(crate) const CHILD_ADJ: [[Across; 4]; 8] = [
     [
         s(4, 3, [0, 2, 1]),
         o(1, 0, ID_PERM),
@@ -143,7 +128,7 @@ pub const CHILD_ADJ: [[Across; 4]; 8] = [
 /// The children on a parent face: `FACE_SUB[face][pos] = (child, child face, sigma)`; the
 /// inverse of the `Outside` entries of [`CHILD_ADJ`]. Note T5's face 1 lies on parent face 2
 /// and T7's face 2 on parent face 1 (the per-child face map).
-pub const FACE_SUB: [[(u8, u8, Perm); 4]; 4] = [
+pub(crate) const FACE_SUB: [[(u8, u8, Perm); 4]; 4] = [
     [
         (1, 0, ID_PERM),
         (3, 0, ID_PERM),
@@ -172,7 +157,7 @@ pub const FACE_SUB: [[(u8, u8, Perm); 4]; 4] = [
 
 /// The inverse of a permutation.
 #[inline]
-pub const fn invert(p: Perm) -> Perm {
+pub(crate) const fn invert(p: Perm) -> Perm {
     let mut q = [0u8; 3];
     q[(p[0] % 3) as usize] = 0;
     q[(p[1] % 3) as usize] = 1;
@@ -182,7 +167,7 @@ pub const fn invert(p: Perm) -> Perm {
 
 /// `k -> b[a[k]]`.
 #[inline]
-pub const fn then(a: Perm, b: Perm) -> Perm {
+pub(crate) const fn then(a: Perm, b: Perm) -> Perm {
     [
         b[(a[0] % 3) as usize],
         b[(a[1] % 3) as usize],
@@ -191,7 +176,8 @@ pub const fn then(a: Perm, b: Perm) -> Perm {
 }
 
 /// The root's integer barycentric coordinates (its own corners).
-pub const ROOT_BARY: [[u32; 4]; 4] = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]];
+pub(crate) const ROOT_BARY: [[u32; 4]; 4] =
+    [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]];
 
 /// Integer barycentric coordinates of child `c` from its parent's (one level down: each row
 /// of the result sums to twice the parent's row sum).
@@ -199,7 +185,7 @@ pub const ROOT_BARY: [[u32; 4]; 4] = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], 
 /// # Bounded work
 /// Constant: 16 additions.
 #[inline]
-pub fn child_bary(parent: &[[u32; 4]; 4], c: u8) -> [[u32; 4]; 4] {
+pub(crate) fn child_bary(parent: &[[u32; 4]; 4], c: u8) -> [[u32; 4]; 4] {
     let cv = CHILD_VERTS[(c & 7) as usize];
     let mut n = [[0u32; 4]; 4];
     for (row, &(a, e)) in n.iter_mut().zip(cv.iter()) {
@@ -212,18 +198,18 @@ pub fn child_bary(parent: &[[u32; 4]; 4], c: u8) -> [[u32; 4]; 4] {
 
 /// A node's place in its tree: the coarse tet's index digits from the root down.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub struct Path {
+pub(crate) struct Path {
     /// Tree index (root 0, children of `i` are `8i+1 ..= 8i+8`).
-    pub index: u32,
+    pub(crate) index: u32,
     /// Depth (root 0).
-    pub depth: u8,
+    pub(crate) depth: u8,
     /// Child digit (0..8) per level, `digits[0]` just below the root.
-    pub digits: [u8; MAX_DEPTH],
+    pub(crate) digits: [u8; MAX_DEPTH],
 }
 
 impl Path {
     /// The root.
-    pub const ROOT: Self = Self {
+    pub(crate) const ROOT: Self = Self {
         index: 0,
         depth: 0,
         digits: [0; MAX_DEPTH],
@@ -233,7 +219,7 @@ impl Path {
     ///
     /// # Bounded work
     /// O(depth) <= [`MAX_DEPTH`] steps.
-    pub fn of_index(index: u32) -> Option<Self> {
+    pub(crate) fn of_index(index: u32) -> Option<Self> {
         let mut rev = [0u8; MAX_DEPTH];
         let mut d = 0usize;
         let mut i = index;
@@ -260,7 +246,7 @@ impl Path {
     /// # Bounded work
     /// O(depth) <= [`MAX_DEPTH`] + 1 divisions.
     #[inline]
-    pub fn depth_of(index: u32) -> Option<u8> {
+    pub(crate) fn depth_of(index: u32) -> Option<u8> {
         let mut i = index;
         let mut d = 0usize;
         while i > 0 {
@@ -272,7 +258,7 @@ impl Path {
 
     /// The path of child `c` (0..8), or `None` at [`MAX_DEPTH`].
     #[inline]
-    pub fn child(&self, c: u8) -> Option<Self> {
+    pub(crate) fn child(&self, c: u8) -> Option<Self> {
         let d = self.depth as usize;
         if d >= MAX_DEPTH {
             return None;
@@ -286,13 +272,13 @@ impl Path {
 
     /// The digit at level `k` (1-based: the digit that leads from depth `k-1` to depth `k`).
     #[inline]
-    pub fn digit(&self, k: usize) -> u8 {
+    pub(crate) fn digit(&self, k: usize) -> u8 {
         self.digits.get(k.wrapping_sub(1)).copied().unwrap_or(0) & 7
     }
 
     /// The tree index of the ancestor at depth `k` (`k <= depth`).
     #[inline]
-    pub fn prefix_index(&self, k: usize) -> u32 {
+    pub(crate) fn prefix_index(&self, k: usize) -> u32 {
         let mut i = 0u32;
         for &c in self.digits.iter().take(k.min(self.depth as usize)) {
             i = i * 8 + 1 + (c & 7) as u32;
@@ -306,7 +292,7 @@ impl Path {
     ///
     /// # Bounded work
     /// O(depth).
-    pub fn bary(&self) -> [[u32; 4]; 4] {
+    pub(crate) fn bary(&self) -> [[u32; 4]; 4] {
         let mut b = ROOT_BARY;
         for &c in self.digits.iter().take(self.depth as usize) {
             b = child_bary(&b, c);
@@ -317,7 +303,7 @@ impl Path {
     /// `true` when the node's vertex order is inverted relative to its root (an odd number of
     /// T6/T8 steps).
     #[inline]
-    pub fn inverted(&self) -> bool {
+    pub(crate) fn inverted(&self) -> bool {
         self.digits
             .iter()
             .take(self.depth as usize)

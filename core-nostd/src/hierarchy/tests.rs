@@ -716,3 +716,54 @@ fn a_path_deeper_than_the_table_has_no_neighbour() {
         }
     }
 }
+
+/// Tree indices and the children's corners in integer barycentric coordinates of the root.
+#[test]
+fn path_indices_and_corners() {
+    // Tree indices: the root is 0, the children of `i` are `8i + 1 ..= 8i + 8`.
+    let p = Path::ROOT.child(2).unwrap().child(5).unwrap();
+    assert_eq!((p.index, p.depth, &p.digits[..2]), (30, 2, &[2, 5][..]));
+    assert_eq!(Path::of_index(30), Some(p));
+
+    // Corners in integer barycentric coordinates of the root, scaled by 2^depth: T1 keeps
+    // the root's vertex 0 and halves its edges from it, (x0, x01, x02, x03).
+    let t1 = Path::ROOT.child(0).unwrap();
+    assert_eq!(
+        t1.bary(),
+        [[2, 0, 0, 0], [1, 1, 0, 0], [1, 0, 1, 0], [1, 0, 0, 1]]
+    );
+    assert!(p.bary().iter().all(|row| row.iter().sum::<u32>() == 4));
+}
+
+/// Same-level neighbours inside one tet's tree, and a root's neighbours are the mesh's.
+#[test]
+fn neighbours_inside_a_tree_and_across_roots() {
+    let (mut pos, tets) = cube12();
+    let (mut nodes, mut normals) = ([Node::default(); CUBE12_NODES], [Vec3::ZERO; CUBE12_NODES]);
+    let (mut recs, mut scratch) = ([Tet::default(); CUBE12_TETS], [FaceKey::default(); 48]);
+    let storage = MeshStorage {
+        nodes: &mut nodes,
+        normals: &mut normals,
+        tets: &mut recs,
+    };
+    let mesh = Mesh::build(
+        &mut pos,
+        &tets,
+        storage,
+        &mut scratch,
+        BuildOptions::default(),
+    )
+    .unwrap();
+
+    // T1 = (x0, x01, x02, x03) meets T5 = (x01, x02, x03, x13) across its face 0.
+    let t = TetId(0);
+    let t1 = Path::ROOT.child(0).unwrap();
+    let n = neighbour(&mesh, t, &t1, 0).unwrap();
+    assert_eq!((n.tet, n.path.index), (t, 5));
+
+    // A root's neighbours are the mesh's: the next tet's root, or none on the boundary.
+    for f in 0..4 {
+        let across = neighbour(&mesh, t, &Path::ROOT, f).map(|n| n.tet);
+        assert_eq!(across, Some(mesh.neighbour(t, f)).filter(|n| n.is_some()));
+    }
+}

@@ -9,32 +9,6 @@
 //! permutation. `visit_across` then follows that path in the instantiated hierarchy: it meets
 //! either one coarser leaf on the path, or the subtree of the neighbour restricted to the nodes
 //! with a face on the shared face.
-//!
-//! ```
-//! use tetradrill_core::builtin;
-//! use tetradrill_core::hierarchy::table::Path;
-//! use tetradrill_core::hierarchy::visit::neighbour;
-//! use tetradrill_core::prelude::*;
-//!
-//! let (mut pos, tets) = builtin::cube12();
-//! let (mut nodes, mut normals) = ([Node::default(); 9], [Vec3::ZERO; 9]);
-//! let (mut recs, mut scratch) = ([Tet::default(); 12], [FaceKey::default(); 48]);
-//! let storage = MeshStorage { nodes: &mut nodes, normals: &mut normals, tets: &mut recs };
-//! let mesh = Mesh::build(&mut pos, &tets, storage, &mut scratch, BuildOptions::default())?;
-//!
-//! // T1 = (x0, x01, x02, x03) meets T5 = (x01, x02, x03, x13) across its face 0.
-//! let t = TetId(0);
-//! let t1 = Path::ROOT.child(0).unwrap();
-//! let n = neighbour(&mesh, t, &t1, 0).unwrap();
-//! assert_eq!((n.tet, n.path.index), (t, 5));
-//!
-//! // A root's neighbours are the mesh's: the next tet's root, or none on the boundary.
-//! for f in 0..4 {
-//!     let across = neighbour(&mesh, t, &Path::ROOT, f).map(|n| n.tet);
-//!     assert_eq!(across, Some(mesh.neighbour(t, f)).filter(|n| n.is_some()));
-//! }
-//! # Ok::<(), Box<dyn core::error::Error>>(())
-//! ```
 
 use super::node::HNode;
 use super::table::{invert, then, Across, Path, Perm, CHILD_ADJ, FACE_SUB, MAX_DEPTH};
@@ -43,22 +17,22 @@ use crate::mesh::{FaceUse, Mesh};
 
 /// The same-level neighbour of a node across one face.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub struct Neighbour {
+pub(crate) struct Neighbour {
     /// Its coarse tet.
-    pub tet: TetId,
+    pub(crate) tet: TetId,
     /// Its path (same depth as the query).
-    pub path: Path,
+    pub(crate) path: Path,
     /// Its face that is the shared face.
-    pub face: u8,
+    pub(crate) face: u8,
     /// Listing permutation: position `k` of the query face's listing is position `pi[k]` of
     /// the neighbour face's listing.
-    pub pi: Perm,
+    pub(crate) pi: Perm,
     /// Depth of the first level where the neighbour's ancestors differ from the query's
     /// (0 when across a coarse face).
-    pub split: u8,
+    pub(crate) split: u8,
     /// `faces[m]` for `split <= m <= depth`: the face of the neighbour's ancestor at depth `m`
     /// that contains the shared face.
-    pub faces: [u8; MAX_DEPTH + 1],
+    pub(crate) faces: [u8; MAX_DEPTH + 1],
 }
 
 /// The same-level neighbour of node `path` of coarse tet `tet` across face `face`, or `None`
@@ -67,7 +41,7 @@ pub struct Neighbour {
 ///
 /// # Bounded work
 /// O(depth) <= 2 * [`MAX_DEPTH`] table steps, one mesh look-up.
-pub fn neighbour(mesh: &Mesh<'_>, tet: TetId, path: &Path, face: u8) -> Option<Neighbour> {
+pub(crate) fn neighbour(mesh: &Mesh<'_>, tet: TetId, path: &Path, face: u8) -> Option<Neighbour> {
     let d = path.depth as usize;
     if d > MAX_DEPTH {
         return None;
@@ -136,24 +110,24 @@ pub fn neighbour(mesh: &Mesh<'_>, tet: TetId, path: &Path, face: u8) -> Option<N
 
 /// A leaf met by `visit_across`.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub struct Met {
+pub(crate) struct Met {
     /// Its coarse tet.
-    pub tet: TetId,
+    pub(crate) tet: TetId,
     /// Its tree index.
-    pub index: u32,
+    pub(crate) index: u32,
     /// Its node reference.
-    pub node: u32,
+    pub(crate) node: u32,
     /// Its face that lies on (contains, or is contained in) the shared face.
-    pub face: u8,
+    pub(crate) face: u8,
     /// Its depth.
-    pub depth: u8,
+    pub(crate) depth: u8,
     /// Its node record at the time it was met.
-    pub record: HNode,
+    pub(crate) record: HNode,
 }
 
 /// What `visit_across` found on the other side.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum Side {
+pub(crate) enum Side {
     /// The face is on the mesh boundary: nothing across it.
     Boundary,
     /// Every leaf across was reported.

@@ -168,7 +168,7 @@ const RELABEL: [[u8; 4]; 3] = [
 
 /// The permutation that makes `x02-x13` the shortest octahedron diagonal of the tet `p`
 /// (ties keep the current labelling). Even, so orientation is kept.
-pub fn refinement_relabel(p: [Vec3; 4]) -> [u8; 4] {
+pub(crate) fn refinement_relabel(p: [Vec3; 4]) -> [u8; 4] {
     // Diagonal between midpoints of (a,b) and (c,d) is ((a+b) - (c+d)) / 2.
     let d = |a: usize, b: usize, c: usize, e: usize| (p[a] + p[b] - p[c] - p[e]).length_squared();
     let lens = [d(0, 1, 2, 3), d(0, 2, 1, 3), d(0, 3, 1, 2)];

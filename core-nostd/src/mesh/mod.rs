@@ -6,7 +6,7 @@
 //! entity uses (`(tet, local index)`) through the const [`template`] tables; the neighbour
 //! across a face and the matching vertex in it are found in O(1) ([`Mesh::vertex_match`]).
 //!
-//! The tets live in RAM ([`Mesh::build`], [`Mesh::from_parts`]) or are read in place from a
+//! The tets live in RAM ([`Mesh::build`], `Mesh::from_parts`) or are read in place from a
 //! mesh blob's bytes by a [`TetView`] ([`Mesh::in_place`], [`crate::blob::MeshBlob::mesh`]);
 //! every accessor returns records by value, so callers never see which ([`Mesh::tet_store`]
 //! says).
@@ -48,7 +48,7 @@ mod traverse;
 mod validate;
 mod view;
 
-pub use build::{refinement_relabel, BuildError, BuildOptions, BuildStats, FaceKey, MeshStorage};
+pub use build::{BuildError, BuildOptions, BuildStats, FaceKey, MeshStorage};
 pub use record::{EdgeUse, FaceUse, Node, Reverse, Tet, VertexUse, TET_BYTES, TET_RECORD};
 pub use traverse::{EdgeIter, Full};
 pub use validate::ValidationError;
@@ -88,7 +88,8 @@ impl<'a> Mesh<'a> {
     ///
     /// # Bounded work
     /// O(1).
-    pub fn from_parts(
+    #[cfg(any(test, feature = "alloc"))]
+    pub(crate) fn from_parts(
         positions: &'a mut [Vec3],
         storage: MeshStorage<'a>,
         tet_count: usize,
@@ -201,7 +202,7 @@ impl<'a> Mesh<'a> {
     ///
     /// # Errors
     /// `rest` back, unchanged, when it is shorter than the node count.
-    pub fn set_rest(&mut self, rest: &'a mut [Vec3]) -> Result<(), &'a mut [Vec3]> {
+    pub(crate) fn set_rest(&mut self, rest: &'a mut [Vec3]) -> Result<(), &'a mut [Vec3]> {
         let n = self.positions.len();
         if rest.len() < n {
             return Err(rest);
@@ -212,7 +213,7 @@ impl<'a> Mesh<'a> {
         Ok(())
     }
 
-    /// The rest positions: the ones kept by [`Mesh::set_rest`], else the positions.
+    /// The rest positions: the ones kept by `Mesh::set_rest`, else the positions.
     #[inline]
     pub fn rest_positions(&self) -> &[Vec3] {
         if self.rest.is_empty() {
@@ -224,14 +225,14 @@ impl<'a> Mesh<'a> {
 
     /// `true` when [`Mesh::set_rest`] kept a rest state apart from the positions.
     #[inline]
-    pub fn has_rest(&self) -> bool {
+    pub(crate) fn has_rest(&self) -> bool {
         !self.rest.is_empty()
     }
 
     /// The four corner positions of a tet in the rest state ([`Mesh::rest_positions`]); zeros
     /// for a tet or node id out of range (as [`Mesh::tet_positions`]).
     #[inline]
-    pub fn rest_tet_positions(&self, t: TetId) -> [Vec3; 4] {
+    pub(crate) fn rest_tet_positions(&self, t: TetId) -> [Vec3; 4] {
         let rest = self.rest_positions();
         match self.tet_nodes(t).map(|n| rest.get(n.idx())) {
             [Some(&a), Some(&b), Some(&c), Some(&d)] => [a, b, c, d],
@@ -353,7 +354,7 @@ impl<'a> Mesh<'a> {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn swap_normals(&mut self, other: &mut &'a mut [Vec3]) -> bool {
+    pub(crate) fn swap_normals(&mut self, other: &mut &'a mut [Vec3]) -> bool {
         if other.len() != self.normals.len() {
             return false;
         }
@@ -458,8 +459,8 @@ impl<'a> Mesh<'a> {
     /// `determineBoundary()`): each boundary face adds its area-weighted outward normal to its
     /// three nodes; the sums are normalised. Call after moving nodes. A node id out of range
     /// (none in a mesh [`Mesh::validate`] accepts) counts as the origin and is not marked.
-    /// The sums and the normalisation are [`Mesh::add_boundary_normals`] for every tet and
-    /// [`Mesh::finish_boundary_normal`] for every node, the pieces a caller that builds the
+    /// The sums and the normalisation are `Mesh::add_boundary_normals` for every tet and
+    /// `Mesh::finish_boundary_normal` for every node, the pieces a caller that builds the
     /// normals of new positions elsewhere runs too.
     ///
     /// # Bounded work
@@ -498,7 +499,12 @@ impl<'a> Mesh<'a> {
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn add_boundary_normals(&self, t: TetId, positions: &[Vec3], normals: &mut [Vec3]) -> u32 {
+    pub(crate) fn add_boundary_normals(
+        &self,
+        t: TetId,
+        positions: &[Vec3],
+        normals: &mut [Vec3],
+    ) -> u32 {
         self.sum_boundary_faces(t, positions, normals, |_| {})
     }
 
@@ -538,7 +544,7 @@ impl<'a> Mesh<'a> {
     /// # Bounded work
     /// Constant.
     #[inline]
-    pub fn finish_boundary_normal(&self, n: NodeId, normals: &mut [Vec3]) -> bool {
+    pub(crate) fn finish_boundary_normal(&self, n: NodeId, normals: &mut [Vec3]) -> bool {
         let boundary = self.nodes.get(n.idx()).is_some_and(|node| node.boundary);
         if boundary {
             if let Some(normal) = normals.get_mut(n.idx()) {

@@ -24,7 +24,7 @@ impl Reverse {
     /// The ring offset between the two listings: the vertex at position `p` of this face's
     /// listing is at position `(3 - p + offset) % 3` of the neighbour's listing.
     #[inline]
-    pub const fn offset(self) -> u8 {
+    pub(crate) const fn offset(self) -> u8 {
         (self.0 >> 2) & 3
     }
 }

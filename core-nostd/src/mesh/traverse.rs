@@ -208,7 +208,7 @@ impl Mesh<'_> {
     ///
     /// # Bounded work
     /// O(valence of the edge), at most T steps even on a corrupt mesh.
-    pub fn edge_min_tet(&self, e: EdgeUse) -> TetId {
+    pub(crate) fn edge_min_tet(&self, e: EdgeUse) -> TetId {
         let mut best = e.tet;
         let [a, b] = EDGE_VERTS[e.local as usize];
         for start_face in EDGE_FACES[e.local as usize] {

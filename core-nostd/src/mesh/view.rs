@@ -56,7 +56,7 @@ pub struct TetView<'a> {
 
 impl TetView<'static> {
     /// No tets.
-    pub const EMPTY: Self = Self {
+    pub(crate) const EMPTY: Self = Self {
         recs: &[],
         nodes: 0,
     };
@@ -183,17 +183,11 @@ pub enum TetStore<'a> {
 impl TetStore<'_> {
     /// Number of tets.
     #[inline]
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         match self {
             Self::Ram(s) => s.len(),
             Self::InPlace(v) => v.len(),
         }
-    }
-
-    /// `true` when there are no tets.
-    #[inline]
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
     }
 
     /// Tet `t`; `None` out of range.
@@ -201,7 +195,7 @@ impl TetStore<'_> {
     /// # Bounded work
     /// O(1).
     #[inline]
-    pub fn get(&self, t: TetId) -> Option<Tet> {
+    pub(crate) fn get(&self, t: TetId) -> Option<Tet> {
         match self {
             Self::Ram(s) => s.get(t.idx()).copied(),
             Self::InPlace(v) => v.get(t),

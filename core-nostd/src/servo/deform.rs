@@ -288,14 +288,14 @@ pub struct SpareStorage<'a> {
 
 /// Units of one node in the first pass of [`World::prepare_positions`] (its check, its
 /// distance from rest, its spare normal cleared).
-pub const PREP_NODE_UNITS: u32 = 2;
+pub(crate) const PREP_NODE_UNITS: u32 = 2;
 /// Units of one tet's new box.
-pub const PREP_BOX_UNITS: u32 = 4;
+pub(crate) const PREP_BOX_UNITS: u32 = 4;
 /// Units of one tet's boundary faces added to the normals (four neighbour looks, a cross
 /// product per boundary face).
-pub const PREP_FACE_UNITS: u32 = 4;
+pub(crate) const PREP_FACE_UNITS: u32 = 4;
 /// Units of one node's normal normalised.
-pub const PREP_NORMALISE_UNITS: u32 = 6;
+pub(crate) const PREP_NORMALISE_UNITS: u32 = 6;
 
 /// The passes of [`World::prepare_positions`].
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
@@ -387,9 +387,9 @@ impl<'a> World<'a> {
     }
 
     /// Units of one whole preparation ([`World::prepare_positions`]) with the spare storage
-    /// set (fewer when the hash fills up: the tets left out are not hashed): nodes x ([`PREP_NODE_UNITS`] + [`PREP_NORMALISE_UNITS`]) + tets x
-    /// ([`PREP_BOX_UNITS`] + [`PREP_FACE_UNITS`]) + the hash build's
-    /// ([`SpatialHash::rebuild_units`]). `None` without spare storage.
+    /// set (fewer when the hash fills up: the tets left out are not hashed): nodes x (`PREP_NODE_UNITS` + `PREP_NORMALISE_UNITS`) + tets x
+    /// (`PREP_BOX_UNITS` + `PREP_FACE_UNITS`) + the hash build's
+    /// (`SpatialHash::rebuild_units`). `None` without spare storage.
     ///
     /// # Bounded work
     /// Constant.

@@ -46,10 +46,8 @@ mod sizes_tests;
 mod tests;
 mod zone_memo;
 
-pub use deform::{
-    DeformError, DeformReport, Prepared, SpareStorage, PREP_BOX_UNITS, PREP_FACE_UNITS,
-    PREP_NODE_UNITS, PREP_NORMALISE_UNITS,
-};
+pub use deform::{DeformError, DeformReport, Prepared, SpareStorage};
+pub(crate) use deform::{PREP_BOX_UNITS, PREP_FACE_UNITS, PREP_NODE_UNITS, PREP_NORMALISE_UNITS};
 pub use force::servo_force;
 pub use passive::{drill_force, DrillState, PassiveReport};
 pub use sizes::{carve_rest, WorldSizes, WorldStorage, DEFAULT_PENDING, DEFAULT_SPHERE_MEMO};
@@ -452,17 +450,12 @@ impl<'a> World<'a> {
     /// [`DEFAULT_MAX_CELLS`]). A zone (the burr's box grown by `radius + reach`) that covers
     /// more cells than this finds no tets: the step drills nothing, keeps the previous contact
     /// plane and counts `saturations().candidates`. Size it with the candidate list from the
-    /// tool's radius against the mesh's cell size ([`World::cell_size`]).
+    /// tool's radius against the mesh's cell size (its average edge length, [`crate::hash::average_edge_length`]).
     ///
     /// # Bounded work
     /// O(1); a step's query then costs O(`n` + entries met).
     pub fn set_max_cells(&mut self, n: u32) {
         self.max_cells = n;
-    }
-
-    /// The edge of the spatial hash's cells (the mesh's average edge length).
-    pub fn cell_size(&self) -> f32 {
-        self.hash.cell_size()
     }
 
     /// Drill work items carried to the next tick.

@@ -13,7 +13,7 @@ use crate::force::{
 use crate::hash::Aabb;
 use crate::ids::TetId;
 
-/// What one [`World::track_passive`] did.
+/// What one `World::track_passive` did.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 pub struct PassiveReport {
     /// Passive points tracked.
@@ -60,12 +60,12 @@ impl DrillState {
 impl World<'_> {
     /// One simulation step for a drill: the burr exactly as [`World::simulate`] (it alone is
     /// drilled), then the candidate list refilled with the tets near the shaft's points and
-    /// their proxies ([`World::shaft_candidates`]), then the shaft's passive points at
-    /// `centre + axis * offset` tracked by [`World::track_passive`].
+    /// their proxies (`World::shaft_candidates`), then the shaft's passive points at
+    /// `centre + axis * offset` tracked by `World::track_passive`.
     ///
     /// # Bounded work
     /// [`World::simulate`]'s bound, a second zone query (at most [`World::max_cells`] cells
-    /// and the candidate list), and [`World::track_passive`]'s bound for at most
+    /// and the candidate list), and `World::track_passive`'s bound for at most
     /// [`MAX_PASSIVE`] points.
     #[allow(clippy::too_many_arguments)]
     pub fn simulate_drill(
@@ -87,13 +87,13 @@ impl World<'_> {
     /// The shaft's half of [`World::simulate_drill`], also for a step that drilled the burr
     /// some other way (a real-time task's swept spheres, [`World::simulate_spheres`]): the
     /// candidate list refilled with the tets near the passive points of `tool` (burr at
-    /// `centre`, shaft along the unit `axis`) and their proxies ([`World::shaft_candidates`]),
-    /// then the points tracked ([`World::track_passive`]). Returns the tracking's report and
+    /// `centre`, shaft along the unit `axis`) and their proxies (`World::shaft_candidates`),
+    /// then the points tracked (`World::track_passive`). Returns the tracking's report and
     /// whether the candidate list saturated. Passive points never erode.
     ///
     /// # Bounded work
     /// One zone query (at most [`World::max_cells`] cells and the candidate list) and
-    /// [`World::track_passive`]'s bound for at most [`MAX_PASSIVE`] points.
+    /// `World::track_passive`'s bound for at most [`MAX_PASSIVE`] points.
     pub fn track_shaft(
         &mut self,
         tool: &DrillTool,
@@ -134,7 +134,7 @@ impl World<'_> {
     ///
     /// # Bounded work
     /// O(max cells + hash entries met).
-    pub fn shaft_candidates(&mut self, zone: &Aabb) -> bool {
+    pub(crate) fn shaft_candidates(&mut self, zone: &Aabb) -> bool {
         // The storage is refilled from the front: a candidate gather starts afresh.
         if let Some(z) = self.zone.as_mut() {
             z.forget();
@@ -183,7 +183,7 @@ impl World<'_> {
     /// Per point, O(candidates + hierarchy nodes holding surface whose bounding spheres meet
     /// the segment's ball) ([`crate::hierarchy::Hierarchy::for_each_visible_in`]), for at
     /// most `positions.len()` points. Not counted in the tick budget.
-    pub fn track_passive(
+    pub(crate) fn track_passive(
         &self,
         positions: &[Vec3],
         radius: f32,
@@ -218,7 +218,7 @@ impl World<'_> {
 
 /// The force at a drill's handle, and the burr's part of it (what presses the burr against the
 /// material: [`World::set_pressing`]): the burr's ([`servo_force`] from `contact`, with `burr`'s
-/// state) plus the shaft's passive points' springs ([`passive_force`] at the points'
+/// state) plus the shaft's passive points' springs (`passive_force` at the points'
 /// positions for the burr at `centre` along `axis`, from the planes of the last step) and,
 /// while one of them pushes, damping of the tool's motion (`shaft`'s state), clamped.
 ///

@@ -29,7 +29,7 @@ use crate::servo::{
 /// written and the load cleared). All the spread step's units are sized from Cortex-M4
 /// instruction counts, one unit about 37 instructions (docs/SOFT.md, "A step spread over
 /// ticks").
-pub const LINK_NODE_UNITS: u32 = 1;
+pub(crate) const LINK_NODE_UNITS: u32 = 1;
 
 /// The caller's buffers, one entry per node each: two loads (one gathers the reaction of the
 /// cycle under way while the other loads the step under way; the link swaps their roles) and

@@ -26,7 +26,7 @@ pub fn spread_point_force(p: [Vec3; 4], point: Vec3, force: Vec3) -> Option<[Vec
 
 /// `true` when `x` lies on or below the plane through `origin` with upward normal `up`.
 #[inline]
-pub fn below_plane(x: Vec3, origin: Vec3, up: Vec3) -> bool {
+pub(crate) fn below_plane(x: Vec3, origin: Vec3, up: Vec3) -> bool {
     (x - origin).dot(up) <= 0.0
 }
 

@@ -41,7 +41,7 @@ impl core::error::Error for MaterialError {}
 
 /// Largest Poisson ratio accepted: nearer 0.5 the hydrostatic compliance goes to zero and a
 /// fixed number of iterations no longer reaches the incompressible limit.
-pub const MAX_POISSON: f32 = 0.49;
+pub(crate) const MAX_POISSON: f32 = 0.49;
 
 /// The per-volume constants the solver uses for one material.
 ///
@@ -69,7 +69,7 @@ impl Material {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn check(&self) -> Result<(), MaterialError> {
+    pub(crate) fn check(&self) -> Result<(), MaterialError> {
         if !(self.young.is_finite() && self.young > 0.0) {
             return Err(MaterialError::Young);
         }

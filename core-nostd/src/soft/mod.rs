@@ -17,11 +17,14 @@ mod material;
 mod resume;
 mod tet;
 
-pub use link::{Link, LinkBuffers, LinkError, LinkTick, LINK_NODE_UNITS};
-pub use load::{below_plane, spread_point_force};
-pub use material::{Lame, Material, MaterialError, MAX_POISSON};
-pub use resume::{Advance, NODE_UNITS, TET_UNITS};
-pub use tet::{project, TetRest};
+pub use link::{Link, LinkBuffers, LinkError, LinkTick};
+pub(crate) use load::below_plane;
+pub use load::spread_point_force;
+pub use material::{Lame, Material, MaterialError};
+pub(crate) use resume::NODE_UNITS;
+pub use resume::{Advance, TET_UNITS};
+pub(crate) use tet::project;
+pub use tet::TetRest;
 
 use core::fmt;
 
@@ -172,7 +175,7 @@ impl SoftParams {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn check(&self) -> Result<(), SoftError> {
+    pub(crate) fn check(&self) -> Result<(), SoftError> {
         if !self.gravity.is_finite() {
             return Err(SoftError::Param("gravity"));
         }
@@ -519,7 +522,7 @@ impl<'a> SoftBody<'a> {
     /// Advances the body by `dt`: `substeps` substeps of length `h = dt / substeps`, each
     /// (1) damping and integrating velocities with gravity and `external` (force per node;
     /// missing entries count as zero, fixed nodes ignore theirs), (2) predicting
-    /// displacements, (3) `iterations` Gauss-Seidel sweeps of [`project`] over all tets,
+    /// displacements, (3) `iterations` Gauss-Seidel sweeps of `project` over all tets,
     /// (4) taking velocities from the displacement change. Refused, nothing changed, when
     /// `dt` is not finite and positive or a step spread over calls is under way.
     ///

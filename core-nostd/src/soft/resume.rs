@@ -18,7 +18,7 @@ use glam::Vec3;
 use super::{project, SoftBody, SoftStorage, StepError};
 
 /// Work units of one node's update (integration or velocity).
-pub const NODE_UNITS: u32 = 1;
+pub(crate) const NODE_UNITS: u32 = 1;
 /// Work units of one tet's constraint solve: on a Cortex-M4 a solve takes about as many
 /// instructions as this many node updates, about 660 (docs/SOFT.md, "A step spread over
 /// ticks").

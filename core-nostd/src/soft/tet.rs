@@ -151,7 +151,7 @@ impl TetRest {
 /// # Bounded work
 /// Constant: about 400 floating-point operations.
 #[inline]
-pub fn project(
+pub(crate) fn project(
     rest: &TetRest,
     u: [Vec3; 4],
     w: [f32; 4],

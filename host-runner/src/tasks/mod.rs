@@ -40,7 +40,7 @@
 //! force through the device's cutoff, without the servo thread.
 //!
 //! Every servo tick, for every device, runs the core's time-domain passivity observer and
-//! controller ([`tetradrill_core::force::passivity`]) between the force law and the device, in
+//! controller ([`tetradrill_core::force::PassivityObserver`]) between the force law and the device, in
 //! SI units (scene positions divided by the workspace scale: metres, in the scene's rotated
 //! frame, where the power is the same as at the device). With the burr's law and the drill off
 //! (its penalty spring is then a storage function) it dissipates what the rendered wall

@@ -35,7 +35,7 @@ pub type Kept = heapless::Vec<(f32, VisibleTri), KEEP>;
 ///
 /// # Bounded work
 /// O([`KEEP`]).
-pub fn keep_face(kept: &mut Kept, d2: f32, tri: VisibleTri) {
+pub(crate) fn keep_face(kept: &mut Kept, d2: f32, tri: VisibleTri) {
     let key = tri.key();
     let before = |&(d, t): &(f32, VisibleTri)| d2 < d || (d2 == d && key < t.key());
     if kept.is_full() && kept.last().is_some_and(|e| !before(e)) {
@@ -67,7 +67,7 @@ impl Hierarchy<'_> {
     ///
     /// # Bounded work
     /// O(depth).
-    pub fn visible_face_distance2(
+    pub(crate) fn visible_face_distance2(
         &self,
         mesh: &Mesh<'_>,
         key: FaceRef,
@@ -92,7 +92,7 @@ impl Hierarchy<'_> {
     ///
     /// # Bounded work
     /// O(depth) node look-ups.
-    pub fn face_visible(&self, key: FaceRef) -> bool {
+    pub(crate) fn face_visible(&self, key: FaceRef) -> bool {
         self.visible_leaf(key).is_some()
     }
 

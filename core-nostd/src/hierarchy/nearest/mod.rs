@@ -43,7 +43,8 @@ use super::table::MAX_DEPTH;
 use crate::ids::TetId;
 use crate::mesh::Mesh;
 
-pub use hints::{keep_face, Kept, KEEP};
+pub(crate) use hints::keep_face;
+pub use hints::{Kept, KEEP};
 
 /// A visible face named by its leaf and face: `(tet, tree index, face)`, the order of ties.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug, Hash)]
@@ -204,12 +205,12 @@ impl NearestCursor {
     ///
     /// # Bounded work
     /// Constant.
-    pub fn restart_tree(&mut self) {
+    pub(crate) fn restart_tree(&mut self) {
         self.stack.clear();
     }
 
     /// Forgets the place (the next search starts afresh).
-    pub fn clear(&mut self) {
+    pub(crate) fn clear(&mut self) {
         self.tet = None;
         self.first = None;
         self.stack.clear();

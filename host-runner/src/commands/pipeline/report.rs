@@ -162,7 +162,7 @@ pub struct RunForce {
     pub last_written_n: f32,
 }
 
-/// The passivity observer and controller of a run ([`tetradrill_core::force::passivity`]).
+/// The passivity observer and controller of a run ([`tetradrill_core::force::PassivityObserver`]).
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct RunSafety {
     /// Times it tripped (0 or 1: a trip cuts the motors for the rest of the run).
