@@ -41,6 +41,7 @@ pub mod held;
 pub mod passive;
 pub mod passivity;
 pub mod pen;
+pub mod pen_storage;
 pub mod response;
 pub mod segment;
 pub mod shaft;
@@ -57,6 +58,7 @@ pub use pen::{
     object_side, pen_contact, pen_pass, pen_place, pen_side, DepthMethod, PenBuffers, PenContact,
     PenForce, PenOptions, PenPass, PenPlacement, PenScene, PenState, SideBuffers, SideReport,
 };
+pub use pen_storage::PenBufferSizes;
 pub use response::{clamp_force, damping_force, display_offset, ForceParams, ToolState};
 pub use segment::{segment_first_hit, SegmentHit};
 pub use shaft::{DrillTool, MAX_PASSIVE};

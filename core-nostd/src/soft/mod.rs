@@ -15,12 +15,14 @@ mod link;
 mod load;
 mod material;
 mod resume;
+mod storage;
 mod tet;
 
 pub use link::{Link, LinkBuffers, LinkError, LinkTick, LINK_NODE_UNITS};
 pub use load::{below_plane, spread_point_force};
 pub use material::{Lame, Material, MaterialError, MAX_POISSON};
 pub use resume::{Advance, NODE_UNITS, TET_UNITS};
+pub use storage::{carve_mesh, mesh_lines, mesh_parts};
 pub use tet::{project, TetRest};
 
 use core::fmt;
@@ -124,6 +126,8 @@ pub enum SoftError {
     },
     /// A step parameter (named) is out of range.
     Param(&'static str),
+    /// The storage could not be carved or allocated ([`SoftStorage::carve`]).
+    Storage(crate::storage::StorageError),
 }
 
 impl fmt::Display for SoftError {
@@ -140,6 +144,7 @@ impl fmt::Display for SoftError {
             }
             Self::Material { index, error } => write!(f, "soft body: material {index}: {error}"),
             Self::Param(what) => write!(f, "soft body: {what} is out of range"),
+            Self::Storage(e) => write!(f, "soft body: {e}"),
         }
     }
 }
