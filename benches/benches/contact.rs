@@ -300,6 +300,7 @@ fn pen_benches_over(
         .map(|p| Tetrahedron::new(pv(p[0]), pv(p[1]), pv(p[2]), pv(p[3])))
         .collect();
     let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
+    let np = pen.node_count();
     let mut out = vec![Collision::default(); np];
     let mut found = vec![TetId::NONE; np];
     let mut scratch = Vec::new();

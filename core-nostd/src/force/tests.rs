@@ -3,12 +3,10 @@ use glam::{Affine3A, Mat4, Quat, Vec3};
 use super::frames::{allocentric, camera, force_to_device};
 use super::*;
 use crate::collide::test_support::Store;
-use crate::collide::{
-    hash_tets, Body, Collision, Occupancy, OccupancyStorage, RigidTets, RigidTetsStorage,
-};
+use crate::collide::{hash_tets, Body, Occupancy, OccupancyStorage, RigidTets, RigidTetsStorage};
 use crate::depth::{hash_boundary_faces, NodeGraph};
 use crate::hash::{Aabb, HashEntry, SpatialHash};
-use crate::ids::{NodeId, TetId};
+use crate::ids::NodeId;
 use crate::storage::{Block, Line};
 
 #[test]
