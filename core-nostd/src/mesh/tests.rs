@@ -128,17 +128,17 @@ fn a_node_record_is_eight_bytes_with_its_flag_in_the_sixth() {
 #[test]
 fn mesh_storage_carves_every_part_on_a_line_over_garbage() {
     use crate::storage::{Block, Line, Part, StorageError};
-    // 9 nodes, 12 tets: Node 8 bytes, Vec3 12, Tet 36.
-    const LINES: usize = 2 + 2 + 7;
+    // The two-tet mesh: 5 nodes, 2 tets; Node 8 bytes, Vec3 12, Tet 36.
+    const LINES: usize = 1 + 1 + 2;
     assert_eq!(
-        MeshStorage::lines(9, 12),
-        Some(lines_of(9, 8) + lines_of(9, 12) + lines_of(12, 36))
+        MeshStorage::lines(5, 2),
+        Some(lines_of(5, 8) + lines_of(5, 12) + lines_of(2, 36))
     );
-    assert_eq!(MeshStorage::lines(9, 12), Some(LINES));
+    assert_eq!(MeshStorage::lines(5, 2), Some(LINES));
     assert_eq!(MeshStorage::lines(usize::MAX, 0), None);
     let mut lines = [Line([0xC3; 64]); LINES];
     let base = lines.as_ptr() as usize;
-    let s = MeshStorage::carve(9, 12, &mut Block::from_lines(&mut lines)).unwrap();
+    let s = MeshStorage::carve(5, 2, &mut Block::from_lines(&mut lines)).unwrap();
     for (i, at) in [
         s.nodes.as_ptr() as usize,
         s.normals.as_ptr() as usize,
@@ -149,7 +149,7 @@ fn mesh_storage_carves_every_part_on_a_line_over_garbage() {
     {
         assert_eq!((at - base) % 64, 0, "part {i} off its line");
     }
-    assert_eq!((s.nodes.len(), s.normals.len(), s.tets.len()), (9, 9, 12));
+    assert_eq!((s.nodes.len(), s.normals.len(), s.tets.len()), (5, 5, 2));
     let unset = Node::new(TetId(u32::MAX), 0, false);
     assert!(s.nodes.iter().all(|n| *n == unset && !n.boundary()));
     assert!(s.normals.iter().all(|&n| n == Vec3::ZERO));
@@ -159,21 +159,21 @@ fn mesh_storage_carves_every_part_on_a_line_over_garbage() {
         reverse: [Reverse(0); 4],
     };
     assert!(s.tets.iter().all(|t| *t == fresh));
-    // The carved storage builds a mesh.
-    let (mut positions, tets) = crate::builtin::cube12();
-    let mut scratch = [FaceKey::default(); 48];
+    // The carved storage builds the mesh: every node on the boundary.
+    let mut positions = POSITIONS;
+    let mut scratch = [FaceKey::default(); 8];
     let mesh = Mesh::build(
         &mut positions,
-        &tets,
+        &TETS,
         s,
         &mut scratch,
         BuildOptions::default(),
     )
     .expect("builds");
-    assert_eq!(mesh.tet_count(), 12);
-    assert_eq!(mesh.stats().boundary_nodes, 8);
+    assert_eq!(mesh.tet_count(), 2);
+    assert_eq!(mesh.stats().boundary_nodes, 5);
     // One line short: the tets do not fit, and the error names them.
-    let err = MeshStorage::carve(9, 12, &mut Block::from_lines(&mut lines[1..])).unwrap_err();
+    let err = MeshStorage::carve(5, 2, &mut Block::from_lines(&mut lines[1..])).unwrap_err();
     assert!(
         matches!(
             err,
