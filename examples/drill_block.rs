@@ -9,7 +9,7 @@ use tetradrill::traces::PoseSource;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The demo's block (8 cubes a side, unit size) and a burr of radius 0.1.
-    let setup = Setup::drilling("builtin:block:8", Tool::sphere(0.1));
+    let setup = Setup::new("builtin:block:8", Tool::sphere(0.1));
     let poses = PoseSource::new(&Poses::Demo, None)?;
     let mut drilling = Drilling::new(&setup)?;
     let mut run = drilling.start()?;

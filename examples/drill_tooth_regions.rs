@@ -16,7 +16,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         tetradrill_examples::MESHES
     );
     let mesh = std::env::args().nth(1).unwrap_or(default);
-    let mut setup = Setup::drilling(&mesh, Tool::sphere(0.0007)); // metres
+    let mut setup = Setup::new(&mesh, Tool::sphere(0.0007)); // metres
     setup.materials.regions = tooth_regions();
     setup.forces.stiffness = 6_000.0;
     setup.poses = Poses::ToothAccess;

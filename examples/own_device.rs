@@ -53,7 +53,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         tick: 0,
         pushed_up: Arc::clone(&pushed_up),
     };
-    let setup = Setup::drilling("builtin:block:8", Tool::sphere(0.1));
+    let setup = Setup::new("builtin:block:8", Tool::sphere(0.1));
     let report = servo::run(&setup, stylus, ServoOptions::for_ms(1000))?;
     let up = pushed_up.load(Ordering::Relaxed);
     println!(

@@ -10,7 +10,7 @@ use tetradrill::prelude::*;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let default = format!("{}/models/pen_tool_gmsh.mesh", tetradrill_examples::MESHES);
     let pen = std::env::args().nth(1).unwrap_or(default);
-    let mut setup = Setup::drilling("builtin:block:6", Tool::mesh(pen));
+    let mut setup = Setup::new("builtin:block:6", Tool::mesh(pen));
     setup.forces.max_force = 1.0e6; // no clamp in the way of the depth's growth
     let mut touching = Touching::new(&setup)?;
 

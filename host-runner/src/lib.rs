@@ -10,7 +10,7 @@
 //! ```
 //! use tetradrill::prelude::*;
 //!
-//! let setup = Setup::drilling("builtin:block:4", Tool::sphere(0.1));
+//! let setup = Setup::new("builtin:block:4", Tool::sphere(0.1));
 //! let mut drilling = Drilling::new(&setup)?;
 //! let mut run = drilling.start()?;
 //! for i in 0..300 {

@@ -61,7 +61,7 @@ pub fn object_store(
 /// use tetradrill::prelude::*;
 ///
 /// let pen = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/data/meshes/models/pen_tool_gmsh.mesh");
-/// let setup = Setup::drilling("builtin:block:4", Tool::mesh(pen));
+/// let setup = Setup::new("builtin:block:4", Tool::mesh(pen));
 /// let mut touching = Touching::new(&setup)?;
 /// let force = touching.run(|touch| {
 ///     // The pen's tip 0.02 into the block's top face (z = 0.5), its axis up.

@@ -9,7 +9,7 @@
 //! ```
 //! use tetradrill::prelude::*;
 //!
-//! let setup = Setup::drilling("builtin:block:4", Tool::sphere(0.1));
+//! let setup = Setup::new("builtin:block:4", Tool::sphere(0.1));
 //! let mut drilling = Drilling::new(&setup)?;
 //! let mut run = drilling.start()?;
 //! // Down through the top face (z = 0.5) with the drill on, 0.2 deep after 200 ticks.

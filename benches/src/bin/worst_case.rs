@@ -285,7 +285,7 @@ struct DrillMax {
 }
 
 fn drill_scenario(name: &str, mesh_path: &Path, budget: u32, ticks: u64) -> Result<(), ExitCode> {
-    let mut sc = Setup::drilling(mesh_path, Tool::sphere(f64::from(RADIUS)));
+    let mut sc = Setup::new(mesh_path, Tool::sphere(f64::from(RADIUS)));
     sc.drilling.max_depth = 5;
     sc.drilling.budget_per_tick = budget;
     let mut owned = load(mesh_path, 1.0)?;

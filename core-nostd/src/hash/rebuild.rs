@@ -75,59 +75,31 @@ impl<'a> SpatialHash<'a> {
     where
         F: Fn(usize) -> Option<Aabb>,
     {
-        self.stats.builds = self.stats.builds.wrapping_add(1);
-        let nb = self.buckets();
-        let cap = self.entries.len();
-        self.starts.fill(0);
-        self.bounds = Aabb::of::<0>([]);
-
-        // Pass 1: count entries per bucket, stop at the first item that does not fit (or
-        // whose number does not fit in ITEM_BITS).
-        let mut total = 0usize;
-        let mut kept = count.min(MAX_ITEMS);
-        for i in 0..kept {
-            let Some(b) = bounds(i) else { continue };
-            match self.count_item(&b, cap - total, nb) {
-                Some(n) => total += n,
-                None => {
-                    kept = i;
-                    break;
-                }
+        // The spread build run to its end: one pass of calls of the most units a call takes
+        // (a build of more than `u32::MAX` units takes a few).
+        let mut cursor = RebuildCursor::default();
+        let built = loop {
+            if let (_, Some(built)) = self.rebuild_part(&mut cursor, count, &bounds, u32::MAX) {
+                break built;
             }
-        }
-        // Prefix sum: starts[k] = end of bucket k; starts[nb] = total.
-        let mut run = 0u32;
-        for s in self.starts.iter_mut() {
-            run += *s;
-            *s = run;
-        }
-        // Pass 2: fill from the back of each bucket.
-        for i in 0..kept {
-            let Some(b) = bounds(i) else { continue };
-            self.fill_item(i, &b, nb);
-        }
-        self.used = total;
-        let saturated = kept < count;
-        if saturated {
+        };
+        self.stats.builds = self.stats.builds.wrapping_add(1);
+        if built.saturated {
             self.stats.saturations = self.stats.saturations.wrapping_add(1);
         }
-        Rebuilt {
-            items: kept,
-            entries: total,
-            saturated,
-        }
+        built
     }
 
-    /// [`SpatialHash::rebuild`] spread over calls, into this table while another one
-    /// answers the queries: each call goes on from `cursor` (a fresh
+    /// The build, spread over calls (into this table while another one answers the queries;
+    /// [`SpatialHash::rebuild`] runs it to its end at once): a counting sort, one counting
+    /// pass, one prefix sum, one filling pass. Each call goes on from `cursor` (a fresh
     /// [`RebuildCursor::default`] starts a build) and does at most `max_units` units
     /// ([`REBUILD_ITEM_UNITS`] per item in each of the two item passes, one per
     /// [`REBUILD_BUCKETS_PER_UNIT`] buckets in each of the two bucket passes; a step is
     /// taken only while it fits). Returns the units done and, once the build is complete,
     /// what it stored. `count` and `bounds` must be the same for every call of one build.
-    /// The finished table holds the same entries in the same places as one
-    /// [`SpatialHash::rebuild`]; the counters are not touched here:
-    /// [`SpatialHash::adopt`] counts the build when the table is taken into use.
+    /// The counters are not touched here: [`SpatialHash::rebuild`] counts its build, and
+    /// [`SpatialHash::adopt`] counts a spread one when the table is taken into use.
     ///
     /// # Bounded work
     /// At most `max_units` units plus the cells of one item's box (at most the capacity).
@@ -353,8 +325,10 @@ mod tests {
     }
 
     /// A rebuild spread over calls of every size, into a second table, gives the entries,
-    /// starts, bounds and report of one `rebuild`, full tables and missing items included;
-    /// `adopt` then counts it as `rebuild` does.
+    /// starts, bounds and report of one `rebuild` (the same build in one call: this checks
+    /// the slicing), full tables and missing items included; `adopt` then counts it as
+    /// `rebuild` does. The entries themselves are checked against brute force by the
+    /// queries' tests.
     #[test]
     fn a_spread_rebuild_is_the_whole_rebuild() {
         // Boxes of one to eight cells, one missing, some far apart (buckets shared).

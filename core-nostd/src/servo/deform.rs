@@ -252,7 +252,7 @@ fn node_distance2(mesh: &Mesh<'_>, new: &[Vec3], i: usize) -> Result<f32, Deform
 /// Tet `t`'s box at the positions `new` (all corners at the origin for an id out of range,
 /// as [`Mesh::tet_positions`] does).
 #[inline]
-fn tet_box(mesh: &Mesh<'_>, new: &[Vec3], t: usize) -> Aabb {
+pub(super) fn tet_box(mesh: &Mesh<'_>, new: &[Vec3], t: usize) -> Aabb {
     let ids = mesh.tet_nodes(TetId::from_idx(t));
     let corners = match ids.map(|n| new.get(n.idx())) {
         [Some(&a), Some(&b), Some(&c), Some(&d)] => [a, b, c, d],
@@ -264,7 +264,7 @@ fn tet_box(mesh: &Mesh<'_>, new: &[Vec3], t: usize) -> Aabb {
 /// Tet `t`'s box for the hash: the stored one, or for a tet beyond the stored boxes the same
 /// box made from its corners.
 #[inline]
-fn stored_box(boxes: &[Aabb], mesh: &Mesh<'_>, new: &[Vec3], t: usize) -> Aabb {
+pub(super) fn stored_box(boxes: &[Aabb], mesh: &Mesh<'_>, new: &[Vec3], t: usize) -> Aabb {
     boxes
         .get(t)
         .copied()

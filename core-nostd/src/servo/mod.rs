@@ -271,12 +271,13 @@ impl<'a> World<'a> {
         let cell = average_edge_length(&mesh);
         let mut hash =
             SpatialHash::new(hash_starts, hash_entries, cell).map_err(WorldError::Hash)?;
-        let box_of = |t: usize| Aabb::of(mesh.tet_positions(TetId::from_idx(t)));
+        // The boxes and the hash as a move of the nodes makes them (`deform.rs`).
+        let positions = mesh.positions();
         for (t, b) in tet_boxes.iter_mut().enumerate().take(mesh.tet_count()) {
-            *b = box_of(t);
+            *b = deform::tet_box(&mesh, positions, t);
         }
         let built = hash.rebuild(mesh.tet_count(), |t| {
-            Some(tet_boxes.get(t).copied().unwrap_or_else(|| box_of(t)))
+            Some(deform::stored_box(tet_boxes, &mesh, positions, t))
         });
         let hier = Hierarchy::new(&mesh, hierarchy).map_err(WorldError::Hierarchy)?;
         let sat = Saturations {

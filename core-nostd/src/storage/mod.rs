@@ -367,23 +367,36 @@ impl<'m> Block<'m> {
 impl<'m> Memory<'m> for Block<'m> {
     fn take(&mut self, slots: &Slots) -> Result<&'m mut [u8], StorageError> {
         let part = slots.part;
-        let bytes = slots.bytes().ok_or(StorageError::Overflow { part })?;
+        let (Some(bytes), Some(lines)) = (slots.bytes(), slots.lines()) else {
+            return Err(StorageError::Overflow { part });
+        };
         // Bytes to the next line boundary of the run's address (no `unsafe`: only the
         // address's value is read).
         let pad = (self.rest.as_ptr() as usize).wrapping_neg() & (LINE - 1);
-        let lines = slots.lines().ok_or(StorageError::Overflow { part })?;
-        let needed = pad.saturating_add(bytes);
         let left = self.rest.len();
+        let needed = pad.saturating_add(bytes);
+        let too_small = StorageError::TooSmall { part, needed, left };
         if needed > left {
-            return Err(StorageError::TooSmall { part, needed, left });
+            return Err(too_small);
         }
-        let rest = core::mem::take(&mut self.rest);
-        let (_, rest) = rest.split_at_mut(pad);
         // The part's bytes, then the rest of its last line (the next part starts on a line).
-        let span = (lines * LINE).min(rest.len()).max(bytes);
-        let (part_bytes, rest) = rest.split_at_mut(span);
+        let span = lines
+            .saturating_mul(LINE)
+            .min(left.saturating_sub(pad))
+            .max(bytes);
+        let rest = core::mem::take(&mut self.rest);
+        // Checked splits: the sizes were checked above, and no split can panic.
+        let Some((_, rest)) = rest.split_at_mut_checked(pad) else {
+            return Err(too_small);
+        };
+        let Some((part_bytes, rest)) = rest.split_at_mut_checked(span) else {
+            return Err(too_small);
+        };
         self.rest = rest;
-        Ok(part_bytes.split_at_mut(bytes).0)
+        match part_bytes.split_at_mut_checked(bytes) {
+            Some((b, _)) => Ok(b),
+            None => Err(too_small),
+        }
     }
 }
 

@@ -329,9 +329,9 @@ fn non_negative(key: &'static str, v: f64) -> Result<(), SetupError> {
 }
 
 impl Setup {
-    /// A set-up drilling `mesh` (a file, `builtin:cube12` or `builtin:block:N`) with `tool`,
-    /// every other value the default's.
-    pub fn drilling(mesh: impl AsRef<Path>, tool: Tool) -> Self {
+    /// A set-up of `mesh` (a file, `builtin:cube12` or `builtin:block:N`) and `tool` (a burr
+    /// drills it, a tet-mesh tool touches it), every other value the default's.
+    pub fn new(mesh: impl AsRef<Path>, tool: Tool) -> Self {
         Self {
             mesh: MeshSpec::new(mesh),
             tool,

@@ -28,7 +28,7 @@ const DT: f32 = 0.001;
 
 /// A block of 8^3 cubes drilled to depth 3; the default region of `hardness` and `threshold`.
 fn block_scenario(hardness: f64, threshold: f64) -> Setup {
-    let mut sc = Setup::drilling("builtin:block:8", Tool::sphere(0.3));
+    let mut sc = Setup::new("builtin:block:8", Tool::sphere(0.3));
     sc.drilling.max_depth = 3;
     sc.materials.hardness = hardness;
     sc.materials.pressure_threshold = threshold;

@@ -70,7 +70,7 @@ impl HapticDevice for Logged {
 }
 
 fn cube() -> Setup {
-    Setup::drilling("builtin:cube12", Tool::sphere(0.1))
+    Setup::new("builtin:cube12", Tool::sphere(0.1))
 }
 
 /// Runs of the wall-clock pipeline a loaded machine may disturb: a run whose servo stalled past

@@ -205,12 +205,13 @@ fn replay_is_deterministic_and_reports_the_documented_fields() {
 }
 
 /// A real-time run of `ticks` ticks that took `secs` seconds ran on the 1 kHz deadlines: not
-/// faster (free-running), and not grossly slower (a wrong period). The bound above is loose:
-/// the run's time includes starting and joining its threads, and this is a check of pacing,
-/// not a benchmark.
+/// faster (free-running), and not grossly slower (a wrong period: 2 ms would double it). The
+/// bound above is loose: the run's time includes starting and joining its threads, and on a
+/// loaded machine late wake-ups stretch it (1,500 ticks took 1.8 s at a load of 10 on two
+/// cores); this is a check of pacing, not a benchmark.
 fn paced_at_1khz(ticks: f64, secs: f64) -> bool {
     let ms = secs * 1000.0;
-    ms >= 0.99 * ticks && ms <= 1.10 * ticks
+    ms >= 0.99 * ticks && ms <= 1.5 * ticks
 }
 
 /// The demo path as a trace file, sampled at every servo tick.

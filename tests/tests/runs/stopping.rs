@@ -68,7 +68,7 @@ impl HapticDevice for Logged {
 }
 
 fn small_block() -> Setup {
-    Setup::drilling("builtin:block:4", Tool::sphere(0.1))
+    Setup::new("builtin:block:4", Tool::sphere(0.1))
 }
 
 /// `pipeline::run` over the small block.
