@@ -24,43 +24,23 @@ use parry3d::partitioning::{Bvh, BvhBuildStrategy};
 use parry3d::query::PointQuery;
 use parry3d::shape::Tetrahedron;
 use tetradrill::owned::OwnedMesh;
+use tetradrill::pen::{HashStore, PenRig};
 use tetradrill::pen_pair::with_pen_pair;
 use tetradrill_benches::{impaled_poses, load_mesh, touch_poses, Lcg};
 use tetradrill_core::collide::{
-    hash_tets, points_in_tets, points_in_tets_occupied, points_in_tets_walked, walks_exact, Body,
+    hash_tets, points_in_tets, points_in_tets_occupied, points_in_tets_walked, walks_exact,
     Collision, WalkStarts,
 };
-use tetradrill_core::depth::{
-    graph_sizes, hash_boundary_faces, DepthScratch, NodeGraph, NodeSlot, Penetration,
-};
+use tetradrill_core::depth::Penetration;
 use tetradrill_core::force::{
     mesh_sphere_contact, pen_contact, pen_pass, pen_servo_force, DepthMethod, HeldContact,
     PenBuffers, PenOptions, PenScene, PenState, ServoScratch,
 };
-use tetradrill_core::hash::{average_edge_length, prime_at_most, HashEntry, SpatialHash};
+use tetradrill_core::hash::average_edge_length;
 use tetradrill_core::ids::{NodeId, TetId};
 
 fn load(rel: &str, scale: f64) -> OwnedMesh {
     load_mesh(rel, scale).expect("mesh loads")
-}
-
-struct HashStore {
-    starts: Vec<u32>,
-    entries: Vec<HashEntry>,
-}
-
-impl HashStore {
-    fn new(items: usize, per: usize) -> Self {
-        // Buckets about twice the entries, so a cell rarely shares its bucket.
-        let b = prime_at_most((2 * items * per).clamp(3, u32::MAX as usize) as u32) as usize;
-        Self {
-            starts: vec![0; b + 1],
-            entries: vec![HashEntry::default(); items * per],
-        }
-    }
-    fn hash(&mut self, cell: f32) -> SpatialHash<'_> {
-        SpatialHash::new(&mut self.starts, &mut self.entries, cell).unwrap()
-    }
 }
 
 /// Single-call timings in microseconds: over every call (mean, p99, max), and over the poses
@@ -128,73 +108,33 @@ fn report(name: &str, t: Timings) {
 }
 
 fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
-    let mut pen_m = load("models/pen_tool_gmsh.mesh", 10.0);
-    let mut obj_m = load(obj_rel, 1.0);
-    let pen = pen_m.view();
-    let obj = obj_m.view();
-    let ob = Body::fixed(&obj);
-    let (po, pa) = graph_sizes(&pen);
-    let (mut pgo, mut pga) = (vec![0u32; po], vec![NodeId::NONE; pa]);
-    let pg = NodeGraph::build(&pen, &mut pgo, &mut pga).unwrap();
-    let (oo, oa) = graph_sizes(&obj);
-    let (mut ogo, mut oga) = (vec![0u32; oo], vec![NodeId::NONE; oa]);
-    let og = NodeGraph::build(&obj, &mut ogo, &mut oga).unwrap();
-    let cell = average_edge_length(&obj);
-    let mut ts = HashStore::new(obj.tet_count(), 16);
-    let mut th = ts.hash(cell);
-    assert!(!hash_tets(&mut th, &ob).saturated);
-    let mut ns = HashStore::new(obj.node_count(), 1);
-    let mut nh = ns.hash(cell);
-    nh.rebuild_points(obj.positions());
-    let mut fs = HashStore::new(obj.tet_count(), 8);
-    let mut fh = fs.hash(cell);
-    assert!(!hash_boundary_faces(&mut fh, &ob).saturated);
-    let mut ps = HashStore::new(pen.tet_count(), 16);
-    let mut ph = ps.hash(average_edge_length(&pen));
-    assert!(!hash_boundary_faces(&mut ph, &Body::fixed(&pen)).saturated);
-    let mut rest = tetradrill::pen::PenRest::new(&pen);
-    let pen_rest = rest.build(&pen, cell).unwrap();
-    let mut cell_store = tetradrill::pen::ObjectCells::new(&obj, cell);
-    let cells = cell_store.build(&ob, cell).unwrap();
-    let scene = PenScene {
-        pen: &pen,
-        pen_graph: pg,
-        pen_rest: &pen_rest,
-        pen_faces: Some(&ph),
-        object: ob,
-        object_graph: og,
-        object_tets: &th,
-        object_nodes: &nh,
-        object_cells: &cells,
-        object_faces: Some(&fh),
-        object_walks: walks_exact(&ob),
-        pen_walks: walks_exact(&Body::fixed(&pen)),
+    // The scene and the per-tick buffers of every pen run: the core's `owned::PenRig`.
+    let mut rig = PenRig {
+        pen: load("models/pen_tool_gmsh.mesh", 10.0),
+        obj: load(obj_rel, 1.0),
     };
-    let (np, no) = (pen.node_count(), obj.node_count());
-    let mut world = vec![Vec3::ZERO; np];
-    let (mut h1, mut h2) = (
-        vec![Collision::default(); np],
-        vec![Collision::default(); no],
-    );
-    let (mut p1, mut p2) = (
-        vec![Penetration::default(); np],
-        vec![Penetration::default(); no],
-    );
-    let (mut s1, mut q1) = (vec![NodeSlot::default(); np], vec![NodeId::NONE; np]);
-    let (mut s2, mut q2) = (vec![NodeSlot::default(); no], vec![NodeId::NONE; no]);
-    let mut found = vec![TetId::NONE; np];
-    let mut bufs = PenBuffers {
-        world: &mut world,
-        pen_hits: &mut h1,
-        pen_found: &mut found,
-        object_hits: &mut h2,
-        pen_pens: &mut p1,
-        object_pens: &mut p2,
-        pen_depth: DepthScratch::new(&mut s1, &mut q1),
-        object_depth: DepthScratch::new(&mut s2, &mut q2),
-    };
-    let ps_list = touch_poses(&obj, 200, 0.05, 7);
-    let deep_list = impaled_poses(&obj, 200, 0.25, 7);
+    rig.with(|scene, bufs| pen_benches_over(c, label, scene, bufs))
+        .expect("the pen's contact scene builds");
+}
+
+fn pen_benches_over(
+    c: &mut Criterion,
+    label: &str,
+    scene: &PenScene<'_, '_, '_>,
+    bufs: &mut PenBuffers<'_>,
+) {
+    let pen = scene.pen;
+    let obj = scene.object.mesh;
+    let ob = scene.object;
+    let pg = scene.pen_graph;
+    let th = scene.object_tets;
+    let cells = scene.object_cells;
+    let fh = scene
+        .object_faces
+        .expect("the rig hashes the object's faces");
+    let cell = average_edge_length(obj);
+    let ps_list = touch_poses(obj, 200, 0.05, 7);
+    let deep_list = impaled_poses(obj, 200, 0.25, 7);
     let traced = PenOptions::default();
     let hashed = PenOptions {
         method: DepthMethod::Hashed,
@@ -202,7 +142,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
     };
     let mut contacts = 0usize;
     for &(p, q) in &ps_list {
-        let r = pen_contact(&scene, &mut bufs, p, q, &traced, &mut PenState::default());
+        let r = pen_contact(scene, bufs, p, q, &traced, &mut PenState::default());
         assert!(!r.saturated());
         contacts += r.pen_collisions.count + r.object_collisions.count;
     }
@@ -215,7 +155,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
 
     let mut deep_contacts = 0usize;
     for &(p, q) in &deep_list {
-        let r = pen_contact(&scene, &mut bufs, p, q, &traced, &mut PenState::default());
+        let r = pen_contact(scene, bufs, p, q, &traced, &mut PenState::default());
         deep_contacts += r.pen_collisions.count + r.object_collisions.count;
     }
     println!(
@@ -228,14 +168,14 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
             &format!("pen_tick_impaled/{label}/{name}"),
             worst(deep_list.len(), 5, |i| {
                 let (p, q) = deep_list[i];
-                black_box(pen_contact(&scene, &mut bufs, p, q, opts, &mut st));
+                black_box(pen_contact(scene, bufs, p, q, opts, &mut st));
             }),
         );
         report_warm(
             &format!("pen_tick_impaled/{label}/{name}"),
             warm(deep_list.len(), 5, |i| {
                 let (p, q) = deep_list[i];
-                black_box(pen_contact(&scene, &mut bufs, p, q, opts, &mut st));
+                black_box(pen_contact(scene, bufs, p, q, opts, &mut st));
             }),
         );
     }
@@ -247,21 +187,21 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
             &format!("pen_tick/{label}/{name}"),
             worst(ps_list.len(), 20, |i| {
                 let (p, q) = ps_list[i];
-                black_box(pen_contact(&scene, &mut bufs, p, q, opts, &mut st));
+                black_box(pen_contact(scene, bufs, p, q, opts, &mut st));
             }),
         );
         report_warm(
             &format!("pen_tick/{label}/{name}"),
             warm(ps_list.len(), 20, |i| {
                 let (p, q) = ps_list[i];
-                black_box(pen_contact(&scene, &mut bufs, p, q, opts, &mut st));
+                black_box(pen_contact(scene, bufs, p, q, opts, &mut st));
             }),
         );
     }
 
     // The same, the object side on a second thread (`PenPair`): the same forces, about the
     // longer side's time.
-    with_pen_pair(&scene, &mut bufs, |pair| {
+    with_pen_pair(scene, bufs, |pair| {
         let opts = &traced;
         for (kind, list, reps) in [
             ("pen_tick", &ps_list, 20),
@@ -286,7 +226,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
             b.iter(|| {
                 let (p, q) = ps_list[i % ps_list.len()];
                 i += 1;
-                black_box(pen_contact(&scene, &mut bufs, p, q, opts, &mut st))
+                black_box(pen_contact(scene, bufs, p, q, opts, &mut st))
             })
         });
     }
@@ -297,7 +237,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
     let held: Vec<(Vec3, Quat, Vec<Penetration>, Vec<Penetration>)> = ps_list
         .iter()
         .map(|&(p, q)| {
-            let r = pen_pass(&scene, &mut bufs, p, q, &traced, &mut PenState::default());
+            let r = pen_pass(scene, bufs, p, q, &traced, &mut PenState::default());
             let (np, no) = r.penetrations;
             (
                 p,
@@ -324,7 +264,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
             pen: pens,
             object: objs,
         };
-        pen_servo_force(&scene, &h, now, *p + step, *q, &traced, st)
+        pen_servo_force(scene, &h, now, *p + step, *q, &traced, st)
     };
     let mut st = PenState::default();
     report(
@@ -360,6 +300,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
         .map(|p| Tetrahedron::new(pv(p[0]), pv(p[1]), pv(p[2]), pv(p[3])))
         .collect();
     let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves);
+    let np = pen.node_count();
     let mut out = vec![Collision::default(); np];
     let mut found = vec![TetId::NONE; np];
     let mut scratch = Vec::new();
@@ -387,17 +328,18 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
     // look-up (`points_in_tets_walked`, the pen pass's query; exact on these meshes).
     let walks = if walks_exact(&ob) { 8 } else { 0 };
     let pen_graph = &pg;
-    let plain = |pts: &[Vec3], out: &mut [Collision]| points_in_tets(&th, &ob, pts, false, out);
+    let plain = |pts: &[Vec3], out: &mut [Collision]| points_in_tets(th, &ob, pts, false, out);
     // The hash alone over cells of half an average edge (28 entries a tet on these meshes
     // instead of 8): fewer tets share a cell.
-    let mut fine_store = HashStore::new(obj.tet_count(), 32);
-    let mut fine = fine_store.hash(cell * 0.5);
+    // Buckets about twice the entries, so a cell rarely shares its bucket.
+    let mut fine_store = HashStore::with_buckets(obj.tet_count(), 32, 64);
+    let mut fine = fine_store.hash(cell * 0.5).expect("a usable cell");
     assert!(!hash_tets(&mut fine, &ob).saturated);
     let fine = fine;
     let plain_fine =
         |pts: &[Vec3], out: &mut [Collision]| points_in_tets(&fine, &ob, pts, false, out);
     let occupied = |pts: &[Vec3], out: &mut [Collision]| {
-        points_in_tets_occupied(&th, &cells, &ob, pts, false, out, 0, |_| true)
+        points_in_tets_occupied(th, cells, &ob, pts, false, out, 0, |_| true)
     };
     let walked = |pts: &[Vec3], out: &mut [Collision], found: &mut [TetId]| {
         let starts = WalkStarts {
@@ -405,7 +347,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
             near: |i| pen_graph.neighbours(NodeId::from_idx(i)),
             max_steps: walks,
         };
-        points_in_tets_walked(&th, &cells, &ob, pts, out, 0, starts, |_| true)
+        points_in_tets_walked(th, cells, &ob, pts, out, 0, starts, |_| true)
     };
     // Touching poses (most pen nodes outside the object) and impaled ones (many inside): the
     // pen's nodes at the first 50 poses of each list.
@@ -510,7 +452,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
     // Sphere burr: radius 0.03 (about half an edge), centre within the radius of the surface.
     let mut r = Lcg(11);
     let boundary: Vec<usize> = (0..obj.node_count())
-        .filter(|&i| obj.nodes()[i].boundary)
+        .filter(|&i| obj.nodes()[i].boundary())
         .collect();
     let spheres: Vec<Vec3> = (0..200)
         .map(|_| {
@@ -521,7 +463,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
     report(
         &format!("sphere_burr/{label}"),
         worst(spheres.len(), 20, |i| {
-            black_box(mesh_sphere_contact(&fh, &ob, spheres[i], 0.03, 512));
+            black_box(mesh_sphere_contact(fh, &ob, spheres[i], 0.03, 512));
         }),
     );
     let mut i = 0usize;
@@ -529,7 +471,7 @@ fn pen_benches(c: &mut Criterion, label: &str, obj_rel: &str) {
         b.iter(|| {
             i += 1;
             black_box(mesh_sphere_contact(
-                &fh,
+                fh,
                 &ob,
                 spheres[i % spheres.len()],
                 0.03,

@@ -87,7 +87,7 @@ fn trace(mesh: &Mesh<'_>, speed: usize) -> (Vec<Vec3>, f32, usize) {
     let (i, _) = p
         .iter()
         .enumerate()
-        .filter(|(i, _)| mesh.nodes()[*i].boundary)
+        .filter(|(i, _)| mesh.nodes()[*i].boundary())
         .max_by(|a, b| a.1.z.total_cmp(&b.1.z))
         .unwrap();
     let n = mesh.normal(tetradrill_core::NodeId::from_idx(i));

@@ -136,7 +136,7 @@ impl Lcg {
 pub fn touch_poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3, Quat)> {
     let mut r = Lcg(seed);
     let boundary: Vec<usize> = (0..obj.node_count())
-        .filter(|&i| obj.nodes()[i].boundary)
+        .filter(|&i| obj.nodes()[i].boundary())
         .collect();
     (0..n)
         .map(|_| {
@@ -157,7 +157,7 @@ pub fn touch_poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3
 pub fn impaled_poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3, Quat)> {
     let mut r = Lcg(seed);
     let boundary: Vec<usize> = (0..obj.node_count())
-        .filter(|&i| obj.nodes()[i].boundary)
+        .filter(|&i| obj.nodes()[i].boundary())
         .collect();
     (0..n)
         .map(|_| {

@@ -209,7 +209,7 @@ pub fn write(mesh: &Mesh<'_>, labels: &[i32], out: &mut [u8]) -> Result<usize, B
     }
     for node in mesh.nodes() {
         w.u32(node.tet.0);
-        w.bytes(&[node.local, node.boundary as u8, 0, 0]);
+        w.bytes(&[node.local, node.boundary() as u8, 0, 0]);
     }
     for tet in mesh.tets() {
         w.bytes(&tet.to_le_bytes());
@@ -430,11 +430,11 @@ impl<'a> MeshBlob<'a> {
     pub fn node(&self, n: NodeId) -> Option<Node> {
         (n.idx() < self.nodes).then(|| {
             let at = self.node_at(n.idx());
-            Node {
-                tet: TetId(le32(self.bytes, at)),
-                local: self.bytes[at + 4],
-                boundary: self.bytes[at + 5] != 0,
-            }
+            Node::new(
+                TetId(le32(self.bytes, at)),
+                self.bytes[at + 4],
+                self.bytes[at + 5] != 0,
+            )
         })
     }
 
@@ -478,7 +478,7 @@ impl<'a> MeshBlob<'a> {
             positions[i] = self.position(id).unwrap_or(Vec3::ZERO);
             normals[i] = self.normal(id).unwrap_or(Vec3::ZERO);
             let rec = self.node(id).unwrap_or_default();
-            stats.boundary_nodes += rec.boundary as u32;
+            stats.boundary_nodes += rec.boundary() as u32;
             stats.unreferenced_nodes += rec.tet.is_none() as u32;
             nodes[i] = rec;
         }

@@ -2,7 +2,13 @@
 //! for desktop programs, tests and benches. Each type holds one heap [`Heap`] of lines and
 //! carves its structure's slices from it with the same function a firmware or a C program
 //! uses on its own memory ([`crate::servo::WorldStorage::carve`],
-//! [`crate::hierarchy::HierarchyStorage::carve`]), so there is one layout for all of them.
+//! [`crate::hierarchy::HierarchyStorage::carve`], [`crate::force::PenBuffers::carve`],
+//! [`crate::soft::SoftStorage::carve`]), so there is one layout for all of them:
+//! [`WorldBuffers`], [`HierarchyBuffers`], [`PenBufferHeap`], [`SoftBuffers`]. A tet-mesh
+//! tool's whole scene (node graphs, spatial hashes, the pen's rest grid, the object's
+//! occupancy, the per-tick buffers) is built by [`PenRig`]. [`OwnedMesh`] keeps its records
+//! in typed vectors: a built mesh is viewed again and again, and read through `&self`, which a
+//! carve (it writes every slot) cannot give.
 //!
 //! ```
 //! use tetradrill_core::owned::{OwnedMesh, WorldBuffers};
@@ -16,6 +22,15 @@
 //! assert_eq!(world.hierarchy().stats().visible_faces, 12);
 //! # Ok::<(), Box<dyn core::error::Error>>(())
 //! ```
+
+mod pen;
+mod soft;
+
+pub use pen::{
+    occupancy_words, HashStore, ObjectCells, PenBufferHeap, PenRest, PenRig, PenSetup, PenSizes,
+    RigError, CLUSTER_EDGE, OCCUPANCY_LIST_SPLIT, OCCUPANCY_MARGIN, REST_GRID_EDGE, REST_MARGIN,
+};
+pub use soft::SoftBuffers;
 
 use alloc::vec;
 use alloc::vec::Vec;

@@ -8,7 +8,7 @@ use core::mem::size_of;
 
 use tetradrill_core::drill::{DrillParams, Region};
 use tetradrill_core::force::{ForceDigest, ForceParams, ToolState};
-use tetradrill_core::mesh::{FaceKey, Node, Tet};
+use tetradrill_core::mesh::{FaceKey, MeshStorage};
 use tetradrill_core::servo::{World, WorldSizes};
 use tetradrill_core::storage::Line;
 use tetradrill_core::Vec3;
@@ -105,12 +105,12 @@ pub struct Plan {
     pub sizes: WorldSizes,
     /// `Vec3` per node: positions.
     pub positions: usize,
-    /// `Vec3` per node: boundary normals.
-    pub normals: usize,
-    /// `Node` per node.
-    pub node_recs: usize,
-    /// `Tet` per tet.
-    pub tet_recs: usize,
+    /// The mesh's node records, boundary normals and tet records:
+    /// [`MeshStorage::lines`] lines, carved by `MeshStorage::carve` (the core's one layout
+    /// of a mesh's storage).
+    pub mesh: usize,
+    /// Lines of the mesh's storage.
+    pub mesh_lines: usize,
     /// `FaceKey` per tet face: the mesh build's scratch.
     pub scratch: usize,
     /// The world's storage: [`WorldSizes::lines`] lines, carved by `WorldStorage::carve`
@@ -212,9 +212,8 @@ impl Plan {
             layout: Layout::new::<State>(),
         };
         let positions = b.put::<Vec3>(nodes)?;
-        let normals = b.put::<Vec3>(nodes)?;
-        let node_recs = b.put::<Node>(nodes)?;
-        let tet_recs = b.put::<Tet>(tets)?;
+        let mesh_lines = MeshStorage::lines(nodes, tets).ok_or(TdStatus::TdErrParams)?;
+        let mesh = b.put::<Line>(mesh_lines)?;
         let scratch = b.put::<FaceKey>(faces)?;
         let world_lines = sizes.lines().ok_or(TdStatus::TdErrParams)?;
         let world = b.put::<Line>(world_lines)?;
@@ -228,9 +227,8 @@ impl Plan {
             tets,
             sizes,
             positions,
-            normals,
-            node_recs,
-            tet_recs,
+            mesh,
+            mesh_lines,
             scratch,
             world,
             world_lines,
@@ -282,15 +280,13 @@ mod tests {
     }
 
     /// Each region as (offset, bytes, alignment of its type), in plan order.
-    fn regions(p: &Plan) -> [(usize, usize, usize); 9] {
+    fn regions(p: &Plan) -> [(usize, usize, usize); 7] {
         fn r<T>(at: usize, n: usize) -> (usize, usize, usize) {
             (at, n * size_of::<T>(), align_of::<T>())
         }
         [
             r::<Vec3>(p.positions, p.nodes),
-            r::<Vec3>(p.normals, p.nodes),
-            r::<Node>(p.node_recs, p.nodes),
-            r::<Tet>(p.tet_recs, p.tets),
+            r::<Line>(p.mesh, p.mesh_lines),
             r::<FaceKey>(p.scratch, 4 * p.tets),
             r::<Line>(p.world, p.world_lines),
             r::<Region>(p.regions, p.region_slots),
@@ -324,6 +320,10 @@ mod tests {
             assert!(end <= plan.size, "the last region passes the size");
             assert_eq!(plan.sizes.arena, arena as usize / 8 * 8);
             assert_eq!(Some(plan.world_lines), plan.sizes.lines());
+            // Node 8 bytes, normal 12, tet 36, each part on a 64-byte line.
+            let (n, t) = (nodes as usize, tets as usize);
+            let want = (8 * n).div_ceil(64) + (12 * n).div_ceil(64) + (36 * t).div_ceil(64);
+            assert_eq!(plan.mesh_lines, want);
         }
     }
 

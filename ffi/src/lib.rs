@@ -48,7 +48,7 @@ use core::ptr;
 
 use tetradrill_core::drill::{DrillParams, Material, Region, Regions};
 use tetradrill_core::force::{ForceDigest, ForceParams, ToolState};
-use tetradrill_core::mesh::{BuildError, BuildOptions, FaceKey, Mesh, MeshStorage, Node, Tet};
+use tetradrill_core::mesh::{BuildError, BuildOptions, FaceKey, Mesh, MeshStorage};
 use tetradrill_core::script::DEMO;
 use tetradrill_core::servo::{
     servo_force, World, WorldStorage, CONTACT_MAX_NODES, DEFAULT_MAX_CELLS, DEFAULT_PENDING,
@@ -391,17 +391,19 @@ pub unsafe extern "C" fn td_world_init(
         // SAFETY: every offset comes from the plan, which places each region after the
         // header at its type's alignment, apart from the others, inside `plan.size <= len`
         // bytes of `mem`; the caller keeps `mem` for as long as the world is used.
-        let (pos, normals, nodes, tet_recs, scratch, world_lines) = unsafe {
+        let (pos, mesh_lines, scratch, world_lines) = unsafe {
             (
                 carve(base, plan.positions, plan.nodes, Vec3::ZERO),
-                carve(base, plan.normals, plan.nodes, Vec3::ZERO),
-                carve(base, plan.node_recs, plan.nodes, Node::default()),
-                carve(base, plan.tet_recs, plan.tets, Tet::default()),
+                carve(base, plan.mesh, plan.mesh_lines, Line::ZERO),
                 carve(base, plan.scratch, 4 * plan.tets, FaceKey::default()),
                 carve(base, plan.world, plan.world_lines, Line::ZERO),
             )
         };
-        // The world's parts, from its lines by the core's one layout (the plan sized them).
+        // The mesh's and the world's parts, from their lines by the core's one layout of each
+        // (the plan sized them).
+        let mesh_storage =
+            MeshStorage::carve(plan.nodes, plan.tets, &mut Block::from_lines(mesh_lines))
+                .map_err(|_| TdStatus::TdErrTooSmall)?;
         let storage = WorldStorage::carve(&plan.sizes, &mut Block::from_lines(world_lines))
             .map_err(|_| TdStatus::TdErrTooSmall)?;
         for (p, c) in pos.iter_mut().zip(xyz.chunks_exact(3)) {
@@ -410,11 +412,7 @@ pub unsafe extern "C" fn td_world_init(
         let mesh = Mesh::build(
             pos,
             tet_nodes,
-            MeshStorage {
-                nodes,
-                normals,
-                tets: tet_recs,
-            },
+            mesh_storage,
             scratch,
             BuildOptions::default(),
         )

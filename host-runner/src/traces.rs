@@ -106,7 +106,7 @@ impl PoseSource {
                     .nodes()
                     .iter()
                     .zip(mesh.positions())
-                    .filter(|(n, _)| n.boundary)
+                    .filter(|(n, _)| n.boundary())
                     .map(|(_, p)| *p)
                     .collect();
                 if anchors.is_empty() {

@@ -27,7 +27,7 @@ pub fn rig(pen_scale: f64, obj: &str, obj_scale: f64) -> PenRig {
 pub fn facing(rig: &mut PenRig, axis: Vec3) -> (Vec3, Vec3) {
     let obj = rig.obj.view();
     let b = (0..obj.node_count())
-        .find(|&i| obj.nodes()[i].boundary && obj.normals()[i].dot(axis) > 0.8)
+        .find(|&i| obj.nodes()[i].boundary() && obj.normals()[i].dot(axis) > 0.8)
         .expect("a boundary node facing the axis");
     (obj.positions()[b], obj.normals()[b])
 }
@@ -36,7 +36,7 @@ pub fn facing(rig: &mut PenRig, axis: Vec3) -> (Vec3, Vec3) {
 pub fn poses(obj: &Mesh<'_>, n: usize, depth: f32, seed: u64) -> Vec<(Vec3, Quat)> {
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let boundary: Vec<usize> = (0..obj.node_count())
-        .filter(|&i| obj.nodes()[i].boundary)
+        .filter(|&i| obj.nodes()[i].boundary())
         .collect();
     (0..n)
         .map(|_| {

@@ -17,7 +17,7 @@ use std::cell::Cell;
 
 use crossbeam::queue::ArrayQueue;
 use tetradrill::engine::TickParams;
-use tetradrill::pen::{PenRig, PenSizes};
+use tetradrill::pen::PenRig;
 use tetradrill::pen_pair::with_pass_runner;
 use tetradrill::pen_tasks::{held_handoff, pen_contact_task, PenLaw, PenTaskReport};
 use tetradrill::scenario::Scenario;
@@ -246,7 +246,7 @@ fn the_pen_servo_tick_allocates_nothing_after_warm_up() {
         obj,
     };
     let ((calls, max_force), _) = rig
-        .with_sizes(PenSizes::of(&sc.capacities), |scene, bufs| {
+        .with_sizes(sc.capacities.pen(), |scene, bufs| {
             let ring = ArrayQueue::new(64);
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let counters = ServoCounters::default();
@@ -328,7 +328,7 @@ fn contact_task_allocates_nothing(threads: u32) {
         obj,
     };
     let ((calls, report), _) = rig
-        .with_sizes(PenSizes::of(&sc.capacities), |scene, bufs| {
+        .with_sizes(sc.capacities.pen(), |scene, bufs| {
             let shared = Shared::new();
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let (mut status_in, mut status_out) =

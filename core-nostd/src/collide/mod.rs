@@ -119,7 +119,10 @@ fn keep_previous<F: FnMut(NodeId, glam::Vec3, TetId) -> TetId>(
 }
 
 /// A point `node` inside tet `tet` of the other body.
-#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug, Default)]
+#[derive(
+    Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug, Default, bytemuck::Pod, bytemuck::Zeroable,
+)]
+#[repr(C)]
 pub struct Collision {
     /// The point (node id in its own mesh, or sample-point index).
     pub node: NodeId,

@@ -15,7 +15,8 @@ use crate::mesh::FaceUse;
 const MIN_DIST2: f32 = 1e-30;
 
 /// Per-node working state, stamped so nothing is cleared between calls.
-#[derive(Clone, Copy, PartialEq, Debug, Default)]
+#[derive(Clone, Copy, PartialEq, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub struct NodeSlot {
     /// The call's stamp (a multiple of `STATES`) plus the node's state: one word tells
     /// whether the node belongs to this call and in which state, read before anything else.
@@ -39,18 +40,38 @@ const STATES: u32 = 8;
 
 /// The boundary face of B where one directed edge of A's graph last left B (see
 /// [`DepthScratch::with_crossings`]).
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub struct Crossing {
-    face: FaceUse,
+    /// The face's tet ([`TetId::NONE`]: no crossing remembered).
+    tet: TetId,
+    /// The face's local index in `tet` (a word: no padding, so a block of bytes can hold it).
+    local: u32,
+}
+
+impl Crossing {
+    /// The remembered face.
+    fn face(self) -> FaceUse {
+        FaceUse {
+            tet: self.tet,
+            local: self.local as u8,
+        }
+    }
+
+    /// `face` remembered.
+    fn of(face: FaceUse) -> Self {
+        Self {
+            tet: face.tet,
+            local: u32::from(face.local),
+        }
+    }
 }
 
 impl Default for Crossing {
     fn default() -> Self {
         Self {
-            face: FaceUse {
-                tet: TetId::NONE,
-                local: 0,
-            },
+            tet: TetId::NONE,
+            local: 0,
         }
     }
 }
@@ -140,6 +161,12 @@ impl<'a> DepthScratch<'a> {
         }
     }
 
+    /// The slots, the queue and the crossings (tests of the storage's carving).
+    #[cfg(test)]
+    pub(crate) fn storage(&self) -> (&[NodeSlot], &[NodeId], &[Crossing]) {
+        (self.slots, self.queue, self.crossings)
+    }
+
     /// Sets the stamp of the last call (tests of the stamp's wrap).
     #[cfg(test)]
     pub(super) fn set_stamp(&mut self, stamp: u32) {
@@ -148,7 +175,8 @@ impl<'a> DepthScratch<'a> {
 }
 
 /// The depth of one colliding node of A.
-#[derive(Clone, Copy, PartialEq, Debug, Default)]
+#[derive(Clone, Copy, PartialEq, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub struct Penetration {
     /// Node of A.
     pub node: NodeId,
@@ -524,7 +552,7 @@ where
         r.border_edges += 1;
         let memo = self.crossings.get_mut(entry);
         let again = match (&memo, self.reuse) {
-            (Some(m), true) => reuse(self.b, m.face, p, q, r),
+            (Some(m), true) => reuse(self.b, m.face(), p, q, r),
             _ => None,
         };
         let found = match again {
@@ -532,7 +560,7 @@ where
             None => (self.search)(tet, p, q, r),
         };
         if let Some(m) = memo {
-            m.face = found.map_or(Crossing::default().face, |h| h.face);
+            *m = found.map_or(Crossing::default(), |h| Crossing::of(h.face));
         }
         let Some(h) = found else {
             r.missed_edges += 1;

@@ -40,6 +40,7 @@ mod held;
 mod passive;
 mod passivity;
 mod pen;
+mod pen_storage;
 mod response;
 mod shaft;
 mod triangles;
@@ -53,6 +54,7 @@ pub use pen::{
     object_side, pen_contact, pen_pass, pen_place, pen_side, DepthMethod, PenBuffers, PenContact,
     PenForce, PenOptions, PenPass, PenPlacement, PenScene, PenState, SideBuffers, SideReport,
 };
+pub use pen_storage::PenBufferSizes;
 pub(crate) use response::damping_force;
 pub use response::{clamp_force, display_offset, ForceParams, ToolState};
 pub use shaft::{DrillTool, MAX_PASSIVE};

@@ -4,12 +4,11 @@ use super::frames::{allocentric, camera, force_to_device};
 use super::triangles::boundary_triangle;
 use super::*;
 use crate::collide::test_support::Store;
-use crate::collide::{
-    hash_tets, Body, Collision, Occupancy, OccupancyStorage, RigidTets, RigidTetsStorage,
-};
-use crate::depth::{hash_boundary_faces, DepthScratch, NodeGraph, NodeSlot, Penetration};
+use crate::collide::{hash_tets, Body, Occupancy, OccupancyStorage, RigidTets, RigidTetsStorage};
+use crate::depth::{hash_boundary_faces, NodeGraph, Penetration};
 use crate::hash::{Aabb, HashEntry, SpatialHash};
 use crate::ids::{NodeId, TetId};
+use crate::storage::{Block, Line};
 
 #[test]
 fn sphere_pressed_into_flat_face() {
@@ -180,22 +179,16 @@ fn pen_tick(
         object_walks: crate::collide::walks_exact(&ob),
         pen_walks: crate::collide::walks_exact(&Body::fixed(&pen)),
     };
-    let mut world = [Vec3::ZERO; 27];
-    let (mut h1, mut h2) = ([Collision::default(); 27], [Collision::default(); 125]);
-    let (mut p1, mut p2) = ([Penetration::default(); 27], [Penetration::default(); 125]);
-    let (mut s1, mut q1) = ([NodeSlot::default(); 27], [NodeId::NONE; 27]);
-    let (mut s2, mut q2) = ([NodeSlot::default(); 125], [NodeId::NONE; 125]);
-    let mut found = [TetId::NONE; 27];
-    let mut bufs = PenBuffers {
-        world: &mut world,
-        pen_hits: &mut h1[..caps.min(27)],
-        pen_found: &mut found,
-        object_hits: &mut h2[..caps.min(125)],
-        pen_pens: &mut p1[..caps.min(27)],
-        object_pens: &mut p2[..caps.min(125)],
-        pen_depth: DepthScratch::new(&mut s1, &mut q1[..caps.min(27)]),
-        object_depth: DepthScratch::new(&mut s2, &mut q2[..caps.min(125)]),
+    let sizes = PenBufferSizes {
+        pen_contacts: caps.min(27),
+        object_contacts: caps.min(125),
+        pen_queue: caps.min(27),
+        object_queue: caps.min(125),
+        ..PenBufferSizes::nodes(27, 125)
     };
+    // 182 lines at the most (every list as long as its body's nodes).
+    let mut lines = [Line::ZERO; 182];
+    let mut bufs = PenBuffers::carve(&sizes, &mut Block::from_lines(&mut lines)).unwrap();
     pen_contact(&scene, &mut bufs, pos, Quat::IDENTITY, opts, state)
 }
 

@@ -8,6 +8,7 @@ use super::template::FACE_VERTS;
 use super::Mesh;
 use crate::geom::det6_f64;
 use crate::ids::{NodeId, TetId};
+use crate::storage::{carve, lines_of, Memory, Part, PartSet, Slots, StorageError};
 
 /// One face of one tet as a sortable key: the face's node ids sorted ascending and the owner
 /// `tet * 4 + face`. Scratch for [`Mesh::build`]: the caller hands in `4 * tets` of them.
@@ -152,6 +153,45 @@ pub struct MeshStorage<'a> {
     pub normals: &'a mut [Vec3],
     /// One per tet.
     pub tets: &'a mut [Tet],
+}
+
+impl<'a> MeshStorage<'a> {
+    /// Every slice of a [`MeshStorage`] for `nodes` nodes and `tets` tet records, in the
+    /// order [`MeshStorage::carve`] takes them.
+    pub const fn parts(nodes: usize, tets: usize) -> [Slots; 3] {
+        [
+            Slots::of::<Node>(Part::MeshNodes, nodes),
+            Slots::of::<Vec3>(Part::MeshNormals, nodes),
+            Slots::of::<Tet>(Part::MeshTets, tets),
+        ]
+    }
+
+    /// The [`crate::storage::Line`]s a [`crate::storage::Block`] starting on a line needs for
+    /// [`MeshStorage::parts`] (`None` when they overflow the address space).
+    pub const fn lines(nodes: usize, tets: usize) -> Option<usize> {
+        lines_of(&Self::parts(nodes, tets), PartSet::EMPTY, false)
+    }
+
+    /// Carves the storage of a mesh of `nodes` nodes and `tets` tet records (zero for a mesh
+    /// whose tets are read in place, [`super::Mesh::in_place`]) from `mem`, every record at
+    /// its default and every normal zero, for [`super::Mesh::build`] to fill.
+    ///
+    /// # Bounded work
+    /// O(`nodes + tets`): every slot is written.
+    ///
+    /// # Errors
+    /// [`StorageError`] naming the first part the memory could not hold.
+    pub fn carve(
+        nodes: usize,
+        tets: usize,
+        mem: &mut impl Memory<'a>,
+    ) -> Result<Self, StorageError> {
+        Ok(Self {
+            nodes: carve(mem, Part::MeshNodes, nodes, Node::default())?,
+            normals: carve(mem, Part::MeshNormals, nodes, Vec3::ZERO)?,
+            tets: carve(mem, Part::MeshTets, tets, Tet::default())?,
+        })
+    }
 }
 
 /// Relative volume below which a tet counts as degenerate: `|6V| <= EPS * L^3` for its

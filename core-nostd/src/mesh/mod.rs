@@ -470,14 +470,14 @@ impl<'a> Mesh<'a> {
         let nodes = core::mem::take(&mut self.nodes);
         let normals = core::mem::take(&mut self.normals);
         for node in nodes.iter_mut() {
-            node.boundary = false;
+            node.set_boundary(false);
         }
         normals.fill(Vec3::ZERO);
         let mut faces = 0u32;
         for ti in 0..self.tet_count() {
             faces += self.sum_boundary_faces(TetId::from_idx(ti), self.positions, normals, |n| {
                 if let Some(node) = nodes.get_mut(n.idx()) {
-                    node.boundary = true;
+                    node.set_boundary(true);
                 }
             });
         }
@@ -545,7 +545,7 @@ impl<'a> Mesh<'a> {
     /// Constant.
     #[inline]
     pub(crate) fn finish_boundary_normal(&self, n: NodeId, normals: &mut [Vec3]) -> bool {
-        let boundary = self.nodes.get(n.idx()).is_some_and(|node| node.boundary);
+        let boundary = self.nodes.get(n.idx()).is_some_and(|node| node.boundary());
         if boundary {
             if let Some(normal) = normals.get_mut(n.idx()) {
                 *normal = normal.normalize_or_zero();

@@ -6,7 +6,7 @@ use crate::ids::{NodeId, TetId};
 /// Per-face reverse index in one byte (Celes et al. 2005): bits 0-1 hold the neighbour's face
 /// id that matches this face, bits 2-3 the ring offset (0..=2) between the two listings of the
 /// shared face. Meaningless for a boundary face (neighbour `NONE`).
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(transparent)]
 pub struct Reverse(pub u8);
 
@@ -31,7 +31,7 @@ impl Reverse {
 
 /// A tetrahedron: four node ids, four neighbours ordered by face (face `i` opposite vertex
 /// `i`), and one reverse-index byte per face.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub struct Tet {
     /// The four nodes, positively oriented after the mesh is built.
@@ -109,27 +109,62 @@ pub const TET_RECORD: usize = 36;
 const _: () = assert!(TET_BYTES == TET_RECORD);
 const _: () = assert!(core::mem::size_of::<Reverse>() == 1);
 
-/// A node's topology record: one incident tet and the node's local index in it. Its position
-/// lives in the mesh's separate position array (structure of arrays: the hash and the
-/// collision loops stream positions only).
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+/// A node's topology record: one incident tet and the node's local index in it, and whether
+/// it lies on the boundary. Its position lives in the mesh's separate position array
+/// (structure of arrays: the hash and the collision loops stream positions only). Eight bytes
+/// with no padding (the flag is a byte, two explicit zero bytes follow), so a block of bytes
+/// can hold nodes ([`super::MeshStorage::carve`]).
+#[derive(Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]
 pub struct Node {
     /// One tet that uses this node, or [`TetId::NONE`] for an unreferenced node.
     pub tet: TetId,
     /// The node's local index (0..=3) in `tet`.
     pub local: u8,
+    /// Bit 0: the node lies on a boundary face ([`Node::boundary`]); the others zero.
+    flags: u8,
+    /// Zero.
+    pad: [u8; 2],
+}
+
+impl Node {
+    /// A record: incident tet `tet`, local index `local`, on the boundary or not.
+    #[inline]
+    pub const fn new(tet: TetId, local: u8, boundary: bool) -> Self {
+        Self {
+            tet,
+            local,
+            flags: boundary as u8,
+            pad: [0; 2],
+        }
+    }
+
     /// `true` when the node lies on a boundary face.
-    pub boundary: bool,
+    #[inline]
+    pub const fn boundary(&self) -> bool {
+        self.flags & 1 != 0
+    }
+
+    /// Marks the node on the boundary or not.
+    #[inline]
+    pub fn set_boundary(&mut self, on: bool) {
+        self.flags = (self.flags & !1) | on as u8;
+    }
 }
 
 impl Default for Node {
     fn default() -> Self {
-        Self {
-            tet: TetId::NONE,
-            local: 0,
-            boundary: false,
-        }
+        Self::new(TetId::NONE, 0, false)
+    }
+}
+
+impl core::fmt::Debug for Node {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Node")
+            .field("tet", &self.tet)
+            .field("local", &self.local)
+            .field("boundary", &self.boundary())
+            .finish()
     }
 }
 

@@ -15,6 +15,7 @@ mod link;
 mod load;
 mod material;
 mod resume;
+mod storage;
 mod tet;
 
 pub use link::{Link, LinkBuffers, LinkError, LinkTick};
@@ -23,6 +24,7 @@ pub use load::spread_point_force;
 pub use material::{Lame, Material, MaterialError};
 pub(crate) use resume::NODE_UNITS;
 pub use resume::{Advance, TET_UNITS};
+pub use storage::{carve_mesh, mesh_lines, mesh_parts};
 pub(crate) use tet::project;
 pub use tet::TetRest;
 
@@ -127,6 +129,8 @@ pub enum SoftError {
     },
     /// A step parameter (named) is out of range.
     Param(&'static str),
+    /// The storage could not be carved or allocated ([`SoftStorage::carve`]).
+    Storage(crate::storage::StorageError),
 }
 
 impl fmt::Display for SoftError {
@@ -143,6 +147,7 @@ impl fmt::Display for SoftError {
             }
             Self::Material { index, error } => write!(f, "soft body: material {index}: {error}"),
             Self::Param(what) => write!(f, "soft body: {what} is out of range"),
+            Self::Storage(e) => write!(f, "soft body: {e}"),
         }
     }
 }

@@ -9,7 +9,8 @@ use crate::geom;
 
 /// What a tet keeps from its rest shape: the inverse rest shape matrix, the rest volume and
 /// its material's compliances. 52 bytes.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
 pub struct TetRest {
     /// Inverse of `Dm = [X1 - X0, X2 - X0, X3 - X0]` (rest edge vectors as columns).
     pub inv_dm: Mat3,

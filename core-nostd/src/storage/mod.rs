@@ -98,6 +98,60 @@ pub enum Part {
     RestPositions,
     /// A part of the caller's own (the firmware's regions, a C program's arrays).
     Other,
+    /// The pen's nodes at the current pose ([`crate::force::PenBuffers::world`]).
+    PenPositions,
+    /// Pen nodes inside object tets.
+    PenHits,
+    /// The object tet each pen node was found in.
+    PenFound,
+    /// Object nodes inside pen tets.
+    ObjectHits,
+    /// The pen nodes' penetration depths.
+    PenPenetrations,
+    /// The object nodes' penetration depths.
+    ObjectPenetrations,
+    /// The pen side's depth slots (one per pen node).
+    PenDepthSlots,
+    /// The pen side's depth queue.
+    PenDepthQueue,
+    /// The pen side's remembered crossings (one per directed edge of the pen's graph).
+    PenCrossings,
+    /// The object side's depth slots (one per object node).
+    ObjectDepthSlots,
+    /// The object side's depth queue.
+    ObjectDepthQueue,
+    /// The object side's remembered crossings.
+    ObjectCrossings,
+    /// A soft body's displacements ([`crate::soft::SoftStorage::displacement`]).
+    SoftDisplacement,
+    /// A soft body's velocities.
+    SoftVelocity,
+    /// A soft body's displacements at the start of a substep.
+    SoftPrevious,
+    /// A soft body's lumped masses.
+    SoftMass,
+    /// A soft body's inverse masses.
+    SoftInvMass,
+    /// A soft body's rest data per tet.
+    SoftTetRest,
+    /// A soft body's constraint multipliers per tet.
+    SoftLambdas,
+    /// A soft body's rest positions ([`crate::soft::SoftMesh::rest`]).
+    SoftRest,
+    /// A soft body's tets as node indices.
+    SoftTets,
+    /// A soft link's first load buffer ([`crate::soft::LinkBuffers::a`]).
+    LinkLoadA,
+    /// A soft link's second load buffer.
+    LinkLoadB,
+    /// A soft link's next positions.
+    LinkNext,
+    /// A mesh's node records ([`crate::mesh::MeshStorage::nodes`]).
+    MeshNodes,
+    /// A mesh's boundary normals.
+    MeshNormals,
+    /// A mesh's tet records.
+    MeshTets,
 }
 
 impl Part {
@@ -119,9 +173,39 @@ impl Part {
             Self::SpareNormals => "spare normals",
             Self::RestPositions => "rest positions",
             Self::Other => "caller part",
+            Self::PenPositions => "pen positions",
+            Self::PenHits => "pen collisions",
+            Self::PenFound => "pen found tets",
+            Self::ObjectHits => "object collisions",
+            Self::PenPenetrations => "pen penetrations",
+            Self::ObjectPenetrations => "object penetrations",
+            Self::PenDepthSlots => "pen depth slots",
+            Self::PenDepthQueue => "pen depth queue",
+            Self::PenCrossings => "pen crossings",
+            Self::ObjectDepthSlots => "object depth slots",
+            Self::ObjectDepthQueue => "object depth queue",
+            Self::ObjectCrossings => "object crossings",
+            Self::SoftDisplacement => "soft displacements",
+            Self::SoftVelocity => "soft velocities",
+            Self::SoftPrevious => "soft substep displacements",
+            Self::SoftMass => "soft masses",
+            Self::SoftInvMass => "soft inverse masses",
+            Self::SoftTetRest => "soft tet rest data",
+            Self::SoftLambdas => "soft multipliers",
+            Self::SoftRest => "soft rest positions",
+            Self::SoftTets => "soft tets",
+            Self::LinkLoadA => "link load buffer a",
+            Self::LinkLoadB => "link load buffer b",
+            Self::LinkNext => "link next positions",
+            Self::MeshNodes => "mesh node records",
+            Self::MeshNormals => "mesh normals",
+            Self::MeshTets => "mesh tet records",
         }
     }
 }
+
+// Every part has a bit in a [`PartSet`].
+const _: () = assert!((Part::MeshTets as u32) < u64::BITS);
 
 /// One part's slice: what it is, how many slots, and the bytes of one slot.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -161,7 +245,7 @@ impl Slots {
 
 /// A set of parts (one bit each), for a [`Split`]'s second run and the sizes of each run.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
-pub struct PartSet(u32);
+pub struct PartSet(u64);
 
 impl PartSet {
     /// No part.
@@ -169,12 +253,12 @@ impl PartSet {
 
     /// This set with `part` added.
     pub const fn with(self, part: Part) -> Self {
-        Self(self.0 | 1 << part as u32)
+        Self(self.0 | 1 << part as u64)
     }
 
     /// `true` when `part` is in the set.
     pub const fn contains(self, part: Part) -> bool {
-        self.0 & (1 << part as u32) != 0
+        self.0 & (1 << part as u64) != 0
     }
 }
 

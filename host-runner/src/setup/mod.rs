@@ -133,6 +133,18 @@ pub struct Capacities {
     pub queue: Option<usize>,
 }
 
+impl Capacities {
+    /// The capacities of a tet-mesh tool's rig (`hash_capacity`, `contact_capacity`,
+    /// `queue_capacity`).
+    pub fn pen(&self) -> crate::pen::PenSizes {
+        crate::pen::PenSizes {
+            hash: self.hash,
+            contacts: self.contacts,
+            queue: self.queue,
+        }
+    }
+}
+
 /// A tet-mesh tool's contact pass.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PenContact {

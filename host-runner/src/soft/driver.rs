@@ -161,10 +161,6 @@ impl<'a> SoftDriver<'a> {
     /// of range).
     pub fn new(owned: &'a mut SoftOwned, spec: &SoftSpec) -> Result<Self, Error> {
         let n = owned.rest.len();
-        // At rest, whatever an earlier body over this storage left (a viewer's reset).
-        owned.displacement.fill(Vec3::ZERO);
-        owned.velocity.fill(Vec3::ZERO);
-        owned.previous.fill(Vec3::ZERO);
         let (lo, hi) = owned
             .rest
             .iter()

@@ -4,9 +4,11 @@
 //! material per region of the mesh where the set-up's materials give one.
 
 use tetradrill_core::mesh::Mesh;
+use tetradrill_core::owned::SoftBuffers;
 use tetradrill_core::soft::{
-    mesh_tets, Material, SoftBody, SoftError, SoftMesh, SoftParams, SoftStorage, TetRest,
+    mesh_tets, Material, SoftBody, SoftError, SoftMesh, SoftParams, SoftStorage,
 };
+use tetradrill_core::storage::StorageError;
 use tetradrill_core::Vec3;
 
 use crate::error::Error;
@@ -20,7 +22,8 @@ pub use spec::{
     DEFAULT_RATE_HZ, DEFAULT_YOUNG, DENSITY, SUBSTEPS,
 };
 
-/// Every slice a [`SoftBody`] borrows, owned: the rest mesh and the per-node and per-tet state.
+/// A soft body's rest mesh, owned, and its state and scratch on the heap (the core's
+/// [`SoftBuffers`], carved by `SoftStorage::carve`, allocated once for the mesh's counts).
 #[derive(Debug, Clone)]
 pub struct SoftOwned {
     /// Rest positions.
@@ -29,37 +32,20 @@ pub struct SoftOwned {
     pub tets: Vec<[u32; 4]>,
     /// Each tet's material index ([`SoftMesh::tet_material`]; empty: all of material 0).
     pub tet_material: Vec<u32>,
-    /// [`SoftStorage::displacement`].
-    pub displacement: Vec<Vec3>,
-    /// [`SoftStorage::velocity`].
-    pub velocity: Vec<Vec3>,
-    /// [`SoftStorage::previous`].
-    pub previous: Vec<Vec3>,
-    /// [`SoftStorage::mass`].
-    pub mass: Vec<f32>,
-    /// [`SoftStorage::inv_mass`].
-    pub inv_mass: Vec<f32>,
-    /// [`SoftStorage::tet_rest`].
-    pub tet_rest: Vec<TetRest>,
-    /// [`SoftStorage::lambdas`].
-    pub lambdas: Vec<[f32; 2]>,
+    /// The state and scratch, allocated for the counts they hold (made by the first body).
+    buffers: Option<SoftBuffers>,
 }
 
 impl SoftOwned {
-    /// Storage for a body over `rest` and `tets` (zeroed state; [`SoftOwned::body`] fills it).
+    /// A body's mesh over `rest` and `tets` and its storage for their counts (allocated here;
+    /// when the heap refuses it, again by the first [`SoftOwned::body`], which then says so).
     pub fn new(rest: Vec<Vec3>, tets: Vec<[u32; 4]>) -> Self {
-        let (n, t) = (rest.len(), tets.len());
+        let buffers = SoftBuffers::new(rest.len(), tets.len()).ok();
         Self {
             rest,
             tets,
             tet_material: Vec::new(),
-            displacement: vec![Vec3::ZERO; n],
-            velocity: vec![Vec3::ZERO; n],
-            previous: vec![Vec3::ZERO; n],
-            mass: vec![0.0; n],
-            inv_mass: vec![0.0; n],
-            tet_rest: vec![TetRest::default(); t],
-            lambdas: vec![[0.0; 2]; t],
+            buffers,
         }
     }
 
@@ -125,34 +111,41 @@ impl SoftOwned {
         Self::new(mesh.positions().to_vec(), tets)
     }
 
-    /// A body over this storage's state (at rest when fresh from [`SoftOwned::new`];
-    /// [`SoftDriver::new`] puts it back at rest first), each tet of the material [`SoftOwned::tet_material`]
-    /// names in `materials` (all of `materials[0]` when that is empty).
+    /// The mesh and the storage of a body at rest over it, every slot at its starting value
+    /// (`SoftStorage::carve`): for a caller that sets the starting state (a displacement)
+    /// before `SoftBody::new`. The storage is allocated again only when the mesh's counts
+    /// changed.
     ///
     /// # Errors
-    /// What [`SoftBody::new`] refuses (flat or inverted tets, bad materials or parameters).
+    /// [`StorageError`] when the heap refuses the storage.
+    pub fn parts(&mut self) -> Result<(SoftMesh<'_>, SoftStorage<'_>), StorageError> {
+        let counts = (self.rest.len(), self.tets.len());
+        let buffers = match self.buffers.take() {
+            Some(b) if b.counts() == counts => b,
+            _ => SoftBuffers::new(counts.0, counts.1)?,
+        };
+        let buffers = self.buffers.insert(buffers);
+        let mesh = SoftMesh {
+            rest: &self.rest,
+            tets: &self.tets,
+            tet_material: &self.tet_material,
+        };
+        Ok((mesh, buffers.storage()?))
+    }
+
+    /// A body at rest over this mesh and storage (whatever an earlier body left in it), each
+    /// tet of the material [`SoftOwned::tet_material`] names in `materials` (all of
+    /// `materials[0]` when that is empty).
+    ///
+    /// # Errors
+    /// What [`SoftBody::new`] refuses (flat or inverted tets, bad materials or parameters),
+    /// [`SoftError::Storage`] when the heap refuses the storage.
     pub fn body(
         &mut self,
         materials: &[Material],
         params: SoftParams,
     ) -> Result<SoftBody<'_>, SoftError> {
-        SoftBody::new(
-            SoftMesh {
-                rest: &self.rest,
-                tets: &self.tets,
-                tet_material: &self.tet_material,
-            },
-            materials,
-            params,
-            SoftStorage {
-                displacement: &mut self.displacement,
-                velocity: &mut self.velocity,
-                previous: &mut self.previous,
-                mass: &mut self.mass,
-                inv_mass: &mut self.inv_mass,
-                tet_rest: &mut self.tet_rest,
-                lambdas: &mut self.lambdas,
-            },
-        )
+        let (mesh, storage) = self.parts().map_err(SoftError::Storage)?;
+        SoftBody::new(mesh, materials, params, storage)
     }
 }

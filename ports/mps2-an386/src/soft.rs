@@ -8,7 +8,6 @@ use core::sync::atomic::Ordering;
 use cortex_m_semihosting::hprintln;
 
 use tetradrill_core::servo::World;
-use tetradrill_core::soft::SoftStorage;
 use tetradrill_core::soft::{mesh_tets, Link, LinkBuffers, SoftBody, SoftMesh, SoftParams};
 use tetradrill_core::Vec3;
 
@@ -70,15 +69,7 @@ impl SoftSim {
                 substeps: scenario::SOFT_SUBSTEPS,
                 iterations: 1,
             },
-            SoftStorage {
-                displacement: st.displacement,
-                velocity: st.velocity,
-                previous: st.previous,
-                mass: st.mass,
-                inv_mass: st.inv_mass,
-                tet_rest: st.tet_rest,
-                lambdas: st.lambdas,
-            },
+            st.storage,
         )
         .unwrap_or_else(|_| crate::fail("the soft body was refused"));
         // The host's default support: the lowest tenth of the rest extent in z.
@@ -93,9 +84,9 @@ impl SoftSim {
         Self {
             body,
             link,
-            a: st.load_a,
-            b: st.load_b,
-            next: st.next,
+            a: st.link.a,
+            b: st.link.b,
+            next: st.link.next,
             work: Stats::default(),
             last: Stats::default(),
             step: Stats::default(),

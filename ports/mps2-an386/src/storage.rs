@@ -8,20 +8,20 @@
 //! `&'static mut` with no `unsafe` here. The world's storage is one array of 64-byte lines
 //! (two on the cow: the hash entries and the pending deque in PSRAM), carved at start-up by
 //! the core's `WorldStorage::carve`, the one layout every host, test and C program shares,
-//! which writes every slot's starting value (the memory may hold anything before). The mesh's
-//! arrays whose const initial value is all zero bytes land in `.bss` (no flash); the ones whose
-//! initial value the host sets to something else are refilled with the core's `Default` at
-//! start-up, so both sides start from the same bits.
+//! which writes every slot's starting value (the memory may hold anything before); the mesh's
+//! node records, normals and tet records are another, carved by `MeshStorage::carve`, and the
+//! soft body's storage a third (`soft::take`). The arrays of lines and of positions start as
+//! zero bytes, so they land in `.bss` (no flash).
 
 use static_cell::ConstStaticCell;
 
 use tetradrill_core::builtin::block_counts;
 use tetradrill_core::builtin::{block_labels, BLOCK_CORE, BLOCK_SHELL};
 use tetradrill_core::drill::{Region, Regions};
-use tetradrill_core::mesh::{MeshStorage, Node, Reverse, Tet};
+use tetradrill_core::mesh::MeshStorage;
 use tetradrill_core::servo::{WorldSizes, WorldStorage};
 use tetradrill_core::storage::{Block, Line, Part, PartSet, Split};
-use tetradrill_core::{NodeId, TetId, Vec3};
+use tetradrill_core::Vec3;
 
 use crate::scenario::{self, ARENA, PENDING_ITEMS};
 use crate::BLOCK_N;
@@ -74,21 +74,15 @@ const PSRAM_LINES: usize = match SIZES.lines_in(PSRAM_PARTS, true) {
     None => panic!("the world's sizes overflow"),
 };
 
-// All-zero placeholders (so the statics go to .bss); see `Storage::take`.
-const ZERO_NODE: Node = Node {
-    tet: TetId(0),
-    local: 0,
-    boundary: false,
+/// Lines of the mesh's node records, normals and tet records.
+const MESH_LINES: usize = match MeshStorage::lines(NODES, RAM_TETS) {
+    Some(n) => n,
+    None => panic!("the mesh's sizes overflow"),
 };
-const ZERO_TET: Tet = Tet {
-    nodes: [NodeId(0); 4],
-    neighbours: [TetId(0); 4],
-    reverse: [Reverse(0); 4],
-};
+
 static POSITIONS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
-static NORMALS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
-static NODE_RECS: ConstStaticCell<[Node; NODES]> = ConstStaticCell::new([ZERO_NODE; NODES]);
-static TET_RECS: ConstStaticCell<[Tet; RAM_TETS]> = ConstStaticCell::new([ZERO_TET; RAM_TETS]);
+/// The mesh's records, carved by the core's layout.
+static MESH: ConstStaticCell<[Line; MESH_LINES]> = ConstStaticCell::new([Line::ZERO; MESH_LINES]);
 static WORLD: ConstStaticCell<[Line; WORLD_LINES]> =
     ConstStaticCell::new([Line::ZERO; WORLD_LINES]);
 // NOLOAD: its contents at reset do not matter, every slot is written by the carve.
@@ -129,10 +123,10 @@ impl Storage {
     /// Takes every static, filled with the values the host's storage starts with. Panics
     /// (exit status 1 through the panic handler) if called twice.
     pub fn take() -> Self {
-        let nodes = NODE_RECS.take();
-        nodes.fill(Node::default());
-        let tets = TET_RECS.take();
-        tets.fill(Tet::default());
+        let Ok(mesh) = MeshStorage::carve(NODES, RAM_TETS, &mut Block::from_lines(MESH.take()))
+        else {
+            panic!("the mesh's statics do not hold its sizes");
+        };
         let mut world = Split {
             a: Block::from_lines(WORLD.take()),
             b: Block::from_lines(WORLD_PSRAM.take()),
@@ -143,11 +137,7 @@ impl Storage {
         };
         Self {
             positions: POSITIONS.take(),
-            mesh: MeshStorage {
-                nodes,
-                normals: NORMALS.take(),
-                tets,
-            },
+            mesh,
             world,
             regions: REGIONS.take(),
             tet_region: TET_REGION.take(),
@@ -175,44 +165,36 @@ pub fn regions(
     Regions::new(table, of_tet).ok()
 }
 
-/// The soft body's storage in `builtin:firmware-soft` (cfg `scenario_soft`): the body's rest
-/// mesh and state (`SoftStorage`), the world's rest positions and spare tables
-/// (`World::enable_deformation`, `World::set_spare`), and the link's buffers
-/// (`soft::LinkBuffers`); all zero, so all in `.bss`.
+/// The soft body's storage in `builtin:firmware-soft` (cfg `scenario_soft`): the world's
+/// spare tables and rest positions (`World::set_spare`, `World::enable_deformation`), the
+/// body's rest mesh (`soft::carve_mesh`), its state (`SoftStorage`) and the link's buffers
+/// (`soft::LinkBuffers`), all carved by the core's layout from one array of lines in `.bss`.
 #[cfg(scenario_soft)]
 pub mod soft {
     use static_cell::ConstStaticCell;
 
     use tetradrill_core::servo::{carve_rest, SpareStorage};
-    use tetradrill_core::soft::TetRest;
+    use tetradrill_core::soft::{carve_mesh, mesh_lines, LinkBuffers, SoftStorage};
     use tetradrill_core::storage::{Block, Line};
     use tetradrill_core::Vec3;
 
     use super::{NODES, SIZES, TETS};
 
-    /// Lines of the world's spare tables and rest positions.
-    const DEFORM_LINES: usize = match SIZES.deform_lines(NODES) {
-        Some(n) => n,
-        None => panic!("the spare tables' sizes overflow"),
+    /// Lines of the whole soft storage: the world's spare tables and rest positions, the
+    /// body's rest mesh, its state and the link's buffers.
+    const SOFT_LINES: usize = match (
+        SIZES.deform_lines(NODES),
+        mesh_lines(NODES, TETS),
+        SoftStorage::lines(NODES, TETS),
+        LinkBuffers::lines(NODES),
+    ) {
+        (Some(a), Some(b), Some(c), Some(d)) => a + b + c + d,
+        _ => panic!("the soft storage's sizes overflow"),
     };
 
-    const ZERO_REST: TetRest = TetRest::ZERO;
-
-    static REST: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
-    static TET_NODES: ConstStaticCell<[[u32; 4]; TETS]> = ConstStaticCell::new([[0; 4]; TETS]);
-    static DISPLACEMENT: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
-    static VELOCITY: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
-    static PREVIOUS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
-    static MASS: ConstStaticCell<[f32; NODES]> = ConstStaticCell::new([0.0; NODES]);
-    static INV_MASS: ConstStaticCell<[f32; NODES]> = ConstStaticCell::new([0.0; NODES]);
-    static TET_REST: ConstStaticCell<[TetRest; TETS]> = ConstStaticCell::new([ZERO_REST; TETS]);
-    static LAMBDAS: ConstStaticCell<[[f32; 2]; TETS]> = ConstStaticCell::new([[0.0; 2]; TETS]);
-    /// The world's spare tables and rest positions, carved by the core's layout.
-    static DEFORM: ConstStaticCell<[Line; DEFORM_LINES]> =
-        ConstStaticCell::new([Line::ZERO; DEFORM_LINES]);
-    static LOAD_A: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
-    static LOAD_B: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
-    static NEXT: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
+    /// Every soft part, carved by the core's layout.
+    static SOFT: ConstStaticCell<[Line; SOFT_LINES]> =
+        ConstStaticCell::new([Line::ZERO; SOFT_LINES]);
 
     /// The soft body's slices, taken once.
     pub struct SoftStatics {
@@ -220,58 +202,36 @@ pub mod soft {
         pub rest: &'static mut [Vec3],
         /// Tets as node indices (`SoftMesh::tets`).
         pub tets: &'static mut [[u32; 4]],
-        /// `SoftStorage::displacement`.
-        pub displacement: &'static mut [Vec3],
-        /// `SoftStorage::velocity`.
-        pub velocity: &'static mut [Vec3],
-        /// `SoftStorage::previous`.
-        pub previous: &'static mut [Vec3],
-        /// `SoftStorage::mass`.
-        pub mass: &'static mut [f32],
-        /// `SoftStorage::inv_mass`.
-        pub inv_mass: &'static mut [f32],
-        /// `SoftStorage::tet_rest`.
-        pub tet_rest: &'static mut [TetRest],
-        /// `SoftStorage::lambdas`.
-        pub lambdas: &'static mut [[f32; 2]],
+        /// The body's state and scratch.
+        pub storage: SoftStorage<'static>,
         /// The world's rest state (`World::enable_deformation`).
         pub world_rest: &'static mut [Vec3],
         /// The world's spare tables (`World::set_spare`).
         pub spare: SpareStorage<'static>,
-        /// `LinkBuffers::a`.
-        pub load_a: &'static mut [Vec3],
-        /// `LinkBuffers::b`.
-        pub load_b: &'static mut [Vec3],
-        /// `LinkBuffers::next`.
-        pub next: &'static mut [Vec3],
+        /// The link's load buffers and next positions.
+        pub link: LinkBuffers<'static>,
     }
 
-    /// Takes every soft static (panics, exit status 1, if called twice). The spare tables and
-    /// rest positions are carved by the core's layout, every slot at its starting value, as
-    /// the host's.
+    /// Takes every soft static (panics, exit status 1, if called twice), every slot at its
+    /// starting value, as the host's.
     pub fn take() -> SoftStatics {
-        let mut deform = Block::from_lines(DEFORM.take());
-        let (Ok(spare), Ok(world_rest)) = (
-            SpareStorage::carve(&SIZES, NODES, &mut deform),
-            carve_rest(NODES, &mut deform),
+        let mut mem = Block::from_lines(SOFT.take());
+        let (Ok(spare), Ok(world_rest), Ok((rest, tets)), Ok(storage), Ok(link)) = (
+            SpareStorage::carve(&SIZES, NODES, &mut mem),
+            carve_rest(NODES, &mut mem),
+            carve_mesh(NODES, TETS, &mut mem),
+            SoftStorage::carve(NODES, TETS, &mut mem),
+            LinkBuffers::carve(NODES, &mut mem),
         ) else {
-            panic!("the spare statics do not hold the world's sizes");
+            panic!("the soft statics do not hold the soft body's sizes");
         };
         SoftStatics {
-            rest: REST.take(),
-            tets: TET_NODES.take(),
-            displacement: DISPLACEMENT.take(),
-            velocity: VELOCITY.take(),
-            previous: PREVIOUS.take(),
-            mass: MASS.take(),
-            inv_mass: INV_MASS.take(),
-            tet_rest: TET_REST.take(),
-            lambdas: LAMBDAS.take(),
+            rest,
+            tets,
+            storage,
             world_rest,
             spare,
-            load_a: LOAD_A.take(),
-            load_b: LOAD_B.take(),
-            next: NEXT.take(),
+            link,
         }
     }
 }

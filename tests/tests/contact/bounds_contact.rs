@@ -445,7 +445,7 @@ fn sphere_contacts_examine_at_most_what_their_bounds_allow() {
         .map(|(t, f)| mesh.face_positions(TetId::from_idx(t), f))
         .collect();
     let boundary: Vec<Vec3> = (0..mesh.node_count())
-        .filter(|&i| mesh.nodes()[i].boundary)
+        .filter(|&i| mesh.nodes()[i].boundary())
         .map(|i| mesh.positions()[i])
         .collect();
     for (k, &c) in boundary.iter().enumerate().step_by(53) {

@@ -221,7 +221,7 @@ fn contact_is_the_exhaustive_closest_triangle_on_the_cow() {
     let radius = 0.03 * (hi - lo).length();
     let mut rng = StdRng::seed_from_u64(5);
     let boundary: Vec<usize> = (0..mesh.node_count())
-        .filter(|&i| mesh.nodes()[i].boundary)
+        .filter(|&i| mesh.nodes()[i].boundary())
         .collect();
     let starts: Vec<(Vec3, Vec3)> = (0..4)
         .map(|_| {

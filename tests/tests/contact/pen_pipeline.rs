@@ -14,7 +14,7 @@ use std::sync::{Arc, Mutex};
 use std::sync::atomic::Ordering;
 use tetradrill::commands::pipeline::{self, PipelineSetup, MESH_UNITS};
 
-use tetradrill::pen::{options, PenRig, PenSizes};
+use tetradrill::pen::{options, PenRig};
 use tetradrill::pen_tasks::{held_handoff, PenLaw};
 use tetradrill::scenario::Scenario;
 use tetradrill::setup::Crossings;
@@ -154,7 +154,7 @@ fn every_real_time_force_is_a_recent_pass_carried_to_its_tick() {
         obj,
     };
     let ((errors, in_contact), _) = rig
-        .with_sizes(PenSizes::of(&sc.capacities), |scene, bufs| {
+        .with_sizes(sc.capacities.pen(), |scene, bufs| {
             let mut now_pen = vec![Penetration::default(); bufs.pen_pens.len()];
             let mut now_obj = vec![Penetration::default(); bufs.object_pens.len()];
             let (mut errors, mut in_contact) = (Vec::new(), 0u64);
@@ -233,7 +233,7 @@ fn the_stiffness_control_scales_the_pens_force() {
         obj,
     };
     let ((exact, single, double), _) = rig
-        .with_sizes(PenSizes::of(&sc.capacities), |scene, bufs| {
+        .with_sizes(sc.capacities.pen(), |scene, bufs| {
             let counters = ServoCounters::default();
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let mut law = PenLaw::new(scene, &counters, held_out, opts);

@@ -251,8 +251,8 @@ fn check_boundary(mesh: &Mesh<'_>) {
     assert_eq!(mesh.stats().boundary_faces, count);
     for (i, node) in mesh.nodes().iter().enumerate() {
         let id = NodeId::from_idx(i);
-        assert_eq!(node.boundary, bnodes.contains(&id), "node {i}");
-        if node.boundary {
+        assert_eq!(node.boundary(), bnodes.contains(&id), "node {i}");
+        if node.boundary() {
             assert!((mesh.normal(id).length() - 1.0).abs() < 1e-5);
         }
     }

@@ -151,7 +151,7 @@ fn a_spread_update_commits_the_world_set_positions_makes() {
         );
         for i in 0..n {
             let id = tetradrill_core::NodeId::from_idx(i);
-            assert_eq!(a.mesh().node(id).boundary, b.mesh().node(id).boundary);
+            assert_eq!(a.mesh().node(id).boundary(), b.mesh().node(id).boundary());
         }
         assert_eq!(a.hash().len(), b.hash().len());
         assert_eq!(a.hash().stats(), b.hash().stats());

@@ -134,14 +134,14 @@ fn hash_and_normals_follow_a_bending_block() {
         for (i, want) in want.iter().enumerate() {
             let got = world.mesh().normals()[i];
             let node = world.mesh().node(tetradrill_core::NodeId::from_idx(i));
-            assert_eq!(node.boundary, want.is_some(), "step {k} node {i}");
+            assert_eq!(node.boundary(), want.is_some(), "step {k} node {i}");
             let want = want.unwrap_or([0.0; 3]);
             let err = sub(d3(got), want);
             assert!(
                 dot(err, err).sqrt() < 1e-5,
                 "step {k} node {i}: {got} vs {want:?}"
             );
-            boundary += usize::from(node.boundary);
+            boundary += usize::from(node.boundary());
         }
     }
     assert_eq!(world.saturations().hash, 0);

@@ -143,7 +143,8 @@ fn rigidly_moved_body_at_rest_does_not_move() {
     let t = Vec3::new(0.3, -0.2, 0.7);
     let moved: Vec<Vec3> = rest.iter().map(|&x| r * x + t).collect();
     let mut st = SoftOwned::new(rest.clone(), tets);
-    for (u, (x, y)) in st.displacement.iter_mut().zip(rest.iter().zip(&moved)) {
+    let (mesh, storage) = st.parts().unwrap();
+    for (u, (x, y)) in storage.displacement.iter_mut().zip(rest.iter().zip(&moved)) {
         *u = *y - *x;
     }
     let mat = Material {
@@ -151,7 +152,7 @@ fn rigidly_moved_body_at_rest_does_not_move() {
         poisson: 0.3,
         density: RHO,
     };
-    let mut body = st.body(&[mat], params(0.0)).unwrap();
+    let mut body = SoftBody::new(mesh, &[mat], params(0.0), storage).unwrap();
     let e = body.elastic_energy();
     // The energy of a rigid motion is zero up to f32 rounding of F (relative 1e-6 of the
     // energy density scale E * volume).
@@ -375,9 +376,12 @@ fn bad_input_is_refused_at_construction() {
         Some(SoftError::NodeOutOfRange { tet: 0 })
     );
     let mut st = SoftOwned::new(rest, tets);
-    st.lambdas.pop();
+    let (mesh, mut storage) = st.parts().unwrap();
+    // One multiplier pair short.
+    let lambdas = std::mem::take(&mut storage.lambdas);
+    storage.lambdas = &mut lambdas[1..];
     assert_eq!(
-        mk(&mut st, &[mat], params(0.0), &[]),
+        SoftBody::new(mesh, &[mat], params(0.0), storage).err(),
         Some(SoftError::Length("lambdas"))
     );
     // A bad time step changes nothing.

@@ -134,11 +134,10 @@ fn a_turned_stiff_tooth_keeps_its_shape() {
         .iter()
         .map(|p| rot * (*p - c) - (*p - c))
         .collect();
-    owned.displacement.copy_from_slice(&turned);
-    owned.previous.copy_from_slice(&turned);
-    let mut body = owned
-        .body(&spec.materials(), host_params())
-        .expect("a body");
+    let (mesh, storage) = owned.parts().expect("storage");
+    storage.displacement.copy_from_slice(&turned);
+    storage.previous.copy_from_slice(&turned);
+    let mut body = SoftBody::new(mesh, &spec.materials(), host_params(), storage).expect("a body");
     let none = vec![Vec3::ZERO; body.rest().len()];
     let mut worst = 0.0f64;
     for _ in 0..50 {

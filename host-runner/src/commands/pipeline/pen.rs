@@ -7,7 +7,7 @@ use crate::commands::replay::{DebrisSummary, SaturationCounts, TickTiming};
 use crate::engine;
 use crate::error::CliError;
 use crate::meshio::LoadedMesh;
-use crate::pen::{PenRig, PenSizes};
+use crate::pen::PenRig;
 use crate::setup::Setup;
 use crate::tasks::{self, Shared, SimStatus};
 
@@ -77,7 +77,7 @@ pub(super) fn run_pen(
         reset: 0,
     };
     let ((servo, sim_status, task, stats, elapsed, (mut shown, recorded)), built) = rig
-        .with_sizes(PenSizes::of(&sc.capacities), |scene, bufs| {
+        .with_sizes(sc.capacities.pen(), |scene, bufs| {
             let (mut held_in, held_out) = held_handoff(bufs.pen_pens.len(), bufs.object_pens.len());
             let (mut status_in, status_out) = triple_buffer::TripleBuffer::new(&base).split();
             let mut law = PenLaw::new(scene, &shared.counters, held_out, opts);

@@ -6,7 +6,7 @@ use tetradrill_core::Quat;
 use tetradrill_core::Vec3;
 
 use super::*;
-use crate::pen::{PenRig, PenSizes};
+use crate::pen::PenRig;
 use crate::pen_pair::with_pass_runner;
 
 /// `replay --tool mesh:FILE`: the tet-mesh tool (the pen) against the object, contact only
@@ -64,7 +64,7 @@ pub(super) fn replay_pen(
     let (mut max_n, mut last, mut contact_ticks) = (0.0f32, Vec3::ZERO, 0u64);
     let mut sat = SaturationCounts::default();
     let progress = !args.quiet && ticks >= 20_000;
-    let sizes = PenSizes::of(&sc.capacities);
+    let sizes = sc.capacities.pen();
     let period = u64::from(sc.pen.contact_period.max(1));
     pen_info.contact_period = sc.pen.contact_period;
     pen_info.pass_threads = sc.pen.pass_threads;
