@@ -88,17 +88,17 @@
 //! # Ok::<(), Box<dyn core::error::Error>>(())
 //! ```
 
+mod crossing;
 mod graph;
 mod hashed;
 mod propagate;
 mod surface;
 mod traced;
 
+pub use crossing::Crossing;
 pub use graph::{graph_sizes, GraphError, NodeGraph};
 pub use hashed::hash_boundary_faces;
-pub use propagate::{
-    penetration_depth, Crossing, DepthReport, DepthScratch, NodeSlot, Penetration,
-};
+pub use propagate::{penetration_depth, DepthReport, DepthScratch, NodeSlot, Penetration};
 pub(crate) use propagate::{penetration_depth_of, Listed};
 
 use glam::Affine3A;
