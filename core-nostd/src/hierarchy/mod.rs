@@ -16,6 +16,11 @@
 //! - [`Hierarchy::erase`], [`Hierarchy::refine`]: Turini et al. 2006, section 2.1, across coarse
 //!   faces through the mesh's reverse indices.
 //! - [`Hierarchy::for_each_visible`], [`Hierarchy::for_each_visible_in`]: the drilled surface.
+//! - `changes`: the coarse tets whose visible faces Erase and Refine changed, in a ring of
+//!   caller storage that readers read at their own pace ([`Hierarchy::change_at`]).
+//! - `export`: the drilled surface kept in a renderer's buffers of stable triangle slots,
+//!   only the changed tets' slots written, a bounded amount of work a call
+//!   ([`SurfaceExport`]).
 //! - [`Hierarchy::nearest_visible`]: the closest visible triangle to a point (branch and
 //!   bound over the nodes whose *surface* bit says a v_list leaf lies below), for the contact;
 //!   [`SphereMemo`] remembers the nodes' bounding spheres across searches.
@@ -27,8 +32,8 @@
 //! - invariants: [`Hierarchy::validate`].
 //!
 //! Memory: 8 bytes per node in the arena plus 12 bytes per v_list entry (the v_list is sized
-//! for every possible leaf: `tets + 7/8 arena`), about 18.5 bytes per arena node in all, and
-//! 8 + 12 bytes per coarse tet.
+//! for every possible leaf: `tets + 7/8 arena`), about 18.5 bytes per arena node in all, 8 +
+//! 12 bytes per coarse tet, and 4 bytes per change log entry ([`DEFAULT_CHANGES`]).
 //!
 //! ```
 //! use tetradrill_core::builtin;
@@ -62,9 +67,11 @@
 //! # Ok::<(), Box<dyn core::error::Error>>(())
 //! ```
 
+mod changes;
 mod components;
 mod crumbs;
 mod debris;
+mod export;
 mod geometry;
 mod memo;
 mod nearest;
@@ -77,8 +84,13 @@ mod table;
 mod validate;
 mod visit;
 
+pub use changes::Change;
 pub use crumbs::{CrumbStats, CrumbWork, Crumbs, CRUMB_SEEDS};
 pub use debris::{DebrisReport, DEBRIS_LEAVES};
+pub use export::{
+    ExportReport, SlotRange, SlotRecord, SurfaceBuffers, SurfaceError, SurfaceExport, SurfaceSizes,
+    SurfaceStorage, TetRecord,
+};
 #[cfg(test)]
 pub(crate) use geometry::node_positions;
 pub(crate) use geometry::node_volume;
@@ -91,11 +103,15 @@ pub(crate) use nearest::keep_face;
 pub use nearest::{FaceRef, Kept, Nearest, NearestCursor, NearestQuery, KEEP};
 pub use node::{HNode, VEntry, NODE_BYTES};
 pub use ops::OpReport;
-pub use store::{Hierarchy, HierarchyError, HierarchySizes, HierarchyStats, HierarchyStorage};
+pub use store::{
+    Hierarchy, HierarchyError, HierarchySizes, HierarchyStats, HierarchyStorage, DEFAULT_CHANGES,
+};
 pub use surface::{Leaf, VisibleTri};
 pub(crate) use table::Path;
 pub use table::MAX_DEPTH;
 
+#[cfg(test)]
+mod export_tests;
 #[cfg(test)]
 pub(crate) mod test_support;
 #[cfg(test)]

@@ -1,5 +1,6 @@
 //! Erase and Refine (Turini et al. 2006, section 2.1), keeping the visible faces exact.
 
+use super::changes::OpTets;
 use super::geometry::node_volume;
 use super::node::{HNode, NO_SLOT};
 use super::store::{Hierarchy, HierarchyError};
@@ -123,6 +124,11 @@ impl<'a> Hierarchy<'a> {
             self.stats.visible_faces += bits.count_ones();
             self.vlist_insert(tet, path.index * 8 + 1 + c as u32, cr);
         }
+        if parent_bits != 0 {
+            let mut op = OpTets::new();
+            op.add(tet);
+            self.log(&op);
+        }
         Ok(rep)
     }
 
@@ -171,6 +177,12 @@ impl<'a> Hierarchy<'a> {
             return Err(HierarchyError::Erased);
         }
         let mut rep = OpReport::default();
+        // The tets whose visible faces change: this leaf's when it had some, and those of the
+        // leaves across it that gain one.
+        let mut op = OpTets::new();
+        if node.visible() != 0 {
+            op.add(tet);
+        }
         for f in 0..4u8 {
             visit_across_from(self, mesh, tet, (path, r), f, &mut rep.work, |h, met| {
                 let rec = met.record;
@@ -183,6 +195,7 @@ impl<'a> Hierarchy<'a> {
                         n.set_visible(rec.visible() | bit);
                     }
                     h.stats.visible_faces += 1;
+                    op.add(met.tet);
                 }
                 if rec.slot() == NO_SLOT {
                     h.vlist_insert(met.tet, met.index, met.node);
@@ -199,6 +212,7 @@ impl<'a> Hierarchy<'a> {
             n.set_visible(0);
             n.set_erased();
         }
+        self.log(&op);
         self.note_erased(tet, path, r);
         rep.removed = node_volume(mesh, tet, path.depth);
         self.stats.removed_volume += rep.removed;

@@ -18,6 +18,9 @@ pub struct HierarchyStorage<'a> {
     pub arena: &'a mut [HNode],
     /// The v_list; needs [`HierarchyStorage::vlist_needed`] entries.
     pub vlist: &'a mut [VEntry],
+    /// The change log: the coarse tets whose visible faces changed, newest last, as a ring
+    /// (any length, zero included; see [`Hierarchy::change_at`]).
+    pub changes: &'a mut [TetId],
 }
 
 impl<'a> HierarchyStorage<'a> {
@@ -40,11 +43,13 @@ impl<'a> HierarchyStorage<'a> {
             roots: carve(mem, Part::Roots, sizes.roots, HNode::default())?,
             arena: carve(mem, Part::Arena, sizes.arena, HNode::default())?,
             vlist: carve(mem, Part::VList, sizes.vlist, VEntry::default())?,
+            changes: carve(mem, Part::Changes, sizes.changes, TetId::NONE)?,
         })
     }
 }
 
-/// Storage sizes of a [`Hierarchy`]: root slots, arena nodes, v_list entries.
+/// Storage sizes of a [`Hierarchy`]: root slots, arena nodes, v_list entries, change log
+/// entries.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct HierarchySizes {
     /// Root slots (one per coarse tet).
@@ -53,27 +58,46 @@ pub struct HierarchySizes {
     pub arena: usize,
     /// v_list entries ([`HierarchyStorage::vlist_needed`]).
     pub vlist: usize,
+    /// Change log entries ([`DEFAULT_CHANGES`] by default; any number, zero included).
+    pub changes: usize,
 }
+
+/// Default length of a hierarchy's change log ([`Hierarchy::change_at`]): 4,096 entries (16
+/// KB). The demo path (`builtin:demo`) logs at most 112 a simulation step, so a surface
+/// exporter read once a frame at 60 Hz (17 steps at 1 kHz) keeps up with room to spare; one
+/// that falls further behind sweeps every coarse tet instead
+/// ([`crate::hierarchy::SurfaceExport`]).
+pub const DEFAULT_CHANGES: usize = 1 << 12;
 
 impl HierarchySizes {
     /// Sizes for `tets` coarse tets and an arena of about `arena` nodes (rounded down to a
-    /// block of 8), with the v_list they need.
+    /// block of 8), with the v_list they need and a change log of [`DEFAULT_CHANGES`].
     pub const fn new(tets: usize, arena: usize) -> Self {
         let arena = arena / 8 * 8;
         Self {
             roots: tets,
             arena,
             vlist: HierarchyStorage::vlist_needed(tets, arena),
+            changes: DEFAULT_CHANGES,
+        }
+    }
+
+    /// The same sizes with a change log of `entries` entries.
+    pub const fn with_changes(self, entries: usize) -> Self {
+        Self {
+            changes: entries,
+            ..self
         }
     }
 
     /// The slices of a [`HierarchyStorage`], in the order [`HierarchyStorage::carve`] takes
     /// them.
-    pub const fn parts(&self) -> [Slots; 3] {
+    pub const fn parts(&self) -> [Slots; 4] {
         [
             Slots::of::<HNode>(Part::Roots, self.roots),
             Slots::of::<HNode>(Part::Arena, self.arena),
             Slots::of::<VEntry>(Part::VList, self.vlist),
+            Slots::of::<TetId>(Part::Changes, self.changes),
         ]
     }
 
@@ -200,6 +224,13 @@ pub struct Hierarchy<'a> {
     pub(super) stats: HierarchyStats,
     /// The coarse tets' volume when the trees were last reset.
     pub(super) volume0: f64,
+    /// The change log's ring: entry `seq` at `seq % len`.
+    pub(super) changes: &'a mut [TetId],
+    /// Change log entries written so far (the next entry's sequence number).
+    pub(super) logged: u64,
+    /// The log's length just after the last change of every face at once (a reset, a move
+    /// of the nodes): entries before it no longer describe the surface.
+    pub(super) all_at: u64,
 }
 
 /// Where the list of reclaimable blocks keeps its data in a block's erased leaves (their
@@ -224,6 +255,7 @@ impl<'a> Hierarchy<'a> {
             roots,
             arena,
             vlist,
+            changes,
         } = storage;
         if roots.len() < t || t >= u32::MAX as usize / 2 {
             return Err(HierarchyError::StorageTooSmall {
@@ -253,6 +285,9 @@ impl<'a> Hierarchy<'a> {
             hollow_blocks: 0,
             stats: Default::default(),
             volume0: 0.0,
+            changes,
+            logged: 0,
+            all_at: 0,
         };
         me.reset(mesh);
         Ok(me)
@@ -263,6 +298,7 @@ impl<'a> Hierarchy<'a> {
     /// # Bounded work
     /// O(T).
     pub(crate) fn reset(&mut self, mesh: &Mesh<'_>) {
+        self.note_all_changed();
         self.blocks_used = 0;
         self.vlen = 0;
         self.reclaim_head = 0;

@@ -15,6 +15,7 @@ macro_rules! cube_hierarchy {
                 roots: &mut roots,
                 arena: &mut arena,
                 vlist: &mut vlist,
+                changes: &mut [],
             },
         )
         .expect("test hierarchy");

@@ -343,6 +343,7 @@ fn storage_checks() {
             roots: &mut roots,
             arena: &mut arena,
             vlist: &mut vlist,
+            changes: &mut [],
         },
     );
     assert!(matches!(
@@ -357,6 +358,7 @@ fn storage_checks() {
             roots: &mut roots,
             arena: &mut [],
             vlist: &mut vlist,
+            changes: &mut [],
         },
     );
     assert!(matches!(

@@ -7,7 +7,8 @@
 //!   of [`World::new`]);
 //! - the boundary normals ([`Mesh::update_boundary`]);
 //! - the hierarchy's faces: nothing to do, they are barycentric in their root tet and are
-//!   evaluated at the current positions whenever they are needed;
+//!   evaluated at the current positions whenever they are needed; the hierarchy's change
+//!   log notes that every face moved (a surface exporter writes them all again);
 //! - the contact search's caches: the sphere memo is emptied, the resume place forgets the
 //!   nodes it measured (its tree starts again from the root), the kept faces are measured
 //!   again at the new positions (those no longer visible are dropped); a candidate gather
@@ -207,6 +208,8 @@ impl<'a> World<'a> {
         }
         self.memo.clear();
         self.cursor.restart_tree();
+        // Every visible face moved: readers of the hierarchy's change log redo them all.
+        self.hier.note_all_changed();
         // A gathered candidate list holds the tets whose old boxes met its box: gather afresh.
         if let Some(z) = self.zone.as_mut() {
             z.forget();

@@ -7,7 +7,7 @@ use glam::Vec3;
 use super::SpareStorage;
 use crate::drill::Pending;
 use crate::hash::{Aabb, HashEntry};
-use crate::hierarchy::{HierarchySizes, HierarchyStorage, SphereSlot};
+use crate::hierarchy::{HierarchySizes, HierarchyStorage, SphereSlot, DEFAULT_CHANGES};
 use crate::ids::TetId;
 use crate::storage::{carve, lines_of, Memory, Part, PartSet, Slots, StorageError, LINE};
 
@@ -22,7 +22,7 @@ pub struct WorldStorage<'a> {
     /// tet; a tet beyond the slice has its box made from its corners each time it is needed,
     /// the same box).
     pub tet_boxes: &'a mut [Aabb],
-    /// The hierarchy's roots, arena and v_list.
+    /// The hierarchy's roots, arena, v_list and change log.
     pub hierarchy: HierarchyStorage<'a>,
     /// The drill's pending-work deque.
     pub pending: &'a mut [Pending],
@@ -48,6 +48,8 @@ pub struct WorldSizes {
     pub arena: usize,
     /// v_list entries.
     pub vlist: usize,
+    /// Hierarchy change log entries ([`crate::hierarchy::DEFAULT_CHANGES`] by default).
+    pub changes: usize,
     /// Pending drill work items.
     pub pending: usize,
     /// Candidate tets near the tool.
@@ -80,6 +82,7 @@ impl WorldSizes {
             roots: tets,
             arena,
             vlist: HierarchyStorage::vlist_needed(tets, arena),
+            changes: DEFAULT_CHANGES,
             pending: DEFAULT_PENDING,
             candidates: 1024,
             sphere_memo: DEFAULT_SPHERE_MEMO,
@@ -90,6 +93,15 @@ impl WorldSizes {
     /// gives the same results whatever its capacity.
     pub const fn with_pending(self, pending: usize) -> Self {
         Self { pending, ..self }
+    }
+
+    /// The same sizes with a hierarchy change log of `entries` entries (zero: a surface
+    /// exporter sweeps every coarse tet after each change; a world without one needs none).
+    pub const fn with_changes(self, entries: usize) -> Self {
+        Self {
+            changes: entries,
+            ..self
+        }
     }
 
     /// The same sizes with a sphere memo of `slots` slots (any size, zero included, gives the
@@ -109,11 +121,12 @@ impl WorldSizes {
             roots: self.roots,
             arena: self.arena,
             vlist: self.vlist,
+            changes: self.changes,
         }
     }
 
     /// Every slice of a [`WorldStorage`], in the order [`WorldStorage::carve`] takes them.
-    pub const fn parts(&self) -> [Slots; 9] {
+    pub const fn parts(&self) -> [Slots; 10] {
         let h = self.hierarchy().parts();
         [
             Slots::of::<u32>(Part::HashStarts, self.hash_starts),
@@ -122,6 +135,7 @@ impl WorldSizes {
             h[0],
             h[1],
             h[2],
+            h[3],
             Slots::of::<Pending>(Part::Pending, self.pending),
             Slots::of::<TetId>(Part::Candidates, self.candidates),
             Slots::of::<SphereSlot>(Part::SphereMemo, self.sphere_memo),

@@ -17,6 +17,7 @@ fn odd_sizes() -> WorldSizes {
     s.pending = 7;
     s.candidates = 5;
     s.sphere_memo = 3;
+    s.changes = 11;
     s
 }
 
@@ -36,6 +37,7 @@ fn a_block_of_the_sizes_lines_holds_every_part_and_nothing_more() {
         sizes.roots * 8,
         sizes.arena * 8,
         sizes.vlist * 12,
+        sizes.changes * 4,
         sizes.pending * 64,
         sizes.candidates * 4,
         sizes.sphere_memo * 24,
@@ -56,12 +58,14 @@ fn a_block_of_the_sizes_lines_holds_every_part_and_nothing_more() {
     assert_eq!(st.hierarchy.roots.len(), sizes.roots);
     assert_eq!(st.hierarchy.arena.len(), sizes.arena);
     assert_eq!(st.hierarchy.vlist.len(), sizes.vlist);
+    assert_eq!(st.hierarchy.changes.len(), sizes.changes);
     assert_eq!(st.pending.len(), sizes.pending);
     assert_eq!(st.candidates.len(), sizes.candidates);
     assert_eq!(st.sphere_memo.len(), sizes.sphere_memo);
     assert!(line_aligned(st.hash_starts) && line_aligned(st.hash_entries));
     assert!(line_aligned(st.tet_boxes) && line_aligned(st.hierarchy.roots));
     assert!(line_aligned(st.hierarchy.arena) && line_aligned(st.hierarchy.vlist));
+    assert!(line_aligned(st.hierarchy.changes));
     assert!(line_aligned(st.pending) && line_aligned(st.candidates));
     assert!(line_aligned(st.sphere_memo));
 }
@@ -104,6 +108,7 @@ fn every_slot_starts_at_its_value_whatever_the_memory_held() {
     assert!(st.hierarchy.roots.iter().all(|n| *n == HNode::default()));
     assert!(st.hierarchy.arena.iter().all(|n| *n == HNode::default()));
     assert!(st.hierarchy.vlist.iter().all(|v| *v == VEntry::default()));
+    assert!(st.hierarchy.changes.iter().all(|&t| t == TetId::NONE));
     assert!(st.pending.iter().all(|p| *p == Pending::default()));
     assert!(st.candidates.iter().all(|&t| t == TetId::NONE));
     assert!(st.sphere_memo.iter().all(|s| *s == SphereSlot::EMPTY));
@@ -111,14 +116,15 @@ fn every_slot_starts_at_its_value_whatever_the_memory_held() {
 
 #[test]
 fn a_start_off_the_line_loses_the_bytes_to_the_next_line() {
-    let sizes = HierarchySizes::new(4, 16);
+    let sizes = HierarchySizes::new(4, 16).with_changes(3);
     let n = sizes.lines().unwrap();
-    let mut lines = [Line::ZERO; 8];
+    let mut lines = [Line::ZERO; 9];
     let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut lines[..n + 1]);
     let (_, off) = bytes.split_at_mut(8);
     let mut block = Block::new(off);
     let st = HierarchyStorage::carve(&sizes, &mut block).unwrap();
     assert!(line_aligned(st.roots) && line_aligned(st.arena) && line_aligned(st.vlist));
+    assert!(line_aligned(st.changes));
     assert_eq!(block.left(), 0);
     // Without the spare line it does not fit.
     let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut lines[..n]);

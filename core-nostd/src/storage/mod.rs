@@ -152,6 +152,12 @@ pub enum Part {
     MeshNormals,
     /// A mesh's tet records.
     MeshTets,
+    /// The hierarchy's change log ([`crate::hierarchy::HierarchyStorage::changes`]).
+    Changes,
+    /// A surface exporter's triangle slots ([`crate::hierarchy::SurfaceStorage::slots`]).
+    SurfaceSlots,
+    /// A surface exporter's records per coarse tet.
+    SurfaceTets,
 }
 
 impl Part {
@@ -200,12 +206,15 @@ impl Part {
             Self::MeshNodes => "mesh node records",
             Self::MeshNormals => "mesh normals",
             Self::MeshTets => "mesh tet records",
+            Self::Changes => "hierarchy change log",
+            Self::SurfaceSlots => "surface slots",
+            Self::SurfaceTets => "surface tet records",
         }
     }
 }
 
 // Every part has a bit in a [`PartSet`].
-const _: () = assert!((Part::MeshTets as u32) < u64::BITS);
+const _: () = assert!((Part::SurfaceTets as u32) < u64::BITS);
 
 /// One part's slice: what it is, how many slots, and the bytes of one slot.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]

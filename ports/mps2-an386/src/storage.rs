@@ -46,7 +46,10 @@ pub const RAM_TETS: usize = if cfg!(blob_mesh) { 0 } else { TETS };
 /// The world's storage sizes, as the host computes them, with the scenario's pending deque
 /// and candidate list.
 pub const SIZES: WorldSizes = {
-    let mut s = WorldSizes::new(TETS, ARENA).with_pending(PENDING_ITEMS);
+    // No change log: nothing on the board reads it (a surface exporter would sweep instead).
+    let mut s = WorldSizes::new(TETS, ARENA)
+        .with_pending(PENDING_ITEMS)
+        .with_changes(0);
     s.candidates = scenario::CANDIDATES;
     if cfg!(scenario_soft) {
         // Each step's commit empties the memo: 256 slots (6 KB) instead of the host's 4,096
