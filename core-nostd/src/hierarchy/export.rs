@@ -12,6 +12,7 @@ use glam::Vec3;
 
 use super::changes::Change;
 use super::store::Hierarchy;
+use super::table::MAX_DEPTH;
 use crate::ids::TetId;
 use crate::mesh::Mesh;
 use crate::storage::{carve, lines_of, Memory, Part, PartSet, Slots, StorageError};
@@ -38,10 +39,6 @@ impl SlotRecord {
         face: 0,
         next: NO,
     };
-
-    fn same_face(&self, tet: TetId, index: u32, face: u8) -> bool {
-        self.tet == tet.0 && self.index == index && self.face == face as u32
-    }
 }
 
 /// What a surface exporter keeps for each coarse tet: the first slot of its chain and the
@@ -553,8 +550,10 @@ impl<'a> SurfaceExport<'a> {
         None
     }
 
-    /// Lists the faces of tet `t` again into its slots: its own first (a slot that holds the
-    /// same face is left alone unless `rewrite`), then free ones; frees the slots left over.
+    /// Lists the faces of tet `t` again into its slots. The tet's chain is in listing order,
+    /// so the old chain and the new listing are merged: a slot whose face is listed again
+    /// keeps it (and is not written unless `rewrite`), a new face takes the slot of a face
+    /// that went, else a free one; the slots left over are freed.
     #[allow(clippy::too_many_arguments)]
     fn relist(
         &mut self,
@@ -572,16 +571,38 @@ impl<'a> SurfaceExport<'a> {
         rep.tets += 1;
         let lab = label(t);
         let mut old = rec.head;
+        // Slots of faces that went, for the new faces (a list through `next`).
+        let mut spare = NO;
         let (mut head, mut tail, mut count) = (NO, NO, 0u32);
         hier.for_each_visible_in(mesh, &[t], None, |vt| {
             rep.work = rep.work.saturating_add(1);
-            let s = if let Some(r) = self.slots.get(old as usize) {
+            let key = walk_key(vt.index, vt.face);
+            // The old faces listed before this one are gone.
+            let mut kept = None;
+            while let Some(r) = self.slots.get_mut(old as usize) {
+                let k = walk_key(r.index, r.face as u8);
+                if k > key {
+                    break;
+                }
                 let s = old;
                 old = r.next;
-                s
+                if k == key {
+                    kept = Some(s);
+                    break;
+                }
+                r.next = spare;
+                spare = s;
+                rep.work = rep.work.saturating_add(1);
+            }
+            let (s, same) = if let Some(s) = kept {
+                (s, !rewrite)
+            } else if let Some(r) = self.slots.get(spare as usize) {
+                let s = spare;
+                spare = r.next;
+                (s, false)
             } else if let Some(s) = self.take() {
                 self.live += 1;
-                s
+                (s, false)
             } else {
                 rep.dropped += 1;
                 self.short = true;
@@ -590,7 +611,6 @@ impl<'a> SurfaceExport<'a> {
             let Some(slot) = self.slots.get_mut(s as usize) else {
                 return;
             };
-            let same = !rewrite && slot.same_face(t, vt.index, vt.face);
             *slot = SlotRecord {
                 tet: t.0,
                 index: vt.index,
@@ -607,17 +627,24 @@ impl<'a> SurfaceExport<'a> {
             tail = s;
             count += 1;
         });
-        // The slots the tet no longer needs.
+        // The faces after the last one listed are gone too.
         while let Some(r) = self.slots.get_mut(old as usize) {
             let s = old;
             old = r.next;
+            r.next = spare;
+            spare = s;
+            rep.work = rep.work.saturating_add(1);
+        }
+        // The slots the tet no longer needs.
+        while let Some(r) = self.slots.get_mut(spare as usize) {
+            let s = spare;
+            spare = r.next;
             *r = SlotRecord {
                 next: self.free,
                 ..SlotRecord::FREE
             };
             self.free = s;
             self.live = self.live.saturating_sub(1);
-            rep.work = rep.work.saturating_add(1);
             o.clear(s);
         }
         if let Some(r) = self.tets.get_mut(t.idx()) {
@@ -628,4 +655,30 @@ impl<'a> SurfaceExport<'a> {
             };
         }
     }
+}
+
+/// Where face `face` of the node of tree index `index` comes in a tree's listing
+/// ([`Hierarchy::for_each_visible_in`]: depth first, the children of a node in descending
+/// digit order, a node's faces in ascending order), as a number: the digits root first,
+/// each as `7 - digit` in 3 bits and padded to [`MAX_DEPTH`] levels, then the depth (an
+/// ancestor before its descendants), then the face. Any consistent order would do; this
+/// one matches the listing, so a tet's unchanged faces keep their slots.
+pub(super) fn walk_key(index: u32, face: u8) -> u64 {
+    let mut digits = [0u8; MAX_DEPTH];
+    let mut depth = 0usize;
+    let mut i = index;
+    while i > 0 {
+        let Some(d) = digits.get_mut(depth) else {
+            break;
+        };
+        *d = ((i - 1) & 7) as u8;
+        i = (i - 1) >> 3;
+        depth += 1;
+    }
+    let mut key = 0u64;
+    // `digits[depth - 1]` is the root's child, `digits[0]` the deepest.
+    for (level, &d) in digits.iter().take(depth).rev().enumerate() {
+        key |= u64::from(7 - d) << (3 * (MAX_DEPTH - 1 - level));
+    }
+    (key << 4 | depth as u64) << 2 | u64::from(face & 3)
 }

@@ -294,6 +294,16 @@ fn run(seed: u64, ops: usize, log: usize, slots: usize, ranges: usize, budget: u
         if op > 0 {
             random_op(&mut h, &mesh, &mut rng);
         }
+        // Each tree lists its faces in the order of `walk_key` (so unchanged faces keep
+        // their slots).
+        for t in 0..CUBE12_TETS {
+            let mut last = None;
+            h.for_each_visible_in(&mesh, &[TetId::from_idx(t)], None, |vt| {
+                let k = super::export::walk_key(vt.index, vt.face);
+                assert!(last < Some(k), "tet {t}: listing out of key order");
+                last = Some(k);
+            });
+        }
         // Calls until the buffers are up to date (or, when faces are left out, a bounded
         // number of them).
         for call in 0..1000 {

@@ -62,12 +62,12 @@ pub struct HierarchySizes {
     pub changes: usize,
 }
 
-/// Default length of a hierarchy's change log ([`Hierarchy::change_at`]): 4,096 entries (16
-/// KB). The demo path (`builtin:demo`) logs at most 112 a simulation step, so a surface
-/// exporter read once a frame at 60 Hz (17 steps at 1 kHz) keeps up with room to spare; one
-/// that falls further behind sweeps every coarse tet instead
+/// Default length of a hierarchy's change log ([`Hierarchy::change_at`]): 8,192 entries (32
+/// KB). The demo path (`builtin:demo`) logs at most 232 entries a simulation step and 3,284 a
+/// 60 Hz frame (17 steps at 1 kHz), so a surface exporter read once a frame at 30 Hz or
+/// faster keeps up; one that falls further behind sweeps every coarse tet instead
 /// ([`crate::hierarchy::SurfaceExport`]).
-pub const DEFAULT_CHANGES: usize = 1 << 12;
+pub const DEFAULT_CHANGES: usize = 1 << 13;
 
 impl HierarchySizes {
     /// Sizes for `tets` coarse tets and an arena of about `arena` nodes (rounded down to a

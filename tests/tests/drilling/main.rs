@@ -13,3 +13,4 @@ mod fine_mesh;
 mod long_drilling;
 mod materials;
 mod shaft;
+mod surface_export;
