@@ -21,6 +21,10 @@
 // region index is a byte in the core.
 #define TD_MAX_REGIONS 256
 
+// The most triangle slots a surface has: every vertex index fits a `uint32_t`
+// (`UINT32_MAX / 3`).
+#define TD_MAX_TRIANGLES 1431655765
+
 // What a call did. `TD_OK` is zero; every error leaves the world as it was, except
 // `td_world_init`, which leaves the memory it was given unusable as a world until a
 // successful init.
@@ -56,6 +60,10 @@ typedef enum td_status {
   // Materials are set before the first simulation step; this world has already stepped.
   TD_ERR_STARTED = 10,
 } td_status;
+
+// A surface set up by `td_surface_init` in caller memory. Opaque: C holds a pointer to it
+// (the start of the memory it gave) and never reads it.
+typedef struct td_surface td_surface;
 
 // A world set up by `td_world_init` in caller memory. Opaque: C holds a pointer to it (the
 // start of the memory it gave) and never reads it.
@@ -210,6 +218,61 @@ typedef struct td_region {
   // `tetradrill replay`).
   double removed_volume;
 } td_region;
+
+// A run of triangle slots a `td_surface_update` wrote: `count` slots from `first` (vertices
+// `3 * first` to `3 * (first + count) - 1` of every buffer).
+typedef struct td_slot_range {
+  // First slot.
+  uint32_t first;
+  // Slots.
+  uint32_t count;
+} td_slot_range;
+
+// The caller's buffers for `td_surface_update`, each sized for the surface's
+// `max_triangles` (`n`): triangle slot `s` is vertices `3 s`, `3 s + 1`, `3 s + 2`.
+//
+// A live slot holds its face's corners (counter-clockwise seen from outside the material),
+// the face's outward unit normal on each vertex, its coarse tet's region label on each, and
+// the indices `3 s`, `3 s + 1`, `3 s + 2`. A free slot is zero in every buffer (indices
+// `0, 0, 0`: a degenerate triangle), so buffers that start zeroed are an empty surface.
+typedef struct td_surface_buffers {
+  // `9 n` floats: x, y, z of each vertex.
+  float *positions;
+  // `9 n` floats: the vertex normals.
+  float *normals;
+  // `3 n` region labels, one a vertex.
+  int32_t *labels;
+  // `3 n` vertex indices, three a triangle.
+  uint32_t *indices;
+  // `range_capacity` entries: the slot ranges a call wrote.
+  struct td_slot_range *ranges;
+  // Entries of `ranges`, at least 1. When a call writes more separate runs, its last entry
+  // is widened to cover the rest (`ranges_merged`).
+  uint32_t range_capacity;
+} td_surface_buffers;
+
+// What one `td_surface_update` did.
+typedef struct td_surface_report {
+  // Work units spent (a change read, a coarse tet swept, a face listed, a slot freed).
+  uint32_t work;
+  // Coarse tets whose faces were listed again.
+  uint32_t tets;
+  // Slots written (a face put in, or freed).
+  uint32_t written;
+  // Entries of `ranges` filled: upload those slots of every buffer.
+  uint32_t ranges;
+  // 1 when the range list filled up and its last entry covers every later slot written.
+  uint32_t ranges_merged;
+  // Faces left out for want of a free slot (`max_triangles` too small); they are placed
+  // as slots free up.
+  uint32_t dropped;
+  // Work still to do; 0: the buffers hold the drilled surface exactly.
+  uint32_t pending;
+  // Live slots (visible faces in the buffers).
+  uint32_t live;
+  // Slots ever used: every live slot is below it (draw this many triangles).
+  uint32_t used;
+} td_surface_report;
 
 
 
@@ -471,6 +534,82 @@ enum td_status td_world_region(struct td_world *world, int32_t label, struct td_
 // # Safety
 // As `td_world_region`.
 enum td_status td_world_region_at(struct td_world *world, uint32_t index, struct td_region *out);
+
+// Writes the bytes (`*out_size`) and the alignment (`*out_align`, 64) a surface of
+// `max_triangles` triangle slots over `world` needs: 16 bytes a slot and 16 a coarse tet,
+// plus a header. The caller's buffers for it are separate (`td_surface_buffers`).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up,
+// `TD_ERR_PARAMS` for `max_triangles` 0 or above `TD_MAX_TRIANGLES`, or a size beyond the
+// address space.
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's; `out_size`
+// and `out_align` point at writable `size_t`s.
+enum td_status td_surface_size(struct td_world *world,
+                               uint32_t max_triangles,
+                               size_t *out_size,
+                               size_t *out_align);
+
+// Sets up a surface of `max_triangles` triangle slots for `world` in `mem` (`len` bytes,
+// aligned as `td_surface_size` says) and writes its handle to `*out` (it is `mem`). It
+// starts with every slot free and the whole drilled surface to write: the first
+// `td_surface_update` calls write it, as the buffers are to start zeroed.
+//
+// # Bounded work
+// O(`max_triangles` + T) to initialise the memory, for T coarse tets.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up,
+// `TD_ERR_PARAMS` as `td_surface_size`, `TD_ERR_TOO_SMALL` when `len` is short. After an
+// error the memory is no surface until a successful init.
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's; `mem` points
+// at `len` writable bytes that the caller does not otherwise use (and that are not the
+// world's) for as long as it uses the surface (there is nothing to free); `out` at a
+// writable `td_surface *`.
+enum td_status td_surface_init(void *mem,
+                               size_t len,
+                               struct td_world *world,
+                               uint32_t max_triangles,
+                               struct td_surface **out);
+
+// Brings the caller's buffers a step closer to `world`'s drilled surface, for at most about
+// `budget` work units, and writes what it did to `*out` (`ranges` says which slots of every
+// buffer changed: an engine uploads those). A coarse tet's faces stay in their slots until
+// its faces change; then only its slots are written (a new face takes a free slot, a slot
+// no longer needed is written zero). When `out->pending` is 0 the buffers hold the drilled
+// surface exactly; otherwise later calls finish the work. The buffers are the same from call
+// to call and nothing else writes them.
+//
+// Call it from the thread that calls `td_world_simulate` (between steps, never while one
+// runs): it reads the world's hierarchy, which the step changes.
+//
+// # Bounded work
+// A call starts a coarse tet's faces only while its work is below `budget`, and finishes the
+// tet: its work is below `budget` plus one tet's (1 + the tet's faces + the slots it frees).
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer (the float, label and index arrays at 4
+// bytes), `TD_ERR_NOT_INIT` for a surface or world not set up, `TD_ERR_PARAMS` for a world
+// other than the surface's, a `budget` of 0, a `range_capacity` of 0, or arrays that overlap
+// one another or the surface's memory. An error writes nothing.
+//
+// # Safety
+// `surface` and `world` are handles from `td_surface_init` and `td_world_init` whose memory
+// is still the caller's; `buffers` points at a `td_surface_buffers` whose arrays hold the
+// counts it states for the surface's `max_triangles`, writable and used by nothing else
+// during the call; `out` at a writable `td_surface_report`.
+enum td_status td_surface_update(struct td_surface *surface,
+                                 struct td_world *world,
+                                 uint32_t budget,
+                                 const struct td_surface_buffers *buffers,
+                                 struct td_surface_report *out);
 
 #ifdef __cplusplus
 }  // extern "C"

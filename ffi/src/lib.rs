@@ -19,6 +19,8 @@
 //! | [`td_world_set_pressing`]| the force pressing the burr for the next step (two tasks)      |
 //! | [`td_world_counters`]    | digest, removed volume, saturations                           |
 //! | [`td_world_region`], [`td_world_region_at`] | a region's material and removed volume     |
+//! | [`td_surface_size`], [`td_surface_init`] | a surface of triangle slots in caller memory   |
+//! | [`td_surface_update`]    | the drilled surface into the caller's buffers, changes only   |
 //! | [`td_demo_ticks`], [`td_demo_pose`] | the host's scripted demo path                      |
 //! | [`td_status_name`]       | one line per status code                                      |
 //!
@@ -41,6 +43,7 @@ extern crate std;
 
 mod layout;
 mod regions;
+mod surface;
 mod types;
 
 use core::ffi::{c_char, c_void};
@@ -63,6 +66,10 @@ pub use types::{TdCounters, TdParams, TdRegion, TdSimReport, TdStatus, TdVec3, T
 use layout::{State, Unstarted, MAGIC};
 pub use regions::{
     td_world_region, td_world_region_at, td_world_set_pressing, td_world_set_region,
+};
+pub use surface::{
+    td_surface_init, td_surface_size, td_surface_update, TdSlotRange, TdSurface, TdSurfaceBuffers,
+    TdSurfaceReport, TD_MAX_TRIANGLES,
 };
 
 /// The hierarchy arena `td_params_default` gives: 2^20 nodes (8 MiB), the least arena the

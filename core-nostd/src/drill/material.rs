@@ -237,9 +237,10 @@ impl<'a> Regions<'a> {
         self.table
     }
 
-    /// The region index of coarse tet `tet` (0 beyond the index slice).
+    /// The region index of coarse tet `tet` (0 beyond the index slice): its entry in
+    /// [`Regions::table`] (a surface's labels come from it).
     #[inline]
-    pub(crate) fn region_of(&self, tet: TetId) -> u8 {
+    pub fn region_of(&self, tet: TetId) -> u8 {
         self.of_tet.get(tet.idx()).copied().unwrap_or(0)
     }
 

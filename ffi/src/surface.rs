@@ -1,0 +1,377 @@
+//! The drilled surface through the C interface: a surface object in the caller's memory that
+//! keeps the visible faces in the caller's vertex, normal, label and index buffers, writing
+//! only what changed and saying which slot ranges it wrote (the core's `SurfaceExport`).
+
+use core::mem::{align_of, size_of};
+
+use tetradrill_core::hierarchy::{
+    SlotRange, SurfaceBuffers, SurfaceExport, SurfaceSizes, SurfaceStorage,
+};
+use tetradrill_core::storage::LINE;
+use tetradrill_core::TetId;
+
+use super::*;
+
+/// Marks a surface that `td_surface_init` finished ("tdsurfc1").
+const SURFACE_MAGIC: u64 = u64::from_le_bytes(*b"tdsurfc1");
+
+/// The most triangle slots a surface has: every vertex index fits a `uint32_t`
+/// (`UINT32_MAX / 3`).
+pub const TD_MAX_TRIANGLES: u32 = 1_431_655_765;
+
+const _: () = assert!(TD_MAX_TRIANGLES as usize == SurfaceExport::MAX_SLOTS);
+
+/// A surface set up by `td_surface_init` in caller memory. Opaque: C holds a pointer to it
+/// (the start of the memory it gave) and never reads it.
+#[derive(Debug)]
+pub struct TdSurface {
+    _opaque: [u8; 0],
+}
+
+/// A run of triangle slots a `td_surface_update` wrote: `count` slots from `first` (vertices
+/// `3 * first` to `3 * (first + count) - 1` of every buffer).
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct TdSlotRange {
+    /// First slot.
+    pub first: u32,
+    /// Slots.
+    pub count: u32,
+}
+
+// The C ranges are the core's, field for field.
+const _: () = assert!(size_of::<TdSlotRange>() == size_of::<SlotRange>());
+const _: () = assert!(align_of::<TdSlotRange>() == align_of::<SlotRange>());
+
+/// The caller's buffers for `td_surface_update`, each sized for the surface's
+/// `max_triangles` (`n`): triangle slot `s` is vertices `3 s`, `3 s + 1`, `3 s + 2`.
+///
+/// A live slot holds its face's corners (counter-clockwise seen from outside the material),
+/// the face's outward unit normal on each vertex, its coarse tet's region label on each, and
+/// the indices `3 s`, `3 s + 1`, `3 s + 2`. A free slot is zero in every buffer (indices
+/// `0, 0, 0`: a degenerate triangle), so buffers that start zeroed are an empty surface.
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct TdSurfaceBuffers {
+    /// `9 n` floats: x, y, z of each vertex.
+    pub positions: *mut f32,
+    /// `9 n` floats: the vertex normals.
+    pub normals: *mut f32,
+    /// `3 n` region labels, one a vertex.
+    pub labels: *mut i32,
+    /// `3 n` vertex indices, three a triangle.
+    pub indices: *mut u32,
+    /// `range_capacity` entries: the slot ranges a call wrote.
+    pub ranges: *mut TdSlotRange,
+    /// Entries of `ranges`, at least 1. When a call writes more separate runs, its last entry
+    /// is widened to cover the rest (`ranges_merged`).
+    pub range_capacity: u32,
+}
+
+/// What one `td_surface_update` did.
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct TdSurfaceReport {
+    /// Work units spent (a change read, a coarse tet swept, a face listed, a slot freed).
+    pub work: u32,
+    /// Coarse tets whose faces were listed again.
+    pub tets: u32,
+    /// Slots written (a face put in, or freed).
+    pub written: u32,
+    /// Entries of `ranges` filled: upload those slots of every buffer.
+    pub ranges: u32,
+    /// 1 when the range list filled up and its last entry covers every later slot written.
+    pub ranges_merged: u32,
+    /// Faces left out for want of a free slot (`max_triangles` too small); they are placed
+    /// as slots free up.
+    pub dropped: u32,
+    /// Work still to do; 0: the buffers hold the drilled surface exactly.
+    pub pending: u32,
+    /// Live slots (visible faces in the buffers).
+    pub live: u32,
+    /// Slots ever used: every live slot is below it (draw this many triangles).
+    pub used: u32,
+}
+
+/// The head of a surface's memory: the core's exporter over the lines after it.
+#[derive(Debug)]
+struct SurfaceState {
+    /// [`SURFACE_MAGIC`] once set up.
+    magic: u64,
+    /// The address of the world it was made for.
+    world: usize,
+    /// The surface memory's first and last byte + 1.
+    span: (usize, usize),
+    export: SurfaceExport<'static>,
+}
+
+/// The surface's layout: its bytes, the offset of its lines and their count.
+fn surface_plan(tets: usize, max_triangles: u32) -> Result<(usize, usize, SurfaceSizes), TdStatus> {
+    if max_triangles == 0 || max_triangles > TD_MAX_TRIANGLES {
+        return Err(TdStatus::TdErrParams);
+    }
+    let sizes = SurfaceSizes::new(max_triangles as usize, tets);
+    let lines = sizes.lines().ok_or(TdStatus::TdErrParams)?;
+    let head = size_of::<SurfaceState>().div_ceil(LINE) * LINE;
+    let size = lines
+        .checked_mul(LINE)
+        .and_then(|b| b.checked_add(head))
+        .ok_or(TdStatus::TdErrParams)?;
+    Ok((size, head, sizes))
+}
+
+/// The alignment of a surface's memory: a line (the core's parts each start on one).
+const SURFACE_ALIGN: usize = if align_of::<SurfaceState>() > LINE {
+    align_of::<SurfaceState>()
+} else {
+    LINE
+};
+
+/// The surface behind a handle: null, misaligned or not set up by `td_surface_init` are
+/// refused.
+///
+/// # Safety
+/// `s`, when not null and aligned, points at memory `td_surface_init` was given (and that
+/// nothing else uses meanwhile).
+unsafe fn surface_state<'a>(s: *mut TdSurface) -> Result<&'a mut SurfaceState, TdStatus> {
+    let s = s.cast::<SurfaceState>();
+    check_ptr(s)?;
+    // SAFETY: aligned and not null (checked); the memory is a surface's (the caller's
+    // contract), whose first field `td_surface_init` wrote before anything else.
+    let magic = unsafe { ptr::addr_of!((*s).magic).read() };
+    if magic != SURFACE_MAGIC {
+        return Err(TdStatus::TdErrNotInit);
+    }
+    // SAFETY: the magic is written last by a successful `td_surface_init`, so the whole
+    // state is initialised; the caller does not use the memory otherwise meanwhile.
+    Ok(unsafe { &mut *s })
+}
+
+/// Writes the bytes (`*out_size`) and the alignment (`*out_align`, 64) a surface of
+/// `max_triangles` triangle slots over `world` needs: 16 bytes a slot and 16 a coarse tet,
+/// plus a header. The caller's buffers for it are separate (`td_surface_buffers`).
+///
+/// # Bounded work
+/// Constant.
+///
+/// # Errors
+/// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up,
+/// `TD_ERR_PARAMS` for `max_triangles` 0 or above `TD_MAX_TRIANGLES`, or a size beyond the
+/// address space.
+///
+/// # Safety
+/// `world` is a handle from `td_world_init` whose memory is still the caller's; `out_size`
+/// and `out_align` point at writable `size_t`s.
+#[no_mangle]
+pub unsafe extern "C" fn td_surface_size(
+    world: *mut TdWorld,
+    max_triangles: u32,
+    out_size: *mut usize,
+    out_align: *mut usize,
+) -> TdStatus {
+    status(|| {
+        check_ptr(out_size)?;
+        check_ptr(out_align)?;
+        // SAFETY: the caller's contract on `world`; `state` checks it.
+        let st = unsafe { state(world) }?;
+        let (size, _, _) = surface_plan(st.world.mesh().tet_count(), max_triangles)?;
+        // SAFETY: both checked above; the caller's contract makes them writable.
+        unsafe {
+            put(out_size, size)?;
+            put(out_align, SURFACE_ALIGN)
+        }
+    })
+}
+
+/// Sets up a surface of `max_triangles` triangle slots for `world` in `mem` (`len` bytes,
+/// aligned as `td_surface_size` says) and writes its handle to `*out` (it is `mem`). It
+/// starts with every slot free and the whole drilled surface to write: the first
+/// `td_surface_update` calls write it, as the buffers are to start zeroed.
+///
+/// # Bounded work
+/// O(`max_triangles` + T) to initialise the memory, for T coarse tets.
+///
+/// # Errors
+/// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up,
+/// `TD_ERR_PARAMS` as `td_surface_size`, `TD_ERR_TOO_SMALL` when `len` is short. After an
+/// error the memory is no surface until a successful init.
+///
+/// # Safety
+/// `world` is a handle from `td_world_init` whose memory is still the caller's; `mem` points
+/// at `len` writable bytes that the caller does not otherwise use (and that are not the
+/// world's) for as long as it uses the surface (there is nothing to free); `out` at a
+/// writable `td_surface *`.
+#[no_mangle]
+pub unsafe extern "C" fn td_surface_init(
+    mem: *mut c_void,
+    len: usize,
+    world: *mut TdWorld,
+    max_triangles: u32,
+    out: *mut *mut TdSurface,
+) -> TdStatus {
+    status(|| {
+        check_ptr(out)?;
+        // SAFETY: the caller's contract on `world`; `state` checks it.
+        let st = unsafe { state(world) }?;
+        let (size, head, sizes) = surface_plan(st.world.mesh().tet_count(), max_triangles)?;
+        let base = mem.cast::<u8>();
+        if base.is_null() {
+            return Err(TdStatus::TdErrNull);
+        }
+        // A power of two: the mask test is the alignment test.
+        if (base as usize) & (SURFACE_ALIGN - 1) != 0 {
+            return Err(TdStatus::TdErrAlign);
+        }
+        if len < size {
+            return Err(TdStatus::TdErrTooSmall);
+        }
+        let state_ptr = base.cast::<SurfaceState>();
+        // SAFETY: aligned for the state and at least `size > size_of::<SurfaceState>()`
+        // bytes: a handle to this memory is refused from here on until the init succeeds.
+        unsafe { ptr::addr_of_mut!((*state_ptr).magic).write(0) };
+        // SAFETY: the lines lie after the header, inside `size <= len` bytes of `mem`, which
+        // the caller keeps for as long as the surface is used.
+        let lines = unsafe { carve(base, head, (size - head) / LINE, Line::ZERO) };
+        let storage = SurfaceStorage::carve(&sizes, &mut Block::from_lines(lines))
+            .map_err(|_| TdStatus::TdErrTooSmall)?;
+        let export =
+            SurfaceExport::new(storage, st.world.hierarchy()).map_err(|_| TdStatus::TdErrParams)?;
+        let s = SurfaceState {
+            magic: SURFACE_MAGIC,
+            world: world as usize,
+            span: (base as usize, base as usize + size),
+            export,
+        };
+        // SAFETY: aligned, inside `mem` (checked above); the magic goes in last with it.
+        unsafe { state_ptr.write(s) };
+        // SAFETY: checked above; the caller's contract makes it writable.
+        unsafe { put(out, mem.cast::<TdSurface>()) }
+    })
+}
+
+/// The region label of coarse tet `t` of a world: its region's label.
+fn label_of(st: &State, t: TetId) -> i32 {
+    let region = match &st.unstarted {
+        Some(u) => u.of_tet.get(t.idx()).copied().unwrap_or(0),
+        None => st.world.regions().map_or(0, |r| r.region_of(t)),
+    };
+    st.labels.get(region as usize).copied().unwrap_or(0)
+}
+
+/// A caller array's bytes as an address range, after the pointer checks.
+fn span<T>(p: *const T, n: usize) -> (usize, usize) {
+    let start = p as usize;
+    (
+        start,
+        start.saturating_add(n.saturating_mul(size_of::<T>())),
+    )
+}
+
+/// Brings the caller's buffers a step closer to `world`'s drilled surface, for at most about
+/// `budget` work units, and writes what it did to `*out` (`ranges` says which slots of every
+/// buffer changed: an engine uploads those). A coarse tet's faces stay in their slots until
+/// its faces change; then only its slots are written (a new face takes a free slot, a slot
+/// no longer needed is written zero). When `out->pending` is 0 the buffers hold the drilled
+/// surface exactly; otherwise later calls finish the work. The buffers are the same from call
+/// to call and nothing else writes them.
+///
+/// Call it from the thread that calls `td_world_simulate` (between steps, never while one
+/// runs): it reads the world's hierarchy, which the step changes.
+///
+/// # Bounded work
+/// A call starts a coarse tet's faces only while its work is below `budget`, and finishes the
+/// tet: its work is below `budget` plus one tet's (1 + the tet's faces + the slots it frees).
+///
+/// # Errors
+/// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer (the float, label and index arrays at 4
+/// bytes), `TD_ERR_NOT_INIT` for a surface or world not set up, `TD_ERR_PARAMS` for a world
+/// other than the surface's, a `budget` of 0, a `range_capacity` of 0, or arrays that overlap
+/// one another or the surface's memory. An error writes nothing.
+///
+/// # Safety
+/// `surface` and `world` are handles from `td_surface_init` and `td_world_init` whose memory
+/// is still the caller's; `buffers` points at a `td_surface_buffers` whose arrays hold the
+/// counts it states for the surface's `max_triangles`, writable and used by nothing else
+/// during the call; `out` at a writable `td_surface_report`.
+#[no_mangle]
+pub unsafe extern "C" fn td_surface_update(
+    surface: *mut TdSurface,
+    world: *mut TdWorld,
+    budget: u32,
+    buffers: *const TdSurfaceBuffers,
+    out: *mut TdSurfaceReport,
+) -> TdStatus {
+    status(|| {
+        check_ptr(out)?;
+        // SAFETY: the caller's contracts on the handles; both are checked.
+        let (sf, st) = unsafe { (surface_state(surface)?, state(world)?) };
+        if sf.world != world as usize || budget == 0 {
+            return Err(TdStatus::TdErrParams);
+        }
+        // SAFETY: the caller's contract on `buffers`; `get` checks null and alignment.
+        let b = unsafe { get(buffers) }?;
+        check_ptr(b.positions)?;
+        check_ptr(b.normals)?;
+        check_ptr(b.labels)?;
+        check_ptr(b.indices)?;
+        check_ptr(b.ranges)?;
+        if b.range_capacity == 0 {
+            return Err(TdStatus::TdErrParams);
+        }
+        let verts = 3 * sf.export.capacity();
+        let spans = [
+            span(b.positions, 3 * verts),
+            span(b.normals, 3 * verts),
+            span(b.labels, verts),
+            span(b.indices, verts),
+            span(b.ranges, b.range_capacity as usize),
+            sf.span,
+        ];
+        for (i, a) in spans.iter().enumerate() {
+            for c in spans.iter().skip(i + 1) {
+                if a.0 < c.1 && c.0 < a.1 {
+                    return Err(TdStatus::TdErrParams);
+                }
+            }
+        }
+        // SAFETY: not null and aligned (checked; `[f32; 3]` and the ranges have the
+        // alignment of their fields), of the lengths the caller's contract gives, apart from
+        // one another and from the surface (checked), used by nothing else during the call.
+        let mut bufs = unsafe {
+            SurfaceBuffers {
+                positions: core::slice::from_raw_parts_mut(b.positions.cast(), verts),
+                normals: core::slice::from_raw_parts_mut(b.normals.cast(), verts),
+                labels: core::slice::from_raw_parts_mut(b.labels, verts),
+                indices: core::slice::from_raw_parts_mut(b.indices, verts),
+                ranges: core::slice::from_raw_parts_mut(
+                    b.ranges.cast::<SlotRange>(),
+                    b.range_capacity as usize,
+                ),
+            }
+        };
+        let st: &State = st;
+        let rep = sf
+            .export
+            .update(
+                st.world.hierarchy(),
+                st.world.mesh(),
+                |t| label_of(st, t),
+                budget,
+                &mut bufs,
+            )
+            .map_err(|_| TdStatus::TdErrParams)?;
+        let r = TdSurfaceReport {
+            work: rep.work,
+            tets: rep.tets,
+            written: rep.written,
+            ranges: rep.ranges,
+            ranges_merged: rep.ranges_merged as u32,
+            dropped: rep.dropped,
+            pending: rep.pending,
+            live: rep.live,
+            used: rep.used,
+        };
+        // SAFETY: checked above; the caller's contract makes it writable.
+        unsafe { put(out, r) }
+    })
+}
