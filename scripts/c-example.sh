@@ -12,6 +12,15 @@
 #                                     with `replay --scenario builtin:firmware`'s digest;
 #                                     before the run, the calls into core's panic entry
 #                                     points in the linked program are counted: above 0 fails
+#   scripts/c-example.sh --surface OUT.obj
+#                                     the drilled surface: builds the library, compiles
+#                                     examples/c/surface_demo.c, which replays builtin:demo
+#                                     and keeps a mirror of its surface buffers updated only
+#                                     from the reported slot ranges, writes the mirror's
+#                                     triangles to OUT.obj, and compares them (any order, the
+#                                     same floats) with `tetradrill replay --scenario
+#                                     builtin:demo --surface`'s; prints `surface: N triangles,
+#                                     equal to replay --surface`
 #
 # Prints `force_digest=HEX` (the C program's) and both digests; where the C program prints
 # `removed_by_region.LABEL=V` lines (the host program), they are compared too with the host's
@@ -22,11 +31,15 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 mode=host
+obj=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --cortex-m) mode=cortex-m; shift ;;
-    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
-    *) echo "c-example: unknown argument '$1' (expected --cortex-m)" >&2; exit 2 ;;
+    --surface)
+      [ $# -ge 2 ] || { echo "c-example: --surface needs a file name (OUT.obj)" >&2; exit 2; }
+      mode=surface; obj="$2"; shift 2 ;;
+    -h|--help) sed -n '2,31p' "$0"; exit 0 ;;
+    *) echo "c-example: unknown argument '$1' (expected --cortex-m or --surface OUT.obj)" >&2; exit 2 ;;
   esac
 done
 target_dir="${CARGO_TARGET_DIR:-$root/target}"
@@ -75,6 +88,64 @@ compare() {
   fi
   echo "c-example: OK, the same removed_by_region ($(echo "$c_regions" | paste -sd' '))"
 }
+
+# The triangles of an OBJ file (`v x y z` and `f a b c` lines, 1-based), one line each, every
+# coordinate snapped to the nearest float and printed with 9 digits (two decimal writings of
+# the same float give the same line), each triangle's vertices rotated to start at the least
+# one (the orientation kept); sorted.
+obj_triangles() {
+  awk '
+    function snap(x,   s, a, u, q, r) {
+      if (x == 0) return 0
+      s = 1; a = x
+      if (a < 0) { s = -1; a = -a }
+      u = 1
+      while (a >= 2 * u) u *= 2
+      while (a < u) u /= 2
+      u /= 8388608
+      q = a / u; r = int(q)
+      if (q - r >= 0.5) r++
+      return s * r * u
+    }
+    $1 == "v" { n++; v[n] = sprintf("%.9g %.9g %.9g", snap($2 + 0), snap($3 + 0), snap($4 + 0)) }
+    $1 == "f" {
+      a = v[$2 + 0]; b = v[$3 + 0]; c = v[$4 + 0]
+      if (b < a && b <= c) { t = a; a = b; b = c; c = t }
+      else if (c < a && c < b) { t = c; c = b; b = a; a = t }
+      print a " | " b " | " c
+    }' "$1" | LC_ALL=C sort
+}
+
+if [ "$mode" = surface ]; then
+  command -v cc >/dev/null || { echo "c-example: no C compiler 'cc' found (apt-get install gcc)" >&2; exit 1; }
+  echo "== libtetradrill_ffi.a (profile ffi: release, panic = abort)"
+  cargo rustc --quiet -p tetradrill-ffi --profile ffi \
+    -- --print native-static-libs 2>"$work/rustc.txt" || { cat "$work/rustc.txt" >&2; exit 1; }
+  libs="$(sed -n 's/.*native-static-libs: //p' "$work/rustc.txt" | tail -1)"
+  echo "== cc examples/c/surface_demo.c"
+  # shellcheck disable=SC2086
+  cc -std=c11 -O2 -Wall -Wextra -Werror -ffp-contract=off -I ffi/include \
+    examples/c/surface_demo.c "$target_dir/ffi/libtetradrill_ffi.a" $libs -o "$work/surface_demo"
+  echo "== run"
+  "$work/surface_demo" "$obj" | tee "$work/out.txt"
+  bin="${TETRADRILL_BIN:-}"
+  if [ -z "$bin" ]; then
+    cargo build --release --quiet -p tetradrill
+    bin="$target_dir/release/tetradrill"
+  fi
+  "$bin" replay --scenario builtin:demo --quiet --surface "$work/ref.obj" >/dev/null \
+    2>"$work/replay.err" || { cat "$work/replay.err" >&2; exit 1; }
+  obj_triangles "$obj" >"$work/c.txt"
+  obj_triangles "$work/ref.obj" >"$work/ref.txt"
+  n="$(wc -l <"$work/c.txt" | tr -d ' ')"
+  want="$(wc -l <"$work/ref.txt" | tr -d ' ')"
+  if ! cmp -s "$work/c.txt" "$work/ref.txt"; then
+    echo "c-example: FAIL: surface: $n triangles from C, $want from replay --surface; $(diff "$work/c.txt" "$work/ref.txt" | grep -c '^[<>]') lines differ" >&2
+    exit 1
+  fi
+  echo "surface: $n triangles, equal to replay --surface"
+  exit 0
+fi
 
 if [ "$mode" = host ]; then
   command -v cc >/dev/null || { echo "c-example: no C compiler 'cc' found (apt-get install gcc)" >&2; exit 1; }

@@ -611,6 +611,43 @@ enum td_status td_surface_update(struct td_surface *surface,
                                  const struct td_surface_buffers *buffers,
                                  struct td_surface_report *out);
 
+// Writes the `uint32_t` scratch entries `td_world_remove_debris` needs now to `*out_len`
+// (two per hierarchy node in use: it grows as the world drills).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up.
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's; `out_len`
+// points at a writable `size_t`.
+enum td_status td_world_debris_scratch(struct td_world *world, size_t *out_len);
+
+// Erases the debris of the drilled material: the detached pieces smaller than the core's
+// `DEBRIS_LEAVES` leaves of the world's deepest level, as `tetradrill replay` does once its
+// path ends (its `--surface` is the surface after it). `scratch` holds `scratch_len`
+// entries, at least what `td_world_debris_scratch` says; `*out_pieces`, when not null, gets
+// the pieces erased. A surface (`td_surface_update`) then shows the faces that changed.
+//
+// # Bounded work
+// O(hierarchy nodes): not for the servo's tick; between steps, at a cadence the caller can
+// afford.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up,
+// `TD_ERR_TOO_SMALL` for a scratch shorter than needed (nothing is erased).
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's; `scratch`
+// points at `scratch_len` writable `uint32_t`s outside the world's memory; `out_pieces` at a
+// writable `uint32_t` or is null.
+enum td_status td_world_remove_debris(struct td_world *world,
+                                      uint32_t *scratch,
+                                      size_t scratch_len,
+                                      uint32_t *out_pieces);
+
 #ifdef __cplusplus
 }  // extern "C"
 #endif  // __cplusplus

@@ -21,6 +21,7 @@
 //! | [`td_world_region`], [`td_world_region_at`] | a region's material and removed volume     |
 //! | [`td_surface_size`], [`td_surface_init`] | a surface of triangle slots in caller memory   |
 //! | [`td_surface_update`]    | the drilled surface into the caller's buffers, changes only   |
+//! | [`td_world_remove_debris`], [`td_world_debris_scratch`] | the detached crumbs erased |
 //! | [`td_demo_ticks`], [`td_demo_pose`] | the host's scripted demo path                      |
 //! | [`td_status_name`]       | one line per status code                                      |
 //!
@@ -68,8 +69,9 @@ pub use regions::{
     td_world_region, td_world_region_at, td_world_set_pressing, td_world_set_region,
 };
 pub use surface::{
-    td_surface_init, td_surface_size, td_surface_update, TdSlotRange, TdSurface, TdSurfaceBuffers,
-    TdSurfaceReport, TD_MAX_TRIANGLES,
+    td_surface_init, td_surface_size, td_surface_update, td_world_debris_scratch,
+    td_world_remove_debris, TdSlotRange, TdSurface, TdSurfaceBuffers, TdSurfaceReport,
+    TD_MAX_TRIANGLES,
 };
 
 /// The hierarchy arena `td_params_default` gives: 2^20 nodes (8 MiB), the least arena the

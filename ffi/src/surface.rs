@@ -1,11 +1,13 @@
 //! The drilled surface through the C interface: a surface object in the caller's memory that
 //! keeps the visible faces in the caller's vertex, normal, label and index buffers, writing
-//! only what changed and saying which slot ranges it wrote (the core's `SurfaceExport`).
+//! only what changed and saying which slot ranges it wrote (the core's `SurfaceExport`); and
+//! the erasure of the drilled material's debris that `tetradrill replay` runs before it
+//! writes its surface.
 
 use core::mem::{align_of, size_of};
 
 use tetradrill_core::hierarchy::{
-    SlotRange, SurfaceBuffers, SurfaceExport, SurfaceSizes, SurfaceStorage,
+    SlotRange, SurfaceBuffers, SurfaceExport, SurfaceSizes, SurfaceStorage, DEBRIS_LEAVES,
 };
 use tetradrill_core::storage::LINE;
 use tetradrill_core::TetId;
@@ -373,5 +375,82 @@ pub unsafe extern "C" fn td_surface_update(
         };
         // SAFETY: checked above; the caller's contract makes it writable.
         unsafe { put(out, r) }
+    })
+}
+
+/// Writes the `uint32_t` scratch entries `td_world_remove_debris` needs now to `*out_len`
+/// (two per hierarchy node in use: it grows as the world drills).
+///
+/// # Bounded work
+/// Constant.
+///
+/// # Errors
+/// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up.
+///
+/// # Safety
+/// `world` is a handle from `td_world_init` whose memory is still the caller's; `out_len`
+/// points at a writable `size_t`.
+#[no_mangle]
+pub unsafe extern "C" fn td_world_debris_scratch(
+    world: *mut TdWorld,
+    out_len: *mut usize,
+) -> TdStatus {
+    status(|| {
+        check_ptr(out_len)?;
+        // SAFETY: the caller's contract on `world`; `state` checks it.
+        let st = unsafe { state(world) }?;
+        // SAFETY: checked above; the caller's contract makes it writable.
+        unsafe { put(out_len, st.world.hierarchy().debris_scratch_needed()) }
+    })
+}
+
+/// Erases the debris of the drilled material: the detached pieces smaller than the core's
+/// `DEBRIS_LEAVES` leaves of the world's deepest level, as `tetradrill replay` does once its
+/// path ends (its `--surface` is the surface after it). `scratch` holds `scratch_len`
+/// entries, at least what `td_world_debris_scratch` says; `*out_pieces`, when not null, gets
+/// the pieces erased. A surface (`td_surface_update`) then shows the faces that changed.
+///
+/// # Bounded work
+/// O(hierarchy nodes): not for the servo's tick; between steps, at a cadence the caller can
+/// afford.
+///
+/// # Errors
+/// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up,
+/// `TD_ERR_TOO_SMALL` for a scratch shorter than needed (nothing is erased).
+///
+/// # Safety
+/// `world` is a handle from `td_world_init` whose memory is still the caller's; `scratch`
+/// points at `scratch_len` writable `uint32_t`s outside the world's memory; `out_pieces` at a
+/// writable `uint32_t` or is null.
+#[no_mangle]
+pub unsafe extern "C" fn td_world_remove_debris(
+    world: *mut TdWorld,
+    scratch: *mut u32,
+    scratch_len: usize,
+    out_pieces: *mut u32,
+) -> TdStatus {
+    status(|| {
+        check_ptr(scratch)?;
+        if !out_pieces.is_null() {
+            check_ptr(out_pieces)?;
+        }
+        // SAFETY: the caller's contract on `world`; `state` checks it.
+        let st = unsafe { state(world) }?;
+        if scratch_len < st.world.hierarchy().debris_scratch_needed() {
+            return Err(TdStatus::TdErrTooSmall);
+        }
+        // SAFETY: not null and aligned (checked), `scratch_len` entries outside the world's
+        // memory (the caller's contract).
+        let scratch = unsafe { core::slice::from_raw_parts_mut(scratch, scratch_len) };
+        let depth = st.drill.max_depth;
+        let rep = st
+            .world
+            .remove_debris(DEBRIS_LEAVES, depth, scratch)
+            .map_err(|_| TdStatus::TdErrTooSmall)?;
+        if !out_pieces.is_null() {
+            // SAFETY: checked above; the caller's contract makes it writable.
+            unsafe { put(out_pieces, rep.pieces) }?;
+        }
+        Ok(())
     })
 }

@@ -13,6 +13,7 @@ use tetradrill::setup::Setup;
 use tetradrill::traces::PoseSource;
 use tetradrill::Surface;
 use tetradrill_core::force::ToolState;
+use tetradrill_core::hierarchy::DEBRIS_LEAVES;
 use tetradrill_ffi::*;
 
 /// Caller memory, zeroed, freed on drop.
@@ -83,7 +84,8 @@ fn params(sc: &Setup, nodes: u32, tets: u32) -> TdParams {
 /// A triangle as compared: its corners' bits and its label.
 type Tri = ([u32; 9], i32);
 
-/// The host's replay of the demo, then its drilled surface with the mesh's labels.
+/// The host's replay of the demo, its debris erased as `replay` erases it once the path
+/// ends, then its drilled surface with the mesh's labels.
 fn host_surface(sc: &Setup) -> Vec<Tri> {
     let loaded = engine::load_mesh(sc).expect("mesh");
     let params = TickParams::of(sc).expect("params");
@@ -95,6 +97,11 @@ fn host_surface(sc: &Setup) -> Vec<Tri> {
     for i in 0..poses.ticks() {
         engine::tick(&mut world, &mut tool, &params, &poses.at(i));
     }
+    let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
+    let debris = world
+        .remove_debris(DEBRIS_LEAVES, sc.drilling.max_depth, &mut scratch)
+        .expect("debris");
+    assert!(debris.pieces > 0, "the demo leaves crumbs");
     let s = Surface::of(&world, &loaded.labels);
     let mut v: Vec<Tri> = s
         .corners
@@ -288,6 +295,29 @@ fn the_demo_surface_through_c_equals_the_hosts() {
             up_to_date += u32::from(rep.pending == 0);
         }
     }
+    // The debris, as `replay` erases it: a scratch too short is refused, then the one asked
+    // for.
+    let mut len = 0usize;
+    let mut pieces = 0u32;
+    // SAFETY: a live world, writable outputs, a scratch of the lengths given.
+    unsafe {
+        assert_eq!(td_world_debris_scratch(world, &mut len), TdStatus::TdOk);
+        let mut scratch = vec![0u32; len];
+        assert_eq!(
+            td_world_remove_debris(world, scratch.as_mut_ptr(), len - 1, &mut pieces),
+            TdStatus::TdErrTooSmall
+        );
+        assert_eq!(
+            td_world_remove_debris(world, ptr::null_mut(), len, &mut pieces),
+            TdStatus::TdErrNull
+        );
+        assert_eq!(pieces, 0);
+        assert_eq!(
+            td_world_remove_debris(world, scratch.as_mut_ptr(), len, &mut pieces),
+            TdStatus::TdOk
+        );
+    }
+    assert!(pieces > 0);
     let mut rep = b.update(surface, world, BUDGET);
     for _ in 0..100 {
         if rep.pending == 0 {
