@@ -13,11 +13,14 @@
  *
  * Prints `surface_triangles=N` and the per-frame figures (`surface_frames`,
  * `surface_frames_up_to_date`, `surface_max_written`, `surface_max_work`,
- * `surface_max_ranges`, `surface_final_calls`). The world's set-up is demo.h's. */
+ * `surface_max_ranges`, `surface_final_calls`, and the update's wall time a frame,
+ * `surface_update_us_mean` and `surface_update_us_max`). The world's set-up is demo.h's. */
+#define _POSIX_C_SOURCE 200809L /* clock_gettime */
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "demo.h"
 
@@ -34,6 +37,13 @@ typedef struct {
     int32_t *labels;
     uint32_t *indices;
 } mirror;
+
+/* Seconds on the monotonic clock. */
+static double now(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
 
 /* Copies the slots of each range from the buffers into the mirror. */
 static void upload(mirror *m, const td_surface_buffers *b, const td_surface_report *r) {
@@ -88,6 +98,7 @@ int main(int argc, char **argv) {
     }
 
     uint32_t frames = 0, up_to_date = 0, max_written = 0, max_work = 0, max_ranges = 0;
+    double update_s = 0.0, update_max_s = 0.0;
     td_surface_report r;
     memset(&r, 0, sizeof r);
     const uint32_t ticks = td_demo_ticks();
@@ -99,7 +110,11 @@ int main(int argc, char **argv) {
         if ((i + 1) % FRAME_TICKS != 0)
             continue;
         /* The frame: one update on the simulation's thread, then the upload. */
+        const double t0 = now();
         demo_check(td_surface_update(surface, world, budget, &b, &r), "td_surface_update");
+        const double dt = now() - t0;
+        update_s += dt;
+        if (dt > update_max_s) update_max_s = dt;
         upload(&m, &b, &r);
         frames++;
         up_to_date += r.pending == 0;
@@ -169,6 +184,8 @@ int main(int argc, char **argv) {
     printf("surface_max_work=%u\n", (unsigned)max_work);
     printf("surface_max_ranges=%u\n", (unsigned)max_ranges);
     printf("surface_final_calls=%u\n", (unsigned)final_calls);
+    printf("surface_update_us_mean=%.1f\n", 1e6 * update_s / (frames ? frames : 1));
+    printf("surface_update_us_max=%.1f\n", 1e6 * update_max_s);
     printf("surface_bytes=%zu\n", size);
     printf("debris_pieces=%u\n", (unsigned)pieces);
     return n == r.live ? 0 : 1;
