@@ -241,7 +241,7 @@ pub unsafe extern "C" fn td_surface_init(
         let s = SurfaceState {
             magic: SURFACE_MAGIC,
             world: world as usize,
-            span: (base as usize, base as usize + size),
+            span: span(base, size),
             export,
         };
         // SAFETY: aligned, inside `mem` (checked above); the magic goes in last with it.
@@ -322,8 +322,8 @@ pub unsafe extern "C" fn td_surface_update(
         }
         let verts = 3 * sf.export.capacity();
         let spans = [
-            span(b.positions, 3 * verts),
-            span(b.normals, 3 * verts),
+            span(b.positions.cast::<[f32; 3]>(), verts),
+            span(b.normals.cast::<[f32; 3]>(), verts),
             span(b.labels, verts),
             span(b.indices, verts),
             span(b.ranges, b.range_capacity as usize),
