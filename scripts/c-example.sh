@@ -8,10 +8,17 @@
 #                                     the same over libtetradrill_ffi.so
 #   scripts/c-example.sh --cortex-m   the bare-metal program: the library for
 #                                     thumbv7em-none-eabihf, examples/c/cortex_m linked with
-#                                     arm-none-eabi-gcc, run under QEMU (mps2-an386), compared
+#                                     arm-none-eabi-gcc, run under QEMU (mps2-an386, -icount)
+#                                     with the servo in the SysTick interrupt over the
+#                                     simulation's loop (prints servo=systick), compared
 #                                     with `replay --scenario builtin:firmware`'s digest;
 #                                     before the run, the calls into core's panic entry
 #                                     points in the linked program are counted: above 0 fails
+#   scripts/c-example.sh --tsan       the two-thread program (examples/c/two_threads.c: the
+#                                     servo at 1 kHz on one thread, the simulation on the
+#                                     other) with the library and the program instrumented for
+#                                     ThreadSanitizer, run for TSAN_SECONDS (default 10);
+#                                     prints tsan_reports=N and fails above 0
 #
 # Prints `force_digest=HEX` (the C program's) and both digests; where the C program prints
 # `removed_by_region.LABEL=V` lines (the host program), they are compared too with the host's
@@ -25,8 +32,9 @@ mode=host
 while [ $# -gt 0 ]; do
   case "$1" in
     --cortex-m) mode=cortex-m; shift ;;
-    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
-    *) echo "c-example: unknown argument '$1' (expected --cortex-m)" >&2; exit 2 ;;
+    --tsan) mode=tsan; shift ;;
+    -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
+    *) echo "c-example: unknown argument '$1' (expected --cortex-m or --tsan)" >&2; exit 2 ;;
   esac
 done
 target_dir="${CARGO_TARGET_DIR:-$root/target}"
@@ -101,6 +109,53 @@ if [ "$mode" = host ]; then
   exit 0
 fi
 
+if [ "$mode" = tsan ]; then
+  command -v gcc >/dev/null || { echo "c-example: no C compiler 'gcc' found (apt-get install gcc)" >&2; exit 1; }
+  seconds="${TSAN_SECONDS:-10}"
+  [[ "$seconds" =~ ^[0-9]+$ ]] && [ "$seconds" -gt 0 ] ||
+    { echo "c-example: TSAN_SECONDS takes a whole number of seconds, not '$seconds'" >&2; exit 2; }
+  host="$(rustc -vV | sed -n 's/^host: //p')"
+  echo "== libtetradrill_ffi.a instrumented for ThreadSanitizer ($host, profile ffi)"
+  # The stable compiler's -Zsanitizer=thread (an unstable flag: RUSTC_BOOTSTRAP for this test
+  # build only), so TSan sees the Rust side's memory accesses and atomics too; core and std
+  # come precompiled without it (hence the mismatch allowance), and the Rust code they inline
+  # into the library is instrumented with it.
+  RUSTC_BOOTSTRAP=1 RUSTFLAGS="-Zsanitizer=thread -Cunsafe-allow-abi-mismatch=sanitizer" \
+    cargo rustc --quiet -p tetradrill-ffi --profile ffi --target "$host" --crate-type staticlib \
+    --target-dir "$target_dir/tsan"
+  lib="$target_dir/tsan/$host/ffi/libtetradrill_ffi.a"
+  # The TSan runtime the Rust instrumentation was made for: rustc's own (Debian gcc 12's
+  # libtsan lacks the entry points a newer LLVM calls).
+  rt="$(ls "$(rustc --print sysroot)/lib/rustlib/$host/lib/"librustc-*_rt.tsan.a 2>/dev/null | head -1)"
+  [ -n "$rt" ] || { echo "c-example: rustc's ThreadSanitizer runtime (librustc-*_rt.tsan.a) not found in its sysroot" >&2; exit 1; }
+  echo "== gcc -fsanitize=thread examples/c/two_threads.c"
+  gcc -std=c11 -O1 -g -Wall -Wextra -Werror -ffp-contract=off -fsanitize=thread -I ffi/include \
+    -c examples/c/two_threads.c -o "$work/two_threads.o"
+  gcc "$work/two_threads.o" "$lib" -Wl,--whole-archive "$rt" -Wl,--no-whole-archive \
+    -lstdc++ -lgcc_s -lutil -lrt -lpthread -lm -ldl -lc -o "$work/two_threads"
+  echo "== run for $seconds s"
+  set +e
+  TSAN_OPTIONS="halt_on_error=0 exitcode=66" "$work/two_threads" "$seconds" \
+    >"$work/out.txt" 2>"$work/err.txt"
+  rc=$?
+  set -e
+  cat "$work/out.txt"
+  reports="$(grep -c '^WARNING: ThreadSanitizer' "$work/err.txt" || true)"
+  echo "tsan_reports=$reports"
+  if [ "$reports" != 0 ]; then
+    cat "$work/err.txt" >&2
+    echo "c-example: FAIL: ThreadSanitizer reported $reports problems" >&2
+    exit 1
+  fi
+  if [ "$rc" != 0 ]; then
+    cat "$work/err.txt" >&2
+    echo "c-example: FAIL: the two-thread program exited with status $rc" >&2
+    exit 1
+  fi
+  echo "c-example: OK, two threads for $seconds s, no ThreadSanitizer report"
+  exit 0
+fi
+
 command -v arm-none-eabi-gcc >/dev/null || { echo "c-example: arm-none-eabi-gcc not found (apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi)" >&2; exit 1; }
 command -v qemu-system-arm >/dev/null || { echo "c-example: qemu-system-arm not found (apt-get install qemu-system-arm)" >&2; exit 1; }
 echo "== libtetradrill_ffi.a for thumbv7em-none-eabihf (profile ffi)"
@@ -130,7 +185,7 @@ fi
 echo "== run under QEMU (mps2-an386, cortex-m4)"
 set +e
 timeout "${C_EXAMPLE_TIMEOUT:-900}" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 \
-  -semihosting-config enable=on,target=native -nographic -kernel "$elf" \
+  -icount shift=10,align=off,sleep=off -semihosting-config enable=on,target=native -nographic -kernel "$elf" \
   </dev/null >"$work/out.txt" 2>&1
 rc=$?
 set -e
@@ -139,4 +194,6 @@ if [ "$rc" != 0 ]; then
   echo "c-example: FAIL: the firmware exited with status $rc (124 = timeout)" >&2
   exit 1
 fi
+grep -q '^servo=systick' "$work/out.txt" ||
+  { echo "c-example: FAIL: the program did not run its servo in the SysTick interrupt" >&2; exit 1; }
 compare "$work/out.txt" firmware

@@ -57,6 +57,10 @@ typedef enum td_status {
   TD_ERR_STARTED = 10,
 } td_status;
 
+// A world's servo, from `td_world_servo`: its own part of the world's memory, which the
+// servo's force call uses alone. Opaque: C holds a pointer to it and never reads it.
+typedef struct td_servo td_servo;
+
 // A world set up by `td_world_init` in caller memory. Opaque: C holds a pointer to it (the
 // start of the memory it gave) and never reads it.
 typedef struct td_world td_world;
@@ -161,15 +165,8 @@ typedef struct td_sim_report {
 
 // A world's counters since `td_world_init`.
 typedef struct td_counters {
-  // FNV-1a 64 digest of every force `td_world_servo_force` returned, in order: the
-  // `force_digest` of `tetradrill replay` (printed as 16 hex digits).
-  uint64_t force_digest;
-  // `td_world_servo_force` calls.
-  uint64_t servo_ticks;
   // `td_world_simulate` calls.
   uint64_t simulate_steps;
-  // Servo ticks whose force was not zero.
-  uint64_t contact_ticks;
   // Volume of the mesh before drilling, mesh units cubed.
   double initial_volume;
   // Volume the drill removed, mesh units cubed.
@@ -210,6 +207,23 @@ typedef struct td_region {
   // `tetradrill replay`).
   double removed_volume;
 } td_region;
+
+// A servo's counters (`td_servo_counters`).
+typedef struct td_servo_counts {
+  // FNV-1a 64 digest of every force `td_servo_force` returned, in order: the
+  // `force_digest` of `tetradrill replay` (printed as 16 hex digits).
+  uint64_t force_digest;
+  // `td_servo_force` calls (`td_world_tick` makes one each).
+  uint64_t servo_ticks;
+  // Servo ticks whose force was not zero.
+  uint64_t contact_ticks;
+  // Servo ticks that rendered from the contact before, every read of the hand-off having
+  // been overtaken by a step published meanwhile (only with the two on different cores).
+  uint64_t stale_reads;
+  // The number of the step whose contact the last tick rendered (steps counted from 1; 0:
+  // no step yet).
+  uint32_t step;
+} td_servo_counts;
 
 
 
@@ -299,11 +313,14 @@ enum td_status td_world_init(void *mem,
 // budgeted erosion when bit 0 of `buttons` is set, and the contact with the drilled surface
 // for the servo. `*report`, when `report` is not null, says what the step did.
 //
-// Materials: the regions earn their erosion from the pressing force last set, by
-// `td_world_tick` (the previous tick's servo force, as `tetradrill replay` runs) or by
-// `td_world_set_pressing` (a caller running this step and `td_world_servo_force` in two
-// tasks sets it before each step); none set: zero newtons, which removes only the regions
-// of threshold and hardness zero. The first step hands the regions to the core, after which
+// The step publishes its contact to the world's servo (`td_world_servo`,
+// `td_servo_force`), which may preempt this call or run beside it on another thread.
+//
+// Materials: the regions earn their erosion from the pressing force: the magnitude of the
+// servo's last force, held for the servo periods since the previous step (as `tetradrill
+// replay` and the host's two tasks feed it), or, once `td_world_set_pressing` was called,
+// the force it last set; no servo tick yet: zero newtons, which removes only the regions of
+// threshold and hardness zero. The first step hands the regions to the core, after which
 // `td_world_set_region` is refused.
 //
 // # Bounded work
@@ -324,44 +341,6 @@ enum td_status td_world_simulate(struct td_world *world,
                                  struct td_vec3 position,
                                  uint32_t buttons,
                                  struct td_sim_report *report);
-
-// The force on the tool at `position` from the last step's contact plane (stiffness times
-// depth, damping, a bounded switch between planes, clamped to `max_force`), written to
-// `*force`; it enters the world's force digest and counters.
-//
-// # Bounded work
-// Constant.
-//
-// # Errors
-// As `td_world_simulate`, and `TD_ERR_NULL` / `TD_ERR_ALIGN` for `force`. On an error the
-// force is not written: render zero.
-//
-// # Safety
-// `world` is a handle from `td_world_init` whose memory is still the caller's; `force`
-// points at a writable `td_vec3`.
-enum td_status td_world_servo_force(struct td_world *world,
-                                    struct td_vec3 position,
-                                    struct td_vec3 *force);
-
-// One whole tick as `tetradrill replay` runs it. With `td_params.servo_lag` 0:
-// `td_world_simulate` at `position` with `buttons`, then `td_world_servo_force` at the same
-// position; with 1: `td_world_servo_force` from the previous tick's contact, then
-// `td_world_simulate`. The force goes to `*force`, and its magnitude presses the burr for one
-// servo period (`dt`) at the next step (`td_world_set_pressing`), as the host's replay feeds
-// the materials.
-//
-// # Bounded work
-// `td_world_simulate`'s plus a constant.
-//
-// # Errors
-// As the two calls; on an error nothing more is done and the force is not written.
-//
-// # Safety
-// As `td_world_servo_force`.
-enum td_status td_world_tick(struct td_world *world,
-                             struct td_vec3 position,
-                             uint32_t buttons,
-                             struct td_vec3 *force);
 
 // Writes the world's counters to `*out`: the force digest, ticks, volumes, hierarchy and
 // saturation counts.
@@ -404,11 +383,12 @@ enum td_status td_demo_pose(uint32_t tick, struct td_vec3 *position, uint32_t *b
 // Constant.
 const char *td_status_name(int32_t code);
 
-// Sets the force pressing the burr against the material, `newtons` (the magnitude of the
-// servo's latest force), held for `seconds` (the servo periods since the previous step): the
-// next `td_world_simulate` earns each region's erosion from them. `td_world_tick` sets it
-// itself; a caller running `td_world_simulate` and `td_world_servo_force` in two tasks calls
-// this before each step. It stays until set again. Without materials it changes nothing.
+// Sets the force pressing the burr against the material, `newtons`, held for `seconds`: the
+// next `td_world_simulate` earns each region's erosion from them. Without this call the
+// world takes them from its servo (the magnitude of its last force, for the periods since the
+// previous step); once called, the world keeps the caller's value until set again and no
+// longer takes the servo's (for a force that reaches the drill another way, or a test).
+// Without materials it changes nothing.
 //
 // # Bounded work
 // Constant.
@@ -471,6 +451,81 @@ enum td_status td_world_region(struct td_world *world, int32_t label, struct td_
 // # Safety
 // As `td_world_region`.
 enum td_status td_world_region_at(struct td_world *world, uint32_t index, struct td_region *out);
+
+// Writes the world's servo handle to `*out`: the part of the world's memory the servo's force
+// call uses alone. Take it once, before the servo's task or interrupt starts; it stays valid
+// as long as the world.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_simulate` for the world; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's, not in use by
+// another world call meanwhile; `out` points at a writable `td_servo *`.
+enum td_status td_world_servo(struct td_world *world, struct td_servo **out);
+
+// The force on the tool at `position` from the newest contact a step published (stiffness
+// times depth, damping, a bounded switch between planes, clamped to `max_force`), written
+// to `*force`; it enters the servo's digest and counters, and its magnitude presses the burr
+// at the world's next step.
+//
+// May preempt `td_world_simulate` (a timer interrupt over the simulation's loop) or run
+// beside it on another thread: the two share only the hand-off's atomics. With the two on
+// different cores a read overtaken by the steps published meanwhile is tried again, at most
+// 4 times, then the contact before is kept (`stale_reads`).
+//
+// # Bounded work
+// Constant: at most 4 reads of 14 words and the force. Never waits.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the servo, `TD_ERR_NULL` /
+// `TD_ERR_ALIGN` for `force`, `TD_ERR_INPUT` for a non-finite position. On an error the force
+// is not written (render zero) and nothing is counted.
+//
+// # Safety
+// `servo` is a handle from `td_world_servo` whose world's memory is still the caller's, with
+// one servo call at a time (this one or `td_world_tick`); `force` points at a writable
+// `td_vec3`.
+enum td_status td_servo_force(struct td_servo *servo,
+                              struct td_vec3 position,
+                              struct td_vec3 *force);
+
+// Writes the servo's counters to `*out`: the force digest, its ticks, those in contact, the
+// reads that kept an older contact, and the step it renders from. Call it from the servo's
+// task (or when the servo is not running).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_servo_force` for the servo; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// As `td_servo_force`; `out` points at a writable `td_servo_counters`.
+enum td_status td_servo_counters(struct td_servo *servo, struct td_servo_counts *out);
+
+// One whole tick as `tetradrill replay` runs it, in one task. With `td_params.servo_lag` 0:
+// `td_world_simulate` at `position` with `buttons`, then the world's `td_servo_force` at the
+// same position; with 1: the servo force from the previous tick's contact, then
+// `td_world_simulate`. The force goes to `*force`; its magnitude presses the burr for one
+// servo period (`dt`) at the next step.
+//
+// # Bounded work
+// `td_world_simulate`'s plus a constant.
+//
+// # Errors
+// As the two calls; on an error nothing more is done and the force is not written.
+//
+// # Safety
+// As `td_world_simulate`, and no servo call on this world's servo meanwhile; `force` points
+// at a writable `td_vec3`.
+enum td_status td_world_tick(struct td_world *world,
+                             struct td_vec3 position,
+                             uint32_t buttons,
+                             struct td_vec3 *force);
 
 #ifdef __cplusplus
 }  // extern "C"

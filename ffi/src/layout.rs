@@ -7,9 +7,9 @@ use core::alloc::Layout;
 use core::mem::size_of;
 
 use tetradrill_core::drill::{DrillParams, Region};
-use tetradrill_core::force::{ForceDigest, ForceParams, ToolState};
+use tetradrill_core::force::ForceParams;
 use tetradrill_core::mesh::{FaceKey, MeshStorage};
-use tetradrill_core::servo::{World, WorldSizes};
+use tetradrill_core::servo::{ContactHandoff, Servo, World, WorldSizes};
 use tetradrill_core::storage::Line;
 use tetradrill_core::Vec3;
 
@@ -17,6 +17,29 @@ use crate::types::{TdParams, TdStatus};
 
 /// Marks a [`State`] that `td_world_init` finished ("tdworld1").
 pub const MAGIC: u64 = u64::from_le_bytes(*b"tdworld1");
+
+/// Marks a [`ServoState`] that `td_world_init` finished ("tdservo1").
+pub const SERVO_MAGIC: u64 = u64::from_le_bytes(*b"tdservo1");
+
+/// The contact hand-off on a cache line of its own: the simulation's and the servo's only
+/// shared memory, reached through shared references alone (its words are atomics).
+#[derive(Debug, Default)]
+#[repr(C, align(64))]
+pub struct SharedHandoff(pub ContactHandoff);
+
+/// The servo's own part of a world's memory, apart from the [`State`] so that the servo may
+/// preempt the simulation (or run beside it) without either touching the other's memory:
+/// the core's [`Servo`] and the hand-off it reads. `td_world_servo` hands C a pointer to it.
+#[derive(Debug)]
+#[repr(C, align(64))]
+pub struct ServoState {
+    /// [`SERVO_MAGIC`] once set up; zero while `td_world_init` works on the memory.
+    pub magic: u64,
+    /// The servo: its contact, tool state, force settings, digest and counters.
+    pub servo: Servo,
+    /// The contact hand-off, shared with the world's [`State`].
+    pub handoff: &'static ContactHandoff,
+}
 
 /// The most nodes or tets a world takes: every size the core derives from the counts (8 hash
 /// entries per tet, a v_list of the tets plus 7/8 of the arena) then fits in 32 bits.
@@ -44,10 +67,16 @@ pub struct State {
     pub magic: u64,
     /// The core's world over the slices that follow this header.
     pub world: World<'static>,
-    /// The tool state the servo force carries between ticks.
-    pub tool: ToolState,
-    /// Digest of the forces returned so far.
-    pub digest: ForceDigest,
+    /// The contact hand-off: each step publishes its contact; the servo reports its force.
+    pub handoff: &'static ContactHandoff,
+    /// The world's servo (its own memory: touched here only by `td_world_tick` and
+    /// `td_world_servo`, never while the world is borrowed).
+    pub servo: *mut ServoState,
+    /// The hand-off's servo tick count at the last step (what the pressing force covers).
+    pub servo_seen: u32,
+    /// `td_world_set_pressing` was called: the pressing force is the caller's, not the
+    /// servo's.
+    pub manual_pressing: bool,
     /// `td_params.servo_lag` is 1: `td_world_tick` runs the servo force before the step.
     pub servo_lag: bool,
     /// Burr radius.
@@ -58,12 +87,8 @@ pub struct State {
     pub drill: DrillParams,
     /// Force settings.
     pub force: ForceParams,
-    /// `td_world_servo_force` calls.
-    pub servo_ticks: u64,
     /// `td_world_simulate` calls.
     pub steps: u64,
-    /// Servo ticks with a force other than zero.
-    pub contact_ticks: u64,
     /// Mesh volume at set-up.
     pub initial_volume: f64,
     /// The label of each region, ascending (one per distinct label of the mesh).
@@ -126,6 +151,10 @@ pub struct Plan {
     pub tet_region: usize,
     /// Region slots: `region_capacity`.
     pub region_slots: usize,
+    /// The contact hand-off (`SharedHandoff`).
+    pub handoff: usize,
+    /// The servo's state (`ServoState`).
+    pub servo: usize,
     /// Bytes in all.
     pub size: usize,
     /// Alignment the memory needs.
@@ -211,6 +240,8 @@ impl Plan {
         let mut b = Builder {
             layout: Layout::new::<State>(),
         };
+        let handoff = b.put::<SharedHandoff>(1)?;
+        let servo = b.put::<ServoState>(1)?;
         let positions = b.put::<Vec3>(nodes)?;
         let mesh_lines = MeshStorage::lines(nodes, tets).ok_or(TdStatus::TdErrParams)?;
         let mesh = b.put::<Line>(mesh_lines)?;
@@ -236,6 +267,8 @@ impl Plan {
             region_labels,
             tet_region,
             region_slots,
+            handoff,
+            servo,
             size: layout.size(),
             align: layout.align(),
         })
@@ -280,11 +313,13 @@ mod tests {
     }
 
     /// Each region as (offset, bytes, alignment of its type), in plan order.
-    fn regions(p: &Plan) -> [(usize, usize, usize); 7] {
+    fn regions(p: &Plan) -> [(usize, usize, usize); 9] {
         fn r<T>(at: usize, n: usize) -> (usize, usize, usize) {
             (at, n * size_of::<T>(), align_of::<T>())
         }
         [
+            r::<SharedHandoff>(p.handoff, 1),
+            r::<ServoState>(p.servo, 1),
             r::<Vec3>(p.positions, p.nodes),
             r::<Line>(p.mesh, p.mesh_lines),
             r::<FaceKey>(p.scratch, 4 * p.tets),

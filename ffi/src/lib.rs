@@ -12,8 +12,10 @@
 //! | [`td_params_default`]    | parameters with the core's capacities and the host's defaults |
 //! | [`td_world_size`]        | bytes and alignment a world needs                             |
 //! | [`td_world_init`]        | builds the mesh from arrays and the world in caller memory    |
-//! | [`td_world_simulate`]    | one simulation step at a pose (drill, contact)                |
-//! | [`td_world_servo_force`] | the force at a pose from the last contact                     |
+//! | [`td_world_simulate`]    | one simulation step at a pose (drill, contact), published     |
+//! | [`td_world_servo`]       | the world's servo handle, for the servo's task or interrupt   |
+//! | [`td_servo_force`]       | the force at a pose from the newest published contact         |
+//! | [`td_servo_counters`]    | the force digest and the servo's counts                       |
 //! | [`td_world_tick`]        | both, as `tetradrill replay` runs a tick                      |
 //! | [`td_world_set_region`]  | a region's material, by label, before the first step          |
 //! | [`td_world_set_pressing`]| the force pressing the burr for the next step (two tasks)      |
@@ -31,7 +33,10 @@
 //! C, each block with a `SAFETY` comment.
 //!
 //! A world lives entirely in the caller's memory: a header (the core's `World` and the
-//! tick-to-tick state) followed by every slice the core borrows. The memory must stay put and
+//! tick-to-tick state), the contact hand-off and the servo's own state, then every slice the
+//! core borrows. The simulation step and the servo's force call touch apart memory and share
+//! only the hand-off's atomics (the core's `ContactHandoff`), so they may preempt each other
+//! or run on two threads. The memory must stay put and
 //! untouched by the caller while the world is used; there is nothing to free.
 
 #![no_std]
@@ -41,29 +46,33 @@ extern crate std;
 
 mod layout;
 mod regions;
+mod servo;
 mod types;
 
 use core::ffi::{c_char, c_void};
 use core::ptr;
 
 use tetradrill_core::drill::{DrillParams, Material, Region, Regions};
-use tetradrill_core::force::{ForceDigest, ForceParams, ToolState};
+use tetradrill_core::force::ForceParams;
 use tetradrill_core::mesh::{BuildError, BuildOptions, FaceKey, Mesh, MeshStorage};
 use tetradrill_core::script::DEMO;
 use tetradrill_core::servo::{
-    servo_force, World, WorldStorage, CONTACT_MAX_NODES, DEFAULT_MAX_CELLS, DEFAULT_PENDING,
-    DEFAULT_SPHERE_MEMO,
+    ContactHandoff, Servo, World, WorldStorage, CONTACT_MAX_NODES, DEFAULT_MAX_CELLS,
+    DEFAULT_PENDING, DEFAULT_SPHERE_MEMO,
 };
 use tetradrill_core::storage::{Block, Line};
 use tetradrill_core::Vec3;
 
 pub use layout::{Plan, STATE_BYTES, TD_MAX_COUNT, TD_MAX_REGIONS};
-pub use types::{TdCounters, TdParams, TdRegion, TdSimReport, TdStatus, TdVec3, TdWorld};
+pub use types::{
+    TdCounters, TdParams, TdRegion, TdServo, TdServoCounts, TdSimReport, TdStatus, TdVec3, TdWorld,
+};
 
-use layout::{State, Unstarted, MAGIC};
+use layout::{ServoState, SharedHandoff, State, Unstarted, MAGIC, SERVO_MAGIC};
 pub use regions::{
     td_world_region, td_world_region_at, td_world_set_pressing, td_world_set_region,
 };
+pub use servo::{td_servo_counters, td_servo_force, td_world_servo, td_world_tick};
 
 /// The hierarchy arena `td_params_default` gives: 2^20 nodes (8 MiB), the least arena the
 /// host gives a burr (its scenarios' `DEFAULT_HIERARCHY_CAPACITY`).
@@ -377,6 +386,11 @@ pub unsafe extern "C" fn td_world_init(
         // `plan.size >= size_of::<State>()` bytes long: a handle to this memory is refused
         // from here on until the init succeeds.
         unsafe { ptr::addr_of_mut!((*state).magic).write(0) };
+        // SAFETY: the plan's servo region lies inside `mem`, aligned for its type: its handle
+        // (from an earlier world in this memory) is refused too until the init succeeds.
+        let servo = unsafe { base.add(plan.servo) }.cast::<ServoState>();
+        // SAFETY: as above.
+        unsafe { ptr::addr_of_mut!((*servo).magic).write(0) };
 
         // SAFETY: the caller's contract: `3 * node_count` floats, `4 * tet_count` indices and
         // (when not null) `tet_count` labels, aligned (checked), outside `mem`. The products
@@ -450,16 +464,41 @@ pub unsafe extern "C" fn td_world_init(
         let table = unsafe { carve(base, plan.regions, count, Region::default()) };
         // The core's check of the table, now rather than at the first step.
         Regions::new(&mut *table, of_tet).map_err(|_| TdStatus::TdErrWorld)?;
+        // SAFETY: as the carving above: the plan's hand-off and servo regions, aligned for
+        // their types; nothing else refers to them yet.
+        let handoff: &'static ContactHandoff = unsafe {
+            let h = base.add(plan.handoff).cast::<SharedHandoff>();
+            h.write(SharedHandoff::default());
+            &(*h).0
+        };
+        let force = ForceParams {
+            stiffness: p.stiffness,
+            damping: p.damping,
+            max_force: p.max_force,
+            dt: p.dt,
+            switch_time: p.switch_time,
+        };
         let initial_volume = mesh.volume();
         let mut world = World::new(mesh, storage).map_err(|_| TdStatus::TdErrWorld)?;
         world.set_contact_max_nodes(p.contact_search_nodes);
         world.set_max_cells(p.max_cells);
         world.set_tick_budget((p.tick_budget > 0).then_some(p.tick_budget));
+        // SAFETY: as the carving above: the plan's servo region, aligned for its type; its
+        // magic comes with it, so its handle is valid from here (the world's from below).
+        unsafe {
+            servo.write(ServoState {
+                magic: SERVO_MAGIC,
+                servo: Servo::new(p.radius, force),
+                handoff,
+            })
+        };
         let st = State {
             magic: MAGIC,
             world,
-            tool: ToolState::default(),
-            digest: ForceDigest::new(),
+            handoff,
+            servo,
+            servo_seen: 0,
+            manual_pressing: false,
             radius: p.radius,
             reach: p.reach,
             drill: DrillParams {
@@ -468,17 +507,9 @@ pub unsafe extern "C" fn td_world_init(
                 min_area: p.min_area,
                 budget: p.budget_per_tick,
             },
-            force: ForceParams {
-                stiffness: p.stiffness,
-                damping: p.damping,
-                max_force: p.max_force,
-                dt: p.dt,
-                switch_time: p.switch_time,
-            },
+            force,
             servo_lag: p.servo_lag == 1,
-            servo_ticks: 0,
             steps: 0,
-            contact_ticks: 0,
             initial_volume,
             labels: region_labels,
             unstarted: Some(Unstarted { table, of_tet }),
@@ -497,11 +528,14 @@ pub unsafe extern "C" fn td_world_init(
 /// budgeted erosion when bit 0 of `buttons` is set, and the contact with the drilled surface
 /// for the servo. `*report`, when `report` is not null, says what the step did.
 ///
-/// Materials: the regions earn their erosion from the pressing force last set, by
-/// `td_world_tick` (the previous tick's servo force, as `tetradrill replay` runs) or by
-/// `td_world_set_pressing` (a caller running this step and `td_world_servo_force` in two
-/// tasks sets it before each step); none set: zero newtons, which removes only the regions
-/// of threshold and hardness zero. The first step hands the regions to the core, after which
+/// The step publishes its contact to the world's servo (`td_world_servo`,
+/// `td_servo_force`), which may preempt this call or run beside it on another thread.
+///
+/// Materials: the regions earn their erosion from the pressing force: the magnitude of the
+/// servo's last force, held for the servo periods since the previous step (as `tetradrill
+/// replay` and the host's two tasks feed it), or, once `td_world_set_pressing` was called,
+/// the force it last set; no servo tick yet: zero newtons, which removes only the regions of
+/// threshold and hardness zero. The first step hands the regions to the core, after which
 /// `td_world_set_region` is refused.
 ///
 /// # Bounded work
@@ -537,10 +571,18 @@ pub unsafe extern "C" fn td_world_simulate(
             let r = Regions::new(u.table, u.of_tet).map_err(|_| TdStatus::TdErrWorld)?;
             st.world.set_regions(r);
         }
+        // The servo's force since the last step presses the burr, as one task's replay feeds
+        // it (unless the caller sets the pressing force itself).
+        if let Some((newtons, ticks)) = st.handoff.pressing(&mut st.servo_seen) {
+            if !st.manual_pressing {
+                st.world.set_pressing(newtons, ticks as f32 * st.force.dt);
+            }
+        }
         let drill_on = buttons & tetradrill_core::script::DRILL_ON != 0;
         let rep = st
             .world
             .simulate(at, st.radius, st.reach, drill_on, &st.drill);
+        st.handoff.publish(st.world.contact());
         st.steps += 1;
         if !report.is_null() {
             let r = TdSimReport {
@@ -556,99 +598,6 @@ pub unsafe extern "C" fn td_world_simulate(
             };
             // SAFETY: not null, aligned (checked); writable by the caller's contract.
             unsafe { report.write(r) };
-        }
-        Ok(())
-    })
-}
-
-/// The force on the tool at `position` from the last step's contact plane (stiffness times
-/// depth, damping, a bounded switch between planes, clamped to `max_force`), written to
-/// `*force`; it enters the world's force digest and counters.
-///
-/// # Bounded work
-/// Constant.
-///
-/// # Errors
-/// As `td_world_simulate`, and `TD_ERR_NULL` / `TD_ERR_ALIGN` for `force`. On an error the
-/// force is not written: render zero.
-///
-/// # Safety
-/// `world` is a handle from `td_world_init` whose memory is still the caller's; `force`
-/// points at a writable `td_vec3`.
-#[no_mangle]
-pub unsafe extern "C" fn td_world_servo_force(
-    world: *mut TdWorld,
-    position: TdVec3,
-    force: *mut TdVec3,
-) -> TdStatus {
-    status(|| {
-        check_ptr(force)?;
-        // SAFETY: the caller's contract on `world`; `state` checks it.
-        let st = unsafe { state(world) }?;
-        let at = pose(position)?;
-        let f = servo_force(st.world.contact(), at, st.radius, &mut st.tool, &st.force);
-        st.digest.push(f);
-        st.servo_ticks += 1;
-        if f != Vec3::ZERO {
-            st.contact_ticks += 1;
-        }
-        // SAFETY: checked above; writable by the caller's contract.
-        unsafe { force.write(td_vec(f)) };
-        Ok(())
-    })
-}
-
-/// One whole tick as `tetradrill replay` runs it. With `td_params.servo_lag` 0:
-/// `td_world_simulate` at `position` with `buttons`, then `td_world_servo_force` at the same
-/// position; with 1: `td_world_servo_force` from the previous tick's contact, then
-/// `td_world_simulate`. The force goes to `*force`, and its magnitude presses the burr for one
-/// servo period (`dt`) at the next step (`td_world_set_pressing`), as the host's replay feeds
-/// the materials.
-///
-/// # Bounded work
-/// `td_world_simulate`'s plus a constant.
-///
-/// # Errors
-/// As the two calls; on an error nothing more is done and the force is not written.
-///
-/// # Safety
-/// As `td_world_servo_force`.
-#[no_mangle]
-pub unsafe extern "C" fn td_world_tick(
-    world: *mut TdWorld,
-    position: TdVec3,
-    buttons: u32,
-    force: *mut TdVec3,
-) -> TdStatus {
-    status(|| {
-        check_ptr(force)?;
-        // SAFETY: the caller's contract on `world`; `state` checks it before the calls do.
-        unsafe { state(world) }?;
-        pose(position)?;
-        // SAFETY: as above.
-        let lag = unsafe { state(world) }?.servo_lag;
-        if !lag {
-            // SAFETY: as above; `force` checked.
-            match unsafe { td_world_simulate(world, position, buttons, ptr::null_mut()) } {
-                TdStatus::TdOk => {}
-                e => return Err(e),
-            }
-        }
-        // SAFETY: as above.
-        match unsafe { td_world_servo_force(world, position, force) } {
-            TdStatus::TdOk => {}
-            e => return Err(e),
-        }
-        // SAFETY: as above; `force` was just written.
-        let (st, f) = unsafe { (state(world)?, force.read()) };
-        let pressing = Vec3::new(f.x, f.y, f.z).length();
-        st.world.set_pressing(pressing, st.force.dt);
-        if lag {
-            // SAFETY: as above.
-            match unsafe { td_world_simulate(world, position, buttons, ptr::null_mut()) } {
-                TdStatus::TdOk => {}
-                e => return Err(e),
-            }
         }
         Ok(())
     })
@@ -675,10 +624,7 @@ pub unsafe extern "C" fn td_world_counters(world: *mut TdWorld, out: *mut TdCoun
         let h = st.world.hierarchy();
         let sat = st.world.saturations();
         let c = TdCounters {
-            force_digest: st.digest.value(),
-            servo_ticks: st.servo_ticks,
             simulate_steps: st.steps,
-            contact_ticks: st.contact_ticks,
             initial_volume: st.initial_volume,
             removed_volume: h.removed_volume(),
             hierarchy_nodes: h.node_count() as u64,

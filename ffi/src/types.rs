@@ -192,15 +192,8 @@ pub struct TdSimReport {
 #[repr(C)]
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct TdCounters {
-    /// FNV-1a 64 digest of every force `td_world_servo_force` returned, in order: the
-    /// `force_digest` of `tetradrill replay` (printed as 16 hex digits).
-    pub force_digest: u64,
-    /// `td_world_servo_force` calls.
-    pub servo_ticks: u64,
     /// `td_world_simulate` calls.
     pub simulate_steps: u64,
-    /// Servo ticks whose force was not zero.
-    pub contact_ticks: u64,
     /// Volume of the mesh before drilling, mesh units cubed.
     pub initial_volume: f64,
     /// Volume the drill removed, mesh units cubed.
@@ -226,6 +219,25 @@ pub struct TdCounters {
     pub region_count: u32,
 }
 
+/// A servo's counters (`td_servo_counters`).
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct TdServoCounts {
+    /// FNV-1a 64 digest of every force `td_servo_force` returned, in order: the
+    /// `force_digest` of `tetradrill replay` (printed as 16 hex digits).
+    pub force_digest: u64,
+    /// `td_servo_force` calls (`td_world_tick` makes one each).
+    pub servo_ticks: u64,
+    /// Servo ticks whose force was not zero.
+    pub contact_ticks: u64,
+    /// Servo ticks that rendered from the contact before, every read of the hand-off having
+    /// been overtaken by a step published meanwhile (only with the two on different cores).
+    pub stale_reads: u64,
+    /// The number of the step whose contact the last tick rendered (steps counted from 1; 0:
+    /// no step yet).
+    pub step: u32,
+}
+
 /// One region of a world: its label, its material and the volume removed from it.
 #[repr(C)]
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
@@ -248,5 +260,12 @@ pub struct TdRegion {
 /// start of the memory it gave) and never reads it.
 #[derive(Debug)]
 pub struct TdWorld {
+    _opaque: [u8; 0],
+}
+
+/// A world's servo, from `td_world_servo`: its own part of the world's memory, which the
+/// servo's force call uses alone. Opaque: C holds a pointer to it and never reads it.
+#[derive(Debug)]
+pub struct TdServo {
     _opaque: [u8; 0],
 }
