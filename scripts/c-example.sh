@@ -12,6 +12,8 @@
 #                                     with the servo in the SysTick interrupt over the
 #                                     simulation's loop (prints servo=systick), compared
 #                                     with `replay --scenario builtin:firmware`'s digest;
+#                                     then the same with the block read in place from a
+#                                     mesh blob in flash (`tetradrill export --firmware`);
 #                                     before the run, the calls into core's panic entry
 #                                     points in the linked program are counted: above 0 fails
 #   scripts/c-example.sh --tsan       the two-thread program (examples/c/two_threads.c: the
@@ -44,12 +46,19 @@ trap 'rm -rf "$work"' EXIT
 cd "$root"
 
 # The host's digest of a built-in scenario, from `replay --json`.
-host_digest() {
+# The `tetradrill` binary: TETRADRILL_BIN, or the release build (built when missing).
+host_bin() {
   local bin="${TETRADRILL_BIN:-}"
   if [ -z "$bin" ]; then
-    cargo build --release --quiet -p tetradrill
+    cargo build --release --quiet -p tetradrill >&2
     bin="$target_dir/release/tetradrill"
   fi
+  echo "$bin"
+}
+
+host_digest() {
+  local bin
+  bin="$(host_bin)"
   "$bin" replay --scenario "builtin:$1" --quiet --json "$work/replay.json" >/dev/null \
     2>"$work/replay.err" || { cat "$work/replay.err" >&2; exit 1; }
   sed -n 's/.*"force_digest": *"\([0-9a-f]\{16\}\)".*/\1/p' "$work/replay.json" | head -1
@@ -161,39 +170,56 @@ command -v qemu-system-arm >/dev/null || { echo "c-example: qemu-system-arm not 
 echo "== libtetradrill_ffi.a for thumbv7em-none-eabihf (profile ffi)"
 cargo rustc --quiet -p tetradrill-ffi --profile ffi --target thumbv7em-none-eabihf --crate-type staticlib
 lib="$target_dir/thumbv7em-none-eabihf/ffi/libtetradrill_ffi.a"
-echo "== arm-none-eabi-gcc examples/c/cortex_m"
-make --quiet -C examples/c/cortex_m LIB="$lib" OUT="$work"
-elf="$work/replay_firmware.elf"
-arm-none-eabi-size "$elf"
-# Where a panic could still come from in the linked program (the handler faults, see
+echo "== arm-none-eabi-gcc examples/c/cortex_m, the block from arrays and from a mesh blob"
+bin="$(host_bin)"
+"$bin" export --quiet --firmware "$work/block4.tdb" --mesh builtin:block:4
+make --quiet -C examples/c/cortex_m LIB="$lib" OUT="$work" BLOB="$work/block4.tdb" \
+  "$work/replay_firmware.elf" blob
+# Where a panic could still come from in a linked program (the handler faults, see
 # docs/FFI.md): calls from outside `core` into its panic entry points (core::panicking, the
 # slice and str index failures, unwrap and expect, RefCell borrows), by the function that
 # makes them. More than $panic_max fails the check.
 panic_max=0
-sites="$(arm-none-eabi-objdump -d --no-show-raw-insn -C "$elf" | awk '
-  /^[0-9a-f]+ <.*>:$/ { fn = $0; sub(/^[0-9a-f]+ </, "", fn); sub(/>:$/, "", fn) }
-  !/^[0-9a-f]+ </ && fn !~ /^<?core::/ &&
-    /<core::(panicking::|slice::index::[a-z_]*fail|str::slice_error_fail|option::(unwrap|expect)_failed|result::unwrap_failed|cell::panic_)/ { n[fn]++; total++ }
-  END { print total + 0; for (f in n) printf "  %d %s\n", n[f], f }')"
-count="$(echo "$sites" | head -n1)"
-echo "panic call sites: $count (bound $panic_max)"
-echo "$sites" | tail -n +2
-if [ "$count" -gt "$panic_max" ]; then
-  echo "c-example: FAIL: $count panic call sites in the linked program, over the bound of $panic_max" >&2
-  exit 1
-fi
-echo "== run under QEMU (mps2-an386, cortex-m4)"
-set +e
-timeout "${C_EXAMPLE_TIMEOUT:-900}" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 \
-  -icount shift=10,align=off,sleep=off -semihosting-config enable=on,target=native -nographic -kernel "$elf" \
-  </dev/null >"$work/out.txt" 2>&1
-rc=$?
-set -e
-cat "$work/out.txt"
-if [ "$rc" != 0 ]; then
-  echo "c-example: FAIL: the firmware exited with status $rc (124 = timeout)" >&2
-  exit 1
-fi
-grep -q '^servo=systick' "$work/out.txt" ||
-  { echo "c-example: FAIL: the program did not run its servo in the SysTick interrupt" >&2; exit 1; }
+panic_sites() {
+  arm-none-eabi-objdump -d --no-show-raw-insn -C "$1" | awk '
+    /^[0-9a-f]+ <.*>:$/ { fn = $0; sub(/^[0-9a-f]+ </, "", fn); sub(/>:$/, "", fn) }
+    !/^[0-9a-f]+ </ && fn !~ /^<?core::/ &&
+      /<core::(panicking::|slice::index::[a-z_]*fail|str::slice_error_fail|option::(unwrap|expect)_failed|result::unwrap_failed|cell::panic_)/ { n[fn]++; total++ }
+    END { print total + 0; for (f in n) printf "  %d %s\n", n[f], f }'
+}
+# Runs the program $1 under QEMU (the servo period is counted in instructions), output to $2.
+run_qemu() {
+  set +e
+  timeout "${C_EXAMPLE_TIMEOUT:-900}" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 \
+    -icount shift=10,align=off,sleep=off -semihosting-config enable=on,target=native \
+    -nographic -kernel "$1" </dev/null >"$2" 2>&1
+  local rc=$?
+  set -e
+  cat "$2"
+  if [ "$rc" != 0 ]; then
+    echo "c-example: FAIL: the firmware exited with status $rc (124 = timeout)" >&2
+    exit 1
+  fi
+  grep -q '^servo=systick' "$2" ||
+    { echo "c-example: FAIL: the program did not run its servo in the SysTick interrupt" >&2; exit 1; }
+}
+for variant in replay_firmware replay_firmware_blob; do
+  elf="$work/$variant.elf"
+  arm-none-eabi-size "$elf"
+  sites="$(panic_sites "$elf")"
+  count="$(echo "$sites" | head -n1)"
+  echo "panic call sites in $variant: $count (bound $panic_max)"
+  echo "$sites" | tail -n +2
+  if [ "$count" -gt "$panic_max" ]; then
+    echo "c-example: FAIL: $count panic call sites in $variant, over the bound of $panic_max" >&2
+    exit 1
+  fi
+done
+echo "== run under QEMU (mps2-an386, cortex-m4): the block from arrays"
+run_qemu "$work/replay_firmware.elf" "$work/out.txt"
 compare "$work/out.txt" firmware
+echo "== run under QEMU: the block from the blob in flash, its tets read in place"
+run_qemu "$work/replay_firmware_blob.elf" "$work/out-blob.txt"
+grep -q '^mesh=blob' "$work/out-blob.txt" ||
+  { echo "c-example: FAIL: the blob program did not read its mesh from the blob" >&2; exit 1; }
+compare "$work/out-blob.txt" firmware

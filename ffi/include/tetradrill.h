@@ -13,6 +13,11 @@
 // host gives a burr (its scenarios' `DEFAULT_HIERARCHY_CAPACITY`).
 #define TD_DEFAULT_HIERARCHY_CAPACITY (1 << 20)
 
+#if !defined(TETRADRILL_BARE_METAL)
+// Bytes of `td_file_error.message`, its NUL included.
+#define TD_FILE_MESSAGE 512
+#endif
+
 // The most nodes or tets a world takes: every size the core derives from the counts (8 hash
 // entries per tet, a v_list of the tets plus 7/8 of the arena) then fits in 32 bits.
 #define TD_MAX_COUNT (1 << 28)
@@ -55,7 +60,19 @@ typedef enum td_status {
   TD_ERR_LABEL = 9,
   // Materials are set before the first simulation step; this world has already stepped.
   TD_ERR_STARTED = 10,
+  // A mesh file could not be read or built: missing, unreadable, or not what its extension
+  // says (`td_file_error` names the line or byte and the reason).
+  TD_ERR_FILE = 11,
+  // A mesh blob was refused: not a blob, another version, truncated, corrupted, or a record
+  // out of range (`bad_item` gets the byte offset at fault).
+  TD_ERR_BLOB = 12,
 } td_status;
+
+#if !defined(TETRADRILL_BARE_METAL)
+// A mesh file read and built (`td_mesh_file_read`): its arrays, owned by the library
+// until `td_mesh_file_free`. Opaque.
+typedef struct td_mesh_file td_mesh_file;
+#endif
 
 // A world's servo, from `td_world_servo`: its own part of the world's memory, which the
 // servo's force call uses alone. Opaque: C holds a pointer to it and never reads it.
@@ -192,6 +209,36 @@ typedef struct td_counters {
   uint32_t region_count;
 } td_counters;
 
+#if !defined(TETRADRILL_BARE_METAL)
+// Why a mesh file was refused: the line (text formats) or byte (binary formats) at fault
+// where the reader knows it, and the reader's one line naming the file and the reason.
+typedef struct td_file_error {
+  // Line of the file, from 1; 0 when the error names no line.
+  uint64_t line;
+  // Byte offset into a binary file, from 0; `UINT64_MAX` when the error names no byte.
+  uint64_t byte;
+  // NUL-terminated UTF-8 (cut at a character boundary when longer).
+  char message[TD_FILE_MESSAGE];
+} td_file_error;
+#endif
+
+#if !defined(TETRADRILL_BARE_METAL)
+// A mesh file's arrays, as `td_world_init` takes them (`labels` null when the file has
+// none). The pointers stay valid until `td_mesh_file_free`.
+typedef struct td_mesh_arrays {
+  // Nodes (`3 * node_count` floats in `positions`).
+  uint32_t node_count;
+  // Tets (`4 * tet_count` indices in `tets`, `tet_count` labels).
+  uint32_t tet_count;
+  // x, y, z of each node, scaled.
+  const float *positions;
+  // Four node indices from 0 per tet.
+  const uint32_t *tets;
+  // Each tet's region label, or null when the file has none.
+  const int32_t *labels;
+} td_mesh_arrays;
+#endif
+
 // One region of a world: its label, its material and the volume removed from it.
 typedef struct td_region {
   // The region's label (the mesh's, from `td_world_init`'s `labels`; 0 without them).
@@ -266,49 +313,6 @@ enum td_status td_params_default(uint32_t node_count,
 // `size_t`s.
 enum td_status td_world_size(const struct td_params *params, size_t *out_size, size_t *out_align);
 
-// Builds the mesh from `positions` (`3 * node_count` floats: x, y, z of each node) and
-// `tets` (`4 * tet_count` node indices from 0, any orientation), then the world over it,
-// all inside `mem` (`len` bytes, aligned as `td_world_size` says), and writes the world's
-// handle to `*out` (it is `mem`). The mesh is built as the host builds a mesh file's (tets
-// flipped to positive orientation and relabelled for refinement), the hash, hierarchy and
-// drill start empty, the digest and counters at zero.
-//
-// `labels`, when not null, holds each tet's region label (`tet_count` `int32_t`s, any
-// values: a mesh file's region or physical tags): the world has one region per distinct
-// label, in ascending order, as `tetradrill replay` gives a mesh file's labels. Null: one
-// region, label 0, for every tet. Every region starts with the default material (hardness
-// 0, threshold 0, the parameters' stiffness: removed at once, whatever the force);
-// `td_world_set_region` changes it before the first step.
-//
-// # Bounded work
-// O(T log T) for the mesh build's face sort plus O(every capacity) to initialise the storage,
-// and O(T log R + R^2) to find the R distinct labels, for T tets; once, before the servo runs.
-//
-// # Errors
-// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer (`mem` at the world's alignment, the arrays at
-// 4 bytes), `TD_ERR_PARAMS` as `td_world_size`, `TD_ERR_TOO_SMALL` when `len` is short,
-// `TD_ERR_MESH` for refused arrays (`*bad_item`, when `bad_item` is not null, gets the tet, or
-// for a non-finite position the node, at fault), `TD_ERR_LABEL` for more distinct labels
-// than `region_capacity` (`*bad_item` gets the first tet whose label does not fit),
-// `TD_ERR_WORLD` when the core refuses the storage. On any error after the checks of `mem`
-// the memory holds no world.
-//
-// # Safety
-// `params` points at an initialised `td_params`; `positions` at `3 * node_count` floats,
-// `tets` at `4 * tet_count` `uint32_t`s and `labels` at `tet_count` `int32_t`s or null, none
-// inside `mem`; `mem` at `len` writable bytes that the caller keeps, and does not read or
-// write, for as long as it uses the world (there is nothing to free: stop using the handle,
-// then reuse the memory); `out` at a writable `td_world *`; `bad_item` at a writable
-// `uint32_t` or null.
-enum td_status td_world_init(void *mem,
-                             size_t len,
-                             const struct td_params *params,
-                             const float *positions,
-                             const uint32_t *tets,
-                             const int32_t *labels,
-                             struct td_world **out,
-                             uint32_t *bad_item);
-
 // One simulation step with the tool at `position`: the coarse tets near it, the drill's
 // budgeted erosion when bit 0 of `buttons` is set, and the contact with the drilled surface
 // for the servo. `*report`, when `report` is not null, says what the step did.
@@ -382,6 +386,162 @@ enum td_status td_demo_pose(uint32_t tick, struct td_vec3 *position, uint32_t *b
 // # Bounded work
 // Constant.
 const char *td_status_name(int32_t code);
+
+// Checks the mesh blob at `blob` (`len` bytes, as `tetradrill export --firmware` writes it)
+// and writes its node and tet counts, for `td_params_default`.
+//
+// # Bounded work
+// O(blob length): the checksum and every record's ids.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer; `TD_ERR_BLOB` for a refused blob, with the
+// byte offset at fault in `*bad_item` when `bad_item` is not null (`UINT32_MAX`: none).
+//
+// # Safety
+// `blob` points at `len` readable bytes; `nodes` and `tets` at writable `uint32_t`s;
+// `bad_item` at a writable `uint32_t` or null.
+enum td_status td_blob_counts(const uint8_t *blob,
+                              size_t len,
+                              uint32_t *nodes,
+                              uint32_t *tets,
+                              uint32_t *bad_item);
+
+// `td_world_size` for a world whose mesh is read in place from a blob
+// (`td_world_init_blob`): no tet records and no build scratch in the world's memory.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_size`.
+//
+// # Safety
+// As `td_world_size`.
+enum td_status td_world_size_blob(const struct td_params *params,
+                                  size_t *out_size,
+                                  size_t *out_align);
+
+// `td_world_init` with the mesh read in place from the blob at `blob` (`len` bytes): its
+// tets stay in the blob (in flash on a microcontroller), its positions, normals and node
+// records are copied into `mem`, and its region labels give the world's regions as a mesh
+// file's do. `params` counts must be the blob's (`td_blob_counts`); `mem` is sized by
+// `td_world_size_blob`.
+//
+// # Bounded work
+// O(blob length) to check it, O(N + T) to copy the nodes and count the faces, O(every
+// capacity) to initialise the storage, O(T log R + R^2) for the labels; once.
+//
+// # Errors
+// As `td_world_init`, with `TD_ERR_BLOB` for a refused blob (`*bad_item` gets the byte at
+// fault) and `TD_ERR_PARAMS` for counts other than the blob's.
+//
+// # Safety
+// As `td_world_init` for `mem`, `params`, `out` and `bad_item`; `blob` points at `len`
+// readable bytes outside `mem` that stay unchanged for as long as the world is used (the
+// world reads its tets there).
+enum td_status td_world_init_blob(void *mem,
+                                  size_t len,
+                                  const struct td_params *params,
+                                  const uint8_t *blob,
+                                  size_t blob_len,
+                                  struct td_world **out,
+                                  uint32_t *bad_item);
+
+#if !defined(TETRADRILL_BARE_METAL)
+// Reads the mesh file at `path` (NUL-terminated; any format `tetradrill` reads: .node/.ele,
+// .mesh, .meshb, .msh, .vtk, .vtu, each also .gz), scales it by `scale` and builds it as
+// `tetradrill` does (unreferenced nodes dropped, nodes and tets in spatial order,
+// orientation fixed), with its region labels; writes a handle to `*out`, whose arrays
+// (`td_mesh_file_arrays`) go to `td_world_init`. Hosted builds only; it allocates (a
+// set-up call, never the servo's).
+//
+// # Bounded work
+// O(file size + T log T).
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for `path` or `out`; `TD_ERR_PARAMS` for a scale that is
+// not positive and finite; `TD_ERR_FILE` for a file that cannot be read or built, with
+// `*err` (when not null) naming the line or byte and the reason.
+//
+// # Safety
+// `path` points at a NUL-terminated string; `out` at a writable `td_mesh_file *`; `err`
+// at a writable `td_file_error` or null.
+enum td_status td_mesh_file_read(const char *path,
+                                 double scale,
+                                 struct td_mesh_file **out,
+                                 struct td_file_error *err);
+#endif
+
+#if !defined(TETRADRILL_BARE_METAL)
+// Writes the arrays of a mesh file read by `td_mesh_file_read` to `*out`.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer.
+//
+// # Safety
+// `file` is a handle from `td_mesh_file_read` not yet freed; `out` points at a writable
+// `td_mesh_arrays`.
+enum td_status td_mesh_file_arrays(const struct td_mesh_file *file, struct td_mesh_arrays *out);
+#endif
+
+#if !defined(TETRADRILL_BARE_METAL)
+// Frees a mesh file's arrays (a world built from them does not need them). Null does
+// nothing.
+//
+// # Bounded work
+// Constant (the allocator's free).
+//
+// # Safety
+// `file` is null or a handle from `td_mesh_file_read` not yet freed; its arrays are not
+// used afterwards.
+void td_mesh_file_free(struct td_mesh_file *file);
+#endif
+
+// Builds the mesh from `positions` (`3 * node_count` floats: x, y, z of each node) and
+// `tets` (`4 * tet_count` node indices from 0, any orientation), then the world over it,
+// all inside `mem` (`len` bytes, aligned as `td_world_size` says), and writes the world's
+// handle to `*out` (it is `mem`). The mesh is built as the host builds a mesh file's (tets
+// flipped to positive orientation and relabelled for refinement), the hash, hierarchy and
+// drill start empty, the digest and counters at zero.
+//
+// `labels`, when not null, holds each tet's region label (`tet_count` `int32_t`s, any
+// values: a mesh file's region or physical tags): the world has one region per distinct
+// label, in ascending order, as `tetradrill replay` gives a mesh file's labels. Null: one
+// region, label 0, for every tet. Every region starts with the default material (hardness
+// 0, threshold 0, the parameters' stiffness: removed at once, whatever the force);
+// `td_world_set_region` changes it before the first step.
+//
+// # Bounded work
+// O(T log T) for the mesh build's face sort plus O(every capacity) to initialise the storage,
+// and O(T log R + R^2) to find the R distinct labels, for T tets; once, before the servo runs.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer (`mem` at the world's alignment, the arrays at
+// 4 bytes), `TD_ERR_PARAMS` as `td_world_size`, `TD_ERR_TOO_SMALL` when `len` is short,
+// `TD_ERR_MESH` for refused arrays (`*bad_item`, when `bad_item` is not null, gets the tet, or
+// for a non-finite position the node, at fault), `TD_ERR_LABEL` for more distinct labels
+// than `region_capacity` (`*bad_item` gets the first tet whose label does not fit),
+// `TD_ERR_WORLD` when the core refuses the storage. On any error after the checks of `mem`
+// the memory holds no world.
+//
+// # Safety
+// `params` points at an initialised `td_params`; `positions` at `3 * node_count` floats,
+// `tets` at `4 * tet_count` `uint32_t`s and `labels` at `tet_count` `int32_t`s or null, none
+// inside `mem`; `mem` at `len` writable bytes that the caller keeps, and does not read or
+// write, for as long as it uses the world (there is nothing to free: stop using the handle,
+// then reuse the memory); `out` at a writable `td_world *`; `bad_item` at a writable
+// `uint32_t` or null.
+enum td_status td_world_init(void *mem,
+                             size_t len,
+                             const struct td_params *params,
+                             const float *positions,
+                             const uint32_t *tets,
+                             const int32_t *labels,
+                             struct td_world **out,
+                             uint32_t *bad_item);
 
 // Sets the force pressing the burr against the material, `newtons`, held for `seconds`: the
 // next `td_world_simulate` earns each region's erosion from them. Without this call the

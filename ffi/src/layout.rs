@@ -138,6 +138,8 @@ pub struct Plan {
     pub mesh_lines: usize,
     /// `FaceKey` per tet face: the mesh build's scratch.
     pub scratch: usize,
+    /// Face keys in the scratch: 4 per tet, none for a mesh read in place.
+    pub faces: usize,
     /// The world's storage: [`WorldSizes::lines`] lines, carved by `WorldStorage::carve`
     /// (the core's one layout of a world's storage).
     pub world: usize,
@@ -200,7 +202,8 @@ fn positive(v: f32) -> bool {
 }
 
 impl Plan {
-    /// Checks `p` and lays out its world.
+    /// Checks `p` and lays out its world; `in_place`: the tets are read in place from a
+    /// blob, so the memory holds no tet records and no build scratch.
     ///
     /// # Bounded work
     /// Constant.
@@ -208,7 +211,7 @@ impl Plan {
     /// # Errors
     /// `TdErrParams` for a count or capacity out of range, a non-finite or out-of-range
     /// setting, or a world larger than the address space.
-    pub fn of(p: &TdParams) -> Result<Self, TdStatus> {
+    pub fn of(p: &TdParams, in_place: bool) -> Result<Self, TdStatus> {
         check((1..=TD_MAX_COUNT).contains(&p.node_count))?;
         check((1..=TD_MAX_COUNT).contains(&p.tet_count))?;
         check(p.hierarchy_capacity >= 8)?;
@@ -235,7 +238,8 @@ impl Plan {
             .with_sphere_memo(to_usize(p.sphere_memo_slots)?);
         sizes.candidates = to_usize(p.candidate_capacity)?;
         sizes.hash_entries = to_usize(p.hash_capacity)?;
-        let faces = tets.checked_mul(4).ok_or(TdStatus::TdErrParams)?;
+        let built = if in_place { 0 } else { tets };
+        let faces = built.checked_mul(4).ok_or(TdStatus::TdErrParams)?;
 
         let mut b = Builder {
             layout: Layout::new::<State>(),
@@ -243,7 +247,7 @@ impl Plan {
         let handoff = b.put::<SharedHandoff>(1)?;
         let servo = b.put::<ServoState>(1)?;
         let positions = b.put::<Vec3>(nodes)?;
-        let mesh_lines = MeshStorage::lines(nodes, tets).ok_or(TdStatus::TdErrParams)?;
+        let mesh_lines = MeshStorage::lines(nodes, built).ok_or(TdStatus::TdErrParams)?;
         let mesh = b.put::<Line>(mesh_lines)?;
         let scratch = b.put::<FaceKey>(faces)?;
         let world_lines = sizes.lines().ok_or(TdStatus::TdErrParams)?;
@@ -261,6 +265,7 @@ impl Plan {
             mesh,
             mesh_lines,
             scratch,
+            faces,
             world,
             world_lines,
             regions,
@@ -322,7 +327,7 @@ mod tests {
             r::<ServoState>(p.servo, 1),
             r::<Vec3>(p.positions, p.nodes),
             r::<Line>(p.mesh, p.mesh_lines),
-            r::<FaceKey>(p.scratch, 4 * p.tets),
+            r::<FaceKey>(p.scratch, p.faces),
             r::<Line>(p.world, p.world_lines),
             r::<Region>(p.regions, p.region_slots),
             r::<i32>(p.region_labels, p.region_slots),
@@ -338,7 +343,7 @@ mod tests {
             (729, 3072, 1 << 20, 1 << 15, 4096),
             (125, 384, 20_000, 16_384, 4096),
         ] {
-            let plan = Plan::of(&params(nodes, tets, arena, pending, memo)).expect("plan");
+            let plan = Plan::of(&params(nodes, tets, arena, pending, memo), false).expect("plan");
             assert!(plan.align.is_power_of_two());
             assert!(plan.align >= align_of::<State>());
             assert_eq!(plan.size % plan.align, 0);
@@ -365,7 +370,7 @@ mod tests {
     #[test]
     fn out_of_range_parameters_are_refused() {
         let ok = params(8, 6, 8, 1, 0);
-        assert!(Plan::of(&ok).is_ok());
+        assert!(Plan::of(&ok, false).is_ok());
         let bad: [fn(&mut TdParams); 15] = [
             |p| p.node_count = 0,
             |p| p.tet_count = TD_MAX_COUNT + 1,
@@ -386,7 +391,11 @@ mod tests {
         for (i, change) in bad.iter().enumerate() {
             let mut p = ok;
             change(&mut p);
-            assert_eq!(Plan::of(&p), Err(TdStatus::TdErrParams), "change {i}");
+            assert_eq!(
+                Plan::of(&p, false),
+                Err(TdStatus::TdErrParams),
+                "change {i}"
+            );
         }
     }
 
@@ -395,7 +404,7 @@ mod tests {
         // Every count at its largest: on a 64-bit machine the plan fits, on a 32-bit one it
         // must be refused; either way the size is at least the sum of the parts.
         let p = params(TD_MAX_COUNT, TD_MAX_COUNT, u32::MAX, u32::MAX, u32::MAX);
-        match Plan::of(&p) {
+        match Plan::of(&p, false) {
             Ok(plan) => {
                 let parts = size_of::<Pending>() as u128 * u128::from(u32::MAX)
                     + size_of::<HNode>() as u128 * u128::from(u32::MAX / 8 * 8);

@@ -43,11 +43,17 @@ pub enum TdStatus {
     TdErrLabel = 9,
     /// Materials are set before the first simulation step; this world has already stepped.
     TdErrStarted = 10,
+    /// A mesh file could not be read or built: missing, unreadable, or not what its extension
+    /// says (`td_file_error` names the line or byte and the reason).
+    TdErrFile = 11,
+    /// A mesh blob was refused: not a blob, another version, truncated, corrupted, or a record
+    /// out of range (`bad_item` gets the byte offset at fault).
+    TdErrBlob = 12,
 }
 
 impl TdStatus {
     /// Every status, in code order (for `td_status_name`).
-    pub(crate) const ALL: [TdStatus; 11] = [
+    pub(crate) const ALL: [TdStatus; 13] = [
         TdStatus::TdOk,
         TdStatus::TdErrNull,
         TdStatus::TdErrAlign,
@@ -59,6 +65,8 @@ impl TdStatus {
         TdStatus::TdErrInput,
         TdStatus::TdErrLabel,
         TdStatus::TdErrStarted,
+        TdStatus::TdErrFile,
+        TdStatus::TdErrBlob,
     ];
 
     /// A NUL-terminated line saying what the status means.
@@ -75,6 +83,8 @@ impl TdStatus {
             TdStatus::TdErrInput => c"a pose or pressing force is not finite or is negative",
             TdStatus::TdErrLabel => c"a region label is unknown, or there are too many labels",
             TdStatus::TdErrStarted => c"materials are set before the first simulation step",
+            TdStatus::TdErrFile => c"the mesh file could not be read (see td_file_error)",
+            TdStatus::TdErrBlob => c"the mesh blob was refused (see bad_item: the byte)",
         }
     }
 

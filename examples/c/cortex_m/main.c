@@ -11,7 +11,11 @@
  * older contact. The period is 168,000 instructions (1 ms at 168 MHz, one instruction a
  * cycle) under QEMU's `-icount shift=10`. The force digest is printed through semihosting;
  * scripts/c-example.sh --cortex-m compares it with `tetradrill replay --scenario
- * builtin:firmware`'s. */
+ * builtin:firmware`'s.
+ *
+ * Built with MESH_BLOB defined (make BLOB=FILE), the block comes from a mesh blob in flash
+ * (`tetradrill export --firmware FILE --mesh builtin:block:4`), its tets read in place by
+ * td_world_init_blob, instead of being built from arrays. */
 #include <stddef.h>
 #include <stdint.h>
 
@@ -25,8 +29,10 @@
 /* Room for the world: td_world_size says how much of it the scenario takes. */
 #define WORLD_BYTES (2u * 1024u * 1024u)
 
+#ifndef MESH_BLOB
 static float positions[3 * NODES];
 static uint32_t tet_nodes[4 * TETS];
+#endif
 static uint8_t world_mem[WORLD_BYTES] __attribute__((aligned(64)));
 
 /* Prints `name=`, `v` in decimal and a newline. */
@@ -110,15 +116,35 @@ void systick_handler(void) {
     released = i + 1;
 }
 
-int main(void) {
-    block_write(BLOCK_N, positions, tet_nodes);
+#ifdef MESH_BLOB
+/* The blob's bytes (blob.S). */
+extern const uint8_t mesh_blob[], mesh_blob_end[];
+#endif
 
+int main(void) {
     td_params p;
-    if (failed(firmware_params(NODES, TETS, &p), "td_params_default"))
-        return 1;
     size_t size = 0, align = 0;
-    if (failed(td_world_size(&p, &size, &align), "td_world_size"))
+#ifdef MESH_BLOB
+    const size_t blob_len = (size_t)(mesh_blob_end - mesh_blob);
+    uint32_t nodes = 0, tets = 0, bad_byte = 0;
+    td_status counted = td_blob_counts(mesh_blob, blob_len, &nodes, &tets, &bad_byte);
+    if (counted == TD_ERR_BLOB)
+        put_u32("bad_byte", bad_byte);
+    if (failed(counted, "td_blob_counts") || failed(firmware_params(nodes, tets, &p), "td_params_default"))
         return 1;
+    /* The blob carries the block's labels (its shell and its core): two regions, both of the
+     * default material, which drills as no material does. */
+    p.region_capacity = 2;
+    if (failed(td_world_size_blob(&p, &size, &align), "td_world_size_blob"))
+        return 1;
+    sh_puts("mesh=blob\n");
+#else
+    block_write(BLOCK_N, positions, tet_nodes);
+    if (failed(firmware_params(NODES, TETS, &p), "td_params_default") ||
+        failed(td_world_size(&p, &size, &align), "td_world_size"))
+        return 1;
+    sh_puts("mesh=arrays\n");
+#endif
     put_u32("world_bytes", (uint32_t)size);
     if (size > sizeof world_mem || align > 64) {
         sh_puts("error: the static world buffer is too small for this scenario\n");
@@ -126,8 +152,12 @@ int main(void) {
     }
     td_world *world = 0;
     uint32_t bad = 0;
+#ifdef MESH_BLOB
+    td_status st = td_world_init_blob(world_mem, sizeof world_mem, &p, mesh_blob, blob_len, &world, &bad);
+#else
     td_status st = td_world_init(world_mem, sizeof world_mem, &p, positions, tet_nodes, NULL, &world, &bad);
-    if (st == TD_ERR_MESH)
+#endif
+    if (st == TD_ERR_MESH || st == TD_ERR_BLOB)
         put_u32("bad_item", bad);
     if (failed(st, "td_world_init") || failed(td_world_servo(world, &servo), "td_world_servo"))
         return 1;

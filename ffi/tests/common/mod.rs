@@ -56,6 +56,14 @@ pub fn block_arrays(n: usize) -> (Vec<f32>, Vec<u32>) {
 /// The C parameters that mirror the host's scenario `sc` (what `replay` prints as sizing
 /// included), for a block of `n`.
 pub fn params_of(sc: &Setup, n: usize) -> TdParams {
+    let p = params_of_mesh(sc);
+    let (nn, nt) = tetradrill_core::builtin::block_counts(n);
+    assert_eq!((p.node_count, p.tet_count), (nn as u32, nt as u32));
+    p
+}
+
+/// The C parameters that mirror the host's scenario `sc`, for its own mesh.
+pub fn params_of_mesh(sc: &Setup) -> TdParams {
     let loaded = engine::load_mesh(sc).expect("scenario mesh");
     let tick = TickParams::of(sc).expect("tick params");
     let mesh = loaded.mesh;
@@ -64,7 +72,7 @@ pub fn params_of(sc: &Setup, n: usize) -> TdParams {
     let candidates = store.candidate_capacity();
     let arena = store.hierarchy_capacity();
     let max_cells = store.world().expect("world").max_cells();
-    let (nn, nt) = tetradrill_core::builtin::block_counts(n);
+    let (nn, nt) = (mesh.positions().len(), mesh.tets().len());
     let mut p = TdParams {
         node_count: 0,
         tet_count: 0,
