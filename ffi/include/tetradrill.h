@@ -13,6 +13,13 @@
 // host gives a burr (its scenarios' `DEFAULT_HIERARCHY_CAPACITY`).
 #define TD_DEFAULT_HIERARCHY_CAPACITY (1 << 20)
 
+// `td_script_*`: the demo path over the unit block (`builtin:demo`, 6,001 ticks).
+#define TD_SCRIPT_DEMO 0
+
+// `td_script_*`: the premolar's access cavity (`builtin:tooth-access`, 17,601 ticks), the
+// trace of `builtin:firmware-tooth`.
+#define TD_SCRIPT_TOOTH_ACCESS 1
+
 #if !defined(TETRADRILL_BARE_METAL)
 // Bytes of `td_file_error.message`, its NUL included.
 #define TD_FILE_MESSAGE 512
@@ -146,6 +153,10 @@ typedef struct td_params {
   // previous tick's contact, then the step (the RTIC firmware, whose servo interrupt
   // releases the step: the scenario key `servo_lag`, which `builtin:firmware` sets).
   uint32_t servo_lag;
+  // The candidate tets gathered through the hash in parts of at most this many work units
+  // a step, kept across steps as the burr moves (the scenario key `zone_gather_work`,
+  // `builtin:firmware-tooth` sets 2,000); 0: one zone query every step.
+  uint32_t zone_gather_work;
 } td_params;
 
 // A point or a force: three floats.
@@ -365,6 +376,31 @@ enum td_status td_world_counters(struct td_world *world, struct td_counters *out
 // # Bounded work
 // Constant.
 uint32_t td_demo_ticks(void);
+
+// Ticks of the scripted path `script` (`TD_SCRIPT_DEMO`, `TD_SCRIPT_TOOTH_ACCESS`) at 1 kHz;
+// 0 for a script that does not exist.
+//
+// # Bounded work
+// Constant.
+uint32_t td_script_ticks(uint32_t script_id);
+
+// The scripted path `script`'s tool position (`*position`) and buttons (`*buttons`, bit 0 =
+// drill on) at `tick`, bit for bit as the host's `replay` and the firmware compute them
+// (held at the ends).
+//
+// # Bounded work
+// O(key poses): at most nine.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_INPUT` for a script that does not
+// exist.
+//
+// # Safety
+// `position` points at a writable `td_vec3`, `buttons` at a writable `uint32_t`.
+enum td_status td_script_pose(uint32_t script_id,
+                              uint32_t tick,
+                              struct td_vec3 *position,
+                              uint32_t *buttons);
 
 // The demo path's tool position (`*position`) and buttons (`*buttons`, bit 0 = drill on) at
 // `tick`, bit for bit as the host's `replay` and the firmware compute them (held at the

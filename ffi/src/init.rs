@@ -3,6 +3,8 @@
 
 use super::*;
 
+use tetradrill_core::collide::{ZoneGather, ZONE_MARGIN_RADII};
+
 /// Writes `n` copies of `v` from `base + offset` on and returns them as a slice.
 ///
 /// # Safety
@@ -214,6 +216,9 @@ pub(crate) unsafe fn init(
     world.set_contact_max_nodes(p.contact_search_nodes);
     world.set_max_cells(p.max_cells);
     world.set_tick_budget((p.tick_budget > 0).then_some(p.tick_budget));
+    world.set_zone_gather(
+        (p.zone_gather_work > 0).then(|| ZoneGather::new(p.zone_gather_work, ZONE_MARGIN_RADII)),
+    );
     // SAFETY: as the carving above: the plan's servo region, aligned for its type; its magic
     // comes with it, so its handle is valid from here (the world's from below).
     unsafe {

@@ -314,6 +314,7 @@ mod tests {
             dt: 1e-3,
             switch_time: 0.0,
             servo_lag: 0,
+            zone_gather_work: 0,
         }
     }
 

@@ -22,6 +22,7 @@
 //! | [`td_world_counters`]    | digest, removed volume, saturations                           |
 //! | [`td_world_region`], [`td_world_region_at`] | a region's material and removed volume     |
 //! | [`td_demo_ticks`], [`td_demo_pose`] | the host's scripted demo path                      |
+//! | [`td_script_ticks`], [`td_script_pose`] | the demo or the tooth's access path            |
 //! | [`td_status_name`]       | one line per status code                                      |
 //!
 //! Rules at the boundary: every pointer is checked for null and alignment, every count and
@@ -58,7 +59,7 @@ use tetradrill_core::blob::MeshBlob;
 use tetradrill_core::drill::{DrillParams, Material, Region, Regions};
 use tetradrill_core::force::ForceParams;
 use tetradrill_core::mesh::{BuildError, BuildOptions, FaceKey, Mesh, MeshStorage};
-use tetradrill_core::script::DEMO;
+use tetradrill_core::script::{Script, DEMO, TOOTH_ACCESS};
 use tetradrill_core::servo::{
     ContactHandoff, Servo, World, WorldStorage, CONTACT_MAX_NODES, DEFAULT_MAX_CELLS,
     DEFAULT_PENDING, DEFAULT_SPHERE_MEMO,
@@ -221,6 +222,7 @@ pub unsafe extern "C" fn td_params_default(
         dt: force.dt,
         switch_time: force.switch_time,
         servo_lag: 0,
+        zone_gather_work: 0,
     };
     // SAFETY: the caller's contract on `out`; `put` checks null and alignment.
     status(|| unsafe { put(out, p) })
@@ -379,6 +381,21 @@ pub unsafe extern "C" fn td_world_counters(world: *mut TdWorld, out: *mut TdCoun
     })
 }
 
+/// `td_script_*`: the demo path over the unit block (`builtin:demo`, 6,001 ticks).
+pub const TD_SCRIPT_DEMO: u32 = 0;
+/// `td_script_*`: the premolar's access cavity (`builtin:tooth-access`, 17,601 ticks), the
+/// trace of `builtin:firmware-tooth`.
+pub const TD_SCRIPT_TOOTH_ACCESS: u32 = 1;
+
+/// The scripted path `script` names.
+fn script(script: u32) -> Option<Script<'static>> {
+    match script {
+        TD_SCRIPT_DEMO => Some(DEMO),
+        TD_SCRIPT_TOOTH_ACCESS => Some(TOOTH_ACCESS),
+        _ => None,
+    }
+}
+
 /// Ticks of the host's scripted demo path (`builtin:demo`, 6,001 at 1 kHz).
 ///
 /// # Bounded work
@@ -386,6 +403,49 @@ pub unsafe extern "C" fn td_world_counters(world: *mut TdWorld, out: *mut TdCoun
 #[no_mangle]
 pub extern "C" fn td_demo_ticks() -> u32 {
     DEMO.ticks()
+}
+
+/// Ticks of the scripted path `script` (`TD_SCRIPT_DEMO`, `TD_SCRIPT_TOOTH_ACCESS`) at 1 kHz;
+/// 0 for a script that does not exist.
+///
+/// # Bounded work
+/// Constant.
+#[no_mangle]
+pub extern "C" fn td_script_ticks(script_id: u32) -> u32 {
+    script(script_id).map_or(0, |s| s.ticks())
+}
+
+/// The scripted path `script`'s tool position (`*position`) and buttons (`*buttons`, bit 0 =
+/// drill on) at `tick`, bit for bit as the host's `replay` and the firmware compute them
+/// (held at the ends).
+///
+/// # Bounded work
+/// O(key poses): at most nine.
+///
+/// # Errors
+/// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_INPUT` for a script that does not
+/// exist.
+///
+/// # Safety
+/// `position` points at a writable `td_vec3`, `buttons` at a writable `uint32_t`.
+#[no_mangle]
+pub unsafe extern "C" fn td_script_pose(
+    script_id: u32,
+    tick: u32,
+    position: *mut TdVec3,
+    buttons: *mut u32,
+) -> TdStatus {
+    status(|| {
+        check_ptr(position)?;
+        check_ptr(buttons)?;
+        let (p, b) = script(script_id).ok_or(TdStatus::TdErrInput)?.at(tick);
+        // SAFETY: both checked above; writable by the caller's contract.
+        unsafe {
+            position.write(td_vec(p));
+            buttons.write(b);
+        }
+        Ok(())
+    })
 }
 
 /// The demo path's tool position (`*position`) and buttons (`*buttons`, bit 0 = drill on) at

@@ -160,6 +160,10 @@ pub struct TdParams {
     /// previous tick's contact, then the step (the RTIC firmware, whose servo interrupt
     /// releases the step: the scenario key `servo_lag`, which `builtin:firmware` sets).
     pub servo_lag: u32,
+    /// The candidate tets gathered through the hash in parts of at most this many work units
+    /// a step, kept across steps as the burr moves (the scenario key `zone_gather_work`,
+    /// `builtin:firmware-tooth` sets 2,000); 0: one zone query every step.
+    pub zone_gather_work: u32,
 }
 
 /// A point or a force: three floats.

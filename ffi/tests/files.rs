@@ -15,11 +15,11 @@ use tetradrill_ffi::*;
 mod common;
 use common::*;
 
-/// The tooth's access cavity, three materials, from its mesh file; one zone query a step
-/// (the C interface has no gather over steps).
+/// The tooth's access cavity, three materials, from its mesh file, its candidates gathered
+/// over steps (`zone_gather_work`).
 fn tooth() -> tetradrill::Setup {
-    let mut sc = builtin("firmware-tooth");
-    sc.drilling.zone_gather_work = 0;
+    let sc = builtin("firmware-tooth");
+    assert!(sc.drilling.zone_gather_work > 0);
     sc
 }
 
@@ -34,13 +34,24 @@ fn c_replay(sc: &tetradrill::Setup, world: *mut TdWorld) -> (u64, BTreeMap<i32, 
         assert_eq!(st, TdStatus::TdOk, "region {label}");
     }
     let mut f = TdVec3::default();
+    // The C interface's own copy of the trace is the host's, tick for tick.
+    assert_eq!(sc.poses.to_string(), "builtin:tooth-access");
+    assert_eq!(
+        u64::from(td_script_ticks(TD_SCRIPT_TOOTH_ACCESS)),
+        poses.ticks()
+    );
     for i in 0..poses.ticks() {
         let pose = poses.at(i);
-        let at = TdVec3 {
-            x: pose.position.x,
-            y: pose.position.y,
-            z: pose.position.z,
-        };
+        let (mut at, mut buttons) = (TdVec3::default(), 0u32);
+        // SAFETY: writable outputs.
+        let tick = u32::try_from(i).expect("ticks fit u32");
+        let st = unsafe { td_script_pose(TD_SCRIPT_TOOTH_ACCESS, tick, &mut at, &mut buttons) };
+        assert_eq!(st, TdStatus::TdOk);
+        assert_eq!(
+            ([at.x, at.y, at.z], buttons),
+            (pose.position.to_array(), pose.buttons),
+            "tick {i}"
+        );
         // SAFETY: a live world, a writable output.
         assert_eq!(
             unsafe { td_world_tick(world, at, pose.buttons, &mut f) },

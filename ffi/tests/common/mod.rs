@@ -96,6 +96,7 @@ pub fn params_of_mesh(sc: &Setup) -> TdParams {
         dt: 0.0,
         switch_time: 0.0,
         servo_lag: 0,
+        zone_gather_work: 0,
     };
     // SAFETY: `p` is a valid, aligned TdParams.
     assert_eq!(
@@ -119,6 +120,7 @@ pub fn params_of_mesh(sc: &Setup) -> TdParams {
     p.dt = tick.force.dt;
     p.switch_time = tick.force.switch_time;
     p.servo_lag = tick.servo_lag;
+    p.zone_gather_work = sc.drilling.zone_gather_work;
     p
 }
 
