@@ -40,8 +40,8 @@ impl Mesh {
         format!(
             "Mesh(format={:?}, nodes={}, tets={})",
             self.format,
-            numpy::PyUntypedArrayMethods::len(self.nodes.bind(py)),
-            numpy::PyUntypedArrayMethods::len(self.tets.bind(py))
+            numpy::PyUntypedArrayMethods::shape(self.nodes.bind(py))[0],
+            numpy::PyUntypedArrayMethods::shape(self.tets.bind(py))[0]
         )
     }
 }

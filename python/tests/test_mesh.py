@@ -50,7 +50,8 @@ def test_a_medit_file_as_it_lists_its_nodes_tets_and_labels(tmp_path):
     assert np.array_equal(m.tets, tets)
     assert np.array_equal(m.labels, labels)
     assert m.nodes.dtype == np.float64 and m.tets.dtype == np.int64 and m.labels.dtype == np.int32
-    assert m.format.lower().startswith("medit")
+    assert m.format == "medit"
+    assert repr(m) == 'Mesh(format="medit", nodes=5, tets=2)'
     # Each tet's line in the file.
     lines = MEDIT.splitlines()
     assert [lines[l - 1].split()[:4] for l in m.tet_lines] == [
