@@ -28,6 +28,8 @@ py="${PYTHON:-python3}"
 command -v "$py" >/dev/null || fail "no $py (install python3, python3-venv, python3-dev)"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
+# The tests run from elsewhere: a binary named relative to here, by its absolute path.
+case "${TETRADRILL_BIN:-/}" in /*) ;; *) TETRADRILL_BIN="$PWD/$TETRADRILL_BIN" ;; esac
 cd "$root"
 
 echo "python-check: a fresh virtual environment ($("$py" --version 2>&1))"
