@@ -8,10 +8,19 @@
 #                                     the same over libtetradrill_ffi.so
 #   scripts/c-example.sh --cortex-m   the bare-metal program: the library for
 #                                     thumbv7em-none-eabihf, examples/c/cortex_m linked with
-#                                     arm-none-eabi-gcc, run under QEMU (mps2-an386), compared
+#                                     arm-none-eabi-gcc, run under QEMU (mps2-an386, -icount)
+#                                     with the servo in the SysTick interrupt over the
+#                                     simulation's loop (prints servo=systick), compared
 #                                     with `replay --scenario builtin:firmware`'s digest;
+#                                     then the same with the block read in place from a
+#                                     mesh blob in flash (`tetradrill export --firmware`);
 #                                     before the run, the calls into core's panic entry
 #                                     points in the linked program are counted: above 0 fails
+#   scripts/c-example.sh --tsan       the two-thread program (examples/c/two_threads.c: the
+#                                     servo at 1 kHz on one thread, the simulation on the
+#                                     other) with the library and the program instrumented for
+#                                     ThreadSanitizer, run for TSAN_SECONDS (default 10);
+#                                     prints tsan_reports=N and fails above 0
 #   scripts/c-example.sh --surface OUT.obj
 #                                     the drilled surface: builds the library, compiles
 #                                     examples/c/surface_demo.c, which replays builtin:demo
@@ -35,11 +44,12 @@ obj=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --cortex-m) mode=cortex-m; shift ;;
+    --tsan) mode=tsan; shift ;;
     --surface)
       [ $# -ge 2 ] || { echo "c-example: --surface needs a file name (OUT.obj)" >&2; exit 2; }
       mode=surface; obj="$2"; shift 2 ;;
-    -h|--help) sed -n '2,31p' "$0"; exit 0 ;;
-    *) echo "c-example: unknown argument '$1' (expected --cortex-m or --surface OUT.obj)" >&2; exit 2 ;;
+    -h|--help) sed -n '2,39p' "$0"; exit 0 ;;
+    *) echo "c-example: unknown argument '$1' (expected --cortex-m, --tsan or --surface OUT.obj)" >&2; exit 2 ;;
   esac
 done
 target_dir="${CARGO_TARGET_DIR:-$root/target}"
@@ -49,12 +59,19 @@ trap 'rm -rf "$work"' EXIT
 cd "$root"
 
 # The host's digest of a built-in scenario, from `replay --json`.
-host_digest() {
+# The `tetradrill` binary: TETRADRILL_BIN, or the release build (built when missing).
+host_bin() {
   local bin="${TETRADRILL_BIN:-}"
   if [ -z "$bin" ]; then
-    cargo build --release --quiet -p tetradrill
+    cargo build --release --quiet -p tetradrill >&2
     bin="$target_dir/release/tetradrill"
   fi
+  echo "$bin"
+}
+
+host_digest() {
+  local bin
+  bin="$(host_bin)"
   "$bin" replay --scenario "builtin:$1" --quiet --json "$work/replay.json" >/dev/null \
     2>"$work/replay.err" || { cat "$work/replay.err" >&2; exit 1; }
   sed -n 's/.*"force_digest": *"\([0-9a-f]\{16\}\)".*/\1/p' "$work/replay.json" | head -1
@@ -172,42 +189,108 @@ if [ "$mode" = host ]; then
   exit 0
 fi
 
+if [ "$mode" = tsan ]; then
+  command -v gcc >/dev/null || { echo "c-example: no C compiler 'gcc' found (apt-get install gcc)" >&2; exit 1; }
+  seconds="${TSAN_SECONDS:-10}"
+  [[ "$seconds" =~ ^[0-9]+$ ]] && [ "$seconds" -gt 0 ] ||
+    { echo "c-example: TSAN_SECONDS takes a whole number of seconds, not '$seconds'" >&2; exit 2; }
+  host="$(rustc -vV | sed -n 's/^host: //p')"
+  echo "== libtetradrill_ffi.a instrumented for ThreadSanitizer ($host, profile ffi)"
+  # The stable compiler's -Zsanitizer=thread (an unstable flag: RUSTC_BOOTSTRAP for this test
+  # build only), so TSan sees the Rust side's memory accesses and atomics too; core and std
+  # come precompiled without it (hence the mismatch allowance), and the Rust code they inline
+  # into the library is instrumented with it.
+  RUSTC_BOOTSTRAP=1 RUSTFLAGS="-Zsanitizer=thread -Cunsafe-allow-abi-mismatch=sanitizer" \
+    cargo rustc --quiet -p tetradrill-ffi --profile ffi --target "$host" --crate-type staticlib \
+    --target-dir "$target_dir/tsan"
+  lib="$target_dir/tsan/$host/ffi/libtetradrill_ffi.a"
+  # The TSan runtime the Rust instrumentation was made for: rustc's own (Debian gcc 12's
+  # libtsan lacks the entry points a newer LLVM calls).
+  rt="$(ls "$(rustc --print sysroot)/lib/rustlib/$host/lib/"librustc-*_rt.tsan.a 2>/dev/null | head -1)"
+  [ -n "$rt" ] || { echo "c-example: rustc's ThreadSanitizer runtime (librustc-*_rt.tsan.a) not found in its sysroot" >&2; exit 1; }
+  echo "== gcc -fsanitize=thread examples/c/two_threads.c"
+  gcc -std=c11 -O1 -g -Wall -Wextra -Werror -ffp-contract=off -fsanitize=thread -I ffi/include \
+    -c examples/c/two_threads.c -o "$work/two_threads.o"
+  gcc "$work/two_threads.o" "$lib" -Wl,--whole-archive "$rt" -Wl,--no-whole-archive \
+    -lstdc++ -lgcc_s -lutil -lrt -lpthread -lm -ldl -lc -o "$work/two_threads"
+  echo "== run for $seconds s"
+  set +e
+  TSAN_OPTIONS="halt_on_error=0 exitcode=66" "$work/two_threads" "$seconds" \
+    >"$work/out.txt" 2>"$work/err.txt"
+  rc=$?
+  set -e
+  cat "$work/out.txt"
+  reports="$(grep -c '^WARNING: ThreadSanitizer' "$work/err.txt" || true)"
+  echo "tsan_reports=$reports"
+  if [ "$reports" != 0 ]; then
+    cat "$work/err.txt" >&2
+    echo "c-example: FAIL: ThreadSanitizer reported $reports problems" >&2
+    exit 1
+  fi
+  if [ "$rc" != 0 ]; then
+    cat "$work/err.txt" >&2
+    echo "c-example: FAIL: the two-thread program exited with status $rc" >&2
+    exit 1
+  fi
+  echo "c-example: OK, two threads for $seconds s, no ThreadSanitizer report"
+  exit 0
+fi
+
 command -v arm-none-eabi-gcc >/dev/null || { echo "c-example: arm-none-eabi-gcc not found (apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi)" >&2; exit 1; }
 command -v qemu-system-arm >/dev/null || { echo "c-example: qemu-system-arm not found (apt-get install qemu-system-arm)" >&2; exit 1; }
 echo "== libtetradrill_ffi.a for thumbv7em-none-eabihf (profile ffi)"
 cargo rustc --quiet -p tetradrill-ffi --profile ffi --target thumbv7em-none-eabihf --crate-type staticlib
 lib="$target_dir/thumbv7em-none-eabihf/ffi/libtetradrill_ffi.a"
-echo "== arm-none-eabi-gcc examples/c/cortex_m"
-make --quiet -C examples/c/cortex_m LIB="$lib" OUT="$work"
-elf="$work/replay_firmware.elf"
-arm-none-eabi-size "$elf"
-# Where a panic could still come from in the linked program (the handler faults, see
+echo "== arm-none-eabi-gcc examples/c/cortex_m, the block from arrays and from a mesh blob"
+bin="$(host_bin)"
+"$bin" export --quiet --firmware "$work/block4.tdb" --mesh builtin:block:4
+make --quiet -C examples/c/cortex_m LIB="$lib" OUT="$work" BLOB="$work/block4.tdb" \
+  "$work/replay_firmware.elf" blob
+# Where a panic could still come from in a linked program (the handler faults, see
 # docs/FFI.md): calls from outside `core` into its panic entry points (core::panicking, the
 # slice and str index failures, unwrap and expect, RefCell borrows), by the function that
 # makes them. More than $panic_max fails the check.
 panic_max=0
-sites="$(arm-none-eabi-objdump -d --no-show-raw-insn -C "$elf" | awk '
-  /^[0-9a-f]+ <.*>:$/ { fn = $0; sub(/^[0-9a-f]+ </, "", fn); sub(/>:$/, "", fn) }
-  !/^[0-9a-f]+ </ && fn !~ /^<?core::/ &&
-    /<core::(panicking::|slice::index::[a-z_]*fail|str::slice_error_fail|option::(unwrap|expect)_failed|result::unwrap_failed|cell::panic_)/ { n[fn]++; total++ }
-  END { print total + 0; for (f in n) printf "  %d %s\n", n[f], f }')"
-count="$(echo "$sites" | head -n1)"
-echo "panic call sites: $count (bound $panic_max)"
-echo "$sites" | tail -n +2
-if [ "$count" -gt "$panic_max" ]; then
-  echo "c-example: FAIL: $count panic call sites in the linked program, over the bound of $panic_max" >&2
-  exit 1
-fi
-echo "== run under QEMU (mps2-an386, cortex-m4)"
-set +e
-timeout "${C_EXAMPLE_TIMEOUT:-900}" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 \
-  -semihosting-config enable=on,target=native -nographic -kernel "$elf" \
-  </dev/null >"$work/out.txt" 2>&1
-rc=$?
-set -e
-cat "$work/out.txt"
-if [ "$rc" != 0 ]; then
-  echo "c-example: FAIL: the firmware exited with status $rc (124 = timeout)" >&2
-  exit 1
-fi
+panic_sites() {
+  arm-none-eabi-objdump -d --no-show-raw-insn -C "$1" | awk '
+    /^[0-9a-f]+ <.*>:$/ { fn = $0; sub(/^[0-9a-f]+ </, "", fn); sub(/>:$/, "", fn) }
+    !/^[0-9a-f]+ </ && fn !~ /^<?core::/ &&
+      /<core::(panicking::|slice::index::[a-z_]*fail|str::slice_error_fail|option::(unwrap|expect)_failed|result::unwrap_failed|cell::panic_)/ { n[fn]++; total++ }
+    END { print total + 0; for (f in n) printf "  %d %s\n", n[f], f }'
+}
+# Runs the program $1 under QEMU (the servo period is counted in instructions), output to $2.
+run_qemu() {
+  set +e
+  timeout "${C_EXAMPLE_TIMEOUT:-900}" qemu-system-arm -machine mps2-an386 -cpu cortex-m4 \
+    -icount shift=10,align=off,sleep=off -semihosting-config enable=on,target=native \
+    -nographic -kernel "$1" </dev/null >"$2" 2>&1
+  local rc=$?
+  set -e
+  cat "$2"
+  if [ "$rc" != 0 ]; then
+    echo "c-example: FAIL: the firmware exited with status $rc (124 = timeout)" >&2
+    exit 1
+  fi
+  grep -q '^servo=systick' "$2" ||
+    { echo "c-example: FAIL: the program did not run its servo in the SysTick interrupt" >&2; exit 1; }
+}
+for variant in replay_firmware replay_firmware_blob; do
+  elf="$work/$variant.elf"
+  arm-none-eabi-size "$elf"
+  sites="$(panic_sites "$elf")"
+  count="$(echo "$sites" | head -n1)"
+  echo "panic call sites in $variant: $count (bound $panic_max)"
+  echo "$sites" | tail -n +2
+  if [ "$count" -gt "$panic_max" ]; then
+    echo "c-example: FAIL: $count panic call sites in $variant, over the bound of $panic_max" >&2
+    exit 1
+  fi
+done
+echo "== run under QEMU (mps2-an386, cortex-m4): the block from arrays"
+run_qemu "$work/replay_firmware.elf" "$work/out.txt"
 compare "$work/out.txt" firmware
+echo "== run under QEMU: the block from the blob in flash, its tets read in place"
+run_qemu "$work/replay_firmware_blob.elf" "$work/out-blob.txt"
+grep -q '^mesh=blob' "$work/out-blob.txt" ||
+  { echo "c-example: FAIL: the blob program did not read its mesh from the blob" >&2; exit 1; }
+compare "$work/out-blob.txt" firmware

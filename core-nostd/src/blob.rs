@@ -359,11 +359,13 @@ impl<'a> MeshBlob<'a> {
         for i in 0..self.nodes {
             let at = self.node_at(i);
             let tet = le32(self.bytes, at);
-            let local = self.bytes[at + 4];
+            // The payload length was checked: every record lies inside the bytes.
+            let byte = |k: usize| self.bytes.get(at + k).copied().unwrap_or(u8::MAX);
+            let local = byte(4);
             if local > 3 {
                 return bad("node record: local vertex over 3", at + 4);
             }
-            if self.bytes[at + 5] > 1 {
+            if byte(5) > 1 {
                 return bad("node record: boundary flag not 0 or 1", at + 5);
             }
             if tet == TetId::NONE.0 {
@@ -371,7 +373,7 @@ impl<'a> MeshBlob<'a> {
             }
             match self.view.nodes(TetId(tet)) {
                 None => return bad("node record: tet id out of range", at),
-                Some(ids) if ids[local as usize].idx() != i => {
+                Some(ids) if ids.get(usize::from(local)).map(|n| n.idx()) != Some(i) => {
                     return bad("node record: its tet does not use the node", at)
                 }
                 Some(_) => {}
@@ -430,11 +432,8 @@ impl<'a> MeshBlob<'a> {
     pub fn node(&self, n: NodeId) -> Option<Node> {
         (n.idx() < self.nodes).then(|| {
             let at = self.node_at(n.idx());
-            Node::new(
-                TetId(le32(self.bytes, at)),
-                self.bytes[at + 4],
-                self.bytes[at + 5] != 0,
-            )
+            let byte = |i: usize| self.bytes.get(at + i).copied().unwrap_or(0);
+            Node::new(TetId(le32(self.bytes, at)), byte(4), byte(5) != 0)
         })
     }
 
@@ -468,19 +467,23 @@ impl<'a> MeshBlob<'a> {
         nodes: &'a mut [Node],
     ) -> Result<Mesh<'a>, BlobError> {
         let n = self.nodes;
-        if positions.len() < n || normals.len() < n || nodes.len() < n {
+        if normals.len() < n || nodes.len() < n {
             return Err(BlobError::Buffer);
         }
-        let (positions, _) = positions.split_at_mut(n);
+        let (positions, _) = positions.split_at_mut_checked(n).ok_or(BlobError::Buffer)?;
         let mut stats = BuildStats::default();
-        for i in 0..n {
+        let slots = positions
+            .iter_mut()
+            .zip(normals.iter_mut())
+            .zip(nodes.iter_mut());
+        for (i, ((p, nrm), node)) in slots.enumerate() {
             let id = NodeId::from_idx(i);
-            positions[i] = self.position(id).unwrap_or(Vec3::ZERO);
-            normals[i] = self.normal(id).unwrap_or(Vec3::ZERO);
+            *p = self.position(id).unwrap_or(Vec3::ZERO);
+            *nrm = self.normal(id).unwrap_or(Vec3::ZERO);
             let rec = self.node(id).unwrap_or_default();
             stats.boundary_nodes += rec.boundary() as u32;
             stats.unreferenced_nodes += rec.tet.is_none() as u32;
-            nodes[i] = rec;
+            *node = rec;
         }
         for t in 0..self.tets {
             for f in 0..4 {

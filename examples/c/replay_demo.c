@@ -27,9 +27,13 @@ int main(void) {
 
     td_counters c;
     demo_check(td_world_counters(world, &c), "td_world_counters");
+    td_servo *servo = NULL;
+    td_servo_counts sc;
+    demo_check(td_world_servo(world, &servo), "td_world_servo");
+    demo_check(td_servo_counters(servo, &sc), "td_servo_counters");
     printf("world_bytes=%zu\n", size);
-    printf("ticks=%llu\n", (unsigned long long)c.servo_ticks);
-    printf("contact_ticks=%llu\n", (unsigned long long)c.contact_ticks);
+    printf("ticks=%llu\n", (unsigned long long)sc.servo_ticks);
+    printf("contact_ticks=%llu\n", (unsigned long long)sc.contact_ticks);
     printf("removed_volume=%.6f\n", c.removed_volume);
     printf("hierarchy_nodes=%llu\n", (unsigned long long)c.hierarchy_nodes);
     printf("visible_faces=%u\n", (unsigned)c.visible_faces);
@@ -41,7 +45,7 @@ int main(void) {
         demo_check(td_world_region_at(world, i, &r), "td_world_region_at");
         printf("removed_by_region.%d=%.6f\n", (int)r.label, r.removed_volume);
     }
-    printf("force_digest=%016llx\n", (unsigned long long)c.force_digest);
+    printf("force_digest=%016llx\n", (unsigned long long)sc.force_digest);
 
     /* Nothing to tear down in the world: its memory is simply given back. */
     free(world);

@@ -13,6 +13,18 @@
 // host gives a burr (its scenarios' `DEFAULT_HIERARCHY_CAPACITY`).
 #define TD_DEFAULT_HIERARCHY_CAPACITY (1 << 20)
 
+// `td_script_*`: the demo path over the unit block (`builtin:demo`, 6,001 ticks).
+#define TD_SCRIPT_DEMO 0
+
+// `td_script_*`: the premolar's access cavity (`builtin:tooth-access`, 17,601 ticks), the
+// trace of `builtin:firmware-tooth`.
+#define TD_SCRIPT_TOOTH_ACCESS 1
+
+#if !defined(TETRADRILL_BARE_METAL)
+// Bytes of `td_file_error.message`, its NUL included.
+#define TD_FILE_MESSAGE 512
+#endif
+
 // The most nodes or tets a world takes: every size the core derives from the counts (8 hash
 // entries per tet, a v_list of the tets plus 7/8 of the arena) then fits in 32 bits.
 #define TD_MAX_COUNT (1 << 28)
@@ -59,7 +71,23 @@ typedef enum td_status {
   TD_ERR_LABEL = 9,
   // Materials are set before the first simulation step; this world has already stepped.
   TD_ERR_STARTED = 10,
+  // A mesh file could not be read or built: missing, unreadable, or not what its extension
+  // says (`td_file_error` names the line or byte and the reason).
+  TD_ERR_FILE = 11,
+  // A mesh blob was refused: not a blob, another version, truncated, corrupted, or a record
+  // out of range (`bad_item` gets the byte offset at fault).
+  TD_ERR_BLOB = 12,
 } td_status;
+
+#if !defined(TETRADRILL_BARE_METAL)
+// A mesh file read and built (`td_mesh_file_read`): its arrays, owned by the library
+// until `td_mesh_file_free`. Opaque.
+typedef struct td_mesh_file td_mesh_file;
+#endif
+
+// A world's servo, from `td_world_servo`: its own part of the world's memory, which the
+// servo's force call uses alone. Opaque: C holds a pointer to it and never reads it.
+typedef struct td_servo td_servo;
 
 // A surface set up by `td_surface_init` in caller memory. Opaque: C holds a pointer to it
 // (the start of the memory it gave) and never reads it.
@@ -133,6 +161,10 @@ typedef struct td_params {
   // previous tick's contact, then the step (the RTIC firmware, whose servo interrupt
   // releases the step: the scenario key `servo_lag`, which `builtin:firmware` sets).
   uint32_t servo_lag;
+  // The candidate tets gathered through the hash in parts of at most this many work units
+  // a step, kept across steps as the burr moves (the scenario key `zone_gather_work`,
+  // `builtin:firmware-tooth` sets 2,000); 0: one zone query every step.
+  uint32_t zone_gather_work;
 } td_params;
 
 // A point or a force: three floats.
@@ -169,15 +201,8 @@ typedef struct td_sim_report {
 
 // A world's counters since `td_world_init`.
 typedef struct td_counters {
-  // FNV-1a 64 digest of every force `td_world_servo_force` returned, in order: the
-  // `force_digest` of `tetradrill replay` (printed as 16 hex digits).
-  uint64_t force_digest;
-  // `td_world_servo_force` calls.
-  uint64_t servo_ticks;
   // `td_world_simulate` calls.
   uint64_t simulate_steps;
-  // Servo ticks whose force was not zero.
-  uint64_t contact_ticks;
   // Volume of the mesh before drilling, mesh units cubed.
   double initial_volume;
   // Volume the drill removed, mesh units cubed.
@@ -203,6 +228,36 @@ typedef struct td_counters {
   uint32_t region_count;
 } td_counters;
 
+#if !defined(TETRADRILL_BARE_METAL)
+// Why a mesh file was refused: the line (text formats) or byte (binary formats) at fault
+// where the reader knows it, and the reader's one line naming the file and the reason.
+typedef struct td_file_error {
+  // Line of the file, from 1; 0 when the error names no line.
+  uint64_t line;
+  // Byte offset into a binary file, from 0; `UINT64_MAX` when the error names no byte.
+  uint64_t byte;
+  // NUL-terminated UTF-8 (cut at a character boundary when longer).
+  char message[TD_FILE_MESSAGE];
+} td_file_error;
+#endif
+
+#if !defined(TETRADRILL_BARE_METAL)
+// A mesh file's arrays, as `td_world_init` takes them (`labels` null when the file has
+// none). The pointers stay valid until `td_mesh_file_free`.
+typedef struct td_mesh_arrays {
+  // Nodes (`3 * node_count` floats in `positions`).
+  uint32_t node_count;
+  // Tets (`4 * tet_count` indices in `tets`, `tet_count` labels).
+  uint32_t tet_count;
+  // x, y, z of each node, scaled.
+  const float *positions;
+  // Four node indices from 0 per tet.
+  const uint32_t *tets;
+  // Each tet's region label, or null when the file has none.
+  const int32_t *labels;
+} td_mesh_arrays;
+#endif
+
 // One region of a world: its label, its material and the volume removed from it.
 typedef struct td_region {
   // The region's label (the mesh's, from `td_world_init`'s `labels`; 0 without them).
@@ -218,6 +273,23 @@ typedef struct td_region {
   // `tetradrill replay`).
   double removed_volume;
 } td_region;
+
+// A servo's counters (`td_servo_counters`).
+typedef struct td_servo_counts {
+  // FNV-1a 64 digest of every force `td_servo_force` returned, in order: the
+  // `force_digest` of `tetradrill replay` (printed as 16 hex digits).
+  uint64_t force_digest;
+  // `td_servo_force` calls (`td_world_tick` makes one each).
+  uint64_t servo_ticks;
+  // Servo ticks whose force was not zero.
+  uint64_t contact_ticks;
+  // Servo ticks that rendered from the contact before, every read of the hand-off having
+  // been overtaken by a step published meanwhile (only with the two on different cores).
+  uint64_t stale_reads;
+  // The number of the step whose contact the last tick rendered (steps counted from 1; 0:
+  // no step yet).
+  uint32_t step;
+} td_servo_counts;
 
 // A run of triangle slots a `td_surface_update` wrote: `count` slots from `first` (vertices
 // `3 * first` to `3 * (first + count) - 1` of every buffer).
@@ -315,6 +387,218 @@ enum td_status td_params_default(uint32_t node_count,
 // `size_t`s.
 enum td_status td_world_size(const struct td_params *params, size_t *out_size, size_t *out_align);
 
+// One simulation step with the tool at `position`: the coarse tets near it, the drill's
+// budgeted erosion when bit 0 of `buttons` is set, and the contact with the drilled surface
+// for the servo. `*report`, when `report` is not null, says what the step did.
+//
+// The step publishes its contact to the world's servo (`td_world_servo`,
+// `td_servo_force`), which may preempt this call or run beside it on another thread.
+//
+// Materials: the regions earn their erosion from the pressing force: the magnitude of the
+// servo's last force, held for the servo periods since the previous step (as `tetradrill
+// replay` and the host's two tasks feed it), or, once `td_world_set_pressing` was called,
+// the force it last set; no servo tick yet: zero newtons, which removes only the regions of
+// threshold and hardness zero. The first step hands the regions to the core, after which
+// `td_world_set_region` is refused.
+//
+// # Bounded work
+// `World::simulate`'s: at most `max_cells` hash cells and `candidate_capacity` tets, at most
+// `budget_per_tick` drill work units (plus one operation's overshoot) and
+// `contact_search_nodes` node tests (under `tick_budget` when set, both together), one work
+// unit of the drill's per region of non-zero hardness; the first step also O(T) once, for T
+// tets (the core checks each tet's region).
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the world, `TD_ERR_ALIGN` for
+// `report`, `TD_ERR_INPUT` for a non-finite position (nothing is done).
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's; `report` is
+// null or points at a writable `td_sim_report`.
+enum td_status td_world_simulate(struct td_world *world,
+                                 struct td_vec3 position,
+                                 uint32_t buttons,
+                                 struct td_sim_report *report);
+
+// Writes the world's counters to `*out`: the force digest, ticks, volumes, hierarchy and
+// saturation counts.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_simulate` for the world; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's; `out` points
+// at a writable `td_counters`.
+enum td_status td_world_counters(struct td_world *world, struct td_counters *out);
+
+// Ticks of the host's scripted demo path (`builtin:demo`, 6,001 at 1 kHz).
+//
+// # Bounded work
+// Constant.
+uint32_t td_demo_ticks(void);
+
+// Ticks of the scripted path `script` (`TD_SCRIPT_DEMO`, `TD_SCRIPT_TOOTH_ACCESS`) at 1 kHz;
+// 0 for a script that does not exist.
+//
+// # Bounded work
+// Constant.
+uint32_t td_script_ticks(uint32_t script_id);
+
+// The scripted path `script`'s tool position (`*position`) and buttons (`*buttons`, bit 0 =
+// drill on) at `tick`, bit for bit as the host's `replay` and the firmware compute them
+// (held at the ends).
+//
+// # Bounded work
+// O(key poses): at most nine.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_INPUT` for a script that does not
+// exist.
+//
+// # Safety
+// `position` points at a writable `td_vec3`, `buttons` at a writable `uint32_t`.
+enum td_status td_script_pose(uint32_t script_id,
+                              uint32_t tick,
+                              struct td_vec3 *position,
+                              uint32_t *buttons);
+
+// The demo path's tool position (`*position`) and buttons (`*buttons`, bit 0 = drill on) at
+// `tick`, bit for bit as the host's `replay` and the firmware compute them (held at the
+// ends). The path is over the unit block `[-0.5, 0.5]^3`.
+//
+// # Bounded work
+// O(key poses): seven.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer.
+//
+// # Safety
+// `position` points at a writable `td_vec3`, `buttons` at a writable `uint32_t`.
+enum td_status td_demo_pose(uint32_t tick, struct td_vec3 *position, uint32_t *buttons);
+
+// A static NUL-terminated line saying what status `code` means (`"unknown status"` for a
+// code no function returns).
+//
+// # Bounded work
+// Constant.
+const char *td_status_name(int32_t code);
+
+// Checks the mesh blob at `blob` (`len` bytes, as `tetradrill export --firmware` writes it)
+// and writes its node and tet counts, for `td_params_default`.
+//
+// # Bounded work
+// O(blob length): the checksum and every record's ids.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer; `TD_ERR_BLOB` for a refused blob, with the
+// byte offset at fault in `*bad_item` when `bad_item` is not null (`UINT32_MAX`: none).
+//
+// # Safety
+// `blob` points at `len` readable bytes; `nodes` and `tets` at writable `uint32_t`s;
+// `bad_item` at a writable `uint32_t` or null.
+enum td_status td_blob_counts(const uint8_t *blob,
+                              size_t len,
+                              uint32_t *nodes,
+                              uint32_t *tets,
+                              uint32_t *bad_item);
+
+// `td_world_size` for a world whose mesh is read in place from a blob
+// (`td_world_init_blob`): no tet records and no build scratch in the world's memory.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_size`.
+//
+// # Safety
+// As `td_world_size`.
+enum td_status td_world_size_blob(const struct td_params *params,
+                                  size_t *out_size,
+                                  size_t *out_align);
+
+// `td_world_init` with the mesh read in place from the blob at `blob` (`len` bytes): its
+// tets stay in the blob (in flash on a microcontroller), its positions, normals and node
+// records are copied into `mem`, and its region labels give the world's regions as a mesh
+// file's do. `params` counts must be the blob's (`td_blob_counts`); `mem` is sized by
+// `td_world_size_blob`.
+//
+// # Bounded work
+// O(blob length) to check it, O(N + T) to copy the nodes and count the faces, O(every
+// capacity) to initialise the storage, O(T log R + R^2) for the labels; once.
+//
+// # Errors
+// As `td_world_init`, with `TD_ERR_BLOB` for a refused blob (`*bad_item` gets the byte at
+// fault) and `TD_ERR_PARAMS` for counts other than the blob's.
+//
+// # Safety
+// As `td_world_init` for `mem`, `params`, `out` and `bad_item`; `blob` points at `len`
+// readable bytes outside `mem` that stay unchanged for as long as the world is used (the
+// world reads its tets there).
+enum td_status td_world_init_blob(void *mem,
+                                  size_t len,
+                                  const struct td_params *params,
+                                  const uint8_t *blob,
+                                  size_t blob_len,
+                                  struct td_world **out,
+                                  uint32_t *bad_item);
+
+#if !defined(TETRADRILL_BARE_METAL)
+// Reads the mesh file at `path` (NUL-terminated; any format `tetradrill` reads: .node/.ele,
+// .mesh, .meshb, .msh, .vtk, .vtu, each also .gz), scales it by `scale` and builds it as
+// `tetradrill` does (unreferenced nodes dropped, nodes and tets in spatial order,
+// orientation fixed), with its region labels; writes a handle to `*out`, whose arrays
+// (`td_mesh_file_arrays`) go to `td_world_init`. Hosted builds only; it allocates (a
+// set-up call, never the servo's).
+//
+// # Bounded work
+// O(file size + T log T).
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for `path` or `out`; `TD_ERR_PARAMS` for a scale that is
+// not positive and finite; `TD_ERR_FILE` for a file that cannot be read or built, with
+// `*err` (when not null) naming the line or byte and the reason.
+//
+// # Safety
+// `path` points at a NUL-terminated string; `out` at a writable `td_mesh_file *`; `err`
+// at a writable `td_file_error` or null.
+enum td_status td_mesh_file_read(const char *path,
+                                 double scale,
+                                 struct td_mesh_file **out,
+                                 struct td_file_error *err);
+#endif
+
+#if !defined(TETRADRILL_BARE_METAL)
+// Writes the arrays of a mesh file read by `td_mesh_file_read` to `*out`.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer.
+//
+// # Safety
+// `file` is a handle from `td_mesh_file_read` not yet freed; `out` points at a writable
+// `td_mesh_arrays`.
+enum td_status td_mesh_file_arrays(const struct td_mesh_file *file, struct td_mesh_arrays *out);
+#endif
+
+#if !defined(TETRADRILL_BARE_METAL)
+// Frees a mesh file's arrays (a world built from them does not need them). Null does
+// nothing.
+//
+// # Bounded work
+// Constant (the allocator's free).
+//
+// # Safety
+// `file` is null or a handle from `td_mesh_file_read` not yet freed; its arrays are not
+// used afterwards.
+void td_mesh_file_free(struct td_mesh_file *file);
+#endif
+
 // Builds the mesh from `positions` (`3 * node_count` floats: x, y, z of each node) and
 // `tets` (`4 * tet_count` node indices from 0, any orientation), then the world over it,
 // all inside `mem` (`len` bytes, aligned as `td_world_size` says), and writes the world's
@@ -358,120 +642,12 @@ enum td_status td_world_init(void *mem,
                              struct td_world **out,
                              uint32_t *bad_item);
 
-// One simulation step with the tool at `position`: the coarse tets near it, the drill's
-// budgeted erosion when bit 0 of `buttons` is set, and the contact with the drilled surface
-// for the servo. `*report`, when `report` is not null, says what the step did.
-//
-// Materials: the regions earn their erosion from the pressing force last set, by
-// `td_world_tick` (the previous tick's servo force, as `tetradrill replay` runs) or by
-// `td_world_set_pressing` (a caller running this step and `td_world_servo_force` in two
-// tasks sets it before each step); none set: zero newtons, which removes only the regions
-// of threshold and hardness zero. The first step hands the regions to the core, after which
-// `td_world_set_region` is refused.
-//
-// # Bounded work
-// `World::simulate`'s: at most `max_cells` hash cells and `candidate_capacity` tets, at most
-// `budget_per_tick` drill work units (plus one operation's overshoot) and
-// `contact_search_nodes` node tests (under `tick_budget` when set, both together), one work
-// unit of the drill's per region of non-zero hardness; the first step also O(T) once, for T
-// tets (the core checks each tet's region).
-//
-// # Errors
-// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the world, `TD_ERR_ALIGN` for
-// `report`, `TD_ERR_INPUT` for a non-finite position (nothing is done).
-//
-// # Safety
-// `world` is a handle from `td_world_init` whose memory is still the caller's; `report` is
-// null or points at a writable `td_sim_report`.
-enum td_status td_world_simulate(struct td_world *world,
-                                 struct td_vec3 position,
-                                 uint32_t buttons,
-                                 struct td_sim_report *report);
-
-// The force on the tool at `position` from the last step's contact plane (stiffness times
-// depth, damping, a bounded switch between planes, clamped to `max_force`), written to
-// `*force`; it enters the world's force digest and counters.
-//
-// # Bounded work
-// Constant.
-//
-// # Errors
-// As `td_world_simulate`, and `TD_ERR_NULL` / `TD_ERR_ALIGN` for `force`. On an error the
-// force is not written: render zero.
-//
-// # Safety
-// `world` is a handle from `td_world_init` whose memory is still the caller's; `force`
-// points at a writable `td_vec3`.
-enum td_status td_world_servo_force(struct td_world *world,
-                                    struct td_vec3 position,
-                                    struct td_vec3 *force);
-
-// One whole tick as `tetradrill replay` runs it. With `td_params.servo_lag` 0:
-// `td_world_simulate` at `position` with `buttons`, then `td_world_servo_force` at the same
-// position; with 1: `td_world_servo_force` from the previous tick's contact, then
-// `td_world_simulate`. The force goes to `*force`, and its magnitude presses the burr for one
-// servo period (`dt`) at the next step (`td_world_set_pressing`), as the host's replay feeds
-// the materials.
-//
-// # Bounded work
-// `td_world_simulate`'s plus a constant.
-//
-// # Errors
-// As the two calls; on an error nothing more is done and the force is not written.
-//
-// # Safety
-// As `td_world_servo_force`.
-enum td_status td_world_tick(struct td_world *world,
-                             struct td_vec3 position,
-                             uint32_t buttons,
-                             struct td_vec3 *force);
-
-// Writes the world's counters to `*out`: the force digest, ticks, volumes, hierarchy and
-// saturation counts.
-//
-// # Bounded work
-// Constant.
-//
-// # Errors
-// As `td_world_simulate` for the world; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
-//
-// # Safety
-// `world` is a handle from `td_world_init` whose memory is still the caller's; `out` points
-// at a writable `td_counters`.
-enum td_status td_world_counters(struct td_world *world, struct td_counters *out);
-
-// Ticks of the host's scripted demo path (`builtin:demo`, 6,001 at 1 kHz).
-//
-// # Bounded work
-// Constant.
-uint32_t td_demo_ticks(void);
-
-// The demo path's tool position (`*position`) and buttons (`*buttons`, bit 0 = drill on) at
-// `tick`, bit for bit as the host's `replay` and the firmware compute them (held at the
-// ends). The path is over the unit block `[-0.5, 0.5]^3`.
-//
-// # Bounded work
-// O(key poses): seven.
-//
-// # Errors
-// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer.
-//
-// # Safety
-// `position` points at a writable `td_vec3`, `buttons` at a writable `uint32_t`.
-enum td_status td_demo_pose(uint32_t tick, struct td_vec3 *position, uint32_t *buttons);
-
-// A static NUL-terminated line saying what status `code` means (`"unknown status"` for a
-// code no function returns).
-//
-// # Bounded work
-// Constant.
-const char *td_status_name(int32_t code);
-
-// Sets the force pressing the burr against the material, `newtons` (the magnitude of the
-// servo's latest force), held for `seconds` (the servo periods since the previous step): the
-// next `td_world_simulate` earns each region's erosion from them. `td_world_tick` sets it
-// itself; a caller running `td_world_simulate` and `td_world_servo_force` in two tasks calls
-// this before each step. It stays until set again. Without materials it changes nothing.
+// Sets the force pressing the burr against the material, `newtons`, held for `seconds`: the
+// next `td_world_simulate` earns each region's erosion from them. Without this call the
+// world takes them from its servo (the magnitude of its last force, for the periods since the
+// previous step); once called, the world keeps the caller's value until set again and no
+// longer takes the servo's (for a force that reaches the drill another way, or a test).
+// Without materials it changes nothing.
 //
 // # Bounded work
 // Constant.
@@ -534,6 +710,81 @@ enum td_status td_world_region(struct td_world *world, int32_t label, struct td_
 // # Safety
 // As `td_world_region`.
 enum td_status td_world_region_at(struct td_world *world, uint32_t index, struct td_region *out);
+
+// Writes the world's servo handle to `*out`: the part of the world's memory the servo's force
+// call uses alone. Take it once, before the servo's task or interrupt starts; it stays valid
+// as long as the world.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_simulate` for the world; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's, not in use by
+// another world call meanwhile; `out` points at a writable `td_servo *`.
+enum td_status td_world_servo(struct td_world *world, struct td_servo **out);
+
+// The force on the tool at `position` from the newest contact a step published (stiffness
+// times depth, damping, a bounded switch between planes, clamped to `max_force`), written
+// to `*force`; it enters the servo's digest and counters, and its magnitude presses the burr
+// at the world's next step.
+//
+// May preempt `td_world_simulate` (a timer interrupt over the simulation's loop) or run
+// beside it on another thread: the two share only the hand-off's atomics. With the two on
+// different cores a read overtaken by the steps published meanwhile is tried again, at most
+// 4 times, then the contact before is kept (`stale_reads`).
+//
+// # Bounded work
+// Constant: at most 4 reads of 14 words and the force. Never waits.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the servo, `TD_ERR_NULL` /
+// `TD_ERR_ALIGN` for `force`, `TD_ERR_INPUT` for a non-finite position. On an error the force
+// is not written (render zero) and nothing is counted.
+//
+// # Safety
+// `servo` is a handle from `td_world_servo` whose world's memory is still the caller's, with
+// one servo call at a time (this one or `td_world_tick`); `force` points at a writable
+// `td_vec3`.
+enum td_status td_servo_force(struct td_servo *servo,
+                              struct td_vec3 position,
+                              struct td_vec3 *force);
+
+// Writes the servo's counters to `*out`: the force digest, its ticks, those in contact, the
+// reads that kept an older contact, and the step it renders from. Call it from the servo's
+// task (or when the servo is not running).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_servo_force` for the servo; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// As `td_servo_force`; `out` points at a writable `td_servo_counters`.
+enum td_status td_servo_counters(struct td_servo *servo, struct td_servo_counts *out);
+
+// One whole tick as `tetradrill replay` runs it, in one task. With `td_params.servo_lag` 0:
+// `td_world_simulate` at `position` with `buttons`, then the world's `td_servo_force` at the
+// same position; with 1: the servo force from the previous tick's contact, then
+// `td_world_simulate`. The force goes to `*force`; its magnitude presses the burr for one
+// servo period (`dt`) at the next step.
+//
+// # Bounded work
+// `td_world_simulate`'s plus a constant.
+//
+// # Errors
+// As the two calls; on an error nothing more is done and the force is not written.
+//
+// # Safety
+// As `td_world_simulate`, and no servo call on this world's servo meanwhile; `force` points
+// at a writable `td_vec3`.
+enum td_status td_world_tick(struct td_world *world,
+                             struct td_vec3 position,
+                             uint32_t buttons,
+                             struct td_vec3 *force);
 
 // Writes the bytes (`*out_size`) and the alignment (`*out_align`, 64) a surface of
 // `max_triangles` triangle slots over `world` needs: 16 bytes a slot and 16 a coarse tet,

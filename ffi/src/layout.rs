@@ -7,9 +7,9 @@ use core::alloc::Layout;
 use core::mem::size_of;
 
 use tetradrill_core::drill::{DrillParams, Region};
-use tetradrill_core::force::{ForceDigest, ForceParams, ToolState};
+use tetradrill_core::force::ForceParams;
 use tetradrill_core::mesh::{FaceKey, MeshStorage};
-use tetradrill_core::servo::{World, WorldSizes};
+use tetradrill_core::servo::{ContactHandoff, Servo, World, WorldSizes};
 use tetradrill_core::storage::Line;
 use tetradrill_core::Vec3;
 
@@ -17,6 +17,29 @@ use crate::types::{TdParams, TdStatus};
 
 /// Marks a [`State`] that `td_world_init` finished ("tdworld1").
 pub const MAGIC: u64 = u64::from_le_bytes(*b"tdworld1");
+
+/// Marks a [`ServoState`] that `td_world_init` finished ("tdservo1").
+pub const SERVO_MAGIC: u64 = u64::from_le_bytes(*b"tdservo1");
+
+/// The contact hand-off on a cache line of its own: the simulation's and the servo's only
+/// shared memory, reached through shared references alone (its words are atomics).
+#[derive(Debug, Default)]
+#[repr(C, align(64))]
+pub struct SharedHandoff(pub ContactHandoff);
+
+/// The servo's own part of a world's memory, apart from the [`State`] so that the servo may
+/// preempt the simulation (or run beside it) without either touching the other's memory:
+/// the core's [`Servo`] and the hand-off it reads. `td_world_servo` hands C a pointer to it.
+#[derive(Debug)]
+#[repr(C, align(64))]
+pub struct ServoState {
+    /// [`SERVO_MAGIC`] once set up; zero while `td_world_init` works on the memory.
+    pub magic: u64,
+    /// The servo: its contact, tool state, force settings, digest and counters.
+    pub servo: Servo,
+    /// The contact hand-off, shared with the world's [`State`].
+    pub handoff: &'static ContactHandoff,
+}
 
 /// The most nodes or tets a world takes: every size the core derives from the counts (8 hash
 /// entries per tet, a v_list of the tets plus 7/8 of the arena) then fits in 32 bits.
@@ -44,10 +67,16 @@ pub struct State {
     pub magic: u64,
     /// The core's world over the slices that follow this header.
     pub world: World<'static>,
-    /// The tool state the servo force carries between ticks.
-    pub tool: ToolState,
-    /// Digest of the forces returned so far.
-    pub digest: ForceDigest,
+    /// The contact hand-off: each step publishes its contact; the servo reports its force.
+    pub handoff: &'static ContactHandoff,
+    /// The world's servo (its own memory: touched here only by `td_world_tick` and
+    /// `td_world_servo`, never while the world is borrowed).
+    pub servo: *mut ServoState,
+    /// The hand-off's servo tick count at the last step (what the pressing force covers).
+    pub servo_seen: u32,
+    /// `td_world_set_pressing` was called: the pressing force is the caller's, not the
+    /// servo's.
+    pub manual_pressing: bool,
     /// `td_params.servo_lag` is 1: `td_world_tick` runs the servo force before the step.
     pub servo_lag: bool,
     /// Burr radius.
@@ -58,12 +87,8 @@ pub struct State {
     pub drill: DrillParams,
     /// Force settings.
     pub force: ForceParams,
-    /// `td_world_servo_force` calls.
-    pub servo_ticks: u64,
     /// `td_world_simulate` calls.
     pub steps: u64,
-    /// Servo ticks with a force other than zero.
-    pub contact_ticks: u64,
     /// Mesh volume at set-up.
     pub initial_volume: f64,
     /// The label of each region, ascending (one per distinct label of the mesh).
@@ -113,6 +138,8 @@ pub struct Plan {
     pub mesh_lines: usize,
     /// `FaceKey` per tet face: the mesh build's scratch.
     pub scratch: usize,
+    /// Face keys in the scratch: 4 per tet, none for a mesh read in place.
+    pub faces: usize,
     /// The world's storage: [`WorldSizes::lines`] lines, carved by `WorldStorage::carve`
     /// (the core's one layout of a world's storage).
     pub world: usize,
@@ -126,6 +153,10 @@ pub struct Plan {
     pub tet_region: usize,
     /// Region slots: `region_capacity`.
     pub region_slots: usize,
+    /// The contact hand-off (`SharedHandoff`).
+    pub handoff: usize,
+    /// The servo's state (`ServoState`).
+    pub servo: usize,
     /// Bytes in all.
     pub size: usize,
     /// Alignment the memory needs.
@@ -171,7 +202,8 @@ fn positive(v: f32) -> bool {
 }
 
 impl Plan {
-    /// Checks `p` and lays out its world.
+    /// Checks `p` and lays out its world; `in_place`: the tets are read in place from a
+    /// blob, so the memory holds no tet records and no build scratch.
     ///
     /// # Bounded work
     /// Constant.
@@ -179,7 +211,7 @@ impl Plan {
     /// # Errors
     /// `TdErrParams` for a count or capacity out of range, a non-finite or out-of-range
     /// setting, or a world larger than the address space.
-    pub fn of(p: &TdParams) -> Result<Self, TdStatus> {
+    pub fn of(p: &TdParams, in_place: bool) -> Result<Self, TdStatus> {
         check((1..=TD_MAX_COUNT).contains(&p.node_count))?;
         check((1..=TD_MAX_COUNT).contains(&p.tet_count))?;
         check(p.hierarchy_capacity >= 8)?;
@@ -206,13 +238,16 @@ impl Plan {
             .with_sphere_memo(to_usize(p.sphere_memo_slots)?);
         sizes.candidates = to_usize(p.candidate_capacity)?;
         sizes.hash_entries = to_usize(p.hash_capacity)?;
-        let faces = tets.checked_mul(4).ok_or(TdStatus::TdErrParams)?;
+        let built = if in_place { 0 } else { tets };
+        let faces = built.checked_mul(4).ok_or(TdStatus::TdErrParams)?;
 
         let mut b = Builder {
             layout: Layout::new::<State>(),
         };
+        let handoff = b.put::<SharedHandoff>(1)?;
+        let servo = b.put::<ServoState>(1)?;
         let positions = b.put::<Vec3>(nodes)?;
-        let mesh_lines = MeshStorage::lines(nodes, tets).ok_or(TdStatus::TdErrParams)?;
+        let mesh_lines = MeshStorage::lines(nodes, built).ok_or(TdStatus::TdErrParams)?;
         let mesh = b.put::<Line>(mesh_lines)?;
         let scratch = b.put::<FaceKey>(faces)?;
         let world_lines = sizes.lines().ok_or(TdStatus::TdErrParams)?;
@@ -230,12 +265,15 @@ impl Plan {
             mesh,
             mesh_lines,
             scratch,
+            faces,
             world,
             world_lines,
             regions,
             region_labels,
             tet_region,
             region_slots,
+            handoff,
+            servo,
             size: layout.size(),
             align: layout.align(),
         })
@@ -276,18 +314,21 @@ mod tests {
             dt: 1e-3,
             switch_time: 0.0,
             servo_lag: 0,
+            zone_gather_work: 0,
         }
     }
 
     /// Each region as (offset, bytes, alignment of its type), in plan order.
-    fn regions(p: &Plan) -> [(usize, usize, usize); 7] {
+    fn regions(p: &Plan) -> [(usize, usize, usize); 9] {
         fn r<T>(at: usize, n: usize) -> (usize, usize, usize) {
             (at, n * size_of::<T>(), align_of::<T>())
         }
         [
+            r::<SharedHandoff>(p.handoff, 1),
+            r::<ServoState>(p.servo, 1),
             r::<Vec3>(p.positions, p.nodes),
             r::<Line>(p.mesh, p.mesh_lines),
-            r::<FaceKey>(p.scratch, 4 * p.tets),
+            r::<FaceKey>(p.scratch, p.faces),
             r::<Line>(p.world, p.world_lines),
             r::<Region>(p.regions, p.region_slots),
             r::<i32>(p.region_labels, p.region_slots),
@@ -303,7 +344,7 @@ mod tests {
             (729, 3072, 1 << 20, 1 << 15, 4096),
             (125, 384, 20_000, 16_384, 4096),
         ] {
-            let plan = Plan::of(&params(nodes, tets, arena, pending, memo)).expect("plan");
+            let plan = Plan::of(&params(nodes, tets, arena, pending, memo), false).expect("plan");
             assert!(plan.align.is_power_of_two());
             assert!(plan.align >= align_of::<State>());
             assert_eq!(plan.size % plan.align, 0);
@@ -330,7 +371,7 @@ mod tests {
     #[test]
     fn out_of_range_parameters_are_refused() {
         let ok = params(8, 6, 8, 1, 0);
-        assert!(Plan::of(&ok).is_ok());
+        assert!(Plan::of(&ok, false).is_ok());
         let bad: [fn(&mut TdParams); 15] = [
             |p| p.node_count = 0,
             |p| p.tet_count = TD_MAX_COUNT + 1,
@@ -351,7 +392,11 @@ mod tests {
         for (i, change) in bad.iter().enumerate() {
             let mut p = ok;
             change(&mut p);
-            assert_eq!(Plan::of(&p), Err(TdStatus::TdErrParams), "change {i}");
+            assert_eq!(
+                Plan::of(&p, false),
+                Err(TdStatus::TdErrParams),
+                "change {i}"
+            );
         }
     }
 
@@ -360,7 +405,7 @@ mod tests {
         // Every count at its largest: on a 64-bit machine the plan fits, on a 32-bit one it
         // must be refused; either way the size is at least the sum of the parts.
         let p = params(TD_MAX_COUNT, TD_MAX_COUNT, u32::MAX, u32::MAX, u32::MAX);
-        match Plan::of(&p) {
+        match Plan::of(&p, false) {
             Ok(plan) => {
                 let parts = size_of::<Pending>() as u128 * u128::from(u32::MAX)
                     + size_of::<HNode>() as u128 * u128::from(u32::MAX / 8 * 8);

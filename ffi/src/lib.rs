@@ -12,8 +12,10 @@
 //! | [`td_params_default`]    | parameters with the core's capacities and the host's defaults |
 //! | [`td_world_size`]        | bytes and alignment a world needs                             |
 //! | [`td_world_init`]        | builds the mesh from arrays and the world in caller memory    |
-//! | [`td_world_simulate`]    | one simulation step at a pose (drill, contact)                |
-//! | [`td_world_servo_force`] | the force at a pose from the last contact                     |
+//! | [`td_world_simulate`]    | one simulation step at a pose (drill, contact), published     |
+//! | [`td_world_servo`]       | the world's servo handle, for the servo's task or interrupt   |
+//! | [`td_servo_force`]       | the force at a pose from the newest published contact         |
+//! | [`td_servo_counters`]    | the force digest and the servo's counts                       |
 //! | [`td_world_tick`]        | both, as `tetradrill replay` runs a tick                      |
 //! | [`td_world_set_region`]  | a region's material, by label, before the first step          |
 //! | [`td_world_set_pressing`]| the force pressing the burr for the next step (two tasks)      |
@@ -23,6 +25,7 @@
 //! | [`td_surface_update`]    | the drilled surface into the caller's buffers, changes only   |
 //! | [`td_world_remove_debris`], [`td_world_debris_scratch`] | the detached crumbs erased |
 //! | [`td_demo_ticks`], [`td_demo_pose`] | the host's scripted demo path                      |
+//! | [`td_script_ticks`], [`td_script_pose`] | the demo or the tooth's access path            |
 //! | [`td_status_name`]       | one line per status code                                      |
 //!
 //! Rules at the boundary: every pointer is checked for null and alignment, every count and
@@ -34,7 +37,10 @@
 //! C, each block with a `SAFETY` comment.
 //!
 //! A world lives entirely in the caller's memory: a header (the core's `World` and the
-//! tick-to-tick state) followed by every slice the core borrows. The memory must stay put and
+//! tick-to-tick state), the contact hand-off and the servo's own state, then every slice the
+//! core borrows. The simulation step and the servo's force call touch apart memory and share
+//! only the hand-off's atomics (the core's `ContactHandoff`), so they may preempt each other
+//! or run on two threads. The memory must stay put and
 //! untouched by the caller while the world is used; there is nothing to free.
 
 #![no_std]
@@ -42,37 +48,53 @@
 #[cfg(not(target_os = "none"))]
 extern crate std;
 
+mod files;
+mod init;
 mod layout;
 mod regions;
+mod servo;
 mod surface;
 mod types;
 
 use core::ffi::{c_char, c_void};
 use core::ptr;
 
+use tetradrill_core::blob::MeshBlob;
 use tetradrill_core::drill::{DrillParams, Material, Region, Regions};
-use tetradrill_core::force::{ForceDigest, ForceParams, ToolState};
+use tetradrill_core::force::ForceParams;
 use tetradrill_core::mesh::{BuildError, BuildOptions, FaceKey, Mesh, MeshStorage};
-use tetradrill_core::script::DEMO;
+use tetradrill_core::script::{Script, DEMO, TOOTH_ACCESS};
 use tetradrill_core::servo::{
-    servo_force, World, WorldStorage, CONTACT_MAX_NODES, DEFAULT_MAX_CELLS, DEFAULT_PENDING,
-    DEFAULT_SPHERE_MEMO,
+    ContactHandoff, Servo, World, WorldStorage, CONTACT_MAX_NODES, DEFAULT_MAX_CELLS,
+    DEFAULT_PENDING, DEFAULT_SPHERE_MEMO,
 };
 use tetradrill_core::storage::{Block, Line};
-use tetradrill_core::Vec3;
+use tetradrill_core::{TetId, Vec3};
 
 pub use layout::{Plan, STATE_BYTES, TD_MAX_COUNT, TD_MAX_REGIONS};
-pub use types::{TdCounters, TdParams, TdRegion, TdSimReport, TdStatus, TdVec3, TdWorld};
+pub use types::{
+    TdCounters, TdParams, TdRegion, TdServo, TdServoCounts, TdSimReport, TdStatus, TdVec3, TdWorld,
+};
 
-use layout::{State, Unstarted, MAGIC};
+pub use files::{td_blob_counts, td_world_init_blob, td_world_size_blob};
+#[cfg(not(target_os = "none"))]
+pub use files::{
+    td_mesh_file_arrays, td_mesh_file_free, td_mesh_file_read, TdFileError, TdMeshArrays,
+    TdMeshFile,
+};
+pub use init::td_world_init;
+use layout::{ServoState, SharedHandoff, State, Unstarted, MAGIC, SERVO_MAGIC};
 pub use regions::{
     td_world_region, td_world_region_at, td_world_set_pressing, td_world_set_region,
 };
+pub use servo::{td_servo_counters, td_servo_force, td_world_servo, td_world_tick};
 pub use surface::{
     td_surface_init, td_surface_size, td_surface_update, td_world_debris_scratch,
     td_world_remove_debris, TdSlotRange, TdSurface, TdSurfaceBuffers, TdSurfaceReport,
     TD_MAX_TRIANGLES,
 };
+
+use init::{init, report_bad, Source};
 
 /// The hierarchy arena `td_params_default` gives: 2^20 nodes (8 MiB), the least arena the
 /// host gives a burr (its scenarios' `DEFAULT_HIERARCHY_CAPACITY`).
@@ -209,6 +231,7 @@ pub unsafe extern "C" fn td_params_default(
         dt: force.dt,
         switch_time: force.switch_time,
         servo_lag: 0,
+        zone_gather_work: 0,
     };
     // SAFETY: the caller's contract on `out`; `put` checks null and alignment.
     status(|| unsafe { put(out, p) })
@@ -239,7 +262,7 @@ pub unsafe extern "C" fn td_world_size(
         check_ptr(out_align)?;
         // SAFETY: the caller's contract on `params`; `get` checks null and alignment.
         let p = unsafe { get(params) }?;
-        let plan = Plan::of(&p)?;
+        let plan = Plan::of(&p, false)?;
         // SAFETY: both checked above; the caller's contract makes them writable.
         unsafe {
             put(out_size, plan.size)?;
@@ -248,269 +271,18 @@ pub unsafe extern "C" fn td_world_size(
     })
 }
 
-/// Writes `n` copies of `v` from `base + offset` on and returns them as a slice.
-///
-/// # Safety
-/// `base + offset` is aligned for `T`, and `n` values of `T` from there lie inside memory the
-/// caller owns for `'static` and nothing else borrows.
-unsafe fn carve<T: Copy>(base: *mut u8, offset: usize, n: usize, v: T) -> &'static mut [T] {
-    // SAFETY: inside the caller's memory (the function's contract); the plan put it there.
-    let p = unsafe { base.add(offset) }.cast::<T>();
-    for i in 0..n {
-        // SAFETY: `i < n`, inside the region; aligned by the plan.
-        unsafe { p.add(i).write(v) };
-    }
-    // SAFETY: every element was just written; the region is the caller's for `'static` and
-    // borrowed by nothing else (the plan's regions do not overlap).
-    unsafe { core::slice::from_raw_parts_mut(p, n) }
-}
-
-/// The index a mesh build error names (a tet, or a node for a non-finite position).
-fn bad_index(e: &BuildError) -> u32 {
-    match *e {
-        BuildError::NodeOutOfRange { tet, .. }
-        | BuildError::RepeatedNode { tet }
-        | BuildError::ZeroVolume { tet }
-        | BuildError::NonManifoldFace { tet }
-        | BuildError::InconsistentFace { tet } => tet,
-        BuildError::NonFinite { node } => node,
-        _ => u32::MAX,
-    }
-}
-
-/// Writes `v` to `*bad_item` when `bad_item` is not null and aligned.
-///
-/// # Safety
-/// `bad_item` is null or points at a writable `uint32_t`.
-unsafe fn report_bad(bad_item: *mut u32, v: u32) {
-    if !bad_item.is_null() && bad_item.is_aligned() {
-        // SAFETY: not null, aligned; writable by the caller's contract.
-        unsafe { bad_item.write(v) };
-    }
-}
-
-/// The distinct values of `labels` in ascending order, written to the front of `slots`; their
-/// count, or the first index of `labels` whose value does not fit.
-///
-/// # Bounded work
-/// O(L log S + S^2) for L labels and S slots.
-fn distinct_labels(labels: &[i32], slots: &mut [i32]) -> Result<usize, usize> {
-    let mut n = 0;
-    for (t, &l) in labels.iter().enumerate() {
-        let at = match slots.get(..n).map(|s| s.binary_search(&l)) {
-            Some(Err(at)) => at,
-            _ => continue,
-        };
-        if n == slots.len() {
-            return Err(t);
-        }
-        // Insert at `at`, shifting the larger labels one slot up.
-        let mut carry = l;
-        for slot in slots.iter_mut().take(n + 1).skip(at) {
-            core::mem::swap(slot, &mut carry);
-        }
-        n += 1;
-    }
-    Ok(n)
-}
-
-/// Builds the mesh from `positions` (`3 * node_count` floats: x, y, z of each node) and
-/// `tets` (`4 * tet_count` node indices from 0, any orientation), then the world over it,
-/// all inside `mem` (`len` bytes, aligned as `td_world_size` says), and writes the world's
-/// handle to `*out` (it is `mem`). The mesh is built as the host builds a mesh file's (tets
-/// flipped to positive orientation and relabelled for refinement), the hash, hierarchy and
-/// drill start empty, the digest and counters at zero.
-///
-/// `labels`, when not null, holds each tet's region label (`tet_count` `int32_t`s, any
-/// values: a mesh file's region or physical tags): the world has one region per distinct
-/// label, in ascending order, as `tetradrill replay` gives a mesh file's labels. Null: one
-/// region, label 0, for every tet. Every region starts with the default material (hardness
-/// 0, threshold 0, the parameters' stiffness: removed at once, whatever the force);
-/// `td_world_set_region` changes it before the first step.
-///
-/// # Bounded work
-/// O(T log T) for the mesh build's face sort plus O(every capacity) to initialise the storage,
-/// and O(T log R + R^2) to find the R distinct labels, for T tets; once, before the servo runs.
-///
-/// # Errors
-/// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer (`mem` at the world's alignment, the arrays at
-/// 4 bytes), `TD_ERR_PARAMS` as `td_world_size`, `TD_ERR_TOO_SMALL` when `len` is short,
-/// `TD_ERR_MESH` for refused arrays (`*bad_item`, when `bad_item` is not null, gets the tet, or
-/// for a non-finite position the node, at fault), `TD_ERR_LABEL` for more distinct labels
-/// than `region_capacity` (`*bad_item` gets the first tet whose label does not fit),
-/// `TD_ERR_WORLD` when the core refuses the storage. On any error after the checks of `mem`
-/// the memory holds no world.
-///
-/// # Safety
-/// `params` points at an initialised `td_params`; `positions` at `3 * node_count` floats,
-/// `tets` at `4 * tet_count` `uint32_t`s and `labels` at `tet_count` `int32_t`s or null, none
-/// inside `mem`; `mem` at `len` writable bytes that the caller keeps, and does not read or
-/// write, for as long as it uses the world (there is nothing to free: stop using the handle,
-/// then reuse the memory); `out` at a writable `td_world *`; `bad_item` at a writable
-/// `uint32_t` or null.
-#[no_mangle]
-pub unsafe extern "C" fn td_world_init(
-    mem: *mut c_void,
-    len: usize,
-    params: *const TdParams,
-    positions: *const f32,
-    tets: *const u32,
-    labels: *const i32,
-    out: *mut *mut TdWorld,
-    bad_item: *mut u32,
-) -> TdStatus {
-    status(|| {
-        check_ptr(out)?;
-        check_ptr(positions)?;
-        check_ptr(tets)?;
-        if !labels.is_null() {
-            check_ptr(labels)?;
-        }
-        // SAFETY: the caller's contract on `params`; `get` checks null and alignment.
-        let p = unsafe { get(params) }?;
-        let plan = Plan::of(&p)?;
-        let base = mem.cast::<u8>();
-        if base.is_null() {
-            return Err(TdStatus::TdErrNull);
-        }
-        // `plan.align` is a Layout's, a power of two: the mask test cannot fail to apply
-        // (`align_offset` would carry a panic path for other values).
-        if (base as usize) & plan.align.wrapping_sub(1) != 0 {
-            return Err(TdStatus::TdErrAlign);
-        }
-        if len < plan.size {
-            return Err(TdStatus::TdErrTooSmall);
-        }
-        let state = base.cast::<State>();
-        // SAFETY: `mem` is aligned for State (the plan's alignment covers it) and at least
-        // `plan.size >= size_of::<State>()` bytes long: a handle to this memory is refused
-        // from here on until the init succeeds.
-        unsafe { ptr::addr_of_mut!((*state).magic).write(0) };
-
-        // SAFETY: the caller's contract: `3 * node_count` floats, `4 * tet_count` indices and
-        // (when not null) `tet_count` labels, aligned (checked), outside `mem`. The products
-        // fit (counts are at most 2^28).
-        let (xyz, tet_nodes, tet_labels) = unsafe {
-            (
-                core::slice::from_raw_parts(positions, 3 * plan.nodes),
-                core::slice::from_raw_parts(tets.cast::<[u32; 4]>(), plan.tets),
-                (!labels.is_null()).then(|| core::slice::from_raw_parts(labels, plan.tets)),
-            )
-        };
-        // SAFETY: every offset comes from the plan, which places each region after the
-        // header at its type's alignment, apart from the others, inside `plan.size <= len`
-        // bytes of `mem`; the caller keeps `mem` for as long as the world is used.
-        let (pos, mesh_lines, scratch, world_lines) = unsafe {
-            (
-                carve(base, plan.positions, plan.nodes, Vec3::ZERO),
-                carve(base, plan.mesh, plan.mesh_lines, Line::ZERO),
-                carve(base, plan.scratch, 4 * plan.tets, FaceKey::default()),
-                carve(base, plan.world, plan.world_lines, Line::ZERO),
-            )
-        };
-        // The mesh's and the world's parts, from their lines by the core's one layout of each
-        // (the plan sized them).
-        let mesh_storage =
-            MeshStorage::carve(plan.nodes, plan.tets, &mut Block::from_lines(mesh_lines))
-                .map_err(|_| TdStatus::TdErrTooSmall)?;
-        let storage = WorldStorage::carve(&plan.sizes, &mut Block::from_lines(world_lines))
-            .map_err(|_| TdStatus::TdErrTooSmall)?;
-        for (p, c) in pos.iter_mut().zip(xyz.chunks_exact(3)) {
-            *p = Vec3::new(c[0], c[1], c[2]);
-        }
-        let mesh = Mesh::build(
-            pos,
-            tet_nodes,
-            mesh_storage,
-            scratch,
-            BuildOptions::default(),
-        )
-        .map_err(|e| {
-            // SAFETY: the caller's contract on `bad_item`.
-            unsafe { report_bad(bad_item, bad_index(&e)) };
-            TdStatus::TdErrMesh
-        })?;
-        // SAFETY: as the carving above: the plan's label and tet-region regions.
-        let (slots, of_tet) = unsafe {
-            (
-                carve(base, plan.region_labels, plan.region_slots, 0i32),
-                carve(base, plan.tet_region, plan.tets, 0u8),
-            )
-        };
-        let count = match tet_labels {
-            None => 1,
-            Some(ls) => {
-                let n = distinct_labels(ls, slots).map_err(|t| {
-                    // SAFETY: the caller's contract on `bad_item`.
-                    unsafe { report_bad(bad_item, t as u32) };
-                    TdStatus::TdErrLabel
-                })?;
-                let distinct = slots.get(..n).unwrap_or(&[]);
-                for (r, l) in of_tet.iter_mut().zip(ls) {
-                    // At most 256 regions (the plan's check): the index fits a byte.
-                    *r = distinct.binary_search(l).unwrap_or(0) as u8;
-                }
-                n
-            }
-        };
-        let slots: &'static [i32] = slots;
-        let region_labels = slots.get(..count).unwrap_or(&[]);
-        // SAFETY: as the carving above: the plan's region table, `count <= region_slots`.
-        let table = unsafe { carve(base, plan.regions, count, Region::default()) };
-        // The core's check of the table, now rather than at the first step.
-        Regions::new(&mut *table, of_tet).map_err(|_| TdStatus::TdErrWorld)?;
-        let initial_volume = mesh.volume();
-        let mut world = World::new(mesh, storage).map_err(|_| TdStatus::TdErrWorld)?;
-        world.set_contact_max_nodes(p.contact_search_nodes);
-        world.set_max_cells(p.max_cells);
-        world.set_tick_budget((p.tick_budget > 0).then_some(p.tick_budget));
-        let st = State {
-            magic: MAGIC,
-            world,
-            tool: ToolState::default(),
-            digest: ForceDigest::new(),
-            radius: p.radius,
-            reach: p.reach,
-            drill: DrillParams {
-                // 1..=9, checked by the plan.
-                max_depth: p.max_depth as u8,
-                min_area: p.min_area,
-                budget: p.budget_per_tick,
-            },
-            force: ForceParams {
-                stiffness: p.stiffness,
-                damping: p.damping,
-                max_force: p.max_force,
-                dt: p.dt,
-                switch_time: p.switch_time,
-            },
-            servo_lag: p.servo_lag == 1,
-            servo_ticks: 0,
-            steps: 0,
-            contact_ticks: 0,
-            initial_volume,
-            labels: region_labels,
-            unstarted: Some(Unstarted { table, of_tet }),
-        };
-        // SAFETY: aligned, inside `mem` (checked above); the slices the world borrows start
-        // after the header. Written whole, the magic last of all in effect: a handle is valid
-        // only once this write is done.
-        unsafe {
-            state.write(st);
-            put(out, state.cast::<TdWorld>())
-        }
-    })
-}
-
 /// One simulation step with the tool at `position`: the coarse tets near it, the drill's
 /// budgeted erosion when bit 0 of `buttons` is set, and the contact with the drilled surface
 /// for the servo. `*report`, when `report` is not null, says what the step did.
 ///
-/// Materials: the regions earn their erosion from the pressing force last set, by
-/// `td_world_tick` (the previous tick's servo force, as `tetradrill replay` runs) or by
-/// `td_world_set_pressing` (a caller running this step and `td_world_servo_force` in two
-/// tasks sets it before each step); none set: zero newtons, which removes only the regions
-/// of threshold and hardness zero. The first step hands the regions to the core, after which
+/// The step publishes its contact to the world's servo (`td_world_servo`,
+/// `td_servo_force`), which may preempt this call or run beside it on another thread.
+///
+/// Materials: the regions earn their erosion from the pressing force: the magnitude of the
+/// servo's last force, held for the servo periods since the previous step (as `tetradrill
+/// replay` and the host's two tasks feed it), or, once `td_world_set_pressing` was called,
+/// the force it last set; no servo tick yet: zero newtons, which removes only the regions of
+/// threshold and hardness zero. The first step hands the regions to the core, after which
 /// `td_world_set_region` is refused.
 ///
 /// # Bounded work
@@ -546,10 +318,18 @@ pub unsafe extern "C" fn td_world_simulate(
             let r = Regions::new(u.table, u.of_tet).map_err(|_| TdStatus::TdErrWorld)?;
             st.world.set_regions(r);
         }
+        // The servo's force since the last step presses the burr, as one task's replay feeds
+        // it (unless the caller sets the pressing force itself).
+        if let Some((newtons, ticks)) = st.handoff.pressing(&mut st.servo_seen) {
+            if !st.manual_pressing {
+                st.world.set_pressing(newtons, ticks as f32 * st.force.dt);
+            }
+        }
         let drill_on = buttons & tetradrill_core::script::DRILL_ON != 0;
         let rep = st
             .world
             .simulate(at, st.radius, st.reach, drill_on, &st.drill);
+        st.handoff.publish(st.world.contact());
         st.steps += 1;
         if !report.is_null() {
             let r = TdSimReport {
@@ -565,99 +345,6 @@ pub unsafe extern "C" fn td_world_simulate(
             };
             // SAFETY: not null, aligned (checked); writable by the caller's contract.
             unsafe { report.write(r) };
-        }
-        Ok(())
-    })
-}
-
-/// The force on the tool at `position` from the last step's contact plane (stiffness times
-/// depth, damping, a bounded switch between planes, clamped to `max_force`), written to
-/// `*force`; it enters the world's force digest and counters.
-///
-/// # Bounded work
-/// Constant.
-///
-/// # Errors
-/// As `td_world_simulate`, and `TD_ERR_NULL` / `TD_ERR_ALIGN` for `force`. On an error the
-/// force is not written: render zero.
-///
-/// # Safety
-/// `world` is a handle from `td_world_init` whose memory is still the caller's; `force`
-/// points at a writable `td_vec3`.
-#[no_mangle]
-pub unsafe extern "C" fn td_world_servo_force(
-    world: *mut TdWorld,
-    position: TdVec3,
-    force: *mut TdVec3,
-) -> TdStatus {
-    status(|| {
-        check_ptr(force)?;
-        // SAFETY: the caller's contract on `world`; `state` checks it.
-        let st = unsafe { state(world) }?;
-        let at = pose(position)?;
-        let f = servo_force(st.world.contact(), at, st.radius, &mut st.tool, &st.force);
-        st.digest.push(f);
-        st.servo_ticks += 1;
-        if f != Vec3::ZERO {
-            st.contact_ticks += 1;
-        }
-        // SAFETY: checked above; writable by the caller's contract.
-        unsafe { force.write(td_vec(f)) };
-        Ok(())
-    })
-}
-
-/// One whole tick as `tetradrill replay` runs it. With `td_params.servo_lag` 0:
-/// `td_world_simulate` at `position` with `buttons`, then `td_world_servo_force` at the same
-/// position; with 1: `td_world_servo_force` from the previous tick's contact, then
-/// `td_world_simulate`. The force goes to `*force`, and its magnitude presses the burr for one
-/// servo period (`dt`) at the next step (`td_world_set_pressing`), as the host's replay feeds
-/// the materials.
-///
-/// # Bounded work
-/// `td_world_simulate`'s plus a constant.
-///
-/// # Errors
-/// As the two calls; on an error nothing more is done and the force is not written.
-///
-/// # Safety
-/// As `td_world_servo_force`.
-#[no_mangle]
-pub unsafe extern "C" fn td_world_tick(
-    world: *mut TdWorld,
-    position: TdVec3,
-    buttons: u32,
-    force: *mut TdVec3,
-) -> TdStatus {
-    status(|| {
-        check_ptr(force)?;
-        // SAFETY: the caller's contract on `world`; `state` checks it before the calls do.
-        unsafe { state(world) }?;
-        pose(position)?;
-        // SAFETY: as above.
-        let lag = unsafe { state(world) }?.servo_lag;
-        if !lag {
-            // SAFETY: as above; `force` checked.
-            match unsafe { td_world_simulate(world, position, buttons, ptr::null_mut()) } {
-                TdStatus::TdOk => {}
-                e => return Err(e),
-            }
-        }
-        // SAFETY: as above.
-        match unsafe { td_world_servo_force(world, position, force) } {
-            TdStatus::TdOk => {}
-            e => return Err(e),
-        }
-        // SAFETY: as above; `force` was just written.
-        let (st, f) = unsafe { (state(world)?, force.read()) };
-        let pressing = Vec3::new(f.x, f.y, f.z).length();
-        st.world.set_pressing(pressing, st.force.dt);
-        if lag {
-            // SAFETY: as above.
-            match unsafe { td_world_simulate(world, position, buttons, ptr::null_mut()) } {
-                TdStatus::TdOk => {}
-                e => return Err(e),
-            }
         }
         Ok(())
     })
@@ -684,10 +371,7 @@ pub unsafe extern "C" fn td_world_counters(world: *mut TdWorld, out: *mut TdCoun
         let h = st.world.hierarchy();
         let sat = st.world.saturations();
         let c = TdCounters {
-            force_digest: st.digest.value(),
-            servo_ticks: st.servo_ticks,
             simulate_steps: st.steps,
-            contact_ticks: st.contact_ticks,
             initial_volume: st.initial_volume,
             removed_volume: h.removed_volume(),
             hierarchy_nodes: h.node_count() as u64,
@@ -706,6 +390,21 @@ pub unsafe extern "C" fn td_world_counters(world: *mut TdWorld, out: *mut TdCoun
     })
 }
 
+/// `td_script_*`: the demo path over the unit block (`builtin:demo`, 6,001 ticks).
+pub const TD_SCRIPT_DEMO: u32 = 0;
+/// `td_script_*`: the premolar's access cavity (`builtin:tooth-access`, 17,601 ticks), the
+/// trace of `builtin:firmware-tooth`.
+pub const TD_SCRIPT_TOOTH_ACCESS: u32 = 1;
+
+/// The scripted path `script` names.
+fn script(script: u32) -> Option<Script<'static>> {
+    match script {
+        TD_SCRIPT_DEMO => Some(DEMO),
+        TD_SCRIPT_TOOTH_ACCESS => Some(TOOTH_ACCESS),
+        _ => None,
+    }
+}
+
 /// Ticks of the host's scripted demo path (`builtin:demo`, 6,001 at 1 kHz).
 ///
 /// # Bounded work
@@ -713,6 +412,49 @@ pub unsafe extern "C" fn td_world_counters(world: *mut TdWorld, out: *mut TdCoun
 #[no_mangle]
 pub extern "C" fn td_demo_ticks() -> u32 {
     DEMO.ticks()
+}
+
+/// Ticks of the scripted path `script` (`TD_SCRIPT_DEMO`, `TD_SCRIPT_TOOTH_ACCESS`) at 1 kHz;
+/// 0 for a script that does not exist.
+///
+/// # Bounded work
+/// Constant.
+#[no_mangle]
+pub extern "C" fn td_script_ticks(script_id: u32) -> u32 {
+    script(script_id).map_or(0, |s| s.ticks())
+}
+
+/// The scripted path `script`'s tool position (`*position`) and buttons (`*buttons`, bit 0 =
+/// drill on) at `tick`, bit for bit as the host's `replay` and the firmware compute them
+/// (held at the ends).
+///
+/// # Bounded work
+/// O(key poses): at most nine.
+///
+/// # Errors
+/// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_INPUT` for a script that does not
+/// exist.
+///
+/// # Safety
+/// `position` points at a writable `td_vec3`, `buttons` at a writable `uint32_t`.
+#[no_mangle]
+pub unsafe extern "C" fn td_script_pose(
+    script_id: u32,
+    tick: u32,
+    position: *mut TdVec3,
+    buttons: *mut u32,
+) -> TdStatus {
+    status(|| {
+        check_ptr(position)?;
+        check_ptr(buttons)?;
+        let (p, b) = script(script_id).ok_or(TdStatus::TdErrInput)?.at(tick);
+        // SAFETY: both checked above; writable by the caller's contract.
+        unsafe {
+            position.write(td_vec(p));
+            buttons.write(b);
+        }
+        Ok(())
+    })
 }
 
 /// The demo path's tool position (`*position`) and buttons (`*buttons`, bit 0 = drill on) at

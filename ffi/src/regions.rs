@@ -3,11 +3,12 @@
 
 use super::*;
 
-/// Sets the force pressing the burr against the material, `newtons` (the magnitude of the
-/// servo's latest force), held for `seconds` (the servo periods since the previous step): the
-/// next `td_world_simulate` earns each region's erosion from them. `td_world_tick` sets it
-/// itself; a caller running `td_world_simulate` and `td_world_servo_force` in two tasks calls
-/// this before each step. It stays until set again. Without materials it changes nothing.
+/// Sets the force pressing the burr against the material, `newtons`, held for `seconds`: the
+/// next `td_world_simulate` earns each region's erosion from them. Without this call the
+/// world takes them from its servo (the magnitude of its last force, for the periods since the
+/// previous step); once called, the world keeps the caller's value until set again and no
+/// longer takes the servo's (for a force that reaches the drill another way, or a test).
+/// Without materials it changes nothing.
 ///
 /// # Bounded work
 /// Constant.
@@ -30,6 +31,7 @@ pub unsafe extern "C" fn td_world_set_pressing(
         if !(non_negative(newtons) && non_negative(seconds)) {
             return Err(TdStatus::TdErrInput);
         }
+        st.manual_pressing = true;
         st.world.set_pressing(newtons, seconds);
         Ok(())
     })

@@ -233,7 +233,7 @@ pub unsafe extern "C" fn td_surface_init(
         unsafe { ptr::addr_of_mut!((*state_ptr).magic).write(0) };
         // SAFETY: the lines lie after the header, inside `size <= len` bytes of `mem`, which
         // the caller keeps for as long as the surface is used.
-        let lines = unsafe { carve(base, head, (size - head) / LINE, Line::ZERO) };
+        let lines = unsafe { lines_at(base, head, (size - head) / LINE) };
         let storage = SurfaceStorage::carve(&sizes, &mut Block::from_lines(lines))
             .map_err(|_| TdStatus::TdErrTooSmall)?;
         let export =
@@ -249,6 +249,23 @@ pub unsafe extern "C" fn td_surface_init(
         // SAFETY: checked above; the caller's contract makes it writable.
         unsafe { put(out, mem.cast::<TdSurface>()) }
     })
+}
+
+/// Writes `n` zero lines from `base + offset` on and returns them.
+///
+/// # Safety
+/// `base + offset` is aligned for a line, and `n` lines from there lie inside memory the
+/// caller owns for `'static` and nothing else borrows.
+unsafe fn lines_at(base: *mut u8, offset: usize, n: usize) -> &'static mut [Line] {
+    // SAFETY: inside the caller's memory, aligned (the function's contract).
+    let p = unsafe { base.add(offset) }.cast::<Line>();
+    for i in 0..n {
+        // SAFETY: `i < n`, inside the region.
+        unsafe { p.add(i).write(Line::ZERO) };
+    }
+    // SAFETY: every line was just written; the region is the caller's for `'static` and
+    // borrowed by nothing else.
+    unsafe { core::slice::from_raw_parts_mut(p, n) }
 }
 
 /// The region label of coarse tet `t` of a world: its region's label.

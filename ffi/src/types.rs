@@ -43,11 +43,17 @@ pub enum TdStatus {
     TdErrLabel = 9,
     /// Materials are set before the first simulation step; this world has already stepped.
     TdErrStarted = 10,
+    /// A mesh file could not be read or built: missing, unreadable, or not what its extension
+    /// says (`td_file_error` names the line or byte and the reason).
+    TdErrFile = 11,
+    /// A mesh blob was refused: not a blob, another version, truncated, corrupted, or a record
+    /// out of range (`bad_item` gets the byte offset at fault).
+    TdErrBlob = 12,
 }
 
 impl TdStatus {
     /// Every status, in code order (for `td_status_name`).
-    pub(crate) const ALL: [TdStatus; 11] = [
+    pub(crate) const ALL: [TdStatus; 13] = [
         TdStatus::TdOk,
         TdStatus::TdErrNull,
         TdStatus::TdErrAlign,
@@ -59,6 +65,8 @@ impl TdStatus {
         TdStatus::TdErrInput,
         TdStatus::TdErrLabel,
         TdStatus::TdErrStarted,
+        TdStatus::TdErrFile,
+        TdStatus::TdErrBlob,
     ];
 
     /// A NUL-terminated line saying what the status means.
@@ -75,6 +83,8 @@ impl TdStatus {
             TdStatus::TdErrInput => c"a pose or pressing force is not finite or is negative",
             TdStatus::TdErrLabel => c"a region label is unknown, or there are too many labels",
             TdStatus::TdErrStarted => c"materials are set before the first simulation step",
+            TdStatus::TdErrFile => c"the mesh file could not be read (see td_file_error)",
+            TdStatus::TdErrBlob => c"the mesh blob was refused (see bad_item: the byte)",
         }
     }
 
@@ -150,6 +160,10 @@ pub struct TdParams {
     /// previous tick's contact, then the step (the RTIC firmware, whose servo interrupt
     /// releases the step: the scenario key `servo_lag`, which `builtin:firmware` sets).
     pub servo_lag: u32,
+    /// The candidate tets gathered through the hash in parts of at most this many work units
+    /// a step, kept across steps as the burr moves (the scenario key `zone_gather_work`,
+    /// `builtin:firmware-tooth` sets 2,000); 0: one zone query every step.
+    pub zone_gather_work: u32,
 }
 
 /// A point or a force: three floats.
@@ -192,15 +206,8 @@ pub struct TdSimReport {
 #[repr(C)]
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct TdCounters {
-    /// FNV-1a 64 digest of every force `td_world_servo_force` returned, in order: the
-    /// `force_digest` of `tetradrill replay` (printed as 16 hex digits).
-    pub force_digest: u64,
-    /// `td_world_servo_force` calls.
-    pub servo_ticks: u64,
     /// `td_world_simulate` calls.
     pub simulate_steps: u64,
-    /// Servo ticks whose force was not zero.
-    pub contact_ticks: u64,
     /// Volume of the mesh before drilling, mesh units cubed.
     pub initial_volume: f64,
     /// Volume the drill removed, mesh units cubed.
@@ -226,6 +233,25 @@ pub struct TdCounters {
     pub region_count: u32,
 }
 
+/// A servo's counters (`td_servo_counters`).
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct TdServoCounts {
+    /// FNV-1a 64 digest of every force `td_servo_force` returned, in order: the
+    /// `force_digest` of `tetradrill replay` (printed as 16 hex digits).
+    pub force_digest: u64,
+    /// `td_servo_force` calls (`td_world_tick` makes one each).
+    pub servo_ticks: u64,
+    /// Servo ticks whose force was not zero.
+    pub contact_ticks: u64,
+    /// Servo ticks that rendered from the contact before, every read of the hand-off having
+    /// been overtaken by a step published meanwhile (only with the two on different cores).
+    pub stale_reads: u64,
+    /// The number of the step whose contact the last tick rendered (steps counted from 1; 0:
+    /// no step yet).
+    pub step: u32,
+}
+
 /// One region of a world: its label, its material and the volume removed from it.
 #[repr(C)]
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
@@ -248,5 +274,12 @@ pub struct TdRegion {
 /// start of the memory it gave) and never reads it.
 #[derive(Debug)]
 pub struct TdWorld {
+    _opaque: [u8; 0],
+}
+
+/// A world's servo, from `td_world_servo`: its own part of the world's memory, which the
+/// servo's force call uses alone. Opaque: C holds a pointer to it and never reads it.
+#[derive(Debug)]
+pub struct TdServo {
     _opaque: [u8; 0],
 }

@@ -2,200 +2,27 @@
 //! gives the same force digest, removed volumes and saturations, and every bad pointer, size,
 //! count, mesh, label and material gets its status.
 
-use std::alloc::{alloc_zeroed, dealloc, Layout};
 use std::collections::BTreeMap;
 use std::ffi::CStr;
 use std::ptr;
 
-use tetradrill::engine::{self, EngineStorage, TickParams, ToolSizing};
-use tetradrill::scenario;
-use tetradrill::setup::Setup;
-use tetradrill::traces::PoseSource;
 use tetradrill_core::drill::Material;
-use tetradrill_core::force::{ForceDigest, ToolState};
-use tetradrill_core::servo::Saturations;
 use tetradrill_ffi::*;
 
-/// Caller memory for one world, freed on drop.
-struct Memory {
-    ptr: *mut u8,
-    layout: Layout,
-}
-
-impl Memory {
-    fn new(size: usize, align: usize) -> Self {
-        let layout = Layout::from_size_align(size.max(1), align).expect("layout");
-        // SAFETY: non-zero size.
-        let ptr = unsafe { alloc_zeroed(layout) };
-        assert!(!ptr.is_null(), "out of memory");
-        Self { ptr, layout }
-    }
-}
-
-impl Drop for Memory {
-    fn drop(&mut self) {
-        // SAFETY: allocated with this layout in `new`.
-        unsafe { dealloc(self.ptr, self.layout) };
-    }
-}
-
-/// The `n`-block as the C example writes it: nodes along x, then y, then z; six tets per
-/// cube along the six axis paths from its low corner, in any orientation (the build flips).
-fn block_arrays(n: usize) -> (Vec<f32>, Vec<u32>) {
-    let (nn, nt) = tetradrill_core::builtin::block_counts(n);
-    let mut p = vec![tetradrill_core::Vec3::ZERO; nn];
-    let mut t = vec![[0u32; 4]; nt];
-    let edge = 1.0 / n as f32;
-    tetradrill_core::builtin::block(n, edge, tetradrill_core::Vec3::splat(-0.5), &mut p, &mut t)
-        .expect("block");
-    (
-        p.iter().flat_map(|v| [v.x, v.y, v.z]).collect(),
-        t.iter().flatten().copied().collect(),
-    )
-}
-
-/// The C parameters that mirror the host's scenario `sc` (what `replay` prints as sizing
-/// included), for a block of `n`.
-fn params_of(sc: &Setup, n: usize) -> TdParams {
-    let loaded = engine::load_mesh(sc).expect("scenario mesh");
-    let tick = TickParams::of(sc).expect("tick params");
-    let mesh = loaded.mesh;
-    let sizing = ToolSizing::of(&mesh, f64::from(tick.radius), sc.drilling.max_depth);
-    let mut store = EngineStorage::new(mesh.clone(), sc).expect("storage");
-    let candidates = store.candidate_capacity();
-    let arena = store.hierarchy_capacity();
-    let max_cells = store.world().expect("world").max_cells();
-    let (nn, nt) = tetradrill_core::builtin::block_counts(n);
-    let mut p = TdParams {
-        node_count: 0,
-        tet_count: 0,
-        hierarchy_capacity: 0,
-        pending_capacity: 0,
-        candidate_capacity: 0,
-        hash_capacity: 0,
-        sphere_memo_slots: 0,
-        max_cells: 0,
-        contact_search_nodes: 0,
-        tick_budget: 0,
-        region_capacity: 0,
-        max_depth: 0,
-        budget_per_tick: 0,
-        radius: 0.0,
-        reach: 0.0,
-        min_area: 0.0,
-        stiffness: 0.0,
-        damping: 0.0,
-        max_force: 0.0,
-        dt: 0.0,
-        switch_time: 0.0,
-        servo_lag: 0,
-    };
-    // SAFETY: `p` is a valid, aligned TdParams.
-    assert_eq!(
-        unsafe { td_params_default(nn as u32, nt as u32, &mut p) },
-        TdStatus::TdOk
-    );
-    p.hierarchy_capacity = arena as u32;
-    p.pending_capacity = sc.capacities.pending.unwrap_or(sizing.pending) as u32;
-    p.candidate_capacity = candidates as u32;
-    p.max_cells = max_cells;
-    p.contact_search_nodes = sc.drilling.contact_search_nodes;
-    p.tick_budget = sc.drilling.tick_budget;
-    p.max_depth = u32::from(tick.drill.max_depth);
-    p.budget_per_tick = tick.drill.budget;
-    p.radius = tick.radius;
-    p.reach = tick.reach;
-    p.min_area = tick.drill.min_area;
-    p.stiffness = tick.force.stiffness;
-    p.damping = tick.force.damping;
-    p.max_force = tick.force.max_force;
-    p.dt = tick.force.dt;
-    p.switch_time = tick.force.switch_time;
-    p.servo_lag = tick.servo_lag;
-    p
-}
-
-/// What a replay ended with: the force digest, the removed volume, the saturations and the
-/// volume removed from each region by label.
-struct Outcome {
-    digest: u64,
-    removed: f64,
-    sat: Saturations,
-    by_region: BTreeMap<i32, f64>,
-}
-
-/// The host's replay of `sc`, its mesh's labels and materials set as `replay` sets them.
-fn host_replay(sc: &Setup) -> Outcome {
-    let loaded = engine::load_mesh(sc).expect("scenario mesh");
-    let params = TickParams::of(sc).expect("tick params");
-    let poses = PoseSource::new(&sc.poses, Some(&loaded.mesh)).expect("poses");
-    let mut store = EngineStorage::new(loaded.mesh, sc).expect("storage");
-    store.set_labels(&loaded.labels, sc).expect("labels");
-    let labels = store.region_labels().to_vec();
-    let mut world = store.world().expect("world");
-    let mut tool = ToolState::default();
-    let mut digest = ForceDigest::new();
-    for i in 0..poses.ticks() {
-        let (f, _) = engine::tick(&mut world, &mut tool, &params, &poses.at(i));
-        digest.push(f);
-    }
-    let by_region = engine::removed_by_region(&world, &labels)
-        .expect("the host's world has regions")
-        .into_iter()
-        .map(|(l, v)| (l.parse::<i32>().expect("integer label"), v))
-        .collect();
-    Outcome {
-        digest: digest.value(),
-        removed: world.hierarchy().removed_volume(),
-        sat: world.saturations(),
-        by_region,
-    }
-}
-
-/// The materials of `sc`'s regions, by label.
-fn materials(sc: &Setup) -> Vec<(i32, Material)> {
-    sc.materials
-        .regions
-        .iter()
-        .map(|(&l, r)| (l, r.material()))
-        .collect()
-}
-
-/// The built-in scenario `name`'s set-up.
-fn builtin(name: &str) -> Setup {
-    scenario::builtin(name)
-        .expect("a built-in scenario")
-        .setup()
-        .expect("a valid set-up")
-}
-
-/// The labels of the `n`-block: the rule of `builtin::block_labels`.
-fn block_labels(n: usize) -> Vec<i32> {
-    let mut l = vec![0; tetradrill_core::builtin::block_counts(n).1];
-    tetradrill_core::builtin::block_labels(n, &mut l).expect("labels");
-    l
-}
-
-/// The counters' saturations as the core's.
-fn saturations(c: &TdCounters) -> Saturations {
-    Saturations {
-        hash: c.sat_hash,
-        candidates: c.sat_candidates,
-        arena: c.sat_arena,
-        pending: c.sat_pending,
-        contact: c.sat_contact,
-    }
-}
+mod common;
+use common::*;
 
 /// How the C side runs each tick.
 #[derive(Clone, Copy, PartialEq)]
 enum Ticks {
     /// `td_world_tick`.
     Whole,
-    /// `td_world_set_pressing` with the last force, `td_world_simulate`, then
-    /// `td_world_servo_force`: the two halves as two tasks would call them.
+    /// `td_world_simulate`, then `td_servo_force` on the world's servo: the two halves as two
+    /// tasks would call them, the pressing force taken from the servo through the hand-off.
     Halves,
-    /// The halves without `td_world_set_pressing`.
+    /// The halves with `td_world_set_pressing` fed the last force by the caller.
+    HalvesPressed,
+    /// The halves told a pressing force of zero once, before the first step.
     HalvesUnpressed,
 }
 
@@ -208,7 +35,7 @@ fn c_replay(
     labels: Option<&[i32]>,
     materials: &[(i32, Material)],
     ticks: Ticks,
-) -> (TdCounters, BTreeMap<i32, f64>) {
+) -> (TdCounters, TdServoCounts, BTreeMap<i32, f64>) {
     let (xyz, tets) = block_arrays(n);
     let (mut size, mut align) = (0usize, 0usize);
     // SAFETY: valid pointers to initialised or writable values.
@@ -237,6 +64,13 @@ fn c_replay(
         let st = unsafe { td_world_set_region(world, label, m.hardness, m.threshold, m.stiffness) };
         assert_eq!(st, TdStatus::TdOk, "region {label}");
     }
+    let mut servo: *mut TdServo = ptr::null_mut();
+    // SAFETY: a live world, a writable output.
+    unsafe { assert_eq!(td_world_servo(world, &mut servo), TdStatus::TdOk) };
+    if ticks == Ticks::HalvesUnpressed {
+        // SAFETY: a live world.
+        unsafe { assert_eq!(td_world_set_pressing(world, 0.0, 0.0), TdStatus::TdOk) };
+    }
     let mut force = TdVec3::default();
     for i in 0..td_demo_ticks() {
         let (mut pos, mut buttons) = (TdVec3::default(), 0u32);
@@ -250,7 +84,7 @@ fn c_replay(
                 );
                 continue;
             }
-            if ticks == Ticks::Halves {
+            if ticks == Ticks::HalvesPressed {
                 let pressing = (force.x * force.x + force.y * force.y + force.z * force.z).sqrt();
                 let pressing = if i == 0 { 0.0 } else { pressing };
                 let seconds = if i == 0 { 0.0 } else { p.dt };
@@ -263,12 +97,15 @@ fn c_replay(
                 td_world_simulate(world, pos, buttons, ptr::null_mut()),
                 TdStatus::TdOk
             );
-            assert_eq!(td_world_servo_force(world, pos, &mut force), TdStatus::TdOk);
+            assert_eq!(td_servo_force(servo, pos, &mut force), TdStatus::TdOk);
         }
     }
-    let mut c = TdCounters::default();
-    // SAFETY: a live world.
-    unsafe { assert_eq!(td_world_counters(world, &mut c), TdStatus::TdOk) };
+    let (mut c, mut sc) = (TdCounters::default(), TdServoCounts::default());
+    // SAFETY: a live world and its servo.
+    unsafe {
+        assert_eq!(td_world_counters(world, &mut c), TdStatus::TdOk);
+        assert_eq!(td_servo_counters(servo, &mut sc), TdStatus::TdOk);
+    }
     let mut by_region = BTreeMap::new();
     for i in 0..c.region_count {
         let mut r = TdRegion::default();
@@ -276,7 +113,7 @@ fn c_replay(
         unsafe { assert_eq!(td_world_region_at(world, i, &mut r), TdStatus::TdOk) };
         by_region.insert(r.label, r.removed_volume);
     }
-    (c, by_region)
+    (c, sc, by_region)
 }
 
 #[test]
@@ -285,7 +122,7 @@ fn demo_digest_equals_the_hosts_replay() {
     assert_eq!(sc.mesh.to_string(), "builtin:block:8");
     let host = host_replay(&sc);
     let labels = block_labels(8);
-    let (c, by_region) = c_replay(
+    let (c, servo, by_region) = c_replay(
         &params_of(&sc, 8),
         8,
         Some(&labels),
@@ -293,7 +130,7 @@ fn demo_digest_equals_the_hosts_replay() {
         Ticks::Whole,
     );
     assert_eq!(
-        format!("{:016x}", c.force_digest),
+        format!("{:016x}", servo.force_digest),
         format!("{:016x}", host.digest),
         "the C interface's demo digest differs from the host's replay"
     );
@@ -306,8 +143,13 @@ fn demo_digest_equals_the_hosts_replay() {
         by_region.values().all(|&v| v > 0.0),
         "the demo drills both regions: {by_region:?}"
     );
-    assert_eq!(c.servo_ticks, 6001);
+    assert_eq!(servo.servo_ticks, 6001);
     assert_eq!(c.simulate_steps, 6001);
+    assert_eq!(
+        (servo.stale_reads, servo.step),
+        (0, 6001),
+        "one task: never overtaken"
+    );
     assert!(c.removed_volume > 0.0, "the demo drills");
     assert!((c.initial_volume - 1.0).abs() < 1e-6, "unit block");
 }
@@ -318,12 +160,19 @@ fn the_demo_in_two_halves_needs_the_pressing_force() {
     let host = host_replay(&sc);
     let labels = block_labels(8);
     let p = params_of(&sc, 8);
-    // The halves fed the previous tick's force: the host's run, tick for tick.
-    let (c, by_region) = c_replay(&p, 8, Some(&labels), &materials(&sc), Ticks::Halves);
-    assert_eq!(c.force_digest, host.digest);
+    // The halves, the servo's force pressing through the hand-off: the host's run, tick for
+    // tick.
+    let (c, servo, by_region) = c_replay(&p, 8, Some(&labels), &materials(&sc), Ticks::Halves);
+    assert_eq!(servo.force_digest, host.digest);
     assert_eq!(by_region, host.by_region);
-    // Never told a force, the burr presses with none: below both thresholds, nothing goes.
-    let (c, by_region) = c_replay(
+    assert_eq!(c.removed_volume, host.removed);
+    // The same with the caller feeding the previous tick's force itself.
+    let (_, servo, by_region) =
+        c_replay(&p, 8, Some(&labels), &materials(&sc), Ticks::HalvesPressed);
+    assert_eq!(servo.force_digest, host.digest);
+    assert_eq!(by_region, host.by_region);
+    // Told a force of zero, the burr presses with none: below both thresholds, nothing goes.
+    let (c, servo, by_region) = c_replay(
         &p,
         8,
         Some(&labels),
@@ -332,7 +181,7 @@ fn the_demo_in_two_halves_needs_the_pressing_force() {
     );
     assert_eq!(c.removed_volume, 0.0);
     assert!(by_region.values().all(|&v| v == 0.0));
-    assert_ne!(c.force_digest, host.digest);
+    assert_ne!(servo.force_digest, host.digest);
 }
 
 #[test]
@@ -345,8 +194,8 @@ fn firmware_digest_equals_the_hosts_replay() {
     );
     let host = host_replay(&sc);
     // Without labels, as the Cortex-M example runs it: one region, label 0, holding all.
-    let (c, by_region) = c_replay(&params_of(&sc, 4), 4, None, &[], Ticks::Whole);
-    assert_eq!(c.force_digest, host.digest);
+    let (c, servo, by_region) = c_replay(&params_of(&sc, 4), 4, None, &[], Ticks::Whole);
+    assert_eq!(servo.force_digest, host.digest);
     assert_eq!(c.removed_volume, host.removed);
     assert_eq!(saturations(&c), host.sat);
     assert_eq!(by_region.keys().copied().collect::<Vec<_>>(), [0]);
@@ -444,9 +293,18 @@ fn bad_pointers_sizes_and_counts_get_their_status() {
             y: 0.0,
             z: 0.9,
         };
+        let mut servo: *mut TdServo = ptr::null_mut();
         assert_eq!(
-            td_world_servo_force(mem.ptr.cast(), at, &mut f),
+            td_world_servo(mem.ptr.cast(), &mut servo),
             TdStatus::TdErrNotInit
+        );
+        assert_eq!(
+            td_servo_force(mem.ptr.add(64).cast(), at, &mut f),
+            TdStatus::TdErrNotInit
+        );
+        assert_eq!(
+            td_servo_force(ptr::null_mut(), at, &mut f),
+            TdStatus::TdErrNull
         );
         assert_eq!(
             td_world_tick(ptr::null_mut(), at, 0, &mut f),
@@ -461,9 +319,16 @@ fn bad_pointers_sizes_and_counts_get_their_status() {
         assert_eq!(world.cast::<u8>(), mem.ptr, "the handle is the memory");
         let nan = TdVec3 { x: f32::NAN, ..at };
         assert_eq!(td_world_tick(world, nan, 1, &mut f), TdStatus::TdErrInput);
+        assert_eq!(td_world_servo(world, ptr::null_mut()), TdStatus::TdErrNull);
+        assert_eq!(td_world_servo(world, &mut servo), TdStatus::TdOk);
         assert_eq!(
-            td_world_servo_force(world, at, ptr::null_mut()),
+            td_servo_force(servo, at, ptr::null_mut()),
             TdStatus::TdErrNull
+        );
+        assert_eq!(td_servo_force(servo, nan, &mut f), TdStatus::TdErrInput);
+        assert_eq!(
+            td_servo_force(servo.cast::<u8>().add(1).cast(), at, &mut f),
+            TdStatus::TdErrAlign
         );
         let mut rep = TdSimReport::default();
         assert_eq!(td_world_simulate(world, at, 0, &mut rep), TdStatus::TdOk);
@@ -476,10 +341,11 @@ fn bad_pointers_sizes_and_counts_get_their_status() {
             ),
             TdStatus::TdErrAlign
         );
-        let mut c = TdCounters::default();
+        let (mut c, mut sc) = (TdCounters::default(), TdServoCounts::default());
         assert_eq!(td_world_counters(world, &mut c), TdStatus::TdOk);
+        assert_eq!(td_servo_counters(servo, &mut sc), TdStatus::TdOk);
         assert_eq!(
-            (c.simulate_steps, c.servo_ticks),
+            (c.simulate_steps, sc.servo_ticks),
             (1, 0),
             "refused calls count nothing"
         );
@@ -520,6 +386,11 @@ fn bad_pointers_sizes_and_counts_get_their_status() {
         );
         assert_eq!(bad, 5, "the tet naming a node out of range");
         assert_eq!(td_world_counters(world, &mut c), TdStatus::TdErrNotInit);
+        assert_eq!(
+            td_servo_force(servo, at, &mut f),
+            TdStatus::TdErrNotInit,
+            "the old world's servo is gone with it"
+        );
         let mut flat = xyz.clone();
         flat[3 * 7 + 1] = f32::INFINITY;
         assert_eq!(

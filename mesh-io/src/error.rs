@@ -16,6 +16,16 @@ pub enum MeshErrorKind {
     Internal,
 }
 
+/// Where in its file a [`MeshError`] is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Location {
+    /// A line of a text file, from 1.
+    Line(usize),
+    /// A byte offset into a binary file, from 0.
+    Byte(u64),
+}
+
 /// A mesh that could not be read or built.
 #[derive(Debug, Clone, PartialEq, Eq)]
 #[non_exhaustive]
@@ -24,6 +34,8 @@ pub struct MeshError {
     pub kind: MeshErrorKind,
     /// One line, naming the file and line (or byte offset) where there is one, and the reason.
     pub message: String,
+    /// The line or byte the message names, where there is one.
+    pub location: Option<Location>,
 }
 
 impl MeshError {
@@ -32,20 +44,27 @@ impl MeshError {
         Self {
             kind: MeshErrorKind::Input,
             message: message.into(),
+            location: None,
         }
     }
 
     /// Bad input in a file, at a line when known: `FILE:LINE: reason`.
     pub fn at(path: &Path, line: Option<usize>, reason: impl fmt::Display) -> Self {
         match line {
-            Some(l) => Self::input(format!("{}:{l}: {reason}", path.display())),
+            Some(l) => Self {
+                location: Some(Location::Line(l)),
+                ..Self::input(format!("{}:{l}: {reason}", path.display()))
+            },
             None => Self::input(format!("{}: {reason}", path.display())),
         }
     }
 
     /// Bad input in a binary file, at a byte offset: `FILE: byte N: reason`.
     pub fn at_byte(path: &Path, offset: u64, reason: impl fmt::Display) -> Self {
-        Self::input(format!("{}: byte {offset}: {reason}", path.display()))
+        Self {
+            location: Some(Location::Byte(offset)),
+            ..Self::input(format!("{}: byte {offset}: {reason}", path.display()))
+        }
     }
 
     /// A failure that is not the input's fault.
@@ -53,6 +72,7 @@ impl MeshError {
         Self {
             kind: MeshErrorKind::Internal,
             message: message.into(),
+            location: None,
         }
     }
 

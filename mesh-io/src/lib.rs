@@ -40,7 +40,7 @@ use std::path::{Path, PathBuf};
 use tetradrill_core::mesh::{BuildError, BuildOptions};
 use tetradrill_core::Vec3;
 
-pub use crate::error::{MeshError, MeshErrorKind};
+pub use crate::error::{Location, MeshError, MeshErrorKind};
 use crate::owned::OwnedMesh;
 
 /// The largest `N` accepted in `builtin:block:N` (6 N^3 tets).

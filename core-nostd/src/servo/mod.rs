@@ -11,7 +11,9 @@
 //!   at 1 kHz.
 //!
 //! A replay calls both with the same pose every tick, so its forces equal the exact contact
-//! with the drilled surface at that pose.
+//! with the drilled surface at that pose. Two tasks that may preempt each other hand the
+//! contact over through a [`ContactHandoff`] (`handoff.rs`: two sequence-locked slots over
+//! atomics), which a [`Servo`] reads at its own rate.
 //!
 //! The mesh may move and deform between simulation steps: [`World::set_positions`]
 //! (`deform.rs`) takes new node positions and updates what depends on them, or
@@ -37,6 +39,7 @@ use crate::mesh::Mesh;
 
 mod deform;
 mod force;
+mod handoff;
 mod passive;
 mod simulate;
 mod sizes;
@@ -49,6 +52,7 @@ mod zone_memo;
 pub use deform::{DeformError, DeformReport, Prepared, SpareStorage};
 pub(crate) use deform::{PREP_BOX_UNITS, PREP_FACE_UNITS, PREP_NODE_UNITS, PREP_NORMALISE_UNITS};
 pub use force::servo_force;
+pub use handoff::{ContactHandoff, Published, Servo, HANDOFF_TRIES};
 pub use passive::{drill_force, DrillState, PassiveReport};
 pub use sizes::{carve_rest, WorldSizes, WorldStorage, DEFAULT_PENDING, DEFAULT_SPHERE_MEMO};
 

@@ -1,26 +1,38 @@
-/* tetradrill's C interface on a bare Cortex-M4F: the host's `builtin:firmware` scenario (a
- * burr of radius 0.1 drilling the unit block of 4 x 4 x 4 cubes along the demo path, sized for
- * a microcontroller's RAM) tick by tick, the world in a static buffer, the force digest
- * printed through semihosting. scripts/c-example.sh --cortex-m runs it under QEMU and
- * compares the digest with `tetradrill replay --scenario builtin:firmware`'s.
+/* tetradrill's C interface on a bare Cortex-M4F, in two tasks as a haptic controller runs it:
+ * the servo's force in the SysTick interrupt, once a period, and the simulation step in the
+ * main loop below it, which the interrupt preempts. The scenario is the host's
+ * `builtin:firmware` (a burr of radius 0.1 drilling the unit block of 4 x 4 x 4 cubes along the
+ * demo path, sized for a microcontroller's RAM), the world in a static buffer.
  *
- * Every setting is the host scenario's (host-runner/src/scenario.rs), written as the host
- * derives it: doubles converted to float. */
+ * Each period: the interrupt renders the force at the tick's pose from the newest contact the
+ * steps published (the previous tick's step: the RTIC release rule, `servo_lag` 1) and
+ * releases the tick's step; the main loop runs it and waits for the next. A step still running
+ * at the next event is a deadline miss (counted and printed): the servo then renders from an
+ * older contact. The period is 168,000 instructions (1 ms at 168 MHz, one instruction a
+ * cycle) under QEMU's `-icount shift=10`. The force digest is printed through semihosting;
+ * scripts/c-example.sh --cortex-m compares it with `tetradrill replay --scenario
+ * builtin:firmware`'s.
+ *
+ * Built with MESH_BLOB defined (make BLOB=FILE), the block comes from a mesh blob in flash
+ * (`tetradrill export --firmware FILE --mesh builtin:block:4`), its tets read in place by
+ * td_world_init_blob, instead of being built from arrays. */
 #include <stddef.h>
 #include <stdint.h>
 
 #include "../block.h"
+#include "../firmware_params.h"
 #include "semihost.h"
-#include "tetradrill.h"
 
-#define BLOCK_N 4
+#define BLOCK_N FIRMWARE_BLOCK_N
 #define NODES ((BLOCK_N + 1) * (BLOCK_N + 1) * (BLOCK_N + 1))
 #define TETS (6 * BLOCK_N * BLOCK_N * BLOCK_N)
 /* Room for the world: td_world_size says how much of it the scenario takes. */
 #define WORLD_BYTES (2u * 1024u * 1024u)
 
+#ifndef MESH_BLOB
 static float positions[3 * NODES];
 static uint32_t tet_nodes[4 * TETS];
+#endif
 static uint8_t world_mem[WORLD_BYTES] __attribute__((aligned(64)));
 
 /* Prints `name=`, `v` in decimal and a newline. */
@@ -64,39 +76,75 @@ static int failed(td_status st, const char *what) {
     return 1;
 }
 
+/* SysTick (ARMv7-M): control and status, reload, current value. */
+#define SYST_CSR (*(volatile uint32_t *)0xE000E010u)
+#define SYST_RVR (*(volatile uint32_t *)0xE000E014u)
+#define SYST_CVR (*(volatile uint32_t *)0xE000E018u)
+/* The servo period in instructions, and in SysTick counts: QEMU's `-icount shift=10` makes an
+ * instruction 1,024 ns of virtual time, and the MPS2 SysTick counts the 25 MHz processor
+ * clock (40 ns a count). */
+#define PERIOD_INSTRUCTIONS 168000u
+#define PERIOD_COUNTS (PERIOD_INSTRUCTIONS * 1024u / 40u)
+
+static td_servo *servo;
+static uint32_t ticks;
+/* Ticks the servo has run (written by the interrupt only). */
+static volatile uint32_t released;
+/* Steps the main loop has finished (written by the main loop only). */
+static volatile uint32_t stepped;
+/* Events that found the previous tick's step unfinished. */
+static volatile uint32_t misses;
+/* The first failed status in the interrupt (TD_OK: none). */
+static volatile td_status servo_status = TD_OK;
+
+/* The servo's timer event: the force at this tick's pose from the newest published contact,
+ * then this tick's step released to the main loop. */
+void systick_handler(void) {
+    const uint32_t i = released;
+    if (i >= ticks)
+        return;
+    if (stepped != i)
+        misses = misses + 1;
+    td_vec3 pose, force;
+    uint32_t buttons = 0;
+    td_status st = td_demo_pose(i, &pose, &buttons);
+    if (st == TD_OK)
+        st = td_servo_force(servo, pose, &force);
+    if (st != TD_OK && servo_status == TD_OK)
+        servo_status = st;
+    /* On a device: write `force` to the motors here. */
+    released = i + 1;
+}
+
+#ifdef MESH_BLOB
+/* The blob's bytes (blob.S). */
+extern const uint8_t mesh_blob[], mesh_blob_end[];
+#endif
+
 int main(void) {
-    block_write(BLOCK_N, positions, tet_nodes);
-
     td_params p;
-    if (failed(td_params_default(NODES, TETS, &p), "td_params_default"))
-        return 1;
-    /* The scenario builtin:firmware: the demo's tool and forces ... */
-    p.radius = (float)0.1;
-    p.reach = 0.5f * p.radius;
-    p.stiffness = (float)200.0;
-    p.damping = (float)0.5;
-    p.max_force = (float)8.0;
-    p.dt = (float)1e-3;
-    p.switch_time = (float)(16.0 / 1000.0);
-    p.servo_lag = 1; /* the RTIC release rule: the servo first, then the step it releases */
-    p.min_area = (float)0.0;
-    /* ... with its own limits: depth 4, 300 work units a tick, 64 contact nodes, separate
-     * bounds, a 20,000-node arena and a 16,384-item deque; candidates and query cells at the
-     * core's defaults (what `replay` sizes for this burr on this mesh). */
-    p.max_depth = 4;
-    p.budget_per_tick = 300;
-    p.contact_search_nodes = 64;
-    p.tick_budget = 0;
-    p.hierarchy_capacity = 20000;
-    p.pending_capacity = 16384;
-    p.candidate_capacity = 1024;
-    p.max_cells = 4096;
-    /* No materials in this scenario: the mesh goes in without labels, one region. */
-    p.region_capacity = 1;
-
     size_t size = 0, align = 0;
-    if (failed(td_world_size(&p, &size, &align), "td_world_size"))
+#ifdef MESH_BLOB
+    const size_t blob_len = (size_t)(mesh_blob_end - mesh_blob);
+    uint32_t nodes = 0, tets = 0, bad_byte = 0;
+    td_status counted = td_blob_counts(mesh_blob, blob_len, &nodes, &tets, &bad_byte);
+    if (counted == TD_ERR_BLOB)
+        put_u32("bad_byte", bad_byte);
+    if (failed(counted, "td_blob_counts") || failed(firmware_params(nodes, tets, &p), "td_params_default"))
         return 1;
+    /* The blob carries the block's labels (its shell and its core): two regions, both of the
+     * default material, which drills as no material does. */
+    p.region_capacity = 2;
+    if (failed(td_world_size_blob(&p, &size, &align), "td_world_size_blob"))
+        return 1;
+    sh_puts("mesh=blob\n");
+#else
+    block_write(BLOCK_N, positions, tet_nodes);
+    if (failed(firmware_params(NODES, TETS, &p), "td_params_default") ||
+        failed(td_world_size(&p, &size, &align), "td_world_size"))
+        return 1;
+    sh_puts("mesh=arrays\n");
+#endif
     put_u32("world_bytes", (uint32_t)size);
     if (size > sizeof world_mem || align > 64) {
         sh_puts("error: the static world buffer is too small for this scenario\n");
@@ -104,29 +152,49 @@ int main(void) {
     }
     td_world *world = 0;
     uint32_t bad = 0;
+#ifdef MESH_BLOB
+    td_status st = td_world_init_blob(world_mem, sizeof world_mem, &p, mesh_blob, blob_len, &world, &bad);
+#else
     td_status st = td_world_init(world_mem, sizeof world_mem, &p, positions, tet_nodes, NULL, &world, &bad);
-    if (st == TD_ERR_MESH)
+#endif
+    if (st == TD_ERR_MESH || st == TD_ERR_BLOB)
         put_u32("bad_item", bad);
-    if (failed(st, "td_world_init"))
+    if (failed(st, "td_world_init") || failed(td_world_servo(world, &servo), "td_world_servo"))
         return 1;
 
-    const uint32_t ticks = td_demo_ticks();
-    for (uint32_t i = 0; i < ticks; i++) {
-        td_vec3 pose, force;
+    ticks = td_demo_ticks();
+    sh_puts("servo=systick\n");
+    SYST_RVR = PERIOD_COUNTS - 1;
+    SYST_CVR = 0;
+    SYST_CSR = 0x7u; /* the processor clock, the interrupt, the counter on */
+    while (stepped < ticks) {
+        /* Wait for the servo to release the next step. */
+        while (released == stepped)
+            __asm__ volatile("wfi" ::: "memory");
+        const uint32_t i = stepped;
+        td_vec3 pose;
         uint32_t buttons = 0;
         if (failed(td_demo_pose(i, &pose, &buttons), "td_demo_pose") ||
-            failed(td_world_tick(world, pose, buttons, &force), "td_world_tick"))
+            failed(td_world_simulate(world, pose, buttons, NULL), "td_world_simulate"))
             return 1;
+        stepped = i + 1;
     }
+    SYST_CSR = 0;
+    if (failed(servo_status, "td_servo_force"))
+        return 1;
 
     td_counters c;
-    if (failed(td_world_counters(world, &c), "td_world_counters"))
+    td_servo_counts s;
+    if (failed(td_world_counters(world, &c), "td_world_counters") ||
+        failed(td_servo_counters(servo, &s), "td_servo_counters"))
         return 1;
-    put_u32("ticks", (uint32_t)c.servo_ticks);
-    put_u32("contact_ticks", (uint32_t)c.contact_ticks);
+    put_u32("ticks", (uint32_t)s.servo_ticks);
+    put_u32("steps", (uint32_t)c.simulate_steps);
+    put_u32("deadline_misses", misses);
+    put_u32("contact_ticks", (uint32_t)s.contact_ticks);
     put_u32("hierarchy_nodes", (uint32_t)c.hierarchy_nodes);
     put_u32("visible_faces", c.visible_faces);
     put_u32("saturations", c.sat_total);
-    put_hex64("force_digest", c.force_digest);
-    return 0;
+    put_hex64("force_digest", s.force_digest);
+    return misses == 0 ? 0 : 1;
 }

@@ -1,12 +1,15 @@
-/* Start-up for a bare Cortex-M4F under QEMU's mps2-an386: the vector table, the reset handler
- * (copy .data, clear .bss, turn the FPU on, run main, exit), a fault handler, and the few
- * semihosting calls the example prints and exits with. No C library is used. */
+/* Start-up for a bare Cortex-M4F under QEMU's mps2-an386: the vector table (SysTick is the
+ * servo's, in main.c), the reset handler (copy .data, clear .bss, turn the FPU on, run main,
+ * exit), a fault handler, and the few semihosting calls the example prints and exits with. No
+ * C library is used. */
 #include <stdint.h>
 
 #include "semihost.h"
 
 extern uint32_t __data_start, __data_end, __data_load, __bss_start, __bss_end, __stack_top;
 int main(void);
+/* The servo's timer event (main.c). */
+void systick_handler(void);
 
 /* Semihosting: operation `op` with argument `arg`, through the BKPT 0xAB trap QEMU serves
  * when started with -semihosting-config enable=on. */
@@ -51,7 +54,7 @@ static void default_handler(void) {
 }
 
 /* The vector table: the initial stack pointer, then the 15 system exceptions (interrupts of
- * the board's peripherals are never enabled here). */
+ * the board's peripherals are never enabled here; SysTick is the servo's timer). */
 __attribute__((section(".vectors"), used)) static const void *const vectors[16] = {
     &__stack_top,
     (const void *)reset_handler,
@@ -65,5 +68,5 @@ __attribute__((section(".vectors"), used)) static const void *const vectors[16] 
     (const void *)default_handler, /* DebugMonitor */
     0,
     (const void *)default_handler, /* PendSV */
-    (const void *)default_handler, /* SysTick */
+    (const void *)systick_handler, /* SysTick: the servo */
 };

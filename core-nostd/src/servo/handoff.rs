@@ -1,0 +1,464 @@
+//! Two rates without a lock: the simulation publishes each step's contact into a
+//! [`ContactHandoff`], and a [`Servo`] at the higher rate reads the newest one and reports its
+//! force back, each side free to preempt the other (two threads, or a timer interrupt over a
+//! background loop).
+//!
+//! The hand-off is two slots, each a sequence lock over atomic words: the simulation writes
+//! the slot the servo is not pointed at, then points the servo at it. A servo that preempts
+//! the simulation (an interrupt on the same core) always finds the slot it is pointed at
+//! complete; a servo on another core that is overtaken twice while it reads sees the sequence
+//! change and reads again, a bounded number of times, and keeps the contact it had when every
+//! try was overtaken (counted, [`Servo::stale_reads`]). Every access is atomic, so there is no
+//! data race whatever the interleaving, and no `unsafe`.
+//!
+//! The other way, the servo leaves the magnitude of its last force and a count of its ticks,
+//! which the simulation turns into the pressing force of its next step
+//! ([`ContactHandoff::pressing`], [`super::World::set_pressing`]).
+//!
+//! One publisher and one servo at a time: the roles are the caller's to keep (two publishers
+//! at once could hand the servo a contact mixed of both; nothing worse).
+
+use core::sync::atomic::{fence, AtomicU32, Ordering};
+
+use glam::Vec3;
+
+use super::force::servo_force;
+use super::ContactState;
+use crate::force::{ForceDigest, ForceParams, ToolState};
+
+/// Words of a published contact: `valid`, point, normal, depth, centre, triangles, stiffness
+/// and the step's number.
+const WORDS: usize = 14;
+
+/// How many times [`ContactHandoff::latest`] reads a slot the publisher overtook before it
+/// gives up for this tick.
+pub const HANDOFF_TRIES: u32 = 4;
+
+/// One sequence-locked copy of a contact: `seq` is odd while it is written.
+#[derive(Debug)]
+struct Slot {
+    seq: AtomicU32,
+    words: [AtomicU32; WORDS],
+}
+
+impl Slot {
+    const fn new() -> Self {
+        Self {
+            seq: AtomicU32::new(0),
+            words: [const { AtomicU32::new(0) }; WORDS],
+        }
+    }
+}
+
+/// A contact as the servo receives it: the simulation step's [`ContactState`] and that step's
+/// number (1 for the first published; 0 for none yet).
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct Published {
+    /// The step's contact.
+    pub contact: ContactState,
+    /// The step's number, counted by the publisher from 1.
+    pub step: u32,
+}
+
+impl Published {
+    fn to_words(self) -> [u32; WORDS] {
+        let c = &self.contact;
+        [
+            u32::from(c.valid),
+            c.point.x.to_bits(),
+            c.point.y.to_bits(),
+            c.point.z.to_bits(),
+            c.normal.x.to_bits(),
+            c.normal.y.to_bits(),
+            c.normal.z.to_bits(),
+            c.depth.to_bits(),
+            c.centre.x.to_bits(),
+            c.centre.y.to_bits(),
+            c.centre.z.to_bits(),
+            c.triangles,
+            c.stiffness.to_bits(),
+            self.step,
+        ]
+    }
+
+    fn from_words(w: [u32; WORDS]) -> Self {
+        let f = |i: usize| f32::from_bits(w[i]);
+        let v = |i: usize| Vec3::new(f(i), f(i + 1), f(i + 2));
+        Self {
+            contact: ContactState {
+                valid: w[0] != 0,
+                point: v(1),
+                normal: v(4),
+                depth: f(7),
+                centre: v(8),
+                triangles: w[11],
+                stiffness: f(12),
+            },
+            step: w[13],
+        }
+    }
+}
+
+/// The lock-free hand-off between a simulation step and the servo (module docs).
+///
+/// All zeros is a valid empty hand-off (no contact, no servo tick), so memory cleared by the
+/// start-up code or [`ContactHandoff::new`] both do.
+///
+/// ```
+/// use tetradrill_core::force::ForceParams;
+/// use tetradrill_core::servo::{ContactHandoff, ContactState, Servo};
+/// use tetradrill_core::Vec3;
+///
+/// static HANDOFF: ContactHandoff = ContactHandoff::new();
+/// let mut servo = Servo::new(0.1, ForceParams::default());
+/// std::thread::scope(|s| {
+///     // The simulation's side: a step's contact, a plane 0.02 into the burr.
+///     s.spawn(|| {
+///         let plane = ContactState { valid: true, normal: Vec3::Z, ..Default::default() };
+///         HANDOFF.publish(&plane);
+///     });
+/// });
+/// // The servo's side, at its own rate: the force from the newest contact.
+/// let f = servo.tick(&HANDOFF, Vec3::new(0.0, 0.0, 0.08));
+/// assert_eq!(servo.step(), 1);
+/// assert!(f.z > 0.0, "pushed out of the material");
+/// // And back: the step learns how hard the burr pressed, for how many servo ticks.
+/// let mut seen = 0;
+/// assert_eq!(HANDOFF.pressing(&mut seen), Some((f.length(), 1)));
+/// ```
+#[derive(Debug)]
+pub struct ContactHandoff {
+    slots: [Slot; 2],
+    /// The slot the servo reads (the newest complete one).
+    newest: AtomicU32,
+    /// Steps published.
+    steps: AtomicU32,
+    /// Bits of the magnitude of the servo's last force, newtons.
+    force: AtomicU32,
+    /// Servo ticks reported (wrapping).
+    ticks: AtomicU32,
+}
+
+impl Default for ContactHandoff {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl ContactHandoff {
+    /// An empty hand-off: no contact published, no servo tick.
+    pub const fn new() -> Self {
+        Self {
+            slots: [Slot::new(), Slot::new()],
+            newest: AtomicU32::new(0),
+            steps: AtomicU32::new(0),
+            force: AtomicU32::new(0),
+            ticks: AtomicU32::new(0),
+        }
+    }
+
+    /// Publishes a step's contact; returns its step number (1 for the first).
+    ///
+    /// # Bounded work
+    /// Constant: 14 word stores into the slot the servo is not reading, then the switch.
+    /// Never waits. One publisher at a time (module docs).
+    pub fn publish(&self, contact: &ContactState) -> u32 {
+        let step = self.steps.load(Ordering::Relaxed).wrapping_add(1);
+        let words = Published {
+            contact: *contact,
+            step,
+        }
+        .to_words();
+        let next = (self.newest.load(Ordering::Relaxed) ^ 1) & 1;
+        let slot = &self.slots[next as usize];
+        let seq = slot.seq.load(Ordering::Relaxed);
+        slot.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
+        // The odd sequence is ordered before the words: a reader that sees any new word sees
+        // the odd (or a later) sequence on its second look.
+        fence(Ordering::Release);
+        for (w, v) in slot.words.iter().zip(words) {
+            w.store(v, Ordering::Relaxed);
+        }
+        slot.seq.store(seq.wrapping_add(2), Ordering::Release);
+        self.steps.store(step, Ordering::Relaxed);
+        self.newest.store(next, Ordering::Release);
+        step
+    }
+
+    /// The newest published contact, or `None` when every one of [`HANDOFF_TRIES`] reads was
+    /// overtaken by the publisher (only possible when the two run on different cores). Before
+    /// the first publish: the empty contact of step 0.
+    ///
+    /// # Bounded work
+    /// At most [`HANDOFF_TRIES`] reads of 14 words. Never waits.
+    pub fn latest(&self) -> Option<Published> {
+        for _ in 0..HANDOFF_TRIES {
+            let slot = &self.slots[(self.newest.load(Ordering::Acquire) & 1) as usize];
+            let before = slot.seq.load(Ordering::Acquire);
+            if before & 1 != 0 {
+                continue;
+            }
+            let mut words = [0; WORDS];
+            for (v, w) in words.iter_mut().zip(&slot.words) {
+                *v = w.load(Ordering::Relaxed);
+            }
+            // The words are read before the second look at the sequence.
+            fence(Ordering::Acquire);
+            if slot.seq.load(Ordering::Relaxed) == before {
+                return Some(Published::from_words(words));
+            }
+        }
+        None
+    }
+
+    /// The servo's side: leaves the magnitude of the force it just rendered and counts the
+    /// tick.
+    ///
+    /// # Bounded work
+    /// Constant. One servo at a time (module docs).
+    pub fn report_force(&self, force: Vec3) {
+        self.force
+            .store(force.length().to_bits(), Ordering::Relaxed);
+        let t = self.ticks.load(Ordering::Relaxed).wrapping_add(1);
+        self.ticks.store(t, Ordering::Release);
+    }
+
+    /// The simulation's side: the servo's last force magnitude (newtons) and the servo ticks
+    /// since `seen`, which is moved to now; `None` when the servo has not ticked since.
+    /// [`super::World::set_pressing`] with the force for `ticks * dt` seconds feeds the
+    /// materials as a single-task replay does.
+    ///
+    /// The two values are read one after the other: a servo tick between the reads gives
+    /// the newer force with the older count (off by one tick, caught up at the next call).
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn pressing(&self, seen: &mut u32) -> Option<(f32, u32)> {
+        let now = self.ticks.load(Ordering::Acquire);
+        let ticks = now.wrapping_sub(*seen);
+        if ticks == 0 {
+            return None;
+        }
+        *seen = now;
+        Some((f32::from_bits(self.force.load(Ordering::Relaxed)), ticks))
+    }
+}
+
+/// The servo's own state for a spherical burr fed through a [`ContactHandoff`]: the contact
+/// it renders from, the tool state between ticks, the force settings and the digest of what
+/// it rendered.
+#[derive(Clone, Copy, Debug)]
+pub struct Servo {
+    contact: ContactState,
+    step: u32,
+    tool: ToolState,
+    params: ForceParams,
+    radius: f32,
+    digest: ForceDigest,
+    ticks: u64,
+    contact_ticks: u64,
+    stale_reads: u64,
+}
+
+impl Servo {
+    /// A servo for a burr of `radius` with the force settings `params`, no contact yet.
+    pub fn new(radius: f32, params: ForceParams) -> Self {
+        Self {
+            contact: ContactState::default(),
+            step: 0,
+            tool: ToolState::default(),
+            params,
+            radius,
+            digest: ForceDigest::default(),
+            ticks: 0,
+            contact_ticks: 0,
+            stale_reads: 0,
+        }
+    }
+
+    /// One servo tick: takes the newest contact from `handoff` (or keeps the last one when
+    /// every read was overtaken, counted), the force at `centre` from it ([`servo_force`]),
+    /// reported back through `handoff` and added to the digest.
+    ///
+    /// # Bounded work
+    /// Constant: [`ContactHandoff::latest`] and [`servo_force`]. Never waits, allocates or
+    /// panics; a non-finite `centre` gives zero force.
+    pub fn tick(&mut self, handoff: &ContactHandoff, centre: Vec3) -> Vec3 {
+        match handoff.latest() {
+            Some(p) => {
+                self.contact = p.contact;
+                self.step = p.step;
+            }
+            None => self.stale_reads += 1,
+        }
+        let f = servo_force(
+            &self.contact,
+            centre,
+            self.radius,
+            &mut self.tool,
+            &self.params,
+        );
+        handoff.report_force(f);
+        self.digest.push(f);
+        self.ticks += 1;
+        if f != Vec3::ZERO {
+            self.contact_ticks += 1;
+        }
+        f
+    }
+
+    /// Digest of every force rendered, as [`ForceDigest`].
+    pub fn digest(&self) -> u64 {
+        self.digest.value()
+    }
+
+    /// Ticks run.
+    pub fn ticks(&self) -> u64 {
+        self.ticks
+    }
+
+    /// Ticks with a force other than zero.
+    pub fn contact_ticks(&self) -> u64 {
+        self.contact_ticks
+    }
+
+    /// Ticks that kept the previous contact because the publisher overtook every read.
+    pub fn stale_reads(&self) -> u64 {
+        self.stale_reads
+    }
+
+    /// The step number of the contact in use (0: none yet).
+    pub fn step(&self) -> u32 {
+        self.step
+    }
+
+    /// The force settings.
+    pub fn params(&self) -> &ForceParams {
+        &self.params
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+
+    use super::*;
+    use std::sync::atomic::AtomicBool;
+    use std::thread;
+
+    /// A contact whose every field is a function of `i`, so a mix of two is recognisable.
+    fn contact(i: u32) -> ContactState {
+        let x = i as f32;
+        ContactState {
+            valid: i % 2 == 1,
+            point: Vec3::new(x, x + 0.5, -x),
+            normal: Vec3::new(0.25 * x, 1.0, x * x),
+            depth: 3.0 * x,
+            centre: Vec3::new(-2.0 * x, 7.0, x + 1.0),
+            triangles: i.wrapping_mul(3),
+            stiffness: x + 100.0,
+        }
+    }
+
+    #[test]
+    fn a_published_contact_comes_back_bit_for_bit_with_its_step() {
+        let h = ContactHandoff::new();
+        assert_eq!(h.latest(), Some(Published::default()));
+        for i in 1..=5 {
+            let mut c = contact(i);
+            c.normal.y = f32::from_bits(0x7fc0_1234); // a NaN payload survives
+            assert_eq!(h.publish(&c), i);
+            let p = h.latest().expect("no publisher running");
+            assert_eq!(p.step, i);
+            assert_eq!(p.contact.normal.y.to_bits(), 0x7fc0_1234);
+            c.normal.y = 0.0;
+            let mut got = p.contact;
+            got.normal.y = 0.0;
+            assert_eq!(got, c);
+        }
+    }
+
+    #[test]
+    fn the_servo_reports_its_force_and_ticks_to_the_simulation() {
+        let h = ContactHandoff::new();
+        let mut seen = 0;
+        assert_eq!(h.pressing(&mut seen), None);
+        h.report_force(Vec3::new(3.0, 4.0, 0.0));
+        h.report_force(Vec3::new(0.0, 0.0, 2.0));
+        assert_eq!(h.pressing(&mut seen), Some((2.0, 2)));
+        assert_eq!(h.pressing(&mut seen), None);
+        h.report_force(Vec3::ZERO);
+        assert_eq!(h.pressing(&mut seen), Some((0.0, 1)));
+    }
+
+    #[test]
+    fn a_servo_renders_what_servo_force_renders_from_the_same_contacts() {
+        let params = ForceParams::default();
+        let h = ContactHandoff::new();
+        let mut servo = Servo::new(0.1, params);
+        let (mut tool, mut digest) = (ToolState::default(), ForceDigest::default());
+        let plane = ContactState {
+            valid: true,
+            point: Vec3::ZERO,
+            normal: Vec3::Z,
+            depth: 0.05,
+            centre: Vec3::new(0.0, 0.0, 0.05),
+            triangles: 1,
+            stiffness: 0.0,
+        };
+        for i in 0..50 {
+            let c = if i < 20 {
+                plane
+            } else {
+                ContactState::default()
+            };
+            h.publish(&c);
+            let at = Vec3::new(0.0, 0.0, 0.1 - 0.004 * i as f32);
+            let want = servo_force(&c, at, 0.1, &mut tool, &params);
+            digest.push(want);
+            assert_eq!(servo.tick(&h, at), want, "tick {i}");
+        }
+        assert_eq!(servo.digest(), digest.value());
+        assert_eq!(
+            (servo.ticks(), servo.stale_reads(), servo.step()),
+            (50, 0, 50)
+        );
+        assert!(servo.contact_ticks() > 0);
+    }
+
+    /// A publisher and a reader on two threads: every contact read is one the publisher
+    /// wrote whole (all fields from one `i`, with that step's number), and steps never go
+    /// back.
+    #[test]
+    fn a_reader_on_another_thread_never_sees_a_mixed_contact() {
+        let h = ContactHandoff::new();
+        let done = AtomicBool::new(false);
+        const STEPS: u32 = 200_000;
+        thread::scope(|s| {
+            s.spawn(|| {
+                for i in 1..=STEPS {
+                    assert_eq!(h.publish(&contact(i)), i);
+                }
+                done.store(true, Ordering::Release);
+            });
+            let (mut last, mut reads, mut stale) = (0, 0u64, 0u64);
+            while !done.load(Ordering::Acquire) || reads == 0 {
+                match h.latest() {
+                    Some(p) => {
+                        assert!(p.step >= last, "step {} after {last}", p.step);
+                        if p.step > 0 {
+                            assert_eq!(p.contact, contact(p.step), "a mixed contact");
+                        }
+                        last = p.step;
+                        reads += 1;
+                    }
+                    None => stale += 1,
+                }
+            }
+            assert!(reads > 0);
+            // Once the publisher is done, the newest is its last.
+            assert_eq!(h.latest().map(|p| p.step), Some(STEPS));
+            let _ = stale;
+        });
+    }
+}

@@ -1,0 +1,117 @@
+// Checks of the C++ wrapper's own behaviour (scripts/cpp-example.sh runs it): errors become
+// exceptions that carry the status and the line, byte or item at fault; a world moves without
+// its memory moving; its servo runs on a thread of its own beside the steps.
+//
+//   checks SCRATCH_DIR
+#include <atomic>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "tetradrill.hpp"
+
+static int failures = 0;
+
+static void expect(bool ok, const char *what) {
+    std::printf("%s: %s\n", ok ? "ok" : "FAIL", what);
+    failures += ok ? 0 : 1;
+}
+
+// The unit cube as 5 tets (8 nodes).
+static const std::vector<float> cube_xyz = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0,
+                                            0, 0, 1, 1, 0, 1, 0, 1, 1, 1, 1, 1};
+static const std::vector<std::uint32_t> cube_tets = {0, 1, 2, 4, 1, 3, 2, 7, 1, 2, 4, 7,
+                                                     1, 4, 5, 7, 2, 4, 6, 7};
+
+int main(int argc, char **argv) {
+    if (argc != 2) {
+        std::fprintf(stderr, "checks: usage: checks SCRATCH_DIR\n");
+        return 2;
+    }
+    const std::string dir = argv[1];
+    // A mesh file with a bad line: the exception names the file and the line.
+    {
+        std::ofstream(dir + "/one.node") << "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n";
+        std::ofstream(dir + "/one.ele") << "1 4 0\n0 0 1 2 9\n";
+        bool thrown = false;
+        try {
+            tetradrill::mesh_file f(dir + "/one.node");
+        } catch (const tetradrill::file_error &e) {
+            thrown = e.status() == TD_ERR_FILE && e.line() == 2 &&
+                     std::string(e.what()).find("one.ele:2:") != std::string::npos;
+        }
+        expect(thrown, "a bad mesh file throws file_error naming its file and line 2");
+    }
+    auto p = tetradrill::params::defaults(8, 5);
+    p.hierarchy_capacity = 4096;
+    p.radius = 0.2f;
+    // A mesh the build refuses: the exception names the tet.
+    {
+        std::vector<std::uint32_t> bad = cube_tets;
+        bad[4 * 3 + 1] = 99;
+        bool thrown = false;
+        try {
+            tetradrill::world w(p, cube_xyz, bad);
+        } catch (const tetradrill::item_error &e) {
+            thrown = e.status() == TD_ERR_MESH && e.item() == 3;
+        }
+        expect(thrown, "a node out of range throws item_error naming tet 3");
+    }
+    // Arrays of the wrong length are refused before the C call.
+    {
+        bool thrown = false;
+        try {
+            tetradrill::world w(p, std::span(cube_xyz).first(21), cube_tets);
+        } catch (const tetradrill::error &e) {
+            thrown = e.status() == TD_ERR_PARAMS;
+        }
+        expect(thrown, "short arrays throw error(TD_ERR_PARAMS)");
+    }
+    // A world moved keeps its memory: the servo taken before the move still works after it.
+    tetradrill::world a(p, cube_xyz, cube_tets);
+    tetradrill::servo s = a.servo();
+    tetradrill::world w = std::move(a);
+    expect(a.get() == nullptr && w.get() != nullptr, "a moved-from world holds nothing");
+    // The servo on its own thread beside the steps: a press into the top face. Only that
+    // thread calls the servo until it is joined.
+    std::atomic<bool> done{false};
+    std::atomic<int> servo_errors{0};
+    std::atomic<std::uint32_t> step_seen{0};
+    float top_force = 0.f;
+    std::thread servo_thread([&] {
+        while (!done.load()) {
+            try {
+                const float z = s.force({0.5f, 0.5f, 1.1f}).z;
+                const std::uint32_t step = s.counters().step;
+                if (step == 2000)
+                    top_force = z;
+                step_seen = step;
+            } catch (const tetradrill::error &) {
+                servo_errors++;
+                return;
+            }
+        }
+    });
+    for (int i = 0; i < 2000; i++)
+        w.simulate({0.5f, 0.5f, 1.1f}, 0);
+    while (step_seen.load() != 2000 && servo_errors.load() == 0)
+        std::this_thread::yield();
+    done = true;
+    servo_thread.join();
+    expect(servo_errors.load() == 0, "every servo call on the other thread succeeded");
+    expect(s.counters().step == 2000, "the servo renders from the last published step");
+    expect(top_force > 0.f, "the press into the top face pushes up (+z)");
+    // A bad pose is an exception, not a force.
+    bool thrown = false;
+    try {
+        w.tick({std::numeric_limits<float>::quiet_NaN(), 0.f, 0.f}, 0);
+    } catch (const tetradrill::error &e) {
+        thrown = e.status() == TD_ERR_INPUT;
+    }
+    expect(thrown, "a NaN pose throws error(TD_ERR_INPUT)");
+    std::printf("checks: %s\n", failures == 0 ? "OK" : "FAILED");
+    return failures == 0 ? 0 : 1;
+}

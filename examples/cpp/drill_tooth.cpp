@@ -1,0 +1,81 @@
+// Drills the premolar's access cavity through tetradrill's C++ wrapper (ffi/include/
+// tetradrill.hpp): the tooth read from its mesh file with its three materials (enamel,
+// dentin, pulp), the burr driven along the scripted access path, a tick a millisecond, as
+// `tetradrill replay --scenario builtin:firmware-tooth` runs it. Prints the force digest and
+// the volume removed from each region; scripts/cpp-example.sh compares them with the host's.
+//
+//   drill_tooth MESH_FILE
+//
+// Every setting is the host scenario's (host-runner/src/scenario), written as the host derives
+// it: doubles converted to float.
+#include <cinttypes>
+#include <cstdio>
+#include <exception>
+
+#include "tetradrill.hpp"
+
+int main(int argc, char **argv) {
+    if (argc != 2) {
+        std::fprintf(stderr, "drill_tooth: usage: drill_tooth MESH_FILE\n");
+        return 2;
+    }
+    try {
+        tetradrill::mesh_file tooth(argv[1]);
+        td_params p = tetradrill::params::defaults(tooth.node_count(), tooth.tet_count());
+        // builtin:firmware-tooth: a 0.7 mm burr, metres and newtons ...
+        p.radius = static_cast<float>(0.0007);
+        p.reach = 0.5f * p.radius;
+        p.stiffness = static_cast<float>(6000.0);
+        p.damping = static_cast<float>(0.5);
+        p.max_force = static_cast<float>(8.0);
+        p.dt = static_cast<float>(1e-3);
+        p.switch_time = static_cast<float>(16.0 / 1000.0);
+        p.servo_lag = 1; // the firmware's release rule
+        // ... with the firmware's limits and the capacities that hold the whole path.
+        p.max_depth = 4;
+        p.min_area = 0.f;
+        p.budget_per_tick = 300;
+        p.contact_search_nodes = 64;
+        p.tick_budget = 0;
+        p.hierarchy_capacity = 60000;
+        p.pending_capacity = 16384;
+        p.candidate_capacity = 3072;
+        p.max_cells = 4096;
+        p.zone_gather_work = 2000;
+        p.region_capacity = 3;
+
+        tetradrill::world world(p, tooth);
+        // The tooth's materials (host-runner/src/scenario/regions.rs, tooth_regions): hardness
+        // in N s per cubic metre, threshold in N, stiffness in N per metre.
+        world.set_region(1, static_cast<float>(1.0e9), 1.f, static_cast<float>(10000.0)); // enamel
+        world.set_region(2, static_cast<float>(2.0e8), 0.5f, static_cast<float>(6000.0)); // dentin
+        world.set_region(3, static_cast<float>(4.0e6), 0.1f, static_cast<float>(1000.0)); // pulp
+
+        const std::uint32_t ticks = td_script_ticks(TD_SCRIPT_TOOTH_ACCESS);
+        float force_max = 0.f;
+        for (std::uint32_t i = 0; i < ticks; i++) {
+            td_vec3 at{};
+            std::uint32_t buttons = 0;
+            tetradrill::detail::check(td_script_pose(TD_SCRIPT_TOOTH_ACCESS, i, &at, &buttons),
+                                      "td_script_pose");
+            const td_vec3 f = world.tick(at, buttons);
+            const float m = f.x * f.x + f.y * f.y + f.z * f.z;
+            force_max = m > force_max ? m : force_max;
+        }
+        const td_counters c = world.counters();
+        const td_servo_counts s = world.servo().counters();
+        std::printf("ticks=%" PRIu64 "\n", s.servo_ticks);
+        std::printf("removed_volume=%.6e\n", c.removed_volume);
+        std::printf("visible_faces=%u\n", static_cast<unsigned>(c.visible_faces));
+        for (const auto &[label, v] : world.removed_by_region())
+            std::printf("removed_by_region.%d=%.6e\n", static_cast<int>(label), v);
+        std::printf("force_digest=%016" PRIx64 "\n", s.force_digest);
+    } catch (const tetradrill::file_error &e) {
+        std::fprintf(stderr, "drill_tooth: %s\n", e.what());
+        return 2;
+    } catch (const std::exception &e) {
+        std::fprintf(stderr, "drill_tooth: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,281 @@
+// tetradrill for C++: a header-only RAII wrapper over the C interface (tetradrill.h,
+// docs/FFI.md). C++20; errors are exceptions (tetradrill::error, with the status and, for a
+// mesh file, its line or byte); arrays are std::span.
+//
+//   tetradrill::mesh_file file("tooth.msh");            // hosted builds: any mesh file
+//   auto p = tetradrill::params::defaults(file.node_count(), file.tet_count());
+//   tetradrill::world w(p, file);                        // owns its memory, freed on destruction
+//   tetradrill::servo s = w.servo();                     // for the servo's thread or interrupt
+//   td_vec3 f = w.tick({0.f, 0.f, 0.02f}, 1);            // or: w.simulate(..) and s.force(..)
+//
+// The world's memory does not move while the world lives (moving a `world` moves the
+// ownership, not the memory), so a `servo` taken from it stays valid until the world is
+// destroyed. The simulation's calls (`simulate`, `tick`, `set_region`, `counters`, ...) belong to
+// one thread, the servo's (`servo::force`, `servo::counters`) to one other; the two may overlap.
+#ifndef TETRADRILL_HPP
+#define TETRADRILL_HPP
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <new>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "tetradrill.h"
+
+namespace tetradrill {
+
+// A call of the C interface that did not return TD_OK.
+class error : public std::runtime_error {
+  public:
+    error(td_status status, const std::string &what)
+        : std::runtime_error(what + ": " + td_status_name(static_cast<int32_t>(status))),
+          status_(status) {}
+
+    // The C interface's status.
+    td_status status() const noexcept { return status_; }
+
+  private:
+    td_status status_;
+};
+
+// A mesh file that could not be read: the file's line (from 1; 0 when none) or byte
+// (UINT64_MAX when none), and the reader's line naming the file and the reason.
+class file_error : public error {
+  public:
+    explicit file_error(const td_file_error &e)
+        : error(TD_ERR_FILE, std::string(e.message)), line_(e.line), byte_(e.byte) {}
+
+    std::uint64_t line() const noexcept { return line_; }
+    std::uint64_t byte() const noexcept { return byte_; }
+
+  private:
+    std::uint64_t line_, byte_;
+};
+
+// A refused mesh or blob, naming the tet, node or byte at fault (`bad_item`).
+class item_error : public error {
+  public:
+    item_error(td_status status, const std::string &what, std::uint32_t item)
+        : error(status, what + " (item " + std::to_string(item) + ")"), item_(item) {}
+
+    std::uint32_t item() const noexcept { return item_; }
+
+  private:
+    std::uint32_t item_;
+};
+
+namespace detail {
+// Throws `error` unless `st` is TD_OK.
+inline void check(td_status st, const char *what) {
+    if (st != TD_OK)
+        throw error(st, what);
+}
+
+// Memory at an alignment, freed with the matching delete.
+struct aligned_free {
+    std::size_t align;
+    void operator()(std::byte *p) const noexcept {
+        ::operator delete[](p, std::align_val_t(align));
+    }
+};
+using aligned_bytes = std::unique_ptr<std::byte[], aligned_free>;
+
+inline aligned_bytes allocate(std::size_t size, std::size_t align) {
+    auto *p = static_cast<std::byte *>(::operator new[](size, std::align_val_t(align)));
+    return aligned_bytes(p, aligned_free{align});
+}
+} // namespace detail
+
+// The world's parameters: the C interface's defaults for a mesh's counts, then change fields.
+struct params {
+    static td_params defaults(std::uint32_t nodes, std::uint32_t tets) {
+        td_params p{};
+        detail::check(td_params_default(nodes, tets, &p), "td_params_default");
+        return p;
+    }
+};
+
+#if !defined(TETRADRILL_BARE_METAL)
+// A mesh file read and built (every format `tetradrill` reads), with its region labels.
+class mesh_file {
+  public:
+    explicit mesh_file(const std::string &path, double scale = 1.0) {
+        td_file_error e{};
+        td_mesh_file *f = nullptr;
+        td_status st = td_mesh_file_read(path.c_str(), scale, &f, &e);
+        if (st == TD_ERR_FILE)
+            throw file_error(e);
+        detail::check(st, "td_mesh_file_read");
+        file_.reset(f);
+        detail::check(td_mesh_file_arrays(f, &arrays_), "td_mesh_file_arrays");
+    }
+
+    std::uint32_t node_count() const noexcept { return arrays_.node_count; }
+    std::uint32_t tet_count() const noexcept { return arrays_.tet_count; }
+    // x, y, z per node.
+    std::span<const float> positions() const noexcept {
+        return {arrays_.positions, 3 * std::size_t(arrays_.node_count)};
+    }
+    // Four node indices per tet.
+    std::span<const std::uint32_t> tets() const noexcept {
+        return {arrays_.tets, 4 * std::size_t(arrays_.tet_count)};
+    }
+    // A region label per tet; empty when the file has none.
+    std::span<const std::int32_t> labels() const noexcept {
+        if (!arrays_.labels)
+            return {};
+        return {arrays_.labels, std::size_t(arrays_.tet_count)};
+    }
+
+  private:
+    struct free_file {
+        void operator()(td_mesh_file *f) const noexcept { td_mesh_file_free(f); }
+    };
+    std::unique_ptr<td_mesh_file, free_file> file_;
+    td_mesh_arrays arrays_{};
+};
+#endif
+
+// The world's servo: its force call and counters, for the servo's thread or interrupt. Does
+// not own anything; valid while its world lives.
+class servo {
+  public:
+    explicit servo(td_servo *s) noexcept : s_(s) {}
+
+    // The force at `position` from the newest contact the simulation published.
+    td_vec3 force(td_vec3 position) {
+        td_vec3 f{};
+        detail::check(td_servo_force(s_, position, &f), "td_servo_force");
+        return f;
+    }
+
+    // The force digest, ticks, contact ticks, stale reads and the step rendered from.
+    td_servo_counts counters() const {
+        td_servo_counts c{};
+        detail::check(td_servo_counters(s_, &c), "td_servo_counters");
+        return c;
+    }
+
+    td_servo *get() const noexcept { return s_; }
+
+  private:
+    td_servo *s_;
+};
+
+// A drilling world in memory it owns, freed on destruction; move-only.
+class world {
+  public:
+    // The world over a mesh given as arrays (x, y, z per node; four node indices per tet; a
+    // label per tet, or empty for none).
+    world(const td_params &p, std::span<const float> positions, std::span<const std::uint32_t> tets,
+          std::span<const std::int32_t> labels = {}) {
+        if (positions.size() != 3 * std::size_t(p.node_count) ||
+            tets.size() != 4 * std::size_t(p.tet_count) ||
+            (!labels.empty() && labels.size() != std::size_t(p.tet_count)))
+            throw error(TD_ERR_PARAMS, "world: array lengths differ from the parameters' counts");
+        std::size_t size = 0, align = 0;
+        detail::check(td_world_size(&p, &size, &align), "td_world_size");
+        mem_ = detail::allocate(size, align);
+        std::uint32_t bad = 0;
+        td_status st = td_world_init(mem_.get(), size, &p, positions.data(), tets.data(),
+                                     labels.empty() ? nullptr : labels.data(), &w_, &bad);
+        if (st == TD_ERR_MESH || st == TD_ERR_LABEL)
+            throw item_error(st, "td_world_init", bad);
+        detail::check(st, "td_world_init");
+    }
+
+#if !defined(TETRADRILL_BARE_METAL)
+    // The world over a mesh file's arrays (they may go once the world is made).
+    world(const td_params &p, const mesh_file &f)
+        : world(p, f.positions(), f.tets(), f.labels()) {}
+#endif
+
+    // The world over a mesh blob read in place: `blob` must outlive the world.
+    static world from_blob(const td_params &p, std::span<const std::uint8_t> blob) {
+        world w;
+        std::size_t size = 0, align = 0;
+        detail::check(td_world_size_blob(&p, &size, &align), "td_world_size_blob");
+        w.mem_ = detail::allocate(size, align);
+        std::uint32_t bad = 0;
+        td_status st =
+            td_world_init_blob(w.mem_.get(), size, &p, blob.data(), blob.size(), &w.w_, &bad);
+        if (st == TD_ERR_BLOB || st == TD_ERR_LABEL)
+            throw item_error(st, "td_world_init_blob", bad);
+        detail::check(st, "td_world_init_blob");
+        return w;
+    }
+
+    world(world &&o) noexcept : mem_(std::move(o.mem_)), w_(std::exchange(o.w_, nullptr)) {}
+    world &operator=(world &&o) noexcept {
+        mem_ = std::move(o.mem_);
+        w_ = std::exchange(o.w_, nullptr);
+        return *this;
+    }
+    world(const world &) = delete;
+    world &operator=(const world &) = delete;
+
+    // A region's material (before the first step): `tetradrill`'s [regions.LABEL] values.
+    void set_region(std::int32_t label, float hardness, float threshold, float stiffness = 0.f) {
+        detail::check(td_world_set_region(w_, label, hardness, threshold, stiffness),
+                      "td_world_set_region");
+    }
+
+    // One simulation step at `position` (bit 0 of `buttons`: the drill on), published to
+    // the servo.
+    td_sim_report simulate(td_vec3 position, std::uint32_t buttons) {
+        td_sim_report r{};
+        detail::check(td_world_simulate(w_, position, buttons, &r), "td_world_simulate");
+        return r;
+    }
+
+    // The step and the servo force in one task, as `tetradrill replay` runs a tick.
+    td_vec3 tick(td_vec3 position, std::uint32_t buttons) {
+        td_vec3 f{};
+        detail::check(td_world_tick(w_, position, buttons, &f), "td_world_tick");
+        return f;
+    }
+
+    // The world's servo handle.
+    tetradrill::servo servo() {
+        td_servo *s = nullptr;
+        detail::check(td_world_servo(w_, &s), "td_world_servo");
+        return tetradrill::servo(s);
+    }
+
+    // Steps, volumes, hierarchy size, saturations, region count.
+    td_counters counters() const {
+        td_counters c{};
+        detail::check(td_world_counters(w_, &c), "td_world_counters");
+        return c;
+    }
+
+    // The volume removed from each region, by label.
+    std::map<std::int32_t, double> removed_by_region() const {
+        std::map<std::int32_t, double> out;
+        const td_counters c = counters();
+        for (std::uint32_t i = 0; i < c.region_count; i++) {
+            td_region r{};
+            detail::check(td_world_region_at(w_, i, &r), "td_world_region_at");
+            out[r.label] = r.removed_volume;
+        }
+        return out;
+    }
+
+    td_world *get() const noexcept { return w_; }
+
+  private:
+    world() = default;
+    detail::aligned_bytes mem_{nullptr, detail::aligned_free{64}};
+    td_world *w_ = nullptr;
+};
+
+} // namespace tetradrill
+
+#endif

@@ -1,0 +1,316 @@
+//! A soft body from Python: an elastic body (XPBD, linear elasticity) on a tet mesh, stepped
+//! under loads, some nodes held.
+
+use std::path::PathBuf;
+
+use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use tetradrill::meshio;
+use tetradrill::soft::{SoftOwned, DEFAULT_POISSON, DEFAULT_YOUNG};
+use tetradrill_core::soft::{Material, SoftBody as CoreBody, SoftParams};
+use tetradrill_core::Vec3;
+
+use crate::{arrays, errors};
+
+/// A body's storage and the body over it, held together.
+#[ouroboros::self_referencing]
+struct Live {
+    owned: SoftOwned,
+    #[borrows(mut owned)]
+    #[not_covariant]
+    body: CoreBody<'this>,
+}
+
+impl std::fmt::Debug for Live {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Live").finish_non_exhaustive()
+    }
+}
+
+/// An elastic body on a tet mesh, at rest until loaded.
+///
+/// `SoftBody(mesh="builtin:block:4", *, scale=1.0, young=5000.0, poisson=0.3,
+/// density=1000.0, damping=0.0, substeps=10, iterations=1, gravity=None)`: the mesh (a file
+/// or a built-in name, coordinates times `scale`; units taken as metres), Young's modulus
+/// (pascal), the Poisson ratio (`0..=0.49`), the density (kg/m^3), the velocity damping rate
+/// (1/s), XPBD substeps and sweeps a step, gravity (m/s^2, 3 numbers). `SoftBody.from_arrays`
+/// builds one from `nodes` and `tets` arrays.
+#[pyclass(module = "tetradrill")]
+#[derive(Debug)]
+pub struct SoftBody {
+    live: Live,
+    steps: u64,
+    time: f64,
+}
+
+/// The material and parameters from the keywords.
+#[allow(clippy::too_many_arguments)]
+fn parts(
+    young: f64,
+    poisson: f64,
+    density: f64,
+    damping: f64,
+    substeps: u32,
+    iterations: u32,
+    gravity: Option<&Bound<'_, PyAny>>,
+) -> PyResult<(Material, SoftParams)> {
+    let gravity = match gravity {
+        Some(g) => arrays::vec3(g, "gravity")?,
+        None => Vec3::ZERO,
+    };
+    Ok((
+        Material {
+            young: young as f32,
+            poisson: poisson as f32,
+            density: density as f32,
+        },
+        SoftParams {
+            gravity,
+            damping: damping as f32,
+            substeps,
+            iterations,
+        },
+    ))
+}
+
+impl SoftBody {
+    fn over(owned: SoftOwned, material: Material, params: SoftParams) -> PyResult<Self> {
+        let live = Live::try_new(owned, |o| o.body(&[material], params))
+            .map_err(|e| errors::input(format!("soft body: {e}")))?;
+        Ok(Self {
+            live,
+            steps: 0,
+            time: 0.0,
+        })
+    }
+
+    fn step_n(&mut self, n: u64, dt: f64, loads: &[Vec3]) -> PyResult<()> {
+        let r = self.live.with_body_mut(|b| {
+            for _ in 0..n {
+                b.step(dt as f32, loads)?;
+            }
+            Ok::<(), tetradrill_core::soft::StepError>(())
+        });
+        r.map_err(|e| PyValueError::new_err(e.to_string()))?;
+        self.steps += n;
+        self.time += n as f64 * dt;
+        Ok(())
+    }
+}
+
+#[pymethods]
+impl SoftBody {
+    #[new]
+    #[pyo3(signature = (mesh=PathBuf::from("builtin:block:4"), *, scale=1.0, young=DEFAULT_YOUNG,
+        poisson=DEFAULT_POISSON, density=1000.0, damping=0.0, substeps=10, iterations=1,
+        gravity=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        mesh: PathBuf,
+        scale: f64,
+        young: f64,
+        poisson: f64,
+        density: f64,
+        damping: f64,
+        substeps: u32,
+        iterations: u32,
+        gravity: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let (material, params) = parts(
+            young, poisson, density, damping, substeps, iterations, gravity,
+        )?;
+        let mut loaded = py
+            .detach(|| meshio::load(&mesh, scale))
+            .map_err(errors::mesh)?;
+        let owned = SoftOwned::from_mesh(&loaded.mesh.view());
+        Self::over(owned, material, params)
+    }
+
+    /// A body over `nodes` (`N x 3`, metres) and `tets` (`T x 4` node indices, each tet
+    /// positively oriented: `(b - a) x (c - a) . (d - a) > 0`), the other keywords as
+    /// `SoftBody`'s.
+    #[staticmethod]
+    #[pyo3(signature = (nodes, tets, *, young=DEFAULT_YOUNG, poisson=DEFAULT_POISSON,
+        density=1000.0, damping=0.0, substeps=10, iterations=1, gravity=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn from_arrays(
+        nodes: &Bound<'_, PyAny>,
+        tets: &Bound<'_, PyAny>,
+        young: f64,
+        poisson: f64,
+        density: f64,
+        damping: f64,
+        substeps: u32,
+        iterations: u32,
+        gravity: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let (material, params) = parts(
+            young, poisson, density, damping, substeps, iterations, gravity,
+        )?;
+        let n = nodes
+            .extract::<PyArrayLike2<'_, f64, AllowTypeChange>>()
+            .map_err(|_| PyValueError::new_err("nodes must be a 2-D array, N x 3"))?
+            .as_array()
+            .nrows();
+        let rest = arrays::vectors(Some(nodes), n, "nodes")?;
+        let t: PyArrayLike2<'_, i64, AllowTypeChange> = tets
+            .extract()
+            .map_err(|_| PyValueError::new_err("tets must be a 2-D integer array, T x 4"))?;
+        let t = t.as_array();
+        if t.ncols() != 4 {
+            return Err(PyValueError::new_err(format!(
+                "tets must be T x 4, got {} x {}",
+                t.nrows(),
+                t.ncols()
+            )));
+        }
+        let tets = t
+            .rows()
+            .into_iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let mut out = [0u32; 4];
+                for (o, &v) in out.iter_mut().zip(r.iter()) {
+                    *o = u32::try_from(v)
+                        .ok()
+                        .filter(|&v| (v as usize) < n)
+                        .ok_or_else(|| {
+                            PyValueError::new_err(format!(
+                                "tet {i}: node index {v} is not in 0..{n}"
+                            ))
+                        })?;
+                }
+                Ok(out)
+            })
+            .collect::<PyResult<Vec<_>>>()?;
+        Self::over(SoftOwned::new(rest, tets), material, params)
+    }
+
+    /// One step of `dt` seconds under `loads` (`N x 3` newtons on the nodes; default none).
+    #[pyo3(signature = (dt, loads=None))]
+    fn step(&mut self, dt: f64, loads: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+        let loads = arrays::vectors(loads, self.node_count(), "loads")?;
+        self.step_n(1, dt, &loads)
+    }
+
+    /// `steps` steps of `dt` seconds under the same `loads`, the GIL released while they run.
+    #[pyo3(signature = (steps, dt, loads=None))]
+    fn run(
+        &mut self,
+        py: Python<'_>,
+        steps: u64,
+        dt: f64,
+        loads: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let loads = arrays::vectors(loads, self.node_count(), "loads")?;
+        py.detach(|| self.step_n(steps, dt, &loads))
+    }
+
+    /// Holds every node whose rest position is on or below the plane through `origin` with
+    /// upward normal `up`; returns how many.
+    fn fix_below(&mut self, origin: &Bound<'_, PyAny>, up: &Bound<'_, PyAny>) -> PyResult<usize> {
+        let (o, u) = (arrays::vec3(origin, "origin")?, arrays::vec3(up, "up")?);
+        Ok(self.live.with_body_mut(|b| b.fix_below(o, u)))
+    }
+
+    /// Holds (`True`) or frees node `i`; `False` past the end.
+    fn set_fixed(&mut self, i: usize, fixed: bool) -> bool {
+        self.live.with_body_mut(|b| b.set_fixed(i, fixed))
+    }
+
+    /// Nodes.
+    #[getter]
+    fn node_count(&self) -> usize {
+        self.live.with_body(|b| b.node_count())
+    }
+
+    /// Tets.
+    #[getter]
+    fn tet_count(&self) -> usize {
+        self.live.with_body(|b| b.tet_count())
+    }
+
+    /// Rest positions, `N x 3`.
+    #[getter]
+    fn rest<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        self.live.with_body(|b| arrays::to_numpy(py, b.rest()))
+    }
+
+    /// Tets, `T x 4` node indices (positively oriented).
+    #[getter]
+    fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        let t: Vec<[i64; 4]> = self
+            .live
+            .with_body(|b| b.tets().iter().map(|t| t.map(i64::from)).collect());
+        arrays::rows(py, &t)
+    }
+
+    /// Displacements from rest, `N x 3`.
+    #[getter]
+    fn displacements<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        self.live
+            .with_body(|b| arrays::to_numpy(py, b.displacements()))
+    }
+
+    /// Current positions (rest plus displacement), `N x 3`.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let p = self.live.with_body(|b| {
+            let mut p = vec![Vec3::ZERO; b.node_count()];
+            b.write_positions(&mut p);
+            p
+        });
+        arrays::to_numpy(py, &p)
+    }
+
+    /// Velocities, `N x 3`.
+    #[getter]
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        self.live
+            .with_body(|b| arrays::to_numpy(py, b.velocities()))
+    }
+
+    /// Which nodes are held (or massless), `N` bools.
+    #[getter]
+    fn fixed<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<bool>> {
+        let f = self
+            .live
+            .with_body(|b| (0..b.node_count()).map(|i| b.is_fixed(i)).collect());
+        PyArray1::from_vec(py, f)
+    }
+
+    /// Elastic energy, joules.
+    #[getter]
+    fn elastic_energy(&self) -> f64 {
+        self.live.with_body(|b| b.elastic_energy())
+    }
+
+    /// Kinetic energy, joules.
+    #[getter]
+    fn kinetic_energy(&self) -> f64 {
+        self.live.with_body(|b| b.kinetic_energy())
+    }
+
+    /// Steps taken.
+    #[getter]
+    fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Simulated time, seconds (the sum of the steps' `dt`).
+    #[getter]
+    fn time(&self) -> f64 {
+        self.time
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "SoftBody(nodes={}, tets={}, steps={})",
+            self.node_count(),
+            self.tet_count(),
+            self.steps
+        )
+    }
+}

@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# The C++ example over the header-only wrapper (ffi/include/tetradrill.hpp, docs/FFI.md):
+# builds libtetradrill_ffi.a (profile ffi), compiles examples/cpp/drill_tooth.cpp with g++
+# -std=c++20 -Wall -Wextra -Werror, drills the premolar's access cavity from its mesh file, and
+# compares its force digest and removed_by_region with
+# `tetradrill replay --scenario builtin:firmware-tooth --json`'s; before that, builds and runs
+# examples/cpp/checks.cpp (errors as exceptions, a moved world, the servo on a thread).
+#
+#   scripts/cpp-example.sh
+#
+# Exit status: 0 when they match; 1 when they differ or a build or run fails; 2 for bad
+# arguments. Honours CARGO_TARGET_DIR (default: the workspace's target/), TETRADRILL_BIN
+# (default: the release build of `tetradrill`, built when missing) and TETRADRILL_MESHES (where
+# the tooth's mesh is looked for first, as the scenario does).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+while [ $# -gt 0 ]; do
+  case "$1" in
+    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
+    *) echo "cpp-example: unknown argument '$1'" >&2; exit 2 ;;
+  esac
+done
+target_dir="${CARGO_TARGET_DIR:-$root/target}"
+case "$target_dir" in /*) ;; *) target_dir="$root/$target_dir" ;; esac
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+cd "$root"
+command -v g++ >/dev/null || { echo "cpp-example: no C++ compiler 'g++' found (apt-get install g++)" >&2; exit 1; }
+
+bin="${TETRADRILL_BIN:-}"
+if [ -z "$bin" ]; then
+  cargo build --release --quiet -p tetradrill
+  bin="$target_dir/release/tetradrill"
+fi
+mesh="tests/data/meshes/models/tooth_premolar_gmsh.msh22.msh"
+if [ -n "${TETRADRILL_MESHES:-}" ] && [ -f "$TETRADRILL_MESHES/models/tooth_premolar_gmsh.msh22.msh" ]; then
+  mesh="$TETRADRILL_MESHES/models/tooth_premolar_gmsh.msh22.msh"
+fi
+
+echo "== libtetradrill_ffi.a (profile ffi: release, panic = abort)"
+cargo rustc --quiet -p tetradrill-ffi --profile ffi \
+  -- --print native-static-libs 2>"$work/rustc.txt" || { cat "$work/rustc.txt" >&2; exit 1; }
+libs="$(sed -n 's/.*native-static-libs: //p' "$work/rustc.txt" | tail -1)"
+echo "== g++ -std=c++20 -Wall -Wextra -Werror examples/cpp/drill_tooth.cpp"
+# shellcheck disable=SC2086
+g++ -std=c++20 -O2 -Wall -Wextra -Wpedantic -Werror -ffp-contract=off -I ffi/include \
+  examples/cpp/drill_tooth.cpp "$target_dir/ffi/libtetradrill_ffi.a" $libs -o "$work/drill_tooth"
+echo "== the wrapper's own checks (examples/cpp/checks.cpp)"
+# shellcheck disable=SC2086
+g++ -std=c++20 -O2 -Wall -Wextra -Wpedantic -Werror -I ffi/include \
+  examples/cpp/checks.cpp "$target_dir/ffi/libtetradrill_ffi.a" $libs -o "$work/checks"
+mkdir -p "$work/scratch"
+"$work/checks" "$work/scratch" || { echo "cpp-example: FAIL: the wrapper's checks" >&2; exit 1; }
+echo "== run on $mesh"
+"$work/drill_tooth" "$mesh" | tee "$work/out.txt"
+
+"$bin" replay --scenario builtin:firmware-tooth --quiet --json "$work/replay.json" >/dev/null \
+  2>"$work/replay.err" || { cat "$work/replay.err" >&2; exit 1; }
+want="$(sed -n 's/.*"force_digest": *"\([0-9a-f]\{16\}\)".*/\1/p' "$work/replay.json" | head -1)"
+got="$(sed -n 's/^force_digest=\([0-9a-f]\{16\}\)$/\1/p' "$work/out.txt")"
+echo "C++ wrapper:  force_digest=$got"
+echo "host replay:  force_digest=$want (replay --scenario builtin:firmware-tooth)"
+[ -n "$got" ] && [ "$got" = "$want" ] || { echo "cpp-example: FAIL: the digests differ" >&2; exit 1; }
+cpp_regions="$(sed -n '/^removed_by_region\./p' "$work/out.txt")"
+host_regions="$(sed -n '/"removed_by_region": *{/,/}/p' "$work/replay.json" |
+  sed -n 's/^ *"\(-\{0,1\}[0-9]*\)": *\([-0-9.eE+]*\),\{0,1\}$/\1 \2/p' |
+  awk '{ printf "removed_by_region.%s=%.6e\n", $1, $2 }')"
+if [ "$cpp_regions" != "$host_regions" ]; then
+  printf 'cpp-example: FAIL: removed_by_region differs; C++:\n%s\nhost:\n%s\n' "$cpp_regions" "$host_regions" >&2
+  exit 1
+fi
+echo "cpp-example: OK, the same digest and removed_by_region ($(echo "$cpp_regions" | paste -sd' '))"
