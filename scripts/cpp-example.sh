@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # The C++ example over the header-only wrapper (ffi/include/tetradrill.hpp, docs/FFI.md):
 # builds libtetradrill_ffi.a (profile ffi), compiles examples/cpp/drill_tooth.cpp with g++
-# -std=c++20 -Wall -Wextra -Werror, drills the premolar's access cavity from its mesh file, and
-# compares its force digest and removed_by_region with
-# `tetradrill replay --scenario builtin:firmware-tooth --json`'s; before that, builds and runs
+# -std=c++20 -Wall -Wextra -Wpedantic -Werror, drills the premolar's access cavity from its
+# mesh file, writes its drilled surface (kept in an engine's buffers frame by frame) to
+# OUT.obj, and compares its force digest and removed_by_region with
+# `tetradrill replay --scenario builtin:firmware-tooth --json`'s and the surface with
+# `--surface`'s (the same triangles, any order); before that, builds and runs
 # examples/cpp/checks.cpp (errors as exceptions, a moved world, the servo on a thread).
 #
-#   scripts/cpp-example.sh
+#   scripts/cpp-example.sh OUT.obj
 #
 # Exit status: 0 when they match; 1 when they differ or a build or run fails; 2 for bad
 # arguments. Honours CARGO_TARGET_DIR (default: the workspace's target/), TETRADRILL_BIN
@@ -14,12 +16,17 @@
 # the tooth's mesh is looked for first, as the scenario does).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
+obj=""
 while [ $# -gt 0 ]; do
   case "$1" in
-    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
-    *) echo "cpp-example: unknown argument '$1'" >&2; exit 2 ;;
+    -h|--help) sed -n '2,17p' "$0"; exit 0 ;;
+    -*) echo "cpp-example: unknown argument '$1' (expected OUT.obj)" >&2; exit 2 ;;
+    *) [ -z "$obj" ] || { echo "cpp-example: one OUT.obj only, not also '$1'" >&2; exit 2; }
+       obj="$1"; shift ;;
   esac
 done
+[ -n "$obj" ] || { echo "cpp-example: usage: scripts/cpp-example.sh OUT.obj" >&2; exit 2; }
+case "$obj" in /*) ;; *) obj="$PWD/$obj" ;; esac
 target_dir="${CARGO_TARGET_DIR:-$root/target}"
 case "$target_dir" in /*) ;; *) target_dir="$root/$target_dir" ;; esac
 work="$(mktemp -d)"
@@ -52,9 +59,10 @@ g++ -std=c++20 -O2 -Wall -Wextra -Wpedantic -Werror -I ffi/include \
 mkdir -p "$work/scratch"
 "$work/checks" "$work/scratch" || { echo "cpp-example: FAIL: the wrapper's checks" >&2; exit 1; }
 echo "== run on $mesh"
-"$work/drill_tooth" "$mesh" | tee "$work/out.txt"
+"$work/drill_tooth" "$mesh" "$obj" | tee "$work/out.txt"
 
-"$bin" replay --scenario builtin:firmware-tooth --quiet --json "$work/replay.json" >/dev/null \
+"$bin" replay --scenario builtin:firmware-tooth --quiet --json "$work/replay.json" \
+  --surface "$work/ref.obj" >/dev/null \
   2>"$work/replay.err" || { cat "$work/replay.err" >&2; exit 1; }
 want="$(sed -n 's/.*"force_digest": *"\([0-9a-f]\{16\}\)".*/\1/p' "$work/replay.json" | head -1)"
 got="$(sed -n 's/^force_digest=\([0-9a-f]\{16\}\)$/\1/p' "$work/out.txt")"
@@ -70,3 +78,12 @@ if [ "$cpp_regions" != "$host_regions" ]; then
   exit 1
 fi
 echo "cpp-example: OK, the same digest and removed_by_region ($(echo "$cpp_regions" | paste -sd' '))"
+awk -f scripts/obj-triangles.awk "$obj" | LC_ALL=C sort >"$work/cpp.txt"
+awk -f scripts/obj-triangles.awk "$work/ref.obj" | LC_ALL=C sort >"$work/ref.txt"
+n="$(wc -l <"$work/cpp.txt" | tr -d ' ')"
+want="$(wc -l <"$work/ref.txt" | tr -d ' ')"
+if [ "$n" = 0 ] || ! cmp -s "$work/cpp.txt" "$work/ref.txt"; then
+  echo "cpp-example: FAIL: surface: $n triangles from C++, $want from replay --surface; $(diff "$work/cpp.txt" "$work/ref.txt" | grep -c '^[<>]') lines differ" >&2
+  exit 1
+fi
+echo "surface: $n triangles, equal to replay --surface"

@@ -1,10 +1,12 @@
 // Drills the premolar's access cavity through tetradrill's C++ wrapper (ffi/include/
 // tetradrill.hpp): the tooth read from its mesh file with its three materials (enamel,
 // dentin, pulp), the burr driven along the scripted access path, a tick a millisecond, as
-// `tetradrill replay --scenario builtin:firmware-tooth` runs it. Prints the force digest and
-// the volume removed from each region; scripts/cpp-example.sh compares them with the host's.
+// `tetradrill replay --scenario builtin:firmware-tooth` runs it, its drilled surface kept in
+// buffers an engine would upload (updated a frame at a time, 60 a second). Prints the force
+// digest and the volume removed from each region and writes the surface as OBJ;
+// scripts/cpp-example.sh compares them with the host's (`replay --json`, `--surface`).
 //
-//   drill_tooth MESH_FILE
+//   drill_tooth MESH_FILE OUT.obj
 //
 // Every setting is the host scenario's (host-runner/src/scenario), written as the host derives
 // it: doubles converted to float.
@@ -15,8 +17,8 @@
 #include "tetradrill.hpp"
 
 int main(int argc, char **argv) {
-    if (argc != 2) {
-        std::fprintf(stderr, "drill_tooth: usage: drill_tooth MESH_FILE\n");
+    if (argc != 3) {
+        std::fprintf(stderr, "drill_tooth: usage: drill_tooth MESH_FILE OUT.obj\n");
         return 2;
     }
     try {
@@ -51,6 +53,9 @@ int main(int argc, char **argv) {
         world.set_region(2, static_cast<float>(2.0e8), 0.5f, static_cast<float>(6000.0)); // dentin
         world.set_region(3, static_cast<float>(4.0e6), 0.1f, static_cast<float>(1000.0)); // pulp
 
+        // The drilled surface: up to 65,536 triangles, 4,096 work units a 60 Hz frame.
+        tetradrill::surface shown(world, 1u << 16);
+        std::uint64_t uploaded = 0;
         const std::uint32_t ticks = td_script_ticks(TD_SCRIPT_TOOTH_ACCESS);
         float force_max = 0.f;
         for (std::uint32_t i = 0; i < ticks; i++) {
@@ -61,12 +66,32 @@ int main(int argc, char **argv) {
             const td_vec3 f = world.tick(at, buttons);
             const float m = f.x * f.x + f.y * f.y + f.z * f.z;
             force_max = m > force_max ? m : force_max;
+            if (i % 16 == 0) {
+                shown.update(4096);
+                for (const td_slot_range &r : shown.ranges())
+                    uploaded += r.count; // an engine uploads these slots
+            }
+        }
+        // As replay does before it writes its surface: the debris erased, the surface brought
+        // up to date.
+        const std::uint32_t debris = world.remove_debris();
+        const td_surface_report last = shown.update_all(4096);
+        if (last.pending != 0 || last.dropped != 0)
+            throw tetradrill::error(TD_ERR_TOO_SMALL, "the surface's buffers are too small");
+        std::FILE *obj = std::fopen(argv[2], "w");
+        const std::string text = shown.to_obj();
+        if (!obj || std::fwrite(text.data(), 1, text.size(), obj) != text.size() || std::fclose(obj) != 0) {
+            std::fprintf(stderr, "drill_tooth: %s: cannot write\n", argv[2]);
+            return 1;
         }
         const td_counters c = world.counters();
         const td_servo_counts s = world.servo().counters();
         std::printf("ticks=%" PRIu64 "\n", s.servo_ticks);
         std::printf("removed_volume=%.6e\n", c.removed_volume);
         std::printf("visible_faces=%u\n", static_cast<unsigned>(c.visible_faces));
+        std::printf("debris_pieces=%u\n", static_cast<unsigned>(debris));
+        std::printf("surface_triangles=%u\n", static_cast<unsigned>(last.live));
+        std::printf("slots_uploaded=%" PRIu64 "\n", uploaded);
         for (const auto &[label, v] : world.removed_by_region())
             std::printf("removed_by_region.%d=%.6e\n", static_cast<int>(label), v);
         std::printf("force_digest=%016" PRIx64 "\n", s.force_digest);

@@ -7,6 +7,8 @@
 //   tetradrill::world w(p, file);                        // owns its memory, freed on destruction
 //   tetradrill::servo s = w.servo();                     // for the servo's thread or interrupt
 //   td_vec3 f = w.tick({0.f, 0.f, 0.02f}, 1);            // or: w.simulate(..) and s.force(..)
+//   tetradrill::surface shown(w, 1 << 16);               // the drilled surface, for drawing
+//   shown.update(4096);                                  // then upload shown.ranges()
 //
 // The world's memory does not move while the world lives (moving a `world` moves the
 // ownership, not the memory), so a `servo` taken from it stays valid until the world is
@@ -17,6 +19,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <map>
 #include <memory>
@@ -26,6 +29,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "tetradrill.h"
 
@@ -268,12 +272,111 @@ class world {
         return out;
     }
 
+    // Erases the drilled material's debris (detached crumbs), as `tetradrill replay` does
+    // before it writes `--surface`; the pieces erased. Between steps: O(hierarchy nodes).
+    std::uint32_t remove_debris() {
+        std::size_t n = 0;
+        detail::check(td_world_debris_scratch(w_, &n), "td_world_debris_scratch");
+        std::vector<std::uint32_t> scratch(n);
+        std::uint32_t pieces = 0;
+        detail::check(td_world_remove_debris(w_, scratch.data(), scratch.size(), &pieces),
+                      "td_world_remove_debris");
+        return pieces;
+    }
+
     td_world *get() const noexcept { return w_; }
 
   private:
     world() = default;
     detail::aligned_bytes mem_{nullptr, detail::aligned_free{64}};
     td_world *w_ = nullptr;
+};
+
+// The drilled surface of a world in buffers an engine uploads: stable triangle slots (slot `s`
+// is vertices 3s, 3s+1, 3s+2 of every buffer), written only where the surface changed. Owns its
+// memory and its buffers; keeps a pointer to its world, which must outlive it. Update it from
+// the simulation's thread, between steps.
+class surface {
+  public:
+    surface(world &w, std::uint32_t max_triangles, std::uint32_t range_capacity = 64)
+        : world_(w.get()), n_(max_triangles), positions_(9 * std::size_t(max_triangles)),
+          normals_(9 * std::size_t(max_triangles)), labels_(3 * std::size_t(max_triangles)),
+          indices_(3 * std::size_t(max_triangles)), ranges_(range_capacity) {
+        std::size_t size = 0, align = 0;
+        detail::check(td_surface_size(world_, n_, &size, &align), "td_surface_size");
+        mem_ = detail::allocate(size, align);
+        detail::check(td_surface_init(mem_.get(), size, world_, n_, &s_), "td_surface_init");
+    }
+
+    surface(surface &&) noexcept = default;
+    surface &operator=(surface &&) noexcept = default;
+    surface(const surface &) = delete;
+    surface &operator=(const surface &) = delete;
+
+    // One update of at most about `budget` work units; `ranges()` then says which slots
+    // changed. `pending` 0 in the report: the buffers hold the drilled surface exactly.
+    td_surface_report update(std::uint32_t budget) {
+        td_surface_buffers b{positions_.data(), normals_.data(), labels_.data(),
+                             indices_.data(),   ranges_.data(),  std::uint32_t(ranges_.size())};
+        detail::check(td_surface_update(s_, world_, budget, &b, &last_), "td_surface_update");
+        return last_;
+    }
+
+    // Updates until the buffers hold the drilled surface (at most `max_calls` calls of
+    // `budget` each); the last report.
+    td_surface_report update_all(std::uint32_t budget, std::uint32_t max_calls = 1u << 20) {
+        for (std::uint32_t i = 0; i < max_calls; i++)
+            if (update(budget).pending == 0)
+                break;
+        return last_;
+    }
+
+    // The slot runs the last update wrote.
+    std::span<const td_slot_range> ranges() const noexcept {
+        return std::span(ranges_).first(last_.ranges);
+    }
+    // x, y, z per vertex, three vertices a slot.
+    std::span<const float> positions() const noexcept { return positions_; }
+    // The face's outward unit normal on each vertex.
+    std::span<const float> normals() const noexcept { return normals_; }
+    // The region label on each vertex.
+    std::span<const std::int32_t> labels() const noexcept { return labels_; }
+    // Three vertex indices a slot; a free slot's are 0, 0, 0.
+    std::span<const std::uint32_t> indices() const noexcept { return indices_; }
+
+    // The live triangles as a Wavefront OBJ (a vertex triple and a face each).
+    std::string to_obj() const {
+        std::string out = "# tetradrill drilled surface: visible faces\n";
+        std::size_t written = 0;
+        char line[128];
+        for (std::size_t t = 0; t < std::size_t(n_); t++) {
+            const std::uint32_t *i = &indices_[3 * t];
+            if (i[0] == i[1] && i[1] == i[2])
+                continue; // a free slot
+            for (int k = 0; k < 3; k++) {
+                const float *v = &positions_[3 * std::size_t(i[k])];
+                std::snprintf(line, sizeof line, "v %.9g %.9g %.9g\n", double(v[0]), double(v[1]),
+                              double(v[2]));
+                out += line;
+            }
+            std::snprintf(line, sizeof line, "f %zu %zu %zu\n", 3 * written + 1, 3 * written + 2,
+                          3 * written + 3);
+            out += line;
+            written++;
+        }
+        return out;
+    }
+
+  private:
+    td_world *world_;
+    std::uint32_t n_;
+    detail::aligned_bytes mem_{nullptr, detail::aligned_free{64}};
+    td_surface *s_ = nullptr;
+    std::vector<float> positions_, normals_;
+    std::vector<std::int32_t> labels_;
+    std::vector<std::uint32_t> indices_;
+    std::vector<td_slot_range> ranges_;
+    td_surface_report last_{};
 };
 
 } // namespace tetradrill
