@@ -225,6 +225,55 @@ typedef struct td_servo_counts {
   uint32_t step;
 } td_servo_counts;
 
+// A rotation as a unit quaternion `w + x i + y j + z k` (the order of a trace's `qw, qx, qy,
+// qz`); the identity `{1, 0, 0, 0}` leaves the tool's axis along +z.
+typedef struct td_quat {
+  // Real part.
+  float w;
+  // i.
+  float x;
+  // j.
+  float y;
+  // k.
+  float z;
+} td_quat;
+
+// A tool's pose: its position (a burr's centre, a pen's tip) and its rotation (the tool's
+// axis is its local +z turned by it).
+typedef struct td_pose {
+  // Position, mesh units.
+  struct td_vec3 position;
+  // Rotation.
+  struct td_quat rotation;
+} td_pose;
+
+// A drill's shaft as the simulation tracked it (`td_world_shaft`): the figures of
+// `tetradrill replay --json`'s `shaft`.
+typedef struct td_shaft_counts {
+  // Passive points along the shaft (0 for a world without a drill).
+  uint32_t passive_points;
+  // Of them, with a contact plane at the last step (a face within reach, or held).
+  uint32_t near;
+  // Of them, held at a face they crossed at the last step.
+  uint32_t held;
+  // Most points held at one step.
+  uint32_t held_max;
+  // Steps in which a point had a contact plane.
+  uint64_t near_ticks;
+  // Steps in which a point was held.
+  uint64_t held_ticks;
+} td_shaft_counts;
+
+// A servo's torque figures (`td_servo_tool_counters`).
+typedef struct td_tool_counts {
+  // A drill's: FNV-1a 64 digest of every torque its servo rendered (`td_servo_wrench`,
+  // `td_servo_force`), in order, as `force_digest` digests forces. 0 for a sphere, which
+  // renders no torque.
+  uint64_t torque_digest;
+  // The world's tool: 0 a spherical burr, 1 a drill (`td_world_set_drill`).
+  uint32_t tool;
+} td_tool_counts;
+
 
 
 #ifdef __cplusplus
@@ -316,6 +365,10 @@ enum td_status td_world_init(void *mem,
 // The step publishes its contact to the world's servo (`td_world_servo`,
 // `td_servo_force`), which may preempt this call or run beside it on another thread.
 //
+// A drill's world (`td_world_set_drill`) steps the drill: the burr as above, then its
+// shaft's passive points tracked, the shaft along +z (the identity rotation;
+// `td_world_simulate_pose` takes one).
+//
 // Materials: the regions earn their erosion from the pressing force: the magnitude of the
 // servo's last force, held for the servo periods since the previous step (as `tetradrill
 // replay` and the host's two tasks feed it), or, once `td_world_set_pressing` was called,
@@ -328,7 +381,8 @@ enum td_status td_world_init(void *mem,
 // `budget_per_tick` drill work units (plus one operation's overshoot) and
 // `contact_search_nodes` node tests (under `tick_budget` when set, both together), one work
 // unit of the drill's per region of non-zero hardness; the first step also O(T) once, for T
-// tets (the core checks each tet's region).
+// tets (the core checks each tet's region). A drill's world adds its shaft's
+// (`td_world_simulate_pose`).
 //
 // # Errors
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the world, `TD_ERR_ALIGN` for
@@ -470,7 +524,8 @@ enum td_status td_world_servo(struct td_world *world, struct td_servo **out);
 // The force on the tool at `position` from the newest contact a step published (stiffness
 // times depth, damping, a bounded switch between planes, clamped to `max_force`), written
 // to `*force`; it enters the servo's digest and counters, and its magnitude presses the burr
-// at the world's next step.
+// at the world's next step. A drill's world renders the drill's force (`td_servo_wrench`)
+// with the identity rotation, the shaft along +z.
 //
 // May preempt `td_world_simulate` (a timer interrupt over the simulation's loop) or run
 // beside it on another thread: the two share only the hand-off's atomics. With the two on
@@ -478,7 +533,8 @@ enum td_status td_world_servo(struct td_world *world, struct td_servo **out);
 // 4 times, then the contact before is kept (`stale_reads`).
 //
 // # Bounded work
-// Constant: at most 4 reads of 14 words and the force. Never waits.
+// Constant: at most 4 reads of 14 words and the force (a drill's: `td_servo_wrench`'s).
+// Never waits.
 //
 // # Errors
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the servo, `TD_ERR_NULL` /
@@ -526,6 +582,127 @@ enum td_status td_world_tick(struct td_world *world,
                              struct td_vec3 position,
                              uint32_t buttons,
                              struct td_vec3 *force);
+
+// Makes the world's tool a drill: a burr of `td_params.radius` at the pose's position on a
+// shaft of `shaft_radius` reaching `shaft_length` from the burr's centre along the tool's
+// axis (its local +z turned by the pose's rotation), the host's `--tool
+// drill:RADIUS:SHAFT_LENGTH:SHAFT_RADIUS`. The shaft's passive points (at most 32, spaced at
+// most a shaft radius apart from the burr's surface to the handle) collide and push back
+// but never erode; a point that crosses a face is held there.
+//
+// From then on each step is the drill's (the burr drilled as a sphere's, then the shaft
+// tracked), and the servo renders the force of the burr and the shaft together and the
+// shaft's torque (`td_servo_wrench`). Call it after `td_world_init`, before the first step
+// and before the servo starts (it sets up the servo's part too); calling it again replaces
+// the shaft.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_simulate` for the world; `TD_ERR_STARTED` after the first step;
+// `TD_ERR_PARAMS` for a shaft radius that is not positive or exceeds the burr's radius, a
+// shaft length not longer than the burr's radius, a non-finite value, or a world with
+// `servo_lag` 1 (the drill steps before its servo force, as the host's replay runs it).
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's, with no
+// other call on the world or its servo meanwhile.
+enum td_status td_world_set_drill(struct td_world *world, float shaft_length, float shaft_radius);
+
+// `td_world_simulate` at a pose with a rotation: a drill world's shaft lies along the
+// rotated +z; a sphere's world uses the position alone (the same step as
+// `td_world_simulate`).
+//
+// # Bounded work
+// `td_world_simulate`'s; a drill world's adds `World::simulate_drill`'s shaft: one more zone
+// query (at most `max_cells` cells and `candidate_capacity` tets) and, per passive point
+// (at most 32), the visible faces of the candidates near its path, then a publish of 239
+// words.
+//
+// # Errors
+// As `td_world_simulate`; `TD_ERR_INPUT` for a non-finite rotation too (nothing is done).
+//
+// # Safety
+// As `td_world_simulate`.
+enum td_status td_world_simulate_pose(struct td_world *world,
+                                      struct td_pose pose,
+                                      uint32_t buttons,
+                                      struct td_sim_report *report);
+
+// The force (`*force`) and torque (`*torque`) on the tool at `pose` from the newest contact
+// a step published. A drill: the burr's spring and the shaft's passive points' springs with
+// damping, clamped to `max_force` (the force `tetradrill replay --tool drill:...` renders),
+// and the moment of the shaft's springs about the burr's centre (the pose's position),
+// scaled as their clamp scales their sum (the core's `drill_torque`; about the handle `h`
+// add `(position - h) x force`). A sphere: `td_servo_force`'s force and a zero torque. The
+// force enters the servo's digest, the torque its torque digest
+// (`td_servo_tool_counters`), and the burr's own force presses it at the world's next step.
+//
+// May preempt the world's step or run beside it on another thread, as `td_servo_force`.
+//
+// # Bounded work
+// Constant: at most 4 reads of the hand-off (a drill's: 239 words), then O(32) for the
+// drill's force and torque. Never waits.
+//
+// # Errors
+// As `td_servo_force`; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `torque`; `TD_ERR_INPUT` for a
+// non-finite pose. On an error neither output is written and nothing is counted.
+//
+// # Safety
+// As `td_servo_force`; `force` and `torque` point at writable `td_vec3`s.
+enum td_status td_servo_wrench(struct td_servo *servo,
+                               struct td_pose pose,
+                               struct td_vec3 *force,
+                               struct td_vec3 *torque);
+
+// `td_world_tick` at a pose with a rotation, writing the force and the torque: with
+// `servo_lag` 0, `td_world_simulate_pose` then `td_servo_wrench` at the same pose (a drill's
+// tick as `tetradrill replay --tool drill:...` runs it); with 1 (a sphere only), the wrench
+// first.
+//
+// # Bounded work
+// `td_world_simulate_pose`'s plus `td_servo_wrench`'s.
+//
+// # Errors
+// As the two calls; on an error nothing more is done and the outputs are not written.
+//
+// # Safety
+// As `td_world_tick`; `force` and `torque` point at writable `td_vec3`s.
+enum td_status td_world_tick_pose(struct td_world *world,
+                                  struct td_pose pose,
+                                  uint32_t buttons,
+                                  struct td_vec3 *force,
+                                  struct td_vec3 *torque);
+
+// Writes the drill's shaft figures to `*out`: its passive points, those near a face and
+// held at the last step, and over all steps the most held at once and the steps with a
+// point near or held (`tetradrill replay --json`'s `shaft`). All zero for a sphere's world.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_counters`.
+//
+// # Safety
+// As `td_world_counters`; `out` points at a writable `td_shaft_counts`.
+enum td_status td_world_shaft(struct td_world *world, struct td_shaft_counts *out);
+
+// Writes the servo's torque figures to `*out`: the digest of every torque rendered (0 for a
+// sphere, which renders none) and the world's tool (0 a sphere, 1 a drill). Call it from the servo's task (or when the servo is
+// not running).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_servo_counters`.
+//
+// # Safety
+// As `td_servo_counters`; `out` points at a writable `td_tool_counts`.
+enum td_status td_servo_tool_counters(struct td_servo *servo,
+                                      struct td_tool_counts *out);
 
 #ifdef __cplusplus
 }  // extern "C"
