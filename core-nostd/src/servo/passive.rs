@@ -191,7 +191,7 @@ impl World<'_> {
         points: &mut [PassivePoint],
     ) -> PassiveReport {
         let mut rep = PassiveReport::default();
-        let cands = &self.candidates[..self.ncand];
+        let cands = self.candidates.get(..self.ncand).unwrap_or_default();
         let reach = radius
             + if reach.is_finite() {
                 reach.max(0.0)
