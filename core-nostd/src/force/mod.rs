@@ -46,7 +46,7 @@ mod shaft;
 mod triangles;
 
 pub use digest::{force_digest, ForceDigest};
-pub use held::{pen_servo_force, HeldContact, PenServo, ServoScratch};
+pub use held::{pen_servo_force, pen_torque, HeldContact, PenServo, ServoScratch};
 pub use passive::PassivePoint;
 pub(crate) use passive::{passive_force, PassiveProbe};
 pub use passivity::{penalty_storage, PassivityObserver, PassivityParams, Storage};
