@@ -263,7 +263,7 @@ pub fn drill_force(
 /// passive point `p` that pushes, `(p - centre) x stiffness * depth * normal`, summed, and
 /// scaled by the factor the clamp of the springs' sum to `max_force` applies to the force
 /// (1 when the sum is within it). The burr's spring and the damping act through the centre
-/// and add none. About another point `h` (the handle, [`DrillTool::handle`]) the moment is
+/// and add none. About another point `h` (the handle, `centre + axis * shaft_length`) the moment is
 /// this plus `(centre - h) x force`.
 ///
 /// # Bounded work
