@@ -21,6 +21,9 @@
 // region index is a byte in the core.
 #define TD_MAX_REGIONS 256
 
+// The top bit of `td_pen_init`'s `bad_item`: the item is the pen mesh's.
+#define TD_PEN_ITEM (1 << 31)
+
 // What a call did. `TD_OK` is zero; every error leaves the world as it was, except
 // `td_world_init`, which leaves the memory it was given unusable as a world until a
 // successful init.
@@ -56,6 +59,12 @@ typedef enum td_status {
   // Materials are set before the first simulation step; this world has already stepped.
   TD_ERR_STARTED = 10,
 } td_status;
+
+// A pen in caller memory (`td_pen_init`). Opaque.
+typedef struct td_pen td_pen;
+
+// A pen's servo (`td_pen_servo_handle`). Opaque.
+typedef struct td_pen_servo td_pen_servo;
 
 // A world's servo, from `td_world_servo`: its own part of the world's memory, which the
 // servo's force call uses alone. Opaque: C holds a pointer to it and never reads it.
@@ -192,6 +201,133 @@ typedef struct td_counters {
   uint32_t region_count;
 } td_counters;
 
+// Everything a pen and its object need to know before they are built: the meshes' counts,
+// the capacities of the contact pass and the force settings. `td_pen_params_default` fills
+// it with the host's defaults (`tetradrill replay --tool mesh:FILE` with no flags).
+typedef struct td_pen_params {
+  // Object nodes (`object_positions` holds `3 * object_node_count` floats). 1 ..= 2^28.
+  uint32_t object_node_count;
+  // Object tets. 1 ..= 2^28.
+  uint32_t object_tet_count;
+  // Pen nodes, at rest with its tip at the origin and its axis along +z. 1 ..= 2^28.
+  uint32_t pen_node_count;
+  // Pen tets. 1 ..= 2^28.
+  uint32_t pen_tet_count;
+  // Nodes of each body the pass keeps inside the other (collisions and penetrations, and
+  // what the hand-off carries); 0: each body's node count, which never fills. A full list
+  // keeps last pass's nodes first and is counted (`contacts_full`).
+  uint32_t contact_capacity;
+  // Entries of each depth propagation queue; 0: each body's node count. A short queue
+  // changes no depth (counted, `queue_full`).
+  uint32_t queue_capacity;
+  // Entries of the object's tet hash; 0: 16 per tet, and a mesh that fills them is refused
+  // (`TD_ERR_WORLD`); otherwise a full hash keeps the tets that fit (`hash_saturations`).
+  uint32_t hash_capacity;
+  // The depth's surface search: 0 walks through tets, 1 the hashed boundary faces.
+  uint32_t depth_method;
+  // 1: a border edge takes the face it left the other body through last pass when it still
+  // leaves through it (the host's default); 0: searched every pass.
+  uint32_t reuse_crossings;
+  // 1: the entry-plane remedy for the pen's nodes; 0 (the default): none.
+  uint32_t entry_remedy;
+  // Longest traced walk, in tets (256).
+  uint32_t max_steps;
+  // Most cells a hashed edge query may cover (512).
+  uint32_t max_cells;
+  // Most tets a node's walk may test before a lookup (8).
+  uint32_t max_walk;
+  // Newtons per mesh unit of depth (at least 0).
+  float stiffness;
+  // Newton-seconds per mesh unit (at least 0).
+  float damping;
+  // Force clamp, newtons (positive).
+  float max_force;
+  // Servo period, seconds (positive).
+  float dt;
+} td_pen_params;
+
+// A rotation as a unit quaternion `w + x i + y j + z k` (the order of a trace's `qw, qx, qy,
+// qz`); the identity `{1, 0, 0, 0}` leaves the tool's axis along +z.
+typedef struct td_quat {
+  // Real part.
+  float w;
+  // i.
+  float x;
+  // j.
+  float y;
+  // k.
+  float z;
+} td_quat;
+
+// A tool's pose: its position (a burr's centre, a pen's tip) and its rotation (the tool's
+// axis is its local +z turned by it).
+typedef struct td_pose {
+  // Position, mesh units.
+  struct td_vec3 position;
+  // Rotation.
+  struct td_quat rotation;
+} td_pose;
+
+// What one `td_pen_simulate` (a contact pass) found.
+typedef struct td_pen_report {
+  // Pen nodes inside the object.
+  uint32_t pen_collisions;
+  // Object nodes inside the pen.
+  uint32_t object_collisions;
+  // Pen penetrations written (handed to the servo).
+  uint32_t pen_penetrations;
+  // Object penetrations written.
+  uint32_t object_penetrations;
+  // 1 when a buffer filled (the result is valid but incomplete).
+  uint32_t saturated;
+} td_pen_report;
+
+// A pen's contact passes since `td_pen_init` (`td_pen_counters`): `replay --json`'s `pen`.
+typedef struct td_pen_counts {
+  // Passes made.
+  uint64_t passes;
+  // Passes with a buffer full.
+  uint64_t saturated_passes;
+  // Passes whose collision list or depth output filled.
+  uint64_t contacts_full;
+  // Passes whose depth queue filled.
+  uint64_t queue_full;
+  // Colliding nodes whose depth no surface crossing reached, over all passes.
+  uint64_t unreached;
+  // Border edges examined, over all passes.
+  uint64_t border_edges;
+  // Of them, taken from the face remembered from the pass before.
+  uint64_t reused_crossings;
+  // Most pen nodes inside the object in one pass.
+  uint32_t pen_collisions_max;
+  // Most object nodes inside the pen in one pass.
+  uint32_t object_collisions_max;
+  // Static hashes that ran out of entries at set-up (with `hash_capacity` set).
+  uint32_t hash_saturations;
+  // Bytes of the pen's memory in use (what `td_pen_init` measured).
+  uint64_t bytes;
+} td_pen_counts;
+
+// A pen servo's counters (`td_pen_servo_counters`).
+typedef struct td_pen_servo_counts {
+  // FNV-1a 64 digest of every force rendered, in order: `replay --json`'s `force_digest`.
+  uint64_t force_digest;
+  // The same of every torque.
+  uint64_t torque_digest;
+  // Servo ticks.
+  uint64_t servo_ticks;
+  // Ticks whose force was not zero.
+  uint64_t contact_ticks;
+  // Ticks whose force was clamped.
+  uint64_t clamped_ticks;
+  // Ticks whose scratch could not carry every held penetration.
+  uint64_t short_ticks;
+  // Ticks that kept the pass before, every read overtaken by a newer pass.
+  uint64_t stale_reads;
+  // The number of the pass the last tick rendered from (0: none yet).
+  uint32_t step;
+} td_pen_servo_counts;
+
 // One region of a world: its label, its material and the volume removed from it.
 typedef struct td_region {
   // The region's label (the mesh's, from `td_world_init`'s `labels`; 0 without them).
@@ -224,28 +360,6 @@ typedef struct td_servo_counts {
   // no step yet).
   uint32_t step;
 } td_servo_counts;
-
-// A rotation as a unit quaternion `w + x i + y j + z k` (the order of a trace's `qw, qx, qy,
-// qz`); the identity `{1, 0, 0, 0}` leaves the tool's axis along +z.
-typedef struct td_quat {
-  // Real part.
-  float w;
-  // i.
-  float x;
-  // j.
-  float y;
-  // k.
-  float z;
-} td_quat;
-
-// A tool's pose: its position (a burr's centre, a pen's tip) and its rotation (the tool's
-// axis is its local +z turned by it).
-typedef struct td_pose {
-  // Position, mesh units.
-  struct td_vec3 position;
-  // Rotation.
-  struct td_quat rotation;
-} td_pose;
 
 // A drill's shaft as the simulation tracked it (`td_world_shaft`): the figures of
 // `tetradrill replay --json`'s `shaft`.
@@ -436,6 +550,193 @@ enum td_status td_demo_pose(uint32_t tick, struct td_vec3 *position, uint32_t *b
 // # Bounded work
 // Constant.
 const char *td_status_name(int32_t code);
+
+// Fills `*out` with the host's defaults for an object of `object_nodes` nodes and
+// `object_tets` tets and a pen of `pen_nodes` and `pen_tets`: contact lists and queues as
+// long as the nodes, the object's tet hash at 16 entries a tet, traced depths with crossings
+// reused, no entry remedy, the walks and searches of the core's `PenOptions`, and the host's
+// default forces (200 N per unit, 0.5 N s per unit, 8 N, 1 kHz).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`; the counts are checked by `td_pen_size`.
+//
+// # Safety
+// `out` points at writable memory for a `td_pen_params` (or is null: refused).
+enum td_status td_pen_params_default(uint32_t object_nodes,
+                                     uint32_t object_tets,
+                                     uint32_t pen_nodes,
+                                     uint32_t pen_tets,
+                                     struct td_pen_params *out);
+
+// Writes the bytes (`*out_size`) and alignment (`*out_align`) of the part of a pen's memory
+// the counts give: the least `td_pen_init` builds the meshes and measures the rest in. The
+// whole pen needs more, by what the meshes' shapes give (their graphs' edges, the grids over
+// them): `td_pen_init` with this many bytes measures it and, when short, says how many.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_PARAMS` for a parameter out of range
+// or a size beyond the address space.
+//
+// # Safety
+// `params` points at an initialised `td_pen_params`; the outputs at writable `size_t`s.
+enum td_status td_pen_size(const struct td_pen_params *params, size_t *out_size, size_t *out_align);
+
+// One contact pass of the pen at `pose` (its tip at the position, its axis +z turned by the
+// rotation, normalised): the pen's nodes inside the object and the object's inside the pen,
+// their consistent penetration depths, published to the pen's servo (`td_pen_servo_handle`,
+// `td_pen_servo_wrench`), which may preempt this call or run beside it. `*report`, when not
+// null, says what it found.
+//
+// # Bounded work
+// The core's `pen_pass`: the pen placed (O(pen nodes)), its nodes near the object looked up
+// in the object's cells with walks of at most `max_walk` tets, the object's nodes in the
+// pen's clusters looked up in its rest grid, then each side's depths (at most the contact
+// capacity of nodes, `max_steps` tets a walk); the publish of at most the contact capacities'
+// penetrations, 7 words each.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the pen, `TD_ERR_ALIGN` for
+// `report`, `TD_ERR_INPUT` for a non-finite pose or a zero rotation (nothing is done).
+//
+// # Safety
+// `pen` is a handle from `td_pen_init` whose memory is still the caller's, one caller at a
+// time; `report` is null or points at a writable `td_pen_report`.
+enum td_status td_pen_simulate(struct td_pen *pen,
+                               struct td_pose pose,
+                               struct td_pen_report *report);
+
+// Writes the pen's servo handle to `*out`: the part of its memory the force call uses alone.
+// Take it once, before the servo starts.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_pen_simulate` for the pen; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// As `td_pen_simulate`; `out` points at a writable `td_pen_servo *`.
+enum td_status td_pen_servo_handle(struct td_pen *pen, struct td_pen_servo **out);
+
+// The force (`*force`) and torque (`*torque`) on the pen at `pose` from the newest pass:
+// each held penetration carried to this pose to first order (the core's `pen_servo_force`:
+// a pen node's depth less how far the pen moved it along its direction, an object node's
+// seen from the pen's frame), stiffness, the entry remedy when set, damping and the clamp,
+// as `tetradrill replay --tool mesh:FILE` renders it; the torque is the moment of the carried
+// penetrations' springs about the tip (the pose's position), scaled as their clamp scales
+// their sum (the core's `pen_torque`; damping acts at the tip). Both enter the servo's
+// digests. At the pass's own pose the force is the pass's, bit for bit.
+//
+// May preempt `td_pen_simulate` or run beside it on another thread: the two share only the
+// hand-off's atomics. A read overtaken by the passes meanwhile is tried again, at most 4
+// times, then the pass before is kept (`stale_reads`).
+//
+// # Bounded work
+// At most 4 reads of a pass (the head and at most the contact capacities' penetrations, 7
+// words each), then O(held penetrations) for the force and the torque. Never waits.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the servo, `TD_ERR_NULL` /
+// `TD_ERR_ALIGN` for an output, `TD_ERR_INPUT` for a non-finite pose or a zero rotation;
+// nothing is written or counted then.
+//
+// # Safety
+// `servo` is a handle from `td_pen_servo_handle` whose pen's memory is still the caller's, one servo
+// call at a time; `force` and `torque` point at writable `td_vec3`s.
+enum td_status td_pen_servo_wrench(struct td_pen_servo *servo,
+                                   struct td_pose pose,
+                                   struct td_vec3 *force,
+                                   struct td_vec3 *torque);
+
+// One whole tick in one task, as `tetradrill replay --tool mesh:FILE` runs it: the pass at
+// `pose`, then the pen's servo force and torque at the same pose (the pass's own force).
+//
+// # Bounded work
+// `td_pen_simulate`'s plus `td_pen_servo_wrench`'s.
+//
+// # Errors
+// As the two calls; on an error nothing more is done and the outputs are not written.
+//
+// # Safety
+// As `td_pen_simulate`, with no servo call on this pen's servo meanwhile; `force` and
+// `torque` point at writable `td_vec3`s.
+enum td_status td_pen_tick(struct td_pen *pen,
+                           struct td_pose pose,
+                           struct td_vec3 *force,
+                           struct td_vec3 *torque);
+
+// Writes the pen's pass counters to `*out`.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_pen_simulate` for the pen; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// As `td_pen_simulate`; `out` points at a writable `td_pen_counts`.
+enum td_status td_pen_counters(struct td_pen *pen, struct td_pen_counts *out);
+
+// Writes the pen servo's counters to `*out` (from the servo's task, or when it is not
+// running).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_pen_servo_wrench` for the servo; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// As `td_pen_servo_wrench`; `out` points at a writable `td_pen_servo_counts`.
+enum td_status td_pen_servo_counters(struct td_pen_servo *servo, struct td_pen_servo_counts *out);
+
+// Builds the object (`object_positions`, `object_tets`: `3 * object_node_count` floats and
+// `4 * object_tet_count` node indices) and the pen (`pen_positions`, `pen_tets`: at rest,
+// its tip at the origin, its axis along +z) as the host builds mesh files, then the contact
+// scene over them as `tetradrill replay --tool mesh:FILE` does (node graphs; the object's
+// tets, nodes and boundary faces hashed with cells of its average edge; the pen's boundary
+// faces hashed; the pen's rest grid and clusters; the object's occupancy grid with its tet
+// and node lists) and the pass's buffers, all in `mem` (`len` bytes at `td_pen_size`'s
+// alignment), and writes the pen's handle (`mem`) to `*out`.
+//
+// The memory: at least `td_pen_size`'s bytes, in which the meshes are built and the rest
+// measured; when `len` holds less than the whole, `TD_ERR_TOO_SMALL` with the bytes needed in
+// `*needed` (when not null): call again with that many. On success `*needed` is the bytes in
+// use. A firmware with a fixed buffer gives it whole and calls once.
+//
+// # Bounded work
+// Once, before the servo runs: O(T log T) for each mesh's build, O(T) for the graphs and
+// hashes, and the grids' O(cells each tet box meets), for T tets; O(every capacity) to
+// initialise the buffers and the hand-off.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_PARAMS` as `td_pen_size`,
+// `TD_ERR_TOO_SMALL` (`*needed`), `TD_ERR_MESH` for refused arrays (`*bad_item` names the
+// object's tet or node, or the pen's with the top bit `TD_PEN_ITEM` set), `TD_ERR_WORLD`
+// when the scene cannot be built over the meshes (a mesh without edges, a hash that fills
+// with `hash_capacity` 0, a grid that cannot be laid). The memory holds no pen on an error.
+//
+// # Safety
+// `params` points at an initialised `td_pen_params`; the arrays at the counts it states, none
+// inside `mem`; `mem` at `len` writable bytes the caller keeps, and does not otherwise use,
+// while it uses the pen; `out` at a writable `td_pen *`; `needed` at a writable `size_t` or
+// null; `bad_item` at a writable `uint32_t` or null.
+enum td_status td_pen_init(void *mem,
+                           size_t len,
+                           const struct td_pen_params *params,
+                           const float *object_positions,
+                           const uint32_t *object_tets,
+                           const float *pen_positions,
+                           const uint32_t *pen_tets,
+                           struct td_pen **out,
+                           size_t *needed,
+                           uint32_t *bad_item);
 
 // Sets the force pressing the burr against the material, `newtons`, held for `seconds`: the
 // next `td_world_simulate` earns each region's erosion from them. Without this call the

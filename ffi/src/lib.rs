@@ -49,6 +49,7 @@
 extern crate std;
 
 mod layout;
+mod pen;
 mod regions;
 mod servo;
 mod tools;
@@ -75,6 +76,11 @@ pub use types::{
 };
 
 use layout::{ServoState, SharedDrillHandoff, SharedHandoff, State, Unstarted, MAGIC, SERVO_MAGIC};
+pub use pen::{
+    td_pen_counters, td_pen_init, td_pen_params_default, td_pen_servo_counters,
+    td_pen_servo_handle, td_pen_servo_wrench, td_pen_simulate, td_pen_size, td_pen_tick, TdPen,
+    TdPenCounts, TdPenParams, TdPenReport, TdPenServo, TdPenServoCounts, TD_PEN_ITEM,
+};
 pub use regions::{
     td_world_region, td_world_region_at, td_world_set_pressing, td_world_set_region,
 };
