@@ -19,7 +19,10 @@
 #                                     drill, force and torque out), runs it, and compares its
 #                                     force_digest, removed_by_region and shaft figures with
 #                                     `tetradrill replay --scenario builtin:demo --tool
-#                                     drill:0.1:0.6:0.03 --json`'s
+#                                     drill:0.1:0.6:0.03 --json`'s; then examples/c/pen_demo.c
+#                                     (the demo path with a tet-mesh tool), its digest and pen
+#                                     figures against `replay --tool mesh:builtin:block:2
+#                                     --tool-scale 0.2 --json`'s
 #   scripts/c-example.sh --tsan       the two-thread program (examples/c/two_threads.c: the
 #                                     servo at 1 kHz on one thread, the simulation on the
 #                                     other) with the library and the program instrumented for
@@ -40,7 +43,7 @@ while [ $# -gt 0 ]; do
     --cortex-m) mode=cortex-m; shift ;;
     --tsan) mode=tsan; shift ;;
     --tools) mode=tools; shift ;;
-    -h|--help) sed -n '2,34p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,38p' "$0"; exit 0 ;;
     *) echo "c-example: unknown argument '$1' (expected --cortex-m, --tools or --tsan)" >&2; exit 2 ;;
   esac
 done
@@ -110,6 +113,22 @@ compare() {
   echo "c-example: OK, the same shaft ($(echo "$c_shaft" | paste -sd' '))"
 }
 
+# Compares the pen's figures the C program printed (`pen.KEY=V` lines of file $1) with the
+# `pen` of the last `replay --json`.
+compare_pen() {
+  local key value host_pen
+  host_pen="$(sed -n '/"pen": *{/,/^  }/p' "$work/replay.json")"
+  while IFS='=' read -r key value; do
+    key="${key#pen.}"
+    if ! echo "$host_pen" | grep -q "^ *\"$key\": *$value,\{0,1\}\$"; then
+      echo "c-example: FAIL: the pen's $key differs: C $value, host $(echo "$host_pen" |
+        sed -n "s/^ *\"$key\": *\([^,]*\),\{0,1\}\$/\1/p")" >&2
+      exit 1
+    fi
+  done < <(sed -n 's/\r$//; /^pen\./p' "$1")
+  echo "c-example: OK, the same pen figures ($(sed -n 's/\r$//; s/^pen\.//p' "$1" | paste -sd' '))"
+}
+
 if [ "$mode" = host ]; then
   command -v cc >/dev/null || { echo "c-example: no C compiler 'cc' found (apt-get install gcc)" >&2; exit 1; }
   echo "== libtetradrill_ffi.a and .so (profile ffi: release, panic = abort)"
@@ -149,6 +168,14 @@ if [ "$mode" = tools ]; then
   echo "== run"
   "$work/drill_demo" | tee "$work/out.txt"
   compare "$work/out.txt" demo --tool drill:0.1:0.6:0.03
+  echo "== cc examples/c/pen_demo.c"
+  # shellcheck disable=SC2086
+  cc -std=c11 -O2 -Wall -Wextra -Werror -ffp-contract=off -I ffi/include \
+    examples/c/pen_demo.c "$lib" $libs -lm -o "$work/pen_demo"
+  echo "== run"
+  "$work/pen_demo" | tee "$work/out-pen.txt"
+  compare "$work/out-pen.txt" demo --tool mesh:builtin:block:2 --tool-scale 0.2
+  compare_pen "$work/out-pen.txt"
   exit 0
 fi
 
