@@ -16,6 +16,15 @@
 #                                     mesh blob in flash (`tetradrill export --firmware`);
 #                                     before the run, the calls into core's panic entry
 #                                     points in the linked program are counted: above 0 fails
+#   scripts/c-example.sh --tools      the tools with an orientation: builds libtetradrill_ffi.a,
+#                                     compiles examples/c/drill_demo.c (the demo path with a
+#                                     drill, force and torque out), runs it, and compares its
+#                                     force_digest, removed_by_region and shaft figures with
+#                                     `tetradrill replay --scenario builtin:demo --tool
+#                                     drill:0.1:0.6:0.03 --json`'s; then examples/c/pen_demo.c
+#                                     (the demo path with a tet-mesh tool), its digest and pen
+#                                     figures against `replay --tool mesh:builtin:block:2
+#                                     --tool-scale 0.2 --json`'s
 #   scripts/c-example.sh --tsan       the two-thread program (examples/c/two_threads.c: the
 #                                     servo at 1 kHz on one thread, the simulation on the
 #                                     other) with the library and the program instrumented for
@@ -48,8 +57,9 @@ while [ $# -gt 0 ]; do
     --surface)
       [ $# -ge 2 ] || { echo "c-example: --surface needs a file name (OUT.obj)" >&2; exit 2; }
       mode=surface; obj="$2"; shift 2 ;;
-    -h|--help) sed -n '2,39p' "$0"; exit 0 ;;
-    *) echo "c-example: unknown argument '$1' (expected --cortex-m, --tsan or --surface OUT.obj)" >&2; exit 2 ;;
+    --tools) mode=tools; shift ;;
+    -h|--help) sed -n "2,$(( $(grep -n '^set -euo' "$0" | cut -d: -f1) - 1 ))p" "$0"; exit 0 ;;
+    *) echo "c-example: unknown argument '$1' (expected --cortex-m, --tools, --tsan or --surface OUT.obj)" >&2; exit 2 ;;
   esac
 done
 target_dir="${CARGO_TARGET_DIR:-$root/target}"
@@ -58,7 +68,6 @@ work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 cd "$root"
 
-# The host's digest of a built-in scenario, from `replay --json`.
 # The `tetradrill` binary: TETRADRILL_BIN, or the release build (built when missing).
 host_bin() {
   local bin="${TETRADRILL_BIN:-}"
@@ -69,21 +78,26 @@ host_bin() {
   echo "$bin"
 }
 
+# The host's digest of a built-in scenario, from `replay --json` (more arguments after the
+# scenario's name go to `replay`).
 host_digest() {
-  local bin
+  local bin name="$1"
   bin="$(host_bin)"
-  "$bin" replay --scenario "builtin:$1" --quiet --json "$work/replay.json" >/dev/null \
+  shift
+  "$bin" replay --scenario "builtin:$name" "$@" --quiet --json "$work/replay.json" >/dev/null \
     2>"$work/replay.err" || { cat "$work/replay.err" >&2; exit 1; }
   sed -n 's/.*"force_digest": *"\([0-9a-f]\{16\}\)".*/\1/p' "$work/replay.json" | head -1
 }
 
-# Compares the C program's output (file $1) with the host's digest of scenario $2.
+# Compares the C program's output (file $1) with the host's digest of scenario $2 (more
+# arguments go to `replay`).
 compare() {
-  local c_digest want
-  c_digest="$(sed -n 's/^force_digest=\([0-9a-f]\{16\}\)\r\{0,1\}$/\1/p' "$1")"
-  want="$(host_digest "$2")"
+  local c_digest want out="$1"
+  shift
+  c_digest="$(sed -n 's/^force_digest=\([0-9a-f]\{16\}\)\r\{0,1\}$/\1/p' "$out")"
+  want="$(host_digest "$@")"
   echo "C interface:  force_digest=$c_digest"
-  echo "host replay:  force_digest=$want (replay --scenario builtin:$2)"
+  echo "host replay:  force_digest=$want (replay --scenario builtin:$*)"
   if [ -z "$c_digest" ] || [ "$c_digest" != "$want" ]; then
     echo "c-example: FAIL: the digests differ" >&2
     exit 1
@@ -91,7 +105,7 @@ compare() {
   echo "c-example: OK, the same digest"
   # The volume removed from each region, where the C program prints it.
   local c_regions host_regions
-  c_regions="$(sed -n 's/\r$//; /^removed_by_region\./p' "$1")"
+  c_regions="$(sed -n 's/\r$//; /^removed_by_region\./p' "$out")"
   [ -n "$c_regions" ] || return 0
   host_regions="$(sed -n '/"removed_by_region": *{/,/}/p' "$work/replay.json" |
     sed -n 's/^ *"\(-\{0,1\}[0-9]*\)": *\([-0-9.eE+]*\),\{0,1\}$/\1 \2/p' |
@@ -104,6 +118,36 @@ compare() {
     exit 1
   fi
   echo "c-example: OK, the same removed_by_region ($(echo "$c_regions" | paste -sd' '))"
+  # The drill's shaft figures, where the C program prints them.
+  local c_shaft host_shaft
+  c_shaft="$(sed -n 's/\r$//; /^shaft\./p' "$out")"
+  [ -n "$c_shaft" ] || return 0
+  host_shaft="$(sed -n '/"shaft": *{/,/}/p' "$work/replay.json" |
+    sed -n 's/^ *"\([a-z_]*\)": *\([0-9]*\),\{0,1\}$/shaft.\1=\2/p')"
+  if [ "$c_shaft" != "$host_shaft" ]; then
+    echo "c-example: FAIL: the shaft's figures differ; C:" >&2
+    echo "$c_shaft" >&2
+    echo "host:" >&2
+    echo "$host_shaft" >&2
+    exit 1
+  fi
+  echo "c-example: OK, the same shaft ($(echo "$c_shaft" | paste -sd' '))"
+}
+
+# Compares the pen's figures the C program printed (`pen.KEY=V` lines of file $1) with the
+# `pen` of the last `replay --json`.
+compare_pen() {
+  local key value host_pen
+  host_pen="$(sed -n '/"pen": *{/,/^  }/p' "$work/replay.json")"
+  while IFS='=' read -r key value; do
+    key="${key#pen.}"
+    if ! echo "$host_pen" | grep -q "^ *\"$key\": *$value,\{0,1\}\$"; then
+      echo "c-example: FAIL: the pen's $key differs: C $value, host $(echo "$host_pen" |
+        sed -n "s/^ *\"$key\": *\([^,]*\),\{0,1\}\$/\1/p")" >&2
+      exit 1
+    fi
+  done < <(sed -n 's/\r$//; /^pen\./p' "$1")
+  echo "c-example: OK, the same pen figures ($(sed -n 's/\r$//; s/^pen\.//p' "$1" | paste -sd' '))"
 }
 
 # The triangles of an OBJ file, one canonical line each, sorted (scripts/obj-triangles.awk).
@@ -164,6 +208,31 @@ if [ "$mode" = host ]; then
     -Wl,-rpath,"$target_dir/ffi" -o "$work/replay_demo_shared"
   "$work/replay_demo_shared" >"$work/out-shared.txt"
   compare "$work/out-shared.txt" demo
+  exit 0
+fi
+
+if [ "$mode" = tools ]; then
+  command -v cc >/dev/null || { echo "c-example: no C compiler 'cc' found (apt-get install gcc)" >&2; exit 1; }
+  echo "== libtetradrill_ffi.a (profile ffi)"
+  cargo rustc --quiet -p tetradrill-ffi --profile ffi \
+    -- --print native-static-libs 2>"$work/rustc.txt" || { cat "$work/rustc.txt" >&2; exit 1; }
+  libs="$(sed -n 's/.*native-static-libs: //p' "$work/rustc.txt" | tail -1)"
+  lib="$target_dir/ffi/libtetradrill_ffi.a"
+  echo "== cc examples/c/drill_demo.c"
+  # shellcheck disable=SC2086
+  cc -std=c11 -O2 -Wall -Wextra -Werror -ffp-contract=off -I ffi/include \
+    examples/c/drill_demo.c "$lib" $libs -lm -o "$work/drill_demo"
+  echo "== run"
+  "$work/drill_demo" | tee "$work/out.txt"
+  compare "$work/out.txt" demo --tool drill:0.1:0.6:0.03
+  echo "== cc examples/c/pen_demo.c"
+  # shellcheck disable=SC2086
+  cc -std=c11 -O2 -Wall -Wextra -Werror -ffp-contract=off -I ffi/include \
+    examples/c/pen_demo.c "$lib" $libs -lm -o "$work/pen_demo"
+  echo "== run"
+  "$work/pen_demo" | tee "$work/out-pen.txt"
+  compare "$work/out-pen.txt" demo --tool mesh:builtin:block:2 --tool-scale 0.2
+  compare_pen "$work/out-pen.txt"
   exit 0
 fi
 

@@ -33,6 +33,9 @@
 // region index is a byte in the core.
 #define TD_MAX_REGIONS 256
 
+// The top bit of `td_pen_init`'s `bad_item`: the item is the pen mesh's.
+#define TD_PEN_ITEM (1 << 31)
+
 // The most triangle slots a surface has: every vertex index fits a `uint32_t`
 // (`UINT32_MAX / 3`).
 #define TD_MAX_TRIANGLES 1431655765
@@ -84,6 +87,12 @@ typedef enum td_status {
 // until `td_mesh_file_free`. Opaque.
 typedef struct td_mesh_file td_mesh_file;
 #endif
+
+// A pen in caller memory (`td_pen_init`). Opaque.
+typedef struct td_pen td_pen;
+
+// A pen's servo (`td_pen_servo_handle`). Opaque.
+typedef struct td_pen_servo td_pen_servo;
 
 // A world's servo, from `td_world_servo`: its own part of the world's memory, which the
 // servo's force call uses alone. Opaque: C holds a pointer to it and never reads it.
@@ -258,6 +267,133 @@ typedef struct td_mesh_arrays {
 } td_mesh_arrays;
 #endif
 
+// Everything a pen and its object need to know before they are built: the meshes' counts,
+// the capacities of the contact pass and the force settings. `td_pen_params_default` fills
+// it with the host's defaults (`tetradrill replay --tool mesh:FILE` with no flags).
+typedef struct td_pen_params {
+  // Object nodes (`object_positions` holds `3 * object_node_count` floats). 1 ..= 2^28.
+  uint32_t object_node_count;
+  // Object tets. 1 ..= 2^28.
+  uint32_t object_tet_count;
+  // Pen nodes, at rest with its tip at the origin and its axis along +z. 1 ..= 2^28.
+  uint32_t pen_node_count;
+  // Pen tets. 1 ..= 2^28.
+  uint32_t pen_tet_count;
+  // Nodes of each body the pass keeps inside the other (collisions and penetrations, and
+  // what the hand-off carries); 0: each body's node count, which never fills. A full list
+  // keeps last pass's nodes first and is counted (`contacts_full`).
+  uint32_t contact_capacity;
+  // Entries of each depth propagation queue; 0: each body's node count. A short queue
+  // changes no depth (counted, `queue_full`).
+  uint32_t queue_capacity;
+  // Entries of the object's tet hash; 0: 16 per tet, and a mesh that fills them is refused
+  // (`TD_ERR_WORLD`); otherwise a full hash keeps the tets that fit (`hash_saturations`).
+  uint32_t hash_capacity;
+  // The depth's surface search: 0 walks through tets, 1 the hashed boundary faces.
+  uint32_t depth_method;
+  // 1: a border edge takes the face it left the other body through last pass when it still
+  // leaves through it (the host's default); 0: searched every pass.
+  uint32_t reuse_crossings;
+  // 1: the entry-plane remedy for the pen's nodes; 0 (the default): none.
+  uint32_t entry_remedy;
+  // Longest traced walk, in tets (256).
+  uint32_t max_steps;
+  // Most cells a hashed edge query may cover (512).
+  uint32_t max_cells;
+  // Most tets a node's walk may test before a lookup (8).
+  uint32_t max_walk;
+  // Newtons per mesh unit of depth (at least 0).
+  float stiffness;
+  // Newton-seconds per mesh unit (at least 0).
+  float damping;
+  // Force clamp, newtons (positive).
+  float max_force;
+  // Servo period, seconds (positive).
+  float dt;
+} td_pen_params;
+
+// A rotation as a unit quaternion `w + x i + y j + z k` (the order of a trace's `qw, qx, qy,
+// qz`); the identity `{1, 0, 0, 0}` leaves the tool's axis along +z.
+typedef struct td_quat {
+  // Real part.
+  float w;
+  // i.
+  float x;
+  // j.
+  float y;
+  // k.
+  float z;
+} td_quat;
+
+// A tool's pose: its position (a burr's centre, a pen's tip) and its rotation (the tool's
+// axis is its local +z turned by it).
+typedef struct td_pose {
+  // Position, mesh units.
+  struct td_vec3 position;
+  // Rotation.
+  struct td_quat rotation;
+} td_pose;
+
+// What one `td_pen_simulate` (a contact pass) found.
+typedef struct td_pen_report {
+  // Pen nodes inside the object.
+  uint32_t pen_collisions;
+  // Object nodes inside the pen.
+  uint32_t object_collisions;
+  // Pen penetrations written (handed to the servo).
+  uint32_t pen_penetrations;
+  // Object penetrations written.
+  uint32_t object_penetrations;
+  // 1 when a buffer filled (the result is valid but incomplete).
+  uint32_t saturated;
+} td_pen_report;
+
+// A pen's contact passes since `td_pen_init` (`td_pen_counters`): `replay --json`'s `pen`.
+typedef struct td_pen_counts {
+  // Passes made.
+  uint64_t passes;
+  // Passes with a buffer full.
+  uint64_t saturated_passes;
+  // Passes whose collision list or depth output filled.
+  uint64_t contacts_full;
+  // Passes whose depth queue filled.
+  uint64_t queue_full;
+  // Colliding nodes whose depth no surface crossing reached, over all passes.
+  uint64_t unreached;
+  // Border edges examined, over all passes.
+  uint64_t border_edges;
+  // Of them, taken from the face remembered from the pass before.
+  uint64_t reused_crossings;
+  // Most pen nodes inside the object in one pass.
+  uint32_t pen_collisions_max;
+  // Most object nodes inside the pen in one pass.
+  uint32_t object_collisions_max;
+  // Static hashes that ran out of entries at set-up (with `hash_capacity` set).
+  uint32_t hash_saturations;
+  // Bytes of the pen's memory in use (what `td_pen_init` measured).
+  uint64_t bytes;
+} td_pen_counts;
+
+// A pen servo's counters (`td_pen_servo_counters`).
+typedef struct td_pen_servo_counts {
+  // FNV-1a 64 digest of every force rendered, in order: `replay --json`'s `force_digest`.
+  uint64_t force_digest;
+  // The same of every torque.
+  uint64_t torque_digest;
+  // Servo ticks.
+  uint64_t servo_ticks;
+  // Ticks whose force was not zero.
+  uint64_t contact_ticks;
+  // Ticks whose force was clamped.
+  uint64_t clamped_ticks;
+  // Ticks whose scratch could not carry every held penetration.
+  uint64_t short_ticks;
+  // Ticks that kept the pass before, every read overtaken by a newer pass.
+  uint64_t stale_reads;
+  // The number of the pass the last tick rendered from (0: none yet).
+  uint32_t step;
+} td_pen_servo_counts;
+
 // One region of a world: its label, its material and the volume removed from it.
 typedef struct td_region {
   // The region's label (the mesh's, from `td_world_init`'s `labels`; 0 without them).
@@ -346,6 +482,33 @@ typedef struct td_surface_report {
   uint32_t used;
 } td_surface_report;
 
+// A drill's shaft as the simulation tracked it (`td_world_shaft`): the figures of
+// `tetradrill replay --json`'s `shaft`.
+typedef struct td_shaft_counts {
+  // Passive points along the shaft (0 for a world without a drill).
+  uint32_t passive_points;
+  // Of them, with a contact plane at the last step (a face within reach, or held).
+  uint32_t near;
+  // Of them, held at a face they crossed at the last step.
+  uint32_t held;
+  // Most points held at one step.
+  uint32_t held_max;
+  // Steps in which a point had a contact plane.
+  uint64_t near_ticks;
+  // Steps in which a point was held.
+  uint64_t held_ticks;
+} td_shaft_counts;
+
+// A servo's torque figures (`td_servo_tool_counters`).
+typedef struct td_tool_counts {
+  // A drill's: FNV-1a 64 digest of every torque its servo rendered (`td_servo_wrench`,
+  // `td_servo_force`), in order, as `force_digest` digests forces. 0 for a sphere, which
+  // renders no torque.
+  uint64_t torque_digest;
+  // The world's tool: 0 a spherical burr, 1 a drill (`td_world_set_drill`).
+  uint32_t tool;
+} td_tool_counts;
+
 
 
 #ifdef __cplusplus
@@ -394,6 +557,10 @@ enum td_status td_world_size(const struct td_params *params, size_t *out_size, s
 // The step publishes its contact to the world's servo (`td_world_servo`,
 // `td_servo_force`), which may preempt this call or run beside it on another thread.
 //
+// A drill's world (`td_world_set_drill`) steps the drill: the burr as above, then its
+// shaft's passive points tracked, the shaft along +z (the identity rotation;
+// `td_world_simulate_pose` takes one).
+//
 // Materials: the regions earn their erosion from the pressing force: the magnitude of the
 // servo's last force, held for the servo periods since the previous step (as `tetradrill
 // replay` and the host's two tasks feed it), or, once `td_world_set_pressing` was called,
@@ -406,7 +573,8 @@ enum td_status td_world_size(const struct td_params *params, size_t *out_size, s
 // `budget_per_tick` drill work units (plus one operation's overshoot) and
 // `contact_search_nodes` node tests (under `tick_budget` when set, both together), one work
 // unit of the drill's per region of non-zero hardness; the first step also O(T) once, for T
-// tets (the core checks each tet's region).
+// tets (the core checks each tet's region). A drill's world adds its shaft's
+// (`td_world_simulate_pose`).
 //
 // # Errors
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the world, `TD_ERR_ALIGN` for
@@ -642,6 +810,193 @@ enum td_status td_world_init(void *mem,
                              struct td_world **out,
                              uint32_t *bad_item);
 
+// Fills `*out` with the host's defaults for an object of `object_nodes` nodes and
+// `object_tets` tets and a pen of `pen_nodes` and `pen_tets`: contact lists and queues as
+// long as the nodes, the object's tet hash at 16 entries a tet, traced depths with crossings
+// reused, no entry remedy, the walks and searches of the core's `PenOptions`, and the host's
+// default forces (200 N per unit, 0.5 N s per unit, 8 N, 1 kHz).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`; the counts are checked by `td_pen_size`.
+//
+// # Safety
+// `out` points at writable memory for a `td_pen_params` (or is null: refused).
+enum td_status td_pen_params_default(uint32_t object_nodes,
+                                     uint32_t object_tets,
+                                     uint32_t pen_nodes,
+                                     uint32_t pen_tets,
+                                     struct td_pen_params *out);
+
+// Writes the bytes (`*out_size`) and alignment (`*out_align`) of the part of a pen's memory
+// the counts give: the least `td_pen_init` builds the meshes and measures the rest in. The
+// whole pen needs more, by what the meshes' shapes give (their graphs' edges, the grids over
+// them): `td_pen_init` with this many bytes measures it and, when short, says how many.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_PARAMS` for a parameter out of range
+// or a size beyond the address space.
+//
+// # Safety
+// `params` points at an initialised `td_pen_params`; the outputs at writable `size_t`s.
+enum td_status td_pen_size(const struct td_pen_params *params, size_t *out_size, size_t *out_align);
+
+// One contact pass of the pen at `pose` (its tip at the position, its axis +z turned by the
+// rotation, normalised): the pen's nodes inside the object and the object's inside the pen,
+// their consistent penetration depths, published to the pen's servo (`td_pen_servo_handle`,
+// `td_pen_servo_wrench`), which may preempt this call or run beside it. `*report`, when not
+// null, says what it found.
+//
+// # Bounded work
+// The core's `pen_pass`: the pen placed (O(pen nodes)), its nodes near the object looked up
+// in the object's cells with walks of at most `max_walk` tets, the object's nodes in the
+// pen's clusters looked up in its rest grid, then each side's depths (at most the contact
+// capacity of nodes, `max_steps` tets a walk); the publish of at most the contact capacities'
+// penetrations, 7 words each.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the pen, `TD_ERR_ALIGN` for
+// `report`, `TD_ERR_INPUT` for a non-finite pose or a zero rotation (nothing is done).
+//
+// # Safety
+// `pen` is a handle from `td_pen_init` whose memory is still the caller's, one caller at a
+// time; `report` is null or points at a writable `td_pen_report`.
+enum td_status td_pen_simulate(struct td_pen *pen,
+                               struct td_pose pose,
+                               struct td_pen_report *report);
+
+// Writes the pen's servo handle to `*out`: the part of its memory the force call uses alone.
+// Take it once, before the servo starts.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_pen_simulate` for the pen; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// As `td_pen_simulate`; `out` points at a writable `td_pen_servo *`.
+enum td_status td_pen_servo_handle(struct td_pen *pen, struct td_pen_servo **out);
+
+// The force (`*force`) and torque (`*torque`) on the pen at `pose` from the newest pass:
+// each held penetration carried to this pose to first order (the core's `pen_servo_force`:
+// a pen node's depth less how far the pen moved it along its direction, an object node's
+// seen from the pen's frame), stiffness, the entry remedy when set, damping and the clamp,
+// as `tetradrill replay --tool mesh:FILE` renders it; the torque is the moment of the carried
+// penetrations' springs about the tip (the pose's position), scaled as their clamp scales
+// their sum (the core's `pen_torque`; damping acts at the tip). Both enter the servo's
+// digests. At the pass's own pose the force is the pass's, bit for bit.
+//
+// May preempt `td_pen_simulate` or run beside it on another thread: the two share only the
+// hand-off's atomics. A read overtaken by the passes meanwhile is tried again, at most 4
+// times, then the pass before is kept (`stale_reads`).
+//
+// # Bounded work
+// At most 4 reads of a pass (the head and at most the contact capacities' penetrations, 7
+// words each), then O(held penetrations) for the force and the torque. Never waits.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the servo, `TD_ERR_NULL` /
+// `TD_ERR_ALIGN` for an output, `TD_ERR_INPUT` for a non-finite pose or a zero rotation;
+// nothing is written or counted then.
+//
+// # Safety
+// `servo` is a handle from `td_pen_servo_handle` whose pen's memory is still the caller's, one servo
+// call at a time; `force` and `torque` point at writable `td_vec3`s.
+enum td_status td_pen_servo_wrench(struct td_pen_servo *servo,
+                                   struct td_pose pose,
+                                   struct td_vec3 *force,
+                                   struct td_vec3 *torque);
+
+// One whole tick in one task, as `tetradrill replay --tool mesh:FILE` runs it: the pass at
+// `pose`, then the pen's servo force and torque at the same pose (the pass's own force).
+//
+// # Bounded work
+// `td_pen_simulate`'s plus `td_pen_servo_wrench`'s.
+//
+// # Errors
+// As the two calls; on an error nothing more is done and the outputs are not written.
+//
+// # Safety
+// As `td_pen_simulate`, with no servo call on this pen's servo meanwhile; `force` and
+// `torque` point at writable `td_vec3`s.
+enum td_status td_pen_tick(struct td_pen *pen,
+                           struct td_pose pose,
+                           struct td_vec3 *force,
+                           struct td_vec3 *torque);
+
+// Writes the pen's pass counters to `*out`.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_pen_simulate` for the pen; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// As `td_pen_simulate`; `out` points at a writable `td_pen_counts`.
+enum td_status td_pen_counters(struct td_pen *pen, struct td_pen_counts *out);
+
+// Writes the pen servo's counters to `*out` (from the servo's task, or when it is not
+// running).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_pen_servo_wrench` for the servo; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// As `td_pen_servo_wrench`; `out` points at a writable `td_pen_servo_counts`.
+enum td_status td_pen_servo_counters(struct td_pen_servo *servo, struct td_pen_servo_counts *out);
+
+// Builds the object (`object_positions`, `object_tets`: `3 * object_node_count` floats and
+// `4 * object_tet_count` node indices) and the pen (`pen_positions`, `pen_tets`: at rest,
+// its tip at the origin, its axis along +z) as the host builds mesh files, then the contact
+// scene over them as `tetradrill replay --tool mesh:FILE` does (node graphs; the object's
+// tets, nodes and boundary faces hashed with cells of its average edge; the pen's boundary
+// faces hashed; the pen's rest grid and clusters; the object's occupancy grid with its tet
+// and node lists) and the pass's buffers, all in `mem` (`len` bytes at `td_pen_size`'s
+// alignment), and writes the pen's handle (`mem`) to `*out`.
+//
+// The memory: at least `td_pen_size`'s bytes, in which the meshes are built and the rest
+// measured; when `len` holds less than the whole, `TD_ERR_TOO_SMALL` with the bytes needed in
+// `*needed` (when not null): call again with that many. On success `*needed` is the bytes in
+// use. A firmware with a fixed buffer gives it whole and calls once.
+//
+// # Bounded work
+// Once, before the servo runs: O(T log T) for each mesh's build, O(T) for the graphs and
+// hashes, and the grids' O(cells each tet box meets), for T tets; O(every capacity) to
+// initialise the buffers and the hand-off.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_PARAMS` as `td_pen_size`,
+// `TD_ERR_TOO_SMALL` (`*needed`), `TD_ERR_MESH` for refused arrays (`*bad_item` names the
+// object's tet or node, or the pen's with the top bit `TD_PEN_ITEM` set), `TD_ERR_WORLD`
+// when the scene cannot be built over the meshes (a mesh without edges, a hash that fills
+// with `hash_capacity` 0, a grid that cannot be laid). The memory holds no pen on an error.
+//
+// # Safety
+// `params` points at an initialised `td_pen_params`; the arrays at the counts it states, none
+// inside `mem`; `mem` at `len` writable bytes the caller keeps, and does not otherwise use,
+// while it uses the pen; `out` at a writable `td_pen *`; `needed` at a writable `size_t` or
+// null; `bad_item` at a writable `uint32_t` or null.
+enum td_status td_pen_init(void *mem,
+                           size_t len,
+                           const struct td_pen_params *params,
+                           const float *object_positions,
+                           const uint32_t *object_tets,
+                           const float *pen_positions,
+                           const uint32_t *pen_tets,
+                           struct td_pen **out,
+                           size_t *needed,
+                           uint32_t *bad_item);
+
 // Sets the force pressing the burr against the material, `newtons`, held for `seconds`: the
 // next `td_world_simulate` earns each region's erosion from them. Without this call the
 // world takes them from its servo (the magnitude of its last force, for the periods since the
@@ -729,7 +1084,8 @@ enum td_status td_world_servo(struct td_world *world, struct td_servo **out);
 // The force on the tool at `position` from the newest contact a step published (stiffness
 // times depth, damping, a bounded switch between planes, clamped to `max_force`), written
 // to `*force`; it enters the servo's digest and counters, and its magnitude presses the burr
-// at the world's next step.
+// at the world's next step. A drill's world renders the drill's force (`td_servo_wrench`)
+// with the identity rotation, the shaft along +z.
 //
 // May preempt `td_world_simulate` (a timer interrupt over the simulation's loop) or run
 // beside it on another thread: the two share only the hand-off's atomics. With the two on
@@ -737,7 +1093,8 @@ enum td_status td_world_servo(struct td_world *world, struct td_servo **out);
 // 4 times, then the contact before is kept (`stale_reads`).
 //
 // # Bounded work
-// Constant: at most 4 reads of 14 words and the force. Never waits.
+// Constant: at most 4 reads of 14 words and the force (a drill's: `td_servo_wrench`'s).
+// Never waits.
 //
 // # Errors
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the servo, `TD_ERR_NULL` /
@@ -898,6 +1255,127 @@ enum td_status td_world_remove_debris(struct td_world *world,
                                       uint32_t *scratch,
                                       size_t scratch_len,
                                       uint32_t *out_pieces);
+
+// Makes the world's tool a drill: a burr of `td_params.radius` at the pose's position on a
+// shaft of `shaft_radius` reaching `shaft_length` from the burr's centre along the tool's
+// axis (its local +z turned by the pose's rotation), the host's `--tool
+// drill:RADIUS:SHAFT_LENGTH:SHAFT_RADIUS`. The shaft's passive points (at most 32, spaced at
+// most a shaft radius apart from the burr's surface to the handle) collide and push back
+// but never erode; a point that crosses a face is held there.
+//
+// From then on each step is the drill's (the burr drilled as a sphere's, then the shaft
+// tracked), and the servo renders the force of the burr and the shaft together and the
+// shaft's torque (`td_servo_wrench`). Call it after `td_world_init`, before the first step
+// and before the servo starts (it sets up the servo's part too); calling it again replaces
+// the shaft.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_simulate` for the world; `TD_ERR_STARTED` after the first step;
+// `TD_ERR_PARAMS` for a shaft radius that is not positive or exceeds the burr's radius, a
+// shaft length not longer than the burr's radius, a non-finite value, or a world with
+// `servo_lag` 1 (the drill steps before its servo force, as the host's replay runs it).
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's, with no
+// other call on the world or its servo meanwhile.
+enum td_status td_world_set_drill(struct td_world *world, float shaft_length, float shaft_radius);
+
+// `td_world_simulate` at a pose with a rotation: a drill world's shaft lies along the
+// rotated +z; a sphere's world uses the position alone (the same step as
+// `td_world_simulate`).
+//
+// # Bounded work
+// `td_world_simulate`'s; a drill world's adds `World::simulate_drill`'s shaft: one more zone
+// query (at most `max_cells` cells and `candidate_capacity` tets) and, per passive point
+// (at most 32), the visible faces of the candidates near its path, then a publish of 239
+// words.
+//
+// # Errors
+// As `td_world_simulate`; `TD_ERR_INPUT` for a non-finite rotation too (nothing is done).
+//
+// # Safety
+// As `td_world_simulate`.
+enum td_status td_world_simulate_pose(struct td_world *world,
+                                      struct td_pose pose,
+                                      uint32_t buttons,
+                                      struct td_sim_report *report);
+
+// The force (`*force`) and torque (`*torque`) on the tool at `pose` from the newest contact
+// a step published. A drill: the burr's spring and the shaft's passive points' springs with
+// damping, clamped to `max_force` (the force `tetradrill replay --tool drill:...` renders),
+// and the moment of the shaft's springs about the burr's centre (the pose's position),
+// scaled as their clamp scales their sum (the core's `drill_torque`; about the handle `h`
+// add `(position - h) x force`). A sphere: `td_servo_force`'s force and a zero torque. The
+// force enters the servo's digest, the torque its torque digest
+// (`td_servo_tool_counters`), and the burr's own force presses it at the world's next step.
+//
+// May preempt the world's step or run beside it on another thread, as `td_servo_force`.
+//
+// # Bounded work
+// Constant: at most 4 reads of the hand-off (a drill's: 239 words), then O(32) for the
+// drill's force and torque. Never waits.
+//
+// # Errors
+// As `td_servo_force`; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `torque`; `TD_ERR_INPUT` for a
+// non-finite pose. On an error neither output is written and nothing is counted.
+//
+// # Safety
+// As `td_servo_force`; `force` and `torque` point at writable `td_vec3`s.
+enum td_status td_servo_wrench(struct td_servo *servo,
+                               struct td_pose pose,
+                               struct td_vec3 *force,
+                               struct td_vec3 *torque);
+
+// `td_world_tick` at a pose with a rotation, writing the force and the torque: with
+// `servo_lag` 0, `td_world_simulate_pose` then `td_servo_wrench` at the same pose (a drill's
+// tick as `tetradrill replay --tool drill:...` runs it); with 1 (a sphere only), the wrench
+// first.
+//
+// # Bounded work
+// `td_world_simulate_pose`'s plus `td_servo_wrench`'s.
+//
+// # Errors
+// As the two calls; on an error nothing more is done and the outputs are not written.
+//
+// # Safety
+// As `td_world_tick`; `force` and `torque` point at writable `td_vec3`s.
+enum td_status td_world_tick_pose(struct td_world *world,
+                                  struct td_pose pose,
+                                  uint32_t buttons,
+                                  struct td_vec3 *force,
+                                  struct td_vec3 *torque);
+
+// Writes the drill's shaft figures to `*out`: its passive points, those near a face and
+// held at the last step, and over all steps the most held at once and the steps with a
+// point near or held (`tetradrill replay --json`'s `shaft`). All zero for a sphere's world.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_counters`.
+//
+// # Safety
+// As `td_world_counters`; `out` points at a writable `td_shaft_counts`.
+enum td_status td_world_shaft(struct td_world *world, struct td_shaft_counts *out);
+
+// Writes the servo's torque figures to `*out`: the digest of every torque rendered (0 for a
+// sphere, which renders none) and the world's tool (0 a sphere, 1 a drill). Call it from the servo's task (or when the servo is
+// not running).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_servo_counters`.
+//
+// # Safety
+// As `td_servo_counters`; `out` points at a writable `td_tool_counts`.
+enum td_status td_servo_tool_counters(struct td_servo *servo,
+                                      struct td_tool_counts *out);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -10,7 +10,12 @@ use tetradrill_core::collide::{ZoneGather, ZONE_MARGIN_RADII};
 /// # Safety
 /// `base + offset` is aligned for `T`, and `n` values of `T` from there lie inside memory the
 /// caller owns for `'static` and nothing else borrows.
-unsafe fn carve<T: Copy>(base: *mut u8, offset: usize, n: usize, v: T) -> &'static mut [T] {
+pub(crate) unsafe fn carve<T: Copy>(
+    base: *mut u8,
+    offset: usize,
+    n: usize,
+    v: T,
+) -> &'static mut [T] {
     // SAFETY: inside the caller's memory (the function's contract); the plan put it there.
     let p = unsafe { base.add(offset) }.cast::<T>();
     for i in 0..n {
@@ -23,7 +28,7 @@ unsafe fn carve<T: Copy>(base: *mut u8, offset: usize, n: usize, v: T) -> &'stat
 }
 
 /// The index a mesh build error names (a tet, or a node for a non-finite position).
-fn bad_index(e: &BuildError) -> u32 {
+pub(crate) fn bad_index(e: &BuildError) -> u32 {
     match *e {
         BuildError::NodeOutOfRange { tet, .. }
         | BuildError::RepeatedNode { tet }
@@ -204,6 +209,12 @@ pub(crate) unsafe fn init(
         h.write(SharedHandoff::default());
         &(*h).0
     };
+    // SAFETY: as above: the plan's drill hand-off region.
+    let drill_handoff: &'static tetradrill_core::servo::DrillHandoff = unsafe {
+        let h = base.add(plan.drill_handoff).cast::<SharedDrillHandoff>();
+        h.write(SharedDrillHandoff::default());
+        &(*h).0
+    };
     let force = ForceParams {
         stiffness: p.stiffness,
         damping: p.damping,
@@ -226,6 +237,8 @@ pub(crate) unsafe fn init(
             magic: SERVO_MAGIC,
             servo: Servo::new(p.radius, force),
             handoff,
+            drill: None,
+            drill_handoff,
         })
     };
     let st = State {
@@ -249,6 +262,8 @@ pub(crate) unsafe fn init(
         initial_volume,
         labels: region_labels,
         unstarted: Some(Unstarted { table, of_tet }),
+        shaft: None,
+        drill_handoff,
     };
     // SAFETY: aligned, inside `mem` (checked above); the slices the world borrows start after
     // the header. Written whole, the magic last of all in effect: a handle is valid only once

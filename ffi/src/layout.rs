@@ -9,10 +9,11 @@ use core::mem::size_of;
 use tetradrill_core::drill::{DrillParams, Region};
 use tetradrill_core::force::ForceParams;
 use tetradrill_core::mesh::{FaceKey, MeshStorage};
-use tetradrill_core::servo::{ContactHandoff, Servo, World, WorldSizes};
+use tetradrill_core::servo::{ContactHandoff, DrillHandoff, DrillServo, Servo, World, WorldSizes};
 use tetradrill_core::storage::Line;
 use tetradrill_core::Vec3;
 
+use crate::tools::DrillSim;
 use crate::types::{TdParams, TdStatus};
 
 /// Marks a [`State`] that `td_world_init` finished ("tdworld1").
@@ -27,6 +28,12 @@ pub const SERVO_MAGIC: u64 = u64::from_le_bytes(*b"tdservo1");
 #[repr(C, align(64))]
 pub struct SharedHandoff(pub ContactHandoff);
 
+/// A drill's hand-off on cache lines of its own: a drill world's step publishes its burr's
+/// contact and its shaft's planes there, for the servo (unused by a sphere's world).
+#[derive(Debug, Default)]
+#[repr(C, align(64))]
+pub struct SharedDrillHandoff(pub DrillHandoff);
+
 /// The servo's own part of a world's memory, apart from the [`State`] so that the servo may
 /// preempt the simulation (or run beside it) without either touching the other's memory:
 /// the core's [`Servo`] and the hand-off it reads. `td_world_servo` hands C a pointer to it.
@@ -39,6 +46,10 @@ pub struct ServoState {
     pub servo: Servo,
     /// The contact hand-off, shared with the world's [`State`].
     pub handoff: &'static ContactHandoff,
+    /// The drill's servo, for a drill world (`td_world_set_drill`, before the servo starts).
+    pub drill: Option<DrillServo>,
+    /// The drill's hand-off, shared with the world's [`State`].
+    pub drill_handoff: &'static DrillHandoff,
 }
 
 /// The most nodes or tets a world takes: every size the core derives from the counts (8 hash
@@ -95,6 +106,10 @@ pub struct State {
     pub labels: &'static [i32],
     /// The regions until the first simulation step hands them to the world (`None` after).
     pub unstarted: Option<Unstarted>,
+    /// The drill's shape and its shaft's state, for a drill world (`td_world_set_drill`).
+    pub shaft: Option<DrillSim>,
+    /// The drill's hand-off, shared with the servo.
+    pub drill_handoff: &'static DrillHandoff,
 }
 
 impl State {
@@ -157,6 +172,8 @@ pub struct Plan {
     pub handoff: usize,
     /// The servo's state (`ServoState`).
     pub servo: usize,
+    /// The drill's hand-off (`SharedDrillHandoff`).
+    pub drill_handoff: usize,
     /// Bytes in all.
     pub size: usize,
     /// Alignment the memory needs.
@@ -246,6 +263,7 @@ impl Plan {
         };
         let handoff = b.put::<SharedHandoff>(1)?;
         let servo = b.put::<ServoState>(1)?;
+        let drill_handoff = b.put::<SharedDrillHandoff>(1)?;
         let positions = b.put::<Vec3>(nodes)?;
         let mesh_lines = MeshStorage::lines(nodes, built).ok_or(TdStatus::TdErrParams)?;
         let mesh = b.put::<Line>(mesh_lines)?;
@@ -274,6 +292,7 @@ impl Plan {
             region_slots,
             handoff,
             servo,
+            drill_handoff,
             size: layout.size(),
             align: layout.align(),
         })
@@ -319,13 +338,14 @@ mod tests {
     }
 
     /// Each region as (offset, bytes, alignment of its type), in plan order.
-    fn regions(p: &Plan) -> [(usize, usize, usize); 9] {
+    fn regions(p: &Plan) -> [(usize, usize, usize); 10] {
         fn r<T>(at: usize, n: usize) -> (usize, usize, usize) {
             (at, n * size_of::<T>(), align_of::<T>())
         }
         [
             r::<SharedHandoff>(p.handoff, 1),
             r::<ServoState>(p.servo, 1),
+            r::<SharedDrillHandoff>(p.drill_handoff, 1),
             r::<Vec3>(p.positions, p.nodes),
             r::<Line>(p.mesh, p.mesh_lines),
             r::<FaceKey>(p.scratch, p.faces),

@@ -12,7 +12,7 @@ use super::*;
 /// # Safety
 /// `s`, when not null and aligned, points at a world's servo (from `td_world_servo`) whose
 /// memory is still the caller's and that no other servo call uses meanwhile.
-unsafe fn servo_state<'a>(s: *mut TdServo) -> Result<&'a mut ServoState, TdStatus> {
+pub(crate) unsafe fn servo_state<'a>(s: *mut TdServo) -> Result<&'a mut ServoState, TdStatus> {
     let s = s.cast::<ServoState>();
     check_ptr(s)?;
     // SAFETY: aligned and not null (checked); the memory is a world's servo (the caller's
@@ -53,7 +53,8 @@ pub unsafe extern "C" fn td_world_servo(world: *mut TdWorld, out: *mut *mut TdSe
 /// The force on the tool at `position` from the newest contact a step published (stiffness
 /// times depth, damping, a bounded switch between planes, clamped to `max_force`), written
 /// to `*force`; it enters the servo's digest and counters, and its magnitude presses the burr
-/// at the world's next step.
+/// at the world's next step. A drill's world renders the drill's force (`td_servo_wrench`)
+/// with the identity rotation, the shaft along +z.
 ///
 /// May preempt `td_world_simulate` (a timer interrupt over the simulation's loop) or run
 /// beside it on another thread: the two share only the hand-off's atomics. With the two on
@@ -61,7 +62,8 @@ pub unsafe extern "C" fn td_world_servo(world: *mut TdWorld, out: *mut *mut TdSe
 /// 4 times, then the contact before is kept (`stale_reads`).
 ///
 /// # Bounded work
-/// Constant: at most 4 reads of 14 words and the force. Never waits.
+/// Constant: at most 4 reads of 14 words and the force (a drill's: `td_servo_wrench`'s).
+/// Never waits.
 ///
 /// # Errors
 /// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the servo, `TD_ERR_NULL` /
@@ -83,7 +85,7 @@ pub unsafe extern "C" fn td_servo_force(
         // SAFETY: the caller's contract on `servo`; `servo_state` checks it.
         let sv = unsafe { servo_state(servo) }?;
         let at = pose(position)?;
-        let f = sv.servo.tick(sv.handoff, at);
+        let (f, _) = tools::wrench(sv, at, tools::axis(None)?);
         // SAFETY: checked above; writable by the caller's contract.
         unsafe { force.write(td_vec(f)) };
         Ok(())
@@ -110,13 +112,22 @@ pub unsafe extern "C" fn td_servo_counters(
     status(|| {
         check_ptr(out)?;
         // SAFETY: the caller's contract on `servo`; `servo_state` checks it.
-        let s = &unsafe { servo_state(servo) }?.servo;
-        let c = TdServoCounts {
-            force_digest: s.digest(),
-            servo_ticks: s.ticks(),
-            contact_ticks: s.contact_ticks(),
-            stale_reads: s.stale_reads(),
-            step: s.step(),
+        let sv = unsafe { servo_state(servo) }?;
+        let c = match &sv.drill {
+            Some(d) => TdServoCounts {
+                force_digest: d.digest(),
+                servo_ticks: d.ticks(),
+                contact_ticks: d.contact_ticks(),
+                stale_reads: d.stale_reads(),
+                step: d.step(),
+            },
+            None => TdServoCounts {
+                force_digest: sv.servo.digest(),
+                servo_ticks: sv.servo.ticks(),
+                contact_ticks: sv.servo.contact_ticks(),
+                stale_reads: sv.servo.stale_reads(),
+                step: sv.servo.step(),
+            },
         };
         // SAFETY: checked above; writable by the caller's contract.
         unsafe { out.write(c) };

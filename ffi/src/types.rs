@@ -178,6 +178,63 @@ pub struct TdVec3 {
     pub z: f32,
 }
 
+/// A rotation as a unit quaternion `w + x i + y j + z k` (the order of a trace's `qw, qx, qy,
+/// qz`); the identity `{1, 0, 0, 0}` leaves the tool's axis along +z.
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct TdQuat {
+    /// Real part.
+    pub w: f32,
+    /// i.
+    pub x: f32,
+    /// j.
+    pub y: f32,
+    /// k.
+    pub z: f32,
+}
+
+/// A tool's pose: its position (a burr's centre, a pen's tip) and its rotation (the tool's
+/// axis is its local +z turned by it).
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct TdPose {
+    /// Position, mesh units.
+    pub position: TdVec3,
+    /// Rotation.
+    pub rotation: TdQuat,
+}
+
+/// A drill's shaft as the simulation tracked it (`td_world_shaft`): the figures of
+/// `tetradrill replay --json`'s `shaft`.
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct TdShaftCounts {
+    /// Passive points along the shaft (0 for a world without a drill).
+    pub passive_points: u32,
+    /// Of them, with a contact plane at the last step (a face within reach, or held).
+    pub near: u32,
+    /// Of them, held at a face they crossed at the last step.
+    pub held: u32,
+    /// Most points held at one step.
+    pub held_max: u32,
+    /// Steps in which a point had a contact plane.
+    pub near_ticks: u64,
+    /// Steps in which a point was held.
+    pub held_ticks: u64,
+}
+
+/// A servo's torque figures (`td_servo_tool_counters`).
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct TdToolCounts {
+    /// A drill's: FNV-1a 64 digest of every torque its servo rendered (`td_servo_wrench`,
+    /// `td_servo_force`), in order, as `force_digest` digests forces. 0 for a sphere, which
+    /// renders no torque.
+    pub torque_digest: u64,
+    /// The world's tool: 0 a spherical burr, 1 a drill (`td_world_set_drill`).
+    pub tool: u32,
+}
+
 /// What one `td_world_simulate` did.
 #[repr(C)]
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]

@@ -115,49 +115,11 @@ impl<'a> Occupancy<'a> {
         storage: OccupancyStorage<'a>,
     ) -> Result<Self, OccupancyError> {
         let OccupancyStorage { words, boxes } = storage;
-        if words.is_empty() {
-            return Err(OccupancyError::NoStorage);
+        let (origin, cell, dims) = frame(body, cell, margin, words.len())?;
+        let boxed = |t: usize| grown_box(body, t, margin);
+        for (t, slot) in boxes.iter_mut().enumerate().take(body.tet_count()) {
+            *slot = boxed(t).unwrap_or(Aabb::of::<0>([]));
         }
-        if !(cell.is_finite() && cell > 0.0 && margin.is_finite() && margin >= 0.0) {
-            return Err(OccupancyError::BadCellSize);
-        }
-        let boxed = |t: usize| {
-            let c = body.tet_positions(TetId::from_idx(t))?;
-            c.iter()
-                .all(|p| p.is_finite())
-                .then(|| Aabb::of(c).grown(margin))
-        };
-        let mut bounds = Aabb::of::<0>([]);
-        for t in 0..body.tet_count() {
-            let b = boxed(t);
-            if let Some(b) = b {
-                bounds = bounds.union(b);
-            }
-            if let Some(slot) = boxes.get_mut(t) {
-                *slot = b.unwrap_or(Aabb::of::<0>([]));
-            }
-        }
-        if !(bounds.min.is_finite() && bounds.max.is_finite()) {
-            return Err(OccupancyError::Empty);
-        }
-        let capacity = words.len() as u64 * 32;
-        let mut cell = cell;
-        let dims = loop {
-            let inv = 1.0 / cell;
-            let e = (bounds.max - bounds.min) * inv;
-            let d = [e.x, e.y, e.z].map(|v| libm::floorf(v) as i64 + 1);
-            let n = d
-                .iter()
-                .fold(1u64, |a, &v| a.saturating_mul(v.max(1) as u64));
-            if n <= capacity && inv.is_finite() && inv > 0.0 {
-                break d.map(|v| v.clamp(1, i32::MAX as i64) as i32);
-            }
-            cell *= 2.0;
-            if !cell.is_finite() {
-                // Every extent is finite, so a cell beyond them all fits in one word.
-                return Err(OccupancyError::BadCellSize);
-            }
-        };
         words.fill(0);
         let mut grid = Self {
             words: &[],
@@ -168,7 +130,7 @@ impl<'a> Occupancy<'a> {
             nodes: &[],
             list_inv: 1.0 / cell,
             list_dims: dims,
-            origin: bounds.min,
+            origin,
             inv_cell: 1.0 / cell,
             #[cfg(test)]
             cell,
@@ -216,17 +178,69 @@ impl<'a> Occupancy<'a> {
     /// # Bounded work
     /// O(cells each stored box meets). Call it at set-up.
     pub fn tet_list_sizes(&self, split: u32) -> Option<(usize, usize)> {
+        self.list_sizes_of(split, self.boxes.iter().copied())
+    }
+
+    /// [`Occupancy::tet_list_sizes`] over the stored boxes `boxes`.
+    fn list_sizes_of(
+        &self,
+        split: u32,
+        boxes: impl Iterator<Item = Aabb>,
+    ) -> Option<(usize, usize)> {
         let (inv, dims) = self.split_grid(split)?;
         let cells = dims.iter().map(|&d| d as usize).product::<usize>();
         let mut total = 0usize;
-        for b in self.boxes {
-            if let Some((lo, hi)) = range(self.origin, inv, dims, b) {
+        for b in boxes {
+            if let Some((lo, hi)) = range(self.origin, inv, dims, &b) {
                 total += (0..3)
                     .map(|a| (hi[a] - lo[a] + 1) as usize)
                     .product::<usize>();
             }
         }
         Some((cells + 1, total))
+    }
+
+    /// What the grid [`Occupancy::build`] makes of `body` with `cell`, `margin` and `words`
+    /// storage words needs for its lists, without the storage: `(list_starts, list_tets,
+    /// node_starts)`, [`Occupancy::tet_list_sizes`] for `split` (with a box stored for every
+    /// tet) and the starts of [`Occupancy::node_list_sizes`]. A caller sizes the whole grid
+    /// in one piece from it before building it.
+    ///
+    /// # Bounded work
+    /// O(T) twice and O(cells each box meets). Call it at set-up.
+    ///
+    /// # Errors
+    /// As [`Occupancy::build`]; [`OccupancyError::ListStorage`] when `split` is 0 or the list
+    /// cells overflow.
+    pub fn list_sizes(
+        body: &Body<'_, '_>,
+        cell: f32,
+        margin: f32,
+        words: usize,
+        split: u32,
+    ) -> Result<(usize, usize, usize), OccupancyError> {
+        let (origin, cell, dims) = frame(body, cell, margin, words)?;
+        let grid = Self {
+            words: &[],
+            boxes: &[],
+            cell_starts: &[],
+            cell_tets: &[],
+            node_starts: &[],
+            nodes: &[],
+            list_inv: 1.0 / cell,
+            list_dims: dims,
+            origin,
+            inv_cell: 1.0 / cell,
+            #[cfg(test)]
+            cell,
+            dims,
+        };
+        let boxes =
+            (0..body.tet_count()).map(|t| grown_box(body, t, margin).unwrap_or(Aabb::of::<0>([])));
+        let (starts, tets) = grid
+            .list_sizes_of(split, boxes)
+            .ok_or(OccupancyError::ListStorage)?;
+        Ok((starts, tets, grid.node_list_sizes(0).0))
     }
 
     /// The list grid's inverse cell size and cells per axis for `split`.
@@ -584,6 +598,62 @@ pub(super) fn cell(origin: Vec3, inv: f32, dims: [i32; 3], p: Vec3) -> Option<[i
     // Below `d as f32`, the truncation is below `d` even where `d as f32` rounded up
     // (grids beyond 2^24 cells a side): no float lies between `d` and the float above it.
     Some([f.x as i32, f.y as i32, f.z as i32])
+}
+
+/// Tet `t`'s box grown by `margin` (`None` for a tet without finite corners).
+fn grown_box(body: &Body<'_, '_>, t: usize, margin: f32) -> Option<Aabb> {
+    let c = body.tet_positions(TetId::from_idx(t))?;
+    c.iter()
+        .all(|p| p.is_finite())
+        .then(|| Aabb::of(c).grown(margin))
+}
+
+/// The grid [`Occupancy::build`] lays over `body` with `words` storage words: its origin, the
+/// cell edge it settles on (`cell`, doubled until the cells fit the words) and its cells per
+/// axis.
+///
+/// # Bounded work
+/// O(T) for the bounds, then one pass a doubling of the cell (at most about 256).
+fn frame(
+    body: &Body<'_, '_>,
+    cell: f32,
+    margin: f32,
+    words: usize,
+) -> Result<(Vec3, f32, [i32; 3]), OccupancyError> {
+    if words == 0 {
+        return Err(OccupancyError::NoStorage);
+    }
+    if !(cell.is_finite() && cell > 0.0 && margin.is_finite() && margin >= 0.0) {
+        return Err(OccupancyError::BadCellSize);
+    }
+    let mut bounds = Aabb::of::<0>([]);
+    for t in 0..body.tet_count() {
+        if let Some(b) = grown_box(body, t, margin) {
+            bounds = bounds.union(b);
+        }
+    }
+    if !(bounds.min.is_finite() && bounds.max.is_finite()) {
+        return Err(OccupancyError::Empty);
+    }
+    let capacity = words as u64 * 32;
+    let mut cell = cell;
+    let dims = loop {
+        let inv = 1.0 / cell;
+        let e = (bounds.max - bounds.min) * inv;
+        let d = [e.x, e.y, e.z].map(|v| libm::floorf(v) as i64 + 1);
+        let n = d
+            .iter()
+            .fold(1u64, |a, &v| a.saturating_mul(v.max(1) as u64));
+        if n <= capacity && inv.is_finite() && inv > 0.0 {
+            break d.map(|v| v.clamp(1, i32::MAX as i64) as i32);
+        }
+        cell *= 2.0;
+        if !cell.is_finite() {
+            // Every extent is finite, so a cell beyond them all fits in one word.
+            return Err(OccupancyError::BadCellSize);
+        }
+    };
+    Ok((bounds.min, cell, dims))
 }
 
 /// The cells of the grid box `b` covers, clamped to the grid (`None` when it misses the

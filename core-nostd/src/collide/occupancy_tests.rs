@@ -416,3 +416,49 @@ fn tet_list_entries_admit_every_point_of_their_box() {
         );
     }
 }
+
+/// `Occupancy::list_sizes` gives, before any storage, the lists' sizes of the grid `build`
+/// then makes with that many words (coarsened or not): the tet lists take exactly that
+/// storage (one entry less is refused) and the node lists that many starts.
+#[test]
+fn list_sizes_come_before_the_storage() {
+    let mut obj_store = Store::<125, 384>::block(4, 0.25, Vec3::splat(-0.5));
+    let obj = obj_store.mesh();
+    let ob = Body::fixed(&obj);
+    let empty = crate::hash::Aabb::of::<0>([]);
+    for words in [1usize, 8, 64] {
+        for split in [1u32, 2, 3] {
+            let (starts, tets, node_starts) =
+                Occupancy::list_sizes(&ob, 0.05, 1e-4, words, split).unwrap();
+            let (mut w, mut bx) = ([0u32; 64], [empty; 384]);
+            let storage = OccupancyStorage {
+                words: &mut w[..words],
+                boxes: &mut bx,
+            };
+            let cells = Occupancy::build(&ob, 0.05, 1e-4, storage).unwrap();
+            assert_eq!(cells.tet_list_sizes(split), Some((starts, tets)));
+            assert_eq!(cells.node_list_sizes(125).0, node_starts);
+            let d = cells.dims();
+            assert_eq!(node_starts as u32, d[0] * d[1] * d[2] + 2);
+            let (mut ls, mut lt) = ([0u32; 8192], [GridEntry::default(); 65536]);
+            assert!(tets > 384, "every tet meets a cell: {tets}");
+            if starts > ls.len() || tets > lt.len() {
+                continue;
+            }
+            assert!(cells
+                .with_tet_lists(&ob, split, &mut ls[..starts], &mut lt[..tets - 1])
+                .is_err());
+            assert!(cells
+                .with_tet_lists(&ob, split, &mut ls[..starts], &mut lt[..tets])
+                .is_ok());
+        }
+    }
+    assert_eq!(
+        Occupancy::list_sizes(&ob, 0.05, 1e-4, 0, 2).unwrap_err(),
+        OccupancyError::NoStorage
+    );
+    assert_eq!(
+        Occupancy::list_sizes(&ob, 0.05, 1e-4, 8, 0).unwrap_err(),
+        OccupancyError::ListStorage
+    );
+}

@@ -46,7 +46,7 @@ mod shaft;
 mod triangles;
 
 pub use digest::{force_digest, ForceDigest};
-pub use held::{pen_servo_force, HeldContact, PenServo, ServoScratch};
+pub use held::{pen_servo_force, pen_torque, HeldContact, PenServo, ServoScratch};
 pub use passive::PassivePoint;
 pub(crate) use passive::{passive_force, PassiveProbe};
 pub use passivity::{penalty_storage, PassivityObserver, PassivityParams, Storage};
@@ -54,7 +54,10 @@ pub use pen::{
     object_side, pen_contact, pen_pass, pen_place, pen_side, DepthMethod, PenBuffers, PenContact,
     PenForce, PenOptions, PenPass, PenPlacement, PenScene, PenState, SideBuffers, SideReport,
 };
-pub use pen_storage::PenBufferSizes;
+pub use pen_storage::{
+    occupancy_words, PenBufferSizes, CLUSTER_EDGE, OCCUPANCY_LIST_SPLIT, OCCUPANCY_MARGIN,
+    REST_GRID_EDGE, REST_MARGIN,
+};
 pub(crate) use response::damping_force;
 pub use response::{clamp_force, display_offset, ForceParams, ToolState};
 pub use shaft::{DrillTool, MAX_PASSIVE};

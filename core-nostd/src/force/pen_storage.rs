@@ -175,6 +175,46 @@ impl<'b> PenBuffers<'b> {
     }
 }
 
+// The scene of a tet-mesh tool against an object, as every host, test and C program builds
+// it (`owned::PenRig` on the heap, the C interface in caller memory): the grids' and
+// clusters' sizes relative to the meshes' average edges.
+
+/// Margin of the object's occupancy grid, in cells (rounding of the barycentric test).
+pub const OCCUPANCY_MARGIN: f32 = 1e-3;
+
+/// The object's per-cell tet lists split each occupancy cell this many times along each axis
+/// ([`crate::collide::Occupancy::with_tet_lists`]): half-edge cells list about a third of the tets a whole
+/// cell does.
+pub const OCCUPANCY_LIST_SPLIT: u32 = 2;
+
+/// Margin of the pen's rest-frame boxes, in pen edges (rounding of the moved positions and
+/// of the barycentric test).
+pub const REST_MARGIN: f32 = 1e-2;
+
+/// Edge of the pen's rest grid (where a point's tets are looked up), in pen edges: half an
+/// edge keeps about 24 tets a cell (51 at a whole edge) for the pen's lookups.
+pub const REST_GRID_EDGE: f32 = 0.5;
+
+/// Edge of the pen's rest-frame clusters, in cells of the object's node hash.
+pub const CLUSTER_EDGE: f32 = 2.5;
+
+/// Storage words of an occupancy grid with cells of `cell` over `mesh` (with a cell to spare
+/// per axis for the margin and rounding).
+pub fn occupancy_words(mesh: &crate::mesh::Mesh<'_>, cell: f32) -> usize {
+    let b = mesh
+        .positions()
+        .iter()
+        .fold(crate::hash::Aabb::of::<0>([]), |b, &p| {
+            b.union(crate::hash::Aabb::point(p))
+        });
+    let e = (b.max - b.min) / cell;
+    let cells: f64 = [e.x, e.y, e.z]
+        .iter()
+        .map(|v| libm::floor(v.max(0.0) as f64) + 3.0)
+        .product();
+    libm::ceil(cells / 32.0).min(1e9) as usize + 1
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

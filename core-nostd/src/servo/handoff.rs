@@ -15,6 +15,9 @@
 //! which the simulation turns into the pressing force of its next step
 //! ([`ContactHandoff::pressing`], [`super::World::set_pressing`]).
 //!
+//! A drill's step hands over its burr's contact and its shaft's planes together, through a
+//! [`super::DrillHandoff`] over the same two slots (`drill_handoff.rs`).
+//!
 //! One publisher and one servo at a time: the roles are the caller's to keep (two publishers
 //! at once could hand the servo a contact mixed of both; nothing worse).
 
@@ -28,25 +31,96 @@ use crate::force::{ForceDigest, ForceParams, ToolState};
 
 /// Words of a published contact: `valid`, point, normal, depth, centre, triangles, stiffness
 /// and the step's number.
-const WORDS: usize = 14;
+pub(crate) const WORDS: usize = 14;
 
 /// How many times [`ContactHandoff::latest`] reads a slot the publisher overtook before it
 /// gives up for this tick.
 pub const HANDOFF_TRIES: u32 = 4;
 
-/// One sequence-locked copy of a contact: `seq` is odd while it is written.
+/// One sequence-locked copy of `N` words: `seq` is odd while they are written.
 #[derive(Debug)]
-struct Slot {
+struct Slot<const N: usize> {
     seq: AtomicU32,
-    words: [AtomicU32; WORDS],
+    words: [AtomicU32; N],
 }
 
-impl Slot {
+impl<const N: usize> Slot<N> {
     const fn new() -> Self {
         Self {
             seq: AtomicU32::new(0),
-            words: [const { AtomicU32::new(0) }; WORDS],
+            words: [const { AtomicU32::new(0) }; N],
         }
+    }
+}
+
+/// Two sequence-locked slots of `N` words and the one the reader is pointed at: the lock-free
+/// core of [`ContactHandoff`] and `super::DrillHandoff` (module docs). One writer and one
+/// reader at a time; all zeros is empty.
+#[derive(Debug)]
+pub(crate) struct SeqPair<const N: usize> {
+    slots: [Slot<N>; 2],
+    /// The slot the reader reads (the newest complete one).
+    newest: AtomicU32,
+    /// Writes done.
+    steps: AtomicU32,
+}
+
+impl<const N: usize> SeqPair<N> {
+    /// Empty: nothing written.
+    pub(crate) const fn new() -> Self {
+        Self {
+            slots: [Slot::new(), Slot::new()],
+            newest: AtomicU32::new(0),
+            steps: AtomicU32::new(0),
+        }
+    }
+
+    /// Writes `word(i, step)` for each `i < N` into the slot the reader is not pointed at,
+    /// then points the reader at it; returns the write's number `step` (1 for the first).
+    ///
+    /// # Bounded work
+    /// Constant: `N` word stores and the switch. Never waits.
+    pub(crate) fn publish(&self, mut word: impl FnMut(usize, u32) -> u32) -> u32 {
+        let step = self.steps.load(Ordering::Relaxed).wrapping_add(1);
+        let next = (self.newest.load(Ordering::Relaxed) ^ 1) & 1;
+        let slot = &self.slots[next as usize];
+        let seq = slot.seq.load(Ordering::Relaxed);
+        slot.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
+        // The odd sequence is ordered before the words: a reader that sees any new word sees
+        // the odd (or a later) sequence on its second look.
+        fence(Ordering::Release);
+        for (i, w) in slot.words.iter().enumerate() {
+            w.store(word(i, step), Ordering::Relaxed);
+        }
+        slot.seq.store(seq.wrapping_add(2), Ordering::Release);
+        self.steps.store(step, Ordering::Relaxed);
+        self.newest.store(next, Ordering::Release);
+        step
+    }
+
+    /// The newest complete words into `out`, `true`; `false` (and `out` not meaningful) when
+    /// every one of [`HANDOFF_TRIES`] reads was overtaken by the writer (only possible when
+    /// the two run on different cores). Before the first write: all zeros.
+    ///
+    /// # Bounded work
+    /// At most [`HANDOFF_TRIES`] reads of `N` words. Never waits.
+    pub(crate) fn latest(&self, out: &mut [u32; N]) -> bool {
+        for _ in 0..HANDOFF_TRIES {
+            let slot = &self.slots[(self.newest.load(Ordering::Acquire) & 1) as usize];
+            let before = slot.seq.load(Ordering::Acquire);
+            if before & 1 != 0 {
+                continue;
+            }
+            for (v, w) in out.iter_mut().zip(&slot.words) {
+                *v = w.load(Ordering::Relaxed);
+            }
+            // The words are read before the second look at the sequence.
+            fence(Ordering::Acquire);
+            if slot.seq.load(Ordering::Relaxed) == before {
+                return true;
+            }
+        }
+        false
     }
 }
 
@@ -61,7 +135,7 @@ pub struct Published {
 }
 
 impl Published {
-    fn to_words(self) -> [u32; WORDS] {
+    pub(crate) fn to_words(self) -> [u32; WORDS] {
         let c = &self.contact;
         [
             u32::from(c.valid),
@@ -81,7 +155,7 @@ impl Published {
         ]
     }
 
-    fn from_words(w: [u32; WORDS]) -> Self {
+    pub(crate) fn from_words(w: [u32; WORDS]) -> Self {
         let f = |i: usize| f32::from_bits(w[i]);
         let v = |i: usize| Vec3::new(f(i), f(i + 1), f(i + 2));
         Self {
@@ -128,11 +202,8 @@ impl Published {
 /// ```
 #[derive(Debug)]
 pub struct ContactHandoff {
-    slots: [Slot; 2],
-    /// The slot the servo reads (the newest complete one).
-    newest: AtomicU32,
-    /// Steps published.
-    steps: AtomicU32,
+    /// The published contacts.
+    pair: SeqPair<WORDS>,
     /// Bits of the magnitude of the servo's last force, newtons.
     force: AtomicU32,
     /// Servo ticks reported (wrapping).
@@ -149,9 +220,7 @@ impl ContactHandoff {
     /// An empty hand-off: no contact published, no servo tick.
     pub const fn new() -> Self {
         Self {
-            slots: [Slot::new(), Slot::new()],
-            newest: AtomicU32::new(0),
-            steps: AtomicU32::new(0),
+            pair: SeqPair::new(),
             force: AtomicU32::new(0),
             ticks: AtomicU32::new(0),
         }
@@ -163,26 +232,19 @@ impl ContactHandoff {
     /// Constant: 14 word stores into the slot the servo is not reading, then the switch.
     /// Never waits. One publisher at a time (module docs).
     pub fn publish(&self, contact: &ContactState) -> u32 {
-        let step = self.steps.load(Ordering::Relaxed).wrapping_add(1);
+        // The contact's words once; the last is the step's number.
         let words = Published {
             contact: *contact,
-            step,
+            step: 0,
         }
         .to_words();
-        let next = (self.newest.load(Ordering::Relaxed) ^ 1) & 1;
-        let slot = &self.slots[next as usize];
-        let seq = slot.seq.load(Ordering::Relaxed);
-        slot.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
-        // The odd sequence is ordered before the words: a reader that sees any new word sees
-        // the odd (or a later) sequence on its second look.
-        fence(Ordering::Release);
-        for (w, v) in slot.words.iter().zip(words) {
-            w.store(v, Ordering::Relaxed);
-        }
-        slot.seq.store(seq.wrapping_add(2), Ordering::Release);
-        self.steps.store(step, Ordering::Relaxed);
-        self.newest.store(next, Ordering::Release);
-        step
+        self.pair.publish(|i, step| {
+            if i + 1 == WORDS {
+                step
+            } else {
+                words.get(i).copied().unwrap_or(0)
+            }
+        })
     }
 
     /// The newest published contact, or `None` when every one of [`HANDOFF_TRIES`] reads was
@@ -192,23 +254,10 @@ impl ContactHandoff {
     /// # Bounded work
     /// At most [`HANDOFF_TRIES`] reads of 14 words. Never waits.
     pub fn latest(&self) -> Option<Published> {
-        for _ in 0..HANDOFF_TRIES {
-            let slot = &self.slots[(self.newest.load(Ordering::Acquire) & 1) as usize];
-            let before = slot.seq.load(Ordering::Acquire);
-            if before & 1 != 0 {
-                continue;
-            }
-            let mut words = [0; WORDS];
-            for (v, w) in words.iter_mut().zip(&slot.words) {
-                *v = w.load(Ordering::Relaxed);
-            }
-            // The words are read before the second look at the sequence.
-            fence(Ordering::Acquire);
-            if slot.seq.load(Ordering::Relaxed) == before {
-                return Some(Published::from_words(words));
-            }
-        }
-        None
+        let mut words = [0; WORDS];
+        self.pair
+            .latest(&mut words)
+            .then(|| Published::from_words(words))
     }
 
     /// The servo's side: leaves the magnitude of the force it just rendered and counts the

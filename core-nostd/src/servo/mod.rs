@@ -24,7 +24,10 @@
 //! `simulate.rs` the simulation step ([`World::simulate`], [`World::simulate_spheres`] and the
 //! contact update), `zone_memo.rs` the step's candidate tets on a small mesh without a hash
 //! scan, `force.rs` [`servo_force`], `passive.rs` a drill's shaft (its passive
-//! points tracked by [`World::simulate_drill`], the force at the handle [`drill_force`]); the
+//! points tracked by [`World::simulate_drill`], the force at the handle [`drill_force`], the
+//! shaft's moment [`drill_torque`]), `handoff.rs` and `drill_handoff.rs` the lock-free hand-offs
+//! to a servo ([`ContactHandoff`] and [`Servo`], [`DrillHandoff`] and [`DrillServo`]),
+//! `pen_handoff.rs` a tet-mesh tool's passes to its servo ([`PenHandoff`]); the
 //! unit tests of [`servo_force`] are in `tests.rs`.
 
 use glam::Vec3;
@@ -38,9 +41,11 @@ use crate::ids::TetId;
 use crate::mesh::Mesh;
 
 mod deform;
+mod drill_handoff;
 mod force;
 mod handoff;
 mod passive;
+mod pen_handoff;
 mod simulate;
 mod sizes;
 #[cfg(test)]
@@ -51,9 +56,11 @@ mod zone_memo;
 
 pub use deform::{DeformError, DeformReport, Prepared, SpareStorage};
 pub(crate) use deform::{PREP_BOX_UNITS, PREP_FACE_UNITS, PREP_NODE_UNITS, PREP_NORMALISE_UNITS};
+pub use drill_handoff::{DrillHandoff, DrillPublished, DrillServo};
 pub use force::servo_force;
 pub use handoff::{ContactHandoff, Published, Servo, HANDOFF_TRIES};
-pub use passive::{drill_force, DrillState, PassiveReport};
+pub use passive::{drill_force, drill_torque, DrillState, PassiveReport};
+pub use pen_handoff::{PenHandoff, PenPublished};
 pub use sizes::{carve_rest, WorldSizes, WorldStorage, DEFAULT_PENDING, DEFAULT_SPHERE_MEMO};
 
 /// Why a [`World`] could not be made.

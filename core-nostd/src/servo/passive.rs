@@ -191,7 +191,7 @@ impl World<'_> {
         points: &mut [PassivePoint],
     ) -> PassiveReport {
         let mut rep = PassiveReport::default();
-        let cands = &self.candidates[..self.ncand];
+        let cands = self.candidates.get(..self.ncand).unwrap_or_default();
         let reach = radius
             + if reach.is_finite() {
                 reach.max(0.0)
@@ -245,8 +245,8 @@ pub fn drill_force(
         .passive_positions(centre, axis, &mut pos)
         .min(state.count);
     let (s, touching) = passive_force(
-        &state.points[..n],
-        &pos[..n],
+        state.points.get(..n).unwrap_or_default(),
+        pos.get(..n).unwrap_or_default(),
         tool.shaft_radius,
         params.stiffness,
         params.max_force,
@@ -256,4 +256,47 @@ pub fn drill_force(
         clamp_force(f + clamp_force(s + d, params.max_force), params.max_force),
         f,
     )
+}
+
+/// The moment about the burr's centre `centre` of the shaft's springs as [`drill_force`]
+/// renders them from `state`'s planes (the drill `tool` along the unit `axis`): for each
+/// passive point `p` that pushes, `(p - centre) x stiffness * depth * normal`, summed, and
+/// scaled by the factor the clamp of the springs' sum to `max_force` applies to the force
+/// (1 when the sum is within it). The burr's spring and the damping act through the centre
+/// and add none. About another point `h` (the handle, `centre + axis * shaft_length`) the moment is
+/// this plus `(centre - h) x force`.
+///
+/// # Bounded work
+/// O([`MAX_PASSIVE`]). Never allocates or panics; non-finite input gives zero.
+pub fn drill_torque(
+    tool: &DrillTool,
+    centre: Vec3,
+    axis: Vec3,
+    state: &DrillState,
+    params: &ForceParams,
+) -> Vec3 {
+    let mut pos = [Vec3::ZERO; MAX_PASSIVE];
+    let n = tool
+        .passive_positions(centre, axis, &mut pos)
+        .min(state.count);
+    let (mut sum, mut moment) = (Vec3::ZERO, Vec3::ZERO);
+    for (pt, &p) in state.points.iter().zip(&pos).take(n) {
+        if let Some((q, normal)) = pt.plane {
+            let depth = tool.shaft_radius - (p - q).dot(normal);
+            if depth > 0.0 {
+                let s = normal * (params.stiffness * depth);
+                sum += s;
+                moment += (p - centre).cross(s);
+            }
+        }
+    }
+    let clamped = clamp_force(sum, params.max_force);
+    if !moment.is_finite() || (clamped == Vec3::ZERO && sum != Vec3::ZERO) {
+        return Vec3::ZERO;
+    }
+    if clamped == sum {
+        moment
+    } else {
+        moment * (clamped.length() / sum.length())
+    }
 }

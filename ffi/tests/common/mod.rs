@@ -195,3 +195,40 @@ pub fn saturations(c: &TdCounters) -> Saturations {
         contact: c.sat_contact,
     }
 }
+
+/// A world for the `n`-block with `p`'s parameters in fresh memory, with `labels` (or none)
+/// and `materials` set: the memory (keep it while the world is used) and the handle.
+pub fn c_world(
+    p: &TdParams,
+    n: usize,
+    labels: Option<&[i32]>,
+    materials: &[(i32, Material)],
+) -> (Memory, *mut TdWorld) {
+    let (xyz, tets) = block_arrays(n);
+    let (mut size, mut align) = (0usize, 0usize);
+    // SAFETY: valid pointers to initialised or writable values.
+    unsafe { assert_eq!(td_world_size(p, &mut size, &mut align), TdStatus::TdOk) };
+    let mem = Memory::new(size, align);
+    let mut world: *mut TdWorld = std::ptr::null_mut();
+    let mut bad = 0u32;
+    // SAFETY: memory of the size and alignment asked for, arrays of the counts in `p`.
+    let st = unsafe {
+        td_world_init(
+            mem.ptr.cast(),
+            size,
+            p,
+            xyz.as_ptr(),
+            tets.as_ptr(),
+            labels.map_or(std::ptr::null(), <[i32]>::as_ptr),
+            &mut world,
+            &mut bad,
+        )
+    };
+    assert_eq!(st, TdStatus::TdOk);
+    for &(label, m) in materials {
+        // SAFETY: a live world.
+        let st = unsafe { td_world_set_region(world, label, m.hardness, m.threshold, m.stiffness) };
+        assert_eq!(st, TdStatus::TdOk, "region {label}");
+    }
+    (mem, world)
+}
