@@ -15,7 +15,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{}/models/tooth_premolar_gmsh.msh22.msh",
         tetradrill_examples::MESHES
     );
-    let mesh = std::env::args().nth(1).unwrap_or(default);
+    // Under `cargo test` the arguments are the test harness's: the default then.
+    let arg = std::env::args().nth(1).filter(|_| !cfg!(test));
+    let mesh = arg.unwrap_or(default);
     let mut setup = Setup::new(&mesh, Tool::sphere(0.0007)); // metres
     setup.materials.regions = tooth_regions();
     setup.forces.stiffness = 6_000.0;

@@ -9,7 +9,9 @@ use tetradrill::prelude::*;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let default = format!("{}/models/pen_tool_gmsh.mesh", tetradrill_examples::MESHES);
-    let pen = std::env::args().nth(1).unwrap_or(default);
+    // Under `cargo test` the arguments are the test harness's: the default then.
+    let arg = std::env::args().nth(1).filter(|_| !cfg!(test));
+    let pen = arg.unwrap_or(default);
     let mut setup = Setup::new("builtin:block:6", Tool::mesh(pen));
     setup.forces.max_force = 1.0e6; // no clamp in the way of the depth's growth
     let mut touching = Touching::new(&setup)?;
