@@ -23,8 +23,8 @@
 #
 # Exit status: 0 when the digests match, no deadline was missed (and the worst tick is within
 # M, the stack within BYTES); 1 when they differ, a deadline was missed, the worst tick is over
-# M, the stack over BYTES, the firmware fails
-# (panic, fault, non-zero semihosting exit, timeout) or a build fails; 2 for bad arguments.
+# M, the stack over BYTES, the firmware fails (panic, fault, stack overflow, non-zero
+# semihosting exit, timeout) or a build fails; 2 for bad arguments.
 # Honours CARGO_TARGET_DIR for the host build (default: the workspace's target/); the firmware
 # builds in ports/mps2-an386/target (target/m7 for the M7). PORT_CHECK_TIMEOUT (seconds,
 # default 900) bounds the QEMU run.

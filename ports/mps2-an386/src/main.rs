@@ -17,6 +17,7 @@
 //! | [`handoff`]    | the two SPSC queues (poses down, contacts up): no lock, no masking        |
 //! | [`clock`]      | SysTick as the servo timer and the instruction counter under `-icount`    |
 //! | [`storage`]    | every slice the core borrows, in statics sized by `WorldSizes`            |
+//! | [`memory`]     | the stack's guard and high-water mark; `.psram` zeroed at reset           |
 //! | `soft`         | `builtin:firmware-soft`: the soft body, its step spread by `soft::Link`   |
 //! | [`target`]     | the M4 / M7 differences: board and the clock the period assumes           |
 
@@ -80,7 +81,6 @@ mod app {
         let cal = crate::clock::calibrate(&mut core.SYST);
         let costs = crate::unit_costs(cal.overhead);
         hprintln_costs(costs);
-        #[allow(unused_mut)]
         let world = crate::build_world();
         #[cfg(scenario_soft)]
         let soft = crate::soft::SoftSim::new(world);

@@ -3,23 +3,25 @@
 //! The stack: cortex-m-rt's `paint-stack` feature fills everything between `_stack_end` (its
 //! lowest address) and `_stack_start` (its top, the initial SP) with
 //! [`cortex_m_rt::STACK_PAINT_VALUE`] in the reset handler, before `main` runs; the deepest
-//! word that no longer holds the paint is the high-water mark ([`stack_max_bytes`]), which the
-//! report prints as `stack_max_bytes` (the guard below excluded), the largest of start-up's mark (`stack_init_max_bytes`)
-//! and the run's (`stack_run_max_bytes`: `idle` paints the stack again below itself when it
-//! starts, [`start_run`]). flip-link links the image with the stack below the
-//! statics (`_stack_end` the start of RAM), so an overflow runs off the bottom of RAM instead
-//! of overwriting them. Below RAM lies a reserved range that QEMU's MPS2 models read as zero
-//! and ignore writes to, so running off RAM alone would not fault there: [`guard_stack`] makes
-//! the stack's lowest [`GUARD_BYTES`] an MPU region no access is allowed to, and the
-//! MemManage handler puts the stack pointer back at the top, prints `error: stack overflow`
-//! and exits with status 1 (in `init`, where MemManage is masked, the fault escalates to the
-//! HardFault handler, which runs with the MPU off and says the same when its frame lies in the
-//! guard). The guard is larger than any frame of the firmware (the largest,
-//! `storage::place_world`'s, is 27 KB), so no frame can step over it.
+//! word that no longer holds the paint is the high-water mark ([`stack_max_bytes`], the guard
+//! below excluded). The report prints start-up's mark (`stack_init_max_bytes`), the run's
+//! (`stack_run_max_bytes`: `idle` paints the stack again below itself when it starts,
+//! [`start_run`]) and the larger as `stack_max_bytes`.
+//!
+//! flip-link links the image with the stack below the statics (`_stack_end` the start of
+//! RAM), so an overflow runs off the bottom of RAM instead of overwriting them. Below RAM lies
+//! a reserved range that QEMU's MPS2 models read as zero and ignore writes to, so running off
+//! RAM alone would not fault there: [`guard_stack`] makes the stack's lowest [`GUARD_BYTES`]
+//! an MPU region no access is allowed to, and the MemManage handler puts the stack pointer
+//! back at the top, prints `error: stack overflow` and exits with status 1 (in `init`, where
+//! MemManage is masked, the fault escalates to the HardFault handler, which runs with the MPU
+//! off and says the same when its frame lies in the guard). The guard is larger than any frame
+//! of the firmware (the largest, `storage::place_world`'s, is 27 KB), so no frame can step over
+//! it.
 //!
 //! Memory the runtime does not initialise: cortex-m-rt zeroes `.bss` and copies `.data`, and
 //! nothing else. The `.psram` section (NOLOAD, outside RAM) holds `ConstStaticCell`s whose
-//! taken flags must start false, so [`__pre_init`](self) zeroes it, from `__spsram` to
+//! taken flags must start false, so `__pre_init` (below) zeroes it, from `__spsram` to
 //! `__epsram` (`memory.x.in`), before RAM is initialised: the firmware does not rely on the
 //! memory starting zeroed. `.uninit` holds only RTIC's late resources, written by RTIC from
 //! `init`'s return value before any task reads them.
