@@ -3,9 +3,10 @@
 # or a Cortex-M7 (mps2-an500), runs it under QEMU, runs the host's `replay` of the same
 # scenario over the same ticks, and compares the force digests. Prints the firmware's report,
 # then one `key=value` line each: force_digest, servo_latency_instructions_max,
-# sim_step_instructions_max, deadline_misses, flash_bytes, ram_bytes.
+# sim_step_instructions_max, deadline_misses, stack_max_bytes, flash_bytes, ram_bytes.
 #
-#   scripts/port-check.sh [--target m4|m7] [--scenario block|cow|regions|soft|tooth] [--ticks N] [--max-instructions M]
+#   scripts/port-check.sh [--target m4|m7] [--scenario block|cow|regions|soft|tooth] [--ticks N]
+#                         [--max-instructions M] [--max-stack BYTES] [--garbage]
 #
 # --scenario block (default) is the host's builtin:firmware, cow is builtin:firmware-cow, regions
 # is builtin:firmware-regions (the block with a hard shell and a soft core), soft is
@@ -14,10 +15,16 @@
 # the pulp).
 # --max-instructions M also fails the check when the worst tick (simulation step, the soft
 # body's share on soft, and the servo tick) took more than M instructions.
+# --max-stack BYTES also fails the check when the stack's high-water mark (the firmware paints
+# the stack at reset and finds the deepest word it lost; stack_max_bytes) is above BYTES.
+# --garbage builds the firmware with its `garbage` feature: at reset, before anything
+# initialises memory, RAM and the PSRAM statics are filled with 0xa5a5a5a5, so the digest
+# matches only if nothing reads memory the firmware or the runtime did not initialise.
 #
 # Exit status: 0 when the digests match, no deadline was missed (and the worst tick is within
-# M); 1 when they differ, a deadline was missed, the worst tick is over M, the firmware fails
-# (panic, fault, non-zero semihosting exit, timeout) or a build fails; 2 for bad arguments.
+# M, the stack within BYTES); 1 when they differ, a deadline was missed, the worst tick is over
+# M, the stack over BYTES, the firmware fails (panic, fault, stack overflow, non-zero
+# semihosting exit, timeout) or a build fails; 2 for bad arguments.
 # Honours CARGO_TARGET_DIR for the host build (default: the workspace's target/); the firmware
 # builds in ports/mps2-an386/target (target/m7 for the M7). PORT_CHECK_TIMEOUT (seconds,
 # default 900) bounds the QEMU run.
@@ -26,6 +33,8 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 port="$root/ports/mps2-an386"
 ticks=""
 max_instr=""
+max_stack=""
+garbage=""
 target="m4"
 scenario="block"
 need() { [ "$2" -ge 2 ] || { echo "port-check: $1 needs a value" >&2; exit 2; }; }
@@ -35,12 +44,15 @@ while [ $# -gt 0 ]; do
     --ticks=*) ticks="${1#--ticks=}"; shift ;;
     --max-instructions) need "$1" $#; max_instr="$2"; shift 2 ;;
     --max-instructions=*) max_instr="${1#--max-instructions=}"; shift ;;
+    --max-stack) need "$1" $#; max_stack="$2"; shift 2 ;;
+    --max-stack=*) max_stack="${1#--max-stack=}"; shift ;;
+    --garbage) garbage=1; shift ;;
     --target) need "$1" $#; target="$2"; shift 2 ;;
     --target=*) target="${1#--target=}"; shift ;;
     --scenario) need "$1" $#; scenario="$2"; shift 2 ;;
     --scenario=*) scenario="${1#--scenario=}"; shift ;;
-    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
-    *) echo "port-check: unknown argument '$1' (expected --target m4|m7, --scenario block|cow|regions|soft|tooth, --ticks N, --max-instructions M)" >&2; exit 2 ;;
+    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
+    *) echo "port-check: unknown argument '$1' (expected --target m4|m7, --scenario block|cow|regions|soft|tooth, --ticks N, --max-instructions M, --max-stack BYTES, --garbage)" >&2; exit 2 ;;
   esac
 done
 if [ -n "$ticks" ] && ! [[ "$ticks" =~ ^[0-9]+$ ]]; then
@@ -49,12 +61,17 @@ fi
 if [ -n "$max_instr" ] && ! [[ "$max_instr" =~ ^[0-9]+$ ]]; then
   echo "port-check: --max-instructions takes a whole number, not '$max_instr'" >&2; exit 2
 fi
+if [ -n "$max_stack" ] && ! [[ "$max_stack" =~ ^[0-9]+$ ]]; then
+  echo "port-check: --max-stack takes a whole number of bytes, not '$max_stack'" >&2; exit 2
+fi
 case "$target" in
   m4) machine="mps2-an386"; cpu="cortex-m4"; features=""; tdir="$port/target"; rustflags="" ;;
-  m7) machine="mps2-an500"; cpu="cortex-m7"; features="--features m7"; tdir="$port/target/m7"
+  m7) machine="mps2-an500"; cpu="cortex-m7"; features="m7"; tdir="$port/target/m7"
       rustflags="-C target-cpu=cortex-m7" ;;
   *) echo "port-check: --target takes m4 or m7, not '$target'" >&2; exit 2 ;;
 esac
+[ -z "$garbage" ] || features="${features:+$features,}garbage"
+[ -z "$features" ] || features="--features $features"
 case "$scenario" in
   block) host_scenario="builtin:firmware"; fw_scenario="" ;;
   cow) host_scenario="builtin:firmware-cow"; fw_scenario="cow" ;;
@@ -130,6 +147,8 @@ echo "host:     force_digest=$host_digest ticks=$host_ticks"
 echo "force_digest=$fw_digest"
 echo "servo_latency_instructions_max=$(val servo_latency_instructions_max)"
 echo "sim_step_instructions_max=$(val sim_step_instructions_max)"
+stack="$(val stack_max_bytes)"
+echo "stack_max_bytes=$stack"
 misses="$(val deadline_misses)"
 echo "deadline_misses=$misses"
 echo "flash_bytes=$((text + data))"
@@ -151,5 +170,13 @@ if [ -n "$max_instr" ]; then
     exit 1
   fi
   echo "port-check: worst tick $worst instructions (tick $at), within $max_instr"
+fi
+if [ -n "$max_stack" ]; then
+  [ -n "$stack" ] || { echo "port-check: FAIL: no stack_max_bytes line from the firmware" >&2; exit 1; }
+  if [ "$stack" -gt "$max_stack" ]; then
+    echo "port-check: FAIL: stack high-water mark $stack bytes, over the $max_stack allowed" >&2
+    exit 1
+  fi
+  echo "port-check: stack high-water mark $stack bytes, within $max_stack"
 fi
 echo "port-check: OK: bit-identical forces on x86-64 and the $cpu, no deadline missed"

@@ -19,6 +19,10 @@ use crate::storage::{carve, lines_of, Memory, Part, PartSet, Slots, StorageError
 pub struct FaceKey(u128);
 
 impl FaceKey {
+    /// The all-zero key (`FaceKey::default()`), for scratch arrays in `const` context (a
+    /// static the caller hands to [`Mesh::build`]).
+    pub const ZERO: Self = Self(0);
+
     fn new(verts: [u32; 3], owner: u32) -> Self {
         let [a, b, c] = verts.map(u128::from);
         Self((a << 96) | (b << 64) | (c << 32) | u128::from(owner))

@@ -17,6 +17,7 @@
 //! | [`handoff`]    | the two SPSC queues (poses down, contacts up): no lock, no masking        |
 //! | [`clock`]      | SysTick as the servo timer and the instruction counter under `-icount`    |
 //! | [`storage`]    | every slice the core borrows, in statics sized by `WorldSizes`            |
+//! | [`memory`]     | the stack's guard and high-water mark; `.psram` zeroed at reset           |
 //! | `soft`         | `builtin:firmware-soft`: the soft body, its step spread by `soft::Link`   |
 //! | [`target`]     | the M4 / M7 differences: board and the clock the period assumes           |
 
@@ -26,6 +27,7 @@
 mod board;
 mod clock;
 mod handoff;
+mod memory;
 mod scenario;
 mod servo;
 mod sim;
@@ -75,13 +77,13 @@ mod app {
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let mut core = cx.core;
+        crate::memory::guard_stack(&mut core.MPU, &mut core.SCB);
         let cal = crate::clock::calibrate(&mut core.SYST);
         let costs = crate::unit_costs(cal.overhead);
         hprintln_costs(costs);
-        #[allow(unused_mut)]
-        let mut world = crate::build_world();
+        let world = crate::build_world();
         #[cfg(scenario_soft)]
-        let soft = crate::soft::SoftSim::new(&mut world);
+        let soft = crate::soft::SoftSim::new(world);
         let (release_tx, release_rx) = cx.local.releases.split();
         let (done_tx, done_rx) = cx.local.dones.split();
         let scenario = crate::scenario::path();
@@ -109,6 +111,7 @@ mod app {
 
     #[idle]
     fn idle(_: idle::Context) -> ! {
+        crate::memory::start_run();
         loop {
             cortex_m::asm::wfi();
         }
@@ -127,13 +130,14 @@ mod app {
     }
 }
 
-/// Builds the mesh (the block, or the blob's) and the world over the static storage.
-fn build_world() -> World<'static> {
+/// Builds the mesh (the block, or the blob's) and the world over the static storage, the world
+/// itself in a static ([`storage::place_world`]: 25 KB, kept off the stack).
+#[inline(never)]
+fn build_world() -> &'static mut World<'static> {
     let st = Storage::take();
     if cfg!(blob_mesh) {
         let mesh = mesh_from_blob(st.positions, st.mesh.normals, st.mesh.nodes);
-        let mut world =
-            World::new(mesh, st.world).unwrap_or_else(|_| fail("world storage refused"));
+        let world = storage::place_world(mesh, st.world);
         world.set_contact_max_nodes(scenario::contact_nodes());
         if cfg!(scenario_tooth) {
             let regions = blob_regions(st.regions, st.tet_region)
@@ -153,8 +157,8 @@ fn build_world() -> World<'static> {
         }
         return world;
     }
-    let mesh = block_mesh(st.positions, st.mesh);
-    let mut world = World::new(mesh, st.world).unwrap_or_else(|_| fail("world storage refused"));
+    let mesh = block_mesh(st.positions, st.tet_nodes, st.face_scratch, st.mesh);
+    let world = storage::place_world(mesh, st.world);
     world.set_contact_max_nodes(scenario::contact_nodes());
     if cfg!(scenario_regions) {
         let regions = crate::storage::regions(st.regions, st.tet_region)
@@ -222,33 +226,24 @@ fn unit_costs(overhead: u64) -> [u64; 3] {
     [t1 - t0, t2 - t1, t3 - t2].map(|d| clock::instructions(d as u64).saturating_sub(overhead))
 }
 
-/// The unit block, exactly as the host's `builtin:block:N` makes it (its tet list on this
-/// function's stack).
-#[inline(never)]
-fn block_mesh(positions: &'static mut [Vec3], storage: MeshStorage<'static>) -> Mesh<'static> {
-    let edge = 1.0 / BLOCK_N as f32;
-    let mut tet_nodes = [[0u32; 4]; TETS];
-    if builtin::block(BLOCK_N, edge, Vec3::splat(-0.5), positions, &mut tet_nodes).is_none() {
-        fail("block storage too small");
-    }
-    build_mesh(positions, &tet_nodes, storage)
-}
-
-/// Builds the core mesh over the static storage. The face scratch (`4 * TETS` keys, 24 KB) is
-/// needed only here, so it lives on this function's stack frame and is free afterwards.
-#[inline(never)]
-fn build_mesh(
+/// The unit block, exactly as the host's `builtin:block:N` makes it (its tet list and the
+/// face scratch in statics, see [`storage`]).
+fn block_mesh(
     positions: &'static mut [Vec3],
-    tet_nodes: &[[u32; 4]],
+    tet_nodes: &'static mut [[u32; 4]],
+    scratch: &'static mut [FaceKey],
     storage: MeshStorage<'static>,
 ) -> Mesh<'static> {
-    let mut scratch = [FaceKey::default(); 4 * TETS];
+    let edge = 1.0 / BLOCK_N as f32;
+    if builtin::block(BLOCK_N, edge, Vec3::splat(-0.5), positions, tet_nodes).is_none() {
+        fail("block storage too small");
+    }
     debug_assert_eq!(positions.len(), NODES);
     Mesh::build(
         positions,
         tet_nodes,
         storage,
-        &mut scratch,
+        scratch,
         BuildOptions::default(),
     )
     .unwrap_or_else(|_| fail("mesh build failed"))
@@ -284,6 +279,9 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
 // cortex-m-rt requires the HardFault handler to be declared `unsafe fn`; its body is safe.
 #[exception]
 unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
+    if memory::in_guard(ef as *const ExceptionFrame as usize) {
+        fail("stack overflow: the stack ran into its guard (hard fault)");
+    }
     hprintln!("hard fault at pc {:#010x}", ef.pc());
     exit_failure()
 }

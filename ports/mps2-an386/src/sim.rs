@@ -28,7 +28,7 @@ const PROFILE_FROM: Option<&str> = option_env!("TETRADRILL_PROFILE_FROM");
 
 /// The simulation task's state (an RTIC local resource: only the simulation touches it).
 pub struct Sim {
-    world: World<'static>,
+    world: &'static mut World<'static>,
     release: ReleaseRx,
     done: DoneTx,
     drill: DrillParams,
@@ -51,7 +51,7 @@ pub struct Sim {
 impl Sim {
     /// The simulation over `world`, fed by `release`, answering on `done`.
     pub fn new(
-        world: World<'static>,
+        world: &'static mut World<'static>,
         release: ReleaseRx,
         done: DoneTx,
         calibration: Calibration,
@@ -143,7 +143,7 @@ impl Sim {
         // The soft body's share of the tick, after the contact is handed over.
         #[cfg(scenario_soft)]
         let n = n + self.soft.as_mut().map_or(0, |s| {
-            s.tick(&mut self.world, tick, self.force, self.now_overhead)
+            s.tick(self.world, tick, self.force, self.now_overhead)
         });
         self.whole.add(tick, n + servo_instructions as u64);
         if self.whole.max_at == tick {
@@ -167,10 +167,10 @@ impl Sim {
         let reach = scenario::RADIUS + scenario::REACH;
         let oh = self.now_overhead;
         let c0 = clock::now();
-        nearest_visible(&self.world, position, reach);
+        nearest_visible(self.world, position, reach);
         let c1 = clock::now();
         let q0 = clock::now();
-        let nq = candidate_query(&self.world, position, reach);
+        let nq = candidate_query(self.world, position, reach);
         let q1 = clock::now();
         let d = &rep.drill;
         hprintln!(
@@ -260,6 +260,14 @@ impl Sim {
             sat.contact
         );
         hprintln!("hierarchy_nodes={}", self.world.hierarchy().node_count());
+        hprintln!("stack_bytes={}", crate::memory::stack_bytes());
+        let run = crate::memory::stack_max_bytes();
+        let init = crate::memory::init_max_bytes();
+        hprintln!("stack_init_max_bytes={}", init);
+        hprintln!("stack_run_max_bytes={}", run);
+        hprintln!("stack_max_bytes={}", init.max(run));
+        #[cfg(feature = "garbage")]
+        hprintln!("memory_at_reset={:#010x}", crate::memory::GARBAGE);
         #[cfg(scenario_soft)]
         if let Some(soft) = self.soft.as_ref() {
             soft.report();

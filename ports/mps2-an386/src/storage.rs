@@ -13,13 +13,13 @@
 //! soft body's storage a third (`soft::take`). The arrays of lines and of positions start as
 //! zero bytes, so they land in `.bss` (no flash).
 
-use static_cell::ConstStaticCell;
+use static_cell::{ConstStaticCell, StaticCell};
 
 use tetradrill_core::builtin::block_counts;
 use tetradrill_core::builtin::{block_labels, BLOCK_CORE, BLOCK_SHELL};
 use tetradrill_core::drill::{Region, Regions};
-use tetradrill_core::mesh::MeshStorage;
-use tetradrill_core::servo::{WorldSizes, WorldStorage};
+use tetradrill_core::mesh::{FaceKey, Mesh, MeshStorage};
+use tetradrill_core::servo::{World, WorldSizes, WorldStorage};
 use tetradrill_core::storage::{Block, Line, Part, PartSet, Split};
 use tetradrill_core::Vec3;
 
@@ -107,6 +107,30 @@ static REGIONS: ConstStaticCell<[Region; 3]> = ConstStaticCell::new([
 /// `scenario::TOOTH_LABELS`; used by the regions and tooth scenarios only).
 static TET_REGION: ConstStaticCell<[u8; TETS]> = ConstStaticCell::new([0; TETS]);
 
+/// The block's tet list (node indices; empty for a blob's mesh), written by `builtin::block`.
+static TET_NODES: ConstStaticCell<[[u32; 4]; RAM_TETS]> = ConstStaticCell::new([[0; 4]; RAM_TETS]);
+/// `Mesh::build`'s face scratch (`4 * TETS` keys, 24 KB on the block; empty for a blob's mesh,
+/// which is built without it): a static, not a stack frame, so the stack's bound does not
+/// carry it.
+static FACE_SCRATCH: ConstStaticCell<[FaceKey; 4 * RAM_TETS]> =
+    ConstStaticCell::new([FaceKey::ZERO; 4 * RAM_TETS]);
+
+/// The world itself (25 KB: its zone memo and walk stacks are inline), in `.bss` rather than
+/// moved through `init`'s stack frame into RTIC's resources.
+static WORLD_VALUE: StaticCell<World<'static>> = StaticCell::new();
+
+/// The world over `mesh` and `storage`, built into its static (once; a second call panics).
+/// Exits through [`crate::fail`] if the core refuses the storage.
+#[inline(never)]
+pub fn place_world(
+    mesh: Mesh<'static>,
+    storage: WorldStorage<'static>,
+) -> &'static mut World<'static> {
+    WORLD_VALUE.init_with(|| {
+        World::new(mesh, storage).unwrap_or_else(|_| crate::fail("world storage refused"))
+    })
+}
+
 /// The storage, taken once.
 pub struct Storage {
     /// Node positions of the block.
@@ -120,6 +144,10 @@ pub struct Storage {
     pub regions: &'static mut [Region],
     /// Each tet's region index.
     pub tet_region: &'static mut [u8],
+    /// The block's tet list (empty for a blob's mesh).
+    pub tet_nodes: &'static mut [[u32; 4]],
+    /// The face scratch of `Mesh::build` (empty for a blob's mesh).
+    pub face_scratch: &'static mut [FaceKey],
 }
 
 impl Storage {
@@ -144,6 +172,8 @@ impl Storage {
             world,
             regions: REGIONS.take(),
             tet_region: TET_REGION.take(),
+            tet_nodes: TET_NODES.take(),
+            face_scratch: FACE_SCRATCH.take(),
         }
     }
 }
