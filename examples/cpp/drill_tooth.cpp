@@ -47,7 +47,7 @@ int main(int argc, char **argv) {
         p.region_capacity = 3;
 
         tetradrill::world world(p, tooth);
-        // The tooth's materials (host-runner/src/scenario/regions.rs, tooth_regions): hardness
+        // The tooth's materials (host-runner/src/setup/materials.rs, tooth_regions): hardness
         // in N s per cubic metre, threshold in N, stiffness in N per metre.
         world.set_region(1, static_cast<float>(1.0e9), 1.f, static_cast<float>(10000.0)); // enamel
         world.set_region(2, static_cast<float>(2.0e8), 0.5f, static_cast<float>(6000.0)); // dentin

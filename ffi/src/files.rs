@@ -97,18 +97,13 @@ pub unsafe extern "C" fn td_world_size_blob(
     out_size: *mut usize,
     out_align: *mut usize,
 ) -> TdStatus {
-    status(|| {
-        check_ptr(out_size)?;
-        check_ptr(out_align)?;
-        // SAFETY: the caller's contract on `params`; `get` checks null and alignment.
-        let p = unsafe { get(params) }?;
-        let plan = Plan::of(&p, true)?;
-        // SAFETY: both checked above; the caller's contract makes them writable.
-        unsafe {
-            put(out_size, plan.size)?;
-            put(out_align, plan.align)
-        }
-    })
+    // SAFETY: the caller's contract on the outputs and on `params` (`get` checks it).
+    unsafe {
+        sized(out_size, out_align, || {
+            let plan = Plan::of(&get(params)?, true)?;
+            Ok((plan.size, plan.align))
+        })
+    }
 }
 
 /// `td_world_init` with the mesh read in place from the blob at `blob` (`len` bytes): its

@@ -152,6 +152,29 @@ unsafe fn put<T>(out: *mut T, v: T) -> Status {
     Ok(())
 }
 
+/// The body of every `td_*_size` call: checks `out_size` and `out_align`, then writes the
+/// size and alignment `f` computes (nothing is written on an error).
+///
+/// # Safety
+/// `out_size` and `out_align`, when not null, point at writable `size_t`s.
+unsafe fn sized(
+    out_size: *mut usize,
+    out_align: *mut usize,
+    f: impl FnOnce() -> Result<(usize, usize), TdStatus>,
+) -> TdStatus {
+    status(|| {
+        check_ptr(out_size)?;
+        check_ptr(out_align)?;
+        let (size, align) = f()?;
+        // SAFETY: both checked above; writable by the caller's contract.
+        unsafe {
+            out_size.write(size);
+            out_align.write(align);
+        }
+        Ok(())
+    })
+}
+
 /// Reads a `T` through `p`, checked for null and alignment first.
 ///
 /// # Safety
@@ -276,18 +299,13 @@ pub unsafe extern "C" fn td_world_size(
     out_size: *mut usize,
     out_align: *mut usize,
 ) -> TdStatus {
-    status(|| {
-        check_ptr(out_size)?;
-        check_ptr(out_align)?;
-        // SAFETY: the caller's contract on `params`; `get` checks null and alignment.
-        let p = unsafe { get(params) }?;
-        let plan = Plan::of(&p, false)?;
-        // SAFETY: both checked above; the caller's contract makes them writable.
-        unsafe {
-            put(out_size, plan.size)?;
-            put(out_align, plan.align)
-        }
-    })
+    // SAFETY: the caller's contract on the outputs and on `params` (`get` checks it).
+    unsafe {
+        sized(out_size, out_align, || {
+            let plan = Plan::of(&get(params)?, false)?;
+            Ok((plan.size, plan.align))
+        })
+    }
 }
 
 /// One simulation step with the tool at `position`: the coarse tets near it, the drill's

@@ -171,18 +171,14 @@ pub unsafe extern "C" fn td_surface_size(
     out_size: *mut usize,
     out_align: *mut usize,
 ) -> TdStatus {
-    status(|| {
-        check_ptr(out_size)?;
-        check_ptr(out_align)?;
-        // SAFETY: the caller's contract on `world`; `state` checks it.
-        let st = unsafe { state(world) }?;
-        let (size, _, _) = surface_plan(st.world.mesh().tet_count(), max_triangles)?;
-        // SAFETY: both checked above; the caller's contract makes them writable.
-        unsafe {
-            put(out_size, size)?;
-            put(out_align, SURFACE_ALIGN)
-        }
-    })
+    // SAFETY: the caller's contract on the outputs and on `world` (`state` checks it).
+    unsafe {
+        sized(out_size, out_align, || {
+            let st = state(world)?;
+            let (size, _, _) = surface_plan(st.world.mesh().tet_count(), max_triangles)?;
+            Ok((size, SURFACE_ALIGN))
+        })
+    }
 }
 
 /// Sets up a surface of `max_triangles` triangle slots for `world` in `mem` (`len` bytes,

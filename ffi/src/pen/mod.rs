@@ -278,18 +278,13 @@ pub unsafe extern "C" fn td_pen_size(
     out_size: *mut usize,
     out_align: *mut usize,
 ) -> TdStatus {
-    status(|| {
-        check_ptr(out_size)?;
-        check_ptr(out_align)?;
-        // SAFETY: the caller's contract on `params`; `get` checks null and alignment.
-        let p = unsafe { get(params) }?;
-        let plan = PenPlan::of(&p, None)?;
-        // SAFETY: checked above; writable by the caller's contract.
-        unsafe {
-            put(out_size, plan.front)?;
-            put(out_align, plan.align)
-        }
-    })
+    // SAFETY: the caller's contract on the outputs and on `params` (`get` checks it).
+    unsafe {
+        sized(out_size, out_align, || {
+            let plan = PenPlan::of(&get(params)?, None)?;
+            Ok((plan.front, plan.align))
+        })
+    }
 }
 
 /// The pen behind a handle: null, misaligned or not set up by `td_pen_init` are refused.
