@@ -5,7 +5,7 @@
 # then one `key=value` line each: force_digest, servo_latency_instructions_max,
 # sim_step_instructions_max, deadline_misses, stack_max_bytes, flash_bytes, ram_bytes.
 #
-#   scripts/port-check.sh [--target m4|m7] [--scenario block|cow|regions|soft|tooth] [--ticks N]
+#   scripts/port-check.sh [--target m4|m7|m7sp] [--scenario block|cow|regions|soft|tooth] [--ticks N]
 #                         [--max-instructions M] [--max-stack BYTES] [--garbage]
 #
 # --scenario block (default) is the host's builtin:firmware, cow is builtin:firmware-cow, regions
@@ -52,7 +52,7 @@ while [ $# -gt 0 ]; do
     --scenario) need "$1" $#; scenario="$2"; shift 2 ;;
     --scenario=*) scenario="${1#--scenario=}"; shift ;;
     -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
-    *) echo "port-check: unknown argument '$1' (expected --target m4|m7, --scenario block|cow|regions|soft|tooth, --ticks N, --max-instructions M, --max-stack BYTES, --garbage)" >&2; exit 2 ;;
+    *) echo "port-check: unknown argument '$1' (expected --target m4|m7|m7sp, --scenario block|cow|regions|soft|tooth, --ticks N, --max-instructions M, --max-stack BYTES, --garbage)" >&2; exit 2 ;;
   esac
 done
 if [ -n "$ticks" ] && ! [[ "$ticks" =~ ^[0-9]+$ ]]; then
@@ -68,7 +68,11 @@ case "$target" in
   m4) machine="mps2-an386"; cpu="cortex-m4"; features=""; tdir="$port/target"; rustflags="" ;;
   m7) machine="mps2-an500"; cpu="cortex-m7"; features="m7"; tdir="$port/target/m7"
       rustflags="-C target-cpu=cortex-m7" ;;
-  *) echo "port-check: --target takes m4 or m7, not '$target'" >&2; exit 2 ;;
+  # A Cortex-M7 whose FPU does single precision only (fpv5-sp-d16): rustc's documented flags
+  # for it (the thumbv7em-none-eabihf platform page); QEMU's M7 runs the subset.
+  m7sp) machine="mps2-an500"; cpu="cortex-m7"; features="m7"; tdir="$port/target/m7sp"
+      rustflags="-C target-cpu=cortex-m7 -C target-feature=-fp64" ;;
+  *) echo "port-check: --target takes m4, m7 or m7sp, not '$target'" >&2; exit 2 ;;
 esac
 [ -z "$garbage" ] || features="${features:+$features,}garbage"
 [ -z "$features" ] || features="--features $features"
@@ -116,6 +120,15 @@ elf="$tdir/thumbv7em-none-eabihf/release/tetradrill-mps2-an386"
 sizes="$(llvm-size "$elf" 2>/dev/null || arm-none-eabi-size "$elf")"
 echo "$sizes"
 read -r text data bss _ < <(echo "$sizes" | tail -n1)
+# Double-precision FPU instructions in the image (`vadd.f64`, `vcvt.f64.f32`, ...): none may
+# be there for a single-precision FPU, whose core would fault on them (UsageFault, NOCP).
+f64_ops="$( (llvm-objdump -d --no-show-raw-insn --mcpu=cortex-m7 "$elf" 2>/dev/null || arm-none-eabi-objdump -d "$elf") \
+  | grep -cE '\s(v[a-z0-9]+)\.(f64|[fsu]32\.f64|f64\.[fsu]32)\s' || true)"
+echo "fpu_f64_instructions=$f64_ops"
+if [ "$target" = m7sp ] && [ "$f64_ops" != 0 ]; then
+  echo "port-check: FAIL: $f64_ops double-precision FPU instructions in a single-precision build" >&2
+  exit 1
+fi
 
 echo "== firmware: run under QEMU ($machine, $cpu, -icount shift=10,sleep=off)"
 set +e

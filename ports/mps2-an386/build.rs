@@ -30,6 +30,14 @@ fn main() {
     println!("cargo::rustc-check-cfg=cfg(scenario_tooth)");
     println!("cargo::rustc-check-cfg=cfg(scenario_soft)");
     println!("cargo::rustc-check-cfg=cfg(blob_mesh)");
+    println!("cargo::rustc-check-cfg=cfg(fpu_sp)");
+    // A Cortex-M7 with a single-precision FPU (fpv5-sp-d16) builds with `-C target-cpu=cortex-m7
+    // -C target-feature=-fp64`; rustc has no cfg for `fp64`, so the flag itself says which.
+    println!("cargo:rerun-if-env-changed=CARGO_ENCODED_RUSTFLAGS");
+    let flags = env::var("CARGO_ENCODED_RUSTFLAGS").unwrap_or_default();
+    if flags.split('\x1f').any(|f| f.contains("-fp64")) {
+        println!("cargo:rustc-cfg=fpu_sp");
+    }
     if env::var("TETRADRILL_SCENARIO").is_ok_and(|s| s == "regions") {
         println!("cargo:rustc-cfg=scenario_regions");
     }

@@ -1,14 +1,19 @@
 //! What differs between the two targets: the board QEMU models and the clock the servo period
 //! assumes. The default build is the Cortex-M4F on `mps2-an386`; the `m7` feature builds the
 //! same application for the Cortex-M7 on `mps2-an500` (with `-C target-cpu=cortex-m7`, as
-//! `scripts/port-check.sh --target m7` does).
+//! `scripts/port-check.sh --target m7` does; `--target m7sp` adds `-C target-feature=-fp64`
+//! for the M7 parts whose FPU does single precision only).
 
 /// The target's name in the firmware's output.
 #[cfg(not(feature = "m7"))]
 pub const NAME: &str = "cortex-m4 (mps2-an386)";
 /// The target's name in the firmware's output.
-#[cfg(feature = "m7")]
+#[cfg(all(feature = "m7", not(fpu_sp)))]
 pub const NAME: &str = "cortex-m7 (mps2-an500)";
+/// The target's name in the firmware's output: a Cortex-M7 whose FPU does single precision
+/// only (fpv5-sp-d16, `-C target-feature=-fp64`), as many M7 parts have; f64 is software.
+#[cfg(all(feature = "m7", fpu_sp))]
+pub const NAME: &str = "cortex-m7, single-precision fpu (mps2-an500)";
 
 /// The core clock the servo period assumes: 168 MHz, an STM32F4-class Cortex-M4F.
 #[cfg(not(feature = "m7"))]
