@@ -70,12 +70,45 @@ pub fn load(rel: &str, scale: f64) -> tetradrill::owned::OwnedMesh {
         .mesh
 }
 
-/// A fresh, empty scratch folder for one test: `<tmp>/tetradrill-<prefix>-<pid>-<name>`.
-pub fn scratch_dir(prefix: &str, name: &str) -> PathBuf {
+/// A fresh, empty scratch folder for one test: `<tmp>/tetradrill-<prefix>-<pid>-<name>`,
+/// removed with everything in it when the returned [`Scratch`] drops (kept when the
+/// environment sets `TETRADRILL_KEEP_SCRATCH`, to look at what a failing test wrote).
+pub fn scratch_dir(prefix: &str, name: &str) -> Scratch {
     let d = std::env::temp_dir().join(format!("tetradrill-{prefix}-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).expect("create a scratch folder");
-    d
+    Scratch(d)
+}
+
+/// A test's scratch folder ([`scratch_dir`]): a path while it lives, removed when it drops.
+#[derive(Debug)]
+pub struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for Scratch {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.0.as_os_str()
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if std::env::var_os("TETRADRILL_KEEP_SCRATCH").is_none() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
 }
 
 /// The `tetradrill` binary of the build profile the tests run under, built once with cargo
@@ -144,7 +177,8 @@ pub fn refused(args: &[&str], needles: &[&str]) {
 /// Runs the binary with `args` and `--json FILE` (a scratch file under `scratch_dir(prefix,
 /// name)`), asserts that it succeeded (with its stderr on failure), and returns the JSON.
 pub fn json_of(args: &[&str], prefix: &str, name: &str) -> serde_json::Value {
-    let json = scratch_dir(prefix, name).join("out.json");
+    let dir = scratch_dir(prefix, name);
+    let json = dir.join("out.json");
     let out = Command::new(tetradrill_bin())
         .args(args)
         .arg("--json")

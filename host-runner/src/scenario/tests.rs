@@ -39,6 +39,7 @@ fn bad_scenarios_name_the_file_and_line() {
     let e = Scenario::load(p.to_str().expect("utf8")).expect_err("zero capacity");
     assert!(e.message.contains("bad.toml:3:"), "{}", e.message);
     assert!(e.message.contains("--hash-capacity"), "{}", e.message);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -146,6 +147,7 @@ fn region_soft_keys_read_back_and_bad_ones_name_the_region_and_its_line() {
         );
         assert!(e.message.contains(what), "{}", e.message);
     }
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

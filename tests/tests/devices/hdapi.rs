@@ -17,6 +17,7 @@ use tetradrill_device::os::hdapi::{candidates, HdApi, HdLoadError, HD_LIBRARY_EN
 use tetradrill_device::safety::SafetyConfig;
 use tetradrill_device::touch::{HdLibrary, TouchDevice, HD_LIBRARY_NAMES};
 use tetradrill_device::{DeviceError, ForceCommand, HapticDevice};
+use tetradrill_tests::Scratch;
 
 /// The stand-in library. `FAIL_INIT` makes `hdInitDevice` fail as with no device attached.
 /// `WITH_SCHEDULER` adds a scheduler thread (started by `hdStartScheduler`, stopped and
@@ -175,12 +176,9 @@ void hdUpdateCalibration(HDenum style) {
 }
 "#;
 
-/// A fresh directory under the system's temporary directory.
-fn scratch(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tetradrill-hdapi-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("create a scratch directory");
-    dir
+/// A fresh directory under the system's temporary directory, removed when it drops.
+fn scratch(tag: &str) -> Scratch {
+    tetradrill_tests::scratch_dir("hdapi", tag)
 }
 
 /// Compiles the stand-in into `dir/name`, or `None` (with a note) when there is no C compiler.

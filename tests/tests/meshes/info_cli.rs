@@ -1,14 +1,14 @@
 //! `tetradrill info`: in-process through `tetradrill::cli::run`, and as the real binary for
 //! exit statuses and the one-line error contract.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 use tetradrill::cli::{self, Cli};
 use tetradrill::commands::info::{dihedral_angles, InfoArgs};
-use tetradrill_tests::{mesh, scratch_dir, tetradrill_bin};
+use tetradrill_tests::{mesh, scratch_dir, tetradrill_bin, Scratch};
 
-fn scratch(name: &str) -> PathBuf {
+fn scratch(name: &str) -> Scratch {
     scratch_dir("info", name)
 }
 

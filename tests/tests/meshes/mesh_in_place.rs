@@ -55,7 +55,8 @@ impl NodeRam {
 }
 
 fn run_json(args: &[&str], name: &str) -> serde_json::Value {
-    let out = scratch_dir("in_place", name).join("out.json");
+    let dir = scratch_dir("in_place", name);
+    let out = dir.join("out.json");
     let status = std::process::Command::new(tetradrill_bin())
         .args(args)
         .arg("--json")

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use tetradrill::meshio::{self, RawMesh, ReadOptions};
-use tetradrill_tests::{mesh, scratch_dir};
+use tetradrill_tests::{mesh, scratch_dir, Scratch};
 
 /// The octahedron from the ASCII originals: nodes and 0-based tets from the TetGen pair,
 /// labels from the MEDIT file's tet references.
@@ -152,7 +152,7 @@ fn every_variant_gives_the_ascii_original() {
 }
 
 /// A scratch copy of a file.
-fn scratch(name: &str) -> PathBuf {
+fn scratch(name: &str) -> Scratch {
     scratch_dir("meshio-binary", name)
 }
 

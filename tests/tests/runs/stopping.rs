@@ -21,7 +21,7 @@ use tetradrill_device::{
     DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice, MotorCutoff,
     SimConfig, SimDevice, Still, Trace,
 };
-use tetradrill_tests::{scratch_dir, tetradrill_bin};
+use tetradrill_tests::{scratch_dir, tetradrill_bin, Scratch};
 
 /// One write the device took: whether the stop request was raised when it came, and the
 /// force's magnitude (0 with the motors off).
@@ -339,8 +339,9 @@ fn a_recorded_session_replays_with_the_same_digest_twice() {
 }
 
 /// `run` with a wander (no end of its own) until `signals` are sent, the first once the
-/// status line shows the servo running; returns the exit status and the JSON's path.
-fn signalled(name: &str, signals: &[i32]) -> (Option<i32>, std::path::PathBuf) {
+/// status line shows the servo running; returns the exit status and the scratch folder (the
+/// JSON is its `run.json`).
+fn signalled(name: &str, signals: &[i32]) -> (Option<i32>, Scratch) {
     let dir = scratch_dir("session", name);
     let json = dir.join("run.json");
     let mut child = Command::new(tetradrill_bin())
@@ -370,13 +371,14 @@ fn signalled(name: &str, signals: &[i32]) -> (Option<i32>, std::path::PathBuf) {
     }
     let status = child.wait().expect("wait");
     reader.join().expect("reader");
-    (status.code(), json)
+    (status.code(), dir)
 }
 
 #[test]
 fn sigint_and_sigterm_stop_a_run_cleanly_with_its_json() {
     for (sig, name) in [(libc::SIGINT, "SIGINT"), (libc::SIGTERM, "SIGTERM")] {
-        let (code, json) = signalled(name, &[sig]);
+        let (code, dir) = signalled(name, &[sig]);
+        let json = dir.join("run.json");
         assert_eq!(code, Some(0), "{name}");
         assert_eq!(field(&json, "stop_reason"), "signal");
         assert_eq!(field(&json, "stop_signal"), name);
@@ -388,7 +390,8 @@ fn sigint_and_sigterm_stop_a_run_cleanly_with_its_json() {
 
 #[test]
 fn a_second_signal_exits_at_once() {
-    let (code, json) = signalled("twice", &[libc::SIGINT, libc::SIGTERM]);
+    let (code, dir) = signalled("twice", &[libc::SIGINT, libc::SIGTERM]);
+    let json = dir.join("run.json");
     // Both are pending at once: either may be taken second (128 + its number).
     assert!(
         [128 + libc::SIGINT, 128 + libc::SIGTERM]

@@ -199,7 +199,8 @@ fn a_stiff_soft_block_loses_the_rigid_volume() {
 /// Runs `demo --soft` headless for 2 s with `extra` flags (must succeed); its standard output
 /// and its JSON.
 fn demo_soft(name: &str, extra: &[&str]) -> (String, serde_json::Value) {
-    let json = scratch_dir("softcli", name).join("demo.json");
+    let dir = scratch_dir("softcli", name);
+    let json = dir.join("demo.json");
     let json_s = json.to_string_lossy().into_owned();
     let mut args = vec!["demo", "--soft", "--headless", "--no-rt", "--duration", "2"];
     args.extend_from_slice(extra);

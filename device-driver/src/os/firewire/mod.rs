@@ -73,12 +73,31 @@ pub use discovery::{
 pub use error::OpenError;
 pub use transport::{CdevConfig, CdevFirewire, CdevOut, CdevStats};
 
-/// A fresh directory under the system's temporary directory.
+/// A fresh directory under the system's temporary directory, removed when it drops.
 #[cfg(test)]
-fn scratch(tag: &str) -> std::path::PathBuf {
+fn scratch(tag: &str) -> Scratch {
     let dir =
         std::env::temp_dir().join(format!("tetradrill-firewire-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("create a scratch directory");
-    dir
+    Scratch(dir)
+}
+
+/// A test's scratch directory ([`scratch`]): a path while it lives, removed when it drops.
+#[cfg(test)]
+struct Scratch(std::path::PathBuf);
+
+#[cfg(test)]
+impl std::ops::Deref for Scratch {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+#[cfg(test)]
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
