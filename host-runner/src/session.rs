@@ -50,7 +50,9 @@ impl Drilling {
     /// # Errors
     /// A mesh that cannot be read ([`Error::Mesh`]), a value out of range
     /// ([`Error::Setup`]), a tet-mesh tool ([`Error::Unsupported`]: see
-    /// [`crate::pen::PenRig`]), storage the heap refuses.
+    /// [`crate::pen::PenRig`]), a soft body ([`Error::Unsupported`]: a [`DrillRun`] drills
+    /// a rigid mesh; `tetradrill replay` and `run` drill a soft one), storage the heap
+    /// refuses.
     pub fn new(setup: &Setup) -> Result<Self, Error> {
         let mesh = setup.mesh.load()?;
         Self::with_mesh(setup, mesh)
@@ -63,6 +65,14 @@ impl Drilling {
     /// As [`Drilling::new`].
     pub fn with_mesh(setup: &Setup, mesh: LoadedMesh) -> Result<Self, Error> {
         setup.check()?;
+        if setup.soft().is_some() {
+            // Drilled as rigid, the set-up's elasticity would be silently ignored.
+            return Err(Error::Unsupported(
+                "a soft body: Drilling drills a rigid mesh; drill a soft one with \
+                 `tetradrill replay` or `run` (the set-up's body = soft)"
+                    .into(),
+            ));
+        }
         let params = TickParams::of(setup)?;
         let mut store = EngineStorage::new(mesh.mesh, setup)?;
         store.set_labels(&mesh.labels, setup)?;
@@ -230,5 +240,22 @@ impl Surface {
             let _ = writeln!(out, "f {} {} {}", n + 1, n + 2, n + 3);
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::setup::{Body, SoftSettings, Tool};
+
+    #[test]
+    fn a_soft_body_is_refused_not_drilled_as_rigid() {
+        let mut setup = Setup::new("builtin:block:2", Tool::sphere(0.1));
+        assert!(Drilling::new(&setup).is_ok());
+        setup.body = Body::Soft(SoftSettings::default());
+        match Drilling::new(&setup) {
+            Err(Error::Unsupported(m)) => assert!(m.contains("soft body"), "{m}"),
+            other => panic!("a soft set-up must be refused, got {other:?}"),
+        }
     }
 }
