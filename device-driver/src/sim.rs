@@ -93,18 +93,26 @@ pub enum SimFault {
     /// The reported x position is mirrored about the device's origin (a mirrored encoder);
     /// the stylus itself moves normally.
     MirroredX,
+    /// Arm joint `N` (1-based, 1 to 3) has its motor wired the other way: the stylus receives
+    /// that joint's share of the rendered force reversed. The simulated arm's joints are its
+    /// three axes (x, y, z), so joint `N` is the force's component along axis `N`.
+    MotorSign(u8),
 }
 
 impl SimFault {
-    /// Every fault's name, as `--sim-fault` takes it.
-    pub const NAMES: [&'static str; 3] = ["none", "reversed-force", "mirrored-x"];
+    /// Every fault's name, as `--sim-fault` takes it (`motor-sign:N` with `N` from 1 to 3).
+    pub const NAMES: [&'static str; 4] = ["none", "reversed-force", "mirrored-x", "motor-sign:N"];
 
-    /// The fault named `s` (`none`, `reversed-force`, `mirrored-x`).
+    /// The fault named `s` (`none`, `reversed-force`, `mirrored-x`, `motor-sign:1` to
+    /// `motor-sign:3`).
     pub fn parse(s: &str) -> Option<SimFault> {
         match s {
             "none" => Some(SimFault::None),
             "reversed-force" => Some(SimFault::ReversedForce),
             "mirrored-x" => Some(SimFault::MirroredX),
+            "motor-sign:1" => Some(SimFault::MotorSign(1)),
+            "motor-sign:2" => Some(SimFault::MotorSign(2)),
+            "motor-sign:3" => Some(SimFault::MotorSign(3)),
             _ => None,
         }
     }
@@ -115,8 +123,103 @@ impl SimFault {
             SimFault::None => "none",
             SimFault::ReversedForce => "reversed-force",
             SimFault::MirroredX => "mirrored-x",
+            SimFault::MotorSign(1) => "motor-sign:1",
+            SimFault::MotorSign(2) => "motor-sign:2",
+            SimFault::MotorSign(3) => "motor-sign:3",
+            SimFault::MotorSign(_) => "motor-sign:?",
         }
     }
+}
+
+/// A real device the simulated one stands for (`run --sim-model omni|falcon|touch`): its
+/// limits (the device's [`DeviceSpec`]: peak, continuous force, stiffness, damping,
+/// workspace), its calibration and how it starts, so the host meets what it meets with the
+/// device itself.
+///
+/// The hand starts at the device origin (the dock or the homed pose) and the path given to the
+/// device begins [`SimModel::lead_in_s`] later:
+/// - the Omni and the Touch start **docked in their inkwell** (`DeviceState::docked` while the
+///   stylus is within [`DOCK_RADIUS_M`] of the origin) and render no force until calibrated
+///   there ([`HapticDevice::calibrate`], [`DeviceError::NotDocked`] out of the dock); the hand
+///   rests in the dock for [`DOCK_REST_S`], then moves to the path's start over
+///   [`LEAD_IN_MOVE_S`];
+/// - the Falcon starts **unhomed**: its reported position is off by [`UNHOMED_OFFSET_M`]
+///   and it renders no force until homed; the hand rests for [`DOCK_REST_S`], makes the homing
+///   stroke (down [`HOMING_STROKE_M`] along -z and back, over [`HOMING_STROKE_S`]; the axes
+///   count as homed once the stylus is [`HOMING_INDEX_M`] down, when the reported position
+///   jumps to the true one and [`HapticDevice::position_resets`] counts it), then moves to the
+///   path's start over [`LEAD_IN_MOVE_S`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SimModel {
+    /// The SensAble PHANTOM Omni ([`DeviceSpec::OMNI`]).
+    Omni,
+    /// The Novint Falcon ([`DeviceSpec::FALCON`]).
+    Falcon,
+    /// The Geomagic / 3D Systems Touch ([`DeviceSpec::TOUCH`]).
+    Touch,
+}
+
+/// Seconds the hand rests at the device origin before it moves (the dock, the homed pose).
+pub const DOCK_REST_S: f64 = 0.2;
+/// Seconds the hand takes from the device origin to the path's start (smoothstep).
+pub const LEAD_IN_MOVE_S: f64 = 1.0;
+/// The simulated inkwell: the stylus counts as docked within this distance of the origin, m.
+pub const DOCK_RADIUS_M: f64 = 0.005;
+/// The simulated Falcon's homing stroke: how far down (-z) the hand goes, m.
+pub const HOMING_STROKE_M: f64 = 0.035;
+/// The homing stroke's length, s (down and back, smoothstep each way).
+pub const HOMING_STROKE_S: f64 = 1.0;
+/// The stylus this far down (-z) passes the axes' index: homed, m.
+pub const HOMING_INDEX_M: f64 = 0.03;
+/// The simulated Falcon's reported position before homing, less the true one, m.
+pub const UNHOMED_OFFSET_M: Vec3 = [0.003, -0.002, 0.005];
+
+impl SimModel {
+    /// Every model's name, as `--sim-model` takes it.
+    pub const NAMES: [&'static str; 3] = ["omni", "falcon", "touch"];
+
+    /// The model named `s` (`omni`, `falcon`, `touch`).
+    pub fn parse(s: &str) -> Option<SimModel> {
+        match s {
+            "omni" => Some(SimModel::Omni),
+            "falcon" => Some(SimModel::Falcon),
+            "touch" => Some(SimModel::Touch),
+            _ => None,
+        }
+    }
+
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SimModel::Omni => "omni",
+            SimModel::Falcon => "falcon",
+            SimModel::Touch => "touch",
+        }
+    }
+
+    /// The device's specification (its limits and calibration style).
+    pub fn spec(self) -> DeviceSpec {
+        match self {
+            SimModel::Omni => DeviceSpec::OMNI,
+            SimModel::Falcon => DeviceSpec::FALCON,
+            SimModel::Touch => DeviceSpec::TOUCH,
+        }
+    }
+
+    /// Seconds from the start to where the device's path begins: the rest at the origin, the
+    /// Falcon's homing stroke, the move to the path's start.
+    pub fn lead_in_s(self) -> f64 {
+        match self {
+            SimModel::Falcon => DOCK_REST_S + HOMING_STROKE_S + LEAD_IN_MOVE_S,
+            _ => DOCK_REST_S + LEAD_IN_MOVE_S,
+        }
+    }
+}
+
+/// `3 u^2 - 2 u^3` on `u` clamped to `[0, 1]`.
+fn smoothstep(u: f64) -> f64 {
+    let u = u.clamp(0.0, 1.0);
+    u * u * (3.0 - 2.0 * u)
 }
 
 /// Parameters of the simulated device.
@@ -144,6 +247,25 @@ pub struct SimConfig {
     /// a continuous-time mass under a force held over the period, as a real one is, and a
     /// stiff wall can oscillate.
     pub substeps: u32,
+    /// The real device this one stands for ([`SimModel`]), if any: set with
+    /// [`SimConfig::model`], which also takes the model's limits.
+    pub model: Option<SimModel>,
+}
+
+impl SimConfig {
+    /// This configuration standing for `model`: its [`DeviceSpec`] and a safety filter at its
+    /// peak force (the other settings kept).
+    pub fn model(self, model: SimModel) -> SimConfig {
+        SimConfig {
+            spec: model.spec(),
+            safety: SafetyConfig {
+                max_force_n: model.spec().max_force_n,
+                ..self.safety
+            },
+            model: Some(model),
+            ..self
+        }
+    }
 }
 
 impl Default for SimConfig {
@@ -159,6 +281,7 @@ impl Default for SimConfig {
             disconnect_at_tick: None,
             fault: SimFault::None,
             substeps: 1,
+            model: None,
         }
     }
 }
@@ -223,16 +346,29 @@ pub struct SimDevice<P> {
     velocity: Vec3,
     hand: PathPoint,
     hand_prev: Vec3,
+    /// An inkwell model calibrated in its dock.
+    calibrated: bool,
+    /// The Falcon model homed.
+    homed: bool,
+    position_resets: u64,
 }
 
 impl<P: Path> SimDevice<P> {
     /// A device whose stylus starts at rest at the hand's position at t = 0.
+    /// With a [`SimConfig::model`], the stylus starts at the device origin and the path
+    /// begins [`SimModel::lead_in_s`] later ([`SimModel`]).
     pub fn new(mut path: P, config: SimConfig) -> SimDevice<P> {
-        let hand = path.at(0.0);
         let mut config = config;
         if !(config.period_s.is_finite() && config.period_s > 0.0) {
             config.period_s = 1e-3;
         }
+        let hand = match config.model {
+            Some(_) => PathPoint {
+                position: [0.0; 3],
+                ..path.at(0.0)
+            },
+            None => path.at(0.0),
+        };
         SimDevice {
             path,
             safety: ForceSafety::new(config.safety),
@@ -244,7 +380,59 @@ impl<P: Path> SimDevice<P> {
             velocity: [0.0; 3],
             hand,
             hand_prev: hand.position,
+            calibrated: false,
+            homed: false,
+            position_resets: 0,
         }
+    }
+
+    /// The hand at device time `t`: the path's, or with a model the rest at the origin, the
+    /// Falcon's homing stroke and the move to the path's start first ([`SimModel`]).
+    fn hand_at(&mut self, t: f64) -> PathPoint {
+        let Some(model) = self.config.model else {
+            return self.path.at(t);
+        };
+        let lead = model.lead_in_s();
+        if t >= lead {
+            return self.path.at(t - lead);
+        }
+        let start = self.path.at(0.0);
+        let origin = PathPoint {
+            position: [0.0; 3],
+            ..start
+        };
+        let mut u = t - DOCK_REST_S;
+        if u < 0.0 {
+            return origin;
+        }
+        if model == SimModel::Falcon {
+            if u < HOMING_STROKE_S {
+                // Down and back, each half a smoothstep.
+                let half = 0.5 * HOMING_STROKE_S;
+                let down = if u < half {
+                    smoothstep(u / half)
+                } else {
+                    1.0 - smoothstep((u - half) / half)
+                };
+                return PathPoint {
+                    position: [0.0, 0.0, -HOMING_STROKE_M * down],
+                    ..origin
+                };
+            }
+            u -= HOMING_STROKE_S;
+        }
+        PathPoint {
+            position: v3::scale(start.position, smoothstep(u / LEAD_IN_MOVE_S)),
+            ..origin
+        }
+    }
+
+    /// Whether the stylus is in its simulated inkwell (an inkwell model within
+    /// [`DOCK_RADIUS_M`] of the origin).
+    fn docked(&self) -> bool {
+        self.config.spec.calibration == CalibrationStyle::Inkwell
+            && self.config.model.is_some()
+            && v3::norm(self.position) <= DOCK_RADIUS_M
     }
 
     /// Device time, s.
@@ -290,7 +478,7 @@ impl<P: Path> SimDevice<P> {
         let dt = self.config.period_s;
         self.tick += 1;
         let t = self.time();
-        let hand = self.path.at(t);
+        let hand = self.hand_at(t);
         let hand_pos = if v3::finite(hand.position) {
             hand.position
         } else {
@@ -305,6 +493,11 @@ impl<P: Path> SimDevice<P> {
         let device = self.motors.output().force;
         let device = match self.config.fault {
             SimFault::ReversedForce => v3::scale(device, -1.0),
+            SimFault::MotorSign(j @ 1..=3) => {
+                let mut d = device;
+                d[usize::from(j) - 1] = -d[usize::from(j) - 1];
+                d
+            }
             _ => device,
         };
         let n = self.config.substeps.max(1);
@@ -323,12 +516,23 @@ impl<P: Path> SimDevice<P> {
             self.velocity = v3::add(self.velocity, v3::scale(accel, h));
             self.position = v3::add(self.position, v3::scale(self.velocity, h));
         }
+        if self.config.model == Some(SimModel::Falcon)
+            && !self.homed
+            && self.position[2] <= -HOMING_INDEX_M
+        {
+            self.homed = true;
+            self.position_resets += 1;
+        }
     }
 
     /// The stylus position the device reports: the true one, x mirrored under
     /// [`SimFault::MirroredX`].
     fn reported(&self) -> Vec3 {
-        let [x, y, z] = self.position;
+        let [x, y, z] = if self.config.model == Some(SimModel::Falcon) && !self.homed {
+            v3::add(self.position, UNHOMED_OFFSET_M)
+        } else {
+            self.position
+        };
         match self.config.fault {
             SimFault::MirroredX => [-x, y, z],
             _ => [x, y, z],
@@ -363,14 +567,20 @@ impl<P: Path> HapticDevice for SimDevice<P> {
         }
         self.safety.tick();
         self.publish();
+        let position = self.reported();
+        let mut joint_angles = [0.0; 6];
+        if self.config.model.is_some() {
+            // The simulated arm's joints are its axes.
+            joint_angles[..3].copy_from_slice(&position);
+        }
         Ok(DeviceState {
             timestamp_s: self.time(),
             tick: self.tick,
-            position: self.reported(),
+            position,
             rotation: self.hand.rotation,
-            joint_angles: [0.0; 6],
+            joint_angles,
             buttons: self.hand.buttons,
-            docked: false,
+            docked: self.docked(),
         })
     }
 
@@ -380,7 +590,8 @@ impl<P: Path> HapticDevice for SimDevice<P> {
             self.publish();
             return Err(DeviceError::Disconnected);
         }
-        let command = if self.motors.latch.is_set() {
+        // A cut, or a model that is not homed or calibrated yet: nothing is rendered.
+        let command = if self.motors.latch.is_set() || !self.force_ready() {
             &ForceCommand::OFF
         } else {
             command
@@ -390,13 +601,41 @@ impl<P: Path> HapticDevice for SimDevice<P> {
         r
     }
 
+    /// Nothing to do, but an inkwell model calibrates only in its dock
+    /// ([`DeviceError::NotDocked`] elsewhere); the Falcon model homes by moving.
     fn calibrate(&mut self) -> Result<(), DeviceError> {
-        debug_assert_eq!(self.config.spec.calibration, CalibrationStyle::None);
+        if self.config.model.is_some() && self.config.spec.calibration == CalibrationStyle::Inkwell
+        {
+            if !self.docked() {
+                return Err(DeviceError::NotDocked);
+            }
+            self.calibrated = true;
+        }
         Ok(())
     }
 
     fn cutoff(&self) -> Option<Arc<dyn MotorCutoff>> {
         Some(self.motors() as Arc<dyn MotorCutoff>)
+    }
+
+    fn position_resets(&self) -> u64 {
+        self.position_resets
+    }
+
+    /// Always, but for a model: an inkwell one once calibrated, the Falcon once homed.
+    fn force_ready(&self) -> bool {
+        match self.config.model {
+            None => true,
+            Some(SimModel::Falcon) => self.homed,
+            Some(_) => self.calibrated,
+        }
+    }
+
+    /// The simulated arm's joints are its axes: `newtons` along axis `joint`.
+    fn joint_force(&self, joint: usize, newtons: f64) -> Option<Vec3> {
+        let mut f = [0.0; 3];
+        *f.get_mut(joint)? = newtons;
+        Some(f)
     }
 }
 
@@ -628,6 +867,134 @@ mod tests {
             "{:?}",
             dev.applied_force()
         );
+    }
+
+    #[test]
+    fn a_reversed_motor_reverses_only_its_joints_share() {
+        // (1, 1, 1) N on a stylus held at the origin by the 300 N/m hand settles at 1/300 m
+        // along each axis; with joint 2 (the y axis) reversed, -1/300 m along y only.
+        for (joint, want) in [
+            (0u8, [1.0, 1.0, 1.0]),
+            (2, [1.0, -1.0, 1.0]),
+            (3, [1.0, 1.0, -1.0]),
+        ] {
+            let fault = if joint == 0 {
+                SimFault::None
+            } else {
+                SimFault::MotorSign(joint)
+            };
+            let mut dev = SimDevice::new(Still([0.0; 3]), SimConfig { fault, ..no_ramp() });
+            let mut s = DeviceState::ZERO;
+            for _ in 0..3000 {
+                s = dev.read().unwrap();
+                dev.write(&ForceCommand::force([1.0, 1.0, 1.0])).unwrap();
+            }
+            for a in 0..3 {
+                assert!(
+                    (s.position[a] - want[a] / 300.0).abs() < 1e-7,
+                    "joint {joint}: {:?}",
+                    s.position
+                );
+            }
+        }
+        assert_eq!(
+            SimFault::parse("motor-sign:2"),
+            Some(SimFault::MotorSign(2))
+        );
+        assert_eq!(SimFault::MotorSign(2).name(), "motor-sign:2");
+        assert_eq!(SimFault::parse("motor-sign:4"), None);
+        assert_eq!(SimFault::parse("motor-sign:0"), None);
+    }
+
+    /// A hand path that sits at (0, 0.02, 0) m.
+    fn away(_t: f64) -> PathPoint {
+        PathPoint {
+            position: [0.0, 0.02, 0.0],
+            rotation: QUAT_IDENTITY,
+            buttons: 0,
+        }
+    }
+
+    #[test]
+    fn the_omni_model_starts_docked_and_renders_nothing_until_calibrated_there() {
+        let c = SimConfig::default().model(SimModel::Omni);
+        assert_eq!(c.spec, DeviceSpec::OMNI);
+        assert_eq!(c.safety.max_force_n, 3.3);
+        let mut dev = SimDevice::new(Scripted(away), c);
+        let s = dev.read().unwrap();
+        assert!(s.docked);
+        assert_eq!(s.position, [0.0; 3]);
+        assert!(!dev.force_ready());
+        // Not calibrated: a written force is not rendered.
+        dev.write(&ForceCommand::force([1.0, 0.0, 0.0])).unwrap();
+        assert_eq!(dev.motors().output(), ForceCommand::OFF);
+        dev.calibrate().unwrap();
+        assert!(dev.force_ready());
+        dev.write(&ForceCommand::force([1.0, 0.0, 0.0])).unwrap();
+        assert!(dev.applied_force()[0] > 0.0);
+        // Past the lead-in (0.2 s rest, 1 s move) the hand is at the path's start; the stylus
+        // is out of the dock, where calibrating is refused.
+        let mut s = DeviceState::ZERO;
+        for _ in 0..2000 {
+            s = dev.read().unwrap();
+            dev.write(&ForceCommand::ZERO).unwrap();
+        }
+        assert!((s.position[1] - 0.02).abs() < 1e-4, "{:?}", s.position);
+        assert!(!s.docked);
+        assert_eq!(dev.calibrate(), Err(DeviceError::NotDocked));
+        // Halfway through the move (t = 0.7 s) the hand is halfway (smoothstep(1/2) = 1/2).
+        let mut dev = SimDevice::new(Scripted(away), SimConfig::default().model(SimModel::Touch));
+        assert_eq!(dev.spec(), DeviceSpec::TOUCH);
+        assert!((dev.hand_at(0.7).position[1] - 0.01).abs() < 1e-15);
+        assert_eq!(dev.hand_at(0.1).position, [0.0; 3]);
+        assert_eq!(dev.hand_at(1.2 + 5.0).position, [0.0, 0.02, 0.0]);
+    }
+
+    #[test]
+    fn the_falcon_model_homes_on_its_stroke() {
+        let c = SimConfig::default().model(SimModel::Falcon);
+        assert_eq!(c.spec, DeviceSpec::FALCON);
+        let mut dev = SimDevice::new(Scripted(away), c);
+        // Before homing: the reported position is off by the unhomed offset, no force.
+        let s = dev.read().unwrap();
+        assert_eq!(s.position, UNHOMED_OFFSET_M);
+        assert!(!s.docked);
+        assert!(!dev.force_ready());
+        // The stroke's deepest point is 0.5 s into it (t = 0.7 s), 3.5 cm down.
+        assert_eq!(dev.hand_at(0.7).position, [0.0, 0.0, -0.035]);
+        let mut homed_at = None;
+        let mut deepest: f64 = 0.0;
+        for _ in 0..3000 {
+            let s = dev.read().unwrap();
+            deepest = deepest.min(dev.true_position()[2]);
+            if dev.force_ready() && homed_at.is_none() {
+                homed_at = Some(s.tick);
+                // Homed: the reported position is the true one, and the reset is counted.
+                assert_eq!(s.position, dev.true_position());
+                assert_eq!(dev.position_resets(), 1);
+                assert!(dev.true_position()[2] <= -HOMING_INDEX_M);
+            }
+            if homed_at.is_none() {
+                dev.write(&ForceCommand::force([0.0, 0.0, 1.0])).unwrap();
+                assert_eq!(dev.motors().output(), ForceCommand::OFF);
+                assert_eq!(dev.position_resets(), 0);
+            } else {
+                dev.write(&ForceCommand::ZERO).unwrap();
+            }
+        }
+        let at = homed_at.expect("homed on the stroke");
+        assert!(at > 200 && at < 700, "homed at tick {at}");
+        assert!(deepest < -0.03, "{deepest}");
+        assert_eq!(dev.position_resets(), 1);
+        // After the stroke (0.2 + 1 s) and the move (1 s), the path's start.
+        assert!((dev.true_position()[1] - 0.02).abs() < 1e-4);
+    }
+
+    #[test]
+    fn joint_forces_are_the_axes() {
+        let dev = SimDevice::new(Still([0.0; 3]), SimConfig::default());
+        assert_eq!(dev.joint_force(1, 0.3), Some([0.0, 0.3, 0.0]));
+        assert_eq!(dev.joint_force(3, 0.3), None);
     }
 
     #[test]
