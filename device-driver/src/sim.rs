@@ -889,9 +889,9 @@ mod tests {
                 s = dev.read().unwrap();
                 dev.write(&ForceCommand::force([1.0, 1.0, 1.0])).unwrap();
             }
-            for a in 0..3 {
+            for (p, w) in s.position.iter().zip(want) {
                 assert!(
-                    (s.position[a] - want[a] / 300.0).abs() < 1e-7,
+                    (p - w / 300.0).abs() < 1e-7,
                     "joint {joint}: {:?}",
                     s.position
                 );
