@@ -159,8 +159,10 @@ pub enum SimModel {
     Touch,
 }
 
-/// Seconds the hand rests at the device origin before it moves (the dock, the homed pose).
-pub const DOCK_REST_S: f64 = 0.2;
+/// Seconds the hand rests at the device origin before it moves (the dock, the pose before the
+/// homing stroke): long enough for the motor-sign self-test (three joints of 200 ms) on a still
+/// hand.
+pub const DOCK_REST_S: f64 = 1.0;
 /// Seconds the hand takes from the device origin to the path's start (smoothstep).
 pub const LEAD_IN_MOVE_S: f64 = 1.0;
 /// The simulated inkwell: the stylus counts as docked within this distance of the origin, m.
@@ -932,22 +934,22 @@ mod tests {
         assert!(dev.force_ready());
         dev.write(&ForceCommand::force([1.0, 0.0, 0.0])).unwrap();
         assert!(dev.applied_force()[0] > 0.0);
-        // Past the lead-in (0.2 s rest, 1 s move) the hand is at the path's start; the stylus
+        // Past the lead-in (1 s rest, 1 s move) the hand is at the path's start; the stylus
         // is out of the dock, where calibrating is refused.
         let mut s = DeviceState::ZERO;
-        for _ in 0..2000 {
+        for _ in 0..3000 {
             s = dev.read().unwrap();
             dev.write(&ForceCommand::ZERO).unwrap();
         }
         assert!((s.position[1] - 0.02).abs() < 1e-4, "{:?}", s.position);
         assert!(!s.docked);
         assert_eq!(dev.calibrate(), Err(DeviceError::NotDocked));
-        // Halfway through the move (t = 0.7 s) the hand is halfway (smoothstep(1/2) = 1/2).
+        // Halfway through the move (t = 1.5 s) the hand is halfway (smoothstep(1/2) = 1/2).
         let mut dev = SimDevice::new(Scripted(away), SimConfig::default().model(SimModel::Touch));
         assert_eq!(dev.spec(), DeviceSpec::TOUCH);
-        assert!((dev.hand_at(0.7).position[1] - 0.01).abs() < 1e-15);
-        assert_eq!(dev.hand_at(0.1).position, [0.0; 3]);
-        assert_eq!(dev.hand_at(1.2 + 5.0).position, [0.0, 0.02, 0.0]);
+        assert!((dev.hand_at(1.5).position[1] - 0.01).abs() < 1e-15);
+        assert_eq!(dev.hand_at(0.9).position, [0.0; 3]);
+        assert_eq!(dev.hand_at(2.0 + 5.0).position, [0.0, 0.02, 0.0]);
     }
 
     #[test]
@@ -960,11 +962,11 @@ mod tests {
         assert_eq!(s.position, UNHOMED_OFFSET_M);
         assert!(!s.docked);
         assert!(!dev.force_ready());
-        // The stroke's deepest point is 0.5 s into it (t = 0.7 s), 3.5 cm down.
-        assert_eq!(dev.hand_at(0.7).position, [0.0, 0.0, -0.035]);
+        // The stroke's deepest point is 0.5 s into it (t = 1.5 s), 3.5 cm down.
+        assert_eq!(dev.hand_at(1.5).position, [0.0, 0.0, -0.035]);
         let mut homed_at = None;
         let mut deepest: f64 = 0.0;
-        for _ in 0..3000 {
+        for _ in 0..4000 {
             let s = dev.read().unwrap();
             deepest = deepest.min(dev.true_position()[2]);
             if dev.force_ready() && homed_at.is_none() {
@@ -983,10 +985,10 @@ mod tests {
             }
         }
         let at = homed_at.expect("homed on the stroke");
-        assert!(at > 200 && at < 700, "homed at tick {at}");
+        assert!(at > 1000 && at < 1500, "homed at tick {at}");
         assert!(deepest < -0.03, "{deepest}");
         assert_eq!(dev.position_resets(), 1);
-        // After the stroke (0.2 + 1 s) and the move (1 s), the path's start.
+        // After the stroke (1 + 1 s) and the move (1 s), the path's start.
         assert!((dev.true_position()[1] - 0.02).abs() < 1e-4);
     }
 

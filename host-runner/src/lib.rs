@@ -100,6 +100,7 @@ pub mod commands;
 pub mod device_config;
 pub mod engine;
 pub mod error;
+pub mod motors;
 pub mod pen;
 pub mod pen_pair;
 pub mod pen_tasks;
