@@ -7,7 +7,7 @@
 #
 #   scripts/port-check.sh [--target m4|m7|m7sp] [--scenario block|cow|regions|soft|tooth] [--ticks N]
 #                         [--max-instructions M] [--max-stack BYTES] [--garbage]
-#                         [--inject panic|hardfault|stall [--inject-tick N]]
+#                         [--inject panic|hardfault|stall|late [--inject-tick N]]
 #
 # --scenario block (default) is the host's builtin:firmware, cow is builtin:firmware-cow, regions
 # is builtin:firmware-regions (the block with a hard shell and a soft core), soft is
@@ -28,6 +28,12 @@
 # prints force_after_fault_n= (the samples with an output still live) and passes when the
 # expected handler ran (fault=panic, hardfault or watchdog), the force at the fault was not
 # zero, and force_after_fault_n=0. No host run.
+# --inject late is not a fault: the simulation step released at tick N spins 15 servo periods
+# first, so the servo's contacts arrive late; the check reads the deadline-miss policy from
+# the report (late_first_run_force_n=: the last on-time force, then the force written on each
+# late tick) and passes when the first late tick held that force, the next ten ramped it down
+# linearly (each within 0.1 % + 1e-4 N of before * (10 - k) / 10), it was zero from the
+# eleventh on, and the run ended normally (exit_status=0) with its misses counted.
 #
 # The firmware prints over UART0 (stdio) and ends each run with a reset, which -no-reboot
 # turns into QEMU's exit; its last line is exit_status=0, or exit_status=1 after a panic, a
@@ -70,7 +76,7 @@ while [ $# -gt 0 ]; do
     --scenario) need "$1" $#; scenario="$2"; shift 2 ;;
     --scenario=*) scenario="${1#--scenario=}"; shift ;;
     -h|--help) sed -n '2,44p' "$0"; exit 0 ;;
-    *) echo "port-check: unknown argument '$1' (expected --target m4|m7|m7sp, --scenario block|cow|regions|soft|tooth, --ticks N, --max-instructions M, --max-stack BYTES, --garbage, --inject panic|hardfault|stall, --inject-tick N)" >&2; exit 2 ;;
+    *) echo "port-check: unknown argument '$1' (expected --target m4|m7|m7sp, --scenario block|cow|regions|soft|tooth, --ticks N, --max-instructions M, --max-stack BYTES, --garbage, --inject panic|hardfault|stall|late, --inject-tick N)" >&2; exit 2 ;;
   esac
 done
 if [ -n "$ticks" ] && ! [[ "$ticks" =~ ^[0-9]+$ ]]; then
@@ -87,7 +93,8 @@ case "$inject" in
   panic) expect_fault="panic" ;;
   hardfault) expect_fault="hardfault" ;;
   stall) expect_fault="watchdog" ;;
-  *) echo "port-check: --inject takes panic, hardfault or stall, not '$inject'" >&2; exit 2 ;;
+  late) expect_fault="" ;;
+  *) echo "port-check: --inject takes panic, hardfault, stall or late, not '$inject'" >&2; exit 2 ;;
 esac
 if ! [[ "$inject_tick" =~ ^[0-9]+$ ]]; then
   echo "port-check: --inject-tick takes a whole number, not '$inject_tick'" >&2; exit 2
@@ -174,6 +181,32 @@ if [ "$fw_rc" != 0 ]; then
 fi
 val() { sed -n "s/^$1=\\([0-9a-f]*\\)\$/\\1/p" "$work/fw.txt" | head -n1; }
 exit_status="$(val exit_status)"
+if [ "$inject" = late ]; then
+  echo "== result"
+  run="$(sed -n 's/^late_first_run_force_n=//p' "$work/fw.txt" | head -n1)"
+  echo "deadline_misses=$(val deadline_misses)"
+  echo "late_ticks_held=$(val late_ticks_held)"
+  echo "late_ticks_ramped=$(val late_ticks_ramped)"
+  echo "late_ticks_longest_run=$(val late_ticks_longest_run)"
+  echo "late_first_run_force_n=$run"
+  [ "$exit_status" = 0 ] || { echo "port-check: FAIL: the run did not end normally (exit_status=${exit_status:-none})" >&2; exit 1; }
+  if ! echo "$run" | awk -F, -v hold=1 -v ramp=10 '
+    {
+      before = $1
+      if (before <= 0.01) { print "the force before the late ticks was zero: the check would prove nothing"; exit 1 }
+      if (NF < 1 + hold + ramp) { print "only " NF - 1 " late ticks recorded, fewer than the hold and the ramp"; exit 1 }
+      for (k = 1; k < NF; k++) {
+        want = (k <= hold) ? before : ((k - hold >= ramp) ? 0 : before * (ramp - (k - hold)) / ramp)
+        got = $(k + 1); d = got - want; if (d < 0) d = -d
+        if (d > 0.001 * want + 1e-4) { print "late tick " k ": " got " N written, the policy says " want; exit 1 }
+      }
+    }'; then
+    echo "port-check: FAIL: the deadline-miss policy did not hold the force, then ramp it to zero" >&2
+    exit 1
+  fi
+  echo "port-check: OK: late steps at tick $inject_tick: the force held one tick, ramped to zero over ten, the misses counted"
+  exit 0
+fi
 if [ -n "$inject" ]; then
   fault="$(sed -n 's/^fault=\([a-z]*\)$/\1/p' "$work/fw.txt" | head -n1)"
   at_fault="$(sed -n 's/^force_at_fault=//p' "$work/fw.txt" | head -n1)"

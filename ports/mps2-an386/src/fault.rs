@@ -152,11 +152,33 @@ pub fn inject_tick() -> u32 {
 }
 
 /// Fires the armed fault when `tick` is its tick (the servo calls it after each force write;
-/// nothing when no fault is armed).
+/// nothing when no fault is armed, or when the armed one is `late`, the simulation's).
 #[inline(always)]
 pub fn maybe_inject(tick: u32) {
-    if armed() && tick == inject_tick() {
+    if armed() && tick == inject_tick() && !late_armed() {
         inject();
+    }
+}
+
+/// Whether this build makes one simulation step late (`TETRADRILL_INJECT=late`): not a fault,
+/// a step that overruns, to exercise the servo's deadline-miss policy ([`crate::policy`]).
+pub fn late_armed() -> bool {
+    matches!(INJECT, Some("late"))
+}
+
+/// Servo periods the step released at the injection tick spins before it simulates.
+pub const LATE_PERIODS: u64 = 15;
+
+/// With `late` armed, spins [`LATE_PERIODS`] servo periods when `tick` is the injection tick
+/// (the simulation task calls it before each step; the servo preempts the spin and finds its
+/// contacts late).
+#[inline(always)]
+pub fn maybe_late(tick: u32) {
+    if late_armed() && tick == inject_tick() {
+        let until = crate::clock::now() + LATE_PERIODS * crate::clock::PERIOD_COUNTS as u64;
+        while crate::clock::now() < until {
+            core::hint::spin_loop();
+        }
     }
 }
 

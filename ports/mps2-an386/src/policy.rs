@@ -14,6 +14,10 @@ pub const HOLD_TICKS: u32 = 1;
 /// is zero from the last of them on).
 pub const RAMP_TICKS: u32 = 10;
 
+/// Late ticks of the first run whose written force [`LatePolicy::first_run`] keeps: the hold,
+/// the ramp and one tick at zero.
+pub const TRACE_TICKS: usize = (HOLD_TICKS + RAMP_TICKS + 1) as usize;
+
 /// The policy's state and counts.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct LatePolicy {
@@ -25,6 +29,12 @@ pub struct LatePolicy {
     pub ramped: u32,
     /// The longest run of late ticks.
     pub longest: u32,
+    /// The first run of late ticks: the magnitude of the last on-time force before it, then
+    /// of the force written on each of its first [`TRACE_TICKS`] ticks, so a check can read
+    /// the hold and the ramp from the report.
+    pub first_run: [f32; TRACE_TICKS + 1],
+    /// Late ticks recorded in [`LatePolicy::first_run`].
+    pub first_run_len: u32,
 }
 
 impl LatePolicy {
@@ -37,17 +47,36 @@ impl LatePolicy {
             self.last = computed;
             return computed;
         }
-        self.in_row += 1;
+        self.in_row = self.in_row.saturating_add(1);
         self.longest = self.longest.max(self.in_row);
-        if self.in_row <= HOLD_TICKS {
-            self.held += 1;
-            return self.last;
+        let f = if self.in_row <= HOLD_TICKS {
+            self.held = self.held.saturating_add(1);
+            self.last
+        } else {
+            self.ramped = self.ramped.saturating_add(1);
+            let k = self.in_row - HOLD_TICKS;
+            if k >= RAMP_TICKS {
+                Vec3::ZERO
+            } else {
+                self.last * ((RAMP_TICKS - k) as f32 / RAMP_TICKS as f32)
+            }
+        };
+        self.trace(f);
+        f
+    }
+
+    /// Records `f` while the first run of late ticks lasts (nothing once it has ended).
+    fn trace(&mut self, f: Vec3) {
+        let n = self.first_run_len as usize;
+        // The first run is the only one whose ticks follow the recorded ones without a gap.
+        if n == 0 && self.in_row == 1 {
+            self.first_run[0] = self.last.length();
+        } else if n == 0 || self.in_row as usize != n + 1 {
+            return;
         }
-        self.ramped += 1;
-        let k = self.in_row - HOLD_TICKS;
-        if k >= RAMP_TICKS {
-            return Vec3::ZERO;
+        if let Some(slot) = self.first_run.get_mut(n + 1) {
+            *slot = f.length();
+            self.first_run_len += 1;
         }
-        self.last * ((RAMP_TICKS - k) as f32 / RAMP_TICKS as f32)
     }
 }

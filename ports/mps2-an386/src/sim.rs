@@ -114,6 +114,7 @@ impl Sim {
         if self.profile_from == Some(tick) {
             profile_mark();
         }
+        crate::fault::maybe_late(tick);
         let memo0 = (
             self.world.sphere_memo().hits(),
             self.world.sphere_memo().misses(),
@@ -239,6 +240,7 @@ impl Sim {
         println!("late_ticks_held={}", s.late.held);
         println!("late_ticks_ramped={}", s.late.ramped);
         println!("late_ticks_longest_run={}", s.late.longest);
+        print_late_run(&s.late);
         let w = &self.worst;
         println!(
             "worst_tick: candidates {} triangles {} contact nodes {} drill work {} created {} erased {} pending {}",
@@ -316,4 +318,21 @@ fn candidate_query(world: &World<'_>, centre: Vec3, reach: f32) -> u32 {
 #[inline(never)]
 fn profile_mark() {
     core::hint::black_box(0u32);
+}
+
+/// `late_first_run_force_n=` the last on-time force's magnitude, then the written force's on
+/// each recorded late tick of the first run (newtons, 4 decimals).
+fn print_late_run(late: &crate::policy::LatePolicy) {
+    let n = late.first_run_len as usize;
+    let mut line: heapless::String<256> = heapless::String::new();
+    for (i, f) in late.first_run[..=n.min(late.first_run.len() - 1)]
+        .iter()
+        .enumerate()
+    {
+        let sep = if i == 0 { "" } else { "," };
+        let _ = core::fmt::Write::write_fmt(&mut line, format_args!("{sep}{f:.4}"));
+    }
+    if n > 0 {
+        println!("late_first_run_force_n={}", line);
+    }
 }
