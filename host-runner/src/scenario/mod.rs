@@ -447,6 +447,19 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             regions: labelled(demo_regions()),
             ..builtin("f405-block")?
         }),
+        // The firmware's tooth as an STM32H743 runs it (`scripts/port-check.sh --chip h743`;
+        // ports/mps2-an386/src/scenario.rs, `chip`, holds the same numbers): sized for its
+        // regions from the peaks at the default sizes. The hash (23,824 entries) and the
+        // candidates (283 a third) hold their peaks, the pending deque (one coarse ring) its
+        // peak of 570 at this arena; the arena (peak 57,240) gets what SRAM1-3 has left, so
+        // the drill is coarser and its saturations are counted.
+        "h743-tooth" => Some(Scenario {
+            hierarchy_capacity: Some(H743_ARENA),
+            pending_capacity: Some(H743_PENDING),
+            candidate_capacity: Some(H743_CANDIDATES),
+            hash_capacity: Some(H743_HASH_ENTRIES),
+            ..builtin("firmware-tooth")?
+        }),
         // The firmware block soft (`scripts/port-check.sh --scenario soft`): its step and the
         // world's update spread over the ticks of each cycle, sized so that a tick's share
         // fits the Cortex-M4's period beside the simulation step (docs/SOFT.md, "On the
@@ -471,6 +484,15 @@ pub const F405_PENDING: usize = 128;
 pub const F405_CANDIDATES: usize = 192;
 /// Hash entries of `builtin:f405-block`.
 pub const F405_HASH_ENTRIES: usize = 2_112;
+
+/// Hierarchy arena nodes of `builtin:h743-tooth`.
+pub const H743_ARENA: usize = 9_000;
+/// Pending deque entries of `builtin:h743-tooth` (under 1,024: one coarse ring).
+pub const H743_PENDING: usize = 768;
+/// Candidate storage of `builtin:h743-tooth` (in thirds: its candidate gather).
+pub const H743_CANDIDATES: usize = 1_152;
+/// Hash entries of `builtin:h743-tooth`.
+pub const H743_HASH_ENTRIES: usize = 23_872;
 
 /// Young's modulus of `builtin:firmware-soft`, pascal: the demo's `--soft` block's, a dent
 /// of several millimetres under the firmware path's force.

@@ -153,18 +153,23 @@ pub mod chip {
 pub mod chip {
     use tetradrill_core::storage::{Part, PartSet};
 
-    /// Hierarchy arena nodes (the tooth's peak is 57,240).
-    pub const ARENA: usize = 16_000;
-    /// Pending deque entries (the tooth's peaks at 16,384 entries: 1,229 coarse, 519 fine).
-    pub const PENDING: usize = 1_024;
+    /// Hierarchy arena nodes: what SRAM1-3 has left beside the tet boxes (the tooth's peak
+    /// is 57,240).
+    pub const ARENA: usize = 9_000;
+    /// Pending deque entries: under `FINE_MIN_DEQUE` (1,024), one coarse ring, which peaks at
+    /// 570 on the tooth with this arena (at 16,384 entries: 1,229 coarse, 519 fine).
+    pub const PENDING: usize = 768;
     /// Candidates a step, in thirds (the tooth's peak is 283 a third).
     pub const CANDIDATES: usize = 1_152;
     /// Hash entries: the tooth's hash stores 23,824.
     pub const HASH_ENTRIES: usize = 23_872;
     /// Sphere memo slots.
     pub const SPHERE_MEMO: usize = 256;
-    /// The world's parts in SRAM1-3 (the rest in the AXI SRAM).
-    pub const SECOND_PARTS: PartSet = PartSet::EMPTY.with(Part::Arena).with(Part::VList);
+    /// The world's parts in SRAM1-3 (the rest, the hash above all, in the AXI SRAM).
+    pub const SECOND_PARTS: PartSet = PartSet::EMPTY
+        .with(Part::TetBoxes)
+        .with(Part::Arena)
+        .with(Part::VList);
 }
 
 /// Off a chip: unused.
