@@ -451,7 +451,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
         // ports/mps2-an386/src/scenario.rs, `chip`, holds the same numbers): sized for its
         // regions from the peaks at the default sizes. The hash (23,824 entries) and the
         // candidates (283 a third) hold their peaks, the pending deque (one coarse ring) its
-        // peak of 570 at this arena; the arena (peak 57,240) gets what SRAM1-3 has left, so
+        // peak of 639 at this arena; the arena (peak 57,240) gets what SRAM1-3 has left, so
         // the drill is coarser and its saturations are counted.
         "h743-tooth" => Some(Scenario {
             hierarchy_capacity: Some(H743_ARENA),
@@ -488,7 +488,7 @@ pub const F405_HASH_ENTRIES: usize = 2_112;
 /// Hierarchy arena nodes of `builtin:h743-tooth`.
 pub const H743_ARENA: usize = 9_000;
 /// Pending deque entries of `builtin:h743-tooth` (under 1,024: one coarse ring).
-pub const H743_PENDING: usize = 768;
+pub const H743_PENDING: usize = 832;
 /// Candidate storage of `builtin:h743-tooth` (in thirds: its candidate gather).
 pub const H743_CANDIDATES: usize = 1_152;
 /// Hash entries of `builtin:h743-tooth`.

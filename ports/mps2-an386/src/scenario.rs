@@ -157,8 +157,8 @@ pub mod chip {
     /// is 57,240).
     pub const ARENA: usize = 9_000;
     /// Pending deque entries: under `FINE_MIN_DEQUE` (1,024), one coarse ring, which peaks at
-    /// 570 on the tooth with this arena (at 16,384 entries: 1,229 coarse, 519 fine).
-    pub const PENDING: usize = 768;
+    /// 639 on the tooth with this arena (at 16,384 entries: 1,229 coarse, 519 fine).
+    pub const PENDING: usize = 832;
     /// Candidates a step, in thirds (the tooth's peak is 283 a third).
     pub const CANDIDATES: usize = 1_152;
     /// Hash entries: the tooth's hash stores 23,824.

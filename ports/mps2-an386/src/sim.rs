@@ -216,6 +216,7 @@ impl Sim {
             crate::servo::LAG,
             self.world.zone_gather().map_or(0, |z| z.work())
         );
+        hprintln!("chip={}", crate::target::CHIP);
         hprintln!("force_digest={:016x}", s.digest);
         hprintln!("ticks={}", s.ticks);
         hprintln!("contact_ticks={}", s.contact_ticks);
