@@ -7,6 +7,9 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+mod chips;
+pub use chips::*;
+
 use serde::{Deserialize, Serialize};
 
 use crate::error::CliError;
@@ -475,24 +478,6 @@ pub fn builtin(name: &str) -> Option<Scenario> {
         _ => None,
     }
 }
-
-/// Hierarchy arena nodes of `builtin:f405-block`.
-pub const F405_ARENA: usize = 2_000;
-/// Pending deque entries of `builtin:f405-block` (under 1,024: one coarse ring).
-pub const F405_PENDING: usize = 128;
-/// Candidate list entries of `builtin:f405-block`.
-pub const F405_CANDIDATES: usize = 192;
-/// Hash entries of `builtin:f405-block`.
-pub const F405_HASH_ENTRIES: usize = 2_112;
-
-/// Hierarchy arena nodes of `builtin:h743-tooth`.
-pub const H743_ARENA: usize = 9_000;
-/// Pending deque entries of `builtin:h743-tooth` (under 1,024: one coarse ring).
-pub const H743_PENDING: usize = 832;
-/// Candidate storage of `builtin:h743-tooth` (in thirds: its candidate gather).
-pub const H743_CANDIDATES: usize = 1_152;
-/// Hash entries of `builtin:h743-tooth`.
-pub const H743_HASH_ENTRIES: usize = 23_872;
 
 /// Young's modulus of `builtin:firmware-soft`, pascal: the demo's `--soft` block's, a dent
 /// of several millimetres under the firmware path's force.
