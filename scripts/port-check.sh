@@ -5,9 +5,20 @@
 # then one `key=value` line each: force_digest, servo_latency_instructions_max,
 # sim_step_instructions_max, deadline_misses, stack_max_bytes, flash_bytes, ram_bytes.
 #
-#   scripts/port-check.sh [--target m4|m7|m7sp] [--scenario block|cow|regions|soft|tooth] [--ticks N]
+#   scripts/port-check.sh [--target m4|m7|m7sp | --chip f405|h743]
+#                         [--scenario block|cow|regions|soft|tooth] [--ticks N]
 #                         [--max-instructions M] [--max-stack BYTES] [--garbage]
 #                         [--inject panic|hardfault|stall|late [--inject-tick N]]
+#
+# --chip builds for a named chip's memory map instead of the MPS2 boards' 4 MB (docs/PORTING.md,
+# "On named chips"): f405, an STM32F405 on QEMU's netduinoplus2 (168 MHz, -icount shift=3;
+# --scenario block or regions, the host's builtin:f405-block and builtin:f405-regions); h743,
+# an STM32H743's regions on mps2-an500 (480 MHz; --scenario tooth, builtin:h743-tooth). A chip
+# run also prints chip=, scenario=, ram_bytes_REGION= for each of the chip's regions (each
+# checked within the region), instructions_per_tick_max=, the saturations the firmware counted
+# (checked equal to the host's), and removed_volume= (the host's replay of the chip's scenario)
+# beside removed_volume_default= (the host's at the default sizes: builtin:firmware,
+# builtin:firmware-regions, builtin:firmware-tooth).
 #
 # --scenario block (default) is the host's builtin:firmware, cow is builtin:firmware-cow, regions
 # is builtin:firmware-regions (the block with a hard shell and a soft core), soft is
@@ -56,6 +67,8 @@ garbage=""
 inject=""
 inject_tick="2000"
 target="m4"
+target_set=""
+chip=""
 scenario="block"
 need() { [ "$2" -ge 2 ] || { echo "port-check: $1 needs a value" >&2; exit 2; }; }
 while [ $# -gt 0 ]; do
@@ -71,12 +84,14 @@ while [ $# -gt 0 ]; do
     --inject=*) inject="${1#--inject=}"; shift ;;
     --inject-tick) need "$1" $#; inject_tick="$2"; shift 2 ;;
     --inject-tick=*) inject_tick="${1#--inject-tick=}"; shift ;;
-    --target) need "$1" $#; target="$2"; shift 2 ;;
-    --target=*) target="${1#--target=}"; shift ;;
+    --target) need "$1" $#; target="$2"; target_set=1; shift 2 ;;
+    --target=*) target="${1#--target=}"; target_set=1; shift ;;
     --scenario) need "$1" $#; scenario="$2"; shift 2 ;;
     --scenario=*) scenario="${1#--scenario=}"; shift ;;
-    -h|--help) sed -n '2,44p' "$0"; exit 0 ;;
-    *) echo "port-check: unknown argument '$1' (expected --target m4|m7|m7sp, --scenario block|cow|regions|soft|tooth, --ticks N, --max-instructions M, --max-stack BYTES, --garbage, --inject panic|hardfault|stall|late, --inject-tick N)" >&2; exit 2 ;;
+    --chip) need "$1" $#; chip="$2"; shift 2 ;;
+    --chip=*) chip="${1#--chip=}"; shift ;;
+    -h|--help) sed -n '2,60p' "$0"; exit 0 ;;
+    *) echo "port-check: unknown argument '$1' (expected --target m4|m7|m7sp, --chip f405|h743, --scenario block|cow|regions|soft|tooth, --ticks N, --max-instructions M, --max-stack BYTES, --garbage, --inject panic|hardfault|stall|late, --inject-tick N)" >&2; exit 2 ;;
   esac
 done
 if [ -n "$ticks" ] && ! [[ "$ticks" =~ ^[0-9]+$ ]]; then
@@ -99,6 +114,8 @@ esac
 if ! [[ "$inject_tick" =~ ^[0-9]+$ ]]; then
   echo "port-check: --inject-tick takes a whole number, not '$inject_tick'" >&2; exit 2
 fi
+shift_s=10
+f405_ccm=""
 case "$target" in
   m4) machine="mps2-an386"; cpu="cortex-m4"; features=""; tdir="$port/target"; rustflags="" ;;
   m7) machine="mps2-an500"; cpu="cortex-m7"; features="m7"; tdir="$port/target/m7"
@@ -109,6 +126,19 @@ case "$target" in
       rustflags="-C target-cpu=cortex-m7 -C target-feature=-fp64" ;;
   *) echo "port-check: --target takes m4, m7 or m7sp, not '$target'" >&2; exit 2 ;;
 esac
+case "$chip" in
+  "") ;;
+  f405) machine="netduinoplus2"; cpu="cortex-m4"; features="chip-f405"; tdir="$port/target/f405"
+        rustflags=""; shift_s=3; f405_ccm="qemu"
+        regions="RAM:.data,.bss,.uninit,.sram:131072 CCM:.ccm:65536" ;;
+  h743) machine="mps2-an500"; cpu="cortex-m7"; features="chip-h743"; tdir="$port/target/h743"
+        rustflags="-C target-cpu=cortex-m7"
+        regions="DTCM:.data,.bss,.uninit,.dtcm:131072 AXISRAM:.axisram:524288 SRAM123:.sram123:294912 SRAM4:.sram4:65536" ;;
+  *) echo "port-check: --chip takes f405 or h743, not '$chip'" >&2; exit 2 ;;
+esac
+if [ -n "$chip" ] && [ -n "$target_set" ]; then
+  echo "port-check: --chip and --target are two ways to name the target: give one" >&2; exit 2
+fi
 [ -z "$garbage" ] || features="${features:+$features,}garbage"
 [ -z "$features" ] || features="--features $features"
 case "$scenario" in
@@ -118,6 +148,16 @@ case "$scenario" in
   soft) host_scenario="builtin:firmware-soft"; fw_scenario="soft" ;;
   tooth) host_scenario="builtin:firmware-tooth"; fw_scenario="tooth" ;;
   *) echo "port-check: --scenario takes block, cow, regions, soft or tooth, not '$scenario'" >&2; exit 2 ;;
+esac
+# A chip runs its own built-in scenario; the default-sized one gives removed_volume_default.
+default_scenario="$host_scenario"
+case "$chip:$scenario" in
+  :*) ;;
+  f405:block) host_scenario="builtin:f405-block" ;;
+  f405:regions) host_scenario="builtin:f405-regions" ;;
+  h743:tooth) host_scenario="builtin:h743-tooth" ;;
+  f405:*) echo "port-check: --chip f405 runs --scenario block or regions, not '$scenario'" >&2; exit 2 ;;
+  *) echo "port-check: --chip h743 runs --scenario tooth, not '$scenario'" >&2; exit 2 ;;
 esac
 command -v qemu-system-arm >/dev/null || { echo "port-check: qemu-system-arm not found (apt-get install qemu-system-arm)" >&2; exit 1; }
 
@@ -144,13 +184,13 @@ if [ "$scenario" = tooth ]; then
   export TETRADRILL_BLOB="$port/target/blobs/tooth.tdb"
 fi
 
-echo "== firmware: build ($target, thumbv7em-none-eabihf, release, scenario $scenario${inject:+, $inject injected at tick $inject_tick})"
+echo "== firmware: build (${chip:-$target}, thumbv7em-none-eabihf, release, scenario $scenario${inject:+, $inject injected at tick $inject_tick})"
 # Its own target dir, whatever CARGO_TARGET_DIR says (that one is for the host build); the
 # rustflags add to .cargo/config.toml's (which links with link.x).
 # shellcheck disable=SC2086
 (cd "$port" && TETRADRILL_TICKS="$ticks" TETRADRILL_SCENARIO="$fw_scenario" \
   TETRADRILL_INJECT="$inject" TETRADRILL_INJECT_TICK="$inject_tick" \
-  CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS="$rustflags" \
+  TETRADRILL_F405_CCM="$f405_ccm" CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS="$rustflags" \
   cargo build --release --quiet $features --target-dir "$tdir")
 elf="$tdir/thumbv7em-none-eabihf/release/tetradrill-mps2-an386"
 sizes="$(llvm-size "$elf" 2>/dev/null || arm-none-eabi-size "$elf")"
@@ -166,10 +206,13 @@ if [ "$target" = m7sp ] && [ "$f64_ops" != 0 ]; then
   exit 1
 fi
 
-echo "== firmware: run under QEMU ($machine, $cpu, -icount shift=10,sleep=off)"
+# netduinoplus2 has its one CPU (a Cortex-M4) and takes no -cpu.
+cpu_arg=(-cpu "$cpu")
+[ "$machine" != netduinoplus2 ] || cpu_arg=()
+echo "== firmware: run under QEMU ($machine, $cpu, -icount shift=$shift_s,sleep=off)"
 set +e
-timeout "${PORT_CHECK_TIMEOUT:-900}" qemu-system-arm -machine "$machine" -cpu "$cpu" \
-  -icount shift=10,sleep=off -no-reboot -nographic -kernel "$elf" \
+timeout "${PORT_CHECK_TIMEOUT:-900}" qemu-system-arm -machine "$machine" "${cpu_arg[@]}" \
+  -icount shift=$shift_s,sleep=off -no-reboot -nographic -kernel "$elf" \
   </dev/null >"$work/fw.txt" 2>&1
 fw_rc=$?
 set -e
@@ -245,9 +288,18 @@ echo "== host: build and replay $host_scenario over $fw_ticks ticks"
 host_digest="$(grep -o '"force_digest": *"[0-9a-f]*"' "$work/host.json" | grep -o '[0-9a-f]\{16\}')"
 host_ticks="$(grep -o '"ticks": *[0-9]*' "$work/host.json" | head -n1 | grep -o '[0-9]*$')"
 
+jnum() { grep -o "\"$1\": *[-0-9.e+]*" "$2" | head -n1 | sed 's/.*: *//'; }
+if [ -n "$chip" ]; then
+  "$host_bin" replay --scenario "$default_scenario" --ticks "$fw_ticks" --quiet --json "$work/default.json"
+fi
+
 echo "== result"
 echo "firmware: force_digest=$fw_digest ticks=$fw_ticks"
 echo "host:     force_digest=$host_digest ticks=$host_ticks"
+if [ -n "$chip" ]; then
+  echo "chip=$chip"
+  echo "scenario=$host_scenario"
+fi
 echo "force_digest=$fw_digest"
 echo "servo_latency_instructions_max=$(val servo_latency_instructions_max)"
 echo "sim_step_instructions_max=$(val sim_step_instructions_max)"
@@ -257,8 +309,44 @@ misses="$(val deadline_misses)"
 echo "deadline_misses=$misses"
 echo "flash_bytes=$((text + data))"
 echo "ram_bytes=$((data + bss))"
+region_fail=""
+sat_fail=""
+if [ -n "$chip" ]; then
+  sections="$(llvm-size -A -d "$elf" 2>/dev/null || arm-none-eabi-size -A -d "$elf")"
+  for r in $regions; do
+    name="${r%%:*}"; rest="${r#*:}"; secs="${rest%%:*}"; len="${rest##*:}"
+    used=0
+    for sec in ${secs//,/ }; do
+      n="$(echo "$sections" | awk -v s="$sec" '$1 == s { print $2 }')"
+      used=$((used + ${n:-0}))
+    done
+    echo "ram_bytes_$name=$used"
+    [ "$used" -le "$len" ] || region_fail="$region_fail $name ($used of $len bytes)"
+  done
+  echo "stack_bytes=$(val stack_bytes)"
+  echo "instructions_per_tick_max=$(val instructions_per_tick_max)"
+  # The firmware's saturations line: "saturations=N (hash H, candidates C, arena A, pending P, contact S)".
+  sat_line="$(grep -m1 '^saturations=' "$work/fw.txt" || true)"
+  for kind in hash candidates arena pending contact; do
+    fw_n="$(echo "$sat_line" | grep -o "$kind [0-9]*" | grep -o '[0-9]*$')"
+    json_key="$kind"; [ "$kind" != contact ] || json_key="contact_search"
+    host_n="$(jnum "$json_key" "$work/host.json")"
+    echo "saturations_$kind=$fw_n"
+    [ "$fw_n" = "$host_n" ] || sat_fail="$sat_fail $kind (firmware $fw_n, host $host_n)"
+  done
+  echo "removed_volume=$(jnum removed_volume "$work/host.json")"
+  echo "removed_volume_default=$(jnum removed_volume "$work/default.json")"
+fi
 if [ "$fw_digest" != "$host_digest" ] || [ "$fw_ticks" != "$host_ticks" ]; then
   echo "port-check: FAIL: the firmware and the host disagree" >&2
+  exit 1
+fi
+if [ -n "$region_fail" ]; then
+  echo "port-check: FAIL: over the chip's region:$region_fail" >&2
+  exit 1
+fi
+if [ -n "$sat_fail" ]; then
+  echo "port-check: FAIL: the firmware's saturations differ from the host's:$sat_fail" >&2
   exit 1
 fi
 if [ "$misses" != 0 ]; then
@@ -283,4 +371,6 @@ if [ -n "$max_stack" ]; then
   fi
   echo "port-check: stack high-water mark $stack bytes, within $max_stack"
 fi
-echo "port-check: OK: bit-identical forces on x86-64 and the $cpu, no deadline missed"
+on="the $cpu"
+[ -z "$chip" ] || on="the $chip ($cpu)"
+echo "port-check: OK: bit-identical forces on x86-64 and $on, no deadline missed"

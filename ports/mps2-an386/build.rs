@@ -1,5 +1,7 @@
-//! Puts `memory.x` where the linker finds it (cortex-m-rt's `link.x` includes it), with the
-//! target's PSRAM address written in, and picks
+//! Puts `memory.x` where the linker finds it (cortex-m-rt's `link.x` includes it): the MPS2
+//! map with the target's PSRAM address written in, or a chip's (`chip-f405`:
+//! `memory-f405.x.in`, its CCM at QEMU's address with `TETRADRILL_F405_CCM=qemu`; `chip-h743`:
+//! `memory-h743.x.in`), the stack's reserve written in; and picks
 //! the scenario: `TETRADRILL_SCENARIO=cow` or `tooth` with `TETRADRILL_BLOB=FILE` (a blob
 //! written by `tetradrill export --firmware`) copies the blob to `OUT_DIR/mesh.tdb` for
 //! `include_bytes!` and writes its counts to `OUT_DIR/mesh_counts.rs` so the statics are sized
@@ -11,17 +13,45 @@ use std::env;
 use std::fs;
 use std::path::PathBuf;
 
+/// The stack's reserve on a chip's RAM, its MPU guard included (`memory::GUARD_BYTES`, 4 KB):
+/// the link fails when the statics leave less. The deepest mark measured is start-up's, about
+/// 30 KB (`World::new`'s frame, docs/PORTING.md).
+const STACK_RESERVE: &str = "36K";
+
 fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
-    let psram = if env::var_os("CARGO_FEATURE_M7").is_some() {
-        "0x60000000"
+    let f405 = env::var_os("CARGO_FEATURE_CHIP_F405").is_some();
+    let h743 = env::var_os("CARGO_FEATURE_CHIP_H743").is_some();
+    assert!(
+        !(f405 && h743),
+        "chip-f405 and chip-h743 are two chips: pick one"
+    );
+    let memory = if f405 {
+        // QEMU's STM32F405 has no CCM: its build puts the CCM's 64 KB in the upper part of
+        // QEMU's 192 KB of SRAM (memory-f405.x.in).
+        let ccm = match env::var("TETRADRILL_F405_CCM").as_deref() {
+            Ok("qemu") => "0x20020000",
+            _ => "0x10000000",
+        };
+        include_str!("memory-f405.x.in")
+            .replace("CCM_ORIGIN", ccm)
+            .replace("STACK_RESERVE", STACK_RESERVE)
+    } else if h743 {
+        include_str!("memory-h743.x.in").replace("STACK_RESERVE", STACK_RESERVE)
     } else {
-        "0x21000000"
+        let psram = if env::var_os("CARGO_FEATURE_M7").is_some() {
+            "0x60000000"
+        } else {
+            "0x21000000"
+        };
+        include_str!("memory.x.in").replace("PSRAM_ORIGIN", psram)
     };
-    let memory = include_str!("memory.x.in").replace("PSRAM_ORIGIN", psram);
     fs::write(out.join("memory.x"), memory).expect("cannot write memory.x");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=memory.x.in");
+    println!("cargo:rerun-if-changed=memory-f405.x.in");
+    println!("cargo:rerun-if-changed=memory-h743.x.in");
+    println!("cargo:rerun-if-env-changed=TETRADRILL_F405_CCM");
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-env-changed=TETRADRILL_SCENARIO");
     println!("cargo:rerun-if-env-changed=TETRADRILL_BLOB");

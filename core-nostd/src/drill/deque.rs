@@ -13,6 +13,8 @@ pub(super) struct Ring<'a> {
     slots: &'a mut [Pending],
     head: usize,
     len: usize,
+    /// The most items it has held at once (the high-water mark).
+    peak: usize,
 }
 
 impl<'a> Ring<'a> {
@@ -22,6 +24,7 @@ impl<'a> Ring<'a> {
             slots,
             head: 0,
             len: 0,
+            peak: 0,
         }
     }
 
@@ -29,6 +32,18 @@ impl<'a> Ring<'a> {
     #[inline]
     pub(super) fn len(&self) -> usize {
         self.len
+    }
+
+    /// The most items it has held at once since it was made.
+    #[inline]
+    pub(super) fn peak(&self) -> usize {
+        self.peak
+    }
+
+    /// Its capacity.
+    #[inline]
+    pub(super) fn capacity(&self) -> usize {
+        self.slots.len()
     }
 
     /// Free slots.
@@ -56,6 +71,7 @@ impl<'a> Ring<'a> {
         if let Some(slot) = self.slots.get_mut(at) {
             *slot = p;
             self.len += 1;
+            self.peak = self.peak.max(self.len);
             true
         } else {
             false
@@ -73,6 +89,7 @@ impl<'a> Ring<'a> {
             *slot = p;
             self.head = at;
             self.len += 1;
+            self.peak = self.peak.max(self.len);
             true
         } else {
             false

@@ -217,6 +217,21 @@ impl<'a> Drill<'a> {
         self.coarse.len() + self.fine.len()
     }
 
+    /// The pending deque's high-water marks since creation: the most items the coarse ring
+    /// and the fine ring have each held at once, beside their capacities, as
+    /// `[coarse peak, coarse capacity, fine peak, fine capacity]` (a deque under
+    /// `super::FINE_MIN_DEQUE` entries has no fine ring: its capacity is 0). A ring whose peak
+    /// stays below its capacity never dropped work.
+    #[inline]
+    pub fn pending_peaks(&self) -> [usize; 4] {
+        [
+            self.coarse.peak(),
+            self.coarse.capacity(),
+            self.fine.peak(),
+            self.fine.capacity(),
+        ]
+    }
+
     /// Work items dropped because the pending deque was full (since creation). The arena's
     /// refusals are counted by [`Hierarchy::saturations`].
     #[inline]

@@ -14,8 +14,13 @@ use crate::storage::{carve, lines_of, Memory, Part, PartSet, Slots, StorageError
 /// `tet * 4 + face`. Scratch for [`Mesh::build`]: the caller hands in `4 * tets` of them.
 ///
 /// Packed in one `u128` (ids from the high bits down, the owner lowest), so sorting compares
-/// one integer: the order is the ids' lexicographic order, then the owner's.
-#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug, Default)]
+/// one integer: the order is the ids' lexicographic order, then the owner's. Plain bits
+/// (`bytemuck::Pod`), so a board can carve its scratch from memory it later carves other
+/// storage from ([`crate::storage::carve`]).
+#[derive(
+    Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug, Default, bytemuck::Pod, bytemuck::Zeroable,
+)]
+#[repr(transparent)]
 pub struct FaceKey(u128);
 
 impl FaceKey {

@@ -474,6 +474,12 @@ impl<'a> World<'a> {
         self.drill.pending()
     }
 
+    /// The drill's pending deque's high-water marks, ring by ring, beside the rings'
+    /// capacities ([`Drill::pending_peaks`]): what a board sizes the deque from.
+    pub fn pending_peaks(&self) -> [usize; 4] {
+        self.drill.pending_peaks()
+    }
+
     /// Erases the debris of the drilled material: detached pieces smaller than `max_leaves`
     /// leaves of depth `max_depth` ([`Hierarchy::remove_debris`], usually with
     /// [`crate::hierarchy::DEBRIS_LEAVES`] and the drill's `max_depth`). `scratch` holds

@@ -7,6 +7,9 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+mod chips;
+pub use chips::*;
+
 use serde::{Deserialize, Serialize};
 
 use crate::error::CliError;
@@ -428,6 +431,38 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             zone_gather_work: 2_000,
             ..builtin("firmware")?
         }),
+        // The firmware scenario as an STM32F405 runs it (`scripts/port-check.sh --chip f405`;
+        // ports/mps2-an386/src/scenario.rs, `chip`, holds the same numbers): sized for its
+        // 128 KB of SRAM and 64 KB of CCM from the peaks `replay --json` measures at the
+        // default sizes (docs/PORTING.md, "On named chips"). The candidates and the hash hold
+        // their peaks (108 and 2,058); the arena (peak 13,944) and the pending deque (16,384
+        // entries: peaks 1,159 coarse and 1,483 fine) get what the chip has left, so the
+        // drill is coarser and its saturations are counted.
+        "f405-block" => Some(Scenario {
+            hierarchy_capacity: Some(F405_ARENA),
+            pending_capacity: Some(F405_PENDING),
+            candidate_capacity: Some(F405_CANDIDATES),
+            hash_capacity: Some(F405_HASH_ENTRIES),
+            ..builtin("firmware")?
+        }),
+        // `builtin:f405-block` with the two materials of `builtin:firmware-regions`.
+        "f405-regions" => Some(Scenario {
+            regions: labelled(demo_regions()),
+            ..builtin("f405-block")?
+        }),
+        // The firmware's tooth as an STM32H743 runs it (`scripts/port-check.sh --chip h743`;
+        // ports/mps2-an386/src/scenario.rs, `chip`, holds the same numbers): sized for its
+        // regions from the peaks at the default sizes. The hash (23,824 entries) and the
+        // candidates (283 a third) hold their peaks, the pending deque (one coarse ring) its
+        // peak of 639 at this arena; the arena (peak 57,240) gets what SRAM1-3 has left, so
+        // the drill is coarser and its saturations are counted.
+        "h743-tooth" => Some(Scenario {
+            hierarchy_capacity: Some(H743_ARENA),
+            pending_capacity: Some(H743_PENDING),
+            candidate_capacity: Some(H743_CANDIDATES),
+            hash_capacity: Some(H743_HASH_ENTRIES),
+            ..builtin("firmware-tooth")?
+        }),
         // The firmware block soft (`scripts/port-check.sh --scenario soft`): its step and the
         // world's update spread over the ticks of each cycle, sized so that a tick's share
         // fits the Cortex-M4's period beside the simulation step (docs/SOFT.md, "On the
@@ -484,7 +519,7 @@ impl Scenario {
         if let Some(name) = spec.strip_prefix("builtin:") {
             return builtin(name).ok_or_else(|| {
                 CliError::input(format!(
-                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow, builtin:firmware-regions, builtin:firmware-soft, builtin:firmware-tooth)"
+                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow, builtin:firmware-regions, builtin:firmware-soft, builtin:firmware-tooth, builtin:f405-block, builtin:f405-regions, builtin:h743-tooth)"
                 ))
             });
         }

@@ -1,13 +1,22 @@
 //! SysTick as the servo's 1 kHz timer and as an instruction counter.
 //!
 //! Under QEMU with `-icount shift=S` every instruction takes `2^S` ns of virtual time, and the
-//! MPS2 SysTick runs from the 25 MHz processor clock (40 ns a count) when CLKSOURCE selects it,
-//! so `instructions = counts * 40 / 2^S`. The firmware gives the servo period in instructions
+//! SysTick counts at the processor clock QEMU gives it when CLKSOURCE selects it, so every
+//! SysTick count is a fixed fraction of an instruction, [`INSTRUCTIONS_PER_COUNT`]:
+//!
+//! | machine | SysTick's processor clock | `S` | ns a count | instructions a count |
+//! |---|---|---|---|---|
+//! | `mps2-an386`, `mps2-an500` (and the H743's map on it) | 25 MHz | 10 | 40 | 40 / 1024 |
+//! | `netduinoplus2` (the F405) | 168 MHz (its reference clock: 21 MHz) | 3 | 125 / 21 | 125 / 168 |
+//!
+//! On the F405 a count is 0.744 instructions, so a count of instructions is exact to one
+//! instruction, and 168,000 instructions (1 ms at 168 MHz) are exactly 225,792 counts, within
+//! the 24-bit reload. The firmware gives the servo period in instructions
 //! ([`crate::target::PERIOD_INSTRUCTIONS`], 1 ms at the target's clock, one instruction a
-//! cycle) and sets the SysTick reload to that many counts: the SysTick exception is the servo's
-//! timer event, and `reload - current` is the time since the event, exact to the instruction.
-//! [`now`] extends it with the number of events the servo has counted ([`EVENTS`]). The DWT
-//! cycle counter reads 0 under QEMU and is not used.
+//! cycle) and sets the SysTick reload to that many instructions' counts: the SysTick exception
+//! is the servo's timer event, and `reload - current` is the time since the event. [`now`]
+//! extends it with the number of events the servo has counted ([`EVENTS`]). The DWT cycle
+//! counter reads 0 under QEMU and is not used.
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
@@ -16,18 +25,30 @@ use cortex_m::peripheral::{SCB, SYST};
 
 use crate::target::PERIOD_INSTRUCTIONS;
 
-/// The `-icount shift` the runner uses.
+/// The `-icount shift` the runner uses (scripts/port-check.sh passes the same).
+#[cfg(not(feature = "chip-f405"))]
 pub const ICOUNT_SHIFT: u32 = 10;
-/// Nanoseconds per SysTick count at 25 MHz.
-const NS_PER_COUNT: u64 = 40;
-/// SysTick counts in one servo period: `PERIOD_INSTRUCTIONS * 2^S / 40`.
+/// The `-icount shift` the runner uses (scripts/port-check.sh passes the same).
+#[cfg(feature = "chip-f405")]
+pub const ICOUNT_SHIFT: u32 = 3;
+
+/// Instructions a SysTick count, as `(numerator, denominator)`: `ns a count / 2^S`.
+#[cfg(not(feature = "chip-f405"))]
+pub const INSTRUCTIONS_PER_COUNT: (u64, u64) = (40, 1 << ICOUNT_SHIFT);
+/// Instructions a SysTick count, as `(numerator, denominator)`: `ns a count / 2^S`, a count
+/// being 1 / 168 MHz = 125 / 21 ns.
+#[cfg(feature = "chip-f405")]
+pub const INSTRUCTIONS_PER_COUNT: (u64, u64) = (125, 21 << ICOUNT_SHIFT);
+
+/// SysTick counts in one servo period: `PERIOD_INSTRUCTIONS` over [`INSTRUCTIONS_PER_COUNT`].
 pub const PERIOD_COUNTS: u32 = {
-    let c = (PERIOD_INSTRUCTIONS as u64) << ICOUNT_SHIFT;
+    let (num, den) = INSTRUCTIONS_PER_COUNT;
+    let c = PERIOD_INSTRUCTIONS as u64 * den;
     assert!(
-        c.is_multiple_of(NS_PER_COUNT),
+        c.is_multiple_of(num),
         "the period must be a whole number of counts"
     );
-    let c = c / NS_PER_COUNT;
+    let c = c / num;
     assert!(c <= 0x0100_0000, "the period must fit the 24-bit SysTick");
     c as u32
 };
@@ -39,9 +60,11 @@ const FULL: u32 = 0x00FF_FFFF;
 /// Timer events the servo has taken (incremented first thing in its handler).
 pub static EVENTS: AtomicU32 = AtomicU32::new(0);
 
-/// Instructions in `counts` SysTick counts.
+/// Instructions in `counts` SysTick counts (rounded down: exact on the MPS2 boards, within
+/// one instruction on the F405).
 pub fn instructions(counts: u64) -> u64 {
-    (counts * NS_PER_COUNT) >> ICOUNT_SHIFT
+    let (num, den) = INSTRUCTIONS_PER_COUNT;
+    counts * num / den
 }
 
 /// SysTick counts since the current period's timer event (the event itself counts 1).

@@ -64,10 +64,10 @@ static MESH_BLOB: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/mesh.tdb"));
 /// itself in a static ([`storage::place_world`]: 25 KB, kept off the stack).
 #[inline(never)]
 pub fn build_world() -> &'static mut World<'static> {
-    let st = Storage::take();
+    let mut st = Storage::take();
     if cfg!(blob_mesh) {
         let mesh = mesh_from_blob(st.positions, st.mesh.normals, st.mesh.nodes);
-        let world = storage::place_world(mesh, st.world);
+        let world = storage::place_world(mesh, st.world.carve());
         world.set_contact_max_nodes(scenario::contact_nodes());
         if cfg!(scenario_tooth) {
             let regions = blob_regions(st.regions, st.tet_region)
@@ -87,8 +87,8 @@ pub fn build_world() -> &'static mut World<'static> {
         }
         return world;
     }
-    let mesh = block_mesh(st.positions, st.tet_nodes, st.face_scratch, st.mesh);
-    let world = storage::place_world(mesh, st.world);
+    let mesh = block_mesh(st.positions, st.tet_nodes, st.world.face_scratch(), st.mesh);
+    let world = storage::place_world(mesh, st.world.carve());
     world.set_contact_max_nodes(scenario::contact_nodes());
     if cfg!(scenario_regions) {
         let regions = crate::storage::regions(st.regions, st.tet_region)
@@ -154,12 +154,12 @@ pub fn unit_costs(overhead: u64) -> [u64; 3] {
     [t1 - t0, t2 - t1, t3 - t2].map(|d| clock::instructions(d as u64).saturating_sub(overhead))
 }
 
-/// The unit block, exactly as the host's `builtin:block:N` makes it (its tet list and the
-/// face scratch in statics, see [`storage`]).
+/// The unit block, exactly as the host's `builtin:block:N` makes it (its tet list in a
+/// static, the face scratch lent by the world's storage, see [`storage`]).
 fn block_mesh(
     positions: &'static mut [Vec3],
     tet_nodes: &'static mut [[u32; 4]],
-    scratch: &'static mut [FaceKey],
+    scratch: &mut [FaceKey],
     storage: MeshStorage<'static>,
 ) -> Mesh<'static> {
     let edge = 1.0 / BLOCK_N as f32;

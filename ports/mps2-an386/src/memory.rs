@@ -15,15 +15,16 @@
 //! an MPU region no access is allowed to, and the MemManage handler puts the stack pointer
 //! back at the top, stops the motors, prints `error: stack overflow` and resets ([`crate::fault`]) (in `init`, where
 //! MemManage is masked, the fault escalates to the HardFault handler, which runs with the MPU
-//! off and says the same when its frame lies in the guard). The guard is larger than any frame
-//! of the firmware (the largest, `storage::place_world`'s, is 27 KB), so no frame can step over
-//! it.
+//! off and says the same when its frame lies in the guard). On the MPS2 boards the guard is
+//! larger than any frame of the firmware (the largest, `storage::place_world`'s, is 27 KB), so
+//! no frame can step over it; on a chip it is larger than any frame of the run
+//! ([`GUARD_BYTES`]).
 //!
 //! Memory the runtime does not initialise: cortex-m-rt zeroes `.bss` and copies `.data`, and
-//! nothing else. The `.psram` section (NOLOAD, outside RAM) holds `ConstStaticCell`s whose
-//! taken flags must start false, so `__pre_init` (below) zeroes it, from `__spsram` to
-//! `__epsram` (`memory.x.in`), before RAM is initialised: the firmware does not rely on the
-//! memory starting zeroed. `.uninit` holds only RTIC's late resources, written by RTIC from
+//! nothing else. The NOLOAD sections (`.psram` outside RAM on the MPS2 boards; a chip's named
+//! regions) hold `ConstStaticCell`s whose taken flags must start false, so `__pre_init`
+//! (below) zeroes them, the ranges `__szeroN` to `__ezeroN` the memory templates define,
+//! before RAM is initialised: the firmware does not rely on the memory starting zeroed. `.uninit` holds only RTIC's late resources, written by RTIC from
 //! `init`'s return value before any task reads them.
 
 use core::arch::global_asm;
@@ -32,27 +33,48 @@ use core::sync::atomic::{AtomicUsize, Ordering};
 
 use cortex_m_rt::STACK_PAINT_VALUE;
 
+/// The assembly that fills `start..end` (linker symbols) with the word in `r2`.
+macro_rules! fill_range {
+    ($start:literal, $end:literal) => {
+        concat!(
+            "\n ldr r0, =",
+            $start,
+            "\n ldr r1, =",
+            $end,
+            "\n 0:\n cmp r1, r0\n beq 1f\n stm r0!, {{r2}}\n b 0b\n 1:\n"
+        )
+    };
+}
+
+/// The assembly that fills each range `__szeroN..__ezeroN` with the word in `r2` (`r0`, `r1`
+/// used; the loop labels local).
+macro_rules! zero_ranges {
+    () => {
+        concat!(
+            fill_range!("__szero0", "__ezero0"),
+            fill_range!("__szero1", "__ezero1"),
+            fill_range!("__szero2", "__ezero2"),
+            fill_range!("__szero3", "__ezero3"),
+        )
+    };
+}
+
 // cortex-m-rt's reset handler calls `__pre_init` first (before zeroing `.bss`, copying `.data`
-// and painting the stack): zero the `.psram` section word by word. Assembly, as no Rust code
-// may run before RAM is initialised; it uses no stack.
+// and painting the stack): zero the NOLOAD sections of statics, the ranges `__szero0` to
+// `__ezero0` ... `__szero3` to `__ezero3` each memory template defines (`.psram` on the MPS2
+// boards; a chip's named regions: `.sram` and `.ccm` on the F405, `.dtcm`, `.axisram`,
+// `.sram123` and `.sram4` on the H743), word by word. Assembly, as no Rust code may run
+// before RAM is initialised; it uses no stack.
 #[cfg(not(feature = "garbage"))]
 global_asm!(
     ".section .text.__pre_init, \"ax\"
      .global __pre_init
      .type __pre_init, %function
      .thumb_func
-     __pre_init:",
-    // Zero .psram.
-    "ldr r0, =__spsram
-     ldr r1, =__epsram
-     movs r2, #0
-     0:
-     cmp r1, r0
-     beq 1f
-     stm r0!, {{r2}}
-     b 0b
-     1:
-     bx lr
+     __pre_init:
+     movs r2, #0",
+    zero_ranges!(),
+    "bx lr
      .ltorg"
 );
 
@@ -61,47 +83,23 @@ global_asm!(
 pub const GARBAGE: u32 = 0xa5a5_a5a5;
 
 // With the `garbage` feature (`scripts/port-check.sh --garbage`), `__pre_init` first fills RAM
-// from `_stack_end` to `__euninit` (the stack, `.data`, `.bss` and `.uninit`) and the `.psram`
-// section with [`GARBAGE`], then zeroes `.psram` as above: a run that matches the host's digest
-// proves that nothing reads memory the firmware or the runtime did not initialise (QEMU's
-// loader itself zero-fills the image's `.bss` and `.uninit`).
+// from `_stack_end` to `__euninit` (the stack, `.data`, `.bss` and `.uninit`) and the NOLOAD
+// ranges with [`GARBAGE`], then zeroes the NOLOAD ranges as above: a run that matches the
+// host's digest proves that nothing reads memory the firmware or the runtime did not
+// initialise (QEMU's loader itself zero-fills the image's `.bss` and `.uninit`).
 #[cfg(feature = "garbage")]
 global_asm!(
     ".section .text.__pre_init, \"ax\"
      .global __pre_init
      .type __pre_init, %function
      .thumb_func
-     __pre_init:",
-    // Fill RAM (the stack and the statics) with the pattern.
-    "ldr r0, =_stack_end
-     ldr r1, =__euninit
-     ldr r2, =0xa5a5a5a5
-     0:
-     cmp r1, r0
-     beq 1f
-     stm r0!, {{r2}}
-     b 0b
-     1:",
-    // Fill .psram with the pattern.
-    "ldr r0, =__spsram
-     ldr r1, =__epsram
-     0:
-     cmp r1, r0
-     beq 1f
-     stm r0!, {{r2}}
-     b 0b
-     1:",
-    // Zero .psram.
-    "ldr r0, =__spsram
-     ldr r1, =__epsram
-     movs r2, #0
-     0:
-     cmp r1, r0
-     beq 1f
-     stm r0!, {{r2}}
-     b 0b
-     1:
-     bx lr
+     __pre_init:
+     ldr r2, =0xa5a5a5a5",
+    fill_range!("_stack_end", "__euninit"),
+    zero_ranges!(),
+    "movs r2, #0",
+    zero_ranges!(),
+    "bx lr
      .ltorg"
 );
 
@@ -113,8 +111,15 @@ extern "C" {
 }
 
 /// Bytes of the stack guard: the MPU region at the bottom of the stack (a power of two, its
-/// base aligned to it).
-pub const GUARD_BYTES: usize = 64 * 1024;
+/// base aligned to it). 64 KB on the MPS2 boards (larger than any frame, start-up's 27 KB
+/// included); 4 KB on a chip, whose RAM cannot spare more: larger than any frame of the run
+/// (the largest, `World::simulate`'s, is 3 KB), and start-up, whose one large frame
+/// (`World::new`'s) comes once at reset, is measured against the stack's reserve (build.rs).
+pub const GUARD_BYTES: usize = if cfg!(any(feature = "chip-f405", feature = "chip-h743")) {
+    4 * 1024
+} else {
+    64 * 1024
+};
 
 /// The guard's base: `_stack_end` rounded up to [`GUARD_BYTES`] (`_stack_end` itself with
 /// flip-link, the start of RAM).

@@ -5,6 +5,7 @@
 use tetradrill_core::drill::{DrillParams, Material};
 use tetradrill_core::force::ForceParams;
 use tetradrill_core::script::{Script, DEMO, DRILL_ON, TOOTH_ACCESS};
+use tetradrill_core::storage::PartSet;
 use tetradrill_core::Vec3;
 
 /// `tool = "sphere:0.1"` (the tooth, in metres: `sphere:0.0007`).
@@ -37,8 +38,10 @@ pub const BUDGET: u32 = 300;
 pub const CONTACT_NODES: u32 = 64;
 
 /// Hierarchy arena nodes (`hierarchy_capacity`): 20,000 on the block, 40,000 on the cow,
-/// 60,000 on the tooth.
-pub const ARENA: usize = if cfg!(scenario_cow) {
+/// 60,000 on the tooth; on a chip, [`chip::ARENA`].
+pub const ARENA: usize = if CHIP {
+    chip::ARENA
+} else if cfg!(scenario_cow) {
     40_000
 } else if cfg!(scenario_tooth) {
     60_000
@@ -47,12 +50,21 @@ pub const ARENA: usize = if cfg!(scenario_cow) {
 };
 /// Entries of the drill's pending deque (`pending_capacity`, 60 bytes each): 16,384 on the
 /// block (its peak is under 9,400), 8,192 on the cow (it fills there; the host's
-/// `builtin:firmware-cow` drops the same work).
-pub const PENDING_ITEMS: usize = if cfg!(scenario_cow) { 8_192 } else { 16_384 };
+/// `builtin:firmware-cow` drops the same work); on a chip, [`chip::PENDING`].
+pub const PENDING_ITEMS: usize = if CHIP {
+    chip::PENDING
+} else if cfg!(scenario_cow) {
+    8_192
+} else {
+    16_384
+};
 /// Coarse tets one step takes near the tool (`candidate_capacity`): the core's default 1,024
 /// on the block; on the cow's finer tets 12,288, in thirds for its candidate gather (the tets
-/// near the burr, the list in use, the list being gathered: `ZoneGather`).
-pub const CANDIDATES: usize = if cfg!(scenario_cow) {
+/// near the burr, the list in use, the list being gathered: `ZoneGather`); on a chip,
+/// [`chip::CANDIDATES`].
+pub const CANDIDATES: usize = if CHIP {
+    chip::CANDIDATES
+} else if cfg!(scenario_cow) {
     12_288
 } else if cfg!(scenario_tooth) {
     3_072
@@ -90,8 +102,105 @@ pub const SOFT_SPHERE_MEMO: usize = 256;
 /// The soft body's damping rate (the host's `soft::DAMPING`, an f32).
 #[cfg(scenario_soft)]
 pub const SOFT_DAMPING: f32 = 10.0;
-/// The scenario's name in the output.
-pub const NAME: &str = if cfg!(scenario_cow) {
+/// Hash entries (`hash_capacity`): the host's default (8 a tet) but on a chip,
+/// [`chip::HASH_ENTRIES`].
+pub const HASH_ENTRIES: Option<usize> = if CHIP { Some(chip::HASH_ENTRIES) } else { None };
+/// Sphere memo slots: the host's default (4,096) but on a chip, [`chip::SPHERE_MEMO`] (any
+/// size gives the same results; a smaller one costs instructions, not bits).
+pub const SPHERE_MEMO: Option<usize> = if CHIP { Some(chip::SPHERE_MEMO) } else { None };
+/// The world's parts in its second array, in the chip's second region (none off a chip).
+pub const SECOND_PARTS: PartSet = if CHIP {
+    chip::SECOND_PARTS
+} else {
+    PartSet::EMPTY
+};
+
+/// A build for a named chip (`chip-f405` or `chip-h743`): its scenario sized for its memory.
+pub const CHIP: bool = cfg!(any(feature = "chip-f405", feature = "chip-h743"));
+
+/// The sizes of a chip's scenario, each from the peak the host measured on the scenario at the
+/// default sizes (`tetradrill replay --scenario builtin:firmware[-regions|-tooth] --json`, its
+/// `peaks`; docs/PORTING.md, "On named chips"). A buffer that holds its peak has it with a
+/// margin of at least a quarter, rounded up to 64 entries (the hash's entries, fixed by the
+/// mesh, exactly, rounded up to 64); a buffer the chip's RAM cannot give its peak (the arena,
+/// the pending deque) gets what is left, and its saturations are counted, the same on the
+/// host (`builtin:f405-block`, `builtin:f405-regions`, `builtin:h743-tooth` have these
+/// sizes).
+#[cfg(feature = "chip-f405")]
+pub mod chip {
+    use tetradrill_core::storage::{Part, PartSet};
+
+    /// Hierarchy arena nodes: what the CCM and SRAM have left (the block's peak is 13,944).
+    pub const ARENA: usize = 2_000;
+    /// Pending deque entries: under `FINE_MIN_DEQUE` (1,024), one coarse ring (the block's
+    /// peaks at 16,384 entries: 1,159 coarse, 1,483 fine).
+    pub const PENDING: usize = 128;
+    /// Candidates a step: the block's peak is 108.
+    pub const CANDIDATES: usize = 192;
+    /// Hash entries: the block's hash stores 2,058.
+    pub const HASH_ENTRIES: usize = 2_112;
+    /// Sphere memo slots.
+    pub const SPHERE_MEMO: usize = 128;
+    /// The world's parts in the CCM (the rest in SRAM).
+    pub const SECOND_PARTS: PartSet = PartSet::EMPTY
+        .with(Part::HashEntries)
+        .with(Part::SphereMemo)
+        .with(Part::Candidates);
+}
+
+/// The sizes of a chip's scenario (see the F405's).
+#[cfg(feature = "chip-h743")]
+pub mod chip {
+    use tetradrill_core::storage::{Part, PartSet};
+
+    /// Hierarchy arena nodes: what SRAM1-3 has left beside the tet boxes (the tooth's peak
+    /// is 57,240).
+    pub const ARENA: usize = 9_000;
+    /// Pending deque entries: under `FINE_MIN_DEQUE` (1,024), one coarse ring, which peaks at
+    /// 639 on the tooth with this arena (at 16,384 entries: 1,229 coarse, 519 fine).
+    pub const PENDING: usize = 832;
+    /// Candidates a step, in thirds (the tooth's peak is 283 a third).
+    pub const CANDIDATES: usize = 1_152;
+    /// Hash entries: the tooth's hash stores 23,824.
+    pub const HASH_ENTRIES: usize = 23_872;
+    /// Sphere memo slots.
+    pub const SPHERE_MEMO: usize = 256;
+    /// The world's parts in SRAM1-3 (the rest, the hash above all, in the AXI SRAM).
+    pub const SECOND_PARTS: PartSet = PartSet::EMPTY
+        .with(Part::TetBoxes)
+        .with(Part::Arena)
+        .with(Part::VList);
+}
+
+/// Off a chip: unused.
+#[cfg(not(any(feature = "chip-f405", feature = "chip-h743")))]
+pub mod chip {
+    use tetradrill_core::storage::PartSet;
+
+    /// Unused.
+    pub const ARENA: usize = 0;
+    /// Unused.
+    pub const PENDING: usize = 0;
+    /// Unused.
+    pub const CANDIDATES: usize = 0;
+    /// Unused.
+    pub const HASH_ENTRIES: usize = 0;
+    /// Unused.
+    pub const SPHERE_MEMO: usize = 0;
+    /// Unused.
+    pub const SECOND_PARTS: PartSet = PartSet::EMPTY;
+}
+
+/// The scenario's name in the output (the host's built-in scenario of the same run).
+pub const NAME: &str = if cfg!(feature = "chip-f405") {
+    if cfg!(scenario_regions) {
+        "builtin:f405-regions"
+    } else {
+        "builtin:f405-block"
+    }
+} else if cfg!(feature = "chip-h743") {
+    "builtin:h743-tooth"
+} else if cfg!(scenario_cow) {
     "builtin:firmware-cow"
 } else if cfg!(scenario_tooth) {
     "builtin:firmware-tooth"

@@ -215,6 +215,7 @@ impl Sim {
             crate::servo::LAG,
             self.world.zone_gather().map_or(0, |z| z.work())
         );
+        println!("chip={}", crate::target::CHIP);
         println!("force_digest={:016x}", s.digest);
         println!("ticks={}", s.ticks);
         println!("contact_ticks={}", s.contact_ticks);

@@ -20,7 +20,7 @@ use tetradrill_core::builtin::{block_labels, BLOCK_CORE, BLOCK_SHELL};
 use tetradrill_core::drill::{Region, Regions};
 use tetradrill_core::mesh::{FaceKey, Mesh, MeshStorage};
 use tetradrill_core::servo::{World, WorldSizes, WorldStorage};
-use tetradrill_core::storage::{Block, Line, Part, PartSet, Split};
+use tetradrill_core::storage::{carve, Block, Line, Part, PartSet, Split};
 use tetradrill_core::Vec3;
 
 use crate::scenario::{self, ARENA, PENDING_ITEMS};
@@ -51,6 +51,12 @@ pub const SIZES: WorldSizes = {
         .with_pending(PENDING_ITEMS)
         .with_changes(0);
     s.candidates = scenario::CANDIDATES;
+    if let Some(entries) = scenario::HASH_ENTRIES {
+        s.hash_entries = entries;
+    }
+    if let Some(slots) = scenario::SPHERE_MEMO {
+        s = s.with_sphere_memo(slots);
+    }
     if cfg!(scenario_soft) {
         // Each step's commit empties the memo: 256 slots (6 KB) instead of the host's 4,096
         // (96 KB). Any size gives the same results.
@@ -59,20 +65,21 @@ pub const SIZES: WorldSizes = {
     s
 };
 
-/// The parts in PSRAM: on the cow the hash (8 entries a tet, 2.3 MB) and the pending deque;
-/// none elsewhere.
-pub const PSRAM_PARTS: PartSet = if cfg!(scenario_cow) {
+/// The world's parts in its second array ([`WORLD_SECOND`]): on the cow the hash (8 entries a
+/// tet, 2.3 MB) and the pending deque, in PSRAM; on a chip the parts its first region cannot
+/// hold (`scenario::SECOND_PARTS`); none elsewhere.
+pub const SECOND_PARTS: PartSet = if cfg!(scenario_cow) {
     PartSet::EMPTY.with(Part::HashEntries).with(Part::Pending)
 } else {
-    PartSet::EMPTY
+    scenario::SECOND_PARTS
 };
 
-/// Lines of the world's storage in RAM and in PSRAM.
-const WORLD_LINES: usize = match SIZES.lines_in(PSRAM_PARTS, false) {
+/// Lines of the world's storage in its first and its second array.
+const WORLD_LINES: usize = match SIZES.lines_in(SECOND_PARTS, false) {
     Some(n) => n,
     None => panic!("the world's sizes overflow"),
 };
-const PSRAM_LINES: usize = match SIZES.lines_in(PSRAM_PARTS, true) {
+const SECOND_LINES: usize = match SIZES.lines_in(SECOND_PARTS, true) {
     Some(n) => n,
     None => panic!("the world's sizes overflow"),
 };
@@ -83,15 +90,30 @@ const MESH_LINES: usize = match MeshStorage::lines(NODES, RAM_TETS) {
     None => panic!("the mesh's sizes overflow"),
 };
 
+// On a chip every array below names its region (`memory-f405.x.in`, `memory-h743.x.in`):
+// NOLOAD sections that `__pre_init` zeroes (the cells' taken flags) and whose slots the carve
+// or the mesh's build writes before use. Elsewhere they are `.bss` (the cow's second world
+// array in `.psram`, NOLOAD as well).
+
+/// The mesh's node positions.
+#[cfg_attr(feature = "chip-f405", link_section = ".ccm.positions")]
+#[cfg_attr(feature = "chip-h743", link_section = ".sram4.positions")]
 static POSITIONS: ConstStaticCell<[Vec3; NODES]> = ConstStaticCell::new([Vec3::ZERO; NODES]);
 /// The mesh's records, carved by the core's layout.
+#[cfg_attr(feature = "chip-f405", link_section = ".ccm.mesh")]
+#[cfg_attr(feature = "chip-h743", link_section = ".sram4.mesh")]
 static MESH: ConstStaticCell<[Line; MESH_LINES]> = ConstStaticCell::new([Line::ZERO; MESH_LINES]);
+/// The world's storage but [`SECOND_PARTS`].
+#[cfg_attr(feature = "chip-f405", link_section = ".sram.world")]
+#[cfg_attr(feature = "chip-h743", link_section = ".axisram.world")]
 static WORLD: ConstStaticCell<[Line; WORLD_LINES]> =
     ConstStaticCell::new([Line::ZERO; WORLD_LINES]);
-// NOLOAD: its contents at reset do not matter, every slot is written by the carve.
+/// The world's [`SECOND_PARTS`].
 #[cfg_attr(scenario_cow, link_section = ".psram.world")]
-static WORLD_PSRAM: ConstStaticCell<[Line; PSRAM_LINES]> =
-    ConstStaticCell::new([Line::ZERO; PSRAM_LINES]);
+#[cfg_attr(feature = "chip-f405", link_section = ".ccm.world")]
+#[cfg_attr(feature = "chip-h743", link_section = ".sram123.world")]
+static WORLD_SECOND: ConstStaticCell<[Line; SECOND_LINES]> =
+    ConstStaticCell::new([Line::ZERO; SECOND_LINES]);
 /// The materials of `builtin:firmware-regions`, in label order (the shell, then the core).
 #[cfg(not(scenario_tooth))]
 static REGIONS: ConstStaticCell<[Region; 2]> =
@@ -105,18 +127,18 @@ static REGIONS: ConstStaticCell<[Region; 3]> = ConstStaticCell::new([
 ]);
 /// Each tet's region index (0 the shell, 1 the core; on the tooth its label's place in
 /// `scenario::TOOTH_LABELS`; used by the regions and tooth scenarios only).
+#[cfg_attr(feature = "chip-f405", link_section = ".ccm.tet_region")]
+#[cfg_attr(feature = "chip-h743", link_section = ".sram4.tet_region")]
 static TET_REGION: ConstStaticCell<[u8; TETS]> = ConstStaticCell::new([0; TETS]);
 
 /// The block's tet list (node indices; empty for a blob's mesh), written by `builtin::block`.
+#[cfg_attr(feature = "chip-f405", link_section = ".ccm.tet_nodes")]
+#[cfg_attr(feature = "chip-h743", link_section = ".sram4.tet_nodes")]
 static TET_NODES: ConstStaticCell<[[u32; 4]; RAM_TETS]> = ConstStaticCell::new([[0; 4]; RAM_TETS]);
-/// `Mesh::build`'s face scratch (`4 * TETS` keys, 24 KB on the block; empty for a blob's mesh,
-/// which is built without it): a static, not a stack frame, so the stack's bound does not
-/// carry it.
-static FACE_SCRATCH: ConstStaticCell<[FaceKey; 4 * RAM_TETS]> =
-    ConstStaticCell::new([FaceKey::ZERO; 4 * RAM_TETS]);
-
 /// The world itself (25 KB: its zone memo and walk stacks are inline), in `.bss` rather than
 /// moved through `init`'s stack frame into RTIC's resources.
+#[cfg_attr(feature = "chip-f405", link_section = ".sram.world_value")]
+#[cfg_attr(feature = "chip-h743", link_section = ".dtcm.world_value")]
 static WORLD_VALUE: StaticCell<World<'static>> = StaticCell::new();
 
 /// The world over `mesh` and `storage`, built into its static (once; a second call panics).
@@ -137,8 +159,8 @@ pub struct Storage {
     pub positions: &'static mut [Vec3],
     /// The mesh's records.
     pub mesh: MeshStorage<'static>,
-    /// The world's hash, hierarchy, drill and candidate storage.
-    pub world: WorldStorage<'static>,
+    /// The world's arrays, carved into its storage once the mesh is built.
+    pub world: WorldLines,
     /// The regions' materials (two on the block, three on the tooth) and what they have
     /// earned and lost.
     pub regions: &'static mut [Region],
@@ -146,8 +168,40 @@ pub struct Storage {
     pub tet_region: &'static mut [u8],
     /// The block's tet list (empty for a blob's mesh).
     pub tet_nodes: &'static mut [[u32; 4]],
-    /// The face scratch of `Mesh::build` (empty for a blob's mesh).
-    pub face_scratch: &'static mut [FaceKey],
+}
+
+/// The world's two arrays of lines before its storage is carved from them: first lent to
+/// `Mesh::build` as its face scratch ([`WorldLines::face_scratch`], 24 KB on the block), then
+/// carved ([`WorldLines::carve`]), so the scratch takes no memory of its own.
+pub struct WorldLines {
+    first: &'static mut [Line],
+    second: &'static mut [Line],
+}
+
+impl WorldLines {
+    /// `Mesh::build`'s face scratch (`4 * RAM_TETS` keys; empty for a blob's mesh, built
+    /// without it), carved from the world's first array. Exits through [`crate::fail`] if
+    /// the array is smaller.
+    pub fn face_scratch(&mut self) -> &mut [FaceKey] {
+        let mut mem = Block::from_lines(&mut *self.first);
+        carve(&mut mem, Part::Other, 4 * RAM_TETS, FaceKey::ZERO)
+            .unwrap_or_else(|_| crate::fail("the world's statics do not hold the face scratch"))
+    }
+
+    /// The world's storage, every slot at the value the host's storage starts with (what the
+    /// face scratch left there overwritten). Panics (exit status 1) if the arrays do not hold
+    /// [`SIZES`].
+    pub fn carve(self) -> WorldStorage<'static> {
+        let mut world = Split {
+            a: Block::from_lines(self.first),
+            b: Block::from_lines(self.second),
+            second: SECOND_PARTS,
+        };
+        let Ok(world) = WorldStorage::carve(&SIZES, &mut world) else {
+            panic!("the world's statics do not hold its sizes");
+        };
+        world
+    }
 }
 
 impl Storage {
@@ -158,13 +212,9 @@ impl Storage {
         else {
             panic!("the mesh's statics do not hold its sizes");
         };
-        let mut world = Split {
-            a: Block::from_lines(WORLD.take()),
-            b: Block::from_lines(WORLD_PSRAM.take()),
-            second: PSRAM_PARTS,
-        };
-        let Ok(world) = WorldStorage::carve(&SIZES, &mut world) else {
-            panic!("the world's statics do not hold its sizes");
+        let world = WorldLines {
+            first: WORLD.take(),
+            second: WORLD_SECOND.take(),
         };
         Self {
             positions: POSITIONS.take(),
@@ -173,7 +223,6 @@ impl Storage {
             regions: REGIONS.take(),
             tet_region: TET_REGION.take(),
             tet_nodes: TET_NODES.take(),
-            face_scratch: FACE_SCRATCH.take(),
         }
     }
 }

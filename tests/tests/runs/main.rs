@@ -2,6 +2,7 @@
 //! watchdog and the firmware's release rule; one test binary, a module per file.
 
 mod capacity;
+mod chip_scenarios;
 mod faults_input;
 mod faults_watchdog;
 mod passivity;

@@ -132,6 +132,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let mut times = vec![0u64; ticks as usize];
     let (mut max_n, mut last, mut contact_ticks) = (0.0f32, Vec3::ZERO, 0u64);
     let mut last_pose = None;
+    let mut candidates_peak = 0usize;
     let progress = !args.quiet && ticks >= 20_000;
     for i in 0..ticks {
         let pose = poses.at(i);
@@ -143,6 +144,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         }
         times[i as usize] = ns;
         digest.push(f);
+        candidates_peak = candidates_peak.max(world.candidates().len());
         if let Some(d) = driver.as_mut() {
             d.after_tick(&mut world, f)?;
         }
@@ -170,6 +172,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         )));
     }
     keep_fastest(&mut fastest, &times);
+    let peaks = peak_counts(&world, candidates_peak, sizing.candidate_capacity);
     let t: Summary = summarise_ns(&fastest);
     // The crumbs the drill's discretisation leaves along the swept boundary go, then the
     // pieces left are counted.
@@ -210,6 +213,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         timing_us: TickTiming::from(t),
         runs: args.repeat,
         saturations: SaturationCounts::from(world.saturations()),
+        peaks: Some(peaks),
         valid: valid.is_ok(),
         sizing: Some(sizing),
         scenario,
@@ -242,6 +246,30 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         crate::viewer::screenshot(&mut scene, path)?;
     }
     valid.map_err(|e| CliError::failure(format!("the final state is invalid: {e}")))
+}
+
+/// The world's high-water marks after a run whose longest candidate list was `candidates`,
+/// `candidate_capacity` the world's candidate storage.
+fn peak_counts(
+    world: &tetradrill_core::servo::World<'_>,
+    candidates: usize,
+    candidate_capacity: usize,
+) -> PeakCounts {
+    let h = world.hierarchy();
+    let [pending_coarse, pending_coarse_capacity, pending_fine, pending_fine_capacity] =
+        world.pending_peaks();
+    PeakCounts {
+        arena_nodes: h.arena_used(),
+        arena_capacity: h.capacity(),
+        pending_coarse,
+        pending_coarse_capacity,
+        pending_fine,
+        pending_fine_capacity,
+        candidates,
+        candidate_capacity,
+        hash_entries: world.hash().len(),
+        hash_capacity: world.hash().capacity(),
+    }
 }
 
 /// A deforming world over `store` and the soft body's storage, its materials set from the

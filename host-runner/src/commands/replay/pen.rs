@@ -171,6 +171,7 @@ pub(super) fn replay_pen(
         force_digest: format!("{:016x}", digest.value()),
         timing_us: TickTiming::from(t),
         runs: 1,
+        peaks: None,
         saturations: SaturationCounts {
             hash: setup.hash_saturations,
             ..sat

@@ -50,6 +50,10 @@ pub struct ReplayReport {
     pub runs: u32,
     /// Capacity saturations by kind.
     pub saturations: SaturationCounts,
+    /// The high-water marks of the world's buffers beside their capacities (sphere tools
+    /// only): what a board with little RAM sizes its buffers from.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peaks: Option<PeakCounts>,
     /// The final state passed the core's `validate()` (mesh and hierarchy).
     pub valid: bool,
     /// The burr's buffers as sized for this mesh (sphere tools only).
@@ -64,6 +68,34 @@ pub struct ReplayReport {
     /// The soft body (`--body soft` only): its largest displacement, step time and rate.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub deform: Option<DeformSummary>,
+}
+
+/// The most of each world buffer a replay used, beside its capacity (counted before the
+/// final debris sweep). A peak below its capacity never saturated; a peak at it may have
+/// (the saturation counts say).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct PeakCounts {
+    /// Hierarchy arena nodes handed out (`Hierarchy::arena_used`, the arena's high-water
+    /// mark; the v_list needs `HierarchyStorage::vlist_needed` of it).
+    pub arena_nodes: usize,
+    /// Hierarchy arena capacity.
+    pub arena_capacity: usize,
+    /// The most items the drill's coarse pending ring held at once.
+    pub pending_coarse: usize,
+    /// The coarse ring's capacity (the deque less its fine half).
+    pub pending_coarse_capacity: usize,
+    /// The most items the fine pending ring held at once.
+    pub pending_fine: usize,
+    /// The fine ring's capacity (half the deque from `FINE_MIN_DEQUE` entries up, else 0).
+    pub pending_fine_capacity: usize,
+    /// The longest candidate list a simulation step used.
+    pub candidates: usize,
+    /// The candidate storage (in thirds with a candidate gather: the list in use is one).
+    pub candidate_capacity: usize,
+    /// Entries the tet hash stored.
+    pub hash_entries: usize,
+    /// The tet hash's entry capacity.
+    pub hash_capacity: usize,
 }
 
 /// The buffers a burr run chose from the tool and the mesh ([`crate::engine::ToolSizing`]).
