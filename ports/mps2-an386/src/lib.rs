@@ -29,6 +29,8 @@
 
 pub mod board;
 pub mod clock;
+#[cfg(feature = "chip-f405")]
+pub mod f405;
 pub mod fault;
 pub mod handoff;
 pub mod hw;

@@ -1,11 +1,13 @@
 //! tetradrill-core, unchanged, on a Cortex-M4F or a Cortex-M7 as an RTIC 2 application on
-//! QEMU's MPS2 machines: a 1 kHz servo task at the highest priority and the simulation task
-//! below it, preempted by it, with lock-free hand-offs between them. The application is the
-//! package's library (`src/lib.rs`); this binary binds it to the MPS2 board
-//! ([`tetradrill_mps2_an386::mps2::Mps2`]) and to SysTick.
+//! QEMU's machines: a 1 kHz servo task at the highest priority and the simulation task below
+//! it, preempted by it, with lock-free hand-offs between them. The application is the
+//! package's library (`src/lib.rs`); this binary binds it to SysTick and to the MPS2 board
+//! ([`tetradrill_mps2_an386::mps2::Mps2`]), or with `chip-f405` to the STM32F405 as QEMU's
+//! `netduinoplus2` models it (`f405::F405`).
 //!
-//! Runs on QEMU's `mps2-an386` machine (`mps2-an500` with the `m7` feature; see
-//! `.cargo/config.toml`, `docs/PORTING.md`). Output goes through UART0; a run ends with a
+//! Runs on QEMU's `mps2-an386` machine (`mps2-an500` with the `m7` feature, `netduinoplus2`
+//! with `chip-f405`; see `.cargo/config.toml`, `docs/PORTING.md`). Output goes through UART0
+//! (USART1 on the F405); a run ends with a
 //! reset (`-no-reboot` makes QEMU exit), its last line `exit_status=0`, or `exit_status=1`
 //! after a panic, a fault or a refused storage, the motors stopped first.
 //!
@@ -20,14 +22,29 @@
 
 use tetradrill_mps2_an386 as fw;
 
-fw::bind_board!(fw::mps2::Mps2);
+/// The board: QEMU's MPS2 machines, or the STM32F405 on `netduinoplus2` (`chip-f405`).
+#[cfg(feature = "chip-f405")]
+use fw::f405::F405 as TheBoard;
+/// The board: QEMU's MPS2 machines, or the STM32F405 on `netduinoplus2` (`chip-f405`).
+#[cfg(not(feature = "chip-f405"))]
+use fw::mps2::Mps2 as TheBoard;
+
+fw::bind_board!(TheBoard);
+
+/// The F405's interrupts (TIM2, the watchdog's stand-in); cortex-m-rt points every interrupt
+/// vector here when no peripheral access crate gives them names.
+#[cfg(feature = "chip-f405")]
+#[cortex_m_rt::exception]
+unsafe fn DefaultHandler(irqn: i16) {
+    fw::f405::interrupt(irqn)
+}
 
 #[rtic::app(device = tetradrill_mps2_an386::board, peripherals = false)]
 mod app {
     use tetradrill_mps2_an386 as fw;
 
+    use crate::TheBoard;
     use fw::handoff::{DoneQueue, ReleaseQueue};
-    use fw::mps2::Mps2;
     use fw::println;
     use fw::servo::Servo;
     use fw::sim::Sim;
@@ -37,7 +54,7 @@ mod app {
 
     #[local]
     struct Local {
-        servo: Servo<Mps2>,
+        servo: Servo<TheBoard>,
         sim: Sim,
     }
 
@@ -47,7 +64,7 @@ mod app {
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let mut core = cx.core;
-        let mut board = Mps2::new();
+        let mut board = TheBoard::new();
         fw::memory::guard_stack(&mut core.MPU, &mut core.SCB);
         fw::fault::enable_fault_handlers(&mut core.SCB);
         let cal = fw::clock::calibrate(&mut core.SYST);
