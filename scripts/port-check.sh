@@ -115,7 +115,7 @@ if ! [[ "$inject_tick" =~ ^[0-9]+$ ]]; then
   echo "port-check: --inject-tick takes a whole number, not '$inject_tick'" >&2; exit 2
 fi
 shift_s=10
-f405_ccm=""
+chip_map=""
 case "$target" in
   m4) machine="mps2-an386"; cpu="cortex-m4"; features=""; tdir="$port/target"; rustflags="" ;;
   m7) machine="mps2-an500"; cpu="cortex-m7"; features="m7"; tdir="$port/target/m7"
@@ -129,10 +129,10 @@ esac
 case "$chip" in
   "") ;;
   f405) machine="netduinoplus2"; cpu="cortex-m4"; features="chip-f405"; tdir="$port/target/f405"
-        rustflags=""; shift_s=3; f405_ccm="qemu"
+        rustflags=""; shift_s=3; chip_map="qemu"
         regions="RAM:.data,.bss,.uninit,.sram:131072 CCM:.ccm:65536" ;;
   h743) machine="mps2-an500"; cpu="cortex-m7"; features="chip-h743"; tdir="$port/target/h743"
-        rustflags="-C target-cpu=cortex-m7"
+        rustflags="-C target-cpu=cortex-m7"; chip_map="qemu"
         regions="DTCM:.data,.bss,.uninit,.dtcm:131072 AXISRAM:.axisram:524288 SRAM123:.sram123:294912 SRAM4:.sram4:65536" ;;
   *) echo "port-check: --chip takes f405 or h743, not '$chip'" >&2; exit 2 ;;
 esac
@@ -190,7 +190,7 @@ echo "== firmware: build (${chip:-$target}, thumbv7em-none-eabihf, release, scen
 # shellcheck disable=SC2086
 (cd "$port" && TETRADRILL_TICKS="$ticks" TETRADRILL_SCENARIO="$fw_scenario" \
   TETRADRILL_INJECT="$inject" TETRADRILL_INJECT_TICK="$inject_tick" \
-  TETRADRILL_F405_CCM="$f405_ccm" CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS="$rustflags" \
+  TETRADRILL_CHIP_MAP="$chip_map" CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS="$rustflags" \
   cargo build --release --quiet $features --target-dir "$tdir")
 elf="$tdir/thumbv7em-none-eabihf/release/tetradrill-mps2-an386"
 sizes="$(llvm-size "$elf" 2>/dev/null || arm-none-eabi-size "$elf")"

@@ -1,7 +1,8 @@
 //! Puts `memory.x` where the linker finds it (cortex-m-rt's `link.x` includes it): the MPS2
 //! map with the target's PSRAM address written in, or a chip's (`chip-f405`:
-//! `memory-f405.x.in`, its CCM at QEMU's address with `TETRADRILL_F405_CCM=qemu`; `chip-h743`:
-//! `memory-h743.x.in`), the stack's reserve written in; and picks
+//! `memory-f405.x.in`; `chip-h743`: `memory-h743.x.in`) with the chip's own addresses, or with
+//! `TETRADRILL_CHIP_MAP=qemu` the addresses of the QEMU machine that stands in for it, the
+//! stack's reserve written in; and picks
 //! the scenario: `TETRADRILL_SCENARIO=cow` or `tooth` with `TETRADRILL_BLOB=FILE` (a blob
 //! written by `tetradrill export --firmware`) copies the blob to `OUT_DIR/mesh.tdb` for
 //! `include_bytes!` and writes its counts to `OUT_DIR/mesh_counts.rs` so the statics are sized
@@ -26,18 +27,29 @@ fn main() {
         !(f405 && h743),
         "chip-f405 and chip-h743 are two chips: pick one"
     );
+    // The chip's own addresses, or QEMU's stand-in machine's (scripts/port-check.sh --chip).
+    let qemu = env::var("TETRADRILL_CHIP_MAP").is_ok_and(|m| m == "qemu");
     let memory = if f405 {
         // QEMU's STM32F405 has no CCM: its build puts the CCM's 64 KB in the upper part of
         // QEMU's 192 KB of SRAM (memory-f405.x.in).
-        let ccm = match env::var("TETRADRILL_F405_CCM").as_deref() {
-            Ok("qemu") => "0x20020000",
-            _ => "0x10000000",
-        };
+        let ccm = if qemu { "0x20020000" } else { "0x10000000" };
         include_str!("memory-f405.x.in")
             .replace("CCM_ORIGIN", ccm)
             .replace("STACK_RESERVE", STACK_RESERVE)
     } else if h743 {
-        include_str!("memory-h743.x.in").replace("STACK_RESERVE", STACK_RESERVE)
+        // mps2-an500 maps no memory at the H743's flash, AXI SRAM, SRAM1-3 and SRAM4 addresses
+        // (memory-h743.x.in).
+        let [flash, axi, sram123, sram4] = if qemu {
+            ["0x00000000", "0x20100000", "0x60000000", "0x60100000"]
+        } else {
+            ["0x08000000", "0x24000000", "0x30000000", "0x38000000"]
+        };
+        include_str!("memory-h743.x.in")
+            .replace("FLASH_ORIGIN", flash)
+            .replace("AXISRAM_ORIGIN", axi)
+            .replace("SRAM123_ORIGIN", sram123)
+            .replace("SRAM4_ORIGIN", sram4)
+            .replace("STACK_RESERVE", STACK_RESERVE)
     } else {
         let psram = if env::var_os("CARGO_FEATURE_M7").is_some() {
             "0x60000000"
@@ -51,7 +63,7 @@ fn main() {
     println!("cargo:rerun-if-changed=memory.x.in");
     println!("cargo:rerun-if-changed=memory-f405.x.in");
     println!("cargo:rerun-if-changed=memory-h743.x.in");
-    println!("cargo:rerun-if-env-changed=TETRADRILL_F405_CCM");
+    println!("cargo:rerun-if-env-changed=TETRADRILL_CHIP_MAP");
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-env-changed=TETRADRILL_SCENARIO");
     println!("cargo:rerun-if-env-changed=TETRADRILL_BLOB");
