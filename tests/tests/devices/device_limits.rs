@@ -193,3 +193,55 @@ fn a_hold_at_the_omnis_peak_derates_toward_its_continuous_rating() {
     assert!(late_max < 0.7 * 3.3, "late {late_max}");
     assert!(late.iter().all(|&f| f >= 0.88 - 1e-3), "{:?}", &late[..5]);
 }
+
+#[test]
+fn the_damping_is_checked_against_the_devices_range() {
+    // The default scene damping, 0.5 N s per mesh unit, times the workspace's scale (the
+    // device's workspace radius onto the block's half diagonal, sqrt(3) / 2): on the Touch
+    // (0.075 m) 5.77 N s/m, past its 4 N s/m, capped with one warning; on the Omni (0.10 m)
+    // 4.33 N s/m, within its 5 N s/m.
+    let run = |model: &str| {
+        let dir = scratch_dir("limits", &format!("damping-{model}"));
+        let json = dir.join("out.json");
+        let out = std::process::Command::new(tetradrill_tests::tetradrill_bin())
+            .args(["run", "--device", "sim", "--sim-model", model])
+            .args([
+                "--headless",
+                "--quiet",
+                "--no-rt",
+                "--duration",
+                "0.5",
+                "--json",
+            ])
+            .arg(&json)
+            .output()
+            .expect("run tetradrill");
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{err}");
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("parse");
+        (j["safety"]["damping"].clone(), err)
+    };
+    let half_diagonal = 3f64.sqrt() / 2.0;
+    let (d, err) = run("touch");
+    let asked = 0.5 * half_diagonal / 0.075;
+    assert!(
+        (d["asked_n_s_per_m"].as_f64().unwrap() - asked).abs() < 1e-3,
+        "{d}"
+    );
+    assert_eq!(d["used_n_s_per_m"].as_f64(), Some(4.0), "{d}");
+    assert_eq!(d["max_n_s_per_m"].as_f64(), Some(4.0), "{d}");
+    let warnings: Vec<_> = err
+        .lines()
+        .filter(|l| l.contains("maximum stable damping"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{err}");
+    assert!(warnings[0].contains("using 4.00 N s/m"), "{}", warnings[0]);
+    let (d, err) = run("omni");
+    let asked = 0.5 * half_diagonal / 0.10;
+    assert!(
+        (d["used_n_s_per_m"].as_f64().unwrap() - asked).abs() < 1e-3,
+        "{d}"
+    );
+    assert!(!err.contains("maximum stable damping"), "{err}");
+}
