@@ -48,8 +48,7 @@
 //! off (its penalty spring is then a storage function) it dissipates what the rendered wall
 //! generates and trips when the law stores energy past its force limit beyond the bound (a
 //! reversed force or a mirrored axis); with the drill on it damps on the classic form and trips
-//! on the same measure; with a mesh tool (no storage function) it damps and trips on the
-//! classic form. A trip cuts the motors through the device's cutoff (the watchdog's path:
+//! on the same measure; with a mesh tool (no storage function) it observes and reports only. A trip cuts the motors through the device's cutoff (the watchdog's path:
 //! direct zero, latch) and writes zero force with the motors off until the tool has been out of
 //! contact for a second ([`RECOVER_TICKS`]); then the cutoff is re-armed and the force ramps
 //! back in. After [`MAX_TRIPS_PER_MINUTE`] trips within a minute the motors stay off for the

@@ -236,12 +236,12 @@ pub fn servo_task(
 }
 
 /// The passivity observer's settings for a device: its force and damping limits, the servo
-/// period, the core's default slack and trip bound, and the classic form acting too (a law
-/// without a storage function, a mesh tool's, is damped and trips on its generated energy).
+/// period, the core's default slack and trip bound (a law without a storage function, a mesh
+/// tool's, is observed only: its forces stay the law's, bit for bit).
 pub fn passivity_params(spec: &tetradrill_device::DeviceSpec, period_ns: u64) -> PassivityParams {
     let mut p = PassivityParams {
         dt: period_ns as f32 * 1e-9,
-        act_without_storage: true,
+
         ..PassivityParams::default()
     };
     if spec.max_force_n.is_finite() && spec.max_force_n > 0.0 {
