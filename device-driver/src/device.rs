@@ -35,6 +35,9 @@ pub struct DeviceSpec {
     pub max_force_n: f64,
     /// Force the device may hold indefinitely, N.
     pub max_continuous_force_n: f64,
+    /// Thermal time constant of its motors' windings, s: how fast a force above the continuous
+    /// one heats them (the host's continuous-force model derates the force by it).
+    pub thermal_time_s: f64,
     /// Largest stable virtual stiffness, N/m.
     pub max_stiffness_n_per_m: f64,
     /// Largest stable virtual damping, N s/m.
@@ -55,6 +58,7 @@ impl DeviceSpec {
         name: "PHANTOM Omni",
         max_force_n: 3.3,
         max_continuous_force_n: 0.88,
+        thermal_time_s: 20.0,
         max_stiffness_n_per_m: 700.0,
         max_damping_n_s_per_m: 5.0,
         workspace_radius_m: 0.10,
@@ -67,6 +71,7 @@ impl DeviceSpec {
         name: "Touch",
         max_force_n: 3.3,
         max_continuous_force_n: 0.88,
+        thermal_time_s: 20.0,
         max_stiffness_n_per_m: 400.0,
         max_damping_n_s_per_m: 4.0,
         workspace_radius_m: 0.075,
@@ -79,6 +84,7 @@ impl DeviceSpec {
         name: "Novint Falcon",
         max_force_n: 8.0,
         max_continuous_force_n: 8.0,
+        thermal_time_s: 20.0,
         max_stiffness_n_per_m: 3000.0,
         max_damping_n_s_per_m: 20.0,
         workspace_radius_m: 0.04,
@@ -91,6 +97,7 @@ impl DeviceSpec {
         name: "simulated",
         max_force_n: 8.0,
         max_continuous_force_n: 8.0,
+        thermal_time_s: 20.0,
         max_stiffness_n_per_m: 3000.0,
         max_damping_n_s_per_m: 20.0,
         workspace_radius_m: 0.10,

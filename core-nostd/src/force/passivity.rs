@@ -32,10 +32,16 @@
 //! raw one-tick difference at the price of half a tick of delay. The energy itself needs no
 //! velocity: it is the exact work of the held force over each tick's displacement.
 //!
+//! A law whose spring is no storage function because the environment gives way by design (a
+//! drill removing material dissipates what the tool pushes into it) is fed through
+//! [`PassivityObserver::step_removing`]: the classic form counts and acts (damps), and the trip
+//! still measures the energy past the force limit.
+//!
 //! The trip: when the energy a law stores past its force limit ([`Storage::past_limit_j`],
 //! counted above the least of it since the contact began, so a tool that starts deep inside
 //! trips nothing until it is driven deeper) exceeds [`PassivityParams::trip_j`], the observer
-//! latches tripped and its output is zero from then on. A sign or mirror fault at the device
+//! latches tripped and its output is zero until the caller [`recovers`](PassivityObserver::recover)
+//! it. A sign or mirror fault at the device
 //! is invisible to any observer at this port (the measured signals are those of a user
 //! pushing harder), but it drives the tool ever deeper into the wall, past the depth where the
 //! law's force reaches its limit: a passive wall holds no more than `F^2 / 2K` there, and the
@@ -242,6 +248,28 @@ impl PassivityObserver {
     /// # Bounded work
     /// Constant: a few dozen flops, no loop, no allocation, no panic.
     pub fn step(&mut self, position: Vec3, force: Vec3, storage: Option<Storage>) -> Vec3 {
+        self.step_as(position, force, storage, false)
+    }
+
+    /// [`step`](Self::step) for an environment that gives way by design (a drill removing
+    /// material): its spring is no storage function, so the classic form counts the generated
+    /// energy and the controller acts on it (whatever
+    /// [`PassivityParams::act_without_storage`] says), while the trip still measures the energy
+    /// `storage` puts past the force limit since the contact began.
+    ///
+    /// # Bounded work
+    /// Constant, as [`step`](Self::step).
+    pub fn step_removing(&mut self, position: Vec3, force: Vec3, storage: Option<Storage>) -> Vec3 {
+        self.step_as(position, force, storage, true)
+    }
+
+    fn step_as(
+        &mut self,
+        position: Vec3,
+        force: Vec3,
+        storage: Option<Storage>,
+        removing: bool,
+    ) -> Vec3 {
         if self.tripped {
             // Latched: nothing is rendered, so nothing more is counted.
             return Vec3::ZERO;
@@ -265,14 +293,21 @@ impl PassivityObserver {
                 dp / dt
             };
         }
-        let generated = match storage {
+        let begins = !self.holding && storage.is_some_and(|s| s.stored_j > 0.0);
+        if begins {
+            if let Some(s) = storage {
+                // The energy past the limit is measured from where the contact began.
+                self.past_base = s.past_limit_j;
+            }
+        }
+        let strict = storage.filter(|_| !removing);
+        let generated = match strict {
             Some(s) if s.stored_j.is_finite() => {
-                if !self.holding && s.stored_j > 0.0 {
+                if begins {
                     // A contact begins (or the tool is inside at the start): what the wall
                     // holds at once is counted as taken, a deficit from before is kept, and
                     // the energy past the limit is measured from here.
                     self.energy = s.stored_j + self.energy.min(0.0);
-                    self.past_base = s.past_limit_j;
                 }
                 if self.energy > s.stored_j {
                     // The environment dissipated the difference: no credit for later.
@@ -293,7 +328,7 @@ impl PassivityObserver {
         // The trip: with a storage function, the energy past the force limit (the storage
         // form's generated energy also counts a contact plane that moves under a still tool,
         // which the damper takes but must not trip); without one, the generated energy.
-        let acting = storage.is_some() || self.params.act_without_storage;
+        let acting = storage.is_some() || removing || self.params.act_without_storage;
         let measure = match storage {
             Some(s) if s.past_limit_j.is_finite() => {
                 if self.regrip > 0 {
@@ -303,6 +338,7 @@ impl PassivityObserver {
                 s.past_limit_j - self.past_base
             }
             Some(_) => 0.0,
+            None if removing => 0.0,
             None => generated,
         };
         self.past_limit_max = self.past_limit_max.max(measure);
@@ -353,12 +389,27 @@ impl PassivityObserver {
         self.regrip = self.params.regrip_ticks;
     }
 
-    /// Whether the observer has tripped (latched: its output is zero from then on).
+    /// Clears a trip: the output is the law's force again (the caller ramps it back in), and
+    /// the observer starts afresh as after a [`restart`](Self::restart) (the energy past the
+    /// force limit counts again after [`PassivityParams::regrip_ticks`]). For a caller that
+    /// saw the tool out of contact long enough after a trip; [`trips`](Self::trips) keeps
+    /// counting.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn recover(&mut self) {
+        self.tripped = false;
+        self.past_base = 0.0;
+        self.restart();
+    }
+
+    /// Whether the observer has tripped (latched: its output is zero until
+    /// [`recover`](Self::recover)).
     pub fn tripped(&self) -> bool {
         self.tripped
     }
 
-    /// How often it tripped (0 or 1: the trip is latched).
+    /// How often it tripped (each trip latches until a [`recover`](Self::recover)).
     pub fn trips(&self) -> u32 {
         self.trips
     }
@@ -632,6 +683,84 @@ mod tests {
         }
         assert_eq!(penalty_storage(f32::NAN, 200.0, 8.0), Storage::default());
         assert_eq!(penalty_storage(0.1, 0.0, 8.0), Storage::default());
+    }
+
+    #[test]
+    fn a_recovered_observer_passes_the_force_again_and_counts_a_second_trip() {
+        let mut obs = PassivityObserver::default();
+        // Driven 1 mm a tick into a 200 N/m wall clamped at 8 N: trips past 4 cm + 6.25 mm.
+        let drive = |obs: &mut PassivityObserver| {
+            for i in 0..80 {
+                let d = 1e-3 * i as f32;
+                let f = Vec3::Z * (200.0 * d).min(8.0);
+                obs.step(
+                    Vec3::new(0.0, 0.0, -d),
+                    f,
+                    Some(penalty_storage(d, 200.0, 8.0)),
+                );
+            }
+        };
+        drive(&mut obs);
+        assert!(obs.tripped() && obs.trips() == 1);
+        assert_eq!(obs.step(Vec3::Z, Vec3::ZERO, None), Vec3::ZERO);
+        obs.recover();
+        assert!(!obs.tripped());
+        // Out of contact, then a gentle touch: the law's force passes bit for bit.
+        assert_eq!(obs.step(Vec3::Z, Vec3::ZERO, None), Vec3::ZERO);
+        let f = Vec3::new(0.0, 0.0, 0.2);
+        let out = obs.step(
+            Vec3::new(0.0, 0.0, -1e-3),
+            f,
+            Some(penalty_storage(1e-3, 200.0, 8.0)),
+        );
+        assert_eq!(out, f);
+        // Once regripped, the same drive trips it again.
+        for _ in 0..600 {
+            obs.step(Vec3::Z, Vec3::ZERO, Some(Storage::default()));
+        }
+        drive(&mut obs);
+        assert!(obs.tripped());
+        assert_eq!(obs.trips(), 2);
+    }
+
+    #[test]
+    fn removing_material_the_classic_form_acts_and_the_trip_measures_past_the_limit() {
+        // The bounce with its storage fed as a removing environment: the damper acts on the
+        // classic form's generated energy, as it does not by default without a storage.
+        let mut obs = PassivityObserver::default();
+        let (m, k) = (0.1f64, 2000.0f64);
+        let (mut z, mut v) = (0.002f64, -0.1f64);
+        let ke0 = 0.5 * m * v * v;
+        for _ in 0..300 {
+            let d = -z;
+            let f = if d > 0.0 { k * d } else { 0.0 };
+            let s = penalty_storage(d as f32, k as f32, f32::INFINITY);
+            let out = obs.step_removing(
+                Vec3::new(0.0, 0.0, z as f32),
+                Vec3::new(0.0, 0.0, f as f32),
+                Some(s),
+            );
+            let a = f64::from(out.z) / m;
+            z += v * T + 0.5 * a * T * T;
+            v += a * T;
+        }
+        assert!(obs.dissipated_j() > 0.0);
+        assert!(0.5 * m * v * v <= ke0 + f64::from(DEFAULT_SLACK_J) + 1e-6);
+        assert!(!obs.tripped());
+        // Driven past the 8 N limit, the energy past it trips the removing form too.
+        let mut obs = PassivityObserver::default();
+        for i in 0..80 {
+            let d = 1e-3 * i as f32;
+            let f = Vec3::Z * (200.0 * d).min(8.0);
+            obs.step_removing(
+                Vec3::new(0.0, 0.0, -d),
+                f,
+                Some(penalty_storage(d, 200.0, 8.0)),
+            );
+        }
+        assert!(obs.tripped());
+        let want = DEFAULT_TRIP_J;
+        assert!(obs.trip_measure_j_max() > want && obs.trip_measure_j_max() < want + 0.01);
     }
 
     #[test]

@@ -21,7 +21,8 @@ use tetradrill_device::{
 };
 
 use super::pipeline::{
-    self, DeviceFactory, PipelineSetup, RunChecks, StiffnessCap, MESH_UNITS, UNTIL_STOPPED,
+    self, DampingCheck, DeviceFactory, PipelineSetup, RunChecks, StiffnessCap, MESH_UNITS,
+    UNTIL_STOPPED,
 };
 use crate::device_config::DeviceConfig;
 use crate::error::CliError;
@@ -159,6 +160,28 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
                 c.scene_stiffness
             );
         }
+        checks.max_force_capped_n = cap_max_force(&mut sc, &spec);
+        if let Some(peak) = checks.max_force_capped_n {
+            errln!(
+                "tetradrill: the {}'s peak force is {peak} N: the scene's force limit is capped \
+                 there",
+                spec.name
+            );
+        }
+        let damping = check_damping(&mut sc, &spec, &workspace);
+        if let Some(d) = damping.filter(|d| d.used_n_s_per_m < d.asked_n_s_per_m) {
+            errln!(
+                "tetradrill: warning: --damping {} is {:.2} N s/m at the {}, past its maximum \
+                 stable damping {:.2} N s/m: using {:.2} N s/m (damping {})",
+                d.asked_n_s_per_m / f64::from(workspace.scale),
+                d.asked_n_s_per_m,
+                spec.name,
+                d.max_n_s_per_m,
+                d.used_n_s_per_m,
+                sc.forces.damping
+            );
+        }
+        checks.damping = damping;
         errln!("tetradrill: no force until the tool has been outside the solid once (it is armed on leaving it)");
     }
     let ticks = run_ticks(args.duration, default_ticks);
@@ -357,6 +380,44 @@ pub fn cap_stiffness(
         asked_n_per_m: asked,
         used_n_per_m: max,
         scene_stiffness: sc.forces.stiffness,
+    })
+}
+
+/// Caps the scene's force limit at the device's peak force, so the force law's storage (and
+/// the passivity trip's measure, the energy stored past that limit) is the device's. Returns the
+/// peak used when it capped.
+pub fn cap_max_force(sc: &mut Setup, spec: &DeviceSpec) -> Option<f64> {
+    let peak = spec.max_force_n;
+    if !(peak.is_finite() && peak > 0.0) || sc.forces.max_force <= peak {
+        return None;
+    }
+    sc.forces.max_force = peak;
+    Some(peak)
+}
+
+/// Checks the scene's damping against the device's range: the device feels the scene's damping
+/// times the workspace's scale (N s/m); past its maximum stable damping it is capped there.
+/// Returns the check (`None` for a damping or a scale that is not finite and positive, or a
+/// device without a damping limit).
+pub fn check_damping(
+    sc: &mut Setup,
+    spec: &DeviceSpec,
+    workspace: &Workspace,
+) -> Option<DampingCheck> {
+    let scale = f64::from(workspace.scale);
+    let asked = sc.forces.damping * scale;
+    let max = spec.max_damping_n_s_per_m;
+    if !(asked.is_finite() && max.is_finite() && max > 0.0 && scale > 0.0) {
+        return None;
+    }
+    let used = asked.min(max);
+    if used < asked {
+        sc.forces.damping = max / scale;
+    }
+    Some(DampingCheck {
+        asked_n_s_per_m: asked,
+        used_n_s_per_m: used,
+        max_n_s_per_m: max,
     })
 }
 

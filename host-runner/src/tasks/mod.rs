@@ -42,14 +42,17 @@
 //! Every servo tick, for every device, runs the core's time-domain passivity observer and
 //! controller ([`tetradrill_core::force::PassivityObserver`]) between the force law and the device, in
 //! SI units (scene positions divided by the workspace scale: metres, in the scene's rotated
-//! frame, where the power is the same as at the device). With the burr's law and the drill off
-//! (its penalty spring is then a storage function) it dissipates what the rendered wall
+//! frame, where the power is the same as at the device). It is fed the force the device is
+//! sent: the law's, clamped at the device's peak, derated by the device's continuous-force
+//! model and ramped in after a recovery ([`DeviceLimits`]). With the burr's law and the drill
+//! off (its penalty spring is then a storage function) it dissipates what the rendered wall
 //! generates and trips when the law stores energy past its force limit beyond the bound (a
-//! reversed force or a mirrored axis); with the drill on, or a mesh tool, it observes and
-//! reports only. A trip cuts the motors through the device's cutoff (the watchdog's path:
-//! direct zero, latch) and writes zero force with the motors off, and every later tick of the
-//! run does the same: the run goes on to its end with zero force (the observer's trip is
-//! latched for the run), and the JSON counts the trip.
+//! reversed force or a mirrored axis); with the drill on it damps on the classic form and trips
+//! on the same measure; with a mesh tool (no storage function) it observes and reports only. A trip cuts the motors through the device's cutoff (the watchdog's path:
+//! direct zero, latch) and writes zero force with the motors off until the tool has been out of
+//! contact for a second ([`RECOVER_TICKS`]); then the cutoff is re-armed and the force ramps
+//! back in. After [`MAX_TRIPS_PER_MINUTE`] trips within a minute the motors stay off for the
+//! rest of the run. The JSON counts the trips, the recoveries and the seconds derated.
 
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -61,12 +64,14 @@ use crate::stats::Histogram;
 
 mod drill;
 mod frame;
+mod limits;
 mod record;
 mod servo;
 mod simulation;
 
 pub use drill::*;
 pub use frame::*;
+pub use limits::*;
 pub use record::*;
 pub use servo::*;
 pub use simulation::*;

@@ -20,7 +20,8 @@ use crate::rt::{Periodic, RtConfig, RtStatus};
 use crate::watchdog::StopRequest;
 
 use super::{
-    CameraOut, DeviceFrame, RecordRing, ServoCounters, ToolSample, Workspace, SERVO_PERIOD_NS,
+    CameraOut, DeviceFrame, DeviceLimits, RecordRing, ServoCounters, ToolSample, Workspace,
+    SERVO_PERIOD_NS,
 };
 
 /// Why the servo task ended.
@@ -82,6 +83,8 @@ pub struct ServoResult {
     pub max_depth_m: f32,
     /// The tick the force was armed ([`ServoGate::arm_on_exit`]), if it was.
     pub armed_at: Option<u64>,
+    /// The device's limits at the end of the run (recoveries from a trip, seconds derated).
+    pub limits: DeviceLimits,
 }
 
 /// When the servo renders force at all, besides the device's own
@@ -137,9 +140,11 @@ pub fn servo_task(
         gate,
         ..ServoState::default()
     };
+    let spec = device.spec();
     state
         .passivity
-        .set_params(passivity_params(&device.spec(), SERVO_PERIOD_NS));
+        .set_params(passivity_params(&spec, SERVO_PERIOD_NS));
+    state.limits = DeviceLimits::new(&spec, SERVO_PERIOD_NS as f32 * 1e-9);
     let mut end = ServoEnd::Ticks;
     let mut request_to_zero_ns = None;
     let watch = &counters.watch;
@@ -226,14 +231,17 @@ pub fn servo_task(
         passivity: state.passivity,
         max_depth_m: state.max_depth_m,
         armed_at: state.armed_at,
+        limits: state.limits,
     }
 }
 
 /// The passivity observer's settings for a device: its force and damping limits, the servo
-/// period, the core's default slack and trip bound.
+/// period, the core's default slack and trip bound (a law without a storage function, a mesh
+/// tool's, is observed only: its forces stay the law's, bit for bit).
 pub fn passivity_params(spec: &tetradrill_device::DeviceSpec, period_ns: u64) -> PassivityParams {
     let mut p = PassivityParams {
         dt: period_ns as f32 * 1e-9,
+
         ..PassivityParams::default()
     };
     if spec.max_force_n.is_finite() && spec.max_force_n > 0.0 {
@@ -305,6 +313,9 @@ pub struct ServoState {
     /// The last tick rendered no force for the gate or the device's readiness: the passivity
     /// observer restarts when force comes back.
     pub paused: bool,
+    /// The device's limits: the peak clamp, the continuous-force derating, the recovery from a
+    /// passivity trip ([`DeviceLimits::default`]: none; [`servo_task`] sets the device's).
+    pub limits: DeviceLimits,
 }
 
 /// Where a servo tick's force comes from: the burr's contact plane ([`BurrLaw`]) or a mesh
@@ -472,8 +483,12 @@ pub fn servo_tick(
 ///
 /// A non-finite position is counted and still handed to `law` (the laws give it zero force).
 ///
-/// The tick the observer trips, the device's cutoff is cut (direct zero, latch: the
-/// watchdog's path); that tick and every later one writes [`ForceCommand::OFF`].
+/// Between the law and the observer, [`DeviceLimits::shape`] clamps, derates and ramps the force:
+/// the observer is fed what the device is sent. The tick the observer trips, the device's
+/// cutoff is cut (direct zero, latch: the watchdog's path); that tick and every later one
+/// writes [`ForceCommand::OFF`] until the tool has been out of contact for
+/// [`super::RECOVER_TICKS`] ([`DeviceLimits::recovers`]): then the cutoff is re-armed and the
+/// force ramps back in.
 ///
 /// # Errors
 /// A device error (disconnect, NaN refused, ...) is returned after the force was zeroed.
@@ -529,11 +544,7 @@ pub fn servo_io(
     }
     if !ready || (st.gate.arm_on_exit && st.armed_at.is_none()) {
         st.paused = true;
-        st.digest.push(Vec3::ZERO);
-        st.last_force = Vec3::ZERO;
-        device.write(&ForceCommand::OFF)?;
-        st.last_written = 0.0;
-        return Ok(());
+        return write_off(device, st);
     }
     if st.paused {
         // Force comes back: what the tool did meanwhile was not the loop's doing.
@@ -555,26 +566,38 @@ pub fn servo_io(
             st.max_depth_m = st.max_depth_m.max(d);
         }
     }
-    // With the drill on the material gives way by design (removal dissipates what the tool
-    // pushes into it), so the law's spring is no storage function: the classic form.
-    let drilling = s_buttons & tetradrill_core::script::DRILL_ON != 0;
-    let storage = contact
-        .filter(|_| !drilling)
-        .map(|c| c.storage.scaled(to_si));
-    let tripped = st.passivity.tripped();
-    let f = st.passivity.step(position * to_si, f, storage);
-    if st.passivity.tripped() {
-        if !tripped {
-            if let Some(c) = device.cutoff() {
-                let _ = c.cut();
-            }
+    // A trip: zero with the motors off until the tool has been out of contact for a second
+    // (then the cutoff is re-armed and the force ramps back in), or for good after too many.
+    if st.passivity.tripped() && st.limits.recovers(f) {
+        st.passivity.recover();
+        if let Some(c) = device.cutoff() {
+            c.rearm();
         }
-        st.digest.push(Vec3::ZERO);
-        st.last_force = Vec3::ZERO;
-        device.write(&ForceCommand::OFF)?;
-        st.last_written = 0.0;
-        return Ok(());
     }
+    if st.passivity.tripped() {
+        return write_off(device, st);
+    }
+    // The force the device is sent: clamped at its peak, derated, ramped in after a recovery;
+    // the law's storage scaled with it (the environment the device renders).
+    let (sent, k) = st.limits.shape(f);
+    let storage = contact.map(|c| c.storage.scaled(to_si).scaled(k));
+    // With the drill on the material gives way by design (removal dissipates what the tool
+    // pushes into it), so the law's spring is no storage function: the classic form damps, and
+    // the trip still measures the energy past the force limit.
+    let drilling = s_buttons & tetradrill_core::script::DRILL_ON != 0;
+    let f = if drilling {
+        st.passivity.step_removing(position * to_si, sent, storage)
+    } else {
+        st.passivity.step(position * to_si, sent, storage)
+    };
+    if st.passivity.tripped() {
+        st.limits.tripped_at(tick);
+        if let Some(c) = device.cutoff() {
+            let _ = c.cut();
+        }
+        return write_off(device, st);
+    }
+    st.limits.heat_by(f);
     st.digest.push(f);
     st.max_force = st.max_force.max(f.length());
     st.last_force = f;
@@ -584,5 +607,16 @@ pub fn servo_io(
     let cmd = ForceCommand::force([d.x as f64, d.y as f64, d.z as f64]);
     device.write(&cmd)?;
     st.last_written = d.length();
+    Ok(())
+}
+
+/// A tick that renders nothing: zero force in the digest, the motors off, the continuous-force
+/// model cooling.
+fn write_off(device: &mut dyn HapticDevice, st: &mut ServoState) -> Result<(), DeviceError> {
+    st.digest.push(Vec3::ZERO);
+    st.last_force = Vec3::ZERO;
+    st.limits.heat_by(Vec3::ZERO);
+    device.write(&ForceCommand::OFF)?;
+    st.last_written = 0.0;
     Ok(())
 }

@@ -2,6 +2,7 @@
 //! faults at the servo tick, against mock transports; one test binary, a module per file.
 
 mod device_config;
+mod device_limits;
 mod falcon_startup;
 mod faults_device;
 mod hdapi;

@@ -81,6 +81,10 @@ pub struct RunChecks {
     pub reversed_joints: std::sync::Arc<std::sync::OnceLock<Vec<u8>>>,
     /// The stiffness used when the scene asked for more than the device's maximum.
     pub stiffness_capped: Option<StiffnessCap>,
+    /// The scene's damping checked against the device's range.
+    pub damping: Option<DampingCheck>,
+    /// The peak force used when the scene asked for more than the device's.
+    pub max_force_capped_n: Option<f64>,
 }
 
 impl PipelineSetup {
@@ -419,6 +423,9 @@ impl Ended {
             },
             safety: RunSafety {
                 passivity_trips: servo.passivity.trips(),
+                trip_recoveries: servo.limits.recoveries(),
+                trips_locked_out: servo.limits.locked_out(),
+                derated_s: servo.limits.derated_s(tasks::SERVO_PERIOD_NS as f64 * 1e-9),
                 dissipated_j: servo.passivity.dissipated_j(),
                 generated_j_max: f64::from(servo.passivity.generated_j_max()),
                 past_limit_j_max: f64::from(servo.passivity.trip_measure_j_max()),
@@ -430,6 +437,8 @@ impl Ended {
                     .cloned()
                     .unwrap_or_default(),
                 stiffness_capped: self.checks.stiffness_capped,
+                damping: self.checks.damping,
+                max_force_capped_n: self.checks.max_force_capped_n,
             },
             contact: RunContact {
                 max_depth_m: f64::from(servo.max_depth_m),
@@ -477,10 +486,23 @@ impl Ended {
             print_summary(&rep);
         }
         if rep.safety.passivity_trips > 0 {
+            let after = if rep.safety.trips_locked_out {
+                format!(
+                    "{} trips within a minute: the motors stayed off for the rest of the run",
+                    tasks::MAX_TRIPS_PER_MINUTE
+                )
+            } else {
+                format!(
+                    "the motors were cut until the tool had been out of contact for a second \
+                     ({} recoveries)",
+                    rep.safety.trip_recoveries
+                )
+            };
             errln!(
-                "tetradrill: warning: the passivity controller tripped: the {} device put \
-                 {:.3} J past the force limit into the tool (a reversed force or a mirrored \
-                 axis?); the motors were cut for the rest of the run",
+                "tetradrill: warning: the passivity controller tripped {} times: the {} device \
+                 put {:.3} J past the force limit into the tool (a reversed force or a mirrored \
+                 axis?); {after}",
+                rep.safety.passivity_trips,
                 rep.device,
                 rep.safety.past_limit_j_max
             );

@@ -166,8 +166,17 @@ pub struct RunForce {
 /// and the device's checks.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct RunSafety {
-    /// Times it tripped (0 or 1: a trip cuts the motors for the rest of the run).
+    /// Times it tripped (each trip cuts the motors until the tool has been out of contact for
+    /// a second).
     pub passivity_trips: u32,
+    /// Times the force came back after a trip (the tool out of contact for a second, the
+    /// force ramped back in).
+    pub trip_recoveries: u32,
+    /// Too many trips came within a minute: the motors stayed off for the rest of the run.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub trips_locked_out: bool,
+    /// Seconds the device's continuous-force (thermal) model derated the force below its peak.
+    pub derated_s: f64,
     /// Energy its damper dissipated, joules.
     pub dissipated_j: f64,
     /// The largest energy the rendered environment had generated at a tick (before the
@@ -189,6 +198,25 @@ pub struct RunSafety {
     /// what was used.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stiffness_capped: Option<StiffnessCap>,
+    /// The scene's damping at the device, checked against the device's range (a real device
+    /// or a simulated model).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub damping: Option<DampingCheck>,
+    /// The scene asked for a peak force past the device's: the peak used, newtons.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_force_capped_n: Option<f64>,
+}
+
+/// The scene's damping at the device against the device's range.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DampingCheck {
+    /// What the scene asked for, N s/m at the device (its damping times the workspace scale).
+    pub asked_n_s_per_m: f64,
+    /// What was used, N s/m: the device's maximum stable damping when the scene asked for
+    /// more.
+    pub used_n_s_per_m: f64,
+    /// The device's maximum stable damping, N s/m.
+    pub max_n_s_per_m: f64,
 }
 
 /// A stiffness capped at the device's maximum stable stiffness (N/m at the device: the scene's
