@@ -417,7 +417,7 @@ impl<'a> SurfaceExport<'a> {
 
     /// The exporter with shared vertices and smooth per-corner normals ([`SmoothNormals`],
     /// its own storage): from now on the normals buffer holds, at each corner, the smooth
-    /// normal of [`super::smooth`] rather than the face's. Every face is listed again (a
+    /// normal [`SmoothNormals`] computes rather than the face's. Every face is listed again (a
     /// sweep), so this may come at any time.
     ///
     /// # Errors
