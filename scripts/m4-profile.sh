@@ -32,6 +32,6 @@ echo "== run under QEMU with the execution log" >&2
 out="$(mktemp)"
 trap 'rm -f "$out"' EXIT
 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -icount shift=10,sleep=off \
-  -semihosting-config enable=on,target=native -nographic -kernel "$elf" \
+  -no-reboot -nographic -kernel "$elf" \
   -d in_asm,exec,nochain -D /dev/stderr </dev/null 2>&1 >"$out" | "$prof" --elf "$elf"
 grep -E '^(force_digest|instructions_per_tick_max|settings)' "$out" | tr -d '\r' >&2 || true

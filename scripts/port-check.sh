@@ -7,6 +7,7 @@
 #
 #   scripts/port-check.sh [--target m4|m7|m7sp] [--scenario block|cow|regions|soft|tooth] [--ticks N]
 #                         [--max-instructions M] [--max-stack BYTES] [--garbage]
+#                         [--inject panic|hardfault|stall|late [--inject-tick N]]
 #
 # --scenario block (default) is the host's builtin:firmware, cow is builtin:firmware-cow, regions
 # is builtin:firmware-regions (the block with a hard shell and a soft core), soft is
@@ -20,11 +21,28 @@
 # --garbage builds the firmware with its `garbage` feature: at reset, before anything
 # initialises memory, RAM and the PSRAM statics are filled with 0xa5a5a5a5, so the digest
 # matches only if nothing reads memory the firmware or the runtime did not initialise.
+# --inject KIND builds the firmware with a fault armed at servo tick N (--inject-tick, default
+# 2000, where the block's force is non-zero on every axis): a panic, a hard fault, or a stall
+# (the servo spins without feeding the watchdog, whose NMI must stop it). The fault handler
+# zeroes the motor outputs, then reads them back 20 times over two servo periods; the check
+# prints force_after_fault_n= (the samples with an output still live) and passes when the
+# expected handler ran (fault=panic, hardfault or watchdog), the force at the fault was not
+# zero, and force_after_fault_n=0. No host run.
+# --inject late is not a fault: the simulation step released at tick N spins 15 servo periods
+# first, so the servo's contacts arrive late; the check reads the deadline-miss policy from
+# the report (late_first_run_force_n=: the last on-time force, then the force written on each
+# late tick) and passes when the first late tick held that force, the next ten ramped it down
+# linearly (each within 0.1 % + 1e-4 N of before * (10 - k) / 10), it was zero from the
+# eleventh on, and the run ended normally (exit_status=0) with its misses counted.
 #
+# The firmware prints over UART0 (stdio) and ends each run with a reset, which -no-reboot
+# turns into QEMU's exit; its last line is exit_status=0, or exit_status=1 after a panic, a
+# fault or a refusal (the motors stopped first).
 # Exit status: 0 when the digests match, no deadline was missed (and the worst tick is within
-# M, the stack within BYTES); 1 when they differ, a deadline was missed, the worst tick is over
-# M, the stack over BYTES, the firmware fails (panic, fault, stack overflow, non-zero
-# semihosting exit, timeout) or a build fails; 2 for bad arguments.
+# M, the stack within BYTES; with --inject, when the outputs stayed zero after the fault); 1
+# when they differ, a deadline was missed, the worst tick is over M, the stack over BYTES,
+# the firmware fails (panic, fault, stack overflow, exit_status other than 0, timeout), an
+# injected fault left an output live, or a build fails; 2 for bad arguments.
 # Honours CARGO_TARGET_DIR for the host build (default: the workspace's target/); the firmware
 # builds in ports/mps2-an386/target (target/m7 for the M7). PORT_CHECK_TIMEOUT (seconds,
 # default 900) bounds the QEMU run.
@@ -35,6 +53,8 @@ ticks=""
 max_instr=""
 max_stack=""
 garbage=""
+inject=""
+inject_tick="2000"
 target="m4"
 scenario="block"
 need() { [ "$2" -ge 2 ] || { echo "port-check: $1 needs a value" >&2; exit 2; }; }
@@ -47,12 +67,16 @@ while [ $# -gt 0 ]; do
     --max-stack) need "$1" $#; max_stack="$2"; shift 2 ;;
     --max-stack=*) max_stack="${1#--max-stack=}"; shift ;;
     --garbage) garbage=1; shift ;;
+    --inject) need "$1" $#; inject="$2"; shift 2 ;;
+    --inject=*) inject="${1#--inject=}"; shift ;;
+    --inject-tick) need "$1" $#; inject_tick="$2"; shift 2 ;;
+    --inject-tick=*) inject_tick="${1#--inject-tick=}"; shift ;;
     --target) need "$1" $#; target="$2"; shift 2 ;;
     --target=*) target="${1#--target=}"; shift ;;
     --scenario) need "$1" $#; scenario="$2"; shift 2 ;;
     --scenario=*) scenario="${1#--scenario=}"; shift ;;
-    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
-    *) echo "port-check: unknown argument '$1' (expected --target m4|m7|m7sp, --scenario block|cow|regions|soft|tooth, --ticks N, --max-instructions M, --max-stack BYTES, --garbage)" >&2; exit 2 ;;
+    -h|--help) sed -n '2,44p' "$0"; exit 0 ;;
+    *) echo "port-check: unknown argument '$1' (expected --target m4|m7|m7sp, --scenario block|cow|regions|soft|tooth, --ticks N, --max-instructions M, --max-stack BYTES, --garbage, --inject panic|hardfault|stall|late, --inject-tick N)" >&2; exit 2 ;;
   esac
 done
 if [ -n "$ticks" ] && ! [[ "$ticks" =~ ^[0-9]+$ ]]; then
@@ -63,6 +87,17 @@ if [ -n "$max_instr" ] && ! [[ "$max_instr" =~ ^[0-9]+$ ]]; then
 fi
 if [ -n "$max_stack" ] && ! [[ "$max_stack" =~ ^[0-9]+$ ]]; then
   echo "port-check: --max-stack takes a whole number of bytes, not '$max_stack'" >&2; exit 2
+fi
+case "$inject" in
+  "") ;;
+  panic) expect_fault="panic" ;;
+  hardfault) expect_fault="hardfault" ;;
+  stall) expect_fault="watchdog" ;;
+  late) expect_fault="" ;;
+  *) echo "port-check: --inject takes panic, hardfault, stall or late, not '$inject'" >&2; exit 2 ;;
+esac
+if ! [[ "$inject_tick" =~ ^[0-9]+$ ]]; then
+  echo "port-check: --inject-tick takes a whole number, not '$inject_tick'" >&2; exit 2
 fi
 case "$target" in
   m4) machine="mps2-an386"; cpu="cortex-m4"; features=""; tdir="$port/target"; rustflags="" ;;
@@ -109,11 +144,12 @@ if [ "$scenario" = tooth ]; then
   export TETRADRILL_BLOB="$port/target/blobs/tooth.tdb"
 fi
 
-echo "== firmware: build ($target, thumbv7em-none-eabihf, release, scenario $scenario)"
+echo "== firmware: build ($target, thumbv7em-none-eabihf, release, scenario $scenario${inject:+, $inject injected at tick $inject_tick})"
 # Its own target dir, whatever CARGO_TARGET_DIR says (that one is for the host build); the
 # rustflags add to .cargo/config.toml's (which links with link.x).
 # shellcheck disable=SC2086
 (cd "$port" && TETRADRILL_TICKS="$ticks" TETRADRILL_SCENARIO="$fw_scenario" \
+  TETRADRILL_INJECT="$inject" TETRADRILL_INJECT_TICK="$inject_tick" \
   CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS="$rustflags" \
   cargo build --release --quiet $features --target-dir "$tdir")
 elf="$tdir/thumbv7em-none-eabihf/release/tetradrill-mps2-an386"
@@ -133,17 +169,72 @@ fi
 echo "== firmware: run under QEMU ($machine, $cpu, -icount shift=10,sleep=off)"
 set +e
 timeout "${PORT_CHECK_TIMEOUT:-900}" qemu-system-arm -machine "$machine" -cpu "$cpu" \
-  -icount shift=10,sleep=off -semihosting-config enable=on,target=native -nographic -kernel "$elf" \
+  -icount shift=10,sleep=off -no-reboot -nographic -kernel "$elf" \
   </dev/null >"$work/fw.txt" 2>&1
 fw_rc=$?
 set -e
 tr -d '\r' <"$work/fw.txt" >"$work/fw2.txt"; mv "$work/fw2.txt" "$work/fw.txt"
 cat "$work/fw.txt"
 if [ "$fw_rc" != 0 ]; then
-  echo "port-check: FAIL: the firmware exited with status $fw_rc (124 = timeout)" >&2
+  echo "port-check: FAIL: QEMU exited with status $fw_rc (124 = timeout)" >&2
   exit 1
 fi
 val() { sed -n "s/^$1=\\([0-9a-f]*\\)\$/\\1/p" "$work/fw.txt" | head -n1; }
+exit_status="$(val exit_status)"
+if [ "$inject" = late ]; then
+  echo "== result"
+  run="$(sed -n 's/^late_first_run_force_n=//p' "$work/fw.txt" | head -n1)"
+  echo "deadline_misses=$(val deadline_misses)"
+  echo "late_ticks_held=$(val late_ticks_held)"
+  echo "late_ticks_ramped=$(val late_ticks_ramped)"
+  echo "late_ticks_longest_run=$(val late_ticks_longest_run)"
+  echo "late_first_run_force_n=$run"
+  [ "$exit_status" = 0 ] || { echo "port-check: FAIL: the run did not end normally (exit_status=${exit_status:-none})" >&2; exit 1; }
+  if ! echo "$run" | awk -F, -v hold=1 -v ramp=10 '
+    {
+      before = $1
+      if (before <= 0.01) { print "the force before the late ticks was zero: the check would prove nothing"; exit 1 }
+      if (NF < 1 + hold + ramp) { print "only " NF - 1 " late ticks recorded, fewer than the hold and the ramp"; exit 1 }
+      for (k = 1; k < NF; k++) {
+        want = (k <= hold) ? before : ((k - hold >= ramp) ? 0 : before * (ramp - (k - hold)) / ramp)
+        got = $(k + 1); d = got - want; if (d < 0) d = -d
+        if (d > 0.001 * want + 1e-4) { print "late tick " k ": " got " N written, the policy says " want; exit 1 }
+      }
+    }'; then
+    echo "port-check: FAIL: the deadline-miss policy did not hold the force, then ramp it to zero" >&2
+    exit 1
+  fi
+  echo "port-check: OK: late steps at tick $inject_tick: the force held one tick, ramped to zero over ten, the misses counted"
+  exit 0
+fi
+if [ -n "$inject" ]; then
+  fault="$(sed -n 's/^fault=\([a-z]*\)$/\1/p' "$work/fw.txt" | head -n1)"
+  at_fault="$(sed -n 's/^force_at_fault=//p' "$work/fw.txt" | head -n1)"
+  after_n="$(val force_after_fault_n)"
+  echo "== result"
+  echo "fault=$fault"
+  echo "force_at_fault=$at_fault"
+  echo "force_after_fault_samples=$(val force_after_fault_samples)"
+  echo "force_after_fault_n=$after_n"
+  if [ "$fault" != "$expect_fault" ]; then
+    echo "port-check: FAIL: expected fault=$expect_fault, the firmware reported '${fault:-nothing}'" >&2
+    exit 1
+  fi
+  if [ -z "$at_fault" ] || [ "$(echo "$at_fault" | tr -d ' 0.-')" = "" ]; then
+    echo "port-check: FAIL: the force was zero at the fault (tick $inject_tick): the check would prove nothing" >&2
+    exit 1
+  fi
+  if [ "$after_n" != 0 ]; then
+    echo "port-check: FAIL: a motor output was live in ${after_n:-?} samples after the fault" >&2
+    exit 1
+  fi
+  echo "port-check: OK: $inject at tick $inject_tick: the $expect_fault handler zeroed the motor outputs and they stayed zero"
+  exit 0
+fi
+if [ "$exit_status" != 0 ]; then
+  echo "port-check: FAIL: the firmware ended with exit_status=${exit_status:-none}" >&2
+  exit 1
+fi
 fw_digest="$(val force_digest)"
 fw_ticks="$(val ticks)"
 [ -n "$fw_digest" ] && [ -n "$fw_ticks" ] || { echo "port-check: FAIL: no force_digest/ticks line from the firmware" >&2; exit 1; }

@@ -363,6 +363,21 @@ pub trait HapticDevice {
     fn position_resets(&self) -> u64 {
         0
     }
+    /// Whether the device renders force now: `false` while it waits for its calibration (the
+    /// Falcon before homing, an inkwell device before its calibration in the dock), when it
+    /// gates every command to zero itself. A host pauses what it integrates over the rendered
+    /// force (the passivity observer) until this turns `true`. `true` (the default) for
+    /// devices that need nothing.
+    fn force_ready(&self) -> bool {
+        true
+    }
+    /// The tip force, N (device frame), that loads only arm joint `joint` (0-based) at the
+    /// current pose with `newtons` at the tip, for the motor-sign self-test; `None` (the
+    /// default) when the backend cannot say (no kinematics exposed, or no such joint).
+    fn joint_force(&self, joint: usize, newtons: f64) -> Option<Vec3> {
+        let _ = (joint, newtons);
+        None
+    }
 }
 
 impl<D: HapticDevice + ?Sized> HapticDevice for Box<D> {
@@ -383,6 +398,12 @@ impl<D: HapticDevice + ?Sized> HapticDevice for Box<D> {
     }
     fn position_resets(&self) -> u64 {
         (**self).position_resets()
+    }
+    fn force_ready(&self) -> bool {
+        (**self).force_ready()
+    }
+    fn joint_force(&self, joint: usize, newtons: f64) -> Option<Vec3> {
+        (**self).joint_force(joint, newtons)
     }
 }
 

@@ -32,7 +32,7 @@ pub use device::{
     Quat, Vec3, QUAT_IDENTITY,
 };
 pub use safety::{ForceSafety, SafetyConfig};
-pub use sim::{Path, PathPoint, Scripted, SimConfig, SimDevice, SimFault, Still};
+pub use sim::{Path, PathPoint, Scripted, SimConfig, SimDevice, SimFault, SimModel, Still};
 pub use trace::{Trace, TraceError, TraceErrorKind, TraceSample, TRACE_HEADER};
 pub mod discovery;
 pub mod falcon;

@@ -37,6 +37,7 @@
 //! | [`engine`]        | storage for a scenario's core world, allocated once, and the per-tick step |
 //! | [`error`]         | the library's typed [`Error`], and the command line's one line and exit status |
 //! | [`meshio`]        | mesh files: the `tetradrill-meshio` crate, re-exported               |
+//! | [`motors`]        | the motor-sign self-test (`devices --check --motors`), a device whose force is blocked |
 //! | [`owned`]         | host-owned storage for one core mesh (from `tetradrill-meshio`)      |
 //! | [`pen`]           | a tet-mesh tool (the pen) against an object: its storage and scene   |
 //! | [`pen_pair`]      | the pen's contact pass on two threads (`--pass-threads 2`)           |
@@ -100,6 +101,7 @@ pub mod commands;
 pub mod device_config;
 pub mod engine;
 pub mod error;
+pub mod motors;
 pub mod pen;
 pub mod pen_pair;
 pub mod pen_tasks;

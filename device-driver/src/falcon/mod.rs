@@ -646,6 +646,10 @@ impl<T: Transport> HapticDevice for FalconDevice<T> {
     fn position_resets(&self) -> u64 {
         self.gate.position_resets()
     }
+
+    fn force_ready(&self) -> bool {
+        self.gate.all_homed()
+    }
 }
 
 impl<T> FalconDevice<T> {

@@ -126,6 +126,8 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         view,
         stop: crate::watchdog::StopRequest::new(),
         record: None,
+        gate: Default::default(),
+        checks: Default::default(),
     };
     run_until_signal(&sc, loaded, setup, args.json.as_ref())
 }

@@ -9,7 +9,9 @@ use tetradrill_device::omni::OmniDevice;
 use tetradrill_device::os::firewire::{discover_omnis, CdevConfig, CdevFirewire, OmniNode};
 use tetradrill_device::os::hdapi::HdApi;
 use tetradrill_device::touch::TouchDevice;
-use tetradrill_device::{DeviceKind, DeviceState, HapticDevice};
+use tetradrill_device::{
+    DeviceKind, DeviceState, HapticDevice, SimConfig, SimDevice, SimFault, SimModel, Still,
+};
 
 use crate::device_config::DeviceConfig;
 use crate::error::CliError;
@@ -24,6 +26,20 @@ pub struct DevicesArgs {
     /// Device constants (TOML: `[omni]`, `[falcon]`, `[touch]`) used to open the devices.
     #[arg(long, value_name = "FILE")]
     pub device_config: Option<PathBuf>,
+    /// With `--check`: the motor-sign self-test (at most 0.3 N at the tip for 100 ms, one
+    /// joint at a time, the stylus free); a reversed joint is exit status 2 naming it.
+    #[arg(long, requires = "check")]
+    pub motors: bool,
+    /// Check only this device (`sim`: the simulated one, with `--sim-model` and
+    /// `--sim-fault`).
+    #[arg(long, value_parser = super::run::parse_device)]
+    pub device: Option<DeviceKind>,
+    /// The simulated device as `omni`, `falcon` or `touch` (`run --sim-model`).
+    #[arg(long, value_name = "MODEL", value_parser = super::run::parse_sim_model)]
+    pub sim_model: Option<SimModel>,
+    /// A fault for the simulated device (`run --sim-fault`), e.g. `motor-sign:2`.
+    #[arg(long, value_name = "KIND", value_parser = super::run::parse_sim_fault)]
+    pub sim_fault: Option<SimFault>,
 }
 
 /// Readings taken per device by `--check`, about 1 ms apart.
@@ -36,6 +52,16 @@ const LOOKED_FOR: &str = "looked for a Falcon on USB 0403:cb48, a Touch on USB 0
 /// Runs `devices`.
 pub fn run(args: &DevicesArgs) -> Result<(), CliError> {
     let config = DeviceConfig::from_flag(args.device_config.as_deref())?;
+    if (args.sim_model.is_some() || args.sim_fault.is_some())
+        && args.device != Some(DeviceKind::Sim)
+    {
+        return Err(CliError::input(
+            "--sim-model and --sim-fault: only with --device sim",
+        ));
+    }
+    if args.device == Some(DeviceKind::Sim) {
+        return check_sim(args, &config);
+    }
     // The Omni is found (and opened) by its configuration ROM through firewire-cdev
     // (tetradrill_device::os::firewire), not by the device crate's sysfs scan.
     let found: Vec<_> = tetradrill_device::discover()
@@ -184,6 +210,82 @@ fn check(
     }
     outln!("(no force written)");
     Ok(())
+}
+
+/// `devices --device sim [--check [--motors]]`: the simulated device (as `--sim-model`, with
+/// `--sim-fault`), its hand still at the device origin: calibrated in its dock when it has
+/// one, read [`CHECK_READS`] times, and with `--motors` the motor-sign self-test
+/// ([`crate::motors`]); a reversed joint is exit status 2, one line naming it.
+fn check_sim(args: &DevicesArgs, config: &DeviceConfig) -> Result<(), CliError> {
+    let mut c = SimConfig::default();
+    if let Some(m) = args.sim_model {
+        c = c.model(m);
+    }
+    if let Some(f) = args.sim_fault {
+        c.fault = f;
+    }
+    let model = args.sim_model.map_or("none", SimModel::name);
+    outln!(
+        "sim      the simulated device (model {model}, fault {})",
+        c.fault.name()
+    );
+    if !args.check {
+        return Ok(());
+    }
+    let mut dev = SimDevice::new(Still([0.0; 3]), c);
+    let docked =
+        super::run::calibrate_in_dock(&mut dev, &crate::watchdog::StopRequest::new(), 1, || {})
+            .map_err(|e| CliError::failure(format!("--device sim: {e}")))?;
+    let (ok, last) = sample(&mut dev);
+    outln!(
+        "  readings: {ok} of {CHECK_READS}; calibrated: {docked}; force ready: {}",
+        dev.force_ready()
+    );
+    if let Ok(s) = last {
+        print_state(&s);
+    }
+    if !args.motors {
+        outln!("(no force written)");
+        return Ok(());
+    }
+    let kind = match args.sim_model {
+        Some(SimModel::Omni) => DeviceKind::Omni,
+        Some(SimModel::Falcon) => DeviceKind::Falcon,
+        Some(SimModel::Touch) => DeviceKind::Touch,
+        None => DeviceKind::Sim,
+    };
+    let checks = crate::motors::self_test(&mut dev, false)
+        .map_err(|e| CliError::failure(format!("--device sim: motor-sign self-test: {e}")))?;
+    let Some(checks) = checks else {
+        return Err(CliError::input(
+            "--device sim: motor-sign self-test not run: the device renders no force yet (the \
+             Falcon before its homing stroke)",
+        ));
+    };
+    for j in &checks {
+        outln!(
+            "  {}",
+            crate::motors::describe(j, kind, config.omni.dac_per_newton_metre)
+        );
+    }
+    outln!(
+        "(motor-sign self-test: at most {} N at the tip for {} ms, one joint at a time)",
+        crate::motors::TEST_FORCE_N,
+        crate::motors::TEST_TICKS
+    );
+    let bad: Vec<String> = checks
+        .iter()
+        .filter(|j| j.verdict != crate::motors::Verdict::SignOk)
+        .map(|j| crate::motors::describe(j, kind, config.omni.dac_per_newton_metre))
+        .collect();
+    if bad.is_empty() {
+        Ok(())
+    } else {
+        Err(CliError::input(format!(
+            "motor-sign self-test: {}",
+            bad.join("; ")
+        )))
+    }
 }
 
 /// Reads `device` [`CHECK_READS`] times about 1 ms apart with the motors off: the complete

@@ -17,17 +17,19 @@ use tetradrill_device::os::hdapi::{HdApi, HdLoadError};
 use tetradrill_device::safety::SafetyConfig;
 use tetradrill_device::{
     discovery::OpenOptions, CalibrationStyle, DeviceError, DeviceKind, DeviceSpec, ForceCommand,
-    HapticDevice, PathPoint, Scripted, SimDevice, SimFault, QUAT_IDENTITY,
+    HapticDevice, PathPoint, Scripted, SimConfig, SimDevice, SimFault, SimModel, QUAT_IDENTITY,
 };
 
-use super::pipeline::{self, DeviceFactory, PipelineSetup, MESH_UNITS, UNTIL_STOPPED};
+use super::pipeline::{
+    self, DeviceFactory, PipelineSetup, RunChecks, StiffnessCap, MESH_UNITS, UNTIL_STOPPED,
+};
 use crate::device_config::DeviceConfig;
 use crate::error::CliError;
 use crate::meshio::LoadedMesh;
 use crate::rt::RtConfig;
 use crate::scenario::{Scenario, ScenarioFlags};
 use crate::setup::Setup;
-use crate::tasks::Workspace;
+use crate::tasks::{ServoGate, Workspace};
 use crate::traces::PoseSource;
 use crate::watchdog::StopRequest;
 
@@ -73,14 +75,31 @@ pub struct RunArgs {
     /// `mirrored-x` (the reported x is mirrored); the passivity controller must trip.
     #[arg(long, value_name = "KIND", value_parser = parse_sim_fault)]
     pub sim_fault: Option<SimFault>,
+    /// The simulated device as a real one: `omni`, `falcon` or `touch` (its limits, its
+    /// workspace over the mesh, how it starts: docked in the inkwell, or the Falcon's homing
+    /// stroke; the motor-sign self-test before the run).
+    #[arg(long, value_name = "MODEL", value_parser = parse_sim_model)]
+    pub sim_model: Option<SimModel>,
 }
 
-fn parse_sim_fault(s: &str) -> Result<SimFault, String> {
+/// `--sim-model`'s parser.
+pub fn parse_sim_model(s: &str) -> Result<SimModel, String> {
+    SimModel::parse(s).ok_or_else(|| {
+        format!(
+            "`{s}` is not a device model ({})",
+            SimModel::NAMES.join(", ")
+        )
+    })
+}
+
+/// `--sim-fault`'s parser.
+pub fn parse_sim_fault(s: &str) -> Result<SimFault, String> {
     SimFault::parse(s)
         .ok_or_else(|| format!("`{s}` is not a fault ({})", SimFault::NAMES.join(", ")))
 }
 
-fn parse_device(s: &str) -> Result<DeviceKind, String> {
+/// `--device`'s parser.
+pub fn parse_device(s: &str) -> Result<DeviceKind, String> {
     DeviceKind::parse(s).ok_or_else(|| format!("`{s}` is not a device (sim, falcon, omni, touch)"))
 }
 
@@ -105,9 +124,43 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         }
         options.sim.fault = fault;
     }
+    let mut sc = sc;
+    let mut checks = RunChecks::default();
     let stop = StopRequest::new();
-    let (open, default_ticks, workspace) =
-        device_factory_with(args.device, &sc, &loaded, options, &devices, &stop)?;
+    let (open, default_ticks, workspace) = match args.sim_model {
+        Some(model) => {
+            if args.device != DeviceKind::Sim {
+                return Err(CliError::input(format!(
+                    "--sim-model {}: only the simulated device takes a model (--device sim)",
+                    model.name()
+                )));
+            }
+            options.sim = options.sim.model(model);
+            sim_model_factory(model, &sc, &loaded, options.sim, &devices, &checks)?
+        }
+        None => device_factory_with(args.device, &sc, &loaded, options, &devices, &stop)?,
+    };
+    let real = args.device != DeviceKind::Sim || args.sim_model.is_some();
+    if real {
+        let spec = match args.sim_model {
+            Some(m) => m.spec(),
+            None => spec_of(args.device),
+        };
+        checks.stiffness_capped = cap_stiffness(&mut sc, &spec, &workspace);
+        if let Some(c) = checks.stiffness_capped {
+            errln!(
+                "tetradrill: warning: --stiffness {} is {:.0} N/m at the {}, past its maximum \
+                 stable stiffness {:.0} N/m: using {:.0} N/m (stiffness {})",
+                c.scene_stiffness * c.asked_n_per_m / c.used_n_per_m,
+                c.asked_n_per_m,
+                spec.name,
+                spec.max_stiffness_n_per_m,
+                c.used_n_per_m,
+                c.scene_stiffness
+            );
+        }
+        errln!("tetradrill: no force until the tool has been outside the solid once (it is armed on leaving it)");
+    }
     let ticks = run_ticks(args.duration, default_ticks);
     let rt = if args.no_rt {
         RtConfig {
@@ -130,6 +183,8 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         view,
         stop,
         record: args.record.clone(),
+        gate: ServoGate { arm_on_exit: real },
+        checks,
     };
     run_until_signal(&sc, loaded, setup, args.json.as_ref())
 }
@@ -231,24 +286,7 @@ pub fn device_factory_with(
             Ok((open, ticks, MESH_UNITS))
         }
         real => {
-            let spec = match real {
-                DeviceKind::Falcon => DeviceSpec::FALCON,
-                DeviceKind::Omni => DeviceSpec::OMNI,
-                _ => DeviceSpec::TOUCH,
-            };
-            // Map the device's workspace onto the mesh: its radius onto the mesh's half
-            // diagonal, its origin onto the mesh's centre.
-            let p = loaded.mesh.positions();
-            let (mut lo, mut hi) = (p[0], p[0]);
-            for q in p {
-                lo = lo.min(*q);
-                hi = hi.max(*q);
-            }
-            let half = 0.5 * (hi - lo).length();
-            let workspace = Workspace {
-                scale: (half as f64 / spec.workspace_radius_m.max(1e-6)) as f32,
-                offset: 0.5 * (lo + hi),
-            };
+            let workspace = device_workspace(&spec_of(real), sc, loaded);
             let open: DeviceFactory = if real == DeviceKind::Touch {
                 touch_factory(devices.touch)?
             } else if real == DeviceKind::Omni {
@@ -261,6 +299,132 @@ pub fn device_factory_with(
             Ok((open, UNTIL_STOPPED, workspace))
         }
     }
+}
+
+/// The specification of a real device kind (the Touch's for anything else).
+fn spec_of(kind: DeviceKind) -> DeviceSpec {
+    match kind {
+        DeviceKind::Falcon => DeviceSpec::FALCON,
+        DeviceKind::Omni => DeviceSpec::OMNI,
+        _ => DeviceSpec::TOUCH,
+    }
+}
+
+/// The fraction of the mesh's half diagonal between the mesh's top and the tool (its burr's
+/// surface) at the device's origin.
+pub const SAFE_START_CLEARANCE: f32 = 0.2;
+
+/// A real device's workspace over the mesh (a safe start): its radius onto the mesh's half
+/// diagonal; its origin, where the docked stylus or the homed grip is, above the mesh (+z, the
+/// top the default camera looks down on) over its centre, the tool clear of the top by
+/// [`SAFE_START_CLEARANCE`] of the half diagonal.
+pub fn device_workspace(spec: &DeviceSpec, sc: &Setup, loaded: &LoadedMesh) -> Workspace {
+    let p = loaded.mesh.positions();
+    let (mut lo, mut hi) = (p[0], p[0]);
+    for q in p {
+        lo = lo.min(*q);
+        hi = hi.max(*q);
+    }
+    let half = 0.5 * (hi - lo).length();
+    let centre = 0.5 * (lo + hi);
+    let tool = sc.tool.burr_radius().unwrap_or(0.0) as f32;
+    Workspace {
+        scale: (half as f64 / spec.workspace_radius_m.max(1e-6)) as f32,
+        offset: tetradrill_core::Vec3::new(
+            centre.x,
+            centre.y,
+            hi.z + tool + SAFE_START_CLEARANCE * half,
+        ),
+    }
+}
+
+/// Caps the scene's stiffness at the device's maximum stable stiffness: the device feels the
+/// scene's stiffness times the workspace's scale (N/m). Returns what was asked and used when
+/// it capped.
+pub fn cap_stiffness(
+    sc: &mut Setup,
+    spec: &DeviceSpec,
+    workspace: &Workspace,
+) -> Option<StiffnessCap> {
+    let scale = f64::from(workspace.scale);
+    let asked = sc.forces.stiffness * scale;
+    let max = spec.max_stiffness_n_per_m;
+    if !(asked.is_finite() && max.is_finite() && max > 0.0 && scale > 0.0) || asked <= max {
+        return None;
+    }
+    sc.forces.stiffness = max / scale;
+    Some(StiffnessCap {
+        asked_n_per_m: asked,
+        used_n_per_m: max,
+        scene_stiffness: sc.forces.stiffness,
+    })
+}
+
+/// The simulated device as `model`: its workspace over the mesh as the real device's
+/// ([`device_workspace`]), the scenario's path taken into the device's metres (after the
+/// model's start: [`SimModel::lead_in_s`]), the default length the path's plus that start. The
+/// factory calibrates the device in its dock and runs the motor-sign self-test
+/// ([`crate::motors`]); a reversed joint is written to `checks` and the device renders no force
+/// ([`crate::motors::Blocked`]).
+pub fn sim_model_factory(
+    model: SimModel,
+    sc: &Setup,
+    loaded: &LoadedMesh,
+    sim: SimConfig,
+    devices: &DeviceConfig,
+    checks: &RunChecks,
+) -> Result<(DeviceFactory, u64, Workspace), CliError> {
+    let source = PoseSource::new(&sc.poses, Some(&loaded.mesh))?;
+    let workspace = device_workspace(&model.spec(), sc, loaded);
+    let lead = (model.lead_in_s() * 1000.0).round() as u64;
+    let ticks = match source {
+        PoseSource::Wander { .. } => UNTIL_STOPPED,
+        _ => source.ticks().saturating_add(lead),
+    };
+    let (offset, scale) = (workspace.offset, f64::from(workspace.scale));
+    let omni_dac = devices.omni.dac_per_newton_metre;
+    let kind = match model {
+        SimModel::Omni => DeviceKind::Omni,
+        SimModel::Falcon => DeviceKind::Falcon,
+        SimModel::Touch => DeviceKind::Touch,
+    };
+    let found = std::sync::Arc::clone(&checks.reversed_joints);
+    let open: DeviceFactory = Box::new(move || {
+        let path = Scripted(move |t: f64| {
+            let p = source.path_point(t);
+            let o = offset.to_array().map(f64::from);
+            PathPoint {
+                position: std::array::from_fn(|i| (p.position[i] - o[i]) / scale),
+                ..p
+            }
+        });
+        let mut device: Box<dyn HapticDevice> = Box::new(SimDevice::new(path, sim));
+        calibrate_in_dock(device.as_mut(), &StopRequest::new(), 1, || {})?;
+        match crate::motors::self_test(device.as_mut(), false)? {
+            Some(joints) => {
+                for j in &joints {
+                    errln!(
+                        "tetradrill: motor-sign self-test: {}",
+                        crate::motors::describe(j, kind, omni_dac)
+                    );
+                }
+                let reversed = crate::motors::reversed(&joints);
+                let blocked = !reversed.is_empty();
+                let _ = found.set(reversed);
+                if blocked {
+                    errln!("tetradrill: a reversed joint: the run renders no force");
+                    device = Box::new(crate::motors::Blocked(device));
+                }
+            }
+            None => errln!(
+                "tetradrill: motor-sign self-test: not run (the {} renders no force before it \
+                 is homed)",
+                model.name()
+            ),
+        }
+        Ok(device)
+    });
+    Ok((open, ticks, workspace))
 }
 
 /// The Touch through the vendor HD library: loaded and `hdInitDevice` run here, so a missing

@@ -377,7 +377,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             ..Scenario::default()
         }),
         // Small enough for the Cortex-M4 firmware's static storage; same path as the demo.
-        // The firmware's numbers (ports/mps2-an386/src/main.rs and storage.rs): a budget and a
+        // The firmware's numbers (ports/mps2-an386/src/scenario.rs and storage.rs): a budget and a
         // contact-search bound sized for a tick of a few hundred thousand instructions on a
         // Cortex-M4 (docs/PORTING.md), a pending deque that never fills on this path.
         "firmware" => Some(Scenario {

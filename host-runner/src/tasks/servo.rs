@@ -80,6 +80,18 @@ pub struct ServoResult {
     /// Deepest penetration of the tool's contact point, metres (0 for a law that does not
     /// report one).
     pub max_depth_m: f32,
+    /// The tick the force was armed ([`ServoGate::arm_on_exit`]), if it was.
+    pub armed_at: Option<u64>,
+}
+
+/// When the servo renders force at all, besides the device's own
+/// [`HapticDevice::force_ready`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ServoGate {
+    /// No force until the law has given zero force once with the device ready (the tool
+    /// outside the solid): the tool is then *armed*. A device that starts with its tool inside
+    /// the solid does not push the hand out with the full force the moment it starts.
+    pub arm_on_exit: bool,
 }
 
 /// The servo task: `ticks` ticks at 1 kHz (`u64::MAX`: no end), or until `stop` or a
@@ -116,11 +128,13 @@ pub fn servo_task(
     record: Option<Arc<RecordRing>>,
     frame: DeviceFrame,
     mut camera: Option<&mut CameraOut>,
+    gate: ServoGate,
 ) -> ServoResult {
     let rt = rt.apply();
     let mut state = ServoState {
         frame,
         record,
+        gate,
         ..ServoState::default()
     };
     state
@@ -211,6 +225,7 @@ pub fn servo_task(
         nonfinite_samples: state.nonfinite_samples,
         passivity: state.passivity,
         max_depth_m: state.max_depth_m,
+        armed_at: state.armed_at,
     }
 }
 
@@ -283,6 +298,13 @@ pub struct ServoState {
     /// Falcon's homing moves its coordinates); a new one restarts the passivity observer, whose
     /// energy would otherwise count the jump as the tool's motion.
     pub position_resets: u64,
+    /// When force is rendered at all.
+    pub gate: ServoGate,
+    /// The tick the force was armed ([`ServoGate::arm_on_exit`]).
+    pub armed_at: Option<u64>,
+    /// The last tick rendered no force for the gate or the device's readiness: the passivity
+    /// observer restarts when force comes back.
+    pub paused: bool,
 }
 
 /// Where a servo tick's force comes from: the burr's contact plane ([`BurrLaw`]) or a mesh
@@ -494,6 +516,30 @@ pub fn servo_io(
         r.push(sample);
     }
     let f = law.force(tick, position, rotation);
+    // The gate: nothing while the device waits for its calibration (the observer paused, as
+    // no force goes out), nor before the tool was armed outside the solid.
+    let ready = device.force_ready();
+    if st.gate.arm_on_exit
+        && st.armed_at.is_none()
+        && ready
+        && position.is_finite()
+        && f == Vec3::ZERO
+    {
+        st.armed_at = Some(tick);
+    }
+    if !ready || (st.gate.arm_on_exit && st.armed_at.is_none()) {
+        st.paused = true;
+        st.digest.push(Vec3::ZERO);
+        st.last_force = Vec3::ZERO;
+        device.write(&ForceCommand::OFF)?;
+        st.last_written = 0.0;
+        return Ok(());
+    }
+    if st.paused {
+        // Force comes back: what the tool did meanwhile was not the loop's doing.
+        st.paused = false;
+        st.passivity.restart();
+    }
     // The observer works in SI: scene positions over the workspace scale are metres (in the
     // scene's rotated frame, where the power is the device's).
     let s = workspace.scale;

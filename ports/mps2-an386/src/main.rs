@@ -1,73 +1,43 @@
-//! tetradrill-core, unchanged, on a Cortex-M4F or a Cortex-M7 as an RTIC 2 application: a
-//! 1 kHz servo task at the highest priority and the simulation task below it, preempted by
-//! it, with lock-free hand-offs between them. It plays the host's `builtin:firmware` scenario
-//! (or `builtin:firmware-regions`; `builtin:firmware-cow` or `builtin:firmware-tooth`, the
-//! mesh's tets read in place from a blob in flash) and prints the force digest the host's `replay` prints, the servo's latency and the
-//! simulation's steps in instructions, and the deadline misses.
+//! tetradrill-core, unchanged, on a Cortex-M4F or a Cortex-M7 as an RTIC 2 application on
+//! QEMU's MPS2 machines: a 1 kHz servo task at the highest priority and the simulation task
+//! below it, preempted by it, with lock-free hand-offs between them. The application is the
+//! package's library (`src/lib.rs`); this binary binds it to the MPS2 board
+//! ([`tetradrill_mps2_an386::mps2::Mps2`]) and to SysTick.
 //!
 //! Runs on QEMU's `mps2-an386` machine (`mps2-an500` with the `m7` feature; see
-//! `.cargo/config.toml`, `docs/PORTING.md`). Output and exit status go through semihosting; a
-//! panic or a fault exits non-zero.
+//! `.cargo/config.toml`, `docs/PORTING.md`). Output goes through UART0; a run ends with a
+//! reset (`-no-reboot` makes QEMU exit), its last line `exit_status=0`, or `exit_status=1`
+//! after a panic, a fault or a refused storage, the motors stopped first.
 //!
-//! | task / piece   | what it is here                                                          |
+//! | task           | what it is here                                                          |
 //! |----------------|--------------------------------------------------------------------------|
-//! | `servo_tick`   | SysTick, priority 2: device read, [`servo::Servo::tick`], force write     |
-//! | `simulation`   | PendSV, priority 1: [`sim::Sim::run`], one `World::simulate` per release   |
+//! | `servo_tick`   | SysTick, priority 2: device read, `Servo::tick`, motor write, watchdog feed |
+//! | `simulation`   | PendSV, priority 1: `Sim::run`, one `World::simulate` per release          |
 //! | `idle`         | sleeps (`wfi`) between them                                               |
-//! | [`handoff`]    | the two SPSC queues (poses down, contacts up): no lock, no masking        |
-//! | [`clock`]      | SysTick as the servo timer and the instruction counter under `-icount`    |
-//! | [`storage`]    | every slice the core borrows, in statics sized by `WorldSizes`            |
-//! | [`memory`]     | the stack's guard and high-water mark; `.psram` zeroed at reset           |
-//! | `soft`         | `builtin:firmware-soft`: the soft body, its step spread by `soft::Link`   |
-//! | [`target`]     | the M4 / M7 differences: board and the clock the period assumes           |
 
 #![no_std]
 #![no_main]
 
-mod board;
-mod clock;
-mod handoff;
-mod memory;
-mod scenario;
-mod servo;
-mod sim;
-#[cfg(scenario_soft)]
-mod soft;
-mod storage;
-mod target;
+use tetradrill_mps2_an386 as fw;
 
-use cortex_m_rt::{exception, ExceptionFrame};
-use cortex_m_semihosting::{debug, hprintln};
+fw::bind_board!(fw::mps2::Mps2);
 
-use tetradrill_core::blob::MeshBlob;
-use tetradrill_core::builtin;
-use tetradrill_core::collide::{ZoneGather, ZONE_MARGIN_RADII};
-use tetradrill_core::force::closest_point_on_triangle;
-use tetradrill_core::ids::TetId;
-use tetradrill_core::mesh::{BuildOptions, FaceKey, Mesh, MeshStorage, Node};
-use tetradrill_core::servo::World;
-use tetradrill_core::Vec3;
-
-use storage::{Storage, NODES, TETS};
-
-/// Cubes per side of the built-in block (`builtin:block:4`).
-pub const BLOCK_N: usize = 4;
-/// The mesh blob `tetradrill export --firmware` wrote, included at build time and read in
-/// place from flash (empty for the block; see `build.rs`).
-static MESH_BLOB: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/mesh.tdb"));
-
-#[rtic::app(device = crate::board, peripherals = false)]
+#[rtic::app(device = tetradrill_mps2_an386::board, peripherals = false)]
 mod app {
-    use crate::handoff::{DoneQueue, ReleaseQueue};
-    use crate::servo::Servo;
-    use crate::sim::Sim;
+    use tetradrill_mps2_an386 as fw;
+
+    use fw::handoff::{DoneQueue, ReleaseQueue};
+    use fw::mps2::Mps2;
+    use fw::println;
+    use fw::servo::Servo;
+    use fw::sim::Sim;
 
     #[shared]
     struct Shared {}
 
     #[local]
     struct Local {
-        servo: Servo,
+        servo: Servo<Mps2>,
         sim: Sim,
     }
 
@@ -77,41 +47,40 @@ mod app {
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let mut core = cx.core;
-        crate::memory::guard_stack(&mut core.MPU, &mut core.SCB);
-        let cal = crate::clock::calibrate(&mut core.SYST);
-        let costs = crate::unit_costs(cal.overhead);
-        hprintln_costs(costs);
-        let world = crate::build_world();
-        #[cfg(scenario_soft)]
-        let soft = crate::soft::SoftSim::new(world);
-        let (release_tx, release_rx) = cx.local.releases.split();
-        let (done_tx, done_rx) = cx.local.dones.split();
-        let scenario = crate::scenario::path();
-        let ticks = scenario.ticks();
-        crate::clock::start_servo_timer(&mut core.SYST);
-        let a = crate::clock::now();
-        let b = crate::clock::now();
-        let now_overhead = crate::clock::instructions(b - a);
-        #[allow(unused_mut)]
-        let mut sim = Sim::new(world, release_rx, done_tx, cal, now_overhead);
-        #[cfg(scenario_soft)]
-        sim.set_soft(soft);
-        let servo = Servo::new(core.SYST, scenario, ticks, release_tx, done_rx);
-        (Shared {}, Local { servo, sim })
-    }
-
-    fn hprintln_costs(costs: [u64; 3]) {
-        cortex_m_semihosting::hprintln!(
+        let mut board = Mps2::new();
+        fw::memory::guard_stack(&mut core.MPU, &mut core.SCB);
+        fw::fault::enable_fault_handlers(&mut core.SCB);
+        let cal = fw::clock::calibrate(&mut core.SYST);
+        let costs = fw::unit_costs(cal.overhead);
+        println!(
             "unit_costs: Vec3::length {} closest_point_on_triangle {} f64 mul+add {} (instructions)",
             costs[0],
             costs[1],
             costs[2]
         );
+        let world = fw::build_world();
+        #[cfg(scenario_soft)]
+        let soft = fw::soft::SoftSim::new(world);
+        let (release_tx, release_rx) = cx.local.releases.split();
+        let (done_tx, done_rx) = cx.local.dones.split();
+        let scenario = fw::scenario::path();
+        let ticks = scenario.ticks();
+        board.start_watchdog();
+        fw::clock::start_servo_timer(&mut core.SYST);
+        let a = fw::clock::now();
+        let b = fw::clock::now();
+        let now_overhead = fw::clock::instructions(b - a);
+        #[allow(unused_mut)]
+        let mut sim = Sim::new(world, release_rx, done_tx, cal, now_overhead);
+        #[cfg(scenario_soft)]
+        sim.set_soft(soft);
+        let servo = Servo::new(board, scenario, ticks, release_tx, done_rx);
+        (Shared {}, Local { servo, sim })
     }
 
     #[idle]
     fn idle(_: idle::Context) -> ! {
-        crate::memory::start_run();
+        fw::memory::start_run();
         loop {
             cortex_m::asm::wfi();
         }
@@ -128,160 +97,4 @@ mod app {
     fn simulation(cx: simulation::Context) {
         cx.local.sim.run();
     }
-}
-
-/// Builds the mesh (the block, or the blob's) and the world over the static storage, the world
-/// itself in a static ([`storage::place_world`]: 25 KB, kept off the stack).
-#[inline(never)]
-fn build_world() -> &'static mut World<'static> {
-    let st = Storage::take();
-    if cfg!(blob_mesh) {
-        let mesh = mesh_from_blob(st.positions, st.mesh.normals, st.mesh.nodes);
-        let world = storage::place_world(mesh, st.world);
-        world.set_contact_max_nodes(scenario::contact_nodes());
-        if cfg!(scenario_tooth) {
-            let regions = blob_regions(st.regions, st.tet_region)
-                .unwrap_or_else(|| fail("region storage refused or a label not the tooth's"));
-            world.set_regions(regions);
-            world.set_zone_gather(Some(ZoneGather::new(
-                scenario::ZONE_WORK,
-                ZONE_MARGIN_RADII,
-            )));
-        }
-        if cfg!(scenario_cow) {
-            world.set_max_cells(scenario::COW_MAX_CELLS);
-            world.set_zone_gather(Some(ZoneGather::new(
-                scenario::ZONE_WORK,
-                ZONE_MARGIN_RADII,
-            )));
-        }
-        return world;
-    }
-    let mesh = block_mesh(st.positions, st.tet_nodes, st.face_scratch, st.mesh);
-    let world = storage::place_world(mesh, st.world);
-    world.set_contact_max_nodes(scenario::contact_nodes());
-    if cfg!(scenario_regions) {
-        let regions = crate::storage::regions(st.regions, st.tet_region)
-            .unwrap_or_else(|| fail("region storage refused"));
-        world.set_regions(regions);
-    }
-    world
-}
-
-/// The mesh of the included blob: checked ([`MeshBlob::parse`]: version, checksum, ids in
-/// range, neighbours pointing back), its tets read in place from flash, its positions,
-/// normals and node records copied into RAM ([`MeshBlob::mesh`]).
-fn mesh_from_blob(
-    positions: &'static mut [Vec3],
-    normals: &'static mut [Vec3],
-    nodes: &'static mut [Node],
-) -> Mesh<'static> {
-    let blob = MeshBlob::parse(MESH_BLOB).unwrap_or_else(|e| {
-        hprintln!("error: mesh blob: {}", e);
-        exit_failure()
-    });
-    if blob.node_count() != positions.len() || blob.tet_count() != TETS {
-        fail("mesh blob counts differ from the storage");
-    }
-    blob.mesh(positions, normals, nodes)
-        .unwrap_or_else(|_| fail("mesh blob storage refused"))
-}
-
-/// The tooth's regions: each tet's index is its blob label's place in
-/// [`scenario::TOOTH_LABELS`] (the host's numbering, one region per distinct label in label
-/// order). `None` for a label not among them or a table the core refuses.
-fn blob_regions(
-    table: &'static mut [tetradrill_core::drill::Region],
-    of_tet: &'static mut [u8],
-) -> Option<tetradrill_core::drill::Regions<'static>> {
-    let blob = MeshBlob::parse(MESH_BLOB).ok()?;
-    for (i, slot) in of_tet.iter_mut().enumerate() {
-        let label = blob.label(TetId(i as u32))?;
-        let at = scenario::TOOTH_LABELS.iter().position(|&l| l == label)?;
-        *slot = at as u8;
-    }
-    tetradrill_core::drill::Regions::new(table, of_tet).ok()
-}
-
-/// Instructions for a few primitives the core leans on (a diagnostic for docs/PORTING.md):
-/// `Vec3::length` (glam through libm's software `sqrtf`), the point-triangle distance, and one
-/// f64 multiply-add (software on a single-precision FPU).
-#[inline(never)]
-fn unit_costs(overhead: u64) -> [u64; 3] {
-    use core::hint::black_box;
-    let v = black_box(Vec3::new(0.3, -0.2, 0.7));
-    let tri = black_box([
-        Vec3::new(0.0, 0.0, 0.0),
-        Vec3::new(1.0, 0.0, 0.1),
-        Vec3::new(0.0, 1.0, 0.2),
-    ]);
-    let (a, b, c) = (black_box(1.25f64), black_box(3.5f64), black_box(0.75f64));
-    let t0 = clock::read();
-    black_box(black_box(v).length());
-    let t1 = clock::read();
-    black_box(closest_point_on_triangle(black_box(v), tri));
-    let t2 = clock::read();
-    black_box(black_box(a) * b + c);
-    let t3 = clock::read();
-    [t1 - t0, t2 - t1, t3 - t2].map(|d| clock::instructions(d as u64).saturating_sub(overhead))
-}
-
-/// The unit block, exactly as the host's `builtin:block:N` makes it (its tet list and the
-/// face scratch in statics, see [`storage`]).
-fn block_mesh(
-    positions: &'static mut [Vec3],
-    tet_nodes: &'static mut [[u32; 4]],
-    scratch: &'static mut [FaceKey],
-    storage: MeshStorage<'static>,
-) -> Mesh<'static> {
-    let edge = 1.0 / BLOCK_N as f32;
-    if builtin::block(BLOCK_N, edge, Vec3::splat(-0.5), positions, tet_nodes).is_none() {
-        fail("block storage too small");
-    }
-    debug_assert_eq!(positions.len(), NODES);
-    Mesh::build(
-        positions,
-        tet_nodes,
-        storage,
-        scratch,
-        BuildOptions::default(),
-    )
-    .unwrap_or_else(|_| fail("mesh build failed"))
-}
-
-/// Leaves QEMU with status 0.
-pub fn exit_success() -> ! {
-    debug::exit(debug::EXIT_SUCCESS);
-    loop {
-        cortex_m::asm::nop();
-    }
-}
-
-/// Prints `reason` and exits QEMU with a failure status.
-pub fn fail(reason: &str) -> ! {
-    hprintln!("error: {}", reason);
-    exit_failure()
-}
-
-fn exit_failure() -> ! {
-    debug::exit(debug::EXIT_FAILURE);
-    loop {
-        cortex_m::asm::nop();
-    }
-}
-
-#[panic_handler]
-fn panic(info: &core::panic::PanicInfo) -> ! {
-    hprintln!("panic: {}", info);
-    exit_failure()
-}
-
-// cortex-m-rt requires the HardFault handler to be declared `unsafe fn`; its body is safe.
-#[exception]
-unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
-    if memory::in_guard(ef as *const ExceptionFrame as usize) {
-        fail("stack overflow: the stack ran into its guard (hard fault)");
-    }
-    hprintln!("hard fault at pc {:#010x}", ef.pc());
-    exit_failure()
 }

@@ -13,7 +13,7 @@
 //! a reserved range that QEMU's MPS2 models read as zero and ignore writes to, so running off
 //! RAM alone would not fault there: [`guard_stack`] makes the stack's lowest [`GUARD_BYTES`]
 //! an MPU region no access is allowed to, and the MemManage handler puts the stack pointer
-//! back at the top, prints `error: stack overflow` and exits with status 1 (in `init`, where
+//! back at the top, stops the motors, prints `error: stack overflow` and resets ([`crate::fault`]) (in `init`, where
 //! MemManage is masked, the fault escalates to the HardFault handler, which runs with the MPU
 //! off and says the same when its frame lies in the guard). The guard is larger than any frame
 //! of the firmware (the largest, `storage::place_world`'s, is 27 KB), so no frame can step over
@@ -175,10 +175,13 @@ global_asm!(
     report = sym stack_overflow,
 );
 
-/// Prints `error: stack overflow` and exits with status 1 (entered from the MemManage handler
-/// with a fresh stack).
+/// Stops the motors and reports `error: stack overflow` ([`crate::fault::stop`]; entered from
+/// the MemManage handler with a fresh stack).
 extern "C" fn stack_overflow() -> ! {
-    crate::fail("stack overflow: the stack ran into its guard")
+    crate::fault::stop(
+        "memmanage",
+        format_args!("error: stack overflow: the stack ran into its guard"),
+    )
 }
 
 /// Whether `addr` lies in the stack's guard: a hard fault whose frame is there is a stack

@@ -3,7 +3,7 @@
 
 use core::sync::atomic::Ordering;
 
-use cortex_m_semihosting::hprintln;
+use crate::println;
 
 use tetradrill_core::drill::DrillParams;
 use tetradrill_core::servo::{SimReport, World};
@@ -114,6 +114,7 @@ impl Sim {
         if self.profile_from == Some(tick) {
             profile_mark();
         }
+        crate::fault::maybe_late(tick);
         let memo0 = (
             self.world.sphere_memo().hits(),
             self.world.sphere_memo().misses(),
@@ -173,7 +174,7 @@ impl Sim {
         let nq = candidate_query(self.world, position, reach);
         let q1 = clock::now();
         let d = &rep.drill;
-        hprintln!(
+        println!(
             "tick {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}",
             tick,
             sim + servo as u64,
@@ -193,22 +194,20 @@ impl Sim {
         );
     }
 
-    /// Prints the results (`key=value` lines) and leaves QEMU with status 0.
+    /// Prints the results (`key=value` lines) and ends the run ([`crate::exit_success`]).
     fn finish(&self, s: &Summary) -> ! {
         let cal = &self.calibration;
-        hprintln!(
+        println!(
             "calibration: delay loop of {} instructions measured {} (read overhead {})",
-            cal.expected,
-            cal.measured,
-            cal.overhead
+            cal.expected, cal.measured, cal.overhead
         );
-        hprintln!(
+        println!(
             "target={} clock_mhz={} period_instructions={}",
             crate::target::NAME,
             crate::target::CLOCK_MHZ,
             crate::target::PERIOD_INSTRUCTIONS
         );
-        hprintln!(
+        println!(
             "settings: scenario {} budget {} contact_nodes {} servo_lag {} zone_gather_work {}",
             scenario::NAME,
             scenario::budget(),
@@ -216,30 +215,34 @@ impl Sim {
             crate::servo::LAG,
             self.world.zone_gather().map_or(0, |z| z.work())
         );
-        hprintln!("force_digest={:016x}", s.digest);
-        hprintln!("ticks={}", s.ticks);
-        hprintln!("contact_ticks={}", s.contact_ticks);
-        hprintln!("servo_latency_instructions_max={}", s.latency.max);
-        hprintln!("servo_latency_instructions_mean={}", s.latency.mean());
-        hprintln!("servo_latency_instructions_max_at={}", s.latency.max_at);
-        hprintln!("servo_tick_instructions_max={}", s.busy.max);
-        hprintln!("servo_tick_instructions_mean={}", s.busy.mean());
-        hprintln!("sim_step_instructions_max={}", self.step.max);
-        hprintln!("sim_step_instructions_mean={}", self.step.mean());
-        hprintln!("sim_step_instructions_max_at={}", self.step.max_at);
-        hprintln!("instructions_per_tick_max={}", self.whole.max);
-        hprintln!("instructions_per_tick_mean={}", self.whole.mean());
-        hprintln!("instructions_per_tick_max_at={}", self.whole.max_at);
-        hprintln!("deadline_misses={}", s.deadline_misses() + self.refused);
-        hprintln!(
+        println!("force_digest={:016x}", s.digest);
+        println!("ticks={}", s.ticks);
+        println!("contact_ticks={}", s.contact_ticks);
+        println!("servo_latency_instructions_max={}", s.latency.max);
+        println!("servo_latency_instructions_mean={}", s.latency.mean());
+        println!("servo_latency_instructions_max_at={}", s.latency.max_at);
+        println!("servo_tick_instructions_max={}", s.busy.max);
+        println!("servo_tick_instructions_mean={}", s.busy.mean());
+        println!("sim_step_instructions_max={}", self.step.max);
+        println!("sim_step_instructions_mean={}", self.step.mean());
+        println!("sim_step_instructions_max_at={}", self.step.max_at);
+        println!("instructions_per_tick_max={}", self.whole.max);
+        println!("instructions_per_tick_mean={}", self.whole.mean());
+        println!("instructions_per_tick_max_at={}", self.whole.max_at);
+        println!("deadline_misses={}", s.deadline_misses() + self.refused);
+        println!(
             "deadline_misses_by_kind: late steps {} servo overruns {} releases refused {} contacts refused {}",
             s.late_steps,
             s.overruns,
             s.refused,
             self.refused
         );
+        println!("late_ticks_held={}", s.late.held);
+        println!("late_ticks_ramped={}", s.late.ramped);
+        println!("late_ticks_longest_run={}", s.late.longest);
+        print_late_run(&s.late);
         let w = &self.worst;
-        hprintln!(
+        println!(
             "worst_tick: candidates {} triangles {} contact nodes {} drill work {} created {} erased {} pending {}",
             w.candidates,
             w.triangles,
@@ -250,7 +253,7 @@ impl Sim {
             w.drill.pending
         );
         let sat = self.world.saturations();
-        hprintln!(
+        println!(
             "saturations={} (hash {}, candidates {}, arena {}, pending {}, contact {})",
             sat.total(),
             sat.hash,
@@ -259,15 +262,15 @@ impl Sim {
             sat.pending,
             sat.contact
         );
-        hprintln!("hierarchy_nodes={}", self.world.hierarchy().node_count());
-        hprintln!("stack_bytes={}", crate::memory::stack_bytes());
+        println!("hierarchy_nodes={}", self.world.hierarchy().node_count());
+        println!("stack_bytes={}", crate::memory::stack_bytes());
         let run = crate::memory::stack_max_bytes();
         let init = crate::memory::init_max_bytes();
-        hprintln!("stack_init_max_bytes={}", init);
-        hprintln!("stack_run_max_bytes={}", run);
-        hprintln!("stack_max_bytes={}", init.max(run));
+        println!("stack_init_max_bytes={}", init);
+        println!("stack_run_max_bytes={}", run);
+        println!("stack_max_bytes={}", init.max(run));
         #[cfg(feature = "garbage")]
-        hprintln!("memory_at_reset={:#010x}", crate::memory::GARBAGE);
+        println!("memory_at_reset={:#010x}", crate::memory::GARBAGE);
         #[cfg(scenario_soft)]
         if let Some(soft) = self.soft.as_ref() {
             soft.report();
@@ -315,4 +318,21 @@ fn candidate_query(world: &World<'_>, centre: Vec3, reach: f32) -> u32 {
 #[inline(never)]
 fn profile_mark() {
     core::hint::black_box(0u32);
+}
+
+/// `late_first_run_force_n=` the last on-time force's magnitude, then the written force's on
+/// each recorded late tick of the first run (newtons, 4 decimals).
+fn print_late_run(late: &crate::policy::LatePolicy) {
+    let n = late.first_run_len as usize;
+    let mut line: heapless::String<256> = heapless::String::new();
+    for (i, f) in late.first_run[..=n.min(late.first_run.len() - 1)]
+        .iter()
+        .enumerate()
+    {
+        let sep = if i == 0 { "" } else { "," };
+        let _ = core::fmt::Write::write_fmt(&mut line, format_args!("{sep}{f:.4}"));
+    }
+    if n > 0 {
+        println!("late_first_run_force_n={}", line);
+    }
 }

@@ -5,7 +5,7 @@
 
 use core::sync::atomic::Ordering;
 
-use cortex_m_semihosting::hprintln;
+use crate::println;
 
 use tetradrill_core::servo::World;
 use tetradrill_core::soft::{mesh_tets, Link, LinkBuffers, SoftBody, SoftMesh, SoftParams};
@@ -122,7 +122,7 @@ impl SoftSim {
         let n = clock::instructions((t1 - t0).saturating_sub(busy as u64)).saturating_sub(overhead);
         let out = out.unwrap_or_else(|_| crate::fail("the soft link failed"));
         if SOFT_LOG {
-            hprintln!("soft {} {} {}", tick, out.units, n);
+            println!("soft {} {} {}", tick, out.units, n);
         }
         self.units_max = self.units_max.max(out.units);
         self.cycle += n;
@@ -140,7 +140,7 @@ impl SoftSim {
 
     /// Prints the soft body's lines of the report.
     pub fn report(&self) {
-        hprintln!(
+        println!(
             "soft: rate_hz {} ticks_per_step {} substeps {} units_per_tick {} units_max {} cycle_units {} steps {} late {}",
             scenario::SOFT_RATE_HZ,
             self.link.ticks(),
@@ -151,12 +151,12 @@ impl SoftSim {
             self.link.steps(),
             self.link.late()
         );
-        hprintln!("soft_work_instructions_max={}", self.work.max);
-        hprintln!("soft_work_instructions_mean={}", self.work.mean());
-        hprintln!("soft_last_tick_instructions_max={}", self.last.max);
-        hprintln!("soft_last_tick_instructions_mean={}", self.last.mean());
-        hprintln!("soft_step_instructions_max={}", self.step.max);
-        hprintln!("soft_step_instructions_mean={}", self.step.mean());
-        hprintln!("soft_max_displacement={}", self.max_displacement);
+        println!("soft_work_instructions_max={}", self.work.max);
+        println!("soft_work_instructions_mean={}", self.work.mean());
+        println!("soft_last_tick_instructions_max={}", self.last.max);
+        println!("soft_last_tick_instructions_mean={}", self.last.mean());
+        println!("soft_step_instructions_max={}", self.step.max);
+        println!("soft_step_instructions_mean={}", self.step.mean());
+        println!("soft_max_displacement={}", self.max_displacement);
     }
 }

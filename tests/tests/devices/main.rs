@@ -6,3 +6,4 @@ mod falcon_startup;
 mod faults_device;
 mod hdapi;
 mod omni_startup;
+mod sim_models;

@@ -105,6 +105,7 @@ fn the_servo_takes_the_published_camera_and_the_stiffness_control_each_tick() {
             None,
             DeviceFrame::new(pivot),
             Some(&mut cam_out),
+            Default::default(),
         );
         assert_eq!(res.ticks, 20);
         let mut last = None;

@@ -65,6 +65,22 @@ pub struct PipelineSetup {
     pub stop: StopRequest,
     /// Record the tool samples as a trace CSV to this file (`--record`).
     pub record: Option<PathBuf>,
+    /// When the servo renders force at all (the arming outside the solid).
+    pub gate: tasks::ServoGate,
+    /// What the device's checks found before the run: the motor-sign self-test's reversed
+    /// joints (filled by the device factory), the stiffness cap.
+    pub checks: RunChecks,
+}
+
+/// What the device's checks found, for the report: shared with the device factory, which runs
+/// the motor-sign self-test on the servo thread.
+#[derive(Debug, Clone, Default)]
+pub struct RunChecks {
+    /// The joints the motor-sign self-test found reversed (1-based; the run renders no
+    /// force); unset when no test ran.
+    pub reversed_joints: std::sync::Arc<std::sync::OnceLock<Vec<u8>>>,
+    /// The stiffness used when the scene asked for more than the device's maximum.
+    pub stiffness_capped: Option<StiffnessCap>,
 }
 
 impl PipelineSetup {
@@ -89,6 +105,8 @@ impl PipelineSetup {
             },
             stop: StopRequest::new(),
             record: None,
+            gate: tasks::ServoGate::default(),
+            checks: RunChecks::default(),
         }
     }
 }
@@ -172,6 +190,8 @@ pub fn run(
         view,
         stop: request,
         record,
+        gate,
+        checks,
     } = setup;
     let recorder = Recorder::open(record.as_deref())?;
     let started = std::time::Instant::now();
@@ -281,6 +301,7 @@ pub fn run(
                 camera: view.window.then_some(&mut camera_out),
                 request: &request,
                 record: recorder.ring(),
+                gate,
             },
             &mut law,
         )?;
@@ -321,6 +342,8 @@ pub fn run(
         summary,
         request: request.clone(),
         recorded: (recorded, recorder.dropped()),
+        gate_armed: gate.arm_on_exit,
+        checks,
     };
     let (rep, error) = ended.report(servo, &shared, None)?;
     if let Some(path) = &view.screenshot {
@@ -350,6 +373,10 @@ struct Ended {
     request: StopRequest,
     /// `--record`'s rows written and dropped.
     recorded: (u64, u64),
+    /// The force waited for the tool to leave the solid.
+    gate_armed: bool,
+    /// What the device's checks found.
+    checks: RunChecks,
 }
 
 impl Ended {
@@ -395,6 +422,14 @@ impl Ended {
                 dissipated_j: servo.passivity.dissipated_j(),
                 generated_j_max: f64::from(servo.passivity.generated_j_max()),
                 past_limit_j_max: f64::from(servo.passivity.trip_measure_j_max()),
+                armed_at_tick: servo.armed_at,
+                reversed_joints: self
+                    .checks
+                    .reversed_joints
+                    .get()
+                    .cloned()
+                    .unwrap_or_default(),
+                stiffness_capped: self.checks.stiffness_capped,
             },
             contact: RunContact {
                 max_depth_m: f64::from(servo.max_depth_m),
@@ -448,6 +483,20 @@ impl Ended {
                  axis?); the motors were cut for the rest of the run",
                 rep.device,
                 rep.safety.past_limit_j_max
+            );
+        }
+        if !rep.safety.reversed_joints.is_empty() {
+            errln!(
+                "tetradrill: warning: the {} device has reversed joints {:?}: no force was \
+                 rendered",
+                rep.device,
+                rep.safety.reversed_joints
+            );
+        } else if self.gate_armed && rep.safety.armed_at_tick.is_none() {
+            errln!(
+                "tetradrill: warning: the tool never left the solid with the {} device ready: \
+                 no force was rendered",
+                rep.device
             );
         }
         if rep.nonfinite_samples > 0 {

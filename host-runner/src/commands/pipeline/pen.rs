@@ -104,6 +104,7 @@ pub(super) fn run_pen(
                 camera: setup.view.window.then_some(&mut camera_out),
                 request: &setup.stop,
                 record: recorder.ring(),
+                gate: setup.gate,
             };
             // The run's time starts with its tasks (the scene is built by now).
             let started = std::time::Instant::now();
@@ -189,6 +190,8 @@ pub(super) fn run_pen(
         summary: setup.summary,
         request: setup.stop.clone(),
         recorded: (recorded, recorder.dropped()),
+        gate_armed: setup.gate.arm_on_exit,
+        checks: setup.checks.clone(),
     };
     let (rep, error) = ended.report(servo, &shared, Some(summary))?;
     if let Some(path) = &setup.view.screenshot {

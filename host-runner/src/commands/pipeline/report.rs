@@ -162,8 +162,9 @@ pub struct RunForce {
     pub last_written_n: f32,
 }
 
-/// The passivity observer and controller of a run ([`tetradrill_core::force::PassivityObserver`]).
-#[derive(Debug, Clone, Copy, Default, Serialize)]
+/// The passivity observer and controller of a run ([`tetradrill_core::force::PassivityObserver`]),
+/// and the device's checks.
+#[derive(Debug, Clone, Default, Serialize)]
 pub struct RunSafety {
     /// Times it tripped (0 or 1: a trip cuts the motors for the rest of the run).
     pub passivity_trips: u32,
@@ -176,6 +177,30 @@ pub struct RunSafety {
     /// (the trip's measure; for a mesh tool, whose law has no storage function, the generated
     /// energy, observed only), joules.
     pub past_limit_j_max: f64,
+    /// The servo tick the force was armed: the first with the device ready and the tool
+    /// outside the solid (a real device or a simulated model; absent when it never was, and
+    /// for the plain simulated device, which renders from the start).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub armed_at_tick: Option<u64>,
+    /// The joints the motor-sign self-test found reversed, 1-based: the run rendered no force.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub reversed_joints: Vec<u8>,
+    /// The scene asked for a stiffness past the device's maximum stable one: what it asked and
+    /// what was used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stiffness_capped: Option<StiffnessCap>,
+}
+
+/// A stiffness capped at the device's maximum stable stiffness (N/m at the device: the scene's
+/// stiffness times the workspace's scale).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct StiffnessCap {
+    /// What the scene asked for, N/m at the device.
+    pub asked_n_per_m: f64,
+    /// What was used: the device's maximum, N/m.
+    pub used_n_per_m: f64,
+    /// The scene stiffness used, N per mesh unit.
+    pub scene_stiffness: f64,
 }
 
 /// The tool's contact over a run.

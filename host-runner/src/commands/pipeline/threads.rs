@@ -40,6 +40,7 @@ pub(super) struct ServoRun<'c> {
     pub(super) camera: Option<&'c mut tasks::CameraOut>,
     pub(super) request: &'c StopRequest,
     pub(super) record: Option<std::sync::Arc<RecordRing>>,
+    pub(super) gate: tasks::ServoGate,
 }
 
 /// The servo thread: opens the device, attaches its cutoff to the watchdog, and runs
@@ -60,6 +61,7 @@ pub(super) fn spawn_servo<'scope, 'env: 'scope, L: tasks::ForceLaw + Send>(
         camera,
         request,
         record,
+        gate,
     } = run;
     std::thread::Builder::new()
         .name(tasks::SERVO.name.into())
@@ -97,6 +99,7 @@ pub(super) fn spawn_servo<'scope, 'env: 'scope, L: tasks::ForceLaw + Send>(
                     record,
                     frame,
                     camera,
+                    gate,
                 )
             });
             run.map_err(|panic| {

@@ -93,18 +93,26 @@ pub enum SimFault {
     /// The reported x position is mirrored about the device's origin (a mirrored encoder);
     /// the stylus itself moves normally.
     MirroredX,
+    /// Arm joint `N` (1-based, 1 to 3) has its motor wired the other way: the stylus receives
+    /// that joint's share of the rendered force reversed. The simulated arm's joints are its
+    /// three axes (x, y, z), so joint `N` is the force's component along axis `N`.
+    MotorSign(u8),
 }
 
 impl SimFault {
-    /// Every fault's name, as `--sim-fault` takes it.
-    pub const NAMES: [&'static str; 3] = ["none", "reversed-force", "mirrored-x"];
+    /// Every fault's name, as `--sim-fault` takes it (`motor-sign:N` with `N` from 1 to 3).
+    pub const NAMES: [&'static str; 4] = ["none", "reversed-force", "mirrored-x", "motor-sign:N"];
 
-    /// The fault named `s` (`none`, `reversed-force`, `mirrored-x`).
+    /// The fault named `s` (`none`, `reversed-force`, `mirrored-x`, `motor-sign:1` to
+    /// `motor-sign:3`).
     pub fn parse(s: &str) -> Option<SimFault> {
         match s {
             "none" => Some(SimFault::None),
             "reversed-force" => Some(SimFault::ReversedForce),
             "mirrored-x" => Some(SimFault::MirroredX),
+            "motor-sign:1" => Some(SimFault::MotorSign(1)),
+            "motor-sign:2" => Some(SimFault::MotorSign(2)),
+            "motor-sign:3" => Some(SimFault::MotorSign(3)),
             _ => None,
         }
     }
@@ -115,8 +123,105 @@ impl SimFault {
             SimFault::None => "none",
             SimFault::ReversedForce => "reversed-force",
             SimFault::MirroredX => "mirrored-x",
+            SimFault::MotorSign(1) => "motor-sign:1",
+            SimFault::MotorSign(2) => "motor-sign:2",
+            SimFault::MotorSign(3) => "motor-sign:3",
+            SimFault::MotorSign(_) => "motor-sign:?",
         }
     }
+}
+
+/// A real device the simulated one stands for (`run --sim-model omni|falcon|touch`): its
+/// limits (the device's [`DeviceSpec`]: peak, continuous force, stiffness, damping,
+/// workspace), its calibration and how it starts, so the host meets what it meets with the
+/// device itself.
+///
+/// The hand starts at the device origin (the dock or the homed pose) and the path given to the
+/// device begins [`SimModel::lead_in_s`] later:
+/// - the Omni and the Touch start **docked in their inkwell** (`DeviceState::docked` while the
+///   stylus is within [`DOCK_RADIUS_M`] of the origin) and render no force until calibrated
+///   there ([`HapticDevice::calibrate`], [`DeviceError::NotDocked`] out of the dock); the hand
+///   rests in the dock for [`DOCK_REST_S`], then moves to the path's start over
+///   [`LEAD_IN_MOVE_S`];
+/// - the Falcon starts **unhomed**: its reported position is off by [`UNHOMED_OFFSET_M`]
+///   and it renders no force until homed; the hand rests for [`DOCK_REST_S`], makes the homing
+///   stroke (down [`HOMING_STROKE_M`] along -z and back, over [`HOMING_STROKE_S`]; the axes
+///   count as homed once the stylus is [`HOMING_INDEX_M`] down, when the reported position
+///   jumps to the true one and [`HapticDevice::position_resets`] counts it), then moves to the
+///   path's start over [`LEAD_IN_MOVE_S`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SimModel {
+    /// The SensAble PHANTOM Omni ([`DeviceSpec::OMNI`]).
+    Omni,
+    /// The Novint Falcon ([`DeviceSpec::FALCON`]).
+    Falcon,
+    /// The Geomagic / 3D Systems Touch ([`DeviceSpec::TOUCH`]).
+    Touch,
+}
+
+/// Seconds the hand rests at the device origin before it moves (the dock, the pose before the
+/// homing stroke): long enough for the motor-sign self-test (three joints of 200 ms) on a still
+/// hand.
+pub const DOCK_REST_S: f64 = 1.0;
+/// Seconds the hand takes from the device origin to the path's start (smoothstep).
+pub const LEAD_IN_MOVE_S: f64 = 1.0;
+/// The simulated inkwell: the stylus counts as docked within this distance of the origin, m.
+pub const DOCK_RADIUS_M: f64 = 0.005;
+/// The simulated Falcon's homing stroke: how far down (-z) the hand goes, m.
+pub const HOMING_STROKE_M: f64 = 0.035;
+/// The homing stroke's length, s (down and back, smoothstep each way).
+pub const HOMING_STROKE_S: f64 = 1.0;
+/// The stylus this far down (-z) passes the axes' index: homed, m.
+pub const HOMING_INDEX_M: f64 = 0.03;
+/// The simulated Falcon's reported position before homing, less the true one, m.
+pub const UNHOMED_OFFSET_M: Vec3 = [0.003, -0.002, 0.005];
+
+impl SimModel {
+    /// Every model's name, as `--sim-model` takes it.
+    pub const NAMES: [&'static str; 3] = ["omni", "falcon", "touch"];
+
+    /// The model named `s` (`omni`, `falcon`, `touch`).
+    pub fn parse(s: &str) -> Option<SimModel> {
+        match s {
+            "omni" => Some(SimModel::Omni),
+            "falcon" => Some(SimModel::Falcon),
+            "touch" => Some(SimModel::Touch),
+            _ => None,
+        }
+    }
+
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SimModel::Omni => "omni",
+            SimModel::Falcon => "falcon",
+            SimModel::Touch => "touch",
+        }
+    }
+
+    /// The device's specification (its limits and calibration style).
+    pub fn spec(self) -> DeviceSpec {
+        match self {
+            SimModel::Omni => DeviceSpec::OMNI,
+            SimModel::Falcon => DeviceSpec::FALCON,
+            SimModel::Touch => DeviceSpec::TOUCH,
+        }
+    }
+
+    /// Seconds from the start to where the device's path begins: the rest at the origin, the
+    /// Falcon's homing stroke, the move to the path's start.
+    pub fn lead_in_s(self) -> f64 {
+        match self {
+            SimModel::Falcon => DOCK_REST_S + HOMING_STROKE_S + LEAD_IN_MOVE_S,
+            _ => DOCK_REST_S + LEAD_IN_MOVE_S,
+        }
+    }
+}
+
+/// `3 u^2 - 2 u^3` on `u` clamped to `[0, 1]`.
+fn smoothstep(u: f64) -> f64 {
+    let u = u.clamp(0.0, 1.0);
+    u * u * (3.0 - 2.0 * u)
 }
 
 /// Parameters of the simulated device.
@@ -144,6 +249,25 @@ pub struct SimConfig {
     /// a continuous-time mass under a force held over the period, as a real one is, and a
     /// stiff wall can oscillate.
     pub substeps: u32,
+    /// The real device this one stands for ([`SimModel`]), if any: set with
+    /// [`SimConfig::model`], which also takes the model's limits.
+    pub model: Option<SimModel>,
+}
+
+impl SimConfig {
+    /// This configuration standing for `model`: its [`DeviceSpec`] and a safety filter at its
+    /// peak force (the other settings kept).
+    pub fn model(self, model: SimModel) -> SimConfig {
+        SimConfig {
+            spec: model.spec(),
+            safety: SafetyConfig {
+                max_force_n: model.spec().max_force_n,
+                ..self.safety
+            },
+            model: Some(model),
+            ..self
+        }
+    }
 }
 
 impl Default for SimConfig {
@@ -159,6 +283,7 @@ impl Default for SimConfig {
             disconnect_at_tick: None,
             fault: SimFault::None,
             substeps: 1,
+            model: None,
         }
     }
 }
@@ -223,16 +348,29 @@ pub struct SimDevice<P> {
     velocity: Vec3,
     hand: PathPoint,
     hand_prev: Vec3,
+    /// An inkwell model calibrated in its dock.
+    calibrated: bool,
+    /// The Falcon model homed.
+    homed: bool,
+    position_resets: u64,
 }
 
 impl<P: Path> SimDevice<P> {
     /// A device whose stylus starts at rest at the hand's position at t = 0.
+    /// With a [`SimConfig::model`], the stylus starts at the device origin and the path
+    /// begins [`SimModel::lead_in_s`] later ([`SimModel`]).
     pub fn new(mut path: P, config: SimConfig) -> SimDevice<P> {
-        let hand = path.at(0.0);
         let mut config = config;
         if !(config.period_s.is_finite() && config.period_s > 0.0) {
             config.period_s = 1e-3;
         }
+        let hand = match config.model {
+            Some(_) => PathPoint {
+                position: [0.0; 3],
+                ..path.at(0.0)
+            },
+            None => path.at(0.0),
+        };
         SimDevice {
             path,
             safety: ForceSafety::new(config.safety),
@@ -244,7 +382,59 @@ impl<P: Path> SimDevice<P> {
             velocity: [0.0; 3],
             hand,
             hand_prev: hand.position,
+            calibrated: false,
+            homed: false,
+            position_resets: 0,
         }
+    }
+
+    /// The hand at device time `t`: the path's, or with a model the rest at the origin, the
+    /// Falcon's homing stroke and the move to the path's start first ([`SimModel`]).
+    fn hand_at(&mut self, t: f64) -> PathPoint {
+        let Some(model) = self.config.model else {
+            return self.path.at(t);
+        };
+        let lead = model.lead_in_s();
+        if t >= lead {
+            return self.path.at(t - lead);
+        }
+        let start = self.path.at(0.0);
+        let origin = PathPoint {
+            position: [0.0; 3],
+            ..start
+        };
+        let mut u = t - DOCK_REST_S;
+        if u < 0.0 {
+            return origin;
+        }
+        if model == SimModel::Falcon {
+            if u < HOMING_STROKE_S {
+                // Down and back, each half a smoothstep.
+                let half = 0.5 * HOMING_STROKE_S;
+                let down = if u < half {
+                    smoothstep(u / half)
+                } else {
+                    1.0 - smoothstep((u - half) / half)
+                };
+                return PathPoint {
+                    position: [0.0, 0.0, -HOMING_STROKE_M * down],
+                    ..origin
+                };
+            }
+            u -= HOMING_STROKE_S;
+        }
+        PathPoint {
+            position: v3::scale(start.position, smoothstep(u / LEAD_IN_MOVE_S)),
+            ..origin
+        }
+    }
+
+    /// Whether the stylus is in its simulated inkwell (an inkwell model within
+    /// [`DOCK_RADIUS_M`] of the origin).
+    fn docked(&self) -> bool {
+        self.config.spec.calibration == CalibrationStyle::Inkwell
+            && self.config.model.is_some()
+            && v3::norm(self.position) <= DOCK_RADIUS_M
     }
 
     /// Device time, s.
@@ -290,7 +480,7 @@ impl<P: Path> SimDevice<P> {
         let dt = self.config.period_s;
         self.tick += 1;
         let t = self.time();
-        let hand = self.path.at(t);
+        let hand = self.hand_at(t);
         let hand_pos = if v3::finite(hand.position) {
             hand.position
         } else {
@@ -305,6 +495,11 @@ impl<P: Path> SimDevice<P> {
         let device = self.motors.output().force;
         let device = match self.config.fault {
             SimFault::ReversedForce => v3::scale(device, -1.0),
+            SimFault::MotorSign(j @ 1..=3) => {
+                let mut d = device;
+                d[usize::from(j) - 1] = -d[usize::from(j) - 1];
+                d
+            }
             _ => device,
         };
         let n = self.config.substeps.max(1);
@@ -323,12 +518,23 @@ impl<P: Path> SimDevice<P> {
             self.velocity = v3::add(self.velocity, v3::scale(accel, h));
             self.position = v3::add(self.position, v3::scale(self.velocity, h));
         }
+        if self.config.model == Some(SimModel::Falcon)
+            && !self.homed
+            && self.position[2] <= -HOMING_INDEX_M
+        {
+            self.homed = true;
+            self.position_resets += 1;
+        }
     }
 
     /// The stylus position the device reports: the true one, x mirrored under
     /// [`SimFault::MirroredX`].
     fn reported(&self) -> Vec3 {
-        let [x, y, z] = self.position;
+        let [x, y, z] = if self.config.model == Some(SimModel::Falcon) && !self.homed {
+            v3::add(self.position, UNHOMED_OFFSET_M)
+        } else {
+            self.position
+        };
         match self.config.fault {
             SimFault::MirroredX => [-x, y, z],
             _ => [x, y, z],
@@ -363,14 +569,20 @@ impl<P: Path> HapticDevice for SimDevice<P> {
         }
         self.safety.tick();
         self.publish();
+        let position = self.reported();
+        let mut joint_angles = [0.0; 6];
+        if self.config.model.is_some() {
+            // The simulated arm's joints are its axes.
+            joint_angles[..3].copy_from_slice(&position);
+        }
         Ok(DeviceState {
             timestamp_s: self.time(),
             tick: self.tick,
-            position: self.reported(),
+            position,
             rotation: self.hand.rotation,
-            joint_angles: [0.0; 6],
+            joint_angles,
             buttons: self.hand.buttons,
-            docked: false,
+            docked: self.docked(),
         })
     }
 
@@ -380,7 +592,8 @@ impl<P: Path> HapticDevice for SimDevice<P> {
             self.publish();
             return Err(DeviceError::Disconnected);
         }
-        let command = if self.motors.latch.is_set() {
+        // A cut, or a model that is not homed or calibrated yet: nothing is rendered.
+        let command = if self.motors.latch.is_set() || !self.force_ready() {
             &ForceCommand::OFF
         } else {
             command
@@ -390,274 +603,43 @@ impl<P: Path> HapticDevice for SimDevice<P> {
         r
     }
 
+    /// Nothing to do, but an inkwell model calibrates only in its dock
+    /// ([`DeviceError::NotDocked`] elsewhere); the Falcon model homes by moving.
     fn calibrate(&mut self) -> Result<(), DeviceError> {
-        debug_assert_eq!(self.config.spec.calibration, CalibrationStyle::None);
+        if self.config.model.is_some() && self.config.spec.calibration == CalibrationStyle::Inkwell
+        {
+            if !self.docked() {
+                return Err(DeviceError::NotDocked);
+            }
+            self.calibrated = true;
+        }
         Ok(())
     }
 
     fn cutoff(&self) -> Option<Arc<dyn MotorCutoff>> {
         Some(self.motors() as Arc<dyn MotorCutoff>)
     }
+
+    fn position_resets(&self) -> u64 {
+        self.position_resets
+    }
+
+    /// Always, but for a model: an inkwell one once calibrated, the Falcon once homed.
+    fn force_ready(&self) -> bool {
+        match self.config.model {
+            None => true,
+            Some(SimModel::Falcon) => self.homed,
+            Some(_) => self.calibrated,
+        }
+    }
+
+    /// The simulated arm's joints are its axes: `newtons` along axis `joint`.
+    fn joint_force(&self, joint: usize, newtons: f64) -> Option<Vec3> {
+        let mut f = [0.0; 3];
+        *f.get_mut(joint)? = newtons;
+        Some(f)
+    }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn line(t: f64) -> PathPoint {
-        PathPoint {
-            position: [0.05 * t, 0.0, 0.0],
-            rotation: QUAT_IDENTITY,
-            buttons: 1,
-        }
-    }
-
-    fn no_ramp() -> SimConfig {
-        let mut c = SimConfig::default();
-        c.safety.ramp_ticks = 1;
-        c
-    }
-
-    /// A wall at x = 0.02 rendered by a penalty spring: the servo the sim exists to drive.
-    fn run(ticks: usize, config: SimConfig) -> Vec<DeviceState> {
-        let mut dev = SimDevice::new(Scripted(line), config);
-        let mut out = Vec::new();
-        for _ in 0..ticks {
-            let s = dev.read().unwrap();
-            let depth = s.position[0] - 0.02;
-            let f = if depth > 0.0 {
-                [-2000.0 * depth, 0.0, 0.0]
-            } else {
-                [0.0; 3]
-            };
-            dev.write(&ForceCommand::force(f)).unwrap();
-            out.push(s);
-        }
-        out
-    }
-
-    #[test]
-    fn deterministic_bit_for_bit() {
-        let a = run(3000, no_ramp());
-        let b = run(3000, no_ramp());
-        assert_eq!(a.len(), b.len());
-        for (x, y) in a.iter().zip(&b) {
-            assert_eq!(x.timestamp_s.to_bits(), y.timestamp_s.to_bits());
-            assert_eq!(x.position.map(f64::to_bits), y.position.map(f64::to_bits));
-        }
-        // The clock is the tick count times the period, never wall time.
-        assert_eq!(a[1000].timestamp_s, 1000.0 * 1e-3);
-        assert_eq!(a[1000].tick, 1000);
-    }
-
-    #[test]
-    fn stylus_follows_hand_without_force() {
-        let mut dev = SimDevice::new(Scripted(line), SimConfig::default());
-        let mut last = DeviceState::ZERO;
-        for _ in 0..2000 {
-            last = dev.read().unwrap();
-            dev.write(&ForceCommand::ZERO).unwrap();
-        }
-        // Hand at 0.1 m after 2 s; a steadily moving hand leads the stylus by about
-        // c * v / k = 4 * 0.05 / 300 m.
-        assert!(
-            (last.position[0] - (0.1 - 4.0 * 0.05 / 300.0)).abs() < 1e-3,
-            "{:?}",
-            last.position
-        );
-        assert_eq!(last.buttons, 1);
-    }
-
-    #[test]
-    fn force_pushes_back_the_stylus() {
-        // The hand stops at x = 0.03 m, behind a wall at 0.02 m (2000 N/m). The stylus settles
-        // where the hand spring (300 N/m) balances the wall: 300 (0.03 - x) = 2000 (x - 0.02).
-        let stop = |t: f64| PathPoint {
-            position: [(0.05 * t).min(0.03), 0.0, 0.0],
-            rotation: QUAT_IDENTITY,
-            buttons: 0,
-        };
-        let mut dev = SimDevice::new(Scripted(stop), no_ramp());
-        let mut s = DeviceState::ZERO;
-        for _ in 0..4000 {
-            s = dev.read().unwrap();
-            let depth = s.position[0] - 0.02;
-            let f = if depth > 0.0 {
-                [-2000.0 * depth, 0.0, 0.0]
-            } else {
-                [0.0; 3]
-            };
-            dev.write(&ForceCommand::force(f)).unwrap();
-        }
-        let want = (300.0 * 0.03 + 2000.0 * 0.02) / 2300.0;
-        assert!(
-            (s.position[0] - want).abs() < 1e-5,
-            "stylus at {} want {want}",
-            s.position[0]
-        );
-        // Without the wall it reaches the hand.
-        let mut dev = SimDevice::new(Scripted(stop), no_ramp());
-        for _ in 0..4000 {
-            s = dev.read().unwrap();
-            dev.write(&ForceCommand::ZERO).unwrap();
-        }
-        assert!((s.position[0] - 0.03).abs() < 1e-5);
-    }
-
-    #[test]
-    fn a_reversed_force_pushes_the_stylus_the_other_way() {
-        // A 2 N force along +x on a stylus held by the hand at the origin settles where the
-        // hand spring (300 N/m) balances it: +2/300 m, and -2/300 m with the fault.
-        for (fault, sign) in [(SimFault::None, 1.0), (SimFault::ReversedForce, -1.0)] {
-            let c = SimConfig { fault, ..no_ramp() };
-            let mut dev = SimDevice::new(Still([0.0; 3]), c);
-            let mut s = DeviceState::ZERO;
-            for _ in 0..3000 {
-                s = dev.read().unwrap();
-                dev.write(&ForceCommand::force([2.0, 0.0, 0.0])).unwrap();
-            }
-            let want = sign * 2.0 / 300.0;
-            assert!(
-                (s.position[0] - want).abs() < 1e-6,
-                "{fault:?}: {:?}",
-                s.position
-            );
-        }
-    }
-
-    #[test]
-    fn a_mirrored_x_reports_minus_x_while_the_stylus_moves_normally() {
-        let c = SimConfig {
-            fault: SimFault::MirroredX,
-            ..SimConfig::default()
-        };
-        let mut dev = SimDevice::new(Scripted(line), c);
-        let mut plain = SimDevice::new(Scripted(line), SimConfig::default());
-        for _ in 0..500 {
-            let s = dev.read().unwrap();
-            let p = plain.read().unwrap();
-            assert_eq!(dev.true_position(), p.position);
-            assert_eq!(s.position, [-p.position[0], p.position[1], p.position[2]]);
-            dev.write(&ForceCommand::ZERO).unwrap();
-            plain.write(&ForceCommand::ZERO).unwrap();
-        }
-        assert!(plain.true_position()[0] > 0.02);
-    }
-
-    #[test]
-    fn one_substep_is_the_lockstep_integration_and_more_converge() {
-        // The hand steps 1 cm away at t = 0: the undamped part of the stylus's response
-        // against the exact solution of m x'' = k (1 cm - x) - c x' (underdamped, f64).
-        let step = |_t: f64| PathPoint {
-            position: [0.01, 0.0, 0.0],
-            rotation: QUAT_IDENTITY,
-            buttons: 0,
-        };
-        let run = |substeps: u32| {
-            let c = SimConfig {
-                substeps,
-                hand_damping_n_s_per_m: 2.0,
-                ..no_ramp()
-            };
-            let mut dev = SimDevice::new(Scripted(step), c);
-            dev.position = [0.0; 3];
-            dev.hand_prev = [0.01, 0.0, 0.0];
-            let mut out = Vec::new();
-            for _ in 0..200 {
-                out.push(dev.read().unwrap().position[0]);
-                dev.write(&ForceCommand::ZERO).unwrap();
-            }
-            out
-        };
-        let (m, k, c) = (0.1f64, 300.0f64, 2.0f64);
-        let wd = (k / m - (c / (2.0 * m)).powi(2)).sqrt();
-        let zeta_w = c / (2.0 * m);
-        let exact = |t: f64| {
-            0.01 * (1.0 - (-zeta_w * t).exp() * ((wd * t).cos() + zeta_w / wd * (wd * t).sin()))
-        };
-        let err = |xs: &[f64]| {
-            xs.iter()
-                .enumerate()
-                .map(|(i, x)| (x - exact(i as f64 * 1e-3)).abs())
-                .fold(0.0, f64::max)
-        };
-        let (one, many) = (run(1), run(20));
-        assert!(
-            err(&many) < 0.2 * err(&one),
-            "{} vs {}",
-            err(&many),
-            err(&one)
-        );
-        assert!(err(&many) < 2e-4, "{}", err(&many));
-    }
-
-    #[test]
-    fn a_cut_zeroes_the_motors_at_once_and_holds_them_until_rearmed() {
-        let mut c = SimConfig::default();
-        c.safety.ramp_ticks = 10;
-        let mut dev = SimDevice::new(Still([0.0; 3]), c);
-        for _ in 0..20 {
-            dev.read().unwrap();
-            dev.write(&ForceCommand::force([2.0, 0.0, 0.0])).unwrap();
-        }
-        assert_eq!(dev.applied_force(), [2.0, 0.0, 0.0]);
-        // Another thread cuts through the shared motors: zero at once, without the device.
-        let cut = dev.cutoff().expect("the simulated device has a cutoff");
-        let seen = std::thread::scope(|s| {
-            s.spawn(|| {
-                cut.cut().unwrap();
-                dev.motors().output()
-            })
-            .join()
-            .unwrap()
-        });
-        assert_eq!(seen, ForceCommand::OFF);
-        assert_eq!(dev.applied_force(), [0.0; 3]);
-        // While the latch is set, the servo's writes render zero with the motors off.
-        for _ in 0..5 {
-            dev.read().unwrap();
-            dev.write(&ForceCommand::force([2.0, 0.0, 0.0])).unwrap();
-            assert_eq!(dev.motors().output(), ForceCommand::OFF);
-        }
-        // Rearmed: the next enabled write ramps from zero (1/10 of the force), not a jump.
-        cut.rearm();
-        dev.read().unwrap();
-        dev.write(&ForceCommand::force([2.0, 0.0, 0.0])).unwrap();
-        assert!(
-            (dev.applied_force()[0] - 0.2).abs() < 1e-12,
-            "{:?}",
-            dev.applied_force()
-        );
-    }
-
-    #[test]
-    fn disconnect_is_an_error_and_zeroes_force() {
-        let mut c = no_ramp();
-        c.disconnect_at_tick = Some(10);
-        let mut dev = SimDevice::new(Still([0.0; 3]), c);
-        for _ in 0..10 {
-            dev.read().unwrap();
-            dev.write(&ForceCommand::force([1.0, 0.0, 0.0])).unwrap();
-        }
-        assert_eq!(dev.read(), Err(DeviceError::Disconnected));
-        assert_eq!(
-            dev.write(&ForceCommand::force([1.0, 0.0, 0.0])),
-            Err(DeviceError::Disconnected)
-        );
-        assert_eq!(dev.applied_force(), [0.0; 3]);
-    }
-
-    #[test]
-    fn plays_back_a_trace() {
-        let text = "t,x,y,z,qw,qx,qy,qz,buttons\n0,0,0,0,1,0,0,0,0\n1,0,0.01,0,1,0,0,0,1\n";
-        let trace = Trace::parse(text, "p").unwrap();
-        let mut dev = SimDevice::new(trace, SimConfig::default());
-        let mut s = DeviceState::ZERO;
-        for _ in 0..=1500 {
-            s = dev.read().unwrap();
-            dev.write(&ForceCommand::ZERO).unwrap();
-        }
-        assert!((s.position[1] - 0.01).abs() < 1e-4);
-        assert_eq!(s.buttons, 1);
-    }
-}
+mod tests;
