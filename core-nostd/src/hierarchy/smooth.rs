@@ -8,7 +8,9 @@
 //! corners threaded through the exporter's slots.
 //!
 //! The normal written at corner `u` of face `g`:
-//! 1. `N(w)`: the unit sum of the face normals at vertex `w`;
+//! 1. `N(w)`: the unit sum of the face normals at vertex `w`, zero when that sum is shorter
+//!    than `2^-8` (the faces' normals cancel, as where two sheets of the surface touch at a
+//!    point: what is left of the sum is rounding noise);
 //! 2. `C(g, u)`: the unit sum, over the faces `f` at `u` whose normal is within the crease
 //!    angle of `g`'s, of `N(w)` of the three corners `w` of `f` (a two-ring average: the
 //!    subdivision's faces meet at up to 90 degrees in a drilled cavity, and one ring of
@@ -33,6 +35,12 @@ const NO: u32 = u32::MAX;
 /// Fixed-point scale of the normal sums: `2^20` a unit (a vertex of up to 2,047 faces sums
 /// without overflow; the sums saturate beyond).
 const SCALE: f32 = 1_048_576.0;
+
+/// A vertex whose faces' unit normals sum to less than this (fixed point: `2^-8` of a unit)
+/// has no normal of its own (`N(w)` is zero): its faces face opposite ways, as where two
+/// sheets of the surface touch at a point, and the direction of what is left of the sum is
+/// rounding noise.
+const CANCELLED: i64 = 1 << 12;
 
 /// A vertex's exact place in the subdivision lattice: the global ids of the coarse corners
 /// it is a combination of (ascending, [`u32::MAX`] for an unused entry) and its integer
@@ -589,9 +597,17 @@ impl<'a> SmoothNormals<'a> {
         work
     }
 
-    /// `N(w)`: the unit sum of the face normals at vertex `w`.
+    /// `N(w)`: the unit sum of the face normals at vertex `w`; zero when the sum is shorter
+    /// than [`CANCELLED`] (the faces' normals cancel).
     fn vertex_normal(&self, w: u32) -> Option<Vec3> {
-        self.verts.get(w as usize).map(|r| unit_of(r.sum))
+        self.verts.get(w as usize).map(|r| {
+            let len2: i64 = r.sum.iter().map(|&c| i64::from(c) * i64::from(c)).sum();
+            if len2 < CANCELLED * CANCELLED {
+                Vec3::ZERO
+            } else {
+                unit_of(r.sum)
+            }
+        })
     }
 
     /// The normal of corner `c` (`3 slot + k`) at vertex `u`: see the module's docs.
