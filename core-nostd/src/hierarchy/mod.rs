@@ -108,7 +108,8 @@ pub use nearest::{FaceRef, Kept, Nearest, NearestCursor, NearestQuery, KEEP};
 pub use node::{HNode, VEntry, NODE_BYTES};
 pub use ops::OpReport;
 pub use smooth::{
-    SmoothError, SmoothNormals, SmoothSlot, SmoothStats, SmoothStorage, SmoothVertex, VertexKey,
+    SmoothError, SmoothNormals, SmoothSizes, SmoothSlot, SmoothStats, SmoothStorage, SmoothVertex,
+    VertexKey,
 };
 pub use store::{
     Hierarchy, HierarchyError, HierarchySizes, HierarchyStats, HierarchyStorage, DEFAULT_CHANGES,
@@ -119,6 +120,8 @@ pub use table::MAX_DEPTH;
 
 #[cfg(test)]
 mod export_tests;
+#[cfg(test)]
+mod smooth_tests;
 #[cfg(test)]
 pub(crate) mod test_support;
 #[cfg(test)]

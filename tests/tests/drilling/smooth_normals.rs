@@ -11,8 +11,8 @@ use tetradrill::scenario;
 use tetradrill::traces::PoseSource;
 use tetradrill_core::force::ToolState;
 use tetradrill_core::hierarchy::{
-    Hierarchy, SlotRange, SmoothNormals, SmoothSlot, SmoothStorage, SmoothVertex, SurfaceBuffers,
-    SurfaceExport, SurfaceSizes, SurfaceStorage,
+    Hierarchy, SlotRange, SmoothNormals, SmoothSizes, SmoothStorage, SurfaceBuffers, SurfaceExport,
+    SurfaceSizes, SurfaceStorage,
 };
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::storage::{Block, Line};
@@ -134,21 +134,10 @@ fn smooth_normals_equal_an_f64_recomputation_after_every_frame() {
     let sizes = SurfaceSizes::new(SLOTS, tets);
     let mut lines = vec![Line::ZERO; sizes.lines().expect("sizes")];
     let storage = SurfaceStorage::carve(&sizes, &mut Block::from_lines(&mut lines)).unwrap();
-    let (mut sl, mut vs) = (
-        vec![SmoothSlot::FREE; SLOTS],
-        vec![SmoothVertex::EMPTY; VERTS],
-    );
-    let (mut table, mut queue) = (vec![0u32; 2 * VERTS], vec![0u32; 4096]);
-    let smooth = SmoothNormals::new(
-        SmoothStorage {
-            slots: &mut sl,
-            vertices: &mut vs,
-            table: &mut table,
-            queue: &mut queue,
-        },
-        SmoothNormals::CREASE_DEGREES,
-    )
-    .expect("smooth storage");
+    let ssizes = SmoothSizes::new(SLOTS, VERTS, 4096);
+    let mut slines = vec![Line::ZERO; ssizes.lines().expect("sizes")];
+    let sst = SmoothStorage::carve(&ssizes, &mut Block::from_lines(&mut slines)).unwrap();
+    let smooth = SmoothNormals::new(sst, SmoothNormals::CREASE_DEGREES).expect("smooth storage");
     let mut ex = SurfaceExport::new(storage, world.hierarchy())
         .expect("exporter")
         .with_smooth(smooth)
