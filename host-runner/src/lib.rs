@@ -112,6 +112,7 @@ pub mod scenario;
 pub mod servo;
 pub mod session;
 pub mod setup;
+pub mod smooth_surface;
 pub mod soft;
 pub mod stats;
 pub mod tasks;

@@ -7,22 +7,32 @@
 //! away again leaves exactly what was there, whatever the order), and a list of its face
 //! corners threaded through the exporter's slots.
 //!
-//! The normal written at corner `u` of face `g`:
-//! 1. `N(w)`: the unit sum of the face normals at vertex `w`, zero when that sum is shorter
-//!    than `2^-8` (the faces' normals cancel, as where two sheets of the surface touch at a
-//!    point: what is left of the sum is rounding noise);
-//! 2. `C(g, u)`: the unit sum, over the faces `f` at `u` whose normal is within the crease
-//!    angle of `g`'s, of `N(w)` of the three corners `w` of `f` (a two-ring average: the
-//!    subdivision's faces meet at up to 90 degrees in a drilled cavity, and one ring of
-//!    them leaves neighbouring normals far apart);
-//! 3. where `C(g, u)` is further than the crease angle from `g`'s own normal, or the sum is
-//!    zero, the face's own normal: faces across a crease (the mesh's own edges, sharper
-//!    than the angle) are not averaged together, and no corner leans further than the
-//!    crease angle from its face.
+//! Faces are of two kinds: *drilled* (on no boundary face of the coarse mesh: cut by the
+//! tool, a staircase of subdivision faces meeting at up to 90 degrees over a round cut) and
+//! the mesh's own *boundary*. The two are never averaged together (the rim of a cavity
+//! stays sharp), and each kind keeps its own sums. The normal written at corner `u` of face
+//! `g`:
+//! 1. `N(w)`: the unit sum of the normals of `w`'s faces of `g`'s kind; zero when that sum
+//!    is shorter than `2^-8` (the faces' normals cancel, as where two sheets of the surface
+//!    touch at a point: what is left of the sum is rounding noise);
+//! 2. a drilled `g`: `M(w)`, the unit sum over `w`'s drilled faces `f` of `N` at `f`'s
+//!    three corners (kept a vertex), and the corner's normal is the unit sum over `u`'s
+//!    drilled faces `f` of `M` at `f`'s three corners: a three-ring average with no crease,
+//!    as the staircase of one cut needs (one ring leaves neighbouring vertices' normals
+//!    about 27 degrees apart on the tooth's cavity, two rings 13, three 9); a corner may
+//!    then lean more than 90 degrees from its own facet, as the facets of the staircase do
+//!    from the cut;
+//! 3. a boundary `g`: the unit sum over `u`'s boundary faces `f` whose normal is within the
+//!    crease angle of `g`'s of `N` at `f`'s three corners (a two-ring average), and `g`'s
+//!    own normal where that is further than the crease angle from it: the mesh's own edges,
+//!    sharper than the angle, stay sharp;
+//! 4. a sum (of step 2 or 3) shorter than `2^-8`: the face's own normal.
 //!
-//! Changes are incremental: a face put into or taken out of a slot changes the sums of its
-//! three vertices, and every vertex that shares a face with one of those is queued; the
-//! exporter recomputes the corners of queued vertices a bounded amount of work a call.
+//! Changes are incremental, in two stages through one queue: a face put into or taken out of
+//! a slot changes the sums of its three vertices; each of them and every vertex sharing a
+//! face with one is queued to recompute `M` and its corners; a vertex whose `M` was
+//! recomputed queues itself and its neighbours' corners. The exporter works the queue a
+//! bounded amount each call; once it is empty every corner follows the rule above exactly.
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -103,13 +113,15 @@ impl VertexKey {
     }
 }
 
-/// A shared vertex: its key, the fixed-point sum of its faces' unit normals, the first of its
-/// face corners (`3 slot + corner`) and how many faces it has.
+/// A shared vertex: its key, the fixed-point sums of its boundary and of its drilled faces'
+/// unit normals, its smoothed drilled normal `M` (fixed point), the first of its face corners
+/// (`3 slot + corner`), how many faces it has, and its queued stages.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Pod, Zeroable)]
 #[repr(C)]
 pub struct SmoothVertex {
     key: VertexKey,
-    sum: [i32; 3],
+    sum: [[i32; 3]; 2],
+    smooth: [i32; 3],
     head: u32,
     faces: u32,
     queued: u32,
@@ -119,7 +131,8 @@ impl SmoothVertex {
     /// An unused vertex.
     pub const EMPTY: Self = Self {
         key: VertexKey::NONE,
-        sum: [0; 3],
+        sum: [[0; 3]; 2],
+        smooth: [0; 3],
         head: NO,
         faces: 0,
         queued: 0,
@@ -151,7 +164,13 @@ impl SmoothSlot {
 const LIVE: u32 = 1;
 const DRILLED: u32 = 2;
 
-const _: () = assert!(core::mem::size_of::<SmoothVertex>() == 48);
+const _: () = assert!(core::mem::size_of::<SmoothVertex>() == 72);
+
+/// Queue stages: recompute a vertex's `M`, or its corners.
+const STAGE_M: u32 = 0;
+const STAGE_CORNERS: u32 = 1;
+/// A queue entry's stage bit (vertex indices stay below it).
+const STAGE_BIT: u32 = 1 << 31;
 const _: () = assert!(core::mem::size_of::<SmoothSlot>() == 40);
 
 /// Sizes of a [`SmoothStorage`]: as many slot records as the exporter's triangle slots, the
@@ -306,8 +325,9 @@ pub struct SmoothNormals<'a> {
     free: u32,
     q_first: usize,
     q_len: usize,
-    /// The next vertex of a sweep over every vertex (after the queue was full).
-    sweep: Option<u32>,
+    /// The stage and next vertex of a sweep over every vertex (after the queue was full):
+    /// every `M`, then every vertex's corners.
+    sweep: Option<(u32, u32)>,
     cos_crease: f32,
     stats: SmoothStats,
 }
@@ -345,7 +365,7 @@ impl<'a> SmoothNormals<'a> {
         if !table.len().is_power_of_two()
             || table.len() < 2 * vertices.len()
             || queue.is_empty()
-            || vertices.len() >= NO as usize
+            || vertices.len() >= STAGE_BIT as usize
         {
             return Err(SmoothError::Storage);
         }
@@ -407,7 +427,7 @@ impl<'a> SmoothNormals<'a> {
     /// Recomputes every corner again, a bounded amount each [`super::SurfaceExport::update`]
     /// (as after the queue was full).
     pub fn refresh(&mut self) {
-        self.sweep = Some(0);
+        self.sweep = Some((STAGE_M, 0));
     }
 
     /// Checks the invariants: every live vertex is found by its key, its corner list holds
@@ -427,7 +447,7 @@ impl<'a> SmoothNormals<'a> {
                 Ok(i) if self.table.get(i) == Some(&(v as u32)) => {}
                 _ => return Err("a live vertex is not found by its key"),
             }
-            let (mut n, mut sum) = (0u32, [0i32; 3]);
+            let (mut n, mut sum) = (0u32, [[0i32; 3]; 2]);
             let mut c = r.head;
             while let Some(s) = self.slots.get((c / 3) as usize) {
                 let k = (c % 3) as usize;
@@ -438,8 +458,11 @@ impl<'a> SmoothNormals<'a> {
                 if n > r.faces {
                     return Err("a vertex's corner list is longer than its faces");
                 }
-                for (a, b) in sum.iter_mut().zip(s.normal) {
-                    *a = a.saturating_add(b);
+                let kind = usize::from(s.flags & DRILLED != 0);
+                if let Some(sk) = sum.get_mut(kind) {
+                    for (a, b) in sk.iter_mut().zip(s.normal) {
+                        *a = a.saturating_add(b);
+                    }
                 }
                 c = s.next.get(k).copied().unwrap_or(NO);
             }
@@ -452,7 +475,14 @@ impl<'a> SmoothNormals<'a> {
 
     /// Queued work: vertices to recompute (every vertex left in a sweep too).
     pub fn pending(&self) -> u32 {
-        let sweep = self.sweep.map_or(0, |v| self.fresh.saturating_sub(v));
+        let sweep = self.sweep.map_or(0, |(stage, v)| {
+            let left = self.fresh.saturating_sub(v);
+            if stage == STAGE_M {
+                left.saturating_add(self.fresh)
+            } else {
+                left
+            }
+        });
         (self.q_len as u32).saturating_add(sweep)
     }
 
@@ -545,32 +575,42 @@ impl<'a> SmoothNormals<'a> {
         self.stats.vertices = self.stats.vertices.saturating_sub(1);
     }
 
-    fn push(&mut self, v: u32) {
+    /// Queues stage `stage` of vertex `v`.
+    fn push(&mut self, v: u32, stage: u32) {
+        let bit = 1 << stage;
         let Some(r) = self.verts.get_mut(v as usize) else {
             return;
         };
-        if r.queued != 0 {
+        if r.queued & bit != 0 {
             return;
         }
         if self.q_len >= self.queue.len() {
             // Full: every vertex is recomputed instead (the queue's entries stay valid).
             if self.sweep.is_none() {
                 self.stats.queue_full = self.stats.queue_full.saturating_add(1);
-                self.sweep = Some(0);
+                self.sweep = Some((STAGE_M, 0));
             }
             return;
         }
-        r.queued = 1;
+        r.queued |= bit;
         let at = (self.q_first + self.q_len) % self.queue.len();
         if let Some(q) = self.queue.get_mut(at) {
-            *q = v;
+            *q = v | if stage == STAGE_CORNERS { STAGE_BIT } else { 0 };
         }
         self.q_len += 1;
     }
 
-    /// Queues `v` and every vertex that shares a face with it.
-    fn push_around(&mut self, v: u32, work: &mut u32) {
-        self.push(v);
+    /// Queues the stages `stages` (bits) of `v` and of every vertex that shares a face with
+    /// it.
+    fn push_around(&mut self, v: u32, stages: u32, work: &mut u32) {
+        let push_all = |me: &mut Self, w: u32| {
+            for stage in [STAGE_M, STAGE_CORNERS] {
+                if stages & (1 << stage) != 0 {
+                    me.push(w, stage);
+                }
+            }
+        };
+        push_all(self, v);
         let mut c = self
             .verts
             .get(v as usize)
@@ -580,7 +620,7 @@ impl<'a> SmoothNormals<'a> {
             *work = work.saturating_add(1);
             for w in r.verts {
                 if w != v {
-                    self.push(w);
+                    push_all(self, w);
                 }
             }
             c = r.next.get((c % 3) as usize).copied().unwrap_or(NO);
@@ -607,13 +647,16 @@ impl<'a> SmoothNormals<'a> {
             }
         }
         let mut next = [NO; 3];
+        let kind = usize::from(drilled);
         for (k, &v) in verts.iter().enumerate() {
             if let Some(r) = self.verts.get_mut(v as usize) {
                 next[k] = r.head;
                 r.head = 3 * s + k as u32;
                 r.faces += 1;
-                for (a, b) in r.sum.iter_mut().zip(q) {
-                    *a = a.saturating_add(b);
+                if let Some(sk) = r.sum.get_mut(kind) {
+                    for (a, b) in sk.iter_mut().zip(q) {
+                        *a = a.saturating_add(b);
+                    }
                 }
             }
         }
@@ -626,7 +669,7 @@ impl<'a> SmoothNormals<'a> {
             };
         }
         for v in verts {
-            self.push_around(v, &mut work);
+            self.push_around(v, BOTH, &mut work);
         }
         work
     }
@@ -671,8 +714,11 @@ impl<'a> SmoothNormals<'a> {
             let gone = match self.verts.get_mut(v as usize) {
                 Some(r) => {
                     r.faces = r.faces.saturating_sub(1);
-                    for (a, b) in r.sum.iter_mut().zip(rec.normal) {
-                        *a = a.saturating_sub(b);
+                    let kind = usize::from(rec.flags & DRILLED != 0);
+                    if let Some(sk) = r.sum.get_mut(kind) {
+                        for (a, b) in sk.iter_mut().zip(rec.normal) {
+                            *a = a.saturating_sub(b);
+                        }
                     }
                     r.faces == 0
                 }
@@ -684,41 +730,71 @@ impl<'a> SmoothNormals<'a> {
         }
         for v in rec.verts {
             if self.verts.get(v as usize).is_some_and(|r| r.faces > 0) {
-                self.push_around(v, &mut work);
+                self.push_around(v, BOTH, &mut work);
             }
         }
         work
     }
 
-    /// `N(w)`: the unit sum of the face normals at vertex `w`; zero when the sum is shorter
-    /// than [`CANCELLED`] (the faces' normals cancel).
-    fn vertex_normal(&self, w: u32) -> Option<Vec3> {
-        self.verts.get(w as usize).map(|r| {
-            let len2: i64 = r.sum.iter().map(|&c| i64::from(c) * i64::from(c)).sum();
-            if len2 < CANCELLED * CANCELLED {
-                Vec3::ZERO
-            } else {
-                unit_of(r.sum)
-            }
-        })
+    /// `N(w)` of faces of kind `kind` (1: drilled): the unit sum of their normals at vertex
+    /// `w`; zero when the sum is shorter than [`CANCELLED`] (the faces' normals cancel).
+    fn vertex_normal(&self, w: u32, kind: usize) -> Vec3 {
+        let Some(sum) = self.verts.get(w as usize).and_then(|r| r.sum.get(kind)) else {
+            return Vec3::ZERO;
+        };
+        let len2: i64 = sum.iter().map(|&c| i64::from(c) * i64::from(c)).sum();
+        if len2 < CANCELLED * CANCELLED {
+            Vec3::ZERO
+        } else {
+            unit_of(*sum)
+        }
     }
 
-    /// The normal of corner `c` (`3 slot + k`) at vertex `u`: see the module's docs.
-    fn corner_normal(&self, u: u32, own: Vec3, work: &mut u32) -> Vec3 {
+    /// `M(x)`: the unit sum over `x`'s drilled faces of `N` at their corners (zero when
+    /// shorter than `2^-8`).
+    fn smooth_normal(&self, x: u32, work: &mut u32) -> Vec3 {
         let mut sum = Vec3::ZERO;
-        let mut c = self.verts.get(u as usize).map_or(NO, |r| r.head);
+        let mut c = self
+            .verts
+            .get(x as usize)
+            .filter(|r| r.faces > 0)
+            .map_or(NO, |r| r.head);
         while let Some(r) = self.slots.get((c / 3) as usize) {
             *work = work.saturating_add(1);
-            let n = unit_of(r.normal);
-            if n.dot(own) >= self.cos_crease {
+            if r.flags & DRILLED != 0 {
                 for w in r.verts {
-                    sum += self.vertex_normal(w).unwrap_or(n);
+                    sum += self.vertex_normal(w, 1);
                 }
             }
             c = r.next.get((c % 3) as usize).copied().unwrap_or(NO);
         }
-        let m = sum.normalize_or_zero();
-        if m == Vec3::ZERO || m.dot(own) < self.cos_crease {
+        unit_or_zero(sum)
+    }
+
+    /// The normal of a corner at vertex `u` of a face with unit normal `own`, drilled or
+    /// not: see the module's docs.
+    fn corner_normal(&self, u: u32, own: Vec3, drilled: bool, work: &mut u32) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        let mut c = self.verts.get(u as usize).map_or(NO, |r| r.head);
+        while let Some(r) = self.slots.get((c / 3) as usize) {
+            *work = work.saturating_add(1);
+            let same_kind = (r.flags & DRILLED != 0) == drilled;
+            if same_kind && drilled {
+                for w in r.verts {
+                    sum += self
+                        .verts
+                        .get(w as usize)
+                        .map_or(Vec3::ZERO, |v| unit_of(v.smooth));
+                }
+            } else if same_kind && unit_of(r.normal).dot(own) >= self.cos_crease {
+                for w in r.verts {
+                    sum += self.vertex_normal(w, 0);
+                }
+            }
+            c = r.next.get((c % 3) as usize).copied().unwrap_or(NO);
+        }
+        let m = unit_or_zero(sum);
+        if m == Vec3::ZERO || (!drilled && m.dot(own) < self.cos_crease) {
             own
         } else {
             m
@@ -735,19 +811,33 @@ impl<'a> SmoothNormals<'a> {
             .map_or(NO, |r| r.head);
         while let Some(r) = self.slots.get((c / 3) as usize).copied() {
             let own = unit_of(r.normal);
-            let n = self.corner_normal(u, own, work);
+            let n = self.corner_normal(u, own, r.flags & DRILLED != 0, work);
             write(c / 3, (c % 3) as usize, n);
             self.stats.corners += 1;
             c = r.next.get((c % 3) as usize).copied().unwrap_or(NO);
         }
     }
 
-    /// Recomputes queued vertices while `work` is below `budget`; `write(slot, corner,
+    /// Recomputes `M` of vertex `x`; `then` queues the corners around it.
+    fn redo_smooth(&mut self, x: u32, then: bool, work: &mut u32) {
+        if self.verts.get(x as usize).is_none_or(|r| r.faces == 0) {
+            return;
+        }
+        let m = quantize(self.smooth_normal(x, work));
+        if let Some(r) = self.verts.get_mut(x as usize) {
+            r.smooth = m;
+        }
+        if then {
+            self.push_around(x, 1 << STAGE_CORNERS, work);
+        }
+    }
+
+    /// Works the queue, then any sweep, while `work` is below `budget`; `write(slot, corner,
     /// normal)` receives each corner recomputed.
     ///
     /// # Bounded work
-    /// A vertex is started only while `work < budget`; one vertex of `F` faces costs `F`
-    /// corners of `F` faces each (`F^2` work units).
+    /// An entry is started only while `work < budget`; one vertex of `F` faces costs `F`
+    /// faces for its `M` and `F` corners of `F` faces each (`F^2` work units).
     pub(super) fn flush(
         &mut self,
         work: &mut u32,
@@ -755,24 +845,49 @@ impl<'a> SmoothNormals<'a> {
         mut write: impl FnMut(u32, usize, Vec3),
     ) {
         while *work < budget && self.q_len > 0 {
-            let v = self.queue.get(self.q_first).copied().unwrap_or(NO);
+            let e = self.queue.get(self.q_first).copied().unwrap_or(NO);
             self.q_first = (self.q_first + 1) % self.queue.len();
             self.q_len -= 1;
+            let (v, stage) = if e & STAGE_BIT != 0 {
+                (e & !STAGE_BIT, STAGE_CORNERS)
+            } else {
+                (e, STAGE_M)
+            };
             if let Some(r) = self.verts.get_mut(v as usize) {
-                r.queued = 0;
+                r.queued &= !(1 << stage);
             }
             *work = work.saturating_add(1);
-            self.redo_vertex(v, work, &mut write);
+            if stage == STAGE_M {
+                self.redo_smooth(v, true, work);
+            } else {
+                self.redo_vertex(v, work, &mut write);
+            }
         }
         while *work < budget {
-            let Some(v) = self.sweep else { break };
+            let Some((stage, v)) = self.sweep else { break };
             if v >= self.fresh {
-                self.sweep = None;
-                break;
+                self.sweep = (stage == STAGE_M).then_some((STAGE_CORNERS, 0));
+                continue;
             }
-            self.sweep = Some(v + 1);
+            self.sweep = Some((stage, v + 1));
             *work = work.saturating_add(1);
-            self.redo_vertex(v, work, &mut write);
+            if stage == STAGE_M {
+                self.redo_smooth(v, false, work);
+            } else {
+                self.redo_vertex(v, work, &mut write);
+            }
         }
+    }
+}
+
+/// Both queue stages.
+const BOTH: u32 = (1 << STAGE_M) | (1 << STAGE_CORNERS);
+
+/// `v`'s unit vector, zero when `v` is shorter than `2^-8`.
+fn unit_or_zero(v: Vec3) -> Vec3 {
+    if v.length_squared() < 1.0 / 65_536.0 {
+        Vec3::ZERO
+    } else {
+        v.normalize()
     }
 }

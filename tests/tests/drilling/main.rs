@@ -15,3 +15,4 @@ mod materials;
 mod shaft;
 mod smooth_normals;
 mod surface_export;
+mod surface_obj;

@@ -1,8 +1,10 @@
 //! Smooth normals of the surface export over the demo's drilling run, against an f64
 //! brute-force recomputation from the full visible face list after every frame: vertices
 //! shared by their positions' bits (not the exporter's lattice keys), face normals from the
-//! corners in f64, then the documented two-ring average within the crease angle. Every
-//! corner normal is unit length and within the crease angle of its face's normal.
+//! corners in f64, drilled faces told from the mesh's boundary by the planes of the coarse
+//! tets' boundary faces, then the documented rule: the three-ring average over drilled faces,
+//! the two-ring average within the crease angle over boundary faces. Every corner normal is
+//! unit length, and a boundary face's within the crease angle of its face's normal.
 
 use std::collections::HashMap;
 
@@ -16,6 +18,7 @@ use tetradrill_core::hierarchy::{
 };
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::storage::{Block, Line};
+use tetradrill_core::TetId;
 
 const TICKS_A_FRAME: u64 = 17;
 const BUDGET: u32 = 1 << 16;
@@ -59,12 +62,48 @@ fn bits(p: [f32; 3]) -> Bits {
     p.map(f32::to_bits)
 }
 
+/// A face's three corner normals, each with whether it is near a decision, and whether the
+/// face is drilled.
+type Expected = ([(V3, bool); 3], bool);
+
+/// `s`'s unit vector, zero when shorter than `CANCELLED`, and whether its length is near
+/// that.
+fn unit_cut(s: V3) -> (V3, bool) {
+    let len = dot(s, s).sqrt();
+    let near = (len - CANCELLED).abs() < 1e-4;
+    (if len < CANCELLED { [0.0; 3] } else { unit(s) }, near)
+}
+
+/// `true` when visible face `corners` of coarse tet `t` lies on a boundary face of the coarse
+/// mesh: on the plane of one of `t`'s boundary faces (face `j` opposite node `j`).
+fn on_boundary(mesh: &Mesh<'_>, t: TetId, corners: &[V3; 3]) -> bool {
+    let nodes = mesh.get_tet_nodes(t).expect("tet");
+    let p = nodes.map(|n| mesh.position(n).to_array().map(f64::from));
+    let size = (0..4)
+        .flat_map(|a| (0..4).map(move |b| (a, b)))
+        .map(|(a, b)| dot(sub(p[a], p[b]), sub(p[a], p[b])).sqrt())
+        .fold(0.0, f64::max);
+    (0..4u8).any(|j| {
+        let [a, b, c]: [V3; 3] = [1, 2, 3].map(|k| p[(usize::from(j) + k) % 4]);
+        let n = unit(cross(sub(b, a), sub(c, a)));
+        mesh.is_boundary_face(t, j)
+            && corners
+                .iter()
+                .all(|&q| dot(sub(q, a), n).abs() < 1e-5 * size)
+    })
+}
+
 /// The f64 recomputation: for every face (by its corners' bits) the three corner normals,
-/// and whether each is near a crease decision (then not compared).
-fn brute(h: &Hierarchy<'_>, mesh: &Mesh<'_>, cos: f64) -> HashMap<[Bits; 3], [(V3, bool); 3]> {
+/// and whether each is near a decision (then not compared); and whether it is drilled.
+fn brute(h: &Hierarchy<'_>, mesh: &Mesh<'_>, cos: f64) -> HashMap<[Bits; 3], Expected> {
     let mut faces: Vec<[Bits; 3]> = Vec::new();
-    h.for_each_visible(mesh, |t| faces.push(t.corners.map(|c| bits(c.to_array()))));
+    let mut drilled: Vec<bool> = Vec::new();
     let pos = |b: Bits| b.map(|x| f64::from(f32::from_bits(x)));
+    h.for_each_visible(mesh, |t| {
+        let f = t.corners.map(|c| bits(c.to_array()));
+        drilled.push(!on_boundary(mesh, t.tet, &f.map(pos)));
+        faces.push(f);
+    });
     let normal: Vec<V3> = faces
         .iter()
         .map(|f| {
@@ -78,43 +117,74 @@ fn brute(h: &Hierarchy<'_>, mesh: &Mesh<'_>, cos: f64) -> HashMap<[Bits; 3], [(V
             at.entry(v).or_default().push(i);
         }
     }
-    // A vertex normal: zero when the faces' normals cancel (the sum shorter than 2^-8), and
-    // every corner that uses it near a decision when the sum is within 1e-4 of that.
-    let vn: HashMap<Bits, (V3, bool)> = at
+    // N: per kind (0 boundary, 1 drilled), the unit sum of the normals of the vertex's
+    // faces of that kind, zero when they cancel.
+    let vn: [HashMap<Bits, (V3, bool)>; 2] = [false, true].map(|kind| {
+        at.iter()
+            .map(|(&v, fs)| {
+                let s = fs
+                    .iter()
+                    .filter(|&&f| drilled[f] == kind)
+                    .fold([0.0; 3], |s, &f| add(s, normal[f]));
+                (v, unit_cut(s))
+            })
+            .collect()
+    });
+    // M: the unit sum over the vertex's drilled faces of N at their corners.
+    let m: HashMap<Bits, (V3, bool)> = at
         .iter()
         .map(|(&v, fs)| {
-            let s = fs.iter().fold([0.0; 3], |s, &f| add(s, normal[f]));
-            let len = dot(s, s).sqrt();
-            let near = (len - CANCELLED).abs() < 1e-4;
-            (v, (if len < CANCELLED { [0.0; 3] } else { unit(s) }, near))
+            let (mut s, mut near) = ([0.0; 3], false);
+            for &f in fs.iter().filter(|&&f| drilled[f]) {
+                for w in faces[f] {
+                    let (n, n_near) = vn[1][&w];
+                    s = add(s, n);
+                    near |= n_near;
+                }
+            }
+            let (u, u_near) = unit_cut(s);
+            (v, (u, near || u_near))
         })
         .collect();
     let mut out = HashMap::new();
     for (g, f) in faces.iter().enumerate() {
         let own = normal[g];
         let corner = |u: Bits| {
-            let mut s = [0.0; 3];
-            let mut near = false;
+            let (mut s, mut near) = ([0.0; 3], false);
             for &f2 in &at[&u] {
+                if drilled[f2] != drilled[g] {
+                    continue;
+                }
+                if drilled[g] {
+                    for w in faces[f2] {
+                        let (n, n_near) = m[&w];
+                        s = add(s, n);
+                        near |= n_near;
+                    }
+                    continue;
+                }
                 let d = dot(normal[f2], own);
                 near |= (d - cos).abs() < 1e-3;
                 if d >= cos {
                     for w in faces[f2] {
-                        let (n, n_near) = vn[&w];
+                        let (n, n_near) = vn[0][&w];
                         s = add(s, n);
                         near |= n_near;
                     }
                 }
             }
-            let m = unit(s);
-            near |= (dot(m, own) - cos).abs() < 1e-3;
-            if m == [0.0; 3] || dot(m, own) < cos {
+            let (mm, m_near) = unit_cut(s);
+            near |= m_near;
+            if !drilled[g] {
+                near |= (dot(mm, own) - cos).abs() < 1e-3;
+            }
+            if mm == [0.0; 3] || (!drilled[g] && dot(mm, own) < cos) {
                 (own, near)
             } else {
-                (m, near)
+                (mm, near)
             }
         };
-        out.insert(*f, f.map(corner));
+        out.insert(*f, (f.map(corner), drilled[g]));
     }
     out
 }
@@ -188,7 +258,13 @@ fn smooth_normals_equal_an_f64_recomputation_after_every_frame() {
             }
             live += 1;
             let key = [p[3 * s], p[3 * s + 1], p[3 * s + 2]].map(bits);
-            let expect = want.get(&key).expect("a live slot is a visible face");
+            let (expect, drilled) = want.get(&key).expect("a live slot is a visible face");
+            let sm = ex.smooth().expect("smooth");
+            assert_eq!(
+                sm.slot_drilled(s as u32),
+                *drilled,
+                "slot {s}: drilled or not"
+            );
             let [a, b, c] = key.map(|b| b.map(|x| f64::from(f32::from_bits(x))));
             let own = unit(cross(sub(b, a), sub(c, a)));
             for k in 0..3 {
@@ -197,7 +273,9 @@ fn smooth_normals_equal_an_f64_recomputation_after_every_frame() {
                     (dot(got, got).sqrt() - 1.0).abs() < 1e-5,
                     "not unit: {got:?}"
                 );
-                assert!(dot(got, own) >= cos - 1e-5, "beyond the crease angle");
+                if !drilled {
+                    assert!(dot(got, own) >= cos - 1e-5, "beyond the crease angle");
+                }
                 let (w, near) = expect[k];
                 if near {
                     skipped += 1;
