@@ -82,6 +82,7 @@ mod node;
 mod ops;
 mod reclaim;
 mod smooth;
+mod smooth_storage;
 mod store;
 mod surface;
 mod table;
