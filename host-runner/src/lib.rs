@@ -48,6 +48,7 @@
 //! | [`rt`]            | servo thread set-up and the absolute-deadline period                 |
 //! | [`servo`]         | the 1 kHz servo with a device of one's own, for a program             |
 //! | [`session`]       | the front door for drilling: `Drilling`, `DrillRun`, `Surface`       |
+//! | [`smooth_surface`] | the drilled surface with shared vertices and smooth normals (`replay --surface`) |
 //! | [`scenario`]      | the set-up as flags and scenario files write it: file, built-ins, flags |
 //! | [`setup`]         | the typed set-up (mesh, tool, poses, forces, materials, sizes, body), checked once |
 //! | [`soft`]          | host-owned storage for one soft body (`tetradrill_core::soft`)       |
@@ -112,6 +113,7 @@ pub mod scenario;
 pub mod servo;
 pub mod session;
 pub mod setup;
+pub mod smooth_surface;
 pub mod soft;
 pub mod stats;
 pub mod tasks;

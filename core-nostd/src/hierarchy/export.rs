@@ -11,9 +11,12 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::changes::Change;
+use super::geometry::RootFrame;
+use super::smooth::{SmoothNormals, VertexKey};
 use super::store::Hierarchy;
-use super::table::MAX_DEPTH;
+use super::table::{Path, MAX_DEPTH};
 use crate::ids::TetId;
+use crate::mesh::template::FACE_VERTS;
 use crate::mesh::Mesh;
 use crate::storage::{carve, lines_of, Memory, Part, PartSet, Slots, StorageError};
 
@@ -291,6 +294,8 @@ pub struct SurfaceExport<'a> {
     sweep: Option<Sweep>,
     /// A face was left out for want of a slot since the last sweep began.
     short: bool,
+    /// Shared vertices and smooth normals, when given ([`SurfaceExport::with_smooth`]).
+    smooth: Option<SmoothNormals<'a>>,
 }
 
 /// Where one call writes: the buffers and the ranges so far.
@@ -406,7 +411,39 @@ impl<'a> SurfaceExport<'a> {
                 rewrite: true,
             }),
             short: false,
+            smooth: None,
         })
+    }
+
+    /// The exporter with shared vertices and smooth per-corner normals ([`SmoothNormals`],
+    /// its own storage): from now on the normals buffer holds, at each corner, the smooth
+    /// normal [`SmoothNormals`] computes rather than the face's. Every face is listed again (a
+    /// sweep), so this may come at any time.
+    ///
+    /// # Errors
+    /// [`SurfaceError::Storage`] when `smooth` has not one slot record per triangle slot.
+    pub fn with_smooth(mut self, smooth: SmoothNormals<'a>) -> Result<Self, SurfaceError> {
+        if smooth.slots() != self.slots.len() {
+            return Err(SurfaceError::Storage);
+        }
+        self.smooth = Some(smooth);
+        let resume = self.sweep.map_or(self.cursor, |sw| sw.resume);
+        self.sweep = Some(Sweep {
+            next: 0,
+            resume,
+            rewrite: true,
+        });
+        Ok(self)
+    }
+
+    /// The shared vertices and smooth normals, when the exporter has them.
+    pub fn smooth(&self) -> Option<&SmoothNormals<'a>> {
+        self.smooth.as_ref()
+    }
+
+    /// The shared vertices and smooth normals, mutably ([`SmoothNormals::refresh`]).
+    pub fn smooth_mut(&mut self) -> Option<&mut SmoothNormals<'a>> {
+        self.smooth.as_mut()
     }
 
     /// Triangle slots.
@@ -506,6 +543,16 @@ impl<'a> SurfaceExport<'a> {
                 }
             }
         }
+        if let Some(sm) = self.smooth.as_mut() {
+            let mut work = rep.work;
+            sm.flush(&mut work, budget, |s, k, n| {
+                if let Some(q) = o.bufs.normals.get_mut(3 * s as usize + k) {
+                    *q = n.to_array();
+                }
+                o.mark(s);
+            });
+            rep.work = work;
+        }
         rep.written = o.written;
         rep.ranges = o.ranges as u32;
         rep.ranges_merged = o.merged;
@@ -524,7 +571,8 @@ impl<'a> SurfaceExport<'a> {
             None => hier.change_count().saturating_sub(self.cursor),
         };
         let again = if self.short { tets.max(1) } else { 0 };
-        (left + again).min(u32::MAX as u64) as u32
+        let smooth = self.smooth.as_ref().map_or(0, |s| u64::from(s.pending()));
+        (left + again + smooth).min(u32::MAX as u64) as u32
     }
 
     fn start_sweep(&mut self, hier: &Hierarchy<'_>, rewrite: bool) {
@@ -619,6 +667,13 @@ impl<'a> SurfaceExport<'a> {
             };
             if !same {
                 o.put(s, vt.corners, lab);
+                if let Some(sm) = self.smooth.as_mut() {
+                    let [a, b, c] = vt.corners;
+                    let n = (b - a).cross(c - a).normalize_or_zero();
+                    let (keys, drilled) = face_keys(mesh, t, vt.index, vt.face, &vt.corners);
+                    let w = sm.set_face(s, &keys, n, drilled);
+                    rep.work = rep.work.saturating_add(w);
+                }
             }
             match self.slots.get_mut(tail as usize) {
                 Some(prev) => prev.next = s,
@@ -646,6 +701,10 @@ impl<'a> SurfaceExport<'a> {
             self.free = s;
             self.live = self.live.saturating_sub(1);
             o.clear(s);
+            if let Some(sm) = self.smooth.as_mut() {
+                let w = sm.unset_face(s);
+                rep.work = rep.work.saturating_add(w);
+            }
         }
         if let Some(r) = self.tets.get_mut(t.idx()) {
             *r = TetRecord {
@@ -655,6 +714,41 @@ impl<'a> SurfaceExport<'a> {
             };
         }
     }
+}
+
+/// The lattice keys of the corners of face `face` of the node of tree index `index` in the
+/// tree of `t`, in the order of `corners` (the listing's), and whether the face is drilled:
+/// it lies on no boundary face of the coarse mesh.
+fn face_keys(
+    mesh: &Mesh<'_>,
+    t: TetId,
+    index: u32,
+    face: u8,
+    corners: &[Vec3; 3],
+) -> ([VertexKey; 3], bool) {
+    let (Some(path), Some(ids), Some(frame)) = (
+        Path::of_index(index),
+        mesh.get_tet_nodes(t),
+        RootFrame::of(mesh, t),
+    ) else {
+        return ([VertexKey::NONE; 3], true);
+    };
+    let bary = path.bary();
+    let ids = ids.map(|n| n.0);
+    let [a, b, c] = FACE_VERTS[(face & 3) as usize].map(|k| bary[(k & 3) as usize]);
+    // The listing is `a, c, b` from a positively oriented node, `a, b, c` otherwise.
+    let order = if frame.point(&c, path.depth) == corners[1] {
+        [a, c, b]
+    } else {
+        [a, b, c]
+    };
+    let keys = order.map(|w| VertexKey::of(ids, w, path.depth));
+    // On root face `j` when every corner has no weight on root corner `j`.
+    let drilled = (0..4u8).all(|j| {
+        let on = order.iter().all(|w| w[(j & 3) as usize] == 0);
+        !(on && mesh.is_boundary_face(t, j))
+    });
+    (keys, drilled)
 }
 
 /// Where face `face` of the node of tree index `index` comes in a tree's listing

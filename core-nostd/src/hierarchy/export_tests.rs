@@ -198,10 +198,10 @@ fn per_tet(h: &Hierarchy<'_>, mesh: &Mesh<'_>, b: &Buffers, slots: usize) -> [(u
 }
 
 /// A small xorshift generator.
-struct Rng(u64);
+pub(super) struct Rng(pub(super) u64);
 
 impl Rng {
-    fn next(&mut self) -> u32 {
+    pub(super) fn next(&mut self) -> u32 {
         self.0 ^= self.0 << 13;
         self.0 ^= self.0 >> 7;
         self.0 ^= self.0 << 17;
@@ -210,7 +210,7 @@ impl Rng {
 }
 
 /// A random operation: refine a non-erased leaf above depth 3, or erase one.
-fn random_op(h: &mut Hierarchy<'_>, mesh: &Mesh<'_>, rng: &mut Rng) {
+pub(super) fn random_op(h: &mut Hierarchy<'_>, mesh: &Mesh<'_>, rng: &mut Rng) {
     let t = TetId(rng.next() % CUBE12_TETS as u32);
     let mut leaves = [0u32; 512];
     let mut n = 0;
@@ -232,14 +232,14 @@ fn random_op(h: &mut Hierarchy<'_>, mesh: &Mesh<'_>, rng: &mut Rng) {
     }
 }
 
-struct Cube {
-    pos: [Vec3; CUBE12_NODES],
-    nodes: [Node; CUBE12_NODES],
-    normals: [Vec3; CUBE12_NODES],
-    tets: [Tet; CUBE12_TETS],
+pub(super) struct Cube {
+    pub(super) pos: [Vec3; CUBE12_NODES],
+    pub(super) nodes: [Node; CUBE12_NODES],
+    pub(super) normals: [Vec3; CUBE12_NODES],
+    pub(super) tets: [Tet; CUBE12_TETS],
 }
 
-fn mesh<'a>(c: &'a mut Cube, t: &[[u32; 4]]) -> Mesh<'a> {
+pub(super) fn mesh<'a>(c: &'a mut Cube, t: &[[u32; 4]]) -> Mesh<'a> {
     let mut scratch = [FaceKey::default(); 4 * CUBE12_TETS];
     let storage = MeshStorage {
         nodes: &mut c.nodes,

@@ -21,6 +21,9 @@
 //! - `export`: the drilled surface kept in a renderer's buffers of stable triangle slots,
 //!   only the changed tets' slots written, a bounded amount of work a call
 //!   ([`SurfaceExport`]).
+//! - `smooth`: the export's faces sharing vertices by their exact lattice keys, with smooth
+//!   per-corner normals within a crease angle, kept up to date incrementally
+//!   ([`SmoothNormals`], [`SurfaceExport::with_smooth`]).
 //! - [`Hierarchy::nearest_visible`]: the closest visible triangle to a point (branch and
 //!   bound over the nodes whose *surface* bit says a v_list leaf lies below), for the contact;
 //!   [`SphereMemo`] remembers the nodes' bounding spheres across searches.
@@ -78,6 +81,8 @@ mod nearest;
 mod node;
 mod ops;
 mod reclaim;
+mod smooth;
+mod smooth_storage;
 mod store;
 mod surface;
 mod table;
@@ -103,6 +108,10 @@ pub(crate) use nearest::keep_face;
 pub use nearest::{FaceRef, Kept, Nearest, NearestCursor, NearestQuery, KEEP};
 pub use node::{HNode, VEntry, NODE_BYTES};
 pub use ops::OpReport;
+pub use smooth::{
+    SmoothError, SmoothNormals, SmoothSizes, SmoothSlot, SmoothStats, SmoothStorage, SmoothVertex,
+    VertexKey,
+};
 pub use store::{
     Hierarchy, HierarchyError, HierarchySizes, HierarchyStats, HierarchyStorage, DEFAULT_CHANGES,
 };
@@ -112,6 +121,8 @@ pub use table::MAX_DEPTH;
 
 #[cfg(test)]
 mod export_tests;
+#[cfg(test)]
+mod smooth_tests;
 #[cfg(test)]
 pub(crate) mod test_support;
 #[cfg(test)]

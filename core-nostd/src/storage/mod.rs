@@ -158,6 +158,14 @@ pub enum Part {
     SurfaceSlots,
     /// A surface exporter's records per coarse tet.
     SurfaceTets,
+    /// Smooth normals' records per triangle slot ([`crate::hierarchy::SmoothStorage::slots`]).
+    SmoothSlots,
+    /// Smooth normals' shared vertices.
+    SmoothVertices,
+    /// Smooth normals' hash table of vertices.
+    SmoothTable,
+    /// Smooth normals' queue of vertices to recompute.
+    SmoothQueue,
 }
 
 impl Part {
@@ -209,12 +217,16 @@ impl Part {
             Self::Changes => "hierarchy change log",
             Self::SurfaceSlots => "surface slots",
             Self::SurfaceTets => "surface tet records",
+            Self::SmoothSlots => "smooth normal slots",
+            Self::SmoothVertices => "smooth normal vertices",
+            Self::SmoothTable => "smooth normal vertex table",
+            Self::SmoothQueue => "smooth normal queue",
         }
     }
 }
 
 // Every part has a bit in a [`PartSet`].
-const _: () = assert!((Part::SurfaceTets as u32) < u64::BITS);
+const _: () = assert!((Part::SmoothQueue as u32) < u64::BITS);
 
 /// One part's slice: what it is, how many slots, and the bytes of one slot.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]

@@ -13,4 +13,6 @@ mod fine_mesh;
 mod long_drilling;
 mod materials;
 mod shaft;
+mod smooth_normals;
 mod surface_export;
+mod surface_obj;

@@ -392,12 +392,15 @@ fn print_summary(r: &ReplayReport) {
     }
 }
 
-/// Writes the visible faces as an OBJ (one vertex triple per face: the drilled surface is a
-/// set of triangles of different levels that need not share corners).
+/// Writes the visible faces as an OBJ with shared vertices and smooth normals (the core's
+/// `SmoothNormals` at its default crease angle), the drilled faces in group `drilled` and
+/// the mesh's untouched boundary in group `boundary`.
 pub fn write_surface_obj(
     world: &tetradrill_core::servo::World<'_>,
     path: &std::path::Path,
 ) -> Result<(), CliError> {
-    std::fs::write(path, crate::session::Surface::of(world, &[]).to_obj())
+    let crease = tetradrill_core::hierarchy::SmoothNormals::CREASE_DEGREES;
+    let s = crate::smooth_surface::SmoothSurface::of(world, &[], crease);
+    std::fs::write(path, s.to_obj())
         .map_err(|e| CliError::failure(format!("{}: cannot write: {e}", path.display())))
 }
