@@ -456,6 +456,61 @@ impl<'a> SurfaceExport<'a> {
         self.live
     }
 
+    /// The coarse tet whose face slot `s` holds, `None` when the slot is free.
+    pub fn slot_tet(&self, s: u32) -> Option<TetId> {
+        let r = self.slots.get(s as usize)?;
+        (r.tet != u32::MAX).then_some(TetId(r.tet))
+    }
+
+    /// The slots of coarse tet `t`, in the order [`Hierarchy::for_each_visible_in`] lists its
+    /// faces (as they were when the tet was last listed again).
+    ///
+    /// # Bounded work
+    /// O(1) an item.
+    pub fn tet_slots(&self, t: TetId) -> impl Iterator<Item = u32> + '_ {
+        let rec = self.tets.get(t.idx()).copied().unwrap_or(TetRecord::EMPTY);
+        let first = (rec.head != NO).then_some(rec.head);
+        core::iter::successors(first, move |&s| {
+            let next = self.slots.get(s as usize).map_or(NO, |r| r.next);
+            (next != NO).then_some(next)
+        })
+        .take(rec.slots as usize)
+    }
+
+    /// Starts over on `hier` in the same storage, as [`SurfaceExport::new`] (and
+    /// [`SmoothNormals::new`], with the same crease angle) would: every slot free, every face
+    /// listed again. The caller zeroes its buffers (slots that were live need not be written
+    /// again).
+    ///
+    /// # Bounded work
+    /// O(slots + tets), and the smooth normals' storage.
+    ///
+    /// # Errors
+    /// [`SurfaceError::Storage`] when `hier` has more trees than the exporter was made for
+    /// (nothing changed).
+    pub fn reset(&mut self, hier: &Hierarchy<'_>) -> Result<(), SurfaceError> {
+        if hier.tet_count() > self.tets.len() {
+            return Err(SurfaceError::Storage);
+        }
+        self.slots.fill(SlotRecord::FREE);
+        self.tets.fill(TetRecord::EMPTY);
+        self.fresh = 0;
+        self.free = NO;
+        self.live = 0;
+        self.cursor = hier.change_count();
+        self.seen_all = hier.all_changed_at();
+        self.sweep = Some(Sweep {
+            next: 0,
+            resume: hier.change_count(),
+            rewrite: true,
+        });
+        self.short = false;
+        if let Some(sm) = self.smooth.as_mut() {
+            sm.reset();
+        }
+        Ok(())
+    }
+
     /// Brings the buffers a step closer to the visible faces of `hier` over `mesh` (the ones
     /// the exporter was made for), `label` giving each coarse tet's label, for at most about
     /// `budget` work units; `out.ranges` receives the ranges of slots written. The buffers
