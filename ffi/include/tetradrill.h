@@ -428,7 +428,7 @@ typedef struct td_servo_counts {
 } td_servo_counts;
 
 // What went short in a surface's smooth normals, counted since its init.
-typedef struct TdSmoothStats {
+typedef struct td_smooth_stats {
   // Live shared vertices.
   uint32_t vertices;
   // Corners that found no free vertex: such a corner has its face's normal until its face
@@ -437,7 +437,7 @@ typedef struct TdSmoothStats {
   // Times the queue of vertices to recompute was full: every vertex is then recomputed,
   // a bounded amount a call.
   uint32_t queue_full;
-} TdSmoothStats;
+} td_smooth_stats;
 
 // A run of triangle slots a `td_surface_update` wrote: `count` slots from `first` (vertices
 // `3 * first` to `3 * (first + count) - 1` of every buffer).
@@ -1252,7 +1252,7 @@ enum td_status td_surface_init_smooth(void *mem,
 // # Safety
 // `surface` is a handle from `td_surface_init` or `td_surface_init_smooth` whose memory is
 // still the caller's; `out` points at a writable `td_smooth_stats`.
-enum td_status td_surface_smooth_stats(struct td_surface *surface, struct TdSmoothStats *out);
+enum td_status td_surface_smooth_stats(struct td_surface *surface, struct td_smooth_stats *out);
 
 // Brings the caller's buffers a step closer to `world`'s drilled surface, for at most about
 // `budget` work units, and writes what it did to `*out` (`ranges` says which slots of every
