@@ -35,10 +35,11 @@
 #                                     examples/c/surface_demo.c, which replays builtin:demo
 #                                     and keeps a mirror of its surface buffers updated only
 #                                     from the reported slot ranges, writes the mirror's
-#                                     triangles to OUT.obj, and compares them (any order, the
-#                                     same floats) with `tetradrill replay --scenario
+#                                     triangles with their smooth normals to OUT.obj, and
+#                                     compares them (any order, the same floats, each
+#                                     corner's normal too) with `tetradrill replay --scenario
 #                                     builtin:demo --surface`'s; prints `surface: N triangles,
-#                                     equal to replay --surface`
+#                                     equal to replay --surface (normals too)`
 #
 # Prints `force_digest=HEX` (the C program's) and both digests; where the C program prints
 # `removed_by_region.LABEL=V` lines (the host program), they are compared too with the host's
@@ -152,7 +153,9 @@ compare_pen() {
 
 # The triangles of an OBJ file, one canonical line each, sorted (scripts/obj-triangles.awk).
 obj_triangles() {
-  awk -f "$root/scripts/obj-triangles.awk" "$1" | LC_ALL=C sort
+  local f="$1"
+  shift
+  awk "$@" -f "$root/scripts/obj-triangles.awk" "$f" | LC_ALL=C sort
 }
 
 if [ "$mode" = surface ]; then
@@ -174,15 +177,18 @@ if [ "$mode" = surface ]; then
   fi
   "$bin" replay --scenario builtin:demo --quiet --surface "$work/ref.obj" >/dev/null \
     2>"$work/replay.err" || { cat "$work/replay.err" >&2; exit 1; }
-  obj_triangles "$obj" >"$work/c.txt"
-  obj_triangles "$work/ref.obj" >"$work/ref.txt"
+  obj_triangles "$obj" -v normals=1 >"$work/c.txt"
+  obj_triangles "$work/ref.obj" -v normals=1 >"$work/ref.txt"
   n="$(wc -l <"$work/c.txt" | tr -d ' ')"
   want="$(wc -l <"$work/ref.txt" | tr -d ' ')"
-  if ! cmp -s "$work/c.txt" "$work/ref.txt"; then
-    echo "c-example: FAIL: surface: $n triangles from C, $want from replay --surface; $(diff "$work/c.txt" "$work/ref.txt" | grep -c '^[<>]') lines differ" >&2
+  if [ "$n" != "$want" ] \
+    || ! paste -d '\n' "$work/c.txt" "$work/ref.txt" \
+      | awk -f "$root/scripts/obj-normals-diff.awk" >"$work/diff.txt"; then
+    echo "c-example: FAIL: surface: $n triangles from C, $want from replay --surface; $(cat "$work/diff.txt" 2>/dev/null)" >&2
     exit 1
   fi
-  echo "surface: $n triangles, equal to replay --surface"
+  cat "$work/diff.txt"
+  echo "surface: $n triangles, equal to replay --surface (normals too)"
   exit 0
 fi
 

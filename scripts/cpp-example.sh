@@ -5,8 +5,9 @@
 # mesh file, writes its drilled surface (kept in an engine's buffers frame by frame) to
 # OUT.obj, and compares its force digest and removed_by_region with
 # `tetradrill replay --scenario builtin:firmware-tooth --json`'s and the surface with
-# `--surface`'s (the same triangles, any order); before that, builds and runs
-# examples/cpp/checks.cpp (errors as exceptions, a moved world, the servo on a thread).
+# `--surface`'s (the same triangles, any order, and their smooth normals within 1e-5); before
+# that, builds and runs examples/cpp/checks.cpp (errors as exceptions, a moved world, the
+# servo on a thread).
 #
 #   scripts/cpp-example.sh OUT.obj
 #
@@ -78,12 +79,15 @@ if [ "$cpp_regions" != "$host_regions" ]; then
   exit 1
 fi
 echo "cpp-example: OK, the same digest and removed_by_region ($(echo "$cpp_regions" | paste -sd' '))"
-awk -f scripts/obj-triangles.awk "$obj" | LC_ALL=C sort >"$work/cpp.txt"
-awk -f scripts/obj-triangles.awk "$work/ref.obj" | LC_ALL=C sort >"$work/ref.txt"
+awk -v normals=1 -f scripts/obj-triangles.awk "$obj" | LC_ALL=C sort >"$work/cpp.txt"
+awk -v normals=1 -f scripts/obj-triangles.awk "$work/ref.obj" | LC_ALL=C sort >"$work/ref.txt"
 n="$(wc -l <"$work/cpp.txt" | tr -d ' ')"
 want="$(wc -l <"$work/ref.txt" | tr -d ' ')"
-if [ "$n" = 0 ] || ! cmp -s "$work/cpp.txt" "$work/ref.txt"; then
-  echo "cpp-example: FAIL: surface: $n triangles from C++, $want from replay --surface; $(diff "$work/cpp.txt" "$work/ref.txt" | grep -c '^[<>]') lines differ" >&2
+if [ "$n" = 0 ] || [ "$n" != "$want" ] \
+  || ! paste -d '\n' "$work/cpp.txt" "$work/ref.txt" \
+    | awk -f scripts/obj-normals-diff.awk >"$work/diff.txt"; then
+  echo "cpp-example: FAIL: surface: $n triangles from C++, $want from replay --surface; $(cat "$work/diff.txt" 2>/dev/null)" >&2
   exit 1
 fi
-echo "surface: $n triangles, equal to replay --surface"
+cat "$work/diff.txt"
+echo "surface: $n triangles, equal to replay --surface (normals too)"

@@ -1,20 +1,21 @@
 /* Replays tetradrill's demo through the C interface and keeps its drilled surface in a
  * renderer's buffers, as a game engine's native plugin would: a surface of triangle slots
- * (td_surface_init), updated once a frame (every 17 ticks: 60 Hz at 1 kHz) with a small work
+ * with smooth per-corner normals (td_surface_init_smooth), updated once a frame (every 17 ticks: 60 Hz at 1 kHz) with a small work
  * budget (td_surface_update), and an engine-side mirror of the buffers that copies only the
  * slot ranges each update reports, as an upload to the GPU would. Once the path ends, the
  * detached crumbs are erased as `replay` erases them (td_world_remove_debris), the updates
  * run until nothing is pending, and the mirror's live triangles are written as a Wavefront
- * OBJ to the file named by the first argument (one vertex triple and one face a triangle, as
- * `tetradrill replay --surface` writes them); scripts/c-example.sh --surface compares the
- * two.
+ * OBJ to the file named by the first argument (three vertices, three normals and one face
+ * `f a//a b//b c//c` a triangle); scripts/c-example.sh --surface compares its triangles and
+ * normals with `tetradrill replay --surface`'s.
  *
  *   surface_demo OUT.obj [BUDGET]
  *
  * Prints `surface_triangles=N` and the per-frame figures (`surface_frames`,
  * `surface_frames_up_to_date`, `surface_max_written`, `surface_max_work`,
  * `surface_max_ranges`, `surface_final_calls`, and the update's wall time a frame,
- * `surface_update_us_mean` and `surface_update_us_max`). The world's set-up is demo.h's. */
+ * `surface_update_us_mean` and `surface_update_us_max`) and the smooth normals' counters
+ * (`smooth_vertices`, `smooth_vertices_full`, `smooth_queue_full`). The world's set-up is demo.h's. */
 #define _POSIX_C_SOURCE 200809L /* clock_gettime */
 #include <stdint.h>
 #include <stdio.h>
@@ -66,14 +67,17 @@ int main(int argc, char **argv) {
     td_world *world = demo_world(&world_size);
 
     size_t size = 0, align = 0;
-    demo_check(td_surface_size(world, MAX_TRIANGLES, &size, &align), "td_surface_size");
+    demo_check(td_surface_smooth_size(world, MAX_TRIANGLES, &size, &align),
+               "td_surface_smooth_size");
     void *mem = aligned_alloc(align, (size + align - 1) / align * align);
     if (!mem) {
         fprintf(stderr, "surface_demo: out of memory for the surface (%zu bytes)\n", size);
         return 1;
     }
     td_surface *surface = NULL;
-    demo_check(td_surface_init(mem, size, world, MAX_TRIANGLES, &surface), "td_surface_init");
+    /* Crease angle 0: the core's default (75 degrees). */
+    demo_check(td_surface_init_smooth(mem, size, world, MAX_TRIANGLES, 0.0f, &surface),
+               "td_surface_init_smooth");
 
     /* The buffers start zeroed: an empty surface. */
     const size_t verts = 3 * (size_t)MAX_TRIANGLES;
@@ -168,7 +172,12 @@ int main(int argc, char **argv) {
             /* %.9g: every float, read back, is the same float. */
             fprintf(out, "v %.9g %.9g %.9g\n", (double)p[0], (double)p[1], (double)p[2]);
         }
-        fprintf(out, "f %u %u %u\n", 3 * n + 1, 3 * n + 2, 3 * n + 3);
+        for (int k = 0; k < 3; k++) {
+            const float *q = m.normals + 3 * (size_t)ix[k];
+            fprintf(out, "vn %.9g %.9g %.9g\n", (double)q[0], (double)q[1], (double)q[2]);
+        }
+        fprintf(out, "f %u//%u %u//%u %u//%u\n", 3 * n + 1, 3 * n + 1, 3 * n + 2, 3 * n + 2,
+                3 * n + 3, 3 * n + 3);
         n++;
     }
     if (fclose(out) != 0) {
@@ -188,5 +197,10 @@ int main(int argc, char **argv) {
     printf("surface_update_us_max=%.1f\n", 1e6 * update_max_s);
     printf("surface_bytes=%zu\n", size);
     printf("debris_pieces=%u\n", (unsigned)pieces);
+    td_smooth_stats st;
+    demo_check(td_surface_smooth_stats(surface, &st), "td_surface_smooth_stats");
+    printf("smooth_vertices=%u\n", (unsigned)st.vertices);
+    printf("smooth_vertices_full=%u\n", (unsigned)st.vertices_full);
+    printf("smooth_queue_full=%u\n", (unsigned)st.queue_full);
     return n == r.live ? 0 : 1;
 }

@@ -53,8 +53,9 @@ int main(int argc, char **argv) {
         world.set_region(2, static_cast<float>(2.0e8), 0.5f, static_cast<float>(6000.0)); // dentin
         world.set_region(3, static_cast<float>(4.0e6), 0.1f, static_cast<float>(1000.0)); // pulp
 
-        // The drilled surface: up to 65,536 triangles, 4,096 work units a 60 Hz frame.
-        tetradrill::surface shown(world, 1u << 16);
+        // The drilled surface with smooth normals: up to 65,536 triangles, 4,096 work units a
+        // 60 Hz frame.
+        tetradrill::surface shown(world, 1u << 16, tetradrill::smooth_normals{});
         std::uint64_t uploaded = 0;
         const std::uint32_t ticks = td_script_ticks(TD_SCRIPT_TOOTH_ACCESS);
         float force_max = 0.f;

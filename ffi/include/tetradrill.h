@@ -427,6 +427,18 @@ typedef struct td_servo_counts {
   uint32_t step;
 } td_servo_counts;
 
+// What went short in a surface's smooth normals, counted since its init.
+typedef struct td_smooth_stats {
+  // Live shared vertices.
+  uint32_t vertices;
+  // Corners that found no free vertex: such a corner has its face's normal until its face
+  // is listed again.
+  uint32_t vertices_full;
+  // Times the queue of vertices to recompute was full: every vertex is then recomputed,
+  // a bounded amount a call.
+  uint32_t queue_full;
+} td_smooth_stats;
+
 // A run of triangle slots a `td_surface_update` wrote: `count` slots from `first` (vertices
 // `3 * first` to `3 * (first + count) - 1` of every buffer).
 typedef struct td_slot_range {
@@ -1186,6 +1198,61 @@ enum td_status td_surface_init(void *mem,
                                struct td_world *world,
                                uint32_t max_triangles,
                                struct td_surface **out);
+
+// Writes the bytes (`*out_size`) and the alignment (`*out_align`, 64) a surface with smooth
+// normals (`td_surface_init_smooth`) of `max_triangles` slots over `world` needs: what
+// `td_surface_size` says plus 121 to 129 bytes a slot (its smooth record, a shared vertex
+// and its hash table entries, an eighth of a queue entry).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_surface_size`.
+//
+// # Safety
+// As `td_surface_size`.
+enum td_status td_surface_smooth_size(struct td_world *world,
+                                      uint32_t max_triangles,
+                                      size_t *out_size,
+                                      size_t *out_align);
+
+// Sets up a surface as `td_surface_init` does, in memory sized by `td_surface_smooth_size`,
+// whose `td_surface_update` writes each corner's smooth normal into the normals buffer
+// rather than its face's: corners share vertices by their exact subdivision-lattice keys, a
+// drilled corner's normal is a three-ring average over the drilled faces, a corner on the
+// mesh's own boundary averages the boundary faces within `crease_degrees` of its face (0 or
+// less: the core's default, 75). `td_surface_smooth_stats` counts what went short. The
+// normals are kept up to date a bounded amount a call, as the faces are (`pending`).
+//
+// # Bounded work
+// O(`max_triangles` + T) to initialise the memory, for T coarse tets.
+//
+// # Errors
+// As `td_surface_init`, with `td_surface_smooth_size`'s size.
+//
+// # Safety
+// As `td_surface_init`.
+enum td_status td_surface_init_smooth(void *mem,
+                                      size_t len,
+                                      struct td_world *world,
+                                      uint32_t max_triangles,
+                                      float crease_degrees,
+                                      struct td_surface **out);
+
+// Writes the smooth normals' counters of `surface` to `*out` (all zero for a surface made
+// by `td_surface_init`, which has none).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a surface not set up.
+//
+// # Safety
+// `surface` is a handle from `td_surface_init` or `td_surface_init_smooth` whose memory is
+// still the caller's; `out` points at a writable `td_smooth_stats`.
+enum td_status td_surface_smooth_stats(struct td_surface *surface, struct td_smooth_stats *out);
 
 // Brings the caller's buffers a step closer to `world`'s drilled surface, for at most about
 // `budget` work units, and writes what it did to `*out` (`ranges` says which slots of every

@@ -296,17 +296,22 @@ class world {
 // is vertices 3s, 3s+1, 3s+2 of every buffer), written only where the surface changed. Owns its
 // memory and its buffers; keeps a pointer to its world, which must outlive it. Update it from
 // the simulation's thread, between steps.
+//
+// Made with `smooth_normals`, its normals are each corner's smooth normal
+// (td_surface_init_smooth), else each face's own.
+struct smooth_normals {
+    // Faces further apart than this are not averaged (0: the core's default, 75 degrees).
+    float crease_degrees = 0.0f;
+};
+
 class surface {
   public:
     surface(world &w, std::uint32_t max_triangles, std::uint32_t range_capacity = 64)
-        : world_(w.get()), n_(max_triangles), positions_(9 * std::size_t(max_triangles)),
-          normals_(9 * std::size_t(max_triangles)), labels_(3 * std::size_t(max_triangles)),
-          indices_(3 * std::size_t(max_triangles)), ranges_(range_capacity) {
-        std::size_t size = 0, align = 0;
-        detail::check(td_surface_size(world_, n_, &size, &align), "td_surface_size");
-        mem_ = detail::allocate(size, align);
-        detail::check(td_surface_init(mem_.get(), size, world_, n_, &s_), "td_surface_init");
-    }
+        : surface(w, max_triangles, nullptr, range_capacity) {}
+
+    surface(world &w, std::uint32_t max_triangles, smooth_normals smooth,
+            std::uint32_t range_capacity = 64)
+        : surface(w, max_triangles, &smooth, range_capacity) {}
 
     surface(surface &&) noexcept = default;
     surface &operator=(surface &&) noexcept = default;
@@ -337,14 +342,24 @@ class surface {
     }
     // x, y, z per vertex, three vertices a slot.
     std::span<const float> positions() const noexcept { return positions_; }
-    // The face's outward unit normal on each vertex.
+    // The corner's smooth normal on each vertex (made with `smooth_normals`), else the face's
+    // outward unit normal.
     std::span<const float> normals() const noexcept { return normals_; }
+    // Whether the normals are smooth.
+    bool smooth() const noexcept { return smooth_; }
+    // The smooth normals' shared vertices and saturations (all 0 without them).
+    td_smooth_stats smooth_stats() const {
+        td_smooth_stats st{};
+        detail::check(td_surface_smooth_stats(s_, &st), "td_surface_smooth_stats");
+        return st;
+    }
     // The region label on each vertex.
     std::span<const std::int32_t> labels() const noexcept { return labels_; }
     // Three vertex indices a slot; a free slot's are 0, 0, 0.
     std::span<const std::uint32_t> indices() const noexcept { return indices_; }
 
-    // The live triangles as a Wavefront OBJ (a vertex triple and a face each).
+    // The live triangles as a Wavefront OBJ (a vertex triple and a face each; with smooth
+    // normals a normal triple too, `vn`, and faces `f a//a b//b c//c`).
     std::string to_obj() const {
         std::string out = "# tetradrill drilled surface: visible faces\n";
         std::size_t written = 0;
@@ -359,8 +374,20 @@ class surface {
                               double(v[2]));
                 out += line;
             }
-            std::snprintf(line, sizeof line, "f %zu %zu %zu\n", 3 * written + 1, 3 * written + 2,
-                          3 * written + 3);
+            if (smooth_) {
+                for (int k = 0; k < 3; k++) {
+                    const float *v = &normals_[3 * std::size_t(i[k])];
+                    std::snprintf(line, sizeof line, "vn %.9g %.9g %.9g\n", double(v[0]),
+                                  double(v[1]), double(v[2]));
+                    out += line;
+                }
+                const std::size_t a = 3 * written + 1;
+                std::snprintf(line, sizeof line, "f %zu//%zu %zu//%zu %zu//%zu\n", a, a, a + 1,
+                              a + 1, a + 2, a + 2);
+            } else {
+                std::snprintf(line, sizeof line, "f %zu %zu %zu\n", 3 * written + 1,
+                              3 * written + 2, 3 * written + 3);
+            }
             out += line;
             written++;
         }
@@ -368,8 +395,30 @@ class surface {
     }
 
   private:
+    surface(world &w, std::uint32_t max_triangles, const smooth_normals *smooth,
+            std::uint32_t range_capacity)
+        : world_(w.get()), n_(max_triangles), smooth_(smooth != nullptr),
+          positions_(9 * std::size_t(max_triangles)), normals_(9 * std::size_t(max_triangles)),
+          labels_(3 * std::size_t(max_triangles)), indices_(3 * std::size_t(max_triangles)),
+          ranges_(range_capacity) {
+        std::size_t size = 0, align = 0;
+        if (smooth) {
+            detail::check(td_surface_smooth_size(world_, n_, &size, &align),
+                          "td_surface_smooth_size");
+            mem_ = detail::allocate(size, align);
+            detail::check(td_surface_init_smooth(mem_.get(), size, world_, n_,
+                                                 smooth->crease_degrees, &s_),
+                          "td_surface_init_smooth");
+        } else {
+            detail::check(td_surface_size(world_, n_, &size, &align), "td_surface_size");
+            mem_ = detail::allocate(size, align);
+            detail::check(td_surface_init(mem_.get(), size, world_, n_, &s_), "td_surface_init");
+        }
+    }
+
     td_world *world_;
     std::uint32_t n_;
+    bool smooth_;
     detail::aligned_bytes mem_{nullptr, detail::aligned_free{64}};
     td_surface *s_ = nullptr;
     std::vector<float> positions_, normals_;

@@ -104,9 +104,9 @@ pub use regions::{
 };
 pub use servo::{td_servo_counters, td_servo_force, td_world_servo, td_world_tick};
 pub use surface::{
-    td_surface_init, td_surface_size, td_surface_update, td_world_debris_scratch,
-    td_world_remove_debris, TdSlotRange, TdSurface, TdSurfaceBuffers, TdSurfaceReport,
-    TD_MAX_TRIANGLES,
+    td_surface_init, td_surface_init_smooth, td_surface_size, td_surface_smooth_size,
+    td_surface_smooth_stats, td_surface_update, td_world_debris_scratch, td_world_remove_debris,
+    TdSlotRange, TdSmoothStats, TdSurface, TdSurfaceBuffers, TdSurfaceReport, TD_MAX_TRIANGLES,
 };
 
 use init::{bad_index, carve, init, report_bad, Source};

@@ -7,7 +7,8 @@
 use core::mem::{align_of, size_of};
 
 use tetradrill_core::hierarchy::{
-    SlotRange, SurfaceBuffers, SurfaceExport, SurfaceSizes, SurfaceStorage, DEBRIS_LEAVES,
+    SlotRange, SmoothNormals, SmoothSizes, SmoothStorage, SurfaceBuffers, SurfaceExport,
+    SurfaceSizes, SurfaceStorage, DEBRIS_LEAVES,
 };
 use tetradrill_core::storage::LINE;
 use tetradrill_core::TetId;
@@ -107,19 +108,42 @@ struct SurfaceState {
     export: SurfaceExport<'static>,
 }
 
-/// The surface's layout: its bytes, the offset of its lines and their count.
-fn surface_plan(tets: usize, max_triangles: u32) -> Result<(usize, usize, SurfaceSizes), TdStatus> {
+/// A surface's layout: its bytes, the offset of its lines, the exporter's sizes and lines,
+/// and (`smooth`) the smooth normals' sizes, whose lines follow the exporter's.
+struct Plan {
+    size: usize,
+    head: usize,
+    sizes: SurfaceSizes,
+    lines: usize,
+    smooth: Option<SmoothSizes>,
+}
+
+/// The layout of a surface of `max_triangles` slots over `tets` coarse tets, with smooth
+/// normals when `smooth`.
+fn surface_plan(tets: usize, max_triangles: u32, smooth: bool) -> Result<Plan, TdStatus> {
     if max_triangles == 0 || max_triangles > TD_MAX_TRIANGLES {
         return Err(TdStatus::TdErrParams);
     }
     let sizes = SurfaceSizes::new(max_triangles as usize, tets);
     let lines = sizes.lines().ok_or(TdStatus::TdErrParams)?;
+    let smooth = smooth.then(|| SmoothSizes::for_slots(max_triangles as usize));
+    let extra = match &smooth {
+        Some(z) => z.lines().ok_or(TdStatus::TdErrParams)?,
+        None => 0,
+    };
     let head = size_of::<SurfaceState>().div_ceil(LINE) * LINE;
     let size = lines
-        .checked_mul(LINE)
+        .checked_add(extra)
+        .and_then(|l| l.checked_mul(LINE))
         .and_then(|b| b.checked_add(head))
         .ok_or(TdStatus::TdErrParams)?;
-    Ok((size, head, sizes))
+    Ok(Plan {
+        size,
+        head,
+        sizes,
+        lines,
+        smooth,
+    })
 }
 
 /// The alignment of a surface's memory: a line (the core's parts each start on one).
@@ -175,8 +199,8 @@ pub unsafe extern "C" fn td_surface_size(
     unsafe {
         sized(out_size, out_align, || {
             let st = state(world)?;
-            let (size, _, _) = surface_plan(st.world.mesh().tet_count(), max_triangles)?;
-            Ok((size, SURFACE_ALIGN))
+            let plan = surface_plan(st.world.mesh().tet_count(), max_triangles, false)?;
+            Ok((plan.size, SURFACE_ALIGN))
         })
     }
 }
@@ -207,44 +231,182 @@ pub unsafe extern "C" fn td_surface_init(
     max_triangles: u32,
     out: *mut *mut TdSurface,
 ) -> TdStatus {
+    // SAFETY: the caller's contract, as `surface_init` states it.
+    status(|| unsafe { surface_init(mem, len, world, max_triangles, None, out) })
+}
+
+/// Writes the bytes (`*out_size`) and the alignment (`*out_align`, 64) a surface with smooth
+/// normals (`td_surface_init_smooth`) of `max_triangles` slots over `world` needs: what
+/// `td_surface_size` says plus 121 to 129 bytes a slot (its smooth record, a shared vertex
+/// and its hash table entries, an eighth of a queue entry).
+///
+/// # Bounded work
+/// Constant.
+///
+/// # Errors
+/// As `td_surface_size`.
+///
+/// # Safety
+/// As `td_surface_size`.
+#[no_mangle]
+pub unsafe extern "C" fn td_surface_smooth_size(
+    world: *mut TdWorld,
+    max_triangles: u32,
+    out_size: *mut usize,
+    out_align: *mut usize,
+) -> TdStatus {
+    // SAFETY: the caller's contract on the outputs and on `world` (`state` checks it).
+    unsafe {
+        sized(out_size, out_align, || {
+            let st = state(world)?;
+            let plan = surface_plan(st.world.mesh().tet_count(), max_triangles, true)?;
+            Ok((plan.size, SURFACE_ALIGN))
+        })
+    }
+}
+
+/// Sets up a surface as `td_surface_init` does, in memory sized by `td_surface_smooth_size`,
+/// whose `td_surface_update` writes each corner's smooth normal into the normals buffer
+/// rather than its face's: corners share vertices by their exact subdivision-lattice keys, a
+/// drilled corner's normal is a three-ring average over the drilled faces, a corner on the
+/// mesh's own boundary averages the boundary faces within `crease_degrees` of its face (0 or
+/// less: the core's default, 75). `td_surface_smooth_stats` counts what went short. The
+/// normals are kept up to date a bounded amount a call, as the faces are (`pending`).
+///
+/// # Bounded work
+/// O(`max_triangles` + T) to initialise the memory, for T coarse tets.
+///
+/// # Errors
+/// As `td_surface_init`, with `td_surface_smooth_size`'s size.
+///
+/// # Safety
+/// As `td_surface_init`.
+#[no_mangle]
+pub unsafe extern "C" fn td_surface_init_smooth(
+    mem: *mut c_void,
+    len: usize,
+    world: *mut TdWorld,
+    max_triangles: u32,
+    crease_degrees: f32,
+    out: *mut *mut TdSurface,
+) -> TdStatus {
+    let crease = if crease_degrees > 0.0 {
+        crease_degrees
+    } else {
+        SmoothNormals::CREASE_DEGREES
+    };
+    // SAFETY: the caller's contract, as `surface_init` states it.
+    status(|| unsafe { surface_init(mem, len, world, max_triangles, Some(crease), out) })
+}
+
+/// What went short in a surface's smooth normals, counted since its init.
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct TdSmoothStats {
+    /// Live shared vertices.
+    pub vertices: u32,
+    /// Corners that found no free vertex: such a corner has its face's normal until its face
+    /// is listed again.
+    pub vertices_full: u32,
+    /// Times the queue of vertices to recompute was full: every vertex is then recomputed,
+    /// a bounded amount a call.
+    pub queue_full: u32,
+}
+
+/// Writes the smooth normals' counters of `surface` to `*out` (all zero for a surface made
+/// by `td_surface_init`, which has none).
+///
+/// # Bounded work
+/// Constant.
+///
+/// # Errors
+/// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a surface not set up.
+///
+/// # Safety
+/// `surface` is a handle from `td_surface_init` or `td_surface_init_smooth` whose memory is
+/// still the caller's; `out` points at a writable `td_smooth_stats`.
+#[no_mangle]
+pub unsafe extern "C" fn td_surface_smooth_stats(
+    surface: *mut TdSurface,
+    out: *mut TdSmoothStats,
+) -> TdStatus {
     status(|| {
         check_ptr(out)?;
-        // SAFETY: the caller's contract on `world`; `state` checks it.
-        let st = unsafe { state(world) }?;
-        let (size, head, sizes) = surface_plan(st.world.mesh().tet_count(), max_triangles)?;
-        let base = mem.cast::<u8>();
-        if base.is_null() {
-            return Err(TdStatus::TdErrNull);
-        }
-        // A power of two: the mask test is the alignment test.
-        if (base as usize) & (SURFACE_ALIGN - 1) != 0 {
-            return Err(TdStatus::TdErrAlign);
-        }
-        if len < size {
-            return Err(TdStatus::TdErrTooSmall);
-        }
-        let state_ptr = base.cast::<SurfaceState>();
-        // SAFETY: aligned for the state and at least `size > size_of::<SurfaceState>()`
-        // bytes: a handle to this memory is refused from here on until the init succeeds.
-        unsafe { ptr::addr_of_mut!((*state_ptr).magic).write(0) };
-        // SAFETY: the lines lie after the header, inside `size <= len` bytes of `mem`, which
-        // the caller keeps for as long as the surface is used.
-        let lines = unsafe { lines_at(base, head, (size - head) / LINE) };
-        let storage = SurfaceStorage::carve(&sizes, &mut Block::from_lines(lines))
-            .map_err(|_| TdStatus::TdErrTooSmall)?;
-        let export =
-            SurfaceExport::new(storage, st.world.hierarchy()).map_err(|_| TdStatus::TdErrParams)?;
-        let s = SurfaceState {
-            magic: SURFACE_MAGIC,
-            world: world as usize,
-            span: span(base, size),
-            export,
+        // SAFETY: the caller's contract on the handle; it is checked.
+        let sf = unsafe { surface_state(surface) }?;
+        let st = sf
+            .export
+            .smooth()
+            .map(SmoothNormals::stats)
+            .unwrap_or_default();
+        let r = TdSmoothStats {
+            vertices: st.vertices,
+            vertices_full: st.vertices_full,
+            queue_full: st.queue_full,
         };
-        // SAFETY: aligned, inside `mem` (checked above); the magic goes in last with it.
-        unsafe { state_ptr.write(s) };
         // SAFETY: checked above; the caller's contract makes it writable.
-        unsafe { put(out, mem.cast::<TdSurface>()) }
+        unsafe { put(out, r) }
     })
+}
+
+/// `td_surface_init` and `td_surface_init_smooth` (`crease`: smooth normals).
+///
+/// # Safety
+/// As `td_surface_init`.
+unsafe fn surface_init(
+    mem: *mut c_void,
+    len: usize,
+    world: *mut TdWorld,
+    max_triangles: u32,
+    crease: Option<f32>,
+    out: *mut *mut TdSurface,
+) -> Result<(), TdStatus> {
+    check_ptr(out)?;
+    // SAFETY: the caller's contract on `world`; `state` checks it.
+    let st = unsafe { state(world) }?;
+    let plan = surface_plan(st.world.mesh().tet_count(), max_triangles, crease.is_some())?;
+    let (size, head) = (plan.size, plan.head);
+    let base = mem.cast::<u8>();
+    if base.is_null() {
+        return Err(TdStatus::TdErrNull);
+    }
+    // A power of two: the mask test is the alignment test.
+    if (base as usize) & (SURFACE_ALIGN - 1) != 0 {
+        return Err(TdStatus::TdErrAlign);
+    }
+    if len < size {
+        return Err(TdStatus::TdErrTooSmall);
+    }
+    let state_ptr = base.cast::<SurfaceState>();
+    // SAFETY: aligned for the state and at least `size > size_of::<SurfaceState>()`
+    // bytes: a handle to this memory is refused from here on until the init succeeds.
+    unsafe { ptr::addr_of_mut!((*state_ptr).magic).write(0) };
+    // SAFETY: the lines lie after the header, inside `size <= len` bytes of `mem`, which
+    // the caller keeps for as long as the surface is used.
+    let lines = unsafe { lines_at(base, head, (size - head) / LINE) };
+    let (lines, rest) = lines.split_at_mut(plan.lines.min(lines.len()));
+    let storage = SurfaceStorage::carve(&plan.sizes, &mut Block::from_lines(lines))
+        .map_err(|_| TdStatus::TdErrTooSmall)?;
+    let mut export =
+        SurfaceExport::new(storage, st.world.hierarchy()).map_err(|_| TdStatus::TdErrParams)?;
+    if let (Some(z), Some(crease)) = (&plan.smooth, crease) {
+        let sst = SmoothStorage::carve(z, &mut Block::from_lines(rest))
+            .map_err(|_| TdStatus::TdErrTooSmall)?;
+        let smooth = SmoothNormals::new(sst, crease).map_err(|_| TdStatus::TdErrParams)?;
+        export = export
+            .with_smooth(smooth)
+            .map_err(|_| TdStatus::TdErrParams)?;
+    }
+    let s = SurfaceState {
+        magic: SURFACE_MAGIC,
+        world: world as usize,
+        span: span(base, size),
+        export,
+    };
+    // SAFETY: aligned, inside `mem` (checked above); the magic goes in last with it.
+    unsafe { state_ptr.write(s) };
+    // SAFETY: checked above; the caller's contract makes it writable.
+    unsafe { put(out, mem.cast::<TdSurface>()) }
 }
 
 /// Writes `n` zero lines from `base + offset` on and returns them.

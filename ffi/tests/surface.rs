@@ -454,3 +454,168 @@ fn every_bad_argument_gets_its_status() {
         assert_eq!(b.live().len(), 8);
     }
 }
+
+/// Per-corner normals by face: the corners' bits rotated to start at the smallest, and the
+/// normal of each corner in that order.
+type Normals = std::collections::HashMap<[[u32; 3]; 3], [[f32; 3]; 3]>;
+
+fn put_face(map: &mut Normals, p: [[f32; 3]; 3], n: [[f32; 3]; 3]) {
+    let b = p.map(|c| c.map(f32::to_bits));
+    let first = (0..3).min_by_key(|&k| b[k]).expect("three corners");
+    let r = [first, (first + 1) % 3, (first + 2) % 3];
+    map.insert(r.map(|k| b[k]), r.map(|k| n[k]));
+}
+
+/// The host's `replay --surface` OBJ of the demo (its debris erased as `replay` does), read
+/// back: each face's corners' normals.
+fn host_obj_normals(sc: &Setup) -> Normals {
+    let loaded = engine::load_mesh(sc).expect("mesh");
+    let params = TickParams::of(sc).expect("params");
+    let poses = PoseSource::new(&sc.poses, Some(&loaded.mesh)).expect("poses");
+    let mut store = EngineStorage::new(loaded.mesh, sc).expect("storage");
+    store.set_labels(&loaded.labels, sc).expect("labels");
+    let mut world = store.world().expect("world");
+    let mut tool = ToolState::default();
+    for i in 0..poses.ticks() {
+        engine::tick(&mut world, &mut tool, &params, &poses.at(i));
+    }
+    let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
+    world
+        .remove_debris(DEBRIS_LEAVES, sc.drilling.max_depth, &mut scratch)
+        .expect("debris");
+    let obj = tetradrill::smooth_surface::SmoothSurface::of(
+        &world,
+        &loaded.labels,
+        tetradrill_core::hierarchy::SmoothNormals::CREASE_DEGREES,
+    )
+    .to_obj();
+    let (mut v, mut vn, mut map) = (Vec::new(), Vec::new(), Normals::new());
+    let three =
+        |w: &[&str]| -> [f32; 3] { [0, 1, 2].map(|k| w[k].parse().expect("a number in the OBJ")) };
+    for line in obj.lines() {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        match w.first() {
+            Some(&"v") => v.push(three(&w[1..])),
+            Some(&"vn") => vn.push(three(&w[1..])),
+            Some(&"f") => {
+                let ix = [1, 2, 3].map(|k| {
+                    let (a, b) = w[k].split_once("//").expect("f a//na");
+                    let i = |s: &str| s.parse::<usize>().expect("an index") - 1;
+                    (i(a), i(b))
+                });
+                put_face(&mut map, ix.map(|(a, _)| v[a]), ix.map(|(_, b)| vn[b]));
+            }
+            _ => {}
+        }
+    }
+    map
+}
+
+#[test]
+fn the_demo_smooth_normals_through_c_equal_the_hosts_obj() {
+    let sc = demo();
+    let mut wmem = None;
+    let world = c_world(&sc, &mut wmem);
+    let (mut size, mut align, mut plain) = (0usize, 0usize, 0usize);
+    // SAFETY: a live world, writable outputs.
+    unsafe {
+        assert_eq!(
+            td_surface_smooth_size(world, SLOTS, &mut size, &mut align),
+            TdStatus::TdOk
+        );
+        assert_eq!(
+            td_surface_size(world, SLOTS, &mut plain, &mut align),
+            TdStatus::TdOk
+        );
+    }
+    assert!(
+        size > plain + 120 * SLOTS as usize,
+        "{size} against {plain}"
+    );
+    let m = Memory::new(size, align);
+    let mut s: *mut TdSurface = ptr::null_mut();
+    // SAFETY: memory of `size` bytes, a live world.
+    unsafe {
+        assert_eq!(
+            td_surface_init_smooth(m.ptr.cast(), size - 1, world, SLOTS, 0.0, &mut s),
+            TdStatus::TdErrTooSmall
+        );
+        assert_eq!(
+            td_surface_init_smooth(m.ptr.cast(), size, world, SLOTS, 0.0, &mut s),
+            TdStatus::TdOk
+        );
+    }
+    let mut b = Buffers::new(SLOTS as usize, 32);
+    let mut force = TdVec3::default();
+    for i in 0..td_demo_ticks() {
+        let (mut pose, mut buttons) = (TdVec3::default(), 0u32);
+        // SAFETY: a live world and writable outputs.
+        unsafe {
+            assert_eq!(td_demo_pose(i, &mut pose, &mut buttons), TdStatus::TdOk);
+            assert_eq!(
+                td_world_tick(world, pose, buttons, &mut force),
+                TdStatus::TdOk
+            );
+        }
+        if (i + 1) % FRAME == 0 {
+            b.update(s, world, BUDGET);
+        }
+    }
+    let (mut len, mut pieces) = (0usize, 0u32);
+    // SAFETY: a live world, writable outputs, a scratch of the length given.
+    unsafe {
+        assert_eq!(td_world_debris_scratch(world, &mut len), TdStatus::TdOk);
+        let mut scratch = vec![0u32; len];
+        assert_eq!(
+            td_world_remove_debris(world, scratch.as_mut_ptr(), len, &mut pieces),
+            TdStatus::TdOk
+        );
+    }
+    let mut rep = b.update(s, world, BUDGET);
+    for _ in 0..10_000 {
+        if rep.pending == 0 {
+            break;
+        }
+        rep = b.update(s, world, BUDGET);
+    }
+    assert_eq!(rep.pending, 0);
+    let mut stats = TdSmoothStats::default();
+    // SAFETY: a live surface, a writable output.
+    assert_eq!(
+        unsafe { td_surface_smooth_stats(s, &mut stats) },
+        TdStatus::TdOk
+    );
+    // Every corner found a vertex; a full queue (as when the whole surface is listed at
+    // once) starts a sweep that leaves no stale normal once it ends.
+    assert_eq!(stats.vertices_full, 0);
+    assert!(stats.vertices > 0);
+    let mut c = Normals::new();
+    let (pos, nrm, _, idx) = &b.mirror;
+    for slot in (0..idx.len() / 3).filter(|&k| idx[3 * k..3 * k + 3] != [0, 0, 0]) {
+        let at = |a: &[f32], k: usize| [0, 1, 2].map(|j| a[9 * slot + 3 * k + j]);
+        put_face(
+            &mut c,
+            [0, 1, 2].map(|k| at(pos, k)),
+            [0, 1, 2].map(|k| at(nrm, k)),
+        );
+    }
+    let host = host_obj_normals(&sc);
+    assert_eq!(c.len(), host.len());
+    let mut smooth = 0usize;
+    for (key, n) in &c {
+        let h = host.get(key).expect("the C face in the host's OBJ");
+        for k in 0..3 {
+            let len = n[k].iter().map(|x| x * x).sum::<f32>().sqrt();
+            assert!((len - 1.0).abs() < 1e-4, "a unit normal: {n:?}");
+            for j in 0..3 {
+                assert!((n[k][j] - h[k][j]).abs() < 1e-6, "{n:?} against {h:?}");
+            }
+        }
+        smooth += usize::from(n[0] != n[1] || n[0] != n[2]);
+    }
+    assert!(
+        smooth * 2 > c.len(),
+        "{smooth} of {} faces shaded per corner",
+        c.len()
+    );
+}

@@ -262,8 +262,15 @@ impl Drilling {
 
     /// The drilled surface now (every visible face).
     fn surface(&self, py: Python<'_>) -> PyResult<Surface> {
-        let s = self.session.live()?.with_run(|r| r.surface());
-        Surface::of(py, s)
+        let (s, smooth) = self.session.live()?.with_run(|r| {
+            let smooth = tetradrill::smooth_surface::SmoothSurface::of(
+                r.world(),
+                &[],
+                tetradrill_core::hierarchy::SmoothNormals::CREASE_DEGREES,
+            );
+            (r.surface(), smooth)
+        });
+        Surface::of(py, s, &smooth)
     }
 
     /// Checks the mesh's and the drilled hierarchy's invariants; raises `TetradrillError`
@@ -348,7 +355,10 @@ impl Drilling {
 ///
 /// `vertices` `3T x 3` (mesh units), `triangles` `T x 3` (indices into `vertices`: row `i` is
 /// `3i, 3i+1, 3i+2`), `normals` `3T x 3` (each triangle's unit normal, outward, at its three
-/// corners), `labels` `T` (each triangle's region label), `area` (square mesh units).
+/// corners), `smooth_normals` `3T x 3` (each corner's smooth normal: the core's shared
+/// vertices, a three-ring average on the drilled faces, the boundary's within 75 degrees; as
+/// `tetradrill replay --surface` writes them), `labels` `T` (each triangle's region label),
+/// `area` (square mesh units).
 #[pyclass(module = "tetradrill", frozen)]
 #[derive(Debug)]
 pub struct Surface {
@@ -359,14 +369,48 @@ pub struct Surface {
     #[pyo3(get)]
     normals: Py<PyArray2<f64>>,
     #[pyo3(get)]
+    smooth_normals: Py<PyArray2<f64>>,
+    #[pyo3(get)]
     labels: Py<PyArray1<i32>>,
     #[pyo3(get)]
     area: f64,
     inner: tetradrill::Surface,
 }
 
+/// A triangle's corners' bits, rotated to start at the smallest (the orientation kept), and
+/// the rotation.
+fn canonical(c: [Vec3; 3]) -> ([[u32; 3]; 3], usize) {
+    let b = c.map(|p| p.to_array().map(f32::to_bits));
+    let first = (0..3).min_by_key(|&k| b[k]).unwrap_or(0);
+    ([b[first], b[(first + 1) % 3], b[(first + 2) % 3]], first)
+}
+
 impl Surface {
-    fn of(py: Python<'_>, s: tetradrill::Surface) -> PyResult<Self> {
+    fn of(
+        py: Python<'_>,
+        s: tetradrill::Surface,
+        smooth: &tetradrill::smooth_surface::SmoothSurface,
+    ) -> PyResult<Self> {
+        // The smooth surface's faces by their corners, each corner's normal in that order.
+        let mut by_corners = std::collections::HashMap::new();
+        for f in &smooth.faces {
+            let p = f.vertices.map(|v| smooth.positions[v as usize]);
+            let n = f.normals.map(|v| smooth.normals[v as usize]);
+            let (key, first) = canonical(p);
+            by_corners.insert(key, [0, 1, 2].map(|k| n[(first + k) % 3]));
+        }
+        let smooth_normals: Vec<Vec3> = s
+            .corners
+            .iter()
+            .flat_map(|&c| {
+                let flat = (c[1] - c[0]).cross(c[2] - c[0]).normalize_or_zero();
+                let (key, first) = canonical(c);
+                match by_corners.get(&key) {
+                    Some(n) => [0, 1, 2].map(|k| n[(k + 3 - first) % 3]),
+                    None => [flat; 3],
+                }
+            })
+            .collect();
         let vertices: Vec<Vec3> = s.corners.iter().flatten().copied().collect();
         let triangles: Vec<[i64; 3]> = (0..s.corners.len() as i64)
             .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
@@ -380,6 +424,7 @@ impl Surface {
             vertices: arrays::to_numpy(py, &vertices)?.unbind(),
             triangles: arrays::rows(py, &triangles)?.unbind(),
             normals: arrays::to_numpy(py, &normals)?.unbind(),
+            smooth_normals: arrays::to_numpy(py, &smooth_normals)?.unbind(),
             labels: PyArray1::from_vec(py, s.labels.clone()).unbind(),
             area: s.area(),
             inner: s,

@@ -49,3 +49,25 @@ def test_drilling_opens_the_surface():
     # A dimple's walls: more area than the flat face they replaced.
     assert s.area > 6.0
     assert abs(areas(s).sum() - s.area) < 1e-9 * s.area
+
+
+def test_smooth_normals_are_unit_per_corner_and_agree_at_shared_corners():
+    d = td.Drilling("builtin:block:4", "sphere:0.15")
+    d.run(np.tile([0.0, 0.0, 0.5], (500, 1)))
+    s = d.surface()
+    n = len(s)
+    sn = s.smooth_normals
+    assert sn.shape == (3 * n, 3)
+    assert np.allclose(np.linalg.norm(sn, axis=1), 1.0, atol=1e-5)
+    # On the drilled dimple the corners of one face differ (a curved surface).
+    per_face = sn.reshape(n, 3, 3)
+    bent = ~np.isclose(per_face, per_face[:, :1], atol=1e-6).all(axis=(1, 2))
+    assert bent.sum() > n // 10
+    # Drilled corners at one position have one normal (shared vertices): group the corners
+    # that lie inside the block (off its faces) by position.
+    inside = (np.abs(s.vertices).max(axis=1) < 0.5 - 1e-6)
+    keys = {}
+    for p, nn in zip(map(tuple, s.vertices[inside]), sn[inside]):
+        keys.setdefault(p, []).append(nn)
+    shared = [np.ptp(np.array(v), axis=0).max() for v in keys.values() if len(v) > 1]
+    assert len(shared) > 10 and max(shared) < 1e-6

@@ -11,12 +11,11 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::changes::Change;
-use super::geometry::RootFrame;
-use super::smooth::{SmoothNormals, VertexKey};
+use super::export_keys::face_keys;
+pub(super) use super::export_keys::walk_key;
+use super::smooth::SmoothNormals;
 use super::store::Hierarchy;
-use super::table::{Path, MAX_DEPTH};
 use crate::ids::TetId;
-use crate::mesh::template::FACE_VERTS;
 use crate::mesh::Mesh;
 use crate::storage::{carve, lines_of, Memory, Part, PartSet, Slots, StorageError};
 
@@ -456,6 +455,61 @@ impl<'a> SurfaceExport<'a> {
         self.live
     }
 
+    /// The coarse tet whose face slot `s` holds, `None` when the slot is free.
+    pub fn slot_tet(&self, s: u32) -> Option<TetId> {
+        let r = self.slots.get(s as usize)?;
+        (r.tet != u32::MAX).then_some(TetId(r.tet))
+    }
+
+    /// The slots of coarse tet `t`, in the order [`Hierarchy::for_each_visible_in`] lists its
+    /// faces (as they were when the tet was last listed again).
+    ///
+    /// # Bounded work
+    /// O(1) an item.
+    pub fn tet_slots(&self, t: TetId) -> impl Iterator<Item = u32> + '_ {
+        let rec = self.tets.get(t.idx()).copied().unwrap_or(TetRecord::EMPTY);
+        let first = (rec.head != NO).then_some(rec.head);
+        core::iter::successors(first, move |&s| {
+            let next = self.slots.get(s as usize).map_or(NO, |r| r.next);
+            (next != NO).then_some(next)
+        })
+        .take(rec.slots as usize)
+    }
+
+    /// Starts over on `hier` in the same storage, as [`SurfaceExport::new`] (and
+    /// [`SmoothNormals::new`], with the same crease angle) would: every slot free, every face
+    /// listed again. The caller zeroes its buffers (slots that were live need not be written
+    /// again).
+    ///
+    /// # Bounded work
+    /// O(slots + tets), and the smooth normals' storage.
+    ///
+    /// # Errors
+    /// [`SurfaceError::Storage`] when `hier` has more trees than the exporter was made for
+    /// (nothing changed).
+    pub fn reset(&mut self, hier: &Hierarchy<'_>) -> Result<(), SurfaceError> {
+        if hier.tet_count() > self.tets.len() {
+            return Err(SurfaceError::Storage);
+        }
+        self.slots.fill(SlotRecord::FREE);
+        self.tets.fill(TetRecord::EMPTY);
+        self.fresh = 0;
+        self.free = NO;
+        self.live = 0;
+        self.cursor = hier.change_count();
+        self.seen_all = hier.all_changed_at();
+        self.sweep = Some(Sweep {
+            next: 0,
+            resume: hier.change_count(),
+            rewrite: true,
+        });
+        self.short = false;
+        if let Some(sm) = self.smooth.as_mut() {
+            sm.reset();
+        }
+        Ok(())
+    }
+
     /// Brings the buffers a step closer to the visible faces of `hier` over `mesh` (the ones
     /// the exporter was made for), `label` giving each coarse tet's label, for at most about
     /// `budget` work units; `out.ranges` receives the ranges of slots written. The buffers
@@ -714,65 +768,4 @@ impl<'a> SurfaceExport<'a> {
             };
         }
     }
-}
-
-/// The lattice keys of the corners of face `face` of the node of tree index `index` in the
-/// tree of `t`, in the order of `corners` (the listing's), and whether the face is drilled:
-/// it lies on no boundary face of the coarse mesh.
-fn face_keys(
-    mesh: &Mesh<'_>,
-    t: TetId,
-    index: u32,
-    face: u8,
-    corners: &[Vec3; 3],
-) -> ([VertexKey; 3], bool) {
-    let (Some(path), Some(ids), Some(frame)) = (
-        Path::of_index(index),
-        mesh.get_tet_nodes(t),
-        RootFrame::of(mesh, t),
-    ) else {
-        return ([VertexKey::NONE; 3], true);
-    };
-    let bary = path.bary();
-    let ids = ids.map(|n| n.0);
-    let [a, b, c] = FACE_VERTS[(face & 3) as usize].map(|k| bary[(k & 3) as usize]);
-    // The listing is `a, c, b` from a positively oriented node, `a, b, c` otherwise.
-    let order = if frame.point(&c, path.depth) == corners[1] {
-        [a, c, b]
-    } else {
-        [a, b, c]
-    };
-    let keys = order.map(|w| VertexKey::of(ids, w, path.depth));
-    // On root face `j` when every corner has no weight on root corner `j`.
-    let drilled = (0..4u8).all(|j| {
-        let on = order.iter().all(|w| w[(j & 3) as usize] == 0);
-        !(on && mesh.is_boundary_face(t, j))
-    });
-    (keys, drilled)
-}
-
-/// Where face `face` of the node of tree index `index` comes in a tree's listing
-/// ([`Hierarchy::for_each_visible_in`]: depth first, the children of a node in descending
-/// digit order, a node's faces in ascending order), as a number: the digits root first,
-/// each as `7 - digit` in 3 bits and padded to [`MAX_DEPTH`] levels, then the depth (an
-/// ancestor before its descendants), then the face. Any consistent order would do; this
-/// one matches the listing, so a tet's unchanged faces keep their slots.
-pub(super) fn walk_key(index: u32, face: u8) -> u64 {
-    let mut digits = [0u8; MAX_DEPTH];
-    let mut depth = 0usize;
-    let mut i = index;
-    while i > 0 {
-        let Some(d) = digits.get_mut(depth) else {
-            break;
-        };
-        *d = ((i - 1) & 7) as u8;
-        i = (i - 1) >> 3;
-        depth += 1;
-    }
-    let mut key = 0u64;
-    // `digits[depth - 1]` is the root's child, `digits[0]` the deepest.
-    for (level, &d) in digits.iter().take(depth).rev().enumerate() {
-        key |= u64::from(7 - d) << (3 * (MAX_DEPTH - 1 - level));
-    }
-    (key << 4 | depth as u64) << 2 | u64::from(face & 3)
 }

@@ -20,7 +20,8 @@
 //!   caller storage that readers read at their own pace ([`Hierarchy::change_at`]).
 //! - `export`: the drilled surface kept in a renderer's buffers of stable triangle slots,
 //!   only the changed tets' slots written, a bounded amount of work a call
-//!   ([`SurfaceExport`]).
+//!   ([`SurfaceExport`]); `export_keys`: a face's place in its tree's listing and its
+//!   corners' lattice keys.
 //! - `smooth`: the export's faces sharing vertices by their exact lattice keys, with smooth
 //!   per-corner normals within a crease angle, kept up to date incrementally
 //!   ([`SmoothNormals`], [`SurfaceExport::with_smooth`]).
@@ -75,6 +76,7 @@ mod components;
 mod crumbs;
 mod debris;
 mod export;
+mod export_keys;
 mod geometry;
 mod memo;
 mod nearest;

@@ -253,6 +253,23 @@ impl<'a> SmoothNormals<'a> {
         })
     }
 
+    /// Clears every slot, vertex and counter, as [`SmoothNormals::new`] does (the crease
+    /// angle kept).
+    ///
+    /// # Bounded work
+    /// O(table + slots + vertices).
+    pub fn reset(&mut self) {
+        self.table.fill(NO);
+        self.slots.fill(SmoothSlot::FREE);
+        self.verts.fill(SmoothVertex::EMPTY);
+        self.fresh = 0;
+        self.free = NO;
+        self.q_first = 0;
+        self.q_len = 0;
+        self.sweep = None;
+        self.stats = SmoothStats::default();
+    }
+
     /// Slots (the exporter's must match).
     pub fn slots(&self) -> usize {
         self.slots.len()

@@ -268,6 +268,13 @@ impl ViewerApp<'_> {
                 row("removed", format!("{:.5} ({pct:.2}%)", st.removed_volume));
                 row("hierarchy nodes", st.hierarchy_nodes.to_string());
                 row("visible faces", format!("{tris} ({drilled} drilled)"));
+                row(
+                    "smooth normals",
+                    format!(
+                        "{} pending, {} saturations",
+                        st.smooth_pending, st.smooth_saturations
+                    ),
+                );
                 row("snapshots refused", sh.snapshots.refused().to_string());
                 let turn = turn_degrees(&self.published);
                 row(

@@ -33,6 +33,11 @@ pub struct SimStatus {
     /// The pressure threshold of the material under the burr, newtons (`None` without a
     /// contact, without regions, or for a material removed at once whatever the force).
     pub threshold_n: Option<f32>,
+    /// The smooth normals' saturations (corners that found no free vertex, times the queue
+    /// was full; [`tetradrill_core::hierarchy::SmoothStats`]).
+    pub smooth_saturations: u32,
+    /// The smooth normals' work left for later snapshots (0: every normal is current).
+    pub smooth_pending: u32,
 }
 
 /// Snapshots the queue holds: a viewer more than this many snapshots behind makes the
@@ -47,6 +52,8 @@ pub const SNAPSHOT_PERIOD_NS: u64 = 16_000_000;
 pub struct SurfTri {
     /// Corners, counter-clockwise seen from outside the material.
     pub corners: [[f32; 3]; 3],
+    /// Each corner's smooth normal (unit), or zero where the face is shaded flat.
+    pub normals: [[f32; 3]; 3],
     /// Not on the original boundary: material was drilled away here.
     pub drilled: bool,
 }

@@ -6,6 +6,7 @@
 //! | [`handoff`]   | snapshots (queue that refuses when full), controls (triple buffer) | always |
 //! | [`publish`]   | the simulation's side: changed tets, patches, the tool's shown pose | always |
 //! | [`scene`]     | the viewer's copy of the surface in chunks, runs of changed chunks | always |
+//! | [`smooth_live`] | the surface's smooth normals, updated a bounded step a snapshot | always |
 //! | [`camera`]    | orbit camera, matrices, the egocentric camera `C` it publishes | always  |
 //! | `gl`          | the OpenGL renderer and the EGL offscreen context (all `unsafe`) | `viewer` |
 //! | `headless`    | screenshots without a display, PNG                             | `viewer` |
@@ -18,6 +19,7 @@ pub mod camera;
 pub mod handoff;
 pub mod publish;
 pub mod scene;
+pub mod smooth_live;
 
 #[cfg(feature = "viewer")]
 pub mod app;

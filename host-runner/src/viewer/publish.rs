@@ -22,6 +22,7 @@ use super::handoff::{
     ToolView,
 };
 use super::scene::Scene;
+use super::smooth_live::{LiveSmooth, SmoothStore, SNAPSHOT_BUDGET};
 use crate::viewer::handoff::SimStatus;
 
 /// The simulation task's link to a viewer.
@@ -41,6 +42,11 @@ pub struct SimViewer<'q> {
     tool_shape: Option<ToolShape>,
     regions: Option<RegionSlots>,
     region_colours: Option<super::handoff::RegionColours>,
+    /// The smooth normals' storage until the first snapshot makes them.
+    smooth_store: Option<&'q mut SmoothStore>,
+    smooth: Option<LiveSmooth<'q>>,
+    /// The world was rebuilt: the smooth normals start over at the next snapshot.
+    smooth_reset: bool,
 }
 
 impl<'q> SimViewer<'q> {
@@ -62,7 +68,19 @@ impl<'q> SimViewer<'q> {
             tool_shape: None,
             regions: None,
             region_colours: None,
+            smooth_store: None,
+            smooth: None,
+            smooth_reset: false,
         }
+    }
+
+    /// Shades the surface with smooth per-corner normals kept in `store` (sized once; see
+    /// [`super::smooth_live`]): made at the next snapshot, then brought a bounded step closer
+    /// at each.
+    pub fn set_smooth_store(&mut self, store: &'q mut SmoothStore) {
+        self.smooth_store = Some(store);
+        self.smooth = None;
+        self.full = true;
     }
 
     /// Sets the object's region colours (sent with every full snapshot; see
@@ -108,6 +126,7 @@ impl<'q> SimViewer<'q> {
         self.list.clear();
         self.clear_backlog();
         self.full = true;
+        self.smooth_reset = true;
     }
 
     /// Notes that the world's nodes moved (a soft body's step): the next snapshot is a full
@@ -195,8 +214,15 @@ impl<'q> SimViewer<'q> {
             return false;
         }
         let full = self.full;
+        let mut status = *status;
+        self.update_smooth(world, full);
+        if let Some(sm) = &self.smooth {
+            let st = sm.stats();
+            status.smooth_saturations = st.vertices_full.saturating_add(st.queue_full);
+            status.smooth_pending = sm.pending();
+        }
         let patches = if full {
-            full_patches(world)
+            full_patches_with(world, self.smooth.as_ref())
         } else {
             self.changed_patches(world)
         };
@@ -205,7 +231,7 @@ impl<'q> SimViewer<'q> {
             full,
             patches,
             tool,
-            status: *status,
+            status,
             initial_volume: self.initial_volume,
             tool_shape: self.tool_shape.clone().filter(|_| full),
             regions: self.regions.clone().filter(|_| full),
@@ -226,6 +252,34 @@ impl<'q> SimViewer<'q> {
         }
     }
 
+    /// Makes, resets or updates the smooth normals (to completion for a full snapshot), and
+    /// marks the tets whose slots changed.
+    fn update_smooth(&mut self, world: &World<'_>, full: bool) {
+        if let Some(store) = self.smooth_store.take() {
+            self.smooth = LiveSmooth::new(store, world);
+            self.smooth_reset = false;
+        }
+        let Some(sm) = self.smooth.as_mut() else {
+            return;
+        };
+        if std::mem::take(&mut self.smooth_reset) {
+            sm.reset(world);
+        }
+        if full {
+            sm.catch_up(world, CATCH_UP_CALLS);
+            return;
+        }
+        let (dirty, list) = (&mut self.dirty, &mut self.list);
+        sm.update(world, SNAPSHOT_BUDGET, |t| {
+            if let Some(d) = dirty.get_mut(t.idx()) {
+                if !*d {
+                    *d = true;
+                    list.push(t.0);
+                }
+            }
+        });
+    }
+
     fn changed_patches(&self, world: &World<'_>) -> Vec<Patch> {
         let mut out = Vec::with_capacity(self.list.len());
         for &t in &self.list {
@@ -236,10 +290,27 @@ impl<'q> SimViewer<'q> {
                 .for_each_visible_in(world.mesh(), &[tet], None, |vt| {
                     tris.push(surf_tri(world, tet, vt.corners));
                 });
+            if let Some(sm) = &self.smooth {
+                smooth_tris(sm, tet, &mut tris);
+            }
             out.push(Patch { tet: t, tris });
         }
         out
     }
+}
+
+/// Calls of [`SNAPSHOT_BUDGET`] a full snapshot may spend catching the smooth normals up
+/// (work left over is done at the next snapshots).
+pub const CATCH_UP_CALLS: usize = 4096;
+
+/// Gives `tris` (the faces of `tet`, as listed now) the smooth normals `sm` has for them.
+fn smooth_tris(sm: &LiveSmooth<'_>, tet: TetId, tris: &mut [SurfTri]) {
+    let corners: Vec<[[f32; 3]; 3]> = tris.iter().map(|t| t.corners).collect();
+    sm.normals_of(tet, &corners, |i, n| {
+        if let Some(t) = tris.get_mut(i) {
+            t.normals = n;
+        }
+    });
 }
 
 /// Every visible triangle of `world`, one patch per coarse tet that has any.
@@ -247,6 +318,12 @@ impl<'q> SimViewer<'q> {
 /// # Bounded work
 /// O(visible triangles x log) (a sort by tet).
 pub fn full_patches(world: &World<'_>) -> Vec<Patch> {
+    full_patches_with(world, None)
+}
+
+/// Every visible triangle of `world` as [`full_patches`], with the smooth normals of `smooth`
+/// where it has them.
+pub fn full_patches_with(world: &World<'_>, smooth: Option<&LiveSmooth<'_>>) -> Vec<Patch> {
     let mut all: Vec<(u32, SurfTri)> = Vec::new();
     world.hierarchy().for_each_visible(world.mesh(), |vt| {
         all.push((vt.tet.0, surf_tri(world, vt.tet, vt.corners)));
@@ -260,6 +337,11 @@ pub fn full_patches(world: &World<'_>) -> Vec<Patch> {
                 tet: t,
                 tris: vec![tri],
             }),
+        }
+    }
+    if let Some(sm) = smooth {
+        for p in &mut out {
+            smooth_tris(sm, TetId(p.tet), &mut p.tris);
         }
     }
     out
@@ -291,6 +373,7 @@ pub fn surf_tri(world: &World<'_>, tet: TetId, corners: [Vec3; 3]) -> SurfTri {
     }
     SurfTri {
         corners: corners.map(|c| c.to_array()),
+        normals: [[0.0; 3]; 3],
         drilled: !original,
     }
 }
@@ -391,13 +474,23 @@ pub fn tool_shape(mesh: &tetradrill_core::mesh::Mesh<'_>) -> ToolShape {
     tris.into()
 }
 
-/// The scene of `world` as it is now: every visible triangle, the tool and the status.
+/// The scene of `world` as it is now: every visible triangle with its smooth normals, the
+/// tool and the status.
 pub fn scene_of(world: &World<'_>, tool: Option<ToolView>, status: SimStatus) -> Scene {
+    let mut store = SmoothStore::for_world(world);
+    let mut smooth = LiveSmooth::new(&mut store, world);
+    let mut status = status;
+    if let Some(sm) = smooth.as_mut() {
+        sm.catch_up(world, CATCH_UP_CALLS);
+        let st = sm.stats();
+        status.smooth_saturations = st.vertices_full.saturating_add(st.queue_full);
+        status.smooth_pending = sm.pending();
+    }
     let mut scene = Scene::new();
     scene.apply(Snapshot {
         seq: 1,
         full: true,
-        patches: full_patches(world),
+        patches: full_patches_with(world, smooth.as_ref()),
         tool: tool.unwrap_or_default(),
         status,
         initial_volume: world.mesh().volume(),

@@ -20,7 +20,8 @@ use crate::viewer::handoff::SimStatus;
 pub const CHUNK_TRIS: usize = 32;
 /// Vertices per chunk.
 pub const CHUNK_VERTS: usize = 3 * CHUNK_TRIS;
-/// Floats per vertex: position, normal, drilled flag.
+/// Floats per vertex: position, normal (the corner's smooth normal, else the face's), drilled
+/// flag.
 pub const VERTEX_FLOATS: usize = 7;
 /// Floats per chunk.
 pub const CHUNK_FLOATS: usize = CHUNK_VERTS * VERTEX_FLOATS;
@@ -195,9 +196,11 @@ impl Scene {
         out.iter_mut().for_each(|x| *x = 0.0);
         for (i, t) in tris.iter().enumerate() {
             let [a, b, cc] = t.corners.map(Vec3::from_array);
-            let n = (b - a).cross(cc - a).normalize_or_zero();
+            let flat = (b - a).cross(cc - a).normalize_or_zero();
             for (k, p) in [a, b, cc].into_iter().enumerate() {
                 let o = (3 * i + k) * VERTEX_FLOATS;
+                let smooth = Vec3::from_array(t.normals[k]);
+                let n = if smooth == Vec3::ZERO { flat } else { smooth };
                 out[o..o + 7].copy_from_slice(&[
                     p.x,
                     p.y,
@@ -297,6 +300,7 @@ mod tests {
     fn tri(z: f32, drilled: bool) -> SurfTri {
         SurfTri {
             corners: [[0.0, 0.0, z], [1.0, 0.0, z], [0.0, 1.0, z]],
+            normals: [[0.0; 3]; 3],
             drilled,
         }
     }

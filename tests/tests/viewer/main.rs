@@ -4,3 +4,4 @@
 mod viewer_controls;
 mod viewer_frame;
 mod viewer_render;
+mod viewer_smooth;

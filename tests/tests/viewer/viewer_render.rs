@@ -13,6 +13,7 @@ use tetradrill::viewer::handoff::{region_slots, Snapshot, SnapshotQueue, ToolVie
 use tetradrill::viewer::headless::{render, Picture};
 use tetradrill::viewer::publish::{full_patches, scene_of, SimViewer};
 use tetradrill::viewer::scene::{Scene, VERTEX_FLOATS};
+use tetradrill::viewer::smooth_live::SmoothStore;
 use tetradrill_core::force::ToolState;
 use tetradrill_core::Vec3;
 use tetradrill_tests::viewer::{pixel_of, storage, H, W};
@@ -293,7 +294,10 @@ fn partial_buffer_updates_draw_what_a_full_upload_draws() {
     let mut r = Renderer::new(gl).expect("renderer");
     let mut world = store.world().expect("world");
     let queue = SnapshotQueue::with_capacity(4);
+    // Smooth normals, as the live window has them.
+    let mut smooth = SmoothStore::for_world(&world);
     let mut link = SimViewer::new(&queue, None, world.mesh().tet_count());
+    link.set_smooth_store(&mut smooth);
     let mut scene = Scene::new();
     assert!(link.publish_now(&world, ToolView::default(), &SimStatus::default(), 0));
     scene.apply(queue.take().expect("first snapshot"));
@@ -315,6 +319,16 @@ fn partial_buffer_updates_draw_what_a_full_upload_draws() {
         }
     }
     assert!(partial > 10, "only {partial} of 25 updates were partial");
+    // The normals catch up a bounded step a snapshot.
+    for k in 0..1000u64 {
+        if scene.status.smooth_pending == 0 {
+            break;
+        }
+        assert!(link.publish_now(&world, ToolView::default(), &SimStatus::default(), k));
+        scene.apply(queue.take().expect("snapshot"));
+        r.sync(gl, &mut scene);
+    }
+    assert_eq!(scene.status.smooth_pending, 0);
     off.bind();
     r.draw(
         gl,

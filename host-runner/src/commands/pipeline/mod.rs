@@ -167,12 +167,17 @@ pub fn run(
         .ok()
         .flatten()
         .map(|t| t.colours);
-    let (initial_volume, tets, centre) = {
+    let (initial_volume, tets, centre, smooth_store) = {
         let world = store.world()?;
         (
             world.mesh().volume(),
             world.mesh().tet_count(),
             mesh_centre(world.mesh().positions()),
+            // The viewer's smooth normals: storage sized once for the run.
+            setup
+                .view
+                .any()
+                .then(|| crate::viewer::smooth_live::SmoothStore::for_world(&world)),
         )
     };
     let (mut contact_in, mut contact_out) =
@@ -231,6 +236,7 @@ pub fn run(
         let sim = std::thread::Builder::new()
             .name(tasks::SIMULATION.name.into())
             .spawn_scoped(scope, move || -> Result<SimEnding, CliError> {
+                let mut smooth_store = smooth_store;
                 let mut link = any_view.then(|| {
                     let mut l = crate::viewer::publish::SimViewer::new(
                         &sh.snapshots,
@@ -240,6 +246,9 @@ pub fn run(
                     l.set_initial_volume(initial_volume);
                     l.set_regions(regions);
                     l.set_region_colours(region_colours);
+                    if let Some(st) = smooth_store.as_mut() {
+                        l.set_smooth_store(st);
+                    }
                     l
                 });
                 loop {
