@@ -79,6 +79,28 @@ fn knots(points: &'static [(f64, f64)], t: f64) -> f64 {
 /// per servo tick from the start (the path begins after the model's lead-in,
 /// [`SimModel::lead_in_s`]).
 fn omni_run(points: &'static [(f64, f64)], ticks: u64, name: &str) -> (RunReport, Vec<f64>) {
+    for _ in 1..ATTEMPTS {
+        let run = omni_run_once(points, ticks, name);
+        if run.0.servo_stalls == 0 {
+            return run;
+        }
+    }
+    let run = omni_run_once(points, ticks, name);
+    assert_eq!(
+        run.0.servo_stalls, 0,
+        "the servo stalled in {ATTEMPTS} runs"
+    );
+    run
+}
+
+/// Runs of the wall-clock pipeline a loaded machine may disturb: a run whose servo stalled past
+/// the watchdog (the force cut for a while, the hand pushing the stylus on meanwhile, the
+/// thermal model cooling) is not the press the test is about, and is run again, up to this
+/// many times.
+const ATTEMPTS: usize = 5;
+
+/// One run of [`omni_run`].
+fn omni_run_once(points: &'static [(f64, f64)], ticks: u64, name: &str) -> (RunReport, Vec<f64>) {
     let writes = Arc::new(Mutex::new(Vec::new()));
     let w = writes.clone();
     let open: pipeline::DeviceFactory = Box::new(move || {
@@ -119,9 +141,12 @@ fn omni_run(points: &'static [(f64, f64)], ticks: u64, name: &str) -> (RunReport
         j["safety"]["trip_recoveries"].as_u64(),
         Some(u64::from(rep.safety.trip_recoveries))
     );
-    assert_eq!(
-        j["safety"]["derated_s"].as_f64(),
-        Some(rep.safety.derated_s)
+    // serde_json reads floats back to within an ulp (without its float_roundtrip feature).
+    let json_derated = j["safety"]["derated_s"].as_f64().expect("safety.derated_s");
+    assert!(
+        (json_derated - rep.safety.derated_s).abs() <= 1e-9 * rep.safety.derated_s.abs().max(1.0),
+        "JSON {json_derated}, report {}",
+        rep.safety.derated_s
     );
     let log = writes.lock().expect("log").clone();
     (rep, log)
