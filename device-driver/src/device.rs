@@ -272,7 +272,7 @@ pub enum DeviceError {
     },
     /// The firmware echo did not match at this byte offset.
     FirmwareMismatch {
-        /// Offset in the firmware file of the first chunk that failed.
+        /// Offset in the firmware file of the first block that failed.
         offset: u32,
     },
     /// The firmware file could not be read or is empty.
@@ -283,6 +283,12 @@ pub enum DeviceError {
     NotDocked,
     /// Position could not be computed from the joint readings (out of the mechanism's range).
     Kinematics,
+    /// No usable report (no complete frame, or no position solved from it) for this many
+    /// ticks in a row; each held the last position. Force is zeroed.
+    ReportsLost {
+        /// Ticks in a row without a usable report.
+        in_row: u32,
+    },
     /// The vendor's HD library is not installed / could not be loaded.
     LibraryNotFound,
     /// The vendor library reported an error code.
@@ -323,7 +329,7 @@ impl fmt::Display for DeviceError {
                 write!(f, "firmware loader handshake failed at step {step}")
             }
             DeviceError::FirmwareMismatch { offset } => {
-                write!(f, "firmware echo mismatch in the chunk at byte {offset}")
+                write!(f, "firmware echo mismatch in the block at byte {offset}")
             }
             DeviceError::FirmwareFile => f.write_str("firmware file missing, unreadable or empty"),
             DeviceError::FirmwareNotRunning => {
@@ -331,6 +337,11 @@ impl fmt::Display for DeviceError {
             }
             DeviceError::NotDocked => f.write_str("put the stylus in its inkwell to calibrate"),
             DeviceError::Kinematics => f.write_str("joint readings outside the mechanism's range"),
+            DeviceError::ReportsLost { in_row } => write!(
+                f,
+                "no usable report for {in_row} ticks in a row (missed frames or failed \
+                 kinematics solves, each holding the last position); force zeroed"
+            ),
             DeviceError::LibraryNotFound => f.write_str(
                 "vendor HD library (libHD.so, OpenHaptics / Touch device drivers) not found",
             ),

@@ -13,7 +13,7 @@ use tetradrill_device::falcon::{FalconConfig, FalconDevice, Transport};
 use tetradrill_device::{Cut, DeviceError, ForceCommand, HapticDevice, MotorCutoff};
 
 fn firmware() -> Vec<u8> {
-    // Not a real firmware: 300 deterministic bytes, so the upload takes 3 chunks.
+    // Not a real firmware: 300 deterministic bytes, so the upload takes 5 blocks.
     (0..300u32)
         .map(|i| (i.wrapping_mul(37) ^ 0x5A) as u8)
         .collect()
@@ -42,10 +42,10 @@ fn failed_upload_then_good_upload_follows_documented_sequence() {
     let mut mock = MockTransport::new();
     mock.corrupt_echo_at = Some(200);
     let mut dev = FalconDevice::new(mock, config());
-    // The corrupted byte is in the second 128-byte chunk.
+    // The corrupted byte is in the fourth 62-byte block (bytes 186..248).
     assert_eq!(
         dev.load_firmware(&firmware()),
-        Err(DeviceError::FirmwareMismatch { offset: 128 })
+        Err(DeviceError::FirmwareMismatch { offset: 186 })
     );
     assert_eq!(dev.load_firmware(&[]), Err(DeviceError::FirmwareFile));
     // Second try succeeds (the fault was one-shot).
@@ -55,7 +55,7 @@ fn failed_upload_then_good_upload_follows_documented_sequence() {
         .iter()
         .filter_map(|op| match op {
             MockOp::Control { request, value } => Some((*request, *value)),
-            MockOp::Write(_) => None,
+            MockOp::Write(_) | MockOp::Reopen => None,
         })
         .collect();
     let loader = [
@@ -83,7 +83,7 @@ fn failed_upload_then_good_upload_follows_documented_sequence() {
             (SIO_RESET, PURGE_TX)
         ]
     );
-    // The second upload wrote the whole file in 128-byte chunks after the two handshakes.
+    // The second upload wrote the whole file in 62-byte blocks after the two handshakes.
     let writes: Vec<&Vec<u8>> = log
         .iter()
         .filter_map(|op| {
@@ -94,11 +94,11 @@ fn failed_upload_then_good_upload_follows_documented_sequence() {
             }
         })
         .collect();
-    let second: Vec<&Vec<u8>> = writes.iter().rev().take(5).rev().copied().collect();
+    let second: Vec<&Vec<u8>> = writes.iter().rev().take(7).rev().copied().collect();
     assert_eq!(second[0], &vec![0x0a, 0x43, 0x0d]);
     assert_eq!(second[1], &vec![0x41]);
-    assert_eq!(second[2].len(), 128);
-    assert_eq!(second[4].len(), 44);
+    assert!(second[2..6].iter().all(|w| w.len() == 62));
+    assert_eq!(second[6].len(), 300 - 4 * 62);
     let joined: Vec<u8> = second[2..].iter().flat_map(|w| w.iter().copied()).collect();
     assert_eq!(joined, firmware());
 }

@@ -10,7 +10,7 @@ use tetradrill_device::falcon::{FalconConfig, FalconDevice};
 use tetradrill_device::{DeviceError, ForceCommand, HapticDevice};
 
 fn firmware() -> Vec<u8> {
-    // Not a real firmware: 300 deterministic bytes, three chunks.
+    // Not a real firmware: 300 deterministic bytes, five blocks.
     (0..300u32)
         .map(|i| (i.wrapping_mul(13) ^ 0x3C) as u8)
         .collect()
@@ -29,7 +29,7 @@ fn controls(log: &[MockOp]) -> Vec<(u8, u16)> {
     log.iter()
         .filter_map(|op| match op {
             MockOp::Control { request, value } => Some((*request, *value)),
-            MockOp::Write(_) => None,
+            MockOp::Write(_) | MockOp::Reopen => None,
         })
         .collect()
 }
@@ -59,7 +59,7 @@ fn without_an_upload_start_sets_normal_mode_and_checks_the_firmware_answers() {
         .iter()
         .filter_map(|op| match op {
             MockOp::Write(w) => Some(w),
-            MockOp::Control { .. } => None,
+            MockOp::Control { .. } | MockOp::Reopen => None,
         })
         .collect();
     assert_eq!(frames.len(), 1);
@@ -148,7 +148,7 @@ fn a_loader_that_never_answers_right_fails_after_the_bounded_tries() {
 
 #[test]
 fn the_whole_upload_is_retried_a_bounded_number_of_times() {
-    // The echo of the second chunk is corrupted in the first two uploads: the third works.
+    // The echo of byte 200 (the fourth block) is corrupted in the first two uploads: the third works.
     let mut mock = MockTransport::new();
     mock.corrupt_echo_at = Some(200);
     mock.corrupt_echo_repeats = 1;
@@ -157,7 +157,8 @@ fn the_whole_upload_is_retried_a_bounded_number_of_times() {
     let log = &dev.transport().log;
     assert_eq!(writes_of(log, &[0x41]), 3, "three uploads");
     assert!(dev.transport().firmware_running());
-    // Every try starts from the loader's purges: three loader sequences, one normal mode.
+    // Three loader sequences; a reopen (with its normal mode) before the second and the
+    // third, and normal mode after the good upload.
     let c = controls(log);
     assert_eq!(
         c.iter()
@@ -169,8 +170,9 @@ fn the_whole_upload_is_retried_a_bounded_number_of_times() {
         c.iter()
             .filter(|x| **x == (SIO_SET_BAUD_RATE, 0x0002))
             .count(),
-        1
+        3
     );
+    assert_eq!(log.iter().filter(|op| **op == MockOp::Reopen).count(), 2);
     // Corrupted in all three: the last error, after exactly three uploads.
     let mut mock = MockTransport::new();
     mock.corrupt_echo_at = Some(200);
@@ -178,7 +180,7 @@ fn the_whole_upload_is_retried_a_bounded_number_of_times() {
     let mut dev = FalconDevice::new(mock, config());
     assert_eq!(
         dev.start(Some(&firmware())),
-        Err(DeviceError::FirmwareMismatch { offset: 128 })
+        Err(DeviceError::FirmwareMismatch { offset: 186 })
     );
     assert_eq!(writes_of(&dev.transport().log, &[0x41]), 3);
     assert!(dev.transport().commands.is_empty(), "no command frame sent");

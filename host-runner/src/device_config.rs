@@ -55,6 +55,8 @@ pub const FALCON_KEYS: &[&str] = &[
     "handshake_tries",
     "upload_tries",
     "status_tries",
+    "loader_timeout_ms",
+    "max_lost_in_row",
     "max_force_n",
     "ramp_ticks",
     "watchdog_ticks",
@@ -329,6 +331,8 @@ fn falcon_key(c: &mut FalconConfig, key: &str, v: &Value<'_>) -> Result<(), Stri
         "handshake_tries" => c.handshake_tries = integer(key, v, 1, 10_000)?,
         "upload_tries" => c.upload_tries = integer(key, v, 1, 100)?,
         "status_tries" => c.status_tries = integer(key, v, 1, 10_000)?,
+        "loader_timeout_ms" => c.loader_timeout_ms = integer(key, v, 1, 60_000)?,
+        "max_lost_in_row" => c.max_lost_in_row = integer(key, v, 1, 10_000)?,
         _ => {
             let peak = DeviceSpec::FALCON.max_force_n;
             if !safety_key(&mut c.safety, peak, "Falcon", key, v)? {

@@ -403,6 +403,13 @@ impl PassivityObserver {
         self.restart();
     }
 
+    /// Trips the observer from a check outside it (the servo's force-sign probe), latched and
+    /// counted as its own trips are (nothing when already tripped). Constant work.
+    pub fn trip(&mut self) {
+        self.trips = self.trips.saturating_add(u32::from(!self.tripped));
+        self.tripped = true;
+    }
+
     /// Whether the observer has tripped (latched: its output is zero until
     /// [`recover`](Self::recover)).
     pub fn tripped(&self) -> bool {
@@ -593,6 +600,19 @@ mod tests {
                 f.to_array().map(f32::to_bits)
             );
         }
+    }
+
+    #[test]
+    fn an_outside_trip_latches_counts_once_and_recovers() {
+        let (mut obs, f) = (PassivityObserver::default(), Vec3::new(0.0, 0.0, 2.0));
+        assert_eq!(obs.step(Vec3::ZERO, f, None), f);
+        obs.trip();
+        obs.trip();
+        assert!(obs.tripped() && obs.trips() == 1);
+        assert_eq!(obs.step(Vec3::ZERO, f, None), Vec3::ZERO);
+        obs.recover();
+        assert!(!obs.tripped() && obs.trips() == 1);
+        assert_eq!(obs.step(Vec3::ZERO, f, None), f);
     }
 
     #[test]

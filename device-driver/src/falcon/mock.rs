@@ -30,6 +30,8 @@ pub enum MockOp {
     },
     /// A bulk write.
     Write(Vec<u8>),
+    /// A close and reopen of the device ([`Transport::reopen`]).
+    Reopen,
 }
 
 /// The FT232's two modem-status bytes as a real chip sends them.
@@ -59,6 +61,9 @@ pub struct MockTransport {
     pub short_reads: bool,
     /// Put this many garbage bytes before each report.
     pub garbage_before_report: usize,
+    /// Answer no report to these command frames (1-based, counted over the session): a
+    /// missed frame.
+    pub drop_reports: Vec<usize>,
     /// Every call fails with `Disconnected` after this many command frames.
     pub disconnect_after_frames: Option<usize>,
     /// Commands decoded from the frames the host sent in normal mode.
@@ -162,6 +167,9 @@ impl Transport for MockTransport {
                     self.gone = true;
                     return Err(DeviceError::Disconnected);
                 }
+                if self.drop_reports.contains(&self.commands.len()) {
+                    return Ok(data.len());
+                }
                 let mut bytes = vec![0x13; self.garbage_before_report];
                 bytes.extend_from_slice(&encode_report(&self.report));
                 if self.short_reads {
@@ -225,5 +233,15 @@ impl Transport for MockTransport {
 
     fn out_path(&self) -> Option<Arc<dyn OutPath>> {
         Some(Arc::new(MockOut(Arc::clone(&self.out_log))))
+    }
+
+    /// Logs [`MockOp::Reopen`]. Closing drops what was waiting to be read; the Falcon keeps
+    /// its power, so a loader that had answered `41` waits for a new handshake.
+    fn reopen(&mut self) -> Result<(), DeviceError> {
+        self.check()?;
+        self.log.push(MockOp::Reopen);
+        self.pending.clear();
+        self.loader_ready = false;
+        Ok(())
     }
 }

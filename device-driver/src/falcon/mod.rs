@@ -33,8 +33,13 @@ use homing::HomingGate;
 pub const VENDOR_ID: u16 = 0x0403;
 /// USB product id (Novint Falcon).
 pub const PRODUCT_ID: u16 = 0xcb48;
-/// Firmware upload chunk size, bytes (libnifalcon `FalconComm.h`: "128 byte blocks").
-pub const FIRMWARE_CHUNK: usize = 128;
+/// Firmware upload block size, bytes: libnifalcon's `FalconFirmware::loadFirmware` writes the
+/// file in blocks of `READ_SIZE = 62` (a full-speed packet's 64 bytes less the FT232's two
+/// status bytes), whatever its comments and `FalconComm.h` say (58, 128).
+pub const FIRMWARE_CHUNK: usize = 62;
+/// Reads gathered for one block's echo before the try is given up (libnifalcon reads until
+/// the block is all back, without a bound).
+pub const ECHO_READS: u32 = 8;
 /// What the loader sends to `0a 43 0d` (handshake step 5), after the FT232's status bytes:
 /// the Linux reading of libnifalcon's `FalconCommLibUSB::setFirmwareMode`.
 pub const LOADER_REPLY: [u8; 4] = [0x0a, 0x44, 0x2c, 0x0d];
@@ -59,6 +64,13 @@ pub trait Transport {
     /// in a call on the servo thread (`None`, the default: there is none).
     fn out_path(&self) -> Option<Arc<dyn OutPath>> {
         None
+    }
+    /// Closes the device and opens it again, as libnifalcon's `FalconCLIBase::parseOptions`
+    /// does between firmware uploads (`FalconCommLibUSB::close`: release the interface,
+    /// close; `open`: open, claim the interface). The FTDI controls that follow an open are
+    /// the caller's. The default does nothing (a transport with nothing to reopen).
+    fn reopen(&mut self) -> Result<(), DeviceError> {
+        Ok(())
     }
 }
 
@@ -90,9 +102,18 @@ pub struct FalconConfig {
     /// `FalconCommLibUSB::setFirmwareMode`.
     pub handshake_tries: u32,
     /// Whole firmware uploads tried before giving up, count. Default 10, libnifalcon's
-    /// `FalconCLIBase::parseOptions` (which reopens the device between tries; here the
-    /// loader sequence restarts from its purges).
+    /// `FalconCLIBase::parseOptions`, which closes and reopens the device between tries
+    /// ([`Transport::reopen`], then the open's purges and normal mode).
     pub upload_tries: u32,
+    /// Timeout of each transfer of the loader (handshakes, firmware blocks and their
+    /// echoes), ms. Default 1000, libnifalcon's `FalconCommLibUSB` (`setFirmwareMode`,
+    /// `readBlocking`, `writeBlocking`).
+    pub loader_timeout_ms: u32,
+    /// Ticks in a row without a usable report (no complete frame, or a kinematics solve that
+    /// failed) after which [`HapticDevice::read`] gives
+    /// [`DeviceError::ReportsLost`]; before that each such tick holds the last position,
+    /// counted. Default 20 (20 ms at 1 kHz): ours (libnifalcon holds without a bound).
+    pub max_lost_in_row: u32,
     /// Zero-torque frames sent at start-up, each followed by up to `reads_per_tick` reads,
     /// before concluding that no firmware answers, count. Default 10, the outer loop of
     /// libnifalcon's `FalconFirmware::isFirmwareLoaded`.
@@ -113,14 +134,17 @@ impl Default for FalconConfig {
             handshake_tries: 100,
             upload_tries: 10,
             status_tries: 10,
+            loader_timeout_ms: 1000,
+            max_lost_in_row: 20,
         }
     }
 }
 
 /// A Novint Falcon. Open with [`FalconDevice::open_usb`] or over any [`Transport`], then
-/// call [`start`](Self::start).
+/// call [`start`](Self::start). Dropped (or [`stop`](Self::stop)ped) in normal mode, it sends
+/// one zero-motor frame.
 #[derive(Debug)]
-pub struct FalconDevice<T> {
+pub struct FalconDevice<T: Transport> {
     transport: T,
     config: FalconConfig,
     safety: ForceSafety,
@@ -135,6 +159,21 @@ pub struct FalconDevice<T> {
     connected: bool,
     cut: Option<Arc<PacketCutoff>>,
     cut_leds: u8,
+    normal: bool,
+    lost: LostReports,
+}
+
+/// Counts of ticks that held the last position for want of a usable report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LostReports {
+    /// Ticks with no complete report (a missed frame), in all.
+    pub missed_frames: u64,
+    /// Ticks whose report gave no position (forward kinematics failed), in all.
+    pub failed_solves: u64,
+    /// Ticks without a usable report in the current run of them (0 after a good one).
+    pub in_row: u32,
+    /// The longest such run seen.
+    pub longest_in_row: u32,
 }
 
 /// The frame a cut sends: zero motors with these LED bits and the homing bit.
@@ -179,6 +218,32 @@ impl<T: Transport> FalconDevice<T> {
             position: [0.0; 3],
             sent_since_read: false,
             connected: true,
+            normal: false,
+            lost: LostReports::default(),
+        }
+    }
+
+    /// Ticks that held the last position for want of a usable report (missed frames,
+    /// failed kinematics solves).
+    pub fn lost_reports(&self) -> LostReports {
+        self.lost
+    }
+
+    /// Sends one zero-motor frame (the current LEDs, the homing bit) and turns the force off
+    /// until the next enabled write ramps it in again. Only in normal mode (at the loader's
+    /// baud rate a frame would be taken for firmware); a transfer error is ignored (the
+    /// device may be gone). Also run on drop.
+    pub fn stop(&mut self) {
+        self.safety.disable();
+        if self.connected && self.normal {
+            let zero = zero_frame(self.leds);
+            if self
+                .transport
+                .bulk_write(&zero, self.config.timeout_ms)
+                .is_ok()
+            {
+                self.sent_since_read = true;
+            }
         }
     }
 
@@ -229,30 +294,9 @@ impl<T: Transport> FalconDevice<T> {
         }
     }
 
-    /// Reads until `out` is full (status bytes stripped) or `tries` reads passed.
-    fn read_data(&mut self, out: &mut [u8], tries: u32) -> Result<usize, DeviceError> {
-        let mut got = 0;
-        let mut packet = [0u8; MAX_PACKET];
-        for _ in 0..tries {
-            if got >= out.len() {
-                break;
-            }
-            let n = self
-                .transport
-                .bulk_read(&mut packet, self.config.timeout_ms)?;
-            let data = packet.get(STATUS_BYTES..n.min(MAX_PACKET)).unwrap_or(&[]);
-            for &b in data {
-                if let Some(slot) = out.get_mut(got) {
-                    *slot = b;
-                    got += 1;
-                }
-            }
-        }
-        Ok(got)
-    }
-
     /// Puts the FTDI into loader mode and runs the two-step handshake.
     fn firmware_mode(&mut self) -> Result<(), DeviceError> {
+        self.normal = false;
         self.control(1, SIO_RESET, PURGE_RX)?;
         self.control(1, SIO_RESET, PURGE_TX)?;
         self.control(2, SIO_SET_LATENCY_TIMER, 16)?;
@@ -287,7 +331,7 @@ impl<T: Transport> FalconDevice<T> {
         accept: &[&[u8]],
         tries: u32,
     ) -> Result<(), DeviceError> {
-        let timeout = self.config.timeout_ms;
+        let timeout = self.config.loader_timeout_ms;
         let longest = accept.iter().map(|a| a.len()).max().unwrap_or(0);
         for _ in 0..tries {
             match self.transport.bulk_write(send, timeout) {
@@ -339,49 +383,88 @@ impl<T: Transport> FalconDevice<T> {
         self.control(8, SIO_RESET, PURGE_TX)?;
         self.assembler = FrameAssembler::new();
         self.sent_since_read = false;
+        self.normal = true;
         Ok(())
     }
 
-    /// One firmware upload (the bytes of the user's firmware file): loader handshake, then
-    /// 128-byte chunks each echoed back and compared byte for byte, then
-    /// [`normal_mode`](Self::normal_mode). [`upload_firmware`](Self::upload_firmware) retries
-    /// it.
+    /// Closes and reopens the device, then what libnifalcon's `FalconCommLibUSB::open` sends
+    /// on every open: purge RX, purge TX, then [`normal_mode`](Self::normal_mode). The second
+    /// path to the motors is taken again from the reopened transport.
+    fn reopen(&mut self) -> Result<(), DeviceError> {
+        self.normal = false;
+        // The cutoff's path may share the transport's handle: let go of it first.
+        self.cut = None;
+        let reopened = self.transport.reopen();
+        self.cut = self
+            .transport
+            .out_path()
+            .map(|out| Arc::new(PacketCutoff::new(out, &zero_frame(self.cut_leds))));
+        reopened.map_err(|e| self.fail(e))?;
+        self.control(1, SIO_RESET, PURGE_RX)?;
+        self.control(1, SIO_RESET, PURGE_TX)?;
+        self.normal_mode()
+    }
+
+    /// One firmware upload (the bytes of the user's firmware file), as libnifalcon's
+    /// `FalconFirmware::loadFirmware` runs it: loader handshake, then blocks of
+    /// [`FIRMWARE_CHUNK`] (62) bytes, each written once and read back until all of it came
+    /// (at most [`ECHO_READS`] reads), every read compared byte for byte with the file at its
+    /// place, then [`normal_mode`](Self::normal_mode). Every transfer of it waits up to
+    /// `loader_timeout_ms`. [`upload_firmware`](Self::upload_firmware) retries it.
     pub fn load_firmware(&mut self, firmware: &[u8]) -> Result<(), DeviceError> {
         if firmware.is_empty() {
             return Err(DeviceError::FirmwareFile);
         }
         self.firmware_mode()?;
-        let mut echo = [0u8; FIRMWARE_CHUNK];
-        for (k, chunk) in firmware.chunks(FIRMWARE_CHUNK).enumerate() {
+        let timeout = self.config.loader_timeout_ms;
+        let mut packet = [0u8; MAX_PACKET];
+        for (k, block) in firmware.chunks(FIRMWARE_CHUNK).enumerate() {
             let offset = (k * FIRMWARE_CHUNK) as u32;
+            let mismatch = DeviceError::FirmwareMismatch { offset };
             let n = self
                 .transport
-                .bulk_write(chunk, self.config.timeout_ms)
+                .bulk_write(block, timeout)
                 .map_err(|e| self.fail(e))?;
-            if n != chunk.len() {
-                return Err(DeviceError::FirmwareMismatch { offset });
+            if n != block.len() {
+                return Err(mismatch);
             }
-            let want = echo
-                .get_mut(..chunk.len())
-                .ok_or(DeviceError::FirmwareMismatch { offset })?;
-            let got = self.read_data(want, 8).map_err(|e| self.fail(e))?;
-            if got != chunk.len() || echo.get(..chunk.len()) != Some(chunk) {
-                return Err(DeviceError::FirmwareMismatch { offset });
+            let mut back = 0;
+            for _ in 0..ECHO_READS {
+                if back >= block.len() {
+                    break;
+                }
+                let n = self
+                    .transport
+                    .bulk_read(&mut packet, timeout)
+                    .map_err(|e| self.fail(e))?;
+                let data = packet.get(STATUS_BYTES..n.min(MAX_PACKET)).unwrap_or(&[]);
+                let want = block.get(back..).unwrap_or(&[]);
+                if data.len() > want.len() || want.get(..data.len()) != Some(data) {
+                    return Err(mismatch);
+                }
+                back += data.len();
+            }
+            if back != block.len() {
+                return Err(mismatch);
             }
         }
         self.normal_mode()
     }
 
-    /// [`load_firmware`](Self::load_firmware) up to `upload_tries` times (each from the
-    /// loader's purges); the last error when every try failed. A disconnect or an empty
-    /// file ends the tries at once.
+    /// [`load_firmware`](Self::load_firmware) up to `upload_tries` times; the last error
+    /// when every try failed. Between tries the device is closed and reopened, with the
+    /// open's purges and normal mode, as libnifalcon's `FalconCLIBase::parseOptions` does
+    /// after a failed try. A disconnect or an empty file ends the tries at once.
     ///
     /// # Bounded work
     /// At most `upload_tries` uploads, each at most `handshake_tries` + 1 handshakes and one
-    /// write and 8 reads per 128-byte chunk.
+    /// write and [`ECHO_READS`] reads per 62-byte block.
     pub fn upload_firmware(&mut self, firmware: &[u8]) -> Result<(), DeviceError> {
         let mut last = DeviceError::FirmwareFile;
-        for _ in 0..self.config.upload_tries.max(1) {
+        for k in 0..self.config.upload_tries.max(1) {
+            if k > 0 {
+                self.reopen()?;
+            }
             match self.load_firmware(firmware) {
                 Ok(()) => return Ok(()),
                 Err(e @ (DeviceError::Disconnected | DeviceError::FirmwareFile)) => return Err(e),
@@ -580,25 +663,53 @@ impl<T: Transport> HapticDevice for FalconDevice<T> {
             self.send(&out)?;
         }
         self.sent_since_read = false;
-        let report = self.read_report()?.ok_or(DeviceError::NoFrame)?;
         self.tick += 1;
-        self.buttons = report.buttons;
-        self.take_homing(&report);
-        let theta = report.encoders.map(kinematics::encoder_to_angle);
-        let guess = [
-            self.position[0] + self.config.origin[0],
-            self.position[1] + self.config.origin[1],
-            self.position[2] + self.config.origin[2],
-        ];
-        let mech = kinematics::forward(theta, guess)
-            .or_else(|| kinematics::forward(theta, kinematics::WORKSPACE_CENTRE))
-            .ok_or_else(|| self.fail(DeviceError::Kinematics))?;
-        self.theta = theta;
-        self.position = [
-            mech[0] - self.config.origin[0],
-            mech[1] - self.config.origin[1],
-            mech[2] - self.config.origin[2],
-        ];
+        let held = match self.read_report()? {
+            Some(report) => {
+                self.buttons = report.buttons;
+                self.take_homing(&report);
+                let theta = report.encoders.map(kinematics::encoder_to_angle);
+                let guess = [
+                    self.position[0] + self.config.origin[0],
+                    self.position[1] + self.config.origin[1],
+                    self.position[2] + self.config.origin[2],
+                ];
+                match kinematics::forward(theta, guess)
+                    .or_else(|| kinematics::forward(theta, kinematics::WORKSPACE_CENTRE))
+                {
+                    Some(mech) => {
+                        self.theta = theta;
+                        self.position = [
+                            mech[0] - self.config.origin[0],
+                            mech[1] - self.config.origin[1],
+                            mech[2] - self.config.origin[2],
+                        ];
+                        false
+                    }
+                    None => {
+                        self.lost.failed_solves += 1;
+                        true
+                    }
+                }
+            }
+            None => {
+                self.lost.missed_frames += 1;
+                true
+            }
+        };
+        if held {
+            // libnifalcon's `FalconDevice::runIOLoop` keeps the last position when a frame is
+            // missing or the kinematics fail; here only for a bounded run of ticks.
+            self.lost.in_row = self.lost.in_row.saturating_add(1);
+            self.lost.longest_in_row = self.lost.longest_in_row.max(self.lost.in_row);
+            if self.lost.in_row >= self.config.max_lost_in_row.max(1) {
+                let in_row = self.lost.in_row;
+                self.stop();
+                return Err(self.fail(DeviceError::ReportsLost { in_row }));
+            }
+        } else {
+            self.lost.in_row = 0;
+        }
         Ok(DeviceState {
             timestamp_s: self.tick as f64 * self.config.period_s,
             tick: self.tick,
@@ -652,7 +763,13 @@ impl<T: Transport> HapticDevice for FalconDevice<T> {
     }
 }
 
-impl<T> FalconDevice<T> {
+impl<T: Transport> FalconDevice<T> {
     /// The device kind.
     pub const KIND: DeviceKind = DeviceKind::Falcon;
+}
+
+impl<T: Transport> Drop for FalconDevice<T> {
+    fn drop(&mut self) {
+        self.stop();
+    }
 }

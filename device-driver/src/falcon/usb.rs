@@ -126,4 +126,19 @@ impl Transport for RusbTransport {
             handle: Arc::clone(&self.handle),
         }))
     }
+
+    /// Releases interface 0 and closes the handle, then opens the first Falcon again and
+    /// claims the interface (libnifalcon's `FalconCommLibUSB::close` and `open`). Refused
+    /// while a [`RusbOut`] still holds the handle (the device's cutoff lets go of it first).
+    fn reopen(&mut self) -> Result<(), DeviceError> {
+        let Some(handle) = Arc::get_mut(&mut self.handle) else {
+            return Err(DeviceError::Transport(
+                "cannot reopen: the second path still holds the USB handle",
+            ));
+        };
+        // Failing to release is harmless: closing the handle releases it too.
+        let _ = handle.release_interface(0);
+        *self = RusbTransport::open()?;
+        Ok(())
+    }
 }

@@ -126,7 +126,10 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         view,
         stop: crate::watchdog::StopRequest::new(),
         record: None,
-        gate: Default::default(),
+        gate: crate::tasks::ServoGate {
+            arm_on_exit: false,
+            sign_probe: true,
+        },
         checks: Default::default(),
     };
     run_until_signal(&sc, loaded, setup, args.json.as_ref())

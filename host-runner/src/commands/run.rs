@@ -206,7 +206,10 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         view,
         stop,
         record: args.record.clone(),
-        gate: ServoGate { arm_on_exit: real },
+        gate: ServoGate {
+            arm_on_exit: real,
+            sign_probe: true,
+        },
         checks,
     };
     run_until_signal(&sc, loaded, setup, args.json.as_ref())

@@ -53,6 +53,11 @@
 //! contact for a second ([`RECOVER_TICKS`]); then the cutoff is re-armed and the force ramps
 //! back in. After [`MAX_TRIPS_PER_MINUTE`] trips within a minute the motors stay off for the
 //! rest of the run. The JSON counts the trips, the recoveries and the seconds derated.
+//!
+//! After the observer, in contact, the force-sign probe ([`SignProbe`]) adds a small
+//! pseudo-random force to what the device is sent and regresses the device's response on it:
+//! a device that moves against it (a reversed force, a mirrored axis) trips the observer, at
+//! any force level and while drilling, where nothing is stored past the limit.
 
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -65,6 +70,7 @@ use crate::stats::Histogram;
 mod drill;
 mod frame;
 mod limits;
+mod probe;
 mod record;
 mod servo;
 mod simulation;
@@ -72,6 +78,7 @@ mod simulation;
 pub use drill::*;
 pub use frame::*;
 pub use limits::*;
+pub use probe::*;
 pub use record::*;
 pub use servo::*;
 pub use simulation::*;

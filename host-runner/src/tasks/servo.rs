@@ -20,8 +20,8 @@ use crate::rt::{Periodic, RtConfig, RtStatus};
 use crate::watchdog::StopRequest;
 
 use super::{
-    CameraOut, DeviceFrame, DeviceLimits, RecordRing, ServoCounters, ToolSample, Workspace,
-    SERVO_PERIOD_NS,
+    CameraOut, DeviceFrame, DeviceLimits, RecordRing, ServoCounters, SignProbe, ToolSample,
+    Workspace, SERVO_PERIOD_NS,
 };
 
 /// Why the servo task ended.
@@ -85,6 +85,8 @@ pub struct ServoResult {
     pub armed_at: Option<u64>,
     /// The device's limits at the end of the run (recoveries from a trip, seconds derated).
     pub limits: DeviceLimits,
+    /// The force-sign probe at the end of the run (its trips, its least statistic).
+    pub probe: SignProbe,
 }
 
 /// When the servo renders force at all, besides the device's own
@@ -95,6 +97,9 @@ pub struct ServoGate {
     /// outside the solid): the tool is then *armed*. A device that starts with its tool inside
     /// the solid does not push the hand out with the full force the moment it starts.
     pub arm_on_exit: bool,
+    /// Run the force-sign probe ([`SignProbe`]) on the device's force: the pipeline's runs
+    /// do; a caller that checks the law's forces bit for bit at the device may not.
+    pub sign_probe: bool,
 }
 
 /// The servo task: `ticks` ticks at 1 kHz (`u64::MAX`: no end), or until `stop` or a
@@ -145,6 +150,9 @@ pub fn servo_task(
         .passivity
         .set_params(passivity_params(&spec, SERVO_PERIOD_NS));
     state.limits = DeviceLimits::new(&spec, SERVO_PERIOD_NS as f32 * 1e-9);
+    if gate.sign_probe {
+        state.probe = SignProbe::new(&spec);
+    }
     let mut end = ServoEnd::Ticks;
     let mut request_to_zero_ns = None;
     let watch = &counters.watch;
@@ -232,6 +240,7 @@ pub fn servo_task(
         max_depth_m: state.max_depth_m,
         armed_at: state.armed_at,
         limits: state.limits,
+        probe: state.probe,
     }
 }
 
@@ -316,6 +325,10 @@ pub struct ServoState {
     /// The device's limits: the peak clamp, the continuous-force derating, the recovery from a
     /// passivity trip ([`DeviceLimits::default`]: none; [`servo_task`] sets the device's).
     pub limits: DeviceLimits,
+    /// The force-sign probe after the observer ([`SignProbe::default`]: none; [`servo_task`]
+    /// sets the device's): a trip of its own goes through the observer's
+    /// ([`PassivityObserver::trip`]).
+    pub probe: SignProbe,
 }
 
 /// Where a servo tick's force comes from: the burr's contact plane ([`BurrLaw`]) or a mesh
@@ -510,10 +523,12 @@ pub fn servo_io(
         }
     };
     let s_buttons = s.buttons;
+    let device_position = s.position;
     let resets = device.position_resets();
     if resets != st.position_resets {
         st.position_resets = resets;
         st.passivity.restart();
+        st.probe.restart();
     }
     let position = st.frame.to_scene(workspace, s.position);
     let rotation = st.frame.rotation_to_scene(s.rotation);
@@ -550,6 +565,7 @@ pub fn servo_io(
         // Force comes back: what the tool did meanwhile was not the loop's doing.
         st.paused = false;
         st.passivity.restart();
+        st.probe.restart();
     }
     // The observer works in SI: scene positions over the workspace scale are metres (in the
     // scene's rotated frame, where the power is the device's).
@@ -570,6 +586,7 @@ pub fn servo_io(
     // (then the cutoff is re-armed and the force ramps back in), or for good after too many.
     if st.passivity.tripped() && st.limits.recovers(f) {
         st.passivity.recover();
+        st.probe.restart();
         if let Some(c) = device.cutoff() {
             c.rearm();
         }
@@ -604,9 +621,25 @@ pub fn servo_io(
     // Scene force to the device frame: back through the camera (the workspace map is a uniform
     // scale and a shift, which leave directions alone).
     let d = st.frame.force_to_device(f);
-    let cmd = ForceCommand::force([d.x as f64, d.y as f64, d.z as f64]);
+    let d = [d.x as f64, d.y as f64, d.z as f64];
+    // The force-sign probe: what the device did with the probes of the last ticks, and this
+    // tick's, added to what the device is sent (not to the digest, the observer or the heat).
+    // Not for a law without a contact of its own (a mesh tool's forces stay the law's).
+    let probed = if contact.is_some() { d } else { [0.0; 3] };
+    let probe = st.probe.step(device_position, probed);
+    if st.probe.reversed() {
+        st.probe.tripped();
+        st.passivity.trip();
+        st.limits.tripped_at(tick);
+        if let Some(c) = device.cutoff() {
+            let _ = c.cut();
+        }
+        return write_off(device, st);
+    }
+    let cmd = ForceCommand::force([d[0] + probe[0], d[1] + probe[1], d[2] + probe[2]]);
     device.write(&cmd)?;
-    st.last_written = d.length();
+    let c = cmd.force;
+    st.last_written = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt() as f32;
     Ok(())
 }
 

@@ -402,7 +402,7 @@ impl Transport for Unplugged {
 }
 
 fn firmware() -> Vec<u8> {
-    // Not a real firmware: 600 deterministic bytes, five chunks.
+    // Not a real firmware: 600 deterministic bytes, ten 62-byte blocks.
     (0..600u32)
         .map(|i| (i.wrapping_mul(31) ^ 0xA5) as u8)
         .collect()
@@ -416,17 +416,17 @@ fn falcon_with<T: Transport>(t: T) -> FalconDevice<T> {
 
 #[test]
 fn firmware_upload_failing_halfway_never_enables_the_motors() {
-    // The echo of the second chunk comes back corrupted.
+    // The echo of the fifth block (bytes 248..310) comes back corrupted.
     let mut mock = MockTransport::new();
     mock.corrupt_echo_at = Some(300);
     let mut dev = falcon(mock);
     assert_eq!(
         dev.load_firmware(&firmware()),
-        Err(DeviceError::FirmwareMismatch { offset: 256 })
+        Err(DeviceError::FirmwareMismatch { offset: 248 })
     );
     assert!(dev.transport().commands.is_empty(), "no command frame sent");
     assert!(!dev.safety().is_enabled());
-    // Unplugged after the handshake and two chunks: the disconnect is reported as such and
+    // Unplugged after the handshake and two blocks: the disconnect is reported as such and
     // the device stays unusable (every later call says so, none panics).
     let unplugged = Unplugged {
         mock: MockTransport::new(),
@@ -469,7 +469,7 @@ fn the_pipeline_reports_a_device_fault_once_on_one_line() {
     let e = pipeline_with(open, DeviceKind::Falcon, 2000).expect_err("the upload failed");
     assert_eq!(e.code, 1);
     assert_eq!(e.message.lines().count(), 1, "{}", e.message);
-    for needle in ["--device falcon", "firmware echo mismatch", "256"] {
+    for needle in ["--device falcon", "firmware echo mismatch", "248"] {
         assert!(e.message.contains(needle), "{}", e.message);
     }
 }

@@ -34,6 +34,25 @@ fn press(t: f64) -> PathPoint {
 
 const PRESS_TICKS: u64 = 1500;
 
+/// The press with the drill on.
+fn drill_press(t: f64) -> PathPoint {
+    PathPoint {
+        buttons: tetradrill_core::script::DRILL_ON,
+        ..press(t)
+    }
+}
+
+/// A gentle press: the hand 1.5 cm past the face at the same speed, then held: a fault-free
+/// press stops about 0.9 cm deep at 1.8 N, under half the simulated device's 8 N.
+fn gentle_press(t: f64) -> PathPoint {
+    let x = 0.8 - 0.215 * (t / 0.43).min(1.0);
+    PathPoint {
+        position: [x, 0.0, 0.0],
+        rotation: QUAT_IDENTITY,
+        buttons: 0,
+    }
+}
+
 /// The simulated device on the press.
 type PressDevice = SimDevice<Scripted<fn(f64) -> PathPoint>>;
 
@@ -81,13 +100,22 @@ const ATTEMPTS: usize = 5;
 /// The press through the real-time pipeline with `fault`, without a servo stall: the report
 /// (and its JSON) and the forces the device was given.
 fn press_run(fault: SimFault) -> (RunReport, serde_json::Value, Vec<f64>) {
+    path_run(press, "press", fault)
+}
+
+/// [`press_run`] on another hand path (`name` for the scratch directory).
+fn path_run(
+    path: fn(f64) -> PathPoint,
+    name: &str,
+    fault: SimFault,
+) -> (RunReport, serde_json::Value, Vec<f64>) {
     for _ in 1..ATTEMPTS {
-        let run = press_run_once(fault);
+        let run = press_run_once(path, name, fault);
         if run.0.servo_stalls == 0 {
             return run;
         }
     }
-    let run = press_run_once(fault);
+    let run = press_run_once(path, name, fault);
     assert_eq!(
         run.0.servo_stalls, 0,
         "the servo stalled in {ATTEMPTS} runs"
@@ -95,7 +123,11 @@ fn press_run(fault: SimFault) -> (RunReport, serde_json::Value, Vec<f64>) {
     run
 }
 
-fn press_run_once(fault: SimFault) -> (RunReport, serde_json::Value, Vec<f64>) {
+fn press_run_once(
+    path: fn(f64) -> PathPoint,
+    name: &str,
+    fault: SimFault,
+) -> (RunReport, serde_json::Value, Vec<f64>) {
     let writes = Arc::new(Mutex::new(Vec::new()));
     let w = writes.clone();
     let open: pipeline::DeviceFactory = Box::new(move || {
@@ -103,13 +135,12 @@ fn press_run_once(fault: SimFault) -> (RunReport, serde_json::Value, Vec<f64>) {
             fault,
             ..SimConfig::default()
         };
-        let path: fn(f64) -> PathPoint = press;
         Ok(Box::new(Logged {
             inner: SimDevice::new(Scripted(path), c),
             writes: w,
         }) as Box<dyn HapticDevice>)
     });
-    let dir = scratch_dir("passivity", fault.name());
+    let dir = scratch_dir("passivity", &format!("{name}-{}", fault.name()));
     let json = dir.join("run.json");
     let cube = cube();
     let rep = pipeline::run(
@@ -130,6 +161,8 @@ fn each_fault_trips_the_passivity_controller_and_the_fault_free_press_does_not()
     assert_eq!(ok.stop_reason, "duration");
     assert_eq!(ok.safety.passivity_trips, 0);
     assert_eq!(j["safety"]["passivity_trips"], 0);
+    assert_eq!(j["safety"]["probe_trips"], 0);
+    assert!(ok.safety.probe_z_min > -2.0, "{:?}", ok.safety);
     // A real press: the hand spring (300 N/m) against the wall (200 N/m) settles 3/5 of the
     // hand's 5 cm deep, 3 cm; the approach overshoots, and more when the simulation task
     // (another thread) publishes the contact plane late on a loaded machine.
@@ -144,22 +177,18 @@ fn each_fault_trips_the_passivity_controller_and_the_fault_free_press_does_not()
     for fault in [SimFault::ReversedForce, SimFault::MirroredX] {
         let (rep, j, log) = press_run(fault);
         let name = fault.name();
+        // The force-sign probe trips first, long before energy is stored past the limit.
         assert!(rep.safety.passivity_trips >= 1, "{name}: {:?}", rep.safety);
         assert_eq!(j["safety"]["passivity_trips"], 1, "{name}");
-        assert!(
-            rep.safety.past_limit_j_max > 0.05,
-            "{name}: {:?}",
-            rep.safety
-        );
+        assert_eq!(j["safety"]["probe_trips"], 1, "{name}");
+        assert!(rep.safety.probe_z_min < -6.0, "{name}: {:?}", rep.safety);
         let d = rep.contact.max_depth_m;
         assert!(d <= 2.0 * depth, "{name}: depth {d} against {depth}");
-        assert!(
-            d > 0.04,
-            "{name}: the fault drove the tool past the force limit: {d}"
-        );
+        // With the motors cut the hand pushes the tool to its own depth (5 cm).
+        assert!(d > 0.04, "{name}: {d}");
         // Cut: the force was on during the press, zero with the motors off from the trip to
         // the end of the run.
-        assert!(log.iter().any(|&f| f > 7.0), "{name}");
+        assert!(log.iter().any(|&f| f > 1.0), "{name}");
         let tail = &log[log.len() - 500..];
         assert!(tail.iter().all(|&f| f == 0.0), "{name}: {:?}", &tail[..5]);
         assert_eq!(rep.force.last_written_n, 0.0);
@@ -267,6 +296,54 @@ fn a_stiff_wall_that_oscillates_without_the_controller_settles_with_it() {
         plain.iter().map(|f| f.to_bits()).collect::<Vec<_>>(),
         with.iter().map(|f| f.to_bits()).collect::<Vec<_>>()
     );
+}
+
+/// The deepest penetration, the trips and the forces of a run on `path` with each fault.
+fn faulty_runs(path: fn(f64) -> PathPoint, name: &str) -> [(SimFault, RunReport, Vec<f64>); 2] {
+    [SimFault::ReversedForce, SimFault::MirroredX].map(|fault| {
+        let (rep, _, log) = path_run(path, name, fault);
+        (fault, rep, log)
+    })
+}
+
+#[test]
+fn a_drilling_press_trips_on_each_fault_and_not_without_one() {
+    // With the drill on the contact plane follows the removal: nothing is stored past the
+    // force limit, so only the force-sign probe can tell.
+    let (ok, j, log) = path_run(drill_press, "drill", SimFault::None);
+    assert_eq!(ok.safety.passivity_trips, 0, "{:?}", ok.safety);
+    assert_eq!(j["safety"]["probe_trips"], 0);
+    assert!(ok.safety.probe_z_min > -2.0, "{:?}", ok.safety);
+    assert!(ok.removed_volume > 0.0, "the drill removed nothing");
+    let held = &log[log.len() - 301..log.len() - 1];
+    assert!(held.iter().all(|&f| f > 1.0), "{:?}", &held[..5]);
+    for (fault, rep, log) in faulty_runs(drill_press, "drill") {
+        let name = fault.name();
+        assert_eq!(rep.safety.passivity_trips, 1, "{name}: {:?}", rep.safety);
+        assert_eq!(rep.safety.probe_trips, 1, "{name}: {:?}", rep.safety);
+        assert_eq!(rep.safety.past_limit_j_max, 0.0, "{name}: {:?}", rep.safety);
+        let tail = &log[log.len() - 500..];
+        assert!(tail.iter().all(|&f| f == 0.0), "{name}: {:?}", &tail[..5]);
+    }
+}
+
+#[test]
+fn a_gentle_press_trips_on_each_fault_before_the_tool_is_twice_as_deep() {
+    let (ok, _, log) = path_run(gentle_press, "gentle", SimFault::None);
+    assert_eq!(ok.safety.passivity_trips, 0, "{:?}", ok.safety);
+    let depth = ok.contact.max_depth_m;
+    // Gentle: the force stays under half the device's 8 N.
+    let peak = log.iter().copied().fold(0.0, f64::max);
+    assert!(peak < 4.0, "fault-free peak {peak} N");
+    assert!((0.005..0.015).contains(&depth), "fault-free depth {depth}");
+    for (fault, rep, log) in faulty_runs(gentle_press, "gentle") {
+        let name = fault.name();
+        assert_eq!(rep.safety.probe_trips, 1, "{name}: {:?}", rep.safety);
+        let d = rep.contact.max_depth_m;
+        assert!(d < 2.0 * depth, "{name}: depth {d} against {depth}");
+        let tail = &log[log.len() - 500..];
+        assert!(tail.iter().all(|&f| f == 0.0), "{name}");
+    }
 }
 
 #[test]

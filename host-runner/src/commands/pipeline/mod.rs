@@ -109,7 +109,10 @@ impl PipelineSetup {
             },
             stop: StopRequest::new(),
             record: None,
-            gate: tasks::ServoGate::default(),
+            gate: tasks::ServoGate {
+                arm_on_exit: false,
+                sign_probe: true,
+            },
             checks: RunChecks::default(),
         }
     }
@@ -432,6 +435,8 @@ impl Ended {
             },
             safety: RunSafety {
                 passivity_trips: servo.passivity.trips(),
+                probe_trips: servo.probe.trips(),
+                probe_z_min: servo.probe.z_min(),
                 trip_recoveries: servo.limits.recoveries(),
                 trips_locked_out: servo.limits.locked_out(),
                 derated_s: servo.limits.derated_s(tasks::SERVO_PERIOD_NS as f64 * 1e-9),
@@ -507,13 +512,23 @@ impl Ended {
                     rep.safety.trip_recoveries
                 )
             };
+            let why = if rep.safety.probe_trips > 0 {
+                format!(
+                    "the {} device moved against the force-sign probe in {} of them and put \
+                     {:.3} J past the force limit into the tool (a reversed force or a mirrored \
+                     axis?)",
+                    rep.device, rep.safety.probe_trips, rep.safety.past_limit_j_max
+                )
+            } else {
+                format!(
+                    "the {} device put {:.3} J past the force limit into the tool (a reversed \
+                     force or a mirrored axis?)",
+                    rep.device, rep.safety.past_limit_j_max
+                )
+            };
             errln!(
-                "tetradrill: warning: the passivity controller tripped {} times: the {} device \
-                 put {:.3} J past the force limit into the tool (a reversed force or a mirrored \
-                 axis?); {after}",
-                rep.safety.passivity_trips,
-                rep.device,
-                rep.safety.past_limit_j_max
+                "tetradrill: warning: the passivity controller tripped {} times: {why}; {after}",
+                rep.safety.passivity_trips
             );
         }
         if !rep.safety.reversed_joints.is_empty() {

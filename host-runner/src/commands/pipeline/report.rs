@@ -169,6 +169,12 @@ pub struct RunSafety {
     /// Times it tripped (each trip cuts the motors until the tool has been out of contact for
     /// a second).
     pub passivity_trips: u32,
+    /// Of those, the trips of the force-sign probe (`tasks::SignProbe`): the device's response
+    /// to a small probe force ran against the force (a reversed force or a mirrored axis).
+    pub probe_trips: u32,
+    /// The probe's least sign statistic with a full enough window (0 before; below
+    /// `-tasks::TRIP_Z` it trips).
+    pub probe_z_min: f64,
     /// Times the force came back after a trip (the tool out of contact for a second, the
     /// force ramped back in).
     pub trip_recoveries: u32,
