@@ -13,48 +13,15 @@ use tetradrill::tasks::{Workspace, PROBE_FRACTION};
 use tetradrill::watchdog::StopRequest;
 use tetradrill_core::Vec3;
 use tetradrill_device::{
-    DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice, MotorCutoff,
-    PathPoint, Scripted, SimConfig, SimDevice, SimModel, QUAT_IDENTITY,
+    DeviceKind, DeviceSpec, HapticDevice, PathPoint, Scripted, SimConfig, SimDevice, SimModel,
+    QUAT_IDENTITY,
 };
-use tetradrill_tests::scratch_dir;
+use tetradrill_tests::force_log::ForceLog;
+use tetradrill_tests::{scratch_dir, unstalled};
 
 /// The device origin (the Omni's inkwell) at x = 0.8, in front of the cube's +x face; a metre
 /// is a mesh unit.
 const DOCK_X: f64 = 0.8;
-
-/// The simulated Omni's writes, one a tick: the force's magnitude (0 with the motors off).
-struct Logged {
-    inner: Box<dyn HapticDevice>,
-    writes: Arc<Mutex<Vec<f64>>>,
-}
-
-impl HapticDevice for Logged {
-    fn spec(&self) -> DeviceSpec {
-        self.inner.spec()
-    }
-    fn read(&mut self) -> Result<DeviceState, DeviceError> {
-        self.inner.read()
-    }
-    fn write(&mut self, command: &ForceCommand) -> Result<(), DeviceError> {
-        let f = command.force;
-        let n = if command.enable {
-            (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt()
-        } else {
-            0.0
-        };
-        self.writes.lock().expect("log").push(n);
-        self.inner.write(command)
-    }
-    fn calibrate(&mut self) -> Result<(), DeviceError> {
-        self.inner.calibrate()
-    }
-    fn cutoff(&self) -> Option<Arc<dyn MotorCutoff>> {
-        self.inner.cutoff()
-    }
-    fn force_ready(&self) -> bool {
-        self.inner.force_ready()
-    }
-}
 
 /// The hand's x (scene and device: a metre a mesh unit, the device origin at [`DOCK_X`]) at
 /// time `t` of the path, linear between `(time, x)` knots.
@@ -79,25 +46,8 @@ fn knots(points: &'static [(f64, f64)], t: f64) -> f64 {
 /// per servo tick from the start (the path begins after the model's lead-in,
 /// [`SimModel::lead_in_s`]).
 fn omni_run(points: &'static [(f64, f64)], ticks: u64, name: &str) -> (RunReport, Vec<f64>) {
-    for _ in 1..ATTEMPTS {
-        let run = omni_run_once(points, ticks, name);
-        if run.0.servo_stalls == 0 {
-            return run;
-        }
-    }
-    let run = omni_run_once(points, ticks, name);
-    assert_eq!(
-        run.0.servo_stalls, 0,
-        "the servo stalled in {ATTEMPTS} runs"
-    );
-    run
+    unstalled(|| omni_run_once(points, ticks, name), |r| r.0.servo_stalls)
 }
-
-/// Runs of the wall-clock pipeline a loaded machine may disturb: a run whose servo stalled past
-/// the watchdog (the force cut for a while, the hand pushing the stylus on meanwhile, the
-/// thermal model cooling) is not the press the test is about, and is run again, up to this
-/// many times.
-const ATTEMPTS: usize = 5;
 
 /// One run of [`omni_run`].
 fn omni_run_once(points: &'static [(f64, f64)], ticks: u64, name: &str) -> (RunReport, Vec<f64>) {
@@ -117,7 +67,7 @@ fn omni_run_once(points: &'static [(f64, f64)], ticks: u64, name: &str) -> (RunR
             1,
             || {}
         )?);
-        Ok(Box::new(Logged { inner, writes: w }) as Box<dyn HapticDevice>)
+        Ok(Box::new(ForceLog { inner, writes: w }) as Box<dyn HapticDevice>)
     });
     let mut cube = Setup::new("builtin:cube12", Tool::sphere(0.1));
     assert_eq!(cap_max_force(&mut cube, &DeviceSpec::OMNI), Some(3.3));

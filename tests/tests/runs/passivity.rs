@@ -16,10 +16,11 @@ use tetradrill_core::force::PassivityParams;
 use tetradrill_core::servo::ContactState;
 use tetradrill_core::Vec3;
 use tetradrill_device::{
-    DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice, MotorCutoff,
-    PathPoint, Scripted, SimConfig, SimDevice, SimFault, QUAT_IDENTITY,
+    DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice, PathPoint,
+    Scripted, SimConfig, SimDevice, SimFault, QUAT_IDENTITY,
 };
-use tetradrill_tests::{refused, scratch_dir, tetradrill_bin};
+use tetradrill_tests::force_log::ForceLog;
+use tetradrill_tests::{refused, scratch_dir, tetradrill_bin, unstalled};
 
 /// The press: the burr's centre (radius 0.1) from x = 0.8 to x = 0.55 in 0.5 s, then held:
 /// the hand 5 cm past the cube's +x face (x = 0.5), drill off. 1.5 s.
@@ -53,49 +54,9 @@ fn gentle_press(t: f64) -> PathPoint {
     }
 }
 
-/// The simulated device on the press.
-type PressDevice = SimDevice<Scripted<fn(f64) -> PathPoint>>;
-
-/// The simulated device, logging the magnitude of every force it is given (0 with the motors
-/// off).
-struct Logged {
-    inner: PressDevice,
-    writes: Arc<Mutex<Vec<f64>>>,
-}
-
-impl HapticDevice for Logged {
-    fn spec(&self) -> DeviceSpec {
-        self.inner.spec()
-    }
-    fn read(&mut self) -> Result<DeviceState, DeviceError> {
-        self.inner.read()
-    }
-    fn write(&mut self, command: &ForceCommand) -> Result<(), DeviceError> {
-        let f = command.force;
-        let n = if command.enable {
-            (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt()
-        } else {
-            0.0
-        };
-        self.writes.lock().expect("log").push(n);
-        self.inner.write(command)
-    }
-    fn calibrate(&mut self) -> Result<(), DeviceError> {
-        self.inner.calibrate()
-    }
-    fn cutoff(&self) -> Option<Arc<dyn MotorCutoff>> {
-        self.inner.cutoff()
-    }
-}
-
 fn cube() -> Setup {
     Setup::new("builtin:cube12", Tool::sphere(0.1))
 }
-
-/// Runs of the wall-clock pipeline a loaded machine may disturb: a run whose servo stalled past
-/// the watchdog (the force cut for a while, the hand pushing the stylus on meanwhile) is not
-/// the press the test is about, and is run again, up to this many times.
-const ATTEMPTS: usize = 5;
 
 /// The press through the real-time pipeline with `fault`, without a servo stall: the report
 /// (and its JSON) and the forces the device was given.
@@ -109,18 +70,7 @@ fn path_run(
     name: &str,
     fault: SimFault,
 ) -> (RunReport, serde_json::Value, Vec<f64>) {
-    for _ in 1..ATTEMPTS {
-        let run = press_run_once(path, name, fault);
-        if run.0.servo_stalls == 0 {
-            return run;
-        }
-    }
-    let run = press_run_once(path, name, fault);
-    assert_eq!(
-        run.0.servo_stalls, 0,
-        "the servo stalled in {ATTEMPTS} runs"
-    );
-    run
+    unstalled(|| press_run_once(path, name, fault), |r| r.0.servo_stalls)
 }
 
 fn press_run_once(
@@ -135,8 +85,8 @@ fn press_run_once(
             fault,
             ..SimConfig::default()
         };
-        Ok(Box::new(Logged {
-            inner: SimDevice::new(Scripted(path), c),
+        Ok(Box::new(ForceLog {
+            inner: Box::new(SimDevice::new(Scripted(path), c)),
             writes: w,
         }) as Box<dyn HapticDevice>)
     });
@@ -373,14 +323,7 @@ fn the_command_line_runs_a_faulty_press_and_refuses_bad_faults() {
             serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("parse");
         (j, err)
     };
-    let (mut j, mut err) = run();
-    for _ in 1..ATTEMPTS {
-        if j["servo_stalls"] == 0 {
-            break;
-        }
-        (j, err) = run();
-    }
-    assert_eq!(j["servo_stalls"], 0, "the servo stalled in {ATTEMPTS} runs");
+    let (j, err) = unstalled(run, |(j, _)| j["servo_stalls"].as_u64().unwrap_or(u64::MAX));
     assert!(err.contains("passivity controller tripped"), "{err}");
     assert_eq!(j["safety"]["passivity_trips"], 1);
     assert!(j["safety"]["dissipated_j"].is_number());
