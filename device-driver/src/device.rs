@@ -345,7 +345,11 @@ impl fmt::Display for DeviceError {
             DeviceError::LibraryNotFound => f.write_str(
                 "vendor HD library (libHD.so, OpenHaptics / Touch device drivers) not found",
             ),
-            DeviceError::LibraryCall { code } => write!(f, "vendor library error {code:#06x}"),
+            DeviceError::LibraryCall { code } => write!(
+                f,
+                "vendor library error {code:#06x} ({})",
+                crate::touch::error_name(code)
+            ),
             DeviceError::Transport(why) => write!(f, "transport error: {why}"),
             DeviceError::Unsupported(k) => {
                 write!(f, "the {k} backend cannot be opened in this build")
@@ -396,6 +400,21 @@ pub trait HapticDevice {
         let _ = (joint, newtons);
         None
     }
+    /// Warnings the device's vendor library reported that the run went on through (the
+    /// Touch's force warnings, `HD_WARM_MOTORS` among them); none (the default) for devices
+    /// without such a library.
+    fn library_warnings(&self) -> LibraryWarnings {
+        LibraryWarnings::default()
+    }
+}
+
+/// Warnings a device's vendor library reported ([`HapticDevice::library_warnings`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LibraryWarnings {
+    /// How many.
+    pub count: u64,
+    /// The last one's name.
+    pub last: Option<&'static str>,
 }
 
 impl<D: HapticDevice + ?Sized> HapticDevice for Box<D> {
@@ -422,6 +441,9 @@ impl<D: HapticDevice + ?Sized> HapticDevice for Box<D> {
     }
     fn joint_force(&self, joint: usize, newtons: f64) -> Option<Vec3> {
         (**self).joint_force(joint, newtons)
+    }
+    fn library_warnings(&self) -> LibraryWarnings {
+        (**self).library_warnings()
     }
 }
 

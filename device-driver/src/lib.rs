@@ -29,7 +29,7 @@ pub mod trace;
 pub use cutoff::{Cut, MotorCutoff};
 pub use device::{
     CalibrationStyle, DeviceError, DeviceKind, DeviceSpec, DeviceState, ForceCommand, HapticDevice,
-    Quat, Vec3, QUAT_IDENTITY,
+    LibraryWarnings, Quat, Vec3, QUAT_IDENTITY,
 };
 pub use safety::{ForceSafety, SafetyConfig};
 pub use sim::{Path, PathPoint, Scripted, SimConfig, SimDevice, SimFault, SimModel, Still};

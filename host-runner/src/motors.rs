@@ -180,4 +180,7 @@ impl HapticDevice for Blocked {
     fn force_ready(&self) -> bool {
         false
     }
+    fn library_warnings(&self) -> tetradrill_device::LibraryWarnings {
+        self.0.library_warnings()
+    }
 }

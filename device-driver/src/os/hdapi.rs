@@ -11,31 +11,27 @@
 //! one call with its `// SAFETY:` reason.
 //!
 //! # Threads
-//! HDAPI's own pattern is `hdInitDevice` on the application thread and the frames on the servo
-//! thread. [`HdApi::open_device`] runs `hdInitDevice` where it is called (the command line
-//! does it on the main thread, so a failure becomes one line and exit status 2); the
-//! [`HdApi`] is `Send` and moves into the servo thread's device factory, where
-//! [`HdLibrary::init`] on an opened device only makes it current (`hdMakeCurrentDevice`).
+//! HDAPI's own pattern is `hdInitDevice` on the application thread and every frame inside a
+//! callback of its scheduler. [`HdApi::open_device`] runs `hdInitDevice` and
+//! `hdStartScheduler` where it is called (the command line does it on the main thread, so a
+//! failure becomes one line and exit status 2); the [`HdApi`] is `Send` and moves into the
+//! servo thread's device factory, where [`HdLibrary::init`] makes the device current and
+//! [`HdLibrary::schedule`] schedules `frame_callback` with `hdScheduleAsynchronous` at the
+//! highest priority. The callback runs [`callback_frame`]: the frame's reads and the force in
+//! one `hdBeginFrame` / `hdEndFrame` pair, in the scheduler's thread. The servo thread makes
+//! no HD call on its ticks.
 //!
 //! # Untested on hardware
 //! Nothing here has run against a real Touch or a real `libHD.so`; the tests drive a small C
-//! stand-in compiled at test time. In particular:
-//! - OpenHaptics' programmer's guide says force output starts only once the scheduler runs and
-//!   that device state should be touched from scheduler callbacks. This loader starts the
-//!   scheduler (`hdStartScheduler`) after `hdInitDevice` but calls `hdBeginFrame` /
-//!   `hdEndFrame` from tetradrill's own 1 kHz servo thread, not from an HD scheduler
-//!   callback. Whether the vendor library accepts that is unknown.
+//! stand-in compiled at test time, whose scheduler is a thread calling the callback each
+//! millisecond. In particular:
 //! - The inkwell switch polarity (0 = stylus docked) is taken from public code that reads it
 //!   (H3DAPI's `PhantomHapticsDevice.cpp`: `in_inkwell = !inkwell_switch`), not measured.
 //! - That force output needs the scheduler running is from OpenHaptics' programmer's guide,
 //!   chapter 5 (read in a public translation), not measured.
 //! - Which calibration style a Touch reports, and the error codes a missing device produces.
-//! - The stall guard ([`HdLibrary::stall_guard`]): a callback scheduled with
-//!   `hdScheduleAsynchronous` at the highest priority that, in the scheduler's thread, opens a
-//!   frame and sets a zero force while the servo's heartbeat is older than 2 ms. That a frame
-//!   in the scheduler's thread overrides the force the servo's thread set last is how
-//!   OpenHaptics' own examples render forces, but it is untested here. The entry points are
-//!   optional: a library without them runs without the guard.
+//! - Which force warnings a Touch raises in practice (the classification is OpenHaptics'
+//!   `hduIsForceError`, [`is_force_warning`](crate::touch::is_force_warning)).
 #![allow(unsafe_code)]
 
 use std::ffi::{c_char, c_int, c_ulong, c_void, CStr, CString, OsStr};
@@ -45,7 +41,9 @@ use std::sync::Arc;
 use libloading::Library;
 
 use crate::device::{DeviceError, DeviceKind};
-use crate::touch::{guard_step, HdLibrary, Heartbeat, HD_LIBRARY_NAMES, STALL_LIMIT_NS};
+use crate::touch::{
+    callback_frame, CallbackCode, Exchange, HdError, HdFrame, HdLibrary, HD_LIBRARY_NAMES,
+};
 
 // ---------------------------------------------------------------------------------------------
 // HDAPI types and codes.
@@ -83,8 +81,7 @@ pub const HD_INVALID_HANDLE: Hhd = 0xFFFF_FFFF;
 
 /// `HD_SUCCESS 0x0000` (hdDefines.h, error codes).
 pub const HD_SUCCESS: HdEnum = 0x0000;
-/// `HD_INVALID_OPERATION 0x0102` (hdDefines.h, function errors).
-pub const HD_INVALID_OPERATION: HdEnum = 0x0102;
+pub use crate::touch::frame::HD_INVALID_OPERATION;
 /// `HD_DEVICE_FAULT 0x0300` (hdDefines.h, device errors).
 pub const HD_DEVICE_FAULT: HdEnum = 0x0300;
 /// `HD_COMM_ERROR 0x0302` (hdDefines.h, device errors).
@@ -104,21 +101,15 @@ pub const HD_CALIBRATION_STYLE: HdEnum = 0x2555;
 pub const HD_CURRENT_FORCE: HdEnum = 0x2700;
 /// `HD_FORCE_OUTPUT 0x4000` (hdDefines.h, enable/disable capabilities).
 pub const HD_FORCE_OUTPUT: HdEnum = 0x4000;
-/// `HD_CALIBRATION_OK 0x5000` (hdDefines.h, calibration return values).
-pub const HD_CALIBRATION_OK: HdEnum = 0x5000;
-/// `HD_CALIBRATION_NEEDS_UPDATE 0x5001` (hdDefines.h).
-pub const HD_CALIBRATION_NEEDS_UPDATE: HdEnum = 0x5001;
-/// `HD_CALIBRATION_NEEDS_MANUAL_INPUT 0x5002` (hdDefines.h).
-pub const HD_CALIBRATION_NEEDS_MANUAL_INPUT: HdEnum = 0x5002;
-/// `HD_CALIBRATION_ENCODER_RESET (1 << 0)` (hdDefines.h, calibration styles).
-pub const HD_CALIBRATION_ENCODER_RESET: HdEnum = 1 << 0;
-/// `HD_CALIBRATION_AUTO (1 << 1)` (hdDefines.h, calibration styles).
-pub const HD_CALIBRATION_AUTO: HdEnum = 1 << 1;
-/// `HD_CALIBRATION_INKWELL (1 << 2)` (hdDefines.h, calibration styles).
-pub const HD_CALIBRATION_INKWELL: HdEnum = 1 << 2;
+pub use crate::touch::frame::{
+    HD_CALIBRATION_AUTO, HD_CALIBRATION_ENCODER_RESET, HD_CALIBRATION_INKWELL,
+    HD_CALIBRATION_NEEDS_MANUAL_INPUT, HD_CALIBRATION_NEEDS_UPDATE, HD_CALIBRATION_OK,
+};
 
 /// `HD_MAX_SCHEDULER_PRIORITY USHRT_MAX` (hdDefines.h, scheduler priority ranges).
 pub const HD_MAX_SCHEDULER_PRIORITY: u16 = u16::MAX;
+/// `HD_CALLBACK_DONE 0` (hdDefines.h): the callback is unscheduled.
+pub const HD_CALLBACK_DONE: u32 = 0;
 /// `HD_CALLBACK_CONTINUE 1` (hdDefines.h): the callback runs again next scheduler tick.
 pub const HD_CALLBACK_CONTINUE: u32 = 1;
 /// `HDSchedulerHandle`: `typedef unsigned long` (hdDefines.h).
@@ -167,41 +158,129 @@ struct Entry {
     update_calibration: FnEnum,
     start_scheduler: FnVoid,
     stop_scheduler: FnVoid,
-    schedule_asynchronous: Option<FnScheduleAsynchronous>,
-    unschedule: Option<FnUnschedule>,
+    schedule_asynchronous: FnScheduleAsynchronous,
+    unschedule: FnUnschedule,
 }
 
-/// What the stall guard's callback needs, boxed so its address stays put while the vendor
-/// scheduler holds it.
-struct GuardData {
-    heartbeat: Arc<Heartbeat>,
+/// What the frame callback needs, boxed so its address stays put while the vendor scheduler
+/// holds it.
+struct CallbackData {
+    exchange: Arc<Exchange>,
+    entry: Entry,
     handle: Hhd,
-    begin_frame: FnHandle,
-    end_frame: FnHandle,
-    set_doublev: FnSetDoublev,
 }
 
-/// The stall guard, run by the vendor scheduler at its own rate in its own thread: a zero
-/// force in a frame of its own while the servo's heartbeat is stale. Atomics and three HDAPI
-/// calls; never blocks, allocates or panics.
-unsafe extern "C" fn stall_guard_callback(user: *mut c_void) -> u32 {
-    // SAFETY: `user` is the `GuardData` box `HdApi::stall_guard` scheduled; it is freed only
+/// The frame calls over the resolved entry points, for [`callback_frame`] in the scheduler's
+/// thread. Each call is one foreign call; errors stay on HDAPI's stack until
+/// [`HdFrame::next_error`] pops them, as OpenHaptics' own callbacks do.
+struct EntryFrame<'a> {
+    entry: &'a Entry,
+    handle: Hhd,
+}
+
+impl EntryFrame<'_> {
+    fn doubles<const N: usize>(&mut self, pname: HdEnum) -> [f64; N] {
+        let mut v = [0.0f64; N];
+        // SAFETY: `v` holds N doubles, the count HDAPI writes for `pname` (3 for positions,
+        // 16 for the transform).
+        unsafe { (self.entry.get_doublev)(pname, v.as_mut_ptr()) };
+        v
+    }
+
+    fn integer(&mut self, pname: HdEnum) -> i32 {
+        // Room for more than the one value asked for, in case a parameter has more.
+        let mut v = [0 as c_int; 4];
+        // SAFETY: `v` is writable for 4 ints; the parameters asked for here have one.
+        unsafe { (self.entry.get_integerv)(pname, v.as_mut_ptr()) };
+        v[0]
+    }
+}
+
+impl HdFrame for EntryFrame<'_> {
+    fn begin_frame(&mut self) {
+        // SAFETY: `handle` is the initialised device (hdInitDevice's); this runs in the
+        // scheduler's callback, HDAPI's documented place for frames.
+        unsafe { (self.entry.begin_frame)(self.handle) };
+    }
+    fn end_frame(&mut self) {
+        // SAFETY: as `begin_frame`; the frame this closes was begun by the same callback.
+        unsafe { (self.entry.end_frame)(self.handle) };
+    }
+    fn position_mm(&mut self) -> [f64; 3] {
+        self.doubles::<3>(HD_CURRENT_POSITION)
+    }
+    fn transform(&mut self) -> [f64; 16] {
+        self.doubles::<16>(HD_CURRENT_TRANSFORM)
+    }
+    fn buttons(&mut self) -> u32 {
+        self.integer(HD_CURRENT_BUTTONS) as u32
+    }
+    /// `hdGetBooleanv(HD_CURRENT_INKWELL_SWITCH)`: the switch reads 0 while the stylus sits
+    /// in the inkwell (as public code that reads it interprets it; untested on hardware).
+    fn inkwell(&mut self) -> bool {
+        let mut v = [0u8; 4];
+        // SAFETY: `v` is writable for 4 HDbooleans (unsigned char); the switch has one.
+        unsafe { (self.entry.get_booleanv)(HD_CURRENT_INKWELL_SWITCH, v.as_mut_ptr()) };
+        v[0] == 0
+    }
+    fn set_force(&mut self, force: [f64; 3]) {
+        // The servo's safety filter sends finite forces only; a non-finite one is zeroed here
+        // rather than given to the motors.
+        let force = if force.iter().all(|f| f.is_finite()) {
+            force
+        } else {
+            [0.0; 3]
+        };
+        // SAFETY: `force` holds the 3 doubles HD_CURRENT_FORCE takes; read during the call.
+        unsafe { (self.entry.set_doublev)(HD_CURRENT_FORCE, force.as_ptr()) };
+    }
+    fn enable_force(&mut self, on: bool) {
+        let f = if on {
+            self.entry.enable
+        } else {
+            self.entry.disable
+        };
+        // SAFETY: HD_FORCE_OUTPUT is a capability hdEnable / hdDisable take.
+        unsafe { f(HD_FORCE_OUTPUT) };
+    }
+    fn calibration_styles(&mut self) -> u32 {
+        self.integer(HD_CALIBRATION_STYLE) as u32
+    }
+    fn check_calibration(&mut self) -> u32 {
+        // SAFETY: no arguments; a device is current and a frame is open.
+        unsafe { (self.entry.check_calibration)() }
+    }
+    fn update_calibration(&mut self, style: u32) {
+        // SAFETY: `style` is one of the calibration styles the device reported.
+        unsafe { (self.entry.update_calibration)(style) };
+    }
+    fn next_error(&mut self) -> Option<HdError> {
+        // SAFETY: no arguments; returns the struct by value (C ABI, `#[repr(C)]` layout).
+        let e = unsafe { (self.entry.get_error)() };
+        (e.error_code != HD_SUCCESS).then_some(HdError {
+            code: e.error_code,
+            internal: e.internal_error_code,
+        })
+    }
+}
+
+/// The frame callback, run by the vendor scheduler at its own rate in its own thread:
+/// [`callback_frame`] over the entry points. Never blocks, allocates or panics.
+unsafe extern "C" fn frame_callback(user: *mut c_void) -> u32 {
+    // SAFETY: `user` is the `CallbackData` box `HdApi::schedule` scheduled; it is freed only
     // after `hdStopScheduler` and `hdUnschedule` (`HdApi::drop`), so it is alive here, and
     // it is only read.
-    let Some(g) = (unsafe { (user as *const GuardData).as_ref() }) else {
-        return HD_CALLBACK_CONTINUE;
+    let Some(d) = (unsafe { (user as *const CallbackData).as_ref() }) else {
+        return HD_CALLBACK_DONE;
     };
-    if guard_step(&g.heartbeat, g.heartbeat.now_ns(), STALL_LIMIT_NS) {
-        let zero = [0.0f64; 3];
-        // SAFETY: `g.handle` is the initialised device; frames in the scheduler's thread are
-        // HDAPI's documented use; `zero` holds the 3 doubles HD_CURRENT_FORCE takes.
-        unsafe {
-            (g.begin_frame)(g.handle);
-            (g.set_doublev)(HD_CURRENT_FORCE, zero.as_ptr());
-            (g.end_frame)(g.handle);
-        }
+    let mut frame = EntryFrame {
+        entry: &d.entry,
+        handle: d.handle,
+    };
+    match callback_frame(&mut frame, &d.exchange, d.exchange.now_ns()) {
+        CallbackCode::Continue => HD_CALLBACK_CONTINUE,
+        CallbackCode::Done => HD_CALLBACK_DONE,
     }
-    HD_CALLBACK_CONTINUE
 }
 
 /// Why the HD library could not be used. Each `Display` is one line.
@@ -282,34 +361,7 @@ impl HdLoadError {
     }
 }
 
-/// The name of an HDAPI error code (hdDefines.h, error codes), or `"HD error"`.
-pub fn error_name(code: HdEnum) -> &'static str {
-    match code {
-        0x0000 => "HD_SUCCESS",
-        0x0100 => "HD_INVALID_ENUM",
-        0x0101 => "HD_INVALID_VALUE",
-        0x0102 => "HD_INVALID_OPERATION",
-        0x0103 => "HD_INVALID_INPUT_TYPE",
-        0x0104 => "HD_BAD_HANDLE",
-        0x0200 => "HD_WARM_MOTORS",
-        0x0201 => "HD_EXCEEDED_MAX_FORCE",
-        0x0202 => "HD_EXCEEDED_MAX_FORCE_IMPULSE",
-        0x0203 => "HD_EXCEEDED_MAX_VELOCITY",
-        0x0204 => "HD_FORCE_ERROR",
-        0x0300 => "HD_DEVICE_FAULT",
-        0x0301 => "HD_DEVICE_ALREADY_INITIATED",
-        0x0302 => "HD_COMM_ERROR",
-        0x0303 => "HD_COMM_CONFIG_ERROR",
-        0x0304 => "HD_TIMER_ERROR",
-        0x0400 => "HD_ILLEGAL_BEGIN",
-        0x0401 => "HD_ILLEGAL_END",
-        0x0402 => "HD_FRAME_ERROR",
-        0x0500 => "HD_INVALID_PRIORITY",
-        0x0501 => "HD_SCHEDULER_FULL",
-        0x0600 => "HD_INVALID_LICENSE",
-        _ => "HD error",
-    }
-}
+pub use crate::touch::error_name;
 
 /// The names to try: the override alone when `override_path` is set and not empty, else
 /// [`HD_LIBRARY_NAMES`] (found through the dynamic loader's search path).
@@ -328,8 +380,7 @@ pub struct HdApi {
     path: String,
     handle: Option<Hhd>,
     scheduler: bool,
-    in_frame: bool,
-    guard: Option<(HdSchedulerHandle, Box<GuardData>)>,
+    callback: Option<(HdSchedulerHandle, Box<CallbackData>)>,
     _lib: Library,
 }
 
@@ -411,21 +462,15 @@ impl HdApi {
             update_calibration: sym!("hdUpdateCalibration"),
             start_scheduler: sym!("hdStartScheduler"),
             stop_scheduler: sym!("hdStopScheduler"),
-            // SAFETY: as above; optional entry points of `hd.h` (`hdScheduleAsynchronous`,
-            // `hdUnschedule`) with the signatures written out above.
-            schedule_asynchronous: unsafe { lib.get(b"hdScheduleAsynchronous\0") }
-                .ok()
-                .map(|s| *s),
-            // SAFETY: as above.
-            unschedule: unsafe { lib.get(b"hdUnschedule\0") }.ok().map(|s| *s),
+            schedule_asynchronous: sym!("hdScheduleAsynchronous"),
+            unschedule: sym!("hdUnschedule"),
         };
         Ok(HdApi {
             entry,
             path,
             handle: None,
             scheduler: false,
-            in_frame: false,
-            guard: None,
+            callback: None,
             _lib: lib,
         })
     }
@@ -537,25 +582,6 @@ impl HdApi {
         self.check()?;
         Ok(v)
     }
-
-    fn get_integer(&self, pname: HdEnum) -> Result<i32, DeviceError> {
-        self.opened()?;
-        // Room for more than the one value asked for, in case a parameter has more.
-        let mut v = [0 as c_int; 4];
-        // SAFETY: `v` is writable for 4 ints; the parameters asked for here have one.
-        unsafe { (self.entry.get_integerv)(pname, v.as_mut_ptr()) };
-        self.check()?;
-        Ok(v[0])
-    }
-
-    fn get_boolean(&self, pname: HdEnum) -> Result<bool, DeviceError> {
-        self.opened()?;
-        let mut v = [0u8; 4];
-        // SAFETY: `v` is writable for 4 HDbooleans (unsigned char); the switch has one.
-        unsafe { (self.entry.get_booleanv)(pname, v.as_mut_ptr()) };
-        self.check()?;
-        Ok(v[0] != 0)
-    }
 }
 
 impl HdLibrary for HdApi {
@@ -569,144 +595,54 @@ impl HdLibrary for HdApi {
         self.open_device(name).map_err(|e| e.device_error())
     }
 
-    fn begin_frame(&mut self) -> Result<(), DeviceError> {
+    /// Schedules `frame_callback` with `hdScheduleAsynchronous` at
+    /// [`HD_MAX_SCHEDULER_PRIORITY`]. A second call is refused (`HD_INVALID_OPERATION`): one
+    /// device, one callback.
+    fn schedule(&mut self, exchange: Arc<Exchange>) -> Result<(), DeviceError> {
         let h = self.opened()?;
-        // SAFETY: `h` is an initialised device handle.
-        unsafe { (self.entry.begin_frame)(h) };
-        self.in_frame = true;
-        self.check()
-    }
-
-    fn end_frame(&mut self) -> Result<(), DeviceError> {
-        let h = self.opened()?;
-        // SAFETY: `h` is an initialised device handle.
-        unsafe { (self.entry.end_frame)(h) };
-        self.in_frame = false;
-        self.check()
-    }
-
-    fn position_mm(&mut self) -> Result<[f64; 3], DeviceError> {
-        self.get_doubles::<3>(HD_CURRENT_POSITION)
-    }
-
-    fn transform(&mut self) -> Result<[f64; 16], DeviceError> {
-        self.get_doubles::<16>(HD_CURRENT_TRANSFORM)
-    }
-
-    fn buttons(&mut self) -> Result<u32, DeviceError> {
-        Ok(self.get_integer(HD_CURRENT_BUTTONS)? as u32)
-    }
-
-    /// `hdGetBooleanv(HD_CURRENT_INKWELL_SWITCH)`: the switch reads 0 while the stylus sits
-    /// in the inkwell (as public code that reads it interprets it; untested on hardware).
-    /// Read as an HDboolean, the type the public code that reads this switch uses.
-    fn inkwell(&mut self) -> Result<bool, DeviceError> {
-        Ok(!self.get_boolean(HD_CURRENT_INKWELL_SWITCH)?)
-    }
-
-    fn set_force(&mut self, force: [f64; 3]) -> Result<(), DeviceError> {
-        self.opened()?;
-        if !force.iter().all(|f| f.is_finite()) {
-            return Err(DeviceError::NonFiniteCommand);
+        if self.callback.is_some() {
+            return Err(DeviceError::LibraryCall {
+                code: HD_INVALID_OPERATION,
+            });
         }
-        // SAFETY: `force` holds the 3 doubles HD_CURRENT_FORCE takes; read during the call.
-        unsafe { (self.entry.set_doublev)(HD_CURRENT_FORCE, force.as_ptr()) };
-        self.check()
-    }
-
-    fn enable_force(&mut self, on: bool) -> Result<(), DeviceError> {
-        self.opened()?;
-        let f = if on {
-            self.entry.enable
-        } else {
-            self.entry.disable
-        };
-        // SAFETY: HD_FORCE_OUTPUT is a capability hdEnable / hdDisable take.
-        unsafe { f(HD_FORCE_OUTPUT) };
-        self.check()
-    }
-
-    /// Checks the calibration in a frame and, when it needs an update, updates it with the
-    /// device's style (automatic first, then the inkwell, then an encoder reset).
-    /// `NotDocked` when the library asks for manual input (the stylus to go in its inkwell).
-    fn update_calibration(&mut self) -> Result<(), DeviceError> {
-        let styles = self.get_integer(HD_CALIBRATION_STYLE)? as HdEnum;
-        self.begin_frame()?;
-        // SAFETY: no arguments; a device is current and a frame is open.
-        let status = unsafe { (self.entry.check_calibration)() };
-        let checked = self.check();
-        self.end_frame()?;
-        checked?;
-        match status {
-            HD_CALIBRATION_OK => Ok(()),
-            HD_CALIBRATION_NEEDS_MANUAL_INPUT => Err(DeviceError::NotDocked),
-            HD_CALIBRATION_NEEDS_UPDATE => {
-                let style = [
-                    HD_CALIBRATION_AUTO,
-                    HD_CALIBRATION_INKWELL,
-                    HD_CALIBRATION_ENCODER_RESET,
-                ]
-                .into_iter()
-                .find(|s| styles & s != 0)
-                .ok_or(DeviceError::LibraryCall {
-                    code: HD_INVALID_OPERATION,
-                })?;
-                // SAFETY: `style` is one of the calibration styles the device reported.
-                unsafe { (self.entry.update_calibration)(style) };
-                self.check()
-            }
-            other => Err(DeviceError::LibraryCall { code: other }),
-        }
-    }
-
-    /// Schedules `stall_guard_callback` with `hdScheduleAsynchronous` at
-    /// [`HD_MAX_SCHEDULER_PRIORITY`]; `Ok(false)` when the library lacks the scheduler entry
-    /// points. Installing it again replaces nothing: the first guard stays.
-    fn stall_guard(&mut self, heartbeat: Arc<Heartbeat>) -> Result<bool, DeviceError> {
-        let h = self.opened()?;
-        if self.guard.is_some() {
-            return Ok(true);
-        }
-        let (Some(schedule), Some(_)) = (self.entry.schedule_asynchronous, self.entry.unschedule)
-        else {
-            return Ok(false);
-        };
-        let data = Box::new(GuardData {
-            heartbeat,
+        let data = Box::new(CallbackData {
+            exchange,
+            entry: self.entry,
             handle: h,
-            begin_frame: self.entry.begin_frame,
-            end_frame: self.entry.end_frame,
-            set_doublev: self.entry.set_doublev,
         });
-        let user = &*data as *const GuardData as *mut c_void;
+        let user = &*data as *const CallbackData as *mut c_void;
         // SAFETY: the callback has the `HDSchedulerCallback` signature; `user` points into the
-        // box kept in `self.guard` until after the callback is unscheduled (`Drop`).
-        let id = unsafe { schedule(stall_guard_callback, user, HD_MAX_SCHEDULER_PRIORITY) };
-        self.check()?;
-        self.guard = Some((id, data));
-        Ok(true)
+        // box kept in `self.callback` until after the callback is unscheduled (`Drop`).
+        let id = unsafe {
+            (self.entry.schedule_asynchronous)(frame_callback, user, HD_MAX_SCHEDULER_PRIORITY)
+        };
+        self.callback = Some((id, data));
+        self.check()
     }
 }
 
 impl Drop for HdApi {
+    /// Stops the scheduler (the callback has had its last frame, with zero force and force
+    /// output off, when the device was dropped first), unschedules the callback, and only
+    /// then frees its data and disables the device.
     fn drop(&mut self) {
         let Some(h) = self.handle.take() else {
             return;
         };
-        if self.in_frame {
-            // SAFETY: `h` is initialised and a frame is open on it.
-            unsafe { (self.entry.end_frame)(h) };
-        }
-        // SAFETY: `h` is initialised; HD_FORCE_OUTPUT is a capability.
-        unsafe { (self.entry.disable)(HD_FORCE_OUTPUT) };
         if self.scheduler {
             // SAFETY: no arguments; the scheduler was started by `open_device`.
             unsafe { (self.entry.stop_scheduler)() };
         }
-        if let (Some((id, _data)), Some(unschedule)) = (self.guard.take(), self.entry.unschedule) {
+        if let Some((id, data)) = self.callback.take() {
             // SAFETY: `id` is the handle hdScheduleAsynchronous returned; the scheduler is
             // stopped, so the callback is not running; its data is freed after this call.
-            unsafe { unschedule(id) };
+            unsafe { (self.entry.unschedule)(id) };
+            if !data.exchange.stopped() {
+                // The callback never had its last frame (its scheduler stalled): force output
+                // off from here, the scheduler being stopped.
+                // SAFETY: `h` is initialised; HD_FORCE_OUTPUT is a capability.
+                unsafe { (self.entry.disable)(HD_FORCE_OUTPUT) };
+            }
         }
         // SAFETY: `h` is initialised and is not used after this call.
         unsafe { (self.entry.disable_device)(h) };

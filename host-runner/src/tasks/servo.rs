@@ -87,6 +87,9 @@ pub struct ServoResult {
     pub limits: DeviceLimits,
     /// The force-sign probe at the end of the run (its trips, its least statistic).
     pub probe: SignProbe,
+    /// Warnings the device's vendor library reported, the run going on through them
+    /// ([`HapticDevice::library_warnings`]).
+    pub library_warnings: tetradrill_device::LibraryWarnings,
 }
 
 /// When the servo renders force at all, besides the device's own
@@ -241,6 +244,7 @@ pub fn servo_task(
         armed_at: state.armed_at,
         limits: state.limits,
         probe: state.probe,
+        library_warnings: device.library_warnings(),
     }
 }
 

@@ -3,79 +3,52 @@
 //! stand-in HD library written here in C and compiled with the system C compiler at test time.
 //!
 //! The stand-in is not the vendor library: it exports the HDAPI entry point names the loader
-//! resolves, with trivial behaviour written for these tests (a frame counter drives the
-//! position and buttons, the force set is kept and read back through `HD_CURRENT_FORCE` while
-//! force output is enabled, frame
-//! misuse pushes an error on a small error stack; with `WITH_SCHEDULER`, a scheduler thread
-//! that runs the stall guard's callback). Its numeric codes are the ones the loader declares;
-//! the test checks the loader against them, not against hardware.
+//! resolves, with trivial behaviour written for these tests: a scheduler thread (started by
+//! `hdStartScheduler`, stopped and joined by `hdStopScheduler`) calls the callback given to
+//! `hdScheduleAsynchronous` about every millisecond and unschedules it when it answers
+//! `HD_CALLBACK_DONE`; a frame counter drives the position and buttons; the force set is kept
+//! and read back through `HD_CURRENT_FORCE` while force output is enabled; frame misuse pushes
+//! an error on a per-thread error stack; a frame begun outside the scheduler's callback is
+//! counted. At `hdDisableDevice` (the loader's last call) it writes what it saw to a report
+//! file, which the tests read after the library is unloaded. Its numeric codes are the ones
+//! the loader declares; the tests check the loader against them, not against hardware.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::time::{Duration, Instant};
 
 use tetradrill_device::os::hdapi::{candidates, HdApi, HdLoadError, HD_LIBRARY_ENV};
 use tetradrill_device::safety::SafetyConfig;
-use tetradrill_device::touch::{HdLibrary, TouchDevice, HD_LIBRARY_NAMES};
+use tetradrill_device::touch::{TouchDevice, HD_LIBRARY_NAMES};
 use tetradrill_device::{DeviceError, ForceCommand, HapticDevice};
 use tetradrill_tests::Scratch;
 
-/// The stand-in library. `FAIL_INIT` makes `hdInitDevice` fail as with no device attached.
-/// `WITH_SCHEDULER` adds a scheduler thread (started by `hdStartScheduler`, stopped and
-/// joined by `hdStopScheduler`) that calls the callback given to `hdScheduleAsynchronous`
-/// about every millisecond; frames and the error stack are then per thread, as the force is
-/// shared under a lock.
+/// The stand-in library. `FAIL_INIT` makes `hdInitDevice` fail as with no device attached;
+/// `WARN_AT=N` raises `HD_WARM_MOTORS` in frame N and `FAIL_AT=N` `HD_COMM_ERROR` in frame N
+/// (both in the scheduler's thread, where the frame is); `REPORT="path"` names the report.
 const FAKE_HD_C: &str = r#"
 #include <stddef.h>
+#include <stdio.h>
+#include <pthread.h>
+#include <time.h>
 
 typedef unsigned int HHD;
 typedef unsigned int HDenum;
 typedef struct { unsigned int errorCode; int internalErrorCode; HHD hHD; } HDErrorInfo;
-
-#ifdef WITH_SCHEDULER
-#include <pthread.h>
-#include <time.h>
-#define PER_THREAD __thread
-static pthread_mutex_t force_lock = PTHREAD_MUTEX_INITIALIZER;
-#define LOCK() pthread_mutex_lock(&force_lock)
-#define UNLOCK() pthread_mutex_unlock(&force_lock)
-#else
-#define PER_THREAD
-#define LOCK()
-#define UNLOCK()
-#endif
-
-static int initialised = 0, force_on = 0, scheduler = 0, calibrated = 0;
-static PER_THREAD int in_frame = 0;
-static long frames = 0;
-static double force[3];
-static PER_THREAD HDErrorInfo errors[8];
-static PER_THREAD int n_errors = 0;
-
-#ifdef WITH_SCHEDULER
 typedef unsigned int (*HDSchedulerCallback)(void *);
+
+static pthread_mutex_t force_lock = PTHREAD_MUTEX_INITIALIZER;
+static int initialised = 0, force_on = 0, scheduler = 0, calibrated = 0;
+static __thread int in_frame = 0, in_callback = 0;
+static long frames = 0, frames_outside = 0, callbacks = 0, done = 0;
+static double force[3];
+static __thread HDErrorInfo errors[8];
+static __thread int n_errors = 0;
+
 static HDSchedulerCallback callback = NULL;
 static void *callback_data = NULL;
 static int running = 0;
 static pthread_t scheduler_thread;
-
-static void *scheduler_loop(void *arg) {
-    struct timespec ms = { 0, 1000000 };
-    (void)arg;
-    while (__atomic_load_n(&running, __ATOMIC_ACQUIRE)) {
-        HDSchedulerCallback f = __atomic_load_n(&callback, __ATOMIC_ACQUIRE);
-        if (f) f(callback_data);
-        nanosleep(&ms, NULL);
-    }
-    return NULL;
-}
-unsigned long hdScheduleAsynchronous(HDSchedulerCallback f, void *data, unsigned short prio) {
-    (void)prio;
-    callback_data = data;
-    __atomic_store_n(&callback, f, __ATOMIC_RELEASE);
-    return 1;
-}
-void hdUnschedule(unsigned long h) { if (h == 1) __atomic_store_n(&callback, NULL, __ATOMIC_RELEASE); }
-#endif
 
 static void push(unsigned int code, int internal) {
     if (n_errors < 8) {
@@ -85,6 +58,32 @@ static void push(unsigned int code, int internal) {
         n_errors++;
     }
 }
+
+static void *scheduler_loop(void *arg) {
+    struct timespec ms = { 0, 1000000 };
+    (void)arg;
+    while (__atomic_load_n(&running, __ATOMIC_ACQUIRE)) {
+        HDSchedulerCallback f = __atomic_load_n(&callback, __ATOMIC_ACQUIRE);
+        if (f) {
+            in_callback = 1;
+            if (f(callback_data) == 0) {
+                __atomic_store_n(&callback, NULL, __ATOMIC_RELEASE);
+                __atomic_add_fetch(&done, 1, __ATOMIC_RELAXED);
+            }
+            in_callback = 0;
+            __atomic_add_fetch(&callbacks, 1, __ATOMIC_RELAXED);
+        }
+        nanosleep(&ms, NULL);
+    }
+    return NULL;
+}
+unsigned long hdScheduleAsynchronous(HDSchedulerCallback f, void *data, unsigned short prio) {
+    if (prio != 0xFFFF) push(0x0500, 0);
+    callback_data = data;
+    __atomic_store_n(&callback, f, __ATOMIC_RELEASE);
+    return 1;
+}
+void hdUnschedule(unsigned long h) { if (h == 1) __atomic_store_n(&callback, NULL, __ATOMIC_RELEASE); }
 
 HHD hdInitDevice(const char *name) {
 #ifdef FAIL_INIT
@@ -97,29 +96,46 @@ HHD hdInitDevice(const char *name) {
     return 7;
 #endif
 }
-void hdDisableDevice(HHD h) { if (h == 7) initialised = 0; else push(0x0104, 0); }
+void hdDisableDevice(HHD h) {
+    if (h == 7) initialised = 0; else push(0x0104, 0);
+#ifdef REPORT
+    {
+        FILE *f = fopen(REPORT, "w");
+        if (f) {
+            fprintf(f, "frames=%ld frames_outside=%ld callbacks=%ld done=%ld force_on=%d force=%g,%g,%g\n",
+                    frames, frames_outside, callbacks, done, force_on, force[0], force[1], force[2]);
+            fclose(f);
+        }
+    }
+#endif
+}
 void hdMakeCurrentDevice(HHD h) { if (h != 7 || !initialised) push(0x0104, 0); }
 void hdStartScheduler(void) {
     scheduler = 1;
-#ifdef WITH_SCHEDULER
     __atomic_store_n(&running, 1, __ATOMIC_RELEASE);
     pthread_create(&scheduler_thread, NULL, scheduler_loop, NULL);
-#endif
 }
 void hdStopScheduler(void) {
-#ifdef WITH_SCHEDULER
     if (scheduler) {
         __atomic_store_n(&running, 0, __ATOMIC_RELEASE);
         pthread_join(scheduler_thread, NULL);
     }
-#endif
     scheduler = 0;
 }
 void hdBeginFrame(HHD h) {
+    long n;
     if (h != 7) { push(0x0104, 0); return; }
     if (in_frame) { push(0x0400, 0); return; }
+    if (!in_callback) __atomic_add_fetch(&frames_outside, 1, __ATOMIC_RELAXED);
     in_frame = 1;
-    __atomic_add_fetch(&frames, 1, __ATOMIC_RELAXED);
+    n = __atomic_add_fetch(&frames, 1, __ATOMIC_RELAXED);
+#ifdef WARN_AT
+    if (n == WARN_AT) push(0x0200, 3);
+#endif
+#ifdef FAIL_AT
+    if (n >= FAIL_AT) push(0x0302, 5);
+#endif
+    (void)n;
 }
 void hdEndFrame(HHD h) {
     if (h != 7) { push(0x0104, 0); return; }
@@ -145,9 +161,9 @@ void hdGetDoublev(HDenum p, double *v) {
     }
     else if (p == 0x2700) {
         /* What reaches the motors: nothing while force output is disabled. */
-        LOCK();
+        pthread_mutex_lock(&force_lock);
         for (i = 0; i < 3; i++) v[i] = force_on ? force[i] : 0.0;
-        UNLOCK();
+        pthread_mutex_unlock(&force_lock);
     }
     else push(0x0100, 0);
 }
@@ -163,7 +179,11 @@ void hdGetBooleanv(HDenum p, unsigned char *v) {
 }
 void hdSetDoublev(HDenum p, const double *v) {
     if (!in_frame) { push(0x0102, 0); return; }
-    if (p == 0x2700) { LOCK(); force[0] = v[0]; force[1] = v[1]; force[2] = v[2]; UNLOCK(); }
+    if (p == 0x2700) {
+        pthread_mutex_lock(&force_lock);
+        force[0] = v[0]; force[1] = v[1]; force[2] = v[2];
+        pthread_mutex_unlock(&force_lock);
+    }
     else push(0x0100, 0);
 }
 HDenum hdCheckCalibration(void) {
@@ -309,36 +329,22 @@ fn stand_in_library_without_a_device_reports_what_hd_init_device_said() {
     );
 }
 
-#[test]
-fn stand_in_library_frames_position_buttons_and_force() {
-    let dir = scratch("dev");
-    let Some(lib) = build_fake(&dir, "libHD.so", &[]) else {
-        return;
-    };
+/// Builds the stand-in with a report file and `defines`, opens it and starts the device on
+/// another thread (as the command line does: opened on the main thread, made current in the
+/// servo's). `None` when there is no C compiler.
+fn started(dir: &Path, defines: &[&str]) -> Option<(TouchDevice<HdApi>, PathBuf)> {
+    let report = dir.join("report.txt");
+    let mut all = vec![format!("REPORT=\"{}\"", report.display())];
+    all.extend(defines.iter().map(|d| d.to_string()));
+    let refs: Vec<&str> = all.iter().map(String::as_str).collect();
+    let lib = build_fake(dir, "libHD.so", &refs)?;
     let p = lib.to_string_lossy().into_owned();
     let mut api = HdApi::load_from(&[p], true).expect("the stand-in loads");
     api.open_device(None).expect("the stand-in opens");
     assert_eq!(api.handle(), Some(7));
-
-    // Frame misuse reaches the caller as the HD error code.
-    assert_eq!(
-        api.set_force([1.0, 0.0, 0.0]),
-        Err(DeviceError::LibraryCall { code: 0x0102 })
-    );
-    assert_eq!(
-        api.end_frame(),
-        Err(DeviceError::LibraryCall { code: 0x0401 })
-    );
-
-    // Calibration: needs an update, the stand-in offers inkwell and encoder reset: the
-    // inkwell style is chosen and the next check is OK.
-    api.update_calibration().expect("calibrates");
-    api.update_calibration().expect("already calibrated");
-
-    // Open on "another thread": init only makes the device current.
-    let mut dev = std::thread::spawn(move || {
+    let dev = std::thread::spawn(move || {
         TouchDevice::new(api, None)
-            .expect("made current")
+            .expect("made current, first frame")
             .with_safety(SafetyConfig {
                 ramp_ticks: 1,
                 ..SafetyConfig::for_max_force(3.3)
@@ -346,14 +352,58 @@ fn stand_in_library_frames_position_buttons_and_force() {
     })
     .join()
     .expect("no panic");
+    Some((dev, report))
+}
+
+/// The stand-in's report after the device and the library are dropped: `key=value` pairs.
+fn report(path: &Path) -> std::collections::HashMap<String, String> {
+    let text = std::fs::read_to_string(path).expect("the stand-in wrote its report");
+    text.split_whitespace()
+        .filter_map(|kv| kv.split_once('='))
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect()
+}
+
+/// Polls `done` every millisecond for at most 10 s (a guard against a hang, not a timing
+/// claim).
+fn eventually(mut done: impl FnMut() -> bool) -> bool {
+    let until = Instant::now() + Duration::from_secs(10);
+    while Instant::now() < until {
+        if done() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    false
+}
+
+/// One servo tick: read, write `f`, sleep a period.
+fn tick(dev: &mut TouchDevice<HdApi>, f: [f64; 3]) -> Result<(), DeviceError> {
+    dev.read()?;
+    let w = dev.write(&ForceCommand::force(f));
+    std::thread::sleep(Duration::from_millis(1));
+    w
+}
+
+#[test]
+fn stand_in_library_frames_only_in_the_scheduler_position_buttons_and_force() {
+    let dir = scratch("dev");
+    let Some((mut dev, report_path)) = started(&dir, &[]) else {
+        return;
+    };
+    // Calibration runs in a frame of the callback: needs an update, the stand-in offers
+    // inkwell and encoder reset, the inkwell style is chosen and the next check is OK.
+    dev.calibrate().expect("calibrates");
+    dev.calibrate().expect("already calibrated");
 
     let mut last_tick = 0;
     let mut docked_seen = false;
-    for _ in 0..12 {
+    for _ in 0..2000 {
         let s = dev.read().expect("read");
         assert!(s.tick > last_tick);
         last_tick = s.tick;
-        // The position is a multiple of the frame count: x = n mm, y = 2n mm, z = -n/2 mm.
+        // The position is a multiple of the frame count: x = n mm, y = 2n mm, z = -n/2 mm,
+        // all three from one frame.
         let n = s.position[0] * 1e3;
         assert!(n >= 1.0 && (n - n.round()).abs() < 1e-9, "{:?}", s.position);
         assert!((s.position[1] - 2.0 * s.position[0]).abs() < 1e-12);
@@ -363,12 +413,19 @@ fn stand_in_library_frames_position_buttons_and_force() {
         docked_seen |= s.docked;
         dev.write(&ForceCommand::force([0.0, 10.0, -1.0]))
             .expect("write");
+        std::thread::sleep(Duration::from_millis(1));
+        if docked_seen && s.tick >= 12 {
+            break;
+        }
     }
     assert!(docked_seen, "the stand-in docks every tenth frame");
-    // The force reached the library clamped to 3.3 N, direction kept.
-    let f = dev.library().current_force().expect("read back");
-    let norm = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
-    assert!((norm - 3.3).abs() < 1e-9, "{f:?}");
+    // The force reaches the motors clamped to 3.3 N, direction kept, in the callback's frame.
+    let lib_force = |dev: &TouchDevice<HdApi>| dev.library().current_force().expect("read back");
+    assert!(eventually(|| {
+        let f = lib_force(&dev);
+        ((f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt() - 3.3).abs() < 1e-9
+    }));
+    let f = lib_force(&dev);
     assert!((f[1] / f[2] + 10.0).abs() < 1e-9, "{f:?}");
 
     // NaN is refused and zero force is sent.
@@ -376,47 +433,134 @@ fn stand_in_library_frames_position_buttons_and_force() {
         dev.write(&ForceCommand::force([f64::NAN, 0.0, 0.0])),
         Err(DeviceError::NonFiniteCommand)
     );
-    assert_eq!(dev.library().current_force(), Ok([0.0; 3]));
+    assert!(eventually(|| lib_force(&dev) == [0.0; 3]));
+    assert_eq!(dev.exchange().warnings(), 0);
     drop(dev);
+    let r = report(&report_path);
+    assert_eq!(r["frames_outside"], "0", "{r:?}");
+    assert!(r["frames"].parse::<u64>().expect("frames") >= 12, "{r:?}");
+    assert_eq!(r["force_on"], "0", "force output off after the drop: {r:?}");
+    assert_eq!(r["force"], "0,0,0", "{r:?}");
+    assert_eq!(r["done"], "1", "the callback ended itself: {r:?}");
 }
 
 #[test]
-fn the_scheduler_runs_the_stall_guard_which_zeroes_a_stalled_servos_force() {
+fn the_callback_zeroes_a_stalled_servos_force_and_the_servo_goes_on() {
     let dir = scratch("guard");
-    let Some(lib) = build_fake(&dir, "libHD.so", &["WITH_SCHEDULER"]) else {
+    let Some((mut dev, report_path)) = started(&dir, &[]) else {
         return;
     };
-    let p = lib.to_string_lossy().into_owned();
-    let mut api = HdApi::load_from(&[p], true).expect("the stand-in loads");
-    api.open_device(None).expect("the stand-in opens");
-    let mut dev = TouchDevice::new(api, None)
-        .expect("made current")
-        .with_safety(SafetyConfig {
-            ramp_ticks: 1,
-            ..SafetyConfig::for_max_force(3.3)
-        });
+    tick(&mut dev, [0.0, 0.0, 1.0]).expect("tick");
+    assert!(eventually(
+        || dev.library().current_force() == Ok([0.0, 0.0, 1.0])
+    ));
+    let trips_before = dev.exchange().stall_trips();
+    // The servo stops here. The callback sees no new command for 5 ms and sets zero.
     assert!(
-        dev.stall_guarded(),
-        "the stand-in has hdScheduleAsynchronous"
+        eventually(|| dev.exchange().stall_trips() > trips_before
+            && dev.library().current_force() == Ok([0.0; 3])),
+        "the callback never zeroed the stalled servo's force"
     );
-    dev.read().expect("read");
-    dev.write(&ForceCommand::force([0.0, 0.0, 1.0]))
-        .expect("write");
-    let trips_before = dev.heartbeat().trips();
-    // The servo stops here. The stand-in's scheduler runs the guard about every millisecond;
-    // once the heartbeat is 2 ms old the guard sets zero. The loop only keeps a broken guard
-    // from hanging the test; nothing is asserted about how long it took.
-    let mut zeroed = false;
-    for _ in 0..10_000 {
-        if dev.heartbeat().trips() > trips_before && dev.library().current_force() == Ok([0.0; 3]) {
-            zeroed = true;
-            break;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(1));
+    // The servo goes on: its force comes back, ramped.
+    for _ in 0..5 {
+        tick(&mut dev, [0.0, 0.0, 1.0]).expect("tick after the stall");
     }
-    assert!(zeroed, "the guard never zeroed the stalled servo's force");
-    // The guard's frames left no HD error behind: the servo goes on.
-    dev.read().expect("read after the stall");
-    // Dropping stops the scheduler, unschedules the guard and unloads the library.
+    assert!(eventually(
+        || dev.library().current_force() == Ok([0.0, 0.0, 1.0])
+    ));
     drop(dev);
+    assert_eq!(report(&report_path)["frames_outside"], "0");
+}
+
+#[test]
+fn a_warm_motors_warning_is_counted_and_the_run_goes_on() {
+    let dir = scratch("warn");
+    let Some((mut dev, report_path)) = started(&dir, &["WARN_AT=20"]) else {
+        return;
+    };
+    assert!(eventually(|| {
+        tick(&mut dev, [0.0, 1.0, 0.0]).expect("a warning ends nothing");
+        dev.exchange().warnings() >= 1
+    }));
+    let w = dev.library_warnings();
+    assert_eq!(w.count, 1);
+    assert_eq!(w.last, Some("HD_WARM_MOTORS"));
+    for _ in 0..10 {
+        tick(&mut dev, [0.0, 1.0, 0.0]).expect("goes on");
+    }
+    drop(dev);
+    assert_eq!(report(&report_path)["frames_outside"], "0");
+}
+
+#[test]
+fn an_hd_error_in_the_callback_ends_the_run_with_force_off() {
+    let dir = scratch("fail");
+    let Some((mut dev, report_path)) = started(&dir, &["FAIL_AT=30"]) else {
+        return;
+    };
+    let mut err = None;
+    assert!(eventually(|| match tick(&mut dev, [0.0, 1.0, 0.0]) {
+        Ok(()) => false,
+        Err(e) => {
+            err = Some(e);
+            true
+        }
+    }));
+    // HD_COMM_ERROR: the device is gone.
+    assert_eq!(err, Some(DeviceError::Disconnected));
+    assert_eq!(
+        dev.exchange().fatal().map(|e| (e.code, e.internal)),
+        Some((0x0302, 5))
+    );
+    assert_eq!(
+        dev.library().current_force(),
+        Ok([0.0; 3]),
+        "force output off"
+    );
+    drop(dev);
+    let r = report(&report_path);
+    assert_eq!(r["frames"], "30", "no frame after the error's: {r:?}");
+    assert_eq!(r["frames_outside"], "0", "{r:?}");
+    assert_eq!(r["force_on"], "0", "{r:?}");
+}
+
+#[test]
+fn a_run_on_the_stand_in_touch_reports_its_warnings_and_stops_cleanly() {
+    let dir = scratch("run");
+    let report_path = dir.join("report.txt");
+    let report_define = format!("REPORT=\"{}\"", report_path.display());
+    let Some(lib) = build_fake(&dir, "libHD.so", &[&report_define, "WARN_AT=100"]) else {
+        return;
+    };
+    let json = dir.join("run.json");
+    let out = Command::new(tetradrill_tests::tetradrill_bin())
+        .args([
+            "run",
+            "--device",
+            "touch",
+            "--duration",
+            "0.5",
+            "--no-rt",
+            "--json",
+        ])
+        .arg(&json)
+        .env(HD_LIBRARY_ENV, &lib)
+        .output()
+        .expect("run tetradrill");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("the JSON")).expect("JSON");
+    assert_eq!(v["device"], "touch");
+    assert_eq!(v["safety"]["library_warnings"], 1, "{v}");
+    assert_eq!(v["safety"]["library_warning_last"], "HD_WARM_MOTORS");
+    assert!(
+        err.lines()
+            .any(|l| l.contains("library warned 1 time (last: HD_WARM_MOTORS)")),
+        "{err}"
+    );
+    let r = report(&report_path);
+    assert_eq!(r["frames_outside"], "0", "{r:?}");
+    assert_eq!(r["force_on"], "0", "{r:?}");
+    assert!(r["frames"].parse::<u64>().expect("frames") >= 300, "{r:?}");
 }

@@ -453,6 +453,8 @@ impl Ended {
                 stiffness_capped: self.checks.stiffness_capped,
                 damping: self.checks.damping,
                 max_force_capped_n: self.checks.max_force_capped_n,
+                library_warnings: servo.library_warnings.count,
+                library_warning_last: servo.library_warnings.last,
             },
             contact: RunContact {
                 max_depth_m: f64::from(servo.max_depth_m),
@@ -498,6 +500,19 @@ impl Ended {
         };
         if self.summary {
             print_summary(&rep);
+        }
+        if let Some(last) = rep.safety.library_warning_last {
+            errln!(
+                "tetradrill: warning: the {} device's library warned {} time{} (last: {last}); \
+                 the force ramped in again after each",
+                rep.device,
+                rep.safety.library_warnings,
+                if rep.safety.library_warnings == 1 {
+                    ""
+                } else {
+                    "s"
+                }
+            );
         }
         if rep.safety.passivity_trips > 0 {
             let after = if rep.safety.trips_locked_out {

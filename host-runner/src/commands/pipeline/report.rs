@@ -211,6 +211,18 @@ pub struct RunSafety {
     /// The scene asked for a peak force past the device's: the peak used, newtons.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_force_capped_n: Option<f64>,
+    /// Warnings the device's vendor library reported (the Touch's force warnings,
+    /// `HD_WARM_MOTORS` among them); the run went on through them, the force ramping in again
+    /// after each.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub library_warnings: u64,
+    /// The last of those warnings, by name.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub library_warning_last: Option<&'static str>,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }
 
 /// The scene's damping at the device against the device's range.
