@@ -34,6 +34,11 @@ pub struct DemoArgs {
     /// Write a PNG of the view at the end of the run (no display needed).
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
+    /// Cut the view open with a plane across an axis: `x`, `y` or `z` (through the tool's
+    /// work area), or `x:AT` (at that coordinate); the section shows the regions. The window's
+    /// `C` key toggles it.
+    #[arg(long, value_name = "AXIS[:AT]", value_parser = crate::viewer::ClipSpec::parse)]
+    pub clip: Option<crate::viewer::ClipSpec>,
     /// The tool, as `run --tool` takes it (default: the demo's burr, `sphere:0.1`);
     /// `drill:BURR_R:SHAFT_LEN:SHAFT_R` puts the burr on a shaft along the tool's axis (+z
     /// on the scripted path, which plunges from above).
@@ -75,7 +80,8 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
             ..SoftSettings::default()
         });
     }
-    let view = ViewOptions::of(args.headless, args.screenshot.clone())?;
+    let mut view = ViewOptions::of(args.headless, args.screenshot.clone())?;
+    view.clip = args.clip;
     let loaded = crate::engine::load_mesh(&sc)?;
     errln!(
         "tetradrill demo: {}{} drilled by a {} {} on the simulated device ({} s scripted path)",

@@ -72,6 +72,11 @@ pub struct RunArgs {
     /// Write a PNG of the view at the end of the run (no display needed).
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
+    /// Cut the view open with a plane across an axis: `x`, `y` or `z` (through the tool's
+    /// work area), or `x:AT` (at that coordinate); the section shows the regions. The window's
+    /// `C` key toggles it.
+    #[arg(long, value_name = "AXIS[:AT]", value_parser = crate::viewer::ClipSpec::parse)]
+    pub clip: Option<crate::viewer::ClipSpec>,
     /// A fault for the simulated device: `reversed-force` (the stylus receives -F) or
     /// `mirrored-x` (the reported x is mirrored); the passivity controller must trip.
     #[arg(long, value_name = "KIND", value_parser = parse_sim_fault)]
@@ -107,7 +112,8 @@ pub fn parse_device(s: &str) -> Result<DeviceKind, String> {
 /// Runs `run`.
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let sc = Scenario::from_flags(&args.scenario)?.setup()?;
-    let view = crate::viewer::ViewOptions::of(args.headless, args.screenshot.clone())?;
+    let mut view = crate::viewer::ViewOptions::of(args.headless, args.screenshot.clone())?;
+    view.clip = args.clip;
     // The mesh, read once: the world's, the wander's waypoints, the device's workspace.
     let loaded = crate::engine::load_mesh(&sc)?;
     let devices = DeviceConfig::from_flag(args.device_config.as_deref())?;

@@ -59,6 +59,13 @@ struct ViewerApp<'a> {
     sim_hz: f64,
     fps: f64,
     close_at_end: bool,
+    /// The clip plane: on, its axis, where it crosses (`None`: through the work area's
+    /// centre), and the scene's bounds and work area as the last frame saw them.
+    clip_on: bool,
+    clip_axis: usize,
+    clip_at: Option<f32>,
+    bounds: Option<(tetradrill_core::Vec3, tetradrill_core::Vec3)>,
+    work: Option<(tetradrill_core::Vec3, tetradrill_core::Vec3)>,
 }
 
 /// Runs the window until it is closed; returns the last scene.
@@ -82,11 +89,13 @@ pub fn run(link: LiveLink<'_>) -> Result<Scene, CliError> {
             .with_inner_size([1200.0, 780.0]),
         renderer: eframe::Renderer::Glow,
         depth_buffer: 24,
+        stencil_buffer: 8,
         multisampling: 0,
         ..Default::default()
     };
     let app_side = Arc::clone(&side);
     let initial = link.initial;
+    let clip = link.clip;
     eframe::run_native(
         "tetradrill",
         options,
@@ -117,6 +126,11 @@ pub fn run(link: LiveLink<'_>) -> Result<Scene, CliError> {
                 sim_hz: 0.0,
                 fps: 0.0,
                 close_at_end: std::env::var_os(CLOSE_AT_END).is_some_and(|v| v == "1"),
+                clip_on: clip.is_some(),
+                clip_axis: clip.map_or(0, |c| c.axis),
+                clip_at: clip.and_then(|c| c.at),
+                bounds: None,
+                work: None,
             }))
         }),
     )
@@ -152,8 +166,16 @@ impl eframe::App for ViewerApp<'_> {
                 s.scene.apply(snap);
             }
             self.mesh_tool = s.scene.tool_shape.is_some();
+            self.bounds = s.scene.bounds;
+            self.work = s.scene.work_area();
             if !self.fitted {
-                if let Some((lo, hi)) = s.scene.bounds {
+                // The start frames the tool's work area; "fit view" the whole scene.
+                let area = if s.scene.applied <= 1 {
+                    self.work.or(self.bounds)
+                } else {
+                    self.bounds
+                };
+                if let Some((lo, hi)) = area {
                     self.camera.fit(lo, hi);
                     self.fitted = true;
                 }
@@ -355,8 +377,53 @@ impl ViewerApp<'_> {
             self.link.controls.write(*c);
         }
         ui.separator();
+        if ui.input(|i| i.key_pressed(egui::Key::C)) {
+            self.clip_on = !self.clip_on;
+        }
+        ui.checkbox(&mut self.clip_on, "clip plane (C)")
+            .on_hover_text("Cut the view open across an axis: the section shows the regions.");
+        if self.clip_on {
+            ui.horizontal(|ui| {
+                for (k, name) in ["x", "y", "z"].into_iter().enumerate() {
+                    if ui.radio(self.clip_axis == k, name).clicked() && self.clip_axis != k {
+                        self.clip_axis = k;
+                        self.clip_at = None;
+                    }
+                }
+            });
+            if let Some((lo, hi)) = self.bounds {
+                let k = self.clip_axis;
+                let mut at = self.clip_at.unwrap_or_else(|| self.work_centre(k));
+                if ui
+                    .add(egui::Slider::new(&mut at, lo[k]..=hi[k]).text("at"))
+                    .changed()
+                {
+                    self.clip_at = Some(at);
+                }
+            }
+        }
+        ui.separator();
         ui.small("drag: orbit   right/middle drag: pan   wheel: zoom");
         ui.small("the stylus moves the tool as it moves on screen: the device frame turns with the orbit");
+    }
+
+    /// The centre of the work area (else of the scene) along axis `k`.
+    fn work_centre(&self, k: usize) -> f32 {
+        self.work
+            .or(self.bounds)
+            .map_or(0.0, |(lo, hi)| 0.5 * (lo[k] + hi[k]))
+    }
+
+    /// The clip plane of this frame, seen from `camera`, when it is on.
+    fn clip_plane(&self, camera: &Camera) -> Option<super::gl::ClipPlane> {
+        let k = self.clip_axis;
+        self.clip_on.then(|| {
+            super::gl::ClipPlane::facing(
+                k,
+                self.clip_at.unwrap_or_else(|| self.work_centre(k)),
+                camera.eye(),
+            )
+        })
     }
 
     /// Hands the egocentric camera `C` of the current orbit to the servo when it changed
@@ -394,6 +461,7 @@ impl ViewerApp<'_> {
         self.publish_camera();
         let side = Arc::clone(&self.side);
         let camera = self.camera;
+        let clip_plane = self.clip_plane(&camera);
         let cb = egui_glow::CallbackFn::new(move |info, painter| {
             let t0 = Instant::now();
             let mut guard = lock(&side);
@@ -417,6 +485,7 @@ impl ViewerApp<'_> {
                     DrawOptions {
                         tool: true,
                         clear: true,
+                        clip: clip_plane,
                     },
                 );
             }

@@ -160,6 +160,9 @@ pub struct Snapshot {
     /// The colour the scenario gives each region, in label order (full snapshots only;
     /// `None` leaves the viewer's as it is).
     pub region_colours: Option<RegionColours>,
+    /// The regions on a grid, for the clip plane's section (full snapshots only; `None`
+    /// leaves the viewer's as it is).
+    pub labels: Option<super::labels::LabelGridRef>,
 }
 
 /// The colour a scenario gives each region (`[regions.LABEL] colour`), in label order, as

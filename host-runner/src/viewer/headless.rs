@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use super::camera::Camera;
-use super::gl::{DrawOptions, Offscreen, Renderer};
+use super::gl::{ClipPlane, DrawOptions, Offscreen, Renderer};
 use super::scene::Scene;
 use crate::error::CliError;
 
@@ -73,18 +73,35 @@ pub fn render(
     height: u32,
     tool: bool,
 ) -> Result<Picture, String> {
-    let off = Offscreen::new(width, height)?;
-    let mut r = Renderer::new(off.gl())?;
-    off.bind();
-    r.sync(off.gl(), scene);
-    r.draw(
-        off.gl(),
+    render_with(
         scene,
         camera,
         width,
         height,
-        DrawOptions { tool, clear: true },
-    );
+        DrawOptions {
+            tool,
+            clear: true,
+            clip: None,
+        },
+    )
+}
+
+/// [`render`] with every drawing option (the clip plane among them).
+///
+/// # Errors
+/// No EGL/OpenGL context could be made (the message says what to install).
+pub fn render_with(
+    scene: &mut Scene,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    opts: DrawOptions,
+) -> Result<Picture, String> {
+    let off = Offscreen::new(width, height)?;
+    let mut r = Renderer::new(off.gl())?;
+    off.bind();
+    r.sync(off.gl(), scene);
+    r.draw(off.gl(), scene, camera, width, height, opts);
     let rgba = off.read_rgba();
     r.destroy(off.gl());
     Ok(Picture {
@@ -102,18 +119,57 @@ pub fn default_camera(scene: &Scene) -> Camera {
     }
 }
 
-/// Renders `scene` from the default camera at [`SCREENSHOT_SIZE`] and writes it to `path`
-/// (`--screenshot`).
+/// The camera of `--screenshot`: framing the tool's work area ([`Scene::work_area`]), else
+/// the whole scene; with a clip plane across `axis`, turned to look at the section about 30
+/// degrees off its normal.
+pub fn work_camera(scene: &Scene, clip_axis: Option<usize>) -> Camera {
+    let mut c = match scene.work_area().or(scene.bounds) {
+        Some((lo, hi)) => Camera::framing(lo, hi),
+        None => Camera::default(),
+    };
+    match clip_axis {
+        Some(0) => c.yaw = (-28f32).to_radians(),
+        Some(1) => c.yaw = (-62f32).to_radians(),
+        Some(_) => c.pitch = 58f32.to_radians(),
+        None => {}
+    }
+    c
+}
+
+/// The clip plane `spec` asks for, seen from `camera`: at its coordinate, or through the
+/// centre of the tool's work area (else of the scene), cutting away the camera's side.
+pub fn clip_plane(scene: &Scene, camera: &Camera, spec: super::ClipSpec) -> Option<ClipPlane> {
+    let at = match spec.at {
+        Some(a) => a,
+        None => {
+            let (lo, hi) = scene.work_area().or(scene.bounds)?;
+            0.5 * (lo[spec.axis] + hi[spec.axis])
+        }
+    };
+    Some(ClipPlane::facing(spec.axis, at, camera.eye()))
+}
+
+/// Renders `scene` at [`SCREENSHOT_SIZE`], framing the tool's work area and cut open by
+/// `clip` if given, and writes it to `path` (`--screenshot`, `--clip`).
 ///
 /// # Errors
 /// No GL context (exit 1, saying what to install) or an I/O error.
-pub fn screenshot(scene: &mut Scene, path: &Path) -> Result<(), CliError> {
-    let camera = default_camera(scene);
+pub fn screenshot(
+    scene: &mut Scene,
+    path: &Path,
+    clip: Option<super::ClipSpec>,
+) -> Result<(), CliError> {
+    let camera = work_camera(scene, clip.map(|c| c.axis));
+    let opts = DrawOptions {
+        tool: true,
+        clear: true,
+        clip: clip.and_then(|c| clip_plane(scene, &camera, c)),
+    };
     let (w, h) = SCREENSHOT_SIZE;
     // On a thread of its own: after the live window closed, its GL context can stay current on
     // this thread, and Mesa then refuses the new context (EGL_BAD_ACCESS).
     let pic = std::thread::scope(|s| {
-        s.spawn(|| render(scene, &camera, w, h, true))
+        s.spawn(|| render_with(scene, &camera, w, h, opts))
             .join()
             .unwrap_or_else(|_| Err("the render thread panicked".to_string()))
     })

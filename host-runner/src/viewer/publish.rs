@@ -42,6 +42,7 @@ pub struct SimViewer<'q> {
     tool_shape: Option<ToolShape>,
     regions: Option<RegionSlots>,
     region_colours: Option<super::handoff::RegionColours>,
+    labels: Option<super::labels::LabelGridRef>,
     /// The smooth normals' storage until the first snapshot makes them.
     smooth_store: Option<&'q mut SmoothStore>,
     smooth: Option<LiveSmooth<'q>>,
@@ -68,6 +69,7 @@ impl<'q> SimViewer<'q> {
             tool_shape: None,
             regions: None,
             region_colours: None,
+            labels: None,
             smooth_store: None,
             smooth: None,
             smooth_reset: false,
@@ -93,6 +95,14 @@ impl<'q> SimViewer<'q> {
     /// full snapshot).
     pub fn set_region_colours(&mut self, colours: Option<Vec<Option<[f32; 3]>>>) {
         self.region_colours = colours.map(Into::into);
+    }
+
+    /// Sets the regions, their colours and their grid at once (sent with every full
+    /// snapshot).
+    pub fn set_regions_view(&mut self, view: RegionsView) {
+        self.regions = view.slots;
+        self.region_colours = view.colours;
+        self.labels = view.labels;
     }
 
     /// Sets the shape a mesh tool is drawn with (sent with every full snapshot).
@@ -236,6 +246,7 @@ impl<'q> SimViewer<'q> {
             tool_shape: self.tool_shape.clone().filter(|_| full),
             regions: self.regions.clone().filter(|_| full),
             region_colours: self.region_colours.clone().filter(|_| full),
+            labels: self.labels.clone().filter(|_| full),
         };
         match self.queue.try_publish(s) {
             Ok(()) => {
@@ -477,6 +488,49 @@ pub fn tool_shape(mesh: &tetradrill_core::mesh::Mesh<'_>) -> ToolShape {
 /// The scene of `world` as it is now: every visible triangle with its smooth normals, the
 /// tool and the status.
 pub fn scene_of(world: &World<'_>, tool: Option<ToolView>, status: SimStatus) -> Scene {
+    scene_with_regions(world, tool, status, &RegionsView::default())
+}
+
+/// The regions as the viewer shows them: each coarse tet's colour slot, the scenario's
+/// colours, and the regions on a grid for the clip plane's section.
+#[derive(Debug, Clone, Default)]
+pub struct RegionsView {
+    /// Each coarse tet's colour slot (`None`: one region).
+    pub slots: Option<RegionSlots>,
+    /// The scenario's colours, in label order.
+    pub colours: Option<super::handoff::RegionColours>,
+    /// The regions on a grid.
+    pub labels: Option<super::labels::LabelGridRef>,
+}
+
+impl RegionsView {
+    /// The view of `mesh` with region `labels` (one per tet) and the scenario's `colours`.
+    /// Work: the grid's cells over every tet's bounding box, once (not on the servo path).
+    pub fn of(
+        mesh: &tetradrill_core::mesh::Mesh<'_>,
+        labels: &[i32],
+        colours: Option<Vec<Option<[f32; 3]>>>,
+    ) -> RegionsView {
+        let slots = super::handoff::region_slots(labels);
+        let labels = slots.as_ref().and_then(|s| {
+            super::labels::LabelGrid::of_mesh(mesh, s, super::labels::GRID_CELLS)
+                .map(std::sync::Arc::new)
+        });
+        RegionsView {
+            slots,
+            colours: colours.map(Into::into),
+            labels,
+        }
+    }
+}
+
+/// [`scene_of`] with the regions coloured and gridded as `regions` says.
+pub fn scene_with_regions(
+    world: &World<'_>,
+    tool: Option<ToolView>,
+    status: SimStatus,
+    regions: &RegionsView,
+) -> Scene {
     let mut store = SmoothStore::for_world(world);
     let mut smooth = LiveSmooth::new(&mut store, world);
     let mut status = status;
@@ -495,8 +549,9 @@ pub fn scene_of(world: &World<'_>, tool: Option<ToolView>, status: SimStatus) ->
         status,
         initial_volume: world.mesh().volume(),
         tool_shape: None,
-        regions: None,
-        region_colours: None,
+        regions: regions.slots.clone(),
+        region_colours: regions.colours.clone(),
+        labels: regions.labels.clone(),
     });
     if tool.is_none() {
         scene.tool = None;

@@ -58,6 +58,10 @@ pub struct Scene {
     pub regions: Option<super::handoff::RegionSlots>,
     /// The colour the scenario gives each region, once a snapshot gave them.
     pub region_colours: Option<super::handoff::RegionColours>,
+    /// The regions on a grid (the clip plane's section), once a snapshot gave them.
+    pub labels: Option<super::labels::LabelGridRef>,
+    /// Bounds of every drilled triangle ever shown, if any (the tool's work area).
+    pub drilled_bounds: Option<(Vec3, Vec3)>,
 }
 
 impl Scene {
@@ -77,6 +81,9 @@ impl Scene {
         if s.region_colours.is_some() {
             self.region_colours = s.region_colours;
         }
+        if s.labels.is_some() {
+            self.labels = s.labels;
+        }
         for p in s.patches {
             self.set_patch(p);
         }
@@ -90,8 +97,10 @@ impl Scene {
         self.applied += 1;
     }
 
-    /// Drops every triangle.
+    /// Drops every triangle (the bounds seen so far stay; the drilled ones are made again by
+    /// the patches that follow).
     pub fn clear(&mut self) {
+        self.drilled_bounds = None;
         self.owned.clear();
         self.free.clear();
         self.data.iter_mut().for_each(|x| *x = 0.0);
@@ -134,10 +143,10 @@ impl Scene {
         for t in &p.tris {
             for c in t.corners {
                 let v = Vec3::from_array(c);
-                self.bounds = Some(match self.bounds {
-                    None => (v, v),
-                    Some((lo, hi)) => (lo.min(v), hi.max(v)),
-                });
+                grow(&mut self.bounds, v);
+                if t.drilled {
+                    grow(&mut self.drilled_bounds, v);
+                }
             }
         }
         if !mine.is_empty() {
@@ -220,6 +229,29 @@ impl Scene {
         self.dirty_any = true;
     }
 
+    /// The tool's work area: the drilled faces and the tool, with a margin of a few tool
+    /// radii (at least a tenth of the scene's size); before anything is drilled, the tool
+    /// with a margin of six radii (at least a sixth of the scene). `None` without a tool and
+    /// without drilled faces.
+    pub fn work_area(&self) -> Option<(Vec3, Vec3)> {
+        let diag = self.bounds.map_or(1.0, |(lo, hi)| (hi - lo).length());
+        let tool = self.tool.map(|t| (t.shown, t.radius));
+        let (mut area, pad) = match (self.drilled_bounds, tool) {
+            (Some(d), _) => (d, (3.0 * tool.map_or(0.0, |t| t.1)).max(0.1 * diag)),
+            (None, Some((p, r))) => ((p, p), (6.0 * r).max(diag / 6.0)),
+            (None, None) => return None,
+        };
+        if let Some((p, _)) = tool.filter(|_| self.drilled_bounds.is_some()) {
+            // A tool far from the work (lifted away) does not widen it past the scene.
+            if self.bounds.is_none_or(|(lo, hi)| {
+                p.cmpge(lo - diag * 0.1).all() && p.cmple(hi + diag * 0.1).all()
+            }) {
+                area = (area.0.min(p), area.1.max(p));
+            }
+        }
+        Some((area.0 - Vec3::splat(pad), area.1 + Vec3::splat(pad)))
+    }
+
     /// Visible triangles held.
     pub fn triangle_count(&self) -> usize {
         self.tris
@@ -276,6 +308,14 @@ impl Scene {
     }
 }
 
+/// Widens `b` to hold `v`.
+fn grow(b: &mut Option<(Vec3, Vec3)>, v: Vec3) {
+    *b = Some(match *b {
+        None => (v, v),
+        Some((lo, hi)) => (lo.min(v), hi.max(v)),
+    });
+}
+
 /// What to upload.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Updates {
@@ -296,6 +336,7 @@ struct Owned {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::viewer::handoff::ToolView;
 
     fn tri(z: f32, drilled: bool) -> SurfTri {
         SurfTri {
@@ -340,5 +381,55 @@ mod tests {
         assert_eq!(s.triangle_count(), 4);
         assert_eq!(s.take_updates(), Updates::Runs(vec![(2, 1)]));
         assert_eq!(s.take_updates(), Updates::Runs(Vec::new()));
+    }
+
+    #[test]
+    fn the_work_area_is_the_drilled_faces_and_the_tool_with_a_margin() {
+        let mut s = Scene::new();
+        assert_eq!(s.work_area(), None);
+        // A scene 10 wide; nothing drilled: the tool with six radii (at least a sixth of the
+        // scene's diagonal).
+        s.set_patch(Patch {
+            tet: 0,
+            tris: vec![SurfTri {
+                corners: [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0]],
+                normals: [[0.0; 3]; 3],
+                drilled: false,
+            }],
+        });
+        s.tool = Some(ToolView {
+            shown: Vec3::new(5.0, 5.0, 1.0),
+            radius: 0.5,
+            ..ToolView::default()
+        });
+        let diag = Vec3::new(10.0, 10.0, 0.0).length();
+        let (lo, hi) = s.work_area().expect("the tool");
+        let pad = (6.0 * 0.5f32).max(diag / 6.0);
+        assert!((lo - Vec3::new(5.0 - pad, 5.0 - pad, 1.0 - pad)).length() < 1e-5);
+        assert!((hi - Vec3::new(5.0 + pad, 5.0 + pad, 1.0 + pad)).length() < 1e-5);
+        // A drilled triangle: it and the tool, with three radii (at least a tenth of the
+        // diagonal).
+        s.set_patch(Patch {
+            tet: 1,
+            tris: vec![tri(0.0, true)],
+        });
+        let (lo, hi) = s.work_area().expect("drilled");
+        let pad = (3.0 * 0.5f32).max(0.1 * diag);
+        assert!((lo - Vec3::new(-pad, -pad, -pad)).length() < 1e-5, "{lo}");
+        assert!(
+            (hi - Vec3::new(5.0 + pad, 5.0 + pad, 1.0 + pad)).length() < 1e-5,
+            "{hi}"
+        );
+        // A tool lifted far away does not widen it.
+        s.tool = Some(ToolView {
+            shown: Vec3::new(5.0, 5.0, 100.0),
+            radius: 0.5,
+            ..ToolView::default()
+        });
+        let (_, hi) = s.work_area().expect("drilled");
+        assert!(
+            (hi - Vec3::new(1.0 + pad, 1.0 + pad, pad)).length() < 1e-5,
+            "{hi}"
+        );
     }
 }

@@ -4,4 +4,5 @@
 mod viewer_controls;
 mod viewer_frame;
 mod viewer_render;
+mod viewer_section;
 mod viewer_smooth;

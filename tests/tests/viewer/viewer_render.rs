@@ -339,6 +339,7 @@ fn partial_buffer_updates_draw_what_a_full_upload_draws() {
         DrawOptions {
             tool: false,
             clear: true,
+            clip: None,
         },
     );
     let incremental = Picture {

@@ -103,10 +103,7 @@ impl PipelineSetup {
             },
             status_line: false,
             summary: false,
-            view: crate::viewer::ViewOptions {
-                window: false,
-                screenshot: None,
-            },
+            view: crate::viewer::ViewOptions::default(),
             stop: StopRequest::new(),
             record: None,
             gate: tasks::ServoGate {
@@ -153,7 +150,6 @@ pub fn run(
         return run_pen(sc, loaded, setup, json, path, *scale);
     }
     let params = TickParams::of(sc)?;
-    let regions = crate::viewer::handoff::region_slots(&loaded.labels);
     let mut store = EngineStorage::new(loaded.mesh, sc)?;
     store.set_labels(&loaded.labels, sc)?;
     let mut soft_owned = match soft.as_ref() {
@@ -170,7 +166,7 @@ pub fn run(
         .ok()
         .flatten()
         .map(|t| t.colours);
-    let (initial_volume, tets, centre, smooth_store) = {
+    let (initial_volume, tets, centre, smooth_store, regions_view) = {
         let world = store.world()?;
         (
             world.mesh().volume(),
@@ -181,6 +177,14 @@ pub fn run(
                 .view
                 .any()
                 .then(|| crate::viewer::smooth_live::SmoothStore::for_world(&world)),
+            // The regions' colours and grid, for the viewer only.
+            setup.view.any().then(|| {
+                crate::viewer::publish::RegionsView::of(
+                    world.mesh(),
+                    &loaded.labels,
+                    region_colours.clone(),
+                )
+            }),
         )
     };
     let (mut contact_in, mut contact_out) =
@@ -247,8 +251,9 @@ pub fn run(
                         tets,
                     );
                     l.set_initial_volume(initial_volume);
-                    l.set_regions(regions);
-                    l.set_region_colours(region_colours);
+                    if let Some(r) = regions_view {
+                        l.set_regions_view(r);
+                    }
                     if let Some(st) = smooth_store.as_mut() {
                         l.set_smooth_store(st);
                     }
@@ -363,7 +368,7 @@ pub fn run(
     };
     let (rep, error) = ended.report(servo, &shared, None)?;
     if let Some(path) = &view.screenshot {
-        crate::viewer::screenshot(&mut scene, path)?;
+        crate::viewer::screenshot(&mut scene, path, view.clip)?;
     }
     conclude(rep, json, error, valid)
 }

@@ -195,7 +195,7 @@ pub(super) fn run_pen(
     };
     let (rep, error) = ended.report(servo, &shared, Some(summary))?;
     if let Some(path) = &setup.view.screenshot {
-        crate::viewer::screenshot(&mut shown, path)?;
+        crate::viewer::screenshot(&mut shown, path, setup.view.clip)?;
     }
     if let Some(p) = rep.pen.as_ref().filter(|_| setup.summary) {
         outln!(

@@ -286,6 +286,7 @@ pub(super) fn main_thread_tasks<'scope, 'env: 'scope, S>(
             controls,
             initial: initial_controls,
             camera: Some(camera),
+            clip: view.clip,
         };
         let shown = crate::viewer::run_window(link);
         // A closed window ends the run.

@@ -44,6 +44,10 @@ pub struct ReplayArgs {
     /// needed).
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
+    /// Cut the screenshot open with a plane across an axis: `x`, `y` or `z` (through the
+    /// tool's work area), or `x:AT` (at that coordinate); the section shows the regions.
+    #[arg(long, value_name = "AXIS[:AT]", value_parser = crate::viewer::ClipSpec::parse)]
+    pub clip: Option<crate::viewer::ClipSpec>,
     /// Replay this many times from scratch (1 to 100; a sphere tool only) and time each tick
     /// as the fastest of the runs: the tick's cost without the preemption of a shared
     /// machine. Every run must give the same force digest (checked).
@@ -78,7 +82,8 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
              has no such pass",
         ));
     }
-    let view = crate::viewer::ViewOptions::of(true, args.screenshot.clone())?;
+    let mut view = crate::viewer::ViewOptions::of(true, args.screenshot.clone())?;
+    view.clip = args.clip;
     let params = TickParams::of(&sc)?;
     let poses = PoseSource::new(&sc.poses, Some(&loaded.mesh))?;
     let ticks = replay_ticks(args, &poses);
@@ -242,8 +247,14 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
             saturations: rep.saturations.total,
             ..Default::default()
         };
-        let mut scene = crate::viewer::publish::scene_of(&world, tool, status);
-        crate::viewer::screenshot(&mut scene, path)?;
+        let colours = engine::region_table(&loaded.labels, &sc.materials)
+            .ok()
+            .flatten()
+            .map(|t| t.colours);
+        let regions =
+            crate::viewer::publish::RegionsView::of(world.mesh(), &loaded.labels, colours);
+        let mut scene = crate::viewer::publish::scene_with_regions(&world, tool, status, &regions);
+        crate::viewer::screenshot(&mut scene, path, view.clip)?;
     }
     valid.map_err(|e| CliError::failure(format!("the final state is invalid: {e}")))
 }

@@ -1,8 +1,18 @@
 //! The viewer's OpenGL: the renderer (one shader, the surface in one vertex buffer updated by
-//! chunk runs, the tool sphere, the force arrow) and the headless EGL context with its
-//! offscreen framebuffer (`offscreen.rs`). Every `unsafe` block of the viewer is in this
-//! module: each is a call into OpenGL or EGL on a context that is current on this thread, with
-//! objects this module created on that context.
+//! chunk runs, the burr with its neck and shank, the force arrow, the clip plane's section)
+//! and the headless EGL context with its offscreen framebuffer (`offscreen.rs`).
+//!
+//! Light: a hemisphere term (brighter facing up, the meshes' +z), a key light from above and
+//! beside the camera, and a little headlight; all grey, so a lit colour keeps its hue. Drilled
+//! faces are their region's colour, darker, and take less of the hemisphere (a cavity's walls
+//! see less of the sky); without regions they are the palette's `drilled` colour.
+//!
+//! The clip plane (`ClipPlane`) discards the surface on the camera's side. Where the view
+//! then looks into the solid, the first face behind the plane is seen from inside (the
+//! surface winds counter-clockwise seen from outside): that fragment draws the section
+//! instead, at the ray's point on the plane, coloured by region from the label grid
+//! (`super::labels`, a 3D texture). The outline of the section is the surface's own, a
+//! drilled cavity included; the boundaries between regions are at the grid's resolution.
 
 #![allow(unsafe_code)]
 
@@ -56,12 +66,39 @@ pub const PALETTE: Palette = Palette {
 };
 
 /// What to draw besides the surface.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DrawOptions {
     /// Draw the tool and the force arrow.
     pub tool: bool,
     /// Clear the viewport to the background first.
     pub clear: bool,
+    /// Cut the view open: the surface where `normal . x > d` is not drawn and the section on
+    /// the plane is.
+    pub clip: Option<ClipPlane>,
+}
+
+/// A clip plane: what lies where `normal . x > d` is cut away.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClipPlane {
+    /// Unit normal, pointing into the part cut away.
+    pub normal: Vec3,
+    /// Offset: the plane is `normal . x = d`.
+    pub d: f32,
+}
+
+impl ClipPlane {
+    /// The plane across `axis` (0, 1, 2) at `at`, cutting away the side `eye` is on.
+    pub fn facing(axis: usize, at: f32, eye: Vec3) -> ClipPlane {
+        let mut normal = Vec3::ZERO;
+        normal[axis.min(2)] = 1.0;
+        if eye[axis.min(2)] < at {
+            normal = -normal;
+        }
+        ClipPlane {
+            normal,
+            d: normal[axis.min(2)] * at,
+        }
+    }
 }
 
 const VS: &str = r#"
@@ -87,14 +124,56 @@ in vec3 v_world;
 in vec3 v_normal;
 in float v_flag;
 uniform vec3 u_eye;
+uniform vec3 u_light;
 uniform vec3 u_color0;
 uniform vec3 u_color1;
 uniform vec3 u_regions[7];
+uniform vec4 u_clip;
+uniform int u_mode;
+uniform int u_regioned;
+uniform int u_has_grid;
+uniform vec3 u_grid_origin;
+uniform float u_grid_cell;
+uniform usampler3D u_labels;
 out vec4 o_color;
+
+// The colour of mesh slot `slot` (0: the surface's, the smallest label's).
+vec3 slot_colour(float slot) {
+    return slot > 0.5 ? u_regions[int(slot) - 1] : u_color0;
+}
+
+// Grey light: hemisphere (up is +z), key light, a little headlight; `sky` scales the
+// hemisphere (less for a cavity's walls).
+float light(vec3 n, vec3 to_eye, float sky) {
+    if (dot(n, to_eye) < 0.0) n = -n;
+    float hemi = mix(0.22, 0.46, 0.5 + 0.5 * n.z);
+    float key = max(dot(n, u_light), 0.0);
+    float head = abs(dot(n, to_eye));
+    return hemi * sky + 0.40 * key + 0.20 * head;
+}
+
 void main() {
+    bool clipping = any(notEqual(u_clip.xyz, vec3(0.0)));
+    if (u_mode == 0 && clipping && dot(u_clip.xyz, v_world) > u_clip.w) discard;
+    vec3 to_eye = normalize(u_eye - v_world);
+    if (u_mode == 0 && clipping && !gl_FrontFacing) {
+        // The inside of the solid seen through the cut (the surface winds counter-clockwise
+        // seen from outside): the section. Its point on the plane along this ray, coloured
+        // by the region of the grid's cell there, lit as a face towards the camera.
+        vec3 ray = v_world - u_eye;
+        float t = (u_clip.w - dot(u_clip.xyz, u_eye)) / dot(u_clip.xyz, ray);
+        vec3 p = u_eye + clamp(t, 0.0, 1.0) * ray;
+        float slot = 0.0;
+        if (u_has_grid == 1) {
+            ivec3 dims = textureSize(u_labels, 0);
+            ivec3 q = clamp(ivec3(floor((p - u_grid_origin) / u_grid_cell)), ivec3(0), dims - 1);
+            slot = float(texelFetch(u_labels, q, 0).r);
+        }
+        vec3 c = slot > 0.5 ? slot_colour(slot - 1.0) : u_color0;
+        o_color = vec4(c * light(-u_clip.xyz, to_eye, 1.0), 1.0);
+        return;
+    }
     vec3 n = normalize(v_normal);
-    vec3 l = normalize(u_eye - v_world);
-    float d = abs(dot(n, l));
     // The flag is drilled (0 or 1) + 2 x the region's colour slot.
     float slot = floor((v_flag + 0.5) / 2.0);
     float drilled = clamp(v_flag - 2.0 * slot, 0.0, 1.0);
@@ -102,10 +181,12 @@ void main() {
     vec3 c1 = u_color1;
     if (slot > 0.5) {
         c0 = u_regions[int(slot) - 1];
-        c1 = mix(c0, u_color1, 0.5);
+    }
+    if (slot > 0.5 || u_regioned == 1) {
+        c1 = 0.72 * c0;
     }
     vec3 c = mix(c0, c1, drilled);
-    o_color = vec4(c * (0.28 + 0.72 * d), 1.0);
+    o_color = vec4(c * light(n, to_eye, mix(1.0, 0.75, drilled)), 1.0);
 }
 "#;
 
@@ -128,12 +209,25 @@ pub struct Renderer {
     /// A mesh tool's triangles, and the shape they were made from.
     tool: Mesh,
     tool_shape: Option<ToolShape>,
+    /// A unit cylinder along +z (the burr's neck and shank).
+    cylinder: Mesh,
+    /// The label grid as a 3D texture, and the grid it was made from.
+    labels: Option<glow::Texture>,
+    labels_of: Option<super::labels::LabelGridRef>,
     u_vp: Option<glow::UniformLocation>,
     u_model: Option<glow::UniformLocation>,
     u_eye: Option<glow::UniformLocation>,
     u_color0: Option<glow::UniformLocation>,
     u_color1: Option<glow::UniformLocation>,
     u_regions: Option<glow::UniformLocation>,
+    u_light: Option<glow::UniformLocation>,
+    u_clip: Option<glow::UniformLocation>,
+    u_mode: Option<glow::UniformLocation>,
+    u_regioned: Option<glow::UniformLocation>,
+    u_has_grid: Option<glow::UniformLocation>,
+    u_grid_origin: Option<glow::UniformLocation>,
+    u_grid_cell: Option<glow::UniformLocation>,
+    u_labels: Option<glow::UniformLocation>,
     /// Bytes uploaded by the last [`Renderer::sync`].
     pub last_upload_bytes: usize,
 }
@@ -141,7 +235,7 @@ pub struct Renderer {
 /// The `#version` line for `gl`'s shading language.
 fn shader_header(gl: &glow::Context) -> &'static str {
     if gl.version().is_embedded {
-        "#version 300 es\nprecision highp float;\n"
+        "#version 300 es\nprecision highp float;\nprecision highp int;\nprecision highp usampler3D;\n"
     } else {
         "#version 140\n"
     }
@@ -187,6 +281,7 @@ impl Renderer {
             let sphere = new_mesh(gl, &sphere_vertices(12, 20))?;
             let arrow = new_mesh(gl, &arrow_vertices(16))?;
             let tool = new_mesh(gl, &[])?;
+            let cylinder = new_mesh(gl, &cylinder_vertices(20))?;
             Ok(Self {
                 u_vp: gl.get_uniform_location(program, "u_vp"),
                 u_model: gl.get_uniform_location(program, "u_model"),
@@ -194,6 +289,14 @@ impl Renderer {
                 u_color0: gl.get_uniform_location(program, "u_color0"),
                 u_color1: gl.get_uniform_location(program, "u_color1"),
                 u_regions: gl.get_uniform_location(program, "u_regions"),
+                u_light: gl.get_uniform_location(program, "u_light"),
+                u_clip: gl.get_uniform_location(program, "u_clip"),
+                u_mode: gl.get_uniform_location(program, "u_mode"),
+                u_regioned: gl.get_uniform_location(program, "u_regioned"),
+                u_has_grid: gl.get_uniform_location(program, "u_has_grid"),
+                u_grid_origin: gl.get_uniform_location(program, "u_grid_origin"),
+                u_grid_cell: gl.get_uniform_location(program, "u_grid_cell"),
+                u_labels: gl.get_uniform_location(program, "u_labels"),
                 program,
                 surface,
                 surface_floats: 0,
@@ -201,6 +304,9 @@ impl Renderer {
                 arrow,
                 tool,
                 tool_shape: None,
+                cylinder,
+                labels: None,
+                labels_of: None,
                 last_upload_bytes: 0,
             })
         }
@@ -229,6 +335,14 @@ impl Renderer {
             self.tool.vertices = (data.len() / VERTEX_FLOATS) as i32;
             self.tool_shape = scene.tool_shape.clone();
             bytes += 4 * data.len();
+        }
+        let same_labels = match (&scene.labels, &self.labels_of) {
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            (None, None) => true,
+            _ => false,
+        };
+        if !same_labels {
+            bytes += self.upload_labels(gl, scene.labels.clone());
         }
         let updates = scene.take_updates();
         // SAFETY: `gl` is current; the buffer is ours; ranges lie within the buffer, whose
@@ -259,6 +373,56 @@ impl Renderer {
         self.last_upload_bytes = bytes;
     }
 
+    /// Replaces the label texture with `grid`'s (none: no texture). Returns the bytes sent.
+    fn upload_labels(
+        &mut self,
+        gl: &glow::Context,
+        grid: Option<super::labels::LabelGridRef>,
+    ) -> usize {
+        // SAFETY: `gl` is current; the texture is ours (made here, deleted here or in
+        // `destroy`); the data holds `dims` cells, one byte each, rows packed (alignment 1).
+        unsafe {
+            if let Some(t) = self.labels.take() {
+                gl.delete_texture(t);
+            }
+            self.labels_of = grid.clone();
+            let Some(g) = grid else {
+                return 0;
+            };
+            let Ok(t) = gl.create_texture() else {
+                return 0;
+            };
+            gl.bind_texture(glow::TEXTURE_3D, Some(t));
+            for p in [glow::TEXTURE_MIN_FILTER, glow::TEXTURE_MAG_FILTER] {
+                gl.tex_parameter_i32(glow::TEXTURE_3D, p, glow::NEAREST as i32);
+            }
+            for p in [
+                glow::TEXTURE_WRAP_S,
+                glow::TEXTURE_WRAP_T,
+                glow::TEXTURE_WRAP_R,
+            ] {
+                gl.tex_parameter_i32(glow::TEXTURE_3D, p, glow::CLAMP_TO_EDGE as i32);
+            }
+            gl.pixel_store_i32(glow::UNPACK_ALIGNMENT, 1);
+            let [x, y, z] = g.dims.map(|d| d as i32);
+            gl.tex_image_3d(
+                glow::TEXTURE_3D,
+                0,
+                glow::R8UI as i32,
+                x,
+                y,
+                z,
+                0,
+                glow::RED_INTEGER,
+                glow::UNSIGNED_BYTE,
+                glow::PixelUnpackData::Slice(Some(&g.cells)),
+            );
+            gl.bind_texture(glow::TEXTURE_3D, None);
+            self.labels = Some(t);
+            g.cells.len()
+        }
+    }
+
     /// Draws the scene into the current framebuffer's viewport of `width` x `height` pixels
     /// (the caller set `glViewport`).
     pub fn draw(
@@ -272,6 +436,9 @@ impl Renderer {
     ) {
         let vp = camera.view_projection(width as f32 / height.max(1) as f32);
         let eye = camera.eye();
+        // The key light: from above and to the left of the camera.
+        let (right, up, fwd) = camera.basis();
+        let light = (up * 0.9 - right * 0.5 - fwd * 0.6).normalize_or_zero();
         // The scenario's region colours replace the palette's slots (slot 0 is the surface).
         let mut p = PALETTE;
         if let Some(colours) = &scene.region_colours {
@@ -283,8 +450,10 @@ impl Renderer {
                 }
             }
         }
-        // SAFETY: `gl` is current; the program and vertex arrays are ours; draw counts are
-        // within the buffers (the surface's vertex count is set by `sync` from the data
+        let clip = opts.clip;
+        let clip_v = clip.map_or([0.0; 4], |c| [c.normal.x, c.normal.y, c.normal.z, c.d]);
+        // SAFETY: `gl` is current; the program, vertex arrays and texture are ours; draw counts
+        // are within the buffers (the surface's vertex count is set by `sync` from the data
         // uploaded).
         unsafe {
             if opts.clear {
@@ -301,9 +470,30 @@ impl Renderer {
             gl.use_program(Some(self.program));
             gl.uniform_matrix_4_f32_slice(self.u_vp.as_ref(), false, &vp);
             gl.uniform_3_f32(self.u_eye.as_ref(), eye.x, eye.y, eye.z);
+            gl.uniform_3_f32(self.u_light.as_ref(), light.x, light.y, light.z);
+            gl.uniform_4_f32_slice(self.u_clip.as_ref(), &clip_v);
+            gl.uniform_1_i32(self.u_mode.as_ref(), 0);
+            gl.uniform_1_i32(self.u_regioned.as_ref(), i32::from(scene.regions.is_some()));
             let regions: Vec<f32> = p.regions.iter().flatten().copied().collect();
             gl.uniform_3_f32_slice(self.u_regions.as_ref(), &regions);
+            let grid = scene.labels.as_ref().filter(|_| self.labels.is_some());
+            gl.uniform_1_i32(self.u_has_grid.as_ref(), i32::from(grid.is_some()));
+            if let Some(g) = grid {
+                gl.active_texture(glow::TEXTURE0);
+                gl.bind_texture(glow::TEXTURE_3D, self.labels);
+                gl.uniform_1_i32(self.u_labels.as_ref(), 0);
+                gl.uniform_3_f32(
+                    self.u_grid_origin.as_ref(),
+                    g.origin.x,
+                    g.origin.y,
+                    g.origin.z,
+                );
+                gl.uniform_1_f32(self.u_grid_cell.as_ref(), g.cell);
+            }
             self.draw_mesh(gl, &self.surface, &IDENTITY, p.surface, p.drilled);
+            gl.bind_texture(glow::TEXTURE_3D, None);
+            // The tool is never clipped.
+            gl.uniform_1_i32(self.u_mode.as_ref(), 2);
             if let Some(t) = scene.tool.filter(|_| opts.tool) {
                 let r = t.radius;
                 if self.tool_shape.is_some() {
@@ -316,20 +506,36 @@ impl Renderer {
                     ];
                     self.draw_mesh(gl, &self.sphere, &m, p.tool, p.tool);
                 }
-                if let Some(s) = t.shaft.filter(|s| s.radius > 0.0 && s.length > s.from) {
-                    // The shaft as its passive points sample it: spheres a radius apart.
-                    let n = (((s.length - s.from) / s.radius).ceil() as usize + 1).min(256);
-                    for i in 0..n {
-                        let c = t.shown
-                            + s.axis
-                                * (s.from + (s.length - s.from) * i as f32 / (n - 1).max(1) as f32);
-                        let r = s.radius;
-                        let m = [
-                            r, 0.0, 0.0, 0.0, 0.0, r, 0.0, 0.0, 0.0, 0.0, r, 0.0, c.x, c.y, c.z,
-                            1.0,
-                        ];
-                        self.draw_mesh(gl, &self.sphere, &m, p.tool, p.tool);
+                match t.shaft.filter(|s| s.radius > 0.0 && s.length > s.from) {
+                    Some(s) => {
+                        // The shaft as its passive points sample it: spheres a radius apart.
+                        let n = (((s.length - s.from) / s.radius).ceil() as usize + 1).min(256);
+                        for i in 0..n {
+                            let c = t.shown
+                                + s.axis
+                                    * (s.from
+                                        + (s.length - s.from) * i as f32 / (n - 1).max(1) as f32);
+                            let r = s.radius;
+                            let m = [
+                                r, 0.0, 0.0, 0.0, 0.0, r, 0.0, 0.0, 0.0, 0.0, r, 0.0, c.x, c.y,
+                                c.z, 1.0,
+                            ];
+                            self.draw_mesh(gl, &self.sphere, &m, p.tool, p.tool);
+                        }
                     }
+                    None if self.tool_shape.is_none() => {
+                        // A round burr's neck and shank along the tool's axis, drawn only (the
+                        // burr alone touches): a neck of 0.45 radii for 3 radii, then the shank
+                        // of 1.15 radii for 14.
+                        let axis = (t.rotation * Vec3::Z).normalize_or_zero();
+                        let neck_at = t.shown + axis * (0.8 * r);
+                        let m = arrow_model(neck_at, axis, 3.2 * r, 0.45 * r);
+                        self.draw_mesh(gl, &self.cylinder, &m, p.tool, p.tool);
+                        let shank_at = neck_at + axis * (3.2 * r);
+                        let m = arrow_model(shank_at, axis, 14.0 * r, 1.15 * r);
+                        self.draw_mesh(gl, &self.cylinder, &m, SHANK, SHANK);
+                    }
+                    None => {}
                 }
                 let f = t.force.length();
                 if f > 1e-6 {
@@ -397,13 +603,25 @@ impl Renderer {
         // SAFETY: `gl` is current; the objects are ours and not used afterwards.
         unsafe {
             gl.delete_program(self.program);
-            for m in [&self.surface, &self.sphere, &self.arrow, &self.tool] {
+            if let Some(t) = self.labels {
+                gl.delete_texture(t);
+            }
+            for m in [
+                &self.surface,
+                &self.sphere,
+                &self.arrow,
+                &self.tool,
+                &self.cylinder,
+            ] {
                 gl.delete_vertex_array(m.vao);
                 gl.delete_buffer(m.vbo);
             }
         }
     }
 }
+
+/// The shank's grey.
+const SHANK: [f32; 3] = [0.62, 0.64, 0.68];
 
 const IDENTITY: [f32; 16] = [
     1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
@@ -510,6 +728,23 @@ fn arrow_vertices(segments: u32) -> Vec<f32> {
         }
         for p in [e, Vec3::Z * h, f] {
             push_vertex(&mut out, p, -Vec3::Z);
+        }
+    }
+    out
+}
+
+/// A cylinder of radius 1 along +z from 0 to 1, open ends, smooth normals.
+fn cylinder_vertices(segments: u32) -> Vec<f32> {
+    let mut out = Vec::new();
+    let ring = |j: u32| {
+        let ph = std::f32::consts::TAU * j as f32 / segments as f32;
+        Vec3::new(ph.cos(), ph.sin(), 0.0)
+    };
+    for j in 0..segments {
+        let (u, v) = (ring(j), ring(j + 1));
+        let (c, d) = (u + Vec3::Z, v + Vec3::Z);
+        for (p, n) in [(u, u), (v, v), (d, v), (u, u), (d, v), (c, u)] {
+            push_vertex(&mut out, p, n);
         }
     }
     out
