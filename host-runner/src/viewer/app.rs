@@ -89,7 +89,6 @@ pub fn run(link: LiveLink<'_>) -> Result<Scene, CliError> {
             .with_inner_size([1200.0, 780.0]),
         renderer: eframe::Renderer::Glow,
         depth_buffer: 24,
-        stencil_buffer: 8,
         multisampling: 0,
         ..Default::default()
     };

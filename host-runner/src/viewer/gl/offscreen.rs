@@ -115,7 +115,7 @@ impl Offscreen {
                     let mut rbos = Vec::new();
                     for (format, attach) in [
                         (glow::RGBA8, glow::COLOR_ATTACHMENT0),
-                        (glow::DEPTH24_STENCIL8, glow::DEPTH_STENCIL_ATTACHMENT),
+                        (glow::DEPTH_COMPONENT24, glow::DEPTH_ATTACHMENT),
                     ] {
                         let rb = gl.create_renderbuffer()?;
                         gl.bind_renderbuffer(glow::RENDERBUFFER, Some(rb));
@@ -159,7 +159,7 @@ impl Offscreen {
                                 gl.bind_framebuffer(glow::FRAMEBUFFER, Some(f));
                                 gl.framebuffer_renderbuffer(
                                     glow::FRAMEBUFFER,
-                                    glow::DEPTH_STENCIL_ATTACHMENT,
+                                    glow::DEPTH_ATTACHMENT,
                                     glow::RENDERBUFFER,
                                     None,
                                 );
