@@ -97,6 +97,7 @@ macro_rules! err {
     }};
 }
 
+pub mod audio;
 pub mod cli;
 pub mod commands;
 pub mod device_config;

@@ -72,6 +72,10 @@ pub struct RunArgs {
     /// Write a PNG of the view at the end of the run (no display needed).
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
+    /// Write the burr's sound (its whine falling under load, its grinding) as a WAV file at
+    /// the end.
+    #[arg(long, value_name = "FILE.wav")]
+    pub audio_out: Option<PathBuf>,
     /// Cut the view open with a plane across an axis: `x`, `y` or `z` (through the tool's
     /// work area), or `x:AT` (at that coordinate); the section shows the regions. The window's
     /// `C` key toggles it.
@@ -217,6 +221,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             sign_probe: true,
         },
         checks,
+        audio_out: args.audio_out.clone(),
     };
     run_until_signal(&sc, loaded, setup, args.json.as_ref())
 }

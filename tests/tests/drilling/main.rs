@@ -3,6 +3,7 @@
 //! the binary; one test binary, a module per file.
 
 mod bounds_drill;
+mod burr_sound;
 mod debris;
 mod drill_convergence;
 mod drill_faces;

@@ -70,6 +70,8 @@ pub struct PipelineSetup {
     /// What the device's checks found before the run: the motor-sign self-test's reversed
     /// joints (filled by the device factory), the stiffness cap.
     pub checks: RunChecks,
+    /// Write the burr's sound as a WAV file at the end (`--audio-out`; [`crate::audio`]).
+    pub audio_out: Option<PathBuf>,
 }
 
 /// What the device's checks found, for the report: shared with the device factory, which runs
@@ -111,6 +113,7 @@ impl PipelineSetup {
                 sign_probe: true,
             },
             checks: RunChecks::default(),
+            audio_out: None,
         }
     }
 }
@@ -208,6 +211,7 @@ pub fn run(
         record,
         gate,
         checks,
+        audio_out,
     } = setup;
     let recorder = Recorder::open(record.as_deref())?;
     let started = std::time::Instant::now();
@@ -328,6 +332,10 @@ pub fn run(
         )?;
         let supervisor = spawn_watchdog(scope, sh, rt, kind)?;
         let rec = recorder.spawn(scope, sh)?;
+        let audio = audio_out
+            .is_some()
+            .then(|| threads::spawn_audio(scope, sh, crate::audio::BurrSound::default()))
+            .transpose()?;
         let front = Front {
             view: &view,
             status_line,
@@ -339,9 +347,17 @@ pub fn run(
         let (servo, status, ending, scene) =
             main_thread_tasks(scope, sh, front, status_out, servo, supervisor, sim)?;
         let recorded = Recorder::join(rec)?;
-        Ok((servo, status, ending?, (scene, recorded)))
+        let voice = audio
+            .map(|h| h.join())
+            .transpose()
+            .map_err(|_| CliError::failure("the audio task panicked"))?;
+        Ok((servo, status, ending?, (scene, recorded, voice)))
     })?;
-    let (mut scene, recorded) = scene;
+    let (mut scene, recorded, voice) = scene;
+    if let (Some(path), Some(v)) = (audio_out.as_ref(), voice) {
+        crate::audio::write_wav(path, v.samples())?;
+        errln!("tetradrill: the burr's sound written to {}", path.display());
+    }
     let (saturations, valid, removed_by_region, debris_erased, deform) = ending;
     let shaft = params.shaft.zip(law.shaft_counts()).map(|(t, c)| RunShaft {
         passive_points: t.passive_count(),

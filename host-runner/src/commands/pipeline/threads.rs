@@ -326,6 +326,44 @@ pub(super) fn main_thread_tasks<'scope, 'env: 'scope, S>(
     Ok((servo, *status_out.read(), ending, scene))
 }
 
+/// The audio task: until `stop`, every 10 ms, the burr's sound for the time since the last
+/// look, from the servo's counters (the force pressing the burr: a drill's burr alone, else the
+/// whole force). The burr spins for the whole run; the grinding follows the load; the timbre
+/// is the middle one (the counters do not say which material is cut: `replay --audio-out`
+/// does). Not a real-time thread: it only reads atomics.
+pub(super) fn spawn_audio<'scope, 'env: 'scope>(
+    scope: &'scope std::thread::Scope<'scope, 'env>,
+    sh: &'env Shared,
+    sound: crate::audio::BurrSound,
+) -> Result<std::thread::ScopedJoinHandle<'scope, crate::audio::BurrVoice>, CliError> {
+    std::thread::Builder::new()
+        .name("audio".into())
+        .spawn_scoped(scope, move || {
+            let mut voice = crate::audio::BurrVoice::new(sound);
+            let mut last = std::time::Instant::now();
+            while !sh.stop.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(10));
+                let c = &sh.counters;
+                let burr = f32::from_bits(c.burr_press_bits.load(Ordering::Relaxed));
+                let whole = f32::from_bits(c.force_bits.load(Ordering::Relaxed) as u32);
+                let load = f64::from(if burr > 0.0 { burr } else { whole });
+                let now = std::time::Instant::now();
+                voice.advance(
+                    &crate::audio::TickSound {
+                        on: true,
+                        load_n: load,
+                        brightness: crate::audio::brightness(0.0, 0.0),
+                        grinding: (load / sound.full_load_n).min(1.0),
+                    },
+                    (now - last).as_secs_f64(),
+                );
+                last = now;
+            }
+            voice
+        })
+        .map_err(|e| CliError::failure(format!("cannot start the audio task: {e}")))
+}
+
 /// The status task: until `stop`, the status line every 250 ms (one line a second in logs),
 /// and `each` every 25 ms (the screenshot's snapshot drain).
 pub(super) fn status_loop(

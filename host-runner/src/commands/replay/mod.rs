@@ -48,6 +48,10 @@ pub struct ReplayArgs {
     /// tool's work area), or `x:AT` (at that coordinate); the section shows the regions.
     #[arg(long, value_name = "AXIS[:AT]", value_parser = crate::viewer::ClipSpec::parse)]
     pub clip: Option<crate::viewer::ClipSpec>,
+    /// Write the burr's sound as a WAV file (44.1 kHz mono): its whine, whose pitch falls with
+    /// the load, brighter in harder material, and its grinding while it removes.
+    #[arg(long, value_name = "FILE.wav")]
+    pub audio_out: Option<PathBuf>,
     /// Replay this many times from scratch (1 to 100; a sphere tool only) and time each tick
     /// as the fastest of the runs: the tick's cost without the preemption of a shared
     /// machine. Every run must give the same force digest (checked).
@@ -139,6 +143,10 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let mut last_pose = None;
     let mut candidates_peak = 0usize;
     let progress = !args.quiet && ticks >= 20_000;
+    let mut sound = args
+        .audio_out
+        .as_ref()
+        .map(|_| ReplaySound::new(&world, params.radius));
     for i in 0..ticks {
         let pose = poses.at(i);
         let (f, ns) = timed_tick(&mut world, &mut tool, &mut shaft, &params, &pose);
@@ -159,6 +167,9 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         }
         last = f;
         last_pose = Some(pose);
+        if let Some(snd) = sound.as_mut() {
+            snd.tick(&world, &pose, f);
+        }
         if progress && i % 5000 == 0 {
             err!(
                 "\rreplay: {:>3}% ({i}/{ticks} ticks)",
@@ -230,6 +241,10 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         write_surface_obj(&world, path)?;
     }
     print_summary(&rep);
+    if let (Some(path), Some(snd)) = (&args.audio_out, &sound) {
+        crate::audio::write_wav(path, snd.voice.samples())?;
+        errln!("replay: the burr's sound written to {}", path.display());
+    }
     if let Some(path) = &args.json {
         crate::report::write_json(path, &rep)?;
     }
@@ -414,4 +429,71 @@ pub fn write_surface_obj(
     let s = crate::smooth_surface::SmoothSurface::of(world, &[], crease);
     std::fs::write(path, s.to_obj())
         .map_err(|e| CliError::failure(format!("{}: cannot write: {e}", path.display())))
+}
+
+/// The burr's sound along a replay: the drill's button, the force while it cuts, the
+/// material it cut last (the region whose removed volume grew most this tick) and how fast it
+/// removes.
+struct ReplaySound {
+    voice: crate::audio::BurrVoice,
+    removed: Vec<f64>,
+    hardness: Vec<f64>,
+    hardest: f64,
+    region: Option<usize>,
+    /// The volume per second that grinds at full loudness: the burr's own volume in 0.2 s.
+    full_rate: f64,
+    total: f64,
+}
+
+impl ReplaySound {
+    fn new(world: &tetradrill_core::servo::World<'_>, radius: f32) -> Self {
+        let table = world
+            .regions()
+            .map(|r| r.table().to_vec())
+            .unwrap_or_default();
+        let hardness: Vec<f64> = table
+            .iter()
+            .map(|r| f64::from(r.material.hardness))
+            .collect();
+        let r = f64::from(radius);
+        Self {
+            voice: crate::audio::BurrVoice::new(crate::audio::BurrSound::default()),
+            removed: table.iter().map(|r| r.removed()).collect(),
+            hardest: hardness.iter().copied().fold(0.0, f64::max),
+            hardness,
+            region: None,
+            full_rate: 4.0 / 3.0 * std::f64::consts::PI * r * r * r / 0.2,
+            total: world.hierarchy().removed_volume(),
+        }
+    }
+
+    fn tick(&mut self, world: &tetradrill_core::servo::World<'_>, pose: &crate::Pose, f: Vec3) {
+        if let Some(r) = world.regions() {
+            let mut best = 0.0;
+            for (i, reg) in r.table().iter().enumerate() {
+                let d = reg.removed() - self.removed.get(i).copied().unwrap_or(0.0);
+                if d > best {
+                    best = d;
+                    self.region = Some(i);
+                }
+                if let Some(x) = self.removed.get_mut(i) {
+                    *x = reg.removed();
+                }
+            }
+        }
+        let total = world.hierarchy().removed_volume();
+        let rate = (total - self.total).max(0.0) / 0.001;
+        self.total = total;
+        let on = pose.buttons & tetradrill_core::script::DRILL_ON != 0;
+        let hardness = self
+            .region
+            .and_then(|i| self.hardness.get(i).copied())
+            .unwrap_or(0.0);
+        self.voice.tick(&crate::audio::TickSound {
+            on,
+            load_n: if on { f64::from(f.length()) } else { 0.0 },
+            brightness: crate::audio::brightness(hardness, self.hardest),
+            grinding: (rate / self.full_rate.max(1e-30)).min(1.0),
+        });
+    }
 }
