@@ -91,10 +91,12 @@ pub fn brightness(hardness: f64, hardest: f64) -> f64 {
     }
 }
 
-/// The synthesiser: phase-continuous, its output kept as 16-bit samples.
+/// The synthesiser: phase-continuous; [`BurrVoice::advance`] keeps its output as 16-bit
+/// samples, [`BurrVoice::next_sample`] hands one sample at a time to a sound card.
 #[derive(Debug, Clone)]
 pub struct BurrVoice {
     sound: BurrSound,
+    rate: f64,
     speed_hz: f64,
     phase: f64,
     gain: f64,
@@ -108,10 +110,20 @@ pub struct BurrVoice {
 }
 
 impl BurrVoice {
-    /// A voice at rest (the burr not spinning).
+    /// A voice at rest (the burr not spinning), at [`SAMPLE_RATE`].
     pub fn new(sound: BurrSound) -> Self {
+        Self::with_rate(sound, f64::from(SAMPLE_RATE))
+    }
+
+    /// A voice at rest at `rate` samples a second (a sound card's).
+    pub fn with_rate(sound: BurrSound, rate: f64) -> Self {
         Self {
             sound,
+            rate: if rate.is_finite() && rate >= 8_000.0 {
+                rate
+            } else {
+                f64::from(SAMPLE_RATE)
+            },
             speed_hz: 0.0,
             phase: 0.0,
             gain: 0.0,
@@ -125,7 +137,7 @@ impl BurrVoice {
         }
     }
 
-    /// The samples so far.
+    /// The samples [`BurrVoice::advance`] kept so far.
     pub fn samples(&self) -> &[i16] {
         &self.samples
     }
@@ -135,12 +147,26 @@ impl BurrVoice {
         self.speed_hz
     }
 
-    /// Synthesises `seconds` of sound with the state `s` (one servo tick: 0.001).
+    /// Synthesises `seconds` of sound with the state `s` (one servo tick: 0.001), kept.
     pub fn advance(&mut self, s: &TickSound, seconds: f64) {
-        let exact = seconds * f64::from(SAMPLE_RATE) + self.carry;
+        let exact = seconds * self.rate + self.carry;
         let n = exact.floor().max(0.0);
         self.carry = exact - n;
-        let dt = 1.0 / f64::from(SAMPLE_RATE);
+        for _ in 0..n as u64 {
+            let v = self.next_sample(s);
+            self.samples
+                .push((v.clamp(-1.0, 1.0) * f64::from(i16::MAX)) as i16);
+        }
+    }
+
+    /// One servo tick (1 ms) with the state `s`.
+    pub fn tick(&mut self, s: &TickSound) {
+        self.advance(s, 0.001);
+    }
+
+    /// The next sample (-1 to 1) with the state `s`, not kept.
+    pub fn next_sample(&mut self, s: &TickSound) -> f64 {
+        let dt = 1.0 / self.rate;
         let target_hz = if s.on {
             self.sound.loaded_hz(s.load_n)
         } else {
@@ -155,45 +181,157 @@ impl BurrVoice {
             0.0
         };
         let target_bright = s.brightness.clamp(0.0, 1.0);
-        for _ in 0..n as u64 {
-            self.speed_hz += (target_hz - self.speed_hz) * spin;
-            self.gain += (target_gain - self.gain) * ramp;
-            self.grind += (target_grind - self.grind) * ramp;
-            self.bright += (target_bright - self.bright) * ramp;
-            self.phase = (self.phase + self.speed_hz * dt).fract();
-            let mut whine = 0.0;
-            let mut norm = 0.0;
-            let mut w = 1.0;
-            for k in 1..=8u32 {
-                if f64::from(k) * self.speed_hz > MAX_HARMONIC_HZ {
-                    break;
-                }
-                let a = w / f64::from(k);
-                whine += a * (std::f64::consts::TAU * f64::from(k) * self.phase).sin();
-                norm += a;
-                w *= self.bright;
+        self.speed_hz += (target_hz - self.speed_hz) * spin;
+        self.gain += (target_gain - self.gain) * ramp;
+        self.grind += (target_grind - self.grind) * ramp;
+        self.bright += (target_bright - self.bright) * ramp;
+        self.phase = (self.phase + self.speed_hz * dt).fract();
+        let mut whine = 0.0;
+        let mut norm = 0.0;
+        let mut w = 1.0;
+        for k in 1..=8u32 {
+            if f64::from(k) * self.speed_hz > MAX_HARMONIC_HZ.min(0.45 * self.rate) {
+                break;
             }
-            if norm > 0.0 {
-                whine /= norm;
-            }
-            // xorshift64 white noise, high-passed (first order, about 2 kHz).
-            self.noise ^= self.noise << 13;
-            self.noise ^= self.noise >> 7;
-            self.noise ^= self.noise << 17;
-            let white = (self.noise >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0;
-            let hp = 0.75 * (self.hp_last_out + white - self.hp_last_in);
-            self.hp_last_in = white;
-            self.hp_last_out = hp;
-            let v = self.gain * (0.45 * whine + 0.35 * self.grind * hp);
-            self.samples
-                .push((v.clamp(-1.0, 1.0) * f64::from(i16::MAX)) as i16);
+            let a = w / f64::from(k);
+            whine += a * (std::f64::consts::TAU * f64::from(k) * self.phase).sin();
+            norm += a;
+            w *= self.bright;
+        }
+        if norm > 0.0 {
+            whine /= norm;
+        }
+        // xorshift64 white noise, high-passed (first order).
+        self.noise ^= self.noise << 13;
+        self.noise ^= self.noise >> 7;
+        self.noise ^= self.noise << 17;
+        let white = (self.noise >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0;
+        let hp = 0.75 * (self.hp_last_out + white - self.hp_last_in);
+        self.hp_last_in = white;
+        self.hp_last_out = hp;
+        self.gain * (0.45 * whine + 0.35 * self.grind * hp)
+    }
+}
+
+/// The state a live sound card's callback reads: atomics the audio task writes every 10 ms.
+#[derive(Debug, Default)]
+pub struct LiveState {
+    on: std::sync::atomic::AtomicBool,
+    load_bits: std::sync::atomic::AtomicU64,
+    brightness_bits: std::sync::atomic::AtomicU64,
+    grinding_bits: std::sync::atomic::AtomicU64,
+}
+
+impl LiveState {
+    /// Publishes `s`.
+    pub fn set(&self, s: &TickSound) {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.load_bits.store(s.load_n.to_bits(), Relaxed);
+        self.brightness_bits.store(s.brightness.to_bits(), Relaxed);
+        self.grinding_bits.store(s.grinding.to_bits(), Relaxed);
+        self.on.store(s.on, Relaxed);
+    }
+
+    /// The state last published (fields may come from two neighbouring publications).
+    pub fn get(&self) -> TickSound {
+        use std::sync::atomic::Ordering::Relaxed;
+        TickSound {
+            on: self.on.load(Relaxed),
+            load_n: f64::from_bits(self.load_bits.load(Relaxed)),
+            brightness: f64::from_bits(self.brightness_bits.load(Relaxed)),
+            grinding: f64::from_bits(self.grinding_bits.load(Relaxed)),
+        }
+    }
+}
+
+/// Live playback through the default sound card (cargo feature `sound`, `cpal`).
+#[cfg(feature = "sound")]
+pub mod live {
+    use std::sync::Arc;
+
+    use cpal::traits::{DeviceTrait, HostTrait, StreamTrait};
+
+    use super::{BurrSound, BurrVoice, LiveState};
+
+    /// A playing stream; dropping it stops the sound. Not `Send` on every platform: made,
+    /// kept and dropped on the audio task's thread.
+    pub struct Player {
+        _stream: cpal::Stream,
+    }
+
+    impl std::fmt::Debug for Player {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("Player")
         }
     }
 
-    /// One servo tick (1 ms) with the state `s`.
-    pub fn tick(&mut self, s: &TickSound) {
-        self.advance(s, 0.001);
+    impl Player {
+        /// Starts playing the voice of `state` on the default output device.
+        ///
+        /// # Errors
+        /// No output device, or one that takes neither 32-bit float nor 16-bit samples; one
+        /// line saying which.
+        pub fn start(state: Arc<LiveState>, sound: BurrSound) -> Result<Player, String> {
+            let host = cpal::default_host();
+            let device = host
+                .default_output_device()
+                .ok_or_else(|| "no sound output device".to_string())?;
+            let config = device
+                .default_output_config()
+                .map_err(|e| format!("the sound output device: {e}"))?;
+            let format = config.sample_format();
+            let config: cpal::StreamConfig = config.into();
+            let channels = usize::from(config.channels.max(1));
+            let mut voice = BurrVoice::with_rate(sound, f64::from(config.sample_rate));
+            let err = |e: cpal::Error| eprintln!("tetradrill: sound: {e}");
+            let stream = match format {
+                cpal::SampleFormat::F32 => device.build_output_stream(
+                    config,
+                    move |data: &mut [f32], _: &cpal::OutputCallbackInfo| {
+                        let s = state.get();
+                        for frame in data.chunks_mut(channels) {
+                            let v = voice.next_sample(&s) as f32;
+                            frame.iter_mut().for_each(|x| *x = v);
+                        }
+                    },
+                    err,
+                    None,
+                ),
+                cpal::SampleFormat::I16 => device.build_output_stream(
+                    config,
+                    move |data: &mut [i16], _: &cpal::OutputCallbackInfo| {
+                        let s = state.get();
+                        for frame in data.chunks_mut(channels) {
+                            let v = (voice.next_sample(&s).clamp(-1.0, 1.0) * 32767.0) as i16;
+                            frame.iter_mut().for_each(|x| *x = v);
+                        }
+                    },
+                    err,
+                    None,
+                ),
+                other => return Err(format!("the sound output device takes {other} samples")),
+            }
+            .map_err(|e| format!("cannot open the sound output: {e}"))?;
+            stream
+                .play()
+                .map_err(|e| format!("cannot start the sound: {e}"))?;
+            Ok(Player { _stream: stream })
+        }
     }
+}
+
+/// `--sound` in a build without the `sound` feature: one line, exit status 2.
+///
+/// # Errors
+/// As said.
+pub fn check_sound_flag(sound: bool) -> Result<(), CliError> {
+    if sound && !cfg!(feature = "sound") {
+        return Err(CliError::input(
+            "--sound: this build plays no sound (build with the `sound` feature, which needs \
+             libasound2-dev); --audio-out FILE.wav writes it",
+        ));
+    }
+    Ok(())
 }
 
 /// Writes `samples` (mono, [`SAMPLE_RATE`]) as a 16-bit PCM WAV file.

@@ -38,6 +38,10 @@ pub struct DemoArgs {
     /// the end.
     #[arg(long, value_name = "FILE.wav")]
     pub audio_out: Option<PathBuf>,
+    /// Play the burr's sound live on the default output device (a build with the `sound`
+    /// feature; without a device, one line and the run goes on).
+    #[arg(long)]
+    pub sound: bool,
     /// Cut the view open with a plane across an axis: `x`, `y` or `z` (through the tool's
     /// work area), or `x:AT` (at that coordinate); the section shows the regions. The window's
     /// `C` key toggles it.
@@ -84,6 +88,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
             ..SoftSettings::default()
         });
     }
+    crate::audio::check_sound_flag(args.sound)?;
     let mut view = ViewOptions::of(args.headless, args.screenshot.clone())?;
     view.clip = args.clip;
     let loaded = crate::engine::load_mesh(&sc)?;
@@ -142,6 +147,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         },
         checks: Default::default(),
         audio_out: args.audio_out.clone(),
+        sound: args.sound,
     };
     run_until_signal(&sc, loaded, setup, args.json.as_ref())
 }

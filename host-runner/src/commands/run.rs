@@ -76,6 +76,10 @@ pub struct RunArgs {
     /// the end.
     #[arg(long, value_name = "FILE.wav")]
     pub audio_out: Option<PathBuf>,
+    /// Play the burr's sound live on the default output device (a build with the `sound`
+    /// feature; without a device, one line and the run goes on).
+    #[arg(long)]
+    pub sound: bool,
     /// Cut the view open with a plane across an axis: `x`, `y` or `z` (through the tool's
     /// work area), or `x:AT` (at that coordinate); the section shows the regions. The window's
     /// `C` key toggles it.
@@ -116,6 +120,7 @@ pub fn parse_device(s: &str) -> Result<DeviceKind, String> {
 /// Runs `run`.
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let sc = Scenario::from_flags(&args.scenario)?.setup()?;
+    crate::audio::check_sound_flag(args.sound)?;
     let mut view = crate::viewer::ViewOptions::of(args.headless, args.screenshot.clone())?;
     view.clip = args.clip;
     // The mesh, read once: the world's, the wander's waypoints, the device's workspace.
@@ -222,6 +227,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         },
         checks,
         audio_out: args.audio_out.clone(),
+        sound: args.sound,
     };
     run_until_signal(&sc, loaded, setup, args.json.as_ref())
 }

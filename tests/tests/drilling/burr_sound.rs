@@ -199,3 +199,12 @@ fn a_run_writes_the_sound_of_its_length() {
     let free = 320_000.0 / 60.0;
     assert!((0.65 * free - 10.0..free + 10.0).contains(&f), "{f} Hz");
 }
+
+#[test]
+fn sound_without_the_feature_is_refused_in_one_line() {
+    // The tests' binary is the default build, without the `sound` feature.
+    tetradrill_tests::refused(
+        &["run", "--sound", "--duration", "0.1", "--no-rt"],
+        &["--sound", "sound` feature", "--audio-out"],
+    );
+}

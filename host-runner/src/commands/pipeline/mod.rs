@@ -72,6 +72,8 @@ pub struct PipelineSetup {
     pub checks: RunChecks,
     /// Write the burr's sound as a WAV file at the end (`--audio-out`; [`crate::audio`]).
     pub audio_out: Option<PathBuf>,
+    /// Play the burr's sound live (`--sound`; the `sound` feature).
+    pub sound: bool,
 }
 
 /// What the device's checks found, for the report: shared with the device factory, which runs
@@ -114,6 +116,7 @@ impl PipelineSetup {
             },
             checks: RunChecks::default(),
             audio_out: None,
+            sound: false,
         }
     }
 }
@@ -212,6 +215,7 @@ pub fn run(
         gate,
         checks,
         audio_out,
+        sound,
     } = setup;
     let recorder = Recorder::open(record.as_deref())?;
     let started = std::time::Instant::now();
@@ -332,9 +336,16 @@ pub fn run(
         )?;
         let supervisor = spawn_watchdog(scope, sh, rt, kind)?;
         let rec = recorder.spawn(scope, sh)?;
-        let audio = audio_out
-            .is_some()
-            .then(|| threads::spawn_audio(scope, sh, crate::audio::BurrSound::default()))
+        let audio = (audio_out.is_some() || sound)
+            .then(|| {
+                threads::spawn_audio(
+                    scope,
+                    sh,
+                    crate::audio::BurrSound::default(),
+                    audio_out.is_some(),
+                    sound,
+                )
+            })
             .transpose()?;
         let front = Front {
             view: &view,

@@ -326,19 +326,26 @@ pub(super) fn main_thread_tasks<'scope, 'env: 'scope, S>(
     Ok((servo, *status_out.read(), ending, scene))
 }
 
-/// The audio task: until `stop`, every 10 ms, the burr's sound for the time since the last
-/// look, from the servo's counters (the force pressing the burr: a drill's burr alone, else the
-/// whole force). The burr spins for the whole run; the grinding follows the load; the timbre
-/// is the middle one (the counters do not say which material is cut: `replay --audio-out`
-/// does). Not a real-time thread: it only reads atomics.
+/// The audio task: until `stop`, every 10 ms, the burr's state for the sound from the servo's
+/// counters (the force pressing the burr: a drill's burr alone, else the whole force): kept as
+/// samples for the time since the last look when `keep` (`--audio-out`), and published to a
+/// live sound card's callback when `live` (`--sound`, the `sound` feature). The burr spins for
+/// the whole run; the grinding follows the load; the timbre is the middle one (the counters do
+/// not say which material is cut: `replay --audio-out` does). Not a real-time thread: it only
+/// reads atomics.
 pub(super) fn spawn_audio<'scope, 'env: 'scope>(
     scope: &'scope std::thread::Scope<'scope, 'env>,
     sh: &'env Shared,
     sound: crate::audio::BurrSound,
+    keep: bool,
+    live: bool,
 ) -> Result<std::thread::ScopedJoinHandle<'scope, crate::audio::BurrVoice>, CliError> {
     std::thread::Builder::new()
         .name("audio".into())
         .spawn_scoped(scope, move || {
+            let state = std::sync::Arc::new(crate::audio::LiveState::default());
+            // Kept alive until the run stops: dropping it stops the sound.
+            let _player = live.then(|| start_player(&state, sound)).flatten();
             let mut voice = crate::audio::BurrVoice::new(sound);
             let mut last = std::time::Instant::now();
             while !sh.stop.load(Ordering::Relaxed) {
@@ -348,20 +355,45 @@ pub(super) fn spawn_audio<'scope, 'env: 'scope>(
                 let whole = f32::from_bits(c.force_bits.load(Ordering::Relaxed) as u32);
                 let load = f64::from(if burr > 0.0 { burr } else { whole });
                 let now = std::time::Instant::now();
-                voice.advance(
-                    &crate::audio::TickSound {
-                        on: true,
-                        load_n: load,
-                        brightness: crate::audio::brightness(0.0, 0.0),
-                        grinding: (load / sound.full_load_n).min(1.0),
-                    },
-                    (now - last).as_secs_f64(),
-                );
+                let s = crate::audio::TickSound {
+                    on: true,
+                    load_n: load,
+                    brightness: crate::audio::brightness(0.0, 0.0),
+                    grinding: (load / sound.full_load_n).min(1.0),
+                };
+                state.set(&s);
+                if keep {
+                    voice.advance(&s, (now - last).as_secs_f64());
+                }
                 last = now;
             }
             voice
         })
         .map_err(|e| CliError::failure(format!("cannot start the audio task: {e}")))
+}
+
+/// The live sound on the default output, or one line saying why not.
+#[cfg(feature = "sound")]
+fn start_player(
+    state: &std::sync::Arc<crate::audio::LiveState>,
+    sound: crate::audio::BurrSound,
+) -> Option<crate::audio::live::Player> {
+    match crate::audio::live::Player::start(std::sync::Arc::clone(state), sound) {
+        Ok(p) => Some(p),
+        Err(e) => {
+            errln!("tetradrill: --sound: {e}; the run goes on without it");
+            None
+        }
+    }
+}
+
+/// Without the `sound` feature there is no live sound (`--sound` is refused before the run).
+#[cfg(not(feature = "sound"))]
+fn start_player(
+    _state: &std::sync::Arc<crate::audio::LiveState>,
+    _sound: crate::audio::BurrSound,
+) -> Option<()> {
+    None
 }
 
 /// The status task: until `stop`, the status line every 250 ms (one line a second in logs),
