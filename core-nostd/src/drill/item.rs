@@ -11,7 +11,7 @@ use super::step::{epoch_of, Drill, DrillReport, Pass, Pending, DEFER_LAG};
 use crate::geom::tri_area;
 use crate::hierarchy::{
     child_of_refinement, child_of_ten, refinement_points, refinement_points_masked, Hierarchy,
-    HierarchyError, Path, RootFrame, ALL_POINTS,
+    HierarchyError, Path, RootFrame, ALL_POINTS, MAX_DEPTH,
 };
 use crate::ids::TetId;
 use crate::mesh::template::FACE_VERTS;
@@ -25,6 +25,24 @@ fn classify_charged(p: [Vec3; 4], s: &Sphere, rep: &mut DrillReport) -> Class {
         rep.work = rep.work.saturating_add(WorkCost::EXACT_TEST);
     }
     class
+}
+
+/// The depth at which a tree whose root's longest edge is `edge` has leaves of at most
+/// `resolution` (each level halves the edges); [`MAX_DEPTH`] without a resolution (0).
+///
+/// # Bounded work
+/// At most [`MAX_DEPTH`] halvings.
+pub(super) fn depth_limit(edge: f32, resolution: f32) -> u8 {
+    if resolution <= 0.0 {
+        return MAX_DEPTH as u8;
+    }
+    let mut e = edge;
+    let mut d = 0u8;
+    while e > resolution && (d as usize) < MAX_DEPTH {
+        e *= 0.5;
+        d += 1;
+    }
+    d
 }
 
 /// A node whose children were queued, with the ten points of its red refinement: its
@@ -49,14 +67,21 @@ impl Parent {
 type Ten = ([u64; 10], [Vec3; 10]);
 
 impl Drill<'_> {
-    /// The root frame of `tet`, cached across consecutive items of one tree.
-    fn frame(&mut self, mesh: &Mesh<'_>, tet: TetId) -> Option<RootFrame> {
+    /// The root frame of `tet` and its tree's depth limit from the resolution, cached across
+    /// consecutive items of one tree.
+    fn frame(&mut self, mesh: &Mesh<'_>, tet: TetId) -> Option<(RootFrame, u8)> {
         match self.frame {
-            Some((t, f)) if t == tet => Some(f),
+            Some((t, f, limit)) if t == tet => Some((f, limit)),
             _ => {
                 let f = RootFrame::of(mesh, tet)?;
-                self.frame = Some((tet, f));
-                Some(f)
+                // Without a resolution nothing is computed: every tree to `max_depth`.
+                let limit = if self.resolution > 0.0 {
+                    depth_limit(f.longest_edge(), self.resolution)
+                } else {
+                    MAX_DEPTH as u8
+                };
+                self.frame = Some((tet, f, limit));
+                Some((f, limit))
             }
         }
     }
@@ -121,9 +146,10 @@ impl Drill<'_> {
         let Some(depth) = Path::depth_of(item.index) else {
             return true;
         };
-        let Some(frame) = self.frame(mesh, item.tet) else {
+        let Some((frame, limit)) = self.frame(mesh, item.tet) else {
             return true;
         };
+        let max_depth = max_depth.min(limit);
         let item = match item.index {
             0 => Pending {
                 bary: frame.root_packed(),

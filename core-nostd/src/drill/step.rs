@@ -164,8 +164,11 @@ pub struct Drill<'a> {
     /// How many remembered spheres were queued after that sphere (all of them when it is
     /// forgotten): how far the drill lags behind the burr.
     pub(super) swept_lag: usize,
-    /// The root frame of the last tet processed (items come tree by tree).
-    pub(super) frame: Option<(TetId, RootFrame)>,
+    /// The root frame of the last tet processed (items come tree by tree), with that tree's
+    /// depth limit from the resolution ([`Drill::set_resolution`]).
+    pub(super) frame: Option<(TetId, RootFrame, u8)>,
+    /// The finest leaf's edge in mesh units (0: none; every tree refines to `max_depth`).
+    pub(super) resolution: f32,
     /// Per depth, the last node whose children were queued and the ten points of its
     /// refinement (see [`Drill::corners`]); [`Parent::EMPTY`] for none. Written in place:
     /// the ten points are evaluated into their entry, not copied there (on the Cortex-M4 a
@@ -202,6 +205,7 @@ impl<'a> Drill<'a> {
             swept_count: 0,
             swept_lag: 0,
             frame: None,
+            resolution: 0.0,
             parents: [Parent::EMPTY; MAX_DEPTH],
             retry: false,
             saturations: 0,
@@ -209,6 +213,29 @@ impl<'a> Drill<'a> {
             stalled: false,
             crumbs: Crumbs::default(),
         }
+    }
+
+    /// Sets the drill's resolution: the edge of its finest leaves in mesh units. A tree whose
+    /// root's longest edge is `e` refines to depth `ceil(log2(e / resolution))` at most (each
+    /// level halves the edges), and never past the step's `max_depth`: a fine mesh and a
+    /// coarse one then drill with leaves of the same size. 0, negative or not finite: none
+    /// (every tree to `max_depth`, the default).
+    ///
+    /// # Bounded work
+    /// Constant; each tree's limit is computed once when the step meets it (six distances
+    /// and at most [`MAX_DEPTH`] halvings).
+    pub fn set_resolution(&mut self, resolution: f32) {
+        self.resolution = if resolution.is_finite() && resolution > 0.0 {
+            resolution
+        } else {
+            0.0
+        };
+        self.frame = None;
+    }
+
+    /// The resolution set ([`Drill::set_resolution`]); 0 for none.
+    pub fn resolution(&self) -> f32 {
+        self.resolution
     }
 
     /// Work items waiting for the next tick.

@@ -53,6 +53,21 @@ impl RootFrame {
         Some(Self { sorted, order })
     }
 
+    /// The length of the root tet's longest edge.
+    ///
+    /// # Bounded work
+    /// Constant: six squared distances and one square root.
+    pub(crate) fn longest_edge(&self) -> f32 {
+        let c = self.sorted;
+        let mut m = 0.0f32;
+        for i in 0..4 {
+            for j in i + 1..4 {
+                m = m.max(c[i].distance_squared(c[j]));
+            }
+        }
+        libm::sqrtf(m)
+    }
+
     /// The point with integer barycentric coordinates `w` (scaled by `2^depth`): the sum, in
     /// canonical corner order, of corner times weight, then scaled. A point shared by several
     /// nodes (of any depth or tree) has the same reduced coordinates, so it gets the same bits.

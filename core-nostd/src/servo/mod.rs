@@ -419,6 +419,21 @@ impl<'a> World<'a> {
         self.tick_budget = units;
     }
 
+    /// Sets the drill's resolution, the edge of its finest leaves in mesh units: each coarse
+    /// tet refines only as deep as its size needs, never past `DrillParams::max_depth`
+    /// (`Drill::set_resolution`); 0 for none (every tet to `max_depth`, the default).
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn set_drill_resolution(&mut self, resolution: f32) {
+        self.drill.set_resolution(resolution);
+    }
+
+    /// The drill's resolution ([`World::set_drill_resolution`]); 0 for none.
+    pub fn drill_resolution(&self) -> f32 {
+        self.drill.resolution()
+    }
+
     /// The coarse tets the last [`World::simulate`] found near the tool, each once: those
     /// whose box meets the burr's positions first, then the others, each part in the order
     /// the hash query met them (cell by cell, tet order within a cell). With a candidate

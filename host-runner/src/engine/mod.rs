@@ -31,6 +31,7 @@ pub struct EngineStorage {
     contact_search_nodes: u32,
     tick_budget: u32,
     zone_gather_work: u32,
+    resolution: f32,
     sizing: Option<ToolSizing>,
     /// The mesh label of each region (empty: no regions).
     region_labels: Vec<i32>,
@@ -85,6 +86,7 @@ impl EngineStorage {
             contact_search_nodes: d.contact_search_nodes,
             tick_budget: d.tick_budget,
             zone_gather_work: d.zone_gather_work,
+            resolution: d.resolution as f32,
             sizing,
             region_labels: Vec::new(),
             rest_copy: Vec::new(),
@@ -189,6 +191,7 @@ impl EngineStorage {
         w.set_contact_max_nodes(self.contact_search_nodes);
         w.set_max_cells(max_cells);
         w.set_tick_budget((self.tick_budget > 0).then_some(self.tick_budget));
+        w.set_drill_resolution(self.resolution);
         w.set_zone_gather(
             (self.zone_gather_work > 0)
                 .then(|| ZoneGather::new(self.zone_gather_work, ZONE_MARGIN_RADII)),

@@ -100,6 +100,10 @@ pub struct Scenario {
     pub max_depth: u8,
     /// Refinement stops below this face area (mesh units squared).
     pub min_area: f64,
+    /// The drill's finest leaf edge, mesh units: each coarse tet refines only as deep as its
+    /// size needs (`max_depth` stays the upper bound), so fine and coarse meshes drill with
+    /// leaves of the same size; 0: none, every tet to `max_depth`.
+    pub resolution: f64,
     /// Hierarchy nodes available for drilling (absent: sized from the burr's radius against
     /// the mesh's boundary tets, `crate::engine::ToolSizing`, at least
     /// [`crate::setup::DEFAULT_HIERARCHY_CAPACITY`]).
@@ -264,6 +268,10 @@ pub struct ScenarioFlags {
     /// Smallest face area refined (mesh units squared).
     #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
     pub min_area: Option<f64>,
+    /// The drill's finest leaf edge, mesh units (each tet refines as deep as its size needs,
+    /// at most `--max-depth`; 0: none).
+    #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
+    pub resolution: Option<f64>,
     /// Hierarchy nodes available (at least 8: one block of children).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
     pub hierarchy_capacity: Option<usize>,
@@ -559,6 +567,7 @@ impl Scenario {
             entry_remedy,
             max_depth,
             min_area,
+            resolution,
             budget_per_tick,
             tick_budget
         );
@@ -658,6 +667,7 @@ impl Scenario {
             drilling: Drilling {
                 max_depth: self.max_depth,
                 min_area: self.min_area,
+                resolution: self.resolution,
                 budget_per_tick: self.budget_per_tick,
                 tick_budget: self.tick_budget,
                 contact_search_nodes: self.contact_search_nodes,
@@ -745,6 +755,7 @@ impl From<&Setup> for Scenario {
             entry_remedy: s.pen.entry_remedy,
             max_depth: s.drilling.max_depth,
             min_area: s.drilling.min_area,
+            resolution: s.drilling.resolution,
             hierarchy_capacity: s.capacities.hierarchy,
             budget_per_tick: s.drilling.budget_per_tick,
             tick_budget: s.drilling.tick_budget,

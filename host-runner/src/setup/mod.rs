@@ -79,6 +79,8 @@ pub struct Drilling {
     pub max_depth: u8,
     /// Refinement stops below this face area (mesh units squared).
     pub min_area: f64,
+    /// The drill's finest leaf edge, mesh units (`World::set_drill_resolution`); 0: none.
+    pub resolution: f64,
     /// Work units of erosion per servo tick (about 100 Cortex-M4 instructions each:
     /// `tetradrill_core::drill::WorkCost`); the rest is carried to later ticks.
     pub budget_per_tick: u32,
@@ -243,6 +245,7 @@ impl Default for Setup {
             drilling: Drilling {
                 max_depth: 5,
                 min_area: 0.0,
+                resolution: 0.0,
                 budget_per_tick: 11_000,
                 tick_budget: DEFAULT_TICK_BUDGET,
                 contact_search_nodes: tetradrill_core::servo::CONTACT_MAX_NODES,
@@ -361,6 +364,7 @@ impl Setup {
         }
         let d = &self.drilling;
         non_negative("min_area", d.min_area)?;
+        non_negative("resolution", d.resolution)?;
         if !(1..=9).contains(&d.max_depth) {
             return Err(SetupError::new(
                 "max_depth",
