@@ -7,10 +7,18 @@
 # memory per tet for the fine mesh.
 #
 # Usage: scripts/clinical-drill.sh [HOLD_S]   (default 12: the fine mesh converges)
+#        scripts/clinical-drill.sh --moving    (no hold: a plunge, then the burr swept to and
+#                                               fro across the head for 4 s, each mesh at the
+#                                               drill resolution RESOLUTION, default r/8, and
+#                                               at the default max depth; the removed volume
+#                                               against the Monte Carlo swept volume,
+#                                               `--example swept`)
 # Env: OUT (work folder, default target/clinical), TETRADRILL_BIN, FINE_TETS (target count
-# given to the generator, default 1150000: about 2.06 million tets come out).
+# given to the generator, default 1150000: about 2.06 million tets come out), RESOLUTION.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
+moving=0
+if [ "${1:-}" = "--moving" ]; then moving=1; shift; fi
 hold=${1:-12}
 out=${OUT:-$root/target/clinical}
 bin=${TETRADRILL_BIN:-$root/target/release/tetradrill}
@@ -20,6 +28,52 @@ mkdir -p "$out"
 if [ ! -f "$out/teddy-fine.ele" ]; then
   python3 -c 'import tetgen, numpy' 2>/dev/null || pip install --quiet tetgen numpy
   python3 "$root/scripts/make-fine-mesh.py" "$coarse" "${FINE_TETS:-1150000}" "$out/teddy-fine"
+fi
+if [ "$moving" = 1 ]; then
+  r=0.03
+  res=${RESOLUTION:-$(python3 -c "print($r / 8)")}
+  python3 - "$coarse.node" > "$out/moving.csv" <<'PY'
+import math, sys
+rows = [l.split() for l in open(sys.argv[1]) if l.strip() and not l.startswith("#")]
+n = int(rows[0][0])
+x0, y0, z0 = max((tuple(map(float, r[1:4])) for r in rows[1:n + 1]), key=lambda p: p[2])
+r = 0.03
+print("t,x,y,z,qw,qx,qy,qz,buttons")
+# A plunge from 5r/3 above the top to r below it in 1 s, then to and fro along x over
+# +-10r/3 (a sine, two periods in 4 s): the burr never stops.
+for i in range(0, 5001, 5):
+    t = i / 1000
+    if t < 1:
+        x, z = x0, z0 + r * (5 / 3 - 8 / 3 * t)
+    else:
+        x, z = x0 + 10 / 3 * r * math.sin(math.pi * (t - 1)), z0 - r
+    print(f"{t},{x:.6f},{y0:.6f},{z:.6f},1,0,0,0,1")
+PY
+  swept=$root/target/release/examples/swept
+  [ -x "$swept" ] || (cd "$root" && cargo build --release -p tetradrill-benches --example swept)
+  for m in "$coarse.node" "$out/teddy-fine.ele"; do
+    name=$(basename "$m")
+    ref=$("$swept" "$m" "$out/moving.csv" "$r" 2000000)
+    for mode in "resolution" "depth"; do
+      extra=(--resolution "$res" --max-depth 9)
+      [ "$mode" = depth ] && extra=()
+      "$bin" replay --quiet --repeat 3 --mesh "$m" --trace "$out/moving.csv" --tool sphere:$r \
+        "${extra[@]}" --json "$out/$name.$mode.json" > "$out/$name.$mode.txt"
+      python3 - "$out/$name.$mode.json" "$ref" "$mode" "$res" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+ref = float(sys.argv[2].split()[1])
+mode = "resolution " + sys.argv[4] if sys.argv[3] == "resolution" else "max depth only"
+print(f"{d['scenario']['mesh'].split('/')[-1]} ({d['mesh']['tets']} tets, {mode}): removed "
+      f"{d['removed_volume']:.6g} of swept {ref:.6g} ({100 * (d['removed_volume'] / ref - 1):+.1f} %), "
+      f"tick mean {d['timing_us']['tick_mean']:.1f} p99 {d['timing_us']['tick_p99']:.1f} max "
+      f"{d['timing_us']['tick_max']:.1f} us, hierarchy nodes {d['hierarchy_nodes']}, "
+      f"saturations {d['saturations']['total']} "
+      f"{ {k: v for k, v in d['saturations'].items() if v and k != 'total'} }")
+PY
+    done
+  done
+  exit 0
 fi
 python3 - "$coarse.node" "$hold" > "$out/path.csv" <<'PY'
 import sys
