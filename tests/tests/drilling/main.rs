@@ -13,6 +13,7 @@ mod drill_volume;
 mod fine_mesh;
 mod long_drilling;
 mod materials;
+mod removal_law;
 mod resolution;
 mod shaft;
 mod smooth_normals;

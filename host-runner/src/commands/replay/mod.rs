@@ -34,6 +34,10 @@ pub struct ReplayArgs {
     /// Write the drilled surface (the visible faces) as a Wavefront OBJ.
     #[arg(long)]
     pub surface: Option<PathBuf>,
+    /// Write each tick's force on the device as CSV (`tick,fx,fy,fz`, newtons), one row a
+    /// tick.
+    #[arg(long)]
+    pub forces: Option<PathBuf>,
     /// Replay at most this many ticks (default: the whole trace; 60 s of a wander).
     #[arg(long, allow_negative_numbers = true)]
     pub ticks: Option<u64>,
@@ -89,6 +93,8 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let mut view = crate::viewer::ViewOptions::of(true, args.screenshot.clone())?;
     view.clip = args.clip;
     let params = TickParams::of(&sc)?;
+    // Created before the run, so a path that cannot be written stops it at once.
+    let mut forces_out = args.forces.as_deref().map(ForcesCsv::create).transpose()?;
     let poses = PoseSource::new(&sc.poses, Some(&loaded.mesh))?;
     let ticks = replay_ticks(args, &poses);
     // The earlier runs of `--repeat`: timings and digests only, each from scratch.
@@ -157,6 +163,9 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         }
         times[i as usize] = ns;
         digest.push(f);
+        if let Some(out) = forces_out.as_mut() {
+            out.row(i, f)?;
+        }
         candidates_peak = candidates_peak.max(world.candidates().len());
         if let Some(d) = driver.as_mut() {
             d.after_tick(&mut world, f)?;
@@ -239,6 +248,9 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     };
     if let Some(path) = &args.surface {
         write_surface_obj(&world, path)?;
+    }
+    if let Some(out) = forces_out {
+        out.finish()?;
     }
     print_summary(&rep);
     if let (Some(path), Some(snd)) = (&args.audio_out, &sound) {
@@ -495,5 +507,45 @@ impl ReplaySound {
             brightness: crate::audio::brightness(hardness, self.hardest),
             grinding: (rate / self.full_rate.max(1e-30)).min(1.0),
         });
+    }
+}
+
+/// `replay --forces`: each tick's force on the device, `tick,fx,fy,fz` in newtons.
+pub(super) struct ForcesCsv {
+    path: PathBuf,
+    out: std::io::BufWriter<std::fs::File>,
+}
+
+impl ForcesCsv {
+    /// Creates `path` and writes the header (exit 2 when it cannot be created: a bad
+    /// argument, found before the run).
+    pub(super) fn create(path: &std::path::Path) -> Result<Self, CliError> {
+        use std::io::Write;
+        let file = std::fs::File::create(path).map_err(|e| {
+            CliError::input(format!("{}: --forces: cannot create: {e}", path.display()))
+        })?;
+        let mut out = std::io::BufWriter::new(file);
+        writeln!(out, "tick,fx,fy,fz").map_err(|e| Self::error(path, &e))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            out,
+        })
+    }
+
+    /// Tick `tick`'s force `f`.
+    pub(super) fn row(&mut self, tick: u64, f: Vec3) -> Result<(), CliError> {
+        use std::io::Write;
+        writeln!(self.out, "{tick},{},{},{}", f.x, f.y, f.z)
+            .map_err(|e| Self::error(&self.path, &e))
+    }
+
+    /// Flushes what is buffered.
+    pub(super) fn finish(mut self) -> Result<(), CliError> {
+        use std::io::Write;
+        self.out.flush().map_err(|e| Self::error(&self.path, &e))
+    }
+
+    fn error(path: &std::path::Path, e: &std::io::Error) -> CliError {
+        CliError::failure(format!("{}: --forces: cannot write: {e}", path.display()))
     }
 }

@@ -26,6 +26,8 @@ pub(super) fn replay_pen(
         ));
     }
     let poses = PoseSource::new(&sc.poses, Some(&loaded.mesh))?;
+    let mut forces_out = args.forces.as_deref().map(ForcesCsv::create).transpose()?;
+    let mut forces = Vec::new();
     let obj = loaded.mesh;
     let pen = crate::meshio::load(pen_path, pen_scale)?;
     for w in &pen.warnings {
@@ -114,6 +116,9 @@ pub(super) fn replay_pen(
                     times[i as usize] = t2 - t0;
                     servo_times[i as usize] = t2 - t1;
                     digest.push(f.force.force);
+                    if forces_out.is_some() {
+                        forces.push(f.force.force);
+                    }
                     max_n = max_n.max(f.force.force.length());
                     contact_ticks += (f.force.force != Vec3::ZERO) as u64;
                     last = f.force.force;
@@ -149,6 +154,12 @@ pub(super) fn replay_pen(
     ran.map_err(|e: crate::pen_pair::WorkerGone| CliError::failure(e.to_string()))?;
     if progress {
         errln!("\rreplay: 100% ({ticks}/{ticks} ticks)");
+    }
+    if let Some(mut out) = forces_out.take() {
+        for (i, f) in forces.iter().enumerate() {
+            out.row(i as u64, *f)?;
+        }
+        out.finish()?;
     }
     let t = summarise_ns(&times);
     pen_info.servo_us = TickTiming::from(summarise_ns(&servo_times));
