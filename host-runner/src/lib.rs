@@ -31,6 +31,7 @@
 //!
 //! | module            | what                                                                 |
 //! |-------------------|----------------------------------------------------------------------|
+//! | [`audio`]         | the burr's sound: a whine falling under load, its timbre by material, WAV and live |
 //! | [`cli`]           | the command line: `demo`, `run`, `replay`, `info`, `timing`, `devices`, `export` |
 //! | [`commands`]      | one file per command, and the real-time pipeline `run` and `demo` share |
 //! | [`device_config`] | `--device-config FILE`: the device constants from TOML               |

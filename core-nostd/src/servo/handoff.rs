@@ -37,10 +37,12 @@ pub(crate) const WORDS: usize = 14;
 /// gives up for this tick.
 pub const HANDOFF_TRIES: u32 = 4;
 
-/// One sequence-locked copy of `N` words: `seq` is odd while they are written.
+/// One sequence-locked copy of `N` words and the number of the write that made them: `seq`
+/// is odd while they are written.
 #[derive(Debug)]
 struct Slot<const N: usize> {
     seq: AtomicU32,
+    step: AtomicU32,
     words: [AtomicU32; N],
 }
 
@@ -48,6 +50,7 @@ impl<const N: usize> Slot<N> {
     const fn new() -> Self {
         Self {
             seq: AtomicU32::new(0),
+            step: AtomicU32::new(0),
             words: [const { AtomicU32::new(0) }; N],
         }
     }
@@ -63,6 +66,9 @@ pub(crate) struct SeqPair<const N: usize> {
     newest: AtomicU32,
     /// Writes done.
     steps: AtomicU32,
+    /// The number of the write the reader returned last: a read never goes back to an older
+    /// one (the reader's own; one reader).
+    seen: AtomicU32,
 }
 
 impl<const N: usize> SeqPair<N> {
@@ -72,6 +78,7 @@ impl<const N: usize> SeqPair<N> {
             slots: [Slot::new(), Slot::new()],
             newest: AtomicU32::new(0),
             steps: AtomicU32::new(0),
+            seen: AtomicU32::new(0),
         }
     }
 
@@ -92,6 +99,7 @@ impl<const N: usize> SeqPair<N> {
         for (i, w) in slot.words.iter().enumerate() {
             w.store(word(i, step), Ordering::Relaxed);
         }
+        slot.step.store(step, Ordering::Relaxed);
         slot.seq.store(seq.wrapping_add(2), Ordering::Release);
         self.steps.store(step, Ordering::Relaxed);
         self.newest.store(next, Ordering::Release);
@@ -104,7 +112,14 @@ impl<const N: usize> SeqPair<N> {
     ///
     /// # Bounded work
     /// At most [`HANDOFF_TRIES`] reads of `N` words. Never waits.
+    ///
+    /// A read never returns an older write than the one before it: on another core the reader
+    /// may load the pointer before the writer moves it twice, find the slot it points at
+    /// already holding the newer write, and on its next read load the pointer as it was in
+    /// between, at the slot holding the write before. Each slot carries its write's number,
+    /// and a read that would go back counts as overtaken.
     pub(crate) fn latest(&self, out: &mut [u32; N]) -> bool {
+        let seen = self.seen.load(Ordering::Relaxed);
         for _ in 0..HANDOFF_TRIES {
             let slot = &self.slots[(self.newest.load(Ordering::Acquire) & 1) as usize];
             let before = slot.seq.load(Ordering::Acquire);
@@ -114,9 +129,15 @@ impl<const N: usize> SeqPair<N> {
             for (v, w) in out.iter_mut().zip(&slot.words) {
                 *v = w.load(Ordering::Relaxed);
             }
+            let step = slot.step.load(Ordering::Relaxed);
             // The words are read before the second look at the sequence.
             fence(Ordering::Acquire);
             if slot.seq.load(Ordering::Relaxed) == before {
+                // Wrapping order: older when `seen` is less than 2^31 ahead of `step`.
+                if (seen.wrapping_sub(step) as i32) > 0 {
+                    continue;
+                }
+                self.seen.store(step, Ordering::Relaxed);
                 return true;
             }
         }
