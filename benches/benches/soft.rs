@@ -25,7 +25,7 @@ use glam::Vec3;
 use tetradrill::engine::EngineStorage;
 use tetradrill::owned::OwnedMesh;
 use tetradrill::setup::Setup;
-use tetradrill::soft::SoftOwned;
+use tetradrill::soft::{on_two_threads, SoftOwned};
 use tetradrill_benches::{load_mesh, soft_bench_body};
 use tetradrill_core::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, SpatialHash};
 use tetradrill_core::servo::WorldSizes;
@@ -95,7 +95,33 @@ fn steps_pass() {
             .map(|u| u.length())
             .fold(0.0f32, f32::max);
         assert!(worst.is_finite(), "the {name} stays finite");
+        two_parts_pass(name, rel);
     }
+}
+
+/// The same steps with the body in two parts on two threads (`SoftBody::step_two` with
+/// `on_two_threads`): a `STEPS` line with `two threads` in it.
+fn two_parts_pass(name: &str, rel: &str) {
+    let mut owned = load(rel);
+    let (soft, order) = SoftOwned::from_mesh(&owned.view()).in_two_parts();
+    let mut scene = Scene(soft);
+    let mut body = scene.body();
+    let parts = order.parts(&body).expect("two parts");
+    let runs = 100;
+    let mut times = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        let t0 = Instant::now();
+        body.step_two(black_box(DT), &[], parts, &mut on_two_threads)
+            .expect("valid step");
+        times.push(t0.elapsed());
+    }
+    let (mean, min, max) = spread(&times);
+    println!(
+        "STEPS soft {name}, two parts on two threads: {} + {} tets, {} joining: mean {mean:.2} ms, min {min:.2} ms, max {max:.2} ms per step",
+        parts.tets_a(),
+        parts.tets_b() - parts.tets_a(),
+        body.tet_count() - parts.tets_b(),
+    );
 }
 
 /// Mean, minimum and maximum of `times`, in ms.

@@ -71,3 +71,83 @@ fn the_sequential_step_keeps_the_recorded_field() {
     eprintln!("sequential step: relative L2 {err:e} from the recorded field");
     assert!(err < 1e-2, "{err}");
 }
+
+#[test]
+fn the_two_part_step_keeps_the_recorded_field() {
+    let (mut soft, order) = cow().in_two_parts();
+    let (mut body, _) = tetradrill_benches::soft_bench_body(&mut soft, 1).unwrap();
+    let parts = order.parts(&body).expect("two parts that share no node");
+    let joining = body.tet_count() - parts.tets_b();
+    assert!(parts.tets_a() > 0 && parts.tets_b() > parts.tets_a());
+    assert!(joining < body.tet_count() / 5, "{joining} joining tets");
+    for _ in 0..100 {
+        body.step_two(1e-3, &[], parts, &mut tetradrill::soft::on_two_threads)
+            .unwrap();
+    }
+    let err = relative_l2(&body);
+    eprintln!(
+        "two parts ({} + {} tets, {joining} joining): relative L2 {err:e} from the recorded field",
+        parts.tets_a(),
+        parts.tets_b() - parts.tets_a()
+    );
+    assert!(err < 1e-2, "{err}");
+}
+
+#[test]
+fn the_two_part_step_is_the_sequential_step_of_the_reordered_body_bit_for_bit() {
+    let (mut one, order) = cow().in_two_parts();
+    let mut two = one.clone();
+    let (mut seq, _) = tetradrill_benches::soft_bench_body(&mut one, 1).unwrap();
+    let (mut par, _) = tetradrill_benches::soft_bench_body(&mut two, 2).unwrap();
+    let params = par.params();
+    par.set_params(tetradrill_core::soft::SoftParams {
+        iterations: 2,
+        ..params
+    })
+    .unwrap();
+    seq.set_params(par.params()).unwrap();
+    let parts = order.parts(&par).unwrap();
+    // A load on a few nodes of either part and of the cut, as a tool's would be.
+    let mut load = vec![Vec3::ZERO; seq.node_count()];
+    for k in [
+        0,
+        parts.nodes_a() - 1,
+        parts.nodes_a(),
+        seq.node_count() - 1,
+    ] {
+        load[k] = Vec3::new(0.3, -0.2, 0.5);
+    }
+    for step in 0..15 {
+        seq.step(1e-3, &load).unwrap();
+        par.step_two(1e-3, &load, parts, &mut tetradrill::soft::on_two_threads)
+            .unwrap();
+        let bits = |b: &SoftBody<'_>| {
+            b.displacements()
+                .iter()
+                .chain(b.velocities())
+                .flat_map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
+                .collect::<Vec<_>>()
+        };
+        assert!(bits(&seq) == bits(&par), "step {step}");
+    }
+    assert!(seq.displacements().iter().any(|u| u.length() > 1e-4));
+    // A part's sweep left unrun by the fork is run after it: the same bits again.
+    let mut lazy = one.clone();
+    let (mut lazy, _) = tetradrill_benches::soft_bench_body(&mut lazy, 2).unwrap();
+    let mut again = one.clone();
+    let (mut again, _) = tetradrill_benches::soft_bench_body(&mut again, 2).unwrap();
+    for _ in 0..3 {
+        lazy.step_two(1e-3, &[], parts, &mut |_, _| {}).unwrap();
+        again.step(1e-3, &[]).unwrap();
+    }
+    assert_eq!(lazy.displacements(), again.displacements());
+    // Not two parts: the original order, or counts out of range.
+    let mut orig = cow();
+    let (orig, _) = tetradrill_benches::soft_bench_body(&mut orig, 1).unwrap();
+    assert_eq!(
+        orig.two_parts(parts.nodes_a(), parts.tets_a(), parts.tets_b()),
+        None
+    );
+    assert_eq!(par.two_parts(0, 1, 0), None);
+    assert_eq!(par.two_parts(par.node_count() + 1, 0, 0), None);
+}
