@@ -7,7 +7,12 @@
 //! per mesh the mean, minimum and maximum of single steps (`STEPS`) and the time per tet
 //! projection. `SOFT_PROFILE=1` (or `=cow`, `=teddy` for one mesh) skips criterion and runs
 //! 20 steps per mesh after the 20 of the set-up, for instruction counts under callgrind:
-//! `valgrind --tool=callgrind --toggle-collect='*SoftBody*step*'` counts those 40 steps.
+//! `valgrind --tool=callgrind --toggle-collect='*SoftBody*step*'` counts those 40 steps;
+//! `SOFT_PROFILE=parts-cow` (or `parts-teddy`) does the same on the body reordered in two parts
+//! (`SoftOwned::in_two_parts`), stepped by `step` on one thread, and `SOFT_PROFILE=two-cow` (or
+//! `two-teddy`) by `step_two` on two threads (add `--separate-threads=yes
+//! --toggle-collect='*PartSweep*run*'` for each thread's count). A second `STEPS` line per mesh
+//! times that reordered body stepped by `SoftBody::step_two` on two threads.
 //!
 //! The world's side of a deforming mesh is timed in the same pass (`WORLD` lines): after each
 //! soft step the body's positions are handed to a world over the same mesh
@@ -236,14 +241,33 @@ fn main() {
         return;
     }
     if let Ok(only) = std::env::var("SOFT_PROFILE") {
+        // `parts-cow`, `parts-teddy`: the body reordered in two parts, stepped by `step` on one
+        // thread; `two-cow`, `two-teddy`: the same body stepped by `step_two` on two threads.
+        let (mode, only) = match (only.strip_prefix("parts-"), only.strip_prefix("two-")) {
+            (Some(name), _) => (1, name.to_owned()),
+            (_, Some(name)) => (2, name.to_owned()),
+            _ => (0, only),
+        };
         for (_, rel) in MESHES
             .iter()
             .filter(|(name, _)| only == "1" || only == *name)
         {
             let mut scene = Scene::new(rel);
+            let mut order = None;
+            if mode > 0 {
+                let (soft, o) = scene.0.in_two_parts();
+                scene = Scene(soft);
+                order = Some(o);
+            }
             let mut body = scene.body();
+            let parts = order.and_then(|o| o.parts(&body));
             for _ in 0..20 {
-                body.step(black_box(DT), &[]).expect("valid step");
+                match parts {
+                    Some(p) if mode == 2 => body
+                        .step_two(black_box(DT), &[], p, &mut on_two_threads)
+                        .expect("valid step"),
+                    _ => body.step(black_box(DT), &[]).expect("valid step"),
+                }
             }
         }
         return;
