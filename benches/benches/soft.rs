@@ -7,7 +7,12 @@
 //! per mesh the mean, minimum and maximum of single steps (`STEPS`) and the time per tet
 //! projection. `SOFT_PROFILE=1` (or `=cow`, `=teddy` for one mesh) skips criterion and runs
 //! 20 steps per mesh after the 20 of the set-up, for instruction counts under callgrind:
-//! `valgrind --tool=callgrind --toggle-collect='*SoftBody*step*'` counts those 40 steps.
+//! `valgrind --tool=callgrind --toggle-collect='*SoftBody*step*'` counts those 40 steps;
+//! `SOFT_PROFILE=parts-cow` (or `parts-teddy`) does the same on the body reordered in two parts
+//! (`SoftOwned::in_two_parts`), stepped by `step` on one thread, and `SOFT_PROFILE=two-cow` (or
+//! `two-teddy`) by `step_two` on two threads (add `--separate-threads=yes
+//! --toggle-collect='*PartSweep*run*'` for each thread's count). A second `STEPS` line per mesh
+//! times that reordered body stepped by `SoftBody::step_two` on two threads.
 //!
 //! The world's side of a deforming mesh is timed in the same pass (`WORLD` lines): after each
 //! soft step the body's positions are handed to a world over the same mesh
@@ -25,7 +30,7 @@ use glam::Vec3;
 use tetradrill::engine::EngineStorage;
 use tetradrill::owned::OwnedMesh;
 use tetradrill::setup::Setup;
-use tetradrill::soft::SoftOwned;
+use tetradrill::soft::{on_two_threads, SoftOwned};
 use tetradrill_benches::{load_mesh, soft_bench_body};
 use tetradrill_core::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, SpatialHash};
 use tetradrill_core::servo::WorldSizes;
@@ -95,7 +100,33 @@ fn steps_pass() {
             .map(|u| u.length())
             .fold(0.0f32, f32::max);
         assert!(worst.is_finite(), "the {name} stays finite");
+        two_parts_pass(name, rel);
     }
+}
+
+/// The same steps with the body in two parts on two threads (`SoftBody::step_two` with
+/// `on_two_threads`): a `STEPS` line with `two threads` in it.
+fn two_parts_pass(name: &str, rel: &str) {
+    let mut owned = load(rel);
+    let (soft, order) = SoftOwned::from_mesh(&owned.view()).in_two_parts();
+    let mut scene = Scene(soft);
+    let mut body = scene.body();
+    let parts = order.parts(&body).expect("two parts");
+    let runs = 100;
+    let mut times = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        let t0 = Instant::now();
+        body.step_two(black_box(DT), &[], parts, &mut on_two_threads)
+            .expect("valid step");
+        times.push(t0.elapsed());
+    }
+    let (mean, min, max) = spread(&times);
+    println!(
+        "STEPS soft {name}, two parts on two threads: {} + {} tets, {} joining: mean {mean:.2} ms, min {min:.2} ms, max {max:.2} ms per step",
+        parts.tets_a(),
+        parts.tets_b() - parts.tets_a(),
+        body.tet_count() - parts.tets_b(),
+    );
 }
 
 /// Mean, minimum and maximum of `times`, in ms.
@@ -210,14 +241,33 @@ fn main() {
         return;
     }
     if let Ok(only) = std::env::var("SOFT_PROFILE") {
+        // `parts-cow`, `parts-teddy`: the body reordered in two parts, stepped by `step` on one
+        // thread; `two-cow`, `two-teddy`: the same body stepped by `step_two` on two threads.
+        let (mode, only) = match (only.strip_prefix("parts-"), only.strip_prefix("two-")) {
+            (Some(name), _) => (1, name.to_owned()),
+            (_, Some(name)) => (2, name.to_owned()),
+            _ => (0, only),
+        };
         for (_, rel) in MESHES
             .iter()
             .filter(|(name, _)| only == "1" || only == *name)
         {
             let mut scene = Scene::new(rel);
+            let mut order = None;
+            if mode > 0 {
+                let (soft, o) = scene.0.in_two_parts();
+                scene = Scene(soft);
+                order = Some(o);
+            }
             let mut body = scene.body();
+            let parts = order.and_then(|o| o.parts(&body));
             for _ in 0..20 {
-                body.step(black_box(DT), &[]).expect("valid step");
+                match parts {
+                    Some(p) if mode == 2 => body
+                        .step_two(black_box(DT), &[], p, &mut on_two_threads)
+                        .expect("valid step"),
+                    _ => body.step(black_box(DT), &[]).expect("valid step"),
+                }
             }
         }
         return;

@@ -14,6 +14,7 @@
 mod link;
 mod load;
 mod material;
+mod parts;
 mod resume;
 mod storage;
 mod tet;
@@ -22,6 +23,7 @@ pub use link::{Link, LinkBuffers, LinkError, LinkTick};
 pub(crate) use load::below_plane;
 pub use load::spread_point_force;
 pub use material::{Lame, Material, MaterialError};
+pub use parts::{PartSweep, TwoParts};
 pub(crate) use resume::NODE_UNITS;
 pub use resume::{Advance, TET_UNITS};
 pub use storage::{carve_mesh, mesh_lines, mesh_parts};

@@ -15,7 +15,7 @@ use core::ops::Range;
 
 use glam::Vec3;
 
-use super::{project, SoftBody, SoftStorage, StepError};
+use super::{project, SoftBody, SoftStorage, StepError, TetRest};
 
 /// Work units of one node's update (integration or velocity).
 pub(crate) const NODE_UNITS: u32 = 1;
@@ -38,13 +38,14 @@ enum Phase {
 /// A step under way: its constants and where it is.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Run {
+    // The two-part step (`parts.rs`) reads the constants too.
     h: f32,
     inv_h: f32,
-    inv_h2: f32,
+    pub(super) inv_h2: f32,
     keep: f32,
     gravity: Vec3,
-    substeps: u32,
-    iterations: u32,
+    pub(super) substeps: u32,
+    pub(super) iterations: u32,
     substep: u32,
     iteration: u32,
     phase: Phase,
@@ -70,7 +71,7 @@ fn fitting(items: usize, left: u32, per: u32) -> usize {
 /// `previous`; a free node's velocity damped first (so a body at rest under a load feels all
 /// of it), then given gravity and its force (`external`, missing entries zero), and its
 /// displacement predicted.
-fn integrate(s: &mut SoftStorage<'_>, external: &[Vec3], r: &Run, nodes: Range<usize>) {
+pub(super) fn integrate(s: &mut SoftStorage<'_>, external: &[Vec3], r: &Run, nodes: Range<usize>) {
     let forces = external
         .get(nodes.start..)
         .unwrap_or(&[])
@@ -110,30 +111,75 @@ fn solve(
     ) else {
         return;
     };
-    for ((tet, rest), lambda) in tets.iter().zip(rests).zip(lambdas) {
+    sweep(
+        TetRun {
+            tets,
+            rests,
+            lambdas,
+        },
+        s.displacement,
+        s.inv_mass,
+        0,
+        first,
+        inv_h2,
+    );
+}
+
+/// Tets with their rest data and multipliers, the same length each.
+pub(super) struct TetRun<'s> {
+    pub(super) tets: &'s [[u32; 4]],
+    pub(super) rests: &'s [TetRest],
+    pub(super) lambdas: &'s mut [[f32; 2]],
+}
+
+/// The tets of `run` solved in order ([`project`]) against the nodes `first_node..` held in
+/// `displacement` and `inv_mass` (a node index `k` is slot `k - first_node`); `first` clears
+/// each tet's multipliers before its solve (the first sweep of a substep). A tet naming a node
+/// outside the slices is skipped (the callers' slices hold every node their tets name).
+///
+/// # Bounded work
+/// O(tets).
+pub(super) fn sweep(
+    run: TetRun<'_>,
+    displacement: &mut [Vec3],
+    inv_mass: &[f32],
+    first_node: usize,
+    first: bool,
+    inv_h2: f32,
+) {
+    for ((tet, rest), lambda) in run.tets.iter().zip(run.rests).zip(run.lambdas) {
         if first {
             *lambda = [0.0; 2];
         }
-        // Indices were checked at construction.
-        let [a, b, c, d] = tet.map(|k| k as usize);
-        let u = [
-            s.displacement[a],
-            s.displacement[b],
-            s.displacement[c],
-            s.displacement[d],
-        ];
-        let w = [s.inv_mass[a], s.inv_mass[b], s.inv_mass[c], s.inv_mass[d]];
-        let du = project(rest, u, w, lambda, inv_h2);
-        s.displacement[a] += du[0];
-        s.displacement[b] += du[1];
-        s.displacement[c] += du[2];
-        s.displacement[d] += du[3];
+        let [a, b, c, d] = tet.map(|k| (k as usize).wrapping_sub(first_node));
+        let (Some(&ua), Some(&ub), Some(&uc), Some(&ud)) = (
+            displacement.get(a),
+            displacement.get(b),
+            displacement.get(c),
+            displacement.get(d),
+        ) else {
+            continue;
+        };
+        let (Some(&wa), Some(&wb), Some(&wc), Some(&wd)) = (
+            inv_mass.get(a),
+            inv_mass.get(b),
+            inv_mass.get(c),
+            inv_mass.get(d),
+        ) else {
+            continue;
+        };
+        let du = project(rest, [ua, ub, uc, ud], [wa, wb, wc, wd], lambda, inv_h2);
+        // In range: read above.
+        displacement[a] += du[0];
+        displacement[b] += du[1];
+        displacement[c] += du[2];
+        displacement[d] += du[3];
     }
 }
 
 /// A run of nodes' velocities (the end of a substep): a free node's from its displacement
 /// change over the substep.
-fn velocity(s: &mut SoftStorage<'_>, r: &Run, nodes: Range<usize>) {
+pub(super) fn velocity(s: &mut SoftStorage<'_>, r: &Run, nodes: Range<usize>) {
     let (Some(u), Some(p), Some(v), Some(w)) = (
         s.displacement.get(nodes.clone()),
         s.previous.get(nodes.clone()),

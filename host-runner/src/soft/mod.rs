@@ -15,12 +15,14 @@ use crate::error::Error;
 
 mod driver;
 mod spec;
+mod two;
 
 pub use driver::{DeformSummary, SoftDriver, SpreadSummary, StepTiming};
 pub use spec::{
     material_uses, Fix, MaterialUse, SoftRegion, SoftSpec, Stiffness, DAMPING, DEFAULT_POISSON,
     DEFAULT_RATE_HZ, DEFAULT_YOUNG, DENSITY, SUBSTEPS,
 };
+pub use two::{on_two_threads, PartsOrder};
 
 /// A soft body's rest mesh, owned, and its state and scratch on the heap (the core's
 /// [`SoftBuffers`], carved by `SoftStorage::carve`, allocated once for the mesh's counts).

@@ -7,6 +7,7 @@ mod deform_world;
 mod soft_block;
 mod soft_body;
 mod soft_cli;
+mod soft_golden;
 mod soft_link;
 mod soft_regions;
 mod soft_spread;
