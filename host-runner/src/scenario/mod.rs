@@ -49,7 +49,7 @@ pub struct Scenario {
     /// first of `tetradrill_meshio::REGION_ARRAYS` the file has).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub region_array: Option<String>,
-    /// Trace CSV file, `builtin:demo`, `builtin:tooth-access`, or `wander:SEED` (a seeded random wander over the
+    /// Trace CSV file, `builtin:demo`, `builtin:tooth-access`, `builtin:premolar-access`, or `wander:SEED` (a seeded random wander over the
     /// mesh's surface, drill on); positions in mesh units after `scale`.
     pub trace: String,
     /// `sphere:R` (a spherical burr of radius R), `drill:BURR_R:SHAFT_LEN:SHAFT_R` (a burr on
@@ -197,7 +197,7 @@ impl Default for Scenario {
 pub struct ScenarioFlags {
     /// A scenario file (TOML, keys as these flags with `_` for `-`) or `builtin:demo`,
     /// `builtin:firmware`, `builtin:firmware-cow`, `builtin:firmware-regions`,
-    /// `builtin:firmware-soft`, `builtin:firmware-tooth`.
+    /// `builtin:firmware-soft`, `builtin:firmware-tooth`, `builtin:tooth`.
     #[arg(long)]
     pub scenario: Option<String>,
     /// Mesh file or `builtin:cube12`, `builtin:block:N`.
@@ -209,8 +209,8 @@ pub struct ScenarioFlags {
     /// The integer cell array of a VTK/VTU mesh holding region labels.
     #[arg(long, value_name = "NAME")]
     pub region_array: Option<String>,
-    /// Trace CSV (`t,x,y,z,qw,qx,qy,qz,buttons`), `builtin:demo`, `builtin:tooth-access` or
-    /// `wander:SEED`.
+    /// Trace CSV (`t,x,y,z,qw,qx,qy,qz,buttons`), `builtin:demo`, `builtin:tooth-access`,
+    /// `builtin:premolar-access` or `wander:SEED`.
     #[arg(long)]
     pub trace: Option<String>,
     /// `sphere:R`, `drill:BURR_R:SHAFT_LEN:SHAFT_R` or `mesh:FILE`.
@@ -463,6 +463,26 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             hash_capacity: Some(H743_HASH_ENTRIES),
             ..builtin("firmware-tooth")?
         }),
+        // The real-size premolar on the host (`models/premolar_gmsh.msh22.msh`, 44,162 tets):
+        // a 0.7 mm burr (an ISO 014 round burr) cuts an access cavity through the enamel and
+        // the dentin into the pulp chamber (`script::PREMOLAR_ACCESS`), with the tooth's three
+        // materials (`tooth_regions`); metres and newtons, the host's budgets. The capacities
+        // hold the peaks `replay --json` reports on the whole path (docs/DRILLING.md, "The
+        // real-size premolar").
+        "tooth" => Some(Scenario {
+            mesh: test_mesh(PREMOLAR),
+            trace: "builtin:premolar-access".into(),
+            tool: "sphere:0.0007".into(),
+            stiffness: 6_000.0,
+            regions: labelled(tooth_regions()),
+            // Peaks over the path at larger sizes: 3,118,480 arena nodes, 13,819 coarse
+            // pending items, 3,241 candidates; each capacity a quarter or more above. The
+            // tet hash is filled once at load (339,354 entries of its default 8 a tet).
+            hierarchy_capacity: Some(4_100_000),
+            pending_capacity: Some(40_960),
+            candidate_capacity: Some(4_096),
+            ..Scenario::default()
+        }),
         // The firmware block soft (`scripts/port-check.sh --scenario soft`): its step and the
         // world's update spread over the ticks of each cycle, sized so that a tick's share
         // fits the Cortex-M4's period beside the simulation step (docs/SOFT.md, "On the
@@ -489,6 +509,9 @@ pub const FIRMWARE_SOFT_SUBSTEPS: u32 = 4;
 
 /// The tooth of `builtin:firmware-tooth`, in the project's test data folder.
 pub const TOOTH: &str = "models/tooth_premolar_gmsh.msh22.msh";
+
+/// The real-size premolar of `builtin:tooth`, in the project's test data folder.
+pub const PREMOLAR: &str = "models/premolar_gmsh.msh22.msh";
 
 /// `NAME` (a path relative to the test data folder) in the folder `TETRADRILL_MESHES` names
 /// when it has one, else in the project's test data.
@@ -519,7 +542,7 @@ impl Scenario {
         if let Some(name) = spec.strip_prefix("builtin:") {
             return builtin(name).ok_or_else(|| {
                 CliError::input(format!(
-                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow, builtin:firmware-regions, builtin:firmware-soft, builtin:firmware-tooth, builtin:f405-block, builtin:f405-regions, builtin:h743-tooth)"
+                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow, builtin:firmware-regions, builtin:firmware-soft, builtin:firmware-tooth, builtin:f405-block, builtin:f405-regions, builtin:h743-tooth, builtin:tooth)"
                 ))
             });
         }
