@@ -8,8 +8,9 @@
 #   scripts/make-premolar.sh [OUT]
 #
 # Needs the `gmsh` binary (`pip install gmsh` gives it; the committed mesh was made with Gmsh
-# 4.15.2 on one thread, and another version may place the nodes differently). Prints the tet
-# count by label. The small tooth of the firmware is scripts/make-tooth.sh's.
+# 4.15.2 on one thread, and another version may place the nodes differently). Takes about five
+# minutes of one core (the lofted surfaces). Prints the tet count by label. The firmware's
+# small tooth is scripts/make-tooth.sh's.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 models="$root/tests/data/meshes/models"

@@ -13,7 +13,7 @@
 // under each cusp and one ribbon-shaped canal (same source, chapter 9).
 //
 // Physical volumes (the mesh's region labels):
-//   1 enamel: a shell on the crown, about 1.8 mm over the cusps, 1.2 mm under the fissure,
+//   1 enamel: a shell on the crown, about 1.9 mm over the cusps, 1.3 mm under the fissure,
 //             about 1 mm on the sides, ending in a thin edge at the CEJ;
 //   2 dentin: the body of crown and root;
 //   3 pulp:   the chamber with its two horns and the canal, closed 1.5 mm above the apex.
@@ -32,14 +32,24 @@ Macro Section
   Curve Loop(w) = {c};
 Return
 
-// The outer surface of crown and root: sections lofted smoothly from the apex to the
-// occlusal table. The height of contour (7 x 9 mm) at z = 18 mm, the cervix (5 x 8 mm) at 14.
-outer_z[] = {0.8, 3.0, 7.0, 11.0, 14.0, 16.0, 18.0, 19.8, 20.8};
-outer_a[] = {0.55, 1.05, 1.65, 2.15, 2.5, 3.15, 3.5, 3.3, 2.8};
-outer_b[] = {0.80, 1.75, 2.9, 3.6, 4.0, 4.4, 4.5, 4.25, 3.7};
+// The outer surface of crown and root: sections 1 mm apart (evenly, so the smooth loft
+// through them does not overshoot), lofted from the apex to the occlusal table. The root
+// tapers from the cervix (5 x 8 mm at z = 14) to a blunt apex; the crown bulges to its height
+// of contour (7 x 9 mm at z = 18) and narrows to the occlusal table at z = 20.8.
 wires[] = {};
-For i In {0 : #outer_z[] - 1}
-  sz = outer_z[i]; sa = outer_a[i]; sb = outer_b[i];
+For i In {0 : 20}
+  sz = 0.8 + i;
+  If (sz <= 14)
+    s = (sz - 0.8) / 13.2;
+    sa = 0.55 + 1.95 * s^0.6;
+    sb = 0.8 + 3.2 * s^0.6;
+  ElseIf (sz <= 18)
+    sa = 3.5 - 1.0 * ((18 - sz) / 4)^2;
+    sb = 4.5 - 0.5 * ((18 - sz) / 4)^2;
+  Else
+    sa = 3.5 - 0.7 * ((sz - 18) / 2.8)^2;
+    sb = 4.5 - 0.8 * ((sz - 18) / 2.8)^2;
+  EndIf
   Call Section;
   wires[] += w;
 EndFor
@@ -120,12 +130,13 @@ phorn_l = newv;
 Sphere(phorn_l) = {0, 0, 0, 1};
 Dilate {{0, 0, 0}, {0.55, 0.5, 1.3}} { Volume{phorn_l}; }
 Translate {0, -1.3, 17.3} { Volume{phorn_l}; }
-canal_z[] = {1.5, 6.0, 11.0, 16.3};
-canal_a[] = {0.12, 0.3, 0.45, 0.6};
-canal_b[] = {0.2, 0.55, 0.9, 1.2};
+// The canal: sections 1 mm apart from its closed end 1.5 mm above the apex (0.24 x 0.4 mm)
+// into the chamber (1.2 x 2.4 mm at z = 16.3).
 wires[] = {};
-For i In {0 : #canal_z[] - 1}
-  sz = canal_z[i]; sa = canal_a[i]; sb = canal_b[i];
+For i In {0 : 14}
+  sz = 1.5 + i * 14.8 / 14;
+  sa = 0.12 + 0.48 * i / 14;
+  sb = 0.2 + 1.0 * i / 14;
   Call Section;
   wires[] += w;
 EndFor
