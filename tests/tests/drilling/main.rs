@@ -12,6 +12,7 @@ mod drill_volume;
 mod fine_mesh;
 mod long_drilling;
 mod materials;
+mod premolar_access;
 mod shaft;
 mod smooth_normals;
 mod surface_export;
