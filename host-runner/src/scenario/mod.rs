@@ -9,6 +9,7 @@ use std::path::Path;
 
 mod chips;
 pub use chips::*;
+pub mod teeth;
 
 use serde::{Deserialize, Serialize};
 
@@ -463,26 +464,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             hash_capacity: Some(H743_HASH_ENTRIES),
             ..builtin("firmware-tooth")?
         }),
-        // The real-size premolar on the host (`models/premolar_gmsh.msh22.msh`, 44,162 tets):
-        // a 0.7 mm burr (an ISO 014 round burr) cuts an access cavity through the enamel and
-        // the dentin into the pulp chamber (`script::PREMOLAR_ACCESS`), with the tooth's three
-        // materials (`tooth_regions`); metres and newtons, the host's budgets. The capacities
-        // hold the peaks `replay --json` reports on the whole path (docs/DRILLING.md, "The
-        // real-size premolar").
-        "tooth" => Some(Scenario {
-            mesh: test_mesh(PREMOLAR),
-            trace: "builtin:premolar-access".into(),
-            tool: "sphere:0.0007".into(),
-            stiffness: 6_000.0,
-            regions: labelled(tooth_regions()),
-            // Peaks over the path at larger sizes: 3,118,480 arena nodes, 13,819 coarse
-            // pending items, 3,241 candidates; each capacity a quarter or more above. The
-            // tet hash is filled once at load (339,354 entries of its default 8 a tet).
-            hierarchy_capacity: Some(4_100_000),
-            pending_capacity: Some(40_960),
-            candidate_capacity: Some(4_096),
-            ..Scenario::default()
-        }),
+        "tooth" => Some(teeth::real_size_tooth()),
         // The firmware block soft (`scripts/port-check.sh --scenario soft`): its step and the
         // world's update spread over the ticks of each cycle, sized so that a tick's share
         // fits the Cortex-M4's period beside the simulation step (docs/SOFT.md, "On the
@@ -509,9 +491,6 @@ pub const FIRMWARE_SOFT_SUBSTEPS: u32 = 4;
 
 /// The tooth of `builtin:firmware-tooth`, in the project's test data folder.
 pub const TOOTH: &str = "models/tooth_premolar_gmsh.msh22.msh";
-
-/// The real-size premolar of `builtin:tooth`, in the project's test data folder.
-pub const PREMOLAR: &str = "models/premolar_gmsh.msh22.msh";
 
 /// `NAME` (a path relative to the test data folder) in the folder `TETRADRILL_MESHES` names
 /// when it has one, else in the project's test data.

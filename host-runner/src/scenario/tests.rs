@@ -79,7 +79,7 @@ fn firmware_tooth_names_the_tooth_its_path_and_three_materials() {
 #[test]
 fn the_real_size_tooth_names_its_mesh_its_path_and_the_firmware_tooths_materials() {
     let s = Scenario::load("builtin:tooth").expect("built in");
-    assert!(s.mesh.ends_with(PREMOLAR), "{}", s.mesh);
+    assert!(s.mesh.ends_with(teeth::PREMOLAR), "{}", s.mesh);
     assert!(Path::new(&s.mesh).is_file(), "{}", s.mesh);
     assert_eq!(s.trace, "builtin:premolar-access");
     assert_eq!(s.tool, "sphere:0.0007");
