@@ -139,6 +139,78 @@ pub(crate) const TOOTH_ACCESS_KEYS: [Key; 9] = [
     },
 ];
 
+/// An access cavity in the real-size premolar of
+/// `tests/data/meshes/models/premolar_gmsh.msh22.msh` (metres, long axis +z, buccal +y, the
+/// central fissure along x at `z = 0.02075`, the enamel under it down to `z = 0.0195`, the pulp
+/// chamber's roof at `z = 0.01745` and its horns at `y = +-0.0013` up to `z = 0.01855`), for a
+/// burr of radius 0.7 mm: it comes down on the fissure and plunges 2.9 mm at 0.5 mm/s with the
+/// drill on (through the enamel into the dentin), widens the cavity 1.2 mm buccally and
+/// lingually and back (an access cavity is oval bucco-lingually), deepens 1.7 mm at 0.5 mm/s
+/// into the pulp chamber, unroofs it 0.8 mm each way towards the horns, and is withdrawn
+/// (the drill on, as a burr leaves the cavity it cut). 1 kHz ticks, 27 s.
+pub(crate) const PREMOLAR_ACCESS_KEYS: [Key; 12] = [
+    Key {
+        tick: 0,
+        position: Vec3::new(0.0, 0.0, 0.024),
+        buttons: 0,
+    },
+    Key {
+        tick: 500,
+        position: Vec3::new(0.0, 0.0, 0.0225),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 6300,
+        position: Vec3::new(0.0, 0.0, 0.0196),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 8700,
+        position: Vec3::new(0.0, 0.0012, 0.0196),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 13500,
+        position: Vec3::new(0.0, -0.0012, 0.0196),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 15900,
+        position: Vec3::new(0.0, 0.0, 0.0196),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 19300,
+        position: Vec3::new(0.0, 0.0, 0.0179),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 20900,
+        position: Vec3::new(0.0, 0.0008, 0.0179),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 24100,
+        position: Vec3::new(0.0, -0.0008, 0.0179),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 25700,
+        position: Vec3::new(0.0, 0.0, 0.0179),
+        buttons: DRILL_ON,
+    },
+    Key {
+        tick: 26700,
+        position: Vec3::new(0.0, 0.0, 0.024),
+        buttons: 0,
+    },
+    Key {
+        tick: 27000,
+        position: Vec3::new(0.0, 0.0, 0.024),
+        buttons: 0,
+    },
+];
+
 impl Script<'_> {
     /// Number of ticks the path lasts (the last key's tick + 1).
     pub fn ticks(&self) -> u32 {
@@ -177,6 +249,11 @@ pub const TOOTH_ACCESS: Script<'static> = Script {
     keys: &TOOTH_ACCESS_KEYS,
 };
 
+/// The real-size premolar's access cavity (`PREMOLAR_ACCESS_KEYS`).
+pub const PREMOLAR_ACCESS: Script<'static> = Script {
+    keys: &PREMOLAR_ACCESS_KEYS,
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -202,5 +279,25 @@ mod tests {
         assert_eq!(b, DRILL_ON);
         assert_eq!(TOOTH_ACCESS.at(20_000), (Vec3::new(0.0, 0.0, 0.0235), 0));
         assert!(TOOTH_ACCESS_KEYS.windows(2).all(|w| w[0].tick < w[1].tick));
+    }
+
+    #[test]
+    fn the_premolar_path_opens_the_pulp_with_the_drill_on_and_ends_withdrawn() {
+        assert_eq!(PREMOLAR_ACCESS.ticks(), 27_001);
+        assert_eq!(PREMOLAR_ACCESS.at(0), (Vec3::new(0.0, 0.0, 0.024), 0));
+        // Halfway along the buccal sweep, and at the deepest point.
+        let (p, b) = PREMOLAR_ACCESS.at(7_500);
+        assert!(p.abs_diff_eq(Vec3::new(0.0, 0.0006, 0.0196), 1e-7), "{p}");
+        assert_eq!(b, DRILL_ON);
+        let (p, b) = PREMOLAR_ACCESS.at(19_300);
+        assert!(p.abs_diff_eq(Vec3::new(0.0, 0.0, 0.0179), 1e-7), "{p}");
+        assert_eq!(b, DRILL_ON);
+        // Withdrawn, then the drill off.
+        assert_eq!(PREMOLAR_ACCESS.at(26_000).1, DRILL_ON);
+        assert_eq!(PREMOLAR_ACCESS.at(26_800).1, 0);
+        assert_eq!(PREMOLAR_ACCESS.at(30_000), (Vec3::new(0.0, 0.0, 0.024), 0));
+        assert!(PREMOLAR_ACCESS_KEYS
+            .windows(2)
+            .all(|w| w[0].tick < w[1].tick));
     }
 }

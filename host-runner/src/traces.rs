@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use tetradrill_core::script::{Script, DEMO, DRILL_ON, TOOTH_ACCESS};
+use tetradrill_core::script::{Script, DEMO, DRILL_ON, PREMOLAR_ACCESS, TOOTH_ACCESS};
 use tetradrill_core::Vec3;
 use tetradrill_device::{PathPoint, Trace};
 
@@ -94,6 +94,7 @@ impl PoseSource {
         match poses {
             Poses::Demo => Ok(Self::Script(DEMO)),
             Poses::ToothAccess => Ok(Self::Script(TOOTH_ACCESS)),
+            Poses::PremolarAccess => Ok(Self::Script(PREMOLAR_ACCESS)),
             Poses::Trace(path) => Self::trace_file(path, 1.0),
             Poses::Wander { seed } => {
                 let Some(mesh) = mesh else {

@@ -98,6 +98,8 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             hash_capacity: Some(H743_HASH_ENTRIES),
             ..builtin("firmware-tooth")?
         }),
+        // The premolar at real size (`scenario/teeth.rs`).
+        "tooth" => Some(teeth::real_size_tooth()),
         // The firmware block soft (`scripts/port-check.sh --scenario soft`): its step and the
         // world's update spread over the ticks of each cycle, sized so that a tick's share
         // fits the Cortex-M4's period beside the simulation step (docs/SOFT.md, "On the
@@ -127,7 +129,7 @@ pub const TOOTH: &str = "models/tooth_premolar_gmsh.msh22.msh";
 
 /// `NAME` (a path relative to the test data folder) in the folder `TETRADRILL_MESHES` names
 /// when it has one, else in the project's test data.
-fn test_mesh(name: &str) -> String {
+pub(super) fn test_mesh(name: &str) -> String {
     if let Some(dir) = std::env::var_os("TETRADRILL_MESHES") {
         let p = Path::new(&dir).join(name);
         if p.is_file() {

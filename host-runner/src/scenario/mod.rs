@@ -11,6 +11,7 @@ mod builtins;
 mod chips;
 pub use builtins::*;
 pub use chips::*;
+pub mod teeth;
 
 use serde::{Deserialize, Serialize};
 
@@ -51,7 +52,7 @@ pub struct Scenario {
     /// first of `tetradrill_meshio::REGION_ARRAYS` the file has).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub region_array: Option<String>,
-    /// Trace CSV file, `builtin:demo`, `builtin:tooth-access`, or `wander:SEED` (a seeded random wander over the
+    /// Trace CSV file, `builtin:demo`, `builtin:tooth-access`, `builtin:premolar-access`, or `wander:SEED` (a seeded random wander over the
     /// mesh's surface, drill on); positions in mesh units after `scale`.
     pub trace: String,
     /// `sphere:R` (a spherical burr of radius R), `drill:BURR_R:SHAFT_LEN:SHAFT_R` (a burr on
@@ -203,7 +204,7 @@ impl Default for Scenario {
 pub struct ScenarioFlags {
     /// A scenario file (TOML, keys as these flags with `_` for `-`) or `builtin:demo`,
     /// `builtin:firmware`, `builtin:firmware-cow`, `builtin:firmware-regions`,
-    /// `builtin:firmware-soft`, `builtin:firmware-tooth`.
+    /// `builtin:firmware-soft`, `builtin:firmware-tooth`, `builtin:tooth`.
     #[arg(long)]
     pub scenario: Option<String>,
     /// Mesh file or `builtin:cube12`, `builtin:block:N`.
@@ -215,8 +216,8 @@ pub struct ScenarioFlags {
     /// The integer cell array of a VTK/VTU mesh holding region labels.
     #[arg(long, value_name = "NAME")]
     pub region_array: Option<String>,
-    /// Trace CSV (`t,x,y,z,qw,qx,qy,qz,buttons`), `builtin:demo`, `builtin:tooth-access` or
-    /// `wander:SEED`.
+    /// Trace CSV (`t,x,y,z,qw,qx,qy,qz,buttons`), `builtin:demo`, `builtin:tooth-access`,
+    /// `builtin:premolar-access` or `wander:SEED`.
     #[arg(long)]
     pub trace: Option<String>,
     /// `sphere:R`, `drill:BURR_R:SHAFT_LEN:SHAFT_R` or `mesh:FILE`.
@@ -387,7 +388,7 @@ impl Scenario {
         if let Some(name) = spec.strip_prefix("builtin:") {
             return builtin(name).ok_or_else(|| {
                 CliError::input(format!(
-                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow, builtin:firmware-regions, builtin:firmware-soft, builtin:firmware-tooth, builtin:f405-block, builtin:f405-regions, builtin:h743-tooth)"
+                    "unknown scenario `{spec}` (built-in: builtin:demo, builtin:firmware, builtin:firmware-cow, builtin:firmware-regions, builtin:firmware-soft, builtin:firmware-tooth, builtin:f405-block, builtin:f405-regions, builtin:h743-tooth, builtin:tooth)"
                 ))
             });
         }

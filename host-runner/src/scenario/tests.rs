@@ -77,6 +77,19 @@ fn firmware_tooth_names_the_tooth_its_path_and_three_materials() {
 }
 
 #[test]
+fn the_real_size_tooth_names_its_mesh_its_path_and_the_firmware_tooths_materials() {
+    let s = Scenario::load("builtin:tooth").expect("built in");
+    assert!(s.mesh.ends_with(teeth::PREMOLAR), "{}", s.mesh);
+    assert!(Path::new(&s.mesh).is_file(), "{}", s.mesh);
+    assert_eq!(s.trace, "builtin:premolar-access");
+    assert_eq!(s.tool, "sphere:0.0007");
+    assert!(s.check().is_ok());
+    let firmware = Scenario::load("builtin:firmware-tooth").expect("built in");
+    assert_eq!(s.regions, firmware.regions);
+    assert_eq!(s.setup().expect("a set-up").poses.to_string(), s.trace);
+}
+
+#[test]
 fn soft_keys_read_back_and_a_rigid_scenario_leaves_them_out() {
     let text = "body = \"soft\"\nyoung = 2000.0\npoisson = 0.25\nfix_below = \"y:-0.4\"\nsoft_rate = 500.0\n";
     let s: Scenario = toml::from_str(text).expect("soft keys");

@@ -58,6 +58,8 @@ pub enum Poses {
     Demo,
     /// The tooth's access cavity (`builtin:tooth-access`).
     ToothAccess,
+    /// The real-size premolar's access cavity (`builtin:premolar-access`).
+    PremolarAccess,
     /// A seeded random wander over the mesh's surface, drill on (`wander:SEED`).
     Wander {
         /// The seed.
@@ -77,11 +79,12 @@ impl Poses {
             return match name {
                 "demo" => Ok(Self::Demo),
                 "tooth-access" => Ok(Self::ToothAccess),
+                "premolar-access" => Ok(Self::PremolarAccess),
                 _ => Err(SetupError::new(
                     "trace",
                     format!(
                         "unknown built-in trace `{spec}` (built-in: builtin:demo, \
-                         builtin:tooth-access)"
+                         builtin:tooth-access, builtin:premolar-access)"
                     ),
                 )),
             };
@@ -106,6 +109,7 @@ impl fmt::Display for Poses {
         match self {
             Self::Demo => f.write_str("builtin:demo"),
             Self::ToothAccess => f.write_str("builtin:tooth-access"),
+            Self::PremolarAccess => f.write_str("builtin:premolar-access"),
             Self::Wander { seed } => write!(f, "wander:{seed}"),
             Self::Trace(p) => f.write_str(&shown(p)),
         }

@@ -13,6 +13,7 @@ mod drill_volume;
 mod fine_mesh;
 mod long_drilling;
 mod materials;
+mod premolar_access;
 mod removal_law;
 mod resolution;
 mod shaft;

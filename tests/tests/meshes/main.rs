@@ -1,5 +1,5 @@
 //! Meshes: the compact mesh, the blob and the mesh read in place, every file format (good,
-//! binary and refused), the load order, `tetradrill info`, the premolar mesh and the fuzzing
+//! binary and refused), the load order, `tetradrill info`, the two premolar meshes and the fuzzing
 //! regressions; one test binary, a module per file.
 
 mod fuzz_regressions;
@@ -11,4 +11,5 @@ mod mesh_in_place;
 mod meshio;
 mod meshio_binary;
 mod meshio_refused;
+mod premolar_mesh;
 mod tooth_mesh;
