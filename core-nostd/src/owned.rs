@@ -124,6 +124,17 @@ impl WorldBuffers {
         });
     }
 
+    /// Sets each region's vibration at full cut, newtons, in table order
+    /// ([`Region::with_vibration`]); regions beyond `newtons` keep theirs. Nothing without
+    /// regions ([`WorldBuffers::set_regions`] first).
+    pub fn set_region_vibrations(&mut self, newtons: &[f32]) {
+        if let Some(r) = self.regions.as_mut() {
+            for (reg, &a) in r.table.iter_mut().zip(newtons) {
+                *reg = reg.with_vibration(a);
+            }
+        }
+    }
+
     /// Allocates a deforming world's rest positions and spare tables for a mesh of `nodes`
     /// nodes ([`World::enable_deformation`], [`World::set_spare`]): the worlds made from
     /// these buffers may then move their nodes.
@@ -171,7 +182,7 @@ impl WorldBuffers {
         let mut world = World::new(mesh, storage)?;
         if let Some(r) = &mut self.regions {
             for region in r.table.iter_mut() {
-                *region = Region::new(region.material);
+                *region = Region::new(region.material).with_vibration(region.vibration());
             }
             world.set_regions(Regions::new(&mut r.table, &r.of_tet).map_err(WorldError::Regions)?);
         }

@@ -91,6 +91,7 @@ fn servo_tick_allocates_nothing_after_warm_up() {
         centre: Vec3::new(0.0, 0.0, 0.6),
         triangles: 1,
         stiffness: 0.0,
+        vibration: tetradrill_core::servo::VibrationCue::default(),
     };
     let (mut input, mut output) =
         triple_buffer::TripleBuffer::new(&ContactState::default()).split();
@@ -173,6 +174,7 @@ fn coming_back_from_a_stall_allocates_nothing() {
         centre: Vec3::new(0.0, 0.0, 0.6),
         triangles: 1,
         stiffness: 0.0,
+        vibration: tetradrill_core::servo::VibrationCue::default(),
     };
     let ws = Workspace {
         scale: 1.0,
@@ -429,6 +431,7 @@ fn a_drill_servo_tick_allocates_nothing_after_warm_up() {
             centre: Vec3::new(0.0, 0.0, 0.6),
             triangles: 1,
             stiffness: 0.0,
+            vibration: tetradrill_core::servo::VibrationCue::default(),
         },
         ..DrillContact::default()
     };

@@ -87,11 +87,14 @@ impl Default for Material {
 }
 
 /// One region's material and state, in caller storage (32 bytes): the volume its erosion has
-/// earned and not yet spent, and the volume removed from it.
+/// earned and not yet spent, the volume removed from it, and the amplitude of the burr's
+/// vibration in it ([`Region::with_vibration`]).
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct Region {
     /// The region's material.
     pub material: Material,
+    /// Newtons: the burr's vibration at full cut (docs/DRILLING.md, "Vibration"); zero: none.
+    vibration: f32,
     credit: f64,
     removed: f64,
 }
@@ -103,9 +106,29 @@ impl Region {
     pub const fn new(material: Material) -> Self {
         Self {
             material,
+            vibration: 0.0,
             credit: 0.0,
             removed: 0.0,
         }
+    }
+
+    /// This region with a vibration of `newtons` at full cut: while the drill is on and the
+    /// burr cuts this region, [`crate::servo::servo_force`] adds a sinusoid of at most this
+    /// amplitude along the force ([`crate::servo::VibrationCue`]). Zero, negative or not a
+    /// number: none (the default).
+    pub const fn with_vibration(self, newtons: f32) -> Self {
+        let vibration = if newtons > 0.0 && newtons < f32::INFINITY {
+            newtons
+        } else {
+            0.0
+        };
+        Self { vibration, ..self }
+    }
+
+    /// Newtons: the amplitude of the burr's vibration at full cut in this region (zero:
+    /// none).
+    pub fn vibration(&self) -> f32 {
+        self.vibration
     }
 
     /// Volume the burr's work has earned in this region and not yet spent on a leaf, cubic
@@ -242,6 +265,12 @@ impl<'a> Regions<'a> {
     #[inline]
     pub fn region_of(&self, tet: TetId) -> u8 {
         self.of_tet.get(tet.idx()).copied().unwrap_or(0)
+    }
+
+    /// The region entry of coarse tet `tet` (`None` beyond the table).
+    #[inline]
+    pub(crate) fn region_entry(&self, tet: TetId) -> Option<&Region> {
+        self.table.get(self.region_of(tet) as usize)
     }
 
     /// The material of coarse tet `tet`.

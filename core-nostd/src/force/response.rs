@@ -52,6 +52,9 @@ pub struct ToolState {
     /// The stiffness `plane` was felt with, newtons per mesh unit (a change of the material
     /// under the contact is a switch, rendered as a ramp like a change of plane).
     pub(crate) stiffness: f32,
+    /// The burr's vibration phase, cycles in `[0, 1)`: advanced by `hz * dt` each tick a
+    /// [`crate::servo::VibrationCue`] is active (see [`crate::servo::servo_force`]).
+    pub(crate) phase: f32,
 }
 
 /// Damping force `-b v` with `v` from two consecutive positions; zero without a previous

@@ -270,6 +270,7 @@ mod tests {
             centre: Vec3::new(x, 1.0, -3.0),
             triangles: i.wrapping_mul(7),
             stiffness: x + 1.0,
+            vibration: crate::servo::VibrationCue::default(),
         };
         let mut s = DrillState {
             count: (i as usize % MAX_PASSIVE) + 1,

@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use super::ContactState;
+use super::{ContactState, VibrationCue};
 use crate::force::{clamp_force, damping_force, ForceParams, ToolState};
 
 /// The force on a spherical burr of `radius` at `centre` from the contact plane `contact`,
@@ -30,6 +30,16 @@ use crate::force::{clamp_force, damping_force, ForceParams, ToolState};
 /// it) when positive, else `params.stiffness`. A change of stiffness under an unchanged plane
 /// is a switch too: the spring felt with the old stiffness is carried by the residual and
 /// ramped out, so crossing from one material into another never makes the force jump.
+///
+/// Vibration. While the contact carries a [`VibrationCue`] (the drill on, over a region that
+/// vibrates), the force `F` above is modulated along its own direction:
+/// `F + F / |F| * min(|F|, amplitude * s) * sin(2 pi phase)` with
+/// `s = min(1, (|F| - threshold) / (max_force - threshold))` while `|F|` exceeds the region's
+/// threshold (no vibration below it), and the phase advanced by `hz * dt` cycles each tick
+/// the cue has a frequency, in contact or not (`libm::sinf`, the same bits on every target). The modulation never
+/// reverses the force, is not clamped again (the force reaches at most
+/// `max_force + amplitude`), and without a cue the force is the one above, bit for bit
+/// (docs/DRILLING.md, "Vibration").
 ///
 /// # Bounded work
 /// Constant. Never allocates, locks or panics; non-finite input gives zero force (and
@@ -78,10 +88,54 @@ pub fn servo_force(
     }
     let residual = shrink(residual, step);
     tool.residual = residual;
-    clamp_force(
+    let force = clamp_force(
         clamp_force(s + residual, params.max_force) + damping,
         params.max_force,
-    )
+    );
+    vibrate(force, &contact.vibration, tool, params)
+}
+
+/// `force` with the burr's vibration of `cue` added along it ([`servo_force`], "Vibration"),
+/// the phase in `tool` advanced whenever the cue has a frequency; `force` itself when the cue
+/// has no frequency or no amplitude (phase untouched without a frequency).
+///
+/// # Bounded work
+/// Constant.
+fn vibrate(force: Vec3, cue: &VibrationCue, tool: &mut ToolState, params: &ForceParams) -> Vec3 {
+    let (hz, a) = (cue.hz, cue.amplitude);
+    if !(hz > 0.0 && hz.is_finite()) {
+        return force;
+    }
+    let p = tool.phase + hz * params.dt;
+    tool.phase = if p.is_finite() {
+        p - libm::floorf(p)
+    } else {
+        0.0
+    };
+    if !(a > 0.0 && a.is_finite()) {
+        return force;
+    }
+    let m = force.length();
+    let threshold = if cue.threshold > 0.0 {
+        cue.threshold
+    } else {
+        0.0
+    };
+    if !(m > threshold && m.is_finite()) {
+        return force;
+    }
+    let span = params.max_force - threshold;
+    let share = if span > 0.0 {
+        ((m - threshold) / span).min(1.0)
+    } else {
+        1.0
+    };
+    let v = (a * share).min(m) * libm::sinf(core::f32::consts::TAU * tool.phase);
+    if v.is_finite() {
+        force + force * (v / m)
+    } else {
+        force
+    }
 }
 
 /// `v` shortened by `step` (zero when no longer than `step`, or when `v` or `step` is NaN or

@@ -26,12 +26,12 @@ use core::sync::atomic::{fence, AtomicU32, Ordering};
 use glam::Vec3;
 
 use super::force::servo_force;
-use super::ContactState;
+use super::{ContactState, VibrationCue};
 use crate::force::{ForceDigest, ForceParams, ToolState};
 
-/// Words of a published contact: `valid`, point, normal, depth, centre, triangles, stiffness
-/// and the step's number.
-pub(crate) const WORDS: usize = 14;
+/// Words of a published contact: `valid`, point, normal, depth, centre, triangles, stiffness,
+/// the vibration's frequency, amplitude and threshold, and the step's number.
+pub(crate) const WORDS: usize = 17;
 
 /// How many times [`ContactHandoff::latest`] reads a slot the publisher overtook before it
 /// gives up for this tick.
@@ -172,6 +172,9 @@ impl Published {
             c.centre.z.to_bits(),
             c.triangles,
             c.stiffness.to_bits(),
+            c.vibration.hz.to_bits(),
+            c.vibration.amplitude.to_bits(),
+            c.vibration.threshold.to_bits(),
             self.step,
         ]
     }
@@ -188,8 +191,13 @@ impl Published {
                 centre: v(8),
                 triangles: w[11],
                 stiffness: f(12),
+                vibration: VibrationCue {
+                    hz: f(13),
+                    amplitude: f(14),
+                    threshold: f(15),
+                },
             },
-            step: w[13],
+            step: w[16],
         }
     }
 }
@@ -427,6 +435,11 @@ mod tests {
             centre: Vec3::new(-2.0 * x, 7.0, x + 1.0),
             triangles: i.wrapping_mul(3),
             stiffness: x + 100.0,
+            vibration: VibrationCue {
+                hz: x + 200.0,
+                amplitude: x + 300.0,
+                threshold: x + 400.0,
+            },
         }
     }
 
@@ -475,6 +488,7 @@ mod tests {
             centre: Vec3::new(0.0, 0.0, 0.05),
             triangles: 1,
             stiffness: 0.0,
+            vibration: crate::servo::VibrationCue::default(),
         };
         for i in 0..50 {
             let c = if i < 20 {

@@ -113,6 +113,27 @@ pub struct ContactState {
     /// Contact stiffness of the material under the contact, newtons per mesh unit; zero: the
     /// force parameters' own ([`crate::drill::Material::stiffness`]).
     pub stiffness: f32,
+    /// The burr's vibration over this contact (all zero: none): the frequency of
+    /// [`World::set_vibration_hz`] with every contact (the servo's phase runs on between
+    /// cuts), the amplitude and threshold of the region under the contact while the drill is
+    /// on.
+    pub vibration: VibrationCue,
+}
+
+/// What [`servo_force`] needs to add the burr's vibration (docs/DRILLING.md, "Vibration"):
+/// while the force `F` pressing the burr exceeds the `threshold` of the material under it, a
+/// sinusoid of `hz` along the force, of amplitude `amplitude * s` newtons with
+/// `s = min(1, (|F| - threshold) / (max_force - threshold))`, the removal rate's share of the
+/// rate at the force clamp (the removal law `(F - threshold) / hardness`, normalised).
+/// Zero `hz` or `amplitude`: no vibration, and the force is exactly the one without.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct VibrationCue {
+    /// Frequency, hertz ([`World::set_vibration_hz`]).
+    pub hz: f32,
+    /// Newtons at full cut: the region's ([`crate::drill::Region::vibration`]).
+    pub amplitude: f32,
+    /// Newtons: the region's pressure threshold ([`crate::drill::Material::threshold`]).
+    pub threshold: f32,
 }
 
 /// What one [`World::simulate`] did.
@@ -239,6 +260,9 @@ pub struct World<'a> {
     spare: Option<deform::Spare<'a>>,
     /// The last one-shot zone query's hash scan, kept while the zone stays in its cells.
     zone_memo: zone_memo::ZoneMemo,
+    /// The burr's vibration frequency while it cuts, hertz; zero: none
+    /// ([`World::set_vibration_hz`]).
+    vibration_hz: f32,
 }
 
 /// Default bound on the hash cells one step's zone query visits ([`World::set_max_cells`]):
@@ -316,6 +340,7 @@ impl<'a> World<'a> {
             contact_tet: None,
             spare: None,
             zone_memo: zone_memo::ZoneMemo::new(),
+            vibration_hz: 0.0,
         })
     }
 
@@ -417,6 +442,25 @@ impl<'a> World<'a> {
     /// the two bounds apply separately.
     pub fn set_tick_budget(&mut self, units: Option<u32>) {
         self.tick_budget = units;
+    }
+
+    /// Sets the frequency of the burr's vibration while it cuts, hertz: from the next step on,
+    /// each contact carries a [`VibrationCue`] of this frequency, with the amplitude of the
+    /// region under it ([`crate::drill::Region::vibration`]) while the drill is on, which
+    /// [`servo_force`] renders
+    /// (docs/DRILLING.md, "Vibration"). Zero (the default), negative or not finite: none. A
+    /// servo at `1 / dt` hertz renders frequencies below `1 / (2 dt)` (500 Hz at 1 kHz); the
+    /// caller bounds it.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn set_vibration_hz(&mut self, hz: f32) {
+        self.vibration_hz = if hz > 0.0 && hz.is_finite() { hz } else { 0.0 };
+    }
+
+    /// The burr's vibration frequency while it cuts, hertz; zero: none.
+    pub fn vibration_hz(&self) -> f32 {
+        self.vibration_hz
     }
 
     /// Sets the drill's resolution, the edge of its finest leaves in mesh units: each coarse

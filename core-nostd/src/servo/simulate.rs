@@ -4,7 +4,7 @@
 use glam::Vec3;
 
 use super::zone_memo::MEMO_MAX_TETS;
-use super::{ContactState, SimReport, World, CONTACT_NODE_UNITS};
+use super::{ContactState, SimReport, VibrationCue, World, CONTACT_NODE_UNITS};
 use crate::collide::ZoneGather;
 use crate::drill::{DrillParams, Sphere, MAX_STEP_SPHERES};
 use crate::force::sphere_contact;
@@ -344,10 +344,28 @@ impl World<'_> {
             (Some(r), Some(vt)) => r.material_of(vt.tet).stiffness,
             _ => 0.0,
         };
+        // The burr vibrates while the drill is on, as the region under it sets; the frequency
+        // goes with every contact, so the servo's phase runs on between cuts.
+        let idle = VibrationCue {
+            hz: self.vibration_hz,
+            ..VibrationCue::default()
+        };
+        let vibration = match (self.drill.regions(), near.tri) {
+            (Some(r), Some(vt)) if cutting && self.vibration_hz > 0.0 => r
+                .region_entry(vt.tet)
+                .filter(|g| g.vibration() > 0.0)
+                .map_or(idle, |g| VibrationCue {
+                    hz: self.vibration_hz,
+                    amplitude: g.vibration(),
+                    threshold: g.material.threshold,
+                }),
+            _ => idle,
+        };
         self.contact = match near.tri {
             None => ContactState {
                 centre,
                 triangles: near.triangles,
+                vibration: idle,
                 ..ContactState::default()
             },
             Some(vt) => {
@@ -360,6 +378,7 @@ impl World<'_> {
                     centre,
                     triangles: near.triangles,
                     stiffness,
+                    vibration,
                 }
             }
         };

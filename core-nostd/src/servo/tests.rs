@@ -142,3 +142,62 @@ fn lost_contact_fades_and_nan_forgets() {
     assert_eq!(nan, Vec3::ZERO);
     assert_eq!((tool.residual, tool.plane), (Vec3::ZERO, None));
 }
+
+/// The vibration: on a settled plane of 4 N (threshold 1 N, clamp 8 N, so a share of
+/// `(4 - 1) / (8 - 1)`), a 250 Hz cue of 0.7 N adds `0.3 sin(2 pi (k + 1) / 4)` newtons along
+/// the force at tick `k` (an f64 oracle); without a cue, or with the drill's cue at zero
+/// frequency, the force is the same bits as before.
+#[test]
+fn a_cue_vibrates_the_force_along_itself() {
+    let (a, _) = walls();
+    let p = params(0.016);
+    let plain = servo_force(&a, Vec3::ZERO, 0.1, &mut settled(&a, &p), &p);
+    let cue = VibrationCue {
+        hz: 250.0,
+        amplitude: 0.7,
+        threshold: 1.0,
+    };
+    let shaken = ContactState {
+        vibration: cue,
+        ..a
+    };
+    let mut tool = settled(&a, &p);
+    for k in 0..12 {
+        let f = servo_force(&shaken, Vec3::ZERO, 0.1, &mut tool, &p);
+        let phase = (f64::from(250.0f32 * 1e-3f32) * (k + 1) as f64).fract();
+        let v = 0.7 * (3.0 / 7.0) * libm::sin(core::f64::consts::TAU * phase);
+        assert!((f64::from(f.x) - (4.0 + v)).abs() < 1e-4, "tick {k}: {f:?}");
+        assert!(f.y == 0.0 && f.z == 0.0);
+    }
+    let off = ContactState {
+        vibration: VibrationCue { hz: 0.0, ..cue },
+        ..a
+    };
+    let mut tool = settled(&a, &p);
+    assert_eq!(servo_force(&off, Vec3::ZERO, 0.1, &mut tool, &p), plain);
+    // Below the threshold nothing vibrates; an amplitude beyond the force never reverses it.
+    let hard = ContactState {
+        vibration: VibrationCue {
+            threshold: 5.0,
+            ..cue
+        },
+        ..a
+    };
+    let mut tool = settled(&a, &p);
+    for _ in 0..8 {
+        assert_eq!(servo_force(&hard, Vec3::ZERO, 0.1, &mut tool, &p), plain);
+    }
+    let wild = ContactState {
+        vibration: VibrationCue {
+            amplitude: 1e6,
+            threshold: 0.0,
+            ..cue
+        },
+        ..a
+    };
+    let mut tool = settled(&a, &p);
+    for _ in 0..8 {
+        let f = servo_force(&wild, Vec3::ZERO, 0.1, &mut tool, &p);
+        assert!(f.x >= 0.0 && f.x <= 8.0 + 1e-4, "{f:?}");
+    }
+}

@@ -32,6 +32,8 @@ pub struct EngineStorage {
     tick_budget: u32,
     zone_gather_work: u32,
     resolution: f32,
+    /// The burr's vibration frequency, hertz (0: none).
+    vibration_hz: f32,
     sizing: Option<ToolSizing>,
     /// The mesh label of each region (empty: no regions).
     region_labels: Vec<i32>,
@@ -87,6 +89,7 @@ impl EngineStorage {
             tick_budget: d.tick_budget,
             zone_gather_work: d.zone_gather_work,
             resolution: d.resolution as f32,
+            vibration_hz: setup.forces.vibration_hz as f32,
             sizing,
             region_labels: Vec::new(),
             rest_copy: Vec::new(),
@@ -136,6 +139,7 @@ impl EngineStorage {
             );
         }
         self.buffers.set_regions(&t.materials, t.of_tet);
+        self.buffers.set_region_vibrations(&t.vibrations);
         self.region_labels = t.labels;
         Ok(())
     }
@@ -192,6 +196,7 @@ impl EngineStorage {
         w.set_max_cells(max_cells);
         w.set_tick_budget((self.tick_budget > 0).then_some(self.tick_budget));
         w.set_drill_resolution(self.resolution);
+        w.set_vibration_hz(self.vibration_hz);
         w.set_zone_gather(
             (self.zone_gather_work > 0)
                 .then(|| ZoneGather::new(self.zone_gather_work, ZONE_MARGIN_RADII)),

@@ -19,6 +19,9 @@ pub struct RegionTable {
     pub materials: Vec<Material>,
     /// The display colour of each region, where the set-up gives one.
     pub colours: Vec<Option<[f32; 3]>>,
+    /// The burr's vibration at full cut in each region, newtons (0: none; the set-up's
+    /// `vibration` of its label).
+    pub vibrations: Vec<f32>,
     /// Each tet's region index.
     pub of_tet: Vec<u8>,
 }
@@ -58,6 +61,10 @@ pub fn region_table(labels: &[i32], materials: &Materials) -> Result<Option<Regi
         .iter()
         .map(|l| by_label.get(l).and_then(|r| r.rgb()))
         .collect();
+    let vibrations = distinct
+        .iter()
+        .map(|l| by_label.get(l).and_then(|r| r.vibration).unwrap_or(0.0) as f32)
+        .collect();
     let of_tet = labels
         .iter()
         .map(|l| distinct.binary_search(l).unwrap_or(0) as u8)
@@ -66,6 +73,7 @@ pub fn region_table(labels: &[i32], materials: &Materials) -> Result<Option<Regi
         labels: distinct,
         materials,
         colours,
+        vibrations,
         of_tet,
     }))
 }

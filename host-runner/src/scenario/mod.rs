@@ -71,6 +71,10 @@ pub struct Scenario {
     /// Milliseconds over which the burr's force moves from one contact plane to the next
     /// (`servo_force`); 0 switches at once.
     pub switch_ms: f64,
+    /// The burr's vibration while it cuts, hertz (0: none, at most 500); its amplitude is each
+    /// region's `vibration` (docs/DRILLING.md, "Vibration").
+    #[serde(skip_serializing_if = "is_zero_f64")]
+    pub vibration_hz: f64,
     /// Hardness of the default region (every label the `regions` table does not name),
     /// newton-seconds per cubic mesh unit: the burr pressing `F` newtons above the threshold
     /// removes `F / hardness` cubic mesh units a second (docs/DRILLING.md, "Materials"); 0
@@ -239,6 +243,10 @@ pub struct ScenarioFlags {
     /// at once).
     #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
     pub switch_ms: Option<f64>,
+    /// The burr's vibration while it cuts, hertz (0: none, at most 500); its amplitude is
+    /// each region's `vibration` key, newtons.
+    #[arg(long, allow_negative_numbers = true, value_parser = vibration_hz, value_name = "HZ")]
+    pub vibration_hz: Option<f64>,
     /// Hardness of the default region, newton-seconds per cubic mesh unit (0: removed at
     /// once).
     #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
@@ -359,6 +367,18 @@ fn is_zero(v: &u32) -> bool {
     *v == 0
 }
 
+/// `serde`'s `skip_serializing_if` for a number whose default is 0.
+fn is_zero_f64(v: &f64) -> bool {
+    *v == 0.0
+}
+
+fn vibration_hz(s: &str) -> Result<f64, String> {
+    let v = s
+        .parse::<f64>()
+        .map_err(|_| format!("`{s}` is not a number of hertz"))?;
+    crate::setup::check_vibration_hz(v).map(|()| v)
+}
+
 fn positive(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
@@ -420,6 +440,7 @@ impl Scenario {
         }
         take!(mesh, scale, trace, tool, tool_scale, stiffness, damping, max_force);
         take!(switch_ms, hardness, pressure_threshold);
+        take!(vibration_hz);
         take!(
             depth_method,
             crossings,
@@ -511,6 +532,8 @@ impl Scenario {
             substeps: self.soft_substeps,
             spread: self.soft_spread,
         };
+        crate::setup::check_vibration_hz(self.vibration_hz)
+            .map_err(|m| SetupError::new("vibration_hz", format!("vibration_hz: {m}")))?;
         let setup = Setup {
             mesh: MeshSpec {
                 path: self.mesh.clone().into(),
@@ -524,6 +547,7 @@ impl Scenario {
                 damping: self.damping,
                 max_force: self.max_force,
                 switch_ms: self.switch_ms,
+                vibration_hz: self.vibration_hz,
             },
             drilling: Drilling {
                 max_depth: self.max_depth,
@@ -606,6 +630,7 @@ impl From<&Setup> for Scenario {
             damping: s.forces.damping,
             max_force: s.forces.max_force,
             switch_ms: s.forces.switch_ms,
+            vibration_hz: s.forces.vibration_hz,
             hardness: s.materials.hardness,
             pressure_threshold: s.materials.pressure_threshold,
             regions: labelled(s.materials.regions.clone()),

@@ -73,6 +73,10 @@ pub struct RegionSpec {
     /// Display colour, `#rrggbb` (absent: the viewer's palette).
     #[serde(default, alias = "color", skip_serializing_if = "Option::is_none")]
     pub colour: Option<Colour>,
+    /// Newtons: the burr's vibration at full cut in this region, at the set-up's
+    /// `vibration_hz` (absent: none; docs/DRILLING.md, "Vibration").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vibration: Option<f64>,
     /// Soft body: Young's modulus, pascal (absent: the set-up's `young`; docs/SOFT.md,
     /// "Materials per region").
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -126,6 +130,11 @@ impl RegionSpec {
                 return Err(format!(".{what} must be a {sign} number, got {v}"));
             }
         }
+        if let Some(v) = self.vibration {
+            if !(v.is_finite() && v >= 0.0 && v < f32::MAX as f64) {
+                return Err(format!(".vibration must be a non-negative number, got {v}"));
+            }
+        }
         let big = f32::MAX as f64;
         for (key, v) in [("young", self.young), ("density", self.density)] {
             if let Some(v) = v {
@@ -156,6 +165,7 @@ pub fn demo_regions() -> BTreeMap<i32, RegionSpec> {
         young: Some(DEMO_SHELL_YOUNG),
         poisson: Some(0.3),
         density: None,
+        vibration: None,
     };
     let core = RegionSpec {
         hardness: 120.0,
@@ -165,6 +175,7 @@ pub fn demo_regions() -> BTreeMap<i32, RegionSpec> {
         young: Some(DEMO_CORE_YOUNG),
         poisson: Some(0.3),
         density: None,
+        vibration: None,
     };
     BTreeMap::from([
         (tetradrill_core::builtin::BLOCK_SHELL, shell),
@@ -207,6 +218,7 @@ pub fn tooth_regions() -> BTreeMap<i32, RegionSpec> {
         young: Some(84.0e9),
         poisson: Some(0.33),
         density: None,
+        vibration: None,
     };
     let dentin = RegionSpec {
         hardness: 2.0e8,
@@ -216,6 +228,7 @@ pub fn tooth_regions() -> BTreeMap<i32, RegionSpec> {
         young: Some(18.0e9),
         poisson: Some(0.31),
         density: None,
+        vibration: None,
     };
     let pulp = RegionSpec {
         hardness: 4.0e6,
@@ -225,6 +238,7 @@ pub fn tooth_regions() -> BTreeMap<i32, RegionSpec> {
         young: Some(2.07e6),
         poisson: Some(0.45),
         density: None,
+        vibration: None,
     };
     BTreeMap::from([
         (TOOTH_ENAMEL, enamel),

@@ -70,6 +70,29 @@ pub struct Forces {
     /// Milliseconds over which the burr's force moves from one contact plane to the next
     /// (`servo_force`); 0 switches at once.
     pub switch_ms: f64,
+    /// The burr's vibration while it cuts, hertz (0: none; at most
+    /// [`MAX_VIBRATION_HZ`]); its amplitude is each region's `vibration` (docs/DRILLING.md,
+    /// "Vibration").
+    pub vibration_hz: f64,
+}
+
+/// The highest vibration frequency a set-up takes, hertz: the 1 kHz servo's Nyquist
+/// frequency.
+pub const MAX_VIBRATION_HZ: f64 = 500.0;
+
+/// `Ok` for a vibration frequency a set-up takes: finite, in `0..=`[`MAX_VIBRATION_HZ`].
+///
+/// # Errors
+/// One line saying what is wrong.
+pub fn check_vibration_hz(v: f64) -> Result<(), String> {
+    if v.is_finite() && (0.0..=MAX_VIBRATION_HZ).contains(&v) {
+        Ok(())
+    } else {
+        Err(format!(
+            "`{v}` is not a vibration frequency in 0..={MAX_VIBRATION_HZ} Hz (a 1 kHz servo \
+             renders at most 500 Hz)"
+        ))
+    }
 }
 
 /// How the burr drills and how much work a tick may do.
@@ -241,6 +264,7 @@ impl Default for Setup {
                 damping: 0.5,
                 max_force: 8.0,
                 switch_ms: 16.0,
+                vibration_hz: 0.0,
             },
             drilling: Drilling {
                 max_depth: 5,

@@ -45,6 +45,7 @@ fn plane(point: Vec3) -> ContactState {
         centre: point,
         triangles: 1,
         stiffness: 0.0,
+        vibration: tetradrill_core::servo::VibrationCue::default(),
     }
 }
 

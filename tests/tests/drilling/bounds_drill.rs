@@ -485,6 +485,7 @@ fn servo_force_output_is_clamped_and_finite() {
         centre: Vec3::ZERO,
         triangles: 1,
         stiffness: 0.0,
+        vibration: tetradrill_core::servo::VibrationCue::default(),
     };
     let mut tool = ToolState::default();
     for i in 0..2000 {

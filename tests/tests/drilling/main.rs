@@ -20,3 +20,4 @@ mod shaft;
 mod smooth_normals;
 mod surface_export;
 mod surface_obj;
+mod vibration;

@@ -159,6 +159,11 @@ const WALL: ContactState = ContactState {
     centre: Vec3::new(0.0, 0.0, 0.6),
     triangles: 1,
     stiffness: 0.0,
+    vibration: tetradrill_core::servo::VibrationCue {
+        hz: 0.0,
+        amplitude: 0.0,
+        threshold: 0.0,
+    },
 };
 
 /// Runs `ticks` servo ticks of `device` against [`WALL`] with the scenario's force law and an
