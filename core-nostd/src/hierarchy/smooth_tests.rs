@@ -1,11 +1,7 @@
 //! Unit tests of the smooth normals: canonical lattice keys, storage carved from its sizes,
 //! and short vertices or queue on the 12-tet cube under random erasures and refinements
 //! (saturated, counted, and, for the queue, the same normals in the end as a roomy one).
-
-extern crate std;
-
-use std::vec;
-use std::vec::Vec;
+//! No heap: the storage is fixed arrays at least as long as the sizes ask (checked).
 
 use glam::Vec3;
 
@@ -38,15 +34,16 @@ fn storage_is_carved_from_its_sizes_and_refused_short() {
     assert_eq!((sizes.vertices, sizes.queue, sizes.table()), (100, 64, 256));
     let lines = sizes.lines().unwrap();
     assert_eq!(sizes.bytes(), Some(lines * 64));
-    let mut mem = vec![Line([0xa5; 64]); lines];
-    let st = SmoothStorage::carve(&sizes, &mut Block::from_lines(&mut mem)).unwrap();
+    let mut mem = [Line([0xa5; 64]); 256];
+    assert!(lines <= mem.len());
+    let st = SmoothStorage::carve(&sizes, &mut Block::from_lines(&mut mem[..lines])).unwrap();
     assert_eq!(
         (st.slots.len(), st.vertices.len(), st.table.len()),
         (100, 100, 256)
     );
     assert!(SmoothNormals::new(st, SmoothNormals::CREASE_DEGREES).is_ok());
-    let mut short = vec![Line::ZERO; lines - 1];
-    match SmoothStorage::carve(&sizes, &mut Block::from_lines(&mut short)) {
+    let mut short = [Line::ZERO; 256];
+    match SmoothStorage::carve(&sizes, &mut Block::from_lines(&mut short[..lines - 1])) {
         Err(StorageError::TooSmall { part, .. }) => assert_eq!(part, Part::SmoothQueue),
         other => panic!("one line short must be refused, got {other:?}"),
     }
@@ -67,12 +64,43 @@ fn storage_is_carved_from_its_sizes_and_refused_short() {
 
 /// Room for the cube's surfaces in these runs.
 const SLOTS: usize = 600;
+/// Corners of the slots.
+const CORNERS: usize = 3 * SLOTS;
+/// Lines the surface's storage takes at most in these runs.
+const SURFACE_LINES: usize = 160;
+/// Lines the smooth normals' storage takes at most in these runs.
+const SMOOTH_LINES: usize = 1_200;
+
+/// A face as the reset check compares it: its corners' position bits and normals.
+type Face = ([u32; 9], [[f32; 3]; 3]);
+
+/// The live slots' faces of an export (`count` of them first in the array), sorted by their
+/// positions.
+fn faces(p: &[[f32; 3]], nr: &[[f32; 3]], ix: &[u32]) -> ([Face; SLOTS], usize) {
+    let mut v = [([0u32; 9], [[0.0f32; 3]; 3]); SLOTS];
+    let mut count = 0;
+    for s in (0..SLOTS).filter(|&s| ix[3 * s..3 * s + 3] != [0, 0, 0]) {
+        let mut b = [0u32; 9];
+        for (k, bits) in b.iter_mut().enumerate() {
+            *bits = p[3 * s + k / 3][k % 3].to_bits();
+        }
+        v[count] = (b, [nr[3 * s], nr[3 * s + 1], nr[3 * s + 2]]);
+        count += 1;
+    }
+    v[..count].sort_unstable_by_key(|f| f.0);
+    (v, count)
+}
 
 /// The normals and vertices of every live slot after the exporter caught up, after each of
 /// `ops` random operations, with `vertices` shared vertices and a queue of `queue`; returns
 /// the last normals, the stats and the corners seen without a vertex (each checked to hold
 /// its face's normal).
-fn run(seed: u64, ops: usize, vertices: usize, queue: usize) -> (Vec<[f32; 3]>, SmoothStats, u32) {
+fn run(
+    seed: u64,
+    ops: usize,
+    vertices: usize,
+    queue: usize,
+) -> ([[f32; 3]; CORNERS], SmoothStats, u32) {
     let (pos, t) = cube12();
     let mut c = Cube {
         pos,
@@ -93,23 +121,26 @@ fn run(seed: u64, ops: usize, vertices: usize, queue: usize) -> (Vec<[f32; 3]>, 
     };
     let mut h = Hierarchy::new(&mesh, storage).unwrap();
     let sizes = SurfaceSizes::new(SLOTS, CUBE12_TETS);
-    let mut lines = vec![Line::ZERO; sizes.lines().unwrap()];
-    let storage = SurfaceStorage::carve(&sizes, &mut Block::from_lines(&mut lines)).unwrap();
+    let nl = sizes.lines().unwrap();
+    let mut lines = [Line::ZERO; SURFACE_LINES];
+    assert!(nl <= SURFACE_LINES);
+    let storage = SurfaceStorage::carve(&sizes, &mut Block::from_lines(&mut lines[..nl])).unwrap();
     let ssizes = SmoothSizes::new(SLOTS, vertices, queue);
-    let mut slines = vec![Line::ZERO; ssizes.lines().unwrap()];
-    let sst = SmoothStorage::carve(&ssizes, &mut Block::from_lines(&mut slines)).unwrap();
+    let ns = ssizes.lines().unwrap();
+    let mut slines = [Line::ZERO; SMOOTH_LINES];
+    assert!(ns <= SMOOTH_LINES);
+    let sst = SmoothStorage::carve(&ssizes, &mut Block::from_lines(&mut slines[..ns])).unwrap();
     let smooth = SmoothNormals::new(sst, SmoothNormals::CREASE_DEGREES).unwrap();
     let mut ex = SurfaceExport::new(storage, &h)
         .unwrap()
         .with_smooth(smooth)
         .unwrap();
     let cos = SmoothNormals::CREASE_DEGREES.to_radians().cos();
-    let n = 3 * SLOTS;
     let (mut p, mut nr, mut l, mut ix) = (
-        vec![[0.0f32; 3]; n],
-        vec![[0.0f32; 3]; n],
-        vec![0; n],
-        vec![0u32; n],
+        [[0.0f32; 3]; CORNERS],
+        [[0.0f32; 3]; CORNERS],
+        [0; CORNERS],
+        [0u32; CORNERS],
     );
     let mut ranges = [SlotRange::default(); 8];
     let mut rng = Rng(seed);
@@ -154,7 +185,7 @@ fn run(seed: u64, ops: usize, vertices: usize, queue: usize) -> (Vec<[f32; 3]>, 
     }
     let stats = ex.smooth().unwrap().stats();
     // Every live slot is in its tet's chain, once, and names that tet.
-    let mut seen = vec![false; SLOTS];
+    let mut seen = [false; SLOTS];
     for t in 0..CUBE12_TETS as u32 {
         for s in ex.tet_slots(TetId(t)) {
             assert_eq!(ex.slot_tet(s), Some(TetId(t)));
@@ -171,28 +202,14 @@ fn run(seed: u64, ops: usize, vertices: usize, queue: usize) -> (Vec<[f32; 3]>, 
     // Started over in the same storage, the exporter ends with the same faces and normals
     // (which corners find a vertex when the vertices run short depends on the order the faces
     // came in: then the faces alone).
-    let faces = |p: &[[f32; 3]], nr: &[[f32; 3]], ix: &[u32]| {
-        let mut v: Vec<([u32; 9], [[f32; 3]; 3])> = (0..SLOTS)
-            .filter(|&s| ix[3 * s..3 * s + 3] != [0, 0, 0])
-            .map(|s| {
-                let mut b = [0u32; 9];
-                for k in 0..9 {
-                    b[k] = p[3 * s + k / 3][k % 3].to_bits();
-                }
-                (b, [nr[3 * s], nr[3 * s + 1], nr[3 * s + 2]])
-            })
-            .collect();
-        v.sort_by_key(|f| f.0);
-        v
-    };
-    let before = faces(&p, &nr, &ix);
+    let (before, nb) = faces(&p, &nr, &ix);
     ex.reset(&h).unwrap();
     assert_eq!(ex.smooth().unwrap().stats(), SmoothStats::default());
     let (mut p2, mut nr2, mut l2, mut ix2) = (
-        vec![[0.0f32; 3]; n],
-        vec![[0.0f32; 3]; n],
-        vec![0; n],
-        vec![0u32; n],
+        [[0.0f32; 3]; CORNERS],
+        [[0.0f32; 3]; CORNERS],
+        [0; CORNERS],
+        [0u32; CORNERS],
     );
     let mut out = SurfaceBuffers {
         positions: &mut p2,
@@ -206,9 +223,9 @@ fn run(seed: u64, ops: usize, vertices: usize, queue: usize) -> (Vec<[f32; 3]>, 
         calls += 1;
         assert!(calls < 10_000, "seed {seed} after the reset: no progress");
     }
-    let after = faces(&p2, &nr2, &ix2);
-    assert_eq!(before.len(), after.len());
-    for (b, a) in before.iter().zip(&after) {
+    let (after, na) = faces(&p2, &nr2, &ix2);
+    assert_eq!(nb, na);
+    for (b, a) in before[..nb].iter().zip(&after[..na]) {
         assert_eq!(b.0, a.0, "seed {seed}: the same faces");
         if stats.vertices_full > 0 {
             continue;
