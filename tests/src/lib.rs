@@ -198,6 +198,43 @@ pub fn refused(args: &[&str], needles: &[&str]) {
     }
 }
 
+/// Runs the binary with `args` and asserts that it succeeded (with its stderr on failure);
+/// returns its output.
+pub fn run_ok<I, S>(args: I) -> std::process::Output
+where
+    I: IntoIterator<Item = S>,
+    S: AsRef<std::ffi::OsStr>,
+{
+    let args: Vec<std::ffi::OsString> = args.into_iter().map(|a| a.as_ref().into()).collect();
+    let out = Command::new(tetradrill_bin())
+        .args(&args)
+        .output()
+        .expect("run tetradrill");
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// The rows of a `--forces` file (`tick,fx,fy,fz`): each tick's force, as f32.
+pub fn read_forces(path: &Path) -> Vec<[f32; 3]> {
+    std::fs::read_to_string(path)
+        .expect("read the forces")
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let mut v = l
+                .split(',')
+                .skip(1)
+                .map(|x| x.parse::<f32>().expect("an f32"));
+            let mut next = || v.next().expect("three components");
+            [next(), next(), next()]
+        })
+        .collect()
+}
+
 /// Runs the binary with `args` and `--json FILE` (a scratch file under `scratch_dir(prefix,
 /// name)`), asserts that it succeeded (with its stderr on failure), and returns the JSON.
 pub fn json_of(args: &[&str], prefix: &str, name: &str) -> serde_json::Value {

@@ -66,3 +66,43 @@ pub const MESH_UNITS: Workspace = Workspace {
 pub fn f64s(v: Vec3) -> [f64; 3] {
     [v.x as f64, v.y as f64, v.z as f64]
 }
+
+/// The palette's background as 8-bit RGB.
+pub fn background() -> [u8; 3] {
+    tetradrill::viewer::gl::PALETTE
+        .background
+        .map(|c| (c * 255.0).round() as u8)
+}
+
+/// Whether pixel `a` is within `tol` of `b` on every channel.
+pub fn near(a: [u8; 4], b: [u8; 3], tol: i32) -> bool {
+    (0..3).all(|i| (a[i] as i32 - b[i] as i32).abs() <= tol)
+}
+
+/// Red well over green: the drilled colour of a mesh with one region.
+pub fn reddish(px: [u8; 4]) -> bool {
+    px[0] as f32 > 1.8 * px[1] as f32
+}
+
+/// The pixel (column, row) where `p` lands for `cam`, by [`pixel_of`] (not the renderer's
+/// matrices).
+pub fn pixel(cam: &tetradrill::viewer::camera::Camera, p: [f64; 3]) -> (u32, u32) {
+    let (x, y) = pixel_of(f64s(cam.eye()), f64s(cam.target), cam.fov_y as f64, p);
+    (x as u32, y as u32)
+}
+
+/// Plunges the demo burr into `world` (the demo path: down the z axis from the top face's
+/// centre) for `ticks` ticks; returns the burr's last centre.
+pub fn plunge(world: &mut tetradrill_core::servo::World<'_>, sc: &Setup, ticks: u64) -> Vec3 {
+    let params = engine::TickParams::of(sc).expect("params");
+    let poses = tetradrill::traces::PoseSource::new(&tetradrill::setup::Poses::Demo, None)
+        .expect("demo path");
+    let mut tool = tetradrill_core::force::ToolState::default();
+    let mut last = Vec3::ZERO;
+    for i in 0..ticks {
+        let pose = poses.at(i);
+        engine::tick(world, &mut tool, &params, &pose);
+        last = pose.position;
+    }
+    last
+}

@@ -13,7 +13,6 @@ use super::run::{device_factory, run_ticks, run_until_signal, viewer_note};
 use crate::error::CliError;
 use crate::rt::RtConfig;
 use crate::setup::{Body, FixBelow, SoftSettings, Tool};
-use crate::viewer::ViewOptions;
 
 /// Arguments of `demo`.
 #[derive(Debug, clap::Args)]
@@ -31,22 +30,9 @@ pub struct DemoArgs {
     /// Do not ask for SCHED_FIFO, core pinning or memory locking.
     #[arg(long)]
     pub no_rt: bool,
-    /// Write a PNG of the view at the end of the run (no display needed).
-    #[arg(long)]
-    pub screenshot: Option<PathBuf>,
-    /// Write the burr's sound (its whine falling under load, its grinding) as a WAV file at
-    /// the end.
-    #[arg(long, value_name = "FILE.wav")]
-    pub audio_out: Option<PathBuf>,
-    /// Play the burr's sound live on the default output device (a build with the `sound`
-    /// feature; without a device, one line and the run goes on).
-    #[arg(long)]
-    pub sound: bool,
-    /// Cut the view open with a plane across an axis: `x`, `y` or `z` (through the tool's
-    /// work area), or `x:AT` (at that coordinate); the section shows the regions. The window's
-    /// `C` key toggles it.
-    #[arg(long, value_name = "AXIS[:AT]", value_parser = crate::viewer::ClipSpec::parse)]
-    pub clip: Option<crate::viewer::ClipSpec>,
+    /// What the run leaves besides its summary: a picture, a clip plane, the burr's sound.
+    #[command(flatten)]
+    pub outputs: super::pipeline::RunOutputs,
     /// The tool, as `run --tool` takes it (default: the demo's burr, `sphere:0.1`);
     /// `drill:BURR_R:SHAFT_LEN:SHAFT_R` puts the burr on a shaft along the tool's axis (+z
     /// on the scripted path, which plunges from above).
@@ -88,9 +74,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
             ..SoftSettings::default()
         });
     }
-    crate::audio::check_sound_flag(args.sound)?;
-    let mut view = ViewOptions::of(args.headless, args.screenshot.clone())?;
-    view.clip = args.clip;
+    let view = args.outputs.view(args.headless)?;
     let loaded = crate::engine::load_mesh(&sc)?;
     errln!(
         "tetradrill demo: {}{} drilled by a {} {} on the simulated device ({} s scripted path)",
@@ -146,8 +130,8 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
             sign_probe: true,
         },
         checks: Default::default(),
-        audio_out: args.audio_out.clone(),
-        sound: args.sound,
+        audio_out: args.outputs.audio_out.clone(),
+        sound: args.outputs.sound,
     };
     run_until_signal(&sc, loaded, setup, args.json.as_ref())
 }

@@ -69,22 +69,9 @@ pub struct RunArgs {
     /// No live status line.
     #[arg(long)]
     pub quiet: bool,
-    /// Write a PNG of the view at the end of the run (no display needed).
-    #[arg(long)]
-    pub screenshot: Option<PathBuf>,
-    /// Write the burr's sound (its whine falling under load, its grinding) as a WAV file at
-    /// the end.
-    #[arg(long, value_name = "FILE.wav")]
-    pub audio_out: Option<PathBuf>,
-    /// Play the burr's sound live on the default output device (a build with the `sound`
-    /// feature; without a device, one line and the run goes on).
-    #[arg(long)]
-    pub sound: bool,
-    /// Cut the view open with a plane across an axis: `x`, `y` or `z` (through the tool's
-    /// work area), or `x:AT` (at that coordinate); the section shows the regions. The window's
-    /// `C` key toggles it.
-    #[arg(long, value_name = "AXIS[:AT]", value_parser = crate::viewer::ClipSpec::parse)]
-    pub clip: Option<crate::viewer::ClipSpec>,
+    /// What the run leaves besides its summary: a picture, a clip plane, the burr's sound.
+    #[command(flatten)]
+    pub outputs: super::pipeline::RunOutputs,
     /// A fault for the simulated device: `reversed-force` (the stylus receives -F) or
     /// `mirrored-x` (the reported x is mirrored); the passivity controller must trip.
     #[arg(long, value_name = "KIND", value_parser = parse_sim_fault)]
@@ -120,9 +107,7 @@ pub fn parse_device(s: &str) -> Result<DeviceKind, String> {
 /// Runs `run`.
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let sc = Scenario::from_flags(&args.scenario)?.setup()?;
-    crate::audio::check_sound_flag(args.sound)?;
-    let mut view = crate::viewer::ViewOptions::of(args.headless, args.screenshot.clone())?;
-    view.clip = args.clip;
+    let view = args.outputs.view(args.headless)?;
     // The mesh, read once: the world's, the wander's waypoints, the device's workspace.
     let loaded = crate::engine::load_mesh(&sc)?;
     let devices = DeviceConfig::from_flag(args.device_config.as_deref())?;
@@ -226,8 +211,8 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             sign_probe: true,
         },
         checks,
-        audio_out: args.audio_out.clone(),
-        sound: args.sound,
+        audio_out: args.outputs.audio_out.clone(),
+        sound: args.outputs.sound,
     };
     run_until_signal(&sc, loaded, setup, args.json.as_ref())
 }

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use tetradrill::audio::{brightness, BurrSound, BurrVoice, TickSound, SAMPLE_RATE};
-use tetradrill_tests::{scratch_dir, tetradrill_bin};
+use tetradrill_tests::{run_ok, scratch_dir};
 
 /// The WAV file's samples (16-bit mono PCM, the header checked).
 fn read_wav(path: &Path) -> Vec<f64> {
@@ -65,27 +65,22 @@ fn the_fundamental_falls_with_the_load_as_configured() {
     )
     .expect("trace");
     let wav = dir.join("press.wav");
-    let out = std::process::Command::new(tetradrill_bin())
-        .args(["replay", "--mesh", "builtin:cube12", "--trace"])
-        .arg(&trace)
-        .args([
-            "--tool",
-            "sphere:0.15",
-            "--pressure-threshold",
-            "0.5",
-            "--hardness",
-            "1000",
-            "--quiet",
-            "--audio-out",
-        ])
-        .arg(&wav)
-        .output()
-        .expect("run tetradrill");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    run_ok([
+        "replay".as_ref(),
+        "--mesh".as_ref(),
+        "builtin:cube12".as_ref(),
+        "--trace".as_ref(),
+        trace.as_os_str(),
+        "--tool".as_ref(),
+        "sphere:0.15".as_ref(),
+        "--pressure-threshold".as_ref(),
+        "0.5".as_ref(),
+        "--hardness".as_ref(),
+        "1000".as_ref(),
+        "--quiet".as_ref(),
+        "--audio-out".as_ref(),
+        wav.as_os_str(),
+    ]);
     let x = read_wav(&wav);
     // 4.001 s of ticks, 44.1 samples each.
     assert!(
@@ -172,23 +167,16 @@ fn harder_material_rings_brighter_and_the_button_silences_it() {
 fn a_run_writes_the_sound_of_its_length() {
     let dir = scratch_dir("sound", "run");
     let wav = dir.join("run.wav");
-    let out = std::process::Command::new(tetradrill_bin())
-        .args([
-            "run",
-            "--duration",
-            "0.6",
-            "--no-rt",
-            "--quiet",
-            "--audio-out",
-        ])
-        .arg(&wav)
-        .output()
-        .expect("run tetradrill");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let w = wav.to_str().expect("utf8");
+    run_ok([
+        "run",
+        "--duration",
+        "0.6",
+        "--no-rt",
+        "--quiet",
+        "--audio-out",
+        w,
+    ]);
     let x = read_wav(&wav);
     // The audio task follows the wall clock from its start to the run's stop, in 10 ms looks.
     let secs = x.len() as f64 / 44_100.0;

@@ -164,19 +164,7 @@ fn the_forces_csv_gives_the_runs_force_digest() {
         "removal_law",
         "digest-json",
     );
-    let text = std::fs::read_to_string(&forces).expect("read the forces");
-    let rows: Vec<[f32; 3]> = text
-        .lines()
-        .skip(1)
-        .map(|l| {
-            let v: Vec<f32> = l
-                .split(',')
-                .skip(1)
-                .map(|x| x.parse().expect("an f32"))
-                .collect();
-            [v[0], v[1], v[2]]
-        })
-        .collect();
+    let rows = tetradrill_tests::read_forces(&forces);
     assert_eq!(rows.len(), 6001);
     assert!(rows.iter().any(|f| f.iter().any(|&c| c != 0.0)));
     assert_eq!(

@@ -111,31 +111,18 @@ fn replay_forces(sc: &Scenario, hz: f64, name: &str) -> Vec<[f32; 3]> {
     let file = dir.join("tooth.toml");
     std::fs::write(&file, toml::to_string(sc).expect("to TOML")).expect("write the scenario");
     let forces = dir.join("forces.csv");
-    let out = std::process::Command::new(tetradrill_tests::tetradrill_bin())
-        .args(["replay", "--quiet", "--scenario"])
-        .arg(&file)
-        .args(["--vibration-hz", &hz.to_string(), "--forces"])
-        .arg(&forces)
-        .output()
-        .expect("run tetradrill");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    std::fs::read_to_string(&forces)
-        .expect("read the forces")
-        .lines()
-        .skip(1)
-        .map(|l| {
-            let v: Vec<f32> = l
-                .split(',')
-                .skip(1)
-                .map(|x| x.parse().expect("an f32"))
-                .collect();
-            [v[0], v[1], v[2]]
-        })
-        .collect()
+    let hz = hz.to_string();
+    tetradrill_tests::run_ok([
+        "replay".as_ref(),
+        "--quiet".as_ref(),
+        "--scenario".as_ref(),
+        file.as_os_str(),
+        "--vibration-hz".as_ref(),
+        hz.as_ref(),
+        "--forces".as_ref(),
+        forces.as_os_str(),
+    ]);
+    tetradrill_tests::read_forces(&forces)
 }
 
 /// The amplitude of the component of `x` at `hz` (sampled at [`RATE`]): `2 / N |sum x_n

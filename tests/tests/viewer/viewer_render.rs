@@ -4,7 +4,6 @@
 //! hand-off that refuses instead of blocking and loses nothing when it does.
 
 use tetradrill::engine::{self, TickParams};
-use tetradrill::setup::Setup;
 use tetradrill::tasks::SimStatus;
 use tetradrill::traces::PoseSource;
 use tetradrill::viewer::camera::Camera;
@@ -16,15 +15,7 @@ use tetradrill::viewer::scene::{Scene, VERTEX_FLOATS};
 use tetradrill::viewer::smooth_live::SmoothStore;
 use tetradrill_core::force::ToolState;
 use tetradrill_core::Vec3;
-use tetradrill_tests::viewer::{pixel_of, storage, H, W};
-
-fn background() -> [u8; 3] {
-    PALETTE.background.map(|c| (c * 255.0).round() as u8)
-}
-
-fn near(a: [u8; 4], b: [u8; 3], tol: i32) -> bool {
-    (0..3).all(|i| (a[i] as i32 - b[i] as i32).abs() <= tol)
-}
+use tetradrill_tests::viewer::{background, near, pixel, pixel_of, plunge, reddish, storage, H, W};
 
 /// Signed distance of `q` from the convex hull of `pts` (negative inside), in pixels.
 fn hull_distance(pts: &[(f64, f64)], q: (f64, f64)) -> f64 {
@@ -124,20 +115,6 @@ fn the_cube_renders_with_the_silhouette_of_its_projected_corners() {
     );
 }
 
-/// Plunges the demo burr into the default block for `ticks` ticks.
-fn plunge(world: &mut tetradrill_core::servo::World<'_>, sc: &Setup, ticks: u64) -> Vec3 {
-    let params = TickParams::of(sc).expect("params");
-    let poses = PoseSource::new(&tetradrill::setup::Poses::Demo, None).expect("demo path");
-    let mut tool = ToolState::default();
-    let mut last = Vec3::ZERO;
-    for i in 0..ticks {
-        let pose = poses.at(i);
-        engine::tick(world, &mut tool, &params, &pose);
-        last = pose.position;
-    }
-    last
-}
-
 fn top_camera() -> Camera {
     Camera {
         target: Vec3::new(0.0, 0.0, 0.2),
@@ -146,22 +123,6 @@ fn top_camera() -> Camera {
         pitch: 1.0,
         fov_y: 0.7,
     }
-}
-
-fn pixel(cam: &Camera, p: [f64; 3]) -> (u32, u32) {
-    let e = cam.eye();
-    let t = cam.target;
-    let (x, y) = pixel_of(
-        [e.x as f64, e.y as f64, e.z as f64],
-        [t.x as f64, t.y as f64, t.z as f64],
-        cam.fov_y as f64,
-        p,
-    );
-    (x as u32, y as u32)
-}
-
-fn reddish(px: [u8; 4]) -> bool {
-    px[0] as f32 > 1.8 * px[1] as f32
 }
 
 #[test]

@@ -5,9 +5,6 @@
 
 use std::sync::Arc;
 
-use tetradrill::engine::{self, TickParams};
-use tetradrill::setup::Setup;
-use tetradrill::traces::PoseSource;
 use tetradrill::viewer::camera::Camera;
 use tetradrill::viewer::gl::{ClipPlane, DrawOptions, PALETTE};
 use tetradrill::viewer::handoff::{region_slots, Snapshot, ToolView};
@@ -16,36 +13,9 @@ use tetradrill::viewer::labels::{LabelGrid, GRID_CELLS};
 use tetradrill::viewer::publish::full_patches;
 use tetradrill::viewer::scene::Scene;
 use tetradrill::viewer::ClipSpec;
-use tetradrill_core::force::ToolState;
 use tetradrill_core::servo::World;
 use tetradrill_core::{TetId, Vec3};
-use tetradrill_tests::viewer::{pixel_of, storage, H, W};
-
-fn background() -> [u8; 3] {
-    PALETTE.background.map(|c| (c * 255.0).round() as u8)
-}
-
-fn near(a: [u8; 4], b: [u8; 3], tol: i32) -> bool {
-    (0..3).all(|i| (a[i] as i32 - b[i] as i32).abs() <= tol)
-}
-
-fn reddish(px: [u8; 4]) -> bool {
-    px[0] as f32 > 1.8 * px[1] as f32
-}
-
-/// The demo burr down the z axis from the top face's centre; its last centre.
-fn plunge(world: &mut World<'_>, sc: &Setup, ticks: u64) -> Vec3 {
-    let params = TickParams::of(sc).expect("params");
-    let poses = PoseSource::new(&tetradrill::setup::Poses::Demo, None).expect("demo path");
-    let mut tool = ToolState::default();
-    let mut last = Vec3::ZERO;
-    for i in 0..ticks {
-        let pose = poses.at(i);
-        engine::tick(world, &mut tool, &params, &pose);
-        last = pose.position;
-    }
-    last
-}
+use tetradrill_tests::viewer::{background, near, pixel, plunge, reddish, storage, H, W};
 
 /// A camera on the -y side of the plane y = 0, a little above it.
 fn side_camera() -> Camera {
@@ -59,15 +29,8 @@ fn side_camera() -> Camera {
 }
 
 fn at(pic: &Picture, cam: &Camera, p: [f64; 3]) -> [u8; 4] {
-    let e = cam.eye();
-    let t = cam.target;
-    let (x, y) = pixel_of(
-        [e.x as f64, e.y as f64, e.z as f64],
-        [t.x as f64, t.y as f64, t.z as f64],
-        cam.fov_y as f64,
-        p,
-    );
-    pic.at(x as u32, y as u32)
+    let (x, y) = pixel(cam, p);
+    pic.at(x, y)
 }
 
 /// Labels of block:8 by side: left of `x0` region 7, the rest region 11.

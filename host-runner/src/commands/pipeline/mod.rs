@@ -43,6 +43,41 @@ pub const UNTIL_STOPPED: u64 = u64::MAX;
 /// Opens the device on the servo thread (a device handle need not be `Send`).
 pub type DeviceFactory = Box<dyn FnOnce() -> Result<Box<dyn HapticDevice>, DeviceError> + Send>;
 
+/// The outputs `run` and `demo` take besides the summary and JSON: a picture at the end, a
+/// clip plane, the burr's sound as a file or live.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct RunOutputs {
+    /// Write a PNG of the view at the end of the run (no display needed).
+    #[arg(long)]
+    pub screenshot: Option<PathBuf>,
+    /// Write the burr's sound (its whine falling under load, its grinding) as a WAV file at
+    /// the end.
+    #[arg(long, value_name = "FILE.wav")]
+    pub audio_out: Option<PathBuf>,
+    /// Play the burr's sound live on the default output device (a build with the `sound`
+    /// feature; without a device, one line and the run goes on).
+    #[arg(long)]
+    pub sound: bool,
+    /// Cut the view open with a plane across an axis: `x`, `y` or `z` (through the tool's
+    /// work area), or `x:AT` (at that coordinate); the section shows the regions. The window's
+    /// `C` key toggles it.
+    #[arg(long, value_name = "AXIS[:AT]", value_parser = crate::viewer::ClipSpec::parse)]
+    pub clip: Option<crate::viewer::ClipSpec>,
+}
+
+impl RunOutputs {
+    /// The view these ask for (`headless`: no window).
+    ///
+    /// # Errors
+    /// `--screenshot` or `--sound` in a build without the feature they need (exit 2).
+    pub fn view(&self, headless: bool) -> Result<crate::viewer::ViewOptions, CliError> {
+        crate::audio::check_sound_flag(self.sound)?;
+        let mut view = crate::viewer::ViewOptions::of(headless, self.screenshot.clone())?;
+        view.clip = self.clip;
+        Ok(view)
+    }
+}
+
 /// Everything a pipeline run needs besides the scenario.
 pub struct PipelineSetup {
     /// Which device (for messages).
