@@ -188,7 +188,7 @@ pub fn callback_frame<F: HdFrame + ?Sized>(hd: &mut F, x: &Exchange, now_ns: u64
         };
         x.answer_calibration(request, result);
     }
-    let frame = x.state().map_or(0, |s| s.frame) + 1;
+    let frame = x.frames.fetch_add(1, Relaxed) + 1;
     x.post_state(&FrameState {
         position_mm,
         transform,
