@@ -235,6 +235,22 @@ pub fn read_forces(path: &Path) -> Vec<[f32; 3]> {
         .collect()
 }
 
+/// A replay's `removed_by_region` (its JSON) by label, in cubic millimetres (the tooth meshes
+/// are in metres).
+pub fn removed_mm3_by_label(j: &serde_json::Value) -> std::collections::BTreeMap<i32, f64> {
+    j["removed_by_region"]
+        .as_object()
+        .expect("removed_by_region")
+        .iter()
+        .map(|(k, v)| {
+            (
+                k.parse().expect("a label"),
+                v.as_f64().expect("a volume") * 1e9,
+            )
+        })
+        .collect()
+}
+
 /// Runs the binary with `args` and `--json FILE` (a scratch file under `scratch_dir(prefix,
 /// name)`), asserts that it succeeded (with its stderr on failure), and returns the JSON.
 pub fn json_of(args: &[&str], prefix: &str, name: &str) -> serde_json::Value {

@@ -25,17 +25,7 @@ fn replay(ticks: Option<u32>, name: &str) -> serde_json::Value {
 
 /// The removed volume by label, mm^3.
 fn removed(j: &serde_json::Value) -> BTreeMap<i32, f64> {
-    j["removed_by_region"]
-        .as_object()
-        .expect("removed_by_region")
-        .iter()
-        .map(|(k, v)| {
-            (
-                k.parse().expect("a label"),
-                v.as_f64().expect("a volume") * 1e9,
-            )
-        })
-        .collect()
+    tetradrill_tests::removed_mm3_by_label(j)
 }
 
 /// At tick 3,000 the burr's centre is on the axis at z = 22.5 - 2.9 * 2.5 / 5.8 = 21.25 mm:

@@ -178,17 +178,7 @@ fn access_cavity(ticks: u32) -> (BTreeMap<i32, f64>, f64) {
         "tooth",
         &ticks,
     );
-    let by_label = j["removed_by_region"]
-        .as_object()
-        .expect("removed_by_region")
-        .iter()
-        .map(|(k, v)| {
-            (
-                k.parse().expect("a label"),
-                v.as_f64().expect("a volume") * 1e9,
-            )
-        })
-        .collect();
+    let by_label = tetradrill_tests::removed_mm3_by_label(&j);
     (
         by_label,
         j["removed_volume"].as_f64().expect("removed_volume") * 1e9,
