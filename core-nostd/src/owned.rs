@@ -135,6 +135,17 @@ impl WorldBuffers {
         }
     }
 
+    /// Sets each region's specific cutting energy, newtons per square mesh unit, in table
+    /// order ([`Region::with_cutting_energy`]; zero: the hardness law); regions beyond
+    /// `energies` keep theirs. Nothing without regions ([`WorldBuffers::set_regions`] first).
+    pub fn set_region_cutting_energies(&mut self, energies: &[f32]) {
+        if let Some(r) = self.regions.as_mut() {
+            for (reg, &e) in r.table.iter_mut().zip(energies) {
+                *reg = reg.with_cutting_energy(e);
+            }
+        }
+    }
+
     /// Allocates a deforming world's rest positions and spare tables for a mesh of `nodes`
     /// nodes ([`World::enable_deformation`], [`World::set_spare`]): the worlds made from
     /// these buffers may then move their nodes.
@@ -182,7 +193,7 @@ impl WorldBuffers {
         let mut world = World::new(mesh, storage)?;
         if let Some(r) = &mut self.regions {
             for region in r.table.iter_mut() {
-                *region = Region::new(region.material).with_vibration(region.vibration());
+                *region = region.fresh();
             }
             world.set_regions(Regions::new(&mut r.table, &r.of_tet).map_err(WorldError::Regions)?);
         }

@@ -18,6 +18,19 @@
 //! storage, one entry per region), and a leaf is erased once its region's credit covers the
 //! leaf's volume, which is then spent. A hardness of zero removes at once (no rate limit):
 //! with a threshold of zero too, that is the drill as it is without materials.
+//!
+//! A region may instead be cut by the feed ([`Region::with_cutting_energy`]): removing a
+//! volume `V` of it takes `e V` of work (`e` its specific cutting energy, newtons per square
+//! mesh unit, joules per cubic metre for a mesh in metres), and that work is the one the
+//! hand does pushing the burr into the material against the contact's reaction,
+//! `F * max(0, -dc . n)` over each step (`F` the servo's force, `dc` the burr's motion, `n`
+//! the contact's outward normal). The work goes to one pool shared by the regions cut this
+//! way, and a leaf of such a region is erased once the pool covers `e` times its volume: the
+//! energy the removed material took equals the work done against the feed
+//! ([`Regions::cutting_work`], [`Regions::cutting_energy`]; docs/DRILLING.md, "Cutting
+//! resistance"). The reaction the hand feels is the contact's spring: the material yields
+//! only as fast as the work pays for it, so pushing at a steady speed into a region settles at
+//! the force `e A` for a cut cross-section `A`, whatever the speed.
 
 use crate::ids::TetId;
 
@@ -86,20 +99,24 @@ impl Default for Material {
     }
 }
 
-/// One region's material and state, in caller storage (32 bytes): the volume its erosion has
-/// earned and not yet spent, the volume removed from it, and the amplitude of the burr's
-/// vibration in it ([`Region::with_vibration`]).
+/// One region's material and state, in caller storage (40 bytes): the volume its erosion has
+/// earned and not yet spent, the volume removed from it, the amplitude of the burr's
+/// vibration in it ([`Region::with_vibration`]) and its specific cutting energy
+/// ([`Region::with_cutting_energy`]).
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct Region {
     /// The region's material.
     pub material: Material,
     /// Newtons: the burr's vibration at full cut (docs/DRILLING.md, "Vibration"); zero: none.
     vibration: f32,
+    /// Newtons per square mesh unit: the work the feed does per unit volume removed; zero:
+    /// the material's hardness law instead.
+    cutting_energy: f32,
     credit: f64,
     removed: f64,
 }
 
-const _: () = assert!(core::mem::size_of::<Region>() == 32);
+const _: () = assert!(core::mem::size_of::<Region>() == 40);
 
 impl Region {
     /// A region of `material`, nothing earned or removed yet.
@@ -107,9 +124,45 @@ impl Region {
         Self {
             material,
             vibration: 0.0,
+            cutting_energy: 0.0,
             credit: 0.0,
             removed: 0.0,
         }
+    }
+
+    /// This region's settings (material, vibration, cutting energy) with nothing earned or
+    /// removed: the region as a new world starts it.
+    pub const fn fresh(&self) -> Self {
+        Self {
+            credit: 0.0,
+            removed: 0.0,
+            ..*self
+        }
+    }
+
+    /// This region cut by the feed, with a specific cutting energy of `e` newtons per square
+    /// mesh unit (joules per cubic metre for a mesh in metres): a leaf of it is erased once
+    /// the work done pushing the burr into the material pays `e` times its volume (module
+    /// docs). Its hardness is not used then; its threshold and stiffness are. Zero, negative
+    /// or not a number: the hardness law (the default).
+    pub const fn with_cutting_energy(self, e: f32) -> Self {
+        let cutting_energy = if e > 0.0 && e < f32::INFINITY { e } else { 0.0 };
+        Self {
+            cutting_energy,
+            ..self
+        }
+    }
+
+    /// Newtons per square mesh unit: the work the feed does per unit volume of this region
+    /// removed (zero: the hardness law).
+    pub fn cutting_energy(&self) -> f32 {
+        self.cutting_energy
+    }
+
+    /// `true` when this region is cut by the feed (a positive cutting energy).
+    #[inline]
+    pub fn feed_limited(&self) -> bool {
+        self.cutting_energy > 0.0
     }
 
     /// This region with a vibration of `newtons` at full cut: while the drill is on and the
@@ -206,6 +259,14 @@ pub struct Regions<'a> {
     cutting: bool,
     /// The region of the leaf waiting for credit, and the volume it needs.
     waiting: Option<(u8, f64)>,
+    /// Work done against the feed and not yet spent on a leaf, newton mesh units.
+    pool: f64,
+    /// Work done against the feed on material cut by it, newton mesh units, in all.
+    work: f64,
+    /// Work spent on the leaves of regions cut by the feed, newton mesh units, in all.
+    energy: f64,
+    /// Work the pool could not keep, newton mesh units, in all.
+    dropped: f64,
 }
 
 /// What [`Regions::spend`] decided for a leaf.
@@ -252,6 +313,10 @@ impl<'a> Regions<'a> {
             force: 0.0,
             cutting: false,
             waiting: None,
+            pool: 0.0,
+            work: 0.0,
+            energy: 0.0,
+            dropped: 0.0,
         })
     }
 
@@ -287,9 +352,65 @@ impl<'a> Regions<'a> {
     /// region's credit is kept to [`CREDIT_STEPS`] grants, or to what its waiting leaf needs
     /// when more. Returns the rate-limited regions visited (the work to charge).
     ///
+    /// The regions cut by the feed earn instead the work `force * feed` (`feed` the burr's
+    /// advance into the material since the last step, mesh units) when the burr is
+    /// `cutting` and the material `under` the contact is cut by the feed and admits the
+    /// force: added to [`Regions::cutting_work`] and to the pool their leaves are paid from.
+    /// The pool keeps it while the burr cuts (the work was done on material the drill has
+    /// still to remove: the queue's, or the next position's) and, once the burr stops
+    /// cutting, while the drill has work `queued`; then it empties
+    /// ([`Regions::feed_dropped`]).
+    ///
     /// # Bounded work
     /// O(regions).
-    pub(crate) fn grant(&mut self, force: f32, dt: f32, cutting: bool) -> u32 {
+    pub(crate) fn grant(
+        &mut self,
+        force: f32,
+        dt: f32,
+        cutting: bool,
+        feed: f32,
+        under: Option<TetId>,
+        queued: bool,
+    ) -> u32 {
+        self.grant_feed(force, cutting, feed, under, queued) + self.grant_rate(force, dt, cutting)
+    }
+
+    /// The feed's part of [`Regions::grant`]: 1 when some region is cut by the feed (the
+    /// pool visited), else 0.
+    fn grant_feed(
+        &mut self,
+        force: f32,
+        cutting: bool,
+        feed: f32,
+        under: Option<TetId>,
+        queued: bool,
+    ) -> u32 {
+        if !self.table.iter().any(Region::feed_limited) {
+            return 0;
+        }
+        if !cutting {
+            if !queued {
+                self.dropped += self.pool;
+                self.pool = 0.0;
+            }
+            return 1;
+        }
+        let paying = under
+            .and_then(|t| self.region_entry(t))
+            .is_some_and(|r| r.feed_limited() && r.material.admits(force));
+        let w = f64::from(force) * f64::from(feed);
+        let w = if paying && w > 0.0 && w.is_finite() {
+            w
+        } else {
+            0.0
+        };
+        self.work += w;
+        self.pool += w;
+        1
+    }
+
+    /// The hardness law's part of [`Regions::grant`]: the rate-limited regions visited.
+    fn grant_rate(&mut self, force: f32, dt: f32, cutting: bool) -> u32 {
         let force = if force.is_finite() {
             force.max(0.0)
         } else {
@@ -304,7 +425,7 @@ impl<'a> Regions<'a> {
         self.cutting = cutting;
         let mut visited = 0;
         for (i, r) in self.table.iter_mut().enumerate() {
-            if !r.material.rate_limited() {
+            if !r.material.rate_limited() || r.feed_limited() {
                 continue;
             }
             visited += 1;
@@ -333,10 +454,20 @@ impl<'a> Regions<'a> {
         self.material_of(tet).admits(self.force)
     }
 
+    /// `true` when a leaf of `tet` must be paid for ([`Regions::spend`]): its region is
+    /// rate-limited or cut by the feed.
+    #[inline]
+    pub(crate) fn limits(&self, tet: TetId) -> bool {
+        self.region_entry(tet)
+            .is_some_and(|r| r.feed_limited() || r.material.rate_limited())
+    }
+
     /// Decides whether a leaf of `tet` of `volume` is erased now: always for a material
     /// removed at once; for a rate-limited one when its region's credit covers `volume`
-    /// (taken from the credit), else it waits (remembered, so the next grants may exceed
-    /// [`CREDIT_STEPS`] up to what it needs).
+    /// (taken from the credit), for one cut by the feed when the pool covers its cutting
+    /// energy times `volume` (taken from the pool, counted in [`Regions::cutting_energy`]);
+    /// else it waits (remembered, so the next grants may exceed [`CREDIT_STEPS`] up to what
+    /// it needs).
     ///
     /// # Bounded work
     /// Constant.
@@ -345,6 +476,20 @@ impl<'a> Regions<'a> {
         let Some(reg) = self.table.get_mut(r as usize) else {
             return Spend::Erase;
         };
+        if reg.feed_limited() {
+            let need = f64::from(reg.cutting_energy) * volume;
+            return if self.pool >= need {
+                self.pool -= need;
+                self.energy += need;
+                if self.waiting.is_some_and(|(w, _)| w == r) {
+                    self.waiting = None;
+                }
+                Spend::Erase
+            } else {
+                self.waiting = Some((r, volume));
+                Spend::Wait
+            };
+        }
         if !reg.material.rate_limited() {
             return Spend::Erase;
         }
@@ -358,6 +503,32 @@ impl<'a> Regions<'a> {
             self.waiting = Some((r, volume));
             Spend::Wait
         }
+    }
+
+    /// Work done against the feed on material cut by it, newton mesh units (joules for a
+    /// mesh in metres), since the regions were made (module docs).
+    pub fn cutting_work(&self) -> f64 {
+        self.work
+    }
+
+    /// The cutting energy of the leaves cut by the feed, newton mesh units: each erased
+    /// leaf's volume times its region's [`Region::cutting_energy`], summed. Equal to
+    /// [`Regions::cutting_work`] but for the work still in the pool and the work the pool
+    /// could not keep; debris erased whole is not cut and costs none.
+    pub fn cutting_energy(&self) -> f64 {
+        self.energy
+    }
+
+    /// Work done against the feed and not yet spent on a leaf, newton mesh units.
+    pub fn feed_pool(&self) -> f64 {
+        self.pool
+    }
+
+    /// Work done against the feed and left in the pool when the burr stopped cutting and the
+    /// drill had nothing left to remove, newton mesh units, in all:
+    /// [`Regions::cutting_work`] is the cutting energy, the pool and this.
+    pub fn feed_dropped(&self) -> f64 {
+        self.dropped
     }
 
     /// Adds `volume` to the removed volume of `tet`'s region.
@@ -405,7 +576,7 @@ impl<'a> super::Drill<'a> {
     #[inline]
     pub(super) fn spend(&mut self, mesh: &crate::mesh::Mesh<'_>, tet: TetId, depth: u8) -> Spend {
         match self.regions.as_mut() {
-            Some(r) if r.material_of(tet).rate_limited() => {
+            Some(r) if r.limits(tet) => {
                 r.spend(tet, crate::hierarchy::node_volume(mesh, tet, depth))
             }
             _ => Spend::Erase,
@@ -456,14 +627,14 @@ mod tests {
         let mut r = Regions::new(&mut table, &of_tet).expect("valid");
         // 0.02 per second at 3 N: 0.00002 a millisecond; a leaf of 0.000099 needs 5 grants.
         for k in 0..5 {
-            r.grant(3.0, 0.001, true);
+            r.grant(3.0, 0.001, true, 0.0, None, false);
             let expect = if k < 4 { Spend::Wait } else { Spend::Erase };
             assert_eq!(r.spend(TetId(1), 0.000099), expect, "grant {k}");
         }
         assert!((r.table()[1].credit() - 0.000001).abs() < 1e-10);
         // Region 0 erases at once; below the threshold nothing is earned.
         assert_eq!(r.spend(TetId(0), 1.0), Spend::Erase);
-        r.grant(0.5, 0.001, true);
+        r.grant(0.5, 0.001, true, 0.0, None, false);
         assert!(!r.admits(TetId(1)) && r.admits(TetId(0)));
         assert_eq!(r.table()[1].credit(), 0.0);
     }
@@ -473,22 +644,70 @@ mod tests {
         let mut table = [Region::new(soft())];
         let mut r = Regions::new(&mut table, &[]).expect("valid");
         for _ in 0..1000 {
-            r.grant(3.0, 0.001, true);
+            r.grant(3.0, 0.001, true, 0.0, None, false);
         }
         let g = 0.02 * f64::from(0.001f32);
         assert!((r.table()[0].credit() - g * CREDIT_STEPS).abs() < 1e-12);
         // A waiting leaf lets the credit grow to what it needs.
         assert_eq!(r.spend(TetId(0), 1e-3), Spend::Wait);
         for _ in 0..50 {
-            r.grant(3.0, 0.001, true);
+            r.grant(3.0, 0.001, true, 0.0, None, false);
         }
         assert_eq!(r.spend(TetId(0), 1e-3), Spend::Erase);
-        r.grant(3.0, 0.001, false);
+        r.grant(3.0, 0.001, false, 0.0, None, false);
         assert_eq!(
             r.table()[0].credit(),
             0.0,
             "a burr that does not spin earns nothing"
         );
+    }
+
+    #[test]
+    fn a_region_cut_by_the_feed_is_paid_from_the_work_done_pushing_into_it() {
+        // Region 0 removed at once, region 1 cut by the feed at 2,000 per cubic unit
+        // (threshold 1 N), region 2 rate-limited.
+        let feed = Region::new(Material {
+            threshold: 1.0,
+            ..Material::DEFAULT
+        })
+        .with_cutting_energy(2_000.0);
+        let mut table = [Region::default(), feed, Region::new(soft())];
+        let of_tet = [0u8, 1, 2];
+        let mut r = Regions::new(&mut table, &of_tet).expect("valid");
+        let under = Some(TetId(1));
+        assert!(r.limits(TetId(1)) && r.limits(TetId(2)) && !r.limits(TetId(0)));
+        // A leaf of 1e-6 takes 0.002 of work: 2 N over 0.0005 pays for half of it.
+        r.grant(2.0, 0.001, true, 0.0005, under, false);
+        assert_eq!(r.spend(TetId(1), 1e-6), Spend::Wait);
+        r.grant(2.0, 0.001, true, 0.0005, under, true);
+        assert_eq!(r.spend(TetId(1), 1e-6), Spend::Erase);
+        assert!((r.cutting_work() - 0.002).abs() < 1e-9);
+        assert!((r.cutting_energy() - 0.002).abs() < 1e-9);
+        assert!(r.feed_pool().abs() < 1e-9);
+        // No work: below the threshold, over a region not cut by the feed, moving back out.
+        r.grant(0.9, 0.001, true, 0.0005, under, false);
+        r.grant(2.0, 0.001, true, 0.0005, Some(TetId(2)), false);
+        r.grant(2.0, 0.001, true, 0.0, under, false);
+        assert!((r.cutting_work() - 0.002).abs() < 1e-9);
+        // The force earns the feed's region no credit of the hardness law.
+        assert_eq!(r.table()[1].credit(), 0.0);
+        // Work left is kept while the drill has work queued after the burr stops, dropped
+        // once it has none.
+        r.grant(2.0, 0.001, true, 0.0001, under, false);
+        r.grant(2.0, 0.001, false, 0.0, under, true);
+        assert!((r.feed_pool() - 0.0002).abs() < 1e-9);
+        r.grant(2.0, 0.001, false, 0.0, under, false);
+        assert_eq!(r.feed_pool(), 0.0);
+        assert!((r.feed_dropped() - 0.0002).abs() < 1e-9);
+        let balance = r.cutting_energy() + r.feed_pool() + r.feed_dropped();
+        assert!((r.cutting_work() - balance).abs() < 1e-9);
+        // Settings survive a fresh start; state does not.
+        let again = r.table()[1].fresh();
+        assert_eq!(again.cutting_energy(), 2_000.0);
+        assert_eq!(again.removed(), 0.0);
+        assert!(!Region::default()
+            .with_cutting_energy(f32::NAN)
+            .feed_limited());
     }
 
     #[test]

@@ -74,6 +74,27 @@ impl Spacing {
         spheres: &[Sphere],
         out: &mut [Sphere; MAX_STEP_SPHERES],
     ) -> usize {
+        self.admit_pressing(centre, radius, spheres, out, false)
+    }
+
+    /// [`Spacing::admit`], and when `pressing` (work the feed did waits in the regions' pool
+    /// while the drill has no work left), a position is also taken once it moved at all
+    /// since the last one taken and none was taken for [`DRILL_HOLD_STEPS`] steps, settled or
+    /// not: a burr creeping into material cut by the feed more slowly than [`DRILL_SPACING`]
+    /// radii per hold period still has the material it presses queued, so the work the feed
+    /// does (kept for [`crate::drill::Regions`]' two hold periods) finds leaves to pay for.
+    ///
+    /// # Bounded work
+    /// O(`spheres`).
+    #[inline]
+    pub fn admit_pressing(
+        &mut self,
+        centre: Vec3,
+        radius: f32,
+        spheres: &[Sphere],
+        out: &mut [Sphere; MAX_STEP_SPHERES],
+        pressing: bool,
+    ) -> usize {
         let mut n = 0usize;
         self.since_queued = self.since_queued.saturating_add(1);
         match self.anchor {
@@ -85,7 +106,7 @@ impl Spacing {
                 self.settled_steps = 0;
             }
         }
-        let settled = self.settled_steps >= DRILL_HOLD_STEPS;
+        let settled = pressing || self.settled_steps >= DRILL_HOLD_STEPS;
         for s in spheres
             .iter()
             .filter(|s| s.center.is_finite() && s.radius > 0.0)

@@ -256,6 +256,8 @@ pub struct World<'a> {
     press: (f32, f32),
     /// The coarse tet under the last contact, if any.
     contact_tet: Option<TetId>,
+    /// The burr's centre at the last step, for the feed's work (`Regions::grant`).
+    fed_from: Option<Vec3>,
     /// The spare storage of a spread position update ([`World::set_spare`]).
     spare: Option<deform::Spare<'a>>,
     /// The last one-shot zone query's hash scan, kept while the zone stays in its cells.
@@ -338,6 +340,7 @@ impl<'a> World<'a> {
             spacing: Spacing::new(),
             press: (0.0, 0.0),
             contact_tet: None,
+            fed_from: None,
             spare: None,
             zone_memo: zone_memo::ZoneMemo::new(),
             vibration_hz: 0.0,

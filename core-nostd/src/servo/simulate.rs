@@ -71,8 +71,15 @@ impl World<'_> {
         if !(centre.is_finite() && radius.is_finite() && radius > 0.0) {
             self.contact = ContactState::default();
             self.kept.clear();
+            self.fed_from = None;
             return rep;
         }
+        // The burr's advance into the material since the last step, along the last
+        // contact's outward normal: what the feed's work is paid on.
+        let feed = match self.fed_from.replace(centre) {
+            Some(from) if self.contact.valid => (from - centre).dot(self.contact.normal).max(0.0),
+            _ => 0.0,
+        };
         let reach = if reach.is_finite() && reach > 0.0 {
             reach
         } else {
@@ -83,7 +90,15 @@ impl World<'_> {
         // Only positions far enough from the last one queued (or held long enough) become new
         // drill work; the rest is covered by the spheres already queued.
         let mut kept = [Sphere::default(); MAX_STEP_SPHERES];
-        let nk = self.spacing.admit(centre, radius, spheres, &mut kept);
+        // A burr creeping into material cut by the feed is queued again every hold period
+        // while the work it did waits for leaves and the drill has nothing left
+        // (`Spacing::admit_pressing`).
+        let pressing = cutting
+            && self.drill.pending() == 0
+            && self.drill.regions().is_some_and(|r| r.feed_pool() > 0.0);
+        let nk = self
+            .spacing
+            .admit_pressing(centre, radius, spheres, &mut kept, pressing);
         let spheres = kept.get(..nk).unwrap_or_default();
         rep.queued = nk as u32;
         let mut tight = Aabb::of::<0>([]);
@@ -122,13 +137,16 @@ impl World<'_> {
             }
             None => self.query_zone(&zone, &tight, radius, &mut rep),
         };
-        // The regions earn their erosion credit from the servo's force (one unit of work
-        // per rate-limited region, charged to the drill).
+        // The regions earn their erosion credit from the servo's force, or from the feed's
+        // work (one unit of work per rate-limited region and one for the feed's pool,
+        // charged to the drill).
         let (force, seconds) = self.press;
+        let under = self.contact_tet;
+        let queued = self.drill.pending() > 0;
         let granted = self
             .drill
             .regions_mut()
-            .map_or(0, |r| r.grant(force, seconds, cutting));
+            .map_or(0, |r| r.grant(force, seconds, cutting, feed, under, queued));
         if !spheres.is_empty() || self.drill.pending() > 0 || self.drill.debris_pending() > 0 {
             let budget = self
                 .tick_budget

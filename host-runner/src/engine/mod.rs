@@ -140,6 +140,8 @@ impl EngineStorage {
         }
         self.buffers.set_regions(&t.materials, t.of_tet);
         self.buffers.set_region_vibrations(&t.vibrations);
+        self.buffers
+            .set_region_cutting_energies(&t.cutting_energies);
         self.region_labels = t.labels;
         Ok(())
     }

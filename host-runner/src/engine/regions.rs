@@ -22,6 +22,9 @@ pub struct RegionTable {
     /// The burr's vibration at full cut in each region, newtons (0: none; the set-up's
     /// `vibration` of its label).
     pub vibrations: Vec<f32>,
+    /// The specific cutting energy of each region, joules per cubic mesh unit (0: the
+    /// hardness law; the set-up's `cutting_energy` of its label).
+    pub cutting_energies: Vec<f32>,
     /// Each tet's region index.
     pub of_tet: Vec<u8>,
 }
@@ -65,6 +68,15 @@ pub fn region_table(labels: &[i32], materials: &Materials) -> Result<Option<Regi
         .iter()
         .map(|l| by_label.get(l).and_then(|r| r.vibration).unwrap_or(0.0) as f32)
         .collect();
+    let cutting_energies = distinct
+        .iter()
+        .map(|l| {
+            by_label
+                .get(l)
+                .and_then(|r| r.cutting_energy)
+                .unwrap_or(0.0) as f32
+        })
+        .collect();
     let of_tet = labels
         .iter()
         .map(|l| distinct.binary_search(l).unwrap_or(0) as u8)
@@ -74,6 +86,7 @@ pub fn region_table(labels: &[i32], materials: &Materials) -> Result<Option<Regi
         materials,
         colours,
         vibrations,
+        cutting_energies,
         of_tet,
     }))
 }

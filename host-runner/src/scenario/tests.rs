@@ -149,6 +149,11 @@ fn region_soft_keys_read_back_and_bad_ones_name_the_region_and_its_line() {
         ),
         ("\n[regions.2]\ndensity = 0.0\n", 2, "regions.2.density"),
         ("[regions.2]\nyoung = 1e300\n", 1, "regions.2.young"),
+        (
+            "[regions.3]\nthreshold = 1.0\ncutting_energy = -2.0\n",
+            1,
+            "regions.3.cutting_energy",
+        ),
     ] {
         std::fs::write(&p, text).expect("write");
         let e = Scenario::load(p.to_str().expect("utf8")).expect_err(what);

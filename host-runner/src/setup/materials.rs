@@ -77,6 +77,11 @@ pub struct RegionSpec {
     /// `vibration_hz` (absent: none; docs/DRILLING.md, "Vibration").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub vibration: Option<f64>,
+    /// Specific cutting energy, joules per cubic mesh unit (newtons per square mesh unit):
+    /// the region is then cut by the feed's work, not by its hardness (absent: the hardness
+    /// law; docs/DRILLING.md, "Cutting resistance").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cutting_energy: Option<f64>,
     /// Soft body: Young's modulus, pascal (absent: the set-up's `young`; docs/SOFT.md,
     /// "Materials per region").
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -130,9 +135,14 @@ impl RegionSpec {
                 return Err(format!(".{what} must be a {sign} number, got {v}"));
             }
         }
-        if let Some(v) = self.vibration {
-            if !(v.is_finite() && v >= 0.0 && v < f32::MAX as f64) {
-                return Err(format!(".vibration must be a non-negative number, got {v}"));
+        for (key, v) in [
+            ("vibration", self.vibration),
+            ("cutting_energy", self.cutting_energy),
+        ] {
+            if let Some(v) = v {
+                if !(v.is_finite() && v >= 0.0 && v < f32::MAX as f64) {
+                    return Err(format!(".{key} must be a non-negative number, got {v}"));
+                }
             }
         }
         let big = f32::MAX as f64;
@@ -166,6 +176,7 @@ pub fn demo_regions() -> BTreeMap<i32, RegionSpec> {
         poisson: Some(0.3),
         density: None,
         vibration: None,
+        cutting_energy: None,
     };
     let core = RegionSpec {
         hardness: 120.0,
@@ -176,6 +187,7 @@ pub fn demo_regions() -> BTreeMap<i32, RegionSpec> {
         poisson: Some(0.3),
         density: None,
         vibration: None,
+        cutting_energy: None,
     };
     BTreeMap::from([
         (tetradrill_core::builtin::BLOCK_SHELL, shell),
@@ -219,6 +231,7 @@ pub fn tooth_regions() -> BTreeMap<i32, RegionSpec> {
         poisson: Some(0.33),
         density: None,
         vibration: None,
+        cutting_energy: None,
     };
     let dentin = RegionSpec {
         hardness: 2.0e8,
@@ -229,6 +242,7 @@ pub fn tooth_regions() -> BTreeMap<i32, RegionSpec> {
         poisson: Some(0.31),
         density: None,
         vibration: None,
+        cutting_energy: None,
     };
     let pulp = RegionSpec {
         hardness: 4.0e6,
@@ -239,6 +253,7 @@ pub fn tooth_regions() -> BTreeMap<i32, RegionSpec> {
         poisson: Some(0.45),
         density: None,
         vibration: None,
+        cutting_energy: None,
     };
     BTreeMap::from([
         (TOOTH_ENAMEL, enamel),

@@ -4,6 +4,7 @@
 
 mod bounds_drill;
 mod burr_sound;
+mod cutting_energy;
 mod debris;
 mod drill_convergence;
 mod drill_faces;

@@ -219,6 +219,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         initial_volume,
         removed_volume: h.removed_volume(),
         removed_by_region: engine::removed_by_region(&world, &region_labels),
+        drill: report::DrillSummary::of(&world),
         hierarchy_nodes: h.node_count(),
         visible_faces: h.visible_face_count(),
         components,

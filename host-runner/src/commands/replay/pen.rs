@@ -170,6 +170,7 @@ pub(super) fn replay_pen(
         initial_volume,
         removed_volume: 0.0,
         removed_by_region: None,
+        drill: None,
         hierarchy_nodes: h.node_count(),
         visible_faces,
         components,

@@ -27,6 +27,10 @@ pub struct ReplayReport {
     /// labels without materials.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub removed_by_region: Option<std::collections::BTreeMap<String, f64>>,
+    /// The work against the feed and the cutting energy of what it cut (a world with
+    /// regions only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drill: Option<DrillSummary>,
     /// Hierarchy nodes instantiated (root slots included).
     pub hierarchy_nodes: usize,
     /// Visible faces of the drilled surface.
@@ -68,6 +72,36 @@ pub struct ReplayReport {
     /// The soft body (`--body soft` only): its largest displacement, step time and rate.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub deform: Option<DeformSummary>,
+}
+
+/// The regions cut by the feed (`[regions.LABEL] cutting_energy`; docs/DRILLING.md,
+/// "Cutting resistance"): newton mesh units, joules for a mesh in metres.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct DrillSummary {
+    /// Work done pushing the burr into material cut by the feed, against the contact's
+    /// reaction (`F * max(0, -dc . n)` summed over the steps).
+    pub cutting_work_j: f64,
+    /// Each cut leaf's volume times its region's cutting energy, summed: the energy the
+    /// removed material took.
+    pub cutting_energy_j: f64,
+    /// Work done and not yet spent on a leaf at the end.
+    pub feed_pool_j: f64,
+    /// Work done that bought no material: beyond what the pool keeps while no leaf waits,
+    /// or left in it when the drill stopped.
+    pub feed_dropped_j: f64,
+}
+
+impl DrillSummary {
+    /// The figures of `world`'s regions (`None` without regions).
+    pub fn of(world: &tetradrill_core::servo::World<'_>) -> Option<Self> {
+        let r = world.regions()?;
+        Some(Self {
+            cutting_work_j: r.cutting_work(),
+            cutting_energy_j: r.cutting_energy(),
+            feed_pool_j: r.feed_pool(),
+            feed_dropped_j: r.feed_dropped(),
+        })
+    }
 }
 
 /// The most of each world buffer a replay used, beside its capacity (counted before the
