@@ -146,6 +146,17 @@ impl WorldBuffers {
         }
     }
 
+    /// Sets each region's friction coefficient with the spinning burr, in table order
+    /// ([`Region::with_friction`]; zero: none); regions beyond `mus` keep theirs. Nothing
+    /// without regions ([`WorldBuffers::set_regions`] first).
+    pub fn set_region_frictions(&mut self, mus: &[f32]) {
+        if let Some(r) = self.regions.as_mut() {
+            for (reg, &mu) in r.table.iter_mut().zip(mus) {
+                *reg = reg.with_friction(mu);
+            }
+        }
+    }
+
     /// Allocates a deforming world's rest positions and spare tables for a mesh of `nodes`
     /// nodes ([`World::enable_deformation`], [`World::set_spare`]): the worlds made from
     /// these buffers may then move their nodes.

@@ -92,6 +92,7 @@ fn servo_tick_allocates_nothing_after_warm_up() {
         triangles: 1,
         stiffness: 0.0,
         vibration: tetradrill_core::servo::VibrationCue::default(),
+        friction: 0.0,
     };
     let (mut input, mut output) =
         triple_buffer::TripleBuffer::new(&ContactState::default()).split();
@@ -175,6 +176,7 @@ fn coming_back_from_a_stall_allocates_nothing() {
         triangles: 1,
         stiffness: 0.0,
         vibration: tetradrill_core::servo::VibrationCue::default(),
+        friction: 0.0,
     };
     let ws = Workspace {
         scale: 1.0,
@@ -432,6 +434,7 @@ fn a_drill_servo_tick_allocates_nothing_after_warm_up() {
             triangles: 1,
             stiffness: 0.0,
             vibration: tetradrill_core::servo::VibrationCue::default(),
+            friction: 0.0,
         },
         ..DrillContact::default()
     };

@@ -101,8 +101,9 @@ impl Default for Material {
 
 /// One region's material and state, in caller storage (40 bytes): the volume its erosion has
 /// earned and not yet spent, the volume removed from it, the amplitude of the burr's
-/// vibration in it ([`Region::with_vibration`]) and its specific cutting energy
-/// ([`Region::with_cutting_energy`]).
+/// vibration in it ([`Region::with_vibration`]), its specific cutting energy
+/// ([`Region::with_cutting_energy`]) and its friction with the spinning burr
+/// ([`Region::with_friction`]).
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct Region {
     /// The region's material.
@@ -112,6 +113,8 @@ pub struct Region {
     /// Newtons per square mesh unit: the work the feed does per unit volume removed; zero:
     /// the material's hardness law instead.
     cutting_energy: f32,
+    /// The friction coefficient between the spinning burr and this material (zero: none).
+    friction: f32,
     credit: f64,
     removed: f64,
 }
@@ -125,9 +128,28 @@ impl Region {
             material,
             vibration: 0.0,
             cutting_energy: 0.0,
+            friction: 0.0,
             credit: 0.0,
             removed: 0.0,
         }
+    }
+
+    /// This region with a friction coefficient of `mu` between the spinning burr and its
+    /// material: while the drill is on and the burr presses it, the servo adds a sideways
+    /// pull of `mu` times the spring's force along `spin x n` ([`crate::servo::servo_force`],
+    /// "Sideways pull"). Zero, negative or not a number: none (the default).
+    pub const fn with_friction(self, mu: f32) -> Self {
+        let friction = if mu > 0.0 && mu < f32::INFINITY {
+            mu
+        } else {
+            0.0
+        };
+        Self { friction, ..self }
+    }
+
+    /// The friction coefficient between the spinning burr and this region (zero: none).
+    pub fn friction(&self) -> f32 {
+        self.friction
     }
 
     /// This region's settings (material, vibration, cutting energy) with nothing earned or

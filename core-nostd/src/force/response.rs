@@ -55,6 +55,28 @@ pub struct ToolState {
     /// The burr's vibration phase, cycles in `[0, 1)`: advanced by `hz * dt` each tick a
     /// [`crate::servo::VibrationCue`] is active (see [`crate::servo::servo_force`]).
     pub(crate) phase: f32,
+    /// The burr's spin: the unit direction of its angular velocity, zero while it does not
+    /// spin ([`ToolState::set_spin`]).
+    pub(crate) spin: Vec3,
+}
+
+impl ToolState {
+    /// Sets the burr's spin for the next ticks: the direction of its angular velocity
+    /// (normalised here; zero, or not finite: the burr does not spin). With a contact whose
+    /// material has a friction coefficient, [`crate::servo::servo_force`] pulls the burr
+    /// sideways along `spin x n` ("Sideways pull").
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn set_spin(&mut self, omega: Vec3) {
+        let u = omega.normalize_or_zero();
+        self.spin = if u.is_finite() { u } else { Vec3::ZERO };
+    }
+
+    /// The burr's spin direction (zero: none).
+    pub fn spin(&self) -> Vec3 {
+        self.spin
+    }
 }
 
 /// Damping force `-b v` with `v` from two consecutive positions; zero without a previous

@@ -271,6 +271,7 @@ mod tests {
             triangles: i.wrapping_mul(7),
             stiffness: x + 1.0,
             vibration: crate::servo::VibrationCue::default(),
+            friction: x + 3.0,
         };
         let mut s = DrillState {
             count: (i as usize % MAX_PASSIVE) + 1,

@@ -41,6 +41,17 @@ use crate::force::{clamp_force, damping_force, ForceParams, ToolState};
 /// `max_force + amplitude`), and without a cue the force is the one above, bit for bit
 /// (docs/DRILLING.md, "Vibration").
 ///
+/// Sideways pull. While the contact carries a friction coefficient `mu` (the drill on, over
+/// a region with [`crate::drill::Region::friction`]) and the burr spins
+/// ([`ToolState::set_spin`], unit `w`), the spinning burr's surface drags on the material at
+/// the contact point, and the material pushes back along `w x n`: the force gains
+/// `mu |s| (w x n)` (`s` the spring above, the material's normal reaction), added before the
+/// vibration and clamped with the rest. Its size is `mu |s| sin(a)` for an angle `a` between
+/// the spin and the normal: full when the burr's side presses, none at its tip, where the
+/// surface does not slide (a regularised Coulomb friction, continuous as the burr tilts).
+/// Without a friction or a spin the force is the one above, bit for bit (docs/DRILLING.md,
+/// "Sideways pull").
+///
 /// # Bounded work
 /// Constant. Never allocates, locks or panics; non-finite input gives zero force (and
 /// forgets the plane and the residual).
@@ -92,7 +103,33 @@ pub fn servo_force(
         clamp_force(s + residual, params.max_force) + damping,
         params.max_force,
     );
+    let force = pull(force, s, contact, tool, params);
     vibrate(force, &contact.vibration, tool, params)
+}
+
+/// `force` with the spinning burr's sideways pull of the contact's friction added
+/// ([`servo_force`], "Sideways pull"): `mu |s| (spin x n)` for the spring `s`, then clamped;
+/// `force` itself without a friction, a spin or a spring.
+///
+/// # Bounded work
+/// Constant.
+fn pull(
+    force: Vec3,
+    s: Vec3,
+    contact: &ContactState,
+    tool: &ToolState,
+    params: &ForceParams,
+) -> Vec3 {
+    let mu = contact.friction;
+    if !(mu > 0.0 && mu.is_finite()) || tool.spin == Vec3::ZERO || s == Vec3::ZERO {
+        return force;
+    }
+    let drag = tool.spin.cross(contact.normal) * (mu * s.length());
+    if drag.is_finite() {
+        clamp_force(force + drag, params.max_force)
+    } else {
+        force
+    }
 }
 
 /// `force` with the burr's vibration of `cue` added along it ([`servo_force`], "Vibration"),

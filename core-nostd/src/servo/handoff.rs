@@ -30,8 +30,8 @@ use super::{ContactState, VibrationCue};
 use crate::force::{ForceDigest, ForceParams, ToolState};
 
 /// Words of a published contact: `valid`, point, normal, depth, centre, triangles, stiffness,
-/// the vibration's frequency, amplitude and threshold, and the step's number.
-pub(crate) const WORDS: usize = 17;
+/// the vibration's frequency, amplitude and threshold, the friction, and the step's number.
+pub(crate) const WORDS: usize = 18;
 
 /// How many times [`ContactHandoff::latest`] reads a slot the publisher overtook before it
 /// gives up for this tick.
@@ -175,6 +175,7 @@ impl Published {
             c.vibration.hz.to_bits(),
             c.vibration.amplitude.to_bits(),
             c.vibration.threshold.to_bits(),
+            c.friction.to_bits(),
             self.step,
         ]
     }
@@ -196,8 +197,9 @@ impl Published {
                     amplitude: f(14),
                     threshold: f(15),
                 },
+                friction: f(16),
             },
-            step: w[16],
+            step: w[17],
         }
     }
 }
@@ -440,6 +442,7 @@ mod tests {
                 amplitude: x + 300.0,
                 threshold: x + 400.0,
             },
+            friction: x + 500.0,
         }
     }
 
@@ -489,6 +492,7 @@ mod tests {
             triangles: 1,
             stiffness: 0.0,
             vibration: crate::servo::VibrationCue::default(),
+            friction: 0.0,
         };
         for i in 0..50 {
             let c = if i < 20 {

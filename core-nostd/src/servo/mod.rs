@@ -118,6 +118,10 @@ pub struct ContactState {
     /// cuts), the amplitude and threshold of the region under the contact while the drill is
     /// on.
     pub vibration: VibrationCue,
+    /// The friction coefficient between the spinning burr and the material under the
+    /// contact while the drill is on (the region's, [`crate::drill::Region::friction`]); zero:
+    /// no sideways pull ([`servo_force`], "Sideways pull").
+    pub friction: f32,
 }
 
 /// What [`servo_force`] needs to add the burr's vibration (docs/DRILLING.md, "Vibration"):

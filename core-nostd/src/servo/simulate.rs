@@ -379,6 +379,11 @@ impl World<'_> {
                 }),
             _ => idle,
         };
+        // The spinning burr's friction with the material under it, while the drill is on.
+        let friction = match (self.drill.regions(), near.tri) {
+            (Some(r), Some(vt)) if cutting => r.region_entry(vt.tet).map_or(0.0, |g| g.friction()),
+            _ => 0.0,
+        };
         self.contact = match near.tri {
             None => ContactState {
                 centre,
@@ -397,6 +402,7 @@ impl World<'_> {
                     triangles: near.triangles,
                     stiffness,
                     vibration,
+                    friction,
                 }
             }
         };

@@ -201,3 +201,54 @@ fn a_cue_vibrates_the_force_along_itself() {
         assert!(f.x >= 0.0 && f.x <= 8.0 + 1e-4, "{f:?}");
     }
 }
+
+/// The sideways pull: on a settled plane of 4 N along +x (the wall at x = -0.08), a burr
+/// spinning about +z (its side on the wall) with a friction of 0.3 is pulled by
+/// `0.3 * 4 = 1.2` N along `z x x = +y`, the other way when it spins the other way, by
+/// `1.2 sin(a)` with the spin at an angle `a` to the normal, not at all about the normal
+/// itself; without a friction or a spin the force is the same bits as before.
+#[test]
+fn a_spinning_burr_is_pulled_sideways_by_the_friction() {
+    let (a, _) = walls();
+    let p = params(0.016);
+    let plain = servo_force(&a, Vec3::ZERO, 0.1, &mut settled(&a, &p), &p);
+    let rough = ContactState { friction: 0.3, ..a };
+    let spun = |omega: Vec3, c: &ContactState| {
+        let mut tool = settled(&a, &p);
+        tool.set_spin(omega);
+        servo_force(c, Vec3::ZERO, 0.1, &mut tool, &p)
+    };
+    let f = spun(Vec3::Z, &rough);
+    assert!((f - Vec3::new(4.0, 1.2, 0.0)).length() < 1e-4, "{f:?}");
+    let f = spun(-Vec3::Z * 7.0, &rough);
+    assert!((f - Vec3::new(4.0, -1.2, 0.0)).length() < 1e-4, "{f:?}");
+    // Tilted 60 degrees from the normal: sin 60 of the pull.
+    let tilt = Vec3::new(
+        libm::sinf(core::f32::consts::FRAC_PI_6),
+        0.0,
+        libm::cosf(core::f32::consts::FRAC_PI_6),
+    );
+    let f = spun(tilt, &rough);
+    assert!(
+        (f.y - 1.2 * libm::cosf(core::f32::consts::FRAC_PI_6)).abs() < 1e-4,
+        "{f:?}"
+    );
+    assert_eq!(
+        spun(Vec3::X, &rough),
+        plain,
+        "spinning about the normal: no slide"
+    );
+    assert_eq!(spun(Vec3::Z, &a), plain, "no friction");
+    assert_eq!(spun(Vec3::ZERO, &rough), plain, "no spin");
+    assert_eq!(
+        spun(Vec3::splat(f32::NAN), &rough),
+        plain,
+        "a spin that is not a number"
+    );
+    // Clamped with the rest.
+    let wild = ContactState {
+        friction: 50.0,
+        ..a
+    };
+    assert!(spun(Vec3::Z, &wild).length() <= 8.0 + 1e-4);
+}

@@ -142,6 +142,7 @@ impl EngineStorage {
         self.buffers.set_region_vibrations(&t.vibrations);
         self.buffers
             .set_region_cutting_energies(&t.cutting_energies);
+        self.buffers.set_region_frictions(&t.frictions);
         self.region_labels = t.labels;
         Ok(())
     }

@@ -25,6 +25,9 @@ pub struct RegionTable {
     /// The specific cutting energy of each region, joules per cubic mesh unit (0: the
     /// hardness law; the set-up's `cutting_energy` of its label).
     pub cutting_energies: Vec<f32>,
+    /// The friction coefficient of each region with the spinning burr (0: none; the set-up's
+    /// `friction` of its label).
+    pub frictions: Vec<f32>,
     /// Each tet's region index.
     pub of_tet: Vec<u8>,
 }
@@ -77,6 +80,10 @@ pub fn region_table(labels: &[i32], materials: &Materials) -> Result<Option<Regi
                 .unwrap_or(0.0) as f32
         })
         .collect();
+    let frictions = distinct
+        .iter()
+        .map(|l| by_label.get(l).and_then(|r| r.friction).unwrap_or(0.0) as f32)
+        .collect();
     let of_tet = labels
         .iter()
         .map(|l| distinct.binary_search(l).unwrap_or(0) as u8)
@@ -87,6 +94,7 @@ pub fn region_table(labels: &[i32], materials: &Materials) -> Result<Option<Regi
         colours,
         vibrations,
         cutting_energies,
+        frictions,
         of_tet,
     }))
 }

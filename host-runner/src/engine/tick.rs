@@ -29,6 +29,9 @@ pub struct TickParams {
     /// Servo ticks between a simulation step and the force that uses its contact: 0 or 1
     /// ([`crate::setup::Drilling::servo_lag`]).
     pub servo_lag: u32,
+    /// The burr's angular velocity along the tool's axis (burr to handle) while the drill is
+    /// on: -1 or +1 ([`crate::setup::Spin::sign`]).
+    pub spin: f32,
 }
 
 impl TickParams {
@@ -101,6 +104,7 @@ impl TickParams {
                 switch_time: (f.switch_ms / 1000.0) as f32,
             },
             servo_lag: d.servo_lag,
+            spin: f.spin.sign(),
         })
     }
 }
@@ -119,6 +123,7 @@ pub fn tick(
     pose: &Pose,
 ) -> (Vec3, SimReport) {
     let drill_on = pose.buttons & tetradrill_core::script::DRILL_ON != 0;
+    tool.set_spin(spin(p, pose, drill_on));
     if p.servo_lag == 0 {
         let rep = world.simulate(pose.position, p.radius, p.reach, drill_on, &p.drill);
         let f = servo_force(world.contact(), pose.position, p.radius, tool, &p.force);
@@ -131,6 +136,16 @@ pub fn tick(
         let rep = world.simulate(pose.position, p.radius, p.reach, drill_on, &p.drill);
         (f, rep)
     }
+}
+
+/// The burr's spin at `pose` (`ToolState::set_spin`): the tool's axis (the pose's rotated +z,
+/// burr to handle) times `p.spin` while the drill is on, zero while it is off.
+fn spin(p: &TickParams, pose: &Pose, drill_on: bool) -> Vec3 {
+    if !drill_on {
+        return Vec3::ZERO;
+    }
+    let [w, x, y, z] = pose.rotation;
+    DrillTool::axis(tetradrill_core::Quat::from_xyzw(x, y, z, w)) * p.spin
 }
 
 /// What a drill tool carries from tick to tick besides the burr's [`ToolState`]: its passive
@@ -161,6 +176,7 @@ pub fn tick_tool(
     let drill_on = pose.buttons & tetradrill_core::script::DRILL_ON != 0;
     let [w, x, y, z] = pose.rotation;
     let axis = DrillTool::axis(tetradrill_core::Quat::from_xyzw(x, y, z, w));
+    tool.set_spin(spin(p, pose, drill_on));
     let (rep, prep) = world.simulate_drill(
         &d,
         pose.position,

@@ -19,7 +19,7 @@ use crate::error::CliError;
 use crate::setup::{
     demo_regions, tooth_regions, Body, Capacities, Crossings, DepthMethod, Drilling, FixBelow,
     Forces, Materials, MeshSpec, PenContact, Poses, RegionSpec, Setup, SetupError, SoftSettings,
-    Tool,
+    Spin, Tool,
 };
 
 /// What the object is, as a flag or key: rigid or soft (the soft values are their own keys).
@@ -75,6 +75,10 @@ pub struct Scenario {
     /// region's `vibration` (docs/DRILLING.md, "Vibration").
     #[serde(skip_serializing_if = "is_zero_f64")]
     pub vibration_hz: f64,
+    /// Which way the burr spins while the drill is on, `cw` (clockwise seen from the handle,
+    /// the default) or `ccw`: the direction of each region's sideways pull (`friction`).
+    #[serde(skip_serializing_if = "Spin::is_default")]
+    pub spin: Spin,
     /// Hardness of the default region (every label the `regions` table does not name),
     /// newton-seconds per cubic mesh unit: the burr pressing `F` newtons above the threshold
     /// removes `F / hardness` cubic mesh units a second (docs/DRILLING.md, "Materials"); 0
@@ -247,6 +251,10 @@ pub struct ScenarioFlags {
     /// each region's `vibration` key, newtons.
     #[arg(long, allow_negative_numbers = true, value_parser = vibration_hz, value_name = "HZ")]
     pub vibration_hz: Option<f64>,
+    /// Which way the burr spins while the drill is on (clockwise seen from the handle by
+    /// default): the direction of each region's sideways pull (`friction`).
+    #[arg(long, value_enum)]
+    pub spin: Option<Spin>,
     /// Hardness of the default region, newton-seconds per cubic mesh unit (0: removed at
     /// once).
     #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
@@ -440,7 +448,7 @@ impl Scenario {
         }
         take!(mesh, scale, trace, tool, tool_scale, stiffness, damping, max_force);
         take!(switch_ms, hardness, pressure_threshold);
-        take!(vibration_hz);
+        take!(vibration_hz, spin);
         take!(
             depth_method,
             crossings,
@@ -548,6 +556,7 @@ impl Scenario {
                 max_force: self.max_force,
                 switch_ms: self.switch_ms,
                 vibration_hz: self.vibration_hz,
+                spin: self.spin,
             },
             drilling: Drilling {
                 max_depth: self.max_depth,
@@ -631,6 +640,7 @@ impl From<&Setup> for Scenario {
             max_force: s.forces.max_force,
             switch_ms: s.forces.switch_ms,
             vibration_hz: s.forces.vibration_hz,
+            spin: s.forces.spin,
             hardness: s.materials.hardness,
             pressure_threshold: s.materials.pressure_threshold,
             regions: labelled(s.materials.regions.clone()),

@@ -82,6 +82,11 @@ pub struct RegionSpec {
     /// law; docs/DRILLING.md, "Cutting resistance").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cutting_energy: Option<f64>,
+    /// The friction coefficient between the spinning burr and this region: a sideways pull
+    /// of this times the contact's normal force while the drill is on (absent: none;
+    /// docs/DRILLING.md, "Sideways pull").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
     /// Soft body: Young's modulus, pascal (absent: the set-up's `young`; docs/SOFT.md,
     /// "Materials per region").
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -138,6 +143,7 @@ impl RegionSpec {
         for (key, v) in [
             ("vibration", self.vibration),
             ("cutting_energy", self.cutting_energy),
+            ("friction", self.friction),
         ] {
             if let Some(v) = v {
                 if !(v.is_finite() && v >= 0.0 && v < f32::MAX as f64) {
@@ -177,6 +183,7 @@ pub fn demo_regions() -> BTreeMap<i32, RegionSpec> {
         density: None,
         vibration: None,
         cutting_energy: None,
+        friction: None,
     };
     let core = RegionSpec {
         hardness: 120.0,
@@ -188,6 +195,7 @@ pub fn demo_regions() -> BTreeMap<i32, RegionSpec> {
         density: None,
         vibration: None,
         cutting_energy: None,
+        friction: None,
     };
     BTreeMap::from([
         (tetradrill_core::builtin::BLOCK_SHELL, shell),
@@ -232,6 +240,7 @@ pub fn tooth_regions() -> BTreeMap<i32, RegionSpec> {
         density: None,
         vibration: None,
         cutting_energy: None,
+        friction: None,
     };
     let dentin = RegionSpec {
         hardness: 2.0e8,
@@ -243,6 +252,7 @@ pub fn tooth_regions() -> BTreeMap<i32, RegionSpec> {
         density: None,
         vibration: None,
         cutting_energy: None,
+        friction: None,
     };
     let pulp = RegionSpec {
         hardness: 4.0e6,
@@ -254,6 +264,7 @@ pub fn tooth_regions() -> BTreeMap<i32, RegionSpec> {
         density: None,
         vibration: None,
         cutting_energy: None,
+        friction: None,
     };
     BTreeMap::from([
         (TOOTH_ENAMEL, enamel),

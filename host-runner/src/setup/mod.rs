@@ -74,6 +74,37 @@ pub struct Forces {
     /// [`MAX_VIBRATION_HZ`]); its amplitude is each region's `vibration` (docs/DRILLING.md,
     /// "Vibration").
     pub vibration_hz: f64,
+    /// Which way the burr spins while the drill is on (the sideways pull of each region's
+    /// `friction` follows it; docs/DRILLING.md, "Sideways pull").
+    pub spin: Spin,
+}
+
+/// Which way the burr spins about the tool's axis (burr to handle) while the drill is on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Spin {
+    /// Clockwise seen from the handle looking at the burr: the angular velocity along the
+    /// axis towards the burr.
+    #[default]
+    Cw,
+    /// Counter-clockwise seen from the handle: the angular velocity along the axis towards
+    /// the handle.
+    Ccw,
+}
+
+impl Spin {
+    /// The angular velocity's direction along the tool's axis (burr to handle): -1 or +1.
+    pub fn sign(self) -> f32 {
+        match self {
+            Self::Cw => -1.0,
+            Self::Ccw => 1.0,
+        }
+    }
+
+    /// `true` for the default, clockwise.
+    pub fn is_default(&self) -> bool {
+        *self == Self::Cw
+    }
 }
 
 /// The highest vibration frequency a set-up takes, hertz: the 1 kHz servo's Nyquist
@@ -265,6 +296,7 @@ impl Default for Setup {
                 max_force: 8.0,
                 switch_ms: 16.0,
                 vibration_hz: 0.0,
+                spin: Spin::Cw,
             },
             drilling: Drilling {
                 max_depth: 5,

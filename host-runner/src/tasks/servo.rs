@@ -427,7 +427,11 @@ impl<'a> BurrLaw<'a> {
 }
 
 impl ForceLaw for BurrLaw<'_> {
-    fn force(&mut self, _tick: u64, position: Vec3, _rotation: Quat) -> Vec3 {
+    fn force(&mut self, _tick: u64, position: Vec3, rotation: Quat) -> Vec3 {
+        // The burr spins about the stylus's axis; the contact carries a friction only while
+        // the drill is on.
+        self.tool
+            .set_spin(tetradrill_core::force::DrillTool::axis(rotation) * self.params.spin);
         // The viewer's controls (0: the scenario's value).
         let mut live = self.params;
         let r = self.counters.radius_bits.load(Ordering::Relaxed);

@@ -46,6 +46,7 @@ fn plane(point: Vec3) -> ContactState {
         triangles: 1,
         stiffness: 0.0,
         vibration: tetradrill_core::servo::VibrationCue::default(),
+        friction: 0.0,
     }
 }
 

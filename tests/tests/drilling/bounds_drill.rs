@@ -486,6 +486,7 @@ fn servo_force_output_is_clamped_and_finite() {
         triangles: 1,
         stiffness: 0.0,
         vibration: tetradrill_core::servo::VibrationCue::default(),
+        friction: 0.0,
     };
     let mut tool = ToolState::default();
     for i in 0..2000 {

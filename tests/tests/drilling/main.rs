@@ -18,6 +18,7 @@ mod premolar_access;
 mod removal_law;
 mod resolution;
 mod shaft;
+mod sideways_pull;
 mod smooth_normals;
 mod surface_export;
 mod surface_obj;

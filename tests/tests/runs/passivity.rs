@@ -164,6 +164,7 @@ const WALL: ContactState = ContactState {
         amplitude: 0.0,
         threshold: 0.0,
     },
+    friction: 0.0,
 };
 
 /// Runs `ticks` servo ticks of `device` against [`WALL`] with the scenario's force law and an

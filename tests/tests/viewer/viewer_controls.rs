@@ -59,6 +59,7 @@ fn the_servo_takes_the_published_camera_and_the_stiffness_control_each_tick() {
         triangles: 1,
         stiffness: 0.0,
         vibration: tetradrill_core::servo::VibrationCue::default(),
+        friction: 0.0,
     };
     // The burr sits a little into the top face, well under the force clamp.
     let depth = 0.2 * params.force.max_force / params.force.stiffness;
