@@ -25,7 +25,8 @@ impl World<'_> {
     /// and O(depth) per kept face ([`crate::hierarchy::KEEP`]). Under a tick budget
     /// ([`World::set_tick_budget`]) the drill and the contact search share it. With regions
     /// ([`World::set_regions`]), O(regions) to grant them their credit, charged to the drill
-    /// as one work unit per rate-limited region.
+    /// as one work unit per rate-limited region and one for the feed's pool when a region is
+    /// cut by the feed ([`crate::drill::Region::with_cutting_energy`]).
     ///
     /// # Capacity
     /// A full candidate list keeps the tets found first and counts `saturations().candidates`,
