@@ -400,7 +400,7 @@ typedef struct td_pen_servo_counts {
 
 // The work the feed did on the regions it cuts (`td_world_cutting`), newton mesh units
 // (joules for a mesh in metres): `work = energy + pool + dropped`.
-typedef struct TdCutting {
+typedef struct td_cutting {
   // Work done pushing the burr into material cut by the feed, against the contact's
   // reaction (the servo's force times the burr's advance into the material, summed over
   // the steps).
@@ -413,7 +413,7 @@ typedef struct TdCutting {
   // Work done that bought no material: left in the pool when the burr stopped cutting
   // and the drill had nothing left to remove.
   double dropped;
-} TdCutting;
+} td_cutting;
 
 // One region of a world: its label, its material, the volume removed from it and its feel.
 typedef struct td_region {
@@ -1126,7 +1126,7 @@ enum td_status td_world_set_region_feel(struct td_world *world,
 // # Safety
 // `world` is a handle from `td_world_init` whose memory is still the caller's; `out` points
 // at a writable `td_cutting`.
-enum td_status td_world_cutting(struct td_world *world, struct TdCutting *out);
+enum td_status td_world_cutting(struct td_world *world, struct td_cutting *out);
 
 // Writes the region labelled `label` to `*out`: its material, the volume removed from it
 // (`removed_by_region` of `tetradrill replay`) and its feel (`td_world_set_region_feel`).
