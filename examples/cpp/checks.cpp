@@ -70,6 +70,41 @@ int main(int argc, char **argv) {
         }
         expect(thrown, "short arrays throw error(TD_ERR_PARAMS)");
     }
+    // A region's feel reads back, survives a later set_region, and is refused once stepped.
+    {
+        tetradrill::world f(p, cube_xyz, cube_tets);
+        f.set_region_feel(0, 0.5f, 40.f, 0.2f);
+        f.set_region(0, 0.f, 1.f);
+        const td_region r = f.region(0);
+        expect(r.vibration == 0.5f && r.cutting_energy == 40.f && r.friction == 0.2f &&
+                   r.threshold == 1.f,
+               "set_region keeps the feel set before it");
+        bool thrown = false;
+        try {
+            f.set_region_feel(0, 0.f, -1.f, 0.f);
+        } catch (const tetradrill::error &e) {
+            thrown = e.status() == TD_ERR_PARAMS;
+        }
+        expect(thrown, "a negative cutting energy throws error(TD_ERR_PARAMS)");
+        f.tick({0.5f, 0.5f, 1.1f}, 1);
+        const td_cutting c = f.cutting();
+        expect(c.work == 0.0 && c.energy == 0.0, "no work done in the air");
+        thrown = false;
+        try {
+            f.set_region_feel(0, 0.f, 0.f, 0.f);
+        } catch (const tetradrill::error &e) {
+            thrown = e.status() == TD_ERR_STARTED;
+        }
+        expect(thrown, "a feel after the first step throws error(TD_ERR_STARTED)");
+        thrown = false;
+        try {
+            f.servo().set_spin({std::numeric_limits<float>::infinity(), 0.f, 0.f});
+        } catch (const tetradrill::error &e) {
+            thrown = e.status() == TD_ERR_INPUT;
+        }
+        expect(thrown, "an infinite spin throws error(TD_ERR_INPUT)");
+        f.servo().set_spin({0.f, 0.f, -1.f});
+    }
     // A world moved keeps its memory: the servo taken before the move still works after it.
     tetradrill::world a(p, cube_xyz, cube_tets);
     tetradrill::servo s = a.servo();

@@ -141,7 +141,7 @@ typedef struct td_params {
   // Work units for a whole simulation step, drill and contact search together; 0 gives
   // each its own bound.
   uint32_t tick_budget;
-  // Distinct region labels the world keeps, 1 ..= 256 (`TD_MAX_REGIONS`, the default): 36
+  // Distinct region labels the world keeps, 1 ..= 256 (`TD_MAX_REGIONS`, the default): 44
   // bytes each. A mesh with more distinct labels is refused (`TD_ERR_LABEL`).
   uint32_t region_capacity;
   // Deepest subdivision level of a drilled tet, 1 ..= 9.
@@ -174,6 +174,10 @@ typedef struct td_params {
   // a step, kept across steps as the burr moves (the scenario key `zone_gather_work`,
   // `builtin:firmware-tooth` sets 2,000); 0: one zone query every step.
   uint32_t zone_gather_work;
+  // The burr's vibration while it cuts, hertz (the scenario key `vibration_hz`): 0 (none,
+  // the default) up to the servo's Nyquist frequency, `0.5 / dt` (500 at 1 kHz). Its
+  // amplitude is each region's `vibration` (`td_world_set_region_feel`).
+  float vibration_hz;
 } td_params;
 
 // A point or a force: three floats.
@@ -394,7 +398,24 @@ typedef struct td_pen_servo_counts {
   uint32_t step;
 } td_pen_servo_counts;
 
-// One region of a world: its label, its material and the volume removed from it.
+// The work the feed did on the regions it cuts (`td_world_cutting`), newton mesh units
+// (joules for a mesh in metres): `work = energy + pool + dropped`.
+typedef struct td_cutting {
+  // Work done pushing the burr into material cut by the feed, against the contact's
+  // reaction (the servo's force times the burr's advance into the material, summed over
+  // the steps).
+  double work;
+  // Each erased leaf's volume times its region's cutting energy, summed: the energy the
+  // removed material took.
+  double energy;
+  // Work done and not yet spent on a leaf.
+  double pool;
+  // Work done that bought no material: left in the pool when the burr stopped cutting
+  // and the drill had nothing left to remove.
+  double dropped;
+} td_cutting;
+
+// One region of a world: its label, its material, the volume removed from it and its feel.
 typedef struct td_region {
   // The region's label (the mesh's, from `td_world_init`'s `labels`; 0 without them).
   int32_t label;
@@ -408,6 +429,15 @@ typedef struct td_region {
   // Volume removed from the region so far, mesh units cubed (`removed_by_region` of
   // `tetradrill replay`).
   double removed_volume;
+  // Newtons: the burr's vibration at full cut in the region (0: none;
+  // `td_world_set_region_feel`).
+  float vibration;
+  // Newtons per square mesh unit: the work the feed does per unit volume removed (0: the
+  // hardness law; `td_world_set_region_feel`).
+  float cutting_energy;
+  // The friction coefficient between the spinning burr and the region (0: no sideways
+  // pull; `td_world_set_region_feel`).
+  float friction;
 } td_region;
 
 // A servo's counters (`td_servo_counters`).
@@ -1032,7 +1062,8 @@ enum td_status td_world_set_pressing(struct td_world *world, float newtons, floa
 // / hardness` cubic mesh units a second (`hardness` 0: at once), and its contact has
 // `stiffness` newtons per mesh unit (0: `td_params.stiffness`). Allowed from
 // `td_world_init` until the first `td_world_simulate` (or `td_world_tick`); the values of
-// `tetradrill`'s scenario `[regions.LABEL]` tables.
+// `tetradrill`'s scenario `[regions.LABEL]` tables. The region's feel
+// (`td_world_set_region_feel`) is kept, whichever of the two calls comes first.
 //
 // # Bounded work
 // O(log R) for R regions.
@@ -1050,8 +1081,55 @@ enum td_status td_world_set_region(struct td_world *world,
                                    float threshold,
                                    float stiffness);
 
-// Writes the region labelled `label` to `*out`: its material and the volume removed from it
-// (`removed_by_region` of `tetradrill replay`).
+// Sets how the region labelled `label` feels while the drill is on (docs/DRILLING.md):
+// the burr's vibration at full cut, `vibration` newtons (with `td_params.vibration_hz`;
+// "Vibration"); its specific cutting energy, `cutting_energy` newtons per square mesh unit
+// (joules per cubic metre for a mesh in metres: the region is then removed only as fast as
+// the work done pushing the burr into it pays for, its hardness unused; "Cutting
+// resistance"); and its friction coefficient with the spinning burr, `friction` (a
+// sideways pull of `friction` times the contact's normal force along `spin x n`, with
+// `td_servo_set_spin`; "Sideways pull"). Zero turns each off (the default). The values of
+// `tetradrill`'s scenario keys `[regions.LABEL] vibration`, `cutting_energy` and
+// `friction`. Allowed from `td_world_init` until the first step, as `td_world_set_region`,
+// whose material it keeps.
+//
+// # Bounded work
+// O(log R) for R regions.
+//
+// # Errors
+// As `td_world_set_region`: `TD_ERR_PARAMS` for a value that is negative or not finite,
+// `TD_ERR_LABEL` for a label the mesh does not have, `TD_ERR_STARTED` after the first step.
+// An error changes nothing.
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's.
+enum td_status td_world_set_region_feel(struct td_world *world,
+                                        int32_t label,
+                                        float vibration,
+                                        float cutting_energy,
+                                        float friction);
+
+// Writes the cutting figures of the regions cut by the feed (`td_world_set_region_feel`'s
+// `cutting_energy`; docs/DRILLING.md, "Cutting resistance") to `*out`: the work done
+// pushing the burr into them, the cutting energy of the leaves it paid for, the work still
+// in the pool and the work the pool dropped, newton mesh units (joules for a mesh in
+// metres). `work` is the other three added up. `tetradrill replay --json`'s `drill`
+// figures (`cutting_work_j`, `cutting_energy_j`, `feed_pool_j`, `feed_dropped_j`); all zero
+// before the first step and in a world without a region cut by the feed.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_world_counters`.
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's; `out` points
+// at a writable `td_cutting`.
+enum td_status td_world_cutting(struct td_world *world, struct td_cutting *out);
+
+// Writes the region labelled `label` to `*out`: its material, the volume removed from it
+// (`removed_by_region` of `tetradrill replay`) and its feel (`td_world_set_region_feel`).
 //
 // # Bounded work
 // O(log R) for R regions.
@@ -1120,6 +1198,28 @@ enum td_status td_world_servo(struct td_world *world, struct td_servo **out);
 enum td_status td_servo_force(struct td_servo *servo,
                               struct td_vec3 position,
                               struct td_vec3 *force);
+
+// Sets the burr's spin for the servo's next ticks: `omega`, the direction of its angular
+// velocity (normalised; its length does not matter), kept until set again; zero: the burr
+// does not spin. While the drill is on over a region with a friction coefficient
+// (`td_world_set_region_feel`), the force gains the spinning burr's sideways pull,
+// `friction * |spring| * (spin x n)` for the contact's outward normal `n` (docs/DRILLING.md,
+// "Sideways pull"); without a friction, or with no spin, the force is the same bits as
+// before. The host sets it each tick to the tool's axis (burr to handle, the pose's rotated
+// +z) times -1 for a burr spinning clockwise seen from the handle (its default, `--spin
+// cw`) or +1 counter-clockwise (`--spin ccw`), zero while the drill is off. A drill's world
+// sets its burr's spin.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_servo_force` for the servo; `TD_ERR_INPUT` for a non-finite `omega` (the spin is
+// left as it was).
+//
+// # Safety
+// As `td_servo_force`: called from the servo's task, or when the servo is not running.
+enum td_status td_servo_set_spin(struct td_servo *servo, struct td_vec3 omega);
 
 // Writes the servo's counters to `*out`: the force digest, its ticks, those in contact, the
 // reads that kept an older contact, and the step it renders from. Call it from the servo's

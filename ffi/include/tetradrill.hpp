@@ -160,6 +160,10 @@ class servo {
         return f;
     }
 
+    // The burr's spin for the next ticks: the direction of its angular velocity (zero: none);
+    // with a region's friction, the sideways pull along spin x n.
+    void set_spin(td_vec3 omega) { detail::check(td_servo_set_spin(s_, omega), "td_servo_set_spin"); }
+
     // The force digest, ticks, contact ticks, stale reads and the step rendered from.
     td_servo_counts counters() const {
         td_servo_counts c{};
@@ -231,6 +235,14 @@ class world {
                       "td_world_set_region");
     }
 
+    // A region's feel (before the first step): `tetradrill`'s [regions.LABEL] vibration,
+    // cutting_energy and friction (0: none); the material stays.
+    void set_region_feel(std::int32_t label, float vibration, float cutting_energy,
+                         float friction) {
+        detail::check(td_world_set_region_feel(w_, label, vibration, cutting_energy, friction),
+                      "td_world_set_region_feel");
+    }
+
     // One simulation step at `position` (bit 0 of `buttons`: the drill on), published to
     // the servo.
     td_sim_report simulate(td_vec3 position, std::uint32_t buttons) {
@@ -270,6 +282,20 @@ class world {
             out[r.label] = r.removed_volume;
         }
         return out;
+    }
+
+    // The region labelled `label`: its material, removed volume and feel.
+    td_region region(std::int32_t label) const {
+        td_region r{};
+        detail::check(td_world_region(w_, label, &r), "td_world_region");
+        return r;
+    }
+
+    // The work the feed did on the regions it cuts: work = energy + pool + dropped.
+    td_cutting cutting() const {
+        td_cutting c{};
+        detail::check(td_world_cutting(w_, &c), "td_world_cutting");
+        return c;
     }
 
     // Erases the drilled material's debris (detached crumbs), as `tetradrill replay` does

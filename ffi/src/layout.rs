@@ -244,6 +244,8 @@ impl Plan {
         check(non_negative(p.stiffness) && non_negative(p.damping))?;
         check(positive(p.max_force) && positive(p.dt) && non_negative(p.switch_time))?;
         check(p.servo_lag <= 1)?;
+        // Up to the servo's Nyquist frequency (500 Hz at 1 kHz: the product rounds to 0.5).
+        check(non_negative(p.vibration_hz) && p.vibration_hz * p.dt <= 0.5)?;
         let to_usize = |v: u32| usize::try_from(v).map_err(|_| TdStatus::TdErrParams);
         let nodes = to_usize(p.node_count)?;
         let tets = to_usize(p.tet_count)?;
@@ -334,6 +336,7 @@ mod tests {
             switch_time: 0.0,
             servo_lag: 0,
             zone_gather_work: 0,
+            vibration_hz: 0.0,
         }
     }
 
@@ -392,7 +395,7 @@ mod tests {
     fn out_of_range_parameters_are_refused() {
         let ok = params(8, 6, 8, 1, 0);
         assert!(Plan::of(&ok, false).is_ok());
-        let bad: [fn(&mut TdParams); 15] = [
+        let bad: [fn(&mut TdParams); 17] = [
             |p| p.node_count = 0,
             |p| p.tet_count = TD_MAX_COUNT + 1,
             |p| p.hierarchy_capacity = 7,
@@ -408,6 +411,8 @@ mod tests {
             |p| p.servo_lag = 2,
             |p| p.region_capacity = 0,
             |p| p.region_capacity = TD_MAX_REGIONS + 1,
+            |p| p.vibration_hz = -1.0,
+            |p| p.vibration_hz = 500.1,
         ];
         for (i, change) in bad.iter().enumerate() {
             let mut p = ok;
@@ -418,6 +423,10 @@ mod tests {
                 "change {i}"
             );
         }
+        // The Nyquist frequency itself is taken (500 Hz at 1 kHz).
+        let mut p = ok;
+        p.vibration_hz = 500.0;
+        assert!(Plan::of(&p, false).is_ok());
     }
 
     #[test]

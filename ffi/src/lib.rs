@@ -19,9 +19,12 @@
 //! | [`td_servo_counters`]    | the force digest and the servo's counts                       |
 //! | [`td_world_tick`]        | both, as `tetradrill replay` runs a tick                      |
 //! | [`td_world_set_region`]  | a region's material, by label, before the first step          |
+//! | [`td_world_set_region_feel`] | a region's vibration, cutting energy and friction, before the first step |
 //! | [`td_world_set_pressing`]| the force pressing the burr for the next step (two tasks)      |
+//! | [`td_servo_set_spin`]    | the burr's spin for the servo's sideways pull                 |
 //! | [`td_world_counters`]    | digest, removed volume, saturations                           |
-//! | [`td_world_region`], [`td_world_region_at`] | a region's material and removed volume     |
+//! | [`td_world_region`], [`td_world_region_at`] | a region's material, feel and removed volume |
+//! | [`td_world_cutting`]     | the work the feed did and the cutting energy it paid for      |
 //! | [`td_surface_size`], [`td_surface_init`] | a surface of triangle slots in caller memory   |
 //! | [`td_surface_update`]    | the drilled surface into the caller's buffers, changes only   |
 //! | [`td_world_remove_debris`], [`td_world_debris_scratch`] | the detached crumbs erased |
@@ -82,8 +85,8 @@ use tetradrill_core::{TetId, Vec3};
 
 pub use layout::{Plan, STATE_BYTES, TD_MAX_COUNT, TD_MAX_REGIONS};
 pub use types::{
-    TdCounters, TdParams, TdPose, TdQuat, TdRegion, TdServo, TdServoCounts, TdShaftCounts,
-    TdSimReport, TdStatus, TdToolCounts, TdVec3, TdWorld,
+    TdCounters, TdCutting, TdParams, TdPose, TdQuat, TdRegion, TdServo, TdServoCounts,
+    TdShaftCounts, TdSimReport, TdStatus, TdToolCounts, TdVec3, TdWorld,
 };
 
 pub use files::{td_blob_counts, td_world_init_blob, td_world_size_blob};
@@ -100,9 +103,12 @@ pub use pen::{
     TdPenCounts, TdPenParams, TdPenReport, TdPenServo, TdPenServoCounts, TD_PEN_ITEM,
 };
 pub use regions::{
-    td_world_region, td_world_region_at, td_world_set_pressing, td_world_set_region,
+    td_world_cutting, td_world_region, td_world_region_at, td_world_set_pressing,
+    td_world_set_region, td_world_set_region_feel,
 };
-pub use servo::{td_servo_counters, td_servo_force, td_world_servo, td_world_tick};
+pub use servo::{
+    td_servo_counters, td_servo_force, td_servo_set_spin, td_world_servo, td_world_tick,
+};
 pub use surface::{
     td_surface_init, td_surface_init_smooth, td_surface_size, td_surface_smooth_size,
     td_surface_smooth_stats, td_surface_update, td_world_debris_scratch, td_world_remove_debris,
@@ -274,6 +280,7 @@ pub unsafe extern "C" fn td_params_default(
         switch_time: force.switch_time,
         servo_lag: 0,
         zone_gather_work: 0,
+        vibration_hz: 0.0,
     };
     // SAFETY: the caller's contract on `out`; `put` checks null and alignment.
     status(|| unsafe { put(out, p) })

@@ -1,5 +1,5 @@
-//! Materials per region through the C interface: the pressing force, a region's material, and
-//! what each region has lost.
+//! Materials per region through the C interface: the pressing force, a region's material and
+//! feel, what each region has lost, and the work the feed did on the regions it cuts.
 
 use super::*;
 
@@ -42,7 +42,8 @@ pub unsafe extern "C" fn td_world_set_pressing(
 /// / hardness` cubic mesh units a second (`hardness` 0: at once), and its contact has
 /// `stiffness` newtons per mesh unit (0: `td_params.stiffness`). Allowed from
 /// `td_world_init` until the first `td_world_simulate` (or `td_world_tick`); the values of
-/// `tetradrill`'s scenario `[regions.LABEL]` tables.
+/// `tetradrill`'s scenario `[regions.LABEL]` tables. The region's feel
+/// (`td_world_set_region_feel`) is kept, whichever of the two calls comes first.
 ///
 /// # Bounded work
 /// O(log R) for R regions.
@@ -71,11 +72,100 @@ pub unsafe extern "C" fn td_world_set_region(
         let i = st.region_index(label).ok_or(TdStatus::TdErrLabel)?;
         let u = st.unstarted.as_mut().ok_or(TdStatus::TdErrStarted)?;
         let slot = u.table.get_mut(i).ok_or(TdStatus::TdErrLabel)?;
-        *slot = Region::new(Material {
+        // The material alone: the region's feel (`td_world_set_region_feel`) stays.
+        slot.material = Material {
             hardness,
             threshold,
             stiffness,
-        });
+        };
+        Ok(())
+    })
+}
+
+/// Sets how the region labelled `label` feels while the drill is on (docs/DRILLING.md):
+/// the burr's vibration at full cut, `vibration` newtons (with `td_params.vibration_hz`;
+/// "Vibration"); its specific cutting energy, `cutting_energy` newtons per square mesh unit
+/// (joules per cubic metre for a mesh in metres: the region is then removed only as fast as
+/// the work done pushing the burr into it pays for, its hardness unused; "Cutting
+/// resistance"); and its friction coefficient with the spinning burr, `friction` (a
+/// sideways pull of `friction` times the contact's normal force along `spin x n`, with
+/// `td_servo_set_spin`; "Sideways pull"). Zero turns each off (the default). The values of
+/// `tetradrill`'s scenario keys `[regions.LABEL] vibration`, `cutting_energy` and
+/// `friction`. Allowed from `td_world_init` until the first step, as `td_world_set_region`,
+/// whose material it keeps.
+///
+/// # Bounded work
+/// O(log R) for R regions.
+///
+/// # Errors
+/// As `td_world_set_region`: `TD_ERR_PARAMS` for a value that is negative or not finite,
+/// `TD_ERR_LABEL` for a label the mesh does not have, `TD_ERR_STARTED` after the first step.
+/// An error changes nothing.
+///
+/// # Safety
+/// `world` is a handle from `td_world_init` whose memory is still the caller's.
+#[no_mangle]
+pub unsafe extern "C" fn td_world_set_region_feel(
+    world: *mut TdWorld,
+    label: i32,
+    vibration: f32,
+    cutting_energy: f32,
+    friction: f32,
+) -> TdStatus {
+    status(|| {
+        // SAFETY: the caller's contract on `world`; `state` checks it.
+        let st = unsafe { state(world) }?;
+        if ![vibration, cutting_energy, friction]
+            .into_iter()
+            .all(non_negative)
+        {
+            return Err(TdStatus::TdErrParams);
+        }
+        let i = st.region_index(label).ok_or(TdStatus::TdErrLabel)?;
+        let u = st.unstarted.as_mut().ok_or(TdStatus::TdErrStarted)?;
+        let slot = u.table.get_mut(i).ok_or(TdStatus::TdErrLabel)?;
+        *slot = Region::new(slot.material)
+            .with_vibration(vibration)
+            .with_cutting_energy(cutting_energy)
+            .with_friction(friction);
+        Ok(())
+    })
+}
+
+/// Writes the cutting figures of the regions cut by the feed (`td_world_set_region_feel`'s
+/// `cutting_energy`; docs/DRILLING.md, "Cutting resistance") to `*out`: the work done
+/// pushing the burr into them, the cutting energy of the leaves it paid for, the work still
+/// in the pool and the work the pool dropped, newton mesh units (joules for a mesh in
+/// metres). `work` is the other three added up. `tetradrill replay --json`'s `drill`
+/// figures (`cutting_work_j`, `cutting_energy_j`, `feed_pool_j`, `feed_dropped_j`); all zero
+/// before the first step and in a world without a region cut by the feed.
+///
+/// # Bounded work
+/// Constant.
+///
+/// # Errors
+/// As `td_world_counters`.
+///
+/// # Safety
+/// `world` is a handle from `td_world_init` whose memory is still the caller's; `out` points
+/// at a writable `td_cutting`.
+#[no_mangle]
+pub unsafe extern "C" fn td_world_cutting(world: *mut TdWorld, out: *mut TdCutting) -> TdStatus {
+    status(|| {
+        check_ptr(out)?;
+        // SAFETY: the caller's contract on `world`; `state` checks it.
+        let st = unsafe { state(world) }?;
+        let c = st
+            .world
+            .regions()
+            .map_or(TdCutting::default(), |r| TdCutting {
+                work: r.cutting_work(),
+                energy: r.cutting_energy(),
+                pool: r.feed_pool(),
+                dropped: r.feed_dropped(),
+            });
+        // SAFETY: checked above; writable by the caller's contract.
+        unsafe { out.write(c) };
         Ok(())
     })
 }
@@ -95,14 +185,17 @@ unsafe fn write_region(st: &State, index: usize, out: *mut TdRegion) -> Status {
         threshold: m.threshold,
         stiffness: m.stiffness,
         removed_volume: r.removed(),
+        vibration: r.vibration(),
+        cutting_energy: r.cutting_energy(),
+        friction: r.friction(),
     };
     // SAFETY: checked by the callers; writable by the caller's contract.
     unsafe { out.write(v) };
     Ok(())
 }
 
-/// Writes the region labelled `label` to `*out`: its material and the volume removed from it
-/// (`removed_by_region` of `tetradrill replay`).
+/// Writes the region labelled `label` to `*out`: its material, the volume removed from it
+/// (`removed_by_region` of `tetradrill replay`) and its feel (`td_world_set_region_feel`).
 ///
 /// # Bounded work
 /// O(log R) for R regions.

@@ -92,6 +92,40 @@ pub unsafe extern "C" fn td_servo_force(
     })
 }
 
+/// Sets the burr's spin for the servo's next ticks: `omega`, the direction of its angular
+/// velocity (normalised; its length does not matter), kept until set again; zero: the burr
+/// does not spin. While the drill is on over a region with a friction coefficient
+/// (`td_world_set_region_feel`), the force gains the spinning burr's sideways pull,
+/// `friction * |spring| * (spin x n)` for the contact's outward normal `n` (docs/DRILLING.md,
+/// "Sideways pull"); without a friction, or with no spin, the force is the same bits as
+/// before. The host sets it each tick to the tool's axis (burr to handle, the pose's rotated
+/// +z) times -1 for a burr spinning clockwise seen from the handle (its default, `--spin
+/// cw`) or +1 counter-clockwise (`--spin ccw`), zero while the drill is off. A drill's world
+/// sets its burr's spin.
+///
+/// # Bounded work
+/// Constant.
+///
+/// # Errors
+/// As `td_servo_force` for the servo; `TD_ERR_INPUT` for a non-finite `omega` (the spin is
+/// left as it was).
+///
+/// # Safety
+/// As `td_servo_force`: called from the servo's task, or when the servo is not running.
+#[no_mangle]
+pub unsafe extern "C" fn td_servo_set_spin(servo: *mut TdServo, omega: TdVec3) -> TdStatus {
+    status(|| {
+        // SAFETY: the caller's contract on `servo`; `servo_state` checks it.
+        let sv = unsafe { servo_state(servo) }?;
+        let w = pose(omega)?;
+        match sv.drill.as_mut() {
+            Some(d) => d.set_spin(w),
+            None => sv.servo.set_spin(w),
+        }
+        Ok(())
+    })
+}
+
 /// Writes the servo's counters to `*out`: the force digest, its ticks, those in contact, the
 /// reads that kept an older contact, and the step it renders from. Call it from the servo's
 /// task (or when the servo is not running).

@@ -131,7 +131,7 @@ pub struct TdParams {
     /// Work units for a whole simulation step, drill and contact search together; 0 gives
     /// each its own bound.
     pub tick_budget: u32,
-    /// Distinct region labels the world keeps, 1 ..= 256 (`TD_MAX_REGIONS`, the default): 36
+    /// Distinct region labels the world keeps, 1 ..= 256 (`TD_MAX_REGIONS`, the default): 44
     /// bytes each. A mesh with more distinct labels is refused (`TD_ERR_LABEL`).
     pub region_capacity: u32,
     /// Deepest subdivision level of a drilled tet, 1 ..= 9.
@@ -164,6 +164,10 @@ pub struct TdParams {
     /// a step, kept across steps as the burr moves (the scenario key `zone_gather_work`,
     /// `builtin:firmware-tooth` sets 2,000); 0: one zone query every step.
     pub zone_gather_work: u32,
+    /// The burr's vibration while it cuts, hertz (the scenario key `vibration_hz`): 0 (none,
+    /// the default) up to the servo's Nyquist frequency, `0.5 / dt` (500 at 1 kHz). Its
+    /// amplitude is each region's `vibration` (`td_world_set_region_feel`).
+    pub vibration_hz: f32,
 }
 
 /// A point or a force: three floats.
@@ -309,7 +313,7 @@ pub struct TdServoCounts {
     pub step: u32,
 }
 
-/// One region of a world: its label, its material and the volume removed from it.
+/// One region of a world: its label, its material, the volume removed from it and its feel.
 #[repr(C)]
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct TdRegion {
@@ -325,6 +329,34 @@ pub struct TdRegion {
     /// Volume removed from the region so far, mesh units cubed (`removed_by_region` of
     /// `tetradrill replay`).
     pub removed_volume: f64,
+    /// Newtons: the burr's vibration at full cut in the region (0: none;
+    /// `td_world_set_region_feel`).
+    pub vibration: f32,
+    /// Newtons per square mesh unit: the work the feed does per unit volume removed (0: the
+    /// hardness law; `td_world_set_region_feel`).
+    pub cutting_energy: f32,
+    /// The friction coefficient between the spinning burr and the region (0: no sideways
+    /// pull; `td_world_set_region_feel`).
+    pub friction: f32,
+}
+
+/// The work the feed did on the regions it cuts (`td_world_cutting`), newton mesh units
+/// (joules for a mesh in metres): `work = energy + pool + dropped`.
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct TdCutting {
+    /// Work done pushing the burr into material cut by the feed, against the contact's
+    /// reaction (the servo's force times the burr's advance into the material, summed over
+    /// the steps).
+    pub work: f64,
+    /// Each erased leaf's volume times its region's cutting energy, summed: the energy the
+    /// removed material took.
+    pub energy: f64,
+    /// Work done and not yet spent on a leaf.
+    pub pool: f64,
+    /// Work done that bought no material: left in the pool when the burr stopped cutting
+    /// and the drill had nothing left to remove.
+    pub dropped: f64,
 }
 
 /// A world set up by `td_world_init` in caller memory. Opaque: C holds a pointer to it (the

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use tetradrill::commands::replay::DrillSummary;
 use tetradrill::scenario::Scenario;
 use tetradrill::setup::{Setup, Tool};
 use tetradrill::traces::{Pose, PoseSource, PERIOD_S};
@@ -156,6 +157,12 @@ impl Session {
         Ok(self.live()?.with_run(|r| r.removed_volume()))
     }
 
+    /// The work against the feed and the cutting energy it paid for, as `tetradrill replay
+    /// --json` writes them under `drill` (`None` on a world without regions).
+    fn cutting(&self) -> PyResult<Option<DrillSummary>> {
+        Ok(self.live()?.with_run(|r| DrillSummary::of(r.world())))
+    }
+
     fn initial_volume(&self) -> PyResult<f64> {
         Ok(self.live()?.with_run(|r| r.initial_volume()))
     }
@@ -293,6 +300,19 @@ impl Drilling {
     #[getter]
     fn removed_volume(&self) -> PyResult<f64> {
         self.session.removed_volume()
+    }
+
+    /// The regions cut by the feed (`cutting_energy`; docs/DRILLING.md, "Cutting
+    /// resistance"), so far: `{"cutting_work_j", "cutting_energy_j", "feed_pool_j",
+    /// "feed_dropped_j"}`, newton mesh units (joules for a mesh in metres), the work being the
+    /// other three added up; `tetradrill replay --json`'s `drill` after the same poses and
+    /// `erase_debris()`. `None` on a world without regions.
+    #[getter]
+    fn cutting<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.session
+            .cutting()?
+            .map(|c| cutting_dict(py, &c))
+            .transpose()
     }
 
     /// The mesh's volume before drilling, cubic mesh units.
@@ -453,6 +473,16 @@ impl Surface {
     }
 }
 
+/// The cutting figures as `tetradrill replay --json`'s `drill` names them.
+fn cutting_dict<'py>(py: Python<'py>, c: &DrillSummary) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("cutting_work_j", c.cutting_work_j)?;
+    d.set_item("cutting_energy_j", c.cutting_energy_j)?;
+    d.set_item("feed_pool_j", c.feed_pool_j)?;
+    d.set_item("feed_dropped_j", c.feed_dropped_j)?;
+    Ok(d)
+}
+
 /// Replays a scenario's trace from start to end as `tetradrill replay` does: every tick, then
 /// the final sweep of the debris. `scenario` is a TOML file or `builtin:NAME` (default: the
 /// demo's set-up); `trace=` (a CSV file, `builtin:demo`, `builtin:tooth-access`,
@@ -461,7 +491,8 @@ impl Surface {
 ///
 /// Returns a dict: `ticks`, `forces` (`N x 3`, newtons), `poses` (`N x 7`), `drill` (`N`
 /// bools), `initial_volume`, `removed_volume`, `removed_by_region` (`{label: volume}`),
-/// `debris_erased` (the final sweep's), `max_force` (newtons), `contact_ticks`, `force_digest`,
+/// `debris_erased` (the final sweep's), `cutting` (`replay --json`'s `drill`, as `Drilling.cutting`;
+/// a world with regions only), `max_force` (newtons), `contact_ticks`, `force_digest`,
 /// `scenario` (the keys run).
 #[pyfunction]
 #[pyo3(signature = (scenario=None, *, ticks=None, mesh=None, tool=None, **keys))]
@@ -497,6 +528,9 @@ pub fn replay<'py>(
     de.set_item("volume", debris.volume)?;
     de.set_item("components", debris.components)?;
     d.set_item("debris_erased", de)?;
+    if let Some(c) = session.cutting()? {
+        d.set_item("cutting", cutting_dict(py, &c)?)?;
+    }
     d.set_item("max_force", f64::from(max_force))?;
     d.set_item("contact_ticks", contact_ticks)?;
     d.set_item("force_digest", format!("{:016x}", session.digest.value()))?;

@@ -112,3 +112,51 @@ def test_a_burr_pressed_in_is_pushed_out_and_removes_material():
     d.run(np.tile([0.01, 0.02, 0.55], (300, 1)))
     assert d.removed_volume > 0
     assert sum(d.removed_by_region.values()) == pytest.approx(d.removed_volume, rel=1e-9)
+
+
+def test_a_regions_feel_through_python_gives_the_command_lines_cutting_figures(cli, tmp_path):
+    # The paper's cube cut by the feed, with a friction and a vibration, spinning
+    # counter-clockwise: the burr plunges 0.4 into the top face tilted 30 degrees about +y.
+    trace = tmp_path / "plunge.csv"
+    q = "0.96592583,0,0.25881905,0"
+    rows = [(0.0, 0.85), (0.5, 0.8), (4.5, 0.4), (5.0, 0.4)]
+    trace.write_text(
+        "t,x,y,z,qw,qx,qy,qz,buttons\n" + "".join(f"{t},0,0,{z},{q},1\n" for t, z in rows)
+    )
+    region = {"cutting_energy": 40.0, "friction": 0.2, "vibration": 0.5}
+    toml = tmp_path / "feel.toml"
+    toml.write_text(
+        f'mesh = "builtin:cube12"\ntool = "sphere:0.15"\ntrace = "{trace}"\n'
+        'vibration_hz = 250.0\nspin = "ccw"\n[regions.0]\n'
+        + "".join(f"{k} = {v}\n" for k, v in region.items())
+    )
+    want = cli(["--scenario", str(toml)], tmp_path)
+    figures = want["drill"]
+    assert figures["cutting_work_j"] > 0 and figures["cutting_energy_j"] > 0
+
+    # The scenario file, and the same settings as keywords.
+    from_file = td.replay(toml)
+    from_keys = td.replay(
+        mesh="builtin:cube12",
+        tool="sphere:0.15",
+        trace=str(trace),
+        vibration_hz=250.0,
+        spin="ccw",
+        regions={0: region},
+    )
+    for got in (from_file, from_keys):
+        assert got["force_digest"] == want["force_digest"]
+        assert got["cutting"] == figures
+    # Tick by tick, then the final sweep: the same figures.
+    d = td.Drilling(scenario=toml)
+    poses, drill = d.trace_poses()
+    d.run(poses, drill)
+    d.erase_debris()
+    assert d.cutting == figures
+    c = d.cutting
+    left = c["cutting_energy_j"] + c["feed_pool_j"] + c["feed_dropped_j"]
+    assert close(c["cutting_work_j"], left, rel=1e-9)
+    # Without the feel the forces differ and the feed does no work.
+    plain = td.replay(toml, regions={0: {"threshold": 0.0}}, vibration_hz=0.0)
+    assert plain["force_digest"] != want["force_digest"]
+    assert plain["cutting"]["cutting_work_j"] == 0.0

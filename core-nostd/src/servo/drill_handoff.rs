@@ -212,6 +212,18 @@ impl DrillServo {
         (f, t)
     }
 
+    /// Sets the burr's spin for the next ticks ([`ToolState::set_spin`] of the burr's state):
+    /// the direction of its angular velocity, kept until set again (zero or not finite:
+    /// none). A burr contact with a friction coefficient then pulls the drill sideways
+    /// ([`crate::servo::servo_force`], "Sideways pull"); the shaft does not spin against
+    /// anything.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn set_spin(&mut self, omega: Vec3) {
+        self.burr.set_spin(omega);
+    }
+
     /// The drill's shape.
     pub fn tool(&self) -> &DrillTool {
         &self.tool

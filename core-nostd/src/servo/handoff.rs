@@ -387,6 +387,16 @@ impl Servo {
         f
     }
 
+    /// Sets the burr's spin for the next ticks ([`ToolState::set_spin`]): the direction of its
+    /// angular velocity, kept until set again (zero or not finite: none). A contact with a
+    /// friction coefficient then pulls the burr sideways ([`servo_force`], "Sideways pull").
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn set_spin(&mut self, omega: Vec3) {
+        self.tool.set_spin(omega);
+    }
+
     /// Digest of every force rendered, as [`ForceDigest`].
     pub fn digest(&self) -> u64 {
         self.digest.value()

@@ -97,6 +97,7 @@ pub fn params_of_mesh(sc: &Setup) -> TdParams {
         switch_time: 0.0,
         servo_lag: 0,
         zone_gather_work: 0,
+        vibration_hz: 0.0,
     };
     // SAFETY: `p` is a valid, aligned TdParams.
     assert_eq!(
