@@ -62,7 +62,7 @@ pub unsafe extern "C" fn td_world_servo(world: *mut TdWorld, out: *mut *mut TdSe
 /// 4 times, then the contact before is kept (`stale_reads`).
 ///
 /// # Bounded work
-/// Constant: at most 4 reads of 14 words and the force (a drill's: `td_servo_wrench`'s).
+/// Constant: at most 4 reads of 18 words and the force (a drill's: `td_servo_wrench`'s).
 /// Never waits.
 ///
 /// # Errors

@@ -283,7 +283,7 @@ impl ContactHandoff {
     /// the first publish: the empty contact of step 0.
     ///
     /// # Bounded work
-    /// At most [`HANDOFF_TRIES`] reads of 14 words. Never waits.
+    /// At most [`HANDOFF_TRIES`] reads of 18 words. Never waits.
     pub fn latest(&self) -> Option<Published> {
         let mut words = [0; WORDS];
         self.pair
