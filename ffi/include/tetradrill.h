@@ -1183,7 +1183,7 @@ enum td_status td_world_servo(struct td_world *world, struct td_servo **out);
 // 4 times, then the contact before is kept (`stale_reads`).
 //
 // # Bounded work
-// Constant: at most 4 reads of 14 words and the force (a drill's: `td_servo_wrench`'s).
+// Constant: at most 4 reads of 18 words and the force (a drill's: `td_servo_wrench`'s).
 // Never waits.
 //
 // # Errors
