@@ -37,7 +37,7 @@ use alloc::vec::Vec;
 
 use glam::Vec3;
 
-use crate::drill::{Material, Region, Regions};
+use crate::drill::{Region, Regions};
 use crate::hierarchy::{Hierarchy, HierarchyError, HierarchySizes, HierarchyStorage};
 use crate::mesh::{BuildError, BuildOptions, BuildStats, FaceKey, Mesh, MeshStorage, Node, Tet};
 use crate::servo::{carve_rest, SpareStorage, World, WorldError, WorldSizes, WorldStorage};
@@ -114,47 +114,16 @@ impl WorldBuffers {
         })
     }
 
-    /// Gives the worlds made from these buffers materials per region: `materials[r]` for
-    /// region `r`, and `of_tet[t]` the region of tet `t` (see [`Regions::new`]). Each world
-    /// starts with no credit and nothing removed.
-    pub fn set_regions(&mut self, materials: &[Material], of_tet: Vec<u8>) {
+    /// Gives the worlds made from these buffers their regions: `regions[r]` for region `r`
+    /// (its material and settings: [`Region::with_vibration`], [`Region::with_cutting_energy`],
+    /// [`Region::with_friction`]), and `of_tet[t]` the region of tet `t` (see
+    /// [`Regions::new`]). Each world starts with no credit and nothing removed
+    /// ([`Region::fresh`]).
+    pub fn set_regions(&mut self, regions: &[Region], of_tet: Vec<u8>) {
         self.regions = Some(RegionBuffers {
-            table: materials.iter().map(|&m| Region::new(m)).collect(),
+            table: regions.iter().map(Region::fresh).collect(),
             of_tet,
         });
-    }
-
-    /// Sets each region's vibration at full cut, newtons, in table order
-    /// ([`Region::with_vibration`]); regions beyond `newtons` keep theirs. Nothing without
-    /// regions ([`WorldBuffers::set_regions`] first).
-    pub fn set_region_vibrations(&mut self, newtons: &[f32]) {
-        if let Some(r) = self.regions.as_mut() {
-            for (reg, &a) in r.table.iter_mut().zip(newtons) {
-                *reg = reg.with_vibration(a);
-            }
-        }
-    }
-
-    /// Sets each region's specific cutting energy, newtons per square mesh unit, in table
-    /// order ([`Region::with_cutting_energy`]; zero: the hardness law); regions beyond
-    /// `energies` keep theirs. Nothing without regions ([`WorldBuffers::set_regions`] first).
-    pub fn set_region_cutting_energies(&mut self, energies: &[f32]) {
-        if let Some(r) = self.regions.as_mut() {
-            for (reg, &e) in r.table.iter_mut().zip(energies) {
-                *reg = reg.with_cutting_energy(e);
-            }
-        }
-    }
-
-    /// Sets each region's friction coefficient with the spinning burr, in table order
-    /// ([`Region::with_friction`]; zero: none); regions beyond `mus` keep theirs. Nothing
-    /// without regions ([`WorldBuffers::set_regions`] first).
-    pub fn set_region_frictions(&mut self, mus: &[f32]) {
-        if let Some(r) = self.regions.as_mut() {
-            for (reg, &mu) in r.table.iter_mut().zip(mus) {
-                *reg = reg.with_friction(mu);
-            }
-        }
     }
 
     /// Allocates a deforming world's rest positions and spare tables for a mesh of `nodes`

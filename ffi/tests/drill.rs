@@ -172,18 +172,6 @@ struct Run {
     torques: Vec<TdVec3>,
 }
 
-fn td_pose(p: &Pose) -> TdPose {
-    let [w, x, y, z] = p.rotation;
-    TdPose {
-        position: TdVec3 {
-            x: p.position.x,
-            y: p.position.y,
-            z: p.position.z,
-        },
-        rotation: TdQuat { w, x, y, z },
-    }
-}
-
 /// `poses` through the C interface: a world for the block of `n` with `labels` and `sc`'s
 /// materials, made a drill of `shaft` (length, radius) when given.
 fn c_drill(sc: &Setup, n: usize, shaft: Option<(f32, f32)>, poses: &[Pose], ticks: Ticks) -> Run {

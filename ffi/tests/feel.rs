@@ -127,19 +127,6 @@ fn host(sc: &Setup) -> Run {
     }
 }
 
-/// The C pose of a host pose.
-fn td_pose(p: &Pose) -> TdPose {
-    let [w, x, y, z] = p.rotation;
-    TdPose {
-        position: TdVec3 {
-            x: p.position.x,
-            y: p.position.y,
-            z: p.position.z,
-        },
-        rotation: TdQuat { w, x, y, z },
-    }
-}
-
 fn td(v: Vec3) -> TdVec3 {
     TdVec3 {
         x: v.x,

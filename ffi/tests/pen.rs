@@ -203,18 +203,6 @@ fn params() -> TdPenParams {
     p
 }
 
-fn td_pose(p: &Pose) -> TdPose {
-    let [w, x, y, z] = p.rotation;
-    TdPose {
-        position: TdVec3 {
-            x: p.position.x,
-            y: p.position.y,
-            z: p.position.z,
-        },
-        rotation: TdQuat { w, x, y, z },
-    }
-}
-
 #[test]
 fn the_pen_gives_the_hosts_digest_and_its_penetrations_moment() {
     let sc = setup();

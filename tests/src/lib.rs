@@ -256,17 +256,13 @@ pub fn removed_mm3_by_label(j: &serde_json::Value) -> std::collections::BTreeMap
 pub fn json_of(args: &[&str], prefix: &str, name: &str) -> serde_json::Value {
     let dir = scratch_dir(prefix, name);
     let json = dir.join("out.json");
-    let out = Command::new(tetradrill_bin())
-        .args(args)
-        .arg("--json")
-        .arg(&json)
-        .output()
-        .expect("run tetradrill");
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = std::fs::read_to_string(&json).expect("read the JSON");
+    let flag = ["--json".as_ref(), json.as_os_str()];
+    run_ok(args.iter().map(std::ffi::OsStr::new).chain(flag));
+    read_json(&json)
+}
+
+/// The JSON in the file at `path`.
+pub fn read_json(path: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).expect("read the JSON");
     serde_json::from_str(&text).expect("parse the JSON")
 }

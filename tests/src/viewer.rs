@@ -106,3 +106,17 @@ pub fn plunge(world: &mut tetradrill_core::servo::World<'_>, sc: &Setup, ticks: 
     }
     last
 }
+
+/// A label for each tet of `world`'s mesh: `f` of the tet's centroid.
+pub fn labels_by_centroid(
+    world: &tetradrill_core::servo::World<'_>,
+    f: impl Fn(Vec3) -> i32,
+) -> Vec<i32> {
+    let mesh = world.mesh();
+    (0..mesh.tet_count())
+        .map(|t| {
+            let p = mesh.tet_positions(tetradrill_core::TetId::from_idx(t));
+            f(p.iter().copied().sum::<Vec3>() / 4.0)
+        })
+        .collect()
+}

@@ -281,6 +281,8 @@ pub struct Regions<'a> {
     cutting: bool,
     /// The region of the leaf waiting for credit, and the volume it needs.
     waiting: Option<(u8, f64)>,
+    /// Whether some region is cut by the feed (fixed when the regions are made).
+    feed: bool,
     /// Work done against the feed and not yet spent on a leaf, newton mesh units.
     pool: f64,
     /// Work done against the feed on material cut by it, newton mesh units, in all.
@@ -329,12 +331,14 @@ impl<'a> Regions<'a> {
                 regions: table.len(),
             });
         }
+        let feed = table.iter().any(Region::feed_limited);
         Ok(Self {
             table,
             of_tet,
             force: 0.0,
             cutting: false,
             waiting: None,
+            feed,
             pool: 0.0,
             work: 0.0,
             energy: 0.0,
@@ -407,7 +411,7 @@ impl<'a> Regions<'a> {
         under: Option<TetId>,
         queued: bool,
     ) -> u32 {
-        if !self.table.iter().any(Region::feed_limited) {
+        if !self.feed {
             return 0;
         }
         if !cutting {

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use tetradrill::engine::{self, EngineStorage, TickParams, ToolSizing};
 use tetradrill::scenario;
 use tetradrill::setup::Setup;
-use tetradrill::traces::PoseSource;
+use tetradrill::traces::{Pose, PoseSource};
 use tetradrill_core::drill::Material;
 use tetradrill_core::force::{ForceDigest, ToolState};
 use tetradrill_core::servo::Saturations;
@@ -232,4 +232,17 @@ pub fn c_world(
         assert_eq!(st, TdStatus::TdOk, "region {label}");
     }
     (mem, world)
+}
+
+/// The C pose of a host pose.
+pub fn td_pose(p: &Pose) -> TdPose {
+    let [w, x, y, z] = p.rotation;
+    TdPose {
+        position: TdVec3 {
+            x: p.position.x,
+            y: p.position.y,
+            z: p.position.z,
+        },
+        rotation: TdQuat { w, x, y, z },
+    }
 }

@@ -138,11 +138,7 @@ impl EngineStorage {
                 missing.join(", ")
             );
         }
-        self.buffers.set_regions(&t.materials, t.of_tet);
-        self.buffers.set_region_vibrations(&t.vibrations);
-        self.buffers
-            .set_region_cutting_energies(&t.cutting_energies);
-        self.buffers.set_region_frictions(&t.frictions);
+        self.buffers.set_regions(&t.regions, t.of_tet);
         self.region_labels = t.labels;
         Ok(())
     }

@@ -3,31 +3,23 @@
 
 use std::collections::BTreeMap;
 
-use tetradrill_core::drill::Material;
+use tetradrill_core::drill::{Material, Region};
 use tetradrill_core::servo::World;
 
 use crate::error::Error;
-use crate::setup::Materials;
+use crate::setup::{Materials, RegionSpec};
 
 /// The regions of a world: one per distinct label of the mesh, in label order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RegionTable {
     /// The label of each region.
     pub labels: Vec<i32>,
-    /// The material of each region: the set-up's entry for its label, else the default
-    /// region's (`hardness`, `pressure_threshold`, the set-up's stiffness).
-    pub materials: Vec<Material>,
+    /// Each region as the core takes it: the set-up's entry for its label (material,
+    /// `vibration`, `cutting_energy`, `friction`), else the default region's material
+    /// (`hardness`, `pressure_threshold`, the set-up's stiffness) and nothing else.
+    pub regions: Vec<Region>,
     /// The display colour of each region, where the set-up gives one.
     pub colours: Vec<Option<[f32; 3]>>,
-    /// The burr's vibration at full cut in each region, newtons (0: none; the set-up's
-    /// `vibration` of its label).
-    pub vibrations: Vec<f32>,
-    /// The specific cutting energy of each region, joules per cubic mesh unit (0: the
-    /// hardness law; the set-up's `cutting_energy` of its label).
-    pub cutting_energies: Vec<f32>,
-    /// The friction coefficient of each region with the spinning burr (0: none; the set-up's
-    /// `friction` of its label).
-    pub frictions: Vec<f32>,
     /// Each tet's region index.
     pub of_tet: Vec<u8>,
 }
@@ -59,30 +51,17 @@ pub fn region_table(labels: &[i32], materials: &Materials) -> Result<Option<Regi
         });
     }
     let by_label = &materials.regions;
-    let materials = distinct
-        .iter()
-        .map(|l| by_label.get(l).map_or(default, |r| r.material()))
-        .collect();
-    let colours = distinct
-        .iter()
-        .map(|l| by_label.get(l).and_then(|r| r.rgb()))
-        .collect();
-    let vibrations = distinct
-        .iter()
-        .map(|l| by_label.get(l).and_then(|r| r.vibration).unwrap_or(0.0) as f32)
-        .collect();
-    let cutting_energies = distinct
+    let regions = distinct
         .iter()
         .map(|l| {
             by_label
                 .get(l)
-                .and_then(|r| r.cutting_energy)
-                .unwrap_or(0.0) as f32
+                .map_or(Region::new(default), RegionSpec::region)
         })
         .collect();
-    let frictions = distinct
+    let colours = distinct
         .iter()
-        .map(|l| by_label.get(l).and_then(|r| r.friction).unwrap_or(0.0) as f32)
+        .map(|l| by_label.get(l).and_then(|r| r.rgb()))
         .collect();
     let of_tet = labels
         .iter()
@@ -90,11 +69,8 @@ pub fn region_table(labels: &[i32], materials: &Materials) -> Result<Option<Regi
         .collect();
     Ok(Some(RegionTable {
         labels: distinct,
-        materials,
+        regions,
         colours,
-        vibrations,
-        cutting_energies,
-        frictions,
         of_tet,
     }))
 }

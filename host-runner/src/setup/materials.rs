@@ -109,6 +109,16 @@ impl RegionSpec {
         }
     }
 
+    /// The core's region: [`RegionSpec::material`] with this region's vibration, cutting
+    /// energy and friction (absent: none).
+    pub fn region(&self) -> tetradrill_core::drill::Region {
+        let f = |v: Option<f64>| v.unwrap_or(0.0) as f32;
+        tetradrill_core::drill::Region::new(self.material())
+            .with_vibration(f(self.vibration))
+            .with_cutting_energy(f(self.cutting_energy))
+            .with_friction(f(self.friction))
+    }
+
     /// The colour in `0..=1`, if set.
     pub fn rgb(&self) -> Option<[f32; 3]> {
         self.colour.map(Colour::rgb)

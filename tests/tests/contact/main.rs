@@ -8,6 +8,7 @@ mod contact_hash;
 mod contact_search;
 mod contact_search_resume;
 mod contact_servo;
+mod handoffs;
 mod pen_pair;
 mod pen_pipeline;
 mod pen_reference;

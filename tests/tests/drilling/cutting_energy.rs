@@ -12,7 +12,7 @@
 
 use std::f64::consts::PI;
 
-use tetradrill_tests::{read_forces, run_ok, scratch_dir};
+use tetradrill_tests::{read_forces, read_json, run_ok, scratch_dir};
 
 /// The burr's radius.
 const R: f64 = 0.15;
@@ -80,8 +80,7 @@ fn plunge(e: f64, name: &str) -> Plunge {
             -f64::from(f[i][2]) * dz
         })
         .sum();
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("json");
+    let json = read_json(&json);
     let cut = json["removed_volume"].as_f64().expect("removed")
         - json["debris_erased"]["volume"].as_f64().expect("debris");
     Plunge { work, cut, json }

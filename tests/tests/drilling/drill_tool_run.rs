@@ -7,7 +7,6 @@
 //! model (`tetradrill_tests::viewer`).
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use std::sync::atomic::Ordering;
 
 use tetradrill::engine::TickParams;
@@ -17,7 +16,7 @@ use tetradrill::viewer::publish::SimViewer;
 use tetradrill_core::servo::ContactState;
 use tetradrill_core::{Quat, Vec3};
 use tetradrill_device::{DeviceSpec, SimConfig};
-use tetradrill_tests::{scratch_dir, tetradrill_bin};
+use tetradrill_tests::{read_json, run_ok, scratch_dir};
 
 const DRILL: &str = "drill:0.1:1.5:0.03";
 
@@ -30,23 +29,6 @@ fn write(dir: &Path, name: &str, rows: &[&str]) -> PathBuf {
     let path = dir.join(name);
     std::fs::write(&path, csv).expect("write the trace");
     path
-}
-
-fn tetradrill(args: &[&str]) -> Output {
-    let out = Command::new(tetradrill_bin())
-        .args(args)
-        .output()
-        .expect("run tetradrill");
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(path).expect("read JSON")).expect("parse JSON")
 }
 
 /// The last row of a trace CSV: position and buttons.
@@ -94,16 +76,16 @@ fn run(trace: &Path, out_json: &Path, record: &Path) -> serde_json::Value {
         "--record",
         record.to_str().unwrap(),
     ]);
-    tetradrill(&args);
-    json(out_json)
+    run_ok(&args);
+    read_json(out_json)
 }
 
 fn replay(trace: &Path, out_json: &Path) -> serde_json::Value {
     let mut args = vec!["replay", "--quiet", "--trace", trace.to_str().unwrap()];
     args.extend(SCENE);
     args.extend(["--json", out_json.to_str().unwrap()]);
-    tetradrill(&args);
-    json(out_json)
+    run_ok(&args);
+    read_json(out_json)
 }
 
 /// The shaft along +z from a burr below the block (z = -0.75, clear of it), drill on, its
@@ -199,7 +181,7 @@ fn with_the_burr_drilling_a_run_removes_what_the_replay_of_its_poses_removes() {
 fn the_demo_runs_with_the_drill_and_reports_its_shaft() {
     let dir = scratch_dir("drill-run", "demo");
     let out = dir.join("demo.json");
-    tetradrill(&[
+    run_ok([
         "demo",
         "--headless",
         "--no-rt",
@@ -210,7 +192,7 @@ fn the_demo_runs_with_the_drill_and_reports_its_shaft() {
         "--json",
         out.to_str().unwrap(),
     ]);
-    let j = json(&out);
+    let j = read_json(&out);
     assert_eq!(j["ticks"], 2000);
     assert_eq!(j["valid"], true);
     // 0.5 / 0.03: 17 gaps, 18 points.

@@ -15,7 +15,9 @@ use tetradrill::viewer::scene::{Scene, VERTEX_FLOATS};
 use tetradrill::viewer::smooth_live::SmoothStore;
 use tetradrill_core::force::ToolState;
 use tetradrill_core::Vec3;
-use tetradrill_tests::viewer::{background, near, pixel, pixel_of, plunge, reddish, storage, H, W};
+use tetradrill_tests::viewer::{
+    background, labels_by_centroid, near, pixel, pixel_of, plunge, reddish, storage, H, W,
+};
 
 /// Signed distance of `q` from the convex hull of `pts` (negative inside), in pixels.
 fn hull_distance(pts: &[(f64, f64)], q: (f64, f64)) -> f64 {
@@ -410,18 +412,7 @@ fn regions_are_coloured_apart() {
     // block:8 labelled by side: tets left of x = 0 are region 7, the others region 11.
     let (mut store, _) = storage("builtin:block:8");
     let world = store.world().expect("world");
-    let labels: Vec<i32> = (0..world.mesh().tet_count())
-        .map(|t| {
-            let p = world
-                .mesh()
-                .tet_positions(tetradrill_core::TetId::from_idx(t));
-            if p.iter().map(|q| q.x).sum::<f32>() < 0.0 {
-                7
-            } else {
-                11
-            }
-        })
-        .collect();
+    let labels = labels_by_centroid(&world, |c| if c.x < 0.0 { 7 } else { 11 });
     let slots = region_slots(&labels).expect("two regions");
     // 3,072 tets, none across x = 0.
     assert_eq!(slots.iter().filter(|&&s| s == 0).count(), 1536);

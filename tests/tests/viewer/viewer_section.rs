@@ -14,8 +14,10 @@ use tetradrill::viewer::publish::full_patches;
 use tetradrill::viewer::scene::Scene;
 use tetradrill::viewer::ClipSpec;
 use tetradrill_core::servo::World;
-use tetradrill_core::{TetId, Vec3};
-use tetradrill_tests::viewer::{background, near, pixel, plunge, reddish, storage, H, W};
+use tetradrill_core::Vec3;
+use tetradrill_tests::viewer::{
+    background, labels_by_centroid, near, pixel, plunge, reddish, storage, H, W,
+};
 
 /// A camera on the -y side of the plane y = 0, a little above it.
 fn side_camera() -> Camera {
@@ -35,16 +37,7 @@ fn at(pic: &Picture, cam: &Camera, p: [f64; 3]) -> [u8; 4] {
 
 /// Labels of block:8 by side: left of `x0` region 7, the rest region 11.
 fn by_side(world: &World<'_>, x0: f32) -> Vec<i32> {
-    (0..world.mesh().tet_count())
-        .map(|t| {
-            let p = world.mesh().tet_positions(TetId::from_idx(t));
-            if p.iter().map(|q| q.x).sum::<f32>() < 4.0 * x0 {
-                7
-            } else {
-                11
-            }
-        })
-        .collect()
+    labels_by_centroid(world, |c| if c.x < x0 { 7 } else { 11 })
 }
 
 fn clipped(scene: &mut Scene, cam: &Camera) -> Picture {
@@ -70,20 +63,11 @@ fn the_section_shows_each_region_where_the_plane_cuts_it() {
     let world = store.world().expect("world");
     // Three regions: left and right of x = 0 in front (y < 0.25), and a back slab (y > 0.25)
     // whose inside is what the view would show through the cut without a section.
-    let labels: Vec<i32> = (0..world.mesh().tet_count())
-        .map(|t| {
-            let p = world.mesh().tet_positions(TetId::from_idx(t));
-            let (x, y) = (
-                p.iter().map(|q| q.x).sum::<f32>() / 4.0,
-                p.iter().map(|q| q.y).sum::<f32>() / 4.0,
-            );
-            match (y < 0.25, x < 0.0) {
-                (false, _) => 13,
-                (true, true) => 7,
-                (true, false) => 11,
-            }
-        })
-        .collect();
+    let labels = labels_by_centroid(&world, |c| match (c.y < 0.25, c.x < 0.0) {
+        (false, _) => 13,
+        (true, true) => 7,
+        (true, false) => 11,
+    });
     let slots = region_slots(&labels).expect("three regions");
     let grid = LabelGrid::of_mesh(world.mesh(), &slots, GRID_CELLS).expect("grid");
     let (cl, cr, back) = ([0.2f32, 0.8, 0.6], [0.9f32, 0.3, 0.6], [0.3f32, 0.3, 0.9]);

@@ -709,18 +709,10 @@ fn sphere_vertices(rings: u32, segments: u32) -> Vec<f32> {
 /// (the model matrix scales x and y to the arrow's width).
 fn arrow_vertices(segments: u32) -> Vec<f32> {
     let mut out = Vec::new();
-    let ring = |j: u32| {
-        let ph = std::f32::consts::TAU * j as f32 / segments as f32;
-        Vec3::new(ph.cos(), ph.sin(), 0.0)
-    };
     for j in 0..segments {
-        let (u, v) = (ring(j), ring(j + 1));
-        let (s, h) = (0.35, 0.7);
-        let (a, b) = (u * s, v * s);
-        let (c, d) = (a + Vec3::Z * h, b + Vec3::Z * h);
-        for (p, n) in [(a, u), (b, v), (d, v), (a, u), (d, v), (c, u)] {
-            push_vertex(&mut out, p, n);
-        }
+        let (u, v) = (ring(j, segments), ring(j + 1, segments));
+        let h = 0.7;
+        push_side(&mut out, u, v, 0.35, h);
         let tip = Vec3::Z;
         let (e, f) = (u + Vec3::Z * h, v + Vec3::Z * h);
         for (p, n) in [(e, u), (f, v), (tip, u + v)] {
@@ -736,18 +728,26 @@ fn arrow_vertices(segments: u32) -> Vec<f32> {
 /// A cylinder of radius 1 along +z from 0 to 1, open ends, smooth normals.
 fn cylinder_vertices(segments: u32) -> Vec<f32> {
     let mut out = Vec::new();
-    let ring = |j: u32| {
-        let ph = std::f32::consts::TAU * j as f32 / segments as f32;
-        Vec3::new(ph.cos(), ph.sin(), 0.0)
-    };
     for j in 0..segments {
-        let (u, v) = (ring(j), ring(j + 1));
-        let (c, d) = (u + Vec3::Z, v + Vec3::Z);
-        for (p, n) in [(u, u), (v, v), (d, v), (u, u), (d, v), (c, u)] {
-            push_vertex(&mut out, p, n);
-        }
+        push_side(&mut out, ring(j, segments), ring(j + 1, segments), 1.0, 1.0);
     }
     out
+}
+
+/// The unit direction of corner `j` of a ring of `segments` around +z, in the xy plane.
+fn ring(j: u32, segments: u32) -> Vec3 {
+    let ph = std::f32::consts::TAU * j as f32 / segments as f32;
+    Vec3::new(ph.cos(), ph.sin(), 0.0)
+}
+
+/// One side quad of a cylinder of `radius` from 0 to `height` along +z between the ring
+/// directions `u` and `v` (two triangles, normals outward).
+fn push_side(out: &mut Vec<f32>, u: Vec3, v: Vec3, radius: f32, height: f32) {
+    let (a, b) = (u * radius, v * radius);
+    let (c, d) = (a + Vec3::Z * height, b + Vec3::Z * height);
+    for (p, n) in [(a, u), (b, v), (d, v), (a, u), (d, v), (c, u)] {
+        push_vertex(out, p, n);
+    }
 }
 
 /// Model matrix putting the unit arrow at `origin` along unit `dir`, `len` long, `width` wide.
