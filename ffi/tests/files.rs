@@ -19,7 +19,7 @@ use common::*;
 /// over steps (`zone_gather_work`).
 fn tooth() -> tetradrill::Setup {
     let sc = builtin("firmware-tooth");
-    assert!(sc.drilling.zone_gather_work > 0);
+    assert!(sc.drilling.zone_gather_work.is_some_and(|w| w > 0));
     sc
 }
 

@@ -52,6 +52,11 @@ pub(crate) struct ZoneList {
 pub struct ZoneGather {
     work: u32,
     margin_radii: f32,
+    /// A step whose list does not cover the zone queries the hash once instead
+    /// ([`ZoneGather::exact`]).
+    exact: bool,
+    /// Steps that did (`exact` only).
+    fallbacks: u32,
     /// The box whose tets the list in use holds (complete), which third holds them, how many,
     /// and whether that third filled up.
     active: Option<(Aabb, usize, usize, bool)>,
@@ -68,10 +73,39 @@ impl ZoneGather {
         Self {
             work,
             margin_radii,
+            exact: false,
+            fallbacks: 0,
             active: None,
             gathering: None,
             gathers: 0,
         }
+    }
+
+    /// [`ZoneGather::new`] that is never short of a tet: a step whose list does not cover the
+    /// zone (the burr outran the gather, or the list filled up) queries the hash once
+    /// instead, as a world without a gather does every step, into the first third of the
+    /// candidate storage, and the gather goes on at the next step
+    /// ([`crate::servo::World::simulate_spheres`]). For a host, where a slow step now and
+    /// then costs less than a missed tet: the work of such a step is the one-shot query's.
+    pub const fn exact(work: u32, margin_radii: f32) -> Self {
+        let mut z = Self::new(work, margin_radii);
+        z.exact = true;
+        z
+    }
+
+    /// `true` for a gather made by [`ZoneGather::exact`].
+    pub fn is_exact(&self) -> bool {
+        self.exact
+    }
+
+    /// Steps an exact gather answered with the one-shot query ([`ZoneGather::exact`]).
+    pub fn fallbacks(&self) -> u32 {
+        self.fallbacks
+    }
+
+    /// Counts a step answered with the one-shot query.
+    pub(crate) fn fell_back(&mut self) {
+        self.fallbacks = self.fallbacks.saturating_add(1);
     }
 
     /// The work units one step may spend.

@@ -503,10 +503,13 @@ impl<'a> World<'a> {
     /// [`World::candidates`] is the list in use: the tets whose boxes meet a box around the
     /// zone, a superset of the one-shot query's (the contact search walks all of them; the
     /// drill gets those that meet the burr's positions). A step whose zone is not inside the
-    /// gathered box, or whose list filled up, counts `saturations().candidates`.
+    /// gathered box, or whose list filled up, counts `saturations().candidates`; with an exact
+    /// gather ([`ZoneGather::exact`]) such a step makes the one-shot query instead, into the
+    /// first third, and counts [`ZoneGather::fallbacks`].
     ///
     /// # Bounded work
-    /// O(1); a step's gathering then costs at most the gather's work a step.
+    /// O(1); a step's gathering then costs at most the gather's work a step (and, with an
+    /// exact gather, a step that falls back the one-shot query's).
     pub fn set_zone_gather(&mut self, zone: Option<ZoneGather>) {
         self.zone = zone;
         self.cand_at = 0;

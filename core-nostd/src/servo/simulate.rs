@@ -107,7 +107,9 @@ impl World<'_> {
             tight = tight.union(Aabb::point(s.center).grown(s.radius));
         }
         let zone = tight.union(Aabb::point(centre).grown(radius + reach));
-        let m = match self.zone.as_mut() {
+        // The gathered list (`Some` with the near tets' count), or the one-shot query: every
+        // step without a gather, on a step an exact gather's list does not cover the zone.
+        let gathered = match self.zone.as_mut() {
             Some(z) => {
                 // The list gathered over the last steps around the zone; the tets near the
                 // burr filtered from it only when a position is queued (the drill reads
@@ -122,21 +124,35 @@ impl World<'_> {
                     self.max_cells,
                     !spheres.is_empty(),
                 );
-                self.cand_at = list.at;
-                self.ncand = list.len;
-                let (m, full) = if spheres.is_empty() {
-                    (0, false)
+                if !list.covered && z.is_exact() {
+                    z.fell_back();
+                    None
                 } else {
-                    ZoneGather::tight(list, &tight, self.boxes, &self.mesh, self.candidates)
-                };
-                if full || !list.covered {
-                    self.sat.candidates += 1;
-                    rep.candidates_saturated = true;
+                    self.cand_at = list.at;
+                    self.ncand = list.len;
+                    let (m, full) = if spheres.is_empty() {
+                        (0, false)
+                    } else {
+                        ZoneGather::tight(list, &tight, self.boxes, &self.mesh, self.candidates)
+                    };
+                    if full || !list.covered {
+                        self.sat.candidates += 1;
+                        rep.candidates_saturated = true;
+                    }
+                    rep.candidates = list.len as u32;
+                    Some(m)
                 }
-                rep.candidates = list.len as u32;
-                m
             }
-            None => self.query_zone(&zone, &tight, radius, &mut rep),
+            None => None,
+        };
+        let m = match gathered {
+            Some(m) => m,
+            None => {
+                // A gather's lists keep the second and third thirds of the storage.
+                let len = self.candidates.len();
+                let room = if self.zone.is_some() { len / 3 } else { len };
+                self.query_zone(&zone, &tight, radius, room, &mut rep)
+            }
         };
         // The regions earn their erosion credit from the servo's force, or from the feed's
         // work (one unit of work per rate-limited region and one for the feed's pool,
@@ -170,18 +186,26 @@ impl World<'_> {
     }
 
     /// The one-shot candidate query of [`World::simulate_spheres`]: the tets whose boxes meet
-    /// `zone`, those meeting `tight` first; returns how many meet `tight`. The tets come from
+    /// `zone`, those meeting `tight` first, in the first `room` entries of the candidate
+    /// storage; returns how many meet `tight`. The tets come from
     /// the zone memo (`zone_memo.rs`, gathered around the zone over steps, a box `radius / 2`
     /// wider) in the hash query's order when it serves the zone, from the hash otherwise.
     #[inline(always)]
-    fn query_zone(&mut self, zone: &Aabb, tight: &Aabb, radius: f32, rep: &mut SimReport) -> usize {
+    fn query_zone(
+        &mut self,
+        zone: &Aabb,
+        tight: &Aabb,
+        radius: f32,
+        room: usize,
+        rep: &mut SimReport,
+    ) -> usize {
         let zone = *zone;
         let tight = *tight;
         self.cand_at = 0;
         let max_cells = self.max_cells;
         let hash_complete = self.sat.hash == 0;
         let (cands, mesh, hash, boxes, memo) = (
-            &mut *self.candidates,
+            self.candidates.get_mut(..room).unwrap_or_default(),
             &self.mesh,
             &self.hash,
             &*self.boxes,

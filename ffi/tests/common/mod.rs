@@ -121,7 +121,7 @@ pub fn params_of_mesh(sc: &Setup) -> TdParams {
     p.dt = tick.force.dt;
     p.switch_time = tick.force.switch_time;
     p.servo_lag = tick.servo_lag;
-    p.zone_gather_work = sc.drilling.zone_gather_work;
+    p.zone_gather_work = sc.drilling.zone_gather_work.unwrap_or(0);
     p
 }
 

@@ -18,7 +18,10 @@ pub mod sizing;
 pub mod tick;
 
 pub use regions::{region_table, removed_by_region, RegionTable};
-pub use sizing::{world_sizes, ToolSizing, MAX_SIZED_ARENA, SIZED_FOR_DEPTH};
+pub use sizing::{
+    world_sizes, ToolSizing, GATHER_FROM_TETS, GATHER_MIN_WORK, GATHER_STEPS, MAX_SIZED_ARENA,
+    SIZED_FOR_DEPTH,
+};
 pub use tick::{tick, tick_tool, ShaftState, TickParams};
 
 /// Storage for one [`World`], allocated once before the run: the mesh, the world's buffers
@@ -30,7 +33,8 @@ pub struct EngineStorage {
     buffers: WorldBuffers,
     contact_search_nodes: u32,
     tick_budget: u32,
-    zone_gather_work: u32,
+    /// The candidate gather each world gets (`None`: the one-shot query).
+    zone_gather: Option<ZoneGather>,
     resolution: f32,
     /// The burr's vibration frequency, hertz (0: none).
     vibration_hz: f32,
@@ -61,6 +65,12 @@ impl EngineStorage {
         self.sizing.as_ref()
     }
 
+    /// The candidate gather each world over this storage gets, `None` for the one-shot query
+    /// every step (the set-up's `zone_gather_work`, or chosen for the burr on the mesh).
+    pub fn zone_gather(&self) -> Option<&ZoneGather> {
+        self.zone_gather.as_ref()
+    }
+
     /// The candidate list's length.
     pub fn candidate_capacity(&self) -> usize {
         self.buffers.sizes().candidates
@@ -87,7 +97,14 @@ impl EngineStorage {
             buffers: WorldBuffers::new(s)?,
             contact_search_nodes: d.contact_search_nodes,
             tick_budget: d.tick_budget,
-            zone_gather_work: d.zone_gather_work,
+            zone_gather: match d.zone_gather_work {
+                Some(0) => None,
+                Some(w) => Some(ZoneGather::new(w, ZONE_MARGIN_RADII)),
+                None => sizing
+                    .and_then(|z| z.gather_work)
+                    .filter(|_| setup.capacities.candidates.is_none())
+                    .map(|w| ZoneGather::exact(w, ZONE_MARGIN_RADII)),
+            },
             resolution: d.resolution as f32,
             vibration_hz: setup.forces.vibration_hz as f32,
             sizing,
@@ -196,10 +213,7 @@ impl EngineStorage {
         w.set_tick_budget((self.tick_budget > 0).then_some(self.tick_budget));
         w.set_drill_resolution(self.resolution);
         w.set_vibration_hz(self.vibration_hz);
-        w.set_zone_gather(
-            (self.zone_gather_work > 0)
-                .then(|| ZoneGather::new(self.zone_gather_work, ZONE_MARGIN_RADII)),
-        );
+        w.set_zone_gather(self.zone_gather);
         Ok(w)
     }
 }

@@ -1,6 +1,7 @@
 //! How big a world's buffers are: sized for the tool on the mesh ([`ToolSizing`]), or as
 //! the set-up's capacities ask ([`world_sizes`]).
 
+use tetradrill_core::collide::ZONE_MARGIN_RADII;
 use tetradrill_core::servo::{WorldSizes, DEFAULT_MAX_CELLS, DEFAULT_PENDING};
 use tetradrill_core::TetId;
 
@@ -40,7 +41,27 @@ pub struct ToolSizing {
     /// (enough for a burr about one tet wide at that depth) times both, between the default
     /// and [`MAX_SIZED_ARENA`].
     pub arena: usize,
+    /// Work units a step of the candidate gather chosen for a large zone
+    /// ([`GATHER_FROM_TETS`]; an exact `tetradrill_core::collide::ZoneGather`), `None`:
+    /// the one-shot query every step.
+    pub gather_work: Option<u32>,
 }
+
+/// Tets about the burr's zone from which its candidates are gathered over steps instead of
+/// queried each step: the one-shot query scans every hash entry of the zone's cells, each
+/// step (on a 2-million-tet re-mesh of the teddy, burr 0.03, about 18,000 tets and 230,000
+/// host instructions a step, half the tick), while an exact gather scans its box's a part a
+/// step and queries the hash only on a step the burr outruns it. Below this the one-shot
+/// query is cheap and every existing run stays as it was.
+pub const GATHER_FROM_TETS: f64 = 8_192.0;
+
+/// Steps one gather of a whole box takes at the work chosen: the burr may cross half the
+/// gather's margin (a tenth of its radius) in as many steps, 10 radii a second at 1 kHz, and
+/// not outrun it (a faster burr's step falls back to the one-shot query).
+pub const GATHER_STEPS: f64 = 8.0;
+
+/// The least work a step of a chosen gather does (the firmware scenarios' figure).
+pub const GATHER_MIN_WORK: u32 = 2_000;
 
 /// The `--max-depth` [`DEFAULT_HIERARCHY_CAPACITY`] is meant for (the default depth).
 pub const SIZED_FOR_DEPTH: u8 = 5;
@@ -55,9 +76,14 @@ impl ToolSizing {
     ///
     /// Work: O(T) over the mesh's tets, once at start-up.
     pub fn of(mesh: &OwnedMesh, radius: f64, max_depth: u8) -> Self {
+        Self::sized(mesh, radius, max_depth, true)
+    }
+
+    /// [`ToolSizing::of`], choosing a candidate gather for a large zone only when `gather`.
+    fn sized(mesh: &OwnedMesh, radius: f64, max_depth: u8, gather: bool) -> Self {
         let positions = mesh.positions();
         let (mut side, mut vol, mut n) = (0.0f64, 0.0f64, 0usize);
-        let (mut all_side, mut all_edge) = (0.0f64, 0.0f64);
+        let (mut all_side, mut all_edge, mut mesh_volume) = (0.0f64, 0.0f64, 0.0f64);
         for tet in mesh.tets() {
             // f32 is plenty for a size estimate.
             let p = tet.nodes.map(|v| positions[v.idx()]);
@@ -65,6 +91,8 @@ impl ToolSizing {
             let hi = p[0].max(p[1]).max(p[2]).max(p[3]);
             let s = (hi - lo).max_element() as f64;
             all_side += s;
+            let volume = (p[1] - p[0]).dot((p[2] - p[0]).cross(p[3] - p[0])).abs() as f64 / 6.0;
+            mesh_volume += volume;
             for a in 0..4 {
                 for b in a + 1..4 {
                     all_edge += (p[a] - p[b]).length() as f64;
@@ -72,7 +100,7 @@ impl ToolSizing {
             }
             if tet.neighbours.contains(&TetId::NONE) {
                 side += s;
-                vol += (p[1] - p[0]).dot((p[2] - p[0]).cross(p[3] - p[0])).abs() as f64 / 6.0;
+                vol += volume;
                 n += 1;
             }
         }
@@ -95,6 +123,32 @@ impl ToolSizing {
             16.0
         };
         let max_cells = (2.0 * per_axis.powi(3)).min(u32::MAX as f64) as u32;
+        // A large zone's candidates are gathered over steps. A gathered box is one step's
+        // zone (the burr's box grown by the radius and the reach, `3 r` a side) grown by the
+        // gather's margin on every side; it holds about `side^3 / V` tets of mean volume `V`
+        // and box side `E`, each in about `(E / cell + 1)^3` cells, and a gather scans its
+        // cells and those entries in `GATHER_STEPS` parts (on the fine teddy, 0.03: 729
+        // cells and 24,000 entries where the box is half inside the mesh). Each third of the
+        // storage (see `ZoneGather`) holds a list as long as the one-shot query's, or a box's
+        // tets and half again.
+        let mean_volume = mesh_volume / tets;
+        let gather_work =
+            (gather && estimate >= GATHER_FROM_TETS && cell > 0.0 && mean_volume > 0.0).then(
+                || {
+                    let side = (3.0 + 4.0 * f64::from(ZONE_MARGIN_RADII)) * radius;
+                    let mean_side = all_side / tets;
+                    let cells = (side / cell + 1.0).powi(3);
+                    let entries = side.powi(3) / mean_volume * (mean_side / cell + 1.0).powi(3);
+                    (((cells + entries) / GATHER_STEPS).ceil() as u32).max(GATHER_MIN_WORK)
+                },
+            );
+        let candidates = if gather_work.is_some() {
+            let side = (3.0 + 4.0 * f64::from(ZONE_MARGIN_RADII)) * radius;
+            let listed = (1.5 * side.powi(3) / mean_volume).ceil() as usize;
+            3 * candidates.max(listed.min(mesh.tets().len()))
+        } else {
+            candidates
+        };
         let sphere = (2.0 * radius + 2.0 * e).powi(3) / v;
         let pending = ((2.0 * sphere).ceil() as usize).max(DEFAULT_PENDING);
         let widths = if e > 0.0 { (radius / e).max(1.0) } else { 1.0 };
@@ -108,6 +162,7 @@ impl ToolSizing {
             pending,
             candidates,
             max_cells: max_cells.max(DEFAULT_MAX_CELLS),
+            gather_work,
         }
     }
 }
@@ -175,8 +230,11 @@ impl ToolSizing {
             Tool::Drill {
                 burr, shaft_length, ..
             } => {
-                let z = Self::of(mesh, burr, max_depth);
-                let whole = Self::of(mesh, 0.5 * (shaft_length + burr), max_depth);
+                // No gather: the shaft's own query refills the candidate storage whenever
+                // the shaft is near the surface (`World::simulate_drill`), and a gather
+                // would start afresh each time.
+                let z = Self::sized(mesh, burr, max_depth, false);
+                let whole = Self::sized(mesh, 0.5 * (shaft_length + burr), max_depth, false);
                 Some(Self {
                     candidates: z.candidates.max(whole.candidates),
                     max_cells: z.max_cells.max(whole.max_cells),

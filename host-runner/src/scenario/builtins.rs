@@ -37,7 +37,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             hierarchy_capacity: Some(40_000),
             pending_capacity: Some(8_192),
             candidate_capacity: Some(12_288),
-            zone_gather_work: 2_000,
+            zone_gather_work: Some(2_000),
             ..builtin("firmware")?
         }),
         // The firmware scenario with the demo's two materials on the block's shell and core
@@ -63,7 +63,7 @@ pub fn builtin(name: &str) -> Option<Scenario> {
             // The candidates gathered over steps, as on the cow (in thirds of 3,072): a zone
             // query every step left the M4 3 % of its period.
             candidate_capacity: Some(3_072),
-            zone_gather_work: 2_000,
+            zone_gather_work: Some(2_000),
             ..builtin("firmware")?
         }),
         // The firmware scenario as an STM32F405 runs it (`scripts/port-check.sh --chip f405`;

@@ -149,9 +149,11 @@ pub struct Scenario {
     /// A sphere tool's candidate tets gathered through the hash in parts of at most this many
     /// work units a step (cells and entries scanned) around a box a fifth of the radius wider
     /// than the zone, kept while the zone stays inside it
-    /// (`tetradrill_core::collide::ZoneGather`); 0: one zone query every step.
-    #[serde(skip_serializing_if = "is_zero")]
-    pub zone_gather_work: u32,
+    /// (`tetradrill_core::collide::ZoneGather`); 0: one zone query every step; absent:
+    /// gathered, exactly, only where the burr's zone holds thousands of tets
+    /// (`crate::engine::GATHER_FROM_TETS`), else one query a step.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub zone_gather_work: Option<u32>,
     /// When a sphere tool's servo uses a simulation step's contact: 0, the step and the force
     /// in the same tick (step first); 1, the RTIC firmware's release rule: the servo computes
     /// tick `i`'s force from the contact of the step released at tick `i - 1`, then releases

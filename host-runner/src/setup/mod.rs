@@ -146,9 +146,10 @@ pub struct Drilling {
     /// step's, answers).
     pub contact_search_nodes: u32,
     /// A sphere tool's candidate tets gathered through the hash in parts of at most this many
-    /// work units a step (`tetradrill_core::collide::ZoneGather`); 0: one zone query every
-    /// step.
-    pub zone_gather_work: u32,
+    /// work units a step (`tetradrill_core::collide::ZoneGather`, bounded: a step the burr
+    /// outruns it counts a saturation); 0: one zone query every step; `None`: chosen for
+    /// the burr on the mesh (`crate::engine::ToolSizing::gather_work`, an exact gather).
+    pub zone_gather_work: Option<u32>,
     /// When a sphere tool's servo uses a simulation step's contact: 0, the step and the force
     /// in the same tick (step first); 1, the RTIC firmware's release rule (the force of tick
     /// `i` from the step released at tick `i - 1`; docs/PORTING.md, "The release rule").
@@ -305,7 +306,7 @@ impl Default for Setup {
                 budget_per_tick: 11_000,
                 tick_budget: DEFAULT_TICK_BUDGET,
                 contact_search_nodes: tetradrill_core::servo::CONTACT_MAX_NODES,
-                zone_gather_work: 0,
+                zone_gather_work: None,
                 servo_lag: 0,
             },
             materials: Materials::default(),

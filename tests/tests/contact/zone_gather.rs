@@ -216,3 +216,92 @@ fn a_moving_mesh_gathers_afresh() {
     assert!(moves >= 40, "{moves} moves");
     assert!(covered > 1_000, "{covered} steps covered");
 }
+
+/// An exact gather (`ZoneGather::exact`, the host's default on large meshes) whose work a
+/// step is far too small for the tool (400 units: a box takes several steps, and the tool
+/// leaves it first when it moves fast) and whose mesh jumps every 200 ticks (the lists are
+/// forgotten): it is never short of a tet. Every step's list holds exactly
+/// the brute force's tets near the tool, no step counts a saturation, the steps the gather
+/// could not serve fell back to the one-shot query (counted), and the others were served
+/// by gathered lists; the contact is the one-shot world's wherever both searches complete,
+/// and drilling removes what it removes (to 1e-9).
+#[test]
+fn an_exact_gather_is_never_short_of_a_tet() {
+    let (mut oa, mut ob) = (
+        tetradrill_tests::load(COW, 1.0),
+        tetradrill_tests::load(COW, 1.0),
+    );
+    let rest0 = ob.view().positions().to_vec();
+    let (mut sa, mut sb) = (store(oa.view().tet_count()), store(ob.view().tet_count()));
+    let mut one = sa.world(oa.view());
+    let mut exact = sb.world(ob.view());
+    sizes(&mut one, false);
+    exact.set_zone_gather(Some(ZoneGather::exact(400, ZONE_MARGIN_RADII)));
+    let (mut ra_rest, mut rb_rest) = (
+        vec![tetradrill_core::Vec3::ZERO; rest0.len()],
+        vec![tetradrill_core::Vec3::ZERO; rest0.len()],
+    );
+    one.enable_deformation(&mut ra_rest).expect("rest storage");
+    exact
+        .enable_deformation(&mut rb_rest)
+        .expect("rest storage");
+    let params = DrillParams {
+        max_depth: 3,
+        min_area: 0.0,
+        budget: 1_000_000,
+    };
+    let (mut moves, mut contacts) = (0u32, 0u32);
+    for tick in 0..DEMO.ticks().min(3_000) {
+        if tick % 200 == 199 {
+            let dx = if moves % 2 == 0 { 0.5 * R } else { 0.0 };
+            let moved: Vec<_> = rest0
+                .iter()
+                .map(|&p| p + tetradrill_core::Vec3::X * dx)
+                .collect();
+            one.set_positions(&moved).expect("positions");
+            exact.set_positions(&moved).expect("positions");
+            moves += 1;
+        }
+        let (c, buttons) = DEMO.at(tick);
+        let on = buttons & DRILL_ON != 0;
+        let ra = one.simulate(c, R, REACH, on, &params);
+        let rb = exact.simulate(c, R, REACH, on, &params);
+        assert!(
+            !ra.candidates_saturated && !rb.candidates_saturated,
+            "tick {tick}"
+        );
+        let zone = Aabb::point(c).grown(R + REACH);
+        let mesh = exact.mesh();
+        assert_eq!(
+            meeting(mesh, exact.candidates(), &zone),
+            brute_force(mesh, &zone),
+            "tick {tick}: the exact gather's list"
+        );
+        let (va, vb) = (
+            one.hierarchy().removed_volume(),
+            exact.hierarchy().removed_volume(),
+        );
+        assert!(
+            (va - vb).abs() <= 1e-9 * va.max(1e-12),
+            "tick {tick}: removed {va} vs {vb}"
+        );
+        if !ra.contact_saturated && !rb.contact_saturated {
+            let (ca, cb) = (one.contact(), exact.contact());
+            assert_eq!(ca.valid, cb.valid, "tick {tick}");
+            assert!((ca.depth - cb.depth).abs() <= 1e-5, "tick {tick}: depth");
+            contacts += u32::from(ca.valid);
+        }
+    }
+    let z = exact.zone_gather().expect("the gather");
+    assert!(z.is_exact());
+    assert!(z.fallbacks() > 100, "{} steps fell back", z.fallbacks());
+    println!("{} fallbacks, {} gathers", z.fallbacks(), z.gathers());
+    assert!(z.gathers() > 5, "{} gathers", z.gathers());
+    assert!(
+        (z.fallbacks() as usize) < DEMO.ticks().min(3_000) as usize - 500,
+        "{} of the steps fell back: the gathered lists served too few",
+        z.fallbacks()
+    );
+    assert!(one.hierarchy().removed_volume() > 1e-3);
+    assert!(contacts > 300, "{contacts} contacts compared");
+}

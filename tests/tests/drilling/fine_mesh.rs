@@ -167,3 +167,72 @@ fn the_arena_grows_with_max_depth_as_the_drilled_surface_does() {
         "arena {a5} -> {a7}"
     );
 }
+
+/// Where the burr's zone holds tens of thousands of tets the host gathers its candidates over
+/// steps (an exact `ZoneGather`, chosen by `engine::ToolSizing`) instead of querying the hash
+/// every step, and drills exactly what the one-shot query drills.
+///
+/// Oracle: the same burr path on the same block with `zone_gather_work = 0` (the one-shot
+/// query every step), each step's drilling finished within it (an unbounded budget), so the
+/// removed volume must agree tick for tick (to 1e-9: summed in another order). The path
+/// plunges at 1.5 units a second and then sweeps at 0.75, so the burr outruns the gather
+/// at times (those steps fall back to the one-shot query, counted) and is served by the
+/// gathered lists at others; no step of either run is short of candidates.
+#[test]
+fn a_large_zone_is_gathered_over_steps_and_drills_as_the_one_shot_query() {
+    let run = |gather: Option<u32>| {
+        let sc = Scenario {
+            mesh: "builtin:block:32".into(),
+            tool: "sphere:0.15".into(),
+            max_depth: 2,
+            budget_per_tick: 100_000_000,
+            tick_budget: 0,
+            zone_gather_work: gather,
+            ..Scenario::default()
+        }
+        .setup()
+        .expect("a valid set-up");
+        let params = TickParams::of(&sc).expect("scenario");
+        let loaded = engine::load_mesh(&sc).expect("mesh");
+        let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
+        let chosen = store.zone_gather().copied();
+        let mut world = store.world().expect("world");
+        let mut tool = ToolState::default();
+        let mut removed = Vec::new();
+        for i in 0..600u32 {
+            let t = i as f32 / 1000.0;
+            let position = if i < 200 {
+                Vec3::new(0.0, 0.0, 0.7 - 1.5 * t)
+            } else {
+                Vec3::new(0.75 * (t - 0.2), 0.0, 0.4)
+            };
+            let pose = Pose {
+                position,
+                rotation: [1.0, 0.0, 0.0, 0.0],
+                buttons: DRILL_ON,
+            };
+            engine::tick(&mut world, &mut tool, &params, &pose);
+            removed.push(world.hierarchy().removed_volume());
+        }
+        let fallbacks = world.zone_gather().map(|z| (z.fallbacks(), z.gathers()));
+        (chosen, removed, fallbacks, world.saturations().candidates)
+    };
+    let (chosen, gathered, counts, sat_g) = run(None);
+    let (none, one_shot, _, sat_o) = run(Some(0));
+    let chosen = chosen.expect("a gather chosen for a zone of ~40,000 tets");
+    assert!(chosen.is_exact() && chosen.work() >= engine::GATHER_MIN_WORK);
+    assert!(none.is_none(), "zone_gather_work = 0 is the one-shot query");
+    assert_eq!((sat_g, sat_o), (0, 0), "steps short of candidates");
+    let (fallbacks, gathers) = counts.expect("the world's gather");
+    assert!(
+        fallbacks > 0 && fallbacks < 300 && gathers > 3,
+        "{fallbacks} steps fell back, {gathers} gathers"
+    );
+    assert!(*one_shot.last().unwrap() > 0.01, "the burr drilled");
+    for (i, (a, b)) in one_shot.iter().zip(&gathered).enumerate() {
+        assert!(
+            (a - b).abs() <= 1e-9 * a.max(1e-12),
+            "tick {i}: removed {a} with the one-shot query, {b} gathered"
+        );
+    }
+}

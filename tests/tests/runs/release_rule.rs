@@ -98,5 +98,5 @@ fn firmware_cow_scenario_names_the_cow() {
         ),
         (Some(40_000), Some(8_192), Some(12_288))
     );
-    assert_eq!(sc.zone_gather_work, 2_000);
+    assert_eq!(sc.zone_gather_work, Some(2_000));
 }

@@ -241,7 +241,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         saturations: SaturationCounts::from(world.saturations()),
         peaks: Some(peaks),
         valid: valid.is_ok(),
-        sizing: Some(sizing),
+        sizing: Some(sizing.after(&world)),
         scenario,
         shaft: shaft_sum,
         pen: None,

@@ -146,6 +146,14 @@ pub struct SizingSummary {
     /// Hierarchy arena nodes (sized from the tool, the mesh and `--max-depth` unless the
     /// scenario set `hierarchy_capacity`).
     pub hierarchy_capacity: usize,
+    /// Work units a step of the candidate gather (the scenario's `zone_gather_work`, or
+    /// chosen for a large zone), absent for the one-shot query every step.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub zone_gather_work: Option<u32>,
+    /// Steps an exact gather answered with the one-shot query (the burr outran it), absent
+    /// without one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub zone_gather_fallbacks: Option<u32>,
 }
 
 impl SizingSummary {
@@ -157,13 +165,33 @@ impl SizingSummary {
             candidates_from_tool: sc.capacities.candidates.is_none(),
             max_cells: store.tool_sizing().map_or(0, |z| z.max_cells),
             hierarchy_capacity: store.hierarchy_capacity(),
+            zone_gather_work: store.zone_gather().map(|z| z.work()),
+            zone_gather_fallbacks: None,
+        }
+    }
+
+    /// This summary with the steps `world`'s exact gather fell back (after the run).
+    pub fn after(self, world: &tetradrill_core::servo::World<'_>) -> Self {
+        Self {
+            zone_gather_fallbacks: world
+                .zone_gather()
+                .filter(|z| z.is_exact())
+                .map(|z| z.fallbacks()),
+            ..self
         }
     }
 
     /// One line for the summary.
     pub fn line(&self) -> String {
+        let gather = match (self.zone_gather_work, self.zone_gather_fallbacks) {
+            (Some(w), Some(f)) => {
+                format!("; candidates gathered {w} units a step, the one-shot query on {f} step(s)")
+            }
+            (Some(w), None) => format!("; candidates gathered {w} units a step"),
+            _ => String::new(),
+        };
         format!(
-            "sized for the burr: {} candidates ({}), {} query cells, {} hierarchy nodes (boundary tets {:.4} units)",
+            "sized for the burr: {} candidates ({}), {} query cells, {} hierarchy nodes (boundary tets {:.4} units){gather}",
             self.candidate_capacity,
             if self.candidates_from_tool {
                 "from the tool and the mesh"
