@@ -85,15 +85,16 @@ impl World<'_> {
     }
 
     /// The shaft's half of [`World::simulate_drill`], also for a step that drilled the burr
-    /// some other way (a real-time task's swept spheres, [`World::simulate_spheres`]): the
-    /// candidate list refilled with the tets near the passive points of `tool` (burr at
-    /// `centre`, shaft along the unit `axis`) and their proxies (`World::shaft_candidates`),
-    /// then the points tracked (`World::track_passive`). Returns the tracking's report and
-    /// whether the candidate list saturated. Passive points never erode.
+    /// some other way (a real-time task's swept spheres, [`World::simulate_spheres`]): for
+    /// each passive point of `tool` (burr at `centre`, shaft along the unit `axis`) the tets
+    /// near it and its proxy (`World::shaft_candidates`), then the points tracked, each
+    /// against its own tets (`World::track_passive`). Returns the tracking's report and
+    /// whether the candidate storage saturated. Passive points never erode.
     ///
     /// # Bounded work
-    /// One zone query (at most [`World::max_cells`] cells and the candidate list) and
-    /// `World::track_passive`'s bound for at most [`MAX_PASSIVE`] points.
+    /// One zone query per point (each at most [`World::max_cells`] cells; together at most
+    /// the candidate storage's entries) and `World::track_passive`'s bound for at most
+    /// [`MAX_PASSIVE`] points.
     pub fn track_shaft(
         &mut self,
         tool: &DrillTool,
@@ -105,67 +106,96 @@ impl World<'_> {
         let mut pos = [Vec3::ZERO; MAX_PASSIVE];
         let n = tool.passive_positions(centre, axis, &mut pos);
         let grow = tool.shaft_radius + reach;
-        let mut zone: Option<Aabb> = None;
-        for (p, pt) in pos.iter().zip(&state.points).take(n) {
+        let mut zones = [None; MAX_PASSIVE];
+        for ((z, p), pt) in zones.iter_mut().zip(&pos).zip(&state.points).take(n) {
             let mut b = Aabb::point(*p).grown(grow);
             if let Some(q) = pt.proxy.filter(|q| q.is_finite()) {
                 b = b.union(Aabb::point(q).grown(grow));
             }
-            zone = Some(zone.map_or(b, |e| e.union(b)));
+            *z = Some(b).filter(|b| b.min.is_finite() && b.max.is_finite());
         }
         state.count = n;
         state.positions = pos;
-        let saturated = zone
-            .filter(|b| b.min.is_finite() && b.max.is_finite())
-            .is_some_and(|z| self.shaft_candidates(&z));
+        let mut lists = [(0usize, 0usize); MAX_PASSIVE];
+        let saturated = self.shaft_candidates(
+            zones.get(..n).unwrap_or_default(),
+            lists.get_mut(..n).unwrap_or_default(),
+        );
         let prep = self.track_passive(
             pos.get(..n).unwrap_or_default(),
             tool.shaft_radius,
             reach,
             &mut state.points,
+            lists.get(..n).unwrap_or_default(),
         );
         (prep, saturated)
     }
 
-    /// Refills the candidate list ([`World::candidates`]) with the tets whose boxes meet
-    /// `zone`, each once, in the order the hash query meets them; returns `true` (and counts
-    /// `saturations().candidates`) when the list filled up or the zone covered more than
-    /// [`World::max_cells`] cells. The next simulation step refills the list for the burr.
+    /// Fills the candidate storage with one list per zone of `zones`: the tets whose boxes
+    /// meet it, each once, in the order the hash query meets them, `lists[i]` (start,
+    /// length) the list of `zones[i]` (none for `None`); [`World::candidates`] is then the
+    /// lists one after the other (a tet near two points is listed twice). With a candidate
+    /// gather ([`World::set_zone_gather`]) the lists take the first third of the storage and
+    /// leave the gather's; without, all of it. Returns `true` (and counts
+    /// `saturations().candidates`) when the storage filled up or a zone covered more than
+    /// [`World::max_cells`] cells: the lists after hold what fitted. The next simulation step
+    /// refills the storage for the burr.
+    ///
+    /// A shaft's points spread along a segment; one query of the box around all of them
+    /// would list every tet of that box, and each point would walk them all (on a 0.3 shaft
+    /// in the teddy, a tick's p99 of 650 us).
     ///
     /// # Bounded work
-    /// O(max cells + hash entries met).
-    pub(crate) fn shaft_candidates(&mut self, zone: &Aabb) -> bool {
-        // The storage is refilled from the front: a candidate gather starts afresh.
-        if let Some(z) = self.zone.as_mut() {
-            z.forget();
-        }
+    /// Per zone O(max cells + hash entries met); the lists together at most the storage.
+    pub(crate) fn shaft_candidates(
+        &mut self,
+        zones: &[Option<Aabb>],
+        lists: &mut [(usize, usize)],
+    ) -> bool {
+        let room = match self.zone {
+            Some(_) => self.candidates.len() / 3,
+            None => self.candidates.len(),
+        };
         self.cand_at = 0;
-        let (cands, mesh, hash, boxes) =
-            (&mut *self.candidates, &self.mesh, &self.hash, &self.boxes);
-        let mut k = 0usize;
-        let mut full = false;
-        let visited = hash.query_box_once(zone, self.max_cells, |item| {
-            let t = TetId(item);
-            if full || t.idx() >= mesh.tet_count() {
-                return;
-            }
-            let meets = match boxes.get(t.idx()) {
-                Some(b) => b.overlaps(zone),
-                None => zone.overlaps_points(&mesh.tet_positions(t)),
+        let (cands, mesh, hash, boxes) = (
+            self.candidates.get_mut(..room).unwrap_or_default(),
+            &self.mesh,
+            &self.hash,
+            &self.boxes,
+        );
+        let (mut at, mut saturated) = (0usize, false);
+        for (zone, list) in zones.iter().zip(lists.iter_mut()) {
+            let Some(zone) = zone else {
+                *list = (at, 0);
+                continue;
             };
-            if !meets {
-                return;
-            }
-            match cands.get_mut(k) {
-                Some(c) => {
-                    *c = t;
-                    k += 1;
+            let mut k = at;
+            let mut full = false;
+            let visited = hash.query_box_once(zone, self.max_cells, |item| {
+                let t = TetId(item);
+                if full || t.idx() >= mesh.tet_count() {
+                    return;
                 }
-                None => full = true,
-            }
-        });
-        self.ncand = k;
-        let saturated = full || !visited;
+                let meets = match boxes.get(t.idx()) {
+                    Some(b) => b.overlaps(zone),
+                    None => zone.overlaps_points(&mesh.tet_positions(t)),
+                };
+                if !meets {
+                    return;
+                }
+                match cands.get_mut(k) {
+                    Some(c) => {
+                        *c = t;
+                        k += 1;
+                    }
+                    None => full = true,
+                }
+            });
+            *list = (at, k - at);
+            at = k;
+            saturated |= full || !visited;
+        }
+        self.ncand = at;
         if saturated {
             self.sat.candidates += 1;
         }
@@ -174,32 +204,33 @@ impl World<'_> {
 
     /// Tracks passive points of `radius` now at `positions` (`points[i]` for
     /// `positions[i]`) against the drilled surface: each point's [`PassiveProbe`] is offered
-    /// the visible faces of the candidate trees ([`World::candidates`], as
-    /// [`World::shaft_candidates`] leaves them) near the segment from its proxy to its position, within
-    /// `radius + reach`; a point held at a face and still behind it needs none. Passive
-    /// points never erode.
+    /// the visible faces of its own candidate trees (`lists[i]` of the storage, as
+    /// [`World::shaft_candidates`] leaves them) near the segment from its proxy to its
+    /// position, within `radius + reach`; a point held at a face and still behind it needs
+    /// none. Passive points never erode.
     ///
     /// # Bounded work
-    /// Per point, O(candidates + hierarchy nodes holding surface whose bounding spheres meet
-    /// the segment's ball) ([`crate::hierarchy::Hierarchy::for_each_visible_in`]), for at
-    /// most `positions.len()` points. Not counted in the tick budget.
+    /// Per point, O(its candidates + hierarchy nodes holding surface whose bounding spheres
+    /// meet the segment's ball) ([`crate::hierarchy::Hierarchy::for_each_visible_in`]), for
+    /// at most `positions.len()` points. Not counted in the tick budget.
     pub(crate) fn track_passive(
         &self,
         positions: &[Vec3],
         radius: f32,
         reach: f32,
         points: &mut [PassivePoint],
+        lists: &[(usize, usize)],
     ) -> PassiveReport {
         let mut rep = PassiveReport::default();
-        let cands = self.candidates.get(..self.ncand).unwrap_or_default();
         let reach = radius
             + if reach.is_finite() {
                 reach.max(0.0)
             } else {
                 0.0
             };
-        for (pt, &p) in points.iter_mut().zip(positions) {
+        for ((pt, &p), &(at, len)) in points.iter_mut().zip(positions).zip(lists) {
             rep.points += 1;
+            let cands = self.candidates.get(at..at + len).unwrap_or_default();
             let mut probe = PassiveProbe::new(pt, p, reach);
             let still_held = pt.held.is_some_and(|(q, n)| (p - q).dot(n) < 0.0);
             if !still_held && p.is_finite() {

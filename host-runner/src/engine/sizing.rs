@@ -2,6 +2,7 @@
 //! the set-up's capacities ask ([`world_sizes`]).
 
 use tetradrill_core::collide::ZONE_MARGIN_RADII;
+use tetradrill_core::force::MAX_PASSIVE;
 use tetradrill_core::servo::{WorldSizes, DEFAULT_MAX_CELLS, DEFAULT_PENDING};
 use tetradrill_core::TetId;
 
@@ -27,6 +28,8 @@ pub struct ToolSizing {
     pub radius: f64,
     /// Mean box side of the tets with a boundary face, mesh units.
     pub boundary_edge: f64,
+    /// Mean volume of the tets with a boundary face, cubic mesh units.
+    pub boundary_volume: f64,
     /// Candidate list entries.
     pub candidates: usize,
     /// Most hash cells one step's zone query visits ([`tetradrill_core::servo::World::set_max_cells`]).
@@ -55,10 +58,14 @@ pub struct ToolSizing {
 /// query is cheap and every existing run stays as it was.
 pub const GATHER_FROM_TETS: f64 = 8_192.0;
 
-/// Steps one gather of a whole box takes at the work chosen: the burr may cross half the
-/// gather's margin (a tenth of its radius) in as many steps, 10 radii a second at 1 kHz, and
-/// not outrun it (a faster burr's step falls back to the one-shot query).
-pub const GATHER_STEPS: f64 = 8.0;
+/// Steps one gather of a whole box takes at the work chosen: a burr crossing half the
+/// gather's margin (a tenth of its radius) in as many steps, 6 radii a second at 1 kHz, does
+/// not outrun it (a faster burr's step falls back to the one-shot query; the box's tets are
+/// overestimated about twice, so the gathers keep up with faster burrs in practice: one step
+/// fell back along `scripts/clinical-drill.sh --moving` at up to 10 radii a second). On
+/// that path the fine teddy's tick p99 was 148-182 us with 8 parts of 7,000 units, 146-149
+/// us with 16 of 3,500.
+pub const GATHER_STEPS: f64 = 16.0;
 
 /// The least work a step of a chosen gather does (the firmware scenarios' figure).
 pub const GATHER_MIN_WORK: u32 = 2_000;
@@ -76,11 +83,6 @@ impl ToolSizing {
     ///
     /// Work: O(T) over the mesh's tets, once at start-up.
     pub fn of(mesh: &OwnedMesh, radius: f64, max_depth: u8) -> Self {
-        Self::sized(mesh, radius, max_depth, true)
-    }
-
-    /// [`ToolSizing::of`], choosing a candidate gather for a large zone only when `gather`.
-    fn sized(mesh: &OwnedMesh, radius: f64, max_depth: u8, gather: bool) -> Self {
         let positions = mesh.positions();
         let (mut side, mut vol, mut n) = (0.0f64, 0.0f64, 0usize);
         let (mut all_side, mut all_edge, mut mesh_volume) = (0.0f64, 0.0f64, 0.0f64);
@@ -133,15 +135,13 @@ impl ToolSizing {
         // tets and half again.
         let mean_volume = mesh_volume / tets;
         let gather_work =
-            (gather && estimate >= GATHER_FROM_TETS && cell > 0.0 && mean_volume > 0.0).then(
-                || {
-                    let side = (3.0 + 4.0 * f64::from(ZONE_MARGIN_RADII)) * radius;
-                    let mean_side = all_side / tets;
-                    let cells = (side / cell + 1.0).powi(3);
-                    let entries = side.powi(3) / mean_volume * (mean_side / cell + 1.0).powi(3);
-                    (((cells + entries) / GATHER_STEPS).ceil() as u32).max(GATHER_MIN_WORK)
-                },
-            );
+            (estimate >= GATHER_FROM_TETS && cell > 0.0 && mean_volume > 0.0).then(|| {
+                let side = (3.0 + 4.0 * f64::from(ZONE_MARGIN_RADII)) * radius;
+                let mean_side = all_side / tets;
+                let cells = (side / cell + 1.0).powi(3);
+                let entries = side.powi(3) / mean_volume * (mean_side / cell + 1.0).powi(3);
+                (((cells + entries) / GATHER_STEPS).ceil() as u32).max(GATHER_MIN_WORK)
+            });
         let candidates = if gather_work.is_some() {
             let side = (3.0 + 4.0 * f64::from(ZONE_MARGIN_RADII)) * radius;
             let listed = (1.5 * side.powi(3) / mean_volume).ceil() as usize;
@@ -158,6 +158,7 @@ impl ToolSizing {
         Self {
             radius,
             boundary_edge: e,
+            boundary_volume: v,
             arena,
             pending,
             candidates,
@@ -228,16 +229,25 @@ impl ToolSizing {
         match *tool {
             Tool::Sphere { radius } => Some(Self::of(mesh, radius, max_depth)),
             Tool::Drill {
-                burr, shaft_length, ..
+                burr, shaft_radius, ..
             } => {
-                // No gather: the shaft's own query refills the candidate storage whenever
-                // the shaft is near the surface (`World::simulate_drill`), and a gather
-                // would start afresh each time.
-                let z = Self::sized(mesh, burr, max_depth, false);
-                let whole = Self::sized(mesh, 0.5 * (shaft_length + burr), max_depth, false);
+                // The burr as a sphere; each of the shaft's passive points lists the tets
+                // near it and its proxy (`World::track_shaft`): a box `2 (shaft radius +
+                // reach)` a side, grown by a burr radius of the proxy's travel, for at most
+                // `MAX_PASSIVE` points, in the first third of the storage with a gather.
+                let z = Self::of(mesh, burr, max_depth);
+                let side = 2.0 * (shaft_radius + 0.5 * burr) + burr;
+                let e = z.boundary_edge;
+                let per_point = if z.boundary_volume > 0.0 {
+                    1.5 * (side + 2.0 * e).powi(3) / z.boundary_volume
+                } else {
+                    0.0
+                };
+                let shaft = ((MAX_PASSIVE as f64 * per_point).ceil() as usize)
+                    .min(MAX_PASSIVE * mesh.tets().len());
+                let thirds = if z.gather_work.is_some() { 3 } else { 1 };
                 Some(Self {
-                    candidates: z.candidates.max(whole.candidates),
-                    max_cells: z.max_cells.max(whole.max_cells),
+                    candidates: z.candidates.max(thirds * shaft),
                     ..z
                 })
             }
