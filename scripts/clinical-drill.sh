@@ -10,9 +10,10 @@
 #        scripts/clinical-drill.sh --moving    (no hold: a plunge, then the burr swept to and
 #                                               fro across the head for 4 s, each mesh at the
 #                                               drill resolution RESOLUTION, default r/8, and
-#                                               at the default max depth; the removed volume
-#                                               against the Monte Carlo swept volume,
-#                                               `--example swept`)
+#                                               at the default max depth, and a drill tool (the
+#                                               burr on a shaft 10 r long) at RESOLUTION; the
+#                                               removed volume against the Monte Carlo swept
+#                                               volume, `--example swept`)
 # Env: OUT (work folder, default target/clinical), TETRADRILL_BIN, FINE_TETS (target count
 # given to the generator, default 1150000: about 2.06 million tets come out), RESOLUTION.
 set -euo pipefail
@@ -54,16 +55,20 @@ PY
   for m in "$coarse.node" "$out/teddy-fine.ele"; do
     name=$(basename "$m")
     ref=$("$swept" "$m" "$out/moving.csv" "$r" 2000000)
-    for mode in "resolution" "depth"; do
+    for mode in "resolution" "depth" "drill"; do
       extra=(--resolution "$res" --max-depth 9)
       [ "$mode" = depth ] && extra=()
-      "$bin" replay --quiet --repeat 3 --mesh "$m" --trace "$out/moving.csv" --tool sphere:$r \
+      # The drill tool: the same burr on a shaft ten radii long, 0.4 radii thick.
+      tool=sphere:$r
+      [ "$mode" = drill ] && tool=drill:$r:$(python3 -c "print(10 * $r)"):$(python3 -c "print(0.4 * $r)")
+      "$bin" replay --quiet --repeat 3 --mesh "$m" --trace "$out/moving.csv" --tool "$tool" \
         "${extra[@]}" --json "$out/$name.$mode.json" > "$out/$name.$mode.txt"
       python3 - "$out/$name.$mode.json" "$ref" "$mode" "$res" <<'PY'
 import json, sys
 d = json.load(open(sys.argv[1]))
 ref = float(sys.argv[2].split()[1])
-mode = "resolution " + sys.argv[4] if sys.argv[3] == "resolution" else "max depth only"
+mode = {"resolution": "resolution " + sys.argv[4], "depth": "max depth only",
+        "drill": "drill tool, resolution " + sys.argv[4]}[sys.argv[3]]
 print(f"{d['scenario']['mesh'].split('/')[-1]} ({d['mesh']['tets']} tets, {mode}): removed "
       f"{d['removed_volume']:.6g} of swept {ref:.6g} ({100 * (d['removed_volume'] / ref - 1):+.1f} %), "
       f"tick mean {d['timing_us']['tick_mean']:.1f} p99 {d['timing_us']['tick_p99']:.1f} max "
