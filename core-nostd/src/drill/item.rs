@@ -10,8 +10,8 @@ use super::sphere::{classify_costed, Class, Sphere};
 use super::step::{epoch_of, Drill, DrillReport, Pass, Pending, DEFER_LAG};
 use crate::geom::tri_area;
 use crate::hierarchy::{
-    child_of_refinement, child_of_ten, refinement_points, refinement_points_masked, Hierarchy,
-    HierarchyError, Path, RootFrame, ALL_POINTS, MAX_DEPTH,
+    child_of_refinement, child_of_ten, depth_limit, refinement_points, refinement_points_masked,
+    Hierarchy, HierarchyError, Path, RootFrame, ALL_POINTS, MAX_DEPTH,
 };
 use crate::ids::TetId;
 use crate::mesh::template::FACE_VERTS;
@@ -25,24 +25,6 @@ fn classify_charged(p: [Vec3; 4], s: &Sphere, rep: &mut DrillReport) -> Class {
         rep.work = rep.work.saturating_add(WorkCost::EXACT_TEST);
     }
     class
-}
-
-/// The depth at which a tree whose root's longest edge is `edge` has leaves of at most
-/// `resolution` (each level halves the edges); [`MAX_DEPTH`] without a resolution (0).
-///
-/// # Bounded work
-/// At most [`MAX_DEPTH`] halvings.
-pub(super) fn depth_limit(edge: f32, resolution: f32) -> u8 {
-    if resolution <= 0.0 {
-        return MAX_DEPTH as u8;
-    }
-    let mut e = edge;
-    let mut d = 0u8;
-    while e > resolution && (d as usize) < MAX_DEPTH {
-        e *= 0.5;
-        d += 1;
-    }
-    d
 }
 
 /// A node whose children were queued, with the ten points of its red refinement: its

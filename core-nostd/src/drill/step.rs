@@ -230,6 +230,7 @@ impl<'a> Drill<'a> {
         } else {
             0.0
         };
+        self.crumbs.set_resolution(self.resolution);
         self.frame = None;
     }
 

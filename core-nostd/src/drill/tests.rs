@@ -219,7 +219,7 @@ fn spacing_takes_every_eighth_radius_and_keeps_the_newest() {
 
 #[test]
 fn a_trees_depth_limit_halves_its_longest_edge_down_to_the_resolution() {
-    use super::item::depth_limit;
+    use crate::hierarchy::depth_limit;
     use crate::hierarchy::MAX_DEPTH;
     // Written out: 1.0 halved to 0.5, 0.25, 0.125 (<= 0.2 at depth 3).
     assert_eq!(depth_limit(1.0, 0.2), 3);

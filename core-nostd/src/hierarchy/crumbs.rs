@@ -99,6 +99,9 @@ pub struct Crumbs {
     known: [(u32, u32); CRUMB_KNOWN],
     batch: u32,
     max_leaves: u32,
+    /// The drill's resolution, mesh units (0: none): each tree's unit is then the leaf of
+    /// its own depth limit where that is shallower than `max_depth` ([`super::unit_depth`]).
+    resolution: f32,
     stats: CrumbStats,
 }
 
@@ -128,6 +131,7 @@ impl Crumbs {
             known: [(u32::MAX, 0); CRUMB_KNOWN],
             batch: 0,
             max_leaves,
+            resolution: 0.0,
             stats: CrumbStats {
                 pieces: 0,
                 nodes: 0,
@@ -139,6 +143,20 @@ impl Crumbs {
                 saturations: 0,
             },
         }
+    }
+
+    /// Sets the drill's resolution (mesh units; 0, negative or not finite: none), so that a
+    /// piece's size counts the leaves of each tree's own depth limit
+    /// ([`crate::drill::Drill::set_resolution`] sets it for the drill's checks).
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn set_resolution(&mut self, resolution: f32) {
+        self.resolution = if resolution.is_finite() && resolution > 0.0 {
+            resolution
+        } else {
+            0.0
+        };
     }
 
     /// Sets the debris size in max-depth leaves; 0 turns the checks off and drops the seeds.
@@ -373,13 +391,27 @@ impl Crumbs {
         visits: &mut u32,
     ) -> (usize, Fill, u32) {
         let k = self.max_leaves;
-        let units = |depth: u8| 8u32.saturating_pow(u32::from(max_depth.saturating_sub(depth)));
+        let resolution = self.resolution;
+        // Each tree's unit depth, the last tree's kept (the flood meets a tree's leaves in
+        // runs).
+        let mut last: Option<(TetId, u8)> = None;
+        let mut units = |tet: TetId, depth: u8| {
+            let unit = match last {
+                Some((t, u)) if t == tet => u,
+                _ => {
+                    let u = super::unit_depth(mesh, tet, max_depth, resolution);
+                    last = Some((tet, u));
+                    u
+                }
+            };
+            8u32.saturating_pow(u32::from(unit.saturating_sub(depth)))
+        };
         let Some(slot) = self.fill.get_mut(0) else {
             return (0, Fill::Full, 0);
         };
         *slot = start;
         let mut end = 1;
-        let mut size = units(start.depth);
+        let mut size = units(start.tet, start.depth);
         if size >= k {
             return (end, Fill::Big, size);
         }
@@ -425,7 +457,7 @@ impl Crumbs {
                             depth: met.depth,
                         };
                         end += 1;
-                        size = size.saturating_add(units(met.depth));
+                        size = size.saturating_add(units(met.tet, met.depth));
                         if size >= k {
                             outcome = Some(Fill::Big);
                             return false;

@@ -66,15 +66,18 @@ impl Hierarchy<'_> {
         max_depth: u8,
         scratch: &mut [u32],
     ) -> Result<DebrisReport, HierarchyError> {
-        self.remove_debris_with(mesh, max_leaves, max_depth, scratch, |_, _| {})
+        self.remove_debris_with(mesh, max_leaves, max_depth, 0.0, scratch, |_, _| {})
     }
 
     /// [`Hierarchy::remove_debris`] calling `erased(tet, volume)` for every leaf it erases
     /// (the coarse tet whose tree held it and its volume), for tallies kept elsewhere (the
-    /// removed volume by region).
+    /// removed volume by region). With a drill `resolution` (mesh units, 0: none) the unit of
+    /// each tree is a leaf of its own depth limit when that is shallower than `max_depth`
+    /// ([`super::unit_depth`]): the finest leaf the drill makes there.
     ///
     /// # Bounded work
-    /// As [`Hierarchy::remove_debris`], plus one call per leaf erased.
+    /// As [`Hierarchy::remove_debris`], plus one call per leaf erased and, with a resolution,
+    /// one root frame per tree.
     ///
     /// # Errors
     /// As [`Hierarchy::remove_debris`].
@@ -83,6 +86,7 @@ impl Hierarchy<'_> {
         mesh: &Mesh<'_>,
         max_leaves: u32,
         max_depth: u8,
+        resolution: f32,
         scratch: &mut [u32],
         mut erased: F,
     ) -> Result<DebrisReport, HierarchyError> {
@@ -98,6 +102,7 @@ impl Hierarchy<'_> {
         size.fill(0);
         // Every leaf points at its root directly, and each root adds up its piece's size.
         for t in 0..self.tet_count() {
+            let unit = super::unit_depth(mesh, TetId::from_idx(t), max_depth, resolution);
             self.for_each_leaf(TetId::from_idx(t), |leaf| {
                 if leaf.record.erased() {
                     return;
@@ -107,7 +112,7 @@ impl Hierarchy<'_> {
                     *slot = root;
                 }
                 let depth = Path::of_index(leaf.index).map_or(0, |p| p.depth);
-                let units = 8u32.saturating_pow(u32::from(max_depth.saturating_sub(depth)));
+                let units = 8u32.saturating_pow(u32::from(unit.saturating_sub(depth)));
                 if let Some(s) = size.get_mut(root as usize) {
                     *s = s.saturating_add(units);
                 }

@@ -6,6 +6,7 @@
 use glam::Vec3;
 
 use super::table::{Path, CHILD_VERTS};
+use super::MAX_DEPTH;
 use crate::ids::TetId;
 use crate::mesh::Mesh;
 
@@ -32,6 +33,40 @@ pub(crate) struct RootFrame {
     sorted: [Vec3; 4],
     /// `order[k]`: the root-local corner (0..4) that comes `k`-th in canonical order.
     order: [u8; 4],
+}
+
+/// The depth at which a tree whose root's longest edge is `edge` has leaves of at most
+/// `resolution` (each level halves the edges); [`MAX_DEPTH`] without a resolution (0).
+///
+/// # Bounded work
+/// At most [`MAX_DEPTH`] halvings.
+pub(crate) fn depth_limit(edge: f32, resolution: f32) -> u8 {
+    if resolution <= 0.0 {
+        return MAX_DEPTH as u8;
+    }
+    let mut e = edge;
+    let mut d = 0u8;
+    while e > resolution && (d as usize) < MAX_DEPTH {
+        e *= 0.5;
+        d += 1;
+    }
+    d
+}
+
+/// The depth of the leaves that are the debris's unit in the tree of `tet`: `max_depth`, or,
+/// with a drill resolution (`crate::drill::Drill::set_resolution`), the tree's own depth limit
+/// when it is shallower (the finest leaf the drill makes there).
+///
+/// # Bounded work
+/// Constant without a resolution; with one, the root's frame and [`depth_limit`].
+pub(crate) fn unit_depth(mesh: &Mesh<'_>, tet: TetId, max_depth: u8, resolution: f32) -> u8 {
+    if resolution > 0.0 {
+        RootFrame::of(mesh, tet).map_or(max_depth, |f| {
+            depth_limit(f.longest_edge(), resolution).min(max_depth)
+        })
+    } else {
+        max_depth
+    }
 }
 
 impl RootFrame {

@@ -100,11 +100,11 @@ pub use export::{
 };
 #[cfg(test)]
 pub(crate) use geometry::node_positions;
-pub(crate) use geometry::node_volume;
 pub(crate) use geometry::{
     child_of_refinement, child_of_ten, refinement_points, refinement_points_masked, RootFrame,
     ALL_POINTS,
 };
+pub(crate) use geometry::{depth_limit, node_volume, unit_depth};
 pub use memo::{SphereMemo, SphereSlot};
 pub(crate) use nearest::keep_face;
 pub use nearest::{FaceRef, Kept, Nearest, NearestCursor, NearestQuery, KEEP};

@@ -551,7 +551,9 @@ impl<'a> World<'a> {
 
     /// Erases the debris of the drilled material: detached pieces smaller than `max_leaves`
     /// leaves of depth `max_depth` ([`Hierarchy::remove_debris`], usually with
-    /// [`crate::hierarchy::DEBRIS_LEAVES`] and the drill's `max_depth`). `scratch` holds
+    /// [`crate::hierarchy::DEBRIS_LEAVES`] and the drill's `max_depth`); with a drill
+    /// resolution ([`World::set_drill_resolution`]) a tree's unit is the leaf of its own depth
+    /// limit where that is shallower. `scratch` holds
     /// [`Hierarchy::debris_scratch_needed`] entries. With regions, the debris's volume is
     /// counted in the removed volume of the region each leaf belongs to.
     ///
@@ -566,13 +568,20 @@ impl<'a> World<'a> {
         max_depth: u8,
         scratch: &mut [u32],
     ) -> Result<crate::hierarchy::DebrisReport, HierarchyError> {
+        let resolution = self.drill.resolution();
         let mut regions = self.drill.regions_mut();
-        self.hier
-            .remove_debris_with(&self.mesh, max_leaves, max_depth, scratch, |tet, v| {
+        self.hier.remove_debris_with(
+            &self.mesh,
+            max_leaves,
+            max_depth,
+            resolution,
+            scratch,
+            |tet, v| {
                 if let Some(r) = regions.as_mut() {
                     r.note_removed(tet, v);
                 }
-            })
+            },
+        )
     }
 
     /// Sets the size below which a piece the drill cuts off is erased as debris while

@@ -378,12 +378,23 @@ fn cow_wander(
     checks: bool,
     then: impl FnOnce(&Setup, &mut World<'_>, &mut ToolState, &TickParams, &PoseSource),
 ) {
+    cow_wander_at(checks, None, then);
+}
+
+/// [`cow_wander`] at a drill resolution (`--resolution L --max-depth 9`), if given.
+fn cow_wander_at(
+    checks: bool,
+    resolution: Option<f64>,
+    then: impl FnOnce(&Setup, &mut World<'_>, &mut ToolState, &TickParams, &PoseSource),
+) {
     let sc = Scenario {
         mesh: tetradrill_tests::mesh("models/spot_tetgen_q1.414.node")
             .to_string_lossy()
             .into_owned(),
         trace: "wander:1".into(),
         tool: "sphere:0.05".into(),
+        resolution: resolution.unwrap_or(0.0),
+        max_depth: if resolution.is_some() { 9 } else { 5 },
         ..Scenario::default()
     }
     .setup()
@@ -433,6 +444,47 @@ fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
                 .expect("scratch"),
             1
         );
+    });
+}
+
+/// With a drill resolution each tree's leaves stop at its own depth limit, above
+/// `max_depth`: the debris's unit is then the finest leaf of the tree, not a `max_depth`
+/// leaf (a leaf at the limit used to count `8^(max_depth - limit)` units, so no crumb was
+/// ever small enough: the cow's wander below left 4 pieces at `--resolution 0.00625
+/// --max-depth 9`, against 1 without the resolution). With the drill's checks and then the
+/// sweep, one piece is left, every piece erased smaller than the unit's limit.
+///
+/// Oracle: the pieces counted before and after ([`Hierarchy::components`], the union-find
+/// over shared faces the debris tests above check against a voxel flood fill).
+#[test]
+fn with_a_resolution_the_crumbs_are_erased_too() {
+    cow_wander_at(true, Some(0.05 / 8.0), |sc, world, tool, params, poses| {
+        assert!(world.drill_resolution() > 0.0);
+        let mut still = poses.at(3999);
+        still.buttons = 0;
+        let mut drain = *params;
+        drain.drill.budget = 10_000_000;
+        world.set_tick_budget(None);
+        let mut extra = 0;
+        while (world.debris_pending() > 0 || world.pending() > 0) && extra < 100 {
+            engine::tick(world, tool, &drain, &still);
+            extra += 1;
+        }
+        let d = world.debris();
+        let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
+        let before = world
+            .hierarchy()
+            .components(world.mesh(), &mut scratch)
+            .expect("scratch");
+        let rep = world
+            .remove_debris(DEBRIS_LEAVES, sc.drilling.max_depth, &mut scratch)
+            .expect("scratch");
+        eprintln!("cow wander at a resolution: checks {d:?}; sweep {rep:?}, {before} before");
+        assert!(d.pieces + rep.pieces >= 1, "no crumb erased: {d:?} {rep:?}");
+        assert!(d.largest < DEBRIS_LEAVES, "{d:?}");
+        assert_eq!(before, rep.pieces + 1);
+        assert_eq!(rep.components, 1);
+        engine::validate(world).expect("valid");
     });
 }
 

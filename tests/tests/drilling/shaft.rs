@@ -313,9 +313,9 @@ fn a_drill_replay_reports_its_shaft() {
 /// faces within its own ball, and its own query's box holds that ball.
 ///
 /// Oracle: a golden replay made with the whole-shaft query before the change (the force
-/// digest `e77f970bd14a4b3a`): a burr of 0.03 on a 0.3 shaft plunged into the teddy's head
+/// digest `17cf19413b83295e`): a burr of 0.03 on a 0.3 shaft plunged into the teddy's head
 /// and swept to and fro across it (the path of `scripts/clinical-drill.sh --moving`, the
-/// shaft near the surface on about a thousand ticks), at the resolution that script uses.
+/// shaft near the surface on about 1,200 ticks), at the default depth.
 #[test]
 fn the_shaft_points_query_their_own_tets_and_answer_as_the_whole_shafts_query() {
     const TEDDY: &str = "models/teddy_cgalbear_tetgen_q1.414.node";
@@ -364,10 +364,6 @@ fn the_shaft_points_query_their_own_tets_and_answer_as_the_whole_shafts_query() 
         &trace,
         "--tool",
         "drill:0.03:0.3:0.012",
-        "--resolution",
-        "0.00375",
-        "--max-depth",
-        "9",
         "--json",
         json.to_str().expect("a UTF-8 path"),
     ]);
@@ -377,5 +373,5 @@ fn the_shaft_points_query_their_own_tets_and_answer_as_the_whole_shafts_query() 
         "the shaft came near the surface: {}",
         j["shaft"]
     );
-    assert_eq!(j["force_digest"], "e77f970bd14a4b3a", "{}", j["shaft"]);
+    assert_eq!(j["force_digest"], "17cf19413b83295e", "{}", j["shaft"]);
 }
