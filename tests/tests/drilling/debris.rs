@@ -18,7 +18,9 @@ use tetradrill::scenario::Scenario;
 use tetradrill::setup::Setup;
 use tetradrill::traces::PoseSource;
 use tetradrill_core::force::ToolState;
-use tetradrill_core::hierarchy::{Crumbs, Hierarchy, CRUMB_SEEDS, DEBRIS_LEAVES};
+use tetradrill_core::hierarchy::{
+    CrumbStats, Crumbs, DebrisReport, Hierarchy, CRUMB_SEEDS, DEBRIS_LEAVES,
+};
 use tetradrill_core::mesh::Mesh;
 use tetradrill_core::servo::World;
 use tetradrill_core::TetId;
@@ -447,6 +449,39 @@ fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
     });
 }
 
+/// The drill's backlog and the checks its budget deferred, done in ticks with the drill off
+/// and a budget that lets them finish; then the sweep (`World::remove_debris`). Returns the
+/// checks' figures, the pieces counted before the sweep and the sweep's report.
+fn drain_and_sweep(
+    sc: &Setup,
+    world: &mut World<'_>,
+    tool: &mut ToolState,
+    params: &TickParams,
+    poses: &PoseSource,
+) -> (CrumbStats, u32, DebrisReport) {
+    let mut still = poses.at(3999);
+    still.buttons = 0;
+    let mut drain = *params;
+    drain.drill.budget = 10_000_000;
+    world.set_tick_budget(None);
+    let mut extra = 0;
+    while (world.debris_pending() > 0 || world.pending() > 0) && extra < 100 {
+        engine::tick(world, tool, &drain, &still);
+        extra += 1;
+    }
+    assert_eq!(world.debris_pending(), 0);
+    let d = world.debris();
+    let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
+    let before = world
+        .hierarchy()
+        .components(world.mesh(), &mut scratch)
+        .expect("scratch");
+    let rep = world
+        .remove_debris(DEBRIS_LEAVES, sc.drilling.max_depth, &mut scratch)
+        .expect("scratch");
+    (d, before, rep)
+}
+
 /// With a drill resolution each tree's leaves stop at its own depth limit, above
 /// `max_depth`: the debris's unit is then the finest leaf of the tree, not a `max_depth`
 /// leaf (a leaf at the limit used to count `8^(max_depth - limit)` units, so no crumb was
@@ -460,25 +495,7 @@ fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
 fn with_a_resolution_the_crumbs_are_erased_too() {
     cow_wander_at(true, Some(0.05 / 8.0), |sc, world, tool, params, poses| {
         assert!(world.drill_resolution() > 0.0);
-        let mut still = poses.at(3999);
-        still.buttons = 0;
-        let mut drain = *params;
-        drain.drill.budget = 10_000_000;
-        world.set_tick_budget(None);
-        let mut extra = 0;
-        while (world.debris_pending() > 0 || world.pending() > 0) && extra < 100 {
-            engine::tick(world, tool, &drain, &still);
-            extra += 1;
-        }
-        let d = world.debris();
-        let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
-        let before = world
-            .hierarchy()
-            .components(world.mesh(), &mut scratch)
-            .expect("scratch");
-        let rep = world
-            .remove_debris(DEBRIS_LEAVES, sc.drilling.max_depth, &mut scratch)
-            .expect("scratch");
+        let (d, before, rep) = drain_and_sweep(sc, world, tool, params, poses);
         eprintln!("cow wander at a resolution: checks {d:?}; sweep {rep:?}, {before} before");
         assert!(d.pieces + rep.pieces >= 1, "no crumb erased: {d:?} {rep:?}");
         assert!(d.largest < DEBRIS_LEAVES, "{d:?}");
@@ -660,38 +677,14 @@ fn while_drilling_the_pieces_counted_are_the_pieces_a_user_sees() {
 #[test]
 fn the_cow_after_a_wander_is_one_piece_with_the_drills_checks() {
     cow_wander(true, |sc, world, tool, params, poses| {
-        // The drill's backlog and the checks its budget deferred, done in ticks with the drill
-        // off and a budget that lets them finish.
-        let mut still = poses.at(3999);
-        still.buttons = 0;
-        let mut drain = *params;
-        drain.drill.budget = 10_000_000;
-        world.set_tick_budget(None);
-        let mut extra = 0;
-        while (world.debris_pending() > 0 || world.pending() > 0) && extra < 100 {
-            engine::tick(world, tool, &drain, &still);
-            extra += 1;
-        }
-        let d = world.debris();
-        eprintln!(
-            "cow wander, checks on: {d:?}, {} seeds waiting",
-            world.debris_pending()
-        );
-        assert_eq!(world.debris_pending(), 0);
+        let (d, before, rep) = drain_and_sweep(sc, world, tool, params, poses);
+        eprintln!("cow wander, checks on: {d:?}");
         assert!(d.pieces >= 1, "{d:?}");
         assert!(d.largest < DEBRIS_LEAVES, "{d:?}");
         // A drill far behind the burr gives the checks an eighth of its budget, so seeds are
         // dropped (counted) and some crumbs wait for the sweep: the checks erase crumbs and
         // nothing larger, and the sweep leaves one piece.
         assert!(d.saturations > 0, "{d:?}");
-        let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
-        let before = world
-            .hierarchy()
-            .components(world.mesh(), &mut scratch)
-            .expect("scratch");
-        let rep = world
-            .remove_debris(DEBRIS_LEAVES, sc.drilling.max_depth, &mut scratch)
-            .expect("scratch");
         assert_eq!(rep.components, 1);
         assert_eq!(before, rep.pieces + 1);
         engine::validate(world).expect("valid");
