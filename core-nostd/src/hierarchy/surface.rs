@@ -224,8 +224,15 @@ impl Hierarchy<'_> {
             if depth as usize >= MAX_DEPTH {
                 continue;
             }
+            let Some(b) = node.block() else { continue };
+            let first = self.block_ref(b);
             for c in 0..8u8 {
-                if let (Some(ch), Some(slot)) = (self.child(r, c), stack.get_mut(top)) {
+                // A child without surface would be dropped when taken: not pushed.
+                let ch = first + u32::from(c);
+                if !self.node(ch).is_some_and(|n| n.surface()) {
+                    continue;
+                }
+                if let Some(slot) = stack.get_mut(top) {
                     *slot = (
                         ch,
                         index * 8 + 1 + c as u32,
