@@ -484,10 +484,10 @@ fn drain_and_sweep(
 
 /// With a drill resolution each tree's leaves stop at its own depth limit, above
 /// `max_depth`: the debris's unit is then the finest leaf of the tree, not a `max_depth`
-/// leaf (a leaf at the limit used to count `8^(max_depth - limit)` units, so no crumb was
-/// ever small enough: the cow's wander below left 4 pieces at `--resolution 0.00625
-/// --max-depth 9`, against 1 without the resolution). With the drill's checks and then the
-/// sweep, one piece is left, every piece erased smaller than the unit's limit.
+/// leaf (counted in `max_depth` leaves, a leaf at the limit would weigh
+/// `8^(max_depth - limit)` units and no crumb would ever be small enough). With the drill's
+/// checks and then the sweep, the cow's wander at `--resolution 0.00625 --max-depth 9` ends
+/// in one piece, every piece erased smaller than the unit's limit.
 ///
 /// Oracle: the pieces counted before and after ([`Hierarchy::components`], the union-find
 /// over shared faces the debris tests above check against a voxel flood fill).

@@ -308,11 +308,11 @@ fn a_drill_replay_reports_its_shaft() {
 
 /// Each of the shaft's points looks for the surface among its own tets (`World::track_shaft`:
 /// one small query per point) rather than among all the tets of the box around the whole
-/// shaft, which each point used to walk in full (a 0.3 shaft in the teddy: a tick's p99 of
-/// 650 us, now under 300 us). The answers cannot change: a point is only ever offered the
+/// shaft, each walked by every point (a 0.3 shaft in the teddy: a tick's p99 of 650 us
+/// against under 300 us). The answers cannot change: a point is only ever offered the
 /// faces within its own ball, and its own query's box holds that ball.
 ///
-/// Oracle: a golden replay made with the whole-shaft query before the change (the force
+/// Oracle: a golden replay made with the whole-shaft query (commit 5a58d46; the force
 /// digest `17cf19413b83295e`): a burr of 0.03 on a 0.3 shaft plunged into the teddy's head
 /// and swept to and fro across it (the path of `scripts/clinical-drill.sh --moving`, the
 /// shaft near the surface on about 1,200 ticks), at the default depth.
