@@ -58,7 +58,7 @@
 //! // One flipped payload bit is caught by the checksum.
 //! bytes[40] ^= 1;
 //! assert!(matches!(MeshBlob::parse(&bytes), Err(BlobError::Checksum { .. })));
-//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! # Ok::<(), tetradrill_core::Error>(())
 //! ```
 
 use glam::Vec3;

@@ -36,7 +36,7 @@
 //!     }
 //! }
 //! assert!(world.hierarchy().removed_volume() > 0.0);
-//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! # Ok::<(), tetradrill_core::Error>(())
 //! ```
 //!
 //! With the `alloc` feature, the `owned` module holds the same storage on the heap
@@ -83,6 +83,7 @@ pub mod builtin;
 pub mod collide;
 pub mod depth;
 pub mod drill;
+mod error;
 pub mod force;
 pub mod geom;
 pub mod hash;
@@ -98,5 +99,6 @@ pub mod storage;
 pub mod owned;
 pub mod prelude;
 
+pub use error::Error;
 pub use glam::{Quat, Vec3};
 pub use ids::{NodeId, TetId};

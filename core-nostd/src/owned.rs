@@ -20,7 +20,7 @@
 //! let mut buffers = WorldBuffers::new(WorldSizes::new(mesh.tets().len(), 4096))?;
 //! let world = buffers.world(mesh.view())?;
 //! assert_eq!(world.hierarchy().stats().visible_faces, 12);
-//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! # Ok::<(), tetradrill_core::Error>(())
 //! ```
 
 mod pen;

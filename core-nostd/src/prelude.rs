@@ -28,7 +28,7 @@
 //!     let world = buffers.world(mesh.view())?;
 //!     assert_eq!(world.mesh().tet_count(), 12);
 //! }
-//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! # Ok::<(), tetradrill_core::Error>(())
 //! ```
 
 pub use crate::drill::DrillParams;

@@ -266,3 +266,17 @@ pub fn read_json(path: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(path).expect("read the JSON");
     serde_json::from_str(&text).expect("parse the JSON")
 }
+
+/// A set-up's tick parameters and its engine storage, its mesh loaded: what a test that
+/// runs `engine::tick` over a world (`storage.world()`) starts from.
+pub fn engine_storage(
+    sc: &tetradrill::setup::Setup,
+) -> (
+    tetradrill::engine::TickParams,
+    tetradrill::engine::EngineStorage,
+) {
+    let params = tetradrill::engine::TickParams::of(sc).expect("scenario");
+    let loaded = tetradrill::engine::load_mesh(sc).expect("mesh");
+    let store = tetradrill::engine::EngineStorage::new(loaded.mesh, sc).expect("storage");
+    (params, store)
+}

@@ -45,7 +45,7 @@
 //! let found = points_in_tets(&hashed, &object, &other, false, &mut out);
 //! let inside: Vec<u32> = out[..found.count].iter().map(|c| c.node.0).collect();
 //! assert_eq!(inside, [0, 2, 4, 6, 8]);
-//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! # Ok::<(), tetradrill_core::Error>(())
 //! ```
 
 mod body;

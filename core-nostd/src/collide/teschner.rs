@@ -21,7 +21,7 @@
 //! let found = tets_over_points(&hashed, &points, &Body::fixed(&mesh), false, &mut out);
 //! let inside: Vec<u32> = out[..found.count].iter().map(|c| c.node.0).collect();
 //! assert_eq!(inside, [0, 2]);
-//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! # Ok::<(), tetradrill_core::Error>(())
 //! ```
 
 use glam::Vec3;

@@ -85,7 +85,7 @@
 //! for p in &out[..4] {
 //!     assert!((p.depth - 0.05).abs() < 0.005 && p.dir.z > 0.98);
 //! }
-//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! # Ok::<(), tetradrill_core::Error>(())
 //! ```
 
 mod crossing;

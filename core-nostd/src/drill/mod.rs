@@ -45,7 +45,7 @@
 //! let half_ball = 2.0 / 3.0 * core::f64::consts::PI * 0.2f64.powi(3);
 //! assert!((h.removed_volume() / half_ball - 1.0).abs() < 0.01);
 //! h.validate(&mesh)?;
-//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! # Ok::<(), tetradrill_core::Error>(())
 //! ```
 
 mod candidates;

@@ -397,6 +397,7 @@ impl Crumbs {
         let mut last: Option<(TetId, u8)> = None;
         let mut units = |tet: TetId, depth: u8| {
             let unit = match last {
+                _ if resolution <= 0.0 => max_depth,
                 Some((t, u)) if t == tet => u,
                 _ => {
                     let u = super::unit_depth(mesh, tet, max_depth, resolution);

@@ -275,7 +275,7 @@ struct Sweep {
 /// // Nothing changed since: nothing is written.
 /// let report = surface.update(world.hierarchy(), world.mesh(), |_| 7, 100, &mut out)?;
 /// assert_eq!((report.written, report.ranges), (0, 0));
-/// # Ok::<(), Box<dyn core::error::Error>>(())
+/// # Ok::<(), tetradrill_core::Error>(())
 /// ```
 #[derive(Debug)]
 pub struct SurfaceExport<'a> {

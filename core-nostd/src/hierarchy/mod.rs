@@ -68,7 +68,7 @@
 //! assert_eq!(h.stats().visible_faces, 19);
 //! assert!((erased.removed - 1.0 / 96.0).abs() < 1e-9);
 //! h.validate(&mesh)?;
-//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! # Ok::<(), tetradrill_core::Error>(())
 //! ```
 
 mod changes;

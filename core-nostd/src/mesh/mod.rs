@@ -36,7 +36,7 @@
 //! let f = (0..4).find(|&f| !mesh.is_boundary_face(t, f)).unwrap();
 //! let back = mesh.reverse(t, f).face();
 //! assert_eq!(mesh.neighbour(mesh.neighbour(t, f), back), t);
-//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! # Ok::<(), tetradrill_core::Error>(())
 //! ```
 
 mod build;

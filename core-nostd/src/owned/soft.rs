@@ -23,7 +23,7 @@ use super::Heap;
 /// let mut body = buffers.body(mesh, &[material], SoftParams::default())?;
 /// body.step(0.01, &[Vec3::Z; 8])?;
 /// assert!(body.position(7).unwrap().z > 1.0);
-/// # Ok::<(), Box<dyn core::error::Error>>(())
+/// # Ok::<(), tetradrill_core::Error>(())
 /// ```
 #[derive(Debug, Clone)]
 pub struct SoftBuffers {

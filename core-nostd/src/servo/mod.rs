@@ -224,7 +224,7 @@ impl Saturations {
 /// });
 /// assert_eq!(forces[..2], [Vec3::ZERO; 2]);
 /// assert!((forces[2] - Vec3::Z * 2.0).length() < 1e-4);
-/// # Ok::<(), Box<dyn core::error::Error>>(())
+/// # Ok::<(), tetradrill_core::Error>(())
 /// ```
 #[derive(Debug)]
 pub struct World<'a> {

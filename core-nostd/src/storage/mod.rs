@@ -38,7 +38,7 @@
 //! let storage = WorldStorage::carve(&sizes, &mut Block::from_lines(&mut lines))?;
 //! let world = World::new(mesh, storage)?;
 //! assert_eq!(world.mesh().tet_count(), 12);
-//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! # Ok::<(), tetradrill_core::Error>(())
 //! ```
 
 use core::fmt;

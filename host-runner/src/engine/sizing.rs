@@ -134,17 +134,16 @@ impl ToolSizing {
         // storage (see `ZoneGather`) holds a list as long as the one-shot query's, or a box's
         // tets and half again.
         let mean_volume = mesh_volume / tets;
-        let gather_work =
-            (estimate >= GATHER_FROM_TETS && cell > 0.0 && mean_volume > 0.0).then(|| {
-                let side = (3.0 + 4.0 * f64::from(ZONE_MARGIN_RADII)) * radius;
-                let mean_side = all_side / tets;
-                let cells = (side / cell + 1.0).powi(3);
-                let entries = side.powi(3) / mean_volume * (mean_side / cell + 1.0).powi(3);
-                (((cells + entries) / GATHER_STEPS).ceil() as u32).max(GATHER_MIN_WORK)
-            });
-        let candidates = if gather_work.is_some() {
-            let side = (3.0 + 4.0 * f64::from(ZONE_MARGIN_RADII)) * radius;
-            let listed = (1.5 * side.powi(3) / mean_volume).ceil() as usize;
+        let side = (3.0 + 4.0 * f64::from(ZONE_MARGIN_RADII)) * radius;
+        let box_tets = side.powi(3) / mean_volume;
+        let gathered = estimate >= GATHER_FROM_TETS && cell > 0.0 && mean_volume > 0.0;
+        let gather_work = gathered.then(|| {
+            let cells = (side / cell + 1.0).powi(3);
+            let entries = box_tets * (all_side / tets / cell + 1.0).powi(3);
+            (((cells + entries) / GATHER_STEPS).ceil() as u32).max(GATHER_MIN_WORK)
+        });
+        let candidates = if gathered {
+            let listed = (1.5 * box_tets).ceil() as usize;
             3 * candidates.max(listed.min(mesh.tets().len()))
         } else {
             candidates

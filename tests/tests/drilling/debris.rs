@@ -421,14 +421,7 @@ fn cow_wander_at(
 #[test]
 fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
     cow_wander(false, |sc, world, _, _, _| {
-        let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
-        let before = world
-            .hierarchy()
-            .components(world.mesh(), &mut scratch)
-            .expect("scratch");
-        let rep = world
-            .remove_debris(DEBRIS_LEAVES, sc.drilling.max_depth, &mut scratch)
-            .expect("scratch");
+        let (before, rep) = sweep(sc, world);
         engine::validate(world).expect("valid");
         eprintln!(
             "cow wander: {before} pieces, {} erased ({} leaves, volume {:.3e}), {} left",
@@ -439,6 +432,7 @@ fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
         assert!(rep.nodes < rep.pieces * DEBRIS_LEAVES);
         assert_eq!(before, rep.pieces + 1);
         assert_eq!(rep.components, 1);
+        let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
         assert_eq!(
             world
                 .hierarchy()
@@ -450,8 +444,8 @@ fn the_cow_after_a_wander_is_one_piece_once_its_crumbs_are_erased() {
 }
 
 /// The drill's backlog and the checks its budget deferred, done in ticks with the drill off
-/// and a budget that lets them finish; then the sweep (`World::remove_debris`). Returns the
-/// checks' figures, the pieces counted before the sweep and the sweep's report.
+/// and a budget that lets them finish; then the sweep ([`sweep`]). Returns the checks'
+/// figures, the pieces counted before the sweep and the sweep's report.
 fn drain_and_sweep(
     sc: &Setup,
     world: &mut World<'_>,
@@ -471,6 +465,13 @@ fn drain_and_sweep(
     }
     assert_eq!(world.debris_pending(), 0);
     let d = world.debris();
+    let (before, rep) = sweep(sc, world);
+    (d, before, rep)
+}
+
+/// The pieces counted, then the debris swept (`World::remove_debris` with the default size
+/// limit): the pieces before and the sweep's report.
+fn sweep(sc: &Setup, world: &mut World<'_>) -> (u32, DebrisReport) {
     let mut scratch = vec![0u32; world.hierarchy().debris_scratch_needed()];
     let before = world
         .hierarchy()
@@ -479,7 +480,7 @@ fn drain_and_sweep(
     let rep = world
         .remove_debris(DEBRIS_LEAVES, sc.drilling.max_depth, &mut scratch)
         .expect("scratch");
-    (d, before, rep)
+    (before, rep)
 }
 
 /// With a drill resolution each tree's leaves stop at its own depth limit, above

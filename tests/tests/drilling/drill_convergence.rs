@@ -9,7 +9,7 @@
 //! the box around the spheres: the estimate's relative standard error, `sqrt((1 - p) / (n p))`
 //! for the fraction `p` of samples that hit, is computed and checked to be under 0.5 %.
 
-use tetradrill::engine::{self, EngineStorage, TickParams};
+use tetradrill::engine;
 use tetradrill::scenario::Scenario;
 use tetradrill::traces::Pose;
 use tetradrill_core::force::ToolState;
@@ -180,9 +180,7 @@ fn drill(mesh: &str, r: f64, max_depth: u8, centres: &[D3]) -> f64 {
     }
     .setup()
     .expect("a valid set-up");
-    let params = TickParams::of(&sc).expect("scenario");
-    let loaded = engine::load_mesh(&sc).expect("mesh");
-    let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
+    let (params, mut store) = tetradrill_tests::engine_storage(&sc);
     let mut world = store.world().expect("world");
     let mut tool = ToolState::default();
     for c in centres {

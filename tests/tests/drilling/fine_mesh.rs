@@ -41,9 +41,7 @@ fn hold(n: usize, radius: f64, max_depth: u8, max_ticks: u64) -> Held {
     }
     .setup()
     .expect("a valid set-up");
-    let params = TickParams::of(&sc).expect("scenario");
-    let loaded = engine::load_mesh(&sc).expect("mesh");
-    let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
+    let (params, mut store) = tetradrill_tests::engine_storage(&sc);
     let candidates = store.candidate_capacity();
     let arena = store.hierarchy_capacity();
     let mut world = store.world().expect("world");
@@ -192,9 +190,7 @@ fn a_large_zone_is_gathered_over_steps_and_drills_as_the_one_shot_query() {
         }
         .setup()
         .expect("a valid set-up");
-        let params = TickParams::of(&sc).expect("scenario");
-        let loaded = engine::load_mesh(&sc).expect("mesh");
-        let mut store = EngineStorage::new(loaded.mesh, &sc).expect("storage");
+        let (params, mut store) = tetradrill_tests::engine_storage(&sc);
         let chosen = store.zone_gather().copied();
         let mut world = store.world().expect("world");
         let mut tool = ToolState::default();

@@ -5,18 +5,21 @@
 
 use tetradrill_tests::{json_of, scratch_dir};
 
-/// A plunge of a 0.15 burr from above the block's top face (z = 0.5) down to z = 0.1, held
-/// there for 3 s so the drill catches up.
-fn plunge(mesh: &str, extra: &[&str], name: &str) -> serde_json::Value {
+/// A replay of a 0.15 burr along `keys` (seconds, centre; the drill on throughout) on
+/// `mesh`, with the `extra` flags: its JSON.
+fn replay_path(
+    mesh: &str,
+    keys: &[(f64, [f64; 3])],
+    extra: &[&str],
+    name: &str,
+) -> serde_json::Value {
     let dir = scratch_dir("resolution-trace", name);
-    let trace = dir.join("plunge.csv");
-    std::fs::write(
-        &trace,
-        "t,x,y,z,qw,qx,qy,qz,buttons\n0.0,0.013,0.021,0.9,1,0,0,0,1\n\
-         0.5,0.013,0.021,0.9,1,0,0,0,1\n2.0,0.013,0.021,0.1,1,0,0,0,1\n\
-         5.0,0.013,0.021,0.1,1,0,0,0,1\n",
-    )
-    .expect("trace");
+    let trace = dir.join("path.csv");
+    let mut csv = String::from("t,x,y,z,qw,qx,qy,qz,buttons\n");
+    for (t, p) in keys {
+        csv.push_str(&format!("{t},{},{},{},1,0,0,0,1\n", p[0], p[1], p[2]));
+    }
+    std::fs::write(&trace, csv).expect("trace");
     let trace = trace.to_string_lossy().into_owned();
     let mut args = vec![
         "replay",
@@ -30,6 +33,18 @@ fn plunge(mesh: &str, extra: &[&str], name: &str) -> serde_json::Value {
     ];
     args.extend_from_slice(extra);
     json_of(&args, "resolution", name)
+}
+
+/// A plunge of a 0.15 burr from above the block's top face (z = 0.5) down to z = 0.1, held
+/// there for 3 s so the drill catches up.
+fn plunge(mesh: &str, extra: &[&str], name: &str) -> serde_json::Value {
+    let keys = [
+        (0.0, [0.013, 0.021, 0.9]),
+        (0.5, [0.013, 0.021, 0.9]),
+        (2.0, [0.013, 0.021, 0.1]),
+        (5.0, [0.013, 0.021, 0.1]),
+    ];
+    replay_path(mesh, &keys, extra, name)
 }
 
 #[test]
@@ -133,38 +148,11 @@ fn swept_by_monte_carlo(r: f64, n: u32) -> f64 {
 /// box around it: a standard error of about 0.2 %).
 #[test]
 fn a_moving_burr_drills_its_swept_volume_on_fine_and_coarse_meshes() {
-    let dir = scratch_dir("resolution-trace", "moving");
-    let trace = dir.join("moving.csv");
-    let mut csv = String::from("t,x,y,z,qw,qx,qy,qz,buttons\n");
-    for (t, p) in MOVING {
-        csv.push_str(&format!("{t},{},{},{},1,0,0,0,1\n", p[0], p[1], p[2]));
-    }
-    std::fs::write(&trace, csv).expect("trace");
-    let trace = trace.to_string_lossy().into_owned();
     let swept = swept_by_monte_carlo(0.15, 400_000);
-    let run = |mesh: &str, name: &str| {
-        json_of(
-            &[
-                "replay",
-                "--mesh",
-                mesh,
-                "--trace",
-                &trace,
-                "--tool",
-                "sphere:0.15",
-                "--resolution",
-                "0.0375",
-                "--max-depth",
-                "9",
-                "--quiet",
-            ],
-            "resolution",
-            name,
-        )
-    };
+    let res = ["--resolution", "0.0375", "--max-depth", "9"];
     let (coarse, fine) = (
-        run("builtin:block:4", "moving-coarse"),
-        run("builtin:block:8", "moving-fine"),
+        replay_path("builtin:block:4", &MOVING, &res, "moving-coarse"),
+        replay_path("builtin:block:8", &MOVING, &res, "moving-fine"),
     );
     for (name, j) in [("block:4", &coarse), ("block:8", &fine)] {
         let v = j["removed_volume"].as_f64().expect("removed");
