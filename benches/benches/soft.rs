@@ -11,8 +11,11 @@
 //! `SOFT_PROFILE=parts-cow` (or `parts-teddy`) does the same on the body reordered in two parts
 //! (`SoftOwned::in_two_parts`), stepped by `step` on one thread, and `SOFT_PROFILE=two-cow` (or
 //! `two-teddy`) by `step_two` on two threads (add `--separate-threads=yes
-//! --toggle-collect='*PartSweep*run*'` for each thread's count). A second `STEPS` line per mesh
-//! times that reordered body stepped by `SoftBody::step_two` on two threads.
+//! --toggle-collect='*PartSweep*run*'` for each thread's count); `SOFT_PROFILE=lanes-cow` (or
+//! `lanes-teddy`) on the body's tets grouped for the sweep's lanes (`SoftOwned::in_lanes`),
+//! stepped by `step`. Two more `STEPS` lines per mesh time the body in lanes on one thread and
+//! the body in two parts (its parts in lanes too) stepped by `SoftBody::step_two` on two
+//! threads.
 //!
 //! The world's side of a deforming mesh is timed in the same pass (`WORLD` lines): after each
 //! soft step the body's positions are handed to a world over the same mesh
@@ -100,8 +103,28 @@ fn steps_pass() {
             .map(|u| u.length())
             .fold(0.0f32, f32::max);
         assert!(worst.is_finite(), "the {name} stays finite");
+        lanes_pass(name, rel);
         two_parts_pass(name, rel);
     }
+}
+
+/// The same steps with the body's tets in groups of four that share no node
+/// (`SoftOwned::in_lanes`), the sweep's lanes: a `STEPS` line with `in lanes` in it.
+fn lanes_pass(name: &str, rel: &str) {
+    let (soft, _) = Scene::new(rel).0.in_lanes();
+    let mut scene = Scene(soft);
+    let mut body = scene.body();
+    let runs = 100;
+    let mut times = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        let t0 = Instant::now();
+        body.step(black_box(DT), &[]).expect("valid step");
+        times.push(t0.elapsed());
+    }
+    let (mean, min, max) = spread(&times);
+    println!(
+        "STEPS soft {name}, in lanes on one thread: mean {mean:.2} ms, min {min:.2} ms, max {max:.2} ms per step",
+    );
 }
 
 /// The same steps with the body in two parts on two threads (`SoftBody::step_two` with
@@ -243,9 +266,16 @@ fn main() {
     if let Ok(only) = std::env::var("SOFT_PROFILE") {
         // `parts-cow`, `parts-teddy`: the body reordered in two parts, stepped by `step` on one
         // thread; `two-cow`, `two-teddy`: the same body stepped by `step_two` on two threads.
-        let (mode, only) = match (only.strip_prefix("parts-"), only.strip_prefix("two-")) {
-            (Some(name), _) => (1, name.to_owned()),
-            (_, Some(name)) => (2, name.to_owned()),
+        // `lanes-cow`, `lanes-teddy`: the tets in groups of four for the sweep's lanes
+        // (`SoftOwned::in_lanes`), stepped by `step`.
+        let (mode, only) = match (
+            only.strip_prefix("parts-"),
+            only.strip_prefix("two-"),
+            only.strip_prefix("lanes-"),
+        ) {
+            (Some(name), _, _) => (1, name.to_owned()),
+            (_, Some(name), _) => (2, name.to_owned()),
+            (_, _, Some(name)) => (3, name.to_owned()),
             _ => (0, only),
         };
         for (_, rel) in MESHES
@@ -254,7 +284,9 @@ fn main() {
         {
             let mut scene = Scene::new(rel);
             let mut order = None;
-            if mode > 0 {
+            if mode == 3 {
+                scene = Scene(scene.0.in_lanes().0);
+            } else if mode > 0 {
                 let (soft, o) = scene.0.in_two_parts();
                 scene = Scene(soft);
                 order = Some(o);

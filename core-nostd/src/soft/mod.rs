@@ -11,6 +11,8 @@
 //! as displacements from rest, so small strains stay exact in f32 whatever the mesh's
 //! offset. docs/SOFT.md has the formulation, its small-strain limit and the measured times.
 
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+mod lanes;
 mod link;
 mod load;
 mod material;

@@ -15,6 +15,8 @@ use core::ops::Range;
 
 use glam::Vec3;
 
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+use super::lanes;
 use super::{project, SoftBody, SoftStorage, StepError, TetRest};
 
 /// Work units of one node's update (integration or velocity).
@@ -137,6 +139,12 @@ pub(super) struct TetRun<'s> {
 /// each tet's multipliers before its solve (the first sweep of a substep). A tet naming a node
 /// outside the slices is skipped (the callers' slices hold every node their tets name).
 ///
+/// Where the target has four-wide f32 arithmetic (x86-64, AArch64), four consecutive tets
+/// that share no node are solved at once (`lanes::project4`): the same bits as one after the other,
+/// since neither reads a node the other writes. A body ordered so that its tets come in such
+/// groups (the host's `SoftOwned::in_lanes`) is swept in about a third of the time; any other
+/// order costs one failed check per tet.
+///
 /// # Bounded work
 /// O(tets).
 pub(super) fn sweep(
@@ -147,34 +155,85 @@ pub(super) fn sweep(
     first: bool,
     inv_h2: f32,
 ) {
-    for ((tet, rest), lambda) in run.tets.iter().zip(run.rests).zip(run.lambdas) {
-        if first {
-            *lambda = [0.0; 2];
+    let TetRun {
+        tets,
+        rests,
+        lambdas,
+    } = run;
+    let n = tets.len().min(rests.len()).min(lambdas.len());
+    #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+    let nodes = displacement.len().min(inv_mass.len());
+    let mut i = 0;
+    while i < n {
+        #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+        if let (Some(group), Some(rest), Some(lambda)) = (
+            tets.get(i..i + 4),
+            rests.get(i..i + 4),
+            lambdas.get_mut(i..i + 4),
+        ) {
+            if let Some(slots) = lanes::disjoint(group, first_node, nodes) {
+                lanes::solve4(slots, rest, lambda, displacement, inv_mass, first, inv_h2);
+                i += 4;
+                continue;
+            }
         }
-        let [a, b, c, d] = tet.map(|k| (k as usize).wrapping_sub(first_node));
-        let (Some(&ua), Some(&ub), Some(&uc), Some(&ud)) = (
-            displacement.get(a),
-            displacement.get(b),
-            displacement.get(c),
-            displacement.get(d),
-        ) else {
-            continue;
-        };
-        let (Some(&wa), Some(&wb), Some(&wc), Some(&wd)) = (
-            inv_mass.get(a),
-            inv_mass.get(b),
-            inv_mass.get(c),
-            inv_mass.get(d),
-        ) else {
-            continue;
-        };
-        let du = project(rest, [ua, ub, uc, ud], [wa, wb, wc, wd], lambda, inv_h2);
-        // In range: read above.
-        displacement[a] += du[0];
-        displacement[b] += du[1];
-        displacement[c] += du[2];
-        displacement[d] += du[3];
+        if let (Some(tet), Some(rest), Some(lambda)) =
+            (tets.get(i), rests.get(i), lambdas.get_mut(i))
+        {
+            solve1(
+                tet,
+                rest,
+                lambda,
+                displacement,
+                inv_mass,
+                first_node,
+                first,
+                inv_h2,
+            );
+        }
+        i += 1;
     }
+}
+
+/// One tet's solve in a sweep ([`sweep`]).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn solve1(
+    tet: &[u32; 4],
+    rest: &TetRest,
+    lambda: &mut [f32; 2],
+    displacement: &mut [Vec3],
+    inv_mass: &[f32],
+    first_node: usize,
+    first: bool,
+    inv_h2: f32,
+) {
+    if first {
+        *lambda = [0.0; 2];
+    }
+    let [a, b, c, d] = tet.map(|k| (k as usize).wrapping_sub(first_node));
+    let (Some(&ua), Some(&ub), Some(&uc), Some(&ud)) = (
+        displacement.get(a),
+        displacement.get(b),
+        displacement.get(c),
+        displacement.get(d),
+    ) else {
+        return;
+    };
+    let (Some(&wa), Some(&wb), Some(&wc), Some(&wd)) = (
+        inv_mass.get(a),
+        inv_mass.get(b),
+        inv_mass.get(c),
+        inv_mass.get(d),
+    ) else {
+        return;
+    };
+    let du = project(rest, [ua, ub, uc, ud], [wa, wb, wc, wd], lambda, inv_h2);
+    // In range: read above.
+    displacement[a] += du[0];
+    displacement[b] += du[1];
+    displacement[c] += du[2];
+    displacement[d] += du[3];
 }
 
 /// A run of nodes' velocities (the end of a substep): a free node's from its displacement

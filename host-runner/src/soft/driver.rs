@@ -134,6 +134,10 @@ pub struct SoftDriver<'a> {
     stiffness: Stiffness,
     /// The spread step, when the spec asks for it.
     spread: Option<Spread>,
+    /// The body's index of each world tet: whole steps order the body's tets for the sweep's
+    /// lanes ([`SoftOwned::in_lanes`]); empty for the spread step, which keeps the world's
+    /// order (the firmware's).
+    body_tet: Vec<u32>,
 }
 
 /// A [`SoftDriver`]'s spread step: the link (made at the first tick, from the world) and its
@@ -168,6 +172,17 @@ impl<'a> SoftDriver<'a> {
                 (lo.min(p.z), hi.max(p.z))
             });
         let materials = material_uses(spec, &owned.tet_material, owned.tets.len());
+        // Whole steps: the tets in groups of four that share no node, which the sweep solves
+        // four at a time (the nodes keep the world's order).
+        let mut body_tet = Vec::new();
+        if !spec.spread {
+            let (lanes, tet_of) = owned.in_lanes();
+            *owned = lanes;
+            body_tet = vec![0u32; tet_of.len()];
+            for (new, &old) in tet_of.iter().enumerate() {
+                body_tet[old as usize] = new as u32;
+            }
+        }
         let stiffness = Stiffness::of(owned, spec);
         if stiffness.s_max > 1.0 {
             let who = stiffness
@@ -233,6 +248,7 @@ impl<'a> SoftDriver<'a> {
                 next: vec![Vec3::ZERO; n],
                 ..Spread::default()
             }),
+            body_tet,
         })
     }
 
@@ -278,8 +294,9 @@ impl<'a> SoftDriver<'a> {
         }
         if let Some(t) = world.contact_tet() {
             if force != Vec3::ZERO && ticks > 0 {
+                let tet = self.body_tet.get(t.idx()).map_or(t.idx(), |&k| k as usize);
                 self.body.add_point_force(
-                    t.idx(),
+                    tet,
                     world.contact().point,
                     -force * ticks as f32,
                     &mut self.external,

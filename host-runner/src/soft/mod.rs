@@ -14,10 +14,12 @@ use tetradrill_core::Vec3;
 use crate::error::Error;
 
 mod driver;
+mod lanes;
 mod spec;
 mod two;
 
 pub use driver::{DeformSummary, SoftDriver, SpreadSummary, StepTiming};
+pub use lanes::{lane_order, LANE_WINDOW};
 pub use spec::{
     material_uses, Fix, MaterialUse, SoftRegion, SoftSpec, Stiffness, DAMPING, DEFAULT_POISSON,
     DEFAULT_RATE_HZ, DEFAULT_YOUNG, DENSITY, SUBSTEPS,

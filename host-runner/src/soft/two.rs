@@ -6,6 +6,7 @@
 use tetradrill_core::soft::{PartSweep, SoftBody, TwoParts};
 use tetradrill_core::Vec3;
 
+use super::lanes::lane_order;
 use super::SoftOwned;
 
 /// Where [`SoftOwned::in_two_parts`] put a body's nodes and tets.
@@ -35,9 +36,11 @@ impl SoftOwned {
     /// The same body with its nodes and tets reordered into two parts that share no node:
     /// the nodes on either side of the median of the tets' centroids along the rest mesh's
     /// longest axis, the tets whose four nodes lie on one side in that side's part, the tets
-    /// that straddle the cut last. Each part keeps its original relative order (the loader's
-    /// spatial order), so the sweep's order, and its Gauss-Seidel result, changes only where
-    /// the cut moves the straddling tets to the end. Per-tet materials follow their tets.
+    /// that straddle the cut last. Each of the three keeps its original relative order (the
+    /// loader's spatial order) as far as [`lane_order`] does, grouping its tets in fours that
+    /// share no node for the sweep's lanes, so the sweep's order, and its Gauss-Seidel
+    /// result, changes only where the cut moves the straddling tets to the end and within a
+    /// group's window. Per-tet materials follow their tets.
     pub fn in_two_parts(&self) -> (SoftOwned, PartsOrder) {
         let (lo, hi) = self.rest.iter().fold(
             (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
@@ -85,9 +88,11 @@ impl SoftOwned {
         let mut tet_of = Vec::with_capacity(self.tets.len());
         let mut ends = [0usize; 3];
         for (c, end) in ends.iter_mut().enumerate() {
-            tet_of.extend(
-                (0..self.tets.len() as u32).filter(|&t| class(&self.tets[t as usize]) == c),
-            );
+            let of: Vec<u32> = (0..self.tets.len() as u32)
+                .filter(|&t| class(&self.tets[t as usize]) == c)
+                .collect();
+            let tets: Vec<[u32; 4]> = of.iter().map(|&t| self.tets[t as usize]).collect();
+            tet_of.extend(lane_order(&tets).into_iter().map(|i| of[i as usize]));
             *end = tet_of.len();
         }
         let rest = node_of.iter().map(|&k| self.rest[k as usize]).collect();

@@ -69,6 +69,34 @@ fn the_sequential_step_keeps_the_recorded_field() {
     }
     let err = relative_l2(&body);
     eprintln!("sequential step: relative L2 {err:e} from the recorded field");
+    // The loader's order, whose groups of four that happen to share no node take the lanes:
+    // the recorded bits exactly.
+    assert!(err == 0.0, "{err}");
+}
+
+#[test]
+fn the_step_in_lanes_keeps_the_recorded_field() {
+    let (mut soft, tet_of) = cow().in_lanes();
+    // Nearly every tet in a group of four that shares no node, from the start.
+    let groups = soft
+        .tets
+        .chunks_exact(4)
+        .take_while(|g| (0..4).all(|a| (a + 1..4).all(|b| !g[a].iter().any(|k| g[b].contains(k)))))
+        .count();
+    assert!(groups * 4 * 100 >= soft.tets.len() * 95, "{groups} groups");
+    let mut seen = tet_of.clone();
+    seen.sort_unstable();
+    assert!(seen.iter().enumerate().all(|(i, &t)| t as usize == i));
+    let (mut body, _) = tetradrill_benches::soft_bench_body(&mut soft, 1).unwrap();
+    for _ in 0..100 {
+        body.step(1e-3, &[]).unwrap();
+    }
+    let err = relative_l2(&body);
+    eprintln!(
+        "in lanes ({} of {} tets in groups): relative L2 {err:e} from the recorded field",
+        groups * 4,
+        body.tet_count()
+    );
     assert!(err < 1e-2, "{err}");
 }
 
