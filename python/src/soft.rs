@@ -40,6 +40,9 @@ impl std::fmt::Debug for Live {
 #[derive(Debug)]
 pub struct SoftBody {
     live: Live,
+    /// The caller's index of each of the body's tets: the body holds them grouped for the
+    /// sweep's lanes (`SoftOwned::in_lanes`), four at a time on x86-64 and AArch64.
+    tet_of: Vec<u32>,
     steps: u64,
     time: f64,
 }
@@ -76,10 +79,12 @@ fn parts(
 
 impl SoftBody {
     fn over(owned: SoftOwned, material: Material, params: SoftParams) -> PyResult<Self> {
+        let (owned, tet_of) = owned.in_lanes();
         let live = Live::try_new(owned, |o| o.body(&[material], params))
             .map_err(|e| errors::input(format!("soft body: {e}")))?;
         Ok(Self {
             live,
+            tet_of,
             steps: 0,
             time: 0.0,
         })
@@ -238,12 +243,17 @@ impl SoftBody {
         self.live.with_body(|b| arrays::to_numpy(py, b.rest()))
     }
 
-    /// Tets, `T x 4` node indices (positively oriented).
+    /// Tets, `T x 4` node indices (positively oriented), in the order they were given.
     #[getter]
     fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
-        let t: Vec<[i64; 4]> = self
-            .live
-            .with_body(|b| b.tets().iter().map(|t| t.map(i64::from)).collect());
+        let mut t = vec![[0i64; 4]; self.tet_of.len()];
+        self.live.with_body(|b| {
+            for (tet, &at) in b.tets().iter().zip(&self.tet_of) {
+                if let Some(slot) = t.get_mut(at as usize) {
+                    *slot = tet.map(i64::from);
+                }
+            }
+        });
         arrays::rows(py, &t)
     }
 

@@ -5,14 +5,22 @@
 use serde::Serialize;
 
 use tetradrill_core::servo::World;
-use tetradrill_core::soft::{Link, LinkBuffers, SoftBody, SoftError, SoftParams};
+use tetradrill_core::soft::{Link, LinkBuffers, SoftBody, SoftError, SoftParams, TwoParts};
 use tetradrill_core::Vec3;
 
-use super::{material_uses, Fix, MaterialUse, SoftOwned, SoftSpec, Stiffness, DAMPING};
+use super::{
+    material_uses, on_two_threads, Fix, MaterialUse, PartsOrder, SoftOwned, SoftSpec, Stiffness,
+    DAMPING,
+};
 use crate::error::Error;
 use crate::platform::now_ns;
 use crate::stats::summarise_ns;
 use crate::traces::PERIOD_S;
+
+/// The fewest tets for which [`SoftDriver::with_threads`] runs a whole step on two threads:
+/// the demo's block (3,072 tets) stepped 17 % slower on two (the second thread started
+/// each sweep), the cow (18,098) 30 % faster (docs/SOFT.md, "Two threads").
+pub const TWO_THREADS_FROM_TETS: usize = 8_192;
 
 /// The `deform` object of a soft run's JSON.
 #[derive(Debug, Clone, Default, Serialize)]
@@ -41,6 +49,8 @@ pub struct DeformSummary {
     pub spread: Option<SpreadSummary>,
     /// How stiff the body is for its substep ([`Stiffness`]).
     pub stiffness: Stiffness,
+    /// Threads a whole step ran on (1 or 2; the same bits either way; 1 for the spread step).
+    pub threads: usize,
 }
 
 /// The work of a step spread over ticks ([`tetradrill_core::soft::Link`]), in its units (one
@@ -134,10 +144,22 @@ pub struct SoftDriver<'a> {
     stiffness: Stiffness,
     /// The spread step, when the spec asks for it.
     spread: Option<Spread>,
-    /// The body's index of each world tet: whole steps order the body's tets for the sweep's
-    /// lanes ([`SoftOwned::in_lanes`]); empty for the spread step, which keeps the world's
-    /// order (the firmware's).
+    /// Whole steps: the body's nodes and tets in two parts, each in groups of four for the
+    /// sweep's lanes ([`SoftOwned::in_two_parts`]), the body's index of each world tet, and
+    /// the body's positions before they are put in the world's order. `None` for the spread
+    /// step, which keeps the world's order (the firmware's).
+    order: Option<Ordered>,
+    /// Threads a whole step runs on (1 or 2; the same bits either way).
+    threads: usize,
+}
+
+/// A [`SoftDriver`]'s body in an order of its own.
+#[derive(Debug)]
+struct Ordered {
+    order: PartsOrder,
+    parts: Option<TwoParts>,
     body_tet: Vec<u32>,
+    body_now: Vec<Vec3>,
 }
 
 /// A [`SoftDriver`]'s spread step: the link (made at the first tick, from the world) and its
@@ -160,9 +182,13 @@ impl<'a> SoftDriver<'a> {
     /// its regions set by [`SoftOwned::set_regions`]) with the spec's materials
     /// ([`SoftSpec::materials`]) and fixed nodes; warns in one line when no node is fixed.
     ///
+    /// Whole steps number the body's nodes and tets their own way, once
+    /// ([`SoftOwned::in_two_parts`], kept in `owned` for a driver made again over it); the
+    /// driver maps the contact's tet and the positions to and from the world's order.
+    ///
     /// # Errors
     /// Exit status 2 when the core refuses the body (a flat or inverted tet, a material out
-    /// of range).
+    /// of range); a failure for a spread step over a body a whole-step driver reordered.
     pub fn new(owned: &'a mut SoftOwned, spec: &SoftSpec) -> Result<Self, Error> {
         let n = owned.rest.len();
         let (lo, hi) = owned
@@ -172,16 +198,21 @@ impl<'a> SoftDriver<'a> {
                 (lo.min(p.z), hi.max(p.z))
             });
         let materials = material_uses(spec, &owned.tet_material, owned.tets.len());
-        // Whole steps: the tets in groups of four that share no node, which the sweep solves
-        // four at a time (the nodes keep the world's order).
-        let mut body_tet = Vec::new();
+        // Whole steps: the body in two parts that share no node, each part's tets in groups of
+        // four that share no node (the sweep solves them four at a time), once: a driver made
+        // again over the same body (a reset) finds the order it has.
+        let mut order = None;
         if !spec.spread {
-            let (lanes, tet_of) = owned.in_lanes();
-            *owned = lanes;
-            body_tet = vec![0u32; tet_of.len()];
-            for (new, &old) in tet_of.iter().enumerate() {
-                body_tet[old as usize] = new as u32;
+            if owned.driven.is_none() {
+                let (two, o) = owned.in_two_parts();
+                *owned = two;
+                owned.driven = Some(o);
             }
+            order = owned.driven.clone();
+        } else if owned.driven.is_some() {
+            return Err(Error::Failure(
+                "--soft-spread: the soft body was reordered for whole steps".into(),
+            ));
         }
         let stiffness = Stiffness::of(owned, spec);
         if stiffness.s_max > 1.0 {
@@ -229,6 +260,18 @@ impl<'a> SoftDriver<'a> {
                  away under the tool"
             );
         }
+        let order = order.map(|order| {
+            let mut body_tet = vec![0u32; order.tet_of.len()];
+            for (new, &old) in order.tet_of.iter().enumerate() {
+                body_tet[old as usize] = new as u32;
+            }
+            Ordered {
+                parts: order.parts(&body),
+                order,
+                body_tet,
+                body_now: vec![Vec3::ZERO; n],
+            }
+        });
         Ok(Self {
             body,
             external: vec![Vec3::ZERO; n],
@@ -248,8 +291,22 @@ impl<'a> SoftDriver<'a> {
                 next: vec![Vec3::ZERO; n],
                 ..Spread::default()
             }),
-            body_tet,
+            order,
+            threads: 1,
         })
+    }
+
+    /// Whole steps on `threads` threads (1 or 2: `SoftBody::step` or `SoftBody::step_two`
+    /// with [`on_two_threads`], the same bits) when the body has at least
+    /// [`TWO_THREADS_FROM_TETS`] tets (a smaller one loses more to the thread's start each
+    /// sweep than the second core gives); the spread step runs on the caller's thread.
+    pub fn with_threads(mut self, threads: usize) -> Self {
+        self.threads = if self.body.tet_count() >= TWO_THREADS_FROM_TETS {
+            threads.clamp(1, 2)
+        } else {
+            1
+        };
+        self
     }
 
     /// After one servo tick whose force on the user was `force`: the reaction (`-force`; a
@@ -294,7 +351,9 @@ impl<'a> SoftDriver<'a> {
         }
         if let Some(t) = world.contact_tet() {
             if force != Vec3::ZERO && ticks > 0 {
-                let tet = self.body_tet.get(t.idx()).map_or(t.idx(), |&k| k as usize);
+                let tet = self.order.as_ref().map_or(t.idx(), |o| {
+                    o.body_tet.get(t.idx()).map_or(t.idx(), |&k| k as usize)
+                });
                 self.body.add_point_force(
                     tet,
                     world.contact().point,
@@ -317,10 +376,27 @@ impl<'a> SoftDriver<'a> {
         for f in self.external.iter_mut() {
             *f *= mean;
         }
-        self.body
-            .step(self.ticks_per_step as f32 * PERIOD_S as f32, &self.external)
-            .map_err(|e| Error::Failure(format!("soft body step: {e}")))?;
-        self.body.write_positions(&mut self.now);
+        let dt = self.ticks_per_step as f32 * PERIOD_S as f32;
+        match self.order.as_ref().and_then(|o| o.parts) {
+            Some(parts) if self.threads >= 2 => {
+                self.body
+                    .step_two(dt, &self.external, parts, &mut on_two_threads)
+            }
+            _ => self.body.step(dt, &self.external),
+        }
+        .map_err(|e| Error::Failure(format!("soft body step: {e}")))?;
+        match self.order.as_mut() {
+            Some(o) => {
+                // The body's node i is the world's node `node_of[i]`.
+                self.body.write_positions(&mut o.body_now);
+                for (p, &k) in o.body_now.iter().zip(&o.order.node_of) {
+                    if let Some(slot) = self.now.get_mut(k as usize) {
+                        *slot = *p;
+                    }
+                }
+            }
+            None => self.body.write_positions(&mut self.now),
+        }
         let rep = world
             .set_positions(&self.now)
             .map_err(|e| Error::Failure(format!("soft body positions: {e}")))?;
@@ -387,6 +463,12 @@ impl<'a> SoftDriver<'a> {
             poisson: self.spec.poisson,
             materials: self.materials.clone(),
             stiffness: self.stiffness,
+            threads: if self.spread.is_some() || self.order.as_ref().and_then(|o| o.parts).is_none()
+            {
+                1
+            } else {
+                self.threads
+            },
             spread: self.spread.as_ref().and_then(|sp| {
                 let link = sp.link.as_ref()?;
                 Some(SpreadSummary {

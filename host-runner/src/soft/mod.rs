@@ -18,13 +18,25 @@ mod lanes;
 mod spec;
 mod two;
 
-pub use driver::{DeformSummary, SoftDriver, SpreadSummary, StepTiming};
+pub use driver::{DeformSummary, SoftDriver, SpreadSummary, StepTiming, TWO_THREADS_FROM_TETS};
 pub use lanes::{lane_order, LANE_WINDOW};
 pub use spec::{
     material_uses, Fix, MaterialUse, SoftRegion, SoftSpec, Stiffness, DAMPING, DEFAULT_POISSON,
     DEFAULT_RATE_HZ, DEFAULT_YOUNG, DENSITY, SUBSTEPS,
 };
 pub use two::{on_two_threads, PartsOrder};
+
+/// Threads for a whole soft step ([`SoftDriver::with_threads`]): 2 when the machine has a
+/// core for each beside the `busy` threads of the caller's own (the servo's, the simulation's),
+/// else 1. The same bits either way.
+pub fn step_threads(busy: usize) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if cores > busy {
+        2
+    } else {
+        1
+    }
+}
 
 /// A soft body's rest mesh, owned, and its state and scratch on the heap (the core's
 /// [`SoftBuffers`], carved by `SoftStorage::carve`, allocated once for the mesh's counts).
@@ -38,6 +50,9 @@ pub struct SoftOwned {
     pub tet_material: Vec<u32>,
     /// The state and scratch, allocated for the counts they hold (made by the first body).
     buffers: Option<SoftBuffers>,
+    /// Where [`SoftDriver`] put the world's nodes and tets when it reordered this body (kept,
+    /// so a driver made again over it, at a reset, finds the world's order through it).
+    pub(crate) driven: Option<PartsOrder>,
 }
 
 impl SoftOwned {
@@ -50,6 +65,7 @@ impl SoftOwned {
             tets,
             tet_material: Vec::new(),
             buffers,
+            driven: None,
         }
     }
 

@@ -425,3 +425,66 @@ fn the_stiffness_ratio_is_the_courant_number_squared_and_warns_above_one() {
         }
     }
 }
+
+/// A whole step on two threads moves the world as one on one thread, bit for bit, and a driver
+/// made again over a body an earlier driver reordered (a reset) pushes the same tets as one
+/// over a fresh body: the block of 16 cubes a side (24,576 tets, over
+/// `TWO_THREADS_FROM_TETS`), pressed at the same contact every tick.
+#[test]
+fn two_step_threads_and_a_reset_driver_move_the_world_as_one_thread_does() {
+    let spec = SoftSpec::uniform(YOUNG, 0.3, Fix::Below(2, -0.49), 1);
+    let params = DrillParams {
+        max_depth: 2,
+        min_area: 0.0,
+        budget: 100_000,
+    };
+    let centre = Vec3::new(0.0123, 0.0371, 0.57);
+    // The world's positions after 40 pressed steps by a driver on `threads` threads; `reset`:
+    // over a body a first driver already stepped.
+    let run = |threads: usize, reset: bool| -> (Vec<[u32; 3]>, usize) {
+        let mut om = block_mesh(16);
+        let mut owned = SoftOwned::from_mesh(&om.view());
+        let n = owned.rest.len();
+        let mesh = om.view();
+        let mut st = Store::new(mesh.tet_count(), 1 << 16);
+        let mut world = st.world(mesh);
+        let mut rest = vec![Vec3::ZERO; n];
+        world.enable_deformation(&mut rest).unwrap();
+        world.simulate(centre, 0.1, 0.05, false, &params);
+        assert!(world.contact_tet().is_some());
+        if reset {
+            let at_rest = world.mesh().positions().to_vec();
+            let mut d = SoftDriver::new(&mut owned, &spec).unwrap();
+            d.after_tick(&mut world, Vec3::new(0.0, 0.0, 5.0)).unwrap();
+            // Back to rest for the comparison, the tool away and back (the world's positions:
+            // the driver numbered the body's nodes its own way).
+            world.set_positions(&at_rest).unwrap();
+            world.simulate(Vec3::new(0.0, 0.0, 2.0), 0.1, 0.05, false, &params);
+            world.simulate(centre, 0.1, 0.05, false, &params);
+            assert!(world.contact_tet().is_some());
+        }
+        let mut d = SoftDriver::new(&mut owned, &spec)
+            .unwrap()
+            .with_threads(threads);
+        for k in 0..40 {
+            let stepped = d.after_tick(&mut world, Vec3::new(0.0, 0.0, 5.0)).unwrap();
+            assert!(stepped && world.contact_tet().is_some(), "tick {k}");
+        }
+        let threads = d.summary().threads;
+        let moved = d.summary().max_displacement;
+        assert!(moved > 1e-5, "{moved}");
+        let bits = world
+            .mesh()
+            .positions()
+            .iter()
+            .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+            .collect();
+        (bits, threads)
+    };
+    let (one, t1) = run(1, false);
+    let (two, t2) = run(2, false);
+    let (again, _) = run(1, true);
+    assert_eq!((t1, t2), (1, 2));
+    assert!(one == two, "two threads moved the world otherwise");
+    assert!(one == again, "the reset driver pushed other tets");
+}

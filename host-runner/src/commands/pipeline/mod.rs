@@ -311,7 +311,12 @@ pub fn run(
                         .map(|t| tasks::ShaftLink::new(t, &mut drill_in));
                     // A reset starts the soft body at rest too.
                     let mut body = match (soft.as_ref(), soft_owned.as_mut()) {
-                        (Some(s), Some(o)) => Some(crate::soft::SoftDriver::new(o, s)?),
+                        // Beside the servo's thread: a second step thread only where a core
+                        // is left for it.
+                        (Some(s), Some(o)) => Some(
+                            crate::soft::SoftDriver::new(o, s)?
+                                .with_threads(crate::soft::step_threads(2)),
+                        ),
                         _ => None,
                     };
                     let begun = std::time::Instant::now();

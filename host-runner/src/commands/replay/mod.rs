@@ -333,7 +333,11 @@ fn soft_driver<'a>(
     owned: Option<&'a mut crate::soft::SoftOwned>,
 ) -> Result<Option<SoftDriver<'a>>, CliError> {
     match (spec, owned) {
-        (Some(s), Some(o)) => Ok(SoftDriver::new(o, s).map(Some)?),
+        // No servo thread beside the replay: a whole step on two threads where there are two
+        // cores (the same bits as on one).
+        (Some(s), Some(o)) => Ok(Some(
+            SoftDriver::new(o, s)?.with_threads(crate::soft::step_threads(1)),
+        )),
         _ => Ok(None),
     }
 }
