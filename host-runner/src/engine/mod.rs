@@ -105,7 +105,7 @@ impl EngineStorage {
                     .filter(|_| setup.capacities.candidates.is_none())
                     .map(|w| ZoneGather::exact(w, ZONE_MARGIN_RADII)),
             },
-            resolution: d.resolution as f32,
+            resolution: setup.drill_resolution() as f32,
             vibration_hz: setup.forces.vibration_hz as f32,
             sizing,
             region_labels: Vec::new(),

@@ -113,8 +113,9 @@ pub struct Scenario {
     pub min_area: f64,
     /// The drill's finest leaf edge, mesh units: each coarse tet refines only as deep as its
     /// size needs (`max_depth` stays the upper bound), so fine and coarse meshes drill with
-    /// leaves of the same size; 0: none, every tet to `max_depth`.
-    pub resolution: f64,
+    /// leaves of the same size; 0: none, every tet to `max_depth`; absent: the burr's radius
+    /// over [`crate::setup::RESOLUTION_PER_RADIUS`].
+    pub resolution: Option<f64>,
     /// Hierarchy nodes available for drilling (absent: sized from the burr's radius against
     /// the mesh's boundary tets, `crate::engine::ToolSizing`, at least
     /// [`crate::setup::DEFAULT_HIERARCHY_CAPACITY`]).
@@ -290,7 +291,7 @@ pub struct ScenarioFlags {
     #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
     pub min_area: Option<f64>,
     /// The drill's finest leaf edge, mesh units (each tet refines as deep as its size needs,
-    /// at most `--max-depth`; 0: none).
+    /// at most `--max-depth`; 0: none; default: the burr's radius / 32).
     #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
     pub resolution: Option<f64>,
     /// Hierarchy nodes available (at least 8: one block of children).
@@ -459,7 +460,6 @@ impl Scenario {
             entry_remedy,
             max_depth,
             min_area,
-            resolution,
             budget_per_tick,
             tick_budget
         );
@@ -474,6 +474,7 @@ impl Scenario {
             s.region_array = Some(v.clone());
         }
         take_some!(
+            resolution,
             hierarchy_capacity,
             candidate_capacity,
             pending_capacity,

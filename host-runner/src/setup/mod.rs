@@ -133,8 +133,9 @@ pub struct Drilling {
     pub max_depth: u8,
     /// Refinement stops below this face area (mesh units squared).
     pub min_area: f64,
-    /// The drill's finest leaf edge, mesh units (`World::set_drill_resolution`); 0: none.
-    pub resolution: f64,
+    /// The drill's finest leaf edge, mesh units (`World::set_drill_resolution`); 0: none;
+    /// `None`: the burr's radius over [`RESOLUTION_PER_RADIUS`] ([`Setup::drill_resolution`]).
+    pub resolution: Option<f64>,
     /// Work units of erosion per servo tick (about 100 Cortex-M4 instructions each:
     /// `tetradrill_core::drill::WorkCost`); the rest is carried to later ticks.
     pub budget_per_tick: u32,
@@ -283,6 +284,13 @@ pub const DEFAULT_TICK_BUDGET: u32 = 16_500;
 /// MiB), what a burr about one boundary tet wide needs over long sessions (docs/DRILLING.md).
 pub const DEFAULT_HIERARCHY_CAPACITY: usize = 1 << 20;
 
+/// The default drill resolution is the burr's radius over this ([`Setup::drill_resolution`]):
+/// a 32nd of the radius, the leaf the teddy's and the cow's trees reach at depth 5 under a burr
+/// of 0.03, so on those meshes `max_depth` 5 still decides (every drilled tet refines as deep
+/// as before) while a mesh a few times finer drills with leaves of that size, not smaller
+/// (docs/DRILLING.md, "Resolution").
+pub const RESOLUTION_PER_RADIUS: f64 = 32.0;
+
 impl Default for Setup {
     /// The demo's set-up, every default in one place: the built-in block of 8 cubes a side, a
     /// burr of radius 0.1 on the demo path, 200 N per unit, 8 N at most, depth 5.
@@ -302,7 +310,7 @@ impl Default for Setup {
             drilling: Drilling {
                 max_depth: 5,
                 min_area: 0.0,
-                resolution: 0.0,
+                resolution: None,
                 budget_per_tick: 11_000,
                 tick_budget: DEFAULT_TICK_BUDGET,
                 contact_search_nodes: tetradrill_core::servo::CONTACT_MAX_NODES,
@@ -389,6 +397,17 @@ fn non_negative(key: &'static str, v: f64) -> Result<(), SetupError> {
 }
 
 impl Setup {
+    /// The drill's finest leaf edge in mesh units: the one set (`--resolution`, key
+    /// `resolution`; 0: none), else the burr's radius over [`RESOLUTION_PER_RADIUS`] (0 for a
+    /// mesh tool, which does not drill).
+    pub fn drill_resolution(&self) -> f64 {
+        self.drilling.resolution.unwrap_or_else(|| {
+            self.tool
+                .burr_radius()
+                .map_or(0.0, |r| r / RESOLUTION_PER_RADIUS)
+        })
+    }
+
     /// A set-up of `mesh` (a file, `builtin:cube12` or `builtin:block:N`) and `tool` (a burr
     /// drills it, a tet-mesh tool touches it), every other value the default's.
     pub fn new(mesh: impl AsRef<Path>, tool: Tool) -> Self {
@@ -421,7 +440,9 @@ impl Setup {
         }
         let d = &self.drilling;
         non_negative("min_area", d.min_area)?;
-        non_negative("resolution", d.resolution)?;
+        if let Some(r) = d.resolution {
+            non_negative("resolution", r)?;
+        }
         if !(1..=9).contains(&d.max_depth) {
             return Err(SetupError::new(
                 "max_depth",

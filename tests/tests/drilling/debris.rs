@@ -149,6 +149,8 @@ fn groove(trace: &str, mesh: &str, radius: f64, max_depth: u8) -> Groove {
         trace: trace.into(),
         tool: format!("sphere:{radius}"),
         max_depth,
+        // Depth alone decides here (no drill resolution).
+        resolution: Some(0.0),
         ..Scenario::default()
     }
     .setup()
@@ -395,7 +397,7 @@ fn cow_wander_at(
             .into_owned(),
         trace: "wander:1".into(),
         tool: "sphere:0.05".into(),
-        resolution: resolution.unwrap_or(0.0),
+        resolution: Some(resolution.unwrap_or(0.0)),
         max_depth: if resolution.is_some() { 9 } else { 5 },
         ..Scenario::default()
     }

@@ -176,6 +176,8 @@ fn drill(mesh: &str, r: f64, max_depth: u8, centres: &[D3]) -> f64 {
         mesh: tetradrill_tests::mesh(mesh).display().to_string(),
         tool: format!("sphere:{r}"),
         max_depth,
+        // Depth alone decides here (no drill resolution).
+        resolution: Some(0.0),
         ..Scenario::default()
     }
     .setup()

@@ -37,6 +37,8 @@ fn hold(n: usize, radius: f64, max_depth: u8, max_ticks: u64) -> Held {
         mesh: format!("builtin:block:{n}"),
         tool: format!("sphere:{radius}"),
         max_depth,
+        // Depth alone decides here (no drill resolution).
+        resolution: Some(0.0),
         ..Scenario::default()
     }
     .setup()

@@ -154,6 +154,9 @@ pub struct SizingSummary {
     /// without one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub zone_gather_fallbacks: Option<u32>,
+    /// The drill's finest leaf edge, mesh units (`Setup::drill_resolution`: the one set, or
+    /// the burr's radius over `RESOLUTION_PER_RADIUS`); 0: none, every tet to `max_depth`.
+    pub resolution: f64,
 }
 
 impl SizingSummary {
@@ -167,6 +170,7 @@ impl SizingSummary {
             hierarchy_capacity: store.hierarchy_capacity(),
             zone_gather_work: store.zone_gather().map(|z| z.work()),
             zone_gather_fallbacks: None,
+            resolution: sc.drill_resolution(),
         }
     }
 
@@ -190,8 +194,13 @@ impl SizingSummary {
             (Some(w), None) => format!("; candidates gathered {w} units a step"),
             _ => String::new(),
         };
+        let leaf = if self.resolution > 0.0 {
+            format!("; leaves down to {:.4e} units", self.resolution)
+        } else {
+            String::new()
+        };
         format!(
-            "sized for the burr: {} candidates ({}), {} query cells, {} hierarchy nodes (boundary tets {:.4} units){gather}",
+            "sized for the burr: {} candidates ({}), {} query cells, {} hierarchy nodes (boundary tets {:.4} units){gather}{leaf}",
             self.candidate_capacity,
             if self.candidates_from_tool {
                 "from the tool and the mesh"
