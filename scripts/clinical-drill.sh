@@ -57,7 +57,7 @@ PY
     ref=$("$swept" "$m" "$out/moving.csv" "$r" 2000000)
     for mode in "resolution" "depth" "drill"; do
       extra=(--resolution "$res" --max-depth 9)
-      [ "$mode" = depth ] && extra=()
+      [ "$mode" = depth ] && extra=(--resolution 0)
       # The drill tool: the same burr on a shaft ten radii long, 0.4 radii thick.
       tool=sphere:$r
       [ "$mode" = drill ] && tool=drill:$r:$(python3 -c "print(10 * $r)"):$(python3 -c "print(0.4 * $r)")
