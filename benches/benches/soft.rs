@@ -70,20 +70,23 @@ impl Scene {
 
 const DT: f32 = 1e-3;
 
+/// Each of `runs` calls of `step` timed alone.
+fn timed(runs: usize, mut step: impl FnMut()) -> Vec<Duration> {
+    (0..runs)
+        .map(|_| {
+            let t0 = Instant::now();
+            step();
+            t0.elapsed()
+        })
+        .collect()
+}
+
 fn steps_pass() {
     for (name, rel) in MESHES {
         let mut scene = Scene::new(rel);
         let mut body = scene.body();
-        let runs = 100;
-        let mut times = Vec::with_capacity(runs);
-        for _ in 0..runs {
-            let t0 = Instant::now();
-            body.step(black_box(DT), &[]).expect("valid step");
-            times.push(t0.elapsed());
-        }
-        let mean = times.iter().sum::<Duration>() / runs as u32;
-        let min = times.iter().min().copied().unwrap_or_default();
-        let max = times.iter().max().copied().unwrap_or_default();
+        let times = timed(100, || body.step(black_box(DT), &[]).expect("valid step"));
+        let (mean, min, max) = spread(&times);
         let p = body.params();
         let projections = (p.substeps * p.iterations) as f64 * body.tet_count() as f64;
         println!(
@@ -92,10 +95,10 @@ fn steps_pass() {
             body.tet_count(),
             p.substeps,
             p.iterations,
-            mean.as_secs_f64() * 1e3,
-            min.as_secs_f64() * 1e3,
-            max.as_secs_f64() * 1e3,
-            min.as_secs_f64() * 1e9 / projections,
+            mean,
+            min,
+            max,
+            min * 1e6 / projections,
         );
         let worst = body
             .displacements()
@@ -114,13 +117,7 @@ fn lanes_pass(name: &str, rel: &str) {
     let (soft, _) = Scene::new(rel).0.in_lanes();
     let mut scene = Scene(soft);
     let mut body = scene.body();
-    let runs = 100;
-    let mut times = Vec::with_capacity(runs);
-    for _ in 0..runs {
-        let t0 = Instant::now();
-        body.step(black_box(DT), &[]).expect("valid step");
-        times.push(t0.elapsed());
-    }
+    let times = timed(100, || body.step(black_box(DT), &[]).expect("valid step"));
     let (mean, min, max) = spread(&times);
     println!(
         "STEPS soft {name}, in lanes on one thread: mean {mean:.2} ms, min {min:.2} ms, max {max:.2} ms per step",
@@ -135,14 +132,10 @@ fn two_parts_pass(name: &str, rel: &str) {
     let mut scene = Scene(soft);
     let mut body = scene.body();
     let parts = order.parts(&body).expect("two parts");
-    let runs = 100;
-    let mut times = Vec::with_capacity(runs);
-    for _ in 0..runs {
-        let t0 = Instant::now();
+    let times = timed(100, || {
         body.step_two(black_box(DT), &[], parts, &mut on_two_threads)
-            .expect("valid step");
-        times.push(t0.elapsed());
-    }
+            .expect("valid step")
+    });
     let (mean, min, max) = spread(&times);
     println!(
         "STEPS soft {name}, two parts on two threads: {} + {} tets, {} joining: mean {mean:.2} ms, min {min:.2} ms, max {max:.2} ms per step",

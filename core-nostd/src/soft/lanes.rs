@@ -172,29 +172,36 @@ impl V3 {
     }
 }
 
-impl Add for V3 {
-    type Output = V3;
-    #[inline(always)]
-    fn add(self, o: V3) -> V3 {
-        V3 {
-            x: self.x + o.x,
-            y: self.y + o.y,
-            z: self.z + o.z,
+/// `Add` and `Sub` of a type of three fields `x`, `y`, `z`, field by field.
+macro_rules! fieldwise {
+    ($t:ty) => {
+        impl Add for $t {
+            type Output = $t;
+            #[inline(always)]
+            fn add(self, o: $t) -> $t {
+                Self {
+                    x: self.x + o.x,
+                    y: self.y + o.y,
+                    z: self.z + o.z,
+                }
+            }
         }
-    }
-}
 
-impl Sub for V3 {
-    type Output = V3;
-    #[inline(always)]
-    fn sub(self, o: V3) -> V3 {
-        V3 {
-            x: self.x - o.x,
-            y: self.y - o.y,
-            z: self.z - o.z,
+        impl Sub for $t {
+            type Output = $t;
+            #[inline(always)]
+            fn sub(self, o: $t) -> $t {
+                Self {
+                    x: self.x - o.x,
+                    y: self.y - o.y,
+                    z: self.z - o.z,
+                }
+            }
         }
-    }
+    };
 }
+fieldwise!(V3);
+fieldwise!(M3);
 
 impl Neg for V3 {
     type Output = V3;
@@ -260,15 +267,6 @@ impl M3 {
             x: self.mul_v3(o.x),
             y: self.mul_v3(o.y),
             z: self.mul_v3(o.z),
-        }
-    }
-
-    #[inline(always)]
-    fn add(self, o: Self) -> Self {
-        Self {
-            x: self.x + o.x,
-            y: self.y + o.y,
-            z: self.z + o.z,
         }
     }
 
@@ -340,7 +338,7 @@ pub(super) fn project4(
     // Green strain and its deviator (the off-diagonal `- 0.0` of `Mat3::from_diagonal`
     // changes no bit and is left out).
     let half = F4::splat(0.5);
-    let e = h.add(ht).add(ht.mul(h)).scale(half);
+    let e = (h + ht + ht.mul(h)).scale(half);
     let tr_e = (e.x.x + e.y.y + e.z.z) * F4::splat(1.0 / 3.0);
     let mut dev = e;
     dev.x.x = e.x.x - tr_e;
@@ -349,7 +347,7 @@ pub(super) fn project4(
     let c_dev = (dev.x.dot(dev.x) + dev.y.dot(dev.y) + dev.z.dot(dev.z)).sqrt();
     let has_dev = c_dev.gt_zero();
     let inv_c = F4::splat(1.0) / c_dev;
-    let p_dev_raw = dev.add(h.mul(dev)).scale(inv_c);
+    let p_dev_raw = (dev + h.mul(dev)).scale(inv_c);
     let p_dev = M3 {
         x: p_dev_raw.x.or_zero(has_dev),
         y: p_dev_raw.y.or_zero(has_dev),
@@ -390,8 +388,7 @@ pub(super) fn project4(
             y: zero - ht.z.y,
             z: diag - ht.z.z,
         },
-    }
-    .add(cof_h);
+    } + cof_h;
 
     let inv_dm_t = rest.inv_dm.transpose();
     let g_dev = grads(p_dev.mul(inv_dm_t));
@@ -513,26 +510,20 @@ mod tests {
     use super::super::resume::{sweep, TetRun};
     use super::super::{project, Material};
     use super::*;
+    use crate::collide::test_support::Rng;
 
-    /// A small xorshift generator, so the tests need no crate.
-    struct Rng(u64);
+    /// A vector of components drawn in `[-scale, scale)`.
+    fn vec(rng: &mut Rng, scale: f32) -> Vec3 {
+        Vec3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        ) * scale
+    }
 
-    impl Rng {
-        fn next(&mut self) -> u64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            self.0
-        }
-
-        /// Uniform in `[-1, 1)`.
-        fn unit(&mut self) -> f32 {
-            (self.next() >> 40) as f32 / (1u64 << 23) as f32 - 1.0
-        }
-
-        fn vec(&mut self, scale: f32) -> Vec3 {
-            Vec3::new(self.unit(), self.unit(), self.unit()) * scale
-        }
+    /// A whole number drawn in `0..n`.
+    fn below(rng: &mut Rng, n: u32) -> u32 {
+        ((rng.next() * n as f32) as u32).min(n - 1)
     }
 
     /// A positively oriented tet near the unit corner tet, of size `size`, with material
@@ -540,10 +531,10 @@ mod tests {
     fn rest(rng: &mut Rng, size: f32, young: f32) -> TetRest {
         loop {
             let x = [
-                rng.vec(0.3),
-                Vec3::X + rng.vec(0.3),
-                Vec3::Y + rng.vec(0.3),
-                Vec3::Z + rng.vec(0.3),
+                vec(rng, 0.3),
+                Vec3::X + vec(rng, 0.3),
+                Vec3::Y + vec(rng, 0.3),
+                Vec3::Z + vec(rng, 0.3),
             ]
             .map(|p| p * size);
             let m = Material {
@@ -574,19 +565,19 @@ mod tests {
             let mut lambda = [[0.0f32; 2]; 4];
             for j in 0..4 {
                 for c in 0..4 {
-                    u[j][c] = rng.vec(strain * size);
+                    u[j][c] = vec(&mut rng, strain * size);
                     // Some corners fixed, and now and then a lane with every corner fixed.
-                    w[j][c] = match rng.next() % 6 {
+                    w[j][c] = match below(&mut rng, 6) {
                         0 => 0.0,
                         1 => 1e-3,
-                        _ => 1.0 + rng.unit(),
+                        _ => 1.0 + rng.range(-1.0, 1.0),
                     };
                 }
-                if rng.next().is_multiple_of(9) {
+                if below(&mut rng, 9) == 0 {
                     w[j] = [0.0; 4];
                 }
                 if case % 4 != 0 {
-                    lambda[j] = [rng.unit() * 1e-3, rng.unit() * 1e-3];
+                    lambda[j] = [rng.range(-1e-3, 1e-3), rng.range(-1e-3, 1e-3)];
                 }
             }
             // A lane without strain: its deviator is zero, the gradient taken as zero.
@@ -644,7 +635,7 @@ mod tests {
                 let mut k = [0u32; 4];
                 let mut c = 0;
                 while c < 4 {
-                    let n = (rng.next() % (NODES as u64 + 1)) as u32;
+                    let n = below(&mut rng, NODES as u32 + 1);
                     if !k[..c].contains(&n) {
                         k[c] = n;
                         c += 1;
@@ -656,12 +647,8 @@ mod tests {
             let mut u = [Vec3::ZERO; NODES];
             let mut w = [0.0f32; NODES];
             for n in 0..NODES {
-                u[n] = rng.vec(0.05);
-                w[n] = if rng.next().is_multiple_of(8) {
-                    0.0
-                } else {
-                    1.0
-                };
+                u[n] = vec(&mut rng, 0.05);
+                w[n] = if below(&mut rng, 8) == 0 { 0.0 } else { 1.0 };
             }
             let (mut u_ref, mut l_ref) = (u, [[0.0f32; 2]; 40]);
             let mut l = l_ref;

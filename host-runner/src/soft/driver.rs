@@ -145,9 +145,8 @@ pub struct SoftDriver<'a> {
     /// The spread step, when the spec asks for it.
     spread: Option<Spread>,
     /// Whole steps: the body's nodes and tets in two parts, each in groups of four for the
-    /// sweep's lanes ([`SoftOwned::in_two_parts`]), the body's index of each world tet, and
-    /// the body's positions before they are put in the world's order. `None` for the spread
-    /// step, which keeps the world's order (the firmware's).
+    /// sweep's lanes ([`SoftOwned::in_two_parts`]), and the body's index of each world tet.
+    /// `None` for the spread step, which keeps the world's order (the firmware's).
     order: Option<Ordered>,
     /// Threads a whole step runs on (1 or 2; the same bits either way).
     threads: usize,
@@ -159,7 +158,6 @@ struct Ordered {
     order: PartsOrder,
     parts: Option<TwoParts>,
     body_tet: Vec<u32>,
-    body_now: Vec<Vec3>,
 }
 
 /// A [`SoftDriver`]'s spread step: the link (made at the first tick, from the world) and its
@@ -269,7 +267,6 @@ impl<'a> SoftDriver<'a> {
                 parts: order.parts(&body),
                 order,
                 body_tet,
-                body_now: vec![Vec3::ZERO; n],
             }
         });
         Ok(Self {
@@ -385,13 +382,19 @@ impl<'a> SoftDriver<'a> {
             _ => self.body.step(dt, &self.external),
         }
         .map_err(|e| Error::Failure(format!("soft body step: {e}")))?;
-        match self.order.as_mut() {
+        match self.order.as_ref() {
             Some(o) => {
-                // The body's node i is the world's node `node_of[i]`.
-                self.body.write_positions(&mut o.body_now);
-                for (p, &k) in o.body_now.iter().zip(&o.order.node_of) {
+                // The body's node i is the world's node `node_of[i]`, at rest plus
+                // displacement as `SoftBody::write_positions` writes it.
+                let body = &self.body;
+                for ((&x, &u), &k) in body
+                    .rest()
+                    .iter()
+                    .zip(body.displacements())
+                    .zip(&o.order.node_of)
+                {
                     if let Some(slot) = self.now.get_mut(k as usize) {
-                        *slot = *p;
+                        *slot = x + u;
                     }
                 }
             }

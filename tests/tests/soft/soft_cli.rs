@@ -9,6 +9,7 @@ use std::process::{Command, Output};
 use glam::Vec3;
 use tetradrill::soft::{Fix, SoftDriver, SoftOwned, SoftSpec};
 use tetradrill_core::drill::DrillParams;
+use tetradrill_core::servo::World;
 use tetradrill_tests::search::{block_mesh, Store};
 use tetradrill_tests::{scratch_dir, tetradrill_bin};
 
@@ -332,47 +333,66 @@ fn bad_soft_flags_exit_2_naming_the_flag() {
     }
 }
 
+/// The soft tests' press: the block of `n` cubes a side made deformable in a world (an arena
+/// of `arena` nodes) with a 0.1 burr 0.03 into its top face, in contact; `f` gets the body's
+/// storage and the world.
+fn pressed_block<R>(
+    n: usize,
+    arena: usize,
+    f: impl FnOnce(&mut SoftOwned, &mut World<'_>) -> R,
+) -> R {
+    let mut om = block_mesh(n);
+    let mut owned = SoftOwned::from_mesh(&om.view());
+    let mesh = om.view();
+    let mut st = Store::new(mesh.tet_count(), arena);
+    let mut world = st.world(mesh);
+    let mut rest = vec![Vec3::ZERO; owned.rest.len()];
+    world.enable_deformation(&mut rest).unwrap();
+    world.simulate(BURR_AT, 0.1, 0.05, false, &BURR_PARAMS);
+    assert!(world.contact_tet().is_some());
+    f(&mut owned, &mut world)
+}
+
+/// The press's burr centre and drill parameters ([`pressed_block`]).
+const BURR_AT: Vec3 = Vec3::new(0.0123, 0.0371, 0.57);
+const BURR_PARAMS: DrillParams = DrillParams {
+    max_depth: 2,
+    min_area: 0.0,
+    budget: 100_000,
+};
+
+/// The soft tests' body: `YOUNG`, nu 0.3, the bottom face held, a step every tick.
+fn spec() -> SoftSpec {
+    SoftSpec::uniform(YOUNG, 0.3, Fix::Below(2, -0.49), 1)
+}
+
 /// A driver over storage an earlier body left pushed in (a viewer's reset) starts at rest: with
 /// no load its steps leave every node where it was at rest.
 #[test]
 fn a_new_driver_starts_at_rest_over_used_storage() {
-    let mut om = block_mesh(4);
-    let mut owned = SoftOwned::from_mesh(&om.view());
-    let n = owned.rest.len();
-    let mesh = om.view();
-    let mut st = Store::new(mesh.tet_count(), 1 << 14);
-    let mut world = st.world(mesh);
-    let mut rest = vec![Vec3::ZERO; n];
-    world.enable_deformation(&mut rest).unwrap();
-    let spec = SoftSpec::uniform(YOUNG, 0.3, Fix::Below(2, -0.49), 1);
-    let params = DrillParams {
-        max_depth: 2,
-        min_area: 0.0,
-        budget: 100_000,
-    };
-    let centre = Vec3::new(0.0123, 0.0371, 0.57);
-    world.simulate(centre, 0.1, 0.05, false, &params);
-    assert!(world.contact_tet().is_some());
-    {
-        let mut d = SoftDriver::new(&mut owned, &spec).unwrap();
-        for _ in 0..50 {
-            d.after_tick(&mut world, Vec3::new(0.0, 0.0, 5.0)).unwrap();
+    pressed_block(4, 1 << 14, |owned, world| {
+        let spec = spec();
+        {
+            let mut d = SoftDriver::new(owned, &spec).unwrap();
+            for _ in 0..50 {
+                d.after_tick(world, Vec3::new(0.0, 0.0, 5.0)).unwrap();
+            }
+            // The first body left the storage pushed in.
+            assert!(d.summary().max_displacement > 1e-4);
         }
-        // The first body left the storage pushed in.
-        assert!(d.summary().max_displacement > 1e-4);
-    }
-    world.simulate(Vec3::new(0.0, 0.0, 2.0), 0.1, 0.05, false, &params);
-    let mut d = SoftDriver::new(&mut owned, &spec).unwrap();
-    for _ in 0..5 {
-        assert!(d.after_tick(&mut world, Vec3::ZERO).unwrap());
-    }
-    // Rounding only (rest plus a zero displacement), against the 1e-4 left by the first body.
-    assert!(
-        d.summary().max_displacement < 1e-9,
-        "{}",
-        d.summary().max_displacement
-    );
-    assert_eq!(d.summary().steps, 5);
+        world.simulate(Vec3::new(0.0, 0.0, 2.0), 0.1, 0.05, false, &BURR_PARAMS);
+        let mut d = SoftDriver::new(owned, &spec).unwrap();
+        for _ in 0..5 {
+            assert!(d.after_tick(world, Vec3::ZERO).unwrap());
+        }
+        // Rounding only (rest plus a zero displacement), against the 1e-4 left by the first body.
+        assert!(
+            d.summary().max_displacement < 1e-9,
+            "{}",
+            d.summary().max_displacement
+        );
+        assert_eq!(d.summary().steps, 5);
+    });
 }
 
 /// The substep stiffness ratio in `deform.stiffness` is `h^2 (lambda + 2 mu) / (rho l^2)` on
@@ -432,54 +452,38 @@ fn the_stiffness_ratio_is_the_courant_number_squared_and_warns_above_one() {
 /// `TWO_THREADS_FROM_TETS`), pressed at the same contact every tick.
 #[test]
 fn two_step_threads_and_a_reset_driver_move_the_world_as_one_thread_does() {
-    let spec = SoftSpec::uniform(YOUNG, 0.3, Fix::Below(2, -0.49), 1);
-    let params = DrillParams {
-        max_depth: 2,
-        min_area: 0.0,
-        budget: 100_000,
-    };
-    let centre = Vec3::new(0.0123, 0.0371, 0.57);
+    let spec = spec();
     // The world's positions after 40 pressed steps by a driver on `threads` threads; `reset`:
     // over a body a first driver already stepped.
     let run = |threads: usize, reset: bool| -> (Vec<[u32; 3]>, usize) {
-        let mut om = block_mesh(16);
-        let mut owned = SoftOwned::from_mesh(&om.view());
-        let n = owned.rest.len();
-        let mesh = om.view();
-        let mut st = Store::new(mesh.tet_count(), 1 << 16);
-        let mut world = st.world(mesh);
-        let mut rest = vec![Vec3::ZERO; n];
-        world.enable_deformation(&mut rest).unwrap();
-        world.simulate(centre, 0.1, 0.05, false, &params);
-        assert!(world.contact_tet().is_some());
-        if reset {
-            let at_rest = world.mesh().positions().to_vec();
-            let mut d = SoftDriver::new(&mut owned, &spec).unwrap();
-            d.after_tick(&mut world, Vec3::new(0.0, 0.0, 5.0)).unwrap();
-            // Back to rest for the comparison, the tool away and back (the world's positions:
-            // the driver numbered the body's nodes its own way).
-            world.set_positions(&at_rest).unwrap();
-            world.simulate(Vec3::new(0.0, 0.0, 2.0), 0.1, 0.05, false, &params);
-            world.simulate(centre, 0.1, 0.05, false, &params);
-            assert!(world.contact_tet().is_some());
-        }
-        let mut d = SoftDriver::new(&mut owned, &spec)
-            .unwrap()
-            .with_threads(threads);
-        for k in 0..40 {
-            let stepped = d.after_tick(&mut world, Vec3::new(0.0, 0.0, 5.0)).unwrap();
-            assert!(stepped && world.contact_tet().is_some(), "tick {k}");
-        }
-        let threads = d.summary().threads;
-        let moved = d.summary().max_displacement;
-        assert!(moved > 1e-5, "{moved}");
-        let bits = world
-            .mesh()
-            .positions()
-            .iter()
-            .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
-            .collect();
-        (bits, threads)
+        pressed_block(16, 1 << 16, |owned, world| {
+            if reset {
+                let at_rest = world.mesh().positions().to_vec();
+                let mut d = SoftDriver::new(owned, &spec).unwrap();
+                d.after_tick(world, Vec3::new(0.0, 0.0, 5.0)).unwrap();
+                // Back to rest for the comparison, the tool away and back (the world's positions:
+                // the driver numbered the body's nodes its own way).
+                world.set_positions(&at_rest).unwrap();
+                world.simulate(Vec3::new(0.0, 0.0, 2.0), 0.1, 0.05, false, &BURR_PARAMS);
+                world.simulate(BURR_AT, 0.1, 0.05, false, &BURR_PARAMS);
+                assert!(world.contact_tet().is_some());
+            }
+            let mut d = SoftDriver::new(owned, &spec).unwrap().with_threads(threads);
+            for k in 0..40 {
+                let stepped = d.after_tick(world, Vec3::new(0.0, 0.0, 5.0)).unwrap();
+                assert!(stepped && world.contact_tet().is_some(), "tick {k}");
+            }
+            let threads = d.summary().threads;
+            let moved = d.summary().max_displacement;
+            assert!(moved > 1e-5, "{moved}");
+            let bits = world
+                .mesh()
+                .positions()
+                .iter()
+                .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+                .collect();
+            (bits, threads)
+        })
     };
     let (one, t1) = run(1, false);
     let (two, t2) = run(2, false);
