@@ -5,7 +5,7 @@
 use glam::Vec3;
 
 use super::cell::{bucket_of, cells_in, for_cells, Aabb};
-use super::table::{HashEntry, SpatialHash, ITEM_BITS, MAX_ITEMS};
+use super::table::{HashEntry, SpatialHash, MAX_ITEMS};
 
 /// What one build stored.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
@@ -123,6 +123,7 @@ impl<'a> SpatialHash<'a> {
                 RebuildPhase::Clear => {
                     if c.at == 0 {
                         self.bounds = Aabb::of::<0>([]);
+                        self.whole = None;
                         c.total = 0;
                         c.kept = count.min(MAX_ITEMS);
                         c.run = 0;
@@ -180,6 +181,7 @@ impl<'a> SpatialHash<'a> {
                 RebuildPhase::Fill => {
                     if c.at >= c.kept {
                         self.used = c.total;
+                        self.whole = (c.kept == count).then_some(count);
                         let built = Rebuilt {
                             items: c.kept,
                             entries: c.total,
@@ -231,6 +233,7 @@ impl<'a> SpatialHash<'a> {
         core::mem::swap(&mut self.entries, &mut other.entries);
         core::mem::swap(&mut self.used, &mut other.used);
         core::mem::swap(&mut self.bounds, &mut other.bounds);
+        core::mem::swap(&mut self.whole, &mut other.whole);
         self.stats.builds = self.stats.builds.wrapping_add(1);
         if built.saturated {
             self.stats.saturations = self.stats.saturations.wrapping_add(1);
@@ -268,11 +271,7 @@ impl<'a> SpatialHash<'a> {
             if let Some(s) = starts.get_mut(k) {
                 *s = s.saturating_sub(1);
                 if let Some(e) = entries.get_mut(*s as usize) {
-                    let mut packed = i as u32;
-                    for a in 0..3 {
-                        packed |= u32::from(c[a] == lo[a]) << (ITEM_BITS as usize + a);
-                    }
-                    *e = HashEntry { cell: c, packed };
+                    *e = HashEntry::of(i, c, lo);
                 }
             }
         });
@@ -380,6 +379,7 @@ mod tests {
                     builds: 2,
                     saturations: u32::from(got.saturated),
                     clipped_queries: 0,
+                    updates: 0,
                 };
                 assert_eq!(main.stats(), counted);
                 saturated += u32::from(got.saturated);

@@ -39,6 +39,16 @@ impl HashEntry {
     pub fn item(&self) -> u32 {
         self.packed & (MAX_ITEMS as u32 - 1)
     }
+
+    /// Item `i`'s entry in cell `c` of the cell range starting at `lo`.
+    #[inline]
+    pub(super) fn of(i: usize, c: Cell, lo: Cell) -> Self {
+        let mut packed = i as u32;
+        for a in 0..3 {
+            packed |= u32::from(c[a] == lo[a]) << (ITEM_BITS as usize + a);
+        }
+        Self { cell: c, packed }
+    }
 }
 
 /// Why a [`SpatialHash`] cannot be made.
@@ -71,6 +81,9 @@ pub struct HashStats {
     pub saturations: u32,
     /// Box queries cut short because the box covered more cells than allowed.
     pub clipped_queries: u32,
+    /// Builds made by moving only the items whose cells changed (`SpatialHash::update`;
+    /// counted in `builds` too).
+    pub updates: u32,
 }
 
 /// A spatial hash over caller storage: `starts` (bucket count + 1 offsets, the bucket count
@@ -79,11 +92,14 @@ pub struct HashStats {
 pub struct SpatialHash<'a> {
     pub(super) starts: &'a mut [u32],
     pub(super) entries: &'a mut [HashEntry],
-    inv_cell: f32,
+    pub(super) inv_cell: f32,
     pub(super) cell: f32,
     pub(super) used: usize,
     pub(super) bounds: Aabb,
     pub(super) stats: HashStats,
+    /// `Some(count)` when the table holds exactly what a whole build of items `0..count`
+    /// stores (the last build stored every item): what [`SpatialHash::update`] starts from.
+    pub(super) whole: Option<usize>,
 }
 
 impl<'a> SpatialHash<'a> {
@@ -114,6 +130,7 @@ impl<'a> SpatialHash<'a> {
             used: 0,
             bounds: Aabb::of::<0>([]),
             stats: HashStats::default(),
+            whole: None,
         })
     }
 
@@ -145,6 +162,19 @@ impl<'a> SpatialHash<'a> {
     #[inline]
     pub fn is_empty(&self) -> bool {
         self.used == 0
+    }
+
+    /// The entry storage as scratch for another table's [`SpatialHash::update`] (a spare
+    /// table between builds): the table answers as empty (its length is 0), and its
+    /// contents are undefined until its next build.
+    ///
+    /// # Bounded work
+    /// Constant.
+    #[inline]
+    pub(crate) fn scratch(&mut self) -> &mut [HashEntry] {
+        self.used = 0;
+        self.whole = None;
+        &mut *self.entries
     }
 
     /// The box around everything stored by the last build.

@@ -3,8 +3,10 @@
 //! positions brought up to date within bounded work.
 //!
 //! What follows the positions, and how:
-//! - each tet's box and the Teschner hash of the tets: rebuilt (counting sort, the cell size
-//!   of [`World::new`]);
+//! - each tet's box and the Teschner hash of the tets: with spare storage set
+//!   ([`World::set_spare`]) only the tets whose cell range changed move in the hash
+//!   (`SpatialHash::update`, the spare hash's entries its scratch), else the hash is rebuilt
+//!   (counting sort, the cell size of [`World::new`]); the same table either way;
 //! - the boundary normals ([`Mesh::update_boundary`]);
 //! - the hierarchy's faces: nothing to do, they are barycentric in their root tet and are
 //!   evaluated at the current positions whenever they are needed; the hierarchy's change
@@ -144,9 +146,10 @@ impl<'a> World<'a> {
     /// the live storage in one call.
     ///
     /// # Bounded work
-    /// O(N + T + buckets + hash entries + memo slots) for N nodes and T tets, plus
-    /// O([`crate::hierarchy::KEEP`] x depth) for the kept faces. The hash's part dominates:
-    /// docs/TIMING.md gives it for the cow and the teddy.
+    /// O(N + T + buckets + hash entries + memo slots + m log m) for N nodes, T tets and m
+    /// hash entries of the tets that changed cells (at most the hash's capacity), plus
+    /// O([`crate::hierarchy::KEEP`] x depth) for the kept faces. docs/TIMING.md gives it for
+    /// the cow and the teddy.
     ///
     /// # Capacity
     /// A hash whose entries run out keeps the first tets that fit and counts
@@ -163,18 +166,43 @@ impl<'a> World<'a> {
             max2 = max2.max(node_distance2(&self.mesh, new, i)?);
         }
         // Every position checked: from here on nothing refuses.
+        let built = self.move_hash(new);
         self.mesh.positions_mut().copy_from_slice(new);
         self.mesh.update_boundary();
+        Ok(self.finish_move(max2, built))
+    }
+
+    /// The tet boxes and the hash brought to the positions `new`: the hash updated in place
+    /// ([`SpatialHash::update`], only the tets whose cell range changed) when every tet has a
+    /// stored box and the spare storage is set and idle (its hash entries are the update's
+    /// scratch), else built whole. Either way the table a whole build leaves.
+    ///
+    /// # Bounded work
+    /// O(T + buckets + hash entries + m log m) for m entries of the tets that changed cells
+    /// (at most the spare's capacity); O(T + buckets + hash entries) for the whole build.
+    fn move_hash(&mut self, new: &[Vec3]) -> Rebuilt {
         let mesh = &self.mesh;
         let tets = mesh.tet_count();
-        for (t, b) in self.boxes.iter_mut().enumerate().take(tets) {
+        let boxes = &mut *self.boxes;
+        let idle = |s: &&mut Spare<'a>| s.prep == Prep::default();
+        if boxes.len() >= tets {
+            if let Some(spare) = self.spare.as_mut().filter(idle) {
+                let moved = |t: usize| {
+                    let now = tet_box(mesh, new, t);
+                    let was = boxes.get_mut(t).map(|b| core::mem::replace(b, now));
+                    (was, Some(now))
+                };
+                if let Some(built) = self.hash.update(tets, moved, spare.hash.scratch()) {
+                    return built;
+                }
+            }
+        }
+        for (t, b) in boxes.iter_mut().enumerate().take(tets) {
             *b = tet_box(mesh, new, t);
         }
-        let boxes = &*self.boxes;
-        let built = self
-            .hash
-            .rebuild(tets, |t| Some(stored_box(boxes, mesh, new, t)));
-        Ok(self.finish_move(max2, built))
+        let boxes = &*boxes;
+        self.hash
+            .rebuild(tets, |t| Some(stored_box(boxes, mesh, new, t)))
     }
 
     /// Refuses a move before [`World::enable_deformation`] or of the wrong node count.

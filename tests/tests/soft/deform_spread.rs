@@ -207,3 +207,89 @@ fn a_spread_update_commits_the_world_set_positions_makes() {
     );
     assert!(!b.preparing());
 }
+
+/// Every item of the hash, cell after cell over a box around everything, in the order met
+/// (the order within each cell's bucket included).
+fn every_entry(world: &World<'_>, grow: f32) -> Vec<u32> {
+    let mut met = Vec::new();
+    let all = Aabb::point(Vec3::ZERO).grown(1.5 * grow);
+    assert!(world
+        .hash()
+        .query_box_once(&all, u32::MAX, |item| met.push(item)));
+    met
+}
+
+/// A world with spare storage moves its hash in place (`SpatialHash::update`: only the tets
+/// whose cells changed), one without builds it whole: after every move the two hold the same
+/// table (every cell's items in the same order, the same length and counters but the update
+/// count) and answer the drill with the same bits; through small moves (the update), large
+/// ones, and a stretch that overflows the hash (the whole build, then the update again).
+#[test]
+fn a_hash_moved_in_place_is_the_hash_built_whole() {
+    let mut om_a = block_mesh(5);
+    let mut om_c = block_mesh(5);
+    let rest0 = om_a.positions().to_vec();
+    let n = rest0.len();
+    let (mesh_a, mesh_c) = (om_a.view(), om_c.view());
+    let tets = mesh_a.tet_count();
+    let mut st_a = Store::new(tets, 1 << 15);
+    let mut st_c = Store::new(tets, 1 << 15);
+    let sizes = WorldSizes::new(tets, 0);
+    let mut starts = vec![0u32; sizes.hash_starts];
+    let mut entries = vec![HashEntry::default(); sizes.hash_entries];
+    let mut spare_boxes = vec![Aabb::point(Vec3::ZERO); sizes.tet_boxes];
+    let mut normals = vec![Vec3::ZERO; n];
+    let mut a = st_a.world(mesh_a);
+    let mut c = st_c.world(mesh_c);
+    let (mut rest_a, mut rest_c) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+    a.enable_deformation(&mut rest_a).unwrap();
+    c.enable_deformation(&mut rest_c).unwrap();
+    c.set_spare(SpareStorage {
+        hash_starts: &mut starts,
+        hash_entries: &mut entries,
+        tet_boxes: &mut spare_boxes,
+        normals: &mut normals,
+    })
+    .unwrap();
+    let params = DrillParams {
+        max_depth: 3,
+        min_area: 0.0,
+        budget: 2_000,
+    };
+    let mut s = 0.0f32;
+    let mut saturated = 0;
+    for k in 0..60 {
+        // Small steps of the bend, a jump every 10th move, a stretch that overflows at 25.
+        s += if k % 10 == 9 { 0.9 } else { 0.015 };
+        let grow = if k == 25 { 3.0 } else { 1.0 };
+        let new: Vec<Vec3> = rest0.iter().map(|&p| bend(p, s, grow)).collect();
+        let rep_a = a.set_positions(&new).unwrap();
+        let rep_c = c.set_positions(&new).unwrap();
+        assert_eq!(rep_a, rep_c, "move {k}");
+        saturated += u32::from(rep_c.hash_saturated);
+        let (ha, hc) = (a.hash(), c.hash());
+        assert_eq!(ha.len(), hc.len(), "move {k}");
+        let (sa, sc) = (ha.stats(), hc.stats());
+        assert_eq!(
+            (sa.builds, sa.saturations, sa.clipped_queries),
+            (sc.builds, sc.saturations, sc.clipped_queries),
+            "move {k}"
+        );
+        assert_eq!(every_entry(&a, grow), every_entry(&c, grow), "move {k}");
+        assert_eq!(a.saturations(), c.saturations());
+        for i in 0..10 {
+            let t = (k * 10 + i) as f32 * 0.03;
+            let centre = Vec3::new(0.3 * t.sin(), 0.25 * (1.3 * t).cos(), 0.5);
+            let ra = a.simulate(centre, 0.1, 0.05, true, &params);
+            let rc = c.simulate(centre, 0.1, 0.05, true, &params);
+            assert_eq!(ra, rc, "move {k} tick {i}");
+            assert_eq!(a.candidates(), c.candidates());
+        }
+    }
+    assert_eq!(saturated, 1, "the stretched move overflows the hash");
+    assert_eq!(a.hash().stats().updates, 0);
+    // Every move but the stretch, the one after it (a saturated table is not updated) and
+    // any whose changes overflow the spare: most of the 60.
+    let updates = c.hash().stats().updates;
+    assert!((40..=58).contains(&updates), "{updates} updates in place");
+}

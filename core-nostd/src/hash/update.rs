@@ -1,0 +1,613 @@
+//! Moving items in a built [`SpatialHash`]: the items whose cell range changed leave their
+//! old cells and enter their new ones, and the table becomes the one a whole
+//! [`SpatialHash::rebuild`] over the new boxes makes, entry for entry.
+//!
+//! The whole build leaves each bucket in a fixed order: the filling pass writes every bucket
+//! from its back, items in increasing order and each item's cells x fastest, so a bucket
+//! reads front to back in decreasing item order, and an item's cells in decreasing visiting
+//! order. An item whose range is unchanged has the same entries in the same buckets. So the
+//! update lists the entries of the changed items (their old ones and their new ones, sorted
+//! into that order) and moves the table once: each bucket shifts by its new entries less its
+//! old ones below it, the buckets that move up first (from the top down), then those that
+//! move down (from the bottom up); a bucket with changes is rewritten merged, a run of
+//! unchanged buckets moves as one block.
+
+use core::cmp::Reverse;
+
+use super::cell::{bucket_of, cells_in, for_cells, Aabb, Cell};
+use super::rebuild::Rebuilt;
+use super::table::{HashEntry, SpatialHash};
+
+/// Writes `src` to `dst` (the same length) in the order of a bucket's entries: by bucket,
+/// then decreasing item, then decreasing visiting order (an item's cells are listed in
+/// visiting order, so the later listed first). Each entry's bucket is found once: `dst`
+/// first holds a key per entry (bucket, item, place in `src`), sorted, then the entries.
+///
+/// # Bounded work
+/// O(m log m) for m entries, one bucket remainder each.
+fn sort_into(src: &[HashEntry], dst: &mut [HashEntry], buckets: u32) {
+    for (j, (k, e)) in dst.iter_mut().zip(src).enumerate() {
+        let (bucket, item) = (bucket_of(e.cell, buckets), e.item());
+        k.cell = [bucket as i32, item as i32, j as i32];
+    }
+    dst.sort_unstable_by_key(|k| {
+        (
+            k.cell[0] as u32,
+            Reverse(k.cell[1] as u32),
+            Reverse(k.cell[2] as u32),
+        )
+    });
+    for k in dst.iter_mut() {
+        if let Some(&e) = src.get(k.cell[2] as usize) {
+            *k = e;
+        }
+    }
+}
+
+/// `entries.copy_within(from, to)`, nothing when either range falls outside (a table
+/// inconsistent with the update's lists; never for one built as documented).
+///
+/// # Bounded work
+/// O(`from.len()`).
+#[inline]
+fn move_run(entries: &mut [HashEntry], from: core::ops::Range<usize>, to: usize) {
+    let fits = from.start <= from.end
+        && from.end <= entries.len()
+        && to.saturating_add(from.end - from.start) <= entries.len();
+    if fits {
+        entries.copy_within(from, to);
+    }
+}
+
+impl SpatialHash<'_> {
+    /// Brings the table from the boxes it was built from to new ones: `moved(i)` gives item
+    /// `i`'s box at the last build and its new box (`None`: left out, as in
+    /// [`SpatialHash::rebuild`]), and is called once for every item `0..count`, in order,
+    /// whatever the outcome. Only the items whose cell range changed are touched; the table
+    /// (entries, bucket offsets, bounds, length) ends as [`SpatialHash::rebuild`] over the
+    /// new boxes leaves it, and the build is counted as one. `scratch` holds the changed
+    /// items' entries meanwhile (its contents are left undefined).
+    ///
+    /// Returns `None` when the update cannot be made, and then the table must be built whole
+    /// ([`SpatialHash::rebuild`]): the last build was not a whole build of `count` items
+    /// (never built, saturated, or of another count), the changed items' old and new entries
+    /// and the largest changed bucket do not fit in `scratch` together, the new entries would not fit in the table (the whole build
+    /// then saturates), or the table does not hold an old entry `moved` names (boxes other
+    /// than the last build's; the table's contents are then undefined).
+    ///
+    /// # Bounded work
+    /// O(count + m log m + buckets + entries) for m changed entries (at most
+    /// `scratch.len()`): one pass over the items, two sorts of the changed entries, one
+    /// sweep over the buckets each way that moves every entry at most once, the unchanged
+    /// runs by block copies. Cheaper than the whole build when few items change cell
+    /// range (the whole build hashes every cell of every item twice).
+    pub(crate) fn update<F>(
+        &mut self,
+        count: usize,
+        mut moved: F,
+        scratch: &mut [HashEntry],
+    ) -> Option<Rebuilt>
+    where
+        F: FnMut(usize) -> (Option<Aabb>, Option<Aabb>),
+    {
+        let (added, removed, bounds) = self.changes(count, &mut moved, scratch)?;
+        let total = self.used.checked_sub(removed)?.saturating_add(added);
+        if total > self.entries.len() {
+            return None;
+        }
+        let nb = self.buckets();
+        // The lists as listed at both ends, sorted into the middle; what is left of the
+        // middle is the buffer every changed bucket passes through.
+        let (ins_listed, rest) = scratch.split_at_mut(added);
+        let (mid, rem_listed) = rest.split_at_mut(rest.len() - removed);
+        let (ins, mid) = mid.split_at_mut(added);
+        let (rem, buf) = mid.split_at_mut(removed);
+        // The old entries were listed from the back: in listing order again.
+        rem_listed.reverse();
+        sort_into(ins_listed, ins, nb);
+        sort_into(rem_listed, rem, nb);
+        if !self.buckets_fit(ins, rem, buf.len()) {
+            return None;
+        }
+        if !self.move_entries(ins, rem, buf) {
+            self.whole = None;
+            return None;
+        }
+        self.used = total;
+        self.bounds = bounds;
+        self.stats.builds = self.stats.builds.wrapping_add(1);
+        self.stats.updates = self.stats.updates.wrapping_add(1);
+        Some(Rebuilt {
+            items: count,
+            entries: total,
+            saturated: false,
+        })
+    }
+
+    /// The first pass of [`SpatialHash::update`]: calls `moved` for every item, writes the
+    /// new entries of the items whose cell range changed to the front of `scratch` and their
+    /// old entries to its back. Returns how many of each and the new boxes' union; `None`
+    /// (the table untouched) when the table is not a whole build of `count` items or the
+    /// entries take more than half the scratch (the other half is for them sorted).
+    ///
+    /// # Bounded work
+    /// O(count + `scratch.len()`).
+    fn changes<F>(
+        &self,
+        count: usize,
+        moved: &mut F,
+        scratch: &mut [HashEntry],
+    ) -> Option<(usize, usize, Aabb)>
+    where
+        F: FnMut(usize) -> (Option<Aabb>, Option<Aabb>),
+    {
+        let mut fits = self.whole == Some(count);
+        let room = scratch.len();
+        // Half the scratch for the lists as listed, half for them sorted.
+        let budget = room / 2;
+        let (mut added, mut removed) = (0usize, 0usize);
+        let mut bounds = Aabb::of::<0>([]);
+        for i in 0..count {
+            let (old, new) = moved(i);
+            if let Some(b) = new {
+                bounds = bounds.union(b);
+            }
+            if !fits {
+                continue;
+            }
+            let was = old.map(|b| self.cell_range(&b));
+            let now = match (was, new) {
+                (Some(r), Some(b)) if self.keeps(r, &b) => continue,
+                _ => new.map(|b| self.cell_range(&b)),
+            };
+            if was == now {
+                continue;
+            }
+            let cells = |r: Option<(Cell, Cell)>| r.map_or(0, |(lo, hi)| cells_in(lo, hi));
+            let free = budget.saturating_sub(added + removed) as u64;
+            if cells(was).saturating_add(cells(now)) > free {
+                fits = false;
+                continue;
+            }
+            if let Some((lo, hi)) = now {
+                for_cells(lo, hi, |c| {
+                    if let Some(e) = scratch.get_mut(added) {
+                        *e = HashEntry::of(i, c, lo);
+                    }
+                    added += 1;
+                });
+            }
+            if let Some((lo, hi)) = was {
+                for_cells(lo, hi, |c| {
+                    removed += 1;
+                    if let Some(e) = scratch.get_mut(room - removed) {
+                        *e = HashEntry::of(i, c, lo);
+                    }
+                });
+            }
+        }
+        fits.then_some((added, removed, bounds))
+    }
+
+    /// `true` when box `b` covers the cell range `(lo, hi)`, as `cell_range` would find, by
+    /// two comparisons a bound: the floor of `x` is `c` when `c <= x < c + 1`, exact in
+    /// `f32` for `|c| < 2^24` (beyond, `false`: the caller finds the range itself).
+    ///
+    /// # Bounded work
+    /// Constant.
+    #[inline]
+    fn keeps(&self, (lo, hi): (Cell, Cell), b: &Aabb) -> bool {
+        let floor_is = |c: i32, v: f32| {
+            let (x, f) = (v * self.inv_cell, c as f32);
+            c.unsigned_abs() < 1 << 24 && f <= x && x < f + 1.0
+        };
+        (0..3).all(|a| floor_is(lo[a], b.min[a]) && floor_is(hi[a], b.max[a]))
+    }
+
+    /// `true` when every bucket with listed entries holds at most `room` entries (the buffer
+    /// [`SpatialHash::move_entries`] copies a changed bucket to).
+    ///
+    /// # Bounded work
+    /// O(m) for m listed entries.
+    fn buckets_fit(&self, ins: &[HashEntry], rem: &[HashEntry], room: usize) -> bool {
+        let nb = self.buckets();
+        let (mut i, mut r) = (0, 0);
+        while let Some((k, ie, re)) = group_above(ins, rem, i, r, nb) {
+            let at = |k: usize| self.starts.get(k).map_or(0, |&s| s as usize);
+            if at(k + 1).saturating_sub(at(k)) > room {
+                return false;
+            }
+            (i, r) = (ie, re);
+        }
+        true
+    }
+
+    /// The moving pass of [`SpatialHash::update`], over the table in one sweep each way.
+    /// Bucket `k`'s entries move by `d(k)`, the new entries less the old ones of the buckets
+    /// below it. Where `d(k) > 0` the buckets move up, and a run of such buckets lands
+    /// inside its own old place (it starts higher and ends no higher, as the next bucket's
+    /// shift is `<= 0`), so these runs are moved first, each from its top down; the other
+    /// buckets then move down from the bottom up, into places no longer read. A bucket with
+    /// changes is copied to `buf` first and written merged (old entries less `rem`, plus
+    /// `ins`, in decreasing item order); a run of unchanged buckets moves as one block.
+    /// `false` when an entry of `rem` is not in its bucket (the table is then undefined).
+    ///
+    /// # Bounded work
+    /// O(buckets + entries + m) for m listed entries.
+    fn move_entries(
+        &mut self,
+        ins: &[HashEntry],
+        rem: &[HashEntry],
+        buf: &mut [HashEntry],
+    ) -> bool {
+        let nb = self.buckets() as usize;
+        let net = ins.len() as i64 - rem.len() as i64;
+        let start = |s: &[u32], k: usize| s.get(k).map_or(0, |&v| v as usize);
+        // Up: from the top bucket down, `d` the shift of the bucket above the one at hand.
+        let (mut d, mut ie, mut re, mut upper) = (net, ins.len(), rem.len(), nb);
+        loop {
+            let g = group_below(ins, rem, ie, re, nb as u32);
+            let k_next = g.map_or(0, |(k, _, _)| k + 1);
+            if d > 0 {
+                let (lo, hi) = (start(self.starts, k_next), start(self.starts, upper));
+                move_run(self.entries, lo..hi, shifted(lo, d));
+            }
+            let Some((k, is, rs)) = g else { break };
+            let dk = d - (ie - is) as i64 + (re - rs) as i64;
+            if dk > 0 {
+                let src = start(self.starts, k)..start(self.starts, k + 1);
+                let to = shifted(src.start, dk);
+                if !rewrite(self.entries, src, to, &ins[is..ie], &rem[rs..re], buf) {
+                    return false;
+                }
+            }
+            (d, ie, re, upper) = (dk, is, rs, k);
+        }
+        // Down: from the bottom bucket up, each bucket's offset moved as it is passed.
+        let (mut d, mut i, mut r, mut lower) = (0i64, 0usize, 0usize, 0usize);
+        loop {
+            let g = group_above(ins, rem, i, r, nb as u32);
+            let k_end = g.map_or(nb, |(k, _, _)| k);
+            if d < 0 {
+                let (lo, hi) = (start(self.starts, lower), start(self.starts, k_end));
+                move_run(self.entries, lo..hi, shifted(lo, d));
+            }
+            for s in self.starts.get_mut(lower..k_end).unwrap_or(&mut []) {
+                *s = shifted(*s as usize, d) as u32;
+            }
+            let Some((k, ie, re)) = g else { break };
+            let src = start(self.starts, k)..start(self.starts, k + 1);
+            if d <= 0
+                && !rewrite(
+                    self.entries,
+                    src.clone(),
+                    shifted(src.start, d),
+                    &ins[i..ie],
+                    &rem[r..re],
+                    buf,
+                )
+            {
+                return false;
+            }
+            if let Some(s) = self.starts.get_mut(k) {
+                *s = shifted(src.start, d) as u32;
+            }
+            d += (ie - i) as i64 - (re - r) as i64;
+            (i, r, lower) = (ie, re, k + 1);
+        }
+        if let Some(s) = self.starts.get_mut(nb) {
+            *s = shifted(*s as usize, net) as u32;
+        }
+        true
+    }
+}
+
+/// `at + d`, clamped at 0 (never below for a table consistent with the update's lists).
+#[inline]
+fn shifted(at: usize, d: i64) -> usize {
+    (at as i64).saturating_add(d).max(0) as usize
+}
+
+/// The highest bucket with listed entries among `ins[..ie]` and `rem[..re]` (both sorted
+/// by `place`): the bucket and where its entries start in each list.
+///
+/// # Bounded work
+/// O(the bucket's listed entries).
+fn group_below(
+    ins: &[HashEntry],
+    rem: &[HashEntry],
+    ie: usize,
+    re: usize,
+    nb: u32,
+) -> Option<(usize, usize, usize)> {
+    let bucket = |l: &[HashEntry], e: usize| {
+        e.checked_sub(1)
+            .and_then(|p| l.get(p))
+            .map(|x| bucket_of(x.cell, nb))
+    };
+    let k = bucket(ins, ie).max(bucket(rem, re))?;
+    let (mut is, mut rs) = (ie, re);
+    while bucket(ins, is) == Some(k) {
+        is -= 1;
+    }
+    while bucket(rem, rs) == Some(k) {
+        rs -= 1;
+    }
+    Some((k as usize, is, rs))
+}
+
+/// The lowest bucket with listed entries among `ins[i..]` and `rem[r..]` (both sorted by
+/// `sort_into`): the bucket and where its entries end in each list.
+///
+/// # Bounded work
+/// O(the bucket's listed entries).
+fn group_above(
+    ins: &[HashEntry],
+    rem: &[HashEntry],
+    i: usize,
+    r: usize,
+    nb: u32,
+) -> Option<(usize, usize, usize)> {
+    let bucket = |l: &[HashEntry], at: usize| l.get(at).map(|x| bucket_of(x.cell, nb));
+    let k = match (bucket(ins, i), bucket(rem, r)) {
+        (Some(a), Some(b)) => a.min(b),
+        (a, b) => a.or(b)?,
+    };
+    let (mut ie, mut re) = (i, r);
+    while bucket(ins, ie) == Some(k) {
+        ie += 1;
+    }
+    while bucket(rem, re) == Some(k) {
+        re += 1;
+    }
+    Some((k as usize, ie, re))
+}
+
+/// Writes the bucket at `src` to `to`, through `buf`: its entries less `rem`, plus `ins`,
+/// in decreasing item order (both lists in the bucket's order). `false` when the bucket
+/// does not fit in `buf`, an entry of `rem` is not in it, or the result would leave the
+/// storage.
+///
+/// # Bounded work
+/// O(bucket size + listed entries).
+fn rewrite(
+    entries: &mut [HashEntry],
+    src: core::ops::Range<usize>,
+    to: usize,
+    ins: &[HashEntry],
+    rem: &[HashEntry],
+    buf: &mut [HashEntry],
+) -> bool {
+    let n = src.end.saturating_sub(src.start);
+    let (Some(old), Some(buf)) = (entries.get(src), buf.get_mut(..n)) else {
+        return false;
+    };
+    buf.copy_from_slice(old);
+    let (mut o, mut x, mut r, mut w) = (0usize, 0usize, 0usize, to);
+    loop {
+        // The old entry next, once the removed ones are passed.
+        while let (Some(e), Some(gone)) = (buf.get(o), rem.get(r)) {
+            if e != gone {
+                break;
+            }
+            (o, r) = (o + 1, r + 1);
+        }
+        let put = match (buf.get(o), ins.get(x)) {
+            (Some(&e), Some(&new)) if e.item() > new.item() => {
+                o += 1;
+                e
+            }
+            (_, Some(&new)) => {
+                x += 1;
+                new
+            }
+            (Some(&e), None) => {
+                o += 1;
+                e
+            }
+            (None, None) => break,
+        };
+        let Some(slot) = entries.get_mut(w) else {
+            return false;
+        };
+        *slot = put;
+        w += 1;
+    }
+    r == rem.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::collide::test_support::Rng;
+    use crate::hash::HashStats;
+
+    const ITEMS: usize = 60;
+
+    /// A box of up to about 3 cells a side somewhere in a 12-cell space, or none.
+    fn random_box(rng: &mut Rng) -> Option<Aabb> {
+        if rng.next() < 0.05 {
+            return None;
+        }
+        let min = Vec3::new(
+            rng.range(-6.0, 6.0),
+            rng.range(-6.0, 6.0),
+            rng.range(-6.0, 6.0),
+        );
+        let size = Vec3::new(
+            rng.range(0.0, 2.5),
+            rng.range(0.0, 2.5),
+            rng.range(0.0, 2.5),
+        );
+        Some(Aabb {
+            min,
+            max: min + size,
+        })
+    }
+
+    fn snap(v: f32) -> f32 {
+        libm::roundf(v * 2.0) / 2.0
+    }
+
+    /// The box moved a little (most keep their cells), a lot, or into or out of `None`.
+    fn moved_box(rng: &mut Rng, b: Option<Aabb>, reach: f32) -> Option<Aabb> {
+        let u = rng.next();
+        if u < 0.03 {
+            return random_box(rng);
+        }
+        let b = b?;
+        if u < 0.05 {
+            return None;
+        }
+        let d = Vec3::new(
+            rng.range(-reach, reach),
+            rng.range(-reach, reach),
+            rng.range(-reach, reach),
+        );
+        let grow = rng.range(-0.05, 0.05);
+        let moved = Aabb {
+            min: b.min + d,
+            max: (b.max + d + Vec3::splat(grow)).max(b.min + d),
+        };
+        // Now and then onto the half-cell lattice: bounds exactly on cell faces.
+        if u > 0.8 {
+            let snap = |v: Vec3| Vec3::new(snap(v.x), snap(v.y), snap(v.z));
+            return Some(Aabb {
+                min: snap(moved.min),
+                max: snap(moved.max),
+            });
+        }
+        Some(moved)
+    }
+
+    /// Oracle: after every update the table is the whole rebuild over the new boxes, entry
+    /// for entry, bucket offsets, bounds, length and counters, over random moves of 60 boxes
+    /// in tables of 1 to 97 buckets (many cells to a bucket), small moves and large ones,
+    /// boxes appearing and vanishing. A whole rebuild over separate storage is the reference.
+    #[test]
+    fn an_update_is_the_whole_rebuild_entry_for_entry() {
+        let mut rng = Rng(0x5eed_1234_abcd_0001);
+        let (mut updated, mut refused) = (0, 0);
+        for round in 0..300 {
+            let buckets = [2usize, 3, 8, 30, 98][round % 5];
+            let cap = 1_500;
+            let (mut s1, mut e1) = ([0u32; 98], [HashEntry::EMPTY; 1_500]);
+            let (mut s2, mut e2) = ([0u32; 98], [HashEntry::EMPTY; 1_500]);
+            let mut scratch = [HashEntry::EMPTY; 3_000];
+            let mut live = SpatialHash::new(&mut s1[..buckets], &mut e1[..cap], 1.0).unwrap();
+            let mut boxes = [None; ITEMS];
+            for b in boxes.iter_mut() {
+                *b = random_box(&mut rng);
+            }
+            live.rebuild(ITEMS, |i| boxes[i]);
+            let reach = [0.02f32, 0.2, 1.5][round % 3];
+            let room = [3_000usize, 800, 120][(round / 3) % 3];
+            let mut refused_here = 0;
+            for _ in 0..6 {
+                let mut next = boxes;
+                for b in next.iter_mut() {
+                    *b = moved_box(&mut rng, *b, reach);
+                }
+                let mut calls = 0;
+                let got = live.update(
+                    ITEMS,
+                    |i| {
+                        assert_eq!(i, calls, "items in order");
+                        calls += 1;
+                        (boxes[i], next[i])
+                    },
+                    &mut scratch[..room],
+                );
+                assert_eq!(calls, ITEMS, "every item once");
+                let got = match got {
+                    Some(g) => {
+                        updated += 1;
+                        g
+                    }
+                    None => {
+                        refused += 1;
+                        refused_here += 1;
+                        live.rebuild(ITEMS, |i| next[i])
+                    }
+                };
+                boxes = next;
+                let mut whole = SpatialHash::new(&mut s2[..buckets], &mut e2[..cap], 1.0).unwrap();
+                let want = whole.rebuild(ITEMS, |i| boxes[i]);
+                assert_eq!(got, want, "round {round}");
+                assert_eq!(live.starts, whole.starts, "round {round}");
+                assert_eq!(live.entries[..live.used], whole.entries[..whole.used]);
+                assert_eq!(live.bounds, whole.bounds);
+                assert_eq!(live.whole, Some(ITEMS));
+            }
+            assert_eq!(live.stats().builds, 7);
+            assert_eq!(live.stats().updates, 6 - refused_here);
+        }
+        // Both ways taken: most updates fit; the small scratch refuses the large moves and
+        // the tables of two or three buckets (a changed bucket passes through the scratch).
+        assert!(
+            updated > 500 && refused > 50,
+            "{updated} updated, {refused} refused"
+        );
+    }
+
+    /// Refusals leave the table as it was (a scratch too small, a table that is not a
+    /// whole build of the count, entries past the capacity), or flag it for a whole build
+    /// (old boxes other than the last build's).
+    #[test]
+    fn an_update_refuses_what_it_cannot_match() {
+        let a = Aabb {
+            min: Vec3::new(0.1, 0.1, 0.1),
+            max: Vec3::new(1.2, 0.2, 0.2),
+        };
+        let b = Aabb {
+            min: Vec3::new(3.1, 0.1, 0.1),
+            max: Vec3::new(3.2, 0.2, 0.2),
+        };
+        let far = Aabb {
+            min: Vec3::new(5.1, 0.1, 0.1),
+            max: Vec3::new(7.2, 0.2, 0.2),
+        };
+        let (mut starts, mut entries) = ([0u32; 8], [HashEntry::EMPTY; 4]);
+        let mut scratch = [HashEntry::EMPTY; 16];
+        let mut h = SpatialHash::new(&mut starts, &mut entries, 1.0).unwrap();
+        // Never built.
+        assert!(h.update(0, |_| (None, None), &mut scratch).is_none());
+        assert!(!h.rebuild(2, |i| [Some(a), Some(b)][i]).saturated);
+        let before = (*h.starts).to_vec();
+        // Another count.
+        assert!(h.update(1, |_| (Some(a), Some(a)), &mut scratch).is_none());
+        // Scratch too small for item 1's one old and one new entry.
+        let moves = |i: usize| [(Some(a), Some(a)), (Some(b), Some(a))][i];
+        assert!(h.update(2, moves, &mut scratch[..1]).is_none());
+        // Three new cells for one old: five entries in a table of four.
+        let moves = |i: usize| [(Some(a), Some(a)), (Some(b), Some(far))][i];
+        assert!(h.update(2, moves, &mut scratch).is_none());
+        assert_eq!(&*h.starts, &before[..]);
+        assert_eq!(h.stats().builds, 1);
+        // Old boxes the table was not built from: refused, a whole build needed.
+        let moves = |i: usize| [(Some(a), Some(a)), (Some(far), Some(b))][i];
+        assert!(h.update(2, moves, &mut scratch).is_none());
+        assert_eq!(h.whole, None);
+        assert!(h
+            .update(
+                2,
+                |i| [(Some(a), Some(a)), (Some(b), Some(b))][i],
+                &mut scratch
+            )
+            .is_none());
+        // A saturated build is not a whole one either.
+        assert!(h.rebuild(3, |i| [Some(a), Some(b), Some(far)][i]).saturated);
+        assert!(h.update(3, |_| (None, None), &mut scratch).is_none());
+        assert_eq!(
+            h.stats(),
+            HashStats {
+                builds: 2,
+                saturations: 1,
+                clipped_queries: 0,
+                updates: 0,
+            }
+        );
+    }
+}
