@@ -23,6 +23,9 @@
 //! assert!((q - Vec3::new(0.2, 0.2, 0.0)).length() < 1e-6);
 //! ```
 
+#[cfg(test)]
+pub(crate) mod test_rng;
+
 use glam::Vec3;
 
 /// Six times the signed volume of the tet `(a, b, c, d)`: `det[b-a, c-a, d-a]`.

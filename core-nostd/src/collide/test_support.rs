@@ -1,7 +1,7 @@
 //! Tiny meshes over fixed arrays for the unit tests of collide, depth and force, and the
 //! brute-force point location and random numbers the collide tests share.
 
-use glam::{Quat, Vec3};
+use glam::Vec3;
 
 use super::{Body, Collision, INSIDE_EPS};
 use crate::ids::{NodeId, TetId};
@@ -108,36 +108,7 @@ pub(crate) fn brute(body: &Body<'_, '_>, points: &[Vec3], own: bool) -> [Option<
     r
 }
 
-/// A xorshift generator for the rigid, occupancy and walk tests.
-pub(crate) struct Rng(pub u64);
-
-impl Rng {
-    /// The next number in `[0, 1)`.
-    pub fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    /// The next number in `[lo, hi)`.
-    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next()
-    }
-    /// A random rotation (the identity when the drawn quaternion is too short to normalise).
-    pub fn rotation(&mut self) -> Quat {
-        let q = Quat::from_xyzw(
-            self.range(-1.0, 1.0),
-            self.range(-1.0, 1.0),
-            self.range(-1.0, 1.0),
-            self.range(-1.0, 1.0),
-        );
-        if q.length_squared() < 1e-3 {
-            Quat::IDENTITY
-        } else {
-            q.normalize()
-        }
-    }
-}
+pub(crate) use crate::geom::test_rng::Rng;
 
 /// Brute force over every tet of `body` in world coordinates: per point the smallest tet
 /// that holds it (`geom::barycentric`, `geom::inside`), as sorted collisions.

@@ -421,7 +421,7 @@ mod tests {
     use glam::Vec3;
 
     use super::*;
-    use crate::collide::test_support::Rng;
+    use crate::geom::test_rng::Rng;
     use crate::hash::HashStats;
 
     const ITEMS: usize = 60;
