@@ -2,7 +2,7 @@
 # A clinical-size mesh drilled as the coarse one: the teddy (80k tets) and the same shape
 # re-meshed at about 2 million tets (scripts/make-fine-mesh.py, tetgen from PyPI), drilled by
 # the same burr along the same path (a plunge at the top of the head, a drag, then a hold),
-# default capacities and max depth. Prints removed volume, tick p99 and the buffers chosen for
+# default capacities, resolution and max depth. Prints removed volume, tick p99 and the buffers chosen for
 # each (whole tick, each tick's fastest of 3 runs), and `info`'s load time and resident
 # memory per tet for the fine mesh.
 #

@@ -291,7 +291,7 @@ pub struct ScenarioFlags {
     #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
     pub min_area: Option<f64>,
     /// The drill's finest leaf edge, mesh units (each tet refines as deep as its size needs,
-    /// at most `--max-depth`; 0: none; default: the burr's radius / 32).
+    /// at most `--max-depth`; 0: none; default: the burr's radius / 8).
     #[arg(long, allow_negative_numbers = true, value_parser = non_negative)]
     pub resolution: Option<f64>,
     /// Hierarchy nodes available (at least 8: one block of children).

@@ -28,8 +28,8 @@ pub(super) fn real_size_tooth() -> Scenario {
         pending_capacity: Some(40_960),
         candidate_capacity: Some(4_096),
         // Every tet to `max_depth` (5), as its figures in docs/DRILLING.md were measured: the
-        // derived default (a 32nd of the burr's radius) stops some of these small tets a
-        // level or two higher and removes 8 % less on the access trace.
+        // derived default (an 8th of the burr's radius) stops these small tets a level or
+        // two higher.
         resolution: Some(0.0),
         ..Scenario::default()
     }

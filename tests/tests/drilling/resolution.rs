@@ -85,10 +85,10 @@ fn fine_and_coarse_meshes_drill_with_leaves_of_one_size() {
     );
 }
 
-/// Without `--resolution` the drill's finest leaf is the burr's radius over 32, for a sphere
+/// Without `--resolution` the drill's finest leaf is the burr's radius over 8, for a sphere
 /// and for a drill tool's burr, in the JSON and in the world; `--resolution 0` turns it off.
 #[test]
-fn the_default_resolution_is_a_32nd_of_the_burr_and_0_turns_it_off() {
+fn the_default_resolution_is_an_8th_of_the_burr_and_0_turns_it_off() {
     let keys = [(0.0, [0.013, 0.021, 0.9]), (0.05, [0.013, 0.021, 0.9])];
     let used = |extra: &[&str], name: &str| {
         let j = replay_path("builtin:block:4", &keys, extra, name);
@@ -96,7 +96,7 @@ fn the_default_resolution_is_a_32nd_of_the_burr_and_0_turns_it_off() {
             .as_f64()
             .expect("sizing.resolution")
     };
-    assert_eq!(used(&[], "default"), 0.15 / 32.0);
+    assert_eq!(used(&[], "default"), 0.15 / 8.0);
     assert_eq!(used(&["--resolution", "0"], "off"), 0.0);
     assert_eq!(used(&["--resolution", "0.02"], "set"), 0.02);
     // A drill tool's burr; the world drills at it.
@@ -106,7 +106,7 @@ fn the_default_resolution_is_a_32nd_of_the_burr_and_0_turns_it_off() {
     }
     .setup()
     .expect("a valid set-up");
-    assert_eq!(drill.drill_resolution(), 0.1 / 32.0);
+    assert_eq!(drill.drill_resolution(), 0.1 / 8.0);
     let sc = tetradrill::scenario::Scenario {
         mesh: "builtin:block:4".into(),
         tool: "sphere:0.15".into(),
@@ -116,7 +116,7 @@ fn the_default_resolution_is_a_32nd_of_the_burr_and_0_turns_it_off() {
     .expect("a valid set-up");
     let (_, mut store) = tetradrill_tests::engine_storage(&sc);
     let world = store.world().expect("world");
-    assert_eq!(world.drill_resolution(), (0.15f64 / 32.0) as f32);
+    assert_eq!(world.drill_resolution(), (0.15f64 / 8.0) as f32);
 }
 
 #[test]

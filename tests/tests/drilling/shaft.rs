@@ -315,7 +315,8 @@ fn a_drill_replay_reports_its_shaft() {
 /// Oracle: a golden replay made with the whole-shaft query (commit 5a58d46; the force
 /// digest `17cf19413b83295e`): a burr of 0.03 on a 0.3 shaft plunged into the teddy's head
 /// and swept to and fro across it (the path of `scripts/clinical-drill.sh --moving`, the
-/// shaft near the surface on about 1,200 ticks), at the default depth.
+/// shaft near the surface on about 1,200 ticks), every tet to the default depth
+/// (`--resolution 0`, as the golden replay drilled).
 #[test]
 fn the_shaft_points_query_their_own_tets_and_answer_as_the_whole_shafts_query() {
     const TEDDY: &str = "models/teddy_cgalbear_tetgen_q1.414.node";
@@ -364,6 +365,8 @@ fn the_shaft_points_query_their_own_tets_and_answer_as_the_whole_shafts_query() 
         &trace,
         "--tool",
         "drill:0.03:0.3:0.012",
+        "--resolution",
+        "0",
         "--json",
         json.to_str().expect("a UTF-8 path"),
     ]);
