@@ -43,7 +43,7 @@ mod cell;
 mod query;
 mod rebuild;
 mod table;
-pub mod update;
+mod update;
 
 pub(crate) use cell::cells_in;
 pub(crate) use cell::floor_i32;

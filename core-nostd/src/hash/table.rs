@@ -74,6 +74,7 @@ impl core::error::Error for HashError {}
 
 /// Counters kept across builds and queries.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+#[non_exhaustive]
 pub struct HashStats {
     /// Builds done.
     pub builds: u32,

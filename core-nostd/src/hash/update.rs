@@ -28,7 +28,7 @@ use super::table::{HashEntry, SpatialHash};
 fn sort_into(src: &[HashEntry], dst: &mut [HashEntry], buckets: u32) {
     for (j, (k, e)) in dst.iter_mut().zip(src).enumerate() {
         let (bucket, item) = (bucket_of(e.cell, buckets), e.item());
-        k.cell = [bucket as i32, item as i32, j as i32];
+        k.cell = [bucket as i32, item as i32, j as u32 as i32];
     }
     dst.sort_unstable_by_key(|k| {
         (
@@ -38,7 +38,7 @@ fn sort_into(src: &[HashEntry], dst: &mut [HashEntry], buckets: u32) {
         )
     });
     for k in dst.iter_mut() {
-        if let Some(&e) = src.get(k.cell[2] as usize) {
+        if let Some(&e) = src.get(k.cell[2] as u32 as usize) {
             *k = e;
         }
     }
@@ -70,10 +70,14 @@ impl SpatialHash<'_> {
     ///
     /// Returns `None` when the update cannot be made, and then the table must be built whole
     /// ([`SpatialHash::rebuild`]): the last build was not a whole build of `count` items
-    /// (never built, saturated, or of another count), the changed items' old and new entries
-    /// and the largest changed bucket do not fit in `scratch` together, the new entries would not fit in the table (the whole build
-    /// then saturates), or the table does not hold an old entry `moved` names (boxes other
-    /// than the last build's; the table's contents are then undefined).
+    /// (never built, saturated, or of another count), `scratch` is too short (it needs twice
+    /// the m changed entries, old and new, plus the old size of the largest bucket they
+    /// fall in), the new entries would not fit in the table (the whole build then
+    /// saturates), or the table does not hold an old entry `moved` names (the table's
+    /// contents are then undefined).
+    ///
+    /// The old boxes must be the last build's: an item whose claimed old box and new box
+    /// cover the same cells is taken as unchanged without a look at the table.
     ///
     /// # Bounded work
     /// O(count + m log m + buckets + entries) for m changed entries (at most
@@ -143,8 +147,9 @@ impl SpatialHash<'_> {
     {
         let mut fits = self.whole == Some(count);
         let room = scratch.len();
-        // Half the scratch for the lists as listed, half for them sorted.
-        let budget = room / 2;
+        // Half the scratch for the lists as listed, half for them sorted (a list's place
+        // in its sort key is a `u32`).
+        let budget = (room / 2).min(u32::MAX as usize);
         let (mut added, mut removed) = (0usize, 0usize);
         let mut bounds = Aabb::of::<0>([]);
         for i in 0..count {
@@ -489,21 +494,34 @@ mod tests {
     #[test]
     fn an_update_is_the_whole_rebuild_entry_for_entry() {
         let mut rng = Rng(0x5eed_1234_abcd_0001);
-        let (mut updated, mut refused) = (0, 0);
+        let (mut updated, mut refused, mut saturated) = (0, 0, 0);
         for round in 0..300 {
             let buckets = [2usize, 3, 8, 30, 98][round % 5];
-            let cap = 1_500;
             let (mut s1, mut e1) = ([0u32; 98], [HashEntry::EMPTY; 1_500]);
             let (mut s2, mut e2) = ([0u32; 98], [HashEntry::EMPTY; 1_500]);
             let mut scratch = [HashEntry::EMPTY; 3_000];
-            let mut live = SpatialHash::new(&mut s1[..buckets], &mut e1[..cap], 1.0).unwrap();
             let mut boxes = [None; ITEMS];
             for b in boxes.iter_mut() {
                 *b = random_box(&mut rng);
             }
+            // Every fourth table is sized to its first build and a few entries more: moves
+            // that grow it past its capacity, a saturated whole build, then none to update.
+            let cap = if round % 4 == 3 {
+                let mut first = SpatialHash::new(&mut s2[..buckets], &mut e2, 1.0).unwrap();
+                let need = first.rebuild(ITEMS, |i| boxes[i]).entries;
+                (need + round % 7).min(1_500)
+            } else {
+                1_500
+            };
+            let mut live = SpatialHash::new(&mut s1[..buckets], &mut e1[..cap], 1.0).unwrap();
             live.rebuild(ITEMS, |i| boxes[i]);
             let reach = [0.02f32, 0.2, 1.5][round % 3];
-            let room = [3_000usize, 800, 120][(round / 3) % 3];
+            let room = match (round / 3) % 4 {
+                0 => 3_000,
+                1 => 800,
+                2 => 120,
+                _ => (rng.next() * 400.0) as usize,
+            };
             let mut refused_here = 0;
             for _ in 0..6 {
                 let mut next = boxes;
@@ -539,7 +557,8 @@ mod tests {
                 assert_eq!(live.starts, whole.starts, "round {round}");
                 assert_eq!(live.entries[..live.used], whole.entries[..whole.used]);
                 assert_eq!(live.bounds, whole.bounds);
-                assert_eq!(live.whole, Some(ITEMS));
+                assert_eq!(live.whole, (!want.saturated).then_some(ITEMS));
+                saturated += u32::from(want.saturated);
             }
             assert_eq!(live.stats().builds, 7);
             assert_eq!(live.stats().updates, 6 - refused_here);
@@ -547,9 +566,56 @@ mod tests {
         // Both ways taken: most updates fit; the small scratch refuses the large moves and
         // the tables of two or three buckets (a changed bucket passes through the scratch).
         assert!(
-            updated > 500 && refused > 50,
+            updated > 350 && refused > 50,
             "{updated} updated, {refused} refused"
         );
+        assert!(saturated > 20, "{saturated} saturated builds");
+    }
+
+    /// A table that does not hold what `moved` says (offsets, entries or length corrupted,
+    /// old boxes of another build) gives `None` or some table, never a panic, and the queries
+    /// after it do not panic either.
+    #[test]
+    fn an_update_over_a_corrupted_table_does_not_panic() {
+        let mut rng = Rng(0xdead_beef_0bad_f00d);
+        for round in 0..3_000 {
+            let buckets = [2usize, 3, 4, 8, 14][round % 5];
+            let cap = [0usize, 5, 30, 300][(round / 5) % 4];
+            let (mut starts, mut entries) = ([0u32; 14], [HashEntry::EMPTY; 300]);
+            let mut h = SpatialHash::new(&mut starts[..buckets], &mut entries[..cap], 1.0).unwrap();
+            let (mut a, mut b, mut c) = ([None; 20], [None; 20], [None; 20]);
+            for i in 0..20 {
+                a[i] = random_box(&mut rng);
+                b[i] = if rng.next() < 0.7 {
+                    a[i]
+                } else {
+                    random_box(&mut rng)
+                };
+                c[i] = random_box(&mut rng);
+            }
+            h.rebuild(20, |i| a[i]);
+            match round % 6 {
+                1 => h
+                    .starts
+                    .iter_mut()
+                    .for_each(|s| *s = (rng.next() * 310.0) as u32),
+                2 => h.entries.iter_mut().for_each(|e| e.cell[0] += 1),
+                3 => h.used = (rng.next() * 350.0) as usize,
+                4 => h.starts.reverse(),
+                5 => h.entries.iter_mut().for_each(|e| e.packed ^= 1),
+                _ => {}
+            }
+            h.whole = Some(20);
+            let mut scratch = [HashEntry::EMPTY; 400];
+            let room = (rng.next() * 400.0) as usize;
+            let _ = h.update(20, |i| (b[i], c[i]), &mut scratch[..room]);
+            let _ = h.update(20, |i| (c[i], a[i]), &mut scratch[..room]);
+            let all = Aabb {
+                min: Vec3::splat(-8.0),
+                max: Vec3::splat(8.0),
+            };
+            h.query_box(&all, 10_000, |_, _| {});
+        }
     }
 
     /// Refusals leave the table as it was (a scratch too small, a table that is not a

@@ -185,8 +185,10 @@ impl<'a> World<'a> {
         let tets = mesh.tet_count();
         let boxes = &mut *self.boxes;
         let idle = |s: &&mut Spare<'a>| s.prep == Prep::default();
+        let mut boxed = false;
         if boxes.len() >= tets {
             if let Some(spare) = self.spare.as_mut().filter(idle) {
+                // Every box is made new here, whatever the update's outcome.
                 let moved = |t: usize| {
                     let now = tet_box(mesh, new, t);
                     let was = boxes.get_mut(t).map(|b| core::mem::replace(b, now));
@@ -195,10 +197,13 @@ impl<'a> World<'a> {
                 if let Some(built) = self.hash.update(tets, moved, spare.hash.scratch()) {
                     return built;
                 }
+                boxed = true;
             }
         }
-        for (t, b) in boxes.iter_mut().enumerate().take(tets) {
-            *b = tet_box(mesh, new, t);
+        if !boxed {
+            for (t, b) in boxes.iter_mut().enumerate().take(tets) {
+                *b = tet_box(mesh, new, t);
+            }
         }
         let boxes = &*boxes;
         self.hash
