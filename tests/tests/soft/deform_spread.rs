@@ -57,6 +57,34 @@ fn bits(v: &[Vec3]) -> Vec<u32> {
         .collect()
 }
 
+/// Spare storage of a world's sizes over `nodes` nodes (`World::set_spare`).
+struct Spare {
+    starts: Vec<u32>,
+    entries: Vec<HashEntry>,
+    boxes: Vec<Aabb>,
+    normals: Vec<Vec3>,
+}
+
+impl Spare {
+    fn new(sizes: &WorldSizes, nodes: usize) -> Self {
+        Self {
+            starts: vec![0; sizes.hash_starts],
+            entries: vec![HashEntry::default(); sizes.hash_entries],
+            boxes: vec![Aabb::point(Vec3::ZERO); sizes.tet_boxes],
+            normals: vec![Vec3::ZERO; nodes],
+        }
+    }
+
+    fn storage(&mut self) -> SpareStorage<'_> {
+        SpareStorage {
+            hash_starts: &mut self.starts,
+            hash_entries: &mut self.entries,
+            tet_boxes: &mut self.boxes,
+            normals: &mut self.normals,
+        }
+    }
+}
+
 #[test]
 fn a_spread_update_commits_the_world_set_positions_makes() {
     let mut om_a = block_mesh(5);
@@ -68,10 +96,7 @@ fn a_spread_update_commits_the_world_set_positions_makes() {
     let mut st_a = Store::new(tets, 1 << 15);
     let mut st_b = Store::new(tets, 1 << 15);
     let sizes = WorldSizes::new(tets, 0);
-    let mut starts = vec![0u32; sizes.hash_starts];
-    let mut entries = vec![HashEntry::default(); sizes.hash_entries];
-    let mut spare_boxes = vec![Aabb::point(Vec3::ZERO); sizes.tet_boxes];
-    let mut normals = vec![Vec3::ZERO; n];
+    let mut spare = Spare::new(&sizes, n);
     let mut a = st_a.world(mesh_a);
     let mut b = st_b.world(mesh_b);
     let (mut rest_a, mut rest_b) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
@@ -80,24 +105,12 @@ fn a_spread_update_commits_the_world_set_positions_makes() {
     // Refusals first: no spare, a short spare.
     assert_eq!(b.prepare_positions(&rest0, 100), Err(DeformError::NoSpare));
     assert_eq!(b.commit_positions(&rest0), Err(DeformError::NoSpare));
-    let mut short = vec![Vec3::ZERO; n - 1];
-    let (mut s2, mut e2, mut b2) = (starts.clone(), entries.clone(), spare_boxes.clone());
+    let mut short = Spare::new(&sizes, n - 1);
     assert_eq!(
-        b.set_spare(SpareStorage {
-            hash_starts: &mut s2,
-            hash_entries: &mut e2,
-            tet_boxes: &mut b2,
-            normals: &mut short,
-        }),
+        b.set_spare(short.storage()),
         Err(DeformError::SpareSize("normals"))
     );
-    b.set_spare(SpareStorage {
-        hash_starts: &mut starts,
-        hash_entries: &mut entries,
-        tet_boxes: &mut spare_boxes,
-        normals: &mut normals,
-    })
-    .unwrap();
+    b.set_spare(spare.storage()).unwrap();
     assert_eq!(b.commit_positions(&rest0), Err(DeformError::NotPrepared));
     let whole = b.prepare_units().unwrap();
     let params = DrillParams {
@@ -235,22 +248,13 @@ fn a_hash_moved_in_place_is_the_hash_built_whole() {
     let mut st_a = Store::new(tets, 1 << 15);
     let mut st_c = Store::new(tets, 1 << 15);
     let sizes = WorldSizes::new(tets, 0);
-    let mut starts = vec![0u32; sizes.hash_starts];
-    let mut entries = vec![HashEntry::default(); sizes.hash_entries];
-    let mut spare_boxes = vec![Aabb::point(Vec3::ZERO); sizes.tet_boxes];
-    let mut normals = vec![Vec3::ZERO; n];
+    let mut spare = Spare::new(&sizes, n);
     let mut a = st_a.world(mesh_a);
     let mut c = st_c.world(mesh_c);
     let (mut rest_a, mut rest_c) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
     a.enable_deformation(&mut rest_a).unwrap();
     c.enable_deformation(&mut rest_c).unwrap();
-    c.set_spare(SpareStorage {
-        hash_starts: &mut starts,
-        hash_entries: &mut entries,
-        tet_boxes: &mut spare_boxes,
-        normals: &mut normals,
-    })
-    .unwrap();
+    c.set_spare(spare.storage()).unwrap();
     let params = DrillParams {
         max_depth: 3,
         min_area: 0.0,
