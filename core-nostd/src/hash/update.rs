@@ -314,7 +314,7 @@ fn shifted(at: usize, d: i64) -> usize {
 }
 
 /// The highest bucket with listed entries among `ins[..ie]` and `rem[..re]` (both sorted
-/// by `place`): the bucket and where its entries start in each list.
+/// by `sort_into`): the bucket and where its entries start in each list.
 ///
 /// # Bounded work
 /// O(the bucket's listed entries).

@@ -30,7 +30,8 @@
 //! normals' per-tet sums and per-node normalisation ([`Mesh::add_boundary_normals`],
 //! [`Mesh::finish_boundary_normal`], which [`Mesh::update_boundary`] runs on the live
 //! normals), the hash's counting sort ([`SpatialHash::rebuild`] in one call,
-//! [`SpatialHash::rebuild_part`] cut into calls: the hash module's two forms of it), and what
+//! [`SpatialHash::rebuild_part`] cut into calls: the hash module's two forms of it; the one
+//! call moves only the changed tets instead when it can, `SpatialHash::update`), and what
 //! follows the move (`finish_move`); the one form on the live storage in one call, the other
 //! on the spare storage a slice at a time.
 //! The committed world is the one [`World::set_positions`] leaves, bit for bit.
@@ -184,23 +185,18 @@ impl<'a> World<'a> {
         let mesh = &self.mesh;
         let tets = mesh.tet_count();
         let boxes = &mut *self.boxes;
-        let idle = |s: &&mut Spare<'a>| s.prep == Prep::default();
-        let mut boxed = false;
-        if boxes.len() >= tets {
-            if let Some(spare) = self.spare.as_mut().filter(idle) {
-                // Every box is made new here, whatever the update's outcome.
-                let moved = |t: usize| {
-                    let now = tet_box(mesh, new, t);
-                    let was = boxes.get_mut(t).map(|b| core::mem::replace(b, now));
-                    (was, Some(now))
-                };
-                if let Some(built) = self.hash.update(tets, moved, spare.hash.scratch()) {
-                    return built;
-                }
-                boxed = true;
+        let usable = |s: &&mut Spare<'a>| s.prep == Prep::default() && boxes.len() >= tets;
+        if let Some(spare) = self.spare.as_mut().filter(usable) {
+            // Every box is made new here, whatever the update's outcome.
+            let moved = |t: usize| {
+                let now = tet_box(mesh, new, t);
+                let was = boxes.get_mut(t).map(|b| core::mem::replace(b, now));
+                (was, Some(now))
+            };
+            if let Some(built) = self.hash.update(tets, moved, spare.hash.scratch()) {
+                return built;
             }
-        }
-        if !boxed {
+        } else {
             for (t, b) in boxes.iter_mut().enumerate().take(tets) {
                 *b = tet_box(mesh, new, t);
             }
