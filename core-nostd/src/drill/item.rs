@@ -119,8 +119,9 @@ impl Drill<'_> {
         }
         // Material the pressing force does not remove is neither refined nor erased; the
         // burr's unchanged positions are queued again once the backlog is done (as after a
-        // full deque), so a burr held still cuts when pressed harder.
-        if !self.admits(item.tet) {
+        // full deque), so a burr held still cuts when pressed harder. Once the burr presses
+        // nothing, the feed's pool still pays for the queued material its work was done on.
+        if !self.admits(item.tet) && !self.admits_paid(mesh, item.tet, max_depth) {
             rep.held += 1;
             self.retry = true;
             return true;
@@ -285,14 +286,22 @@ impl Drill<'_> {
     ) {
         // A leaf of a rate-limited material waits at the front of its ring until its region
         // has earned its volume; the step stops there.
-        if self.spend(mesh, item.tet, path.depth) == Spend::Wait {
-            let _ = match pass {
-                Pass::Coarse => self.coarse.push_front(item),
-                Pass::Fine => self.fine.push_front(item),
-            };
-            self.stalled = true;
-            rep.waited = 1;
-            return;
+        match self.spend(mesh, item.tet, path.depth) {
+            Spend::Erase => {}
+            Spend::Wait => {
+                let _ = match pass {
+                    Pass::Coarse => self.coarse.push_front(item),
+                    Pass::Fine => self.fine.push_front(item),
+                };
+                self.stalled = true;
+                rep.waited = 1;
+                return;
+            }
+            Spend::Drop => {
+                rep.held += 1;
+                self.retry = true;
+                return;
+            }
         }
         if let Ok(r) = h.erase_at(mesh, item.tet, path, item.node) {
             rep.work = rep.work.saturating_add(WorkCost::VISIT * r.work);

@@ -301,6 +301,10 @@ pub(crate) enum Spend {
     Erase,
     /// Its region's credit does not cover it yet: the leaf waits for more work.
     Wait,
+    /// A leaf of a region cut by the feed, reached while the burr presses nothing (admitted
+    /// by the pool's work, [`Regions::admits_paid`]), that the pool no longer covers: it is
+    /// left, not waited for, so the queue drains and the rest of the pool is dropped.
+    Drop,
 }
 
 impl<'a> Regions<'a> {
@@ -480,6 +484,24 @@ impl<'a> Regions<'a> {
         self.material_of(tet).admits(self.force)
     }
 
+    /// `true` when the burr presses nothing (the last grant's force is zero) and `tet`'s
+    /// region is cut by the feed and the pool holds the work of a `leaf` of it (its volume,
+    /// asked for only then): the material the burr pressed on its way and the drill has still
+    /// to reach (its queue) is cut with the work done on it once the burr has left (the force
+    /// gates the cut only while the burr presses). A leaf the pool then no longer covers is
+    /// dropped ([`Spend::Drop`]).
+    ///
+    /// # Bounded work
+    /// Constant, and `leaf` called at most once.
+    #[inline]
+    pub(crate) fn admits_paid(&self, tet: TetId, leaf: impl FnOnce() -> f64) -> bool {
+        if self.force > 0.0 || self.pool <= 0.0 {
+            return false;
+        }
+        self.region_entry(tet)
+            .is_some_and(|r| r.feed_limited() && self.pool >= f64::from(r.cutting_energy) * leaf())
+    }
+
     /// `true` when a leaf of `tet` must be paid for ([`Regions::spend`]): its region is
     /// rate-limited or cut by the feed.
     #[inline]
@@ -511,6 +533,8 @@ impl<'a> Regions<'a> {
                     self.waiting = None;
                 }
                 Spend::Erase
+            } else if !reg.material.admits(self.force) {
+                Spend::Drop
             } else {
                 self.waiting = Some((r, volume));
                 Spend::Wait
@@ -595,6 +619,15 @@ impl<'a> super::Drill<'a> {
     #[inline]
     pub(super) fn admits(&self, tet: TetId) -> bool {
         self.regions.as_ref().is_none_or(|r| r.admits(tet))
+    }
+
+    /// `true` when the burr presses nothing and the feed's pool holds the work of a leaf of
+    /// `tet` at `depth` ([`Regions::admits_paid`]); never without regions.
+    #[inline]
+    pub(super) fn admits_paid(&self, mesh: &crate::mesh::Mesh<'_>, tet: TetId, depth: u8) -> bool {
+        self.regions
+            .as_ref()
+            .is_some_and(|r| r.admits_paid(tet, || crate::hierarchy::node_volume(mesh, tet, depth)))
     }
 
     /// Whether a leaf of `tet` at `depth` is erased now ([`Regions::spend`] of its volume,

@@ -228,3 +228,131 @@ fn a_trees_depth_limit_halves_its_longest_edge_down_to_the_resolution() {
     assert_eq!(depth_limit(1.0, 0.0), MAX_DEPTH as u8, "no resolution");
     assert_eq!(depth_limit(1e9, 1e-9), MAX_DEPTH as u8, "capped");
 }
+
+/// Work the feed paid into the pool while the drill lagged behind the burr is spent on the
+/// queued material once the burr presses nothing: the queue drains, each leaf it erases is
+/// paid from the pool, and a leaf the pool no longer covers is left.
+#[test]
+fn work_left_in_the_pool_cuts_the_queued_material_once_the_burr_lets_go() {
+    let mut store = Store::<CUBE12_NODES, CUBE12_TETS>::cube12(1.0, Vec3::ZERO);
+    let mesh = store.refinable_mesh();
+    cube_hierarchy!(h, &mesh, 1 << 13);
+    // One region cut by the feed at 1,000 per cubic unit, threshold 1 N.
+    let e = 1_000.0f32;
+    let gated = Material {
+        threshold: 1.0,
+        ..Material::DEFAULT
+    };
+    let mut table = [Region::new(gated).with_cutting_energy(e)];
+    let of_tet = [0u8; CUBE12_TETS];
+    let mut queue = [Pending::default(); 2048];
+    let mut drill = Drill::new(&mut queue);
+    drill.set_regions(Regions::new(&mut table, &of_tet).expect("regions"));
+    // A burr of radius 0.2 centred on the top face: the half ball under it is 0.01676, whose
+    // cutting takes 16.8 of work; the burr pays 5 of it (2 N over 2.5) and the drill, held
+    // to a small budget a step, has cut only part of that when the burr lets go.
+    let burr = [Sphere {
+        center: Vec3::new(0.0, 0.0, 0.5),
+        radius: 0.2,
+    }];
+    let mut cand = [TetId::NONE; CUBE12_TETS];
+    let n = candidates_brute_force(&mesh, &burr, &mut cand);
+    let params = DrillParams {
+        max_depth: 3,
+        min_area: 0.0,
+        budget: 40,
+    };
+    let under = Some(cand[0]);
+    let grant = |d: &mut Drill<'_>, force: f32, feed: f32| {
+        let queued = d.pending() > 0;
+        d.regions_mut()
+            .expect("regions")
+            .grant(force, 0.001, true, feed, under, queued);
+    };
+    grant(&mut drill, 2.0, 2.5);
+    drill.step(&mut h, &mesh, &cand[..n], &burr, &params);
+    while h.removed_volume() == 0.0 {
+        grant(&mut drill, 2.0, 0.0);
+        drill.step(&mut h, &mesh, &cand[..n], &[], &params);
+        assert!(drill.pending() > 0);
+    }
+    let pressed = h.removed_volume();
+    assert!(drill.pending() > 0 && pressed > 0.0, "{pressed}");
+    // The burr lets go (no force, the drill on): the queue goes on with the pool's work.
+    let mut steps = 0;
+    while drill.pending() > 0 {
+        grant(&mut drill, 0.0, 0.0);
+        drill.step(&mut h, &mesh, &cand[..n], &[], &params);
+        h.validate(&mesh).expect("valid");
+        steps += 1;
+        assert!(steps < 10_000, "the queue drains");
+    }
+    let regions = drill.regions().expect("regions");
+    let cut = h.removed_volume();
+    assert!(cut > 2.0 * pressed, "{cut} after {pressed}");
+    // Every leaf erased was paid: the hierarchy's removed volume at e is the energy spent,
+    // and with the pool's rest the work done.
+    let energy = regions.cutting_energy();
+    assert!(
+        (f64::from(e) * cut - energy).abs() < 1e-9 * energy,
+        "{cut} {energy}"
+    );
+    let work = regions.cutting_work();
+    assert!((work - 5.0).abs() < 1e-6, "{work}");
+    assert!((work - energy - regions.feed_pool() - regions.feed_dropped()).abs() < 1e-9);
+    // The pool was spent down to less than what one leaf of depth 1 would take, on material
+    // inside the burr.
+    let big_leaf = (0..CUBE12_TETS)
+        .map(|t| crate::hierarchy::node_volume(&mesh, TetId::from_idx(t), 1))
+        .fold(0.0, f64::max);
+    assert!(regions.feed_pool() < f64::from(e) * big_leaf, "{regions:?}");
+    let half_ball = 2.0 / 3.0 * core::f64::consts::PI * 0.2f64.powi(3);
+    assert!(cut < half_ball, "{cut} against {half_ball}");
+}
+
+/// The pool's side of the test above: once the burr presses nothing, the pool admits the
+/// feed's queued leaves it covers; one it covers is erased, a bigger one is left, not waited
+/// for; while the burr presses below the threshold nothing is admitted.
+#[test]
+fn once_the_burr_presses_nothing_the_pool_admits_the_leaves_it_covers() {
+    use super::material::Spend;
+    // Region 0 removed at once, region 1 cut by the feed at 2,000 per cubic unit
+    // (threshold 1 N), region 2 rate-limited.
+    let feed = Region::new(Material {
+        threshold: 1.0,
+        ..Material::DEFAULT
+    })
+    .with_cutting_energy(2_000.0);
+    let rate = Region::new(Material {
+        hardness: 100.0,
+        threshold: 1.0,
+        stiffness: 0.0,
+    });
+    let mut table = [Region::default(), feed, rate];
+    let of_tet = [0u8, 1, 2];
+    let mut r = Regions::new(&mut table, &of_tet).expect("valid");
+    let under = Some(TetId(1));
+    // Once the burr presses nothing, the pool's work admits the feed's queued leaves it
+    // covers (the smallest, given): one it covers is erased, a bigger one is left, not
+    // waited for; while the burr presses below the threshold a leaf is not admitted.
+    r.grant(2.0, 0.001, true, 0.0015, under, false);
+    r.grant(0.0, 0.001, true, 0.0, None, true);
+    assert!((r.feed_pool() - 0.003).abs() < 1e-9);
+    assert!(r.admits_paid(TetId(1), || 1e-6) && !r.admits(TetId(1)));
+    assert!(
+        !r.admits_paid(TetId(1), || 2e-6),
+        "0.004 of work for 0.003 in the pool"
+    );
+    assert!(!r.admits_paid(TetId(2), || 1e-9) && !r.admits_paid(TetId(0), || 1e-9));
+    assert_eq!(r.spend(TetId(1), 1e-6), Spend::Erase);
+    assert_eq!(r.spend(TetId(1), 1e-6), Spend::Drop);
+    assert!((r.feed_pool() - 0.001).abs() < 1e-9);
+    r.grant(0.5, 0.001, true, 0.0, under, true);
+    assert!(!r.admits_paid(TetId(1), || 1e-7) && !r.admits(TetId(1)));
+    r.grant(2.0, 0.001, true, 0.0, under, true);
+    assert_eq!(
+        r.spend(TetId(1), 1e-6),
+        Spend::Wait,
+        "pressed: the leaf waits"
+    );
+}
