@@ -122,8 +122,7 @@ impl Drill<'_> {
         // full deque), so a burr held still cuts when pressed harder. Once the burr presses
         // nothing, the feed's pool still pays for the queued material its work was done on.
         if !self.admits(item.tet) && !self.admits_paid(mesh, item.tet, max_depth) {
-            rep.held += 1;
-            self.retry = true;
+            self.hold(rep);
             return true;
         }
         let Some(depth) = Path::depth_of(item.index) else {
@@ -298,8 +297,7 @@ impl Drill<'_> {
                 return;
             }
             Spend::Drop => {
-                rep.held += 1;
-                self.retry = true;
+                self.hold(rep);
                 return;
             }
         }

@@ -302,8 +302,9 @@ pub(crate) enum Spend {
     /// Its region's credit does not cover it yet: the leaf waits for more work.
     Wait,
     /// A leaf of a region cut by the feed, reached while the burr presses nothing (admitted
-    /// by the pool's work, [`Regions::admits_paid`]), that the pool no longer covers: it is
-    /// left, not waited for, so the queue drains and the rest of the pool is dropped.
+    /// by the pool's work, [`Regions::admits_paid`], or by a threshold of zero), that the
+    /// pool does not cover: it is left, not waited for (nothing pays into the pool until the
+    /// burr presses again), so the queue drains and the rest of the pool is dropped.
     Drop,
 }
 
@@ -495,11 +496,19 @@ impl<'a> Regions<'a> {
     /// Constant, and `leaf` called at most once.
     #[inline]
     pub(crate) fn admits_paid(&self, tet: TetId, leaf: impl FnOnce() -> f64) -> bool {
-        if self.force > 0.0 || self.pool <= 0.0 {
+        if !self.presses_nothing() || self.pool <= 0.0 {
             return false;
         }
         self.region_entry(tet)
             .is_some_and(|r| r.feed_limited() && self.pool >= f64::from(r.cutting_energy) * leaf())
+    }
+
+    /// `true` when the last grant's force is zero: the burr presses nothing, so no work is
+    /// paid into the pool until it presses again and a leaf of the feed's regions the pool
+    /// does not cover is left, not waited for.
+    #[inline]
+    fn presses_nothing(&self) -> bool {
+        self.force <= 0.0
     }
 
     /// `true` when a leaf of `tet` must be paid for ([`Regions::spend`]): its region is
@@ -513,9 +522,9 @@ impl<'a> Regions<'a> {
     /// Decides whether a leaf of `tet` of `volume` is erased now: always for a material
     /// removed at once; for a rate-limited one when its region's credit covers `volume`
     /// (taken from the credit), for one cut by the feed when the pool covers its cutting
-    /// energy times `volume` (taken from the pool, counted in [`Regions::cutting_energy`]);
-    /// else it waits (remembered, so the next grants may exceed [`CREDIT_STEPS`] up to what
-    /// it needs).
+    /// energy times `volume` (taken from the pool, counted in [`Regions::cutting_energy`]),
+    /// else, while the burr presses nothing, it is left ([`Spend::Drop`]); otherwise it waits
+    /// (remembered, so the next grants may exceed [`CREDIT_STEPS`] up to what it needs).
     ///
     /// # Bounded work
     /// Constant.
@@ -533,7 +542,7 @@ impl<'a> Regions<'a> {
                     self.waiting = None;
                 }
                 Spend::Erase
-            } else if !reg.material.admits(self.force) {
+            } else if self.presses_nothing() {
                 Spend::Drop
             } else {
                 self.waiting = Some((r, volume));

@@ -267,6 +267,13 @@ impl<'a> Drill<'a> {
         self.saturations
     }
 
+    /// An item the pressing force does not remove now: counted as held, and the burr's
+    /// positions queued again once the backlog is done.
+    pub(super) fn hold(&mut self, rep: &mut DrillReport) {
+        rep.held += 1;
+        self.retry = true;
+    }
+
     pub(super) fn saturate(&mut self, rep: &mut DrillReport) {
         self.saturations += 1;
         rep.saturations += 1;

@@ -234,13 +234,25 @@ fn a_trees_depth_limit_halves_its_longest_edge_down_to_the_resolution() {
 /// paid from the pool, and a leaf the pool no longer covers is left.
 #[test]
 fn work_left_in_the_pool_cuts_the_queued_material_once_the_burr_lets_go() {
+    pool_spent_after_the_let_go(1.0);
+}
+
+/// The same with a threshold of zero, which the material admits at zero force: a leaf the
+/// pool no longer covers is still left, not waited for (nothing pays while the burr presses
+/// nothing), so the queue drains.
+#[test]
+fn without_a_threshold_the_queue_drains_after_the_let_go_too() {
+    pool_spent_after_the_let_go(0.0);
+}
+
+fn pool_spent_after_the_let_go(threshold: f32) {
     let mut store = Store::<CUBE12_NODES, CUBE12_TETS>::cube12(1.0, Vec3::ZERO);
     let mesh = store.refinable_mesh();
     cube_hierarchy!(h, &mesh, 1 << 13);
-    // One region cut by the feed at 1,000 per cubic unit, threshold 1 N.
+    // One region cut by the feed at 1,000 per cubic unit, threshold `threshold` N.
     let e = 1_000.0f32;
     let gated = Material {
-        threshold: 1.0,
+        threshold,
         ..Material::DEFAULT
     };
     let mut table = [Region::new(gated).with_cutting_energy(e)];
@@ -355,4 +367,15 @@ fn once_the_burr_presses_nothing_the_pool_admits_the_leaves_it_covers() {
         Spend::Wait,
         "pressed: the leaf waits"
     );
+    // A region without a threshold admits a leaf at zero force; once the burr presses
+    // nothing, one the pool does not cover is still left, not waited for.
+    let mut table = [Region::new(Material::DEFAULT).with_cutting_energy(2_000.0)];
+    let mut r = Regions::new(&mut table, &[0u8]).expect("valid");
+    r.grant(2.0, 0.001, true, 0.0015, Some(TetId(0)), false);
+    r.grant(0.0, 0.001, true, 0.0, None, true);
+    assert!(r.admits(TetId(0)) && r.admits_paid(TetId(0), || 1e-6));
+    assert_eq!(r.spend(TetId(0), 1e-6), Spend::Erase);
+    assert_eq!(r.spend(TetId(0), 1e-6), Spend::Drop, "unpressed: left");
+    r.grant(2.0, 0.001, true, 0.0, Some(TetId(0)), true);
+    assert_eq!(r.spend(TetId(0), 1e-6), Spend::Wait, "pressed: waits");
 }
