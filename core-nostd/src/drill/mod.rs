@@ -54,6 +54,8 @@ mod crumbs;
 mod deque;
 mod item;
 mod material;
+#[cfg(test)]
+mod material_tests;
 mod spacing;
 mod sphere;
 mod step;
