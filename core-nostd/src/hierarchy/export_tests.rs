@@ -5,10 +5,11 @@
 
 use glam::Vec3;
 
+use super::test_support::{mesh, random_op, Cube, Rng};
 use super::*;
 use crate::builtin::{cube12, CUBE12_NODES, CUBE12_TETS};
 use crate::ids::TetId;
-use crate::mesh::{BuildOptions, FaceKey, Mesh, MeshStorage, Node, Tet};
+use crate::mesh::{Mesh, Node, Tet};
 
 /// Slots of the roomy exporter.
 const SLOTS: usize = 600;
@@ -195,65 +196,6 @@ fn per_tet(h: &Hierarchy<'_>, mesh: &Mesh<'_>, b: &Buffers, slots: usize) -> [(u
         }
     }
     c
-}
-
-/// A small xorshift generator.
-pub(super) struct Rng(pub(super) u64);
-
-impl Rng {
-    pub(super) fn next(&mut self) -> u32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 32) as u32
-    }
-}
-
-/// A random operation: refine a non-erased leaf above depth 3, or erase one.
-pub(super) fn random_op(h: &mut Hierarchy<'_>, mesh: &Mesh<'_>, rng: &mut Rng) {
-    let t = TetId(rng.next() % CUBE12_TETS as u32);
-    let mut leaves = [0u32; 512];
-    let mut n = 0;
-    h.for_each_leaf(t, |l| {
-        if !l.record.erased() && n < leaves.len() {
-            leaves[n] = l.index;
-            n += 1;
-        }
-    });
-    if n == 0 {
-        return;
-    }
-    let index = leaves[rng.next() as usize % n];
-    let depth = super::table::Path::of_index(index).unwrap().depth;
-    if depth < 3 && !rng.next().is_multiple_of(3) {
-        let _ = h.refine(mesh, t, index);
-    } else {
-        let _ = h.erase(mesh, t, index);
-    }
-}
-
-pub(super) struct Cube {
-    pub(super) pos: [Vec3; CUBE12_NODES],
-    pub(super) nodes: [Node; CUBE12_NODES],
-    pub(super) normals: [Vec3; CUBE12_NODES],
-    pub(super) tets: [Tet; CUBE12_TETS],
-}
-
-pub(super) fn mesh<'a>(c: &'a mut Cube, t: &[[u32; 4]]) -> Mesh<'a> {
-    let mut scratch = [FaceKey::default(); 4 * CUBE12_TETS];
-    let storage = MeshStorage {
-        nodes: &mut c.nodes,
-        normals: &mut c.normals,
-        tets: &mut c.tets,
-    };
-    Mesh::build(
-        &mut c.pos,
-        t,
-        storage,
-        &mut scratch,
-        BuildOptions::default(),
-    )
-    .unwrap()
 }
 
 /// One run: `ops` random operations on the cube with a change log of `log` entries and an

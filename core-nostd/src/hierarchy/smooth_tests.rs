@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use super::export_tests::{mesh, random_op, Cube, Rng};
+use super::test_support::{mesh, random_op, Cube, Rng};
 use super::*;
 use crate::builtin::{cube12, CUBE12_NODES, CUBE12_TETS};
 use crate::ids::TetId;
