@@ -12,7 +12,11 @@
 use glam::Vec3;
 
 use super::response::clamp_force;
+use super::MAX_PASSIVE;
 use crate::geom::closest_point_on_triangle;
+use crate::hierarchy::{bounding_sphere, Hierarchy, SurfaceVisit, VisibleTri};
+use crate::ids::TetId;
+use crate::mesh::Mesh;
 
 /// One passive point's state, carried from tick to tick.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
@@ -38,6 +42,10 @@ impl PassivePoint {
     }
 }
 
+/// A face's place in the hierarchy, `(coarse tet, tree index, face)`: ties between faces go to
+/// the smallest, whatever order they are offered in.
+pub(crate) type FaceKey = (u32, u32, u8);
+
 /// The triangles near one passive point, offered one at a time: the first face the segment
 /// from the proxy to the new position enters, and the closest face to the new position.
 #[derive(Clone, Copy, Debug)]
@@ -45,10 +53,11 @@ pub(crate) struct PassiveProbe {
     from: Vec3,
     to: Vec3,
     reach2: f32,
-    /// First entering crossing: `(s along the segment, point, unit normal)`.
-    hit: Option<(f32, Vec3, Vec3)>,
-    /// Closest face within reach: `(squared distance, closest point, unit face normal)`.
-    near: Option<(f32, Vec3, Vec3)>,
+    /// First entering crossing: `(s along the segment, point, unit normal, face key)`.
+    hit: Option<(f32, Vec3, Vec3, FaceKey)>,
+    /// Closest face within reach: `(squared distance, closest point, unit face normal, face
+    /// key)`.
+    near: Option<(f32, Vec3, Vec3, FaceKey)>,
     triangles: u32,
 }
 
@@ -69,16 +78,6 @@ impl PassiveProbe {
         }
     }
 
-    /// The ball `(centre, radius)` that holds every face this probe needs: the segment and
-    /// the reach around its end.
-    ///
-    /// # Bounded work
-    /// Constant.
-    pub(crate) fn ball(&self, reach: f32) -> (Vec3, f32) {
-        let mid = (self.from + self.to) * 0.5;
-        (mid, 0.5 * (self.to - self.from).length() + reach)
-    }
-
     /// Triangles offered so far.
     ///
     /// # Bounded work
@@ -87,12 +86,14 @@ impl PassiveProbe {
         self.triangles
     }
 
-    /// Offers one outward counter-clockwise triangle. Ties (the same crossing fraction, the
-    /// same distance) keep the triangle offered first.
+    /// Offers one outward counter-clockwise triangle, `key` its place. Ties (the same
+    /// crossing fraction, the same distance: a segment through a shared edge, a point nearest
+    /// a shared corner of a concave step) go to the smallest key, so the answer does not
+    /// depend on the order the triangles come in.
     ///
     /// # Bounded work
     /// Constant.
-    pub(crate) fn offer(&mut self, [a, b, c]: [Vec3; 3]) {
+    pub(crate) fn offer(&mut self, [a, b, c]: [Vec3; 3], key: FaceKey) {
         self.triangles = self.triangles.wrapping_add(1);
         let n = (b - a).cross(c - a);
         let d = self.to - self.from;
@@ -100,21 +101,53 @@ impl PassiveProbe {
         // Entering crossing (moving against the outward normal).
         if den < 0.0 {
             let s = n.dot(a - self.from) / den;
-            if (0.0..=1.0).contains(&s) && self.hit.is_none_or(|h| s < h.0) {
+            if (0.0..=1.0).contains(&s)
+                && self.hit.is_none_or(|h| s < h.0 || (s == h.0 && key < h.3))
+            {
                 let x = self.from + d * s;
                 let inside = (b - a).cross(x - a).dot(n) >= 0.0
                     && (c - b).cross(x - b).dot(n) >= 0.0
                     && (a - c).cross(x - c).dot(n) >= 0.0;
                 if inside {
-                    self.hit = Some((s, x, n.normalize_or_zero()));
+                    self.hit = Some((s, x, n.normalize_or_zero(), key));
                 }
             }
         }
         let x = closest_point_on_triangle(self.to, [a, b, c]);
         let d2 = (self.to - x).length_squared();
-        if d2 <= self.reach2 && self.near.is_none_or(|m| d2 < m.0) {
-            self.near = Some((d2, x, n.normalize_or_zero()));
+        if d2 <= self.reach2
+            && self
+                .near
+                .is_none_or(|m| d2 < m.0 || (d2 == m.0 && key < m.3))
+        {
+            self.near = Some((d2, x, n.normalize_or_zero(), key));
         }
+    }
+
+    /// Whether a face inside the sphere `(mid, rad)` could change this probe's answer: the
+    /// sphere meets the segment (an entering crossing may lie in it), or it comes within the
+    /// distance of the closest face offered so far (within the reach before one is). Ruled
+    /// out with a thousandth to spare for rounding, such a face is neither crossed by the
+    /// segment nor nearer than the nearest so far, so skipping it leaves the answer of
+    /// offering every face (ties go by key, whatever the order).
+    ///
+    /// # Bounded work
+    /// Constant.
+    #[inline]
+    pub(crate) fn may_need(&self, mid: Vec3, rad: f32) -> bool {
+        const SLACK: f32 = 1.001;
+        let d = self.to - self.from;
+        let len2 = d.length_squared();
+        if len2 > 0.0 {
+            let t = ((mid - self.from).dot(d) / len2).clamp(0.0, 1.0);
+            let r = rad * SLACK;
+            if mid.distance_squared(self.from + d * t) <= r * r {
+                return true;
+            }
+        }
+        let bound2 = self.near.map_or(self.reach2, |m| m.0);
+        let lim = (rad + libm::sqrtf(bound2)) * SLACK;
+        mid.distance_squared(self.to) <= lim * lim
     }
 
     /// Updates `state` for the point now at `to`:
@@ -144,14 +177,14 @@ impl PassiveProbe {
             }
             state.held = None;
         }
-        if let Some((_, x, n)) = self.hit.filter(|h| h.2 != Vec3::ZERO) {
+        if let Some((_, x, n, _)) = self.hit.filter(|h| h.2 != Vec3::ZERO) {
             state.held = Some((x, n));
             state.proxy = Some(x);
             state.plane = state.held;
             return;
         }
         state.proxy = Some(to);
-        state.plane = self.near.and_then(|(d2, x, face_n)| {
+        state.plane = self.near.and_then(|(d2, x, face_n, _)| {
             let v = to - x;
             let n = if d2 > 0.0 && v.dot(face_n) > 0.0 {
                 v / libm::sqrtf(d2)
@@ -161,6 +194,61 @@ impl PassiveProbe {
             (n != Vec3::ZERO).then_some((x, n))
         });
     }
+}
+
+/// Passive points walking the drilled surface together, bit `k` of a walk's mask for
+/// `probes[k]`: a point goes on into a node while [`PassiveProbe::may_need`] its faces.
+struct Probes<'p>(&'p mut [Option<PassiveProbe>; MAX_PASSIVE]);
+
+impl SurfaceVisit for Probes<'_> {
+    #[inline]
+    fn enter(&mut self, p: &[Vec3; 4], mask: u32) -> u32 {
+        let (mid, rad) = bounding_sphere(*p);
+        let (mut kept, mut rest) = (mask, mask);
+        while rest != 0 {
+            let k = rest.trailing_zeros();
+            rest &= rest - 1;
+            let needs = self
+                .0
+                .get(k as usize)
+                .and_then(Option::as_ref)
+                .is_some_and(|probe| probe.may_need(mid, rad));
+            if !needs {
+                kept &= !(1u32 << k);
+            }
+        }
+        kept
+    }
+
+    #[inline]
+    fn face(&mut self, mask: u32, tri: VisibleTri) {
+        let mut rest = mask;
+        while rest != 0 {
+            let k = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            if let Some(Some(probe)) = self.0.get_mut(k) {
+                probe.offer(tri.corners, (tri.tet.0, tri.index, tri.face));
+            }
+        }
+    }
+}
+
+/// Offers each probe `probes[k]` whose bit `k` of `want` is set the visible faces of the
+/// trees of `tets` that may change its answer, each tree walked once for all of them
+/// ([`Hierarchy::walk_surface`], pruned by [`PassiveProbe::may_need`] as the probes learn):
+/// each probe answers as if it had been offered every visible face of those trees.
+///
+/// # Bounded work
+/// O(nodes of those trees that hold surface and that a probe may need, times the probes
+/// that may need each), at most [`MAX_PASSIVE`] probes.
+pub(crate) fn offer_near(
+    hier: &Hierarchy<'_>,
+    mesh: &Mesh<'_>,
+    tets: &[TetId],
+    probes: &mut [Option<PassiveProbe>; MAX_PASSIVE],
+    want: u32,
+) {
+    hier.walk_surface(mesh, tets, want, &mut Probes(probes));
 }
 
 /// The spring force of passive points of `radius` at `positions` from their planes
@@ -209,8 +297,8 @@ mod tests {
 
     fn step(pt: &mut PassivePoint, to: Vec3, reach: f32) {
         let mut probe = PassiveProbe::new(pt, to, reach);
-        for t in slab() {
-            probe.offer(t);
+        for (k, t) in (0u32..).zip(slab()) {
+            probe.offer(t, (0, k, 0));
         }
         probe.finish(pt);
     }
@@ -258,5 +346,74 @@ mod tests {
         // Non-finite positions forget everything.
         step(&mut pt, Vec3::NAN, 0.05);
         assert_eq!(pt, PassivePoint::default());
+    }
+
+    /// A concave step: the floor `z = 0` for `x` in [0, 1] (outward +z) and the wall `x = 0`
+    /// for `z` in [0, 1] (outward +x), sharing the edge on the y axis, and a face far away.
+    fn step_faces() -> [[Vec3; 3]; 3] {
+        let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+        [
+            [v(0., 0., 0.), v(1., 0., 0.), v(0., 1., 0.)],
+            [v(0., 0., 0.), v(0., 1., 0.), v(0., 0., 1.)],
+            [v(5., 5., 5.), v(6., 5., 5.), v(5., 6., 5.)],
+        ]
+    }
+
+    /// Every order of `faces` (keys `(0, k, 0)` for face `k`, whatever its place), and
+    /// `to` reached from `from`: the point's state after each order.
+    fn in_every_order(faces: [[Vec3; 3]; 3], from: Vec3, to: Vec3) -> [PassivePoint; 6] {
+        let orders = [
+            [0, 1, 2],
+            [0, 2, 1],
+            [1, 0, 2],
+            [1, 2, 0],
+            [2, 0, 1],
+            [2, 1, 0],
+        ];
+        orders.map(|order| {
+            let mut pt = PassivePoint {
+                proxy: Some(from),
+                ..PassivePoint::default()
+            };
+            let mut probe = PassiveProbe::new(&pt, to, 0.5);
+            for k in order {
+                probe.offer(faces[k], (0, k as u32, 0));
+            }
+            probe.finish(&mut pt);
+            pt
+        })
+    }
+
+    /// Ties go to the smallest key, so the order the faces come in (a walk over the trees in
+    /// any order) changes nothing: a point behind both faces of the step, nearest their
+    /// shared edge (the same distance to each, each giving its own normal), and a segment
+    /// that enters both at their shared edge (the same crossing fraction).
+    #[test]
+    fn ties_go_to_the_smallest_key_in_any_order() {
+        let faces = step_faces();
+        let behind = Vec3::new(-0.25, 0.25, -0.25);
+        let near = in_every_order(faces, behind, behind);
+        for pt in near {
+            assert_eq!(pt, near[0]);
+        }
+        // Face 0 (the floor) wins the tie: its normal, from behind it.
+        assert_eq!(near[0].plane, Some((Vec3::new(0.0, 0.25, 0.0), Vec3::Z)));
+        let crossing = in_every_order(
+            faces,
+            Vec3::new(0.5, 0.25, 0.5),
+            Vec3::new(-0.5, 0.25, -0.5),
+        );
+        for pt in crossing {
+            assert_eq!(pt, crossing[0]);
+        }
+        assert_eq!(
+            crossing[0].held,
+            Some((Vec3::new(0.0, 0.25, 0.0), Vec3::Z)),
+            "held at the floor, entered at the shared edge"
+        );
+        // With the keys swapped, the wall wins the same ties.
+        let swapped = [faces[1], faces[0], faces[2]];
+        let near = in_every_order(swapped, behind, behind);
+        assert_eq!(near[0].plane, Some((Vec3::new(0.0, 0.25, 0.0), Vec3::X)));
     }
 }

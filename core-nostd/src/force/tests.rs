@@ -324,7 +324,7 @@ fn passive_point_cannot_tunnel_through_a_floor() {
     let (above, below) = (Vec3::new(0.0, 0.0, 0.05), Vec3::new(0.0, 0.0, -0.3));
     for to in [above, below] {
         let mut probe = PassiveProbe::new(&point, to, 0.1);
-        probe.offer(floor);
+        probe.offer(floor, (0, 0, 0));
         probe.finish(&mut point);
     }
 

@@ -117,6 +117,7 @@ pub use smooth::{
 pub use store::{
     Hierarchy, HierarchyError, HierarchySizes, HierarchyStats, HierarchyStorage, DEFAULT_CHANGES,
 };
+pub(crate) use surface::{bounding_sphere, SurfaceVisit};
 pub use surface::{Leaf, VisibleTri};
 pub(crate) use table::Path;
 pub use table::MAX_DEPTH;

@@ -54,7 +54,7 @@ pub(super) fn face_corners(p: [Vec3; 4], face: u8, inverted: bool) -> [Vec3; 3] 
 /// The bounding sphere of a node with corners `p` that the walks test: the centroid and the
 /// largest distance from it to a corner.
 #[inline]
-pub(super) fn bounding_sphere(p: [Vec3; 4]) -> (Vec3, f32) {
+pub(crate) fn bounding_sphere(p: [Vec3; 4]) -> (Vec3, f32) {
     let mid = (p[0] + p[1] + p[2] + p[3]) * 0.25;
     let mut r2 = 0.0f32;
     for q in p {
@@ -66,6 +66,45 @@ pub(super) fn bounding_sphere(p: [Vec3; 4]) -> (Vec3, f32) {
         }
     }
     (mid, libm::sqrtf(r2))
+}
+
+/// What a walk over the drilled surface ([`Hierarchy::walk_surface`]) asks of its walkers,
+/// up to 32 of them at once (the bits of a mask): which go on into a node, and what a
+/// visible face gives them.
+pub(crate) trait SurfaceVisit {
+    /// The bits of `mask` that go on into the node with corners `p` (none: the subtree is
+    /// skipped).
+    fn enter(&mut self, p: &[Vec3; 4], mask: u32) -> u32;
+    /// A visible face of a leaf reached with the bits `mask`.
+    fn face(&mut self, mask: u32, tri: VisibleTri);
+}
+
+/// One walker: the faces whose nodes' bounding spheres meet `near`, from the root down
+/// (`None`: all of them), each to `f`.
+struct InBall<F> {
+    near: Option<(Vec3, f32)>,
+    f: F,
+}
+
+impl<F: FnMut(VisibleTri)> SurfaceVisit for InBall<F> {
+    #[inline]
+    fn enter(&mut self, p: &[Vec3; 4], mask: u32) -> u32 {
+        let Some((centre, radius)) = self.near else {
+            return mask;
+        };
+        let (mid, rad) = bounding_sphere(*p);
+        let reach = rad + radius;
+        if mid.distance_squared(centre) > reach * reach {
+            0
+        } else {
+            mask
+        }
+    }
+
+    #[inline]
+    fn face(&mut self, _: u32, tri: VisibleTri) {
+        (self.f)(tri);
+    }
 }
 
 /// The outward triangles of the faces `bits` of a node with the given corners and orientation.
@@ -119,22 +158,9 @@ impl Hierarchy<'_> {
         mesh: &Mesh<'_>,
         tets: &[TetId],
         near: Option<(Vec3, f32)>,
-        mut f: F,
+        f: F,
     ) {
-        for &t in tets {
-            self.walk_tree(mesh, t, near, |leaf, p| {
-                if !leaf.record.erased() {
-                    emit(
-                        t,
-                        leaf.index,
-                        p,
-                        leaf.record.visible(),
-                        leaf.record.inverted(),
-                        &mut f,
-                    );
-                }
-            });
-        }
+        self.walk_surface(mesh, tets, 1, &mut InBall { near, f });
     }
 
     /// Calls `f` for every leaf (erased or not) of the tree of `tet`.
@@ -172,29 +198,42 @@ impl Hierarchy<'_> {
         }
     }
 
-    /// DFS over the leaves of one tree that hold surface (see [`HNode::surface`]) and whose
-    /// bounding spheres meet `near`, with positions. The
-    /// integer barycentric coordinates are carried down the stack, so each node costs O(1)
-    /// (not O(depth)) and gets the same bits as [`node_positions`].
-    pub(crate) fn walk_tree<F: FnMut(Leaf, [Vec3; 4])>(
+    /// Walks the trees of `tets` for `v`, each once, depth first: a node is entered with the
+    /// bits of its parent's mask that [`SurfaceVisit::enter`] keeps (`want` at a root), a
+    /// subtree without surface (see [`HNode::surface`]) or with no bit left is skipped, and
+    /// each visible face of a non-erased leaf is given to [`SurfaceVisit::face`] with its
+    /// leaf's bits. The integer barycentric coordinates are carried down the stack, so each
+    /// node costs O(1) (not O(depth)) and gets the same bits as [`node_positions`].
+    ///
+    /// # Bounded work
+    /// O(nodes of those trees that hold surface and are entered) times what `v` does a node.
+    pub(crate) fn walk_surface<V: SurfaceVisit>(
         &self,
         mesh: &Mesh<'_>,
-        tet: TetId,
-        near: Option<(Vec3, f32)>,
-        mut f: F,
+        tets: &[TetId],
+        want: u32,
+        v: &mut V,
     ) {
+        for &tet in tets {
+            self.walk_tree(mesh, tet, want, v);
+        }
+    }
+
+    /// [`Hierarchy::walk_surface`] over one tree.
+    fn walk_tree<V: SurfaceVisit>(&self, mesh: &Mesh<'_>, tet: TetId, want: u32, v: &mut V) {
+        // A tree without surface (interior material, or erased whole) costs no frame.
+        if tet.idx() >= self.tet_count() || !self.node(tet.0).is_some_and(|n| n.surface()) {
+            return;
+        }
         let Some(frame) = RootFrame::of(mesh, tet) else {
             return;
         };
-        if tet.idx() >= self.tet_count() {
-            return;
-        }
-        let mut stack = [(0u32, 0u32, 0u8, ROOT_BARY); STACK];
-        stack[0] = (tet.0, 0, 0, ROOT_BARY);
+        let mut stack = [(0u32, 0u32, 0u8, ROOT_BARY, 0u32); STACK];
+        stack[0] = (tet.0, 0, 0, ROOT_BARY, want);
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
-            let Some(&(r, index, depth, bary)) = stack.get(top) else {
+            let Some(&(r, index, depth, bary, mask)) = stack.get(top) else {
                 break;
             };
             let Some(node) = self.node(r) else { continue };
@@ -202,23 +241,17 @@ impl Hierarchy<'_> {
                 continue;
             }
             let p = frame.positions(&bary, depth);
-            if let Some((centre, radius)) = near {
-                let (mid, rad) = bounding_sphere(p);
-                let reach = rad + radius;
-                if mid.distance_squared(centre) > reach * reach {
-                    continue;
-                }
+            let mask = v.enter(&p, mask);
+            if mask == 0 {
+                continue;
             }
             if node.is_leaf() {
-                f(
-                    Leaf {
-                        tet,
-                        index,
-                        node: r,
-                        record: node,
-                    },
-                    p,
-                );
+                if !node.erased() {
+                    let inverted = node.inverted();
+                    emit(tet, index, p, node.visible(), inverted, &mut |t| {
+                        v.face(mask, t)
+                    });
+                }
                 continue;
             }
             if depth as usize >= MAX_DEPTH {
@@ -238,6 +271,7 @@ impl Hierarchy<'_> {
                         index * 8 + 1 + c as u32,
                         depth + 1,
                         child_bary(&bary, c),
+                        mask,
                     );
                     top += 1;
                 }

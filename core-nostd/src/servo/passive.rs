@@ -7,8 +7,8 @@ use glam::Vec3;
 use super::{servo_force, ContactState, SimReport, World};
 use crate::drill::DrillParams;
 use crate::force::{
-    clamp_force, damping_force, passive_force, DrillTool, ForceParams, PassivePoint, PassiveProbe,
-    ToolState, MAX_PASSIVE,
+    clamp_force, damping_force, offer_near, passive_force, DrillTool, ForceParams, PassivePoint,
+    PassiveProbe, ToolState, MAX_PASSIVE,
 };
 use crate::hash::Aabb;
 use crate::ids::TetId;
@@ -85,16 +85,16 @@ impl World<'_> {
     }
 
     /// The shaft's half of [`World::simulate_drill`], also for a step that drilled the burr
-    /// some other way (a real-time task's swept spheres, [`World::simulate_spheres`]): for
-    /// each passive point of `tool` (burr at `centre`, shaft along the unit `axis`) the tets
-    /// near it and its proxy (`World::shaft_candidates`), then the points tracked, each
-    /// against its own tets (`World::track_passive`). Returns the tracking's report and
-    /// whether the candidate storage saturated. Passive points never erode.
+    /// some other way (a real-time task's swept spheres, [`World::simulate_spheres`]): the
+    /// tets near each passive point of `tool` (burr at `centre`, shaft along the unit `axis`)
+    /// and near its proxy (`World::shaft_candidates`), then the points tracked against them
+    /// (`World::track_passive`). Returns the tracking's report and whether the candidate
+    /// storage saturated. Passive points never erode.
     ///
     /// # Bounded work
     /// One zone query per point (each at most [`World::max_cells`] cells; together at most
-    /// the candidate storage's entries) and `World::track_passive`'s bound for at most
-    /// [`MAX_PASSIVE`] points.
+    /// the candidate storage's entries), a sort of the tets they list, and
+    /// `World::track_passive`'s bound for at most [`MAX_PASSIVE`] points.
     pub fn track_shaft(
         &mut self,
         tool: &DrillTool,
@@ -116,42 +116,33 @@ impl World<'_> {
         }
         state.count = n;
         state.positions = pos;
-        let mut lists = [(0usize, 0usize); MAX_PASSIVE];
-        let saturated = self.shaft_candidates(
-            zones.get(..n).unwrap_or_default(),
-            lists.get_mut(..n).unwrap_or_default(),
-        );
+        let saturated = self.shaft_candidates(zones.get(..n).unwrap_or_default());
         let prep = self.track_passive(
             pos.get(..n).unwrap_or_default(),
             tool.shaft_radius,
             reach,
             &mut state.points,
-            lists.get(..n).unwrap_or_default(),
         );
         (prep, saturated)
     }
 
-    /// Fills the candidate storage with one list per zone of `zones`: the tets whose boxes
-    /// meet it, each once, in the order the hash query meets them, `lists[i]` (start,
-    /// length) the list of `zones[i]` (none for `None`); [`World::candidates`] is then the
-    /// lists one after the other (a tet near two points is listed twice). With a candidate
-    /// gather ([`World::set_zone_gather`]) the lists take the first third of the storage and
-    /// leave the gather's; without, all of it. Returns `true` (and counts
+    /// Fills the candidate storage with the tets whose boxes meet one of `zones` (`None`:
+    /// no zone), each once, in ascending order ([`World::candidates`]). With a candidate
+    /// gather ([`World::set_zone_gather`]) they take the first third of the storage and leave
+    /// the gather's; without, all of it. Returns `true` (and counts
     /// `saturations().candidates`) when the storage filled up or a zone covered more than
-    /// [`World::max_cells`] cells: the lists after hold what fitted. The next simulation step
-    /// refills the storage for the burr.
+    /// [`World::max_cells`] cells: the tets of the zones after are what fitted. The next
+    /// simulation step refills the storage for the burr.
     ///
     /// A shaft's points spread along a segment; one query of the box around all of them
-    /// would list every tet of that box, and each point would walk them all (on a 0.3 shaft
-    /// in the teddy, a tick's p99 of 650 us).
+    /// would list every tet of that box (on a 0.3 shaft in the teddy, a tick's p99 of
+    /// 650 us). One query per point lists a tet near several points once per point; sorted,
+    /// each is listed once, and `World::track_passive` walks its tree once for them all.
     ///
     /// # Bounded work
-    /// Per zone O(max cells + hash entries met); the lists together at most the storage.
-    pub(crate) fn shaft_candidates(
-        &mut self,
-        zones: &[Option<Aabb>],
-        lists: &mut [(usize, usize)],
-    ) -> bool {
+    /// Per zone O(max cells + hash entries met); then O(m log m) for the m tets listed
+    /// (at most the storage).
+    pub(crate) fn shaft_candidates(&mut self, zones: &[Option<Aabb>]) -> bool {
         let room = match self.zone {
             Some(_) => self.candidates.len() / 3,
             None => self.candidates.len(),
@@ -164,12 +155,7 @@ impl World<'_> {
             &self.boxes,
         );
         let (mut at, mut saturated) = (0usize, false);
-        for (zone, list) in zones.iter().zip(lists.iter_mut()) {
-            let Some(zone) = zone else {
-                *list = (at, 0);
-                continue;
-            };
-            let mut k = at;
+        for zone in zones.iter().flatten() {
             let mut full = false;
             let visited = hash.query_box_once(zone, self.max_cells, |item| {
                 let t = TetId(item);
@@ -183,19 +169,19 @@ impl World<'_> {
                 if !meets {
                     return;
                 }
-                match cands.get_mut(k) {
+                match cands.get_mut(at) {
                     Some(c) => {
                         *c = t;
-                        k += 1;
+                        at += 1;
                     }
                     None => full = true,
                 }
             });
-            *list = (at, k - at);
-            at = k;
             saturated |= full || !visited;
         }
-        self.ncand = at;
+        let listed = cands.get_mut(..at).unwrap_or_default();
+        listed.sort_unstable();
+        self.ncand = dedup_sorted(listed);
         if saturated {
             self.sat.candidates += 1;
         }
@@ -204,22 +190,23 @@ impl World<'_> {
 
     /// Tracks passive points of `radius` now at `positions` (`points[i]` for
     /// `positions[i]`) against the drilled surface: each point's [`PassiveProbe`] is offered
-    /// the visible faces of its own candidate trees (`lists[i]` of the storage, as
-    /// [`World::shaft_candidates`] leaves them) near the segment from its proxy to its
-    /// position, within `radius + reach`; a point held at a face and still behind it needs
-    /// none. Passive points never erode.
+    /// the visible faces of the candidate trees ([`World::candidates`], as
+    /// [`World::shaft_candidates`] leaves them) that may change its answer (`offer_near`: the
+    /// trees walked once for all the points, a point going into a node while its bounding
+    /// sphere meets the segment from the point's proxy to its position or comes within the
+    /// closest face found so far, at first `radius + reach`); a point held at a face and
+    /// still behind it needs none. Each point answers as if offered every face of those
+    /// trees. Passive points never erode.
     ///
     /// # Bounded work
-    /// Per point, O(its candidates + hierarchy nodes holding surface whose bounding spheres
-    /// meet the segment's ball) ([`crate::hierarchy::Hierarchy::for_each_visible_in`]), for
-    /// at most `positions.len()` points. Not counted in the tick budget.
+    /// O(candidates + hierarchy nodes holding surface that a point may need, times the points
+    /// that may need each), at most [`MAX_PASSIVE`] points. Not counted in the tick budget.
     pub(crate) fn track_passive(
         &self,
         positions: &[Vec3],
         radius: f32,
         reach: f32,
         points: &mut [PassivePoint],
-        lists: &[(usize, usize)],
     ) -> PassiveReport {
         let mut rep = PassiveReport::default();
         let reach = radius
@@ -228,16 +215,27 @@ impl World<'_> {
             } else {
                 0.0
             };
-        for ((pt, &p), &(at, len)) in points.iter_mut().zip(positions).zip(lists) {
-            rep.points += 1;
-            let cands = self.candidates.get(at..at + len).unwrap_or_default();
-            let mut probe = PassiveProbe::new(pt, p, reach);
+        let n = positions.len().min(points.len()).min(MAX_PASSIVE);
+        let mut probes = [None; MAX_PASSIVE];
+        let mut want = 0u32;
+        for (k, (probe, (pt, &p))) in probes
+            .iter_mut()
+            .zip(points.iter().zip(positions))
+            .take(n)
+            .enumerate()
+        {
             let still_held = pt.held.is_some_and(|(q, n)| (p - q).dot(n) < 0.0);
             if !still_held && p.is_finite() {
-                let ball = probe.ball(reach);
-                self.hier
-                    .for_each_visible_in(&self.mesh, cands, Some(ball), |t| probe.offer(t.corners));
+                want |= 1 << k;
             }
+            *probe = Some(PassiveProbe::new(pt, p, reach));
+        }
+        if want != 0 {
+            offer_near(&self.hier, &self.mesh, self.candidates(), &mut probes, want);
+        }
+        for (pt, probe) in points.iter_mut().zip(&probes).take(n) {
+            let Some(probe) = probe else { continue };
+            rep.points += 1;
             rep.triangles = rep.triangles.wrapping_add(probe.triangles());
             probe.finish(pt);
             rep.held += pt.is_held() as u32;
@@ -245,6 +243,27 @@ impl World<'_> {
         }
         rep
     }
+}
+
+/// Keeps the first of each run of equal entries of the sorted `s` at its front; returns how
+/// many are kept.
+///
+/// # Bounded work
+/// O(len).
+fn dedup_sorted(s: &mut [TetId]) -> usize {
+    let mut kept = 0usize;
+    for i in 0..s.len() {
+        let (Some(&t), last) = (s.get(i), kept.checked_sub(1).and_then(|j| s.get(j))) else {
+            continue;
+        };
+        if last != Some(&t) {
+            if let Some(slot) = s.get_mut(kept) {
+                *slot = t;
+            }
+            kept += 1;
+        }
+    }
+    kept
 }
 
 /// The force at a drill's handle, and the burr's part of it (what presses the burr against the

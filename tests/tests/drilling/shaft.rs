@@ -306,19 +306,22 @@ fn a_drill_replay_reports_its_shaft() {
     assert_eq!(j["debris_erased"]["pieces"], 0);
 }
 
-/// Each of the shaft's points looks for the surface among its own tets (`World::track_shaft`:
-/// one small query per point) rather than among all the tets of the box around the whole
-/// shaft, each walked by every point (a 0.3 shaft in the teddy: a tick's p99 of 650 us
-/// against under 300 us). The answers cannot change: a point is only ever offered the
-/// faces within its own ball, and its own query's box holds that ball.
+/// Each of the shaft's points looks for the surface among the tets near it (`World::track_shaft`:
+/// one small query per point, the tets listed once, each tree walked once for every point
+/// whose ball it meets) rather than among all the tets of the box around the whole shaft,
+/// each walked by every point (a 0.3 shaft in the teddy: a tick's p99 of 650 us against
+/// under 300 us). The answers cannot change: a point is only ever offered the faces within
+/// its own ball and faces beyond its reach, and ties between faces go to the smallest
+/// `(tet, index, face)` whatever the order they come in.
 ///
-/// Oracle: a golden replay made with the whole-shaft query (commit 5a58d46; the force
-/// digest `17cf19413b83295e`): a burr of 0.03 on a 0.3 shaft plunged into the teddy's head
+/// Oracle: a golden replay made with each point's own query and its own walk of each of its
+/// tets (the implementation before the shared walk, with the same tie rule; the force digest
+/// `78d4e7b2609e5c19`): a burr of 0.03 on a 0.3 shaft plunged into the teddy's head
 /// and swept to and fro across it (the path of `scripts/clinical-drill.sh --moving`, the
 /// shaft near the surface on about 1,200 ticks), every tet to the default depth
 /// (`--resolution 0`, as the golden replay drilled).
 #[test]
-fn the_shaft_points_query_their_own_tets_and_answer_as_the_whole_shafts_query() {
+fn the_shaft_points_share_one_walk_and_answer_as_each_points_own() {
     const TEDDY: &str = "models/teddy_cgalbear_tetgen_q1.414.node";
     let mesh = tetradrill_tests::mesh(TEDDY);
     // The highest node, read from the file as the script reads it (f64).
@@ -376,5 +379,5 @@ fn the_shaft_points_query_their_own_tets_and_answer_as_the_whole_shafts_query() 
         "the shaft came near the surface: {}",
         j["shaft"]
     );
-    assert_eq!(j["force_digest"], "17cf19413b83295e", "{}", j["shaft"]);
+    assert_eq!(j["force_digest"], "78d4e7b2609e5c19", "{}", j["shaft"]);
 }
