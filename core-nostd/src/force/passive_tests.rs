@@ -8,35 +8,18 @@ use glam::Vec3;
 
 use super::passive::{offer_near, PassivePoint, PassiveProbe};
 use super::MAX_PASSIVE;
-use crate::builtin::{cube12, CUBE12_NODES, CUBE12_TETS};
-use crate::hierarchy::test_support::{mesh, random_op, Cube, Rng};
-use crate::hierarchy::{HNode, Hierarchy, HierarchyStorage, VEntry};
+use crate::builtin::CUBE12_TETS;
+use crate::hierarchy::test_support::{cube_hierarchy, mesh, random_op, Cube, Rng};
 use crate::ids::TetId;
-use crate::mesh::{Node, Tet};
 
 /// Most faces the brute force holds.
 const MAX: usize = 4096;
 
 #[test]
 fn points_walking_together_answer_as_if_offered_every_face() {
-    let (pos, t) = cube12();
-    let mut c = Cube {
-        pos,
-        nodes: [Node::default(); CUBE12_NODES],
-        normals: [Vec3::ZERO; CUBE12_NODES],
-        tets: [Tet::default(); CUBE12_TETS],
-    };
-    let mesh = mesh(&mut c, &t);
-    let mut roots = [HNode::LEAF; CUBE12_TETS];
-    let mut arena = [HNode::LEAF; 8 * 256];
-    let mut vlist = [VEntry::default(); CUBE12_TETS + 7 * 256];
-    let storage = HierarchyStorage {
-        roots: &mut roots,
-        arena: &mut arena,
-        vlist: &mut vlist,
-        changes: &mut [],
-    };
-    let mut h = Hierarchy::new(&mesh, storage).expect("hierarchy");
+    let mut c = Cube::new();
+    let mesh = mesh(&mut c);
+    cube_hierarchy!(h, &mesh, 8 * 256);
     let all: [TetId; CUBE12_TETS] = core::array::from_fn(TetId::from_idx);
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
     let unit = |rng: &mut Rng| rng.next() as f32 / u32::MAX as f32;

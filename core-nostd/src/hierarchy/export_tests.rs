@@ -7,9 +7,9 @@ use glam::Vec3;
 
 use super::test_support::{mesh, random_op, Cube, Rng};
 use super::*;
-use crate::builtin::{cube12, CUBE12_NODES, CUBE12_TETS};
+use crate::builtin::CUBE12_TETS;
 use crate::ids::TetId;
-use crate::mesh::{Mesh, Node, Tet};
+use crate::mesh::Mesh;
 
 /// Slots of the roomy exporter.
 const SLOTS: usize = 600;
@@ -201,14 +201,8 @@ fn per_tet(h: &Hierarchy<'_>, mesh: &Mesh<'_>, b: &Buffers, slots: usize) -> [(u
 /// One run: `ops` random operations on the cube with a change log of `log` entries and an
 /// exporter of `slots` slots, `ranges` range entries and `budget` units a call.
 fn run(seed: u64, ops: usize, log: usize, slots: usize, ranges: usize, budget: u32) -> u32 {
-    let (pos, t) = cube12();
-    let mut c = Cube {
-        pos,
-        nodes: [Node::default(); CUBE12_NODES],
-        normals: [Vec3::ZERO; CUBE12_NODES],
-        tets: [Tet::default(); CUBE12_TETS],
-    };
-    let mesh = mesh(&mut c, &t);
+    let mut c = Cube::new();
+    let mesh = mesh(&mut c);
     let mut roots = [HNode::LEAF; CUBE12_TETS];
     let mut arena = [HNode::LEAF; 8 * 48];
     let mut vlist = [VEntry::default(); CUBE12_TETS + 7 * 48];
@@ -318,14 +312,8 @@ fn full_buffers_leave_faces_out_and_count_them() {
 
 #[test]
 fn a_move_of_every_face_writes_every_slot_again() {
-    let (pos, t) = cube12();
-    let mut c = Cube {
-        pos,
-        nodes: [Node::default(); CUBE12_NODES],
-        normals: [Vec3::ZERO; CUBE12_NODES],
-        tets: [Tet::default(); CUBE12_TETS],
-    };
-    let mesh = mesh(&mut c, &t);
+    let mut c = Cube::new();
+    let mesh = mesh(&mut c);
     let mut roots = [HNode::LEAF; CUBE12_TETS];
     let mut vlist = [VEntry::default(); CUBE12_TETS];
     let mut changes = [TetId::NONE; 4];
@@ -367,14 +355,8 @@ fn a_move_of_every_face_writes_every_slot_again() {
 
 #[test]
 fn short_buffers_and_storage_are_refused() {
-    let (pos, t) = cube12();
-    let mut c = Cube {
-        pos,
-        nodes: [Node::default(); CUBE12_NODES],
-        normals: [Vec3::ZERO; CUBE12_NODES],
-        tets: [Tet::default(); CUBE12_TETS],
-    };
-    let mesh = mesh(&mut c, &t);
+    let mut c = Cube::new();
+    let mesh = mesh(&mut c);
     let mut roots = [HNode::LEAF; CUBE12_TETS];
     let mut vlist = [VEntry::default(); CUBE12_TETS];
     let storage = HierarchyStorage {

@@ -7,9 +7,8 @@ use glam::Vec3;
 
 use super::test_support::{mesh, random_op, Cube, Rng};
 use super::*;
-use crate::builtin::{cube12, CUBE12_NODES, CUBE12_TETS};
+use crate::builtin::CUBE12_TETS;
 use crate::ids::TetId;
-use crate::mesh::{Node, Tet};
 use crate::storage::{Block, Line, Part, StorageError};
 
 #[test]
@@ -101,14 +100,8 @@ fn run(
     vertices: usize,
     queue: usize,
 ) -> ([[f32; 3]; CORNERS], SmoothStats, u32) {
-    let (pos, t) = cube12();
-    let mut c = Cube {
-        pos,
-        nodes: [Node::default(); CUBE12_NODES],
-        normals: [Vec3::ZERO; CUBE12_NODES],
-        tets: [Tet::default(); CUBE12_TETS],
-    };
-    let mesh = mesh(&mut c, &t);
+    let mut c = Cube::new();
+    let mesh = mesh(&mut c);
     let mut roots = [HNode::LEAF; CUBE12_TETS];
     let mut arena = [HNode::LEAF; 8 * 48];
     let mut vlist = [VEntry::default(); CUBE12_TETS + 7 * 48];

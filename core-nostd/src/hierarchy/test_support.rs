@@ -65,16 +65,31 @@ pub(crate) fn random_op(h: &mut Hierarchy<'_>, mesh: &Mesh<'_>, rng: &mut Rng) {
     }
 }
 
-/// The 12-tet cube's mesh storage on the stack.
+/// The 12-tet cube's mesh storage on the stack, with its tets.
 pub(crate) struct Cube {
     pub(crate) pos: [Vec3; CUBE12_NODES],
     pub(crate) nodes: [Node; CUBE12_NODES],
     pub(crate) normals: [Vec3; CUBE12_NODES],
     pub(crate) tets: [Tet; CUBE12_TETS],
+    pub(crate) t: [[u32; 4]; CUBE12_TETS],
 }
 
-/// The 12-tet cube's mesh of `t` in `c`.
-pub(crate) fn mesh<'a>(c: &'a mut Cube, t: &[[u32; 4]]) -> Mesh<'a> {
+impl Cube {
+    /// The paper's 12-tet cube ([`crate::builtin::cube12`]), its storage empty.
+    pub(crate) fn new() -> Self {
+        let (pos, t) = crate::builtin::cube12();
+        Self {
+            pos,
+            nodes: [Node::default(); CUBE12_NODES],
+            normals: [Vec3::ZERO; CUBE12_NODES],
+            tets: [Tet::default(); CUBE12_TETS],
+            t,
+        }
+    }
+}
+
+/// The 12-tet cube's mesh in `c`.
+pub(crate) fn mesh(c: &mut Cube) -> Mesh<'_> {
     let mut scratch = [FaceKey::default(); 4 * CUBE12_TETS];
     let storage = MeshStorage {
         nodes: &mut c.nodes,
@@ -83,7 +98,7 @@ pub(crate) fn mesh<'a>(c: &'a mut Cube, t: &[[u32; 4]]) -> Mesh<'a> {
     };
     Mesh::build(
         &mut c.pos,
-        t,
+        &c.t,
         storage,
         &mut scratch,
         BuildOptions::default(),
