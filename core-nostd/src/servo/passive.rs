@@ -64,9 +64,9 @@ impl World<'_> {
     /// `centre + axis * offset` tracked by `World::track_passive`.
     ///
     /// # Bounded work
-    /// [`World::simulate`]'s bound, a second zone query (at most [`World::max_cells`] cells
-    /// and the candidate list), and `World::track_passive`'s bound for at most
-    /// [`MAX_PASSIVE`] points.
+    /// [`World::simulate`]'s bound, the shaft's zone queries (at most one a point, each at
+    /// most [`World::max_cells`] cells, together at most the candidate list), and
+    /// `World::track_passive`'s bound for at most [`MAX_PASSIVE`] points.
     #[allow(clippy::too_many_arguments)]
     pub fn simulate_drill(
         &mut self,
@@ -92,8 +92,8 @@ impl World<'_> {
     /// storage saturated. Passive points never erode.
     ///
     /// # Bounded work
-    /// One zone query per point (each at most [`World::max_cells`] cells; together at most
-    /// the candidate storage's entries), a sort of the tets they list, and
+    /// At most one zone query per point (each at most [`World::max_cells`] cells; together
+    /// at most the candidate storage's entries), a sort of the tets they list, and
     /// `World::track_passive`'s bound for at most [`MAX_PASSIVE`] points.
     pub fn track_shaft(
         &mut self,
@@ -134,30 +134,36 @@ impl World<'_> {
     /// [`World::max_cells`] cells: the tets of the zones after are what fitted. The next
     /// simulation step refills the storage for the burr.
     ///
-    /// A shaft's points spread along a segment; one query of the box around all of them
-    /// would list every tet of that box (on a 0.3 shaft in the teddy, a tick's p99 of
-    /// 650 us). One query per point lists a tet near several points once per point; sorted,
-    /// each is listed once, and `World::track_passive` walks its tree once for them all.
+    /// A shaft's points spread along a segment, and their zones overlap. Consecutive zones
+    /// are queried as one box while that box covers no more hash cells than the zones do
+    /// together (each cell counted once, as far as a zone overlaps the one before it) and no
+    /// more than [`World::max_cells`]: an upright or axis-aligned shaft's zones make one thin
+    /// box, a tilted shaft's one per zone or a few. So the query never lists the tets of a
+    /// box around a tilted shaft, which would cost each listed tree a root check for every
+    /// point (on a 0.3 shaft in the teddy, a tick's p99 of 650 us), and a tet meeting
+    /// several zones of one box is listed once. Sorted, each is listed once, and
+    /// `World::track_passive` walks its tree once for them all.
     ///
     /// # Bounded work
-    /// Per zone O(max cells + hash entries met); then O(m log m) for the m tets listed
-    /// (at most the storage).
+    /// Per zone, constant work to group it and at most one query of O(max cells + hash
+    /// entries met); then O(m log m) for the m tets listed (at most the storage).
     pub(crate) fn shaft_candidates(&mut self, zones: &[Option<Aabb>]) -> bool {
         let room = match self.zone {
             Some(_) => self.candidates.len() / 3,
             None => self.candidates.len(),
         };
         self.cand_at = 0;
-        let (cands, mesh, hash, boxes) = (
+        let (cands, mesh, hash, boxes, max_cells) = (
             self.candidates.get_mut(..room).unwrap_or_default(),
             &self.mesh,
             &self.hash,
             &self.boxes,
+            self.max_cells,
         );
         let (mut at, mut saturated) = (0usize, false);
-        for zone in zones.iter().flatten() {
+        let mut query = |zone: &Aabb| {
             let mut full = false;
-            let visited = hash.query_box_once(zone, self.max_cells, |item| {
+            let visited = hash.query_box_once(zone, max_cells, |item| {
                 let t = TetId(item);
                 if full || t.idx() >= mesh.tet_count() {
                     return;
@@ -178,6 +184,34 @@ impl World<'_> {
                 }
             });
             saturated |= full || !visited;
+        };
+        // The box of the consecutive zones queried together, the cells those zones cover
+        // (each counted once, as far as it overlaps only the zone before it), and the last zone.
+        let mut group: Option<(Aabb, u64, Aabb)> = None;
+        for zone in zones.iter().flatten() {
+            let alone = hash.cells_covered(zone);
+            group = Some(match group {
+                Some((g, cover, last)) => {
+                    let shared = Aabb {
+                        min: zone.min.max(last.min),
+                        max: zone.max.min(last.max),
+                    };
+                    let cover =
+                        cover.saturating_add(alone - hash.cells_covered(&shared).min(alone));
+                    let both = g.union(*zone);
+                    let cells = hash.cells_covered(&both);
+                    if cells <= cover && cells <= u64::from(max_cells) {
+                        (both, cover, *zone)
+                    } else {
+                        query(&g);
+                        (*zone, alone, *zone)
+                    }
+                }
+                None => (*zone, alone, *zone),
+            });
+        }
+        if let Some((g, _, _)) = group {
+            query(&g);
         }
         let listed = cands.get_mut(..at).unwrap_or_default();
         listed.sort_unstable();
