@@ -60,15 +60,6 @@ impl SpatialHash<'_> {
         true
     }
 
-    /// How many cells the box `b` covers: what a query of it visits, before the entries.
-    ///
-    /// # Bounded work
-    /// Constant.
-    pub(crate) fn cells_covered(&self, b: &Aabb) -> u64 {
-        let (lo, hi) = self.cell_range(b);
-        cells_in(lo, hi)
-    }
-
     /// Like [`SpatialHash::query_box`] without counting (for shared, read-only use);
     /// returns `false` and visits nothing when the box covers more than `max_cells` cells.
     ///

@@ -10,7 +10,7 @@ use crate::force::{
     clamp_force, damping_force, offer_near, passive_force, DrillTool, ForceParams, PassivePoint,
     PassiveProbe, ToolState, MAX_PASSIVE,
 };
-use crate::hash::Aabb;
+use crate::hash::{cells_in, Aabb, Cell};
 use crate::ids::TetId;
 
 /// What one `World::track_passive` did.
@@ -185,33 +185,19 @@ impl World<'_> {
             });
             saturated |= full || !visited;
         };
-        // The box of the consecutive zones queried together, the cells those zones cover
-        // (each counted once, as far as it overlaps only the zone before it), and the last zone.
-        let mut group: Option<(Aabb, u64, Aabb)> = None;
+        let mut group: Option<ZoneGroup> = None;
         for zone in zones.iter().flatten() {
-            let alone = hash.cells_covered(zone);
+            let cells = hash.cell_range(zone);
             group = Some(match group {
-                Some((g, cover, last)) => {
-                    let shared = Aabb {
-                        min: zone.min.max(last.min),
-                        max: zone.max.min(last.max),
-                    };
-                    let cover =
-                        cover.saturating_add(alone - hash.cells_covered(&shared).min(alone));
-                    let both = g.union(*zone);
-                    let cells = hash.cells_covered(&both);
-                    if cells <= cover && cells <= u64::from(max_cells) {
-                        (both, cover, *zone)
-                    } else {
-                        query(&g);
-                        (*zone, alone, *zone)
-                    }
-                }
-                None => (*zone, alone, *zone),
+                Some(g) => g.grown(zone, cells, max_cells).unwrap_or_else(|| {
+                    query(&g.bounds);
+                    ZoneGroup::new(*zone, cells)
+                }),
+                None => ZoneGroup::new(*zone, cells),
             });
         }
-        if let Some((g, _, _)) = group {
-            query(&g);
+        if let Some(g) = group {
+            query(&g.bounds);
         }
         let listed = cands.get_mut(..at).unwrap_or_default();
         listed.sort_unstable();
@@ -277,6 +263,64 @@ impl World<'_> {
         }
         rep
     }
+}
+
+/// Consecutive shaft zones queried as one box (`World::shaft_candidates`).
+#[derive(Clone, Copy)]
+struct ZoneGroup {
+    /// The box around the zones.
+    bounds: Aabb,
+    /// Its hash cells (inclusive range).
+    cells: (Cell, Cell),
+    /// The cells the zones cover, each counted once as far as a zone overlaps only the one
+    /// before it (exact for equal zones along a line).
+    cover: u64,
+    /// The last zone's cells.
+    last: (Cell, Cell),
+}
+
+impl ZoneGroup {
+    fn new(zone: Aabb, cells: (Cell, Cell)) -> Self {
+        Self {
+            bounds: zone,
+            cells,
+            cover: cells_in(cells.0, cells.1),
+            last: cells,
+        }
+    }
+
+    /// The group with `zone` (covering `cells`) added, if its box then covers no more cells
+    /// than its zones do and at most `max_cells`.
+    ///
+    /// # Bounded work
+    /// Constant.
+    fn grown(&self, zone: &Aabb, cells: (Cell, Cell), max_cells: u32) -> Option<Self> {
+        let alone = cells_in(cells.0, cells.1);
+        let shared = cells_in(
+            max_cell(cells.0, self.last.0),
+            min_cell(cells.1, self.last.1),
+        );
+        let cover = self.cover.saturating_add(alone - shared.min(alone));
+        let hull = (
+            min_cell(self.cells.0, cells.0),
+            max_cell(self.cells.1, cells.1),
+        );
+        let n = cells_in(hull.0, hull.1);
+        (n <= cover && n <= u64::from(max_cells)).then(|| Self {
+            bounds: self.bounds.union(*zone),
+            cells: hull,
+            cover,
+            last: cells,
+        })
+    }
+}
+
+fn min_cell(a: Cell, b: Cell) -> Cell {
+    [a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2])]
+}
+
+fn max_cell(a: Cell, b: Cell) -> Cell {
+    [a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])]
 }
 
 /// Keeps the first of each run of equal entries of the sorted `s` at its front; returns how
