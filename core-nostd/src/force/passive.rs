@@ -150,6 +150,26 @@ impl PassiveProbe {
         mid.distance_squared(self.to) <= lim * lim
     }
 
+    /// The interval along the unit `u` (or zero) outside which, by more than a node's
+    /// [`span_slack`], no node is needed ([`PassiveProbe::may_need`]): the projections of
+    /// `from` and `to` widened by the reach, with a hundredth and the rounding to spare. A
+    /// projection is no longer than the distance it projects, so a node beyond it meets
+    /// neither the segment nor the reach of `to`. Unbounded when not finite.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub(crate) fn span_along(&self, u: Vec3) -> (f32, f32) {
+        let (a, b) = (self.from.dot(u), self.to.dot(u));
+        let size = self.from.abs().max(self.to.abs()).max_element();
+        let widen = libm::sqrtf(self.reach2) * SPAN_SLACK + ROUNDING * (1.0 + size);
+        let (lo, hi) = (a.min(b) - widen, a.max(b) + widen);
+        if lo.is_finite() && hi.is_finite() {
+            (lo, hi)
+        } else {
+            (f32::NEG_INFINITY, f32::INFINITY)
+        }
+    }
+
     /// Updates `state` for the point now at `to`:
     ///
     /// - held, and `to` is still behind the held plane: stays held, the proxy slides to
@@ -196,23 +216,83 @@ impl PassiveProbe {
     }
 }
 
+/// [`PassiveProbe::may_need`]'s slack (1/1000) and a hundredth more, for the spans along
+/// the walkers' line ([`PassiveProbe::span_along`]).
+const SPAN_SLACK: f32 = 1.001 * 1.01;
+
+/// Rounding allowed for per unit of a coordinate's size in a span's test: far above
+/// `f32`'s, so a span never rules out what `may_need` would keep.
+const ROUNDING: f32 = 1e-5;
+
+/// How far beyond a probe's span ([`PassiveProbe::span_along`]) the sphere `(mid, rad)`
+/// whose projection is `s` may reach.
+fn span_slack(mid: Vec3, rad: f32) -> f32 {
+    rad * SPAN_SLACK + ROUNDING * (1.0 + mid.abs().max_element())
+}
+
 /// Passive points walking the drilled surface together, bit `k` of a walk's mask for
 /// `probes[k]`: a point goes on into a node while [`PassiveProbe::may_need`] its faces.
-struct Probes<'p>(&'p mut [Option<PassiveProbe>; MAX_PASSIVE]);
+/// The cheap test first: a node whose projection on the line the points spread along
+/// (`axis`, from the first point to the last; zero for one point) lies beyond a point's
+/// span (`spans[k]`, [`PassiveProbe::span_along`]) cannot be needed by it; a shaft's points
+/// lie on a line, so at a tree's root most are ruled out so, not by `may_need`.
+struct Probes<'p> {
+    probes: &'p mut [Option<PassiveProbe>; MAX_PASSIVE],
+    axis: Vec3,
+    spans: [(f32, f32); MAX_PASSIVE],
+}
+
+impl<'p> Probes<'p> {
+    /// The walkers of `probes` with bits in `want`, their spans along the line from the
+    /// first to the last.
+    ///
+    /// # Bounded work
+    /// O([`MAX_PASSIVE`]).
+    fn new(probes: &'p mut [Option<PassiveProbe>; MAX_PASSIVE], want: u32) -> Self {
+        let walkers = || {
+            probes
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| want & (1u32 << k) != 0)
+                .filter_map(|(_, p)| p.as_ref())
+        };
+        let axis = match (walkers().next(), walkers().next_back()) {
+            (Some(a), Some(b)) => (b.to - a.to).normalize_or_zero(),
+            _ => Vec3::ZERO,
+        };
+        let mut spans = [(f32::NEG_INFINITY, f32::INFINITY); MAX_PASSIVE];
+        for (span, probe) in spans.iter_mut().zip(probes.iter()) {
+            if let Some(probe) = probe {
+                *span = probe.span_along(axis);
+            }
+        }
+        Self {
+            probes,
+            axis,
+            spans,
+        }
+    }
+}
 
 impl SurfaceVisit for Probes<'_> {
     #[inline]
     fn enter(&mut self, p: &[Vec3; 4], mask: u32) -> u32 {
         let (mid, rad) = bounding_sphere(*p);
+        let (s, slack) = (mid.dot(self.axis), span_slack(mid, rad));
         let (mut kept, mut rest) = (mask, mask);
         while rest != 0 {
-            let k = rest.trailing_zeros();
+            let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;
-            let needs = self
-                .0
-                .get(k as usize)
-                .and_then(Option::as_ref)
-                .is_some_and(|probe| probe.may_need(mid, rad));
+            let within = self
+                .spans
+                .get(k)
+                .is_some_and(|&(lo, hi)| s + slack >= lo && s - slack <= hi);
+            let needs = within
+                && self
+                    .probes
+                    .get(k)
+                    .and_then(Option::as_ref)
+                    .is_some_and(|probe| probe.may_need(mid, rad));
             if !needs {
                 kept &= !(1u32 << k);
             }
@@ -226,7 +306,7 @@ impl SurfaceVisit for Probes<'_> {
         while rest != 0 {
             let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;
-            if let Some(Some(probe)) = self.0.get_mut(k) {
+            if let Some(Some(probe)) = self.probes.get_mut(k) {
                 probe.offer(tri.corners, (tri.tet.0, tri.index, tri.face));
             }
         }
@@ -248,7 +328,7 @@ pub(crate) fn offer_near(
     probes: &mut [Option<PassiveProbe>; MAX_PASSIVE],
     want: u32,
 ) {
-    hier.walk_surface(mesh, tets, want, &mut Probes(probes));
+    hier.walk_surface(mesh, tets, want, &mut Probes::new(probes, want));
 }
 
 /// The spring force of passive points of `radius` at `positions` from their planes
