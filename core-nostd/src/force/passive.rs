@@ -220,12 +220,12 @@ impl PassiveProbe {
 /// the walkers' line ([`PassiveProbe::span_along`]).
 const SPAN_SLACK: f32 = 1.001 * 1.01;
 
-/// Rounding allowed for per unit of a coordinate's size in a span's test: far above
-/// `f32`'s, so a span never rules out what `may_need` would keep.
+/// Rounding allowed per unit of a coordinate's size in a span's test: far above `f32`'s,
+/// so a span never rules out what `may_need` would keep.
 const ROUNDING: f32 = 1e-5;
 
-/// How far beyond a probe's span ([`PassiveProbe::span_along`]) the sphere `(mid, rad)`
-/// whose projection is `s` may reach.
+/// How far the sphere `(mid, rad)` reaches beyond its centre's projection on the walkers'
+/// line, with the spans' slack and rounding ([`PassiveProbe::span_along`]).
 fn span_slack(mid: Vec3, rad: f32) -> f32 {
     rad * SPAN_SLACK + ROUNDING * (1.0 + mid.abs().max_element())
 }

@@ -280,6 +280,7 @@ struct ZoneGroup {
 }
 
 impl ZoneGroup {
+    /// The group of `zone` alone, covering `cells`.
     fn new(zone: Aabb, cells: (Cell, Cell)) -> Self {
         Self {
             bounds: zone,
@@ -315,10 +316,12 @@ impl ZoneGroup {
     }
 }
 
+/// The smaller of each coordinate.
 fn min_cell(a: Cell, b: Cell) -> Cell {
     [a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2])]
 }
 
+/// The larger of each coordinate.
 fn max_cell(a: Cell, b: Cell) -> Cell {
     [a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])]
 }
