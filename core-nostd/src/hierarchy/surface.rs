@@ -2,10 +2,10 @@
 
 use glam::Vec3;
 
-use super::geometry::{node_positions, RootFrame};
+use super::geometry::{child_packed, node_positions, Packed, RootFrame};
 use super::node::HNode;
 use super::store::Hierarchy;
-use super::table::{child_bary, Path, MAX_DEPTH, ROOT_BARY};
+use super::table::{Path, MAX_DEPTH};
 use crate::ids::TetId;
 use crate::mesh::template::FACE_VERTS;
 use crate::mesh::Mesh;
@@ -202,8 +202,9 @@ impl Hierarchy<'_> {
     /// bits of its parent's mask that [`SurfaceVisit::enter`] keeps (`want` at a root), a
     /// subtree without surface (see [`HNode::surface`]) or with no bit left is skipped, and
     /// each visible face of a non-erased leaf is given to [`SurfaceVisit::face`] with its
-    /// leaf's bits. The integer barycentric coordinates are carried down the stack, so each
-    /// node costs O(1) (not O(depth)) and gets the same bits as [`node_positions`].
+    /// leaf's bits. The packed barycentric coordinates ([`Packed`]) are carried down the
+    /// stack, so each node costs O(1) (not O(depth)) and gets the same bits as
+    /// [`node_positions`].
     ///
     /// # Bounded work
     /// O(nodes of those trees that hold surface and are entered) times what `v` does a node.
@@ -228,8 +229,8 @@ impl Hierarchy<'_> {
         let Some(frame) = RootFrame::of(mesh, tet) else {
             return;
         };
-        let mut stack = [(0u32, 0u32, 0u8, ROOT_BARY, 0u32); STACK];
-        stack[0] = (tet.0, 0, 0, ROOT_BARY, want);
+        let mut stack = [(0u32, 0u32, 0u8, [0 as Packed; 4], 0u32); STACK];
+        stack[0] = (tet.0, 0, 0, frame.root_packed(), want);
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
@@ -240,7 +241,7 @@ impl Hierarchy<'_> {
             if !node.surface() {
                 continue;
             }
-            let p = frame.positions(&bary, depth);
+            let p = frame.positions_packed(&bary, depth);
             let mask = v.enter(&p, mask);
             if mask == 0 {
                 continue;
@@ -270,7 +271,7 @@ impl Hierarchy<'_> {
                         ch,
                         index * 8 + 1 + c as u32,
                         depth + 1,
-                        child_bary(&bary, c),
+                        child_packed(&bary, c),
                         mask,
                     );
                     top += 1;
