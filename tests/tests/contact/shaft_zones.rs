@@ -10,7 +10,7 @@ use tetradrill_core::force::{DrillTool, MAX_PASSIVE};
 use tetradrill_core::hash::Aabb;
 use tetradrill_core::servo::{DrillState, World, WorldSizes};
 use tetradrill_core::{TetId, Vec3};
-use tetradrill_tests::search::{block_mesh, Store};
+use tetradrill_tests::search::{block_mesh, Lcg, Store};
 
 const REACH: f32 = 0.02;
 
@@ -47,13 +47,8 @@ fn cells(w: &World<'_>, b: &Aabb) -> u64 {
 /// the shaft's axis turning slowly through upright, axis-aligned and tilted directions, now
 /// and then a jump.
 fn poses(n: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
-    let mut s = seed;
-    let mut next = || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((s >> 33) as f32 / (1u64 << 31) as f32) * 2.0 - 1.0
-    };
+    let mut rng = Lcg(seed);
+    let mut next = || rng.signed();
     let axes = [
         Vec3::Z,
         Vec3::X,

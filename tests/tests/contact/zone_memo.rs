@@ -11,7 +11,7 @@ use tetradrill_core::drill::DrillParams;
 use tetradrill_core::hash::Aabb;
 use tetradrill_core::servo::World;
 use tetradrill_core::{TetId, Vec3};
-use tetradrill_tests::search::{block_mesh, Store};
+use tetradrill_tests::search::{block_mesh, Lcg, Store};
 
 const R: f32 = 0.1;
 const REACH: f32 = 0.05;
@@ -56,13 +56,8 @@ fn hash_query(w: &World<'_>, zone: &Aabb) -> Vec<TetId> {
 /// A seeded wander through the block: small steps (the memo's gathers keep up), now and
 /// then a jump (the step queries the hash while the next list is gathered).
 fn wander(n: usize, seed: u64) -> Vec<Vec3> {
-    let mut s = seed;
-    let mut next = || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((s >> 33) as f32 / (1u64 << 31) as f32) * 2.0 - 1.0
-    };
+    let mut rng = Lcg(seed);
+    let mut next = || rng.signed();
     let mut p = Vec3::ZERO;
     let mut v = Vec::with_capacity(n);
     for i in 0..n {
