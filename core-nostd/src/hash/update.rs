@@ -59,6 +59,18 @@ fn move_run(entries: &mut [HashEntry], from: core::ops::Range<usize>, to: usize)
     }
 }
 
+/// What [`SpatialHash::changes`] listed: the new entries at the front of its scratch, the
+/// old ones at its back (from the back), and the new boxes' union.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Changes {
+    /// New entries listed.
+    added: usize,
+    /// Old entries listed.
+    removed: usize,
+    /// The union of the new boxes.
+    bounds: Aabb,
+}
+
 impl SpatialHash<'_> {
     /// Brings the table from the boxes it was built from to new ones: `moved(i)` gives item
     /// `i`'s box at the last build and its new box (`None`: left out, as in
@@ -94,7 +106,73 @@ impl SpatialHash<'_> {
     where
         F: FnMut(usize) -> (Option<Aabb>, Option<Aabb>),
     {
-        let (added, removed, bounds) = self.changes(count, &mut moved, scratch)?;
+        let listed = self.changes(0..count, count, &mut moved, scratch)?;
+        self.apply(count, listed, scratch)
+    }
+
+    /// [`SpatialHash::update`] from two parts' listings: `first` by [`SpatialHash::changes`]
+    /// over items `0..k` in the front `scratch.len() / 2` entries of `scratch`, `second`
+    /// over items `k..count` in the rest (each part's `None`, or a part never listed, makes
+    /// the whole update `None`). The two parts may be listed at the same time (each reads
+    /// the table and writes only its own half of `scratch`). The table ends as
+    /// [`SpatialHash::update`] leaves it: the parts hold different items, and the order in
+    /// which items are listed matters only among one item's entries.
+    ///
+    /// # Bounded work
+    /// As [`SpatialHash::update`] without its pass over the items, plus O(m) to bring the
+    /// two listings together.
+    pub(crate) fn update_listed(
+        &mut self,
+        count: usize,
+        first: Option<Changes>,
+        second: Option<Changes>,
+        scratch: &mut [HashEntry],
+    ) -> Option<Rebuilt> {
+        let (a, b) = (first?, second?);
+        let (room, half) = (scratch.len(), scratch.len() / 2);
+        // The second part's new entries after the first's at the front; the first's old
+        // entries below the second's at the back (each part's own order kept). Neither copy
+        // may reach into the other's source, and the sort needs half the scratch.
+        let sum = |v: &[usize]| v.iter().fold(0usize, |s, &x| s.saturating_add(x));
+        let fits = sum(&[a.added, a.removed, b.added]) <= half
+            && sum(&[half, b.added, b.removed, a.removed]) <= room
+            && sum(&[a.added, a.removed, b.added, b.removed]) <= room / 2;
+        if !fits {
+            return None;
+        }
+        move_run(scratch, half..half + b.added, a.added);
+        move_run(
+            scratch,
+            half - a.removed..half,
+            room - b.removed - a.removed,
+        );
+        let listed = Changes {
+            added: a.added + b.added,
+            removed: a.removed + b.removed,
+            bounds: a.bounds.union(b.bounds),
+        };
+        self.apply(count, listed, scratch)
+    }
+
+    /// The rest of [`SpatialHash::update`] once the changes are listed in `scratch` (new
+    /// entries at its front, old ones at its back, listed from the back).
+    ///
+    /// # Bounded work
+    /// O(m log m + buckets + entries) for the m listed entries.
+    fn apply(
+        &mut self,
+        count: usize,
+        listed: Changes,
+        scratch: &mut [HashEntry],
+    ) -> Option<Rebuilt> {
+        let Changes {
+            added,
+            removed,
+            bounds,
+        } = listed;
+        if added.saturating_add(removed) > scratch.len() / 2 {
+            return None;
+        }
         let total = self.used.checked_sub(removed)?.saturating_add(added);
         if total > self.entries.len() {
             return None;
@@ -128,20 +206,23 @@ impl SpatialHash<'_> {
         })
     }
 
-    /// The first pass of [`SpatialHash::update`]: calls `moved` for every item, writes the
-    /// new entries of the items whose cell range changed to the front of `scratch` and their
-    /// old entries to its back. Returns how many of each and the new boxes' union; `None`
-    /// (the table untouched) when the table is not a whole build of `count` items or the
-    /// entries take more than half the scratch (the other half is for them sorted).
+    /// The first pass of [`SpatialHash::update`], over `items` (a part of `0..count`, the
+    /// items of the table's last build): calls `moved` for every item of `items`, in order,
+    /// writes the new entries of the items whose cell range changed to the front of `scratch`
+    /// and their old entries to its back. Returns how many of each and the new boxes' union;
+    /// `None` (the table untouched, `moved` still called for every item) when the table is
+    /// not a whole build of `count` items or the entries take more than half the scratch (the
+    /// other half is for them sorted). Reads the table only.
     ///
     /// # Bounded work
-    /// O(count + `scratch.len()`).
-    fn changes<F>(
+    /// O(items + `scratch.len()`).
+    pub(crate) fn changes<F>(
         &self,
+        items: core::ops::Range<usize>,
         count: usize,
         moved: &mut F,
         scratch: &mut [HashEntry],
-    ) -> Option<(usize, usize, Aabb)>
+    ) -> Option<Changes>
     where
         F: FnMut(usize) -> (Option<Aabb>, Option<Aabb>),
     {
@@ -152,7 +233,7 @@ impl SpatialHash<'_> {
         let budget = (room / 2).min(u32::MAX as usize);
         let (mut added, mut removed) = (0usize, 0usize);
         let mut bounds = Aabb::of::<0>([]);
-        for i in 0..count {
+        for i in items {
             let (old, new) = moved(i);
             if let Some(b) = new {
                 bounds = bounds.union(b);
@@ -191,7 +272,11 @@ impl SpatialHash<'_> {
                 });
             }
         }
-        fits.then_some((added, removed, bounds))
+        fits.then_some(Changes {
+            added,
+            removed,
+            bounds,
+        })
     }
 
     /// `true` when box `b` covers the cell range `(lo, hi)`, as `cell_range` would find, by
@@ -490,11 +575,13 @@ mod tests {
     /// Oracle: after every update the table is the whole rebuild over the new boxes, entry
     /// for entry, bucket offsets, bounds, length and counters, over random moves of 60 boxes
     /// in tables of 1 to 97 buckets (many cells to a bucket), small moves and large ones,
-    /// boxes appearing and vanishing. A whole rebuild over separate storage is the reference.
+    /// boxes appearing and vanishing, half of them listed in two parts split anywhere
+    /// (`SpatialHash::update_listed`). A whole rebuild over separate storage is the
+    /// reference.
     #[test]
     fn an_update_is_the_whole_rebuild_entry_for_entry() {
         let mut rng = Rng(0x5eed_1234_abcd_0001);
-        let (mut updated, mut refused, mut saturated) = (0, 0, 0);
+        let (mut updated, mut refused, mut saturated, mut parted) = (0, 0, 0, 0);
         for round in 0..300 {
             let buckets = [2usize, 3, 8, 30, 98][round % 5];
             let (mut s1, mut e1) = ([0u32; 98], [HashEntry::EMPTY; 1_500]);
@@ -529,15 +616,23 @@ mod tests {
                     *b = moved_box(&mut rng, *b, reach);
                 }
                 let mut calls = 0;
-                let got = live.update(
-                    ITEMS,
-                    |i| {
-                        assert_eq!(i, calls, "items in order");
-                        calls += 1;
-                        (boxes[i], next[i])
-                    },
-                    &mut scratch[..room],
-                );
+                let mut moved = |i: usize| {
+                    assert_eq!(i, calls, "items in order");
+                    calls += 1;
+                    (boxes[i], next[i])
+                };
+                // Every other update from two parts' listings, split anywhere.
+                let got = if rng.next() < 0.5 {
+                    live.update(ITEMS, moved, &mut scratch[..room])
+                } else {
+                    let k = (rng.next() * (ITEMS + 1) as f32) as usize;
+                    let (lo, hi) = scratch[..room].split_at_mut(room / 2);
+                    let first = live.changes(0..k.min(ITEMS), ITEMS, &mut moved, lo);
+                    let second = live.changes(k.min(ITEMS)..ITEMS, ITEMS, &mut moved, hi);
+                    let got = live.update_listed(ITEMS, first, second, &mut scratch[..room]);
+                    parted += u32::from(got.is_some());
+                    got
+                };
                 assert_eq!(calls, ITEMS, "every item once");
                 let got = match got {
                     Some(g) => {
@@ -570,6 +665,7 @@ mod tests {
             "{updated} updated, {refused} refused"
         );
         assert!(saturated > 20, "{saturated} saturated builds");
+        assert!(parted > 120, "{parted} updates made from two parts");
     }
 
     /// A table that does not hold what `moved` says (offsets, entries or length corrupted,

@@ -36,6 +36,12 @@
 //! on the spare storage a slice at a time.
 //! The committed world is the one [`World::set_positions`] leaves, bit for bit.
 //!
+//! The same update on two threads ([`World::set_positions_two`], `two.rs`): the passes over
+//! the nodes and tets (checks, boxes, the hash's changes listed, the normals) in two parts a
+//! caller's `fork` runs, each reading the world and writing its own slices of the spare
+//! storage; the lists joined, the table moved and the rest done after. The same world, bit
+//! for bit.
+//!
 //! [`Mesh::update_boundary`]: crate::mesh::Mesh::update_boundary
 //! [`Mesh::set_rest`]: crate::mesh::Mesh::set_rest
 //! [`Mesh::add_boundary_normals`]: crate::mesh::Mesh::add_boundary_normals
@@ -48,6 +54,9 @@ use crate::hash::{prime_at_most, Aabb, HashEntry, RebuildCursor, Rebuilt, Spatia
 use crate::hierarchy::{keep_face, Kept};
 use crate::ids::{NodeId, TetId};
 use crate::mesh::Mesh;
+
+mod two;
+pub use two::{MovePart, FIRST_PART_TETS};
 
 /// Why [`World::set_positions`] or [`World::enable_deformation`] refused (nothing changed).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]

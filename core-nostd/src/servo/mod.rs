@@ -54,7 +54,7 @@ mod sizes_tests;
 mod tests;
 mod zone_memo;
 
-pub use deform::{DeformError, DeformReport, Prepared, SpareStorage};
+pub use deform::{DeformError, DeformReport, MovePart, Prepared, SpareStorage, FIRST_PART_TETS};
 pub(crate) use deform::{PREP_BOX_UNITS, PREP_FACE_UNITS, PREP_NODE_UNITS, PREP_NORMALISE_UNITS};
 pub use drill_handoff::{DrillHandoff, DrillPublished, DrillServo};
 pub use force::servo_force;
