@@ -20,10 +20,13 @@
 //! The world's side of a deforming mesh is timed in the same pass (`WORLD` lines): after each
 //! soft step the body's positions are handed to a world over the same mesh
 //! (`World::set_positions`: boundary normals, tet boxes, the tet hash rebuilt, the contact
-//! caches), and, apart, the tet boxes and the hash rebuild alone on storage of the world's
+//! caches; every other step `World::set_positions_two`, its passes over the nodes and tets in
+//! two parts on two threads), and, apart, the tet boxes and the hash rebuild alone on storage of the world's
 //! sizes. `SOFT_WORLD_ONLY=1` stops after these two passes (no criterion); `SOFT_PROFILE=world`
 //! (or `world-cow`, `world-teddy`)
-//! runs 10 `set_positions` per mesh for callgrind (`--toggle-collect='*World*set_positions*'`).
+//! runs 10 `set_positions` per mesh for callgrind (`--toggle-collect='*World*set_positions*'`),
+//! `SOFT_PROFILE=world-two` (or `world-two-cow`, `world-two-teddy`) 10 `set_positions_two`
+//! (add `--separate-threads=yes`; `--toggle-collect='*MovePart*run*'` counts the parts).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -33,7 +36,7 @@ use glam::Vec3;
 use tetradrill::engine::EngineStorage;
 use tetradrill::owned::OwnedMesh;
 use tetradrill::setup::Setup;
-use tetradrill::soft::{on_two_threads, SoftOwned};
+use tetradrill::soft::{move_on_two_threads, on_two_threads, SoftOwned};
 use tetradrill_benches::{load_mesh, soft_bench_body};
 use tetradrill_core::hash::{average_edge_length, prime_at_most, Aabb, HashEntry, SpatialHash};
 use tetradrill_core::servo::WorldSizes;
@@ -157,26 +160,50 @@ fn spread(times: &[Duration]) -> (f64, f64, f64) {
 /// `World::set_positions` after each soft step, and the boxes and hash rebuild alone.
 fn world_pass() {
     for (name, rel) in MESHES {
-        let mut scene = Scene::new(rel);
+        // The body in two parts, as the soft driver steps it on two threads; its node `i` is
+        // the world's node `node_of[i]`.
+        let (soft, order) = Scene::new(rel).0.in_two_parts();
+        let mut scene = Scene(soft);
         let mut body = scene.body();
+        let parts = order.parts(&body).expect("two parts");
         let mut storage = EngineStorage::new(load(rel), &Setup::default()).expect("storage");
         // Deforming as the soft driver's world is: rest state and spare tables.
         storage.enable_deformation().expect("deformation storage");
         let mut world = storage.world().expect("world");
         let mut now = vec![Vec3::ZERO; body.node_count()];
         let runs = 50;
-        let mut times = Vec::with_capacity(runs);
+        let (mut times, mut two) = (Vec::with_capacity(runs), Vec::with_capacity(runs));
         let mut entries = 0;
-        for _ in 0..runs {
-            body.step(DT, &[]).expect("valid step");
-            body.write_positions(&mut now);
+        // One thread and two in turn, each after its own soft step.
+        for k in 0..2 * runs {
+            // Each update after a step on as many threads, as the driver runs them.
+            if k % 2 == 0 {
+                body.step(DT, &[]).expect("valid step");
+            } else {
+                body.step_two(DT, &[], parts, &mut on_two_threads)
+                    .expect("valid step");
+            }
+            for ((&x, &u), &i) in body
+                .rest()
+                .iter()
+                .zip(body.displacements())
+                .zip(&order.node_of)
+            {
+                now[i as usize] = x + u;
+            }
             let t0 = Instant::now();
-            let rep = world.set_positions(black_box(&now)).expect("positions");
-            times.push(t0.elapsed());
+            let rep = if k % 2 == 0 {
+                world.set_positions(black_box(&now))
+            } else {
+                world.set_positions_two(black_box(&now), &mut move_on_two_threads)
+            }
+            .expect("positions");
+            [&mut times, &mut two][k % 2].push(t0.elapsed());
             assert!(!rep.hash_saturated, "the {name}'s hash fits");
             entries = rep.hash_entries;
         }
         let (mean, min, max) = spread(&times);
+        let (tmean, tmin, tmax) = spread(&two);
         let updates = world.hash().stats().updates;
         // The boxes and the hash alone, on storage of the world's sizes.
         let mesh = world.mesh();
@@ -199,10 +226,11 @@ fn world_pass() {
         }
         let (hmean, hmin, hmax) = spread(&alone);
         println!(
-            "WORLD soft {name}: {} nodes, {} tets, {} buckets, {entries} hash entries: set_positions ({updates} of {runs} in place) mean {mean:.3} ms, min {min:.3} ms, max {max:.3} ms; boxes and hash rebuild alone mean {hmean:.3} ms, min {hmin:.3} ms, max {hmax:.3} ms",
+            "WORLD soft {name}: {} nodes, {} tets, {} buckets, {entries} hash entries: set_positions ({updates} of {} in place) mean {mean:.3} ms, min {min:.3} ms, max {max:.3} ms; set_positions_two on two threads mean {tmean:.3} ms, min {tmin:.3} ms, max {tmax:.3} ms; boxes and hash rebuild alone mean {hmean:.3} ms, min {hmin:.3} ms, max {hmax:.3} ms",
             mesh.node_count(),
             mesh.tet_count(),
             buckets,
+            2 * runs,
         );
     }
 }
@@ -212,6 +240,11 @@ fn world_pass() {
 /// counts: `valgrind --tool=callgrind --toggle-collect='*World*set_positions*'` counts
 /// those calls.
 fn world_profile(only: &str) {
+    // `two-cow`, `two-teddy`: `World::set_positions_two` on two threads instead.
+    let (two, only) = match only.strip_prefix("two") {
+        Some(rest) => (true, rest.trim_start_matches('-')),
+        None => (false, only),
+    };
     for (_, rel) in MESHES
         .iter()
         .filter(|(name, _)| only.is_empty() || only == *name)
@@ -226,7 +259,12 @@ fn world_profile(only: &str) {
         for _ in 0..10 {
             body.step(DT, &[]).expect("valid step");
             body.write_positions(&mut now);
-            black_box(world.set_positions(black_box(&now)).expect("positions"));
+            let rep = if two {
+                world.set_positions_two(black_box(&now), &mut move_on_two_threads)
+            } else {
+                world.set_positions(black_box(&now))
+            };
+            black_box(rep.expect("positions"));
         }
     }
 }

@@ -9,8 +9,8 @@ use tetradrill_core::soft::{Link, LinkBuffers, SoftBody, SoftError, SoftParams, 
 use tetradrill_core::Vec3;
 
 use super::{
-    material_uses, on_two_threads, Fix, MaterialUse, PartsOrder, SoftOwned, SoftSpec, Stiffness,
-    DAMPING,
+    material_uses, move_on_two_threads, on_two_threads, Fix, MaterialUse, PartsOrder, SoftOwned,
+    SoftSpec, Stiffness, DAMPING,
 };
 use crate::error::Error;
 use crate::platform::now_ns;
@@ -294,7 +294,8 @@ impl<'a> SoftDriver<'a> {
     }
 
     /// Whole steps on `threads` threads (1 or 2: `SoftBody::step` or `SoftBody::step_two`
-    /// with [`on_two_threads`], the same bits) when the body has at least
+    /// with [`on_two_threads`], then `World::set_positions` or `World::set_positions_two`
+    /// with [`move_on_two_threads`], the same bits) when the body has at least
     /// [`TWO_THREADS_FROM_TETS`] tets (a smaller one loses more to the thread's start each
     /// sweep than the second core gives); the spread step runs on the caller's thread.
     pub fn with_threads(mut self, threads: usize) -> Self {
@@ -374,8 +375,10 @@ impl<'a> SoftDriver<'a> {
             *f *= mean;
         }
         let dt = self.ticks_per_step as f32 * PERIOD_S as f32;
-        match self.order.as_ref().and_then(|o| o.parts) {
-            Some(parts) if self.threads >= 2 => {
+        let parts = self.order.as_ref().and_then(|o| o.parts);
+        let two = self.threads >= 2 && parts.is_some();
+        match parts {
+            Some(parts) if two => {
                 self.body
                     .step_two(dt, &self.external, parts, &mut on_two_threads)
             }
@@ -400,9 +403,12 @@ impl<'a> SoftDriver<'a> {
             }
             None => self.body.write_positions(&mut self.now),
         }
-        let rep = world
-            .set_positions(&self.now)
-            .map_err(|e| Error::Failure(format!("soft body positions: {e}")))?;
+        let rep = if two {
+            world.set_positions_two(&self.now, &mut move_on_two_threads)
+        } else {
+            world.set_positions(&self.now)
+        }
+        .map_err(|e| Error::Failure(format!("soft body positions: {e}")))?;
         self.step_ns.push(now_ns() - t0);
         self.external.fill(Vec3::ZERO);
         self.max_displacement = self.max_displacement.max(rep.max_displacement);

@@ -24,7 +24,7 @@ pub use spec::{
     material_uses, Fix, MaterialUse, SoftRegion, SoftSpec, Stiffness, DAMPING, DEFAULT_POISSON,
     DEFAULT_RATE_HZ, DEFAULT_YOUNG, DENSITY, SUBSTEPS,
 };
-pub use two::{on_two_threads, PartsOrder};
+pub use two::{move_on_two_threads, on_two_threads, PartsOrder};
 
 /// Threads for a whole soft step ([`SoftDriver::with_threads`]): 2 when the machine has a
 /// core for each beside the `busy` threads of the caller's own (the servo's, the simulation's),

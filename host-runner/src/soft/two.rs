@@ -1,8 +1,11 @@
 //! A soft body's nodes and tets reordered into two parts that share no node
 //! ([`SoftOwned::in_two_parts`]), and the two parts' sweeps run on two threads
 //! ([`on_two_threads`]), for `SoftBody::step_two`: the same physics as `SoftBody::step` on the
-//! reordered body, bit for bit, the sweep's larger part split over two cores.
+//! reordered body, bit for bit, the sweep's larger part split over two cores; and the world's
+//! update after the step in two parts the same way ([`move_on_two_threads`],
+//! `World::set_positions_two`).
 
+use tetradrill_core::servo::MovePart;
 use tetradrill_core::soft::{PartSweep, SoftBody, TwoParts};
 use tetradrill_core::Vec3;
 
@@ -124,12 +127,24 @@ impl SoftOwned {
 /// A `fork` for `SoftBody::step_two`: the second part's sweep on a scoped thread while the
 /// calling thread runs the first (both on the calling thread when a thread cannot be made).
 pub fn on_two_threads(a: &mut PartSweep<'_>, b: &mut PartSweep<'_>) {
-    let spawned = std::thread::scope(|s| {
-        let spawned = std::thread::Builder::new().spawn_scoped(s, || b.run());
-        a.run();
-        spawned.is_ok()
+    both(|| a.run(), || b.run());
+}
+
+/// A `fork` for `World::set_positions_two`, as [`on_two_threads`] runs a step's parts.
+pub fn move_on_two_threads(a: &mut MovePart<'_>, b: &mut MovePart<'_>) {
+    both(|| a.run(), || b.run());
+}
+
+/// `b` on a scoped thread while the calling thread runs `a`; `b` here after it when a
+/// thread cannot be made.
+fn both(a: impl FnOnce(), b: impl FnOnce() + Send) {
+    let mut b = Some(b);
+    std::thread::scope(|s| {
+        // A thread that cannot be made drops its closure with `b` still in place.
+        let _ = std::thread::Builder::new().spawn_scoped(s, || b.take().map(|b| b()));
+        a();
     });
-    if !spawned {
-        b.run();
+    if let Some(b) = b {
+        b();
     }
 }

@@ -9,7 +9,8 @@ use std::process::{Command, Output};
 use glam::Vec3;
 use tetradrill::soft::{Fix, SoftDriver, SoftOwned, SoftSpec};
 use tetradrill_core::drill::DrillParams;
-use tetradrill_core::servo::World;
+use tetradrill_core::hash::{Aabb, HashEntry};
+use tetradrill_core::servo::{SpareStorage, World, WorldSizes};
 use tetradrill_tests::search::{block_mesh, Store};
 use tetradrill_tests::{scratch_dir, tetradrill_bin};
 
@@ -344,10 +345,24 @@ fn pressed_block<R>(
     let mut om = block_mesh(n);
     let mut owned = SoftOwned::from_mesh(&om.view());
     let mesh = om.view();
-    let mut st = Store::new(mesh.tet_count(), arena);
+    let sizes = WorldSizes::new(mesh.tet_count(), arena);
+    // Spare storage, as the host's deforming worlds have it (the hash moved in place).
+    let mut starts = vec![0u32; sizes.hash_starts];
+    let mut entries = vec![HashEntry::default(); sizes.hash_entries];
+    let mut boxes = vec![Aabb::point(Vec3::ZERO); sizes.tet_boxes];
+    let mut normals = vec![Vec3::ZERO; owned.rest.len()];
+    let mut st = Store::sized(sizes);
     let mut world = st.world(mesh);
     let mut rest = vec![Vec3::ZERO; owned.rest.len()];
     world.enable_deformation(&mut rest).unwrap();
+    world
+        .set_spare(SpareStorage {
+            hash_starts: &mut starts,
+            hash_entries: &mut entries,
+            tet_boxes: &mut boxes,
+            normals: &mut normals,
+        })
+        .unwrap();
     world.simulate(BURR_AT, 0.1, 0.05, false, &BURR_PARAMS);
     assert!(world.contact_tet().is_some());
     f(&mut owned, &mut world)
@@ -446,7 +461,8 @@ fn the_stiffness_ratio_is_the_courant_number_squared_and_warns_above_one() {
     }
 }
 
-/// A whole step on two threads moves the world as one on one thread, bit for bit, and a driver
+/// A whole step on two threads, and the world's update after it (`World::set_positions_two`),
+/// move the world as one thread does, bit for bit (positions and normals), and a driver
 /// made again over a body an earlier driver reordered (a reset) pushes the same tets as one
 /// over a fresh body: the block of 16 cubes a side (24,576 tets, over
 /// `TWO_THREADS_FROM_TETS`), pressed at the same contact every tick.
@@ -476,10 +492,14 @@ fn two_step_threads_and_a_reset_driver_move_the_world_as_one_thread_does() {
             let threads = d.summary().threads;
             let moved = d.summary().max_displacement;
             assert!(moved > 1e-5, "{moved}");
-            let bits = world
-                .mesh()
+            // The update moved the hash in place on most steps (one part or two).
+            let updates = world.hash().stats().updates;
+            assert!(updates >= 30, "{updates} updates in place");
+            let mesh = world.mesh();
+            let bits = mesh
                 .positions()
                 .iter()
+                .chain(mesh.normals())
                 .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
                 .collect();
             (bits, threads)
