@@ -18,15 +18,16 @@
 //! threads.
 //!
 //! The world's side of a deforming mesh is timed in the same pass (`WORLD` lines): after each
-//! soft step the body's positions are handed to a world over the same mesh
-//! (`World::set_positions`: boundary normals, tet boxes, the tet hash rebuilt, the contact
-//! caches; every other step `World::set_positions_two`, its passes over the nodes and tets in
-//! two parts on two threads), and, apart, the tet boxes and the hash rebuild alone on storage of the world's
-//! sizes. `SOFT_WORLD_ONLY=1` stops after these two passes (no criterion); `SOFT_PROFILE=world`
-//! (or `world-cow`, `world-teddy`)
-//! runs 10 `set_positions` per mesh for callgrind (`--toggle-collect='*World*set_positions*'`),
-//! `SOFT_PROFILE=world-two` (or `world-two-cow`, `world-two-teddy`) 10 `set_positions_two`
-//! (add `--separate-threads=yes`; `--toggle-collect='*MovePart*run*'` counts the parts).
+//! soft step (of the body in two parts) the body's positions are handed to a world over the
+//! same mesh (`World::set_positions` after a step on one thread: boundary normals, tet boxes,
+//! the tet hash moved, the contact caches; `World::set_positions_two` after a step on two
+//! threads, its passes over the nodes and tets in two parts on two threads, in turn), and,
+//! apart, the tet boxes and the hash rebuild alone on storage of the world's sizes.
+//! `SOFT_WORLD_ONLY=1` stops after these two passes (no criterion); `SOFT_PROFILE=world` (or
+//! `world-cow`, `world-teddy`) runs 10 `set_positions` per mesh for callgrind
+//! (`--toggle-collect='*World*set_positions*'`), `SOFT_PROFILE=world-two` (or
+//! `world-two-cow`, `world-two-teddy`) 10 `set_positions_two` (add `--separate-threads=yes`;
+//! `--toggle-collect='*MovePart*run*'` counts the parts).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -157,7 +158,8 @@ fn spread(times: &[Duration]) -> (f64, f64, f64) {
     (ms(mean), ms(min), ms(max))
 }
 
-/// `World::set_positions` after each soft step, and the boxes and hash rebuild alone.
+/// `World::set_positions` and `World::set_positions_two` after soft steps, in turn, and the
+/// boxes and hash rebuild alone.
 fn world_pass() {
     for (name, rel) in MESHES {
         // The body in two parts, as the soft driver steps it on two threads; its node `i` is
@@ -238,7 +240,8 @@ fn world_pass() {
 /// `SOFT_PROFILE=world` (or `world-cow`, `world-teddy` for one mesh): per mesh, 10
 /// `World::set_positions` after soft steps, as the `WORLD` lines time them, for instruction
 /// counts: `valgrind --tool=callgrind --toggle-collect='*World*set_positions*'` counts
-/// those calls.
+/// those calls. `world-two` (`world-two-cow`, `world-two-teddy`): `set_positions_two` on
+/// two threads instead.
 fn world_profile(only: &str) {
     // `two-cow`, `two-teddy`: `World::set_positions_two` on two threads instead.
     let (two, only) = match only.strip_prefix("two") {
