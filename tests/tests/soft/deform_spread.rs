@@ -239,87 +239,52 @@ fn every_entry(world: &World<'_>, grow: f32) -> Vec<u32> {
 /// ones, and a stretch that overflows the hash (the whole build, then the update again).
 #[test]
 fn a_hash_moved_in_place_is_the_hash_built_whole() {
-    let mut om_a = block_mesh(5);
-    let mut om_c = block_mesh(5);
-    let rest0 = om_a.positions().to_vec();
-    let n = rest0.len();
-    let (mesh_a, mesh_c) = (om_a.view(), om_c.view());
-    let tets = mesh_a.tet_count();
-    let mut st_a = Store::new(tets, 1 << 15);
-    let mut st_c = Store::new(tets, 1 << 15);
-    let sizes = WorldSizes::new(tets, 0);
-    let mut spare = Spare::new(&sizes, n);
-    let mut a = st_a.world(mesh_a);
-    let mut c = st_c.world(mesh_c);
-    let (mut rest_a, mut rest_c) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-    a.enable_deformation(&mut rest_a).unwrap();
-    c.enable_deformation(&mut rest_c).unwrap();
-    c.set_spare(spare.storage()).unwrap();
-    let params = DrillParams {
-        max_depth: 3,
-        min_area: 0.0,
-        budget: 2_000,
-    };
-    // Small steps of the bend, a jump every 10th move, a stretch that overflows at 25.
-    let mut s = 0.0f32;
-    let moves: Vec<(f32, Vec<Vec3>)> = (0..61)
-        .map(|k| {
-            s += if k % 10 == 9 { 0.9 } else { 0.015 };
-            let grow = if k == 25 { 3.0 } else { 1.0 };
-            (grow, rest0.iter().map(|&p| bend(p, s, grow)).collect())
-        })
-        .collect();
-    let mut saturated = 0;
-    for k in 0..60 {
-        let (grow, new) = (moves[k].0, &moves[k].1);
-        let rep_a = a.set_positions(new).unwrap();
-        // World `c` also takes some moves spread over calls (its spare is then its
-        // preparation's, not the update's scratch): moves 3, 10, 17, ... whole, and a
-        // preparation for move k + 1 begun before move k (5, 12, ...) and ended after it.
-        let rep_c = match k % 7 {
-            3 => {
-                while !c.prepare_positions(new, 500).unwrap().ready {}
-                c.commit_positions(new).unwrap()
+    two_worlds(|a, c, params, moves| {
+        // Small steps of the bend, a jump every 10th move, a stretch that overflows at 25.
+        let mut saturated = 0;
+        for k in 0..60 {
+            let (grow, new) = (moves[k].0, &moves[k].1);
+            let rep_a = a.set_positions(new).unwrap();
+            // World `c` also takes some moves spread over calls (its spare is then its
+            // preparation's, not the update's scratch): moves 3, 10, 17, ... whole, and a
+            // preparation for move k + 1 begun before move k (5, 12, ...) and ended after it.
+            let rep_c = match k % 7 {
+                3 => {
+                    while !c.prepare_positions(new, 500).unwrap().ready {}
+                    c.commit_positions(new).unwrap()
+                }
+                5 => {
+                    c.prepare_positions(&moves[k + 1].1, 500).unwrap();
+                    assert!(c.preparing());
+                    c.set_positions(new).unwrap()
+                }
+                6 => {
+                    while !c.prepare_positions(new, 500).unwrap().ready {}
+                    c.commit_positions(new).unwrap()
+                }
+                _ => c.set_positions(new).unwrap(),
+            };
+            assert_eq!(rep_a, rep_c, "move {k}");
+            saturated += u32::from(rep_c.hash_saturated);
+            same_table(a, c, k, grow);
+            assert_eq!(a.saturations(), c.saturations());
+            for i in 0..10 {
+                let t = (k * 10 + i) as f32 * 0.03;
+                let centre = Vec3::new(0.3 * t.sin(), 0.25 * (1.3 * t).cos(), 0.5);
+                let ra = a.simulate(centre, 0.1, 0.05, true, params);
+                let rc = c.simulate(centre, 0.1, 0.05, true, params);
+                assert_eq!(ra, rc, "move {k} tick {i}");
+                assert_eq!(a.candidates(), c.candidates());
             }
-            5 => {
-                c.prepare_positions(&moves[k + 1].1, 500).unwrap();
-                assert!(c.preparing());
-                c.set_positions(new).unwrap()
-            }
-            6 => {
-                while !c.prepare_positions(new, 500).unwrap().ready {}
-                c.commit_positions(new).unwrap()
-            }
-            _ => c.set_positions(new).unwrap(),
-        };
-        assert_eq!(rep_a, rep_c, "move {k}");
-        saturated += u32::from(rep_c.hash_saturated);
-        let (ha, hc) = (a.hash(), c.hash());
-        assert_eq!(ha.len(), hc.len(), "move {k}");
-        let (sa, sc) = (ha.stats(), hc.stats());
-        assert_eq!(
-            (sa.builds, sa.saturations, sa.clipped_queries),
-            (sc.builds, sc.saturations, sc.clipped_queries),
-            "move {k}"
-        );
-        assert_eq!(every_entry(&a, grow), every_entry(&c, grow), "move {k}");
-        assert_eq!(a.saturations(), c.saturations());
-        for i in 0..10 {
-            let t = (k * 10 + i) as f32 * 0.03;
-            let centre = Vec3::new(0.3 * t.sin(), 0.25 * (1.3 * t).cos(), 0.5);
-            let ra = a.simulate(centre, 0.1, 0.05, true, &params);
-            let rc = c.simulate(centre, 0.1, 0.05, true, &params);
-            assert_eq!(ra, rc, "move {k} tick {i}");
-            assert_eq!(a.candidates(), c.candidates());
         }
-    }
-    assert_eq!(saturated, 1, "the stretched move overflows the hash");
-    assert_eq!(a.hash().stats().updates, 0);
-    // Every `set_positions` but those during a preparation (8) and the stretch (25; the
-    // move after it is one of the 8): 60 less 17 spread, 8 and 1, less the jumps whose
-    // changes overflow the scratch (moves 9, 29, 39 and 49 move most tets by cells).
-    let updates = c.hash().stats().updates;
-    assert!((30..=34).contains(&updates), "{updates} updates in place");
+        assert_eq!(saturated, 1, "the stretched move overflows the hash");
+        assert_eq!(a.hash().stats().updates, 0);
+        // Every `set_positions` but those during a preparation (8) and the stretch (25; the
+        // move after it is one of the 8): 60 less 17 spread, 8 and 1, less the jumps whose
+        // changes overflow the scratch (moves 9, 29, 39 and 49 move most tets by cells).
+        let updates = c.hash().stats().updates;
+        assert!((30..=34).contains(&updates), "{updates} updates in place");
+    });
 }
 
 /// The update in two parts (`World::set_positions_two`: each part checks its half of the
@@ -331,6 +296,119 @@ fn a_hash_moved_in_place_is_the_hash_built_whole() {
 /// one left to the world, and a refused position (nothing changed).
 #[test]
 fn an_update_in_two_parts_is_the_update_in_one() {
+    two_worlds(|a, c, params, moves| {
+        let mut threads = |x: &mut MovePart<'_>, y: &mut MovePart<'_>| {
+            std::thread::scope(|s| {
+                s.spawn(|| y.run());
+                x.run();
+            })
+        };
+        let (mut forks, mut saturated) = (0u32, 0);
+        for k in 0..60 {
+            let (grow, new) = (moves[k].0, &moves[k].1);
+            let rep_a = a.set_positions(new).unwrap();
+            let mut calls = 0u32;
+            let rep_c = match k % 6 {
+                // A preparation of the next move holds the spare: this one runs in one part,
+                // no fork; the next move is that preparation committed.
+                4 => {
+                    c.prepare_positions(&moves[k + 1].1, 500).unwrap();
+                    assert!(c.preparing());
+                    c.set_positions_two(new, &mut |_, _| calls += 1).unwrap()
+                }
+                5 => {
+                    while !c.prepare_positions(new, 500).unwrap().ready {}
+                    c.commit_positions(new).unwrap()
+                }
+                // The second part first, on this thread.
+                1 => c
+                    .set_positions_two(new, &mut |x, y| {
+                        calls += 1;
+                        y.run();
+                        x.run();
+                    })
+                    .unwrap(),
+                // The second part left for the world to run.
+                3 => c
+                    .set_positions_two(new, &mut |x, _| {
+                        calls += 1;
+                        x.run();
+                    })
+                    .unwrap(),
+                _ => c
+                    .set_positions_two(new, &mut |x, y| {
+                        calls += 1;
+                        threads(x, y)
+                    })
+                    .unwrap(),
+            };
+            assert_eq!(calls, u32::from(k % 6 < 4), "move {k}");
+            forks += calls;
+            assert_eq!(rep_a, rep_c, "move {k}");
+            saturated += u32::from(rep_c.hash_saturated);
+            same_table(a, c, k, grow);
+            assert_eq!(
+                bits(a.mesh().normals()),
+                bits(c.mesh().normals()),
+                "move {k}"
+            );
+            assert_eq!(a.saturations(), c.saturations());
+            for i in 0..10 {
+                let t = (k * 10 + i) as f32 * 0.03;
+                let centre = Vec3::new(0.3 * t.sin(), 0.25 * (1.3 * t).cos(), 0.5);
+                let (q, r) = (answer(a, centre, 0.2), answer(c, centre, 0.2));
+                assert_eq!(q, r, "move {k} tick {i}");
+                let ra = a.simulate(centre, 0.1, 0.05, true, params);
+                let rc = c.simulate(centre, 0.1, 0.05, true, params);
+                assert_eq!(ra, rc, "move {k} tick {i}");
+                assert_eq!(a.candidates(), c.candidates());
+            }
+        }
+        assert_eq!(forks, 40);
+        assert_eq!(saturated, 1, "the stretched move overflows the hash");
+        // The parts moved the table in place on most moves, not by whole builds (the jumps'
+        // changes do not fit the scratch, the stretch's not the table).
+        let updates = c.hash().stats().updates;
+        assert!((30..=40).contains(&updates), "{updates} updates in place");
+        // A non-finite position in the second half is refused, the first one named.
+        let mut bad = moves[60].1.clone();
+        let n = bad.len();
+        bad[n - 3].y = f32::INFINITY;
+        bad[n - 9].z = f32::NAN;
+        let before = every_entry(c, 1.0);
+        let normals = bits(c.mesh().normals());
+        let pos = bits(c.mesh().positions());
+        assert_eq!(
+            c.set_positions_two(&bad, &mut threads),
+            Err(DeformError::NotFinite { node: n - 9 })
+        );
+        assert_eq!(
+            a.set_positions(&bad),
+            Err(DeformError::NotFinite { node: n - 9 })
+        );
+        assert!(matches!(
+            c.set_positions_two(&bad[1..], &mut threads),
+            Err(DeformError::Count { .. })
+        ));
+        assert_eq!(every_entry(c, 1.0), before);
+        assert_eq!(bits(c.mesh().normals()), normals);
+        assert_eq!(bits(c.mesh().positions()), pos);
+        // And the next good move is the one-part update's again.
+        let new = &moves[60].1;
+        assert_eq!(
+            a.set_positions(new).unwrap(),
+            c.set_positions_two(new, &mut threads).unwrap()
+        );
+        assert_eq!(every_entry(a, 1.0), every_entry(c, 1.0));
+    });
+}
+
+/// Two worlds over the unit block of 5 cubes a side, deformation enabled: `a` without spare
+/// storage (its hash built whole at every move), `c` with it; the drill's parameters of the
+/// comparisons, and the moves: small steps of the bend, a jump every 10th move, a stretch
+/// that overflows the hash at 25 (each with its stretch factor).
+#[allow(clippy::type_complexity)]
+fn two_worlds(f: impl FnOnce(&mut World<'_>, &mut World<'_>, &DrillParams, &[(f32, Vec<Vec3>)])) {
     let mut om_a = block_mesh(5);
     let mut om_c = block_mesh(5);
     let rest0 = om_a.positions().to_vec();
@@ -352,12 +430,6 @@ fn an_update_in_two_parts_is_the_update_in_one() {
         min_area: 0.0,
         budget: 2_000,
     };
-    let mut threads = |x: &mut MovePart<'_>, y: &mut MovePart<'_>| {
-        std::thread::scope(|s| {
-            s.spawn(|| y.run());
-            x.run();
-        })
-    };
     let mut s = 0.0f32;
     let moves: Vec<(f32, Vec<Vec3>)> = (0..61)
         .map(|k| {
@@ -366,108 +438,19 @@ fn an_update_in_two_parts_is_the_update_in_one() {
             (grow, rest0.iter().map(|&p| bend(p, s, grow)).collect())
         })
         .collect();
-    let (mut forks, mut saturated) = (0u32, 0);
-    for k in 0..60 {
-        let (grow, new) = (moves[k].0, &moves[k].1);
-        let rep_a = a.set_positions(new).unwrap();
-        let mut calls = 0u32;
-        let rep_c = match k % 6 {
-            // A preparation of the next move holds the spare: this one runs in one part,
-            // no fork; the next move is that preparation committed.
-            4 => {
-                c.prepare_positions(&moves[k + 1].1, 500).unwrap();
-                assert!(c.preparing());
-                c.set_positions_two(new, &mut |_, _| calls += 1).unwrap()
-            }
-            5 => {
-                while !c.prepare_positions(new, 500).unwrap().ready {}
-                c.commit_positions(new).unwrap()
-            }
-            // The second part first, on this thread.
-            1 => c
-                .set_positions_two(new, &mut |x, y| {
-                    calls += 1;
-                    y.run();
-                    x.run();
-                })
-                .unwrap(),
-            // The second part left for the world to run.
-            3 => c
-                .set_positions_two(new, &mut |x, _| {
-                    calls += 1;
-                    x.run();
-                })
-                .unwrap(),
-            _ => c
-                .set_positions_two(new, &mut |x, y| {
-                    calls += 1;
-                    threads(x, y)
-                })
-                .unwrap(),
-        };
-        assert_eq!(calls, u32::from(k % 6 < 4), "move {k}");
-        forks += calls;
-        assert_eq!(rep_a, rep_c, "move {k}");
-        saturated += u32::from(rep_c.hash_saturated);
-        let (ha, hc) = (a.hash(), c.hash());
-        assert_eq!(ha.len(), hc.len(), "move {k}");
-        let (sa, sc) = (ha.stats(), hc.stats());
-        assert_eq!(
-            (sa.builds, sa.saturations, sa.clipped_queries),
-            (sc.builds, sc.saturations, sc.clipped_queries),
-            "move {k}"
-        );
-        assert_eq!(every_entry(&a, grow), every_entry(&c, grow), "move {k}");
-        assert_eq!(
-            bits(a.mesh().normals()),
-            bits(c.mesh().normals()),
-            "move {k}"
-        );
-        assert_eq!(a.saturations(), c.saturations());
-        for i in 0..10 {
-            let t = (k * 10 + i) as f32 * 0.03;
-            let centre = Vec3::new(0.3 * t.sin(), 0.25 * (1.3 * t).cos(), 0.5);
-            let (q, r) = (answer(&a, centre, 0.2), answer(&c, centre, 0.2));
-            assert_eq!(q, r, "move {k} tick {i}");
-            let ra = a.simulate(centre, 0.1, 0.05, true, &params);
-            let rc = c.simulate(centre, 0.1, 0.05, true, &params);
-            assert_eq!(ra, rc, "move {k} tick {i}");
-            assert_eq!(a.candidates(), c.candidates());
-        }
-    }
-    assert_eq!(forks, 40);
-    assert_eq!(saturated, 1, "the stretched move overflows the hash");
-    // The parts moved the table in place on most moves, not by whole builds (the jumps'
-    // changes do not fit the scratch, the stretch's not the table).
-    let updates = c.hash().stats().updates;
-    assert!((30..=40).contains(&updates), "{updates} updates in place");
-    // A non-finite position in the second half is refused, the first one named.
-    let mut bad = moves[60].1.clone();
-    bad[n - 3].y = f32::INFINITY;
-    bad[n - 9].z = f32::NAN;
-    let before = every_entry(&c, 1.0);
-    let normals = bits(c.mesh().normals());
-    let pos = bits(c.mesh().positions());
+    f(&mut a, &mut c, &params, &moves);
+}
+
+/// After move `k` (stretched by `grow`) the two worlds' tables are the same: length, build
+/// and saturation counters, every cell's items in order.
+fn same_table(a: &World<'_>, c: &World<'_>, k: usize, grow: f32) {
+    let (ha, hc) = (a.hash(), c.hash());
+    assert_eq!(ha.len(), hc.len(), "move {k}");
+    let (sa, sc) = (ha.stats(), hc.stats());
     assert_eq!(
-        c.set_positions_two(&bad, &mut threads),
-        Err(DeformError::NotFinite { node: n - 9 })
+        (sa.builds, sa.saturations, sa.clipped_queries),
+        (sc.builds, sc.saturations, sc.clipped_queries),
+        "move {k}"
     );
-    assert_eq!(
-        a.set_positions(&bad),
-        Err(DeformError::NotFinite { node: n - 9 })
-    );
-    assert!(matches!(
-        c.set_positions_two(&bad[1..], &mut threads),
-        Err(DeformError::Count { .. })
-    ));
-    assert_eq!(every_entry(&c, 1.0), before);
-    assert_eq!(bits(c.mesh().normals()), normals);
-    assert_eq!(bits(c.mesh().positions()), pos);
-    // And the next good move is the one-part update's again.
-    let new = &moves[60].1;
-    assert_eq!(
-        a.set_positions(new).unwrap(),
-        c.set_positions_two(new, &mut threads).unwrap()
-    );
-    assert_eq!(every_entry(&a, 1.0), every_entry(&c, 1.0));
+    assert_eq!(every_entry(a, grow), every_entry(c, grow), "move {k}");
 }
