@@ -108,8 +108,8 @@ pub const FIRST_PART_TETS: (usize, usize) = (3, 5);
 
 /// One part of [`World::set_positions_two`]: its nodes checked and measured, its tets' new
 /// boxes made and their changes of the hash listed, and for the second part the boundary
-/// normals made. Holds shared views of the world and its
-/// own slices of the spare storage, so the two parts may run on two threads at once.
+/// normals made. Holds shared views of the world and its own slices of the spare storage, so
+/// the two parts may run on two threads at once.
 pub struct MovePart<'p> {
     work: Option<MoveWork<'p>>,
     done: PartDone,
