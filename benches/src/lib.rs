@@ -112,18 +112,27 @@ pub fn pen_profile_setup(bin: &str, default_reps: usize) -> Result<PenProfile, S
     })
 }
 
-/// A tiny deterministic generator (the benches have no `rand`).
+/// A tiny deterministic generator (the benches have no `rand`; the tests' seeded paths use it
+/// too): a 64-bit linear congruential generator, Knuth's MMIX constants.
 #[derive(Debug, Clone)]
 pub struct Lcg(pub u64);
 
 impl Lcg {
-    /// The next value in `[0, 1)`.
-    pub fn unit(&mut self) -> f32 {
+    /// The next state.
+    fn step(&mut self) -> u64 {
         self.0 = self
             .0
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
-        ((self.0 >> 40) as f32) / ((1u64 << 24) as f32)
+        self.0
+    }
+    /// The next value in `[0, 1)` (the state's top 24 bits).
+    pub fn unit(&mut self) -> f32 {
+        ((self.step() >> 40) as f32) / ((1u64 << 24) as f32)
+    }
+    /// The next value in `[-1, 1)` (the state's top 31 bits).
+    pub fn signed(&mut self) -> f32 {
+        ((self.step() >> 33) as f32 / (1u64 << 31) as f32) * 2.0 - 1.0
     }
     /// The next value in `[lo, hi)`.
     pub fn range(&mut self, lo: f32, hi: f32) -> f32 {

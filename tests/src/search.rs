@@ -111,19 +111,3 @@ pub fn on_block4(f: impl FnOnce(&mut World<'_>, &DrillParams, f32, f32)) {
     };
     f(&mut world, &params, 0.1, 0.05);
 }
-
-/// A seeded generator for the contact tests' paths (a 64-bit linear congruential generator,
-/// Knuth's MMIX constants).
-#[derive(Debug, Clone)]
-pub struct Lcg(pub u64);
-
-impl Lcg {
-    /// The next value in `[-1, 1)`.
-    pub fn signed(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 33) as f32 / (1u64 << 31) as f32) * 2.0 - 1.0
-    }
-}

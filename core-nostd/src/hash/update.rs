@@ -132,11 +132,10 @@ impl SpatialHash<'_> {
         let (room, half) = (scratch.len(), scratch.len() / 2);
         // The second part's new entries after the first's at the front; the first's old
         // entries below the second's at the back (each part's own order kept). Neither copy
-        // may reach into the other's source, and the sort needs half the scratch.
+        // may reach into the other's source (`apply` checks that the sort has room).
         let sum = |v: &[usize]| v.iter().fold(0usize, |s, &x| s.saturating_add(x));
         let fits = sum(&[a.added, a.removed, b.added]) <= half
-            && sum(&[half, b.added, b.removed, a.removed]) <= room
-            && sum(&[a.added, a.removed, b.added, b.removed]) <= room / 2;
+            && sum(&[half, b.added, b.removed, a.removed]) <= room;
         if !fits {
             return None;
         }
@@ -155,7 +154,8 @@ impl SpatialHash<'_> {
     }
 
     /// The rest of [`SpatialHash::update`] once the changes are listed in `scratch` (new
-    /// entries at its front, old ones at its back, listed from the back).
+    /// entries at its front, old ones at its back, listed from the back); `None` when they
+    /// take more than half of it (the other half is for them sorted).
     ///
     /// # Bounded work
     /// O(m log m + buckets + entries) for the m listed entries.
@@ -625,10 +625,10 @@ mod tests {
                 let got = if rng.next() < 0.5 {
                     live.update(ITEMS, moved, &mut scratch[..room])
                 } else {
-                    let k = (rng.next() * (ITEMS + 1) as f32) as usize;
+                    let k = ((rng.next() * (ITEMS + 1) as f32) as usize).min(ITEMS);
                     let (lo, hi) = scratch[..room].split_at_mut(room / 2);
-                    let first = live.changes(0..k.min(ITEMS), ITEMS, &mut moved, lo);
-                    let second = live.changes(k.min(ITEMS)..ITEMS, ITEMS, &mut moved, hi);
+                    let first = live.changes(0..k, ITEMS, &mut moved, lo);
+                    let second = live.changes(k..ITEMS, ITEMS, &mut moved, hi);
                     let got = live.update_listed(ITEMS, first, second, &mut scratch[..room]);
                     parted += u32::from(got.is_some());
                     got

@@ -5,12 +5,13 @@
 //! and tilted, near and across the block's faces; and it does not saturate where one zone
 //! query per point would not (the hash's cell bound set to the largest single zone's cells).
 
+use tetradrill_benches::Lcg;
 use tetradrill_core::drill::DrillParams;
 use tetradrill_core::force::{DrillTool, MAX_PASSIVE};
 use tetradrill_core::hash::Aabb;
 use tetradrill_core::servo::{DrillState, World, WorldSizes};
 use tetradrill_core::{TetId, Vec3};
-use tetradrill_tests::search::{block_mesh, Lcg, Store};
+use tetradrill_tests::search::{block_mesh, Store};
 
 const REACH: f32 = 0.02;
 

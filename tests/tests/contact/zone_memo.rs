@@ -7,11 +7,12 @@
 
 use std::cmp::Reverse;
 
+use tetradrill_benches::Lcg;
 use tetradrill_core::drill::DrillParams;
 use tetradrill_core::hash::Aabb;
 use tetradrill_core::servo::World;
 use tetradrill_core::{TetId, Vec3};
-use tetradrill_tests::search::{block_mesh, Lcg, Store};
+use tetradrill_tests::search::{block_mesh, Store};
 
 const R: f32 = 0.1;
 const REACH: f32 = 0.05;
