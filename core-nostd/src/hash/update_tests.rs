@@ -1,0 +1,267 @@
+//! Oracles of `update.rs`: the table moved in place against the whole rebuild, refusals,
+//! corrupted tables.
+
+use glam::Vec3;
+
+use super::*;
+use crate::geom::test_rng::Rng;
+use crate::hash::HashStats;
+
+const ITEMS: usize = 60;
+
+/// A box of up to about 3 cells a side somewhere in a 12-cell space, or none.
+fn random_box(rng: &mut Rng) -> Option<Aabb> {
+    if rng.next() < 0.05 {
+        return None;
+    }
+    let min = Vec3::new(
+        rng.range(-6.0, 6.0),
+        rng.range(-6.0, 6.0),
+        rng.range(-6.0, 6.0),
+    );
+    let size = Vec3::new(
+        rng.range(0.0, 2.5),
+        rng.range(0.0, 2.5),
+        rng.range(0.0, 2.5),
+    );
+    Some(Aabb {
+        min,
+        max: min + size,
+    })
+}
+
+fn snap(v: f32) -> f32 {
+    libm::roundf(v * 2.0) / 2.0
+}
+
+/// The box moved a little (most keep their cells), a lot, or into or out of `None`.
+fn moved_box(rng: &mut Rng, b: Option<Aabb>, reach: f32) -> Option<Aabb> {
+    let u = rng.next();
+    if u < 0.03 {
+        return random_box(rng);
+    }
+    let b = b?;
+    if u < 0.05 {
+        return None;
+    }
+    let d = Vec3::new(
+        rng.range(-reach, reach),
+        rng.range(-reach, reach),
+        rng.range(-reach, reach),
+    );
+    let grow = rng.range(-0.05, 0.05);
+    let moved = Aabb {
+        min: b.min + d,
+        max: (b.max + d + Vec3::splat(grow)).max(b.min + d),
+    };
+    // Now and then onto the half-cell lattice: bounds exactly on cell faces.
+    if u > 0.8 {
+        let snap = |v: Vec3| Vec3::new(snap(v.x), snap(v.y), snap(v.z));
+        return Some(Aabb {
+            min: snap(moved.min),
+            max: snap(moved.max),
+        });
+    }
+    Some(moved)
+}
+
+/// Oracle: after every update the table is the whole rebuild over the new boxes, entry
+/// for entry, bucket offsets, bounds, length and counters, over random moves of 60 boxes
+/// in tables of 1 to 97 buckets (many cells to a bucket), small moves and large ones,
+/// boxes appearing and vanishing, half of them listed in two parts split anywhere
+/// (`SpatialHash::update_listed`). A whole rebuild over separate storage is the
+/// reference.
+#[test]
+fn an_update_is_the_whole_rebuild_entry_for_entry() {
+    let mut rng = Rng(0x5eed_1234_abcd_0001);
+    let (mut updated, mut refused, mut saturated, mut parted) = (0, 0, 0, 0);
+    for round in 0..300 {
+        let buckets = [2usize, 3, 8, 30, 98][round % 5];
+        let (mut s1, mut e1) = ([0u32; 98], [HashEntry::EMPTY; 1_500]);
+        let (mut s2, mut e2) = ([0u32; 98], [HashEntry::EMPTY; 1_500]);
+        let mut scratch = [HashEntry::EMPTY; 3_000];
+        let mut boxes = [None; ITEMS];
+        for b in boxes.iter_mut() {
+            *b = random_box(&mut rng);
+        }
+        // Every fourth table is sized to its first build and a few entries more: moves
+        // that grow it past its capacity, a saturated whole build, then none to update.
+        let cap = if round % 4 == 3 {
+            let mut first = SpatialHash::new(&mut s2[..buckets], &mut e2, 1.0).unwrap();
+            let need = first.rebuild(ITEMS, |i| boxes[i]).entries;
+            (need + round % 7).min(1_500)
+        } else {
+            1_500
+        };
+        let mut live = SpatialHash::new(&mut s1[..buckets], &mut e1[..cap], 1.0).unwrap();
+        live.rebuild(ITEMS, |i| boxes[i]);
+        let reach = [0.02f32, 0.2, 1.5][round % 3];
+        let room = match (round / 3) % 4 {
+            0 => 3_000,
+            1 => 800,
+            2 => 120,
+            _ => (rng.next() * 400.0) as usize,
+        };
+        let mut refused_here = 0;
+        for _ in 0..6 {
+            let mut next = boxes;
+            for b in next.iter_mut() {
+                *b = moved_box(&mut rng, *b, reach);
+            }
+            let mut calls = 0;
+            let mut moved = |i: usize| {
+                assert_eq!(i, calls, "items in order");
+                calls += 1;
+                (boxes[i], next[i])
+            };
+            // Every other update from two parts' listings, split anywhere.
+            let got = if rng.next() < 0.5 {
+                live.update(ITEMS, moved, &mut scratch[..room])
+            } else {
+                let k = ((rng.next() * (ITEMS + 1) as f32) as usize).min(ITEMS);
+                let (lo, hi) = scratch[..room].split_at_mut(room / 2);
+                let first = live.changes(0..k, ITEMS, &mut moved, lo);
+                let second = live.changes(k..ITEMS, ITEMS, &mut moved, hi);
+                let got = live.update_listed(ITEMS, first, second, &mut scratch[..room]);
+                parted += u32::from(got.is_some());
+                got
+            };
+            assert_eq!(calls, ITEMS, "every item once");
+            let got = match got {
+                Some(g) => {
+                    updated += 1;
+                    g
+                }
+                None => {
+                    refused += 1;
+                    refused_here += 1;
+                    live.rebuild(ITEMS, |i| next[i])
+                }
+            };
+            boxes = next;
+            let mut whole = SpatialHash::new(&mut s2[..buckets], &mut e2[..cap], 1.0).unwrap();
+            let want = whole.rebuild(ITEMS, |i| boxes[i]);
+            assert_eq!(got, want, "round {round}");
+            assert_eq!(live.starts, whole.starts, "round {round}");
+            assert_eq!(live.entries[..live.used], whole.entries[..whole.used]);
+            assert_eq!(live.bounds, whole.bounds);
+            assert_eq!(live.whole, (!want.saturated).then_some(ITEMS));
+            saturated += u32::from(want.saturated);
+        }
+        assert_eq!(live.stats().builds, 7);
+        assert_eq!(live.stats().updates, 6 - refused_here);
+    }
+    // Both ways taken: most updates fit; the small scratch refuses the large moves and
+    // the tables of two or three buckets (a changed bucket passes through the scratch).
+    assert!(
+        updated > 350 && refused > 50,
+        "{updated} updated, {refused} refused"
+    );
+    assert!(saturated > 20, "{saturated} saturated builds");
+    assert!(parted > 120, "{parted} updates made from two parts");
+}
+
+/// A table that does not hold what `moved` says (offsets, entries or length corrupted,
+/// old boxes of another build) gives `None` or some table, never a panic, and the queries
+/// after it do not panic either.
+#[test]
+fn an_update_over_a_corrupted_table_does_not_panic() {
+    let mut rng = Rng(0xdead_beef_0bad_f00d);
+    for round in 0..3_000 {
+        let buckets = [2usize, 3, 4, 8, 14][round % 5];
+        let cap = [0usize, 5, 30, 300][(round / 5) % 4];
+        let (mut starts, mut entries) = ([0u32; 14], [HashEntry::EMPTY; 300]);
+        let mut h = SpatialHash::new(&mut starts[..buckets], &mut entries[..cap], 1.0).unwrap();
+        let (mut a, mut b, mut c) = ([None; 20], [None; 20], [None; 20]);
+        for i in 0..20 {
+            a[i] = random_box(&mut rng);
+            b[i] = if rng.next() < 0.7 {
+                a[i]
+            } else {
+                random_box(&mut rng)
+            };
+            c[i] = random_box(&mut rng);
+        }
+        h.rebuild(20, |i| a[i]);
+        match round % 6 {
+            1 => h
+                .starts
+                .iter_mut()
+                .for_each(|s| *s = (rng.next() * 310.0) as u32),
+            2 => h.entries.iter_mut().for_each(|e| e.cell[0] += 1),
+            3 => h.used = (rng.next() * 350.0) as usize,
+            4 => h.starts.reverse(),
+            5 => h.entries.iter_mut().for_each(|e| e.packed ^= 1),
+            _ => {}
+        }
+        h.whole = Some(20);
+        let mut scratch = [HashEntry::EMPTY; 400];
+        let room = (rng.next() * 400.0) as usize;
+        let _ = h.update(20, |i| (b[i], c[i]), &mut scratch[..room]);
+        let _ = h.update(20, |i| (c[i], a[i]), &mut scratch[..room]);
+        let all = Aabb {
+            min: Vec3::splat(-8.0),
+            max: Vec3::splat(8.0),
+        };
+        h.query_box(&all, 10_000, |_, _| {});
+    }
+}
+
+/// Refusals leave the table as it was (a scratch too small, a table that is not a
+/// whole build of the count, entries past the capacity), or flag it for a whole build
+/// (old boxes other than the last build's).
+#[test]
+fn an_update_refuses_what_it_cannot_match() {
+    let a = Aabb {
+        min: Vec3::new(0.1, 0.1, 0.1),
+        max: Vec3::new(1.2, 0.2, 0.2),
+    };
+    let b = Aabb {
+        min: Vec3::new(3.1, 0.1, 0.1),
+        max: Vec3::new(3.2, 0.2, 0.2),
+    };
+    let far = Aabb {
+        min: Vec3::new(5.1, 0.1, 0.1),
+        max: Vec3::new(7.2, 0.2, 0.2),
+    };
+    let (mut starts, mut entries) = ([0u32; 8], [HashEntry::EMPTY; 4]);
+    let mut scratch = [HashEntry::EMPTY; 16];
+    let mut h = SpatialHash::new(&mut starts, &mut entries, 1.0).unwrap();
+    // Never built.
+    assert!(h.update(0, |_| (None, None), &mut scratch).is_none());
+    assert!(!h.rebuild(2, |i| [Some(a), Some(b)][i]).saturated);
+    let before = (*h.starts).to_vec();
+    // Another count.
+    assert!(h.update(1, |_| (Some(a), Some(a)), &mut scratch).is_none());
+    // Scratch too small for item 1's one old and one new entry.
+    let moves = |i: usize| [(Some(a), Some(a)), (Some(b), Some(a))][i];
+    assert!(h.update(2, moves, &mut scratch[..1]).is_none());
+    // Three new cells for one old: five entries in a table of four.
+    let moves = |i: usize| [(Some(a), Some(a)), (Some(b), Some(far))][i];
+    assert!(h.update(2, moves, &mut scratch).is_none());
+    assert_eq!(&*h.starts, &before[..]);
+    assert_eq!(h.stats().builds, 1);
+    // Old boxes the table was not built from: refused, a whole build needed.
+    let moves = |i: usize| [(Some(a), Some(a)), (Some(far), Some(b))][i];
+    assert!(h.update(2, moves, &mut scratch).is_none());
+    assert_eq!(h.whole, None);
+    assert!(h
+        .update(
+            2,
+            |i| [(Some(a), Some(a)), (Some(b), Some(b))][i],
+            &mut scratch
+        )
+        .is_none());
+    // A saturated build is not a whole one either.
+    assert!(h.rebuild(3, |i| [Some(a), Some(b), Some(far)][i]).saturated);
+    assert!(h.update(3, |_| (None, None), &mut scratch).is_none());
+    assert_eq!(
+        h.stats(),
+        HashStats {
+            builds: 2,
+            saturations: 1,
+            clipped_queries: 0,
+            updates: 0,
+        }
+    );
+}
