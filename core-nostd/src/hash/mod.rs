@@ -52,4 +52,4 @@ pub(crate) use cell::{cell_of, Cell};
 pub(crate) use rebuild::RebuildCursor;
 pub use rebuild::{Rebuilt, REBUILD_ITEM_UNITS};
 pub use table::{HashEntry, HashError, HashStats, SpatialHash};
-pub(crate) use update::Changes;
+pub(crate) use update::Sorted;

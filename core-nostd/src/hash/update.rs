@@ -12,33 +12,27 @@
 //! move down (from the bottom up); a bucket with changes is rewritten merged, a run of
 //! unchanged buckets moves as one block.
 
-use core::cmp::Reverse;
-
 use super::cell::{bucket_of, cells_in, for_cells, Aabb, Cell};
 use super::rebuild::Rebuilt;
 use super::table::{HashEntry, SpatialHash};
 
 /// Writes `src` to `dst` (the same length) in the order of a bucket's entries: by bucket,
-/// then decreasing item, then decreasing visiting order (an item's cells are listed in
-/// visiting order, so the later listed first). Each entry's bucket is found once: `dst`
-/// first holds a key per entry (bucket, item, place in `src`), sorted, then the entries.
+/// then decreasing item, then decreasing visiting order. `src` must be in listing order
+/// (items increasing, each item's cells in visiting order, as [`SpatialHash::changes`]
+/// lists them), so that the order within a bucket is the decreasing place in `src`: `dst`
+/// first holds a key per entry (its bucket, and its place in `src` inverted), sorted as one
+/// `u64` each, then the entries.
 ///
 /// # Bounded work
-/// O(m log m) for m entries, one bucket remainder each.
+/// O(m log m) for m entries (at most `u32::MAX`, as [`SpatialHash::changes`] lists), one
+/// bucket remainder each.
 fn sort_into(src: &[HashEntry], dst: &mut [HashEntry], buckets: u32) {
     for (j, (k, e)) in dst.iter_mut().zip(src).enumerate() {
-        let (bucket, item) = (bucket_of(e.cell, buckets), e.item());
-        k.cell = [bucket as i32, item as i32, j as u32 as i32];
+        k.cell = [bucket_of(e.cell, buckets) as i32, !(j as u32) as i32, 0];
     }
-    dst.sort_unstable_by_key(|k| {
-        (
-            k.cell[0] as u32,
-            Reverse(k.cell[1] as u32),
-            Reverse(k.cell[2] as u32),
-        )
-    });
+    dst.sort_unstable_by_key(|k| (u64::from(k.cell[0] as u32) << 32) | u64::from(k.cell[1] as u32));
     for k in dst.iter_mut() {
-        if let Some(&e) = src.get(k.cell[2] as u32 as usize) {
+        if let Some(&e) = src.get(!(k.cell[1] as u32) as usize) {
             *k = e;
         }
     }
@@ -70,6 +64,11 @@ pub(crate) struct Changes {
     /// The union of the new boxes.
     bounds: Aabb,
 }
+
+/// What [`SpatialHash::changes_sorted`] left: the lists of [`Changes`], sorted, at the back
+/// of its scratch.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Sorted(Changes);
 
 impl SpatialHash<'_> {
     /// Brings the table from the boxes it was built from to new ones: `moved(i)` gives item
@@ -110,47 +109,46 @@ impl SpatialHash<'_> {
         self.apply(count, listed, scratch)
     }
 
-    /// [`SpatialHash::update`] from two parts' listings: `first` by [`SpatialHash::changes`]
-    /// over items `0..k` in the front `scratch.len() / 2` entries of `scratch`, `second`
-    /// over items `k..count` in the rest (each part's `None`, or a part never listed, makes
-    /// the whole update `None`). The two parts may be listed at the same time (each reads
-    /// the table and writes only its own half of `scratch`). The table ends as
-    /// [`SpatialHash::update`] leaves it: the parts hold different items, and the order in
-    /// which items are listed matters only among one item's entries.
+    /// [`SpatialHash::update`] from two parts' sorted lists: `first` by
+    /// [`SpatialHash::changes_sorted`] over items `0..k` in the front `scratch.len() / 2`
+    /// entries of `scratch`, `second` over items `k..count` in the rest (each part's `None`,
+    /// or a part never listed, makes the whole update `None`). The two parts may be listed
+    /// and sorted at the same time (each reads the table and writes only its own half of
+    /// `scratch`). The table ends as [`SpatialHash::update`] leaves it: the two parts' lists
+    /// are merged by bucket and decreasing item, and the parts hold different items.
     ///
     /// # Bounded work
-    /// As [`SpatialHash::update`] without its pass over the items, plus O(m) to bring the
-    /// two listings together.
-    pub(crate) fn update_listed(
+    /// O(m + buckets + entries) for the m listed entries: the merge, then the table's move.
+    pub(crate) fn update_sorted(
         &mut self,
         count: usize,
-        first: Option<Changes>,
-        second: Option<Changes>,
+        first: Option<Sorted>,
+        second: Option<Sorted>,
         scratch: &mut [HashEntry],
     ) -> Option<Rebuilt> {
-        let (a, b) = (first?, second?);
-        let (room, half) = (scratch.len(), scratch.len() / 2);
-        // The second part's new entries after the first's at the front; the first's old
-        // entries below the second's at the back (each part's own order kept). Neither copy
-        // may reach into the other's source (`apply` checks that the sort has room).
-        let sum = |v: &[usize]| v.iter().fold(0usize, |s, &x| s.saturating_add(x));
-        let fits = sum(&[a.added, a.removed, b.added]) <= half
-            && sum(&[half, b.added, b.removed, a.removed]) <= room;
+        let (Sorted(a), Sorted(b)) = (first?, second?);
+        let (end, half) = (scratch.len(), scratch.len() / 2);
+        let (added, removed) = (a.added + b.added, a.removed + b.removed);
+        // Each part's runs lie at the back of its half: its new entries, then its old ones.
+        // The merged lists go to the front, written ahead of what is still to be read:
+        // the new entries end below the first part's new ones' start less the second's
+        // count, the old ones below the first part's old ones' start less the second's
+        // (the second part's runs lie above the first half).
+        let (a_new, a_old) = (half - a.added - a.removed, half - a.removed);
+        let (b_new, b_old) = (end - b.added - b.removed, end - b.removed);
+        let fits = a.added + a.removed <= half
+            && b.added + b.removed <= end - half
+            && b.added <= a_new
+            && added + b.removed <= a_old;
         if !fits {
             return None;
         }
-        move_run(scratch, half..half + b.added, a.added);
-        move_run(
-            scratch,
-            half - a.removed..half,
-            room - b.removed - a.removed,
-        );
-        let listed = Changes {
-            added: a.added + b.added,
-            removed: a.removed + b.removed,
-            bounds: a.bounds.union(b.bounds),
-        };
-        self.apply(count, listed, scratch)
+        let nb = self.buckets();
+        merge_runs(scratch, a_new..a_old, b_new..b_old, 0, nb);
+        merge_runs(scratch, a_old..half, b_old..end, added, nb);
+        let (ins, rest) = scratch.split_at_mut(added);
+        let (rem, buf) = rest.split_at_mut(removed);
+        self.finish(count, a.bounds.union(b.bounds), ins, rem, buf)
     }
 
     /// The rest of [`SpatialHash::update`] once the changes are listed in `scratch` (new
@@ -173,10 +171,6 @@ impl SpatialHash<'_> {
         if added.saturating_add(removed) > scratch.len() / 2 {
             return None;
         }
-        let total = self.used.checked_sub(removed)?.saturating_add(added);
-        if total > self.entries.len() {
-            return None;
-        }
         let nb = self.buckets();
         // The lists as listed at both ends, sorted into the middle; what is left of the
         // middle is the buffer every changed bucket passes through.
@@ -188,7 +182,26 @@ impl SpatialHash<'_> {
         rem_listed.reverse();
         sort_into(ins_listed, ins, nb);
         sort_into(rem_listed, rem, nb);
-        if !self.buckets_fit(ins, rem, buf.len()) {
+        self.finish(count, bounds, ins, rem, buf)
+    }
+
+    /// The table moved by the sorted lists `ins` (new entries) and `rem` (old ones), each
+    /// in a bucket's order, through `buf`; `None` when the result does not fit in the table
+    /// or a changed bucket not in `buf`, or the table does not hold an entry of `rem` (its
+    /// contents are then undefined and it must be built whole).
+    ///
+    /// # Bounded work
+    /// O(buckets + entries + m) for the m listed entries.
+    fn finish(
+        &mut self,
+        count: usize,
+        bounds: Aabb,
+        ins: &[HashEntry],
+        rem: &[HashEntry],
+        buf: &mut [HashEntry],
+    ) -> Option<Rebuilt> {
+        let total = self.used.checked_sub(rem.len())?.saturating_add(ins.len());
+        if total > self.entries.len() || !self.buckets_fit(ins, rem, buf.len()) {
             return None;
         }
         if !self.move_entries(ins, rem, buf) {
@@ -204,6 +217,42 @@ impl SpatialHash<'_> {
             entries: total,
             saturated: false,
         })
+    }
+
+    /// [`SpatialHash::changes`], then the lists sorted into a bucket's order at the back of
+    /// `scratch`: of the `len` entries, the new ones at `len - added - removed..len -
+    /// removed`, the old ones at `len - removed..len` (what [`SpatialHash::update_sorted`]
+    /// takes). Reads the table only.
+    ///
+    /// # Bounded work
+    /// O(items + `scratch.len()` + m log m) for the m listed entries.
+    pub(crate) fn changes_sorted<F>(
+        &self,
+        items: core::ops::Range<usize>,
+        count: usize,
+        moved: &mut F,
+        scratch: &mut [HashEntry],
+    ) -> Option<Sorted>
+    where
+        F: FnMut(usize) -> (Option<Aabb>, Option<Aabb>),
+    {
+        let listed = self.changes(items, count, moved, scratch)?;
+        let (added, removed, end) = (listed.added, listed.removed, scratch.len());
+        // `changes` keeps the lists within half the scratch: room for them sorted.
+        if (added + removed).saturating_mul(2) > end {
+            return None;
+        }
+        let nb = self.buckets();
+        let (front, old_listed) = scratch.split_at_mut(end.checked_sub(removed)?);
+        old_listed.reverse();
+        let (new_listed, rest) = front.split_at_mut(added);
+        // The old entries sorted just above the new ones as listed, the new ones sorted
+        // just below the back, then the old ones moved to the back.
+        sort_into(old_listed, rest.get_mut(..removed)?, nb);
+        let below = rest.len().checked_sub(added)?;
+        sort_into(new_listed, rest.get_mut(below..)?, nb);
+        move_run(scratch, added..added + removed, end - removed);
+        Some(Sorted(listed))
     }
 
     /// The first pass of [`SpatialHash::update`], over `items` (a part of `0..count`, the
@@ -389,6 +438,47 @@ impl SpatialHash<'_> {
             *s = shifted(*s as usize, net) as u32;
         }
         true
+    }
+}
+
+/// Merges the runs `a` and `b` of `s` (each in a bucket's order, of different items) into
+/// `s[to..]` in a bucket's order, from the front: by bucket, then decreasing item. The
+/// writes must stay behind the reads: `to + b.len() <= a.start`, and `b` above all that is
+/// written (entries outside `s` are skipped).
+///
+/// # Bounded work
+/// O(`a.len() + b.len()`), one bucket remainder an entry.
+fn merge_runs(
+    s: &mut [HashEntry],
+    a: core::ops::Range<usize>,
+    b: core::ops::Range<usize>,
+    to: usize,
+    nb: u32,
+) {
+    let head = |s: &[HashEntry], r: &core::ops::Range<usize>, i: usize| {
+        let e = s.get(i).filter(|_| i < r.end).copied();
+        e.map(|e| (e, bucket_of(e.cell, nb)))
+    };
+    let (mut i, mut j, mut w) = (a.start, b.start, to);
+    let (mut x, mut y) = (head(s, &a, i), head(s, &b, j));
+    loop {
+        let first = match (x, y) {
+            (Some((e, k)), Some((f, l))) => k < l || (k == l && e.item() > f.item()),
+            (Some(_), None) => true,
+            (None, Some(_)) => false,
+            (None, None) => break,
+        };
+        let put = if first {
+            i += 1;
+            core::mem::replace(&mut x, head(s, &a, i))
+        } else {
+            j += 1;
+            core::mem::replace(&mut y, head(s, &b, j))
+        };
+        if let (Some(slot), Some((e, _))) = (s.get_mut(w), put) {
+            *slot = e;
+        }
+        w += 1;
     }
 }
 

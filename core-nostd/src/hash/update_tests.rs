@@ -68,8 +68,8 @@ fn moved_box(rng: &mut Rng, b: Option<Aabb>, reach: f32) -> Option<Aabb> {
 /// Oracle: after every update the table is the whole rebuild over the new boxes, entry
 /// for entry, bucket offsets, bounds, length and counters, over random moves of 60 boxes
 /// in tables of 1 to 97 buckets (many cells to a bucket), small moves and large ones,
-/// boxes appearing and vanishing, half of them listed in two parts split anywhere
-/// (`SpatialHash::update_listed`). A whole rebuild over separate storage is the
+/// boxes appearing and vanishing, half of them listed and sorted in two parts split
+/// anywhere (`SpatialHash::update_sorted`). A whole rebuild over separate storage is the
 /// reference.
 #[test]
 fn an_update_is_the_whole_rebuild_entry_for_entry() {
@@ -120,9 +120,9 @@ fn an_update_is_the_whole_rebuild_entry_for_entry() {
             } else {
                 let k = ((rng.next() * (ITEMS + 1) as f32) as usize).min(ITEMS);
                 let (lo, hi) = scratch[..room].split_at_mut(room / 2);
-                let first = live.changes(0..k, ITEMS, &mut moved, lo);
-                let second = live.changes(k..ITEMS, ITEMS, &mut moved, hi);
-                let got = live.update_listed(ITEMS, first, second, &mut scratch[..room]);
+                let first = live.changes_sorted(0..k, ITEMS, &mut moved, lo);
+                let second = live.changes_sorted(k..ITEMS, ITEMS, &mut moved, hi);
+                let got = live.update_sorted(ITEMS, first, second, &mut scratch[..room]);
                 parted += u32::from(got.is_some());
                 got
             };

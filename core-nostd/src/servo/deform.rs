@@ -39,8 +39,8 @@
 //! The same update on two threads ([`World::set_positions_two`], `two.rs`): the passes over
 //! the nodes and tets (checks, boxes, the hash's changes listed, the normals) in two parts a
 //! caller's `fork` runs, each reading the world and writing its own slices of the spare
-//! storage; the lists joined, the table moved and the rest done after. The same world, bit
-//! for bit.
+//! storage (its list of the hash's changes sorted too); the lists merged, the table moved
+//! and the rest done after. The same world, bit for bit.
 //!
 //! [`Mesh::update_boundary`]: crate::mesh::Mesh::update_boundary
 //! [`Mesh::set_rest`]: crate::mesh::Mesh::set_rest

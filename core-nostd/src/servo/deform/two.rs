@@ -5,7 +5,7 @@
 use glam::Vec3;
 
 use super::{node_distance2, stored_box, tet_box, DeformError, DeformReport, Prep, Spare};
-use crate::hash::{Aabb, Changes, HashEntry, SpatialHash};
+use crate::hash::{Aabb, HashEntry, Sorted, SpatialHash};
 use crate::ids::{NodeId, TetId};
 use crate::mesh::Mesh;
 use crate::servo::World;
@@ -19,17 +19,17 @@ impl<'a> World<'a> {
     /// [`FIRST_PART_TETS`] of the tets, the second the rest and the boundary normals (into
     /// the spare normals, as [`World::prepare_positions`] makes them), so the two take about
     /// the same time. A part `fork` left unrun is run after it returns. Then, here: the
-    /// boxes and normals swapped in, the hash moved from the two lists
-    /// (`SpatialHash::update_listed`, or built whole when they do not fit), and the rest as
+    /// boxes and normals swapped in, the hash moved by the two parts' sorted lists merged
+    /// (`SpatialHash::update_sorted`, or built whole when they do not fit), and the rest as
     /// [`World::set_positions`]. The world is the one [`World::set_positions`] leaves, bit for
     /// bit. Without spare storage, or while a spread update holds it
     /// ([`World::prepare_positions`]), this is [`World::set_positions`], and `fork` is not
     /// called.
     ///
     /// # Bounded work
-    /// As [`World::set_positions`], plus one call of `fork` and O(m) to join the parts'
-    /// lists of the m changed hash entries; outside the parts, O(N + memo slots + m log m +
-    /// buckets + hash entries) (the positions copied, the table moved).
+    /// As [`World::set_positions`], plus one call of `fork`; outside the parts, O(N + memo
+    /// slots + m + buckets + hash entries) for the m changed hash entries (the positions
+    /// copied, the parts' sorted lists merged, the table moved).
     ///
     /// # Capacity
     /// As [`World::set_positions`].
@@ -87,7 +87,7 @@ impl<'a> World<'a> {
         core::mem::swap(&mut self.boxes, &mut spare.boxes);
         let listed = self
             .hash
-            .update_listed(tets, da.listed, db.listed, spare.hash.scratch());
+            .update_sorted(tets, da.listed, db.listed, spare.hash.scratch());
         let built = listed.unwrap_or_else(|| {
             let (boxes, mesh) = (&*self.boxes, &self.mesh);
             self.hash
@@ -101,13 +101,13 @@ impl<'a> World<'a> {
 }
 
 /// The share of the tets the first part of [`World::set_positions_two`] takes, as a fraction
-/// (three fifths): the second part's normals cost about a fifth of a tet's box and listing
-/// per tet (callgrind on the cow), so the parts take about the same time. Any share gives the
-/// same world.
-pub const FIRST_PART_TETS: (usize, usize) = (3, 5);
+/// (four sevenths): the second part's normals cost about a seventh of a tet's box, listing
+/// and sorting per tet (callgrind on the cow and the teddy), so the parts take about the
+/// same time. Any share gives the same world.
+pub const FIRST_PART_TETS: (usize, usize) = (4, 7);
 
 /// One part of [`World::set_positions_two`]: its nodes checked and measured, its tets' new
-/// boxes made and their changes of the hash listed, and for the second part the boundary
+/// boxes made and their changes of the hash listed and sorted, and for the second part the boundary
 /// normals made. Holds shared views of the world and its own slices of the spare storage, so
 /// the two parts may run on two threads at once.
 pub struct MovePart<'p> {
@@ -141,8 +141,9 @@ struct PartDone {
     max2: f32,
     /// Its first node with a non-finite position.
     bad: Option<usize>,
-    /// Its changes of the hash (`None`: they do not fit, or the table is not a whole build).
-    listed: Option<Changes>,
+    /// Its changes of the hash, sorted (`None`: they do not fit, or the table is not a
+    /// whole build).
+    listed: Option<Sorted>,
 }
 
 impl core::fmt::Debug for MovePart<'_> {
@@ -189,7 +190,7 @@ impl MovePart<'_> {
         self.done = PartDone {
             max2,
             bad: None,
-            listed: w.hash.changes(tets, count, &mut moved, w.scratch),
+            listed: w.hash.changes_sorted(tets, count, &mut moved, w.scratch),
         };
         if let Some(normals) = w.normals {
             // As `World::prepare_positions` makes them: every tet's boundary faces summed
