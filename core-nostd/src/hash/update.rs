@@ -112,7 +112,8 @@ impl SpatialHash<'_> {
     /// [`SpatialHash::update`] from two parts' sorted lists: `first` by
     /// [`SpatialHash::changes_sorted`] over items `0..k` in the front `scratch.len() / 2`
     /// entries of `scratch`, `second` over items `k..count` in the rest (each part's `None`,
-    /// or a part never listed, makes the whole update `None`). The two parts may be listed
+    /// a part never listed, or lists that are not in these halves of `scratch` make the
+    /// whole update `None`; so does what [`SpatialHash::update`] refuses). The two parts may be listed
     /// and sorted at the same time (each reads the table and writes only its own half of
     /// `scratch`). The table ends as [`SpatialHash::update`] leaves it: the two parts' lists
     /// are merged by bucket and decreasing item, and the parts hold different items.
@@ -130,17 +131,14 @@ impl SpatialHash<'_> {
         let (end, half) = (scratch.len(), scratch.len() / 2);
         let (added, removed) = (a.added + b.added, a.removed + b.removed);
         // Each part's runs lie at the back of its half: its new entries, then its old ones.
-        // The merged lists go to the front, written ahead of what is still to be read:
-        // the new entries end below the first part's new ones' start less the second's
-        // count, the old ones below the first part's old ones' start less the second's
-        // (the second part's runs lie above the first half).
-        let (a_new, a_old) = (half - a.added - a.removed, half - a.removed);
-        let (b_new, b_old) = (end - b.added - b.removed, end - b.removed);
-        let fits = a.added + a.removed <= half
-            && b.added + b.removed <= end - half
-            && b.added <= a_new
-            && added + b.removed <= a_old;
-        if !fits {
+        // Each merge writes from `to` on while it reads the first part's run from its start,
+        // so it stays behind its reads when `to` plus the second part's run ends no later
+        // than that start; the merged lists end at `added + removed <= half`, below the
+        // second part's runs.
+        let a_new = half.checked_sub(a.added + a.removed)?;
+        let b_new = end.checked_sub(b.added + b.removed)?;
+        let (a_old, b_old) = (a_new + a.added, b_new + b.added);
+        if b_new < half || added + b.removed > a_old {
             return None;
         }
         let nb = self.buckets();

@@ -75,6 +75,7 @@ fn moved_box(rng: &mut Rng, b: Option<Aabb>, reach: f32) -> Option<Aabb> {
 fn an_update_is_the_whole_rebuild_entry_for_entry() {
     let mut rng = Rng(0x5eed_1234_abcd_0001);
     let (mut updated, mut refused, mut saturated, mut parted) = (0, 0, 0, 0);
+    let mut one_sided = 0;
     for round in 0..300 {
         let buckets = [2usize, 3, 8, 30, 98][round % 5];
         let (mut s1, mut e1) = ([0u32; 98], [HashEntry::EMPTY; 1_500]);
@@ -114,14 +115,20 @@ fn an_update_is_the_whole_rebuild_entry_for_entry() {
                 calls += 1;
                 (boxes[i], next[i])
             };
-            // Every other update from two parts' listings, split anywhere.
+            // Every other update from two parts' listings, split anywhere, a quarter of
+            // them at or next to either end.
             let got = if rng.next() < 0.5 {
                 live.update(ITEMS, moved, &mut scratch[..room])
             } else {
                 let k = ((rng.next() * (ITEMS + 1) as f32) as usize).min(ITEMS);
+                let k = match rng.next() {
+                    u if u < 0.25 => [0, 1, ITEMS - 1, ITEMS][k % 4],
+                    _ => k,
+                };
                 let (lo, hi) = scratch[..room].split_at_mut(room / 2);
                 let first = live.changes_sorted(0..k, ITEMS, &mut moved, lo);
                 let second = live.changes_sorted(k..ITEMS, ITEMS, &mut moved, hi);
+                one_sided += u32::from(first.is_some() != second.is_some());
                 let got = live.update_sorted(ITEMS, first, second, &mut scratch[..room]);
                 parted += u32::from(got.is_some());
                 got
@@ -159,11 +166,16 @@ fn an_update_is_the_whole_rebuild_entry_for_entry() {
     );
     assert!(saturated > 20, "{saturated} saturated builds");
     assert!(parted > 120, "{parted} updates made from two parts");
+    assert!(
+        one_sided > 100,
+        "{one_sided} updates refused by one part only"
+    );
 }
 
 /// A table that does not hold what `moved` says (offsets, entries or length corrupted,
 /// old boxes of another build) gives `None` or some table, never a panic, and the queries
-/// after it do not panic either.
+/// after it do not panic either; so do two parts' lists joined over a shorter scratch
+/// than the one they were listed in.
 #[test]
 fn an_update_over_a_corrupted_table_does_not_panic() {
     let mut rng = Rng(0xdead_beef_0bad_f00d);
@@ -199,6 +211,18 @@ fn an_update_over_a_corrupted_table_does_not_panic() {
         let room = (rng.next() * 400.0) as usize;
         let _ = h.update(20, |i| (b[i], c[i]), &mut scratch[..room]);
         let _ = h.update(20, |i| (c[i], a[i]), &mut scratch[..room]);
+        // In two parts, joined over the scratch they were listed in or over a shorter one.
+        h.whole = Some(20);
+        let k = (rng.next() * 21.0) as usize;
+        let mut moved = |i: usize| (a[i], b[i]);
+        let (lo, hi) = scratch[..room].split_at_mut(room / 2);
+        let first = h.changes_sorted(0..k.min(20), 20, &mut moved, lo);
+        let second = h.changes_sorted(k.min(20)..20, 20, &mut moved, hi);
+        let shorter = match rng.next() {
+            u if u < 0.5 => ((rng.next() * (room + 1) as f32) as usize).min(room),
+            _ => room,
+        };
+        let _ = h.update_sorted(20, first, second, &mut scratch[..shorter]);
         let all = Aabb {
             min: Vec3::splat(-8.0),
             max: Vec3::splat(8.0),

@@ -1,6 +1,7 @@
 //! [`World::set_positions`] in two parts for two threads ([`World::set_positions_two`]): the
 //! passes over every node and tet split between the parts, which only read the world and
-//! write their own slices of the spare storage; the join, the table's move and the rest here.
+//! write their own slices of the spare storage; the merge of their lists, the table's move
+//! and the rest here.
 
 use glam::Vec3;
 
@@ -14,8 +15,8 @@ impl<'a> World<'a> {
     /// [`World::set_positions`] with its passes over every node and tet in two parts handed
     /// to `fork` (the first part, the second), which runs both ([`MovePart::run`]), on two
     /// threads if it likes. Each part checks half of the nodes, makes the new boxes of its
-    /// tets (into the spare storage) and lists their changes of the hash (into its half of
-    /// the spare hash's entries; the table only read); the first part takes
+    /// tets (into the spare storage) and lists and sorts their changes of the hash (into its
+    /// half of the spare hash's entries; the table only read); the first part takes
     /// [`FIRST_PART_TETS`] of the tets, the second the rest and the boundary normals (into
     /// the spare normals, as [`World::prepare_positions`] makes them), so the two take about
     /// the same time. A part `fork` left unrun is run after it returns. Then, here: the
@@ -159,8 +160,8 @@ impl MovePart<'_> {
     /// Does the part's work; later calls do nothing. Never allocates or panics.
     ///
     /// # Bounded work
-    /// O(its nodes + its tets + its part of the spare hash's entries), and for the second
-    /// part O(N + T) for the normals.
+    /// O(its nodes + its tets + its part of the spare hash's entries + m log m) for the m
+    /// hash entries it lists, and for the second part O(N + T) for the normals.
     pub fn run(&mut self) {
         let Some(w) = self.work.take() else {
             return;
