@@ -105,17 +105,22 @@ impl SpatialHash<'_> {
     where
         F: FnMut(usize) -> (Option<Aabb>, Option<Aabb>),
     {
-        let listed = self.changes(0..count, count, &mut moved, scratch)?;
-        self.apply(count, listed, scratch)
+        let Sorted(listed) = self.changes_sorted(0..count, count, &mut moved, scratch)?;
+        // The sorted lists at the back; the front is the buffer every changed bucket
+        // passes through.
+        let lists = scratch.len().checked_sub(listed.added + listed.removed)?;
+        let (buf, sorted) = scratch.split_at_mut(lists);
+        let (ins, rem) = sorted.split_at(listed.added);
+        self.finish(count, listed.bounds, ins, rem, buf)
     }
 
     /// [`SpatialHash::update`] from two parts' sorted lists: `first` by
     /// [`SpatialHash::changes_sorted`] over items `0..k` in the front `scratch.len() / 2`
     /// entries of `scratch`, `second` over items `k..count` in the rest (each part's `None`,
     /// a part never listed, or lists that are not in these halves of `scratch` make the
-    /// whole update `None`; so does what [`SpatialHash::update`] refuses). The two parts may be listed
-    /// and sorted at the same time (each reads the table and writes only its own half of
-    /// `scratch`). The table ends as [`SpatialHash::update`] leaves it: the two parts' lists
+    /// whole update `None`; so does what [`SpatialHash::update`] refuses). The two parts may
+    /// be listed and sorted at the same time (each reads the table and writes only its own
+    /// half of `scratch`). The table ends as [`SpatialHash::update`] leaves it: the two parts' lists
     /// are merged by bucket and decreasing item, and the parts hold different items.
     ///
     /// # Bounded work
@@ -147,40 +152,6 @@ impl SpatialHash<'_> {
         let (ins, rest) = scratch.split_at_mut(added);
         let (rem, buf) = rest.split_at_mut(removed);
         self.finish(count, a.bounds.union(b.bounds), ins, rem, buf)
-    }
-
-    /// The rest of [`SpatialHash::update`] once the changes are listed in `scratch` (new
-    /// entries at its front, old ones at its back, listed from the back); `None` when they
-    /// take more than half of it (the other half is for them sorted).
-    ///
-    /// # Bounded work
-    /// O(m log m + buckets + entries) for the m listed entries.
-    fn apply(
-        &mut self,
-        count: usize,
-        listed: Changes,
-        scratch: &mut [HashEntry],
-    ) -> Option<Rebuilt> {
-        let Changes {
-            added,
-            removed,
-            bounds,
-        } = listed;
-        if added.saturating_add(removed) > scratch.len() / 2 {
-            return None;
-        }
-        let nb = self.buckets();
-        // The lists as listed at both ends, sorted into the middle; what is left of the
-        // middle is the buffer every changed bucket passes through.
-        let (ins_listed, rest) = scratch.split_at_mut(added);
-        let (mid, rem_listed) = rest.split_at_mut(rest.len() - removed);
-        let (ins, mid) = mid.split_at_mut(added);
-        let (rem, buf) = mid.split_at_mut(removed);
-        // The old entries were listed from the back: in listing order again.
-        rem_listed.reverse();
-        sort_into(ins_listed, ins, nb);
-        sort_into(rem_listed, rem, nb);
-        self.finish(count, bounds, ins, rem, buf)
     }
 
     /// The table moved by the sorted lists `ins` (new entries) and `rem` (old ones), each
@@ -220,7 +191,7 @@ impl SpatialHash<'_> {
     /// [`SpatialHash::changes`], then the lists sorted into a bucket's order at the back of
     /// `scratch`: of the `len` entries, the new ones at `len - added - removed..len -
     /// removed`, the old ones at `len - removed..len` (what [`SpatialHash::update_sorted`]
-    /// takes). Reads the table only.
+    /// takes, and [`SpatialHash::update`] over one part). Reads the table only.
     ///
     /// # Bounded work
     /// O(items + `scratch.len()` + m log m) for the m listed entries.

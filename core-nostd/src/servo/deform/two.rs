@@ -108,9 +108,9 @@ impl<'a> World<'a> {
 pub const FIRST_PART_TETS: (usize, usize) = (4, 7);
 
 /// One part of [`World::set_positions_two`]: its nodes checked and measured, its tets' new
-/// boxes made and their changes of the hash listed and sorted, and for the second part the boundary
-/// normals made. Holds shared views of the world and its own slices of the spare storage, so
-/// the two parts may run on two threads at once.
+/// boxes made and their changes of the hash listed and sorted, and for the second part the
+/// boundary normals made. Holds shared views of the world and its own slices of the spare
+/// storage, so the two parts may run on two threads at once.
 pub struct MovePart<'p> {
     work: Option<MoveWork<'p>>,
     done: PartDone,
