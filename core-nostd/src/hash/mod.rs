@@ -42,6 +42,7 @@
 mod cell;
 mod query;
 mod rebuild;
+mod shift;
 mod table;
 mod update;
 
@@ -51,5 +52,6 @@ pub use cell::{average_edge_length, prime_at_most, Aabb};
 pub(crate) use cell::{cell_of, Cell};
 pub(crate) use rebuild::RebuildCursor;
 pub use rebuild::{Rebuilt, REBUILD_ITEM_UNITS};
+pub(crate) use shift::MoveSpan;
 pub use table::{HashEntry, HashError, HashStats, SpatialHash};
 pub(crate) use update::Sorted;

@@ -14,6 +14,7 @@
 
 use super::cell::{bucket_of, cells_in, for_cells, Aabb, Cell};
 use super::rebuild::Rebuilt;
+use super::shift::MoveSpan;
 use super::table::{HashEntry, SpatialHash};
 
 /// Writes `src` to `dst` (the same length) in the order of a bucket's entries: by bucket,
@@ -44,7 +45,7 @@ fn sort_into(src: &[HashEntry], dst: &mut [HashEntry], buckets: u32) {
 /// # Bounded work
 /// O(`from.len()`).
 #[inline]
-fn move_run(entries: &mut [HashEntry], from: core::ops::Range<usize>, to: usize) {
+pub(super) fn move_run(entries: &mut [HashEntry], from: core::ops::Range<usize>, to: usize) {
     let fits = from.start <= from.end
         && from.end <= entries.len()
         && to.saturating_add(from.end - from.start) <= entries.len();
@@ -123,15 +124,30 @@ impl SpatialHash<'_> {
     /// half of `scratch`). The table ends as [`SpatialHash::update`] leaves it: the two parts' lists
     /// are merged by bucket and decreasing item, and the parts hold different items.
     ///
+    /// With `cut` `Some(k)` the table's move is cut at bucket `k` into two parts that `run`
+    /// is given to run (each part's [`MoveSpan::run`], once, in either order or at once on
+    /// two threads; `run` returns whether both returned `true`): the buckets below `k` and
+    /// those from it on, each with its own entries and offsets of the table and its own
+    /// part of `scratch` (docs in `shift.rs`). When the buffers the two parts need do not fit
+    /// in `scratch`, or with `cut` `None`, the move is made here in one part and `run` is not
+    /// called.
+    ///
     /// # Bounded work
-    /// O(m + buckets + entries) for the m listed entries: the merge, then the table's move.
-    pub(crate) fn update_sorted(
+    /// O(m + buckets + entries) for the m listed entries: the merge, then the table's move
+    /// (in two parts, each over its buckets and entries, and the side buffer of at most m
+    /// entries copied in after them).
+    pub(crate) fn update_sorted<R>(
         &mut self,
         count: usize,
         first: Option<Sorted>,
         second: Option<Sorted>,
         scratch: &mut [HashEntry],
-    ) -> Option<Rebuilt> {
+        cut: Option<usize>,
+        run: R,
+    ) -> Option<Rebuilt>
+    where
+        R: FnOnce(MoveSpan<'_>, MoveSpan<'_>) -> bool,
+    {
         let (Sorted(a), Sorted(b)) = (first?, second?);
         let (end, half) = (scratch.len(), scratch.len() / 2);
         let (added, removed) = (a.added + b.added, a.removed + b.removed);
@@ -151,7 +167,35 @@ impl SpatialHash<'_> {
         merge_runs(scratch, a_old..half, b_old..end, added, nb);
         let (ins, rest) = scratch.split_at_mut(added);
         let (rem, buf) = rest.split_at_mut(removed);
-        self.finish(count, a.bounds.union(b.bounds), ins, rem, buf)
+        let bounds = a.bounds.union(b.bounds);
+        let total = self.used.checked_sub(removed)?.saturating_add(added);
+        let (ins, rem) = (&*ins, &*rem);
+        let halves = cut.filter(|_| total <= self.entries.len());
+        let Some(c) = halves.and_then(|k| self.cut_move(k, ins, rem, buf.len())) else {
+            return self.finish(count, bounds, ins, rem, buf);
+        };
+        let ran = {
+            let (lower, upper) = self.halves(&c, ins, rem, buf);
+            run(lower, upper)
+        };
+        if !self.join_halves(&c, buf, ran) {
+            self.whole = None;
+            return None;
+        }
+        Some(self.moved(count, bounds, total))
+    }
+
+    /// The bucket where the table's entries reach half their number (what
+    /// [`SpatialHash::update_sorted`] cuts at for two parts of about the same size).
+    ///
+    /// # Bounded work
+    /// O(log buckets).
+    pub(crate) fn middle_bucket(&self) -> usize {
+        let half = self.used / 2;
+        let nb = self.buckets() as usize;
+        self.starts
+            .get(..nb)
+            .map_or(0, |s| s.partition_point(|&at| (at as usize) < half))
     }
 
     /// The table moved by the sorted lists `ins` (new entries) and `rem` (old ones), each
@@ -177,15 +221,23 @@ impl SpatialHash<'_> {
             self.whole = None;
             return None;
         }
+        Some(self.moved(count, bounds, total))
+    }
+
+    /// A move's end: `total` entries of `count` items within `bounds`, counted as a build.
+    ///
+    /// # Bounded work
+    /// Constant.
+    fn moved(&mut self, count: usize, bounds: Aabb, total: usize) -> Rebuilt {
         self.used = total;
         self.bounds = bounds;
         self.stats.builds = self.stats.builds.wrapping_add(1);
         self.stats.updates = self.stats.updates.wrapping_add(1);
-        Some(Rebuilt {
+        Rebuilt {
             items: count,
             entries: total,
             saturated: false,
-        })
+        }
     }
 
     /// [`SpatialHash::changes`], then the lists sorted into a bucket's order at the back of
@@ -259,11 +311,16 @@ impl SpatialHash<'_> {
             if !fits {
                 continue;
             }
-            let was = old.map(|b| self.cell_range(&b));
-            let now = match (was, new) {
-                (Some(r), Some(b)) if self.keeps(r, &b) => continue,
-                _ => new.map(|b| self.cell_range(&b)),
-            };
+            if let (Some(o), Some(n)) = (old, new) {
+                if self.same_cells(&o, &n) == Some(true) {
+                    continue;
+                }
+            }
+            // Beyond `same_cells`'s reach, or a box that moved cells: the ranges decide.
+            let (was, now) = (
+                old.map(|b| self.cell_range(&b)),
+                new.map(|b| self.cell_range(&b)),
+            );
             if was == now {
                 continue;
             }
@@ -297,117 +354,43 @@ impl SpatialHash<'_> {
         })
     }
 
-    /// `true` when box `b` covers the cell range `(lo, hi)`, as `cell_range` would find, by
-    /// two comparisons a bound: the floor of `x` is `c` when `c <= x < c + 1`, exact in
-    /// `f32` for `|c| < 2^24` (beyond, `false`: the caller finds the range itself).
+    /// Whether boxes `a` and `b` cover the same cells, as their `cell_range`s would say,
+    /// with floors taken in `f32`: adding and taking away `1.5 * 2^23` rounds `x` to an
+    /// integer exactly for `|x| < 2^22`, one less where that rounded up is the floor `f` of
+    /// `a`'s bound, and `b`'s bound `y` has the same floor when `f <= y < f + 1`. `None`
+    /// when a bound is `2^22` cells or more from the origin, or not finite (the caller finds
+    /// the ranges itself).
     ///
     /// # Bounded work
-    /// Constant.
+    /// Constant: a product, a rounding and four comparisons a bound.
     #[inline]
-    fn keeps(&self, (lo, hi): (Cell, Cell), b: &Aabb) -> bool {
-        let floor_is = |c: i32, v: f32| {
-            let (x, f) = (v * self.inv_cell, c as f32);
-            c.unsigned_abs() < 1 << 24 && f <= x && x < f + 1.0
-        };
-        (0..3).all(|a| floor_is(lo[a], b.min[a]) && floor_is(hi[a], b.max[a]))
+    pub(super) fn same_cells(&self, a: &Aabb, b: &Aabb) -> Option<bool> {
+        let inv = self.inv_cell;
+        let (s0, w0) = same_floor(a.min.x * inv, b.min.x * inv);
+        let (s1, w1) = same_floor(a.min.y * inv, b.min.y * inv);
+        let (s2, w2) = same_floor(a.min.z * inv, b.min.z * inv);
+        let (s3, w3) = same_floor(a.max.x * inv, b.max.x * inv);
+        let (s4, w4) = same_floor(a.max.y * inv, b.max.y * inv);
+        let (s5, w5) = same_floor(a.max.z * inv, b.max.z * inv);
+        (w0 & w1 & w2 & w3 & w4 & w5).then_some(s0 & s1 & s2 & s3 & s4 & s5)
     }
+}
 
-    /// `true` when every bucket with listed entries holds at most `room` entries (the buffer
-    /// [`SpatialHash::move_entries`] copies a changed bucket to).
-    ///
-    /// # Bounded work
-    /// O(m) for m listed entries.
-    fn buckets_fit(&self, ins: &[HashEntry], rem: &[HashEntry], room: usize) -> bool {
-        let nb = self.buckets();
-        let (mut i, mut r) = (0, 0);
-        while let Some((k, ie, re)) = group_above(ins, rem, i, r, nb) {
-            let at = |k: usize| self.starts.get(k).map_or(0, |&s| s as usize);
-            if at(k + 1).saturating_sub(at(k)) > room {
-                return false;
-            }
-            (i, r) = (ie, re);
-        }
-        true
-    }
-
-    /// The moving pass of [`SpatialHash::update`], over the table in one sweep each way.
-    /// Bucket `k`'s entries move by `d(k)`, the new entries less the old ones of the buckets
-    /// below it. Where `d(k) > 0` the buckets move up, and a run of such buckets lands
-    /// inside its own old place (it starts higher and ends no higher, as the next bucket's
-    /// shift is `<= 0`), so these runs are moved first, each from its top down; the other
-    /// buckets then move down from the bottom up, into places no longer read. A bucket with
-    /// changes is copied to `buf` first and written merged (old entries less `rem`, plus
-    /// `ins`, in decreasing item order); a run of unchanged buckets moves as one block.
-    /// `false` when an entry of `rem` is not in its bucket (the table is then undefined).
-    ///
-    /// # Bounded work
-    /// O(buckets + entries + m) for m listed entries.
-    fn move_entries(
-        &mut self,
-        ins: &[HashEntry],
-        rem: &[HashEntry],
-        buf: &mut [HashEntry],
-    ) -> bool {
-        let nb = self.buckets() as usize;
-        let net = ins.len() as i64 - rem.len() as i64;
-        let start = |s: &[u32], k: usize| s.get(k).map_or(0, |&v| v as usize);
-        // Up: from the top bucket down, `d` the shift of the bucket above the one at hand.
-        let (mut d, mut ie, mut re, mut upper) = (net, ins.len(), rem.len(), nb);
-        loop {
-            let g = group_below(ins, rem, ie, re, nb as u32);
-            let k_next = g.map_or(0, |(k, _, _)| k + 1);
-            if d > 0 {
-                let (lo, hi) = (start(self.starts, k_next), start(self.starts, upper));
-                move_run(self.entries, lo..hi, shifted(lo, d));
-            }
-            let Some((k, is, rs)) = g else { break };
-            let dk = d - (ie - is) as i64 + (re - rs) as i64;
-            if dk > 0 {
-                let src = start(self.starts, k)..start(self.starts, k + 1);
-                let to = shifted(src.start, dk);
-                if !rewrite(self.entries, src, to, &ins[is..ie], &rem[rs..re], buf) {
-                    return false;
-                }
-            }
-            (d, ie, re, upper) = (dk, is, rs, k);
-        }
-        // Down: from the bottom bucket up, each bucket's offset moved as it is passed.
-        let (mut d, mut i, mut r, mut lower) = (0i64, 0usize, 0usize, 0usize);
-        loop {
-            let g = group_above(ins, rem, i, r, nb as u32);
-            let k_end = g.map_or(nb, |(k, _, _)| k);
-            if d < 0 {
-                let (lo, hi) = (start(self.starts, lower), start(self.starts, k_end));
-                move_run(self.entries, lo..hi, shifted(lo, d));
-            }
-            for s in self.starts.get_mut(lower..k_end).unwrap_or(&mut []) {
-                *s = shifted(*s as usize, d) as u32;
-            }
-            let Some((k, ie, re)) = g else { break };
-            let src = start(self.starts, k)..start(self.starts, k + 1);
-            if d <= 0
-                && !rewrite(
-                    self.entries,
-                    src.clone(),
-                    shifted(src.start, d),
-                    &ins[i..ie],
-                    &rem[r..re],
-                    buf,
-                )
-            {
-                return false;
-            }
-            if let Some(s) = self.starts.get_mut(k) {
-                *s = shifted(src.start, d) as u32;
-            }
-            d += (ie - i) as i64 - (re - r) as i64;
-            (i, r, lower) = (ie, re, k + 1);
-        }
-        if let Some(s) = self.starts.get_mut(nb) {
-            *s = shifted(*s as usize, net) as u32;
-        }
-        true
-    }
+/// Whether `x` and `y` have the same floor, and whether both lie within `2^22` of zero (the
+/// answer holds only then): `x` rounded to an integer `r` by adding and taking away
+/// `1.5 * 2^23` (exact for `|x| < 2^22`), its floor `f` one less where that rounded up, and
+/// `f <= y < f + 1`.
+///
+/// # Bounded work
+/// Constant.
+#[inline(always)]
+fn same_floor(x: f32, y: f32) -> (bool, bool) {
+    const ROUND: f32 = 12_582_912.0;
+    const LIMIT: f32 = 4_194_304.0;
+    let within = (x.abs() < LIMIT) & (y.abs() < LIMIT);
+    let r = (x + ROUND) - ROUND;
+    let f = if r > x { r - 1.0 } else { r };
+    ((f <= y) & (y < f + 1.0), within)
 }
 
 /// Merges the runs `a` and `b` of `s` (each in a bucket's order, of different items) into
@@ -449,120 +432,6 @@ fn merge_runs(
         }
         w += 1;
     }
-}
-
-/// `at + d`, clamped at 0 (never below for a table consistent with the update's lists).
-#[inline]
-fn shifted(at: usize, d: i64) -> usize {
-    (at as i64).saturating_add(d).max(0) as usize
-}
-
-/// The highest bucket with listed entries among `ins[..ie]` and `rem[..re]` (both sorted
-/// by `sort_into`): the bucket and where its entries start in each list.
-///
-/// # Bounded work
-/// O(the bucket's listed entries).
-fn group_below(
-    ins: &[HashEntry],
-    rem: &[HashEntry],
-    ie: usize,
-    re: usize,
-    nb: u32,
-) -> Option<(usize, usize, usize)> {
-    let bucket = |l: &[HashEntry], e: usize| {
-        e.checked_sub(1)
-            .and_then(|p| l.get(p))
-            .map(|x| bucket_of(x.cell, nb))
-    };
-    let k = bucket(ins, ie).max(bucket(rem, re))?;
-    let (mut is, mut rs) = (ie, re);
-    while bucket(ins, is) == Some(k) {
-        is -= 1;
-    }
-    while bucket(rem, rs) == Some(k) {
-        rs -= 1;
-    }
-    Some((k as usize, is, rs))
-}
-
-/// The lowest bucket with listed entries among `ins[i..]` and `rem[r..]` (both sorted by
-/// `sort_into`): the bucket and where its entries end in each list.
-///
-/// # Bounded work
-/// O(the bucket's listed entries).
-fn group_above(
-    ins: &[HashEntry],
-    rem: &[HashEntry],
-    i: usize,
-    r: usize,
-    nb: u32,
-) -> Option<(usize, usize, usize)> {
-    let bucket = |l: &[HashEntry], at: usize| l.get(at).map(|x| bucket_of(x.cell, nb));
-    let k = match (bucket(ins, i), bucket(rem, r)) {
-        (Some(a), Some(b)) => a.min(b),
-        (a, b) => a.or(b)?,
-    };
-    let (mut ie, mut re) = (i, r);
-    while bucket(ins, ie) == Some(k) {
-        ie += 1;
-    }
-    while bucket(rem, re) == Some(k) {
-        re += 1;
-    }
-    Some((k as usize, ie, re))
-}
-
-/// Writes the bucket at `src` to `to`, through `buf`: its entries less `rem`, plus `ins`,
-/// in decreasing item order (both lists in the bucket's order). `false` when the bucket
-/// does not fit in `buf`, an entry of `rem` is not in it, or the result would leave the
-/// storage.
-///
-/// # Bounded work
-/// O(bucket size + listed entries).
-fn rewrite(
-    entries: &mut [HashEntry],
-    src: core::ops::Range<usize>,
-    to: usize,
-    ins: &[HashEntry],
-    rem: &[HashEntry],
-    buf: &mut [HashEntry],
-) -> bool {
-    let n = src.end.saturating_sub(src.start);
-    let (Some(old), Some(buf)) = (entries.get(src), buf.get_mut(..n)) else {
-        return false;
-    };
-    buf.copy_from_slice(old);
-    let (mut o, mut x, mut r, mut w) = (0usize, 0usize, 0usize, to);
-    loop {
-        // The old entry next, once the removed ones are passed.
-        while let (Some(e), Some(gone)) = (buf.get(o), rem.get(r)) {
-            if e != gone {
-                break;
-            }
-            (o, r) = (o + 1, r + 1);
-        }
-        let put = match (buf.get(o), ins.get(x)) {
-            (Some(&e), Some(&new)) if e.item() > new.item() => {
-                o += 1;
-                e
-            }
-            (_, Some(&new)) => {
-                x += 1;
-                new
-            }
-            (Some(&e), None) => {
-                o += 1;
-                e
-            }
-            (None, None) => break,
-        };
-        let Some(slot) = entries.get_mut(w) else {
-            return false;
-        };
-        *slot = put;
-        w += 1;
-    }
-    r == rem.len()
 }
 
 #[cfg(test)]

@@ -75,7 +75,9 @@ fn moved_box(rng: &mut Rng, b: Option<Aabb>, reach: f32) -> Option<Aabb> {
 fn an_update_is_the_whole_rebuild_entry_for_entry() {
     let mut rng = Rng(0x5eed_1234_abcd_0001);
     let (mut updated, mut refused, mut saturated, mut parted) = (0, 0, 0, 0);
-    let mut one_sided = 0;
+    let (mut one_sided, mut halved) = (0, 0);
+    // Cuts whose side buffer is the lower part's, the upper part's; at bucket 0, at the end.
+    let mut cuts = [0u32; 4];
     for round in 0..300 {
         let buckets = [2usize, 3, 8, 30, 98][round % 5];
         let (mut s1, mut e1) = ([0u32; 98], [HashEntry::EMPTY; 1_500]);
@@ -129,7 +131,31 @@ fn an_update_is_the_whole_rebuild_entry_for_entry() {
                 let first = live.changes_sorted(0..k, ITEMS, &mut moved, lo);
                 let second = live.changes_sorted(k..ITEMS, ITEMS, &mut moved, hi);
                 one_sided += u32::from(first.is_some() != second.is_some());
-                let got = live.update_sorted(ITEMS, first, second, &mut scratch[..room]);
+                // The table's move in one part, or cut at the middle or at any bucket
+                // (the ends too), its two parts run in either order.
+                let cut = match rng.next() {
+                    u if u < 0.25 => None,
+                    u if u < 0.5 => Some(live.middle_bucket()),
+                    _ => Some(((rng.next() * (buckets + 1) as f32) as usize).min(buckets)),
+                };
+                let flip = rng.next() < 0.5;
+                let run = |a: MoveSpan<'_>, b: MoveSpan<'_>| {
+                    halved += 1;
+                    let (below, s) = (a.cut_of().0, b.cut_of().1);
+                    cuts[0] += u32::from(s > 0);
+                    cuts[1] += u32::from(s < 0);
+                    cuts[2] += u32::from(below.end == 0);
+                    // `buckets` offsets: one bucket fewer.
+                    cuts[3] += u32::from(below.end == buckets - 1);
+                    if flip {
+                        let later = b.run();
+                        a.run() && later
+                    } else {
+                        let later = a.run();
+                        b.run() && later
+                    }
+                };
+                let got = live.update_sorted(ITEMS, first, second, &mut scratch[..room], cut, run);
                 parted += u32::from(got.is_some());
                 got
             };
@@ -166,6 +192,11 @@ fn an_update_is_the_whole_rebuild_entry_for_entry() {
     );
     assert!(saturated > 20, "{saturated} saturated builds");
     assert!(parted > 120, "{parted} updates made from two parts");
+    assert!(halved > 50, "{halved} table moves in two parts");
+    assert!(
+        cuts.iter().all(|&c| c > 5),
+        "{cuts:?} cuts: s > 0, s < 0, at 0, at the end"
+    );
     assert!(
         one_sided > 100,
         "{one_sided} updates refused by one part only"
@@ -179,6 +210,7 @@ fn an_update_is_the_whole_rebuild_entry_for_entry() {
 #[test]
 fn an_update_over_a_corrupted_table_does_not_panic() {
     let mut rng = Rng(0xdead_beef_0bad_f00d);
+    let mut spans = 0u32;
     for round in 0..3_000 {
         let buckets = [2usize, 3, 4, 8, 14][round % 5];
         let cap = [0usize, 5, 30, 300][(round / 5) % 4];
@@ -222,13 +254,20 @@ fn an_update_over_a_corrupted_table_does_not_panic() {
             u if u < 0.5 => ((rng.next() * (room + 1) as f32) as usize).min(room),
             _ => room,
         };
-        let _ = h.update_sorted(20, first, second, &mut scratch[..shorter]);
+        let cut = Some((rng.next() * 16.0) as usize);
+        let run = |a: MoveSpan<'_>, b: MoveSpan<'_>| {
+            spans += 1;
+            a.run() & b.run()
+        };
+        let _ = h.update_sorted(20, first, second, &mut scratch[..shorter], cut, run);
         let all = Aabb {
             min: Vec3::splat(-8.0),
             max: Vec3::splat(8.0),
         };
         h.query_box(&all, 10_000, |_, _| {});
     }
+    // The table's move in two parts ran over some of these tables.
+    assert!(spans > 30, "{spans} moves in two parts");
 }
 
 /// Refusals leave the table as it was (a scratch too small, a table that is not a
@@ -287,5 +326,80 @@ fn an_update_refuses_what_it_cannot_match() {
             clipped_queries: 0,
             updates: 0,
         }
+    );
+}
+
+/// Oracle of `same_cells`: the floors in `f32` lanes against the integer cell ranges
+/// (`cell_range`, `floor_i32`), over boxes with bounds on cell faces and next to them
+/// (one ulp either side), at -0.0, near and beyond 2^22 cells, and not finite, with cell
+/// sizes of 1, 0.1 and 3. Where it answers it answers as the ranges do; it answers
+/// whenever every bound lies within 2^22 cells.
+#[test]
+fn same_cells_answers_as_the_cell_ranges() {
+    let mut rng = Rng(0x0f10_0f10_5eed_0002);
+    let (mut answered, mut same, mut differ, mut unsure) = (0u32, 0u32, 0u32, 0u32);
+    for cell in [1.0f32, 0.1, 3.0] {
+        let (mut starts, mut entries) = ([0u32; 8], [HashEntry::EMPTY; 4]);
+        let h = SpatialHash::new(&mut starts, &mut entries, cell).unwrap();
+        let coord = |rng: &mut Rng| -> f32 {
+            let u = rng.next();
+            let on_face = libm::roundf(rng.range(-20.0, 20.0)) * cell;
+            match (u * 10.0) as u32 {
+                0 => on_face,
+                1 => f32::from_bits(on_face.to_bits().wrapping_add(1)),
+                2 => f32::from_bits(on_face.to_bits().wrapping_sub(1)),
+                3 => -0.0,
+                4 => {
+                    rng.range(4_194_000.0, 4_194_400.0)
+                        * cell
+                        * [1.0, -1.0][(u * 100.0) as usize % 2]
+                }
+                5 if u < 0.51 => [f32::NAN, f32::INFINITY, 1e30][(u * 1000.0) as usize % 3],
+                _ => rng.range(-20.0, 20.0) * cell,
+            }
+        };
+        for _ in 0..20_000 {
+            let mut v = [0.0f32; 12];
+            for x in v.iter_mut() {
+                *x = coord(&mut rng);
+            }
+            // The second box mostly the first one nudged, so that both answers are common.
+            if rng.next() < 0.6 {
+                for i in 0..6 {
+                    v[6 + i] = if rng.next() < 0.7 {
+                        v[i]
+                    } else {
+                        v[i] + rng.range(-0.3, 0.3) * cell
+                    };
+                }
+            }
+            let bx = |o: usize| Aabb {
+                min: Vec3::new(v[o], v[o + 1], v[o + 2]),
+                max: Vec3::new(v[o + 3], v[o + 4], v[o + 5]),
+            };
+            let (a, b) = (bx(0), bx(6));
+            let within = v.iter().all(|&x| (x * h.inv_cell).abs() < 4_194_304.0);
+            match h.same_cells(&a, &b) {
+                Some(got) => {
+                    assert!(within, "{v:?}");
+                    assert_eq!(got, h.cell_range(&a) == h.cell_range(&b), "{v:?}");
+                    answered += 1;
+                    same += u32::from(got);
+                    differ += u32::from(!got);
+                }
+                None => {
+                    assert!(!within, "{v:?}");
+                    unsure += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        answered > 20_000 && unsure > 5_000,
+        "{answered} answered, {unsure} not"
+    );
+    assert!(
+        same > 5_000 && differ > 5_000,
+        "{same} same, {differ} differ"
     );
 }

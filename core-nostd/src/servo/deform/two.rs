@@ -6,7 +6,7 @@
 use glam::Vec3;
 
 use super::{node_distance2, stored_box, tet_box, DeformError, DeformReport, Prep, Spare};
-use crate::hash::{Aabb, HashEntry, Sorted, SpatialHash};
+use crate::hash::{Aabb, HashEntry, MoveSpan, Sorted, SpatialHash};
 use crate::ids::{NodeId, TetId};
 use crate::mesh::Mesh;
 use crate::servo::World;
@@ -20,17 +20,22 @@ impl<'a> World<'a> {
     /// [`FIRST_PART_TETS`] of the tets, the second the rest and the boundary normals (into
     /// the spare normals, as [`World::prepare_positions`] makes them), so the two take about
     /// the same time. A part `fork` left unrun is run after it returns. Then, here: the
-    /// boxes and normals swapped in, the hash moved by the two parts' sorted lists merged
-    /// (`SpatialHash::update_sorted`, or built whole when they do not fit), and the rest as
-    /// [`World::set_positions`]. The world is the one [`World::set_positions`] leaves, bit for
-    /// bit. Without spare storage, or while a spread update holds it
-    /// ([`World::prepare_positions`]), this is [`World::set_positions`], and `fork` is not
-    /// called.
+    /// boxes and normals swapped in and the two parts' sorted lists merged
+    /// (`SpatialHash::update_sorted`); the hash table is moved by them in two parts handed
+    /// to `fork` again (the buckets below the one where the entries reach half their number,
+    /// and the rest; each part writes its own entries and offsets, the few entries one part
+    /// lands in the other's reach go through a side buffer copied in after both), or here
+    /// in one part when the parts' buffers do not fit, or built whole when the lists do not
+    /// fit; then the rest as [`World::set_positions`]. The world is the one
+    /// [`World::set_positions`] leaves, bit for bit. Without spare storage, or while a
+    /// spread update holds it ([`World::prepare_positions`]), this is
+    /// [`World::set_positions`], and `fork` is not called.
     ///
     /// # Bounded work
-    /// As [`World::set_positions`], plus one call of `fork`; outside the parts, O(N + memo
-    /// slots + m + buckets + hash entries) for the m changed hash entries (the positions
-    /// copied, the parts' sorted lists merged, the table moved).
+    /// As [`World::set_positions`], plus at most two calls of `fork`; outside the parts,
+    /// O(N + memo slots + m + buckets) for the m changed hash entries (the positions copied,
+    /// the parts' sorted lists merged, the side buffer copied in), and O(buckets + hash
+    /// entries) more when the table's move runs here in one part or the hash is built whole.
     ///
     /// # Capacity
     /// As [`World::set_positions`].
@@ -61,7 +66,7 @@ impl<'a> World<'a> {
         let (old_a, old_b) = old.split_at(split);
         let (now_a, now_b) = spare.boxes.split_at_mut(split);
         let part = |nodes, first_tet, old, now, scratch, normals| MovePart {
-            work: Some(MoveWork {
+            work: Some(Work::Lists(MoveWork {
                 mesh,
                 hash,
                 new,
@@ -71,7 +76,7 @@ impl<'a> World<'a> {
                 now,
                 scratch,
                 normals,
-            }),
+            })),
             done: PartDone::default(),
         };
         let mut a = part(0..nodes / 2, 0, old_a, now_a, scratch_a, None);
@@ -86,9 +91,23 @@ impl<'a> World<'a> {
         }
         // Every position checked: from here on nothing refuses.
         core::mem::swap(&mut self.boxes, &mut spare.boxes);
-        let listed = self
-            .hash
-            .update_sorted(tets, da.listed, db.listed, spare.hash.scratch());
+        let cut = self.hash.middle_bucket();
+        // The table's move in two parts, handed to `fork` as the lists were.
+        let halves = |lower: MoveSpan<'_>, upper: MoveSpan<'_>| {
+            let (mut a, mut b) = (MovePart::table(lower), MovePart::table(upper));
+            fork(&mut a, &mut b);
+            a.run();
+            b.run();
+            a.done.moved && b.done.moved
+        };
+        let listed = self.hash.update_sorted(
+            tets,
+            da.listed,
+            db.listed,
+            spare.hash.scratch(),
+            Some(cut),
+            halves,
+        );
         let built = listed.unwrap_or_else(|| {
             let (boxes, mesh) = (&*self.boxes, &self.mesh);
             self.hash
@@ -109,11 +128,19 @@ pub const FIRST_PART_TETS: (usize, usize) = (4, 7);
 
 /// One part of [`World::set_positions_two`]: its nodes checked and measured, its tets' new
 /// boxes made and their changes of the hash listed and sorted, and for the second part the
-/// boundary normals made. Holds shared views of the world and its own slices of the spare
-/// storage, so the two parts may run on two threads at once.
+/// boundary normals made; or, in the second call of `fork`, its part of the hash table's
+/// move. Holds shared views of the world and its own slices of the storage, so the two
+/// parts may run on two threads at once.
 pub struct MovePart<'p> {
-    work: Option<MoveWork<'p>>,
+    work: Option<Work<'p>>,
     done: PartDone,
+}
+
+/// What a [`MovePart`] does: a part of the passes over nodes and tets, or a part of the
+/// hash table's move.
+enum Work<'p> {
+    Lists(MoveWork<'p>),
+    Table(MoveSpan<'p>),
 }
 
 /// What a [`MovePart`] works on.
@@ -145,6 +172,8 @@ struct PartDone {
     /// Its changes of the hash, sorted (`None`: they do not fit, or the table is not a
     /// whole build).
     listed: Option<Sorted>,
+    /// Its part of the table's move went as the lists say.
+    moved: bool,
 }
 
 impl core::fmt::Debug for MovePart<'_> {
@@ -156,15 +185,30 @@ impl core::fmt::Debug for MovePart<'_> {
     }
 }
 
-impl MovePart<'_> {
+impl<'p> MovePart<'p> {
+    /// A part of the hash table's move.
+    fn table(span: MoveSpan<'p>) -> Self {
+        MovePart {
+            work: Some(Work::Table(span)),
+            done: PartDone::default(),
+        }
+    }
+
     /// Does the part's work; later calls do nothing. Never allocates or panics.
     ///
     /// # Bounded work
-    /// O(its nodes + its tets + its part of the spare hash's entries + m log m) for the m
-    /// hash entries it lists, and for the second part O(N + T) for the normals.
+    /// A part of the passes: O(its nodes + its tets + its part of the spare hash's entries +
+    /// m log m) for the m hash entries it lists, and for the second part O(N + T) for the
+    /// normals. A part of the table's move: O(its buckets + its entries + its listed
+    /// entries).
     pub fn run(&mut self) {
-        let Some(w) = self.work.take() else {
-            return;
+        let w = match self.work.take() {
+            Some(Work::Lists(w)) => w,
+            Some(Work::Table(span)) => {
+                self.done.moved = span.run();
+                return;
+            }
+            None => return,
         };
         let mut max2 = 0.0f32;
         for i in w.nodes {
@@ -192,6 +236,7 @@ impl MovePart<'_> {
             max2,
             bad: None,
             listed: w.hash.changes_sorted(tets, count, &mut moved, w.scratch),
+            moved: false,
         };
         if let Some(normals) = w.normals {
             // As `World::prepare_positions` makes them: every tet's boundary faces summed
