@@ -48,7 +48,7 @@ mod triangles;
 pub use digest::{force_digest, ForceDigest};
 pub use held::{pen_servo_force, pen_torque, HeldContact, PenServo, ServoScratch};
 pub use passive::PassivePoint;
-pub(crate) use passive::{offer_near, passive_force, PassiveProbe};
+pub(crate) use passive::{offer_near, passive_force, PassiveProbe, Walked};
 pub use passivity::{penalty_storage, PassivityObserver, PassivityParams, Storage};
 pub use pen::{
     object_side, pen_contact, pen_pass, pen_place, pen_side, DepthMethod, PenBuffers, PenContact,

@@ -14,6 +14,7 @@ use glam::Vec3;
 use super::response::clamp_force;
 use super::MAX_PASSIVE;
 use crate::geom::closest_point_on_triangle;
+use crate::hash::Aabb;
 use crate::hierarchy::{bounding_sphere, Hierarchy, SurfaceVisit, VisibleTri};
 use crate::ids::TetId;
 use crate::mesh::Mesh;
@@ -52,6 +53,8 @@ pub(crate) type FaceKey = (u32, u32, u8);
 pub(crate) struct PassiveProbe {
     from: Vec3,
     to: Vec3,
+    /// How far from `to` a face may lie and still be offered.
+    reach: f32,
     reach2: f32,
     /// First entering crossing: `(s along the segment, point, unit normal, face key)`.
     hit: Option<(f32, Vec3, Vec3, FaceKey)>,
@@ -71,11 +74,24 @@ impl PassiveProbe {
         Self {
             from: state.proxy.unwrap_or(to),
             to,
+            reach,
             reach2: reach * reach,
             hit: None,
             near: None,
             triangles: 0,
         }
+    }
+
+    /// The box around the point's way (its proxy to its position) grown by its reach: no
+    /// face outside it is within reach or across the way. `None` when it is not finite.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub(crate) fn zone(&self) -> Option<Aabb> {
+        let b = Aabb::point(self.from)
+            .union(Aabb::point(self.to))
+            .grown(self.reach);
+        (b.min.is_finite() && b.max.is_finite()).then_some(b)
     }
 
     /// Triangles offered so far.
@@ -240,15 +256,21 @@ struct Probes<'p> {
     probes: &'p mut [Option<PassiveProbe>; MAX_PASSIVE],
     axis: Vec3,
     spans: [(f32, f32); MAX_PASSIVE],
+    /// Nodes the walk may still enter.
+    left: u32,
+    /// Nodes entered.
+    entered: u32,
+    /// The walk wanted a node past the limit and ended.
+    cut: bool,
 }
 
 impl<'p> Probes<'p> {
     /// The walkers of `probes` with bits in `want`, their spans along the line from the
-    /// first to the last.
+    /// first to the last, entering at most `max_nodes` nodes.
     ///
     /// # Bounded work
     /// O([`MAX_PASSIVE`]).
-    fn new(probes: &'p mut [Option<PassiveProbe>; MAX_PASSIVE], want: u32) -> Self {
+    fn new(probes: &'p mut [Option<PassiveProbe>; MAX_PASSIVE], want: u32, max_nodes: u32) -> Self {
         let walkers = || {
             probes
                 .iter()
@@ -270,6 +292,9 @@ impl<'p> Probes<'p> {
             probes,
             axis,
             spans,
+            left: max_nodes,
+            entered: 0,
+            cut: false,
         }
     }
 }
@@ -277,6 +302,12 @@ impl<'p> Probes<'p> {
 impl SurfaceVisit for Probes<'_> {
     #[inline]
     fn enter(&mut self, p: &[Vec3; 4], mask: u32) -> u32 {
+        let Some(left) = self.left.checked_sub(1) else {
+            self.cut = true;
+            return 0;
+        };
+        self.left = left;
+        self.entered += 1;
         let (mid, rad) = bounding_sphere(*p);
         let (s, slack) = (mid.dot(self.axis), span_slack(mid, rad));
         let (mut kept, mut rest) = (mask, mask);
@@ -311,24 +342,55 @@ impl SurfaceVisit for Probes<'_> {
             }
         }
     }
+
+    #[inline]
+    fn stop(&self) -> bool {
+        self.cut
+    }
+}
+
+/// What one [`offer_near`] walked.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub(crate) struct Walked {
+    /// Nodes entered (each tested against the walkers).
+    pub nodes: u32,
+    /// The walk wanted more than its limit of nodes and ended there: the probes were not
+    /// offered every face they may need.
+    pub cut: bool,
 }
 
 /// Offers each probe `probes[k]` whose bit `k` of `want` is set the visible faces of the
 /// trees of `tets` that may change its answer, each tree walked once for all of them
 /// ([`Hierarchy::walk_surface`], pruned by [`PassiveProbe::may_need`] as the probes learn):
-/// each probe answers as if it had been offered every visible face of those trees.
+/// each probe answers as if it had been offered every visible face of those trees, unless
+/// the walk is cut. A tree `keep` refuses is not walked (the caller's to say it holds no
+/// face a probe may need).
 ///
 /// # Bounded work
-/// O(nodes of those trees that hold surface and that a probe may need, times the probes
-/// that may need each), at most [`MAX_PASSIVE`] probes.
+/// At most `max_nodes` nodes entered (the walk ends at the first node past them and says
+/// so: [`Walked::cut`]), each O(probes that may need it), at most [`MAX_PASSIVE`] probes;
+/// one `keep` per tree of `tets` before the cut.
 pub(crate) fn offer_near(
     hier: &Hierarchy<'_>,
     mesh: &Mesh<'_>,
     tets: &[TetId],
     probes: &mut [Option<PassiveProbe>; MAX_PASSIVE],
-    want: u32,
-) {
-    hier.walk_surface(mesh, tets, want, &mut Probes::new(probes, want));
+    (want, max_nodes): (u32, u32),
+    mut keep: impl FnMut(TetId) -> bool,
+) -> Walked {
+    let mut walkers = Probes::new(probes, want, max_nodes);
+    for tet in tets {
+        if walkers.cut {
+            break;
+        }
+        if keep(*tet) {
+            hier.walk_surface(mesh, core::slice::from_ref(tet), want, &mut walkers);
+        }
+    }
+    Walked {
+        nodes: walkers.entered,
+        cut: walkers.cut,
+    }
 }
 
 /// The spring force of passive points of `radius` at `positions` from their planes

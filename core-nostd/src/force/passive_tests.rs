@@ -72,7 +72,8 @@ fn points_walking_together_answer_as_if_offered_every_face() {
         };
         let (forward, backward) = (brute(false), brute(true));
         let mut walked = probes;
-        offer_near(&h, &mesh, &all, &mut walked, want);
+        let walk = offer_near(&h, &mesh, &all, &mut walked, (want, u32::MAX), |_| true);
+        assert!(!walk.cut, "round {round}");
         for k in 0..MAX_PASSIVE {
             let finish = |p: Option<PassiveProbe>| {
                 let mut s = states[k];

@@ -77,6 +77,11 @@ pub(crate) trait SurfaceVisit {
     fn enter(&mut self, p: &[Vec3; 4], mask: u32) -> u32;
     /// A visible face of a leaf reached with the bits `mask`.
     fn face(&mut self, mask: u32, tri: VisibleTri);
+    /// Whether the walk ends here: no node is entered after it says so.
+    #[inline]
+    fn stop(&self) -> bool {
+        false
+    }
 }
 
 /// One walker: the faces whose nodes' bounding spheres meet `near`, from the root down
@@ -202,7 +207,7 @@ impl Hierarchy<'_> {
     /// bits of its parent's mask that [`SurfaceVisit::enter`] keeps (`want` at a root), a
     /// subtree without surface (see [`HNode::surface`]) or with no bit left is skipped, and
     /// each visible face of a non-erased leaf is given to [`SurfaceVisit::face`] with its
-    /// leaf's bits. The packed barycentric coordinates ([`Packed`]) are carried down the
+    /// leaf's bits; once [`SurfaceVisit::stop`] says so, the walk ends. The packed barycentric coordinates ([`Packed`]) are carried down the
     /// stack, so each node costs O(1) (not O(depth)) and gets the same bits as
     /// [`node_positions`].
     ///
@@ -216,6 +221,9 @@ impl Hierarchy<'_> {
         v: &mut V,
     ) {
         for &tet in tets {
+            if v.stop() {
+                return;
+            }
             self.walk_tree(mesh, tet, want, v);
         }
     }
@@ -232,7 +240,7 @@ impl Hierarchy<'_> {
         let mut stack = [(0u32, 0u32, 0u8, [0 as Packed; 4], 0u32); STACK];
         stack[0] = (tet.0, 0, 0, frame.root_packed(), want);
         let mut top = 1usize;
-        while top > 0 {
+        while top > 0 && !v.stop() {
             top -= 1;
             let Some(&(r, index, depth, bary, mask)) = stack.get(top) else {
                 break;

@@ -59,7 +59,7 @@ pub(crate) use deform::{PREP_BOX_UNITS, PREP_FACE_UNITS, PREP_NODE_UNITS, PREP_N
 pub use drill_handoff::{DrillHandoff, DrillPublished, DrillServo};
 pub use force::servo_force;
 pub use handoff::{ContactHandoff, Published, Servo, HANDOFF_TRIES};
-pub use passive::{drill_force, drill_torque, DrillState, PassiveReport};
+pub use passive::{drill_force, drill_torque, DrillState, PassiveReport, ShaftWalk};
 pub use pen_handoff::{PenHandoff, PenPublished};
 pub use sizes::{carve_rest, WorldSizes, WorldStorage, DEFAULT_PENDING, DEFAULT_SPHERE_MEMO};
 
@@ -249,6 +249,9 @@ pub struct World<'a> {
     contact_max_nodes: u32,
     /// Work units for a whole simulation step (drill and contact search), if set.
     tick_budget: Option<u32>,
+    /// The nodes a drill's shaft walk may enter a step, if bounded
+    /// ([`World::set_shaft_max_nodes`]).
+    shaft_max_nodes: Option<u32>,
     /// Where the last contact search that hit its node bound stopped: the next one goes on
     /// from there ([`Hierarchy::nearest_continued`]).
     cursor: NearestCursor,
@@ -285,6 +288,13 @@ pub const CONTACT_MAX_NODES: u32 = 4096;
 /// cavity (docs/PORTING.md), and about 6 drill units' worth of host instructions on the demo's
 /// slowest ticks (docs/DRILLING.md, "One budget for the whole tick").
 pub const CONTACT_NODE_UNITS: u32 = 6;
+
+/// What one node of a drill shaft's walk ([`World::track_shaft`]) is charged under a tick
+/// budget ([`World::set_shaft_max_nodes`]), in drill work units: about 560 host instructions
+/// a node entered on the teddy's moving path at its busiest ticks, against about 90 for a
+/// drill unit, as a contact-search node test (docs/DRILLING.md, "The shaft in the tick
+/// budget").
+pub const SHAFT_NODE_UNITS: u32 = 6;
 
 impl<'a> World<'a> {
     /// Hashes the mesh's tets once (cell size = average edge length), stores each tet's box
@@ -339,6 +349,7 @@ impl<'a> World<'a> {
             kept: Kept::new(),
             contact_max_nodes: CONTACT_MAX_NODES,
             tick_budget: None,
+            shaft_max_nodes: None,
             cursor: NearestCursor::new(),
             sat,
             spacing: Spacing::new(),
@@ -449,6 +460,37 @@ impl<'a> World<'a> {
     /// the two bounds apply separately.
     pub fn set_tick_budget(&mut self, units: Option<u32>) {
         self.tick_budget = units;
+    }
+
+    /// The nodes a drill shaft's walk may enter a step, if bounded
+    /// ([`World::set_shaft_max_nodes`]).
+    pub fn shaft_max_nodes(&self) -> Option<u32> {
+        self.shaft_max_nodes
+    }
+
+    /// Bounds the walk that tracks a drill shaft's passive points ([`World::track_shaft`],
+    /// [`World::simulate_drill`]) to `nodes` hierarchy nodes a step: a walk that wants more
+    /// is cut there, its points keep the state of the last step they were tracked in, and
+    /// the next steps walk smaller groups of the points until each is tracked again
+    /// ([`PassiveReport::cut`], [`PassiveReport::stale`]). Under a tick budget
+    /// ([`World::set_tick_budget`]) the bound is taken from it first: the drill and the
+    /// contact search share what is left, `units - nodes * SHAFT_NODE_UNITS`, so a drill's
+    /// whole step stays within the budget. `None` (the default): the walk is unbounded and
+    /// every point is tracked every step.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn set_shaft_max_nodes(&mut self, nodes: Option<u32>) {
+        self.shaft_max_nodes = nodes;
+    }
+
+    /// The tick budget left to the drill and the contact search: the tick budget less the
+    /// shaft's walk's share ([`World::set_shaft_max_nodes`]), if there is a tick budget.
+    fn step_budget(&self) -> Option<u32> {
+        let shaft = self
+            .shaft_max_nodes
+            .map_or(0, |n| n.saturating_mul(SHAFT_NODE_UNITS));
+        self.tick_budget.map(|t| t.saturating_sub(shaft))
     }
 
     /// Sets the frequency of the burr's vibration while it cuts, hertz: from the next step on,

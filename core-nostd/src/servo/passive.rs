@@ -8,7 +8,7 @@ use super::{servo_force, ContactState, SimReport, World};
 use crate::drill::DrillParams;
 use crate::force::{
     clamp_force, damping_force, offer_near, passive_force, DrillTool, ForceParams, PassivePoint,
-    PassiveProbe, ToolState, MAX_PASSIVE,
+    PassiveProbe, ToolState, Walked, MAX_PASSIVE,
 };
 use crate::hash::{cells_in, Aabb, Cell};
 use crate::ids::TetId;
@@ -24,6 +24,68 @@ pub struct PassiveReport {
     pub near: u32,
     /// Visible triangles offered to the points' probes.
     pub triangles: u32,
+    /// Hierarchy nodes the points' walk entered.
+    pub nodes: u32,
+    /// The walk hit its node bound ([`World::set_shaft_max_nodes`]) and was cut: the points
+    /// it was for keep the state of the last step they were tracked in.
+    pub cut: bool,
+    /// Points that needed the walk and were left with the last step's state (the walk cut,
+    /// or the point not in this step's group).
+    pub stale: u32,
+}
+
+/// Which passive points a bounded walk takes next ([`World::set_shaft_max_nodes`]): `span`
+/// points from `next` on, round the ring of points.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct ShaftWalk {
+    /// The first point of the next group.
+    pub next: u8,
+    /// How many points the next group holds; zero: all.
+    pub span: u8,
+}
+
+impl ShaftWalk {
+    /// The bits of the group of `n` points this step walks.
+    ///
+    /// # Bounded work
+    /// Constant.
+    fn group(&self, n: usize) -> u32 {
+        let all = if n >= 32 { u32::MAX } else { (1u32 << n) - 1 };
+        let span = usize::from(self.span);
+        if span == 0 || span >= n {
+            return all;
+        }
+        // next, span < n <= 32: the run fits a u64, and its bits past the last point wrap
+        // round to the first.
+        let run = ((1u64 << span) - 1) << (usize::from(self.next) % n);
+        ((run | run >> n) as u32) & all
+    }
+
+    /// The next step's group after this one's walk: on past the group when it was walked
+    /// whole, twice as many if the walk took at most half its bound (`roomy`), as many
+    /// otherwise; half as many when it was cut (one point alone: the next one).
+    ///
+    /// # Bounded work
+    /// Constant.
+    fn after(&mut self, n: usize, cut: bool, roomy: bool) {
+        if n == 0 {
+            return;
+        }
+        let span = match usize::from(self.span) {
+            0 => n,
+            s => s.min(n),
+        };
+        let next = usize::from(self.next) % n;
+        let (next, span) = match (cut, span) {
+            (false, _) if roomy => ((next + span) % n, (span * 2).min(n)),
+            (false, _) => ((next + span) % n, span),
+            (true, 1) => ((next + 1) % n, 1),
+            (true, _) => (next, span / 2),
+        };
+        // At most MAX_PASSIVE (32) points: both fit a byte.
+        self.next = next as u8;
+        self.span = if span >= n { 0 } else { span as u8 };
+    }
 }
 
 /// A drill's passive points and the state they carry from step to step.
@@ -35,6 +97,8 @@ pub struct DrillState {
     pub positions: [Vec3; MAX_PASSIVE],
     /// How many of `points` and `positions` are in use.
     pub count: usize,
+    /// The points the next bounded walk takes ([`World::set_shaft_max_nodes`]).
+    pub walk: ShaftWalk,
 }
 
 impl Default for DrillState {
@@ -43,6 +107,7 @@ impl Default for DrillState {
             points: [PassivePoint::default(); MAX_PASSIVE],
             positions: [Vec3::ZERO; MAX_PASSIVE],
             count: 0,
+            walk: ShaftWalk::default(),
         }
     }
 }
@@ -122,6 +187,7 @@ impl World<'_> {
             tool.shaft_radius,
             reach,
             &mut state.points,
+            &mut state.walk,
         );
         (prep, saturated)
     }
@@ -218,15 +284,26 @@ impl World<'_> {
     /// still behind it needs none. Each point answers as if offered every face of those
     /// trees. Passive points never erode.
     ///
+    /// With a shaft bound ([`World::set_shaft_max_nodes`]) the walk is for the group of
+    /// points `walk` names (all of them at first) and enters at most that many nodes. Walked
+    /// whole, its points answer as above and the next group follows it, twice as large; cut
+    /// at the bound, its points keep the state of the last step they were tracked in (their
+    /// proxies where they were then, so the next walk tests the whole way since) and the next
+    /// group is half as large (one point alone: the next one). A point held and still behind
+    /// its face is tracked whatever the group. So a step's walk is bounded and every point is
+    /// tracked again within a few steps unless one point alone needs more than the bound.
+    ///
     /// # Bounded work
     /// O(candidates + hierarchy nodes holding surface that a point may need, times the points
-    /// that may need each), at most [`MAX_PASSIVE`] points. Not counted in the tick budget.
+    /// that may need each), at most [`MAX_PASSIVE`] points; with a shaft bound, at most that
+    /// many nodes entered (one root check per candidate tree besides).
     pub(crate) fn track_passive(
         &self,
         positions: &[Vec3],
         radius: f32,
         reach: f32,
         points: &mut [PassivePoint],
+        walk: &mut ShaftWalk,
     ) -> PassiveReport {
         let mut rep = PassiveReport::default();
         let reach = radius
@@ -250,14 +327,56 @@ impl World<'_> {
             }
             *probe = Some(PassiveProbe::new(pt, p, reach));
         }
-        if want != 0 {
-            offer_near(&self.hier, &self.mesh, self.candidates(), &mut probes, want);
+        let group = match self.shaft_max_nodes {
+            Some(_) => walk.group(n),
+            None => u32::MAX,
+        };
+        let walked = if want & group != 0 {
+            let bound = self.shaft_max_nodes.unwrap_or(u32::MAX);
+            // A group short of the points that need the walk goes only into the trees that
+            // meet one of its points' zones (the box around the point and its proxy, grown
+            // by the reach, as the candidates were listed): no other tree holds a face within
+            // its reach or across its way.
+            let mut zones = [None; MAX_PASSIVE];
+            let mut part = want & !group != 0;
+            if part {
+                for (k, (z, probe)) in zones.iter_mut().zip(&probes).enumerate().take(n) {
+                    if want & group & (1 << k) != 0 {
+                        *z = probe.as_ref().and_then(PassiveProbe::zone);
+                        // A way that is not finite: every tree, as for the whole shaft.
+                        part &= z.is_some();
+                    }
+                }
+            }
+            let (hier, mesh, boxes) = (&self.hier, &self.mesh, &self.boxes);
+            let keep = |t: TetId| {
+                !part
+                    || zones.iter().flatten().any(|z| match boxes.get(t.idx()) {
+                        Some(b) => b.overlaps(z),
+                        None => z.overlaps_points(&mesh.tet_positions(t)),
+                    })
+            };
+            let cands = self.candidates();
+            offer_near(hier, mesh, cands, &mut probes, (want & group, bound), keep)
+        } else {
+            Walked::default()
+        };
+        if let Some(bound) = self.shaft_max_nodes {
+            walk.after(n, walked.cut, walked.nodes <= bound / 2);
         }
-        for (pt, probe) in points.iter_mut().zip(&probes).take(n) {
+        // Tracked: the points that need no walk, and the walked group unless it was cut.
+        let tracked = !want | if walked.cut { 0 } else { group };
+        rep.nodes = walked.nodes;
+        rep.cut = walked.cut;
+        for (k, (pt, probe)) in points.iter_mut().zip(&probes).take(n).enumerate() {
             let Some(probe) = probe else { continue };
             rep.points += 1;
-            rep.triangles = rep.triangles.wrapping_add(probe.triangles());
-            probe.finish(pt);
+            if tracked & (1 << k) == 0 {
+                rep.stale += 1;
+            } else {
+                rep.triangles = rep.triangles.wrapping_add(probe.triangles());
+                probe.finish(pt);
+            }
             rep.held += pt.is_held() as u32;
             rep.near += pt.plane.is_some() as u32;
         }

@@ -166,7 +166,7 @@ impl World<'_> {
             .map_or(0, |r| r.grant(force, seconds, cutting, feed, under, queued));
         if !spheres.is_empty() || self.drill.pending() > 0 || self.drill.debris_pending() > 0 {
             let budget = self
-                .tick_budget
+                .step_budget()
                 .map_or(params.budget, |t| t.min(params.budget));
             let params = DrillParams {
                 budget: budget.saturating_sub(granted),
@@ -344,7 +344,7 @@ impl World<'_> {
         for &(_, t) in &self.kept {
             let _ = hints.push(t);
         }
-        let bound = match self.tick_budget {
+        let bound = match self.step_budget() {
             Some(t) => {
                 (t.saturating_sub(rep.drill.work) / CONTACT_NODE_UNITS).min(self.contact_max_nodes)
             }
