@@ -12,6 +12,7 @@ mod handoffs;
 mod pen_pair;
 mod pen_pipeline;
 mod pen_reference;
+mod shaft_bound;
 mod shaft_zones;
 mod zone_gather;
 mod zone_memo;

@@ -47,7 +47,7 @@ fn cells(w: &World<'_>, b: &Aabb) -> u64 {
 /// A seeded pose sequence: the burr wandering through and around the block in small steps,
 /// the shaft's axis turning slowly through upright, axis-aligned and tilted directions, now
 /// and then a jump.
-fn poses(n: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
+pub(crate) fn wandering_shaft(n: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
     let mut rng = Lcg(seed);
     let mut next = || rng.signed();
     let axes = [
@@ -87,7 +87,7 @@ fn the_shaft_lists_every_tet_its_points_zones_meet_once_in_order() {
         min_area: 0.0,
         budget: 300,
     };
-    let path = poses(600, 11);
+    let path = wandering_shaft(600, 11);
     let mut state = DrillState::default();
     let (mut listed, mut held) = (0usize, 0u32);
     for (i, &(c, a)) in path.iter().enumerate() {
