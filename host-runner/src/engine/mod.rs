@@ -33,6 +33,8 @@ pub struct EngineStorage {
     buffers: WorldBuffers,
     contact_search_nodes: u32,
     tick_budget: u32,
+    /// The bound on a drill tool's shaft walk (`None`: unbounded, or not a drill).
+    shaft_nodes: Option<u32>,
     /// The candidate gather each world gets (`None`: the one-shot query).
     zone_gather: Option<ZoneGather>,
     resolution: f32,
@@ -97,6 +99,9 @@ impl EngineStorage {
             buffers: WorldBuffers::new(s)?,
             contact_search_nodes: d.contact_search_nodes,
             tick_budget: d.tick_budget,
+            shaft_nodes: (d.shaft_nodes > 0
+                && matches!(setup.tool, crate::setup::Tool::Drill { .. }))
+            .then_some(d.shaft_nodes),
             zone_gather: match d.zone_gather_work {
                 Some(0) => None,
                 Some(w) => Some(ZoneGather::new(w, ZONE_MARGIN_RADII)),
@@ -211,6 +216,7 @@ impl EngineStorage {
         w.set_contact_max_nodes(self.contact_search_nodes);
         w.set_max_cells(max_cells);
         w.set_tick_budget((self.tick_budget > 0).then_some(self.tick_budget));
+        w.set_shaft_max_nodes(self.shaft_nodes);
         w.set_drill_resolution(self.resolution);
         w.set_vibration_hz(self.vibration_hz);
         w.set_zone_gather(self.zone_gather);

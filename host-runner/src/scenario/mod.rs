@@ -128,6 +128,9 @@ pub struct Scenario {
     /// search gets what the drill left, `tetradrill_core::servo::World::set_tick_budget`);
     /// 0: each has its own bound.
     pub tick_budget: u32,
+    /// Hierarchy nodes a drill tool's shaft walk may enter a step (taken from the tick budget
+    /// first); 0: unbounded.
+    pub shaft_nodes: u32,
     /// Entries of the static spatial hash of the mesh's tets (absent: 8 per tet).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hash_capacity: Option<usize>,
@@ -304,6 +307,10 @@ pub struct ScenarioFlags {
     /// what the drill left); 0: separate bounds.
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
     pub tick_budget: Option<u32>,
+    /// Hierarchy nodes a drill tool's shaft walk may enter a step (taken from the tick
+    /// budget first); 0: unbounded.
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
+    pub shaft_nodes: Option<u32>,
     /// Entries of the static tet hash (default: 8 per tet).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(usize))]
     pub hash_capacity: Option<usize>,
@@ -463,7 +470,7 @@ impl Scenario {
             budget_per_tick,
             tick_budget
         );
-        take!(contact_search_nodes, servo_lag, body);
+        take!(contact_search_nodes, shaft_nodes, servo_lag, body);
         if let Some(v) = &f.fix_below {
             s.fix_below = Some(v.clone());
         }
@@ -567,6 +574,7 @@ impl Scenario {
                 resolution: self.resolution,
                 budget_per_tick: self.budget_per_tick,
                 tick_budget: self.tick_budget,
+                shaft_nodes: self.shaft_nodes,
                 contact_search_nodes: self.contact_search_nodes,
                 zone_gather_work: self.zone_gather_work,
                 servo_lag: self.servo_lag,
@@ -658,6 +666,7 @@ impl From<&Setup> for Scenario {
             hierarchy_capacity: s.capacities.hierarchy,
             budget_per_tick: s.drilling.budget_per_tick,
             tick_budget: s.drilling.tick_budget,
+            shaft_nodes: s.drilling.shaft_nodes,
             hash_capacity: s.capacities.hash,
             candidate_capacity: s.capacities.candidates,
             vlist_capacity: s.capacities.vlist,

@@ -143,6 +143,10 @@ pub struct Drilling {
     /// search gets what the drill left, `tetradrill_core::servo::World::set_tick_budget`); 0:
     /// each has its own bound.
     pub tick_budget: u32,
+    /// Hierarchy nodes a drill tool's shaft walk may enter a step
+    /// (`tetradrill_core::servo::World::set_shaft_max_nodes`; under a tick budget its units
+    /// are taken from it first); 0: unbounded. Not used by other tools.
+    pub shaft_nodes: u32,
     /// Hierarchy nodes one contact search may test (then the closest face met, or the last
     /// step's, answers).
     pub contact_search_nodes: u32,
@@ -280,6 +284,12 @@ pub struct Setup {
 /// whole tick").
 pub const DEFAULT_TICK_BUDGET: u32 = 16_500;
 
+/// Default bound on a drill tool's shaft walk, hierarchy nodes a step (`--shaft-nodes`; 0:
+/// unbounded). Unbounded by default: a bound that keeps the tick within budget leaves the
+/// shaft's points on an old state on most ticks where the shaft lies in a deep cavity (the
+/// demo's drill path), docs/DRILLING.md, "The shaft in the tick budget".
+pub const DEFAULT_SHAFT_NODES: u32 = 0;
+
 /// The least hierarchy arena a burr gets when the set-up does not size it: 2^20 nodes (16
 /// MiB), what a burr about one boundary tet wide needs over long sessions (docs/DRILLING.md).
 pub const DEFAULT_HIERARCHY_CAPACITY: usize = 1 << 20;
@@ -313,6 +323,7 @@ impl Default for Setup {
                 resolution: None,
                 budget_per_tick: 11_000,
                 tick_budget: DEFAULT_TICK_BUDGET,
+                shaft_nodes: DEFAULT_SHAFT_NODES,
                 contact_search_nodes: tetradrill_core::servo::CONTACT_MAX_NODES,
                 zone_gather_work: None,
                 servo_lag: 0,

@@ -266,6 +266,51 @@ fn bad_drill_tools_are_refused_with_the_reason() {
     );
 }
 
+/// `--shaft-nodes N` bounds the shaft's walk (`World::set_shaft_max_nodes`) and the replay
+/// reports it: no walk enters more than N nodes, walks were cut and points left on an old
+/// state on the demo's drill path (its walks need thousands of nodes); with separate bounds
+/// (`--tick-budget 0`) the drill removes what the unbounded walk's replay removes; a bound that
+/// is not a count is refused with the flag named.
+#[test]
+fn a_bounded_shaft_walk_is_reported_and_leaves_the_drill_alone() {
+    use tetradrill_tests::refused;
+    let dir = scratch_dir("shaft", "bounded");
+    let run = |nodes: &str| {
+        let json = dir.join(format!("bound-{nodes}.json"));
+        tetradrill_tests::run_ok([
+            "replay",
+            "--quiet",
+            "--scenario",
+            "builtin:demo",
+            "--tool",
+            "drill:0.1:0.6:0.03",
+            "--tick-budget",
+            "0",
+            "--shaft-nodes",
+            nodes,
+            "--json",
+            json.to_str().expect("a UTF-8 path"),
+        ]);
+        tetradrill_tests::read_json(&json)
+    };
+    let (free, bound) = (run("0"), run("256"));
+    let s = &bound["shaft"];
+    assert_eq!(s["nodes_bound"], 256, "{s}");
+    assert!(s["nodes_max"].as_u64().expect("nodes") <= 256, "{s}");
+    assert!(
+        free["shaft"]["nodes_max"].as_u64().expect("nodes") > 1_000,
+        "{}",
+        free["shaft"]
+    );
+    assert!(s["cut_ticks"].as_u64().expect("cuts") > 100, "{s}");
+    assert!(s["stale_points"].as_u64().expect("stale") > 0, "{s}");
+    assert_eq!(free["shaft"]["cut_ticks"], 0);
+    assert_eq!(free["shaft"]["stale_points"], 0);
+    assert_eq!(bound["removed_volume"], free["removed_volume"]);
+    assert_ne!(bound["force_digest"], free["force_digest"]);
+    refused(&["replay", "--shaft-nodes", "-1"], &["--shaft-nodes"]);
+}
+
 #[test]
 fn a_drill_replay_reports_its_shaft() {
     let dir = scratch_dir("shaft", "json");
@@ -319,7 +364,8 @@ fn a_drill_replay_reports_its_shaft() {
 /// `78d4e7b2609e5c19`): a burr of 0.03 on a 0.3 shaft plunged into the teddy's head
 /// and swept to and fro across it (the path of `scripts/clinical-drill.sh --moving`, the
 /// shaft near the surface on about 1,200 ticks), every tet to the default depth
-/// (`--resolution 0`, as the golden replay drilled).
+/// (`--resolution 0`, as the golden replay drilled), the walk unbounded (`--shaft-nodes 0`,
+/// as the golden replay walked; the bound is `shaft_bound.rs`'s).
 #[test]
 fn the_shaft_points_share_one_walk_and_answer_as_each_points_own() {
     const TEDDY: &str = "models/teddy_cgalbear_tetgen_q1.414.node";
@@ -369,6 +415,8 @@ fn the_shaft_points_share_one_walk_and_answer_as_each_points_own() {
         "--tool",
         "drill:0.03:0.3:0.012",
         "--resolution",
+        "0",
+        "--shaft-nodes",
         "0",
         "--json",
         json.to_str().expect("a UTF-8 path"),

@@ -141,6 +141,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     let mut shaft = ShaftState::default();
     let mut shaft_sum = params.shaft.map(|d| ShaftSummary {
         passive_points: d.passive_count(),
+        nodes_bound: world.shaft_max_nodes().unwrap_or(0),
         ..ShaftSummary::default()
     });
     let mut digest = ForceDigest::new();
@@ -160,6 +161,10 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
             s.near_ticks += u64::from(shaft.last.near > 0);
             s.held_ticks += u64::from(shaft.last.held > 0);
             s.held_max = s.held_max.max(shaft.last.held);
+            s.nodes_max = s.nodes_max.max(shaft.last.nodes);
+            s.nodes_total += u64::from(shaft.last.nodes);
+            s.cut_ticks += u64::from(shaft.last.cut);
+            s.stale_points += u64::from(shaft.last.stale);
         }
         times[i as usize] = ns;
         digest.push(f);
@@ -393,6 +398,21 @@ fn print_summary(r: &ReplayReport) {
         r.visible_faces,
         r.components
     );
+    if let Some(s) = &r.shaft {
+        let bound = match s.nodes_bound {
+            0 => "unbounded".to_owned(),
+            b => format!("at most {b} nodes a tick, cut on {} ticks", s.cut_ticks),
+        };
+        outln!(
+            "shaft: {} passive points, a point within reach {} ticks, held {} ticks; walk {bound} \
+             (largest {}), {} point-ticks on an earlier tick's state",
+            s.passive_points,
+            s.near_ticks,
+            s.held_ticks,
+            s.nodes_max,
+            s.stale_points
+        );
+    }
     if r.debris_erased.pieces > 0 {
         outln!(
             "debris erased: {} piece(s) ({} by the final sweep), {} leaves, volume {:.3e} (in the \

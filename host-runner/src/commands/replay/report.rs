@@ -262,6 +262,16 @@ pub struct ShaftSummary {
     pub held_ticks: u64,
     /// Most passive points held in one tick.
     pub held_max: u32,
+    /// The bound on the shaft's walk, hierarchy nodes a tick (`--shaft-nodes`; 0: none).
+    pub nodes_bound: u32,
+    /// Most hierarchy nodes the shaft's walk entered in one tick.
+    pub nodes_max: u32,
+    /// Hierarchy nodes the shaft's walk entered, summed over the ticks.
+    pub nodes_total: u64,
+    /// Ticks whose walk was cut at the bound (its points kept their last state).
+    pub cut_ticks: u64,
+    /// Passive points left with an earlier tick's state, summed over the ticks.
+    pub stale_points: u64,
 }
 
 /// The debris a replay erased ([`tetradrill_core::hierarchy::CrumbStats`] while drilling,
