@@ -178,6 +178,11 @@ typedef struct td_params {
   // the default) up to the servo's Nyquist frequency, `0.5 / dt` (500 at 1 kHz). Its
   // amplitude is each region's `vibration` (`td_world_set_region_feel`).
   float vibration_hz;
+  // Hierarchy nodes a drill world's shaft walk may enter a step (the scenario key
+  // `shaft_nodes`; its points left on their last state when a walk is cut, and under
+  // `tick_budget` its 6 units a node taken from the budget first); 0 (the default):
+  // unbounded. A burr world leaves it 0.
+  uint32_t shaft_nodes;
 } td_params;
 
 // A point or a force: three floats.

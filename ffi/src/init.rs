@@ -227,6 +227,7 @@ pub(crate) unsafe fn init(
     world.set_contact_max_nodes(p.contact_search_nodes);
     world.set_max_cells(p.max_cells);
     world.set_tick_budget((p.tick_budget > 0).then_some(p.tick_budget));
+    world.set_shaft_max_nodes((p.shaft_nodes > 0).then_some(p.shaft_nodes));
     world.set_vibration_hz(p.vibration_hz);
     world.set_zone_gather(
         (p.zone_gather_work > 0).then(|| ZoneGather::new(p.zone_gather_work, ZONE_MARGIN_RADII)),

@@ -337,6 +337,7 @@ mod tests {
             servo_lag: 0,
             zone_gather_work: 0,
             vibration_hz: 0.0,
+            shaft_nodes: 0,
         }
     }
 

@@ -281,6 +281,7 @@ pub unsafe extern "C" fn td_params_default(
         servo_lag: 0,
         zone_gather_work: 0,
         vibration_hz: 0.0,
+        shaft_nodes: 0,
     };
     // SAFETY: the caller's contract on `out`; `put` checks null and alignment.
     status(|| unsafe { put(out, p) })

@@ -168,6 +168,11 @@ pub struct TdParams {
     /// the default) up to the servo's Nyquist frequency, `0.5 / dt` (500 at 1 kHz). Its
     /// amplitude is each region's `vibration` (`td_world_set_region_feel`).
     pub vibration_hz: f32,
+    /// Hierarchy nodes a drill world's shaft walk may enter a step (the scenario key
+    /// `shaft_nodes`; its points left on their last state when a walk is cut, and under
+    /// `tick_budget` its 6 units a node taken from the budget first); 0 (the default):
+    /// unbounded. A burr world leaves it 0.
+    pub shaft_nodes: u32,
 }
 
 /// A point or a force: three floats.

@@ -301,6 +301,23 @@ fn a_drill_on_the_demo_path_gives_the_hosts_digest() {
     assert_eq!(c.servo.servo_ticks, 6001);
 }
 
+/// The shaft's walk bounded (`td_params.shaft_nodes`, the host's `--shaft-nodes`): the C world
+/// is still the host's bit for bit, and the bound changes the demo's run (its walks need far
+/// more nodes than the bound).
+#[test]
+fn a_bounded_shaft_walk_gives_the_hosts_digest() {
+    let mut sc = builtin("demo");
+    sc.tool = "drill:0.1:0.6:0.03".parse().expect("a drill tool");
+    let free = host_drill(&sc);
+    sc.drilling.shaft_nodes = 768;
+    let host = host_drill(&sc);
+    assert_ne!(host.digest, free.digest, "the bound never bit");
+    let c = c_drill(&sc, 8, Some((0.6, 0.03)), &host.poses, Ticks::Positions);
+    assert_eq!(c.servo.force_digest, host.digest);
+    assert_eq!(c.counters.removed_volume, host.removed);
+    assert_eq!(c.shaft, host.shaft);
+}
+
 /// A sphere's world through the pose calls: the sphere's own step and force (the rotation
 /// unused) and no torque.
 #[test]

@@ -98,6 +98,7 @@ pub fn params_of_mesh(sc: &Setup) -> TdParams {
         servo_lag: 0,
         zone_gather_work: 0,
         vibration_hz: 0.0,
+        shaft_nodes: 0,
     };
     // SAFETY: `p` is a valid, aligned TdParams.
     assert_eq!(
@@ -110,6 +111,10 @@ pub fn params_of_mesh(sc: &Setup) -> TdParams {
     p.max_cells = max_cells;
     p.contact_search_nodes = sc.drilling.contact_search_nodes;
     p.tick_budget = sc.drilling.tick_budget;
+    // The host bounds a drill tool's shaft walk only.
+    if matches!(sc.tool, tetradrill::setup::Tool::Drill { .. }) {
+        p.shaft_nodes = sc.drilling.shaft_nodes;
+    }
     p.max_depth = u32::from(tick.drill.max_depth);
     p.budget_per_tick = tick.drill.budget;
     p.radius = tick.radius;
