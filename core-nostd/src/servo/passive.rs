@@ -286,12 +286,14 @@ impl World<'_> {
     ///
     /// With a shaft bound ([`World::set_shaft_max_nodes`]) the walk is for the group of
     /// points `walk` names (all of them at first) and enters at most that many nodes. Walked
-    /// whole, its points answer as above and the next group follows it, twice as large; cut
-    /// at the bound, its points keep the state of the last step they were tracked in (their
-    /// proxies where they were then, so the next walk tests the whole way since) and the next
-    /// group is half as large (one point alone: the next one). A point held and still behind
-    /// its face is tracked whatever the group. So a step's walk is bounded and every point is
-    /// tracked again within a few steps unless one point alone needs more than the bound.
+    /// whole, its points answer as above and the next group follows it, twice as large when
+    /// the walk took at most half the bound, as large otherwise; cut at the bound, its points
+    /// keep the state of the last step they were tracked in (their proxies where they were
+    /// then, so the next walk tests the whole way since) and the next group is half as large
+    /// (one point alone: the next one). A point held and still behind its face is tracked
+    /// whatever the group. So a step's walk is bounded, and every point is tracked again
+    /// within a few steps unless one point alone needs more than the bound (its way from its
+    /// proxy grows while it waits).
     ///
     /// # Bounded work
     /// O(candidates + hierarchy nodes holding surface that a point may need, times the points
