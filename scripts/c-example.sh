@@ -144,7 +144,9 @@ compare_pen() {
   host_pen="$(sed -n '/"pen": *{/,/^  }/p' "$work/replay.json")"
   while IFS='=' read -r key value; do
     key="${key#pen.}"
-    if ! echo "$host_pen" | grep -q "^ *\"$key\": *$value,\{0,1\}\$"; then
+    # A here-string, not a pipe: `grep -q` stops at its match, and under pipefail the echo
+    # it leaves writing would fail the check now and then (SIGPIPE).
+    if ! grep -q "^ *\"$key\": *$value,\{0,1\}\$" <<<"$host_pen"; then
       echo "c-example: FAIL: the pen's $key differs: C $value, host $(echo "$host_pen" |
         sed -n "s/^ *\"$key\": *\([^,]*\),\{0,1\}\$/\1/p")" >&2
       exit 1
