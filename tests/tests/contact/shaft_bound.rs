@@ -7,7 +7,8 @@
 use tetradrill_core::drill::DrillParams;
 use tetradrill_core::force::{DrillTool, MAX_PASSIVE};
 use tetradrill_core::servo::{
-    DrillState, ShaftWalk, WorldSizes, CONTACT_MAX_NODES, CONTACT_NODE_UNITS, SHAFT_NODE_UNITS,
+    DrillState, ShaftWalk, World, WorldSizes, CONTACT_MAX_NODES, CONTACT_NODE_UNITS,
+    SHAFT_NODE_UNITS,
 };
 use tetradrill_tests::search::{block_mesh, Store};
 
@@ -72,9 +73,9 @@ struct Run {
     longest: u32,
 }
 
-/// The shaft along the wandering path through the drilled block with its walk bounded to
-/// `bound` nodes, each step checked against the unbounded walk from the same state.
-fn bounded_run(bound: u32) -> Run {
+/// `f` over a world on the block of 3,072 tets, its candidate storage and hash cell bound
+/// never limiting the shaft's lists.
+fn on_block<R>(f: impl FnOnce(&mut World<'_>) -> R) -> R {
     let mut om = block_mesh(8);
     let mesh = om.view();
     let mut st = Store::sized(WorldSizes {
@@ -83,62 +84,70 @@ fn bounded_run(bound: u32) -> Run {
     });
     let mut w = st.world(mesh);
     w.set_max_cells(1 << 20);
-    let params = DrillParams {
-        max_depth: 4,
-        min_area: 0.0,
-        budget: 2_000,
-    };
-    let mut state = DrillState::default();
-    let mut waited = [0u32; MAX_PASSIVE];
-    let mut r = Run {
-        most: 0,
-        cuts: 0,
-        parts: 0,
-        stale: 0,
-        longest: 0,
-    };
-    for (i, &(c, a)) in wandering_shaft(600, 23).iter().enumerate() {
-        w.simulate(c, TOOL.burr_radius, REACH, i % 3 == 0, &params);
-        // The unbounded walk from the same state: the reference.
-        let mut want = state;
-        w.set_shaft_max_nodes(None);
-        let (free, _) = w.track_shaft(&TOOL, c, a, REACH, &mut want);
-        assert!(!free.cut && free.stale == 0, "step {i}: {free:?}");
-        r.most = r.most.max(free.nodes);
-        // The bounded walk from the same state.
-        let before = state;
-        w.set_shaft_max_nodes(Some(bound));
-        let (rep, _) = w.track_shaft(&TOOL, c, a, REACH, &mut state);
-        assert!(rep.nodes <= bound, "step {i}: {rep:?}");
-        let n = state.count;
-        let g = group(before.walk, n);
-        let mut left = 0u32;
-        for k in 0..n {
-            let p = state.positions[k];
-            let still_held = before.points[k]
-                .held
-                .is_some_and(|(q, nrm)| (p - q).dot(nrm) < 0.0);
-            let needs = !still_held && p.is_finite();
-            if !needs || (g[k] && !rep.cut) {
-                assert_eq!(state.points[k], want.points[k], "step {i}, point {k}");
-                waited[k] = 0;
-            } else {
-                assert_eq!(state.points[k], before.points[k], "step {i}, point {k}");
-                left += 1;
-                if state.points[k] != want.points[k] {
-                    waited[k] += 1;
-                    r.longest = r.longest.max(waited[k]);
+    f(&mut w)
+}
+
+/// The shaft along the wandering path through the drilled block with its walk bounded to
+/// `bound` nodes, each step checked against the unbounded walk from the same state.
+fn bounded_run(bound: u32) -> Run {
+    on_block(|w| {
+        let params = DrillParams {
+            max_depth: 4,
+            min_area: 0.0,
+            budget: 2_000,
+        };
+        let mut state = DrillState::default();
+        let mut waited = [0u32; MAX_PASSIVE];
+        let mut r = Run {
+            most: 0,
+            cuts: 0,
+            parts: 0,
+            stale: 0,
+            longest: 0,
+        };
+        for (i, &(c, a)) in wandering_shaft(600, 23).iter().enumerate() {
+            w.simulate(c, TOOL.burr_radius, REACH, i % 3 == 0, &params);
+            // The unbounded walk from the same state: the reference.
+            let mut want = state;
+            w.set_shaft_max_nodes(None);
+            let (free, _) = w.track_shaft(&TOOL, c, a, REACH, &mut want);
+            assert!(!free.cut && free.stale == 0, "step {i}: {free:?}");
+            r.most = r.most.max(free.nodes);
+            // The bounded walk from the same state.
+            let before = state;
+            w.set_shaft_max_nodes(Some(bound));
+            let (rep, _) = w.track_shaft(&TOOL, c, a, REACH, &mut state);
+            assert!(rep.nodes <= bound, "step {i}: {rep:?}");
+            let n = state.count;
+            let g = group(before.walk, n);
+            let mut left = 0u32;
+            for k in 0..n {
+                let p = state.positions[k];
+                let still_held = before.points[k]
+                    .held
+                    .is_some_and(|(q, nrm)| (p - q).dot(nrm) < 0.0);
+                let needs = !still_held && p.is_finite();
+                if !needs || (g[k] && !rep.cut) {
+                    assert_eq!(state.points[k], want.points[k], "step {i}, point {k}");
+                    waited[k] = 0;
+                } else {
+                    assert_eq!(state.points[k], before.points[k], "step {i}, point {k}");
+                    left += 1;
+                    if state.points[k] != want.points[k] {
+                        waited[k] += 1;
+                        r.longest = r.longest.max(waited[k]);
+                    }
                 }
             }
+            assert_eq!(rep.stale, left, "step {i}");
+            let next = after(before.walk, n, rep.cut, rep.nodes, bound);
+            assert_eq!(state.walk, next, "step {i}");
+            r.cuts += u32::from(rep.cut);
+            r.parts += u32::from(!rep.cut && g.iter().any(|x| !x));
+            r.stale += left;
         }
-        assert_eq!(rep.stale, left, "step {i}");
-        let next = after(before.walk, n, rep.cut, rep.nodes, bound);
-        assert_eq!(state.walk, next, "step {i}");
-        r.cuts += u32::from(rep.cut);
-        r.parts += u32::from(!rep.cut && g.iter().any(|x| !x));
-        r.stale += left;
-    }
-    r
+        r
+    })
 }
 
 /// Tight, the bound cuts most busy steps, and every step keeps the contract: at most the
@@ -186,25 +195,20 @@ fn under_a_tick_budget_the_shaft_is_paid_first() {
     let left = BUDGET - BOUND * SHAFT_NODE_UNITS;
     let path = wandering_shaft(300, 5);
     let run = |budget: Option<u32>, shaft: Option<u32>| {
-        let mut om = block_mesh(8);
-        let mesh = om.view();
-        let mut st = Store::sized(WorldSizes {
-            candidates: 1 << 15,
-            ..WorldSizes::new(mesh.tet_count(), 1 << 17)
-        });
-        let mut w = st.world(mesh);
-        w.set_max_cells(1 << 20);
-        w.set_tick_budget(budget);
-        w.set_shaft_max_nodes(shaft);
-        assert_eq!(w.shaft_max_nodes(), shaft);
-        let mut state = DrillState::default();
-        let mut steps = Vec::new();
-        for (i, &(c, a)) in path.iter().enumerate() {
-            let (rep, prep) = w.simulate_drill(&TOOL, c, a, REACH, i % 3 == 0, &params, &mut state);
-            assert!(prep.nodes <= shaft.unwrap_or(u32::MAX), "step {i}");
-            steps.push((rep, *w.contact(), prep.cut));
-        }
-        steps
+        on_block(|w| {
+            w.set_tick_budget(budget);
+            w.set_shaft_max_nodes(shaft);
+            assert_eq!(w.shaft_max_nodes(), shaft);
+            let mut state = DrillState::default();
+            let mut steps = Vec::new();
+            for (i, &(c, a)) in path.iter().enumerate() {
+                let (rep, prep) =
+                    w.simulate_drill(&TOOL, c, a, REACH, i % 3 == 0, &params, &mut state);
+                assert!(prep.nodes <= shaft.unwrap_or(u32::MAX), "step {i}");
+                steps.push((rep, *w.contact(), prep.cut));
+            }
+            steps
+        })
     };
     let plain = run(None, None);
     let bounded = run(None, Some(BOUND));
