@@ -57,6 +57,25 @@ impl DrillTool {
         self.burr_radius + (self.shaft_length - self.burr_radius) * t
     }
 
+    /// The reach of the shaft's points for the burr's `burr_reach`: the same share of the
+    /// shaft's radius as `burr_reach` is of the burr's (0 when either is not positive and
+    /// finite). A face within `shaft_radius + shaft_reach` of a point gives it a plane before
+    /// it touches; a face farther off gives none until the point is nearer, at most one step
+    /// later, and a face the point crosses holds it whatever the reach. The walk for the
+    /// points costs about the square of `shaft_radius + shaft_reach`: with the burr's reach
+    /// instead, a thin shaft in a wide hole met the hole's walls at every step.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn shaft_reach(&self, burr_reach: f32) -> f32 {
+        let r = burr_reach / self.burr_radius * self.shaft_radius;
+        if r.is_finite() && r > 0.0 {
+            r
+        } else {
+            0.0
+        }
+    }
+
     /// The tool's axis (burr to handle) for a rotation: the rotated +z, unit (+z for a
     /// rotation that is not finite or not unit).
     ///
@@ -103,6 +122,26 @@ impl DrillTool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_shafts_reach_is_the_burrs_share_of_its_radius() {
+        let t = DrillTool {
+            burr_radius: 0.1,
+            shaft_length: 0.6,
+            shaft_radius: 0.03,
+        };
+        // Half the burr's radius for the burr: half the shaft's for the shaft.
+        assert!((t.shaft_reach(0.05) - 0.015).abs() < 1e-7);
+        assert_eq!(t.shaft_reach(0.0), 0.0);
+        assert_eq!(t.shaft_reach(-0.05), 0.0);
+        assert_eq!(t.shaft_reach(f32::NAN), 0.0);
+        assert_eq!(t.shaft_reach(f32::INFINITY), 0.0);
+        let flat = DrillTool {
+            burr_radius: 0.0,
+            ..t
+        };
+        assert_eq!(flat.shaft_reach(0.05), 0.0);
+    }
 
     #[test]
     fn passive_points_span_the_shaft_at_most_a_radius_apart() {

@@ -126,7 +126,8 @@ impl World<'_> {
     /// One simulation step for a drill: the burr exactly as [`World::simulate`] (it alone is
     /// drilled), then the candidate list refilled with the tets near the shaft's points and
     /// their proxies (`World::shaft_candidates`), then the shaft's passive points at
-    /// `centre + axis * offset` tracked by `World::track_passive`.
+    /// `centre + axis * offset` tracked by `World::track_passive`. `reach` is the burr's; the
+    /// shaft's points get [`DrillTool::shaft_reach`] of it.
     ///
     /// # Bounded work
     /// [`World::simulate`]'s bound, the shaft's zone queries (at most one a point, each at
@@ -144,7 +145,8 @@ impl World<'_> {
         state: &mut DrillState,
     ) -> (SimReport, PassiveReport) {
         let mut rep = self.simulate(centre, tool.burr_radius, reach, drill_on, params);
-        let (prep, saturated) = self.track_shaft(tool, centre, axis, reach, state);
+        let shaft_reach = tool.shaft_reach(reach);
+        let (prep, saturated) = self.track_shaft(tool, centre, axis, shaft_reach, state);
         rep.candidates_saturated |= saturated;
         (rep, prep)
     }
@@ -153,8 +155,9 @@ impl World<'_> {
     /// some other way (a real-time task's swept spheres, [`World::simulate_spheres`]): the
     /// tets near each passive point of `tool` (burr at `centre`, shaft along the unit `axis`)
     /// and near its proxy (`World::shaft_candidates`), then the points tracked against them
-    /// (`World::track_passive`). Returns the tracking's report and whether the candidate
-    /// storage saturated. Passive points never erode.
+    /// (`World::track_passive`). `reach` is the shaft's own ([`DrillTool::shaft_reach`] of
+    /// the burr's, as [`World::simulate_drill`] passes it). Returns the tracking's report and
+    /// whether the candidate storage saturated. Passive points never erode.
     ///
     /// # Bounded work
     /// At most one zone query per point (each at most [`World::max_cells`] cells; together

@@ -232,10 +232,12 @@ impl ToolSizing {
             } => {
                 // The burr as a sphere; each of the shaft's passive points lists the tets
                 // near it and its proxy (`World::track_shaft`): a box `2 (shaft radius +
-                // reach)` a side, grown by a burr radius of the proxy's travel, for at most
-                // `MAX_PASSIVE` points, in the first third of the storage with a gather.
+                // its reach)` a side (the reach half the shaft's radius, as the burr's is
+                // half the burr's: `DrillTool::shaft_reach`), grown by a burr radius of the
+                // proxy's travel, for at most `MAX_PASSIVE` points, in the first third of the
+                // storage with a gather.
                 let z = Self::of(mesh, burr, max_depth);
-                let side = 2.0 * (shaft_radius + 0.5 * burr) + burr;
+                let side = 3.0 * shaft_radius + burr;
                 let e = z.boundary_edge;
                 let per_point = if z.boundary_volume > 0.0 {
                     1.5 * (side + 2.0 * e).powi(3) / z.boundary_volume

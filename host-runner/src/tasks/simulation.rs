@@ -192,7 +192,7 @@ pub fn simulation_task_soft(
                 &link.tool,
                 tool.position,
                 axis,
-                params.reach,
+                link.tool.shaft_reach(params.reach),
                 &mut link.state,
             );
             link.out.write(DrillContact {
