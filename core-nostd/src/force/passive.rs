@@ -94,6 +94,15 @@ impl PassiveProbe {
         (b.min.is_finite() && b.max.is_finite()).then_some(b)
     }
 
+    /// The key of the nearest face within reach offered so far, else of the face the way
+    /// enters first.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub(crate) fn nearest_face(&self) -> Option<FaceKey> {
+        self.near.map(|m| m.3).or(self.hit.map(|h| h.3))
+    }
+
     /// Triangles offered so far.
     ///
     /// # Bounded work

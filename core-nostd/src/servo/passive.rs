@@ -11,6 +11,7 @@ use crate::force::{
     PassiveProbe, ToolState, Walked, MAX_PASSIVE,
 };
 use crate::hash::{cells_in, Aabb, Cell};
+use crate::hierarchy::FaceRef;
 use crate::ids::TetId;
 
 /// What one `World::track_passive` did.
@@ -99,6 +100,10 @@ pub struct DrillState {
     pub count: usize,
     /// The points the next bounded walk takes ([`World::set_shaft_max_nodes`]).
     pub walk: ShaftWalk,
+    /// Each point's nearest face within reach at the step it was last tracked (else the face
+    /// it crossed): the next walk for it starts with that face, if still visible, as its
+    /// nearest so far (`World::track_passive`).
+    pub nearest: [Option<FaceRef>; MAX_PASSIVE],
 }
 
 impl Default for DrillState {
@@ -108,6 +113,7 @@ impl Default for DrillState {
             positions: [Vec3::ZERO; MAX_PASSIVE],
             count: 0,
             walk: ShaftWalk::default(),
+            nearest: [None; MAX_PASSIVE],
         }
     }
 }
@@ -191,6 +197,7 @@ impl World<'_> {
             reach,
             &mut state.points,
             &mut state.walk,
+            &mut state.nearest,
         );
         (prep, saturated)
     }
@@ -284,8 +291,11 @@ impl World<'_> {
     /// trees walked once for all the points, a point going into a node while its bounding
     /// sphere meets the segment from the point's proxy to its position or comes within the
     /// closest face found so far, at first `radius + reach`); a point held at a face and
-    /// still behind it needs none. Each point answers as if offered every face of those
-    /// trees. Passive points never erode.
+    /// still behind it needs none. A point's walk starts from its face in `nearest` (its
+    /// nearest face at the step it was last tracked), offered first if still visible, so
+    /// the walk goes only where a face may be nearer still; `nearest` then holds the new
+    /// nearest face of each point walked. Each point answers as if offered every face of
+    /// those trees. Passive points never erode.
     ///
     /// With a shaft bound ([`World::set_shaft_max_nodes`]) the walk is for the group of
     /// points `walk` names (all of them at first) and enters at most that many nodes. Walked
@@ -300,8 +310,9 @@ impl World<'_> {
     ///
     /// # Bounded work
     /// O(candidates + hierarchy nodes holding surface that a point may need, times the points
-    /// that may need each), at most [`MAX_PASSIVE`] points; with a shaft bound, at most that
-    /// many nodes entered (one root check per candidate tree besides).
+    /// that may need each), at most [`MAX_PASSIVE`] points, and one O(depth) look-up of each
+    /// walked point's last nearest face; with a shaft bound, at most that many nodes entered
+    /// (one root check per candidate tree besides).
     pub(crate) fn track_passive(
         &self,
         positions: &[Vec3],
@@ -309,6 +320,7 @@ impl World<'_> {
         reach: f32,
         points: &mut [PassivePoint],
         walk: &mut ShaftWalk,
+        nearest: &mut [Option<FaceRef>; MAX_PASSIVE],
     ) -> PassiveReport {
         let mut rep = PassiveReport::default();
         let reach = radius
@@ -318,24 +330,36 @@ impl World<'_> {
                 0.0
             };
         let n = positions.len().min(points.len()).min(MAX_PASSIVE);
-        let mut probes = [None; MAX_PASSIVE];
-        let mut want = 0u32;
-        for (k, (probe, (pt, &p))) in probes
-            .iter_mut()
-            .zip(points.iter().zip(positions))
-            .take(n)
-            .enumerate()
-        {
-            let still_held = pt.held.is_some_and(|(q, n)| (p - q).dot(n) < 0.0);
-            if !still_held && p.is_finite() {
-                want |= 1 << k;
-            }
-            *probe = Some(PassiveProbe::new(pt, p, reach));
-        }
         let group = match self.shaft_max_nodes {
             Some(_) => walk.group(n),
             None => u32::MAX,
         };
+        let mut probes = [None; MAX_PASSIVE];
+        let mut want = 0u32;
+        for (k, (probe, ((pt, &p), seed))) in probes
+            .iter_mut()
+            .zip(points.iter().zip(positions).zip(nearest.iter()))
+            .take(n)
+            .enumerate()
+        {
+            let still_held = pt.held.is_some_and(|(q, n)| (p - q).dot(n) < 0.0);
+            let mut probe_k = PassiveProbe::new(pt, p, reach);
+            if !still_held && p.is_finite() {
+                want |= 1 << k;
+                // The face nearest at the last step, still visible, offered first: the walk
+                // then goes only where a face may be nearer still. Offered again by the walk,
+                // it changes nothing (the same distance and key), so the answer is the walk's
+                // alone, whatever the seed.
+                if let Some(tri) = seed
+                    .filter(|_| group & (1 << k) != 0)
+                    .and_then(|key| self.hier.visible_face_distance2(&self.mesh, key, p))
+                    .map(|(_, tri)| tri)
+                {
+                    probe_k.offer(tri.corners, (tri.tet.0, tri.index, tri.face));
+                }
+            }
+            *probe = Some(probe_k);
+        }
         let walked = if want & group != 0 {
             let bound = self.shaft_max_nodes.unwrap_or(u32::MAX);
             // A group short of the points that need the walk goes only into the trees that
@@ -373,13 +397,26 @@ impl World<'_> {
         let tracked = !want | if walked.cut { 0 } else { group };
         rep.nodes = walked.nodes;
         rep.cut = walked.cut;
-        for (k, (pt, probe)) in points.iter_mut().zip(&probes).take(n).enumerate() {
+        for (k, ((pt, probe), seed)) in points
+            .iter_mut()
+            .zip(&probes)
+            .zip(nearest.iter_mut())
+            .take(n)
+            .enumerate()
+        {
             let Some(probe) = probe else { continue };
             rep.points += 1;
             if tracked & (1 << k) == 0 {
                 rep.stale += 1;
             } else {
                 rep.triangles = rep.triangles.wrapping_add(probe.triangles());
+                if want & (1 << k) != 0 {
+                    *seed = probe.nearest_face().map(|(tet, index, face)| FaceRef {
+                        tet: TetId(tet),
+                        index,
+                        face,
+                    });
+                }
                 probe.finish(pt);
             }
             rep.held += pt.is_held() as u32;
