@@ -13,6 +13,7 @@ mod pen_pair;
 mod pen_pipeline;
 mod pen_reference;
 mod shaft_bound;
+mod shaft_seed;
 mod shaft_zones;
 mod zone_gather;
 mod zone_memo;

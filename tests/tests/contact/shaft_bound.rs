@@ -75,7 +75,7 @@ struct Run {
 
 /// `f` over a world on the block of 3,072 tets, its candidate storage and hash cell bound
 /// never limiting the shaft's lists.
-fn on_block<R>(f: impl FnOnce(&mut World<'_>) -> R) -> R {
+pub(crate) fn on_block<R>(f: impl FnOnce(&mut World<'_>) -> R) -> R {
     let mut om = block_mesh(8);
     let mesh = om.view();
     let mut st = Store::sized(WorldSizes {
