@@ -498,7 +498,12 @@ fn feel_spin_and_cutting_calls_get_their_status() {
             td_world_set_region_feel(ptr::null_mut(), 0, 0.0, 0.0, 0.0),
             TdStatus::TdErrNull
         );
-        let mut junk = [0u64; 64];
+        // Memory no init set up, aligned as a servo's part is (a cache line): the calls must
+        // say NotInit, not Align, wherever the stack puts it.
+        #[repr(C, align(64))]
+        struct Junk([u64; 64]);
+        let mut junk = Junk([0; 64]);
+        let junk = &mut junk.0;
         assert_eq!(
             td_world_set_region_feel(junk.as_mut_ptr().cast(), 0, 0.0, 0.0, 0.0),
             TdStatus::TdErrNotInit
