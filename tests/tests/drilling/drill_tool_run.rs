@@ -127,7 +127,10 @@ fn a_shaft_pressed_sideways_in_a_run_touches_pushes_back_and_removes_nothing() {
     );
     let [x, y, z] = last_row(&rec);
     let behind = DeviceSpec::SIM.max_force_n / sim.hand_stiffness_n_per_m;
-    assert!((x - (0.45 + behind)).abs() < 2e-3, "stylus at x = {x}");
+    assert!(
+        (x - (0.45 + behind)).abs() < 2e-3,
+        "stylus at x = {x}: {s}, force max {max_n}"
+    );
     assert!(
         y.abs() < 1e-6 && (z + 0.75).abs() < 2e-3,
         "stylus at {y}, {z}"
