@@ -14,8 +14,8 @@ use tetradrill_tests::search::{block_mesh, Store};
 
 use super::shaft_zones::wandering_shaft;
 
-const REACH: f32 = 0.02;
-const TOOL: DrillTool = DrillTool {
+pub(crate) const REACH: f32 = 0.02;
+pub(crate) const TOOL: DrillTool = DrillTool {
     burr_radius: 0.05,
     shaft_length: 0.9,
     shaft_radius: 0.04,
@@ -87,15 +87,19 @@ pub(crate) fn on_block<R>(f: impl FnOnce(&mut World<'_>) -> R) -> R {
     f(&mut w)
 }
 
+/// The burr's drilling along the wandering path: the block to depth 4, a step's budget of
+/// 2,000 units.
+pub(crate) const WANDER_DRILL: DrillParams = DrillParams {
+    max_depth: 4,
+    min_area: 0.0,
+    budget: 2_000,
+};
+
 /// The shaft along the wandering path through the drilled block with its walk bounded to
 /// `bound` nodes, each step checked against the unbounded walk from the same state.
 fn bounded_run(bound: u32) -> Run {
     on_block(|w| {
-        let params = DrillParams {
-            max_depth: 4,
-            min_area: 0.0,
-            budget: 2_000,
-        };
+        let params = WANDER_DRILL;
         let mut state = DrillState::default();
         let mut waited = [0u32; MAX_PASSIVE];
         let mut r = Run {

@@ -6,32 +6,19 @@
 //!
 //! Oracle: the same step from the same state with every seed cleared, the walk that
 //! `force/passive_tests.rs` checks against every visible face.
-use tetradrill_core::drill::DrillParams;
-use tetradrill_core::force::{DrillTool, MAX_PASSIVE};
+use tetradrill_core::force::MAX_PASSIVE;
 use tetradrill_core::servo::DrillState;
 
-use super::shaft_bound::on_block;
+use super::shaft_bound::{on_block, REACH, TOOL, WANDER_DRILL};
 use super::shaft_zones::wandering_shaft;
-
-const REACH: f32 = 0.02;
-const TOOL: DrillTool = DrillTool {
-    burr_radius: 0.05,
-    shaft_length: 0.9,
-    shaft_radius: 0.04,
-};
 
 #[test]
 fn a_seeded_walk_answers_as_the_seedless_one_and_enters_no_more_nodes() {
     on_block(|w| {
-        let params = DrillParams {
-            max_depth: 4,
-            min_area: 0.0,
-            budget: 2_000,
-        };
         let mut state = DrillState::default();
         let (mut seeded_nodes, mut seedless_nodes, mut seeds_used) = (0u64, 0u64, 0u32);
         for (i, &(c, a)) in wandering_shaft(600, 29).iter().enumerate() {
-            w.simulate(c, TOOL.burr_radius, REACH, i % 3 == 0, &params);
+            w.simulate(c, TOOL.burr_radius, REACH, i % 3 == 0, &WANDER_DRILL);
             let mut seedless = DrillState {
                 nearest: [None; MAX_PASSIVE],
                 ..state
