@@ -21,8 +21,14 @@ const DRILL: &str = "drill:0.1:0.6:0.03";
 /// A trace on the unit block with the shaft turned: along +x (a quarter turn about y) with
 /// the burr plunging 0.03 under the top face, drilling along +x with the shaft lying on the
 /// face; tilted up 30 degrees while drilling on; turned back down onto the drilled face with
-/// the drill off; then on again.
+/// the drill off; then on again. Written once for the process: the tests run at once, and a
+/// file rewritten under another test's reader reads empty.
 fn trace() -> String {
+    static PATH: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    PATH.get_or_init(write_trace).clone()
+}
+
+fn write_trace() -> String {
     let dir = std::env::temp_dir().join(format!("tetradrill-ffi-drill-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("a scratch folder");
     let flat = "0.70710678,0,0.70710678,0";
