@@ -15,7 +15,7 @@ use super::response::clamp_force;
 use super::MAX_PASSIVE;
 use crate::geom::closest_point_on_triangle;
 use crate::hash::Aabb;
-use crate::hierarchy::{bounding_sphere, Hierarchy, SurfaceVisit, VisibleTri};
+use crate::hierarchy::{bounding_sphere, FaceRef, Hierarchy, SurfaceVisit, VisibleTri};
 use crate::ids::TetId;
 use crate::mesh::Mesh;
 
@@ -94,13 +94,26 @@ impl PassiveProbe {
         (b.min.is_finite() && b.max.is_finite()).then_some(b)
     }
 
-    /// The key of the nearest face within reach offered so far, else of the face the way
-    /// enters first.
+    /// The nearest face within reach offered so far, else the face the way enters first.
     ///
     /// # Bounded work
     /// Constant.
-    pub(crate) fn nearest_face(&self) -> Option<FaceKey> {
-        self.near.map(|m| m.3).or(self.hit.map(|h| h.3))
+    pub(crate) fn nearest_face(&self) -> Option<FaceRef> {
+        let (tet, index, face) = self.near.map(|m| m.3).or(self.hit.map(|h| h.3))?;
+        Some(FaceRef {
+            tet: TetId(tet),
+            index,
+            face,
+        })
+    }
+
+    /// [`PassiveProbe::offer`] for a visible face of the hierarchy, keyed by its place.
+    ///
+    /// # Bounded work
+    /// Constant.
+    #[inline]
+    pub(crate) fn offer_visible(&mut self, tri: &VisibleTri) {
+        self.offer(tri.corners, (tri.tet.0, tri.index, tri.face));
     }
 
     /// Triangles offered so far.
@@ -347,7 +360,7 @@ impl SurfaceVisit for Probes<'_> {
             let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;
             if let Some(Some(probe)) = self.probes.get_mut(k) {
-                probe.offer(tri.corners, (tri.tet.0, tri.index, tri.face));
+                probe.offer_visible(&tri);
             }
         }
     }

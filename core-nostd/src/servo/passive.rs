@@ -352,10 +352,9 @@ impl World<'_> {
                 // alone, whatever the seed.
                 if let Some(tri) = seed
                     .filter(|_| group & (1 << k) != 0)
-                    .and_then(|key| self.hier.visible_face_distance2(&self.mesh, key, p))
-                    .map(|(_, tri)| tri)
+                    .and_then(|key| self.hier.visible_face(&self.mesh, key))
                 {
-                    probe_k.offer(tri.corners, (tri.tet.0, tri.index, tri.face));
+                    probe_k.offer_visible(&tri);
                 }
             }
             *probe = Some(probe_k);
@@ -411,11 +410,7 @@ impl World<'_> {
             } else {
                 rep.triangles = rep.triangles.wrapping_add(probe.triangles());
                 if want & (1 << k) != 0 {
-                    *seed = probe.nearest_face().map(|(tet, index, face)| FaceRef {
-                        tet: TetId(tet),
-                        index,
-                        face,
-                    });
+                    *seed = probe.nearest_face();
                 }
                 probe.finish(pt);
             }

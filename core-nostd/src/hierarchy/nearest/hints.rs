@@ -73,18 +73,26 @@ impl Hierarchy<'_> {
         key: FaceRef,
         centre: Vec3,
     ) -> Option<(f32, VisibleTri)> {
+        let vt = self.visible_face(mesh, key)?;
+        let x = closest_point_on_triangle(centre, vt.corners);
+        Some(((centre - x).length_squared(), vt))
+    }
+
+    /// Visible face `key` with its corners, when that face is still visible on a non-erased
+    /// leaf.
+    ///
+    /// # Bounded work
+    /// O(depth).
+    pub(crate) fn visible_face(&self, mesh: &Mesh<'_>, key: FaceRef) -> Option<VisibleTri> {
         let node = self.visible_leaf(key)?;
         let path = Path::of_index(key.index)?;
         let p = node_positions(mesh, key.tet, &path);
-        let corners = face_corners(p, key.face, node.inverted());
-        let x = closest_point_on_triangle(centre, corners);
-        let vt = VisibleTri {
+        Some(VisibleTri {
             tet: key.tet,
             index: key.index,
             face: key.face,
-            corners,
-        };
-        Some(((centre - x).length_squared(), vt))
+            corners: face_corners(p, key.face, node.inverted()),
+        })
     }
 
     /// `true` when face `key` is still visible: its node is a non-erased leaf with that face
