@@ -180,8 +180,8 @@ typedef struct td_params {
   float vibration_hz;
   // Hierarchy nodes a drill world's shaft walk may enter a step (the scenario key
   // `shaft_nodes`; its points left on their last state when a walk is cut, and under
-  // `tick_budget` its 6 units a node taken from the budget first); 0 (the default):
-  // unbounded. A burr world leaves it 0.
+  // `tick_budget` at most what the step left of it, 6 units a node): 4,096 by default
+  // (`td_params_default`), 0 unbounded. A burr world does not use it.
   uint32_t shaft_nodes;
 } td_params;
 

@@ -78,7 +78,7 @@ use tetradrill_core::mesh::{BuildError, BuildOptions, FaceKey, Mesh, MeshStorage
 use tetradrill_core::script::{Script, DEMO, TOOTH_ACCESS};
 use tetradrill_core::servo::{
     ContactHandoff, Servo, World, WorldStorage, CONTACT_MAX_NODES, DEFAULT_MAX_CELLS,
-    DEFAULT_PENDING, DEFAULT_SPHERE_MEMO,
+    DEFAULT_PENDING, DEFAULT_SPHERE_MEMO, SHAFT_MAX_NODES,
 };
 use tetradrill_core::storage::{Block, Line};
 use tetradrill_core::{TetId, Vec3};
@@ -281,7 +281,7 @@ pub unsafe extern "C" fn td_params_default(
         servo_lag: 0,
         zone_gather_work: 0,
         vibration_hz: 0.0,
-        shaft_nodes: 0,
+        shaft_nodes: SHAFT_MAX_NODES,
     };
     // SAFETY: the caller's contract on `out`; `put` checks null and alignment.
     status(|| unsafe { put(out, p) })

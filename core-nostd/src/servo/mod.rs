@@ -252,6 +252,12 @@ pub struct World<'a> {
     /// The nodes a drill's shaft walk may enter a step, if bounded
     /// ([`World::set_shaft_max_nodes`]).
     shaft_max_nodes: Option<u32>,
+    /// The work units the last simulation step counted (its drill work and contact search):
+    /// under a tick budget the shaft's walk gets what they left ([`World::shaft_bound`]).
+    step_units: u32,
+    /// The nodes held for the next shaft walk under a tick budget, taken from the drill's
+    /// share of the next step ([`World::shaft_reserve`]).
+    shaft_reserve: u32,
     /// Where the last contact search that hit its node bound stopped: the next one goes on
     /// from there ([`Hierarchy::nearest_continued`]).
     cursor: NearestCursor,
@@ -289,8 +295,16 @@ pub const CONTACT_MAX_NODES: u32 = 4096;
 /// slowest ticks (docs/DRILLING.md, "One budget for the whole tick").
 pub const CONTACT_NODE_UNITS: u32 = 6;
 
+/// Default bound on the hierarchy nodes a drill shaft's walk enters a step (see
+/// [`World::set_shaft_max_nodes`]); under a tick budget the walk gets at most what the step
+/// left of it.
+pub const SHAFT_MAX_NODES: u32 = 4096;
+
+/// The least hold a cut shaft walk leaves for the next ([`World::shaft_reserve`]).
+pub const SHAFT_RESERVE_MIN: u32 = 64;
+
 /// What one node of a drill shaft's walk ([`World::track_shaft`]) is charged under a tick
-/// budget ([`World::set_shaft_max_nodes`]), in drill work units: about 560 host instructions
+/// budget ([`World::shaft_bound`]), in drill work units: about 560 host instructions
 /// a node entered on the teddy's moving path at its busiest ticks, against about 90 for a
 /// drill unit, as a contact-search node test (docs/DRILLING.md, "The shaft in the tick
 /// budget").
@@ -349,7 +363,9 @@ impl<'a> World<'a> {
             kept: Kept::new(),
             contact_max_nodes: CONTACT_MAX_NODES,
             tick_budget: None,
-            shaft_max_nodes: None,
+            shaft_max_nodes: Some(SHAFT_MAX_NODES),
+            step_units: 0,
+            shaft_reserve: 0,
             cursor: NearestCursor::new(),
             sat,
             spacing: Spacing::new(),
@@ -456,10 +472,13 @@ impl<'a> World<'a> {
     /// node tests (and at most [`World::contact_max_nodes`]). So a step's counted work is at
     /// most `units` plus the overshoot of the drill's last operation, however the work falls
     /// between the two; a contact search cut short answers as any bounded one does (the
-    /// closest face met or kept, never too deep) and goes on next step. `None` (the default):
-    /// the two bounds apply separately.
+    /// closest face met or kept, never too deep) and goes on next step. A drill's shaft walk
+    /// after the step gets what the step left, the nodes held for it out of the drill's
+    /// share at least ([`World::shaft_bound`], [`World::shaft_reserve`]). `None` (the
+    /// default): the bounds apply separately.
     pub fn set_tick_budget(&mut self, units: Option<u32>) {
         self.tick_budget = units;
+        self.shaft_reserve = 0;
     }
 
     /// The nodes a drill shaft's walk may enter a step, if bounded
@@ -469,28 +488,71 @@ impl<'a> World<'a> {
     }
 
     /// Bounds the walk that tracks a drill shaft's passive points ([`World::track_shaft`],
-    /// [`World::simulate_drill`]) to `nodes` hierarchy nodes a step: a walk that wants more
-    /// is cut there, its points keep the state of the last step they were tracked in, and
-    /// the next steps walk smaller groups of the points until each is tracked again
-    /// ([`PassiveReport::cut`], [`PassiveReport::stale`]). Under a tick budget
-    /// ([`World::set_tick_budget`]) the bound is taken from it first: the drill and the
-    /// contact search share what is left, `units - nodes * SHAFT_NODE_UNITS`, so a drill's
-    /// whole step stays within the budget. `None` (the default): the walk is unbounded and
-    /// every point is tracked every step.
+    /// [`World::simulate_drill`]) to `nodes` hierarchy nodes a step ([`SHAFT_MAX_NODES`] by
+    /// default). Under a tick budget ([`World::set_tick_budget`]) the walk gets what the
+    /// simulation step before it left of the budget, at least the nodes held for it out of
+    /// the drill's share ([`World::shaft_bound`], [`World::shaft_reserve`]), so a drill's
+    /// whole step stays within the budget and the burr's contact search keeps its share. A
+    /// walk that wants more is cut there, its points keep the state of the last step they
+    /// were tracked in, and the next steps walk smaller groups of the points until each is
+    /// tracked again ([`PassiveReport::cut`], [`PassiveReport::stale`]). `None`: the walk is
+    /// unbounded, whatever the tick budget, and every point is tracked every step.
     ///
     /// # Bounded work
     /// Constant.
     pub fn set_shaft_max_nodes(&mut self, nodes: Option<u32>) {
         self.shaft_max_nodes = nodes;
+        self.shaft_reserve = 0;
     }
 
-    /// The tick budget left to the drill and the contact search: the tick budget less the
-    /// shaft's walk's share ([`World::set_shaft_max_nodes`]), if there is a tick budget.
-    fn step_budget(&self) -> Option<u32> {
-        let shaft = self
-            .shaft_max_nodes
-            .map_or(0, |n| n.saturating_mul(SHAFT_NODE_UNITS));
-        self.tick_budget.map(|t| t.saturating_sub(shaft))
+    /// The nodes the next shaft walk may enter ([`World::set_shaft_max_nodes`]): the bound,
+    /// and under a tick budget at most `(units - step units) / SHAFT_NODE_UNITS`, the step
+    /// units being what the last simulation step counted (its drill work and
+    /// `CONTACT_NODE_UNITS` a contact-search node). `None`: unbounded.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn shaft_bound(&self) -> Option<u32> {
+        let bound = self.shaft_max_nodes?;
+        Some(match self.tick_budget {
+            Some(t) => bound.min(t.saturating_sub(self.step_units) / SHAFT_NODE_UNITS),
+            None => bound,
+        })
+    }
+
+    /// The nodes held for the next shaft walk under a tick budget: the drill's share of the
+    /// next simulation step is `SHAFT_NODE_UNITS` a node smaller, and the contact search's
+    /// bound leaves them, so the walk after the step gets at least these. After each walk
+    /// the hold follows it, with `given` the walk's bound ([`World::shaft_bound`]):
+    ///
+    /// ```text
+    /// cut        max(2 given, SHAFT_RESERVE_MIN)
+    /// otherwise  max(nodes entered, hold - hold / 8)
+    /// both       at most the node bound and a third of the tick budget
+    ///            (units / 3 / SHAFT_NODE_UNITS)
+    /// ```
+    ///
+    /// So the hold rises at once to the walks the shaft needs and decays over tens of steps
+    /// when it needs less; the drill, whose work waits in its queue, gives the units up.
+    /// Zero without a tick budget or a bound.
+    pub fn shaft_reserve(&self) -> u32 {
+        self.shaft_reserve
+    }
+
+    /// The units the drill and the contact search share this step: the tick budget less the
+    /// nodes held for the shaft ([`World::shaft_reserve`]), if there is a tick budget.
+    fn step_units_left(&self) -> Option<u32> {
+        let hold = self.shaft_reserve.saturating_mul(SHAFT_NODE_UNITS);
+        self.tick_budget.map(|t| t.saturating_sub(hold))
+    }
+
+    /// The drill's budget this step, out of its own (`drill`): under a tick budget at most
+    /// the tick budget, less the nodes held for the shaft ([`World::shaft_reserve`]), so the
+    /// hold comes out of the drill's share and the contact search keeps its own.
+    fn drill_budget(&self, drill: u32) -> u32 {
+        let hold = self.shaft_reserve.saturating_mul(SHAFT_NODE_UNITS);
+        self.tick_budget
+            .map_or(drill, |t| t.min(drill).saturating_sub(hold))
     }
 
     /// Sets the frequency of the burr's vibration while it cuts, hertz: from the next step on,

@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::{servo_force, ContactState, SimReport, World};
+use super::{servo_force, ContactState, SimReport, World, SHAFT_NODE_UNITS, SHAFT_RESERVE_MIN};
 use crate::drill::DrillParams;
 use crate::force::{
     clamp_force, damping_force, offer_near, passive_force, DrillTool, ForceParams, PassivePoint,
@@ -191,6 +191,7 @@ impl World<'_> {
         state.count = n;
         state.positions = pos;
         let saturated = self.shaft_candidates(zones.get(..n).unwrap_or_default());
+        let given = self.shaft_bound();
         let prep = self.track_passive(
             pos.get(..n).unwrap_or_default(),
             tool.shaft_radius,
@@ -199,7 +200,27 @@ impl World<'_> {
             &mut state.walk,
             &mut state.nearest,
         );
+        self.hold_for_shaft(given, &prep);
         (prep, saturated)
+    }
+
+    /// The hold for the next shaft walk after one that had `given` nodes
+    /// ([`World::shaft_reserve`]).
+    ///
+    /// # Bounded work
+    /// Constant.
+    fn hold_for_shaft(&mut self, given: Option<u32>, walk: &PassiveReport) {
+        self.shaft_reserve = match (self.tick_budget, self.shaft_max_nodes, given) {
+            (Some(t), Some(max), Some(given)) => {
+                let hold = if walk.cut {
+                    given.saturating_mul(2).max(SHAFT_RESERVE_MIN)
+                } else {
+                    walk.nodes.max(self.shaft_reserve - self.shaft_reserve / 8)
+                };
+                hold.min(max).min(t / 3 / SHAFT_NODE_UNITS)
+            }
+            _ => 0,
+        };
     }
 
     /// Fills the candidate storage with the tets whose boxes meet one of `zones` (`None`:
@@ -297,8 +318,9 @@ impl World<'_> {
     /// nearest face of each point walked. Each point answers as if offered every face of
     /// those trees. Passive points never erode.
     ///
-    /// With a shaft bound ([`World::set_shaft_max_nodes`]) the walk is for the group of
-    /// points `walk` names (all of them at first) and enters at most that many nodes. Walked
+    /// With a shaft bound ([`World::shaft_bound`]: the node bound, and under a tick budget
+    /// what the simulation step left of it) the walk is for the group of points `walk` names
+    /// (all of them at first) and enters at most that many nodes. Walked
     /// whole, its points answer as above and the next group follows it, twice as large when
     /// the walk took at most half the bound, as large otherwise; cut at the bound, its points
     /// keep the state of the last step they were tracked in (their proxies where they were
@@ -330,7 +352,8 @@ impl World<'_> {
                 0.0
             };
         let n = positions.len().min(points.len()).min(MAX_PASSIVE);
-        let group = match self.shaft_max_nodes {
+        let bound = self.shaft_bound();
+        let group = match bound {
             Some(_) => walk.group(n),
             None => u32::MAX,
         };
@@ -360,7 +383,7 @@ impl World<'_> {
             *probe = Some(probe_k);
         }
         let walked = if want & group != 0 {
-            let bound = self.shaft_max_nodes.unwrap_or(u32::MAX);
+            let bound = bound.unwrap_or(u32::MAX);
             // A group short of the points that need the walk goes only into the trees that
             // meet one of its points' zones (the box around the point and its proxy, grown
             // by the reach, as the candidates were listed): no other tree holds a face within
@@ -389,7 +412,7 @@ impl World<'_> {
         } else {
             Walked::default()
         };
-        if let Some(bound) = self.shaft_max_nodes {
+        if let Some(bound) = bound {
             walk.after(n, walked.cut, walked.nodes <= bound / 2);
         }
         // Tracked: the points that need no walk, and the walked group unless it was cut.

@@ -23,7 +23,9 @@ impl World<'_> {
     /// [`Drill::step`]), and for the contact at most [`World::contact_max_nodes`] node tests
     /// of [`Hierarchy::nearest_visible`] (typically a few hundred), plus O(candidates + depth)
     /// and O(depth) per kept face ([`crate::hierarchy::KEEP`]). Under a tick budget
-    /// ([`World::set_tick_budget`]) the drill and the contact search share it. With regions
+    /// ([`World::set_tick_budget`]) the drill and the contact search share it, less the
+    /// nodes held for a drill shaft's walk out of the drill's share
+    /// ([`World::shaft_reserve`]). With regions
     /// ([`World::set_regions`]), O(regions) to grant them their credit, charged to the drill
     /// as one work unit per rate-limited region and one for the feed's pool when a region is
     /// cut by the feed ([`crate::drill::Region::with_cutting_energy`]).
@@ -73,6 +75,7 @@ impl World<'_> {
             self.contact = ContactState::default();
             self.kept.clear();
             self.fed_from = None;
+            self.step_units = 0;
             return rep;
         }
         // The burr's advance into the material since the last step, along the last
@@ -165,9 +168,7 @@ impl World<'_> {
             .regions_mut()
             .map_or(0, |r| r.grant(force, seconds, cutting, feed, under, queued));
         if !spheres.is_empty() || self.drill.pending() > 0 || self.drill.debris_pending() > 0 {
-            let budget = self
-                .step_budget()
-                .map_or(params.budget, |t| t.min(params.budget));
+            let budget = self.drill_budget(params.budget);
             let params = DrillParams {
                 budget: budget.saturating_sub(granted),
                 ..*params
@@ -182,6 +183,10 @@ impl World<'_> {
         }
         rep.drill.work = rep.drill.work.saturating_add(granted);
         self.update_contact(centre, radius, radius + reach, cutting, &mut rep);
+        self.step_units = rep
+            .drill
+            .work
+            .saturating_add(rep.contact_nodes.saturating_mul(CONTACT_NODE_UNITS));
         rep
     }
 
@@ -344,7 +349,7 @@ impl World<'_> {
         for &(_, t) in &self.kept {
             let _ = hints.push(t);
         }
-        let bound = match self.step_budget() {
+        let bound = match self.step_units_left() {
             Some(t) => {
                 (t.saturating_sub(rep.drill.work) / CONTACT_NODE_UNITS).min(self.contact_max_nodes)
             }

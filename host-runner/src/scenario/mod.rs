@@ -128,8 +128,8 @@ pub struct Scenario {
     /// search gets what the drill left, `tetradrill_core::servo::World::set_tick_budget`);
     /// 0: each has its own bound.
     pub tick_budget: u32,
-    /// Hierarchy nodes a drill tool's shaft walk may enter a step (taken from the tick budget
-    /// first); 0: unbounded.
+    /// Hierarchy nodes a drill tool's shaft walk may enter a step (4,096; under the tick
+    /// budget at most what the burr's step left of it); 0: unbounded.
     pub shaft_nodes: u32,
     /// Entries of the static spatial hash of the mesh's tets (absent: 8 per tet).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -307,8 +307,8 @@ pub struct ScenarioFlags {
     /// what the drill left); 0: separate bounds.
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
     pub tick_budget: Option<u32>,
-    /// Hierarchy nodes a drill tool's shaft walk may enter a step (taken from the tick
-    /// budget first); 0: unbounded.
+    /// Hierarchy nodes a drill tool's shaft walk may enter a step (default 4,096; under the
+    /// tick budget at most what the burr's step left of it); 0: unbounded.
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
     pub shaft_nodes: Option<u32>,
     /// Entries of the static tet hash (default: 8 per tet).

@@ -144,8 +144,8 @@ pub struct Drilling {
     /// each has its own bound.
     pub tick_budget: u32,
     /// Hierarchy nodes a drill tool's shaft walk may enter a step
-    /// (`tetradrill_core::servo::World::set_shaft_max_nodes`; under a tick budget its units
-    /// are taken from it first); 0: unbounded. Not used by other tools.
+    /// (`tetradrill_core::servo::World::set_shaft_max_nodes`; under a tick budget at most
+    /// what the burr's step left of it); 0: unbounded. Not used by other tools.
     pub shaft_nodes: u32,
     /// Hierarchy nodes one contact search may test (then the closest face met, or the last
     /// step's, answers).
@@ -285,10 +285,10 @@ pub struct Setup {
 pub const DEFAULT_TICK_BUDGET: u32 = 16_500;
 
 /// Default bound on a drill tool's shaft walk, hierarchy nodes a step (`--shaft-nodes`; 0:
-/// unbounded). Unbounded by default: a bound that keeps the tick within budget leaves the
-/// shaft's points on an old state on most ticks where the shaft lies in a deep cavity (the
-/// demo's drill path), docs/DRILLING.md, "The shaft in the tick budget".
-pub const DEFAULT_SHAFT_NODES: u32 = 0;
+/// unbounded): the core's. Under the tick budget the walk gets at most what the burr's step
+/// left of it, so the whole tick stays within the budget (docs/DRILLING.md, "The shaft in
+/// the tick budget").
+pub const DEFAULT_SHAFT_NODES: u32 = tetradrill_core::servo::SHAFT_MAX_NODES;
 
 /// The least hierarchy arena a burr gets when the set-up does not size it: 2^20 nodes (16
 /// MiB), what a burr about one boundary tet wide needs over long sessions (docs/DRILLING.md).

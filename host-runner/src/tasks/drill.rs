@@ -5,8 +5,9 @@
 //!
 //! What runs where: the simulation task erodes with the burr along the swept path, then
 //! tracks the passive points at the newest pose against the visible faces
-//! ([`tetradrill_core::servo::World::track_shaft`]: a zone query and the face walk, unbounded by the tick
-//! budget but bounded per point) and publishes the planes. The servo only springs from those
+//! ([`tetradrill_core::servo::World::track_shaft`]: a zone query and the face walk, which
+//! gets what the burr's step left of the tick budget, `World::shaft_bound`) and publishes
+//! the planes. The servo only springs from those
 //! planes at the points' current positions: O([`MAX_PASSIVE`]) a tick, no face is looked at,
 //! nothing allocates, locks or waits.
 

@@ -2,13 +2,13 @@
 //! enters at most the bound; the points it tracks answer as the unbounded walk does from the
 //! same state, the others keep their last state exactly; the groups follow the documented
 //! rule (whole: on past it, twice as large; cut: half as large, one point alone: the next);
-//! no point waits long; and under a tick budget the drill and the contact search share what
-//! the shaft's share leaves.
+//! no point waits long; and under a tick budget the shaft gets what the burr's drill and
+//! contact search left of it, at least a hold taken from the drill's share.
 use tetradrill_core::drill::DrillParams;
 use tetradrill_core::force::{DrillTool, MAX_PASSIVE};
 use tetradrill_core::servo::{
-    DrillState, ShaftWalk, World, WorldSizes, CONTACT_MAX_NODES, CONTACT_NODE_UNITS,
-    SHAFT_NODE_UNITS,
+    ContactState, DrillState, PassiveReport, ShaftWalk, SimReport, World, WorldSizes,
+    CONTACT_MAX_NODES, CONTACT_NODE_UNITS, SHAFT_NODE_UNITS, SHAFT_RESERVE_MIN,
 };
 use tetradrill_tests::search::{block_mesh, Store};
 
@@ -184,20 +184,42 @@ fn the_bounded_walk_tracks_its_group_as_the_unbounded_one_and_leaves_the_rest() 
     );
 }
 
-/// Under a tick budget the shaft's share comes first: the contact search's bound is what the
-/// drill left of the budget less the shaft's nodes' units, and the drill's work stays within
-/// that but for its last operation. Without a tick budget the bound touches only the shaft:
-/// the drill and the burr's contact are those of a world without it, step for step.
-#[test]
-fn under_a_tick_budget_the_shaft_is_paid_first() {
-    let params = DrillParams {
-        max_depth: 4,
-        min_area: 0.0,
-        budget: 100_000,
+/// The hold for the next walk as the documentation states it (`World::shaft_reserve`).
+fn hold_after(hold: u32, given: u32, cut: bool, nodes: u32, bound: u32, budget: u32) -> u32 {
+    let next = if cut {
+        (2 * given).max(SHAFT_RESERVE_MIN)
+    } else {
+        nodes.max(hold - hold / 8)
     };
+    next.min(bound).min(budget / 3 / SHAFT_NODE_UNITS)
+}
+
+/// One step of a drill under a tick budget, as the world reported it, with the hold it
+/// started from and the bound its shaft walk was given.
+struct Paid {
+    rep: SimReport,
+    contact: ContactState,
+    walk: PassiveReport,
+    hold: u32,
+    given: Option<u32>,
+}
+
+/// Under a tick budget the shaft's walk gets what the burr's step left, at least the nodes
+/// held for it out of the drill's share: the drill gets `min(budget, its own) - 6 hold`, the
+/// contact search `(budget - 6 hold - drill work) / 6` nodes, the walk
+/// `(budget - drill work - 6 contact nodes) / 6` (and at most its bound), so the step's
+/// counted work keeps to the budget but for the drill's last operation; the hold follows the
+/// walks as documented. Without a tick budget the bound touches only the shaft, and with no
+/// bound the burr's step is the one without a shaft, with or without a budget.
+#[test]
+fn under_a_tick_budget_the_shaft_gets_what_the_step_left_and_a_hold() {
     const BUDGET: u32 = 3_000;
-    let left = BUDGET - BOUND * SHAFT_NODE_UNITS;
-    let path = wandering_shaft(300, 5);
+    const OWN: u32 = 2_000;
+    let params = DrillParams {
+        budget: OWN,
+        ..WANDER_DRILL
+    };
+    let path = wandering_shaft(400, 5);
     let run = |budget: Option<u32>, shaft: Option<u32>| {
         on_block(|w| {
             w.set_tick_budget(budget);
@@ -206,30 +228,88 @@ fn under_a_tick_budget_the_shaft_is_paid_first() {
             let mut state = DrillState::default();
             let mut steps = Vec::new();
             for (i, &(c, a)) in path.iter().enumerate() {
-                let (rep, prep) =
-                    w.simulate_drill(&TOOL, c, a, REACH, i % 3 == 0, &params, &mut state);
-                assert!(prep.nodes <= shaft.unwrap_or(u32::MAX), "step {i}");
-                steps.push((rep, *w.contact(), prep.cut));
+                let hold = w.shaft_reserve();
+                let rep = w.simulate(c, TOOL.burr_radius, REACH, i % 3 == 0, &params);
+                let given = w.shaft_bound();
+                let (walk, _) = w.track_shaft(&TOOL, c, a, REACH, &mut state);
+                assert!(walk.nodes <= given.unwrap_or(u32::MAX), "step {i}");
+                let next = match (budget, shaft, given) {
+                    (Some(t), Some(n), Some(g)) => hold_after(hold, g, walk.cut, walk.nodes, n, t),
+                    _ => 0,
+                };
+                assert_eq!(w.shaft_reserve(), next, "step {i}");
+                steps.push(Paid {
+                    rep,
+                    contact: *w.contact(),
+                    walk,
+                    hold,
+                    given,
+                });
             }
             steps
         })
     };
+    let burr = |s: &Paid| (s.rep, s.contact);
     let plain = run(None, None);
     let bounded = run(None, Some(BOUND));
     for (i, (p, b)) in plain.iter().zip(&bounded).enumerate() {
-        assert_eq!((p.0, p.1), (b.0, b.1), "step {i}");
+        assert_eq!(burr(p), burr(b), "step {i}");
+        assert_eq!(b.given, Some(BOUND), "step {i}");
     }
-    assert!(bounded.iter().any(|s| s.2), "the shaft's bound never bit");
-    let (mut spent, mut over) = (0u32, 0u32);
-    for (i, (rep, _, _)) in run(Some(BUDGET), Some(BOUND)).iter().enumerate() {
+    assert!(
+        bounded.iter().any(|s| s.walk.cut),
+        "the shaft's bound never bit"
+    );
+    let free = run(Some(BUDGET), None);
+    for (i, s) in free.iter().enumerate() {
         let want =
-            (left.saturating_sub(rep.drill.work) / CONTACT_NODE_UNITS).min(CONTACT_MAX_NODES);
-        assert_eq!(rep.contact_bound, want, "step {i}");
-        if rep.drill.work >= left {
-            spent += 1;
-            over = over.max(rep.drill.work - left);
-        }
+            (BUDGET.saturating_sub(s.rep.drill.work) / CONTACT_NODE_UNITS).min(CONTACT_MAX_NODES);
+        assert_eq!(
+            (s.rep.contact_bound, s.given, s.hold),
+            (want, None, 0),
+            "step {i}"
+        );
     }
-    assert!(spent > 10, "{spent} steps spent the drill's share");
+    let paid = run(Some(BUDGET), Some(4 * BOUND));
+    let (mut over, mut held, mut cut, mut lent) = (0u32, 0u32, 0u32, 0u32);
+    let mut diverged = false;
+    for (i, (f, s)) in free.iter().zip(&paid).enumerate() {
+        // The same burr step until the first hold takes from the drill.
+        diverged |= s.hold > 0;
+        if !diverged {
+            assert_eq!(burr(f), burr(s), "step {i}");
+        }
+        let units = s.hold * SHAFT_NODE_UNITS;
+        let drill = BUDGET.min(OWN).saturating_sub(units);
+        // The drill stops at its budget but for its last operation.
+        assert!(
+            s.rep.drill.work < drill + 256,
+            "step {i}: {:?}",
+            s.rep.drill
+        );
+        let want = (BUDGET
+            .saturating_sub(units)
+            .saturating_sub(s.rep.drill.work)
+            / CONTACT_NODE_UNITS)
+            .min(CONTACT_MAX_NODES);
+        assert_eq!(s.rep.contact_bound, want, "step {i}");
+        let used = s.rep.drill.work + s.rep.contact_nodes * CONTACT_NODE_UNITS;
+        let left = BUDGET.saturating_sub(used) / SHAFT_NODE_UNITS;
+        assert_eq!(s.given, Some(left.min(4 * BOUND)), "step {i}");
+        if s.rep.drill.work <= drill {
+            // The walk gets the hold at least, and the step keeps to the budget.
+            assert!(left >= s.hold, "step {i}: {left} < {}", s.hold);
+            assert!(used + s.walk.nodes * SHAFT_NODE_UNITS <= BUDGET, "step {i}");
+        } else {
+            over = over.max(s.rep.drill.work - drill);
+        }
+        held += u32::from(s.hold > 0);
+        cut += u32::from(s.walk.cut);
+        lent += u32::from(s.walk.nodes > s.hold && s.walk.nodes > 0);
+    }
     assert!(over < 256, "the drill overshot its share by {over} units");
+    assert!(
+        held > 100 && cut > 5 && lent > 20,
+        "{held} steps held nodes, {cut} walks cut, {lent} walks took more than the hold"
+    );
 }

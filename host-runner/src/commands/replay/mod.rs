@@ -165,6 +165,8 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
             s.nodes_total += u64::from(shaft.last.nodes);
             s.cut_ticks += u64::from(shaft.last.cut);
             s.stale_points += u64::from(shaft.last.stale);
+            s.hold_max = s.hold_max.max(world.shaft_reserve());
+            s.hold_total += u64::from(world.shaft_reserve());
         }
         times[i as usize] = ns;
         digest.push(f);
@@ -401,7 +403,11 @@ fn print_summary(r: &ReplayReport) {
     if let Some(s) = &r.shaft {
         let bound = match s.nodes_bound {
             0 => "unbounded".to_owned(),
-            b => format!("at most {b} nodes a tick, cut on {} ticks", s.cut_ticks),
+            b => format!(
+                "at most {b} nodes a tick, cut on {} ticks, {:.0} held a tick from the drill's share",
+                s.cut_ticks,
+                s.hold_total as f64 / r.ticks.max(1) as f64
+            ),
         };
         outln!(
             "shaft: {} passive points, a point within reach {} ticks, held {} ticks; walk {bound} \

@@ -272,6 +272,11 @@ pub struct ShaftSummary {
     pub cut_ticks: u64,
     /// Passive points left with an earlier tick's state, summed over the ticks.
     pub stale_points: u64,
+    /// Most nodes held for the shaft's walk out of the drill's share of a tick, under the
+    /// tick budget (`tetradrill_core::servo::World::shaft_reserve`).
+    pub hold_max: u32,
+    /// Nodes held for the shaft's walk, summed over the ticks (6 drill units each).
+    pub hold_total: u64,
 }
 
 /// The debris a replay erased ([`tetradrill_core::hierarchy::CrumbStats`] while drilling,
