@@ -18,6 +18,7 @@ use tetradrill_core::hierarchy::DEBRIS_LEAVES;
 use tetradrill_core::Vec3;
 
 use crate::arrays::{self, Drill};
+use crate::interrupt::Signals;
 use crate::{errors, settings};
 
 /// The library's drilling storage and the run over it, held together.
@@ -103,25 +104,27 @@ impl Session {
             .ok_or_else(|| errors::TetradrillError::new_err("the run could not be restarted"))
     }
 
-    /// One tick per pose; the forces.
+    /// One tick per pose; the forces. A signal's exception (Ctrl-C) ends the run between two
+    /// ticks: the ticks run are counted and in the digest, their forces dropped with the call.
     pub fn run(&mut self, poses: &[Pose]) -> PyResult<Vec<Vec3>> {
         let live = self
             .live
             .as_mut()
             .ok_or_else(|| errors::TetradrillError::new_err("the run could not be restarted"))?;
         let digest = &mut self.digest;
-        let forces = live.with_run_mut(|r| {
-            poses
-                .iter()
-                .map(|p| {
-                    let f = r.tick(p);
-                    digest.push(f);
-                    f
-                })
-                .collect::<Vec<_>>()
+        let mut signals = Signals::new();
+        let mut forces = Vec::with_capacity(poses.len());
+        let r = live.with_run_mut(|r| {
+            for p in poses {
+                signals.check()?;
+                let f = r.tick(p);
+                digest.push(f);
+                forces.push(f);
+            }
+            Ok(())
         });
-        self.ticks += poses.len() as u64;
-        Ok(forces)
+        self.ticks += forces.len() as u64;
+        r.map(|()| forces)
     }
 
     /// The scenario's trace: `ticks` poses (default: the whole trace; a wander's 60 s).

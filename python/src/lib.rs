@@ -5,6 +5,7 @@
 //! | file          | what                                                                  |
 //! |---------------|-----------------------------------------------------------------------|
 //! | [`errors`]    | the exceptions, and the library's errors turned into them             |
+//! | [`interrupt`] | Ctrl-C in a long call: Python's signals looked at every 50 ms         |
 //! | [`arrays`]    | poses, drill flags and loads from numpy; vectors back to numpy        |
 //! | [`settings`]  | a scenario (file or built-in) and keyword overrides, to a typed set-up |
 //! | [`drill`]     | `Drilling`, `Surface` and `replay`                                    |
@@ -13,13 +14,15 @@
 //! | [`mesh`]      | `read_mesh`: a mesh file's nodes, tets and region labels              |
 //!
 //! The Python reference is docs/PYTHON.md. Long runs (`Drilling.run`, `replay`,
-//! `Touching.run`, `SoftBody.run`) release the GIL while they compute.
+//! `Touching.run`, `SoftBody.run`) release the GIL while they compute and look at Python's
+//! signals every 50 ms, so Ctrl-C ends them between two ticks or steps.
 
 use pyo3::prelude::*;
 
 pub mod arrays;
 pub mod drill;
 pub mod errors;
+pub mod interrupt;
 pub mod mesh;
 pub mod settings;
 pub mod soft;

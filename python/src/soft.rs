@@ -18,6 +18,7 @@ use tetradrill::soft::{
 use tetradrill_core::soft::{Material, SoftBody as CoreBody, SoftError, SoftParams, TwoParts};
 use tetradrill_core::Vec3;
 
+use crate::interrupt::Signals;
 use crate::{arrays, errors};
 
 /// A body's storage and the body over it, held together.
@@ -180,22 +181,28 @@ impl SoftBody {
         out
     }
 
+    /// `n` steps; a signal's exception (Ctrl-C) or a step's error ends them early, the steps
+    /// taken counted.
     fn step_n(&mut self, n: u64, dt: f64, loads: &[Vec3]) -> PyResult<()> {
         self.take_loads(loads);
         let (loads, parts) = (&self.loads, self.parts.filter(|_| self.threads == 2));
+        let mut signals = Signals::new();
+        let mut done = 0u64;
         let r = self.live.with_body_mut(|b| {
-            for _ in 0..n {
+            while done < n {
+                signals.check()?;
                 match parts {
-                    Some(p) => b.step_two(dt as f32, loads, p, &mut on_two_threads)?,
-                    None => b.step(dt as f32, loads)?,
+                    Some(p) => b.step_two(dt as f32, loads, p, &mut on_two_threads),
+                    None => b.step(dt as f32, loads),
                 }
+                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+                done += 1;
             }
-            Ok::<(), tetradrill_core::soft::StepError>(())
+            Ok(())
         });
-        r.map_err(|e| PyValueError::new_err(e.to_string()))?;
-        self.steps += n;
-        self.time += n as f64 * dt;
-        Ok(())
+        self.steps += done;
+        self.time += done as f64 * dt;
+        r
     }
 }
 

@@ -13,6 +13,7 @@ use tetradrill_core::force::PenContact;
 use tetradrill_core::Vec3;
 
 use crate::arrays::{self, Drill};
+use crate::interrupt::Signals;
 use crate::{errors, settings};
 
 /// A tet-mesh tool (the pen) touching an object, neither drilled.
@@ -66,8 +67,16 @@ impl Touching {
         let poses: Vec<Pose> = arrays::poses(poses, &Drill::All(false))?;
         let inner = &mut self.inner;
         let contacts: Vec<PenContact> = py
-            .detach(|| inner.run(|touch| poses.iter().map(|p| touch.tick(p)).collect()))
-            .map_err(errors::of)?;
+            .detach(|| {
+                inner.run(|touch| {
+                    let mut signals = Signals::new();
+                    poses
+                        .iter()
+                        .map(|p| signals.check().map(|()| touch.tick(p)))
+                        .collect::<PyResult<Vec<_>>>()
+                })
+            })
+            .map_err(errors::of)??;
         let pick = |f: fn(&PenContact) -> Vec3| contacts.iter().map(f).collect::<Vec<_>>();
         let force = arrays::to_numpy(py, &pick(|c| c.force))?;
         if !full {
