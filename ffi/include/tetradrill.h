@@ -82,6 +82,18 @@ typedef enum td_status {
   TD_ERR_BLOB = 12,
 } td_status;
 
+// Which of a body's per-node vectors `td_soft_nodes` writes.
+typedef enum td_soft_field {
+  // Current positions: rest plus displacement.
+  TD_SOFT_POSITIONS = 0,
+  // Displacements from rest.
+  TD_SOFT_DISPLACEMENTS = 1,
+  // Velocities.
+  TD_SOFT_VELOCITIES = 2,
+  // Rest positions.
+  TD_SOFT_REST = 3,
+} td_soft_field;
+
 #if !defined(TETRADRILL_BARE_METAL)
 // A mesh file read and built (`td_mesh_file_read`): its arrays, owned by the library
 // until `td_mesh_file_free`. Opaque.
@@ -97,6 +109,10 @@ typedef struct td_pen_servo td_pen_servo;
 // A world's servo, from `td_world_servo`: its own part of the world's memory, which the
 // servo's force call uses alone. Opaque: C holds a pointer to it and never reads it.
 typedef struct td_servo td_servo;
+
+// A soft body set up by `td_soft_init` in caller memory. Opaque: C holds a pointer to it (the
+// start of the memory it gave) and never reads it.
+typedef struct td_soft td_soft;
 
 // A surface set up by `td_surface_init` in caller memory. Opaque: C holds a pointer to it
 // (the start of the memory it gave) and never reads it.
@@ -461,6 +477,39 @@ typedef struct td_servo_counts {
   // no step yet).
   uint32_t step;
 } td_servo_counts;
+
+// A soft body's settings: its material and its step.
+typedef struct td_soft_params {
+  // Young's modulus, force per area (pascal with metres and newtons), finite and positive.
+  float young;
+  // Poisson ratio, `0 ..= 0.49`.
+  float poisson;
+  // Density, mass per volume, finite and positive.
+  float density;
+  // Velocity damping rate per unit time (each substep scales the velocities by
+  // `1 / (1 + damping h)`), finite, 0 or more.
+  float damping;
+  // Substeps a step, `1 ..= 1000`.
+  uint32_t substeps;
+  // Gauss-Seidel sweeps over the tets a substep, `1 ..= 100`.
+  uint32_t iterations;
+  // Gravity, an acceleration on every free node.
+  struct td_vec3 gravity;
+} td_soft_params;
+
+// What a soft body has done and holds.
+typedef struct td_soft_counts {
+  // Steps taken (`td_soft_step` calls that stepped).
+  uint64_t steps;
+  // Their time summed, in the unit of `dt`.
+  double time;
+  // Elastic energy now (the strain energy of the linear material).
+  double elastic_energy;
+  // Kinetic energy now.
+  double kinetic_energy;
+  // Nodes held (fixed, or without mass).
+  uint32_t fixed_nodes;
+} td_soft_counts;
 
 // What went short in a surface's smooth normals, counted since its init.
 typedef struct td_smooth_stats {
@@ -1259,6 +1308,143 @@ enum td_status td_world_tick(struct td_world *world,
                              struct td_vec3 position,
                              uint32_t buttons,
                              struct td_vec3 *force);
+
+// Fills `*out` with the defaults Python's `SoftBody` and the host's soft body take: Young's
+// modulus 5,000, Poisson ratio 0.3, density 1,000, no damping, 10 substeps of 1 sweep, no
+// gravity.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// `out` points at writable memory for a `td_soft_params` (or is null: refused).
+enum td_status td_soft_params_default(struct td_soft_params *out);
+
+// Writes the bytes (`*out_size`) and the alignment (`*out_align`) a soft body of
+// `node_count` nodes and `tet_count` tets needs. Allocate at least that many bytes at that
+// alignment for `td_soft_init`.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer; `TD_ERR_PARAMS` for a count of zero, above
+// `TD_MAX_COUNT`, or a body larger than the address space.
+//
+// # Safety
+// `out_size` and `out_align` point at writable `size_t`s.
+enum td_status td_soft_size(uint32_t node_count,
+                            uint32_t tet_count,
+                            size_t *out_size,
+                            size_t *out_align);
+
+// Sets a soft body up in `mem` (`len` bytes at the alignment `td_soft_size` gave) from
+// `xyz` (x, y, z of each of `node_count` nodes) and `tets` (four node indices of each of
+// `tet_count` tets, positively oriented: `(b - a) x (c - a) . (d - a) > 0`), at rest, every
+// node free, and writes its handle to `*out`. The arrays are copied: the caller may free
+// them after.
+//
+// # Bounded work
+// O(`node_count + tet_count`).
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer (`xyz` and `tets` need 4 bytes),
+// `TD_ERR_TOO_SMALL` for `len`, `TD_ERR_PARAMS` for a count or a parameter out of range,
+// `TD_ERR_MESH` for a node that is not finite or a tet that names a node out of range or is
+// inverted or flat at rest (`*bad_item`, when `bad_item` is not null, names the node or the
+// tet). On an error `*out` is not written and a handle to this memory is refused until an
+// init succeeds.
+//
+// # Safety
+// `mem` points at `len` writable bytes the caller keeps, untouched, for as long as it uses
+// the body; `xyz` at `3 node_count` floats and `tets` at `4 tet_count` indices; `params` at
+// a `td_soft_params`; `out` at a writable pointer; `bad_item` is null or writable.
+enum td_status td_soft_init(void *mem,
+                            size_t len,
+                            const float *xyz,
+                            uint32_t node_count,
+                            const uint32_t *tets,
+                            uint32_t tet_count,
+                            const struct td_soft_params *params,
+                            struct td_soft **out,
+                            uint32_t *bad_item);
+
+// One step of `dt` under `loads` (x, y, z of a force on each node; null for none): the
+// core's XPBD step, its substeps and sweeps as set, the held nodes kept where they are.
+//
+// # Bounded work
+// O(substeps x iterations x tets + substeps x nodes).
+//
+// # Errors
+// `TD_ERR_NOT_INIT` for a handle `td_soft_init` did not set up (or `TD_ERR_NULL` /
+// `TD_ERR_ALIGN`), `TD_ERR_ALIGN` for `loads`, `TD_ERR_INPUT` for a `dt` that is not finite
+// and positive or a load that is not finite; the body is unchanged on an error.
+//
+// # Safety
+// `soft` is a handle from `td_soft_init` (or is refused as above); `loads` is null or points
+// at `3 node_count` floats.
+enum td_status td_soft_step(struct td_soft *soft, float dt, const float *loads);
+
+// Writes `field` (a `td_soft_field` value) of every node, x, y, z each, to `out`,
+// `3 node_count` floats.
+//
+// # Bounded work
+// O(nodes).
+//
+// # Errors
+// `TD_ERR_NOT_INIT` (or `TD_ERR_NULL` / `TD_ERR_ALIGN`) for `soft`, `TD_ERR_NULL` /
+// `TD_ERR_ALIGN` for `out`, `TD_ERR_PARAMS` when `node_count` is not the body's or `field`
+// names no field.
+//
+// # Safety
+// `soft` is a handle from `td_soft_init`; `out` points at `3 node_count` writable floats.
+enum td_status td_soft_nodes(struct td_soft *soft, uint32_t field, float *out, uint32_t node_count);
+
+// Holds (`fixed` non-zero) or frees node `node`: a held node keeps its place and speed.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NOT_INIT` (or `TD_ERR_NULL` / `TD_ERR_ALIGN`) for `soft`, `TD_ERR_PARAMS` for a
+// node past the end.
+//
+// # Safety
+// `soft` is a handle from `td_soft_init`.
+enum td_status td_soft_set_fixed(struct td_soft *soft, uint32_t node, uint8_t fixed);
+
+// Holds every node whose rest position is on or below the plane through `origin` with
+// upward normal `up`; writes how many to `*out_count` (when not null).
+//
+// # Bounded work
+// O(nodes).
+//
+// # Errors
+// `TD_ERR_NOT_INIT` (or `TD_ERR_NULL` / `TD_ERR_ALIGN`) for `soft`, `TD_ERR_ALIGN` for
+// `out_count`, `TD_ERR_INPUT` for a point or normal that is not finite.
+//
+// # Safety
+// `soft` is a handle from `td_soft_init`; `out_count` is null or writable.
+enum td_status td_soft_fix_below(struct td_soft *soft,
+                                 struct td_vec3 origin,
+                                 struct td_vec3 up,
+                                 uint32_t *out_count);
+
+// Writes the body's counts: steps, time, energies, held nodes.
+//
+// # Bounded work
+// O(nodes + tets) (the energies).
+//
+// # Errors
+// `TD_ERR_NOT_INIT` (or `TD_ERR_NULL` / `TD_ERR_ALIGN`) for `soft`, `TD_ERR_NULL` /
+// `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// `soft` is a handle from `td_soft_init`; `out` points at a writable `td_soft_counts`.
+enum td_status td_soft_counters(struct td_soft *soft, struct td_soft_counts *out);
 
 // Writes the bytes (`*out_size`) and the alignment (`*out_align`, 64) a surface of
 // `max_triangles` triangle slots over `world` needs: 16 bytes a slot and 16 a coarse tet,
