@@ -7,7 +7,7 @@
 # `tetradrill replay --scenario builtin:firmware-tooth --json`'s and the surface with
 # `--surface`'s (the same triangles, any order, and their smooth normals within 1e-5); before
 # that, builds and runs examples/cpp/checks.cpp (errors as exceptions, a moved world, the
-# servo on a thread).
+# servo on a thread, a soft body).
 #
 #   scripts/cpp-example.sh OUT.obj
 #

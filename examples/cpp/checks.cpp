@@ -1,6 +1,7 @@
 // Checks of the C++ wrapper's own behaviour (scripts/cpp-example.sh runs it): errors become
 // exceptions that carry the status and the line, byte or item at fault; a world moves without
-// its memory moving; its servo runs on a thread of its own beside the steps.
+// its memory moving; its servo runs on a thread of its own beside the steps; a soft body
+// holds its base and sags.
 //
 //   checks SCRATCH_DIR
 #include <atomic>
@@ -147,6 +148,44 @@ int main(int argc, char **argv) {
         thrown = e.status() == TD_ERR_INPUT;
     }
     expect(thrown, "a NaN pose throws error(TD_ERR_INPUT)");
+    // A soft body: the cube (its fifth tet turned positive) held at its base sags under
+    // gravity; a tet turned inside out is named.
+    {
+        std::vector<std::uint32_t> tets = cube_tets;
+        std::swap(tets[4 * 4 + 1], tets[4 * 4 + 2]);
+        auto sp = tetradrill::soft_body::defaults();
+        sp.gravity = {0.f, 0.f, -9.81f};
+        tetradrill::soft_body b(cube_xyz, tets, sp);
+        const std::uint32_t held = b.fix_below({0.f, 0.f, 0.f}, {0.f, 0.f, 1.f});
+        for (int i = 0; i < 50; i++)
+            b.step(0.004f);
+        tetradrill::soft_body moved(std::move(b));
+        const auto d = moved.displacements();
+        bool base_still = true, top_sags = true;
+        for (std::uint32_t k = 0; k < 8; k++) {
+            const bool base = cube_xyz[3 * k + 2] == 0.f;
+            base_still = base_still && (!base || (d[3 * k] == 0.f && d[3 * k + 2] == 0.f));
+            top_sags = top_sags && (base || d[3 * k + 2] < 0.f);
+        }
+        const auto c = moved.counters();
+        expect(held == 4 && c.fixed_nodes == 4 && c.steps == 50,
+               "a soft body holds its base's 4 nodes over 50 steps");
+        expect(base_still && top_sags, "its base stays and its top sags under gravity");
+        bool thrown = false;
+        try {
+            tetradrill::soft_body inverted(cube_xyz, cube_tets, sp);
+        } catch (const tetradrill::item_error &e) {
+            thrown = e.status() == TD_ERR_MESH && e.item() == 4;
+        }
+        expect(thrown, "a tet inside out throws item_error naming tet 4");
+        thrown = false;
+        try {
+            moved.step(0.004f, std::vector<float>(5, 0.f));
+        } catch (const tetradrill::error &e) {
+            thrown = e.status() == TD_ERR_PARAMS;
+        }
+        expect(thrown, "loads of the wrong length throw error(TD_ERR_PARAMS)");
+    }
     std::printf("checks: %s\n", failures == 0 ? "OK" : "FAILED");
     return failures == 0 ? 0 : 1;
 }

@@ -318,6 +318,95 @@ class world {
     td_world *w_ = nullptr;
 };
 
+// An elastic body (td_soft_*: the core's XPBD step, one material) in memory it owns, made
+// from arrays (x, y, z per node; four node indices per tet, positively oriented; both copied)
+// and stepped under loads, some nodes held. Move-only; its memory never moves.
+class soft_body {
+  public:
+    // The C interface's defaults (Young's modulus 5,000, Poisson ratio 0.3, density 1,000, no
+    // damping, 10 substeps of one sweep, no gravity); change fields, then make the body.
+    static td_soft_params defaults() {
+        td_soft_params p{};
+        detail::check(td_soft_params_default(&p), "td_soft_params_default");
+        return p;
+    }
+
+    soft_body(std::span<const float> positions, std::span<const std::uint32_t> tets,
+              const td_soft_params &p = defaults()) {
+        if (positions.size() % 3 != 0 || tets.size() % 4 != 0)
+            throw error(TD_ERR_PARAMS, "soft_body: 3 floats a node and 4 indices a tet");
+        n_ = static_cast<std::uint32_t>(positions.size() / 3);
+        const auto t = static_cast<std::uint32_t>(tets.size() / 4);
+        std::size_t size = 0, align = 0;
+        detail::check(td_soft_size(n_, t, &size, &align), "td_soft_size");
+        mem_ = detail::allocate(size, align);
+        std::uint32_t bad = 0;
+        td_status st = td_soft_init(mem_.get(), size, positions.data(), n_, tets.data(), t, &p,
+                                    &s_, &bad);
+        if (st == TD_ERR_MESH)
+            throw item_error(st, "td_soft_init", bad);
+        detail::check(st, "td_soft_init");
+    }
+
+    soft_body(soft_body &&o) noexcept
+        : mem_(std::move(o.mem_)), s_(std::exchange(o.s_, nullptr)), n_(o.n_) {}
+    soft_body &operator=(soft_body &&o) noexcept {
+        mem_ = std::move(o.mem_);
+        s_ = std::exchange(o.s_, nullptr);
+        n_ = o.n_;
+        return *this;
+    }
+    soft_body(const soft_body &) = delete;
+    soft_body &operator=(const soft_body &) = delete;
+
+    // One step of `dt` under `loads` (x, y, z of a force per node; empty for none).
+    void step(float dt, std::span<const float> loads = {}) {
+        if (!loads.empty() && loads.size() != 3 * std::size_t(n_))
+            throw error(TD_ERR_PARAMS, "soft_body::step: loads are 3 floats a node");
+        detail::check(td_soft_step(s_, dt, loads.empty() ? nullptr : loads.data()),
+                      "td_soft_step");
+    }
+
+    // A field of every node, x, y, z each.
+    std::vector<float> nodes(td_soft_field field) const {
+        std::vector<float> out(3 * std::size_t(n_));
+        detail::check(td_soft_nodes(s_, static_cast<std::uint32_t>(field), out.data(), n_),
+                      "td_soft_nodes");
+        return out;
+    }
+    std::vector<float> positions() const { return nodes(TD_SOFT_POSITIONS); }
+    std::vector<float> displacements() const { return nodes(TD_SOFT_DISPLACEMENTS); }
+    std::vector<float> velocities() const { return nodes(TD_SOFT_VELOCITIES); }
+
+    // Holds or frees node `node`.
+    void set_fixed(std::uint32_t node, bool fixed) {
+        detail::check(td_soft_set_fixed(s_, node, fixed ? 1 : 0), "td_soft_set_fixed");
+    }
+
+    // Holds every node on or below the plane through `origin` with upward normal `up`; how
+    // many.
+    std::uint32_t fix_below(td_vec3 origin, td_vec3 up) {
+        std::uint32_t n = 0;
+        detail::check(td_soft_fix_below(s_, origin, up, &n), "td_soft_fix_below");
+        return n;
+    }
+
+    // Steps, time, energies, held nodes.
+    td_soft_counts counters() const {
+        td_soft_counts c{};
+        detail::check(td_soft_counters(s_, &c), "td_soft_counters");
+        return c;
+    }
+
+    std::uint32_t node_count() const noexcept { return n_; }
+    td_soft *get() const noexcept { return s_; }
+
+  private:
+    detail::aligned_bytes mem_{nullptr, detail::aligned_free{64}};
+    td_soft *s_ = nullptr;
+    std::uint32_t n_ = 0;
+};
+
 // The drilled surface of a world in buffers an engine uploads: stable triangle slots (slot `s`
 // is vertices 3s, 3s+1, 3s+2 of every buffer), written only where the surface changed. Owns its
 // memory and its buffers; keeps a pointer to its world, which must outlive it. Update it from
