@@ -1,10 +1,10 @@
 """Ctrl-C in a long call: a KeyboardInterrupt between two ticks or steps, the work done kept.
 
-Each test sends this process SIGINT from a timer 0.3 s into a call fifty times as long as a
-timed one (ten seconds or so), then checks that the call ended with KeyboardInterrupt within
-a quarter of what it would have taken (Python's handler would raise after an uninterrupted
-call too, but late), that the object counts the work it did, and that going on from there
-gives the bits of a run that was never stopped.
+Each test times a short call, sizes a long one to take about ten seconds at that pace, sends
+this process SIGINT from a timer 0.3 s into it, then checks that it ended with
+KeyboardInterrupt within a quarter of what it would have taken (Python's handler would raise
+after an uninterrupted call too, but late), that the object counts the work it did, and that
+going on from there gives the bits of a run that was never stopped.
 """
 
 import os
@@ -53,26 +53,34 @@ def timed(call):
     return time.perf_counter() - t
 
 
-def stopped(call, sent, whole):
-    """Runs `call`, which must end in KeyboardInterrupt within a quarter of `whole`, the
-    seconds it would take, after SIGINT."""
+LONG_S = 10.0
+
+
+def units(short_s, short_units):
+    """Units of work a call of about `LONG_S` seconds does, at the pace of `short_units` in
+    `short_s` seconds."""
+    return max(short_units, int(LONG_S / short_s * short_units))
+
+
+def stopped(call, sent):
+    """Runs `call`, sized to take about `LONG_S`, which must end in KeyboardInterrupt within a
+    quarter of that after SIGINT."""
     with pytest.raises(KeyboardInterrupt):
         call()
     late = time.perf_counter() - sent["at"]
-    assert whole > 2.0, f"the call would take {whole:.2f} s: too short to tell"
-    assert late < 0.25 * whole, f"the call went on {late:.2f} s of {whole:.2f} after Ctrl-C"
+    assert late < 0.25 * LONG_S, f"the call went on {late:.2f} s after Ctrl-C"
 
 
 def test_a_soft_run_stops_and_goes_on_to_the_same_bits(ctrl_c):
     def body():
         return td.SoftBody("builtin:block:6", young=5000.0, substeps=20, gravity=[0, 0, -9.81])
 
-    whole = 50 * timed(lambda: body().run(200, 0.004))
+    n = units(timed(lambda: body().run(200, 0.004)), 200)
     b = body()
     b.fix_below([0, 0, -0.49], [0, 0, 1])
-    stopped(lambda: b.run(10_000, 0.004), ctrl_c(0.3), whole)
+    stopped(lambda: b.run(n, 0.004), ctrl_c(0.3))
     k = b.steps
-    assert 0 < k < 10_000
+    assert 0 < k < n
     assert b.time == pytest.approx(k * 0.004)
     b.run(30, 0.004)
 
@@ -86,10 +94,11 @@ def test_a_soft_run_stops_and_goes_on_to_the_same_bits(ctrl_c):
 
 def test_a_drilling_run_stops_between_ticks_and_goes_on_to_the_same_digest(ctrl_c):
     d = td.Drilling("builtin:block:8", "sphere:0.1", trace="wander:3")
-    poses, drill = d.trace_poses(100_000)
     probe = td.Drilling("builtin:block:8", "sphere:0.1", trace="wander:3")
-    whole = 50 * timed(lambda: probe.run(poses[:2_000], drill[:2_000]))
-    stopped(lambda: d.run(poses, drill), ctrl_c(0.3), whole)
+    poses, drill = d.trace_poses(2_000)
+    n = units(timed(lambda: probe.run(poses, drill)), 2_000)
+    poses, drill = d.trace_poses(n)
+    stopped(lambda: d.run(poses, drill), ctrl_c(0.3))
     k = d.ticks
     assert 0 < k < len(poses)
     rest = d.run(poses[k : k + 500], drill[k : k + 500])
@@ -104,12 +113,13 @@ def test_a_drilling_run_stops_between_ticks_and_goes_on_to_the_same_digest(ctrl_
 
 
 def test_replay_and_touching_stop_on_ctrl_c(ctrl_c):
-    whole = 50 * timed(lambda: td.replay(ticks=2_000, trace="wander:5"))
-    stopped(lambda: td.replay(ticks=100_000, trace="wander:5"), ctrl_c(0.3), whole)
+    n = units(timed(lambda: td.replay(ticks=2_000, trace="wander:5")), 2_000)
+    stopped(lambda: td.replay(ticks=n, trace="wander:5"), ctrl_c(0.3))
 
     t = td.Touching("builtin:block:6", PEN, max_force=1.0e6)
-    poses = np.tile([0.01, 0.02, 0.45], (200_000, 1))
-    whole = 50 * timed(lambda: t.run(poses[:4_000]))
-    stopped(lambda: t.run(poses), ctrl_c(0.3), whole)
+    pose = np.array([[0.01, 0.02, 0.45]])
+    n = units(timed(lambda: t.run(np.repeat(pose, 4_000, axis=0))), 4_000)
+    poses = np.repeat(pose, n, axis=0)
+    stopped(lambda: t.run(poses), ctrl_c(0.3))
     # The object goes on working after it.
     assert t.run(poses[:3]).shape == (3, 3)
