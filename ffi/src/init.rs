@@ -111,18 +111,7 @@ pub(crate) unsafe fn init(
     bad_item: *mut u32,
 ) -> Status {
     let plan = Plan::of(p, matches!(source, Source::Blob(_)))?;
-    let base = mem.cast::<u8>();
-    if base.is_null() {
-        return Err(TdStatus::TdErrNull);
-    }
-    // `plan.align` is a Layout's, a power of two: the mask test cannot fail to apply
-    // (`align_offset` would carry a panic path for other values).
-    if (base as usize) & plan.align.wrapping_sub(1) != 0 {
-        return Err(TdStatus::TdErrAlign);
-    }
-    if len < plan.size {
-        return Err(TdStatus::TdErrTooSmall);
-    }
+    let base = caller_memory(mem, len, plan.size, plan.align)?;
     let state = base.cast::<State>();
     // SAFETY: `mem` is aligned for State (the plan's alignment covers it) and at least
     // `plan.size >= size_of::<State>()` bytes long: a handle to this memory is refused from

@@ -154,6 +154,30 @@ fn check_ptr<T>(p: *const T) -> Status {
     }
 }
 
+/// The caller's memory for `size` bytes at `align` (a `Layout`'s, a power of two):
+/// `TdErrNull`, `TdErrAlign` or `TdErrTooSmall` when `mem` is null, misaligned or shorter than
+/// `len`.
+fn caller_memory(
+    mem: *mut c_void,
+    len: usize,
+    size: usize,
+    align: usize,
+) -> Result<*mut u8, TdStatus> {
+    let base = mem.cast::<u8>();
+    if base.is_null() {
+        return Err(TdStatus::TdErrNull);
+    }
+    // `align` is a power of two: the mask test cannot fail to apply (`align_offset` would
+    // carry a panic path for other values).
+    if (base as usize) & align.wrapping_sub(1) != 0 {
+        return Err(TdStatus::TdErrAlign);
+    }
+    if len < size {
+        return Err(TdStatus::TdErrTooSmall);
+    }
+    Ok(base)
+}
+
 /// Writes `v` through `out`, checked for null and alignment first.
 ///
 /// # Safety

@@ -279,17 +279,7 @@ pub unsafe extern "C" fn td_soft_init(
         // SAFETY: `3 n` floats and `4 t` indices at `xyz` and `tets` (the caller's contract;
         // the counts are at most `TD_MAX_COUNT`, so the products fit).
         let (xyz, tet_ix) = unsafe { (c_slice(xyz, 3 * n)?, c_slice(tets, 4 * t)?) };
-        let base = mem.cast::<u8>();
-        if base.is_null() {
-            return Err(TdStatus::TdErrNull);
-        }
-        // `plan.align` is a Layout's, a power of two.
-        if (base as usize) & plan.align.wrapping_sub(1) != 0 {
-            return Err(TdStatus::TdErrAlign);
-        }
-        if len < plan.size {
-            return Err(TdStatus::TdErrTooSmall);
-        }
+        let base = caller_memory(mem, len, plan.size, plan.align)?;
         let state = base.cast::<SoftState>();
         // SAFETY: `mem` is aligned for SoftState and at least `plan.size` bytes long: a handle
         // to this memory is refused from here on until the init succeeds.

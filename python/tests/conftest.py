@@ -48,3 +48,27 @@ def cli():
         return json.loads(out.read_text())
 
     return replay
+
+
+@pytest.fixture(scope="session")
+def kuhn_strip():
+    """`kuhn_strip(n)`: a strip of `n` unit cubes along x, Kuhn's six tets a cube along its
+    0-7 diagonal, each positively oriented; `(nodes N x 3, tets T x 4)`."""
+    import numpy as np
+
+    def make(n):
+        nodes = np.array(
+            [[x, y, z] for x in range(n + 1) for y in range(2) for z in range(2)], dtype=float
+        )
+        tets = []
+        for x in range(n):
+            c = [((x + (k >> 2 & 1)) * 2 + (k >> 1 & 1)) * 2 + (k & 1) for k in range(8)]
+            for a, b in [(4, 6), (6, 2), (2, 3), (3, 1), (1, 5), (5, 4)]:
+                t = [c[0], c[a], c[b], c[7]]
+                p = nodes[t]
+                if np.linalg.det((p[1:] - p[0]).T) < 0:
+                    t[1], t[2] = t[2], t[1]
+                tets.append(t)
+        return nodes, np.array(tets)
+
+    return make

@@ -11,24 +11,6 @@ import pytest
 import tetradrill as td
 
 
-def kuhn_strip(n):
-    """A strip of n unit cubes along x, six positively oriented tets each."""
-    nodes = np.array(
-        [[x, y, z] for x in range(n + 1) for y in range(2) for z in range(2)], dtype=float
-    )
-    at = lambda x, y, z: (x * 2 + y) * 2 + z  # noqa: E731
-    tets = []
-    for x in range(n):
-        c = [at(x + (k >> 2 & 1), k >> 1 & 1, k & 1) for k in range(8)]
-        for a, b in [(4, 6), (6, 2), (2, 3), (3, 1), (1, 5), (5, 4)]:
-            t = [c[0], c[a], c[b], c[7]]
-            p = nodes[t]
-            if np.linalg.det((p[1:] - p[0]).T) < 0:
-                t[1], t[2] = t[2], t[1]
-            tets.append(t)
-    return nodes, np.array(tets)
-
-
 def pressed(threads):
     b = td.SoftBody(
         "builtin:block:8", young=5000.0, substeps=4, gravity=[0, 0, -9.81], threads=threads
@@ -74,7 +56,7 @@ def test_the_arrays_are_in_the_meshs_node_order():
     assert np.allclose(b.positions, b.rest + d, atol=1e-6)
 
 
-def test_set_fixed_holds_the_callers_node():
+def test_set_fixed_holds_the_callers_node(kuhn_strip):
     nodes, tets = kuhn_strip(8)
     b = td.SoftBody.from_arrays(nodes, tets, gravity=[0, 0, -9.81], threads=2)
     i = int(np.argmax(nodes[:, 0] + 0.1 * nodes[:, 1] + 0.01 * nodes[:, 2]))
@@ -86,7 +68,7 @@ def test_set_fixed_holds_the_callers_node():
     assert (np.delete(d, i, axis=0)[:, 2] < 0).all(), "every other node falls"
 
 
-def test_a_flat_tet_is_named_by_its_row():
+def test_a_flat_tet_is_named_by_its_row(kuhn_strip):
     nodes, tets = kuhn_strip(6)
     order = np.random.default_rng(3).permutation(len(tets))
     given = tets[order].copy()

@@ -72,26 +72,12 @@ def test_a_body_from_arrays_and_an_inverted_tet():
         td.SoftBody.from_arrays(nodes, [[0, 1, 2, 7]])
 
 
-def test_a_body_hands_back_its_tets_in_the_order_given():
+def test_a_body_hands_back_its_tets_in_the_order_given(kuhn_strip):
     # A strip of cubes, six tets each, given in a scrambled order: the body groups them for its
     # lanes inside, and hands them back in the order given.
-    n = 6
-    nodes = np.array(
-        [[x, y, z] for x in range(n + 1) for y in range(2) for z in range(2)], dtype=float
-    )
-    at = lambda x, y, z: (x * 2 + y) * 2 + z  # noqa: E731
-    tets = []
-    for x in range(n):
-        c = [at(x + (k >> 2 & 1), k >> 1 & 1, k & 1) for k in range(8)]
-        # Kuhn's six tets of a cube along its 0-7 diagonal, positively oriented.
-        for a, b in [(4, 6), (6, 2), (2, 3), (3, 1), (1, 5), (5, 4)]:
-            t = [c[0], c[a], c[b], c[7]]
-            p = nodes[t]
-            if np.linalg.det((p[1:] - p[0]).T) < 0:
-                t[1], t[2] = t[2], t[1]
-            tets.append(t)
+    nodes, tets = kuhn_strip(6)
     order = np.random.default_rng(7).permutation(len(tets))
-    given = np.array(tets)[order]
+    given = tets[order]
     b = td.SoftBody.from_arrays(nodes, given, young=5000.0, substeps=4, gravity=[0, 0, -9.81])
     assert (b.tets == given).all()
     b.fix_below([0, 0, 0], [0, 0, 1])

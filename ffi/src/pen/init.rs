@@ -390,13 +390,8 @@ pub unsafe extern "C" fn td_pen_init(
         // SAFETY: the caller's contract on `params`; `get` checks null and alignment.
         let p = unsafe { get(params) }?;
         let front = PenPlan::of(&p, None)?;
-        let base = mem.cast::<u8>();
-        if base.is_null() {
-            return Err(TdStatus::TdErrNull);
-        }
-        if (base as usize) & front.align.wrapping_sub(1) != 0 {
-            return Err(TdStatus::TdErrAlign);
-        }
+        // Its length is checked against each part below (`needed` says how much).
+        let base = caller_memory(mem, len, 0, front.align)?;
         let tell = |bytes: usize| {
             if !needed.is_null() {
                 // SAFETY: checked above; writable by the caller's contract.
