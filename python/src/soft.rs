@@ -144,18 +144,12 @@ impl SoftBody {
         } else {
             1
         };
-        let mut body_node = vec![0u32; order.node_of.len()];
-        for (new, &old) in order.node_of.iter().enumerate() {
-            if let Some(slot) = body_node.get_mut(old as usize) {
-                *slot = new as u32;
-            }
-        }
         Ok(Self {
             live,
             loads: vec![Vec3::ZERO; order.node_of.len()],
             tet_of: order.tet_of,
             node_of: order.node_of,
-            body_node,
+            body_node: order.body_node,
             parts,
             threads,
             steps: 0,

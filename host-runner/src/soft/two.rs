@@ -17,6 +17,8 @@ use super::SoftOwned;
 pub struct PartsOrder {
     /// The original index of each node of the reordered body.
     pub node_of: Vec<u32>,
+    /// The reordered body's index of each original node (`node_of` inverted).
+    pub body_node: Vec<u32>,
     /// The original index of each tet of the reordered body.
     pub tet_of: Vec<u32>,
     /// Nodes of the first part (`0..nodes_a`).
@@ -75,9 +77,9 @@ impl SoftOwned {
             .collect();
         let nodes_a = node_of.len();
         node_of.extend((0..self.rest.len() as u32).filter(|&k| !side_a[k as usize]));
-        let mut new_index = vec![0u32; self.rest.len()];
+        let mut body_node = vec![0u32; self.rest.len()];
         for (new, &old) in node_of.iter().enumerate() {
-            new_index[old as usize] = new as u32;
+            body_node[old as usize] = new as u32;
         }
         // 0: all in the first part, 1: all in the second, 2: straddling.
         let class = |t: &[u32; 4]| {
@@ -101,7 +103,7 @@ impl SoftOwned {
         let rest = node_of.iter().map(|&k| self.rest[k as usize]).collect();
         let tets = tet_of
             .iter()
-            .map(|&t| self.tets[t as usize].map(|k| new_index[k as usize]))
+            .map(|&t| self.tets[t as usize].map(|k| body_node[k as usize]))
             .collect();
         let mut out = SoftOwned::new(rest, tets);
         if !self.tet_material.is_empty() {
@@ -115,6 +117,7 @@ impl SoftOwned {
             out,
             PartsOrder {
                 node_of,
+                body_node,
                 tet_of,
                 nodes_a,
                 tets_a: ends[0],
