@@ -20,6 +20,9 @@
 // trace of `builtin:firmware-tooth`.
 #define TD_SCRIPT_TOOTH_ACCESS 1
 
+// `TdContactAt::tet` when the last step found no contact.
+#define TD_NO_TET UINT32_MAX
+
 #if !defined(TETRADRILL_BARE_METAL)
 // Bytes of `td_file_error.message`, its NUL included.
 #define TD_FILE_MESSAGE 512
@@ -80,6 +83,9 @@ typedef enum td_status {
   // A mesh blob was refused: not a blob, another version, truncated, corrupted, or a record
   // out of range (`bad_item` gets the byte offset at fault).
   TD_ERR_BLOB = 12,
+  // The world's mesh is rigid: it was set up with `td_params.deformable` 0, so its nodes
+  // cannot move (`td_world_set_positions`).
+  TD_ERR_RIGID = 13,
 } td_status;
 
 // Which of a body's per-node vectors `td_soft_nodes` writes.
@@ -199,6 +205,13 @@ typedef struct td_params {
   // `tick_budget` at most what the step left of it, 6 units a node): 4,096 by default
   // (`td_params_default`), 0 unbounded. A burr world does not use it.
   uint32_t shaft_nodes;
+  // 0 (the default): the mesh is rigid. 1: its nodes may move (`td_world_set_positions`,
+  // a soft body's positions after each of its steps); the memory then also holds the rest
+  // positions (removed volumes are measured there) and a spare copy of the hash, the tet
+  // boxes and the normals, so that only the tets that changed cells move in the hash
+  // (`td_world_size` counts them: about 165 bytes per tet more, most of it the hash's
+  // eight entries a tet).
+  uint32_t deformable;
 } td_params;
 
 // A point or a force: three floats.
@@ -261,6 +274,28 @@ typedef struct td_counters {
   // `td_world_region` and `td_world_region_at` give each one's removed volume.
   uint32_t region_count;
 } td_counters;
+
+// What one `td_world_set_positions` did.
+typedef struct TdDeformReport {
+  // The largest distance of a node from its rest position, mesh units.
+  float max_displacement;
+  // Entries in the hash after the update.
+  uint32_t hash_entries;
+  // 1 when the hash ran out of entries: the tets past them are not found near the tool
+  // until an update fits (counted in `sat_hash`).
+  uint32_t hash_saturated;
+  // Kept contact faces measured again at the new positions (still visible).
+  uint32_t kept;
+} TdDeformReport;
+
+// Where the tool touches a world (`td_world_contact_at`).
+typedef struct TdContactAt {
+  // The contact's coarse tet, an index into the tets the world was given, or `TD_NO_TET`
+  // when the last step found no contact.
+  uint32_t tet;
+  // The contact point on the visible surface (zero without a contact).
+  struct td_vec3 point;
+} TdContactAt;
 
 #if !defined(TETRADRILL_BARE_METAL)
 // Why a mesh file was refused: the line (text formats) or byte (binary formats) at fault
@@ -616,7 +651,7 @@ extern "C" {
 // 4,096 memo slots, 4,096 query cells and contact nodes, no tick budget) with an arena of
 // `TD_DEFAULT_HIERARCHY_CAPACITY`, room for `TD_MAX_REGIONS` region labels, and the host's default scenario's tool and forces (burr
 // radius 0.1, reach 0.05, depth 5, budget 11,000 units, 200 N per unit, 0.5 N s per unit,
-// 8 N, 1 kHz, 16 ms plane switch).
+// 8 N, 1 kHz, 16 ms plane switch), and a rigid mesh (`deformable` 0).
 //
 // # Bounded work
 // Constant.
@@ -749,6 +784,53 @@ enum td_status td_demo_pose(uint32_t tick, struct td_vec3 *position, uint32_t *b
 // # Bounded work
 // Constant.
 const char *td_status_name(int32_t code);
+
+// Moves the world's nodes to `xyz` (x, y, z of each of the mesh's `node_count` nodes, in the
+// order `td_world_init` was given them) and brings everything that depends on them up to
+// date: each tet's box, the hash (only the tets whose cells changed move, in the spare
+// storage `td_params.deformable` set aside), the boundary normals and the contact search's
+// caches. The drilled faces follow (they are barycentric in their coarse tets); removed
+// volumes stay measured at rest. The contact plane stays the last step's until the next
+// `td_world_simulate`, which finds it on the new positions. `*out`, when not null, gets what
+// the update did.
+//
+// Call it between simulation steps, from the thread that runs them; the servo's force call
+// may run beside it (it reads only the published contact).
+//
+// # Bounded work
+// O(nodes + tets) for the boxes and normals, plus the hash's entries of the tets that changed
+// cells (a full rebuild, O(hash entries), when too many did): not for the servo's tick.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up,
+// `TD_ERR_RIGID` for a world set up with `deformable` 0, `TD_ERR_INPUT` for `node_count`
+// other than the mesh's or a position that is not finite (`*out` is not written and the
+// world is unchanged).
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's; `xyz` points
+// at `3 node_count` floats outside the world's memory; `out` at a writable
+// `td_deform_report` or is null.
+enum td_status td_world_set_positions(struct td_world *world,
+                                      const float *xyz,
+                                      uint32_t node_count,
+                                      struct TdDeformReport *out);
+
+// Where the last simulation step's contact is: its coarse tet (an index into the tets
+// `td_world_init` was given) and its point on the visible surface, or `tet` = `TD_NO_TET`
+// when the tool touched nothing. A soft body built from the same arrays takes the tool's
+// reaction there (`td_soft_add_point_force`).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up.
+//
+// # Safety
+// `world` is a handle from `td_world_init` whose memory is still the caller's; `out` points
+// at a writable `td_contact_at`.
+enum td_status td_world_contact_at(struct td_world *world, struct TdContactAt *out);
 
 // Checks the mesh blob at `blob` (`len` bytes, as `tetradrill export --firmware` writes it)
 // and writes its node and tet counts, for `td_params_default`.
@@ -1415,6 +1497,30 @@ enum td_status td_soft_nodes(struct td_soft *soft, uint32_t field, float *out, u
 // # Safety
 // `soft` is a handle from `td_soft_init`.
 enum td_status td_soft_set_fixed(struct td_soft *soft, uint32_t node, uint8_t fixed);
+
+// Adds a point force `force` at `point` in tet `tet` (the body's current positions) to
+// `loads` (x, y, z of a force on each of its `node_count` nodes, the array a later
+// `td_soft_step` takes), spread over the tet's four nodes by barycentric weights: how a
+// tool's contact pushes the body. With a deformable world built from the same arrays, `tet`
+// and `point` are `td_world_contact_at`'s and `force` the reaction, minus the force the
+// servo gave the hand.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NOT_INIT` (or `TD_ERR_NULL` / `TD_ERR_ALIGN`) for `soft`, `TD_ERR_NULL` /
+// `TD_ERR_ALIGN` for `loads`, `TD_ERR_INPUT` for a tet past the last, a point or force that
+// is not finite, or a tet flat at its current positions (`loads` unchanged).
+//
+// # Safety
+// `soft` is a handle from `td_soft_init`; `loads` points at `3 node_count` writable floats
+// outside the body's memory.
+enum td_status td_soft_add_point_force(struct td_soft *soft,
+                                       uint32_t tet,
+                                       struct td_vec3 point,
+                                       struct td_vec3 force,
+                                       float *loads);
 
 // Holds every node whose rest position is on or below the plane through `origin` with
 // upward normal `up`; writes how many to `*out_count` (when not null).

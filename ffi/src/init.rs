@@ -4,6 +4,8 @@
 use super::*;
 
 use tetradrill_core::collide::{ZoneGather, ZONE_MARGIN_RADII};
+use tetradrill_core::hash::{Aabb, HashEntry};
+use tetradrill_core::servo::SpareStorage;
 
 /// Writes `n` copies of `v` from `base + offset` on and returns them as a slice.
 ///
@@ -213,6 +215,35 @@ pub(crate) unsafe fn init(
     };
     let initial_volume = mesh.volume();
     let mut world = World::new(mesh, storage).map_err(|_| TdStatus::TdErrWorld)?;
+    if let Some(d) = plan.deform {
+        // SAFETY: as the carving above: the plan's rest and spare regions.
+        let (rest, spare) = unsafe {
+            (
+                carve(base, d.rest, plan.nodes, Vec3::ZERO),
+                SpareStorage {
+                    hash_starts: carve(base, d.hash_starts, plan.sizes.hash_starts, 0u32),
+                    hash_entries: carve(
+                        base,
+                        d.hash_entries,
+                        plan.sizes.hash_entries,
+                        HashEntry::EMPTY,
+                    ),
+                    tet_boxes: carve(
+                        base,
+                        d.tet_boxes,
+                        plan.sizes.tet_boxes,
+                        Aabb::point(Vec3::ZERO),
+                    ),
+                    normals: carve(base, d.normals, plan.nodes, Vec3::ZERO),
+                },
+            )
+        };
+        // Sized by the plan as the world's own parts: the core refuses only other sizes.
+        world
+            .enable_deformation(rest)
+            .and_then(|()| world.set_spare(spare))
+            .map_err(|_| TdStatus::TdErrWorld)?;
+    }
     world.set_contact_max_nodes(p.contact_search_nodes);
     world.set_max_cells(p.max_cells);
     world.set_tick_budget((p.tick_budget > 0).then_some(p.tick_budget));
@@ -255,6 +286,7 @@ pub(crate) unsafe fn init(
         unstarted: Some(Unstarted { table, of_tet }),
         shaft: None,
         drill_handoff,
+        deformable: plan.deform.is_some(),
     };
     // SAFETY: aligned, inside `mem` (checked above); the slices the world borrows start after
     // the header. Written whole, the magic last of all in effect: a handle is valid only once

@@ -8,6 +8,7 @@ use core::mem::size_of;
 
 use tetradrill_core::drill::{DrillParams, Region};
 use tetradrill_core::force::ForceParams;
+use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::mesh::{FaceKey, MeshStorage};
 use tetradrill_core::servo::{ContactHandoff, DrillHandoff, DrillServo, Servo, World, WorldSizes};
 use tetradrill_core::storage::Line;
@@ -110,6 +111,9 @@ pub struct State {
     pub shaft: Option<DrillSim>,
     /// The drill's hand-off, shared with the servo.
     pub drill_handoff: &'static DrillHandoff,
+    /// Set up with `td_params.deformable` 1: the world has its rest positions and spare
+    /// storage, and `td_world_set_positions` moves its nodes.
+    pub deformable: bool,
 }
 
 impl State {
@@ -174,10 +178,29 @@ pub struct Plan {
     pub servo: usize,
     /// The drill's hand-off (`SharedDrillHandoff`).
     pub drill_handoff: usize,
+    /// A deforming world's rest positions and spare storage (`td_params.deformable`).
+    pub deform: Option<DeformPlan>,
     /// Bytes in all.
     pub size: usize,
     /// Alignment the memory needs.
     pub align: usize,
+}
+
+/// Offsets of a deforming world's own parts: the rest positions (`Vec3` per node) and the
+/// spare storage of an in-place update (`SpareStorage`: the hash's bucket offsets and
+/// entries, the tet boxes and the normals, each as long as the world's own).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct DeformPlan {
+    /// `Vec3` per node.
+    pub rest: usize,
+    /// `u32` per hash bucket offset (`WorldSizes::hash_starts`).
+    pub hash_starts: usize,
+    /// `HashEntry` per hash entry (`WorldSizes::hash_entries`).
+    pub hash_entries: usize,
+    /// `Aabb` per tet box (`WorldSizes::tet_boxes`).
+    pub tet_boxes: usize,
+    /// `Vec3` per node.
+    pub normals: usize,
 }
 
 /// Appends arrays to a layout, each at its alignment.
@@ -244,6 +267,7 @@ impl Plan {
         check(non_negative(p.stiffness) && non_negative(p.damping))?;
         check(positive(p.max_force) && positive(p.dt) && non_negative(p.switch_time))?;
         check(p.servo_lag <= 1)?;
+        check(p.deformable <= 1)?;
         // Up to the servo's Nyquist frequency (500 Hz at 1 kHz: the product rounds to 0.5).
         check(non_negative(p.vibration_hz) && p.vibration_hz * p.dt <= 0.5)?;
         let to_usize = |v: u32| usize::try_from(v).map_err(|_| TdStatus::TdErrParams);
@@ -276,6 +300,17 @@ impl Plan {
         let regions = b.put::<Region>(region_slots)?;
         let region_labels = b.put::<i32>(region_slots)?;
         let tet_region = b.put::<u8>(tets)?;
+        let deform = if p.deformable == 1 {
+            Some(DeformPlan {
+                rest: b.put::<Vec3>(nodes)?,
+                hash_starts: b.put::<u32>(sizes.hash_starts)?,
+                hash_entries: b.put::<HashEntry>(sizes.hash_entries)?,
+                tet_boxes: b.put::<Aabb>(sizes.tet_boxes)?,
+                normals: b.put::<Vec3>(nodes)?,
+            })
+        } else {
+            None
+        };
         let layout = b.layout.pad_to_align();
         Ok(Self {
             nodes,
@@ -295,6 +330,7 @@ impl Plan {
             handoff,
             servo,
             drill_handoff,
+            deform,
             size: layout.size(),
             align: layout.align(),
         })
@@ -338,15 +374,16 @@ mod tests {
             zone_gather_work: 0,
             vibration_hz: 0.0,
             shaft_nodes: 0,
+            deformable: 0,
         }
     }
 
     /// Each region as (offset, bytes, alignment of its type), in plan order.
-    fn regions(p: &Plan) -> [(usize, usize, usize); 10] {
+    fn regions(p: &Plan) -> std::vec::Vec<(usize, usize, usize)> {
         fn r<T>(at: usize, n: usize) -> (usize, usize, usize) {
             (at, n * size_of::<T>(), align_of::<T>())
         }
-        [
+        let mut all = std::vec![
             r::<SharedHandoff>(p.handoff, 1),
             r::<ServoState>(p.servo, 1),
             r::<SharedDrillHandoff>(p.drill_handoff, 1),
@@ -357,18 +394,34 @@ mod tests {
             r::<Region>(p.regions, p.region_slots),
             r::<i32>(p.region_labels, p.region_slots),
             r::<u8>(p.tet_region, p.tets),
-        ]
+        ];
+        if let Some(d) = p.deform {
+            all.extend([
+                r::<Vec3>(d.rest, p.nodes),
+                r::<u32>(d.hash_starts, p.sizes.hash_starts),
+                r::<HashEntry>(d.hash_entries, p.sizes.hash_entries),
+                r::<Aabb>(d.tet_boxes, p.sizes.tet_boxes),
+                r::<Vec3>(d.normals, p.nodes),
+            ]);
+        }
+        all
     }
 
     #[test]
     fn regions_follow_the_header_aligned_and_apart_inside_the_size() {
-        for (nodes, tets, arena, pending, memo) in [
+        for ((nodes, tets, arena, pending, memo), deformable) in [
             (1, 1, 8, 1, 0),
             (27, 48, 15, 7, 1),
             (729, 3072, 1 << 20, 1 << 15, 4096),
             (125, 384, 20_000, 16_384, 4096),
-        ] {
-            let plan = Plan::of(&params(nodes, tets, arena, pending, memo), false).expect("plan");
+        ]
+        .into_iter()
+        .flat_map(|c| [(c, 0), (c, 1)])
+        {
+            let mut p = params(nodes, tets, arena, pending, memo);
+            p.deformable = deformable;
+            let plan = Plan::of(&p, false).expect("plan");
+            assert_eq!(plan.deform.is_some(), deformable == 1);
             assert!(plan.align.is_power_of_two());
             assert!(plan.align >= align_of::<State>());
             assert_eq!(plan.size % plan.align, 0);
@@ -396,7 +449,7 @@ mod tests {
     fn out_of_range_parameters_are_refused() {
         let ok = params(8, 6, 8, 1, 0);
         assert!(Plan::of(&ok, false).is_ok());
-        let bad: [fn(&mut TdParams); 17] = [
+        let bad: [fn(&mut TdParams); 18] = [
             |p| p.node_count = 0,
             |p| p.tet_count = TD_MAX_COUNT + 1,
             |p| p.hierarchy_capacity = 7,
@@ -414,6 +467,7 @@ mod tests {
             |p| p.region_capacity = TD_MAX_REGIONS + 1,
             |p| p.vibration_hz = -1.0,
             |p| p.vibration_hz = 500.1,
+            |p| p.deformable = 2,
         ];
         for (i, change) in bad.iter().enumerate() {
             let mut p = ok;

@@ -36,6 +36,7 @@
 //! | [`td_pen_counters`], [`td_pen_servo_counters`] | the pen's passes and its servo's digests |
 //! | [`td_soft_params_default`], [`td_soft_size`], [`td_soft_init`] | a soft body (an elastic tet mesh) in caller memory |
 //! | [`td_soft_step`], [`td_soft_nodes`], [`td_soft_set_fixed`], [`td_soft_fix_below`], [`td_soft_counters`] | its step under loads, its nodes, the held nodes, its counts |
+//! | [`td_world_set_positions`], [`td_world_contact_at`], [`td_soft_add_point_force`] | a deformable world's nodes moved (a soft body's positions), where the tool touches it, the reaction as a load on the body |
 //! | [`td_demo_ticks`], [`td_demo_pose`] | the host's scripted demo path                      |
 //! | [`td_script_ticks`], [`td_script_pose`] | the demo or the tooth's access path            |
 //! | [`td_status_name`]       | one line per status code                                      |
@@ -60,6 +61,7 @@
 #[cfg(not(target_os = "none"))]
 extern crate std;
 
+mod deform;
 mod files;
 mod init;
 mod layout;
@@ -88,9 +90,11 @@ use tetradrill_core::{TetId, Vec3};
 
 pub use layout::{Plan, STATE_BYTES, TD_MAX_COUNT, TD_MAX_REGIONS};
 pub use types::{
-    TdCounters, TdCutting, TdParams, TdPose, TdQuat, TdRegion, TdServo, TdServoCounts,
-    TdShaftCounts, TdSimReport, TdStatus, TdToolCounts, TdVec3, TdWorld,
+    TdContactAt, TdCounters, TdCutting, TdDeformReport, TdParams, TdPose, TdQuat, TdRegion,
+    TdServo, TdServoCounts, TdShaftCounts, TdSimReport, TdStatus, TdToolCounts, TdVec3, TdWorld,
 };
+
+pub use deform::{td_world_contact_at, td_world_set_positions, TD_NO_TET};
 
 pub use files::{td_blob_counts, td_world_init_blob, td_world_size_blob};
 #[cfg(not(target_os = "none"))]
@@ -113,8 +117,9 @@ pub use servo::{
     td_servo_counters, td_servo_force, td_servo_set_spin, td_world_servo, td_world_tick,
 };
 pub use soft::{
-    td_soft_counters, td_soft_fix_below, td_soft_init, td_soft_nodes, td_soft_params_default,
-    td_soft_set_fixed, td_soft_size, td_soft_step, TdSoft, TdSoftCounts, TdSoftField, TdSoftParams,
+    td_soft_add_point_force, td_soft_counters, td_soft_fix_below, td_soft_init, td_soft_nodes,
+    td_soft_params_default, td_soft_set_fixed, td_soft_size, td_soft_step, TdSoft, TdSoftCounts,
+    TdSoftField, TdSoftParams,
 };
 pub use surface::{
     td_surface_init, td_surface_init_smooth, td_surface_size, td_surface_smooth_size,
@@ -270,7 +275,7 @@ fn td_vec(v: Vec3) -> TdVec3 {
 /// 4,096 memo slots, 4,096 query cells and contact nodes, no tick budget) with an arena of
 /// `TD_DEFAULT_HIERARCHY_CAPACITY`, room for `TD_MAX_REGIONS` region labels, and the host's default scenario's tool and forces (burr
 /// radius 0.1, reach 0.05, depth 5, budget 11,000 units, 200 N per unit, 0.5 N s per unit,
-/// 8 N, 1 kHz, 16 ms plane switch).
+/// 8 N, 1 kHz, 16 ms plane switch), and a rigid mesh (`deformable` 0).
 ///
 /// # Bounded work
 /// Constant.
@@ -313,6 +318,7 @@ pub unsafe extern "C" fn td_params_default(
         zone_gather_work: 0,
         vibration_hz: 0.0,
         shaft_nodes: SHAFT_MAX_NODES,
+        deformable: 0,
     };
     // SAFETY: the caller's contract on `out`; `put` checks null and alignment.
     status(|| unsafe { put(out, p) })

@@ -10,7 +10,7 @@ use core::alloc::Layout;
 use core::mem::size_of;
 
 use tetradrill_core::soft::{
-    Material, SoftBody, SoftError, SoftMesh, SoftParams, SoftStorage, TetRest,
+    spread_point_force, Material, SoftBody, SoftError, SoftMesh, SoftParams, SoftStorage, TetRest,
 };
 
 use super::*;
@@ -173,7 +173,7 @@ unsafe fn soft<'a>(s: *mut TdSoft) -> Result<&'a mut SoftState, TdStatus> {
 /// # Safety
 /// `p`, when not null and aligned, points at `n` initialised values of `T` that stay put and
 /// unwritten for `'a`.
-unsafe fn c_slice<'a, T>(p: *const T, n: usize) -> Result<&'a [T], TdStatus> {
+pub(crate) unsafe fn c_slice<'a, T>(p: *const T, n: usize) -> Result<&'a [T], TdStatus> {
     check_ptr(p)?;
     // SAFETY: not null, aligned (checked); `n` values (the caller's contract).
     Ok(unsafe { core::slice::from_raw_parts(p, n) })
@@ -389,7 +389,7 @@ pub unsafe extern "C" fn td_soft_step(soft: *mut TdSoft, dt: f32, loads: *const 
 }
 
 /// C's floats, three a vector, as the core's vectors (`Vec3` is three `f32`s, `repr(C)`).
-fn vec3s(f: &[f32]) -> &[Vec3] {
+pub(crate) fn vec3s(f: &[f32]) -> &[Vec3] {
     const _: () = assert!(size_of::<Vec3>() == 3 * size_of::<f32>());
     const _: () = assert!(core::mem::align_of::<Vec3>() == core::mem::align_of::<f32>());
     let n = f.len() / 3;
@@ -493,6 +493,64 @@ pub unsafe extern "C" fn td_soft_set_fixed(soft: *mut TdSoft, node: u32, fixed: 
         } else {
             Err(TdStatus::TdErrParams)
         }
+    })
+}
+
+/// Adds a point force `force` at `point` in tet `tet` (the body's current positions) to
+/// `loads` (x, y, z of a force on each of its `node_count` nodes, the array a later
+/// `td_soft_step` takes), spread over the tet's four nodes by barycentric weights: how a
+/// tool's contact pushes the body. With a deformable world built from the same arrays, `tet`
+/// and `point` are `td_world_contact_at`'s and `force` the reaction, minus the force the
+/// servo gave the hand.
+///
+/// # Bounded work
+/// Constant.
+///
+/// # Errors
+/// `TD_ERR_NOT_INIT` (or `TD_ERR_NULL` / `TD_ERR_ALIGN`) for `soft`, `TD_ERR_NULL` /
+/// `TD_ERR_ALIGN` for `loads`, `TD_ERR_INPUT` for a tet past the last, a point or force that
+/// is not finite, or a tet flat at its current positions (`loads` unchanged).
+///
+/// # Safety
+/// `soft` is a handle from `td_soft_init`; `loads` points at `3 node_count` writable floats
+/// outside the body's memory.
+#[no_mangle]
+pub unsafe extern "C" fn td_soft_add_point_force(
+    soft: *mut TdSoft,
+    tet: u32,
+    point: TdVec3,
+    force: TdVec3,
+    loads: *mut f32,
+) -> TdStatus {
+    status(|| {
+        check_ptr(loads)?;
+        // SAFETY: the caller's contract on `soft`.
+        let s = unsafe { self::soft(soft) }?;
+        let n = s.body.node_count();
+        // SAFETY: not null and aligned (checked), `3 n` writable floats outside the body's
+        // memory (the caller's contract; `n` is at most `TD_MAX_COUNT`).
+        let loads = unsafe { core::slice::from_raw_parts_mut(loads, 3 * n) };
+        let (at, f) = (pose(point)?, pose(force)?);
+        let ids = *s
+            .body
+            .tets()
+            .get(tet as usize)
+            .ok_or(TdStatus::TdErrInput)?;
+        let mut p = [Vec3::ZERO; 4];
+        for (pk, &k) in p.iter_mut().zip(&ids) {
+            *pk = s.body.position(k as usize).ok_or(TdStatus::TdErrInput)?;
+        }
+        let parts = spread_point_force(p, at, f).ok_or(TdStatus::TdErrInput)?;
+        // The body's tets name its nodes (checked at init): each has its three floats.
+        for (&k, add) in ids.iter().zip(parts) {
+            let i = 3 * k as usize;
+            if let Some([x, y, z]) = loads.get_mut(i..i + 3) {
+                *x += add.x;
+                *y += add.y;
+                *z += add.z;
+            }
+        }
+        Ok(())
     })
 }
 

@@ -49,11 +49,14 @@ pub enum TdStatus {
     /// A mesh blob was refused: not a blob, another version, truncated, corrupted, or a record
     /// out of range (`bad_item` gets the byte offset at fault).
     TdErrBlob = 12,
+    /// The world's mesh is rigid: it was set up with `td_params.deformable` 0, so its nodes
+    /// cannot move (`td_world_set_positions`).
+    TdErrRigid = 13,
 }
 
 impl TdStatus {
     /// Every status, in code order (for `td_status_name`).
-    pub(crate) const ALL: [TdStatus; 13] = [
+    pub(crate) const ALL: [TdStatus; 14] = [
         TdStatus::TdOk,
         TdStatus::TdErrNull,
         TdStatus::TdErrAlign,
@@ -67,6 +70,7 @@ impl TdStatus {
         TdStatus::TdErrStarted,
         TdStatus::TdErrFile,
         TdStatus::TdErrBlob,
+        TdStatus::TdErrRigid,
     ];
 
     /// A NUL-terminated line saying what the status means.
@@ -85,6 +89,7 @@ impl TdStatus {
             TdStatus::TdErrStarted => c"materials are set before the first simulation step",
             TdStatus::TdErrFile => c"the mesh file could not be read (see td_file_error)",
             TdStatus::TdErrBlob => c"the mesh blob was refused (see bad_item: the byte)",
+            TdStatus::TdErrRigid => c"the world is rigid (td_params.deformable is 0)",
         }
     }
 
@@ -173,6 +178,13 @@ pub struct TdParams {
     /// `tick_budget` at most what the step left of it, 6 units a node): 4,096 by default
     /// (`td_params_default`), 0 unbounded. A burr world does not use it.
     pub shaft_nodes: u32,
+    /// 0 (the default): the mesh is rigid. 1: its nodes may move (`td_world_set_positions`,
+    /// a soft body's positions after each of its steps); the memory then also holds the rest
+    /// positions (removed volumes are measured there) and a spare copy of the hash, the tet
+    /// boxes and the normals, so that only the tets that changed cells move in the hash
+    /// (`td_world_size` counts them: about 165 bytes per tet more, most of it the hash's
+    /// eight entries a tet).
+    pub deformable: u32,
 }
 
 /// A point or a force: three floats.
@@ -242,6 +254,32 @@ pub struct TdToolCounts {
     pub torque_digest: u64,
     /// The world's tool: 0 a spherical burr, 1 a drill (`td_world_set_drill`).
     pub tool: u32,
+}
+
+/// Where the tool touches a world (`td_world_contact_at`).
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct TdContactAt {
+    /// The contact's coarse tet, an index into the tets the world was given, or `TD_NO_TET`
+    /// when the last step found no contact.
+    pub tet: u32,
+    /// The contact point on the visible surface (zero without a contact).
+    pub point: TdVec3,
+}
+
+/// What one `td_world_set_positions` did.
+#[repr(C)]
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct TdDeformReport {
+    /// The largest distance of a node from its rest position, mesh units.
+    pub max_displacement: f32,
+    /// Entries in the hash after the update.
+    pub hash_entries: u32,
+    /// 1 when the hash ran out of entries: the tets past them are not found near the tool
+    /// until an update fits (counted in `sat_hash`).
+    pub hash_saturated: u32,
+    /// Kept contact faces measured again at the new positions (still visible).
+    pub kept: u32,
 }
 
 /// What one `td_world_simulate` did.

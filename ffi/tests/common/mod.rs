@@ -3,6 +3,8 @@
 
 #![allow(dead_code)] // each test binary uses its own share of these.
 
+pub mod soft;
+
 use std::alloc::{alloc_zeroed, dealloc, Layout};
 use std::collections::BTreeMap;
 
@@ -99,6 +101,7 @@ pub fn params_of_mesh(sc: &Setup) -> TdParams {
         zone_gather_work: 0,
         vibration_hz: 0.0,
         shaft_nodes: 0,
+        deformable: 0,
     };
     // SAFETY: `p` is a valid, aligned TdParams.
     assert_eq!(
