@@ -1,9 +1,10 @@
 // Checks of the C++ wrapper's own behaviour (scripts/cpp-example.sh runs it): errors become
 // exceptions that carry the status and the line, byte or item at fault; a world moves without
 // its memory moving; its servo runs on a thread of its own beside the steps; a soft body
-// holds its base and sags.
+// holds its base and sags, and a deformable world follows it under the burr.
 //
 //   checks SCRATCH_DIR
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <fstream>
@@ -185,6 +186,48 @@ int main(int argc, char **argv) {
             thrown = e.status() == TD_ERR_PARAMS;
         }
         expect(thrown, "loads of the wrong length throw error(TD_ERR_PARAMS)");
+        // The burr pressed into the top of a deformable world over the same arrays, its
+        // reaction loading the body held at its base: the top gives way, so the contact
+        // point sinks below z = 1 and the force falls below a rigid world's.
+        auto dp = p;
+        dp.deformable = 1;
+        tetradrill::world soft_world(dp, cube_xyz, tets);
+        tetradrill::world rigid(p, cube_xyz, tets);
+        auto soft_sp = tetradrill::soft_body::defaults();
+        soft_sp.young = 2000.f;
+        soft_sp.density = 1.f;
+        soft_sp.damping = 20.f;
+        tetradrill::soft_body body(cube_xyz, tets, soft_sp);
+        body.fix_below({0.f, 0.f, 0.f}, {0.f, 0.f, 1.f});
+        std::vector<float> loads(3 * 8, 0.f);
+        const td_vec3 at{0.4f, 0.45f, 1.f + p.radius - 0.02f};
+        td_vec3 f{}, fr{};
+        for (int i = 1; i <= 500; i++) {
+            f = soft_world.tick(at, 0);
+            fr = rigid.tick(at, 0);
+            const td_contact_at hit = soft_world.contact_at();
+            if (hit.tet != TD_NO_TET)
+                body.add_point_force(hit.tet, hit.point, {-f.x, -f.y, -f.z}, loads);
+            if (i % 5 == 0) {
+                for (float &l : loads)
+                    l /= 5.f;
+                body.step(0.005f, loads);
+                std::fill(loads.begin(), loads.end(), 0.f);
+                soft_world.set_positions(body.positions());
+            }
+        }
+        const td_contact_at hit = soft_world.contact_at();
+        std::printf("dent %.5f, force %.4f against the rigid world's %.4f\n", 1.f - hit.point.z,
+                    f.z, fr.z);
+        expect(hit.tet != TD_NO_TET && hit.point.z < 1.f - 1e-3f && f.z > 0.f && f.z < fr.z,
+               "a deformable world follows the soft body its burr presses");
+        thrown = false;
+        try {
+            rigid.set_positions(body.positions());
+        } catch (const tetradrill::error &e) {
+            thrown = e.status() == TD_ERR_RIGID;
+        }
+        expect(thrown, "a rigid world's set_positions throws error(TD_ERR_RIGID)");
     }
     std::printf("checks: %s\n", failures == 0 ? "OK" : "FAILED");
     return failures == 0 ? 0 : 1;

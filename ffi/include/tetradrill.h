@@ -276,7 +276,7 @@ typedef struct td_counters {
 } td_counters;
 
 // What one `td_world_set_positions` did.
-typedef struct TdDeformReport {
+typedef struct td_deform_report {
   // The largest distance of a node from its rest position, mesh units.
   float max_displacement;
   // Entries in the hash after the update.
@@ -286,16 +286,16 @@ typedef struct TdDeformReport {
   uint32_t hash_saturated;
   // Kept contact faces measured again at the new positions (still visible).
   uint32_t kept;
-} TdDeformReport;
+} td_deform_report;
 
 // Where the tool touches a world (`td_world_contact_at`).
-typedef struct TdContactAt {
+typedef struct td_contact_at {
   // The contact's coarse tet, an index into the tets the world was given, or `TD_NO_TET`
   // when the last step found no contact.
   uint32_t tet;
   // The contact point on the visible surface (zero without a contact).
   struct td_vec3 point;
-} TdContactAt;
+} td_contact_at;
 
 #if !defined(TETRADRILL_BARE_METAL)
 // Why a mesh file was refused: the line (text formats) or byte (binary formats) at fault
@@ -814,7 +814,7 @@ const char *td_status_name(int32_t code);
 enum td_status td_world_set_positions(struct td_world *world,
                                       const float *xyz,
                                       uint32_t node_count,
-                                      struct TdDeformReport *out);
+                                      struct td_deform_report *out);
 
 // Where the last simulation step's contact is: its coarse tet (an index into the tets
 // `td_world_init` was given) and its point on the visible surface, or `tet` = `TD_NO_TET`
@@ -830,7 +830,7 @@ enum td_status td_world_set_positions(struct td_world *world,
 // # Safety
 // `world` is a handle from `td_world_init` whose memory is still the caller's; `out` points
 // at a writable `td_contact_at`.
-enum td_status td_world_contact_at(struct td_world *world, struct TdContactAt *out);
+enum td_status td_world_contact_at(struct td_world *world, struct td_contact_at *out);
 
 // Checks the mesh blob at `blob` (`len` bytes, as `tetradrill export --firmware` writes it)
 // and writes its node and tet counts, for `td_params_default`.

@@ -258,6 +258,23 @@ class world {
         return f;
     }
 
+    // A deformable world's nodes moved to `xyz` (x, y, z of each node; `td_params.deformable`
+    // 1): boxes, hash, normals and contact caches follow. Between steps.
+    td_deform_report set_positions(std::span<const float> xyz) {
+        td_deform_report r{};
+        detail::check(td_world_set_positions(w_, xyz.data(),
+                                             static_cast<std::uint32_t>(xyz.size() / 3), &r),
+                      "td_world_set_positions");
+        return r;
+    }
+
+    // The last step's contact: its coarse tet (`TD_NO_TET` for none) and point.
+    td_contact_at contact_at() const {
+        td_contact_at a{};
+        detail::check(td_world_contact_at(w_, &a), "td_world_contact_at");
+        return a;
+    }
+
     // The world's servo handle.
     tetradrill::servo servo() {
         td_servo *s = nullptr;
@@ -377,6 +394,16 @@ class soft_body {
     std::vector<float> positions() const { return nodes(TD_SOFT_POSITIONS); }
     std::vector<float> displacements() const { return nodes(TD_SOFT_DISPLACEMENTS); }
     std::vector<float> velocities() const { return nodes(TD_SOFT_VELOCITIES); }
+
+    // Adds `force` at `point` in tet `tet` to `loads` (3 floats a node), spread over the
+    // tet's four nodes: the tool's reaction at a world's `contact_at`.
+    void add_point_force(std::uint32_t tet, td_vec3 point, td_vec3 force,
+                         std::span<float> loads) const {
+        if (loads.size() != 3 * std::size_t(n_))
+            throw error(TD_ERR_PARAMS, "soft_body::add_point_force: loads are 3 floats a node");
+        detail::check(td_soft_add_point_force(s_, tet, point, force, loads.data()),
+                      "td_soft_add_point_force");
+    }
 
     // Holds or frees node `node`.
     void set_fixed(std::uint32_t node, bool fixed) {
