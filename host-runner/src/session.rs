@@ -6,6 +6,11 @@
 //! hand. What was removed, by region, and the drilled surface as triangles, come from the
 //! run at any tick.
 //!
+//! A set-up with a soft body (`body = soft`) is drilled as `tetradrill replay --body soft`
+//! drills it: the world deforms, each tick's reaction loads the body where the burr touches
+//! it, and at the set-up's soft rate the body steps and the world takes its positions
+//! ([`SoftDriver`]; docs/SOFT.md). [`DrillRun::positions`] gives the nodes where they are.
+//!
 //! ```
 //! use tetradrill::prelude::*;
 //!
@@ -32,6 +37,7 @@ use crate::engine::{self, EngineStorage, ShaftState, TickParams};
 use crate::error::Error;
 use crate::meshio::LoadedMesh;
 use crate::setup::Setup;
+use crate::soft::{step_threads, DeformSummary, SoftDriver, SoftOwned, SoftSpec};
 use crate::traces::Pose;
 
 /// A mesh ready to drill: its storage allocated once, its regions set, the tick's
@@ -42,17 +48,18 @@ pub struct Drilling {
     params: TickParams,
     /// Each tet's region label, in the world's tet order.
     tet_labels: Vec<i32>,
+    /// A soft body's settings and storage (`body = soft`), the world's storage deforming.
+    soft: Option<(SoftSpec, SoftOwned)>,
 }
 
 impl Drilling {
-    /// Reads `setup`'s mesh and allocates the world's storage.
+    /// Reads `setup`'s mesh and allocates the world's storage (and a soft body's, for
+    /// `body = soft`).
     ///
     /// # Errors
     /// A mesh that cannot be read ([`Error::Mesh`]), a value out of range
     /// ([`Error::Setup`]), a tet-mesh tool ([`Error::Unsupported`]: see
-    /// [`crate::pen::PenRig`]), a soft body ([`Error::Unsupported`]: a [`DrillRun`] drills
-    /// a rigid mesh; `tetradrill replay` and `run` drill a soft one), storage the heap
-    /// refuses.
+    /// [`crate::pen::PenRig`]), storage the heap refuses.
     pub fn new(setup: &Setup) -> Result<Self, Error> {
         let mesh = setup.mesh.load()?;
         Self::with_mesh(setup, mesh)
@@ -65,21 +72,24 @@ impl Drilling {
     /// As [`Drilling::new`].
     pub fn with_mesh(setup: &Setup, mesh: LoadedMesh) -> Result<Self, Error> {
         setup.check()?;
-        if setup.soft().is_some() {
-            // Drilled as rigid, the set-up's elasticity would be silently ignored.
-            return Err(Error::Unsupported(
-                "a soft body: Drilling drills a rigid mesh; drill a soft one with \
-                 `tetradrill replay` or `run` (the set-up's body = soft)"
-                    .into(),
-            ));
-        }
         let params = TickParams::of(setup)?;
+        let spec = SoftSpec::of(setup)?;
         let mut store = EngineStorage::new(mesh.mesh, setup)?;
         store.set_labels(&mesh.labels, setup)?;
+        let soft = match spec {
+            Some(spec) => {
+                store.enable_deformation()?;
+                let mut owned = store.soft_owned();
+                owned.set_regions(&mesh.labels, &spec)?;
+                Some((spec, owned))
+            }
+            None => None,
+        };
         Ok(Self {
             store,
             params,
             tet_labels: mesh.labels,
+            soft,
         })
     }
 
@@ -93,21 +103,38 @@ impl Drilling {
         &self.store
     }
 
-    /// A fresh, untouched world over this storage: the mesh as loaded, nothing drilled.
+    /// A fresh, untouched world over this storage: the mesh as loaded, nothing drilled (a
+    /// soft body at rest).
     ///
     /// # Errors
-    /// [`Error::World`] when the core refuses the storage.
+    /// [`Error::World`] when the core refuses the storage; a soft body the core refuses.
     pub fn start(&mut self) -> Result<DrillRun<'_>, Error> {
-        let labels = self.store.region_labels().to_vec();
-        let world = self.store.world()?;
+        let Self {
+            store,
+            params,
+            tet_labels,
+            soft,
+        } = self;
+        let labels = store.region_labels().to_vec();
+        let world = store.world()?;
+        // A whole step on two threads where there are two cores, as `replay` steps it (the
+        // same bits as on one).
+        let soft = match soft {
+            Some((spec, owned)) => {
+                Some(SoftDriver::new(owned, spec)?.with_threads(step_threads(1)))
+            }
+            None => None,
+        };
         Ok(DrillRun {
             world,
-            params: self.params,
+            params: *params,
             tool: ToolState::default(),
             shaft: ShaftState::default(),
             region_labels: labels,
-            tet_labels: &self.tet_labels,
+            tet_labels,
             last: SimReport::default(),
+            soft,
+            soft_error: None,
         })
     }
 }
@@ -122,15 +149,20 @@ pub struct DrillRun<'a> {
     region_labels: Vec<i32>,
     tet_labels: &'a [i32],
     last: SimReport,
+    soft: Option<SoftDriver<'a>>,
+    soft_error: Option<Error>,
 }
 
 impl<'a> DrillRun<'a> {
     /// One 1 ms tick at `pose`: the simulation step (candidates, budgeted drilling when the
     /// pose's drill button is down, the contact with the drilled surface), then the servo's
-    /// force on the hand, newtons.
+    /// force on the hand, newtons. A soft body then takes the force's reaction at the
+    /// contact, and at its rate steps and moves the world ([`SoftDriver::after_tick`]); a step
+    /// the core refuses stops the body where it was ([`DrillRun::soft_error`]).
     ///
     /// # Bounded work
-    /// The core's: the drill's budget per tick and the contact search's node bound.
+    /// The core's: the drill's budget per tick and the contact search's node bound; a soft
+    /// body's step, on its ticks, O(substeps x (nodes + tets)) and the world's update.
     pub fn tick(&mut self, pose: &Pose) -> Vec3 {
         let (f, rep) = engine::tick_tool(
             &mut self.world,
@@ -140,7 +172,32 @@ impl<'a> DrillRun<'a> {
             pose,
         );
         self.last = rep;
+        if self.soft_error.is_none() {
+            if let Some(d) = self.soft.as_mut() {
+                if let Err(e) = d.after_tick(&mut self.world, f) {
+                    self.soft_error = Some(e);
+                }
+            }
+        }
         f
+    }
+
+    /// The mesh's nodes where they are now: where a soft body moved them, else as loaded.
+    pub fn positions(&self) -> &[Vec3] {
+        self.world.mesh().positions()
+    }
+
+    /// A soft body's figures so far (steps, the largest displacement, the materials), or
+    /// `None` for a rigid mesh.
+    pub fn soft(&self) -> Option<DeformSummary> {
+        self.soft.as_ref().map(SoftDriver::summary)
+    }
+
+    /// The step a soft body's core refused, if one did: the body has stayed where it was
+    /// since (it does not happen on a body the set-up's checks let through, with positions
+    /// the physics keeps finite).
+    pub fn soft_error(&self) -> Option<&Error> {
+        self.soft_error.as_ref()
     }
 
     /// What the last tick's simulation step did.
@@ -249,13 +306,47 @@ mod tests {
     use crate::setup::{Body, SoftSettings, Tool};
 
     #[test]
-    fn a_soft_body_is_refused_not_drilled_as_rigid() {
-        let mut setup = Setup::new("builtin:block:2", Tool::sphere(0.1));
-        assert!(Drilling::new(&setup).is_ok());
-        setup.body = Body::Soft(SoftSettings::default());
-        match Drilling::new(&setup) {
-            Err(Error::Unsupported(m)) => assert!(m.contains("soft body"), "{m}"),
-            other => panic!("a soft set-up must be refused, got {other:?}"),
-        }
+    fn a_soft_body_gives_way_under_the_burr_where_a_rigid_one_does_not() {
+        // The burr pressed 0.02 into the top (z = 0.5) of the 4-block held at its base, the
+        // drill off: the soft block's top sinks under it and pushes back less.
+        let mut setup = Setup::new("builtin:block:4", Tool::sphere(0.1));
+        let press = |setup: &Setup| {
+            let mut d = Drilling::new(setup).expect("a drilling");
+            let mut run = d.start().expect("a run");
+            let mut f = Vec3::ZERO;
+            for i in 0..600 {
+                let s = (i as f32 / 200.0).min(1.0);
+                f = run.tick(&Pose::at(Vec3::new(0.06, -0.04, 0.6 - 0.02 * s)));
+            }
+            assert!(run.soft_error().is_none());
+            let top = run
+                .positions()
+                .iter()
+                .map(|p| p.z)
+                .fold(f32::INFINITY, f32::min);
+            let lowest_top = run
+                .positions()
+                .iter()
+                .zip(run.world().mesh().rest_positions())
+                .filter(|(_, r)| r.z > 0.49)
+                .map(|(p, _)| p.z)
+                .fold(f32::INFINITY, f32::min);
+            (f, top, lowest_top, run.soft().map(|s| s.steps))
+        };
+        let (rigid, bottom, rigid_top, none) = press(&setup);
+        assert_eq!(none, None);
+        assert_eq!((bottom, rigid_top), (-0.5, 0.5));
+        setup.body = Body::Soft(SoftSettings {
+            young: Some(2_000.0),
+            ..SoftSettings::default()
+        });
+        let (soft, bottom, soft_top, steps) = press(&setup);
+        assert!(steps.is_some_and(|s| s > 0), "the body stepped: {steps:?}");
+        assert_eq!(bottom, -0.5, "the base is held");
+        assert!(soft_top < 0.5 - 1e-3, "the top sinks: {soft_top}");
+        assert!(
+            soft.z > 0.0 && soft.z < rigid.z,
+            "soft {soft} against rigid {rigid}"
+        );
     }
 }

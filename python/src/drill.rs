@@ -55,7 +55,7 @@ pub struct Session {
     warnings: Vec<String>,
 }
 
-/// Refuses what `Drilling` does not run: a tet-mesh tool, a soft body.
+/// Refuses what `Drilling` does not run: a tet-mesh tool.
 fn drillable(setup: &Setup) -> PyResult<()> {
     if let Tool::Mesh { path, .. } = &setup.tool {
         return Err(errors::input(format!(
@@ -63,12 +63,6 @@ fn drillable(setup: &Setup) -> PyResult<()> {
              take a burr (sphere:R or drill:R:L:r)",
             path.display()
         )));
-    }
-    if setup.soft().is_some() {
-        return Err(errors::input(
-            "body = soft: Drilling and replay drill a rigid body (SoftBody steps a soft one; \
-             `tetradrill replay --body soft` replays one)",
-        ));
     }
     Ok(())
 }
@@ -120,6 +114,9 @@ impl Session {
                 let f = r.tick(p);
                 digest.push(f);
                 forces.push(f);
+                if let Some(e) = r.soft_error() {
+                    return Err(errors::TetradrillError::new_err(format!("soft body: {e}")));
+                }
             }
             Ok(())
         });
@@ -169,6 +166,31 @@ impl Session {
     fn initial_volume(&self) -> PyResult<f64> {
         Ok(self.live()?.with_run(|r| r.initial_volume()))
     }
+
+    /// The mesh's nodes where they are now (a soft body moves them).
+    fn positions(&self) -> PyResult<Vec<Vec3>> {
+        Ok(self.live()?.with_run(|r| r.positions().to_vec()))
+    }
+
+    /// A soft body's figures so far, `None` for a rigid mesh.
+    fn soft(&self) -> PyResult<Option<tetradrill::soft::DeformSummary>> {
+        Ok(self.live()?.with_run(|r| r.soft()))
+    }
+}
+
+/// A soft body's figures as a dict: `steps`, `max_displacement` (mesh units), `rate_hz`,
+/// `threads`, `fixed_nodes`, as `tetradrill replay --json`'s `deform`.
+fn deform_dict<'py>(
+    py: Python<'py>,
+    d: &tetradrill::soft::DeformSummary,
+) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    out.set_item("steps", d.steps)?;
+    out.set_item("max_displacement", d.max_displacement)?;
+    out.set_item("rate_hz", d.rate_hz)?;
+    out.set_item("threads", d.threads)?;
+    out.set_item("fixed_nodes", d.fixed_nodes)?;
+    Ok(out)
 }
 
 /// A mesh being drilled by a burr, tick by tick (1 ms a tick).
@@ -322,6 +344,24 @@ impl Drilling {
     #[getter]
     fn initial_volume(&self) -> PyResult<f64> {
         self.session.initial_volume()
+    }
+
+    /// The mesh's nodes where they are now, `N x 3`, in the mesh's node order: where a soft
+    /// body (`body="soft"`) has moved them, else as loaded.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        arrays::to_numpy(py, &self.session.positions()?)
+    }
+
+    /// A soft body's figures so far (`body="soft"`): `steps`, `max_displacement`,
+    /// `rate_hz`, `threads`, `fixed_nodes`, as `tetradrill replay --json`'s `deform`; `None`
+    /// for a rigid mesh.
+    #[getter]
+    fn soft<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.session
+            .soft()?
+            .map(|d| deform_dict(py, &d))
+            .transpose()
     }
 
     /// Ticks run since the start (or the last `reset`).
@@ -533,6 +573,9 @@ pub fn replay<'py>(
     d.set_item("debris_erased", de)?;
     if let Some(c) = session.cutting()? {
         d.set_item("cutting", cutting_dict(py, &c)?)?;
+    }
+    if let Some(s) = session.soft()? {
+        d.set_item("deform", deform_dict(py, &s)?)?;
     }
     d.set_item("max_force", f64::from(max_force))?;
     d.set_item("contact_ticks", contact_ticks)?;

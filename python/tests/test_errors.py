@@ -42,8 +42,8 @@ def test_bad_settings():
         td.Drilling("builtin:block:2", "sphere:-1")
     with pytest.raises(td.InputError, match="Touching"):
         td.Drilling("builtin:block:2", "mesh:pen.mesh")
-    with pytest.raises(td.InputError, match="soft"):
-        td.replay(body="soft", ticks=5)
+    with pytest.raises(td.InputError, match="young"):
+        td.replay(body="soft", young=-5.0, ticks=5)
     with pytest.raises(td.InputError, match="touching takes a tet-mesh tool"):
         td.Touching("builtin:block:2", "sphere:0.1")
 

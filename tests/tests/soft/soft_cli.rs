@@ -512,3 +512,55 @@ fn two_step_threads_and_a_reset_driver_move_the_world_as_one_thread_does() {
     assert!(one == two, "two threads moved the world otherwise");
     assert!(one == again, "the reset driver pushed other tets");
 }
+
+/// The library's front door (`tetradrill::Drilling`) on a soft scenario drills and dents the
+/// block as `tetradrill replay` does: the same force every tick (its digest, which the body's
+/// motion feeds through the contact) and the same physics steps.
+#[test]
+fn the_librarys_drilling_of_a_soft_body_is_the_replays() {
+    let dir = scratch_dir("softcli", "library");
+    let trace = press_trace(&dir);
+    // Drilling on, a softer block, so the burr both cuts and dents it.
+    let text = std::fs::read_to_string(&trace)
+        .expect("the trace")
+        .replace(",1,0,0,0,0\n", ",1,0,0,0,1\n");
+    let trace = write(&dir, "drill.csv", &text);
+    let scenario = write(
+        &dir,
+        "soft.toml",
+        &format!(
+            "mesh = \"builtin:block:4\"\ntool = \"sphere:0.1\"\ntrace = \"{}\"\nbody = \"soft\"\n\
+             young = 3000.0\nfix_below = \"z:-0.49\"\n\n[regions.0]\nhardness = 2000.0\n\
+             threshold = 1.0\n",
+            trace.display()
+        ),
+    );
+    let spec = scenario.to_string_lossy().into_owned();
+    let cli = replay_json(&dir, "cli", &["--scenario", &spec]);
+    let setup = tetradrill::scenario::Scenario::load(&spec)
+        .expect("the scenario")
+        .setup()
+        .expect("its set-up");
+    let loaded = setup.mesh.load().expect("the mesh");
+    let poses =
+        tetradrill::traces::PoseSource::new(&setup.poses, Some(&loaded.mesh)).expect("the trace");
+    let mut drilling = tetradrill::Drilling::with_mesh(&setup, loaded).expect("a drilling");
+    let mut run = drilling.start().expect("a run");
+    let mut digest = tetradrill_core::force::ForceDigest::new();
+    for i in 0..poses.ticks() {
+        digest.push(run.tick(&poses.at(i)));
+    }
+    assert!(run.soft_error().is_none());
+    let soft = run.soft().expect("a soft body");
+    assert_eq!(
+        cli["force_digest"].as_str(),
+        Some(format!("{:016x}", digest.value()).as_str())
+    );
+    assert_eq!(cli["deform"]["steps"].as_u64(), Some(soft.steps));
+    assert!(run.removed_volume() > 0.0, "the burr cut");
+    assert!(
+        soft.max_displacement > 1e-3,
+        "and dented: {}",
+        soft.max_displacement
+    );
+}
