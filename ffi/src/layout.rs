@@ -53,6 +53,8 @@ pub struct ServoState {
     pub drill_handoff: &'static DrillHandoff,
 }
 
+crate::marked!(ServoState, SERVO_MAGIC);
+
 /// The most nodes or tets a world takes: every size the core derives from the counts (8 hash
 /// entries per tet, a v_list of the tets plus 7/8 of the arena) then fits in 32 bits.
 pub const TD_MAX_COUNT: u32 = 1 << 28;
@@ -115,6 +117,8 @@ pub struct State {
     /// storage, and `td_world_set_positions` moves its nodes.
     pub deformable: bool,
 }
+
+crate::marked!(State, MAGIC);
 
 impl State {
     /// The regions' materials and removed volumes, in label order.

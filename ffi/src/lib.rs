@@ -227,23 +227,65 @@ unsafe fn get<T: Copy>(p: *const T) -> Result<T, TdStatus> {
     Ok(unsafe { p.read() })
 }
 
-/// The world behind a handle: null, misaligned or not set up by `td_world_init` are refused.
+/// A header in caller memory that a C handle points at (a world's, its servo's, a surface's,
+/// a soft body's, a pen's and its servo's), whose magic word its init writes last: a header
+/// holding the word is set up whole.
 ///
 /// # Safety
-/// `w`, when not null and aligned, points at memory at least `size_of::<State>()` long that
-/// `td_world_init` was given (and that nothing else uses meanwhile).
-unsafe fn state<'a>(w: *mut TdWorld) -> Result<&'a mut State, TdStatus> {
-    let s = w.cast::<State>();
-    check_ptr(s)?;
-    // SAFETY: aligned and not null (checked); the memory is a world's (the caller's
-    // contract), whose first field `td_world_init` wrote before anything else.
-    let magic = unsafe { ptr::addr_of!((*s).magic).read() };
-    if magic != MAGIC {
+/// [`Marked::magic`] reads the header's magic word through the raw pointer alone, making no
+/// reference to a header that may not be set up.
+pub(crate) unsafe trait Marked {
+    /// The word a set-up header holds.
+    const MAGIC: u64;
+
+    /// The magic word of the header at `p`.
+    ///
+    /// # Safety
+    /// `p` is aligned and not null, and points at memory at least the header's size long.
+    unsafe fn magic(p: *const Self) -> u64;
+}
+
+/// Implements [`Marked`] for a header type with a `magic: u64` field.
+macro_rules! marked {
+    ($t:ty, $magic:expr) => {
+        // SAFETY: `magic` reads the field through the raw pointer only.
+        unsafe impl $crate::Marked for $t {
+            const MAGIC: u64 = $magic;
+
+            unsafe fn magic(p: *const Self) -> u64 {
+                // SAFETY: aligned, not null, inside the header's memory (the caller's
+                // contract).
+                unsafe { core::ptr::addr_of!((*p).magic).read() }
+            }
+        }
+    };
+}
+pub(crate) use marked;
+
+/// The header behind a handle: null, misaligned or not set up by its init (its magic word
+/// missing) are refused.
+///
+/// # Safety
+/// `p`, when not null and aligned, points at memory at least `size_of::<T>()` long that the
+/// header's init was given, and that no other call uses meanwhile.
+pub(crate) unsafe fn marked_mut<'a, T: Marked>(p: *mut T) -> Result<&'a mut T, TdStatus> {
+    check_ptr(p)?;
+    // SAFETY: aligned and not null (checked); the header's memory (the caller's contract).
+    if unsafe { T::magic(p) } != T::MAGIC {
         return Err(TdStatus::TdErrNotInit);
     }
-    // SAFETY: the magic is written last by a successful `td_world_init`, so the whole State
-    // is initialised; the caller does not use the memory otherwise while it holds the world.
-    Ok(unsafe { &mut *s })
+    // SAFETY: the init writes the magic word last, so the whole header is set up; one call
+    // at a time uses it (the caller's contract).
+    Ok(unsafe { &mut *p })
+}
+
+/// The world behind a handle ([`marked_mut`]).
+///
+/// # Safety
+/// As [`marked_mut`], for memory `td_world_init` was given.
+unsafe fn state<'a>(w: *mut TdWorld) -> Result<&'a mut State, TdStatus> {
+    // SAFETY: the caller's contract.
+    unsafe { marked_mut(w.cast::<State>()) }
 }
 
 /// A finite `Vec3` from C, or `TdErrInput`.

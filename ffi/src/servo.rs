@@ -7,23 +7,14 @@
 
 use super::*;
 
-/// The servo behind a handle: null, misaligned or not set up by `td_world_init` are refused.
+/// The servo behind a handle ([`marked_mut`]).
 ///
 /// # Safety
-/// `s`, when not null and aligned, points at a world's servo (from `td_world_servo`) whose
-/// memory is still the caller's and that no other servo call uses meanwhile.
+/// As [`marked_mut`], for a world's servo (from `td_world_servo`) whose memory is still the
+/// caller's.
 pub(crate) unsafe fn servo_state<'a>(s: *mut TdServo) -> Result<&'a mut ServoState, TdStatus> {
-    let s = s.cast::<ServoState>();
-    check_ptr(s)?;
-    // SAFETY: aligned and not null (checked); the memory is a world's servo (the caller's
-    // contract), whose magic `td_world_init` wrote with the state.
-    let magic = unsafe { ptr::addr_of!((*s).magic).read() };
-    if magic != SERVO_MAGIC {
-        return Err(TdStatus::TdErrNotInit);
-    }
-    // SAFETY: the magic is written with the whole state by a successful `td_world_init`; one
-    // servo call at a time (the caller's contract), and nothing of the world's refers to it.
-    Ok(unsafe { &mut *s })
+    // SAFETY: the caller's contract.
+    unsafe { marked_mut(s.cast::<ServoState>()) }
 }
 
 /// Writes the world's servo handle to `*out`: the part of the world's memory the servo's force

@@ -75,6 +75,8 @@ struct SoftState {
     time: f64,
 }
 
+marked!(SoftState, SOFT_MAGIC);
+
 /// Where each part of a soft body's memory starts, and the whole's size and alignment.
 struct SoftPlan {
     size: usize,
@@ -149,23 +151,13 @@ fn soft_params(p: &TdSoftParams) -> Result<(Material, SoftParams), TdStatus> {
     Ok((material, params))
 }
 
-/// The body behind a handle: null, misaligned or not set up by `td_soft_init` are refused.
+/// The body behind a handle ([`marked_mut`]).
 ///
 /// # Safety
-/// `s`, when not null and aligned, points at memory at least `size_of::<SoftState>()` long
-/// that `td_soft_init` was given (and that nothing else uses meanwhile).
+/// As [`marked_mut`], for memory `td_soft_init` was given.
 unsafe fn soft<'a>(s: *mut TdSoft) -> Result<&'a mut SoftState, TdStatus> {
-    let s = s.cast::<SoftState>();
-    check_ptr(s)?;
-    // SAFETY: aligned and not null (checked); the memory is a body's (the caller's
-    // contract), whose first field `td_soft_init` wrote before anything else.
-    let magic = unsafe { ptr::addr_of!((*s).magic).read() };
-    if magic != SOFT_MAGIC {
-        return Err(TdStatus::TdErrNotInit);
-    }
-    // SAFETY: the magic is written last by a successful `td_soft_init`, so the whole state is
-    // initialised; the caller does not use the memory otherwise while it holds the body.
-    Ok(unsafe { &mut *s })
+    // SAFETY: the caller's contract.
+    unsafe { marked_mut(s.cast::<SoftState>()) }
 }
 
 /// `n` values of `T` from C at `p`, checked for null and alignment.

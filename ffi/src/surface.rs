@@ -108,6 +108,8 @@ struct SurfaceState {
     export: SurfaceExport<'static>,
 }
 
+marked!(SurfaceState, SURFACE_MAGIC);
+
 /// A surface's layout: its bytes, the offset of its lines, the exporter's sizes and lines,
 /// and (`smooth`) the smooth normals' sizes, whose lines follow the exporter's.
 struct Plan {
@@ -153,24 +155,13 @@ const SURFACE_ALIGN: usize = if align_of::<SurfaceState>() > LINE {
     LINE
 };
 
-/// The surface behind a handle: null, misaligned or not set up by `td_surface_init` are
-/// refused.
+/// The surface behind a handle ([`marked_mut`]).
 ///
 /// # Safety
-/// `s`, when not null and aligned, points at memory `td_surface_init` was given (and that
-/// nothing else uses meanwhile).
+/// As [`marked_mut`], for memory `td_surface_init` was given.
 unsafe fn surface_state<'a>(s: *mut TdSurface) -> Result<&'a mut SurfaceState, TdStatus> {
-    let s = s.cast::<SurfaceState>();
-    check_ptr(s)?;
-    // SAFETY: aligned and not null (checked); the memory is a surface's (the caller's
-    // contract), whose first field `td_surface_init` wrote before anything else.
-    let magic = unsafe { ptr::addr_of!((*s).magic).read() };
-    if magic != SURFACE_MAGIC {
-        return Err(TdStatus::TdErrNotInit);
-    }
-    // SAFETY: the magic is written last by a successful `td_surface_init`, so the whole
-    // state is initialised; the caller does not use the memory otherwise meanwhile.
-    Ok(unsafe { &mut *s })
+    // SAFETY: the caller's contract.
+    unsafe { marked_mut(s.cast::<SurfaceState>()) }
 }
 
 /// Writes the bytes (`*out_size`) and the alignment (`*out_align`, 64) a surface of

@@ -184,6 +184,8 @@ struct PenHeader {
     counters: TdPenCounts,
 }
 
+marked!(PenHeader, PEN_MAGIC);
+
 /// The servo's side of a pen's memory.
 #[derive(Debug)]
 #[repr(C, align(64))]
@@ -206,6 +208,8 @@ struct PenServoState {
     torque_digest: ForceDigest,
     counts: TdPenServoCounts,
 }
+
+marked!(PenServoState, PEN_SERVO_MAGIC);
 
 /// The hand-off on cache lines of its own.
 #[derive(Debug)]
@@ -292,14 +296,8 @@ pub unsafe extern "C" fn td_pen_size(
 /// # Safety
 /// `pen`, when not null and aligned, points at memory `td_pen_init` was given.
 unsafe fn pen_state<'a>(pen: *mut TdPen) -> Result<&'a mut PenHeader, TdStatus> {
-    let s = pen.cast::<PenHeader>();
-    check_ptr(s)?;
-    // SAFETY: aligned, not null; the first field of a pen's memory.
-    if unsafe { ptr::addr_of!((*s).magic).read() } != PEN_MAGIC {
-        return Err(TdStatus::TdErrNotInit);
-    }
-    // SAFETY: set up whole by `td_pen_init` (the magic last); one caller at a time.
-    Ok(unsafe { &mut *s })
+    // SAFETY: the caller's contract.
+    unsafe { marked_mut(pen.cast::<PenHeader>()) }
 }
 
 /// The pen's servo behind a handle.
@@ -307,14 +305,8 @@ unsafe fn pen_state<'a>(pen: *mut TdPen) -> Result<&'a mut PenHeader, TdStatus> 
 /// # Safety
 /// `servo`, when not null and aligned, points at a pen's servo from `td_pen_servo_handle`.
 unsafe fn pen_servo_state<'a>(servo: *mut TdPenServo) -> Result<&'a mut PenServoState, TdStatus> {
-    let s = servo.cast::<PenServoState>();
-    check_ptr(s)?;
-    // SAFETY: aligned, not null; the servo state's first field.
-    if unsafe { ptr::addr_of!((*s).magic).read() } != PEN_SERVO_MAGIC {
-        return Err(TdStatus::TdErrNotInit);
-    }
-    // SAFETY: written whole with its magic by `td_pen_init`; one servo caller at a time.
-    Ok(unsafe { &mut *s })
+    // SAFETY: the caller's contract.
+    unsafe { marked_mut(servo.cast::<PenServoState>()) }
 }
 
 /// A pen's pose from C: the position and the rotation normalised (as the host's replay
