@@ -10,7 +10,7 @@ mod common;
 use std::ptr;
 
 use common::soft::{block, defaults, CSoft};
-use common::{block_arrays, builtin, params_of, Memory};
+use common::{block_arrays, builtin, c_world, params_of};
 use tetradrill::engine::{self, EngineStorage, TickParams};
 use tetradrill::soft::SoftOwned;
 use tetradrill::traces::Pose;
@@ -27,31 +27,6 @@ const TICKS_PER_STEP: usize = 5;
 fn centre(i: usize, radius: f32, press: f32) -> Vec3 {
     let s = (i as f32 / 200.0).min(1.0);
     Vec3::new(0.06, -0.04, 0.5 + radius - s * press)
-}
-
-/// A deformable C world for the `n`-block with `p`'s parameters in fresh memory.
-fn c_world(p: &TdParams, n: usize) -> (Memory, *mut TdWorld) {
-    let (xyz, tets) = block_arrays(n);
-    let (mut size, mut align) = (0usize, 0usize);
-    // SAFETY: valid pointers to initialised or writable values.
-    unsafe { assert_eq!(td_world_size(p, &mut size, &mut align), TdStatus::TdOk) };
-    let mem = Memory::new(size, align);
-    let mut world = ptr::null_mut();
-    // SAFETY: memory of the size and alignment asked for, arrays of the counts in `p`.
-    let st = unsafe {
-        td_world_init(
-            mem.ptr.cast(),
-            size,
-            p,
-            xyz.as_ptr(),
-            tets.as_ptr(),
-            ptr::null(),
-            &mut world,
-            ptr::null_mut(),
-        )
-    };
-    assert_eq!(st, TdStatus::TdOk);
-    (mem, world)
 }
 
 /// What a run of the C loop gave: each tick's force, the body's final positions and the
@@ -89,39 +64,15 @@ fn c_run(b: Body, press: f32, ticks: usize, deformable: bool) -> Run {
     let sc = builtin("firmware");
     let mut p = params_of(&sc, 4);
     p.deformable = u32::from(deformable);
-    let (_mem, world) = c_world(&p, 4);
+    let (_mem, world) = c_world(&p, 4, None, &[]);
     let (xyz, tets) = block(4);
     let mut sp = defaults();
     sp.young = b.young;
     sp.density = b.density;
     sp.damping = b.damping;
     let body = CSoft::new(&xyz, &tets, &sp).expect("a body");
-    let mut held = 0;
-    // SAFETY: a live handle and a writable count.
-    let st = unsafe {
-        td_soft_fix_below(
-            body.h,
-            TdVec3 {
-                x: 0.0,
-                y: 0.0,
-                z: -0.49,
-            },
-            TdVec3 {
-                x: 0.0,
-                y: 0.0,
-                z: 1.0,
-            },
-            &mut held,
-        )
-    };
-    assert_eq!(st, TdStatus::TdOk);
-    if !b.held {
-        for k in 0..body.nodes {
-            // SAFETY: a live handle, a node in range.
-            assert_eq!(unsafe { td_soft_set_fixed(body.h, k, 0) }, TdStatus::TdOk);
-        }
-    } else {
-        assert_eq!(held, 25);
+    if b.held {
+        assert_eq!(body.hold_base(), 25, "the block's base");
     }
     let n = body.nodes;
     let mut loads = vec![0.0f32; 3 * n as usize];
@@ -342,10 +293,10 @@ fn a_free_block_takes_the_burrs_impulse_and_moves_away_from_it() {
 fn bad_calls_get_their_status_and_change_nothing() {
     let sc = builtin("firmware");
     let p = params_of(&sc, 4);
-    let (_rigid_mem, rigid) = c_world(&p, 4);
+    let (_rigid_mem, rigid) = c_world(&p, 4, None, &[]);
     let mut q = p;
     q.deformable = 1;
-    let (_mem, world) = c_world(&q, 4);
+    let (_mem, world) = c_world(&q, 4, None, &[]);
     let (xyz, _) = block_arrays(4);
     let n = (xyz.len() / 3) as u32;
     let mut bad = xyz.clone();

@@ -84,24 +84,7 @@ fn a_loaded_held_body_steps_to_the_bits_of_the_hosts() {
     p.damping = 2.0;
     let b = CSoft::new(&xyz, &tets, &p).expect("a body");
     let n = b.nodes as usize;
-    let mut held = 0u32;
-    let (origin, up) = (
-        TdVec3 {
-            x: 0.0,
-            y: 0.0,
-            z: -0.49,
-        },
-        TdVec3 {
-            x: 0.0,
-            y: 0.0,
-            z: 1.0,
-        },
-    );
-    // SAFETY: a live handle and a writable count.
-    assert_eq!(
-        unsafe { td_soft_fix_below(b.h, origin, up, &mut held) },
-        TdStatus::TdOk
-    );
+    let held = b.hold_base();
     assert_eq!(held, 25, "the block's bottom face");
     // One top node held too.
     let top = xyz.chunks(3).position(|c| c[2] > 0.49).expect("a top node");

@@ -75,6 +75,27 @@ impl CSoft {
         unsafe { td_soft_step(self.h, dt, loads.map_or(ptr::null(), |l| l.as_ptr())) }
     }
 
+    /// Holds the block's base (the nodes at or below z = -0.49); how many.
+    pub fn hold_base(&self) -> u32 {
+        let mut held = 0u32;
+        let (origin, up) = (
+            TdVec3 {
+                x: 0.0,
+                y: 0.0,
+                z: -0.49,
+            },
+            TdVec3 {
+                x: 0.0,
+                y: 0.0,
+                z: 1.0,
+            },
+        );
+        // SAFETY: a live handle and a writable count.
+        let st = unsafe { td_soft_fix_below(self.h, origin, up, &mut held) };
+        assert_eq!(st, TdStatus::TdOk);
+        held
+    }
+
     pub fn counts(&self) -> TdSoftCounts {
         let mut c = TdSoftCounts::default();
         // SAFETY: a live handle and a writable struct.
