@@ -4,8 +4,7 @@
 use super::*;
 
 use tetradrill_core::collide::{ZoneGather, ZONE_MARGIN_RADII};
-use tetradrill_core::hash::{Aabb, HashEntry};
-use tetradrill_core::servo::SpareStorage;
+use tetradrill_core::servo::{carve_rest, SpareStorage};
 
 /// Writes `n` copies of `v` from `base + offset` on and returns them as a slice.
 ///
@@ -215,30 +214,13 @@ pub(crate) unsafe fn init(
     };
     let initial_volume = mesh.volume();
     let mut world = World::new(mesh, storage).map_err(|_| TdStatus::TdErrWorld)?;
-    if let Some(d) = plan.deform {
-        // SAFETY: as the carving above: the plan's rest and spare regions.
-        let (rest, spare) = unsafe {
-            (
-                carve(base, d.rest, plan.nodes, Vec3::ZERO),
-                SpareStorage {
-                    hash_starts: carve(base, d.hash_starts, plan.sizes.hash_starts, 0u32),
-                    hash_entries: carve(
-                        base,
-                        d.hash_entries,
-                        plan.sizes.hash_entries,
-                        HashEntry::EMPTY,
-                    ),
-                    tet_boxes: carve(
-                        base,
-                        d.tet_boxes,
-                        plan.sizes.tet_boxes,
-                        Aabb::point(Vec3::ZERO),
-                    ),
-                    normals: carve(base, d.normals, plan.nodes, Vec3::ZERO),
-                },
-            )
-        };
-        // Sized by the plan as the world's own parts: the core refuses only other sizes.
+    if let Some((at, lines)) = plan.deform {
+        // SAFETY: as the carving above: the plan's deformation lines.
+        let mut block = Block::from_lines(unsafe { carve(base, at, lines, Line::ZERO) });
+        // The core's one layout of them, sized by the plan: it refuses only other sizes.
+        let spare = SpareStorage::carve(&plan.sizes, plan.nodes, &mut block)
+            .map_err(|_| TdStatus::TdErrTooSmall)?;
+        let rest = carve_rest(plan.nodes, &mut block).map_err(|_| TdStatus::TdErrTooSmall)?;
         world
             .enable_deformation(rest)
             .and_then(|()| world.set_spare(spare))

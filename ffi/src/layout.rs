@@ -8,7 +8,6 @@ use core::mem::size_of;
 
 use tetradrill_core::drill::{DrillParams, Region};
 use tetradrill_core::force::ForceParams;
-use tetradrill_core::hash::{Aabb, HashEntry};
 use tetradrill_core::mesh::{FaceKey, MeshStorage};
 use tetradrill_core::servo::{ContactHandoff, DrillHandoff, DrillServo, Servo, World, WorldSizes};
 use tetradrill_core::storage::Line;
@@ -182,29 +181,14 @@ pub struct Plan {
     pub servo: usize,
     /// The drill's hand-off (`SharedDrillHandoff`).
     pub drill_handoff: usize,
-    /// A deforming world's rest positions and spare storage (`td_params.deformable`).
-    pub deform: Option<DeformPlan>,
+    /// A deforming world's spare storage and rest positions (`td_params.deformable`):
+    /// [`WorldSizes::deform_lines`] lines at this offset, carved by `SpareStorage::carve` and
+    /// `carve_rest` (the core's one layout of them).
+    pub deform: Option<(usize, usize)>,
     /// Bytes in all.
     pub size: usize,
     /// Alignment the memory needs.
     pub align: usize,
-}
-
-/// Offsets of a deforming world's own parts: the rest positions (`Vec3` per node) and the
-/// spare storage of an in-place update (`SpareStorage`: the hash's bucket offsets and
-/// entries, the tet boxes and the normals, each as long as the world's own).
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub struct DeformPlan {
-    /// `Vec3` per node.
-    pub rest: usize,
-    /// `u32` per hash bucket offset (`WorldSizes::hash_starts`).
-    pub hash_starts: usize,
-    /// `HashEntry` per hash entry (`WorldSizes::hash_entries`).
-    pub hash_entries: usize,
-    /// `Aabb` per tet box (`WorldSizes::tet_boxes`).
-    pub tet_boxes: usize,
-    /// `Vec3` per node.
-    pub normals: usize,
 }
 
 /// Appends arrays to a layout, each at its alignment.
@@ -305,13 +289,8 @@ impl Plan {
         let region_labels = b.put::<i32>(region_slots)?;
         let tet_region = b.put::<u8>(tets)?;
         let deform = if p.deformable == 1 {
-            Some(DeformPlan {
-                rest: b.put::<Vec3>(nodes)?,
-                hash_starts: b.put::<u32>(sizes.hash_starts)?,
-                hash_entries: b.put::<HashEntry>(sizes.hash_entries)?,
-                tet_boxes: b.put::<Aabb>(sizes.tet_boxes)?,
-                normals: b.put::<Vec3>(nodes)?,
-            })
+            let lines = sizes.deform_lines(nodes).ok_or(TdStatus::TdErrParams)?;
+            Some((b.put::<Line>(lines)?, lines))
         } else {
             None
         };
@@ -399,14 +378,8 @@ mod tests {
             r::<i32>(p.region_labels, p.region_slots),
             r::<u8>(p.tet_region, p.tets),
         ];
-        if let Some(d) = p.deform {
-            all.extend([
-                r::<Vec3>(d.rest, p.nodes),
-                r::<u32>(d.hash_starts, p.sizes.hash_starts),
-                r::<HashEntry>(d.hash_entries, p.sizes.hash_entries),
-                r::<Aabb>(d.tet_boxes, p.sizes.tet_boxes),
-                r::<Vec3>(d.normals, p.nodes),
-            ]);
+        if let Some((at, lines)) = p.deform {
+            all.push(r::<Line>(at, lines));
         }
         all
     }
