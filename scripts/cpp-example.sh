@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The C++ example over the header-only wrapper (ffi/include/tetradrill.hpp, docs/FFI.md):
-# builds libtetradrill_ffi.a (profile ffi), compiles examples/cpp/drill_tooth.cpp with g++
-# -std=c++20 -Wall -Wextra -Wpedantic -Werror, drills the premolar's access cavity from its
-# mesh file, writes its drilled surface (kept in an engine's buffers frame by frame) to
+# builds examples/cpp with CMake as a simulator's project would (examples/cpp/CMakeLists.txt:
+# add_subdirectory of ffi/, whose target tetradrill::tetradrill runs cargo for
+# libtetradrill_ffi.a; C++20, -Wall -Wextra -Wpedantic -Werror), drills the premolar's
+# access cavity from its mesh file, writes its drilled surface (kept in an engine's buffers frame by frame) to
 # OUT.obj, and compares its force digest and removed_by_region with
 # `tetradrill replay --scenario builtin:firmware-tooth --json`'s and the surface with
 # `--surface`'s (the same triangles, any order, and their smooth normals within 1e-5); before
@@ -20,7 +21,7 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 obj=""
 while [ $# -gt 0 ]; do
   case "$1" in
-    -h|--help) sed -n '2,17p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,18p' "$0"; exit 0 ;;
     -*) echo "cpp-example: unknown argument '$1' (expected OUT.obj)" >&2; exit 2 ;;
     *) [ -z "$obj" ] || { echo "cpp-example: one OUT.obj only, not also '$1'" >&2; exit 2; }
        obj="$1"; shift ;;
@@ -34,6 +35,7 @@ work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 cd "$root"
 command -v g++ >/dev/null || { echo "cpp-example: no C++ compiler 'g++' found (apt-get install g++)" >&2; exit 1; }
+command -v cmake >/dev/null || { echo "cpp-example: no 'cmake' found (apt-get install cmake)" >&2; exit 1; }
 
 bin="${TETRADRILL_BIN:-}"
 if [ -z "$bin" ]; then
@@ -45,18 +47,12 @@ if [ -n "${TETRADRILL_MESHES:-}" ] && [ -f "$TETRADRILL_MESHES/models/tooth_prem
   mesh="$TETRADRILL_MESHES/models/tooth_premolar_gmsh.msh22.msh"
 fi
 
-echo "== libtetradrill_ffi.a (profile ffi: release, panic = abort)"
-cargo rustc --quiet -p tetradrill-ffi --profile ffi \
-  -- --print native-static-libs 2>"$work/rustc.txt" || { cat "$work/rustc.txt" >&2; exit 1; }
-libs="$(sed -n 's/.*native-static-libs: //p' "$work/rustc.txt" | tail -1)"
-echo "== g++ -std=c++20 -Wall -Wextra -Werror examples/cpp/drill_tooth.cpp"
-# shellcheck disable=SC2086
-g++ -std=c++20 -O2 -Wall -Wextra -Wpedantic -Werror -ffp-contract=off -I ffi/include \
-  examples/cpp/drill_tooth.cpp "$target_dir/ffi/libtetradrill_ffi.a" $libs -o "$work/drill_tooth"
-echo "== the wrapper's own checks (examples/cpp/checks.cpp)"
-# shellcheck disable=SC2086
-g++ -std=c++20 -O2 -Wall -Wextra -Wpedantic -Werror -I ffi/include \
-  examples/cpp/checks.cpp "$target_dir/ffi/libtetradrill_ffi.a" $libs -o "$work/checks"
+echo "== cmake: examples/cpp/CMakeLists.txt over ffi/ (add_subdirectory, tetradrill::tetradrill)"
+cmake -S examples/cpp -B "$work/build" -DCMAKE_BUILD_TYPE=Release \
+  -DTETRADRILL_CARGO_TARGET_DIR="$target_dir" >"$work/cmake.log" 2>&1 \
+  && cmake --build "$work/build" >>"$work/cmake.log" 2>&1 \
+  || { cat "$work/cmake.log" >&2; echo "cpp-example: FAIL: the CMake build" >&2; exit 1; }
+cp "$work/build/checks" "$work/build/drill_tooth" "$work/"
 mkdir -p "$work/scratch"
 "$work/checks" "$work/scratch" || { echo "cpp-example: FAIL: the wrapper's checks" >&2; exit 1; }
 echo "== run on $mesh"
