@@ -147,6 +147,16 @@ impl std::fmt::Debug for Touch<'_, '_> {
 }
 
 impl Touch<'_, '_> {
+    /// Back to rest: the next tick gives the bits of the first of a [`Touching::run`] (no
+    /// damping memory, no lists, found tets or crossings carried from earlier ticks).
+    ///
+    /// # Bounded work
+    /// O(pen nodes + crossings).
+    pub fn reset(&mut self) {
+        self.state = tetradrill_core::force::PenState::default();
+        self.bufs.forget();
+    }
+
     /// The pen at `pose` (tip at the position, axis +z turned by the rotation): its
     /// collisions with the object, their consistent penetration depths, and the force on the
     /// hand (damped, clamped), with where to draw the pen so it does not visibly penetrate.

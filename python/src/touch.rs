@@ -1,7 +1,15 @@
 //! Touching from Python: a tet-mesh tool (the pen) against an object, the consistent
 //! penetration depth's force at each pose.
+//!
+//! The contact scene (the object's hashes and grids, the pen's rest frame: about 0.2 s for the
+//! teddy) is built once, by a thread of the object's own that keeps it and the pen's state
+//! from call to call: `run` hands that thread its poses and waits, looking at Python's signals
+//! meanwhile, so a Ctrl-C stops the thread between two ticks and the ticks run are kept.
 
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc, Mutex};
+use std::thread::JoinHandle;
 
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
@@ -16,16 +24,139 @@ use crate::arrays::{self, Drill};
 use crate::interrupt::Signals;
 use crate::{errors, settings};
 
+/// What the scene's thread is asked to do.
+enum Job {
+    /// One tick a pose, from where the last call left the pen.
+    Run(Vec<Pose>),
+    /// Back to rest.
+    Reset,
+}
+
+/// The thread that holds the contact scene and the pen's state.
+#[derive(Debug)]
+struct Scene {
+    jobs: Option<mpsc::Sender<Job>>,
+    /// The thread's replies (behind a lock only so that the Python object may be shared
+    /// between threads; one call at a time takes it).
+    done: Mutex<mpsc::Receiver<Result<Vec<PenContact>, String>>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+    /// Ticks run since the start or the last reset.
+    ticks: u64,
+}
+
+impl Scene {
+    /// Starts the thread over `inner` and waits until it has built the scene (or failed to).
+    fn start(inner: pen::Touching) -> Result<Self, String> {
+        let (jobs, inbox) = mpsc::channel::<Job>();
+        let (reply, done) = mpsc::channel();
+        let stop = Arc::new(AtomicBool::new(false));
+        let halt = Arc::clone(&stop);
+        let thread = std::thread::Builder::new()
+            .name("tetradrill-touching".into())
+            .spawn(move || {
+                let mut inner = inner;
+                let built = inner.run(|touch| {
+                    let _ = reply.send(Ok(Vec::new()));
+                    for job in inbox.iter() {
+                        let out = match job {
+                            Job::Reset => {
+                                touch.reset();
+                                Vec::new()
+                            }
+                            Job::Run(poses) => poses
+                                .iter()
+                                .take_while(|_| !halt.load(Ordering::Relaxed))
+                                .map(|p| touch.tick(p))
+                                .collect(),
+                        };
+                        if reply.send(Ok(out)).is_err() {
+                            break;
+                        }
+                    }
+                });
+                if let Err(e) = built {
+                    let _ = reply.send(Err(e.to_string()));
+                }
+            })
+            .map_err(|e| format!("cannot start the contact thread: {e}"))?;
+        done.recv()
+            .map_err(|_| "the contact thread ended".to_string())??;
+        Ok(Self {
+            jobs: Some(jobs),
+            done: Mutex::new(done),
+            stop,
+            thread: Some(thread),
+            ticks: 0,
+        })
+    }
+
+    /// Hands `job` to the thread and waits for its contacts, looking at Python's signals
+    /// every [`crate::interrupt::EVERY`]: a signal's exception stops the thread after its
+    /// tick under way (what it ran is kept) and is returned.
+    fn call(&mut self, job: Job) -> PyResult<Vec<PenContact>> {
+        if matches!(job, Job::Reset) {
+            self.ticks = 0;
+        }
+        let gone = || errors::TetradrillError::new_err("the contact thread ended");
+        self.jobs
+            .as_ref()
+            .ok_or_else(gone)?
+            .send(job)
+            .map_err(|_| gone())?;
+        let done = self
+            .done
+            .get_mut()
+            .map_err(|_| errors::TetradrillError::new_err("the contact thread failed"))?;
+        let ticks = &mut self.ticks;
+        let mut count = |r: Result<Vec<PenContact>, String>| {
+            let r = r.map_err(errors::TetradrillError::new_err)?;
+            *ticks += r.len() as u64;
+            Ok(r)
+        };
+        let mut signals = Signals::new();
+        loop {
+            match done.recv_timeout(crate::interrupt::EVERY) {
+                Ok(r) => return count(r),
+                Err(mpsc::RecvTimeoutError::Timeout) => {
+                    if let Err(e) = signals.check() {
+                        self.stop.store(true, Ordering::Relaxed);
+                        // The ticks run before the stop are kept (and counted).
+                        if let Ok(r) = done.recv() {
+                            let _ = count(r);
+                        }
+                        self.stop.store(false, Ordering::Relaxed);
+                        return Err(e);
+                    }
+                }
+                Err(mpsc::RecvTimeoutError::Disconnected) => return Err(gone()),
+            }
+        }
+    }
+}
+
+impl Drop for Scene {
+    fn drop(&mut self) {
+        // Closing the channel ends the thread's loop.
+        self.jobs = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
 /// A tet-mesh tool (the pen) touching an object, neither drilled.
 ///
 /// `Touching(mesh=None, tool=None, *, scenario=None, **keys)`: `tool` is `"mesh:FILE"` or the
 /// tool's mesh file as a path (tip at the origin, axis +z); `mesh` the object; `tool_scale`,
 /// `stiffness`, `damping`, `max_force`, `depth_method`, `crossings`, `entry_remedy` and the
-/// other scenario keys as keywords. Reads both meshes once.
+/// other scenario keys as keywords. Reads both meshes and builds the contact scene once.
 #[pyclass(module = "tetradrill")]
 #[derive(Debug)]
 pub struct Touching {
-    inner: pen::Touching,
+    scene: Scene,
+    tool_nodes: usize,
+    object_nodes: usize,
     scenario: Scenario,
 }
 
@@ -44,15 +175,22 @@ impl Touching {
         let inner = py
             .detach(|| pen::Touching::new(&setup))
             .map_err(errors::of)?;
+        let tool_nodes = inner.rig().pen.positions().len();
+        let object_nodes = inner.rig().obj.positions().len();
+        let scene = py
+            .detach(|| Scene::start(inner))
+            .map_err(errors::TetradrillError::new_err)?;
         Ok(Self {
-            inner,
+            scene,
+            tool_nodes,
+            object_nodes,
             scenario: sc,
         })
     }
 
     /// The pen at each row of `poses` (`N x 3` tip positions, or `N x 7` with quaternions
-    /// turning its +z axis), one 1 ms tick each, from rest (the damping's memory starts
-    /// afresh each call); the GIL released while they run. The forces on the hand, `N x 3`,
+    /// turning its +z axis), one 1 ms tick each, going on from the last call (its damping's
+    /// memory and lists; `reset()` starts from rest); the GIL released while they run. The forces on the hand, `N x 3`,
     /// newtons; with `full=True` a dict: `force`, `raw` (before damping and clamping),
     /// `display_offset` (where to draw the pen so it does not visibly penetrate, `N x 3`),
     /// `penetrations` (`N x 2`: pen nodes in the object, object nodes in the pen), `clamped`
@@ -65,18 +203,8 @@ impl Touching {
         full: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
         let poses: Vec<Pose> = arrays::poses(poses, &Drill::All(false))?;
-        let inner = &mut self.inner;
-        let contacts: Vec<PenContact> = py
-            .detach(|| {
-                inner.run(|touch| {
-                    let mut signals = Signals::new();
-                    poses
-                        .iter()
-                        .map(|p| signals.check().map(|()| touch.tick(p)))
-                        .collect::<PyResult<Vec<_>>>()
-                })
-            })
-            .map_err(errors::of)??;
+        let scene = &mut self.scene;
+        let contacts = py.detach(|| scene.call(Job::Run(poses)))?;
         let pick = |f: fn(&PenContact) -> Vec3| contacts.iter().map(f).collect::<Vec<_>>();
         let force = arrays::to_numpy(py, &pick(|c| c.force))?;
         if !full {
@@ -100,16 +228,28 @@ impl Touching {
         Ok(d.into_any())
     }
 
+    /// Back to rest: the next `run` gives the forces of a new `Touching`'s.
+    fn reset(&mut self, py: Python<'_>) -> PyResult<()> {
+        let scene = &mut self.scene;
+        py.detach(|| scene.call(Job::Reset)).map(|_| ())
+    }
+
+    /// Ticks run since the start or the last `reset()` (an interrupted `run`'s included).
+    #[getter]
+    fn ticks(&self) -> u64 {
+        self.scene.ticks
+    }
+
     /// The tool's node count.
     #[getter]
     fn tool_nodes(&self) -> usize {
-        self.inner.rig().pen.positions().len()
+        self.tool_nodes
     }
 
     /// The object's node count.
     #[getter]
     fn object_nodes(&self) -> usize {
-        self.inner.rig().obj.positions().len()
+        self.object_nodes
     }
 
     /// The scenario this runs, as a dict of its keys.

@@ -119,7 +119,16 @@ def test_replay_and_touching_stop_on_ctrl_c(ctrl_c):
     t = td.Touching("builtin:block:6", PEN, max_force=1.0e6)
     pose = np.array([[0.01, 0.02, 0.45]])
     n = units(timed(lambda: t.run(np.repeat(pose, 4_000, axis=0))), 4_000)
-    poses = np.repeat(pose, n, axis=0)
+    t.reset()
+    # In the block, up and down: each tick's force depends on the last (the damping).
+    z = 0.46 + 0.02 * np.sin(2 * np.pi * np.arange(n) / 500.0)
+    poses = np.stack([np.full(n, 0.01), np.full(n, 0.02), z], axis=1)
     stopped(lambda: t.run(poses), ctrl_c(0.3))
-    # The object goes on working after it.
-    assert t.run(poses[:3]).shape == (3, 3)
+    # The ticks run before the stop are kept: going on from there is a run never stopped.
+    k = t.ticks
+    assert 0 < k < n
+    rest = t.run(poses[k : k + 300])
+    fresh = td.Touching("builtin:block:6", PEN, max_force=1.0e6)
+    assert np.array_equal(rest, fresh.run(poses[: k + 300])[k:])
+    fresh.reset()
+    assert not np.array_equal(rest, fresh.run(poses[k : k + 300])), "from rest it differs"

@@ -28,6 +28,39 @@ def test_the_pen_feels_the_block_only_inside_and_more_deeper():
     assert (full["penetrations"][z > 0.5 + 1e-4] == 0).all()
 
 
+def sweep(n):
+    """The pen pressed into block:6's top and dragged sideways, tilting: `n x 7` poses."""
+    s = np.linspace(0.0, 1.0, n)
+    a = 0.5 * s
+    return np.stack(
+        [0.2 * s - 0.1, np.full(n, 0.02), 0.52 - 0.06 * np.minimum(3 * s, 1.0),
+         np.cos(a / 2), np.sin(a / 2), 0 * s, 0 * s],
+        axis=1,
+    )
+
+
+def test_touching_goes_on_from_call_to_call_and_reset_starts_over():
+    # The scene and the pen's state (damping, lists, crossings) are kept between calls: a run
+    # in two calls is the run in one, bit for bit, and reset() is a new object.
+    poses = sweep(120)
+    one = td.Touching("builtin:block:6", PEN, max_force=1.0e6, damping=0.5)
+    whole = one.run(poses, full=True)
+    assert one.ticks == 120
+    assert (whole["penetrations"].sum(axis=1) > 0).sum() > 60, "the pen is in the block"
+    two = td.Touching("builtin:block:6", PEN, max_force=1.0e6, damping=0.5)
+    first = two.run(poses[:50], full=True)
+    second = two.run(poses[50:], full=True)
+    for key in ("force", "raw", "display_offset", "penetrations"):
+        assert np.array_equal(np.concatenate([first[key], second[key]]), whole[key]), key
+    # The damping remembers the last call: the second call's first force is not the one a
+    # pen starting from rest there feels.
+    cold = td.Touching("builtin:block:6", PEN, max_force=1.0e6, damping=0.5).run(poses[50:51])
+    assert not np.array_equal(cold[0], whole["force"][50])
+    two.reset()
+    assert two.ticks == 0
+    assert np.array_equal(two.run(poses), whole["force"])
+
+
 def test_a_free_soft_body_falls_as_a_stone():
     # No support, no damping: every node moves by g t^2 / 2 and nothing deforms.
     g = np.array([0.0, 0.0, -9.81])

@@ -106,7 +106,6 @@ impl<'a> DepthScratch<'a> {
     ///
     /// # Bounded work
     /// O(crossings).
-    #[cfg(test)]
     pub(crate) fn forget_crossings(&mut self) {
         self.crossings.fill(Crossing::default());
     }

@@ -426,6 +426,18 @@ impl<'b> SideBuffers<'_, 'b> {
 }
 
 impl<'b> PenBuffers<'b> {
+    /// Forgets what the buffers carry from tick to tick (the pen nodes' found tets, both
+    /// depths' remembered crossings), so that a pass with a fresh [`PenState`] gives the bits
+    /// of the first pass over freshly carved buffers (a session started again).
+    ///
+    /// # Bounded work
+    /// O(pen nodes + crossings).
+    pub fn forget(&mut self) {
+        self.pen_found.fill(TetId::NONE);
+        self.pen_depth.forget_crossings();
+        self.object_depth.forget_crossings();
+    }
+
     /// The buffers as the two sides of a pass use them: the pen's nodes at the pose, the pen
     /// nodes' found tets, the pen side's storage and the object side's.
     pub fn sides(

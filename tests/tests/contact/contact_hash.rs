@@ -445,3 +445,46 @@ fn walks_only_over_well_shaped_tets() {
     .expect("pen scene");
     assert!(inside > 100, "the poses must touch: {inside}");
 }
+
+/// `PenBuffers::forget` (what a session's reset calls): after a path into the cow the buffers
+/// remember crossings (the next pass at the last pose reuses them) and found tets; forgotten,
+/// the pass there reuses nothing, starts its walks afresh, and is the first pass of freshly
+/// carved buffers bit for bit.
+#[test]
+fn forgotten_buffers_give_the_first_pass_of_fresh_ones() {
+    let mut rig = rig(10.0, COW, 1.0);
+    let (start, normal) = facing(&mut rig, Vec3::Y);
+    let rot = Quat::from_rotation_arc(Vec3::Z, normal) * Quat::from_rotation_x(0.2);
+    let at = |i: usize| start - normal * (0.0008 * i as f32);
+    let opts = PenOptions {
+        reuse_crossings: true,
+        ..PenOptions::default()
+    };
+    let (carried, forgotten) = rig
+        .with(|scene, bufs| {
+            let mut state = PenState::default();
+            for i in 0..120 {
+                pen_contact(scene, bufs, at(i), rot, &opts, &mut state);
+            }
+            assert!(bufs.pen_found.iter().any(|&t| t != TetId::NONE));
+            let carried = pen_contact(scene, bufs, at(120), rot, &opts, &mut PenState::default());
+            bufs.forget();
+            assert!(bufs.pen_found.iter().all(|&t| t == TetId::NONE));
+            let forgotten = pen_contact(scene, bufs, at(120), rot, &opts, &mut PenState::default());
+            (carried, forgotten)
+        })
+        .expect("pen scene");
+    let fresh = rig
+        .with(|scene, bufs| pen_contact(scene, bufs, at(120), rot, &opts, &mut PenState::default()))
+        .expect("pen scene");
+    assert!(fresh.pen_depth.border_edges + fresh.object_depth.border_edges > 0);
+    assert!(carried.pen_depth.reused + carried.object_depth.reused > 0);
+    assert_eq!(
+        forgotten.pen_depth.reused + forgotten.object_depth.reused,
+        0
+    );
+    let bits = |c: &tetradrill_core::force::PenContact| {
+        (c.raw.to_array().map(f32::to_bits), c.penetrations)
+    };
+    assert_eq!(bits(&forgotten), bits(&fresh));
+}
