@@ -146,7 +146,12 @@ fn a_soft_block_touched_through_c_is_the_cores_bit_for_bit() {
     let mut store = EngineStorage::new(loaded.mesh.clone(), &sc).expect("storage");
     store.enable_deformation().expect("deformation");
     let mut world = store.world().expect("world");
-    let mut owned = SoftOwned::from_mesh(&loaded.mesh.view());
+    // The body's tets in lane order, as the C body holds them; `body_tet` maps the world's.
+    let (mut owned, tet_of) = SoftOwned::from_mesh(&loaded.mesh.view()).in_lanes();
+    let mut body_tet = vec![0usize; tet_of.len()];
+    for (i, &t) in tet_of.iter().enumerate() {
+        body_tet[t as usize] = i;
+    }
     let material = Material {
         young: HELD.young,
         poisson: 0.3,
@@ -170,7 +175,8 @@ fn a_soft_block_touched_through_c_is_the_cores_bit_for_bit() {
         let (f, _) = engine::tick(&mut world, &mut tool, &params, &pose);
         if let Some(t) = world.contact_tet() {
             if f != Vec3::ZERO {
-                assert!(body.add_point_force(t.idx(), world.contact().point, -f, &mut external));
+                let own = body_tet[t.idx()];
+                assert!(body.add_point_force(own, world.contact().point, -f, &mut external));
             }
         }
         forces.push(f);

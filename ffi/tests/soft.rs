@@ -107,7 +107,8 @@ fn a_loaded_held_body_steps_to_the_bits_of_the_hosts() {
 
     let rest: Vec<Vec3> = xyz.chunks(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
     let t4: Vec<[u32; 4]> = tets.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
-    let mut owned = SoftOwned::new(rest, t4);
+    // The C body holds its tets in lane order (the core's `lane_order`), as the host's does.
+    let (mut owned, _) = SoftOwned::new(rest, t4).in_lanes();
     let material = Material {
         young: 20_000.0,
         poisson: 0.3,
