@@ -1427,10 +1427,13 @@ enum td_status td_soft_size(uint32_t node_count,
 // `xyz` (x, y, z of each of `node_count` nodes) and `tets` (four node indices of each of
 // `tet_count` tets, positively oriented: `(b - a) x (c - a) . (d - a) > 0`), at rest, every
 // node free, and writes its handle to `*out`. The arrays are copied: the caller may free
-// them after.
+// them after. The body keeps the nodes in the order given and its tets in groups of four
+// that share no node (the core's `lane_order`), which its sweep solves four at a time on
+// x86-64 and AArch64 (about a third of the time a step); every tet index in and out (`bad_item`,
+// `td_soft_add_point_force`'s `tet`) is the one given.
 //
 // # Bounded work
-// O(`node_count + tet_count`).
+// O(`node_count + tet_count x 64`).
 //
 // # Errors
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer (`xyz` and `tets` need 4 bytes),
