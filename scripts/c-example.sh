@@ -5,7 +5,8 @@
 #                                     ffi), compiles examples/c/replay_demo.c with cc, runs it,
 #                                     and compares its force_digest with
 #                                     `tetradrill replay --scenario builtin:demo --json`'s; then
-#                                     the same over libtetradrill_ffi.so
+#                                     the same over libtetradrill_ffi.so; then
+#                                     examples/c/soft_demo.c (the cow soft under the burr)
 #   scripts/c-example.sh --cortex-m   the bare-metal program: the library for
 #                                     thumbv7em-none-eabihf, examples/c/cortex_m linked with
 #                                     arm-none-eabi-gcc, run under QEMU (mps2-an386, -icount)
@@ -218,6 +219,11 @@ if [ "$mode" = host ]; then
     -Wl,-rpath,"$target_dir/ffi" -o "$work/replay_demo_shared"
   "$work/replay_demo_shared" >"$work/out-shared.txt"
   compare "$work/out-shared.txt" demo
+  echo "== cc examples/c/soft_demo.c: the cow soft under the burr (a deformable world)"
+  # shellcheck disable=SC2086
+  cc -std=c11 -O2 -Wall -Wextra -Werror -I ffi/include \
+    examples/c/soft_demo.c "$lib" $libs -lm -o "$work/soft_demo"
+  "$work/soft_demo" tests/data/meshes/models/spot_tetgen_q1.414.node
   exit 0
 fi
 
