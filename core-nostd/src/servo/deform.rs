@@ -415,7 +415,9 @@ impl<'a> World<'a> {
         if buckets != self.hash.buckets() {
             return Err(DeformError::SpareSize("hash_starts"));
         }
-        let (hash_starts, _) = hash_starts.split_at_mut(buckets as usize + 1);
+        let Some((hash_starts, _)) = hash_starts.split_at_mut_checked(buckets as usize + 1) else {
+            return Err(DeformError::SpareSize("hash_starts"));
+        };
         let hash = SpatialHash::new(hash_starts, hash_entries, self.hash.cell_size())
             .map_err(|_| DeformError::SpareSize("hash_starts"))?;
         self.spare = Some(Spare {
