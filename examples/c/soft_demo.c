@@ -136,17 +136,19 @@ int main(int argc, char **argv) {
     td_vec3 f = {0}, fr = {0};
     td_contact_at at = {0};
     double step_ms = 0, update_ms = 0, fastest = INFINITY;
-    int steps = 0;
+    int steps = 0, skipped = 0;
     for (int i = 0; i < TICKS; i++) {
         const float s = i < 200 ? (float)i / 200.f : 1.f;
         const td_vec3 pose = {t0[0], t0[1], t0[2] + RADIUS - s * PRESS};
         check(td_world_tick(soft_world, pose, 0, &f), "td_world_tick");
         check(td_world_tick(rigid, pose, 0, &fr), "td_world_tick (rigid)");
         check(td_world_contact_at(soft_world, &at), "td_world_contact_at");
-        if (at.tet != TD_NO_TET)
-            check(td_soft_add_point_force(body, at.tet, at.point, (td_vec3){-f.x, -f.y, -f.z},
-                                          loads),
-                  "td_soft_add_point_force");
+        /* The reaction where the burr touches; a tet flattened under the load
+         * (TD_ERR_INPUT) takes none, as the host skips it. */
+        if (at.tet != TD_NO_TET && (f.x != 0.f || f.y != 0.f || f.z != 0.f) &&
+            td_soft_add_point_force(body, at.tet, at.point, (td_vec3){-f.x, -f.y, -f.z},
+                                    loads) != TD_OK)
+            skipped++;
         if ((i + 1) % TICKS_PER_STEP != 0)
             continue;
         for (size_t k = 0; k < 3 * (size_t)n; k++)
@@ -163,8 +165,9 @@ int main(int argc, char **argv) {
         memset(loads, 0, 3 * (size_t)n * sizeof(float));
     }
     const float dent = t0[2] - at.point.z;
-    printf("soft: %u tets, %u held; dent %.5f, force %.4f N against the rigid world's %.4f N\n",
-           a.tet_count, held, dent, f.z, fr.z);
+    printf("soft: %u tets, %u held; dent %.5f, force %.4f N against the rigid world's %.4f N; "
+           "%d reactions skipped\n",
+           a.tet_count, held, dent, f.z, fr.z, skipped);
     printf("soft: %d steps, step %.2f ms (fastest %.2f ms), world update %.2f ms (means)\n",
            steps, step_ms / steps, fastest, update_ms / steps);
     td_mesh_file_free(file);

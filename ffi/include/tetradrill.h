@@ -209,8 +209,8 @@ typedef struct td_params {
   // a soft body's positions after each of its steps); the memory then also holds the rest
   // positions (removed volumes are measured there) and a spare copy of the hash, the tet
   // boxes and the normals, so that only the tets that changed cells move in the hash
-  // (`td_world_size` counts them: about 165 bytes per tet more, most of it the hash's
-  // eight entries a tet).
+  // (`td_world_size` counts them: 160 bytes a tet and 24 a node more, most of it the
+  // hash's eight entries a tet).
   uint32_t deformable;
 } td_params;
 
@@ -803,9 +803,9 @@ const char *td_status_name(int32_t code);
 //
 // # Errors
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up,
-// `TD_ERR_RIGID` for a world set up with `deformable` 0, `TD_ERR_INPUT` for `node_count`
-// other than the mesh's or a position that is not finite (`*out` is not written and the
-// world is unchanged).
+// `TD_ERR_RIGID` for a world set up with `deformable` 0, `TD_ERR_PARAMS` for `node_count`
+// other than the mesh's, `TD_ERR_INPUT` for a position that is not finite (`*out` is not
+// written and the world is unchanged).
 //
 // # Safety
 // `world` is a handle from `td_world_init` whose memory is still the caller's; `xyz` points
@@ -819,7 +819,8 @@ enum td_status td_world_set_positions(struct td_world *world,
 // Where the last simulation step's contact is: its coarse tet (an index into the tets
 // `td_world_init` was given) and its point on the visible surface, or `tet` = `TD_NO_TET`
 // when the tool touched nothing. A soft body built from the same arrays takes the tool's
-// reaction there (`td_soft_add_point_force`).
+// reaction there (`td_soft_add_point_force`). Call it from the thread that runs the steps,
+// between them (it reads the world's own state; the servo's handle is apart).
 //
 // # Bounded work
 // Constant.
@@ -1440,8 +1441,9 @@ enum td_status td_soft_size(uint32_t node_count,
 // `TD_ERR_TOO_SMALL` for `len`, `TD_ERR_PARAMS` for a count or a parameter out of range,
 // `TD_ERR_MESH` for a node that is not finite or a tet that names a node out of range or is
 // inverted or flat at rest (`*bad_item`, when `bad_item` is not null, names the node or the
-// tet). On an error `*out` is not written and a handle to this memory is refused until an
-// init succeeds.
+// tet). On an error `*out` is not written; on any error after the checks of the counts and
+// of `mem` (null, alignment, length) the memory holds no body: a handle to it is refused
+// until an init succeeds.
 //
 // # Safety
 // `mem` points at `len` writable bytes the caller keeps, untouched, for as long as it uses

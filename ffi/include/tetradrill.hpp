@@ -261,6 +261,8 @@ class world {
     // A deformable world's nodes moved to `xyz` (x, y, z of each node; `td_params.deformable`
     // 1): boxes, hash, normals and contact caches follow. Between steps.
     td_deform_report set_positions(std::span<const float> xyz) {
+        if (xyz.size() % 3 != 0)
+            throw error(TD_ERR_PARAMS, "world::set_positions: 3 floats a node");
         td_deform_report r{};
         detail::check(td_world_set_positions(w_, xyz.data(),
                                              static_cast<std::uint32_t>(xyz.size() / 3), &r),
@@ -268,8 +270,9 @@ class world {
         return r;
     }
 
-    // The last step's contact: its coarse tet (`TD_NO_TET` for none) and point.
-    td_contact_at contact_at() const {
+    // The last step's contact: its coarse tet (`TD_NO_TET` for none) and point; from the
+    // thread that runs the steps.
+    td_contact_at contact_at() {
         td_contact_at a{};
         detail::check(td_world_contact_at(w_, &a), "td_world_contact_at");
         return a;

@@ -30,9 +30,9 @@ pub const TD_NO_TET: u32 = u32::MAX;
 ///
 /// # Errors
 /// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up,
-/// `TD_ERR_RIGID` for a world set up with `deformable` 0, `TD_ERR_INPUT` for `node_count`
-/// other than the mesh's or a position that is not finite (`*out` is not written and the
-/// world is unchanged).
+/// `TD_ERR_RIGID` for a world set up with `deformable` 0, `TD_ERR_PARAMS` for `node_count`
+/// other than the mesh's, `TD_ERR_INPUT` for a position that is not finite (`*out` is not
+/// written and the world is unchanged).
 ///
 /// # Safety
 /// `world` is a handle from `td_world_init` whose memory is still the caller's; `xyz` points
@@ -56,7 +56,7 @@ pub unsafe extern "C" fn td_world_set_positions(
         }
         let n = st.world.mesh().node_count();
         if node_count as usize != n {
-            return Err(TdStatus::TdErrInput);
+            return Err(TdStatus::TdErrParams);
         }
         // SAFETY: `3 n` floats at `xyz` (the caller's contract; `n` is at most `TD_MAX_COUNT`).
         let xyz = unsafe { c_slice(xyz, 3 * n) }?;
@@ -68,7 +68,8 @@ pub unsafe extern "C" fn td_world_set_positions(
             .set_positions(crate::soft::vec3s(xyz))
             .map_err(|e| match e {
                 DeformError::NoRest => TdStatus::TdErrRigid,
-                DeformError::Count { .. } | DeformError::NotFinite { .. } => TdStatus::TdErrInput,
+                DeformError::Count { .. } => TdStatus::TdErrParams,
+                DeformError::NotFinite { .. } => TdStatus::TdErrInput,
                 _ => TdStatus::TdErrWorld,
             })?;
         if out.is_null() {
@@ -88,7 +89,8 @@ pub unsafe extern "C" fn td_world_set_positions(
 /// Where the last simulation step's contact is: its coarse tet (an index into the tets
 /// `td_world_init` was given) and its point on the visible surface, or `tet` = `TD_NO_TET`
 /// when the tool touched nothing. A soft body built from the same arrays takes the tool's
-/// reaction there (`td_soft_add_point_force`).
+/// reaction there (`td_soft_add_point_force`). Call it from the thread that runs the steps,
+/// between them (it reads the world's own state; the servo's handle is apart).
 ///
 /// # Bounded work
 /// Constant.

@@ -232,8 +232,11 @@ unsafe fn get<T: Copy>(p: *const T) -> Result<T, TdStatus> {
 /// holding the word is set up whole.
 ///
 /// # Safety
-/// [`Marked::magic`] reads the header's magic word through the raw pointer alone, making no
-/// reference to a header that may not be set up.
+/// An implementor promises that [`Marked::magic`] reads the header's magic word through the
+/// raw pointer alone, making no reference to a header that may not be set up; that its init
+/// writes [`Marked::MAGIC`] last, after the whole header, and clears the word before it
+/// writes anything else; and that its `MAGIC` is its own (no other header type's), so a
+/// handle to one kind of header is never taken for another.
 pub(crate) unsafe trait Marked {
     /// The word a set-up header holds.
     const MAGIC: u64;
@@ -248,7 +251,8 @@ pub(crate) unsafe trait Marked {
 /// Implements [`Marked`] for a header type with a `magic: u64` field.
 macro_rules! marked {
     ($t:ty, $magic:expr) => {
-        // SAFETY: `magic` reads the field through the raw pointer only.
+        // SAFETY: `magic` reads the field through the raw pointer only; the header's init
+        // clears the word first and writes it last, and each header has its own word.
         unsafe impl $crate::Marked for $t {
             const MAGIC: u64 = $magic;
 

@@ -254,8 +254,9 @@ pub unsafe extern "C" fn td_soft_size(
 /// `TD_ERR_TOO_SMALL` for `len`, `TD_ERR_PARAMS` for a count or a parameter out of range,
 /// `TD_ERR_MESH` for a node that is not finite or a tet that names a node out of range or is
 /// inverted or flat at rest (`*bad_item`, when `bad_item` is not null, names the node or the
-/// tet). On an error `*out` is not written and a handle to this memory is refused until an
-/// init succeeds.
+/// tet). On an error `*out` is not written; on any error after the checks of the counts and
+/// of `mem` (null, alignment, length) the memory holds no body: a handle to it is refused
+/// until an init succeeds.
 ///
 /// # Safety
 /// `mem` points at `len` writable bytes the caller keeps, untouched, for as long as it uses
@@ -276,18 +277,18 @@ pub unsafe extern "C" fn td_soft_init(
 ) -> TdStatus {
     status(|| {
         check_ptr(out)?;
-        // SAFETY: the caller's contract on `params` (`get` checks it).
-        let (material, sp) = soft_params(&unsafe { get(params) }?)?;
         let plan = SoftPlan::of(node_count, tet_count)?;
-        let (n, t) = (node_count as usize, tet_count as usize);
-        // SAFETY: `3 n` floats and `4 t` indices at `xyz` and `tets` (the caller's contract;
-        // the counts are at most `TD_MAX_COUNT`, so the products fit).
-        let (xyz, tet_ix) = unsafe { (c_slice(xyz, 3 * n)?, c_slice(tets, 4 * t)?) };
         let base = caller_memory(mem, len, plan.size, plan.align)?;
         let state = base.cast::<SoftState>();
         // SAFETY: `mem` is aligned for SoftState and at least `plan.size` bytes long: a handle
         // to this memory is refused from here on until the init succeeds.
         unsafe { ptr::addr_of_mut!((*state).magic).write(0) };
+        // SAFETY: the caller's contract on `params` (`get` checks it).
+        let (material, sp) = soft_params(&unsafe { get(params) }?)?;
+        let (n, t) = (node_count as usize, tet_count as usize);
+        // SAFETY: `3 n` floats and `4 t` indices at `xyz` and `tets` (the caller's contract;
+        // the counts are at most `TD_MAX_COUNT`, so the products fit).
+        let (xyz, tet_ix) = unsafe { (c_slice(xyz, 3 * n)?, c_slice(tets, 4 * t)?) };
         // SAFETY: every offset comes from the plan, which places each slice after the header
         // at its type's alignment, apart from the others, inside `plan.size <= len` bytes of
         // `mem`; the caller keeps `mem` for as long as the body is used.

@@ -182,8 +182,8 @@ pub struct TdParams {
     /// a soft body's positions after each of its steps); the memory then also holds the rest
     /// positions (removed volumes are measured there) and a spare copy of the hash, the tet
     /// boxes and the normals, so that only the tets that changed cells move in the hash
-    /// (`td_world_size` counts them: about 165 bytes per tet more, most of it the hash's
-    /// eight entries a tet).
+    /// (`td_world_size` counts them: 160 bytes a tet and 24 a node more, most of it the
+    /// hash's eight entries a tet).
     pub deformable: u32,
 }
 

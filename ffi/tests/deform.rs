@@ -1,9 +1,9 @@
 //! A soft body touched through the C interface: a deformable world (`td_params.deformable`)
 //! whose nodes follow the body (`td_world_set_positions`), the tool's reaction loading the body
 //! where the world's contact is (`td_world_contact_at`, `td_soft_add_point_force`). Checked
-//! against the core driven directly (the same loop, bit for bit), against linear elasticity
-//! (twice the Young's modulus, twice the body's stiffness under the burr) and for every bad
-//! call's status.
+//! against the core driven directly (the same loop, bit for bit), against Newton's third law
+//! (a free block's momentum is the impulse of the servo's forces), on the tet indices the body
+//! keeps in an order of its own (the caller's in and out), and for every bad call's status.
 
 mod common;
 
@@ -48,7 +48,7 @@ struct Body {
     held: bool,
 }
 
-/// The block held at its base, as the host's `--body soft` defaults make it.
+/// The block held at its base, damped (20 /s) to settle within the test's second.
 const HELD: Body = Body {
     young: 5_000.0,
     density: 1_000.0,
@@ -316,7 +316,7 @@ fn bad_calls_get_their_status_and_change_nothing() {
         );
         assert_eq!(
             td_world_set_positions(world, xyz.as_ptr(), n - 1, ptr::null_mut()),
-            TdStatus::TdErrInput
+            TdStatus::TdErrParams
         );
         assert_eq!(
             td_world_set_positions(world, bad.as_ptr(), n, ptr::null_mut()),
@@ -376,22 +376,65 @@ fn bad_calls_get_their_status_and_change_nothing() {
             TdStatus::TdErrNull
         );
         assert!(loads.iter().all(|&l| l == 0.0), "nothing added on an error");
-        // A point force spread over tet 0's nodes: the sum is the force, at those nodes only.
-        assert_eq!(
-            td_soft_add_point_force(body.h, 0, inside, one, loads.as_mut_ptr()),
-            TdStatus::TdOk
+    }
+}
+
+/// The body keeps its tets in lane order (the core's `lane_order`), the caller's indices in
+/// and out: a point force on a tet the order moved lands on that tet's nodes as given, and an
+/// inverted tet the order moved is named by its given index.
+#[test]
+fn a_bodys_tets_are_named_by_the_callers_indices() {
+    let (xyz, tets) = block(4);
+    let t4: Vec<[u32; 4]> = tets.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+    let (mut tet_of, mut body_tet) = (vec![0u32; t4.len()], vec![0u32; t4.len()]);
+    assert!(tetradrill_core::soft::lane_order(
+        &t4,
+        &mut tet_of,
+        &mut body_tet
+    ));
+    let moved = (0..t4.len())
+        .find(|&t| body_tet[t] as usize != t && tet_of[t] as usize != t)
+        .expect("a tet the order moves");
+    let body = CSoft::new(&xyz, &tets, &defaults()).expect("a body");
+    let mut loads = vec![0.0f32; 3 * body.nodes as usize];
+    let given = t4[moved];
+    let centre = given
+        .iter()
+        .map(|&k| Vec3::from_slice(&xyz[3 * k as usize..]))
+        .sum::<Vec3>()
+        / 4.0;
+    let at = TdVec3 {
+        x: centre.x,
+        y: centre.y,
+        z: centre.z,
+    };
+    let down = TdVec3 {
+        x: 0.0,
+        y: 0.0,
+        z: -1.0,
+    };
+    // SAFETY: a live body; `loads` of `3 n` floats.
+    let st = unsafe { td_soft_add_point_force(body.h, moved as u32, at, down, loads.as_mut_ptr()) };
+    assert_eq!(st, TdStatus::TdOk);
+    // At the centre: a quarter on each of the given tet's four nodes, nothing elsewhere.
+    for (k, c) in loads.chunks(3).enumerate() {
+        let want = if given.contains(&(k as u32)) {
+            -0.25
+        } else {
+            0.0
+        };
+        assert!(
+            (c[2] - want).abs() < 1e-6 && c[0] == 0.0 && c[1] == 0.0,
+            "node {k}: {c:?}"
         );
     }
-    let sum: f32 = loads.chunks(3).map(|c| c[2]).sum();
-    assert!(
-        (sum + 1.0).abs() < 1e-6,
-        "the spread force sums to the force: {sum}"
-    );
-    let touched = loads
-        .chunks(3)
-        .filter(|c| c.iter().any(|&v| v != 0.0))
-        .count();
-    assert!(touched <= 4);
+    // The same tet turned inside out: refused, named as given.
+    let mut bad = tets.clone();
+    bad.swap(4 * moved + 1, 4 * moved + 2);
+    match CSoft::new(&xyz, &bad, &defaults()) {
+        Err((st, item)) => assert_eq!((st, item), (TdStatus::TdErrMesh, moved as u32)),
+        Ok(_) => panic!("an inverted tet must be refused"),
+    }
 }
 
 #[test]

@@ -108,14 +108,20 @@ impl Session {
         let digest = &mut self.digest;
         let mut signals = Signals::new();
         let mut forces = Vec::with_capacity(poses.len());
+        let failed =
+            |e: &tetradrill::Error| errors::TetradrillError::new_err(format!("soft body: {e}"));
         let r = live.with_run_mut(|r| {
+            // A soft body whose step the core refused stays refused until `reset()`.
+            if let Some(e) = r.soft_error() {
+                return Err(failed(e));
+            }
             for p in poses {
                 signals.check()?;
                 let f = r.tick(p);
                 digest.push(f);
                 forces.push(f);
                 if let Some(e) = r.soft_error() {
-                    return Err(errors::TetradrillError::new_err(format!("soft body: {e}")));
+                    return Err(failed(e));
                 }
             }
             Ok(())

@@ -38,16 +38,19 @@ struct Scene {
     jobs: Option<mpsc::Sender<Job>>,
     /// The thread's replies (behind a lock only so that the Python object may be shared
     /// between threads; one call at a time takes it).
-    done: Mutex<mpsc::Receiver<Result<Vec<PenContact>, String>>>,
+    done: Mutex<mpsc::Receiver<Result<Vec<PenContact>, tetradrill::Error>>>,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
+    /// The process that started the thread: a child forked from it has no such thread.
+    pid: u32,
     /// Ticks run since the start or the last reset.
     ticks: u64,
 }
 
 impl Scene {
-    /// Starts the thread over `inner` and waits until it has built the scene (or failed to).
-    fn start(inner: pen::Touching) -> Result<Self, String> {
+    /// Starts the thread over `inner` and waits until it has built the scene (or failed to:
+    /// the scene's error, as `errors::of` maps it).
+    fn start(inner: pen::Touching) -> PyResult<Self> {
         let (jobs, inbox) = mpsc::channel::<Job>();
         let (reply, done) = mpsc::channel();
         let stop = Arc::new(AtomicBool::new(false));
@@ -76,17 +79,21 @@ impl Scene {
                     }
                 });
                 if let Err(e) = built {
-                    let _ = reply.send(Err(e.to_string()));
+                    let _ = reply.send(Err(e));
                 }
             })
-            .map_err(|e| format!("cannot start the contact thread: {e}"))?;
+            .map_err(|e| {
+                errors::TetradrillError::new_err(format!("cannot start the contact thread: {e}"))
+            })?;
         done.recv()
-            .map_err(|_| "the contact thread ended".to_string())??;
+            .map_err(|_| errors::TetradrillError::new_err("the contact thread ended"))?
+            .map_err(errors::of)?;
         Ok(Self {
             jobs: Some(jobs),
             done: Mutex::new(done),
             stop,
             thread: Some(thread),
+            pid: std::process::id(),
             ticks: 0,
         })
     }
@@ -95,6 +102,12 @@ impl Scene {
     /// every [`crate::interrupt::EVERY`]: a signal's exception stops the thread after its
     /// tick under way (what it ran is kept) and is returned.
     fn call(&mut self, job: Job) -> PyResult<Vec<PenContact>> {
+        if std::process::id() != self.pid {
+            return Err(errors::TetradrillError::new_err(
+                "this Touching was made in the parent process: its contact thread is not in a \
+                 forked child (make a Touching in the child)",
+            ));
+        }
         if matches!(job, Job::Reset) {
             self.ticks = 0;
         }
@@ -109,8 +122,8 @@ impl Scene {
             .get_mut()
             .map_err(|_| errors::TetradrillError::new_err("the contact thread failed"))?;
         let ticks = &mut self.ticks;
-        let mut count = |r: Result<Vec<PenContact>, String>| {
-            let r = r.map_err(errors::TetradrillError::new_err)?;
+        let mut count = |r: Result<Vec<PenContact>, tetradrill::Error>| {
+            let r = r.map_err(errors::of)?;
             *ticks += r.len() as u64;
             Ok(r)
         };
@@ -137,9 +150,14 @@ impl Scene {
 
 impl Drop for Scene {
     fn drop(&mut self) {
-        // Closing the channel ends the thread's loop.
+        // Closing the channel ends the thread's loop (a forked child has no thread to wait
+        // for).
         self.jobs = None;
-        if let Some(t) = self.thread.take() {
+        if let Some(t) = self
+            .thread
+            .take()
+            .filter(|_| std::process::id() == self.pid)
+        {
             let _ = t.join();
         }
     }
@@ -177,9 +195,7 @@ impl Touching {
             .map_err(errors::of)?;
         let tool_nodes = inner.rig().pen.positions().len();
         let object_nodes = inner.rig().obj.positions().len();
-        let scene = py
-            .detach(|| Scene::start(inner))
-            .map_err(errors::TetradrillError::new_err)?;
+        let scene = py.detach(|| Scene::start(inner))?;
         Ok(Self {
             scene,
             tool_nodes,
