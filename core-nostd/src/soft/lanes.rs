@@ -99,6 +99,13 @@ impl F4 {
     fn or_zero(self, m: Mask) -> Self {
         Self(self.0 & m.0)
     }
+
+    /// Zero where `|self| < floor`, else `self` (a NaN kept), as the one-tet solve's floor.
+    #[inline(always)]
+    fn floored(self, floor: f32) -> Self {
+        let below = self.0.abs().simd_lt(f32x4::splat(floor));
+        Self(below.bitselect(f32x4::ZERO, self.0))
+    }
 }
 
 #[inline(always)]
@@ -224,6 +231,21 @@ pub(super) struct M3 {
 }
 
 impl M3 {
+    /// Each entry floored ([`F4::floored`]).
+    #[inline(always)]
+    fn floored(self, floor: f32) -> Self {
+        let v = |c: V3| V3 {
+            x: c.x.floored(floor),
+            y: c.y.floored(floor),
+            z: c.z.floored(floor),
+        };
+        Self {
+            x: v(self.x),
+            y: v(self.y),
+            z: v(self.z),
+        }
+    }
+
     /// Lane `i` holds `m[i]`.
     #[inline(always)]
     pub(super) fn gather(m: [glam::Mat3; 4]) -> Self {
@@ -331,7 +353,7 @@ pub(super) fn project4(
         y: u[2] - u[0],
         z: u[3] - u[0],
     };
-    let h = us.mul(rest.inv_dm);
+    let h = us.mul(rest.inv_dm).floored(super::tet::STRAIN_FLOOR);
     let ht = h.transpose();
     let tr_h = h.x.x + h.y.y + h.z.z;
 

@@ -163,7 +163,7 @@ pub(crate) fn project(
     if w[0] + w[1] + w[2] + w[3] <= 0.0 {
         return zero;
     }
-    let h = rest.displacement_gradient(u);
+    let h = strain_floor(rest.displacement_gradient(u));
     let ht = h.transpose();
     let tr_h = h.x_axis.x + h.y_axis.y + h.z_axis.z;
 
@@ -232,6 +232,24 @@ pub(crate) fn project(
         out[i] = (g_dev[i] * dl0 + g_hyd[i] * dl1) * w[i];
     }
     out
+}
+
+/// Displacement gradients below this (dimensionless strain) are taken as zero in a tet's
+/// solve: a body at rest pressed at one point carries a front of ever smaller displacements,
+/// and the solve's squares and cubes of such gradients are subnormal floats, which cost x86-64
+/// a hundred times a normal operation (a pressed cow's first steps took 29-37 ms against 6).
+/// At 1e-12 every square is at least 1e-24 and every cube 1e-36, normal floats; a strain of
+/// 1e-12 moves nothing any instrument measures (docs/SOFT.md, "Timing").
+pub(crate) const STRAIN_FLOOR: f32 = 1e-12;
+
+/// `h` with each entry below [`STRAIN_FLOOR`] in magnitude set to zero (a NaN kept).
+#[inline]
+fn strain_floor(h: Mat3) -> Mat3 {
+    let floor = |v: Vec3| {
+        let m = |x: f32| if x.abs() < STRAIN_FLOOR { 0.0 } else { x };
+        Vec3::new(m(v.x), m(v.y), m(v.z))
+    };
+    Mat3::from_cols(floor(h.x_axis), floor(h.y_axis), floor(h.z_axis))
 }
 
 /// Per-corner gradients from `dC/dDs` (columns for corners 1..3; corner 0 takes minus their

@@ -70,8 +70,10 @@ fn the_sequential_step_keeps_the_recorded_field() {
     let err = relative_l2(&body);
     eprintln!("sequential step: relative L2 {err:e} from the recorded field");
     // The loader's order, whose groups of four that happen to share no node take the lanes:
-    // the recorded bits exactly.
-    assert!(err == 0.0, "{err}");
+    // the recorded bits but for the strain floor (a tet's displacement gradients below 1e-12
+    // taken as zero, which the recorded step did not do; 9.8e-6 relative, 2026-12-02). Any
+    // other change of the step's arithmetic shows as more.
+    assert!(err < 2e-5, "{err}");
 }
 
 #[test]
