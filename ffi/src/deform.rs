@@ -60,9 +60,7 @@ pub unsafe extern "C" fn td_world_set_positions(
         }
         // SAFETY: `3 n` floats at `xyz` (the caller's contract; `n` is at most `TD_MAX_COUNT`).
         let xyz = unsafe { c_slice(xyz, 3 * n) }?;
-        if xyz.iter().any(|v| !v.is_finite()) {
-            return Err(TdStatus::TdErrInput);
-        }
+        // The core checks every position before it changes anything (`NotFinite`).
         let rep = st
             .world
             .set_positions(crate::soft::vec3s(xyz))

@@ -10,8 +10,7 @@ use core::alloc::Layout;
 use core::mem::size_of;
 
 use tetradrill_core::soft::{
-    lane_order, spread_point_force, Material, SoftBody, SoftError, SoftMesh, SoftParams,
-    SoftStorage, TetRest,
+    lane_order, Material, SoftBody, SoftError, SoftMesh, SoftParams, SoftStorage, TetRest,
 };
 
 use super::*;
@@ -562,16 +561,10 @@ pub unsafe extern "C" fn td_soft_add_point_force(
         let (at, f) = (pose(point)?, pose(force)?);
         // The caller's tet index (the world's) to the body's (its tets are in lane order).
         let own = *s.body_tet.get(tet as usize).ok_or(TdStatus::TdErrInput)?;
-        let ids = *s
+        let (ids, parts) = s
             .body
-            .tets()
-            .get(own as usize)
+            .point_force(own as usize, at, f)
             .ok_or(TdStatus::TdErrInput)?;
-        let mut p = [Vec3::ZERO; 4];
-        for (pk, &k) in p.iter_mut().zip(&ids) {
-            *pk = s.body.position(k as usize).ok_or(TdStatus::TdErrInput)?;
-        }
-        let parts = spread_point_force(p, at, f).ok_or(TdStatus::TdErrInput)?;
         // The body's tets name its nodes (checked at init): each has its three floats.
         for (&k, add) in ids.iter().zip(parts) {
             let i = 3 * k as usize;

@@ -37,7 +37,7 @@ use crate::engine::{self, EngineStorage, ShaftState, TickParams};
 use crate::error::Error;
 use crate::meshio::LoadedMesh;
 use crate::setup::Setup;
-use crate::soft::{step_threads, DeformSummary, SoftDriver, SoftOwned, SoftSpec};
+use crate::soft::{DeformSummary, SoftDriver, SoftOwned, SoftSpec};
 use crate::traces::Pose;
 
 /// A mesh ready to drill: its storage allocated once, its regions set, the tick's
@@ -78,9 +78,7 @@ impl Drilling {
         store.set_labels(&mesh.labels, setup)?;
         let soft = match spec {
             Some(spec) => {
-                store.enable_deformation()?;
-                let mut owned = store.soft_owned();
-                owned.set_regions(&mesh.labels, &spec)?;
+                let owned = store.soft_body(&spec, &mesh.labels)?;
                 Some((spec, owned))
             }
             None => None,
@@ -117,12 +115,8 @@ impl Drilling {
         } = self;
         let labels = store.region_labels().to_vec();
         let world = store.world()?;
-        // A whole step on two threads where there are two cores, as `replay` steps it (the
-        // same bits as on one).
         let soft = match soft {
-            Some((spec, owned)) => {
-                Some(SoftDriver::new(owned, spec)?.with_threads(step_threads(1)))
-            }
+            Some((spec, owned)) => Some(SoftDriver::unattended(owned, spec)?),
             None => None,
         };
         Ok(DrillRun {

@@ -484,26 +484,37 @@ impl<'a> SoftBody<'a> {
         force: Vec3,
         external: &mut [Vec3],
     ) -> bool {
-        let Some(ids) = self.tets.get(tet) else {
+        let Some((ids, parts)) = self.point_force(tet, point, force) else {
             return false;
         };
-        let mut p = [Vec3::ZERO; 4];
-        for (pk, &k) in p.iter_mut().zip(ids) {
-            match self.position(k as usize) {
-                Some(x) => *pk = x,
-                None => return false,
-            }
-        }
         if ids.iter().any(|&k| k as usize >= external.len()) {
             return false;
         }
-        let Some(parts) = spread_point_force(p, point, force) else {
-            return false;
-        };
         for (&k, f) in ids.iter().zip(parts) {
             external[k as usize] += f;
         }
         true
+    }
+
+    /// A point force at `point` in tet `tet` (current positions) as its four nodes and their
+    /// shares ([`spread_point_force`]), for a caller whose loads are laid out its own way
+    /// ([`SoftBody::add_point_force`] adds them to a `Vec3` a node); `None` for a tet past
+    /// the end or a degenerate current tet.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn point_force(
+        &self,
+        tet: usize,
+        point: Vec3,
+        force: Vec3,
+    ) -> Option<([u32; 4], [Vec3; 4])> {
+        let ids = *self.tets.get(tet)?;
+        let mut p = [Vec3::ZERO; 4];
+        for (pk, &k) in p.iter_mut().zip(&ids) {
+            *pk = self.position(k as usize)?;
+        }
+        Some((ids, spread_point_force(p, point, force)?))
     }
 
     /// Elastic energy of the whole body (zero at rest), in f64.

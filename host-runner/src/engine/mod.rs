@@ -136,6 +136,24 @@ impl EngineStorage {
         crate::soft::SoftOwned::from_mesh(&self.mesh.view())
     }
 
+    /// The worlds over this storage made deforming ([`EngineStorage::enable_deformation`])
+    /// and a soft body over the mesh at rest ([`EngineStorage::soft_owned`]) with `spec`'s
+    /// materials by the mesh's region `labels` (one per tet): what `replay`, `run` and the
+    /// library's `Drilling` set up for a soft set-up.
+    ///
+    /// # Errors
+    /// The heap refused the deformation storage; a region table `spec` refuses.
+    pub fn soft_body(
+        &mut self,
+        spec: &crate::soft::SoftSpec,
+        labels: &[i32],
+    ) -> Result<crate::soft::SoftOwned, Error> {
+        self.enable_deformation()?;
+        let mut owned = self.soft_owned();
+        owned.set_regions(labels, spec)?;
+        Ok(owned)
+    }
+
     /// Gives the world regions from the mesh's `labels` (one per tet) and the set-up's
     /// materials ([`region_table`]); labels the materials name that the mesh lacks get one
     /// warning line. Without this call a world has no regions.

@@ -293,6 +293,16 @@ impl<'a> SoftDriver<'a> {
         })
     }
 
+    /// [`SoftDriver::new`] for a run with no servo thread beside it (`replay`, the library's
+    /// `Drilling`): whole steps on two threads where the machine has two cores
+    /// ([`super::step_threads`]), the same bits as on one.
+    ///
+    /// # Errors
+    /// As [`SoftDriver::new`].
+    pub fn unattended(owned: &'a mut SoftOwned, spec: &SoftSpec) -> Result<Self, Error> {
+        Ok(Self::new(owned, spec)?.with_threads(super::step_threads(1)))
+    }
+
     /// Whole steps on `threads` threads (1 or 2: `SoftBody::step` or `SoftBody::step_two`
     /// with [`on_two_threads`], then `World::set_positions` or `World::set_positions_two`
     /// with [`move_on_two_threads`], the same bits) when the body has at least

@@ -194,12 +194,7 @@ pub fn run(
     let mut store = EngineStorage::new(loaded.mesh, sc)?;
     store.set_labels(&loaded.labels, sc)?;
     let mut soft_owned = match soft.as_ref() {
-        Some(spec) => {
-            store.enable_deformation()?;
-            let mut owned = store.soft_owned();
-            owned.set_regions(&loaded.labels, spec)?;
-            Some(owned)
-        }
+        Some(spec) => Some(store.soft_body(spec, &loaded.labels)?),
         None => None,
     };
     let region_labels = store.region_labels().to_vec();

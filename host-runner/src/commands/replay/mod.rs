@@ -325,13 +325,7 @@ fn soft_owned(
     spec: Option<&SoftSpec>,
     labels: &[i32],
 ) -> Result<Option<crate::soft::SoftOwned>, CliError> {
-    let Some(spec) = spec else {
-        return Ok(None);
-    };
-    store.enable_deformation()?;
-    let mut owned = store.soft_owned();
-    owned.set_regions(labels, spec)?;
-    Ok(Some(owned))
+    Ok(spec.map(|s| store.soft_body(s, labels)).transpose()?)
 }
 
 /// The soft body's driver over `owned` when the scenario has one.
@@ -340,11 +334,7 @@ fn soft_driver<'a>(
     owned: Option<&'a mut crate::soft::SoftOwned>,
 ) -> Result<Option<SoftDriver<'a>>, CliError> {
     match (spec, owned) {
-        // No servo thread beside the replay: a whole step on two threads where there are two
-        // cores (the same bits as on one).
-        (Some(s), Some(o)) => Ok(Some(
-            SoftDriver::new(o, s)?.with_threads(crate::soft::step_threads(1)),
-        )),
+        (Some(s), Some(o)) => Ok(Some(SoftDriver::unattended(o, s)?)),
         _ => Ok(None),
     }
 }
