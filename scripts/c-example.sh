@@ -6,7 +6,8 @@
 #                                     and compares its force_digest with
 #                                     `tetradrill replay --scenario builtin:demo --json`'s; then
 #                                     the same over libtetradrill_ffi.so; then
-#                                     examples/c/soft_demo.c (the cow soft under the burr)
+#                                     examples/c/soft_demo.c (the cow soft under the burr, whole
+#                                     steps and spread over the ticks)
 #   scripts/c-example.sh --cortex-m   the bare-metal program: the library for
 #                                     thumbv7em-none-eabihf, examples/c/cortex_m linked with
 #                                     arm-none-eabi-gcc, run under QEMU (mps2-an386, -icount)
@@ -224,6 +225,8 @@ if [ "$mode" = host ]; then
   cc -std=c11 -O2 -Wall -Wextra -Werror -I ffi/include \
     examples/c/soft_demo.c "$lib" $libs -lm -o "$work/soft_demo"
   "$work/soft_demo" tests/data/meshes/models/spot_tetgen_q1.414.node
+  echo "== the same with the step spread over the ticks (td_link_*: a step every 10 ticks)"
+  "$work/soft_demo" tests/data/meshes/models/spot_tetgen_q1.414.node --spread 10
   exit 0
 fi
 

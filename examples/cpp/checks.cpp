@@ -221,6 +221,37 @@ int main(int argc, char **argv) {
                     f.z, fr.z);
         expect(hit.tet != TD_NO_TET && hit.point.z < 1.f - 1e-3f && f.z > 0.f && f.z < fr.z,
                "a deformable world follows the soft body its burr presses");
+        // The same press with the body's step spread over the ticks (a link, a step every 5
+        // ticks): the world gives way as well, and no tick does more than twice its share.
+        tetradrill::world linked_world(dp, cube_xyz, tets);
+        tetradrill::soft_body linked_body(cube_xyz, tets, soft_sp);
+        linked_body.fix_below({0.f, 0.f, 0.f}, {0.f, 0.f, 1.f});
+        tetradrill::link spread(linked_world, linked_body, 5, 0.001f);
+        const td_link_counts lc = spread.counters();
+        std::uint32_t most = 0, commits = 0;
+        td_vec3 fl{};
+        for (int i = 1; i <= 500; i++) {
+            fl = linked_world.tick(at, 0);
+            const td_link_report r = spread.tick(fl);
+            most = std::max(most, r.units);
+            commits += r.committed;
+        }
+        const td_contact_at lhit = linked_world.contact_at();
+        std::printf("linked: dent %.5f, force %.4f; %u steps, %u units a tick, at most %u\n",
+                    1.f - lhit.point.z, fl.z, commits, lc.units_per_tick, most);
+        expect(commits == 100 && spread.counters().late == 0 && most <= 2 * lc.units_per_tick,
+               "a link commits a step every 5 ticks, each tick within twice its share");
+        expect(lhit.tet != TD_NO_TET && lhit.point.z < 1.f - 1e-3f && fl.z > 0.f && fl.z < fr.z,
+               "a linked deformable world follows the soft body its burr presses");
+        thrown = false;
+        try {
+            linked_body.step(0.005f);
+            spread.tick(fl);
+            linked_body.step(0.005f);
+        } catch (const tetradrill::error &e) {
+            thrown = e.status() == TD_ERR_BUSY;
+        }
+        expect(thrown, "a linked body's own step in a cycle throws error(TD_ERR_BUSY)");
         thrown = false;
         try {
             rigid.set_positions(body.positions());

@@ -86,6 +86,9 @@ typedef enum td_status {
   // The world's mesh is rigid: it was set up with `td_params.deformable` 0, so its nodes
   // cannot move (`td_world_set_positions`).
   TD_ERR_RIGID = 13,
+  // A step spread over ticks is under way: the soft body steps through its link
+  // (`td_link_tick`) until the cycle ends, and the world's update is prepared.
+  TD_ERR_BUSY = 14,
 } td_status;
 
 // Which of a body's per-node vectors `td_soft_nodes` writes.
@@ -99,6 +102,10 @@ typedef enum td_soft_field {
   // Rest positions.
   TD_SOFT_REST = 3,
 } td_soft_field;
+
+// A soft body's step spread over servo ticks, set up by `td_link_init` in caller memory.
+// Opaque: C holds a pointer to it (the start of the memory it gave) and never reads it.
+typedef struct td_link td_link;
 
 #if !defined(TETRADRILL_BARE_METAL)
 // A mesh file read and built (`td_mesh_file_read`): its arrays, owned by the library
@@ -326,6 +333,35 @@ typedef struct td_mesh_arrays {
   const int32_t *labels;
 } td_mesh_arrays;
 #endif
+
+// What one `td_link_tick` did.
+typedef struct td_link_report {
+  // Work units done this tick (one unit is about 37 Cortex-M4 instructions; at most
+  // `units_per_tick` plus less than one step's units carried from the tick before).
+  uint32_t units;
+  // 1 on a cycle's last tick: the world took the body's new positions (`report` says what
+  // the update did); else 0.
+  uint32_t committed;
+  // The world's update on a cycle's last tick (all zero on the others).
+  struct td_deform_report report;
+} td_link_report;
+
+// A link's settings and what it has done.
+typedef struct td_link_counts {
+  // Ticks a cycle (one body step a cycle).
+  uint32_t ticks;
+  // Work units a tick: the cycle's units spread evenly.
+  uint32_t units_per_tick;
+  // Work units of one cycle (the commit aside).
+  uint64_t cycle_units;
+  // Steps committed to the world.
+  uint32_t steps;
+  // Cycles whose work was not done by their last tick and was finished there (0 with the
+  // units a tick `td_link_init` computed: a check).
+  uint32_t late;
+  // The largest distance of a node from rest the world has taken so far, mesh units.
+  float max_displacement;
+} td_link_counts;
 
 // Everything a pen and its object need to know before they are built: the meshes' counts,
 // the capacities of the contact pass and the force settings. `td_pen_params_default` fills
@@ -804,8 +840,9 @@ const char *td_status_name(int32_t code);
 // # Errors
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up,
 // `TD_ERR_RIGID` for a world set up with `deformable` 0, `TD_ERR_PARAMS` for `node_count`
-// other than the mesh's, `TD_ERR_INPUT` for a position that is not finite (`*out` is not
-// written and the world is unchanged).
+// other than the mesh's, `TD_ERR_INPUT` for a position that is not finite, `TD_ERR_BUSY`
+// while a link (`td_link_tick`) has the world's next update prepared (`*out` is not written
+// and the world is unchanged).
 //
 // # Safety
 // `world` is a handle from `td_world_init` whose memory is still the caller's; `xyz` points
@@ -988,6 +1025,98 @@ enum td_status td_world_init(void *mem,
                              const int32_t *labels,
                              struct td_world **out,
                              uint32_t *bad_item);
+
+// Writes the bytes (`*out_size`) and the alignment (`*out_align`) a link for a body of
+// `node_count` nodes needs: the link and three vectors a node. Allocate at least that many
+// bytes at that alignment for `td_link_init`.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer; `TD_ERR_PARAMS` for a count of zero or above
+// `TD_MAX_COUNT`.
+//
+// # Safety
+// `out_size` and `out_align` point at writable `size_t`s.
+enum td_status td_link_size(uint32_t node_count, size_t *out_size, size_t *out_align);
+
+// Sets up in `mem` (`len` bytes at the alignment `td_link_size` gave) a link that steps
+// `soft` by `dt` every `ticks` servo ticks and moves `world` to its positions, its work spread
+// evenly over each cycle of `ticks` ticks (`td_link_counters` gives the units a tick), and
+// writes its handle to `*out`. The world must be deformable (`td_params.deformable`) and built
+// from the same nodes as the body (its tets may be in any order). The units a tick are
+// computed here, once, from the body's and the world's sizes.
+//
+// From then on the body steps through `td_link_tick` only: `td_soft_step` refuses it with
+// `TD_ERR_BUSY` while a cycle's step is under way, and `td_world_set_positions` refuses the
+// world while its update is prepared.
+//
+// # Bounded work
+// O(nodes) (the buffers cleared).
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world or body not set
+// up, `TD_ERR_RIGID` for a rigid world, `TD_ERR_PARAMS` for `ticks` of zero, a `dt` that is
+// not finite and positive, or a body and world of different node counts, `TD_ERR_BUSY` for a
+// body in the middle of a step (another link's), `TD_ERR_TOO_SMALL` for `len`. On an error
+// after the checks of `mem` (null, alignment, length) the memory holds no link: a handle to it
+// is refused until an init succeeds.
+//
+// # Safety
+// `mem` points at `len` writable bytes the caller keeps, untouched, for as long as it uses
+// the link, apart from the world's and the body's memory; `world` and `soft` are handles from
+// `td_world_init` and `td_soft_init`; `out` points at a writable pointer.
+enum td_status td_link_init(void *mem,
+                            size_t len,
+                            struct td_world *world,
+                            struct td_soft *soft,
+                            uint32_t ticks,
+                            float dt,
+                            struct td_link **out);
+
+// One servo tick of the link, after the world's simulation step of that tick
+// (`td_world_simulate` or `td_world_tick`), `force` being the force the servo gave the hand
+// that tick: at a cycle's first tick the body's step begins, loaded with the mean reaction of
+// the cycle before; the tool's reaction (`-force` at the world's contact point, spread over its
+// contact tet's corners) is gathered for the next step; this tick's share of the step and of
+// the world's update is done; at the cycle's last tick the world takes the new positions. So
+// the world shows a reaction between one and two cycles later. `*out`, when not null, gets
+// what the tick did. Call it from the thread that runs the simulation steps (the servo's force
+// call may run beside it, as beside `td_world_set_positions`).
+//
+// # Bounded work
+// At most `units_per_tick` units plus less than one step's units carried from the tick before
+// (the same amount every tick, about 37 Cortex-M4 instructions a unit), plus on a cycle's last
+// tick the commit: O(nodes + the contact memo's slots).
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a handle not set up,
+// `TD_ERR_PARAMS` for a world or body other than the ones `td_link_init` was given,
+// `TD_ERR_INPUT` for a force that is not finite (nothing done) or positions the physics made
+// non-finite, `TD_ERR_BUSY` for a body another caller began a step on.
+//
+// # Safety
+// `link`, `world` and `soft` are handles from `td_link_init`, `td_world_init` and
+// `td_soft_init` whose memory is still the caller's; `out` is null or points at a writable
+// `td_link_report`.
+enum td_status td_link_tick(struct td_link *link,
+                            struct td_world *world,
+                            struct td_soft *soft,
+                            struct td_vec3 force,
+                            struct td_link_report *out);
+
+// Writes the link's settings and counts.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a link not set up.
+//
+// # Safety
+// `link` is a handle from `td_link_init`; `out` points at a writable `td_link_counts`.
+enum td_status td_link_counters(struct td_link *link, struct td_link_counts *out);
 
 // Fills `*out` with the host's defaults for an object of `object_nodes` nodes and
 // `object_tets` tets and a pen of `pen_nodes` and `pen_tets`: contact lists and queues as
@@ -1468,7 +1597,8 @@ enum td_status td_soft_init(void *mem,
 // # Errors
 // `TD_ERR_NOT_INIT` for a handle `td_soft_init` did not set up (or `TD_ERR_NULL` /
 // `TD_ERR_ALIGN`), `TD_ERR_ALIGN` for `loads`, `TD_ERR_INPUT` for a `dt` that is not finite
-// and positive or a load that is not finite; the body is unchanged on an error.
+// and positive or a load that is not finite, `TD_ERR_BUSY` while a link's step is under way
+// (`td_link_tick` steps a linked body); the body is unchanged on an error.
 //
 // # Safety
 // `soft` is a handle from `td_soft_init` (or is refused as above); `loads` is null or points

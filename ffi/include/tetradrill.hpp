@@ -437,6 +437,56 @@ class soft_body {
     std::uint32_t n_ = 0;
 };
 
+// A soft body's step spread over servo ticks (td_link_*): made for one deformable world and one
+// soft body over the same nodes, which must outlive it. Call `tick` once a servo tick, after
+// the world's step, with the force the servo gave the hand: every tick does the same share of
+// the body's step and the world's update; the world takes the new positions at each cycle's
+// last tick. Owns its memory.
+class link {
+  public:
+    link(world &w, soft_body &b, std::uint32_t ticks, float dt) : w_(w.get()), b_(b.get()) {
+        std::size_t size = 0, align = 0;
+        detail::check(td_link_size(b.node_count(), &size, &align), "td_link_size");
+        mem_ = detail::allocate(size, align);
+        detail::check(td_link_init(mem_.get(), size, w_, b_, ticks, dt, &l_), "td_link_init");
+    }
+
+    link(link &&o) noexcept
+        : mem_(std::move(o.mem_)), l_(std::exchange(o.l_, nullptr)), w_(o.w_), b_(o.b_) {}
+    link &operator=(link &&o) noexcept {
+        mem_ = std::move(o.mem_);
+        l_ = std::exchange(o.l_, nullptr);
+        w_ = o.w_;
+        b_ = o.b_;
+        return *this;
+    }
+    link(const link &) = delete;
+    link &operator=(const link &) = delete;
+
+    // One servo tick whose force on the hand was `force`; what it did (`committed` 1 on a
+    // cycle's last tick).
+    td_link_report tick(td_vec3 force) {
+        td_link_report r{};
+        detail::check(td_link_tick(l_, w_, b_, force, &r), "td_link_tick");
+        return r;
+    }
+
+    // Ticks a cycle, units a tick and a cycle, steps committed, late cycles.
+    td_link_counts counters() const {
+        td_link_counts c{};
+        detail::check(td_link_counters(l_, &c), "td_link_counters");
+        return c;
+    }
+
+    td_link *get() const noexcept { return l_; }
+
+  private:
+    detail::aligned_bytes mem_{nullptr, detail::aligned_free{64}};
+    td_link *l_ = nullptr;
+    td_world *w_ = nullptr;
+    td_soft *b_ = nullptr;
+};
+
 // The drilled surface of a world in buffers an engine uploads: stable triangle slots (slot `s`
 // is vertices 3s, 3s+1, 3s+2 of every buffer), written only where the surface changed. Owns its
 // memory and its buffers; keeps a pointer to its world, which must outlive it. Update it from

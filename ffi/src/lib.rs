@@ -37,6 +37,7 @@
 //! | [`td_soft_params_default`], [`td_soft_size`], [`td_soft_init`] | a soft body (an elastic tet mesh) in caller memory |
 //! | [`td_soft_step`], [`td_soft_nodes`], [`td_soft_set_fixed`], [`td_soft_fix_below`], [`td_soft_counters`] | its step under loads, its nodes, the held nodes, its counts |
 //! | [`td_world_set_positions`], [`td_world_contact_at`], [`td_soft_add_point_force`] | a deformable world's nodes moved (a soft body's positions), where the tool touches it, the reaction as a load on the body |
+//! | [`td_link_size`], [`td_link_init`], [`td_link_tick`], [`td_link_counters`] | a soft body's step and the world's update spread over servo ticks, the same work each tick |
 //! | [`td_demo_ticks`], [`td_demo_pose`] | the host's scripted demo path                      |
 //! | [`td_script_ticks`], [`td_script_pose`] | the demo or the tooth's access path            |
 //! | [`td_status_name`]       | one line per status code                                      |
@@ -65,6 +66,7 @@ mod deform;
 mod files;
 mod init;
 mod layout;
+mod link;
 mod pen;
 mod regions;
 mod servo;
@@ -104,6 +106,9 @@ pub use files::{
 };
 pub use init::td_world_init;
 use layout::{ServoState, SharedDrillHandoff, SharedHandoff, State, Unstarted, MAGIC, SERVO_MAGIC};
+pub use link::{
+    td_link_counters, td_link_init, td_link_size, td_link_tick, TdLink, TdLinkCounts, TdLinkReport,
+};
 pub use pen::{
     td_pen_counters, td_pen_init, td_pen_params_default, td_pen_servo_counters,
     td_pen_servo_handle, td_pen_servo_wrench, td_pen_simulate, td_pen_size, td_pen_tick, TdPen,

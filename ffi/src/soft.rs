@@ -10,7 +10,8 @@ use core::alloc::Layout;
 use core::mem::size_of;
 
 use tetradrill_core::soft::{
-    lane_order, Material, SoftBody, SoftError, SoftMesh, SoftParams, SoftStorage, TetRest,
+    lane_order, Material, SoftBody, SoftError, SoftMesh, SoftParams, SoftStorage, StepError,
+    TetRest,
 };
 
 use super::*;
@@ -64,15 +65,15 @@ pub struct TdSoft {
 
 /// The head of a soft body's memory.
 #[derive(Debug)]
-struct SoftState {
+pub(crate) struct SoftState {
     /// [`SOFT_MAGIC`] once set up; zero while `td_soft_init` works on the memory.
     magic: u64,
     /// The core's body over the slices that follow this header.
-    body: SoftBody<'static>,
-    /// Steps taken.
-    steps: u64,
+    pub(crate) body: SoftBody<'static>,
+    /// Steps taken (`td_soft_step`'s and a link's).
+    pub(crate) steps: u64,
     /// Their time summed.
-    time: f64,
+    pub(crate) time: f64,
     /// The body's index of each tet as the caller gave them (its tets are in lane order).
     body_tet: &'static [u32],
 }
@@ -163,7 +164,7 @@ fn soft_params(p: &TdSoftParams) -> Result<(Material, SoftParams), TdStatus> {
 ///
 /// # Safety
 /// As [`marked_mut`], for memory `td_soft_init` was given.
-unsafe fn soft<'a>(s: *mut TdSoft) -> Result<&'a mut SoftState, TdStatus> {
+pub(crate) unsafe fn soft_state<'a>(s: *mut TdSoft) -> Result<&'a mut SoftState, TdStatus> {
     // SAFETY: the caller's contract.
     unsafe { marked_mut(s.cast::<SoftState>()) }
 }
@@ -385,7 +386,8 @@ pub unsafe extern "C" fn td_soft_init(
 /// # Errors
 /// `TD_ERR_NOT_INIT` for a handle `td_soft_init` did not set up (or `TD_ERR_NULL` /
 /// `TD_ERR_ALIGN`), `TD_ERR_ALIGN` for `loads`, `TD_ERR_INPUT` for a `dt` that is not finite
-/// and positive or a load that is not finite; the body is unchanged on an error.
+/// and positive or a load that is not finite, `TD_ERR_BUSY` while a link's step is under way
+/// (`td_link_tick` steps a linked body); the body is unchanged on an error.
 ///
 /// # Safety
 /// `soft` is a handle from `td_soft_init` (or is refused as above); `loads` is null or points
@@ -394,7 +396,7 @@ pub unsafe extern "C" fn td_soft_init(
 pub unsafe extern "C" fn td_soft_step(soft: *mut TdSoft, dt: f32, loads: *const f32) -> TdStatus {
     status(|| {
         // SAFETY: the caller's contract on `soft` (`soft` checks it).
-        let s = unsafe { self::soft(soft) }?;
+        let s = unsafe { soft_state(soft) }?;
         let n = s.body.node_count();
         let loads: &[f32] = if loads.is_null() {
             &[]
@@ -407,9 +409,10 @@ pub unsafe extern "C" fn td_soft_step(soft: *mut TdSoft, dt: f32, loads: *const 
         }
         // The core takes a force per node, or none: cast C's floats as vectors.
         let external = vec3s(loads);
-        s.body
-            .step(dt, external)
-            .map_err(|_| TdStatus::TdErrInput)?;
+        s.body.step(dt, external).map_err(|e| match e {
+            StepError::InProgress => TdStatus::TdErrBusy,
+            _ => TdStatus::TdErrInput,
+        })?;
         s.steps += 1;
         s.time += f64::from(dt);
         Ok(())
@@ -476,7 +479,7 @@ pub unsafe extern "C" fn td_soft_nodes(
 ) -> TdStatus {
     status(|| {
         // SAFETY: the caller's contract on `soft`.
-        let s = unsafe { self::soft(soft) }?;
+        let s = unsafe { soft_state(soft) }?;
         let b = &s.body;
         let field = TdSoftField::of(field).ok_or(TdStatus::TdErrParams)?;
         if node_count as usize != b.node_count() {
@@ -515,7 +518,7 @@ pub unsafe extern "C" fn td_soft_nodes(
 pub unsafe extern "C" fn td_soft_set_fixed(soft: *mut TdSoft, node: u32, fixed: u8) -> TdStatus {
     status(|| {
         // SAFETY: the caller's contract on `soft`.
-        let s = unsafe { self::soft(soft) }?;
+        let s = unsafe { soft_state(soft) }?;
         if s.body.set_fixed(node as usize, fixed != 0) {
             Ok(())
         } else {
@@ -553,7 +556,7 @@ pub unsafe extern "C" fn td_soft_add_point_force(
     status(|| {
         check_ptr(loads)?;
         // SAFETY: the caller's contract on `soft`.
-        let s = unsafe { self::soft(soft) }?;
+        let s = unsafe { soft_state(soft) }?;
         let n = s.body.node_count();
         // SAFETY: not null and aligned (checked), `3 n` writable floats outside the body's
         // memory (the caller's contract; `n` is at most `TD_MAX_COUNT`).
@@ -599,7 +602,7 @@ pub unsafe extern "C" fn td_soft_fix_below(
 ) -> TdStatus {
     status(|| {
         // SAFETY: the caller's contract on `soft`.
-        let s = unsafe { self::soft(soft) }?;
+        let s = unsafe { soft_state(soft) }?;
         let (o, u) = (pose(origin)?, pose(up)?);
         if !out_count.is_null() && !out_count.is_aligned() {
             return Err(TdStatus::TdErrAlign);
@@ -628,7 +631,7 @@ pub unsafe extern "C" fn td_soft_fix_below(
 pub unsafe extern "C" fn td_soft_counters(soft: *mut TdSoft, out: *mut TdSoftCounts) -> TdStatus {
     status(|| {
         // SAFETY: the caller's contract on `soft`.
-        let s = unsafe { self::soft(soft) }?;
+        let s = unsafe { soft_state(soft) }?;
         let b = &s.body;
         let c = TdSoftCounts {
             steps: s.steps,

@@ -52,11 +52,14 @@ pub enum TdStatus {
     /// The world's mesh is rigid: it was set up with `td_params.deformable` 0, so its nodes
     /// cannot move (`td_world_set_positions`).
     TdErrRigid = 13,
+    /// A step spread over ticks is under way: the soft body steps through its link
+    /// (`td_link_tick`) until the cycle ends, and the world's update is prepared.
+    TdErrBusy = 14,
 }
 
 impl TdStatus {
     /// Every status, in code order (for `td_status_name`).
-    pub(crate) const ALL: [TdStatus; 14] = [
+    pub(crate) const ALL: [TdStatus; 15] = [
         TdStatus::TdOk,
         TdStatus::TdErrNull,
         TdStatus::TdErrAlign,
@@ -71,6 +74,7 @@ impl TdStatus {
         TdStatus::TdErrFile,
         TdStatus::TdErrBlob,
         TdStatus::TdErrRigid,
+        TdStatus::TdErrBusy,
     ];
 
     /// A NUL-terminated line saying what the status means.
@@ -90,6 +94,7 @@ impl TdStatus {
             TdStatus::TdErrFile => c"the mesh file could not be read (see td_file_error)",
             TdStatus::TdErrBlob => c"the mesh blob was refused (see bad_item: the byte)",
             TdStatus::TdErrRigid => c"the world is rigid (td_params.deformable is 0)",
+            TdStatus::TdErrBusy => c"a step spread over ticks is under way (td_link_tick)",
         }
     }
 

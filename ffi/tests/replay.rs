@@ -412,7 +412,7 @@ fn bad_pointers_sizes_and_counts_get_their_status() {
 
 #[test]
 fn every_status_has_its_own_line() {
-    let names: Vec<String> = (0..=13)
+    let names: Vec<String> = (0..=14)
         .map(|code| {
             // SAFETY: td_status_name returns a static NUL-terminated string.
             unsafe { CStr::from_ptr(td_status_name(code)) }
@@ -431,7 +431,11 @@ fn every_status_has_its_own_line() {
     assert_eq!(TdStatus::TdErrInput as i32, 8);
     assert_eq!(TdStatus::TdErrStarted as i32, 10);
     assert_eq!(TdStatus::TdErrRigid as i32, 13);
-    assert_ne!(names[13], "unknown status");
+    assert_eq!(TdStatus::TdErrBusy as i32, 14);
+    assert_ne!(names[14], "unknown status");
+    // SAFETY: as above.
+    let past = unsafe { CStr::from_ptr(td_status_name(15)) };
+    assert_eq!(past.to_str(), Ok("unknown status"));
 }
 
 #[test]

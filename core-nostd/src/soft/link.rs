@@ -204,6 +204,11 @@ impl Link {
         self.ticks
     }
 
+    /// The servo tick's length: a step is `ticks x dt` long.
+    pub fn dt(&self) -> f32 {
+        self.dt
+    }
+
     /// Steps committed so far.
     pub fn steps(&self) -> u32 {
         self.steps
