@@ -16,6 +16,9 @@
 #                                     with `replay --scenario builtin:firmware`'s digest;
 #                                     then the same with the block read in place from a
 #                                     mesh blob in flash (`tetradrill export --firmware`);
+#                                     then the block soft, its step spread over the ticks
+#                                     (examples/c/soft_block.h), against the same set-up
+#                                     on the host (examples/c/soft_firmware.c);
 #                                     before the run, the calls into core's panic entry
 #                                     points in the linked program are counted: above 0 fails
 #   scripts/c-example.sh --tools      the tools with an orientation: builds libtetradrill_ffi.a,
@@ -311,7 +314,7 @@ echo "== arm-none-eabi-gcc examples/c/cortex_m, the block from arrays and from a
 bin="$(host_bin)"
 "$bin" export --quiet --firmware "$work/block4.tdb" --mesh builtin:block:4
 make --quiet -C examples/c/cortex_m LIB="$lib" OUT="$work" BLOB="$work/block4.tdb" \
-  "$work/replay_firmware.elf" blob
+  "$work/replay_firmware.elf" blob soft
 # Where a panic could still come from in a linked program (the handler faults, see
 # docs/FFI.md): calls from outside `core` into its panic entry points (core::panicking, the
 # slice and str index failures, unwrap and expect, RefCell borrows), by the function that
@@ -340,7 +343,7 @@ run_qemu() {
   grep -q '^servo=systick' "$2" ||
     { echo "c-example: FAIL: the program did not run its servo in the SysTick interrupt" >&2; exit 1; }
 }
-for variant in replay_firmware replay_firmware_blob; do
+for variant in replay_firmware replay_firmware_blob soft_firmware; do
   elf="$work/$variant.elf"
   arm-none-eabi-size "$elf"
   sites="$(panic_sites "$elf")"
@@ -360,3 +363,28 @@ run_qemu "$work/replay_firmware_blob.elf" "$work/out-blob.txt"
 grep -q '^mesh=blob' "$work/out-blob.txt" ||
   { echo "c-example: FAIL: the blob program did not read its mesh from the blob" >&2; exit 1; }
 compare "$work/out-blob.txt" firmware
+echo "== run under QEMU: the block soft, its step spread over the ticks (td_link_*)"
+run_qemu "$work/soft_firmware.elf" "$work/out-soft.txt"
+# The same set-up on the host (examples/c/soft_firmware.c over the host's library): the C
+# body keeps its tets in an order of its own, so the reference is this program, not the Rust
+# firmware's scenario.
+command -v cc >/dev/null || { echo "c-example: no C compiler 'cc' found (apt-get install gcc)" >&2; exit 1; }
+cargo rustc --quiet -p tetradrill-ffi --profile ffi \
+  -- --print native-static-libs 2>"$work/rustc.txt" || { cat "$work/rustc.txt" >&2; exit 1; }
+libs="$(sed -n 's/.*native-static-libs: //p' "$work/rustc.txt" | tail -1)"
+# shellcheck disable=SC2086
+cc -std=c11 -O2 -Wall -Wextra -Werror -ffp-contract=off -I ffi/include \
+  examples/c/soft_firmware.c "$target_dir/ffi/libtetradrill_ffi.a" $libs -o "$work/soft_firmware"
+"$work/soft_firmware" >"$work/soft-host.txt"
+for key in force_digest soft_steps units_per_tick late max_displacement_um; do
+  m4="$(sed -n "s/^$key=\([0-9a-f]*\)\r\{0,1\}$/\1/p" "$work/out-soft.txt")"
+  host="$(sed -n "s/^$key=\([0-9a-f]*\)$/\1/p" "$work/soft-host.txt")"
+  echo "$key: Cortex-M4 $m4, host $host"
+  if [ -z "$m4" ] || [ "$m4" != "$host" ]; then
+    echo "c-example: FAIL: the soft block's $key differs between the Cortex-M4 and the host" >&2
+    exit 1
+  fi
+done
+grep -q '^late=0' "$work/out-soft.txt" ||
+  { echo "c-example: FAIL: the link finished a cycle late" >&2; exit 1; }
+echo "c-example: OK, the soft block: the same digest and figures on the Cortex-M4 and the host, no deadline missed"

@@ -333,8 +333,10 @@ impl<'a> SoftBody<'a> {
             *rest = TetRest::new(x, mat.lame()).ok_or(SoftError::DegenerateTet { tet: id })?;
             let quarter = mat.density * rest.volume * 0.25;
             for &k in tet {
-                // In range: checked above.
-                storage.mass[k as usize] += quarter;
+                // In range: checked above (`get`: no panic path on a bare-metal build).
+                if let Some(m) = storage.mass.get_mut(k as usize) {
+                    *m += quarter;
+                }
             }
         }
         for (w, &m) in storage.inv_mass.iter_mut().zip(storage.mass.iter()) {

@@ -32,6 +32,9 @@ pub fn lane_order(tets: &[[u32; 4]], tet_of: &mut [u32], body_tet: &mut [u32]) -
         return false;
     }
     body_tet.fill(UNPLACED);
+    // Every index below is under `n`, the length of all three slices (checked above); the
+    // lookups go through `get` so that a bare-metal build carries no panic path.
+    let unplaced = |b: &[u32], i: usize| b.get(i).is_some_and(|&x| x == UNPLACED);
     let mut placed = 0usize;
     let mut first = 0usize;
     loop {
@@ -43,25 +46,30 @@ pub fn lane_order(tets: &[[u32; 4]], tet_of: &mut [u32], body_tet: &mut [u32]) -
         };
         let mut group = [first; 4];
         let mut size = 1;
-        body_tet[first] = LEFT;
+        mark(body_tet, first, LEFT);
         let (mut looked, mut next) = (0, first + 1);
         while size < 4 && looked < LANE_WINDOW && next < n {
-            if body_tet[next] == UNPLACED {
+            if unplaced(body_tet, next) {
                 looked += 1;
-                let t = &tets[next];
-                let shares = |g: &usize| tets[*g].iter().any(|k| t.contains(k));
-                if !lead.iter().any(|k| t.contains(k)) && !group[1..size].iter().any(shares) {
+                let t = tets.get(next).copied().unwrap_or(lead);
+                let shares = |g: &usize| {
+                    tets.get(*g)
+                        .is_some_and(|u| u.iter().any(|k| t.contains(k)))
+                };
+                if !lead.iter().any(|k| t.contains(k))
+                    && !group.iter().take(size).skip(1).any(shares)
+                {
                     group[size] = next;
                     size += 1;
-                    body_tet[next] = LEFT;
+                    mark(body_tet, next, LEFT);
                 }
             }
             next += 1;
         }
         if size == 4 {
             for g in group {
-                tet_of[placed] = g as u32;
-                body_tet[g] = placed as u32;
+                mark(tet_of, placed, g as u32);
+                mark(body_tet, g, placed as u32);
                 placed += 1;
             }
         }
@@ -69,12 +77,19 @@ pub fn lane_order(tets: &[[u32; 4]], tet_of: &mut [u32], body_tet: &mut [u32]) -
     // The tets left out, in their given order.
     for (t, b) in body_tet.iter_mut().enumerate() {
         if *b == LEFT {
-            tet_of[placed] = t as u32;
+            mark(tet_of, placed, t as u32);
             *b = placed as u32;
             placed += 1;
         }
     }
     true
+}
+
+/// `s[i] = v` where `i` is in range (it always is where [`lane_order`] calls it).
+fn mark(s: &mut [u32], i: usize, v: u32) {
+    if let Some(x) = s.get_mut(i) {
+        *x = v;
+    }
 }
 
 #[cfg(test)]

@@ -15,13 +15,22 @@
  *
  * Built with MESH_BLOB defined (make BLOB=FILE), the block comes from a mesh blob in flash
  * (`tetradrill export --firmware FILE --mesh builtin:block:4`), its tets read in place by
- * td_world_init_blob, instead of being built from arrays. */
+ * td_world_init_blob, instead of being built from arrays.
+ *
+ * Built with SOFT_BODY defined (the soft_firmware.elf target), the world is deformable and the
+ * block soft (../soft_block.h): after each step the main loop hands the tick's force to the
+ * link (td_link_tick), which does the same share of the body's step and of the world's update
+ * every tick and moves the world every 50 ticks; its digest is compared with the host's run of
+ * the same set-up (../soft_firmware.c). */
 #include <stddef.h>
 #include <stdint.h>
 
 #include "../block.h"
 #include "../firmware_params.h"
 #include "semihost.h"
+#ifdef SOFT_BODY
+#include "../soft_block.h"
+#endif
 
 #define BLOCK_N FIRMWARE_BLOCK_N
 #define NODES ((BLOCK_N + 1) * (BLOCK_N + 1) * (BLOCK_N + 1))
@@ -34,6 +43,14 @@ static float positions[3 * NODES];
 static uint32_t tet_nodes[4 * TETS];
 #endif
 static uint8_t world_mem[WORLD_BYTES] __attribute__((aligned(64)));
+#ifdef SOFT_BODY
+/* Room for the soft body and its link (td_soft_size and td_link_size say how much). */
+static uint8_t soft_mem[48u * 1024u] __attribute__((aligned(64)));
+static uint8_t link_mem[8u * 1024u] __attribute__((aligned(64)));
+/* The servo's force of the last ticks, by tick (the step of tick i hands forces[i % 4] to the
+ * link; the interrupt is at most a tick or two ahead). */
+static volatile float forces[4][3];
+#endif
 
 /* Prints `name=`, `v` in decimal and a newline. */
 static void put_u32(const char *name, uint32_t v) {
@@ -113,6 +130,11 @@ void systick_handler(void) {
     if (st != TD_OK && servo_status == TD_OK)
         servo_status = st;
     /* On a device: write `force` to the motors here. */
+#ifdef SOFT_BODY
+    forces[i % 4][0] = force.x;
+    forces[i % 4][1] = force.y;
+    forces[i % 4][2] = force.z;
+#endif
     released = i + 1;
 }
 
@@ -140,8 +162,12 @@ int main(void) {
     sh_puts("mesh=blob\n");
 #else
     block_write(BLOCK_N, positions, tet_nodes);
-    if (failed(firmware_params(NODES, TETS, &p), "td_params_default") ||
-        failed(td_world_size(&p, &size, &align), "td_world_size"))
+    if (failed(firmware_params(NODES, TETS, &p), "td_params_default"))
+        return 1;
+#ifdef SOFT_BODY
+    p.deformable = 1;
+#endif
+    if (failed(td_world_size(&p, &size, &align), "td_world_size"))
         return 1;
     sh_puts("mesh=arrays\n");
 #endif
@@ -161,6 +187,17 @@ int main(void) {
         put_u32("bad_item", bad);
     if (failed(st, "td_world_init") || failed(td_world_servo(world, &servo), "td_world_servo"))
         return 1;
+#ifdef SOFT_BODY
+    td_soft *body = 0;
+    td_link *link = 0;
+    uint32_t held = 0;
+    if (failed(soft_block_init(world, soft_mem, sizeof soft_mem, link_mem, sizeof link_mem,
+                               positions, NODES, tet_nodes, TETS, &body, &link, &held),
+               "soft_block_init"))
+        return 1;
+    put_u32("held", held);
+    uint32_t most = 0;
+#endif
 
     ticks = td_demo_ticks();
     sh_puts("servo=systick\n");
@@ -177,6 +214,13 @@ int main(void) {
         if (failed(td_demo_pose(i, &pose, &buttons), "td_demo_pose") ||
             failed(td_world_simulate(world, pose, buttons, NULL), "td_world_simulate"))
             return 1;
+#ifdef SOFT_BODY
+        const td_vec3 f = {forces[i % 4][0], forces[i % 4][1], forces[i % 4][2]};
+        td_link_report r;
+        if (failed(td_link_tick(link, world, body, f, &r), "td_link_tick"))
+            return 1;
+        most = r.units > most ? r.units : most;
+#endif
         stepped = i + 1;
     }
     SYST_CSR = 0;
@@ -195,6 +239,16 @@ int main(void) {
     put_u32("hierarchy_nodes", (uint32_t)c.hierarchy_nodes);
     put_u32("visible_faces", c.visible_faces);
     put_u32("saturations", c.sat_total);
+#ifdef SOFT_BODY
+    td_link_counts lc;
+    if (failed(td_link_counters(link, &lc), "td_link_counters"))
+        return 1;
+    put_u32("soft_steps", lc.steps);
+    put_u32("units_per_tick", lc.units_per_tick);
+    put_u32("units_most", most);
+    put_u32("late", lc.late);
+    put_u32("max_displacement_um", (uint32_t)(lc.max_displacement * 1e6f));
+#endif
     put_hex64("force_digest", s.force_digest);
     return misses == 0 ? 0 : 1;
 }
