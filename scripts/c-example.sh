@@ -342,6 +342,10 @@ run_qemu() {
   fi
   grep -q '^servo=systick' "$2" ||
     { echo "c-example: FAIL: the program did not run its servo in the SysTick interrupt" >&2; exit 1; }
+  # The servo's force went through the passivity observer, which never tripped on these
+  # healthy paths.
+  grep -q '^passivity_trips=0' "$2" ||
+    { echo "c-example: FAIL: the passivity observer tripped (or did not run)" >&2; exit 1; }
 }
 for variant in replay_firmware replay_firmware_blob soft_firmware; do
   elf="$work/$variant.elf"

@@ -260,6 +260,23 @@ int main(int argc, char **argv) {
         }
         expect(thrown, "a rigid world's set_positions throws error(TD_ERR_RIGID)");
     }
+    {
+        // A tool driven into a wall of 200 N/m clamped at 8 N 1 mm a tick (a reversed motor)
+        // trips the passivity observer, which then sends zero; recovered, the force passes.
+        tetradrill::passivity obs;
+        td_vec3 out{};
+        for (int tick = 0; tick < 60; tick++) {
+            const float d = 0.001f * float(tick);
+            out = obs.step({0.f, 0.f, -d}, {0.f, 0.f, std::min(200.f * d, 8.f)},
+                           tetradrill::passivity::penalty(d, 200.f, 8.f));
+        }
+        const td_passivity_counts pc = obs.counters();
+        expect(pc.tripped == 1 && pc.trips == 1 && out.z == 0.f,
+               "a tool driven past the force limit trips the observer (zero force)");
+        obs.recover();
+        out = obs.step({0.f, 0.f, 0.1f}, {0.f, 0.f, 0.5f}, std::nullopt);
+        expect(out.z == 0.5f && obs.counters().tripped == 0, "recovered, the force passes");
+    }
     std::printf("checks: %s\n", failures == 0 ? "OK" : "FAILED");
     return failures == 0 ? 0 : 1;
 }

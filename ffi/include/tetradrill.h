@@ -113,6 +113,9 @@ typedef struct td_link td_link;
 typedef struct td_mesh_file td_mesh_file;
 #endif
 
+// A passivity observer set up by `td_passivity_init` in caller memory. Opaque.
+typedef struct td_passivity td_passivity;
+
 // A pen in caller memory (`td_pen_init`). Opaque.
 typedef struct td_pen td_pen;
 
@@ -362,6 +365,53 @@ typedef struct td_link_counts {
   // The largest distance of a node from rest the world has taken so far, mesh units.
   float max_displacement;
 } td_link_counts;
+
+// A passivity observer's settings, SI units (it is fed metres, newtons and joules).
+typedef struct td_passivity_params {
+  // Servo period, seconds, finite and positive.
+  float dt;
+  // Largest damping the controller adds, N s/m (the device's own damping limit), 0 or more.
+  float max_damping;
+  // Largest force magnitude the output may have, newtons, positive (infinity: none).
+  float max_force;
+  // Generated energy left alone, joules, 0 or more: below it the force passes unchanged.
+  float slack_j;
+  // Energy stored past the force limit (for a force without a storage: generated energy)
+  // that trips the observer, joules, positive.
+  float trip_j;
+  // 1: the controller's damper acts; 0: the observer only observes (the trip stays armed).
+  uint32_t dissipate;
+  // Ticks after `td_passivity_restart` or `td_passivity_recover` during which the energy
+  // past the force limit is not counted (a device ramping its force in again).
+  uint32_t regrip_ticks;
+  // 1: the damper and the trip also act for a force given without a storage (the classic
+  // form); 0: such forces are observed only.
+  uint32_t act_without_storage;
+} td_passivity_params;
+
+// What a force law's spring holds at the tool's pose: `td_servo_storage` for the world's burr
+// (newton mesh units: times `1 / scale` for joules with a mesh in scaled units),
+// `td_penalty_storage` for any penalty spring.
+typedef struct td_storage {
+  // Energy the spring holds.
+  float stored_j;
+  // The part of it stored past the force limit.
+  float past_limit_j;
+} td_storage;
+
+// What a passivity observer has seen.
+typedef struct td_passivity_counts {
+  // 1 while tripped (the output is zero until `td_passivity_recover`).
+  uint32_t tripped;
+  // Trips so far.
+  uint32_t trips;
+  // The largest generated energy seen up to the trip, joules.
+  float generated_j_max;
+  // The largest value of the trip's measure seen up to the trip, joules.
+  float trip_measure_j_max;
+  // Energy the damper dissipated so far, joules.
+  double dissipated_j;
+} td_passivity_counts;
 
 // Everything a pen and its object need to know before they are built: the meshes' counts,
 // the capacities of the contact pass and the force settings. `td_pen_params_default` fills
@@ -1117,6 +1167,159 @@ enum td_status td_link_tick(struct td_link *link,
 // # Safety
 // `link` is a handle from `td_link_init`; `out` points at a writable `td_link_counts`.
 enum td_status td_link_counters(struct td_link *link, struct td_link_counts *out);
+
+// Fills `*out` with the core's defaults, as the host's servo runs them: 1 kHz, 20 N s/m
+// (the simulated device's and the Falcon's damping limit), no force limit, a slack of 0.1 mJ,
+// a trip at 50 mJ, the damper on, 500 ticks to regrip, a force without a storage observed
+// only.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// `out` points at a writable `td_passivity_params`.
+enum td_status td_passivity_params_default(struct td_passivity_params *out);
+
+// Writes the bytes and the alignment an observer needs.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer.
+//
+// # Safety
+// `out_size` and `out_align` point at writable `size_t`s.
+enum td_status td_passivity_size(size_t *out_size, size_t *out_align);
+
+// Sets up an observer with `params` in `mem` (`len` bytes at the alignment
+// `td_passivity_size` gave): no energy exchanged yet, not tripped; writes its handle to
+// `*out`.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_TOO_SMALL` for `mem`, `TD_ERR_NULL` /
+// `TD_ERR_ALIGN` for `params` or `out`, `TD_ERR_PARAMS` for a setting out of range (a `dt`
+// not finite and positive, a negative damping or slack, a force limit or trip energy not
+// positive, a flag other than 0 or 1). On an error after the checks of `mem` the memory holds
+// no observer.
+//
+// # Safety
+// `mem` points at `len` writable bytes the caller keeps for as long as it uses the observer;
+// `params` at a `td_passivity_params`; `out` at a writable pointer.
+enum td_status td_passivity_init(void *mem,
+                                 size_t len,
+                                 const struct td_passivity_params *params,
+                                 struct td_passivity **out);
+
+// One servo tick: the tool at `position` (metres), the force law's `force` (newtons) and,
+// when the law knows it, what its spring holds there (`storage`, joules; null: none).
+// Writes the force to send the device to `*out`: `force` itself while the generated energy is
+// within the slack, plus the controller's damper beyond it (clamped to `max_force`), zero
+// once tripped. `removing` 1 marks an environment that gives way by design (the drill on:
+// its spring is no storage function, so the classic form counts and damps, while the trip
+// still measures `storage`'s energy past the force limit).
+//
+// # Bounded work
+// Constant: a few dozen flops. For the servo's task or interrupt.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the observer, `TD_ERR_NULL` /
+// `TD_ERR_ALIGN` for `out` or a misaligned `storage`, `TD_ERR_INPUT` for a force, position
+// or storage that is not finite, or `removing` other than 0 or 1 (nothing counted; send
+// zero).
+//
+// # Safety
+// `observer` is a handle from `td_passivity_init`, one call at a time; `storage` is null or
+// points at a `td_storage`; `out` at a writable `td_vec3`.
+enum td_status td_passivity_step(struct td_passivity *observer,
+                                 struct td_vec3 position,
+                                 struct td_vec3 force,
+                                 const struct td_storage *storage,
+                                 uint32_t removing,
+                                 struct td_vec3 *out);
+
+// Restarts the observer (`restart` 1: its velocity history and contact forgotten, the energy
+// past the force limit counted again after `regrip_ticks`: for a force that was off for a
+// while, a watchdog's cut), clears a trip (`recover` 1: the output is the law's force again,
+// which the caller ramps back in; the trips stay counted), or trips it from a check of the
+// caller's own (`trip` 1: latched and counted as its own trips are). Each flag 0 or 1; done in
+// that order.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_passivity_step` for the observer; `TD_ERR_PARAMS` for a flag other than 0 or 1
+// (nothing done).
+//
+// # Safety
+// `observer` is a handle from `td_passivity_init`, one call at a time.
+enum td_status td_passivity_reset(struct td_passivity *observer,
+                                  uint32_t restart,
+                                  uint32_t recover,
+                                  uint32_t trip);
+
+// Writes what the observer has seen: tripped, trips, the largest generated energy and trip
+// measure, the damper's dissipated energy.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_passivity_step` for the observer; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// `observer` is a handle from `td_passivity_init`; `out` points at a writable
+// `td_passivity_counts`.
+enum td_status td_passivity_counters(struct td_passivity *observer,
+                                     struct td_passivity_counts *out);
+
+// The energy a penalty spring of `stiffness` whose force is clamped at `max_force` holds at
+// `depth`: `K d^2 / 2` up to the depth `F / K` where the limit is reached, then `F` a unit
+// of depth beyond it (`past_limit_j`). Zero out of contact (`depth` <= 0) or for a parameter
+// that is not finite and positive.
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
+//
+// # Safety
+// `out` points at a writable `td_storage`.
+enum td_status td_penalty_storage(float depth,
+                                  float stiffness,
+                                  float max_force,
+                                  struct td_storage *out);
+
+// The burr's depth at `position` below the plane of the contact the servo's last force call
+// used, to `*out_depth` (when not null), and what its penalty spring holds there (the
+// stiffness the servo rendered: the material's under the contact, else `td_params`'; its
+// force limit), to `*out`, in newton mesh units: zero out of contact. Call it after
+// `td_servo_force` at the same position, from the servo's task, to feed `td_passivity_step`
+// (scaled to joules for a mesh whose unit is not the metre). A drill's world: `TD_ERR_PARAMS`
+// (its force has no single spring).
+//
+// # Bounded work
+// Constant.
+//
+// # Errors
+// As `td_servo_force` for the servo and the position; `TD_ERR_NULL` / `TD_ERR_ALIGN` for
+// `out`, `TD_ERR_ALIGN` for `out_depth`; `TD_ERR_PARAMS` for a drill's world.
+//
+// # Safety
+// `servo` is a handle from `td_world_servo`, used by one servo call at a time; `out` points
+// at a writable `td_storage`; `out_depth` is null or writable.
+enum td_status td_servo_storage(struct td_servo *servo,
+                                struct td_vec3 position,
+                                float *out_depth,
+                                struct td_storage *out);
 
 // Fills `*out` with the host's defaults for an object of `object_nodes` nodes and
 // `object_tets` tets and a pen of `pen_nodes` and `pen_tets`: contact lists and queues as

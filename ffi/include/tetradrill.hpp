@@ -164,6 +164,14 @@ class servo {
     // with a region's friction, the sideways pull along spin x n.
     void set_spin(td_vec3 omega) { detail::check(td_servo_set_spin(s_, omega), "td_servo_set_spin"); }
 
+    // What the burr's spring holds at `position` on the contact the last `force` used (newton
+    // mesh units; zero out of contact), for a `passivity` observer.
+    td_storage storage(td_vec3 position) const {
+        td_storage s{};
+        detail::check(td_servo_storage(s_, position, nullptr, &s), "td_servo_storage");
+        return s;
+    }
+
     // The force digest, ticks, contact ticks, stale reads and the step rendered from.
     td_servo_counts counters() const {
         td_servo_counts c{};
@@ -175,6 +183,65 @@ class servo {
 
   private:
     td_servo *s_;
+};
+
+// A servo loop's passivity observer and controller (td_passivity_*), SI units, in memory it
+// owns; move-only. Each tick: the force to send the device for the law's force at a position,
+// given what the law's spring holds there (or nothing).
+class passivity {
+  public:
+    static td_passivity_params defaults() {
+        td_passivity_params p{};
+        detail::check(td_passivity_params_default(&p), "td_passivity_params_default");
+        return p;
+    }
+
+    explicit passivity(const td_passivity_params &p = defaults()) {
+        std::size_t size = 0, align = 0;
+        detail::check(td_passivity_size(&size, &align), "td_passivity_size");
+        mem_ = detail::allocate(size, align);
+        detail::check(td_passivity_init(mem_.get(), size, &p, &o_), "td_passivity_init");
+    }
+
+    passivity(passivity &&o) noexcept : mem_(std::move(o.mem_)), o_(std::exchange(o.o_, nullptr)) {}
+    passivity &operator=(passivity &&o) noexcept {
+        mem_ = std::move(o.mem_);
+        o_ = std::exchange(o.o_, nullptr);
+        return *this;
+    }
+    passivity(const passivity &) = delete;
+    passivity &operator=(const passivity &) = delete;
+
+    // One tick: `removing` for an environment that gives way by design (the drill on).
+    td_vec3 step(td_vec3 position, td_vec3 force, std::optional<td_storage> storage,
+                 bool removing = false) {
+        td_vec3 out{};
+        detail::check(td_passivity_step(o_, position, force, storage ? &*storage : nullptr,
+                                        removing ? 1u : 0u, &out),
+                      "td_passivity_step");
+        return out;
+    }
+
+    void restart() { detail::check(td_passivity_reset(o_, 1, 0, 0), "td_passivity_reset"); }
+    void recover() { detail::check(td_passivity_reset(o_, 0, 1, 0), "td_passivity_reset"); }
+    void trip() { detail::check(td_passivity_reset(o_, 0, 0, 1), "td_passivity_reset"); }
+
+    td_passivity_counts counters() const {
+        td_passivity_counts c{};
+        detail::check(td_passivity_counters(o_, &c), "td_passivity_counters");
+        return c;
+    }
+
+    // What a penalty spring of `stiffness` clamped at `max_force` holds at `depth`.
+    static td_storage penalty(float depth, float stiffness, float max_force) {
+        td_storage s{};
+        detail::check(td_penalty_storage(depth, stiffness, max_force, &s), "td_penalty_storage");
+        return s;
+    }
+
+  private:
+    detail::aligned_bytes mem_{nullptr, detail::aligned_free{64}};
+    td_passivity *o_ = nullptr;
 };
 
 // A drilling world in memory it owns, freed on destruction; move-only.

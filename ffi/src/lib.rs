@@ -38,6 +38,9 @@
 //! | [`td_soft_step`], [`td_soft_nodes`], [`td_soft_set_fixed`], [`td_soft_fix_below`], [`td_soft_counters`] | its step under loads, its nodes, the held nodes, its counts |
 //! | [`td_world_set_positions`], [`td_world_contact_at`], [`td_soft_add_point_force`] | a deformable world's nodes moved (a soft body's positions), where the tool touches it, the reaction as a load on the body |
 //! | [`td_link_size`], [`td_link_init`], [`td_link_tick`], [`td_link_counters`] | a soft body's step and the world's update spread over servo ticks, the same work each tick |
+//! | [`td_passivity_params_default`], [`td_passivity_size`], [`td_passivity_init`] | a servo loop's passivity observer and controller in caller memory |
+//! | [`td_passivity_step`], [`td_passivity_reset`], [`td_passivity_counters`] | each tick's force through it (the damper, the trip), restart, recover, its counts |
+//! | [`td_servo_storage`], [`td_penalty_storage`] | what the burr's spring (or any penalty spring) holds at a pose, for the observer |
 //! | [`td_demo_ticks`], [`td_demo_pose`] | the host's scripted demo path                      |
 //! | [`td_script_ticks`], [`td_script_pose`] | the demo or the tooth's access path            |
 //! | [`td_status_name`]       | one line per status code                                      |
@@ -67,6 +70,7 @@ mod files;
 mod init;
 mod layout;
 mod link;
+mod passivity;
 mod pen;
 mod regions;
 mod servo;
@@ -108,6 +112,11 @@ pub use init::td_world_init;
 use layout::{ServoState, SharedDrillHandoff, SharedHandoff, State, Unstarted, MAGIC, SERVO_MAGIC};
 pub use link::{
     td_link_counters, td_link_init, td_link_size, td_link_tick, TdLink, TdLinkCounts, TdLinkReport,
+};
+pub use passivity::{
+    td_passivity_counters, td_passivity_init, td_passivity_params_default, td_passivity_reset,
+    td_passivity_size, td_passivity_step, td_penalty_storage, td_servo_storage, TdPassivity,
+    TdPassivityCounts, TdPassivityParams, TdStorage,
 };
 pub use pen::{
     td_pen_counters, td_pen_init, td_pen_params_default, td_pen_servo_counters,

@@ -27,7 +27,7 @@ use glam::Vec3;
 
 use super::force::servo_force;
 use super::{ContactState, VibrationCue};
-use crate::force::{ForceDigest, ForceParams, ToolState};
+use crate::force::{penalty_storage, ForceDigest, ForceParams, Storage, ToolState};
 
 /// Words of a published contact: `valid`, point, normal, depth, centre, triangles, stiffness,
 /// the vibration's frequency, amplitude and threshold, the friction, and the step's number.
@@ -425,5 +425,28 @@ impl Servo {
     /// The force settings.
     pub fn params(&self) -> &ForceParams {
         &self.params
+    }
+
+    /// The burr's depth at `centre` below the plane of the contact in use (the one the last
+    /// [`Servo::tick`] read) and the energy its penalty spring holds there
+    /// ([`penalty_storage`] with the stiffness [`servo_force`] renders: the material's under
+    /// the contact, else the settings', and the settings' force limit), in newton mesh units:
+    /// what a [`crate::force::PassivityObserver`] is fed beside the force. Zero out of contact
+    /// or for a non-finite `centre`.
+    ///
+    /// # Bounded work
+    /// Constant.
+    pub fn storage(&self, centre: Vec3) -> (f32, Storage) {
+        let c = &self.contact;
+        let depth = self.radius - (centre - c.point).dot(c.normal);
+        if !(c.valid && depth.is_finite() && depth > 0.0) {
+            return (0.0, Storage::default());
+        }
+        let k = if c.stiffness > 0.0 && c.stiffness.is_finite() {
+            c.stiffness
+        } else {
+            self.params.stiffness
+        };
+        (depth, penalty_storage(depth, k, self.params.max_force))
     }
 }

@@ -9,7 +9,10 @@
  * releases the tick's step; the main loop runs it and waits for the next. A step still running
  * at the next event is a deadline miss (counted and printed): the servo then renders from an
  * older contact. The period is 168,000 instructions (1 ms at 168 MHz, one instruction a
- * cycle) under QEMU's `-icount shift=10`. The force digest is printed through semihosting;
+ * cycle) under QEMU's `-icount shift=10`. The force the interrupt would write to the motors
+ * goes through a passivity observer first (td_passivity_step, fed what the burr's spring holds
+ * at the pose, td_servo_storage), as a device's servo runs it: its trips and the energy its
+ * damper took are printed. The force digest is printed through semihosting;
  * scripts/c-example.sh --cortex-m compares it with `tetradrill replay --scenario
  * builtin:firmware`'s.
  *
@@ -43,6 +46,15 @@ static float positions[3 * NODES];
 static uint32_t tet_nodes[4 * TETS];
 #endif
 static uint8_t world_mem[WORLD_BYTES] __attribute__((aligned(64)));
+/* The device's metres a mesh unit: the block's half diagonal (sqrt(3) / 2) onto a workspace
+ * of radius 0.04 m (a Novint Falcon's, whose 8 N the scenario's force limit is), as the host
+ * maps a device's workspace onto a mesh. */
+#define TO_SI (0.04f / 0.8660254f)
+/* Room for the servo's passivity observer (td_passivity_size says how much). */
+static uint8_t passivity_mem[256] __attribute__((aligned(64)));
+static td_passivity *passivity;
+/* The tick of the observer's first trip (UINT32_MAX: none), ticks out of contact since. */
+static uint32_t first_trip = UINT32_MAX, free_ticks;
 #ifdef SOFT_BODY
 /* Room for the soft body and its link (td_soft_size and td_link_size say how much). */
 static uint8_t soft_mem[48u * 1024u] __attribute__((aligned(64)));
@@ -127,9 +139,32 @@ void systick_handler(void) {
     td_status st = td_demo_pose(i, &pose, &buttons);
     if (st == TD_OK)
         st = td_servo_force(servo, pose, &force);
+    /* The force through the passivity observer, which works in SI: the device's positions
+     * (the mesh's over the workspace's scale) and what the burr's spring holds at the pose
+     * (newton mesh units, over the scale: joules); the drill on (bit 0) removes material by
+     * design. */
+    td_storage stored;
+    td_vec3 sent;
+    if (st == TD_OK)
+        st = td_servo_storage(servo, pose, NULL, &stored);
+    stored.stored_j *= TO_SI;
+    stored.past_limit_j *= TO_SI;
+    const td_vec3 at = {pose.x * TO_SI, pose.y * TO_SI, pose.z * TO_SI};
+    if (st == TD_OK)
+        st = td_passivity_step(passivity, at, force, &stored, buttons & 1u, &sent);
     if (st != TD_OK && servo_status == TD_OK)
         servo_status = st;
-    /* On a device: write `force` to the motors here. */
+    /* A trip latches zero force; as the host's servo does, it is cleared once the tool has
+     * been out of contact for a second (the device then ramps the force back in). */
+    td_passivity_counts pc;
+    if (st == TD_OK && td_passivity_counters(passivity, &pc) == TD_OK && pc.tripped) {
+        if (first_trip == UINT32_MAX)
+            first_trip = i;
+        free_ticks = force.x == 0.f && force.y == 0.f && force.z == 0.f ? free_ticks + 1 : 0;
+        if (free_ticks >= 1000u)
+            td_passivity_reset(passivity, 0, 1, 0);
+    }
+    /* On a device: write `sent` to the motors here. */
 #ifdef SOFT_BODY
     forces[i % 4][0] = force.x;
     forces[i % 4][1] = force.y;
@@ -187,6 +222,15 @@ int main(void) {
         put_u32("bad_item", bad);
     if (failed(st, "td_world_init") || failed(td_world_servo(world, &servo), "td_world_servo"))
         return 1;
+    /* The observer at the servo's period, the force limit the world's. */
+    td_passivity_params pp;
+    if (failed(td_passivity_params_default(&pp), "td_passivity_params_default"))
+        return 1;
+    pp.dt = p.dt;
+    pp.max_force = p.max_force;
+    if (failed(td_passivity_init(passivity_mem, sizeof passivity_mem, &pp, &passivity),
+               "td_passivity_init"))
+        return 1;
 #ifdef SOFT_BODY
     td_soft *body = 0;
     td_link *link = 0;
@@ -239,6 +283,13 @@ int main(void) {
     put_u32("hierarchy_nodes", (uint32_t)c.hierarchy_nodes);
     put_u32("visible_faces", c.visible_faces);
     put_u32("saturations", c.sat_total);
+    td_passivity_counts pc;
+    if (failed(td_passivity_counters(passivity, &pc), "td_passivity_counters"))
+        return 1;
+    put_u32("passivity_trips", pc.trips);
+    if (first_trip != UINT32_MAX)
+        put_u32("passivity_first_trip", first_trip);
+    put_u32("passivity_dissipated_uj", (uint32_t)(pc.dissipated_j * 1e6));
 #ifdef SOFT_BODY
     td_link_counts lc;
     if (failed(td_link_counters(link, &lc), "td_link_counters"))
