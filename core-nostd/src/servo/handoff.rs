@@ -437,16 +437,31 @@ impl Servo {
     /// # Bounded work
     /// Constant.
     pub fn storage(&self, centre: Vec3) -> (f32, Storage) {
-        let c = &self.contact;
-        let depth = self.radius - (centre - c.point).dot(c.normal);
-        if !(c.valid && depth.is_finite() && depth > 0.0) {
-            return (0.0, Storage::default());
-        }
-        let k = if c.stiffness > 0.0 && c.stiffness.is_finite() {
-            c.stiffness
-        } else {
-            self.params.stiffness
-        };
-        (depth, penalty_storage(depth, k, self.params.max_force))
+        burr_storage(&self.contact, centre, self.radius, &self.params)
     }
+}
+
+/// A burr of `radius` at `centre` on `contact`: its depth below the contact's plane and the
+/// energy its penalty spring holds there ([`penalty_storage`] with the stiffness
+/// [`servo_force`] renders, the material's under the contact or else `params`', and `params`'
+/// force limit), newton mesh units. Zero out of contact or for a non-finite `centre`.
+///
+/// # Bounded work
+/// Constant.
+pub fn burr_storage(
+    contact: &ContactState,
+    centre: Vec3,
+    radius: f32,
+    params: &ForceParams,
+) -> (f32, Storage) {
+    let depth = radius - (centre - contact.point).dot(contact.normal);
+    if !(contact.valid && depth.is_finite() && depth > 0.0) {
+        return (0.0, Storage::default());
+    }
+    let k = if contact.stiffness > 0.0 && contact.stiffness.is_finite() {
+        contact.stiffness
+    } else {
+        params.stiffness
+    };
+    (depth, penalty_storage(depth, k, params.max_force))
 }

@@ -58,7 +58,7 @@ pub use deform::{DeformError, DeformReport, MovePart, Prepared, SpareStorage, FI
 pub(crate) use deform::{PREP_BOX_UNITS, PREP_FACE_UNITS, PREP_NODE_UNITS, PREP_NORMALISE_UNITS};
 pub use drill_handoff::{DrillHandoff, DrillPublished, DrillServo};
 pub use force::servo_force;
-pub use handoff::{ContactHandoff, Published, Servo, HANDOFF_TRIES};
+pub use handoff::{burr_storage, ContactHandoff, Published, Servo, HANDOFF_TRIES};
 pub use passive::{drill_force, drill_torque, DrillState, PassiveReport, ShaftWalk};
 pub use pen_handoff::{PenHandoff, PenPublished};
 pub use sizes::{carve_rest, WorldSizes, WorldStorage, DEFAULT_PENDING, DEFAULT_SPHERE_MEMO};

@@ -252,3 +252,42 @@ fn a_spinning_burr_is_pulled_sideways_by_the_friction() {
     };
     assert!(spun(Vec3::Z, &wild).length() <= 8.0 + 1e-4);
 }
+
+#[test]
+fn the_burrs_storage_is_the_spring_the_servo_renders() {
+    // A plane at z = 0, the burr (radius 0.1) 0.02 below it; energies worked out by hand:
+    // K d^2 / 2 below the force limit's depth F / K, then F a unit of depth past it.
+    let contact = ContactState {
+        valid: true,
+        point: Vec3::ZERO,
+        normal: Vec3::Z,
+        ..ContactState::default()
+    };
+    let params = ForceParams {
+        stiffness: 200.0,
+        max_force: 8.0,
+        ..ForceParams::default()
+    };
+    let centre = Vec3::new(0.3, -0.2, 0.08);
+    let (d, s) = burr_storage(&contact, centre, 0.1, &params);
+    assert!((d - 0.02).abs() < 1e-6);
+    assert!((s.stored_j - 0.04).abs() < 1e-6 && s.past_limit_j == 0.0, "{s:?}");
+    // A region of 1,000 N per unit under the contact: the servo renders its stiffness, so the
+    // limit (8 N) is reached 0.008 deep: 0.032 stored up to there, 8 x 0.012 past it.
+    let stiff = ContactState {
+        stiffness: 1000.0,
+        ..contact
+    };
+    let (d, s) = burr_storage(&stiff, centre, 0.1, &params);
+    assert!((d - 0.02).abs() < 1e-6);
+    assert!((s.stored_j - 0.128).abs() < 1e-5, "{s:?}");
+    assert!((s.past_limit_j - 0.096).abs() < 1e-5, "{s:?}");
+    // Out of contact, no contact, a pose that is not finite: nothing.
+    for (c, at) in [
+        (contact, Vec3::new(0.0, 0.0, 0.2)),
+        (ContactState::default(), centre),
+        (contact, Vec3::NAN),
+    ] {
+        assert_eq!(burr_storage(&c, at, 0.1, &params), (0.0, Default::default()));
+    }
+}

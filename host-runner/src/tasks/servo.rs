@@ -7,10 +7,9 @@ use std::sync::Arc;
 
 use crossbeam::queue::ArrayQueue;
 use tetradrill_core::force::{
-    penalty_storage, ForceDigest, ForceParams, PassivityObserver, PassivityParams, Storage,
-    ToolState,
+    ForceDigest, ForceParams, PassivityObserver, PassivityParams, Storage, ToolState,
 };
-use tetradrill_core::servo::{servo_force, ContactState};
+use tetradrill_core::servo::{burr_storage, servo_force, ContactState};
 use tetradrill_core::{Quat, Vec3};
 use tetradrill_device::{DeviceError, ForceCommand, HapticDevice, MotorCutoff};
 
@@ -368,8 +367,9 @@ pub struct LawContact {
 }
 
 /// The burr's contact at `centre`: the depth below the contact plane and the storage of its
-/// penalty spring (stiffness and force limit of `force`). Out of contact, or for a pose that
-/// is not finite, zero.
+/// penalty spring ([`burr_storage`]: the stiffness the servo renders there, the material's
+/// under the contact or else `force`'s, and `force`'s limit). Out of contact, or for a pose
+/// that is not finite, zero.
 ///
 /// # Bounded work
 /// Constant.
@@ -379,17 +379,8 @@ pub fn burr_contact(
     radius: f32,
     force: &ForceParams,
 ) -> LawContact {
-    if !contact.valid {
-        return LawContact::default();
-    }
-    let depth = radius - (centre - contact.point).dot(contact.normal);
-    if !(depth.is_finite() && depth > 0.0) {
-        return LawContact::default();
-    }
-    LawContact {
-        depth,
-        storage: penalty_storage(depth, force.stiffness, force.max_force),
-    }
+    let (depth, storage) = burr_storage(contact, centre, radius, force);
+    LawContact { depth, storage }
 }
 
 /// The burr's force law: the latest contact plane the simulation published, at the burr's
