@@ -222,7 +222,8 @@ int main(int argc, char **argv) {
         expect(hit.tet != TD_NO_TET && hit.point.z < 1.f - 1e-3f && f.z > 0.f && f.z < fr.z,
                "a deformable world follows the soft body its burr presses");
         // The same press with the body's step spread over the ticks (a link, a step every 5
-        // ticks): the world gives way as well, and no tick does more than twice its share.
+        // ticks): the world gives way as well, and no tick does more than its share and one
+        // tet solve (18 units).
         tetradrill::world linked_world(dp, cube_xyz, tets);
         tetradrill::soft_body linked_body(cube_xyz, tets, soft_sp);
         linked_body.fix_below({0.f, 0.f, 0.f}, {0.f, 0.f, 1.f});
@@ -239,8 +240,8 @@ int main(int argc, char **argv) {
         const td_contact_at lhit = linked_world.contact_at();
         std::printf("linked: dent %.5f, force %.4f; %u steps, %u units a tick, at most %u\n",
                     1.f - lhit.point.z, fl.z, commits, lc.units_per_tick, most);
-        expect(commits == 100 && spread.counters().late == 0 && most <= 2 * lc.units_per_tick,
-               "a link commits a step every 5 ticks, each tick within twice its share");
+        expect(commits == 100 && spread.counters().late == 0 && most < lc.units_per_tick + 18,
+               "a link commits a step every 5 ticks, each tick within its share and a tet solve");
         expect(lhit.tet != TD_NO_TET && lhit.point.z < 1.f - 1e-3f && fl.z > 0.f && fl.z < fr.z,
                "a linked deformable world follows the soft body its burr presses");
         thrown = false;

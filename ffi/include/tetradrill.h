@@ -339,8 +339,9 @@ typedef struct td_mesh_arrays {
 
 // What one `td_link_tick` did.
 typedef struct td_link_report {
-  // Work units done this tick (one unit is about 37 Cortex-M4 instructions; at most
-  // `units_per_tick` plus less than one step's units carried from the tick before).
+  // Work units done this tick (one unit is about 37 Cortex-M4 instructions): by each tick
+  // of a cycle but its last, the shares of its ticks so far less under one tet solve's
+  // (18 units); the last tick finishes the cycle.
   uint32_t units;
   // 1 on a cycle's last tick: the world took the body's new positions (`report` says what
   // the update did); else 0.
@@ -381,8 +382,8 @@ typedef struct td_passivity_params {
   float trip_j;
   // 1: the controller's damper acts; 0: the observer only observes (the trip stays armed).
   uint32_t dissipate;
-  // Ticks after `td_passivity_restart` or `td_passivity_recover` during which the energy
-  // past the force limit is not counted (a device ramping its force in again).
+  // Ticks after a restart or a recovery (`td_passivity_reset`) during which the energy past
+  // the force limit is not counted (a device ramping its force in again).
   uint32_t regrip_ticks;
   // 1: the damper and the trip also act for a force given without a storage (the classic
   // form); 0: such forces are observed only.
@@ -401,7 +402,7 @@ typedef struct td_storage {
 
 // What a passivity observer has seen.
 typedef struct td_passivity_counts {
-  // 1 while tripped (the output is zero until `td_passivity_recover`).
+  // 1 while tripped (the output is zero until a recovery, `td_passivity_reset`).
   uint32_t tripped;
   // Trips so far.
   uint32_t trips;
@@ -891,8 +892,8 @@ const char *td_status_name(int32_t code);
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up,
 // `TD_ERR_RIGID` for a world set up with `deformable` 0, `TD_ERR_PARAMS` for `node_count`
 // other than the mesh's, `TD_ERR_INPUT` for a position that is not finite, `TD_ERR_BUSY`
-// while a link (`td_link_tick`) has the world's next update prepared (`*out` is not written
-// and the world is unchanged).
+// while a link's cycle is under way (from its first `td_link_tick` to the commit: the link
+// moves the world) (`*out` is not written and the world is unchanged).
 //
 // # Safety
 // `world` is a handle from `td_world_init` whose memory is still the caller's; `xyz` points
@@ -1098,9 +1099,11 @@ enum td_status td_link_size(uint32_t node_count, size_t *out_size, size_t *out_a
 // from the same nodes as the body (its tets may be in any order). The units a tick are
 // computed here, once, from the body's and the world's sizes.
 //
-// From then on the body steps through `td_link_tick` only: `td_soft_step` refuses it with
-// `TD_ERR_BUSY` while a cycle's step is under way, and `td_world_set_positions` refuses the
-// world while its update is prepared.
+// A cycle holds the body and the world from its first `td_link_tick` to its last (the
+// commit): meanwhile `td_soft_step`, `td_soft_set_fixed`, `td_soft_fix_below`,
+// `td_world_set_positions`, another link's `td_link_tick` and a `td_link_init` on either are
+// `TD_ERR_BUSY`. Between cycles they are the caller's again (a body stepped or a world moved
+// then is overtaken by the next commit).
 //
 // # Bounded work
 // O(nodes) (the buffers cleared).
@@ -1108,10 +1111,11 @@ enum td_status td_link_size(uint32_t node_count, size_t *out_size, size_t *out_a
 // # Errors
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world or body not set
 // up, `TD_ERR_RIGID` for a rigid world, `TD_ERR_PARAMS` for `ticks` of zero, a `dt` that is
-// not finite and positive, or a body and world of different node counts, `TD_ERR_BUSY` for a
-// body in the middle of a step (another link's), `TD_ERR_TOO_SMALL` for `len`. On an error
-// after the checks of `mem` (null, alignment, length) the memory holds no link: a handle to it
-// is refused until an init succeeds.
+// not finite and positive, a body and world of different node counts, or `mem` overlapping
+// the world's or the body's header, `TD_ERR_BUSY` for a body or world a link's cycle holds,
+// `TD_ERR_TOO_SMALL` for `len`. On an error after the checks of `mem` (null, alignment,
+// length, overlap) the memory holds no link: a handle to it is refused until an init
+// succeeds.
 //
 // # Safety
 // `mem` points at `len` writable bytes the caller keeps, untouched, for as long as it uses
@@ -1136,15 +1140,16 @@ enum td_status td_link_init(void *mem,
 // call may run beside it, as beside `td_world_set_positions`).
 //
 // # Bounded work
-// At most `units_per_tick` units plus less than one step's units carried from the tick before
-// (the same amount every tick, about 37 Cortex-M4 instructions a unit), plus on a cycle's last
-// tick the commit: O(nodes + the contact memo's slots).
+// At most `units_per_tick` units plus less than one piece's units (a tet solve, 18) carried
+// from the tick before (about 37 Cortex-M4 instructions a unit), and in the hash's rebuild the
+// cells of one tet's box; on a cycle's last tick what is left of the cycle and the commit:
+// O(nodes + the contact memo's slots).
 //
 // # Errors
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a handle not set up,
 // `TD_ERR_PARAMS` for a world or body other than the ones `td_link_init` was given,
 // `TD_ERR_INPUT` for a force that is not finite (nothing done) or positions the physics made
-// non-finite, `TD_ERR_BUSY` for a body another caller began a step on.
+// non-finite, `TD_ERR_BUSY` for a body or world another link's cycle holds (nothing done).
 //
 // # Safety
 // `link`, `world` and `soft` are handles from `td_link_init`, `td_world_init` and
@@ -1165,7 +1170,8 @@ enum td_status td_link_tick(struct td_link *link,
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a link not set up.
 //
 // # Safety
-// `link` is a handle from `td_link_init`; `out` points at a writable `td_link_counts`.
+// `link` is a handle from `td_link_init`, not in a `td_link_tick` meanwhile; `out` points at
+// a writable `td_link_counts`.
 enum td_status td_link_counters(struct td_link *link, struct td_link_counts *out);
 
 // Fills `*out` with the core's defaults, as the host's servo runs them: 1 kHz, 20 N s/m
@@ -1230,9 +1236,10 @@ enum td_status td_passivity_init(void *mem,
 //
 // # Errors
 // `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the observer, `TD_ERR_NULL` /
-// `TD_ERR_ALIGN` for `out` or a misaligned `storage`, `TD_ERR_INPUT` for a force, position
-// or storage that is not finite, or `removing` other than 0 or 1 (nothing counted; send
-// zero).
+// `TD_ERR_ALIGN` for `out` or a misaligned `storage` (nothing done), `TD_ERR_INPUT` for a
+// force, position or storage that is not finite, or `removing` other than 0 or 1: nothing is
+// counted and the observer forgets its velocity history and the force it held, as the core
+// does for a pose that is not finite (send zero).
 //
 // # Safety
 // `observer` is a handle from `td_passivity_init`, one call at a time; `storage` is null or
@@ -1275,15 +1282,17 @@ enum td_status td_passivity_reset(struct td_passivity *observer,
 // As `td_passivity_step` for the observer; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
 //
 // # Safety
-// `observer` is a handle from `td_passivity_init`; `out` points at a writable
+// `observer` is a handle from `td_passivity_init`, not in another passivity call meanwhile
+// (from the servo's task, or while it does not run); `out` points at a writable
 // `td_passivity_counts`.
 enum td_status td_passivity_counters(struct td_passivity *observer,
                                      struct td_passivity_counts *out);
 
 // The energy a penalty spring of `stiffness` whose force is clamped at `max_force` holds at
 // `depth`: `K d^2 / 2` up to the depth `F / K` where the limit is reached, then `F` a unit
-// of depth beyond it (`past_limit_j`). Zero out of contact (`depth` <= 0) or for a parameter
-// that is not finite and positive.
+// of depth beyond it (`past_limit_j`). Zero out of contact (`depth` <= 0), for a `depth` or
+// `stiffness` that is not finite, or a `stiffness` or `max_force` that is not positive
+// (`max_force` infinite: no limit).
 //
 // # Bounded work
 // Constant.
@@ -1800,8 +1809,9 @@ enum td_status td_soft_init(void *mem,
 // # Errors
 // `TD_ERR_NOT_INIT` for a handle `td_soft_init` did not set up (or `TD_ERR_NULL` /
 // `TD_ERR_ALIGN`), `TD_ERR_ALIGN` for `loads`, `TD_ERR_INPUT` for a `dt` that is not finite
-// and positive or a load that is not finite, `TD_ERR_BUSY` while a link's step is under way
-// (`td_link_tick` steps a linked body); the body is unchanged on an error.
+// and positive or a load that is not finite, `TD_ERR_BUSY` while a link's cycle is under way
+// (from its first `td_link_tick` to the commit: the link steps the body); the body is
+// unchanged on an error.
 //
 // # Safety
 // `soft` is a handle from `td_soft_init` (or is refused as above); `loads` is null or points
@@ -1830,7 +1840,7 @@ enum td_status td_soft_nodes(struct td_soft *soft, uint32_t field, float *out, u
 //
 // # Errors
 // `TD_ERR_NOT_INIT` (or `TD_ERR_NULL` / `TD_ERR_ALIGN`) for `soft`, `TD_ERR_PARAMS` for a
-// node past the end.
+// node past the end, `TD_ERR_BUSY` while a link's cycle is under way.
 //
 // # Safety
 // `soft` is a handle from `td_soft_init`.
@@ -1868,7 +1878,8 @@ enum td_status td_soft_add_point_force(struct td_soft *soft,
 //
 // # Errors
 // `TD_ERR_NOT_INIT` (or `TD_ERR_NULL` / `TD_ERR_ALIGN`) for `soft`, `TD_ERR_ALIGN` for
-// `out_count`, `TD_ERR_INPUT` for a point or normal that is not finite.
+// `out_count`, `TD_ERR_INPUT` for a point or normal that is not finite, `TD_ERR_BUSY` while a
+// link's cycle is under way.
 //
 // # Safety
 // `soft` is a handle from `td_soft_init`; `out_count` is null or writable.

@@ -32,8 +32,8 @@ pub const TD_NO_TET: u32 = u32::MAX;
 /// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world not set up,
 /// `TD_ERR_RIGID` for a world set up with `deformable` 0, `TD_ERR_PARAMS` for `node_count`
 /// other than the mesh's, `TD_ERR_INPUT` for a position that is not finite, `TD_ERR_BUSY`
-/// while a link (`td_link_tick`) has the world's next update prepared (`*out` is not written
-/// and the world is unchanged).
+/// while a link's cycle is under way (from its first `td_link_tick` to the commit: the link
+/// moves the world) (`*out` is not written and the world is unchanged).
 ///
 /// # Safety
 /// `world` is a handle from `td_world_init` whose memory is still the caller's; `xyz` points
@@ -55,7 +55,7 @@ pub unsafe extern "C" fn td_world_set_positions(
         if !st.deformable {
             return Err(TdStatus::TdErrRigid);
         }
-        if st.world.preparing() {
+        if st.link_cycle != 0 || st.world.preparing() {
             return Err(TdStatus::TdErrBusy);
         }
         let n = st.world.mesh().node_count();

@@ -269,6 +269,7 @@ pub(crate) unsafe fn init(
         shaft: None,
         drill_handoff,
         deformable: plan.deform.is_some(),
+        link_cycle: 0,
     };
     // SAFETY: aligned, inside `mem` (checked above); the slices the world borrows start after
     // the header. Written whole, the magic last of all in effect: a handle is valid only once

@@ -75,6 +75,7 @@ pub struct Unstarted {
 /// The head of a world's memory: the core's world (borrowing the slices after it) and what
 /// the C calls carry from tick to tick.
 #[derive(Debug)]
+#[repr(C)]
 pub struct State {
     /// [`MAGIC`] once set up; zero while `td_world_init` works on the memory.
     pub magic: u64,
@@ -115,6 +116,9 @@ pub struct State {
     /// Set up with `td_params.deformable` 1: the world has its rest positions and spare
     /// storage, and `td_world_set_positions` moves its nodes.
     pub deformable: bool,
+    /// The link (its handle's address) whose cycle holds the world's next positions, from a
+    /// cycle's first `td_link_tick` to its commit; 0: none.
+    pub link_cycle: usize,
 }
 
 crate::marked!(State, MAGIC);

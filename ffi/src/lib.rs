@@ -249,8 +249,10 @@ unsafe fn get<T: Copy>(p: *const T) -> Result<T, TdStatus> {
 /// An implementor promises that [`Marked::magic`] reads the header's magic word through the
 /// raw pointer alone, making no reference to a header that may not be set up; that its init
 /// writes [`Marked::MAGIC`] last, after the whole header, and clears the word before it
-/// writes anything else; and that its `MAGIC` is its own (no other header type's), so a
-/// handle to one kind of header is never taken for another.
+/// writes anything else; and that its `MAGIC` is its own (no other header type's) and sits at
+/// the header's start (a `repr(C)` header whose first field is the word: [`marked!`] asserts
+/// its offset is 0), so every kind of header keeps its word at the same place and a handle to
+/// one kind is never taken for another.
 pub(crate) unsafe trait Marked {
     /// The word a set-up header holds.
     const MAGIC: u64;
@@ -265,6 +267,8 @@ pub(crate) unsafe trait Marked {
 /// Implements [`Marked`] for a header type with a `magic: u64` field.
 macro_rules! marked {
     ($t:ty, $magic:expr) => {
+        // Every header's word at its start (the trait's contract).
+        const _: () = assert!(core::mem::offset_of!($t, magic) == 0);
         // SAFETY: `magic` reads the field through the raw pointer only; the header's init
         // clears the word first and writes it last, and each header has its own word.
         unsafe impl $crate::Marked for $t {

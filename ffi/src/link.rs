@@ -8,6 +8,7 @@
 //! link's three per-node buffers (two loads, the next positions), each at its type's alignment.
 
 use core::alloc::Layout;
+use core::mem::size_of;
 
 use tetradrill_core::servo::DeformError;
 use tetradrill_core::soft::{Link, LinkBuffers, LinkError, StepError};
@@ -30,8 +31,9 @@ pub struct TdLink {
 #[repr(C)]
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct TdLinkReport {
-    /// Work units done this tick (one unit is about 37 Cortex-M4 instructions; at most
-    /// `units_per_tick` plus less than one step's units carried from the tick before).
+    /// Work units done this tick (one unit is about 37 Cortex-M4 instructions): by each tick
+    /// of a cycle but its last, the shares of its ticks so far less under one tet solve's
+    /// (18 units); the last tick finishes the cycle.
     pub units: u32,
     /// 1 on a cycle's last tick: the world took the body's new positions (`report` says what
     /// the update did); else 0.
@@ -61,6 +63,7 @@ pub struct TdLinkCounts {
 
 /// The head of a link's memory.
 #[derive(Debug)]
+#[repr(C)]
 struct LinkState {
     /// [`LINK_MAGIC`] once set up; zero while `td_link_init` works on the memory.
     magic: u64,
@@ -173,9 +176,11 @@ pub unsafe extern "C" fn td_link_size(
 /// from the same nodes as the body (its tets may be in any order). The units a tick are
 /// computed here, once, from the body's and the world's sizes.
 ///
-/// From then on the body steps through `td_link_tick` only: `td_soft_step` refuses it with
-/// `TD_ERR_BUSY` while a cycle's step is under way, and `td_world_set_positions` refuses the
-/// world while its update is prepared.
+/// A cycle holds the body and the world from its first `td_link_tick` to its last (the
+/// commit): meanwhile `td_soft_step`, `td_soft_set_fixed`, `td_soft_fix_below`,
+/// `td_world_set_positions`, another link's `td_link_tick` and a `td_link_init` on either are
+/// `TD_ERR_BUSY`. Between cycles they are the caller's again (a body stepped or a world moved
+/// then is overtaken by the next commit).
 ///
 /// # Bounded work
 /// O(nodes) (the buffers cleared).
@@ -183,10 +188,11 @@ pub unsafe extern "C" fn td_link_size(
 /// # Errors
 /// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a world or body not set
 /// up, `TD_ERR_RIGID` for a rigid world, `TD_ERR_PARAMS` for `ticks` of zero, a `dt` that is
-/// not finite and positive, or a body and world of different node counts, `TD_ERR_BUSY` for a
-/// body in the middle of a step (another link's), `TD_ERR_TOO_SMALL` for `len`. On an error
-/// after the checks of `mem` (null, alignment, length) the memory holds no link: a handle to it
-/// is refused until an init succeeds.
+/// not finite and positive, a body and world of different node counts, or `mem` overlapping
+/// the world's or the body's header, `TD_ERR_BUSY` for a body or world a link's cycle holds,
+/// `TD_ERR_TOO_SMALL` for `len`. On an error after the checks of `mem` (null, alignment,
+/// length, overlap) the memory holds no link: a handle to it is refused until an init
+/// succeeds.
 ///
 /// # Safety
 /// `mem` points at `len` writable bytes the caller keeps, untouched, for as long as it uses
@@ -209,6 +215,17 @@ pub unsafe extern "C" fn td_link_init(
         let n = body.body.node_count();
         let plan = LinkPlan::of(u32::try_from(n).map_err(|_| TdStatus::TdErrParams)?)?;
         let base = caller_memory(mem, len, plan.size, plan.align)?;
+        // The link's memory apart from the two headers it borrows (a C caller passing a handle
+        // as `mem` would have the init write over a header in use).
+        let apart = |h: usize, n: usize| {
+            let (m, end) = (base as usize, (base as usize).saturating_add(plan.size));
+            end <= h || h.saturating_add(n) <= m
+        };
+        if !(apart(world as usize, size_of::<State>())
+            && apart(soft as usize, size_of::<crate::soft::SoftState>()))
+        {
+            return Err(TdStatus::TdErrParams);
+        }
         let head = base.cast::<LinkState>();
         // SAFETY: `mem` is aligned for LinkState and at least `plan.size` bytes long: a handle
         // to this memory is refused from here on until the init succeeds.
@@ -216,7 +233,7 @@ pub unsafe extern "C" fn td_link_init(
         if !st.deformable {
             return Err(TdStatus::TdErrRigid);
         }
-        if body.body.stepping() {
+        if st.link_cycle != 0 || body.link_cycle != 0 || body.body.stepping() {
             return Err(TdStatus::TdErrBusy);
         }
         let link = Link::new(&body.body, &st.world, ticks, dt).map_err(link_status)?;
@@ -257,15 +274,16 @@ pub unsafe extern "C" fn td_link_init(
 /// call may run beside it, as beside `td_world_set_positions`).
 ///
 /// # Bounded work
-/// At most `units_per_tick` units plus less than one step's units carried from the tick before
-/// (the same amount every tick, about 37 Cortex-M4 instructions a unit), plus on a cycle's last
-/// tick the commit: O(nodes + the contact memo's slots).
+/// At most `units_per_tick` units plus less than one piece's units (a tet solve, 18) carried
+/// from the tick before (about 37 Cortex-M4 instructions a unit), and in the hash's rebuild the
+/// cells of one tet's box; on a cycle's last tick what is left of the cycle and the commit:
+/// O(nodes + the contact memo's slots).
 ///
 /// # Errors
 /// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a handle not set up,
 /// `TD_ERR_PARAMS` for a world or body other than the ones `td_link_init` was given,
 /// `TD_ERR_INPUT` for a force that is not finite (nothing done) or positions the physics made
-/// non-finite, `TD_ERR_BUSY` for a body another caller began a step on.
+/// non-finite, `TD_ERR_BUSY` for a body or world another link's cycle holds (nothing done).
 ///
 /// # Safety
 /// `link`, `world` and `soft` are handles from `td_link_init`, `td_world_init` and
@@ -288,6 +306,13 @@ pub unsafe extern "C" fn td_link_tick(
         if l.world != world as usize || l.soft != soft as usize {
             return Err(TdStatus::TdErrParams);
         }
+        let me = link as usize;
+        if [st.link_cycle, body.link_cycle]
+            .iter()
+            .any(|&o| o != 0 && o != me)
+        {
+            return Err(TdStatus::TdErrBusy);
+        }
         let f = pose(force)?;
         let buffers = LinkBuffers {
             a: l.a,
@@ -298,6 +323,9 @@ pub unsafe extern "C" fn td_link_tick(
             .link
             .tick(&mut body.body, &mut st.world, buffers, f)
             .map_err(link_status)?;
+        // The cycle holds the body and the world until its commit.
+        let holder = if done.committed.is_some() { 0 } else { me };
+        (st.link_cycle, body.link_cycle) = (holder, holder);
         let mut t = TdLinkReport {
             units: done.units,
             ..TdLinkReport::default()
@@ -330,7 +358,8 @@ pub unsafe extern "C" fn td_link_tick(
 /// `TD_ERR_NULL` / `TD_ERR_ALIGN` for a pointer, `TD_ERR_NOT_INIT` for a link not set up.
 ///
 /// # Safety
-/// `link` is a handle from `td_link_init`; `out` points at a writable `td_link_counts`.
+/// `link` is a handle from `td_link_init`, not in a `td_link_tick` meanwhile; `out` points at
+/// a writable `td_link_counts`.
 #[no_mangle]
 pub unsafe extern "C" fn td_link_counters(link: *mut TdLink, out: *mut TdLinkCounts) -> TdStatus {
     status(|| {

@@ -33,8 +33,8 @@ pub struct TdPassivityParams {
     pub trip_j: f32,
     /// 1: the controller's damper acts; 0: the observer only observes (the trip stays armed).
     pub dissipate: u32,
-    /// Ticks after `td_passivity_restart` or `td_passivity_recover` during which the energy
-    /// past the force limit is not counted (a device ramping its force in again).
+    /// Ticks after a restart or a recovery (`td_passivity_reset`) during which the energy past
+    /// the force limit is not counted (a device ramping its force in again).
     pub regrip_ticks: u32,
     /// 1: the damper and the trip also act for a force given without a storage (the classic
     /// form); 0: such forces are observed only.
@@ -57,7 +57,7 @@ pub struct TdStorage {
 #[repr(C)]
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct TdPassivityCounts {
-    /// 1 while tripped (the output is zero until `td_passivity_recover`).
+    /// 1 while tripped (the output is zero until a recovery, `td_passivity_reset`).
     pub tripped: u32,
     /// Trips so far.
     pub trips: u32,
@@ -77,6 +77,7 @@ pub struct TdPassivity {
 
 /// The observer's memory.
 #[derive(Debug)]
+#[repr(C)]
 struct PassivityState {
     /// [`PASSIVITY_MAGIC`] once set up; zero while `td_passivity_init` works on the memory.
     magic: u64,
@@ -228,9 +229,10 @@ pub unsafe extern "C" fn td_passivity_init(
 ///
 /// # Errors
 /// `TD_ERR_NULL` / `TD_ERR_ALIGN` / `TD_ERR_NOT_INIT` for the observer, `TD_ERR_NULL` /
-/// `TD_ERR_ALIGN` for `out` or a misaligned `storage`, `TD_ERR_INPUT` for a force, position
-/// or storage that is not finite, or `removing` other than 0 or 1 (nothing counted; send
-/// zero).
+/// `TD_ERR_ALIGN` for `out` or a misaligned `storage` (nothing done), `TD_ERR_INPUT` for a
+/// force, position or storage that is not finite, or `removing` other than 0 or 1: nothing is
+/// counted and the observer forgets its velocity history and the force it held, as the core
+/// does for a pose that is not finite (send zero).
 ///
 /// # Safety
 /// `observer` is a handle from `td_passivity_init`, one call at a time; `storage` is null or
@@ -248,24 +250,37 @@ pub unsafe extern "C" fn td_passivity_step(
         check_ptr(out)?;
         // SAFETY: the caller's contract on `observer`.
         let o = unsafe { self::observer(observer) }?;
-        let (at, f) = (pose(position)?, pose(force)?);
         let stored = if storage.is_null() {
             None
         } else {
             // SAFETY: not null; the caller's contract (`get` checks the alignment).
-            let s = unsafe { get(storage) }?;
-            if !(s.stored_j.is_finite() && s.past_limit_j.is_finite()) {
+            Some(unsafe { get(storage) }?)
+        };
+        let input = (|| {
+            let (at, f) = (pose(position)?, pose(force)?);
+            let s = match stored {
+                Some(s) if !(s.stored_j.is_finite() && s.past_limit_j.is_finite()) => {
+                    return Err(TdStatus::TdErrInput)
+                }
+                s => s.map(|s| Storage {
+                    stored_j: s.stored_j,
+                    past_limit_j: s.past_limit_j,
+                }),
+            };
+            if removing > 1 {
                 return Err(TdStatus::TdErrInput);
             }
-            Some(Storage {
-                stored_j: s.stored_j,
-                past_limit_j: s.past_limit_j,
-            })
-        };
-        let sent = match removing {
-            0 => o.step(at, f, stored),
-            1 => o.step_removing(at, f, stored),
-            _ => return Err(TdStatus::TdErrInput),
+            Ok((at, f, s))
+        })();
+        let sent = match input {
+            Ok((at, f, s)) if removing == 1 => o.step_removing(at, f, s),
+            Ok((at, f, s)) => o.step(at, f, s),
+            Err(e) => {
+                // The tick is lost: the observer forgets its velocity history and the force it
+                // held (the core's answer to a pose that is not finite), counting nothing.
+                o.step(Vec3::NAN, Vec3::ZERO, None);
+                return Err(e);
+            }
         };
         // SAFETY: checked above; writable by the caller's contract.
         unsafe { out.write(td_vec(sent)) };
@@ -325,7 +340,8 @@ pub unsafe extern "C" fn td_passivity_reset(
 /// As `td_passivity_step` for the observer; `TD_ERR_NULL` / `TD_ERR_ALIGN` for `out`.
 ///
 /// # Safety
-/// `observer` is a handle from `td_passivity_init`; `out` points at a writable
+/// `observer` is a handle from `td_passivity_init`, not in another passivity call meanwhile
+/// (from the servo's task, or while it does not run); `out` points at a writable
 /// `td_passivity_counts`.
 #[no_mangle]
 pub unsafe extern "C" fn td_passivity_counters(
@@ -349,8 +365,9 @@ pub unsafe extern "C" fn td_passivity_counters(
 
 /// The energy a penalty spring of `stiffness` whose force is clamped at `max_force` holds at
 /// `depth`: `K d^2 / 2` up to the depth `F / K` where the limit is reached, then `F` a unit
-/// of depth beyond it (`past_limit_j`). Zero out of contact (`depth` <= 0) or for a parameter
-/// that is not finite and positive.
+/// of depth beyond it (`past_limit_j`). Zero out of contact (`depth` <= 0), for a `depth` or
+/// `stiffness` that is not finite, or a `stiffness` or `max_force` that is not positive
+/// (`max_force` infinite: no limit).
 ///
 /// # Bounded work
 /// Constant.

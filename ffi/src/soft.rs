@@ -65,6 +65,7 @@ pub struct TdSoft {
 
 /// The head of a soft body's memory.
 #[derive(Debug)]
+#[repr(C)]
 pub(crate) struct SoftState {
     /// [`SOFT_MAGIC`] once set up; zero while `td_soft_init` works on the memory.
     magic: u64,
@@ -76,6 +77,9 @@ pub(crate) struct SoftState {
     pub(crate) time: f64,
     /// The body's index of each tet as the caller gave them (its tets are in lane order).
     body_tet: &'static [u32],
+    /// The link (its handle's address) whose cycle is stepping the body, from a cycle's first
+    /// `td_link_tick` to its commit; 0: none.
+    pub(crate) link_cycle: usize,
 }
 
 marked!(SoftState, SOFT_MAGIC);
@@ -370,6 +374,7 @@ pub unsafe extern "C" fn td_soft_init(
             ptr::addr_of_mut!((*state).steps).write(0);
             ptr::addr_of_mut!((*state).time).write(0.0);
             ptr::addr_of_mut!((*state).body_tet).write(body_tet);
+            ptr::addr_of_mut!((*state).link_cycle).write(0);
             ptr::addr_of_mut!((*state).magic).write(SOFT_MAGIC);
             out.write(state.cast::<TdSoft>());
         }
@@ -386,8 +391,9 @@ pub unsafe extern "C" fn td_soft_init(
 /// # Errors
 /// `TD_ERR_NOT_INIT` for a handle `td_soft_init` did not set up (or `TD_ERR_NULL` /
 /// `TD_ERR_ALIGN`), `TD_ERR_ALIGN` for `loads`, `TD_ERR_INPUT` for a `dt` that is not finite
-/// and positive or a load that is not finite, `TD_ERR_BUSY` while a link's step is under way
-/// (`td_link_tick` steps a linked body); the body is unchanged on an error.
+/// and positive or a load that is not finite, `TD_ERR_BUSY` while a link's cycle is under way
+/// (from its first `td_link_tick` to the commit: the link steps the body); the body is
+/// unchanged on an error.
 ///
 /// # Safety
 /// `soft` is a handle from `td_soft_init` (or is refused as above); `loads` is null or points
@@ -397,6 +403,9 @@ pub unsafe extern "C" fn td_soft_step(soft: *mut TdSoft, dt: f32, loads: *const 
     status(|| {
         // SAFETY: the caller's contract on `soft` (`soft` checks it).
         let s = unsafe { soft_state(soft) }?;
+        if s.link_cycle != 0 {
+            return Err(TdStatus::TdErrBusy);
+        }
         let n = s.body.node_count();
         let loads: &[f32] = if loads.is_null() {
             &[]
@@ -510,7 +519,7 @@ pub unsafe extern "C" fn td_soft_nodes(
 ///
 /// # Errors
 /// `TD_ERR_NOT_INIT` (or `TD_ERR_NULL` / `TD_ERR_ALIGN`) for `soft`, `TD_ERR_PARAMS` for a
-/// node past the end.
+/// node past the end, `TD_ERR_BUSY` while a link's cycle is under way.
 ///
 /// # Safety
 /// `soft` is a handle from `td_soft_init`.
@@ -519,6 +528,9 @@ pub unsafe extern "C" fn td_soft_set_fixed(soft: *mut TdSoft, node: u32, fixed: 
     status(|| {
         // SAFETY: the caller's contract on `soft`.
         let s = unsafe { soft_state(soft) }?;
+        if s.link_cycle != 0 {
+            return Err(TdStatus::TdErrBusy);
+        }
         if s.body.set_fixed(node as usize, fixed != 0) {
             Ok(())
         } else {
@@ -589,7 +601,8 @@ pub unsafe extern "C" fn td_soft_add_point_force(
 ///
 /// # Errors
 /// `TD_ERR_NOT_INIT` (or `TD_ERR_NULL` / `TD_ERR_ALIGN`) for `soft`, `TD_ERR_ALIGN` for
-/// `out_count`, `TD_ERR_INPUT` for a point or normal that is not finite.
+/// `out_count`, `TD_ERR_INPUT` for a point or normal that is not finite, `TD_ERR_BUSY` while a
+/// link's cycle is under way.
 ///
 /// # Safety
 /// `soft` is a handle from `td_soft_init`; `out_count` is null or writable.
@@ -603,6 +616,9 @@ pub unsafe extern "C" fn td_soft_fix_below(
     status(|| {
         // SAFETY: the caller's contract on `soft`.
         let s = unsafe { soft_state(soft) }?;
+        if s.link_cycle != 0 {
+            return Err(TdStatus::TdErrBusy);
+        }
         let (o, u) = (pose(origin)?, pose(up)?);
         if !out_count.is_null() && !out_count.is_aligned() {
             return Err(TdStatus::TdErrAlign);

@@ -98,6 +98,7 @@ pub struct TdSurfaceReport {
 
 /// The head of a surface's memory: the core's exporter over the lines after it.
 #[derive(Debug)]
+#[repr(C)]
 struct SurfaceState {
     /// [`SURFACE_MAGIC`] once set up.
     magic: u64,

@@ -15,7 +15,7 @@ use tetradrill::engine::{self, EngineStorage, TickParams};
 use tetradrill::soft::SoftOwned;
 use tetradrill::traces::Pose;
 use tetradrill_core::force::ToolState;
-use tetradrill_core::soft::{Link, LinkBuffers, Material, SoftParams};
+use tetradrill_core::soft::{Link, LinkBuffers, Material, SoftParams, TET_UNITS};
 use tetradrill_core::Vec3;
 use tetradrill_ffi::*;
 
@@ -250,20 +250,23 @@ fn every_tick_does_its_share_and_a_step_commits_every_cycle() {
     assert_eq!(c.counts.steps as usize, want.len());
     assert_eq!(c.counts.late, 0);
     assert_eq!(c.counts.ticks, TICKS);
-    // The cycle's units spread evenly: no tick does more than its share and the largest
-    // single piece of work (the credit carried is less than one piece), and every tick but a
-    // cycle's last does work (the last finishes what is left).
-    let per = c.counts.units_per_tick;
+    // The cycle's units spread evenly: by each tick of a cycle but its last, the units done
+    // are the ticks' shares so far, less than one piece (a tet solve, the largest) of it left
+    // over; the last tick finishes what is left.
+    let per = u64::from(c.counts.units_per_tick);
+    let piece = u64::from(TET_UNITS);
+    for cycle in c.units.chunks(TICKS as usize) {
+        let mut done = 0u64;
+        for (j, &u) in cycle[..TICKS as usize - 1].iter().enumerate() {
+            done += u64::from(u);
+            let share = (j as u64 + 1) * per;
+            assert!(
+                done <= share && done + piece > share,
+                "tick {j}: {done} units done against {share} shared"
+            );
+        }
+    }
     let cycle = c.counts.cycle_units;
-    assert!(
-        u64::from(per) * u64::from(TICKS) >= cycle,
-        "{per} x {TICKS} covers {cycle}"
-    );
-    let most = c.units.iter().copied().max().unwrap_or(0);
-    assert!(
-        most <= 2 * per,
-        "a tick's units {most} against {per} a tick"
-    );
     let total: u64 = c.units.iter().map(|&u| u64::from(u)).sum();
     let cycles = (ticks / TICKS as usize) as u64;
     assert_eq!(total, cycles * cycle, "every cycle's units, no more");
@@ -428,24 +431,31 @@ fn bad_calls_get_their_status() {
             td_link_tick(fake_link, world, body.h, zero, &mut out),
             TdStatus::TdErrNotInit
         );
-        // A cycle under way: the body's own step and the world's whole update are refused,
-        // and so is a second link on the body.
-        assert_eq!(
-            td_link_tick(link.h, world, body.h, zero, ptr::null_mut()),
-            TdStatus::TdOk
-        );
-        assert_eq!(body.step(1e-3, None), TdStatus::TdErrBusy);
-        assert_eq!(init(world, body.h, TICKS, 1e-3), Err(TdStatus::TdErrBusy));
-        for _ in 1..TICKS - 1 {
+        // A cycle holds the body and the world from its first tick to its commit: at every
+        // tick of it (the physics, then the positions written, then the world's update
+        // prepared) the body's own step and held nodes, the world's whole update, a second
+        // link on either and another link's tick are refused.
+        let second = CLink::new(world, other.h, n, TICKS, 1e-3).expect("a link on the world");
+        let rest = body.nodes(TdSoftField::TdSoftRest);
+        let origin = TdVec3::default();
+        for tick in 0..TICKS - 1 {
             assert_eq!(
                 td_link_tick(link.h, world, body.h, zero, &mut out),
                 TdStatus::TdOk
             );
             assert_eq!(out.committed, 0);
+            assert_eq!(body.step(1e-3, None), TdStatus::TdErrBusy, "tick {tick}");
+            assert_eq!(td_soft_set_fixed(body.h, 0, 1), TdStatus::TdErrBusy);
+            let st = td_soft_fix_below(body.h, origin, origin, ptr::null_mut());
+            assert_eq!(st, TdStatus::TdErrBusy);
+            let st = td_world_set_positions(world, rest.as_ptr(), n, ptr::null_mut());
+            assert_eq!(st, TdStatus::TdErrBusy, "tick {tick}");
+            assert_eq!(init(world, body.h, TICKS, 1e-3), Err(TdStatus::TdErrBusy));
+            assert_eq!(init(world, small.h, TICKS, 1e-3), Err(TdStatus::TdErrBusy));
+            let st = td_link_tick(second.h, world, other.h, zero, &mut out);
+            assert_eq!(st, TdStatus::TdErrBusy, "another link on the world");
         }
-        let rest = body.nodes(TdSoftField::TdSoftRest);
-        let st = td_world_set_positions(world, rest.as_ptr(), n, ptr::null_mut());
-        assert_eq!(st, TdStatus::TdErrBusy, "the world's update is prepared");
+        assert_eq!(second.counts().steps, 0);
         assert_eq!(
             td_link_tick(link.h, world, body.h, zero, &mut out),
             TdStatus::TdOk
@@ -455,6 +465,54 @@ fn bad_calls_get_their_status() {
         // Between cycles both are free again.
         let st = td_world_set_positions(world, rest.as_ptr(), n, ptr::null_mut());
         assert_eq!(st, TdStatus::TdOk);
+        assert_eq!(td_soft_set_fixed(body.h, 0, 0), TdStatus::TdOk);
+        assert_eq!(body.step(1e-3, None), TdStatus::TdOk);
+        // The link's memory apart from the handles it borrows.
+        let (mut size, mut align) = (0usize, 0usize);
+        assert_eq!(td_link_size(n, &mut size, &mut align), TdStatus::TdOk);
+        let mut h = ptr::null_mut();
+        let st = td_link_init(body.h.cast(), size, world, body.h, TICKS, 1e-3, &mut h);
+        assert_eq!(
+            st,
+            TdStatus::TdErrParams,
+            "the body's memory given as the link's"
+        );
+        // The counters' and the size's bad pointers.
+        let mut c = TdLinkCounts::default();
+        assert_eq!(
+            td_link_counters(ptr::null_mut(), &mut c),
+            TdStatus::TdErrNull
+        );
+        assert_eq!(
+            td_link_counters(link.h, ptr::null_mut()),
+            TdStatus::TdErrNull
+        );
+        let fake_link = junk.as_mut_ptr().cast::<TdLink>();
+        assert_eq!(td_link_counters(fake_link, &mut c), TdStatus::TdErrNotInit);
+        assert_eq!(
+            td_link_size(n, &mut size, ptr::null_mut()),
+            TdStatus::TdErrNull
+        );
+        assert_eq!(
+            td_link_size(1 << 29, &mut size, &mut align),
+            TdStatus::TdErrParams
+        );
+        let st = td_link_init(ptr::null_mut(), size, world, body.h, TICKS, 1e-3, &mut h);
+        assert_eq!(st, TdStatus::TdErrNull);
+        let mem = Memory::new(size, align);
+        let st = td_link_init(
+            mem.ptr.cast(),
+            size,
+            world,
+            body.h,
+            TICKS,
+            1e-3,
+            ptr::null_mut(),
+        );
+        assert_eq!(st, TdStatus::TdErrNull);
+        let odd = mem.ptr.wrapping_add(1);
+        let st = td_link_init(odd.cast(), size - 1, world, body.h, TICKS, 1e-3, &mut h);
+        assert_eq!(st, TdStatus::TdErrAlign);
         let name = std::ffi::CStr::from_ptr(td_status_name(TdStatus::TdErrBusy as i32));
         assert!(name.to_str().expect("utf-8").contains("td_link_tick"));
     }

@@ -178,8 +178,12 @@ fn a_tool_driven_past_the_force_limit_trips_and_a_healthy_press_does_not() {
         unsafe { td_passivity_reset(obs.h, 0, 1, 0) },
         TdStatus::TdOk
     );
-    let back = obs.step(tv(0.0, 0.0, 0.1), tv(0.0, 0.0, 0.0), None, 0);
-    assert_eq!(back.z, 0.0);
+    let back = obs.step(tv(0.0, 0.0, 0.1), tv(0.0, 0.0, 0.5), None, 0);
+    assert_eq!(
+        back.z.to_bits(),
+        0.5f32.to_bits(),
+        "recovered, the force passes"
+    );
     assert_eq!(obs.counts().tripped, 0);
 
     // A healthy press: 2 cm in over a second and held; the force passes bit for bit. (A
@@ -255,6 +259,16 @@ fn the_c_observer_is_the_cores_bit_for_bit() {
             );
             core.restart();
         }
+        if tick == 1700 {
+            // A lost tick: refused, and the observer forgets its history as the core does
+            // for a pose that is not finite.
+            let mut o = tv(0.0, 0.0, 0.0);
+            let (bad, one) = (tv(f32::NAN, 0.0, 0.0), tv(0.0, 0.0, 1.0));
+            // SAFETY: a live handle and a writable output.
+            let st = unsafe { td_passivity_step(obs.h, bad, one, ptr::null(), 0, &mut o) };
+            assert_eq!(st, TdStatus::TdErrInput);
+            core.step(Vec3::NAN, Vec3::ZERO, None);
+        }
     }
     assert!(damped > 0, "the damper acted on some ticks");
     let c = obs.counts();
@@ -277,7 +291,7 @@ fn the_servo_gives_the_burrs_spring_energy_at_the_pose() {
     let mut servo = ptr::null_mut();
     // SAFETY: a live world; a writable handle.
     assert_eq!(unsafe { td_world_servo(world, &mut servo) }, TdStatus::TdOk);
-    for d in [0.005f32, 0.02, 0.039] {
+    for d in [0.005f32, 0.02, 0.039, 0.05] {
         let at = tv(0.06, -0.04, 0.5 + p.radius - d);
         let (mut f, mut depth, mut s) = (tv(0.0, 0.0, 0.0), f32::NAN, TdStorage::default());
         for _ in 0..50 {
@@ -295,15 +309,23 @@ fn the_servo_gives_the_burrs_spring_energy_at_the_pose() {
             (f64::from(depth) - dd).abs() < 1e-6,
             "depth {depth} against {dd}"
         );
-        let want = 0.5 * f64::from(p.stiffness) * dd * dd;
+        // K d^2 / 2 up to the limit's depth F / K (0.04), then F a unit of depth past it.
+        let (k, fmax) = (f64::from(p.stiffness), f64::from(p.max_force));
+        let at_limit = fmax / k;
+        let past = fmax * (dd - at_limit).max(0.0);
+        let want = 0.5 * k * dd.min(at_limit).powi(2) + past;
         assert!(
             (f64::from(s.stored_j) - want).abs() < 1e-4 * want,
             "stored {} against {want}",
             s.stored_j
         );
-        assert_eq!(s.past_limit_j, 0.0);
+        let past_got = f64::from(s.past_limit_j);
+        assert!(
+            (past_got - past).abs() < 1e-4 * want,
+            "past {past_got} against {past}"
+        );
         // The force the servo rendered is the same spring's.
-        let spring = f64::from(p.stiffness) * dd;
+        let spring = (k * dd).min(fmax);
         assert!(
             (f64::from(f.z) - spring).abs() < 1e-3 * spring,
             "force {} against {spring}",
@@ -324,6 +346,43 @@ fn the_servo_gives_the_burrs_spring_energy_at_the_pose() {
         }
     }
     assert_eq!((depth, s), (0.0, TdStorage::default()));
+
+    // A region of its own stiffness (1,000 N per unit) under the burr: the servo renders it,
+    // and the storage is its spring's, K d^2 / 2 with its K.
+    let (_mem2, world) = c_world(&p, 4, None, &[]);
+    // SAFETY: a live world before its first step; a writable handle.
+    unsafe {
+        assert_eq!(
+            td_world_set_region(world, 0, 1e9, 0.0, 1000.0),
+            TdStatus::TdOk
+        );
+        assert_eq!(td_world_servo(world, &mut servo), TdStatus::TdOk);
+    }
+    let d = 0.005f32;
+    let at = tv(0.06, -0.04, 0.5 + p.radius - d);
+    let mut out_depth = f32::NAN;
+    for _ in 0..50 {
+        // SAFETY: as above.
+        unsafe {
+            assert_eq!(td_world_tick(world, at, 0, &mut f), TdStatus::TdOk);
+            let st = td_servo_storage(servo, at, ptr::null_mut(), &mut s);
+            assert_eq!(st, TdStatus::TdOk);
+            let st = td_servo_storage(servo, at, &mut out_depth, &mut s);
+            assert_eq!(st, TdStatus::TdOk);
+        }
+    }
+    let dd = f64::from(0.5f32 + p.radius) - f64::from(at.z);
+    let want = 0.5 * 1000.0 * dd * dd;
+    let got = f64::from(s.stored_j);
+    assert!(
+        (got - want).abs() < 1e-4 * want,
+        "stored {got} against {want}"
+    );
+    assert!(
+        (f64::from(f.z) - 1000.0 * dd).abs() < 1.0 * dd,
+        "force {}",
+        f.z
+    );
 }
 
 #[test]
@@ -413,6 +472,34 @@ fn bad_calls_get_their_status() {
             td_penalty_storage(0.1, 1.0, 1.0, ptr::null_mut()),
             TdStatus::TdErrNull
         );
+        let nan_past = TdStorage {
+            stored_j: 0.0,
+            past_limit_j: f32::NAN,
+        };
+        let st = td_passivity_step(obs.h, z, z, &nan_past, 0, &mut out);
+        assert_eq!(st, TdStatus::TdErrInput);
+        let odd = (&nan_past as *const TdStorage)
+            .cast::<u8>()
+            .wrapping_add(1)
+            .cast::<TdStorage>();
+        let st = td_passivity_step(obs.h, z, z, odd, 0, &mut out);
+        assert_eq!(st, TdStatus::TdErrAlign);
+        assert_eq!(td_passivity_reset(obs.h, 0, 2, 0), TdStatus::TdErrParams);
+        assert_eq!(td_passivity_reset(obs.h, 0, 0, 2), TdStatus::TdErrParams);
+        let st = td_passivity_reset(ptr::null_mut(), 1, 0, 0);
+        assert_eq!(st, TdStatus::TdErrNull);
+        assert_eq!(td_passivity_reset(fake, 1, 0, 0), TdStatus::TdErrNotInit);
+        let mut c = TdPassivityCounts::default();
+        let st = td_passivity_counters(obs.h, ptr::null_mut());
+        assert_eq!(st, TdStatus::TdErrNull);
+        assert_eq!(td_passivity_counters(fake, &mut c), TdStatus::TdErrNotInit);
+        let st = td_passivity_init(ptr::null_mut(), size, &p, &mut h);
+        assert_eq!(st, TdStatus::TdErrNull);
+        let st = td_passivity_init(mem.ptr.cast(), size, &p, ptr::null_mut());
+        assert_eq!(st, TdStatus::TdErrNull);
+        let odd_mem = mem.ptr.wrapping_add(1);
+        let st = td_passivity_init(odd_mem.cast(), size - 1, &p, &mut h);
+        assert_eq!(st, TdStatus::TdErrAlign);
         // A drill's world has no single spring.
         let sc = builtin("firmware");
         let mut wp = params_of(&sc, 4);
@@ -426,7 +513,34 @@ fn bad_calls_get_their_status() {
             td_servo_storage(servo, z, ptr::null_mut(), &mut s),
             TdStatus::TdErrParams
         );
+        // A sphere's servo: bad pointers and poses.
+        let (_mem3, world) = c_world(&params_of(&sc, 4), 4, None, &[]);
+        assert_eq!(td_world_servo(world, &mut servo), TdStatus::TdOk);
+        let st = td_servo_storage(servo, z, ptr::null_mut(), ptr::null_mut());
+        assert_eq!(st, TdStatus::TdErrNull);
+        let mut depth = [0.0f32; 2];
+        let odd_depth = depth
+            .as_mut_ptr()
+            .cast::<u8>()
+            .wrapping_add(1)
+            .cast::<f32>();
+        let st = td_servo_storage(servo, z, odd_depth, &mut s);
+        assert_eq!(st, TdStatus::TdErrAlign);
+        let bad_pose = tv(f32::NAN, 0.0, 0.0);
+        let st = td_servo_storage(servo, bad_pose, depth.as_mut_ptr(), &mut s);
+        assert_eq!(st, TdStatus::TdErrInput);
+        let fake_servo = junk.as_mut_ptr().cast::<TdServo>();
+        let st = td_servo_storage(fake_servo, z, ptr::null_mut(), &mut s);
+        assert_eq!(st, TdStatus::TdErrNotInit);
     }
-    // Nothing counted for the refused steps.
-    assert_eq!(obs.counts().generated_j_max, 0.0);
+    // Refused steps count nothing: a fresh observer given only bad ticks has seen no energy.
+    let fresh = Observer::new(&p).expect("observer");
+    let mut o = tv(0.0, 0.0, 0.0);
+    for bad in [tv(f32::NAN, 0.0, 0.0), tv(0.0, f32::INFINITY, 0.0)] {
+        // SAFETY: a live handle and a writable output.
+        let st = unsafe { td_passivity_step(fresh.h, z, bad, ptr::null(), 0, &mut o) };
+        assert_eq!(st, TdStatus::TdErrInput);
+    }
+    let c = fresh.counts();
+    assert_eq!((c.generated_j_max, c.dissipated_j, c.trips), (0.0, 0.0, 0));
 }

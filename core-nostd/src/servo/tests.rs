@@ -271,7 +271,10 @@ fn the_burrs_storage_is_the_spring_the_servo_renders() {
     let centre = Vec3::new(0.3, -0.2, 0.08);
     let (d, s) = burr_storage(&contact, centre, 0.1, &params);
     assert!((d - 0.02).abs() < 1e-6);
-    assert!((s.stored_j - 0.04).abs() < 1e-6 && s.past_limit_j == 0.0, "{s:?}");
+    assert!(
+        (s.stored_j - 0.04).abs() < 1e-6 && s.past_limit_j == 0.0,
+        "{s:?}"
+    );
     // A region of 1,000 N per unit under the contact: the servo renders its stiffness, so the
     // limit (8 N) is reached 0.008 deep: 0.032 stored up to there, 8 x 0.012 past it.
     let stiff = ContactState {
@@ -288,6 +291,9 @@ fn the_burrs_storage_is_the_spring_the_servo_renders() {
         (ContactState::default(), centre),
         (contact, Vec3::NAN),
     ] {
-        assert_eq!(burr_storage(&c, at, 0.1, &params), (0.0, Default::default()));
+        assert_eq!(
+            burr_storage(&c, at, 0.1, &params),
+            (0.0, Default::default())
+        );
     }
 }

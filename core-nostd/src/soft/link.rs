@@ -255,8 +255,12 @@ impl Link {
             }
         }
         if self.tick == 0 {
+            // The body first: a body that refuses the step (one already under way) leaves the
+            // link as it was, its gathered reactions kept for a later try.
+            body.begin_step(self.ticks as f32 * self.dt)
+                .map_err(LinkError::Step)?;
             if self.phase != Phase::Ready {
-                // Not reached with the units `new` computes; finish the last cycle here.
+                // Not reached with the units `new` computes (a cycle's last tick finishes it).
                 self.late += 1;
             }
             self.flipped = !self.flipped;
@@ -265,8 +269,6 @@ impl Link {
             self.credit = 0;
             self.phase = Phase::Scale;
             self.at = 0;
-            body.begin_step(self.ticks as f32 * self.dt)
-                .map_err(LinkError::Step)?;
         }
         let (gather, load) = if self.flipped { (b, a) } else { (a, b) };
         if let Some(t) = world.contact_tet() {

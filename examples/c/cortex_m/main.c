@@ -54,7 +54,8 @@ static uint8_t world_mem[WORLD_BYTES] __attribute__((aligned(64)));
 static uint8_t passivity_mem[256] __attribute__((aligned(64)));
 static td_passivity *passivity;
 /* The tick of the observer's first trip (UINT32_MAX: none), ticks out of contact since. */
-static uint32_t first_trip = UINT32_MAX, free_ticks;
+static volatile uint32_t first_trip = UINT32_MAX;
+static uint32_t free_ticks;
 #ifdef SOFT_BODY
 /* Room for the soft body and its link (td_soft_size and td_link_size say how much). */
 static uint8_t soft_mem[48u * 1024u] __attribute__((aligned(64)));
@@ -134,7 +135,7 @@ void systick_handler(void) {
         return;
     if (stepped != i)
         misses = misses + 1;
-    td_vec3 pose, force;
+    td_vec3 pose = {0.f, 0.f, 0.f}, force = {0.f, 0.f, 0.f};
     uint32_t buttons = 0;
     td_status st = td_demo_pose(i, &pose, &buttons);
     if (st == TD_OK)
@@ -143,8 +144,8 @@ void systick_handler(void) {
      * (the mesh's over the workspace's scale) and what the burr's spring holds at the pose
      * (newton mesh units, over the scale: joules); the drill on (bit 0) removes material by
      * design. */
-    td_storage stored;
-    td_vec3 sent;
+    td_storage stored = {0.f, 0.f};
+    td_vec3 sent = {0.f, 0.f, 0.f};
     if (st == TD_OK)
         st = td_servo_storage(servo, pose, NULL, &stored);
     stored.stored_j *= TO_SI;
@@ -161,8 +162,12 @@ void systick_handler(void) {
         if (first_trip == UINT32_MAX)
             first_trip = i;
         free_ticks = force.x == 0.f && force.y == 0.f && force.z == 0.f ? free_ticks + 1 : 0;
-        if (free_ticks >= 1000u)
-            td_passivity_reset(passivity, 0, 1, 0);
+        if (free_ticks >= 1000u) {
+            free_ticks = 0;
+            st = td_passivity_reset(passivity, 0, 1, 0);
+            if (st != TD_OK && servo_status == TD_OK)
+                servo_status = st;
+        }
     }
     /* On a device: write `sent` to the motors here. */
 #ifdef SOFT_BODY
@@ -259,6 +264,12 @@ int main(void) {
             failed(td_world_simulate(world, pose, buttons, NULL), "td_world_simulate"))
             return 1;
 #ifdef SOFT_BODY
+        /* The interrupt is at most a tick or two ahead; four ticks would have overwritten
+         * this tick's force. */
+        if (released - i >= 4u) {
+            sh_puts("error: the servo ran four ticks ahead of the link\n");
+            return 1;
+        }
         const td_vec3 f = {forces[i % 4][0], forces[i % 4][1], forces[i % 4][2]};
         td_link_report r;
         if (failed(td_link_tick(link, world, body, f, &r), "td_link_tick"))
