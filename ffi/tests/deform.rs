@@ -9,7 +9,7 @@ mod common;
 
 use std::ptr;
 
-use common::soft::{block, defaults, CSoft};
+use common::soft::{block, defaults, lumped_masses, momentum, CSoft};
 use common::{block_arrays, builtin, c_world, params_of};
 use tetradrill::engine::{self, EngineStorage, TickParams};
 use tetradrill::soft::SoftOwned;
@@ -238,29 +238,7 @@ fn a_free_block_takes_the_burrs_impulse_and_moves_away_from_it() {
     let ticks = 1_000;
     let r = c_run(free, 0.02, ticks, true);
     let (xyz, tets) = block(4);
-    let mut mass = vec![0.0f64; xyz.len() / 3];
-    let at = |k: u32| {
-        let i = 3 * k as usize;
-        [xyz[i], xyz[i + 1], xyz[i + 2]].map(f64::from)
-    };
-    for t in tets.chunks(4) {
-        let [a, b, c, d] = [at(t[0]), at(t[1]), at(t[2]), at(t[3])];
-        let e = |p: [f64; 3]| [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
-        let (u, v, w) = (e(b), e(c), e(d));
-        let vol = (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
-            + u[2] * (v[0] * w[1] - v[1] * w[0]))
-            / 6.0;
-        assert!(vol > 0.0);
-        for &k in t {
-            mass[k as usize] += 10.0 * vol / 4.0;
-        }
-    }
-    let momentum: [f64; 3] = core::array::from_fn(|j| {
-        mass.iter()
-            .zip(r.velocities.chunks(3))
-            .map(|(m, v)| m * f64::from(v[j]))
-            .sum()
-    });
+    let momentum = momentum(&lumped_masses(&xyz, &tets, 10.0), &r.velocities);
     let impulse: [f64; 3] = core::array::from_fn(|j| {
         -r.forces
             .iter()

@@ -19,6 +19,39 @@ pub fn block(n: usize) -> (Vec<f32>, Vec<u32>) {
     )
 }
 
+/// Each node's lumped mass (a quarter of each tet's mass to each corner) of a body of
+/// `density` over `xyz` and positively oriented `tets`, in f64 from the rest geometry.
+pub fn lumped_masses(xyz: &[f32], tets: &[u32], density: f64) -> Vec<f64> {
+    let mut mass = vec![0.0f64; xyz.len() / 3];
+    let at = |k: u32| {
+        let i = 3 * k as usize;
+        [xyz[i], xyz[i + 1], xyz[i + 2]].map(f64::from)
+    };
+    for t in tets.chunks(4) {
+        let [a, b, c, d] = [at(t[0]), at(t[1]), at(t[2]), at(t[3])];
+        let e = |p: [f64; 3]| [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
+        let (u, v, w) = (e(b), e(c), e(d));
+        let vol = (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
+            + u[2] * (v[0] * w[1] - v[1] * w[0]))
+            / 6.0;
+        assert!(vol > 0.0);
+        for &k in t {
+            mass[k as usize] += density * vol / 4.0;
+        }
+    }
+    mass
+}
+
+/// The momentum of nodes of `mass` moving at `velocities` (x, y, z each), in f64.
+pub fn momentum(mass: &[f64], velocities: &[f32]) -> [f64; 3] {
+    core::array::from_fn(|j| {
+        mass.iter()
+            .zip(velocities.chunks(3))
+            .map(|(m, v)| m * f64::from(v[j]))
+            .sum()
+    })
+}
+
 /// A soft body over `xyz` and `tets` in memory of its own.
 pub struct CSoft {
     _mem: Memory,
