@@ -9,7 +9,7 @@ mod common;
 
 use std::ptr;
 
-use common::soft::{block, defaults, lumped_masses, momentum, CSoft};
+use common::soft::{assert_same_forces, block, defaults, lumped_masses, momentum, vec_bits, CSoft};
 use common::{block_arrays, builtin, c_world, params_of};
 use tetradrill::engine::{self, EngineStorage, TickParams};
 use tetradrill::soft::SoftOwned;
@@ -189,28 +189,8 @@ fn a_soft_block_touched_through_c_is_the_cores_bit_for_bit() {
             world.set_positions(&now).expect("positions");
         }
     }
-    let bits = |v: &[Vec3]| {
-        v.iter()
-            .flat_map(|f| f.to_array().map(f32::to_bits))
-            .collect::<Vec<_>>()
-    };
-    assert!(
-        forces.iter().any(|f| f.z > 1.0),
-        "the burr presses the block"
-    );
-    let first = bits(&c.forces)
-        .iter()
-        .zip(bits(&forces))
-        .position(|(a, b)| *a != b);
-    assert_eq!(
-        first.map(|i| i / 3),
-        None,
-        "the first tick whose force differs"
-    );
-    let want: Vec<u32> = now
-        .iter()
-        .flat_map(|v| v.to_array().map(f32::to_bits))
-        .collect();
+    assert_same_forces(&c.forces, &forces);
+    let want = vec_bits(&now);
     let got: Vec<u32> = c.positions.iter().map(|f| f.to_bits()).collect();
     assert_eq!(got, want, "the body's positions");
     let tet = world.contact_tet().map_or(TD_NO_TET, |t| t.idx() as u32);

@@ -5,6 +5,7 @@ use std::ptr;
 
 use super::Memory;
 use tetradrill::soft::SoftOwned;
+use tetradrill_core::Vec3;
 use tetradrill_ffi::*;
 
 /// The `n`-block's nodes (x, y, z each) and positively oriented tets, from the host's mesh
@@ -50,6 +51,28 @@ pub fn momentum(mass: &[f64], velocities: &[f32]) -> [f64; 3] {
             .map(|(m, v)| m * f64::from(v[j]))
             .sum()
     })
+}
+
+/// The bits of `v`, x, y, z of each vector.
+pub fn vec_bits(v: &[Vec3]) -> Vec<u32> {
+    v.iter()
+        .flat_map(|f| f.to_array().map(f32::to_bits))
+        .collect()
+}
+
+/// Asserts that the C run's forces are the core's, bit for bit, naming the first tick that
+/// differs.
+pub fn assert_same_forces(c: &[Vec3], core: &[Vec3]) {
+    assert!(core.iter().any(|f| f.z > 1.0), "the burr presses the block");
+    let first = vec_bits(c)
+        .iter()
+        .zip(vec_bits(core))
+        .position(|(a, b)| *a != b);
+    assert_eq!(
+        first.map(|i| i / 3),
+        None,
+        "the first tick whose force differs"
+    );
 }
 
 /// A soft body over `xyz` and `tets` in memory of its own.
