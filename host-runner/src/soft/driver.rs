@@ -335,7 +335,8 @@ impl<'a> SoftDriver<'a> {
     /// by `ticks`), and at most one physics step (of the fixed `ticks_per_step` ms, loaded with
     /// the mean reaction since the last step) runs; at most a step's worth of ticks past it
     /// carry to the next call, so a physics slower than real time falls behind (a lower
-    /// reached rate) instead of piling up steps or loads.
+    /// reached rate) instead of piling up steps or loads. A spread step runs one link tick
+    /// for each of at most `ticks_per_step` of the ticks: at most one cycle's work a call.
     ///
     /// # Bounded work
     /// Constant between steps; a step call adds one `SoftBody::step` (O(substeps x (N + T)))
@@ -351,8 +352,11 @@ impl<'a> SoftDriver<'a> {
         ticks: u32,
     ) -> Result<bool, Error> {
         if self.spread.is_some() {
+            // At most a cycle's ticks a call, as whole steps run at most one step: a task that
+            // fell behind drops the ticks past a cycle (their force with them) instead of
+            // doing their work late, which made each call longer than the last.
             let mut stepped = false;
-            for _ in 0..ticks {
+            for _ in 0..ticks.min(self.ticks_per_step) {
                 stepped |= self.spread_tick(world, force)?;
             }
             return Ok(stepped);

@@ -410,6 +410,30 @@ fn a_new_driver_starts_at_rest_over_used_storage() {
     });
 }
 
+/// A simulation step that covered many servo ticks (the task fell behind) runs at most one
+/// physics step's work, whole or spread over ticks: the rate falls instead of the work piling
+/// up. A spread step that ran a link tick for every tick covered did ten cycles here.
+#[test]
+fn a_late_call_runs_at_most_one_steps_work_whole_or_spread() {
+    for spread in [false, true] {
+        pressed_block(4, 1 << 14, |owned, world| {
+            let mut spec = SoftSpec::uniform(YOUNG, 0.3, Fix::Below(2, -0.49), 4);
+            spec.spread = spread;
+            let mut d = SoftDriver::new(owned, &spec).unwrap();
+            let push = Vec3::new(0.0, 0.0, 5.0);
+            assert!(d.after_ticks(world, push, 40).unwrap(), "spread {spread}");
+            assert_eq!(d.summary().steps, 1, "spread {spread}");
+            // Back in time: one tick, then a step every four.
+            let mut steps = 0;
+            for _ in 0..8 {
+                steps += u64::from(d.after_ticks(world, push, 1).unwrap());
+            }
+            assert_eq!(steps, 2, "spread {spread}");
+            assert_eq!(d.summary().steps, 3, "spread {spread}");
+        })
+    }
+}
+
 /// The substep stiffness ratio in `deform.stiffness` is `h^2 (lambda + 2 mu) / (rho l^2)` on
 /// the block of 4 cubes a side (shortest edge l = 0.25, the cubes' edges; h = 4 ms / 10
 /// substeps; rho 1000), computed here from the Lame constants; a block a million times
