@@ -76,9 +76,20 @@ pub fn load(rel: &str, scale: f64) -> tetradrill::owned::OwnedMesh {
 /// not the run a test is about, and [`unstalled`] runs it again, up to this many times.
 pub const STALL_ATTEMPTS: usize = 5;
 
+/// One wall-clock run of the servo at a time in a test binary: two of them (a servo and a
+/// simulation thread each) on a two-core machine stall each other's servo, and each stalled
+/// run is run again. Held by [`unstalled`] over its runs and by tests that run the servo for
+/// seconds; a test that panicked while holding it leaves it usable.
+pub fn one_realtime_run() -> std::sync::MutexGuard<'static, ()> {
+    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    ONE.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// `run()` until `stalls` of its result is 0, at most [`STALL_ATTEMPTS`] times; the first run
-/// without a stall. Panics (the test fails) when every run stalled.
+/// without a stall. Panics (the test fails) when every run stalled. Holds
+/// [`one_realtime_run`] throughout.
 pub fn unstalled<T>(mut run: impl FnMut() -> T, stalls: impl Fn(&T) -> u64) -> T {
+    let _one = one_realtime_run();
     let mut last = run();
     for _ in 1..STALL_ATTEMPTS {
         if stalls(&last) == 0 {

@@ -80,6 +80,7 @@ fn the_motor_self_test_names_a_reversed_joint_and_exits_2() {
 
 #[test]
 fn a_run_with_a_reversed_joint_renders_no_force() {
+    let _one = tetradrill_tests::one_realtime_run();
     let j = json_of(
         &[
             "run",
@@ -132,6 +133,7 @@ fn a_run_with_a_reversed_joint_renders_no_force() {
 
 #[test]
 fn the_docked_omni_starts_above_the_block_unarmed_and_renders_force_once_moved_in() {
+    let _one = tetradrill_tests::one_realtime_run();
     let dir = scratch_dir("simmodel", "docked");
     let rec = dir.join("rec.csv");
     let j = json_of(
@@ -169,6 +171,7 @@ fn the_docked_omni_starts_above_the_block_unarmed_and_renders_force_once_moved_i
 
 #[test]
 fn the_falcon_homes_without_a_trip_and_renders_force_after() {
+    let _one = tetradrill_tests::one_realtime_run();
     let j = json_of(
         &[
             "run",
@@ -199,6 +202,7 @@ fn the_falcon_homes_without_a_trip_and_renders_force_after() {
 
 #[test]
 fn a_stiffness_past_the_omnis_maximum_is_capped_with_one_warning() {
+    let _one = tetradrill_tests::one_realtime_run();
     // The Omni's 0.10 m workspace radius onto the block's half diagonal (sqrt(3) / 2): 8.66
     // mesh units a metre; ten times its 700 N/m maximum is 7000 N/m, 808.3 N per mesh unit.
     let k = 7000.0 / (3f64.sqrt() / 2.0 / 0.10);
